@@ -1,0 +1,37 @@
+//! # mtcal-solver
+//!
+//! The pure numerical core of mtcal: no IO, no async, no database. Every function
+//! takes plain data (the types of [`session`] and [`datasets`]) and returns plain data
+//! (serialisable result documents). Formats, storage, the job queue, HTTP and the CLI
+//! are thin layers around this crate.
+//!
+//! Conventions follow `docs/conventions.md` (the kinematics contract): positions in mm,
+//! translational errors in µm, angular errors in µrad, ISO 230-1 names, errors in the
+//! tool-relative-to-workpiece sense.
+
+pub mod axis;
+pub mod datasets;
+pub mod error;
+pub mod kinematics;
+pub mod session;
+pub mod terms;
+
+// Issue 2: identification core.
+pub mod basis;
+pub mod identification;
+pub mod observability;
+pub mod simulate;
+pub mod stepwise;
+
+// Issue 4: sensitivity (Cheng et al. 2012).
+pub mod sensitivity;
+
+// Issue 5: 5-axis cradle and geometric fits.
+pub mod cradle;
+pub mod fits;
+
+// Issue 6: mismatch diagnosis.
+pub mod diagnosis;
+
+pub use axis::{Axis, Plane, Topology};
+pub use error::SolverError;

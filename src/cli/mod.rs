@@ -1,0 +1,47 @@
+//! Subcommands. Each returns `Ok(code)` or an error; [`finish`] maps errors to exit codes:
+//! 2 for bad input (a [`BadInput`] anywhere in the chain), 1 for everything else.
+
+use std::process::ExitCode;
+
+pub mod admin;
+pub mod cradle;
+pub mod demo;
+pub mod diagnose;
+pub mod identify;
+pub mod sensitivity;
+pub mod serve;
+pub mod simulate;
+pub mod submit;
+
+/// Marks an error as the user's input being wrong (exit code 2).
+#[derive(Debug, thiserror::Error)]
+#[error("{0}")]
+pub struct BadInput(pub String);
+
+/// Prints the error chain to stderr and picks the exit code.
+pub fn finish(result: anyhow::Result<ExitCode>) -> ExitCode {
+    match result {
+        Ok(code) => code,
+        Err(e) => {
+            eprintln!("error: {e:#}");
+            if e.chain()
+                .any(|c| c.is::<BadInput>() || c.is::<mtcal_formats::FormatError>())
+            {
+                ExitCode::from(2)
+            } else {
+                ExitCode::from(1)
+            }
+        }
+    }
+}
+
+/// Placeholder arguments for a subcommand whose issue has not landed yet.
+#[derive(clap::Args)]
+pub struct Pending {
+    #[arg(trailing_var_arg = true, allow_hyphen_values = true, hide = true)]
+    rest: Vec<String>,
+}
+
+pub fn pending(name: &str) -> anyhow::Result<ExitCode> {
+    anyhow::bail!("`mtcal {name}` is not available yet in this build")
+}

@@ -1,0 +1,56 @@
+//! `mtcal`: the command-line program. Every subcommand is a thin layer over the solver,
+//! the formats crate, or the service; one module per subcommand in `src/cli/`.
+
+use clap::{Parser, Subcommand};
+use std::process::ExitCode;
+
+mod cli;
+
+#[derive(Parser)]
+#[command(
+    name = "mtcal",
+    version,
+    about = "Open calibration service for machine tools"
+)]
+struct Cli {
+    #[command(subcommand)]
+    command: Command,
+}
+
+#[derive(Subcommand)]
+enum Command {
+    /// Simulate a measurement session of a machine with known errors (writes truth.json).
+    Simulate(cli::simulate::Args),
+    /// Identify the 21 geometric errors from a session folder.
+    Identify(cli::identify::Args),
+    /// Rank error sources by their sensitivity (Cheng et al. 2012).
+    Sensitivity(cli::sensitivity::Args),
+    /// Check a 5-axis cradle's A/C connection from a rotary point set.
+    Cradle(cli::cradle::Args),
+    /// Locate and explain mismatch between model and recordings.
+    Diagnose(cli::diagnose::Args),
+    /// Run the HTTP API and its worker.
+    Serve(cli::serve::Args),
+    /// Upload a session to a running service and run identification on it.
+    Submit(cli::submit::Args),
+    /// Start the service on a fresh database with a simulated fleet to look at.
+    Demo(cli::demo::Args),
+    /// Administration (API keys).
+    Admin(cli::admin::Args),
+}
+
+fn main() -> ExitCode {
+    let cli = Cli::parse();
+    let result = match cli.command {
+        Command::Simulate(a) => cli::simulate::run(a),
+        Command::Identify(a) => cli::identify::run(a),
+        Command::Sensitivity(a) => cli::sensitivity::run(a),
+        Command::Cradle(a) => cli::cradle::run(a),
+        Command::Diagnose(a) => cli::diagnose::run(a),
+        Command::Serve(a) => cli::serve::run(a),
+        Command::Submit(a) => cli::submit::run(a),
+        Command::Demo(a) => cli::demo::run(a),
+        Command::Admin(a) => cli::admin::run(a),
+    };
+    cli::finish(result)
+}
