@@ -1,1 +1,105 @@
-//! (placeholder: see the issue that builds this module)
+//! Mismatch diagnosis: locate where the model and the recordings differ, name the physics
+//! the model left out, model it, and prove the fit improves on held-out data.
+//!
+//! This module holds the result document (shared/spec/results.md, "Diagnosis result"),
+//! common to every kind of recording; the analyses live in submodules.
+
+use serde::{Deserialize, Serialize};
+use std::collections::BTreeMap;
+
+/// Residual figures of the rigid (baseline) model.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct Baseline {
+    pub residual_rms_um: f64,
+    /// RMS on data not used to fit the model (whole runs, or the late part of a log).
+    pub heldout_rms_um: f64,
+    /// Noise floor estimated independently of the model.
+    pub noise_estimate_um: f64,
+}
+
+/// Where the misfit concentrates.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct Mismatch {
+    /// Human-readable place: tests, positions, angles, times, directions.
+    #[serde(rename = "where")]
+    pub where_: String,
+    /// Identifiers of the tests concerned, e.g. `xy_L100.csv#run 3`.
+    pub tests: Vec<String>,
+    /// Share of the total misfit (sum of squared residuals above noise) found here.
+    pub share_of_misfit: f64,
+}
+
+/// A before/after pair of RMS figures, µm.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+pub struct BeforeAfter {
+    pub before: f64,
+    pub after: f64,
+}
+
+/// One physical effect found, modelled and checked on held-out data.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct Finding {
+    /// `backlash`, `servo_lag`, `reversal_spike`, `cyclic`, `thermal_drift`,
+    /// `setup_offset`, `model_order`, `vibration`, or another name (then `physics` says
+    /// what it is).
+    pub effect: String,
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub axis: Option<String>,
+    /// Fitted parameters with their units in the names (and `std_*` uncertainties).
+    pub parameters: BTreeMap<String, f64>,
+    /// One sentence: what the physics is and why the rigid-body model lacks it.
+    pub physics: String,
+    pub residual_rms_um: BeforeAfter,
+    pub heldout_rms_um: BeforeAfter,
+    /// Why this effect was chosen (information criterion, signature counts).
+    pub evidence: String,
+}
+
+/// `consistent` (no finding needed), `explained`, `partly_explained`.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum Verdict {
+    Consistent,
+    Explained,
+    PartlyExplained,
+}
+
+/// The diagnosis result document.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct DiagnosisResult {
+    /// Always `diagnosis`.
+    pub kind: String,
+    pub machine_id: String,
+    /// What was diagnosed: `session`, `positioning`, `drift_log`.
+    pub source: String,
+    pub baseline: Baseline,
+    pub mismatch: Vec<Mismatch>,
+    pub findings: Vec<Finding>,
+    pub verdict: Verdict,
+    /// What remains unexplained, and where (empty when explained).
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    pub unexplained: Vec<String>,
+    /// Named plot series (x, y) for before/after figures, keyed by a short id; the
+    /// formats layer renders them to SVG.
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    pub plots: Vec<PlotData>,
+}
+
+/// Data for one figure: several named series of (x, y) points.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct PlotData {
+    pub id: String,
+    pub title: String,
+    pub x_label: String,
+    pub y_label: String,
+    /// `cartesian` or `polar` (x is an angle in degrees, y a radial deviation).
+    pub kind: String,
+    pub series: Vec<PlotSeries>,
+}
+
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct PlotSeries {
+    pub name: String,
+    pub x: Vec<f64>,
+    pub y: Vec<f64>,
+}

@@ -1,0 +1,3 @@
+//! # mtcal-server
+//!
+//! The HTTP API and the job worker (placeholder: see the service issue).

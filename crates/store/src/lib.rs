@@ -1,0 +1,3 @@
+//! # mtcal-store
+//!
+//! Persistence for the mtcal service (placeholder: see the service issue).
