@@ -107,12 +107,6 @@ impl<'a> CsvTable<'a> {
         Ok(t)
     }
 
-    #[allow(dead_code)]
-    pub fn file(&self) -> &str {
-        self.file
-    }
-
-    #[allow(dead_code)]
     pub fn header(&self) -> &[String] {
         &self.header
     }
@@ -219,12 +213,6 @@ impl<'a> CsvTable<'a> {
         self.rows
     }
 
-    /// Line of the current row.
-    #[allow(dead_code)]
-    pub fn line(&self) -> u64 {
-        self.line
-    }
-
     /// Rough number of rows still to come (physical lines left), for reserving columns.
     pub fn remaining_rows_hint(&self) -> usize {
         (self.total_lines.saturating_sub(self.line) + 1) as usize
@@ -251,16 +239,6 @@ impl<'a> CsvTable<'a> {
         match s.parse::<f64>() {
             Ok(v) if v.is_finite() => Ok(v),
             _ => Err(self.err_at(idx, number_rule(s))),
-        }
-    }
-
-    /// The cell as a finite decimal number, or `None` when it is empty.
-    #[allow(dead_code)]
-    pub fn opt_f64(&self, idx: usize) -> Result<Option<f64>, FormatError> {
-        if self.text(idx).is_empty() {
-            Ok(None)
-        } else {
-            self.f64(idx).map(Some)
         }
     }
 

@@ -55,7 +55,6 @@ pub(crate) fn decode<'a>(
 
 /// Up to `max` leading bytes of the (possibly gzip) content, for sniffing; `None` when
 /// the gzip stream is corrupt before `max` bytes.
-#[allow(dead_code)] // used by sniff (next commit)
 pub(crate) fn prefix(bytes: &[u8], max: usize) -> Option<Cow<'_, [u8]>> {
     if !is_gzip(bytes) {
         return Some(Cow::Borrowed(&bytes[..bytes.len().min(max)]));

@@ -14,18 +14,24 @@
 //! gzip handling in `gzip`.
 
 mod csv_core;
-//pub mod drift;
+pub mod drift;
 mod gzip;
 mod json;
 pub mod limits;
-//pub mod positioning;
-//pub mod rotary;
+pub mod positioning;
+pub mod rotary;
 pub mod session;
-//pub mod sniff;
+pub mod sniff;
 
+pub use drift::{read_drift_log, read_drift_log_path, write_drift_log};
 pub use json::is_rfc3339;
 pub use limits::Limits;
+pub use positioning::{read_positioning, read_positioning_path, write_positioning};
+pub use rotary::{
+    read_rotary_points, read_rotary_points_path, write_rotary_points, write_rotary_sidecar,
+};
 pub use session::{read_session_dir, read_session_files, write_session_dir};
+pub use sniff::{DatasetKind, sniff_kind, sniff_path};
 
 /// A rejected input: which file, where, and which rule it broke.
 #[derive(Debug, Clone, PartialEq, thiserror::Error)]
@@ -83,10 +89,35 @@ pub(crate) fn read_file_limited(
 }
 
 /// The file name of a path, for messages.
-#[allow(dead_code)] // used by the path-based readers (next commit)
 pub(crate) fn display_name(path: &std::path::Path) -> String {
     path.file_name().map_or_else(
         || path.display().to_string(),
         |n| n.to_string_lossy().into_owned(),
     )
+}
+
+/// Reads a single-file dataset given by path (still compressed if it is gzip: the
+/// byte-based readers decompress); returns its display name and contents.
+pub(crate) fn read_single(
+    path: &std::path::Path,
+    limits: &Limits,
+) -> Result<(String, Vec<u8>), FormatError> {
+    let name = display_name(path);
+    let raw = read_file_limited(path, &name, limits)?;
+    Ok((name, raw))
+}
+
+/// Decompresses (when gzip) one uploaded file under the byte limit.
+pub(crate) fn decode_single<'a>(
+    name: &str,
+    bytes: &'a [u8],
+    limits: &Limits,
+) -> Result<std::borrow::Cow<'a, [u8]>, FormatError> {
+    let mut budget = limits.max_bytes;
+    gzip::decode(name, bytes, &mut budget)
+}
+
+/// Shared by the writers: an `InvalidInput` error.
+pub(crate) fn invalid_input(msg: impl Into<String>) -> std::io::Error {
+    std::io::Error::new(std::io::ErrorKind::InvalidInput, msg.into())
 }

@@ -17,7 +17,7 @@
 
 use crate::csv_core::{CsvTable, check_increasing, fmt_f64};
 use crate::json::{JsonDoc, Obj};
-use crate::{FormatError, Limits, gzip};
+use crate::{FormatError, Limits, gzip, invalid_input};
 use mtcal_solver::session::{PlaneRecord, Run, Session, TestKind};
 use mtcal_solver::{Axis, Plane, Topology};
 use serde_json::{Value, json};
@@ -426,10 +426,6 @@ fn shrink(run: &mut Run) {
     }
 }
 
-fn invalid(msg: String) -> std::io::Error {
-    std::io::Error::new(std::io::ErrorKind::InvalidInput, msg)
-}
-
 /// Checks runs before writing: equal column lengths, finite values, temperatures for all
 /// runs or none, and (like the reader) strictly increasing time within each run.
 fn check_runs(runs: &[Run]) -> std::io::Result<()> {
@@ -441,14 +437,14 @@ fn check_runs(runs: &[Run]) -> std::io::Result<()> {
             || r.dv_um.len() != n
             || r.temp_c.as_ref().is_some_and(|t| t.len() != n)
         {
-            return Err(invalid(format!(
+            return Err(invalid_input(format!(
                 "run {}: columns of unequal length",
                 r.number
             )));
         }
         if r.temp_c.is_some() != temp {
-            return Err(invalid(
-                "temp_c must be given for all runs of a file or none".into(),
+            return Err(invalid_input(
+                "temp_c must be given for all runs of a file or none",
             ));
         }
         let mut values = r
@@ -459,10 +455,10 @@ fn check_runs(runs: &[Run]) -> std::io::Result<()> {
             .chain(&r.dv_um)
             .chain(r.temp_c.iter().flatten());
         if values.any(|v| !v.is_finite()) {
-            return Err(invalid(format!("run {}: non-finite value", r.number)));
+            return Err(invalid_input(format!("run {}: non-finite value", r.number)));
         }
         if r.t_s.windows(2).any(|w| w[1] <= w[0]) {
-            return Err(invalid(format!(
+            return Err(invalid_input(format!(
                 "run {}: t_s is not strictly increasing",
                 r.number
             )));
@@ -560,7 +556,7 @@ pub fn write_session_dir(dir: &Path, session: &Session) -> std::io::Result<()> {
     let mut seen = Vec::new();
     for p in &session.planes {
         if !valid_file_name(&p.file) || seen.contains(&&p.file) {
-            return Err(invalid(format!(
+            return Err(invalid_input(format!(
                 "invalid or repeated plane file name `{}`",
                 p.file
             )));

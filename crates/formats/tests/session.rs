@@ -1,14 +1,14 @@
 //! Session reader (datasets contract, section 1): one test per rule with a bad file,
 //! asserting file, line, column and rule; plus gzip, limits and the writer round trip.
 
-use flate2::Compression;
-use flate2::write::GzEncoder;
+mod common;
+
+use common::{check, gzip};
 use mtcal_formats::session::{read_plane_csv, write_plane_csv};
 use mtcal_formats::{FormatError, Limits, read_session_dir, read_session_files, write_session_dir};
 use mtcal_solver::session::{PlaneRecord, Run, Session, TestKind};
 use mtcal_solver::{Axis, Plane, Topology};
 use std::collections::BTreeMap;
-use std::io::Write;
 
 const JSON: &str = r#"{
   "machine_id": "VMC-0042",
@@ -46,22 +46,6 @@ fn csv_err(csv: &str) -> FormatError {
 
 fn json_err(json: &str) -> FormatError {
     read(json, CSV).expect_err("the session.json must be rejected")
-}
-
-#[track_caller]
-fn check(e: &FormatError, file: &str, line: u64, column: &str, rule: &str) {
-    assert_eq!(
-        (e.file.as_str(), e.line, e.column.as_str()),
-        (file, line, column),
-        "{e}"
-    );
-    assert!(
-        e.rule.contains(rule),
-        "rule `{}` should contain `{rule}`",
-        e.rule
-    );
-    // The Display form carries all four parts.
-    assert_eq!(e.to_string(), format!("{file}:{line}:{column}: {}", e.rule));
 }
 
 #[test]
@@ -615,12 +599,6 @@ fn byte_limit_applies_to_the_upload_and_to_decompressed_data() {
     )
     .unwrap_err();
     check(&e, "xy.csv", 0, "", "exceeds the byte limit");
-}
-
-fn gzip(bytes: &[u8]) -> Vec<u8> {
-    let mut e = GzEncoder::new(Vec::new(), Compression::default());
-    e.write_all(bytes).unwrap();
-    e.finish().unwrap()
 }
 
 #[test]
