@@ -31,15 +31,7 @@ pub fn read_positioning(
 ) -> Result<PositioningRuns, FormatError> {
     let data = crate::decode_single(name, bytes, limits)?;
     let mut t = CsvTable::open(name, &data, limits)?;
-    t.check_columns(
-        &POSITIONING_COLUMNS[..5],
-        |c| POSITIONING_COLUMNS.contains(&c),
-        "axis, run, direction, target_mm, deviation_um and optionally t_s, temp_c",
-    )?;
-    let c: Vec<usize> = POSITIONING_COLUMNS[..5]
-        .iter()
-        .map(|n| t.col(n).unwrap_or_default())
-        .collect();
+    let c = t.check_schema(&POSITIONING_COLUMNS, 5)?;
     let (c_t, c_temp) = (t.col("t_s"), t.col("temp_c"));
     let mut records = Vec::with_capacity(t.remaining_rows_hint());
     let mut last_t: HashMap<(Axis, i64), f64> = HashMap::new();

@@ -36,15 +36,7 @@ pub fn read_rotary_points(
     };
     let data = crate::decode_single(name, csv, limits)?;
     let mut t = CsvTable::open(name, &data, limits)?;
-    t.check_columns(
-        &ROTARY_COLUMNS[..5],
-        |c| ROTARY_COLUMNS.contains(&c),
-        "a_deg, c_deg, x_mm, y_mm, z_mm and optionally t_s",
-    )?;
-    let c: Vec<usize> = ROTARY_COLUMNS[..5]
-        .iter()
-        .map(|n| t.col(n).unwrap_or_default())
-        .collect();
+    let c = t.check_schema(&ROTARY_COLUMNS, 5)?;
     let c_t = t.col("t_s");
     let mut points = Vec::with_capacity(t.remaining_rows_hint());
     let mut prev_t = None;

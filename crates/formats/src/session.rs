@@ -312,15 +312,7 @@ fn parse_plane(p: &Obj<'_>) -> Result<PlaneSpec, FormatError> {
 /// Reads one plane CSV (already decompressed) into runs, in order of first appearance.
 pub fn read_plane_csv(file: &str, bytes: &[u8], limits: &Limits) -> Result<Vec<Run>, FormatError> {
     let mut t = CsvTable::open(file, bytes, limits)?;
-    t.check_columns(
-        &PLANE_COLUMNS[..REQUIRED],
-        |c| PLANE_COLUMNS.contains(&c),
-        "run, t_s, x_mm, y_mm, z_mm, du_um, dv_um and optionally temp_c, test",
-    )?;
-    let c: Vec<usize> = PLANE_COLUMNS[..REQUIRED]
-        .iter()
-        .map(|n| t.col(n).unwrap_or_default())
-        .collect();
+    let c = t.check_schema(&PLANE_COLUMNS, REQUIRED)?;
     let (c_run, c_t, c_x, c_y, c_z, c_du, c_dv) = (c[0], c[1], c[2], c[3], c[4], c[5], c[6]);
     let c_temp = t.col("temp_c");
     let c_test = t.col("test");
