@@ -3,6 +3,8 @@
 //! Strict readers (and writers) of the dataset formats in `docs/datasets.md`: every
 //! rejected file gets an error naming the file, the line, the column and the rule.
 
+pub mod plots;
+
 /// A rejected input: which file, where, and which rule it broke.
 #[derive(Debug, Clone, PartialEq, thiserror::Error)]
 #[error("{file}:{line}:{column}: {rule}")]
