@@ -39,7 +39,7 @@ pub use line::{LineFit, fit_line};
 pub use plane::{PlaneFit, fit_plane};
 
 use crate::error::SolverError;
-use nalgebra::{Matrix3xX, Vector3};
+use nalgebra::{DMatrix, Matrix3xX, Vector3};
 
 /// Centroid, principal directions (columns of U, by decreasing singular value) and the
 /// singular values of the centred point cloud.
@@ -86,4 +86,39 @@ pub(crate) fn perpendicular(n: &Vector3<f64>) -> Vector3<f64> {
         Vector3::y()
     };
     (a - n * n.dot(&a)).normalize()
+}
+
+/// σ²·(JᵀJ)⁻¹ computed as σ²·V·S⁻²·Vᵀ from the SVD of J (never forming JᵀJ). Directions
+/// with a singular value below 1e-14·s_max get infinite variance.
+pub(crate) fn covariance(j: &DMatrix<f64>, sigma: f64) -> DMatrix<f64> {
+    let p = j.ncols();
+    let svd = j.clone().svd(false, true);
+    let vt = svd.v_t.expect("V requested");
+    let smax = svd.singular_values.max();
+    DMatrix::from_fn(p, p, |a, b| {
+        let mut s = 0.0;
+        for k in 0..svd.singular_values.len() {
+            let sk = svd.singular_values[k];
+            if sk > 1e-14 * smax {
+                s += vt[(k, a)] * vt[(k, b)] / (sk * sk);
+            } else if a == b && vt[(k, a)].abs() > 1e-8 {
+                s = f64::INFINITY;
+            }
+        }
+        sigma * sigma * s
+    })
+}
+
+/// Condition number of `j` after scaling every column to unit norm (∞ if rank-deficient).
+pub(crate) fn equilibrated_condition(j: &DMatrix<f64>) -> f64 {
+    let mut js = j.clone();
+    for mut col in js.column_iter_mut() {
+        let nrm = col.norm();
+        if nrm > 0.0 {
+            col /= nrm;
+        }
+    }
+    let sv = js.singular_values();
+    let (mx, mn) = (sv.max(), sv.min());
+    if mn > 0.0 { mx / mn } else { f64::INFINITY }
 }

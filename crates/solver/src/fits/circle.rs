@@ -187,7 +187,16 @@ pub fn fit_circle(points: &[Vector3<f64>]) -> Result<CircleFit, SolverError> {
     } else {
         f64::NAN
     };
-    let (cov, condition) = covariance(&j, sigma);
+    let (c6, condition) = (
+        super::covariance(&j, sigma),
+        super::equilibrated_condition(&j),
+    );
+    let mut cov = [[0.0; 6]; 6];
+    for a in 0..6 {
+        for b in 0..6 {
+            cov[a][b] = c6[(a, b)];
+        }
+    }
     let radial = res.rows(m, m).iter().copied().collect();
     let axial = res.rows(0, m).iter().copied().collect();
     Ok(CircleFit {
@@ -207,43 +216,4 @@ pub fn fit_circle(points: &[Vector3<f64>]) -> Result<CircleFit, SolverError> {
         iterations,
         converged,
     })
-}
-
-/// σ²·(JᵀJ)⁻¹ computed as σ²·V·S⁻²·Vᵀ from the SVD of J, and the condition number of J
-/// with unit-norm columns. Singular directions (s = 0) get infinite variance.
-pub(crate) fn covariance<const P: usize>(j: &DMatrix<f64>, sigma: f64) -> ([[f64; P]; P], f64) {
-    let svd = j.clone().svd(false, true);
-    let vt = svd.v_t.expect("V requested");
-    let smax = svd.singular_values.max();
-    let mut cov = [[0.0; P]; P];
-    for a in 0..P {
-        for b in 0..P {
-            let mut s = 0.0;
-            for k in 0..svd.singular_values.len() {
-                let sk = svd.singular_values[k];
-                let w = if sk > 1e-14 * smax {
-                    1.0 / (sk * sk)
-                } else {
-                    f64::INFINITY
-                };
-                s += vt[(k, a)] * vt[(k, b)] * w;
-            }
-            cov[a][b] = sigma * sigma * s;
-        }
-    }
-    (cov, equilibrated_condition(j))
-}
-
-/// Condition number of `j` after scaling every column to unit norm (∞ if rank-deficient).
-pub(crate) fn equilibrated_condition(j: &DMatrix<f64>) -> f64 {
-    let mut js = j.clone();
-    for mut col in js.column_iter_mut() {
-        let nrm = col.norm();
-        if nrm > 0.0 {
-            col /= nrm;
-        }
-    }
-    let sv = js.singular_values();
-    let (mx, mn) = (sv.max(), sv.min());
-    if mn > 0.0 { mx / mn } else { f64::INFINITY }
 }
