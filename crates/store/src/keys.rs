@@ -10,6 +10,7 @@ use sha2::{Digest, Sha256};
 
 /// What a key may do. Scopes are ordered: admin ⊃ write ⊃ read.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, PartialOrd, Ord, Serialize, Deserialize)]
+#[cfg_attr(feature = "openapi", derive(utoipa::ToSchema))]
 #[serde(rename_all = "lowercase")]
 pub enum Scope {
     Read,
@@ -43,6 +44,7 @@ impl Scope {
 
 /// A stored key (never the secret).
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[cfg_attr(feature = "openapi", derive(utoipa::ToSchema))]
 pub struct ApiKey {
     pub id: String,
     pub prefix: String,

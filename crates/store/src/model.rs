@@ -6,10 +6,12 @@ use std::collections::BTreeMap;
 
 /// A registered machine tool.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[cfg_attr(feature = "openapi", derive(utoipa::ToSchema))]
 pub struct Machine {
     pub id: String,
     pub name: String,
     /// `{"workpiece": ["X", "Y"], "tool": ["Z"]}` (kinematics contract).
+    #[cfg_attr(feature = "openapi", schema(value_type = Object))]
     pub topology: Value,
     /// Travel range per axis, mm: `{"X": [-250, 250], ...}`.
     pub travel_mm: BTreeMap<String, [f64; 2]>,
@@ -23,8 +25,10 @@ pub struct Machine {
 
 /// Fields of a machine that an update may change (`None`: keep).
 #[derive(Debug, Clone, Default, PartialEq, Serialize, Deserialize)]
+#[cfg_attr(feature = "openapi", derive(utoipa::ToSchema))]
 pub struct MachinePatch {
     pub name: Option<String>,
+    #[cfg_attr(feature = "openapi", schema(value_type = Object))]
     pub topology: Option<Value>,
     pub travel_mm: Option<BTreeMap<String, [f64; 2]>>,
     pub site: Option<String>,
@@ -34,6 +38,7 @@ pub struct MachinePatch {
 
 /// One stored file of a dataset, as uploaded.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[cfg_attr(feature = "openapi", derive(utoipa::ToSchema))]
 pub struct FileMeta {
     pub name: String,
     pub sha256: String,
@@ -42,6 +47,7 @@ pub struct FileMeta {
 
 /// A dataset's metadata (the bytes are read with [`crate::Store::dataset_file`]).
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[cfg_attr(feature = "openapi", derive(utoipa::ToSchema))]
 pub struct Dataset {
     pub id: String,
     pub machine_id: String,
@@ -67,6 +73,7 @@ pub struct NewDataset {
 
 /// Life cycle of a job.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
+#[cfg_attr(feature = "openapi", derive(utoipa::ToSchema))]
 #[serde(rename_all = "lowercase")]
 pub enum JobState {
     Queued,
@@ -108,11 +115,13 @@ impl JobState {
 
 /// A job as stored.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[cfg_attr(feature = "openapi", derive(utoipa::ToSchema))]
 pub struct Job {
     pub id: String,
     pub kind: String,
     pub machine_id: Option<String>,
     pub dataset_id: Option<String>,
+    #[cfg_attr(feature = "openapi", schema(value_type = Object))]
     pub params: Value,
     pub state: JobState,
     /// 0 … 1.
@@ -140,6 +149,7 @@ pub struct NewJob {
 
 /// Scalar figures of a result kept in their own columns for trend queries.
 #[derive(Debug, Clone, Default, PartialEq, Serialize, Deserialize)]
+#[cfg_attr(feature = "openapi", derive(utoipa::ToSchema))]
 pub struct ResultScalars {
     pub residual_rms_um: Option<f64>,
     pub condition_number: Option<f64>,
@@ -164,6 +174,7 @@ pub struct NewResult {
 
 /// A stored result, without its document.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[cfg_attr(feature = "openapi", derive(utoipa::ToSchema))]
 pub struct ResultMeta {
     pub id: String,
     pub job_id: String,
@@ -177,8 +188,10 @@ pub struct ResultMeta {
 
 /// A stored result with its document.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[cfg_attr(feature = "openapi", derive(utoipa::ToSchema))]
 pub struct StoredResult {
     pub meta: ResultMeta,
+    #[cfg_attr(feature = "openapi", schema(value_type = Object))]
     pub document: Value,
 }
 
