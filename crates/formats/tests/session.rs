@@ -283,6 +283,27 @@ fn json_temperature_must_be_a_number() {
 }
 
 #[test]
+fn json_optional_strings_must_be_strings() {
+    let e = json_err(&JSON.replace("\"free text\"", "[\"free\"]"));
+    check(&e, "session.json", 6, "notes", "must be a string");
+    let e = json_err(&JSON.replace("\"mounting\": \"xy-1\"", "\"mounting\": \"\""));
+    check(
+        &e,
+        "session.json",
+        8,
+        "planes[0].mounting",
+        "must not be empty",
+    );
+}
+
+#[test]
+fn utf8_byte_order_mark_is_skipped() {
+    let json = format!("\u{feff}{JSON}");
+    let csv = format!("\u{feff}{CSV}");
+    assert_eq!(read(&json, &csv).unwrap(), read(JSON, CSV).unwrap());
+}
+
+#[test]
 fn json_planes_must_be_a_non_empty_array() {
     let e = json_err(r#"{"machine_id": "M", "measured_at": "2026-11-02T08:30:00Z", "planes": []}"#);
     check(&e, "session.json", 1, "planes", "at least one plane");
