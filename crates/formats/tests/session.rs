@@ -391,6 +391,13 @@ fn unreferenced_upload_rejected() {
     )
     .unwrap_err();
     check(&e, "yz.csv", 0, "", "not referenced by session.json");
+    // The description itself may travel with the files.
+    let with_json = files(&[
+        ("session.json", JSON.as_bytes()),
+        ("xy.csv", CSV.as_bytes()),
+        ("xz.csv", CSV.as_bytes()),
+    ]);
+    assert!(read_session_files(JSON.as_bytes(), &with_json, &Limits::default()).is_ok());
 }
 
 // ---- plane CSV rules ----------------------------------------------------------------
