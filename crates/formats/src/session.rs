@@ -90,7 +90,7 @@ pub fn read_session_dir(dir: &Path, limits: &Limits) -> Result<Session, FormatEr
         )?;
         raw_budget -= bytes.len();
         let data = gzip::decode(&name, &bytes, &mut budget)?;
-        read_plane_csv(&p.file, &data, limits)
+        read_plane_csv(&name, &data, limits)
     })
 }
 

@@ -754,6 +754,10 @@ fn dir_reader_falls_back_to_gz() {
     std::fs::write(dir.path().join("xz.csv.gz"), gzip(CSV.as_bytes())).unwrap();
     let s = read_session_dir(dir.path(), &Limits::default()).unwrap();
     assert_eq!(s, read(JSON, CSV).unwrap());
+    // Errors inside the fallback name the file actually read.
+    std::fs::write(dir.path().join("xz.csv.gz"), gzip(b"run,t_s\n")).unwrap();
+    let e = read_session_dir(dir.path(), &Limits::default()).unwrap_err();
+    check(&e, "xz.csv.gz", 1, "x_mm", "required column is missing");
 }
 
 #[test]
