@@ -570,6 +570,18 @@ fn csv_crlf_and_quoted_fields() {
 }
 
 #[test]
+fn line_numbers_count_newlines_inside_quoted_fields() {
+    let csv = "run,t_s,x_mm,y_mm,z_mm,du_um,dv_um,x-note\n1,0,0,0,0,0,0,\"two\nlines\"\n1,1,0,0,0,0,oops,\n";
+    check(
+        &csv_err(csv),
+        "xy.csv",
+        4,
+        "dv_um",
+        "`oops` is not a decimal number",
+    );
+}
+
+#[test]
 fn sample_limit() {
     let limits = Limits {
         max_samples_per_file: 2,
