@@ -39,8 +39,13 @@ pub fn run(args: Args) -> anyhow::Result<ExitCode> {
         ))
     })?;
     let machine_id = args.machine_id.clone().unwrap_or_else(|| {
-        let name = path.file_name().map(|n| n.to_string_lossy().into_owned()).unwrap_or_default();
-        name.trim_end_matches(".gz").trim_end_matches(".csv").to_string()
+        let name = path
+            .file_name()
+            .map(|n| n.to_string_lossy().into_owned())
+            .unwrap_or_default();
+        name.trim_end_matches(".gz")
+            .trim_end_matches(".csv")
+            .to_string()
     });
     let opts = SeriesOptions::default();
     let result: DiagnosisResult = match kind {
@@ -77,7 +82,10 @@ pub fn run(args: Args) -> anyhow::Result<ExitCode> {
         }
     }
     if args.json {
-        println!("{}", serde_json::to_string_pretty(&result).context("serialising the result")?);
+        println!(
+            "{}",
+            serde_json::to_string_pretty(&result).context("serialising the result")?
+        );
     } else {
         print!("{}", summary(&result));
     }
@@ -111,7 +119,10 @@ pub fn summary(r: &DiagnosisResult) -> String {
             s,
             "finding: {}{}: held-out RMS {:.3} → {:.3} µm",
             f.effect,
-            f.axis.as_deref().map(|a| format!(" ({a})")).unwrap_or_default(),
+            f.axis
+                .as_deref()
+                .map(|a| format!(" ({a})"))
+                .unwrap_or_default(),
             f.heldout_rms_um.before,
             f.heldout_rms_um.after
         );
