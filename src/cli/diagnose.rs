@@ -7,6 +7,7 @@ use anyhow::Context;
 use mtcal_formats::{DatasetKind, Limits};
 use mtcal_solver::diagnosis::series::{self, SeriesOptions};
 use mtcal_solver::diagnosis::{DiagnosisResult, Verdict};
+use std::io::Write as _;
 use std::path::PathBuf;
 use std::process::ExitCode;
 
@@ -81,13 +82,16 @@ pub fn run(args: Args) -> anyhow::Result<ExitCode> {
             eprintln!("wrote {} plot(s) to {}", written.len(), dir.display());
         }
     }
-    if args.json {
-        println!(
-            "{}",
-            serde_json::to_string_pretty(&result).context("serialising the result")?
-        );
+    let text = if args.json {
+        serde_json::to_string_pretty(&result).context("serialising the result")? + "\n"
     } else {
-        print!("{}", summary(&result));
+        summary(&result)
+    };
+    // A closed pipe (`| head`) is not an error.
+    if let Err(e) = std::io::stdout().lock().write_all(text.as_bytes()) {
+        if e.kind() != std::io::ErrorKind::BrokenPipe {
+            return Err(e).context("writing to stdout");
+        }
     }
     Ok(ExitCode::SUCCESS)
 }
