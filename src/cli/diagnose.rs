@@ -88,10 +88,10 @@ pub fn run(args: Args) -> anyhow::Result<ExitCode> {
         summary(&result)
     };
     // A closed pipe (`| head`) is not an error.
-    if let Err(e) = std::io::stdout().lock().write_all(text.as_bytes()) {
-        if e.kind() != std::io::ErrorKind::BrokenPipe {
-            return Err(e).context("writing to stdout");
-        }
+    if let Err(e) = std::io::stdout().lock().write_all(text.as_bytes())
+        && e.kind() != std::io::ErrorKind::BrokenPipe
+    {
+        return Err(e).context("writing to stdout");
     }
     Ok(ExitCode::SUCCESS)
 }
