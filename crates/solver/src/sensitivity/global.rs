@@ -150,14 +150,13 @@ pub fn sobol(
     let mut tt = vec![0.0; 4 * n * k];
     let mut var_total = [0.0; 4];
     let mut mean_sq = [0.0; 4];
-    let zeros = vec![0.0; k];
     let mut ws = Workspace::default();
     let mut jac: Vec<Vector3<f64>> = Vec::new();
     let mut m = Vec::new();
     let mut fa = vec![Vector3::zeros(); n];
     let mut fb = vec![Vector3::zeros(); n];
     for q in poses {
-        chain.jacobian_into(q, &zeros, &mut ws, &mut jac);
+        chain.jacobian_zero_into(q, &mut ws, &mut jac);
         mags.at_pose(q, &mut m);
         let g: Vec<Vector3<f64>> = jac.iter().zip(&m).map(|(j, mi)| j * *mi).collect();
         for j in 0..n {
