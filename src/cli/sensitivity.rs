@@ -244,7 +244,7 @@ pub fn render(res: &SensitivityResult, extra_rows: usize) -> String {
     if let Some(g) = &res.global {
         let _ = writeln!(
             o,
-            "\nglobal (Sobol, N = {}, {:?} errors, {} poses): share of the variance of |E|",
+            "\nglobal (Sobol, N = {}, {:?} errors, {} poses): shares of the variance of E (Var Ex + Var Ey + Var Ez)",
             g.samples, g.distribution, g.poses
         );
         let out = &g.outputs["E"];
@@ -268,4 +268,64 @@ pub fn render(res: &SensitivityResult, extra_rows: usize) -> String {
         }
     }
     o
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use clap::Parser;
+
+    #[derive(Parser)]
+    struct Cli {
+        #[command(flatten)]
+        args: Args,
+    }
+
+    fn parse(argv: &[&str]) -> Args {
+        Cli::try_parse_from(std::iter::once("sensitivity").chain(argv.iter().copied()))
+            .unwrap()
+            .args
+    }
+
+    #[test]
+    fn template_point_request_runs_and_renders() {
+        let args = parse(&[
+            "--template",
+            "hmc4-b",
+            "--point",
+            "500,581.5,118,0",
+            "--paper",
+        ]);
+        let req = request(&args).unwrap();
+        assert_eq!(req.points, vec![vec![500.0, 581.5, 118.0, 0.0]]);
+        assert_eq!(req.weighting, Weighting::Paper);
+        let res = analyse(&req).unwrap();
+        let text = render(&res, 0);
+        assert!(text.contains("Ex: key errors"), "{text}");
+        assert!(text.contains("581.500"), "{text}");
+    }
+
+    #[test]
+    fn grid_and_numbers_are_parsed_or_rejected_as_bad_input() {
+        let g = parse_grid("0:600:3,-10:10:2,-400:0:5").unwrap();
+        assert_eq!(g.len(), 3);
+        assert_eq!((g[1].min, g[1].max, g[1].n), (-10.0, 10.0, 2));
+        for bad_grid in ["0:600", "0:600:x", "a:1:2"] {
+            let e = parse_grid(bad_grid).unwrap_err();
+            assert!(e.is::<BadInput>(), "{bad_grid}");
+        }
+        let args = parse(&["--template", "vmc3", "--point", "1,2,zz"]);
+        assert!(request(&args).unwrap_err().is::<BadInput>());
+    }
+
+    #[test]
+    fn a_malformed_machine_file_names_line_and_column() {
+        let dir = tempfile::tempdir().unwrap();
+        let path = dir.path().join("m.json");
+        std::fs::write(&path, "{\n  \"name\": \"m\",\n  \"workpiece\": [oops]\n}").unwrap();
+        let args = parse(&[path.to_str().unwrap()]);
+        let e = request(&args).unwrap_err();
+        let msg = format!("{e}");
+        assert!(e.is::<BadInput>() && msg.contains("line 3"), "{msg}");
+    }
 }

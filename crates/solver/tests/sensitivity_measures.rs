@@ -96,8 +96,17 @@ fn sobol_indices_of_a_linear_model_match_the_closed_form() {
             max_poses: 1,
         };
         let res = global::sobol(&chain, &mags, std::slice::from_ref(&q), &opts).unwrap();
-        for (c, comp) in ["Ex", "Ey", "Ez"].iter().enumerate() {
-            let w: Vec<f64> = (0..k).map(|i| (jac[i][c] * tol[i]).powi(2)).collect();
+        // E_x, E_y, E_z, and the vector E (variance Var E_x + Var E_y + Var E_z, so its
+        // closed form uses ‖J_i‖²).
+        for (c, comp) in ["Ex", "Ey", "Ez", "E"].iter().enumerate() {
+            let s = |i: usize| {
+                if c < 3 {
+                    jac[i][c].abs()
+                } else {
+                    jac[i].norm()
+                }
+            };
+            let w: Vec<f64> = (0..k).map(|i| (s(i) * tol[i]).powi(2)).collect();
             let total: f64 = w.iter().sum();
             let out = &res.outputs[*comp];
             for e in &out.indices {
