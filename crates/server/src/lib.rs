@@ -1,3 +1,177 @@
 //! # mtcal-server
 //!
-//! The HTTP API and the job worker (placeholder: see the service issue).
+//! The calibration service: an axum API (`/api/v1`, OpenAPI document generated from the
+//! code with utoipa, Swagger UI at `/docs` from vendored assets) and the job worker, in
+//! one process. Storage goes through [`mtcal_store::Store`] only.
+//!
+//! Limits: every route has a body-size limit (1 MiB; uploads [`ingest::UploadLimits`],
+//! 256 MiB by default) and a time limit (30 s; uploads 300 s). Every route but `/health`
+//! and the documentation needs an API key (see [`auth`]).
+
+pub mod api;
+pub mod auth;
+pub mod error;
+pub mod ingest;
+pub mod jobs;
+mod session_reader;
+pub mod trends;
+pub mod worker;
+
+use axum::Router;
+use axum::extract::DefaultBodyLimit;
+use axum::http::StatusCode;
+use axum::routing::{get, post};
+use mtcal_store::Store;
+use std::net::SocketAddr;
+use std::sync::Arc;
+use std::time::Duration;
+use tower_http::decompression::RequestDecompressionLayer;
+use tower_http::timeout::TimeoutLayer;
+use utoipa::OpenApi;
+use utoipa::openapi::security::{HttpAuthScheme, HttpBuilder, SecurityScheme};
+
+pub use error::ApiError;
+pub use ingest::UploadLimits;
+pub use worker::WorkerConfig;
+
+/// Shared state of the handlers.
+#[derive(Clone)]
+pub struct AppState {
+    pub store: Arc<dyn Store>,
+    pub limits: UploadLimits,
+    /// Attempts given to each submitted job.
+    pub max_attempts: i64,
+}
+
+/// Body limit of every route but uploads, bytes.
+pub const JSON_BODY_LIMIT: usize = 1 << 20;
+/// Time limit of every route but uploads.
+pub const REQUEST_TIMEOUT: Duration = Duration::from_secs(30);
+/// Time limit of uploads.
+pub const UPLOAD_TIMEOUT: Duration = Duration::from_secs(300);
+
+struct SecurityAddon;
+
+impl utoipa::Modify for SecurityAddon {
+    fn modify(&self, openapi: &mut utoipa::openapi::OpenApi) {
+        let c = openapi.components.get_or_insert_with(Default::default);
+        c.add_security_scheme(
+            "api_key",
+            SecurityScheme::Http(
+                HttpBuilder::new()
+                    .scheme(HttpAuthScheme::Bearer)
+                    .description(Some("API key created with `mtcal admin create-key`"))
+                    .build(),
+            ),
+        );
+    }
+}
+
+/// The OpenAPI document of API v1.
+#[derive(OpenApi)]
+#[openapi(
+    info(title = "mtcal calibration service", version = "1",
+         description = "Machines, measurement datasets, jobs (identification), results, history and trends. \
+                        Errors: `{\"error\": {\"code\", \"message\"}}` with stable codes (docs/api.md)."),
+    paths(
+        api::health,
+        api::machines::create, api::machines::get, api::machines::update, api::machines::list,
+        api::datasets::upload, api::datasets::get, api::datasets::file,
+        api::jobs::submit, api::jobs::get, api::jobs::result, api::jobs::cancel,
+        api::history::list, api::history::latest, api::history::get, api::history::diff,
+        api::trends::term, api::trends::summary, api::trends::fleet,
+        api::keys::create,
+    ),
+    components(schemas(jobs::IdentifyParams, error::ErrorBody)),
+    modifiers(&SecurityAddon),
+    tags((name = "machines"), (name = "datasets"), (name = "jobs"), (name = "history"),
+         (name = "trends"), (name = "keys"), (name = "service"))
+)]
+pub struct ApiDoc;
+
+/// The committed form of the OpenAPI document (`openapi/openapi.json`).
+pub fn openapi_json() -> String {
+    let mut s = ApiDoc::openapi()
+        .to_pretty_json()
+        .expect("the OpenAPI document serialises");
+    s.push('\n');
+    s
+}
+
+/// The whole HTTP application.
+pub fn router(state: AppState) -> Router {
+    use api::*;
+    let uploads = Router::new()
+        .route("/api/v1/machines/{id}/datasets", post(datasets::upload))
+        .layer(DefaultBodyLimit::max(state.limits.max_bytes))
+        .layer(RequestDecompressionLayer::new())
+        .layer(TimeoutLayer::with_status_code(
+            StatusCode::REQUEST_TIMEOUT,
+            UPLOAD_TIMEOUT,
+        ));
+    let rest = Router::new()
+        .route("/health", get(health))
+        .route(
+            "/api/v1/machines",
+            post(machines::create).get(machines::list),
+        )
+        .route(
+            "/api/v1/machines/{id}",
+            get(machines::get).patch(machines::update),
+        )
+        .route("/api/v1/datasets/{id}", get(datasets::get))
+        .route("/api/v1/datasets/{id}/files/{name}", get(datasets::file))
+        .route("/api/v1/jobs", post(jobs::submit))
+        .route("/api/v1/jobs/{id}", get(jobs::get))
+        .route("/api/v1/jobs/{id}/result", get(jobs::result))
+        .route("/api/v1/jobs/{id}/cancel", post(jobs::cancel))
+        .route("/api/v1/machines/{id}/results", get(history::list))
+        .route("/api/v1/machines/{id}/results/latest", get(history::latest))
+        .route("/api/v1/machines/{id}/results/diff", get(history::diff))
+        .route("/api/v1/results/{id}", get(history::get))
+        .route("/api/v1/machines/{id}/trends/term", get(trends::term))
+        .route("/api/v1/machines/{id}/trends/summary", get(trends::summary))
+        .route("/api/v1/fleet/drift", get(trends::fleet))
+        .route("/api/v1/keys", post(keys::create))
+        .merge(
+            utoipa_swagger_ui::SwaggerUi::new("/docs")
+                .url("/api-docs/openapi.json", ApiDoc::openapi()),
+        )
+        .layer(DefaultBodyLimit::max(JSON_BODY_LIMIT))
+        .layer(TimeoutLayer::with_status_code(
+            StatusCode::REQUEST_TIMEOUT,
+            REQUEST_TIMEOUT,
+        ));
+    uploads
+        .merge(rest)
+        .fallback(|| async { ApiError::NotFound("no such route".into()) })
+        .with_state(state)
+}
+
+/// Settings of `mtcal serve`.
+#[derive(Debug, Clone)]
+pub struct ServeConfig {
+    pub db_url: String,
+    pub listen: SocketAddr,
+    pub worker: WorkerConfig,
+    /// Run the worker in this process (API only when false).
+    pub run_worker: bool,
+}
+
+/// Opens the store, starts the workers and serves until the process ends. `ready` is
+/// called with the bound address (port 0 picks a free one).
+pub async fn serve(cfg: ServeConfig, ready: impl FnOnce(SocketAddr)) -> anyhow::Result<()> {
+    let store = mtcal_store::open(&cfg.db_url).await?;
+    let listener = tokio::net::TcpListener::bind(cfg.listen).await?;
+    if cfg.run_worker {
+        worker::spawn_workers(store.clone(), cfg.worker.clone());
+    }
+    let state = AppState {
+        store,
+        limits: cfg.worker.limits,
+        max_attempts: cfg.worker.queue.max_attempts,
+    };
+    ready(listener.local_addr()?);
+    axum::serve(listener, router(state)).await?;
+    Ok(())
+}

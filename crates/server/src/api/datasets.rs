@@ -1,0 +1,167 @@
+//! `/api/v1/machines/{id}/datasets` (upload) and `/api/v1/datasets/{id}` (metadata, raw
+//! files back unchanged).
+
+use crate::error::{ApiError, ErrorBody};
+use crate::ingest;
+use crate::{AppState, auth};
+use axum::Json;
+use axum::body::Bytes;
+use axum::extract::{FromRequest, Multipart, Path, Request, State};
+use axum::http::{HeaderMap, HeaderValue, StatusCode, header};
+use axum::response::{IntoResponse, Response};
+use mtcal_store::{Dataset, NewDataset, Scope};
+use utoipa::ToSchema;
+
+/// Multipart form of a session upload: one part per file, the part's file name is the
+/// file's name (`session.json`, `xy_L100.csv`, `xz.csv.gz`, …).
+#[derive(ToSchema)]
+#[allow(dead_code)]
+pub struct SessionUpload {
+    #[schema(value_type = Vec<String>, format = Binary)]
+    pub files: Vec<Vec<u8>>,
+}
+
+fn media(headers: &HeaderMap) -> String {
+    headers
+        .get(header::CONTENT_TYPE)
+        .and_then(|v| v.to_str().ok())
+        .unwrap_or("")
+        .to_ascii_lowercase()
+}
+
+async fn read_multipart(req: Request, s: &AppState) -> Result<Vec<(String, Vec<u8>)>, ApiError> {
+    let mut mp = Multipart::from_request(req, s)
+        .await
+        .map_err(|r| ApiError::from_rejection(r.status(), r.body_text()))?;
+    let mut files = Vec::new();
+    while let Some(field) = mp
+        .next_field()
+        .await
+        .map_err(|e| ApiError::from_rejection(e.status(), e.body_text()))?
+    {
+        let name = field
+            .file_name()
+            .or(field.name())
+            .unwrap_or_default()
+            .to_string();
+        let bytes = field
+            .bytes()
+            .await
+            .map_err(|e| ApiError::from_rejection(e.status(), e.body_text()))?;
+        files.push((name, bytes.to_vec()));
+    }
+    Ok(files)
+}
+
+#[utoipa::path(operation_id = "datasets_upload", post, path = "/api/v1/machines/{id}/datasets", tag = "datasets",
+    security(("api_key" = [])), params(("id" = String, Path, description = "machine id")),
+    request_body(content = SessionUpload, content_type = "multipart/form-data",
+        description = "session.json and its plane CSVs as multipart parts, or the whole \
+                       session as one .tar.gz with Content-Type application/gzip \
+                       (application/x-tar for an uncompressed archive). Any file may be gzip-compressed."),
+    responses((status = 201, body = Dataset),
+              (status = 413, body = ErrorBody, description = "payload_too_large"),
+              (status = 415, body = ErrorBody, description = "unsupported_media_type"),
+              (status = 422, body = ErrorBody, description = "invalid_dataset: names file, line, column and rule; nothing stored")))]
+pub async fn upload(
+    State(s): State<AppState>,
+    Path(machine_id): Path<String>,
+    req: Request,
+) -> Result<(StatusCode, Json<Dataset>), ApiError> {
+    auth::authorize(&s, req.headers(), Scope::Write).await?;
+    let machine = s.store.get_machine(&machine_id).await?;
+    let ct = media(req.headers());
+    let files = if ct.starts_with("multipart/form-data") {
+        read_multipart(req, &s).await?
+    } else if ct.starts_with("application/gzip")
+        || ct.starts_with("application/x-gzip")
+        || ct.starts_with("application/x-tar")
+        || ct.starts_with("application/octet-stream")
+    {
+        let body = Bytes::from_request(req, &s)
+            .await
+            .map_err(|r| ApiError::from_rejection(r.status(), r.body_text()))?;
+        ingest::untar(&body, s.limits)?
+    } else {
+        return Err(ApiError::UnsupportedMediaType(format!(
+            "Content-Type {ct:?}: send multipart/form-data or application/gzip (a .tar.gz)"
+        )));
+    };
+    let limits = s.limits;
+    let checked = files.clone();
+    let session = tokio::task::spawn_blocking(move || ingest::read_session(&checked, limits))
+        .await
+        .map_err(|e| ApiError::Internal(e.to_string()))??;
+    if session.machine_id != machine.id {
+        return Err(ApiError::InvalidDataset(format!(
+            "session.json: machine_id {:?} does not match the machine {:?} uploaded to",
+            session.machine_id, machine.id
+        )));
+    }
+    let measured_at = normalise_time(&session.measured_at)?;
+    let d = s
+        .store
+        .insert_dataset(NewDataset {
+            machine_id: machine.id,
+            kind: "session".into(),
+            measured_at,
+            samples: session.sample_count() as i64,
+            files,
+        })
+        .await?;
+    Ok((StatusCode::CREATED, Json(d)))
+}
+
+/// RFC 3339 time as UTC (`…Z`), so that stored times sort as text.
+pub fn normalise_time(t: &str) -> Result<String, ApiError> {
+    use time::format_description::well_known::Rfc3339;
+    let parsed = time::OffsetDateTime::parse(t, &Rfc3339).map_err(|_| {
+        ApiError::InvalidDataset(format!("session.json:0:measured_at: {t:?} is not RFC 3339"))
+    })?;
+    parsed
+        .to_offset(time::UtcOffset::UTC)
+        .format(&Rfc3339)
+        .map_err(|e| ApiError::Internal(e.to_string()))
+}
+
+#[utoipa::path(operation_id = "datasets_get", get, path = "/api/v1/datasets/{id}", tag = "datasets",
+    security(("api_key" = [])), params(("id" = String, Path)),
+    responses((status = 200, body = Dataset), (status = 404, body = ErrorBody)))]
+pub async fn get(
+    State(s): State<AppState>,
+    headers: HeaderMap,
+    Path(id): Path<String>,
+) -> Result<Json<Dataset>, ApiError> {
+    auth::authorize(&s, &headers, Scope::Read).await?;
+    Ok(Json(s.store.get_dataset(&id).await?))
+}
+
+#[utoipa::path(operation_id = "datasets_file", get, path = "/api/v1/datasets/{id}/files/{name}", tag = "datasets",
+    security(("api_key" = [])), params(("id" = String, Path), ("name" = String, Path)),
+    responses((status = 200, description = "the file's bytes as uploaded; header x-checksum-sha256",
+               content_type = "application/octet-stream", body = Vec<u8>),
+              (status = 404, body = ErrorBody)))]
+pub async fn file(
+    State(s): State<AppState>,
+    headers: HeaderMap,
+    Path((id, name)): Path<(String, String)>,
+) -> Result<Response, ApiError> {
+    auth::authorize(&s, &headers, Scope::Read).await?;
+    let meta = s.store.get_dataset(&id).await?;
+    let f = meta
+        .files
+        .iter()
+        .find(|f| f.name == name)
+        .ok_or_else(|| ApiError::NotFound(format!("file {name} of dataset {id} not found")))?;
+    let bytes = s.store.dataset_file(&id, &name).await?;
+    let mut resp = bytes.into_response();
+    let h = resp.headers_mut();
+    h.insert(
+        header::CONTENT_TYPE,
+        HeaderValue::from_static("application/octet-stream"),
+    );
+    if let Ok(v) = HeaderValue::from_str(&f.sha256) {
+        h.insert("x-checksum-sha256", v);
+    }
+    Ok(resp)
+}

@@ -1,0 +1,130 @@
+//! History by machine: all results in time order, the latest, one result, and the
+//! difference from a baseline.
+
+use crate::error::{ApiError, ApiQuery, ErrorBody};
+use crate::trends::{self, TermDiff};
+use crate::{AppState, auth};
+use axum::Json;
+use axum::extract::{Path, State};
+use axum::http::HeaderMap;
+use mtcal_store::{ResultMeta, Scope, StoredResult};
+use serde::{Deserialize, Serialize};
+use std::collections::BTreeMap;
+use utoipa::{IntoParams, ToSchema};
+
+/// Result kind the history routes read (the only one so far).
+pub const KIND: &str = "identification";
+
+#[utoipa::path(operation_id = "history_list", get, path = "/api/v1/machines/{id}/results", tag = "history",
+    security(("api_key" = [])), params(("id" = String, Path)),
+    responses((status = 200, body = Vec<ResultMeta>, description = "in time order (measured_at)"),
+              (status = 404, body = ErrorBody)))]
+pub async fn list(
+    State(s): State<AppState>,
+    headers: HeaderMap,
+    Path(id): Path<String>,
+) -> Result<Json<Vec<ResultMeta>>, ApiError> {
+    auth::authorize(&s, &headers, Scope::Read).await?;
+    s.store.get_machine(&id).await?;
+    Ok(Json(s.store.list_results(&id, KIND).await?))
+}
+
+#[utoipa::path(operation_id = "history_latest", get, path = "/api/v1/machines/{id}/results/latest", tag = "history",
+    security(("api_key" = [])), params(("id" = String, Path)),
+    responses((status = 200, body = StoredResult), (status = 404, body = ErrorBody)))]
+pub async fn latest(
+    State(s): State<AppState>,
+    headers: HeaderMap,
+    Path(id): Path<String>,
+) -> Result<Json<StoredResult>, ApiError> {
+    auth::authorize(&s, &headers, Scope::Read).await?;
+    s.store.get_machine(&id).await?;
+    let last = s
+        .store
+        .list_results(&id, KIND)
+        .await?
+        .pop()
+        .ok_or_else(|| ApiError::NotFound(format!("no result for machine {id}")))?;
+    Ok(Json(s.store.get_result(&last.id).await?))
+}
+
+#[utoipa::path(operation_id = "history_get", get, path = "/api/v1/results/{id}", tag = "history",
+    security(("api_key" = [])), params(("id" = String, Path)),
+    responses((status = 200, body = StoredResult), (status = 404, body = ErrorBody)))]
+pub async fn get(
+    State(s): State<AppState>,
+    headers: HeaderMap,
+    Path(id): Path<String>,
+) -> Result<Json<StoredResult>, ApiError> {
+    auth::authorize(&s, &headers, Scope::Read).await?;
+    Ok(Json(s.store.get_result(&id).await?))
+}
+
+#[derive(Debug, Deserialize, IntoParams)]
+pub struct DiffQuery {
+    /// Baseline result (default: the machine's baseline, else its first result).
+    pub baseline: Option<String>,
+    /// Result compared with it (default: the latest).
+    pub against: Option<String>,
+    /// Grid step, mm (default 5).
+    pub step_mm: Option<f64>,
+}
+
+/// Difference between two results of one machine (against − baseline).
+#[derive(Debug, Clone, Serialize, Deserialize, ToSchema)]
+pub struct ResultDiff {
+    pub machine_id: String,
+    pub baseline: ResultMeta,
+    pub against: ResultMeta,
+    pub terms: BTreeMap<String, TermDiff>,
+    /// µrad; null when not identifiable in one of them.
+    pub squareness: BTreeMap<String, Option<f64>>,
+    pub drift: trends::Drift,
+}
+
+#[utoipa::path(operation_id = "history_diff", get, path = "/api/v1/machines/{id}/results/diff", tag = "history",
+    security(("api_key" = [])), params(("id" = String, Path), DiffQuery),
+    responses((status = 200, body = ResultDiff), (status = 404, body = ErrorBody)))]
+pub async fn diff(
+    State(s): State<AppState>,
+    headers: HeaderMap,
+    Path(id): Path<String>,
+    ApiQuery(q): ApiQuery<DiffQuery>,
+) -> Result<Json<ResultDiff>, ApiError> {
+    auth::authorize(&s, &headers, Scope::Read).await?;
+    let machine = s.store.get_machine(&id).await?;
+    let all = s.store.list_results(&id, KIND).await?;
+    let pick =
+        |rid: Option<&String>, default: Option<&ResultMeta>| -> Result<ResultMeta, ApiError> {
+            match rid {
+                Some(r) => all.iter().find(|m| &m.id == r).cloned().ok_or_else(|| {
+                    ApiError::NotFound(format!("result {r} of machine {id} not found"))
+                }),
+                None => default
+                    .cloned()
+                    .ok_or_else(|| ApiError::NotFound(format!("no result for machine {id}"))),
+            }
+        };
+    let default_base = machine
+        .baseline_result_id
+        .as_ref()
+        .and_then(|b| all.iter().find(|m| &m.id == b))
+        .or(all.first());
+    let baseline = pick(q.baseline.as_ref(), default_base)?;
+    let against = pick(q.against.as_ref(), all.last())?;
+    let step = q.step_mm.unwrap_or(5.0);
+    if !(step > 0.0 && step.is_finite()) {
+        return Err(ApiError::InvalidRequest(
+            "step_mm must be a positive number".into(),
+        ));
+    }
+    let (terms, squareness) = trends::diff(&machine, &baseline.scalars, &against.scalars, step);
+    Ok(Json(ResultDiff {
+        machine_id: id,
+        drift: trends::drift(&machine, &baseline.scalars, &against.scalars),
+        baseline,
+        against,
+        terms,
+        squareness,
+    }))
+}

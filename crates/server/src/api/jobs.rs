@@ -1,0 +1,114 @@
+//! `/api/v1/jobs`: submit, status with progress, result, cancel.
+
+use crate::error::{ApiError, ApiJson, ErrorBody};
+use crate::jobs::{self, JobKind};
+use crate::{AppState, auth};
+use axum::Json;
+use axum::extract::{Path, State};
+use axum::http::{HeaderMap, StatusCode};
+use mtcal_store::{Job, JobState, NewJob, Scope};
+use serde::{Deserialize, Serialize};
+use utoipa::ToSchema;
+
+/// A job to run.
+#[derive(Debug, Clone, Serialize, Deserialize, ToSchema)]
+#[serde(deny_unknown_fields)]
+pub struct SubmitJob {
+    pub kind: JobKind,
+    /// The dataset to run on (required by `identify`).
+    pub dataset_id: Option<String>,
+    /// Kind-specific parameters; for `identify` see `IdentifyParams`.
+    #[serde(default)]
+    #[schema(value_type = Object)]
+    pub params: serde_json::Value,
+}
+
+#[utoipa::path(operation_id = "jobs_submit", post, path = "/api/v1/jobs", tag = "jobs", request_body = SubmitJob,
+    security(("api_key" = [])),
+    responses((status = 202, body = Job), (status = 400, body = ErrorBody),
+              (status = 404, body = ErrorBody)))]
+pub async fn submit(
+    State(s): State<AppState>,
+    headers: HeaderMap,
+    ApiJson(j): ApiJson<SubmitJob>,
+) -> Result<(StatusCode, Json<Job>), ApiError> {
+    auth::authorize(&s, &headers, Scope::Write).await?;
+    let params = if j.params.is_null() {
+        serde_json::json!({})
+    } else {
+        j.params
+    };
+    jobs::validate_params(j.kind, &params).map_err(ApiError::InvalidRequest)?;
+    let machine_id = match (&j.dataset_id, j.kind.needs_dataset()) {
+        (Some(d), _) => Some(s.store.get_dataset(d).await?.machine_id),
+        (None, true) => {
+            return Err(ApiError::InvalidRequest(format!(
+                "a {} job needs dataset_id",
+                j.kind.as_str()
+            )));
+        }
+        (None, false) => None,
+    };
+    let job = s
+        .store
+        .enqueue(NewJob {
+            kind: j.kind.as_str().into(),
+            machine_id,
+            dataset_id: j.dataset_id,
+            params,
+            max_attempts: s.max_attempts,
+        })
+        .await?;
+    Ok((StatusCode::ACCEPTED, Json(job)))
+}
+
+#[utoipa::path(operation_id = "jobs_get", get, path = "/api/v1/jobs/{id}", tag = "jobs",
+    security(("api_key" = [])), params(("id" = String, Path)),
+    responses((status = 200, body = Job), (status = 404, body = ErrorBody)))]
+pub async fn get(
+    State(s): State<AppState>,
+    headers: HeaderMap,
+    Path(id): Path<String>,
+) -> Result<Json<Job>, ApiError> {
+    auth::authorize(&s, &headers, Scope::Read).await?;
+    Ok(Json(s.store.get_job(&id).await?))
+}
+
+#[utoipa::path(operation_id = "jobs_result", get, path = "/api/v1/jobs/{id}/result", tag = "jobs",
+    security(("api_key" = [])), params(("id" = String, Path)),
+    responses((status = 200, description = "the result document (results contract)", body = Object),
+              (status = 409, body = ErrorBody, description = "job_not_finished, or the job failed"),
+              (status = 404, body = ErrorBody)))]
+pub async fn result(
+    State(s): State<AppState>,
+    headers: HeaderMap,
+    Path(id): Path<String>,
+) -> Result<Json<serde_json::Value>, ApiError> {
+    auth::authorize(&s, &headers, Scope::Read).await?;
+    let job = s.store.get_job(&id).await?;
+    match (job.state, &job.result_id) {
+        (JobState::Succeeded, Some(r)) => Ok(Json(s.store.get_result(r).await?.document)),
+        (JobState::Failed, _) => Err(ApiError::Conflict(format!(
+            "job {id} failed ({}): {}",
+            job.error_code.unwrap_or_default(),
+            job.error_message.unwrap_or_default()
+        ))),
+        (state, _) => Err(ApiError::JobNotFinished(format!(
+            "job {id} is {}",
+            state.as_str()
+        ))),
+    }
+}
+
+#[utoipa::path(operation_id = "jobs_cancel", post, path = "/api/v1/jobs/{id}/cancel", tag = "jobs",
+    security(("api_key" = [])), params(("id" = String, Path)),
+    responses((status = 200, body = Job, description = "cancelled, or cancellation requested of a running job"),
+              (status = 409, body = ErrorBody, description = "the job already finished")))]
+pub async fn cancel(
+    State(s): State<AppState>,
+    headers: HeaderMap,
+    Path(id): Path<String>,
+) -> Result<Json<Job>, ApiError> {
+    auth::authorize(&s, &headers, Scope::Write).await?;
+    Ok(Json(s.store.cancel_job(&id).await?))
+}

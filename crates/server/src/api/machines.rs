@@ -1,0 +1,158 @@
+//! `/api/v1/machines`: register, read, update, list.
+
+use crate::error::{ApiError, ApiJson, ApiQuery, ErrorBody};
+use crate::{AppState, auth};
+use axum::Json;
+use axum::extract::{Path, State};
+use axum::http::{HeaderMap, StatusCode};
+use mtcal_solver::axis::Topology;
+use mtcal_store::{Machine, MachinePatch, Scope};
+use serde::{Deserialize, Serialize};
+use std::collections::BTreeMap;
+use utoipa::{IntoParams, ToSchema};
+
+/// A machine to register.
+#[derive(Debug, Clone, Serialize, Deserialize, ToSchema)]
+#[serde(deny_unknown_fields)]
+pub struct NewMachine {
+    /// 1–64 characters: letters, digits, '.', '_', '-'.
+    pub id: String,
+    pub name: String,
+    /// Axes on the workpiece and tool sides (default `{"workpiece": ["X", "Y"], "tool": ["Z"]}`).
+    #[schema(value_type = Option<Object>)]
+    pub topology: Option<serde_json::Value>,
+    /// Travel per axis, mm, e.g. `{"X": [-250, 250]}`.
+    #[serde(default)]
+    pub travel_mm: BTreeMap<String, [f64; 2]>,
+    pub site: Option<String>,
+    #[serde(default)]
+    pub tags: Vec<String>,
+}
+
+/// Checks and normalises a topology given as JSON.
+fn topology(v: Option<&serde_json::Value>) -> Result<serde_json::Value, ApiError> {
+    let t: Topology = match v {
+        None => Topology::default(),
+        Some(v) => serde_json::from_value(v.clone())
+            .map_err(|e| ApiError::InvalidRequest(format!("topology: {e}")))?,
+    };
+    let mut all: Vec<_> = t.workpiece.iter().chain(&t.tool).collect();
+    all.sort();
+    all.dedup();
+    if all.len() != 3 || t.workpiece.len() + t.tool.len() != 3 {
+        return Err(ApiError::InvalidRequest(
+            "topology: X, Y and Z must each appear exactly once".into(),
+        ));
+    }
+    Ok(serde_json::to_value(t).expect("topology serialises"))
+}
+
+fn check_travel(travel: &BTreeMap<String, [f64; 2]>) -> Result<(), ApiError> {
+    for (axis, [lo, hi]) in travel {
+        let ordered = lo.is_finite() && hi.is_finite() && lo < hi;
+        if !matches!(axis.as_str(), "X" | "Y" | "Z") || !ordered {
+            return Err(ApiError::InvalidRequest(format!(
+                "travel_mm.{axis}: needs axis X, Y or Z and finite [min, max] with min < max"
+            )));
+        }
+    }
+    Ok(())
+}
+
+/// Checks an identifier given by a client (machine ids).
+pub fn check_id(id: &str) -> Result<(), ApiError> {
+    let ok = (1..=64).contains(&id.len())
+        && id
+            .chars()
+            .all(|c| c.is_ascii_alphanumeric() || matches!(c, '.' | '_' | '-'));
+    if ok {
+        Ok(())
+    } else {
+        Err(ApiError::InvalidRequest(format!(
+            "id {id:?}: 1-64 characters, letters, digits, '.', '_' or '-'"
+        )))
+    }
+}
+
+#[utoipa::path(operation_id = "machines_create", post, path = "/api/v1/machines", tag = "machines", request_body = NewMachine,
+    security(("api_key" = [])),
+    responses((status = 201, body = Machine), (status = 400, body = ErrorBody),
+               (status = 409, body = ErrorBody)))]
+pub async fn create(
+    State(s): State<AppState>,
+    headers: HeaderMap,
+    ApiJson(m): ApiJson<NewMachine>,
+) -> Result<(StatusCode, Json<Machine>), ApiError> {
+    auth::authorize(&s, &headers, Scope::Write).await?;
+    check_id(&m.id)?;
+    check_travel(&m.travel_mm)?;
+    let machine = Machine {
+        id: m.id,
+        name: m.name,
+        topology: topology(m.topology.as_ref())?,
+        travel_mm: m.travel_mm,
+        site: m.site,
+        tags: m.tags,
+        baseline_result_id: None,
+        created_at: String::new(),
+        updated_at: String::new(),
+    };
+    Ok((
+        StatusCode::CREATED,
+        Json(s.store.create_machine(&machine).await?),
+    ))
+}
+
+#[utoipa::path(operation_id = "machines_get", get, path = "/api/v1/machines/{id}", tag = "machines",
+    security(("api_key" = [])), params(("id" = String, Path)),
+    responses((status = 200, body = Machine), (status = 404, body = ErrorBody)))]
+pub async fn get(
+    State(s): State<AppState>,
+    headers: HeaderMap,
+    Path(id): Path<String>,
+) -> Result<Json<Machine>, ApiError> {
+    auth::authorize(&s, &headers, Scope::Read).await?;
+    Ok(Json(s.store.get_machine(&id).await?))
+}
+
+#[utoipa::path(operation_id = "machines_update", patch, path = "/api/v1/machines/{id}", tag = "machines", request_body = MachinePatch,
+    security(("api_key" = [])), params(("id" = String, Path)),
+    responses((status = 200, body = Machine), (status = 404, body = ErrorBody)))]
+pub async fn update(
+    State(s): State<AppState>,
+    headers: HeaderMap,
+    Path(id): Path<String>,
+    ApiJson(mut p): ApiJson<MachinePatch>,
+) -> Result<Json<Machine>, ApiError> {
+    auth::authorize(&s, &headers, Scope::Write).await?;
+    if let Some(t) = &p.topology {
+        p.topology = Some(topology(Some(t))?);
+    }
+    if let Some(t) = &p.travel_mm {
+        check_travel(t)?;
+    }
+    Ok(Json(s.store.update_machine(&id, &p).await?))
+}
+
+#[derive(Debug, Deserialize, IntoParams)]
+pub struct ListQuery {
+    /// Return machines whose id sorts after this one (pagination).
+    pub after: Option<String>,
+    /// At most this many (default 100, max 1000).
+    pub limit: Option<i64>,
+}
+
+#[utoipa::path(operation_id = "machines_list", get, path = "/api/v1/machines", tag = "machines", params(ListQuery),
+    security(("api_key" = [])),
+    responses((status = 200, body = Vec<Machine>)))]
+pub async fn list(
+    State(s): State<AppState>,
+    headers: HeaderMap,
+    ApiQuery(q): ApiQuery<ListQuery>,
+) -> Result<Json<Vec<Machine>>, ApiError> {
+    auth::authorize(&s, &headers, Scope::Read).await?;
+    let limit = q.limit.unwrap_or(100).clamp(1, 1000);
+    Ok(Json(
+        s.store.list_machines(q.after.as_deref(), limit).await?,
+    ))
+}

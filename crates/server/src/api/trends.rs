@@ -1,0 +1,225 @@
+//! Trends: a term's value at chosen positions over time, summary figures over time, and
+//! the fleet ranked by drift since each machine's baseline.
+
+use crate::api::history::KIND;
+use crate::error::{ApiError, ApiQuery, ErrorBody};
+use crate::trends::{self, Drift};
+use crate::{AppState, auth};
+use axum::Json;
+use axum::extract::{Path, State};
+use axum::http::HeaderMap;
+use mtcal_store::Scope;
+use serde::{Deserialize, Serialize};
+use utoipa::{IntoParams, ToSchema};
+
+#[derive(Debug, Deserialize, IntoParams)]
+pub struct TermQuery {
+    /// ISO 230-1 name of one of the 18 functions, e.g. `EXX`.
+    pub term: String,
+    /// Positions, mm, comma-separated, e.g. `50,-50`.
+    pub at: String,
+}
+
+#[derive(Debug, Clone, Serialize, Deserialize, ToSchema)]
+pub struct TermPoint {
+    pub result_id: String,
+    pub measured_at: String,
+    /// Value at each position (`um` or `urad`); null when the term was not identifiable.
+    pub values: Vec<Option<f64>>,
+}
+
+#[derive(Debug, Clone, Serialize, Deserialize, ToSchema)]
+pub struct TermTrend {
+    pub machine_id: String,
+    pub term: String,
+    pub unit: String,
+    pub positions_mm: Vec<f64>,
+    /// In time order.
+    pub points: Vec<TermPoint>,
+}
+
+#[utoipa::path(operation_id = "trends_term", get, path = "/api/v1/machines/{id}/trends/term", tag = "trends",
+    security(("api_key" = [])), params(("id" = String, Path), TermQuery),
+    responses((status = 200, body = TermTrend), (status = 400, body = ErrorBody),
+              (status = 404, body = ErrorBody)))]
+pub async fn term(
+    State(s): State<AppState>,
+    headers: HeaderMap,
+    Path(id): Path<String>,
+    ApiQuery(q): ApiQuery<TermQuery>,
+) -> Result<Json<TermTrend>, ApiError> {
+    auth::authorize(&s, &headers, Scope::Read).await?;
+    let (unit, _) = trends::term_info(&q.term).ok_or_else(|| {
+        ApiError::InvalidRequest(format!(
+            "term {:?} is not one of the 18 ISO 230-1 functions",
+            q.term
+        ))
+    })?;
+    let positions =
+        q.at.split(',')
+            .map(|p| p.trim().parse::<f64>().ok().filter(|x| x.is_finite()))
+            .collect::<Option<Vec<_>>>()
+            .filter(|v| !v.is_empty() && v.len() <= 1000)
+            .ok_or_else(|| {
+                ApiError::InvalidRequest(format!(
+                    "at {:?}: give 1-1000 comma-separated positions in mm",
+                    q.at
+                ))
+            })?;
+    s.store.get_machine(&id).await?;
+    let points = s
+        .store
+        .list_results(&id, KIND)
+        .await?
+        .into_iter()
+        .map(|r| {
+            let c = r.scalars.term_coefficients.get(&q.term);
+            TermPoint {
+                values: positions
+                    .iter()
+                    .map(|&p| c.map(|c| trends::eval(c, p)))
+                    .collect(),
+                result_id: r.id,
+                measured_at: r.measured_at,
+            }
+        })
+        .collect();
+    Ok(Json(TermTrend {
+        machine_id: id,
+        term: q.term,
+        unit: unit.into(),
+        positions_mm: positions,
+        points,
+    }))
+}
+
+#[derive(Debug, Clone, Serialize, Deserialize, ToSchema)]
+pub struct SummaryPoint {
+    pub result_id: String,
+    pub measured_at: String,
+    pub residual_rms_um: Option<f64>,
+    pub condition_number: Option<f64>,
+    pub rank: Option<i64>,
+    pub ec0y_urad: Option<f64>,
+    pub eb0z_urad: Option<f64>,
+    pub ea0z_urad: Option<f64>,
+}
+
+#[derive(Debug, Clone, Serialize, Deserialize, ToSchema)]
+pub struct SummaryTrend {
+    pub machine_id: String,
+    /// In time order.
+    pub points: Vec<SummaryPoint>,
+}
+
+#[utoipa::path(operation_id = "trends_summary", get, path = "/api/v1/machines/{id}/trends/summary", tag = "trends",
+    security(("api_key" = [])), params(("id" = String, Path)),
+    responses((status = 200, body = SummaryTrend), (status = 404, body = ErrorBody)))]
+pub async fn summary(
+    State(s): State<AppState>,
+    headers: HeaderMap,
+    Path(id): Path<String>,
+) -> Result<Json<SummaryTrend>, ApiError> {
+    auth::authorize(&s, &headers, Scope::Read).await?;
+    s.store.get_machine(&id).await?;
+    let points = s
+        .store
+        .list_results(&id, KIND)
+        .await?
+        .into_iter()
+        .map(|r| SummaryPoint {
+            result_id: r.id,
+            measured_at: r.measured_at,
+            residual_rms_um: r.scalars.residual_rms_um,
+            condition_number: r.scalars.condition_number,
+            rank: r.scalars.rank,
+            ec0y_urad: r.scalars.ec0y_urad,
+            eb0z_urad: r.scalars.eb0z_urad,
+            ea0z_urad: r.scalars.ea0z_urad,
+        })
+        .collect();
+    Ok(Json(SummaryTrend {
+        machine_id: id,
+        points,
+    }))
+}
+
+#[derive(Debug, Deserialize, IntoParams)]
+pub struct FleetQuery {
+    /// `um` (translational drift, default) or `urad` (angular and squareness).
+    pub by: Option<String>,
+    /// At most this many machines (default 50).
+    pub limit: Option<usize>,
+}
+
+#[derive(Debug, Clone, Serialize, Deserialize, ToSchema)]
+pub struct FleetEntry {
+    pub machine_id: String,
+    pub name: String,
+    pub site: Option<String>,
+    pub baseline_result_id: String,
+    pub latest_result_id: String,
+    pub latest_measured_at: String,
+    pub results: i64,
+    #[serde(flatten)]
+    pub drift: Drift,
+}
+
+#[derive(Debug, Clone, Serialize, Deserialize, ToSchema)]
+pub struct FleetDrift {
+    /// How drift is measured (see the trends module).
+    pub definition: String,
+    pub ranked_by: String,
+    pub machines: Vec<FleetEntry>,
+}
+
+#[utoipa::path(operation_id = "trends_fleet", get, path = "/api/v1/fleet/drift", tag = "trends",
+    security(("api_key" = [])), params(FleetQuery),
+    responses((status = 200, body = FleetDrift), (status = 400, body = ErrorBody)))]
+pub async fn fleet(
+    State(s): State<AppState>,
+    headers: HeaderMap,
+    ApiQuery(q): ApiQuery<FleetQuery>,
+) -> Result<Json<FleetDrift>, ApiError> {
+    auth::authorize(&s, &headers, Scope::Read).await?;
+    let by = q.by.unwrap_or_else(|| "um".into());
+    if by != "um" && by != "urad" {
+        return Err(ApiError::InvalidRequest("by: `um` or `urad`".into()));
+    }
+    let mut machines: Vec<FleetEntry> = s
+        .store
+        .baseline_pairs(KIND)
+        .await?
+        .into_iter()
+        .map(|p| FleetEntry {
+            drift: trends::drift(&p.machine, &p.baseline.scalars, &p.latest.scalars),
+            machine_id: p.machine.id,
+            name: p.machine.name,
+            site: p.machine.site,
+            baseline_result_id: p.baseline.id,
+            latest_result_id: p.latest.id,
+            latest_measured_at: p.latest.measured_at,
+            results: p.results,
+        })
+        .collect();
+    let key = |e: &FleetEntry| {
+        if by == "um" {
+            e.drift.drift_um
+        } else {
+            e.drift.drift_urad
+        }
+    };
+    machines.sort_by(|a, b| {
+        key(b)
+            .total_cmp(&key(a))
+            .then_with(|| a.machine_id.cmp(&b.machine_id))
+    });
+    machines.truncate(q.limit.unwrap_or(50).max(1));
+    Ok(Json(FleetDrift {
+        definition: "largest change since the baseline result (the machine's chosen baseline, \
+                     else its first) of any term over 41 points of the registered travel"
+            .into(),
+        ranked_by: by,
+        machines,
+    }))
+}

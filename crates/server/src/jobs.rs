@@ -1,0 +1,172 @@
+//! Job kinds and what each runs. A kind is one [`JobKind`] variant plus one arm in
+//! [`execute`] taking its inputs (a dataset, or parameters) to a JSON result document.
+//!
+//! Wired: `identify` (`mtcal_solver::identification::identify`). To come as their
+//! solver entry points land: `sensitivity` (parameters only), `cradle` (rotary point
+//! set), `diagnose` (session, drift log or positioning runs).
+
+use crate::ingest::{self, UploadLimits};
+use mtcal_solver::axis::Topology;
+use mtcal_solver::basis::BasisKind;
+use mtcal_solver::identification::{self, IdentificationResult, IdentifyOptions, Method};
+use mtcal_store::{Dataset, Machine, ResultScalars};
+use serde::{Deserialize, Serialize};
+use serde_json::Value;
+use utoipa::ToSchema;
+
+/// What a job computes.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize, ToSchema)]
+#[serde(rename_all = "lowercase")]
+pub enum JobKind {
+    /// 21-term identification of a session dataset; result kind `identification`.
+    Identify,
+}
+
+impl JobKind {
+    pub fn as_str(self) -> &'static str {
+        match self {
+            JobKind::Identify => "identify",
+        }
+    }
+
+    pub fn parse(s: &str) -> Option<JobKind> {
+        match s {
+            "identify" => Some(JobKind::Identify),
+            _ => None,
+        }
+    }
+
+    /// The `kind` of the result document it produces.
+    pub fn result_kind(self) -> &'static str {
+        match self {
+            JobKind::Identify => "identification",
+        }
+    }
+
+    /// Whether the kind reads a dataset (else only its parameters).
+    pub fn needs_dataset(self) -> bool {
+        match self {
+            JobKind::Identify => true,
+        }
+    }
+}
+
+/// Parameters of an `identify` job (all optional; defaults of `mtcal identify`).
+#[derive(Debug, Clone, Default, PartialEq, Serialize, Deserialize, ToSchema)]
+#[serde(deny_unknown_fields)]
+pub struct IdentifyParams {
+    /// `joint` (default) or `stepwise`.
+    #[schema(value_type = Option<String>)]
+    pub method: Option<Method>,
+    /// `polynomial` (default) or `legendre`.
+    #[schema(value_type = Option<String>)]
+    pub basis: Option<BasisKind>,
+    /// Polynomial order (default 3).
+    pub order: Option<usize>,
+    /// Reporting grid step, mm (default 5).
+    pub grid_step_mm: Option<f64>,
+}
+
+impl IdentifyParams {
+    /// Solver options; the machine's registered topology fills in for a session without one.
+    pub fn options(&self, machine: Option<&Machine>) -> Result<IdentifyOptions, JobError> {
+        let d = IdentifyOptions::default();
+        let topology = match machine {
+            Some(m) => Some(
+                serde_json::from_value::<Topology>(m.topology.clone())
+                    .map_err(|e| JobError::BadInput(format!("machine {} topology: {e}", m.id)))?,
+            ),
+            None => None,
+        };
+        Ok(IdentifyOptions {
+            method: self.method.unwrap_or(d.method),
+            basis: self.basis.unwrap_or(d.basis),
+            order: self.order.unwrap_or(d.order),
+            grid_step_mm: self.grid_step_mm.unwrap_or(d.grid_step_mm),
+            topology,
+        })
+    }
+}
+
+/// Checks a job's parameters at submission, so bad ones are rejected before queueing.
+pub fn validate_params(kind: JobKind, params: &Value) -> Result<(), String> {
+    match kind {
+        JobKind::Identify => serde_json::from_value::<IdentifyParams>(params.clone())
+            .map(|_| ())
+            .map_err(|e| format!("params: {e}")),
+    }
+}
+
+/// Why a job did not produce a result.
+#[derive(Debug, Clone, PartialEq, thiserror::Error)]
+pub enum JobError {
+    /// The input cannot give a result however often it is retried.
+    #[error("{0}")]
+    BadInput(String),
+    /// Worth retrying (storage busy, worker panicked, …).
+    #[error("{0}")]
+    Transient(String),
+}
+
+/// A dataset's files as uploaded: (name, bytes).
+pub type Files = Vec<(String, Vec<u8>)>;
+
+/// Everything a job reads, loaded before the blocking work starts.
+pub struct JobInput {
+    pub kind: JobKind,
+    pub params: Value,
+    pub machine: Option<Machine>,
+    pub dataset: Option<(Dataset, Files)>,
+    pub limits: UploadLimits,
+}
+
+/// A result document with the scalar figures trend queries need.
+pub struct JobOutput {
+    pub document: Value,
+    pub scalars: ResultScalars,
+    pub measured_at: String,
+}
+
+/// Runs a job's solver work. Blocking: call it off the async threads.
+pub fn execute(input: &JobInput) -> Result<JobOutput, JobError> {
+    match input.kind {
+        JobKind::Identify => {
+            let params: IdentifyParams = serde_json::from_value(input.params.clone())
+                .map_err(|e| JobError::BadInput(format!("params: {e}")))?;
+            let (dataset, files) = input
+                .dataset
+                .as_ref()
+                .ok_or_else(|| JobError::BadInput("identify needs a dataset".into()))?;
+            let session = ingest::read_session(files, input.limits)
+                .map_err(|e| JobError::BadInput(e.to_string()))?;
+            let opts = params.options(input.machine.as_ref())?;
+            let result = identification::identify(&session, &opts)
+                .map_err(|e| JobError::BadInput(format!("identification: {e}")))?;
+            Ok(JobOutput {
+                document: serde_json::to_value(&result)
+                    .map_err(|e| JobError::Transient(e.to_string()))?,
+                scalars: identification_scalars(&result),
+                measured_at: dataset.measured_at.clone(),
+            })
+        }
+    }
+}
+
+/// The scalar columns of an identification result.
+pub fn identification_scalars(r: &IdentificationResult) -> ResultScalars {
+    let sq = |n: &str| r.squareness.get(n).and_then(|s| s.value_urad);
+    ResultScalars {
+        residual_rms_um: Some(r.fit.residual_rms_um),
+        condition_number: Some(r.observability.condition_number).filter(|c| c.is_finite()),
+        rank: Some(r.observability.rank as i64),
+        ec0y_urad: sq("EC0Y"),
+        eb0z_urad: sq("EB0Z"),
+        ea0z_urad: sq("EA0Z"),
+        term_coefficients: r
+            .terms
+            .iter()
+            .filter(|(_, t)| t.identifiable && !t.coefficients.is_empty())
+            .map(|(n, t)| (n.clone(), t.coefficients.clone()))
+            .collect(),
+    }
+}

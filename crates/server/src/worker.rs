@@ -1,0 +1,187 @@
+//! The worker: claims jobs from the store's queue, runs their solver work in
+//! `spawn_blocking`, heartbeats the lease meanwhile, and records the outcome.
+//!
+//! Outcomes: result stored (exactly once, see `mtcal_store::queue`); bad input → failed
+//! without retry; transient trouble or a panic → back to the queue after the backoff,
+//! failed once the attempts are spent; cancellation seen at a heartbeat → cancelled
+//! (the blocking computation is abandoned, its result discarded).
+
+use crate::ingest::UploadLimits;
+use crate::jobs::{self, JobError, JobInput, JobKind};
+use mtcal_store::{Heartbeat, Job, NewResult, QueueConfig, Store, StoreError};
+use std::sync::Arc;
+use std::time::{Duration, Instant};
+use tokio::sync::watch;
+
+/// Worker settings.
+#[derive(Debug, Clone)]
+pub struct WorkerConfig {
+    pub queue: QueueConfig,
+    /// Prefix of the lease owner names (`<id>-<slot>`); unique per process.
+    pub worker_id: String,
+    pub limits: UploadLimits,
+    /// Testing aid: pause this long after loading a job's input, before solving
+    /// (heartbeats continue), so that tests can kill a worker mid-job.
+    pub pause_before_solve_ms: u64,
+}
+
+impl Default for WorkerConfig {
+    fn default() -> Self {
+        WorkerConfig {
+            queue: QueueConfig::default(),
+            worker_id: format!("w{}", &uuid::Uuid::new_v4().simple().to_string()[..8]),
+            limits: UploadLimits::default(),
+            pause_before_solve_ms: 0,
+        }
+    }
+}
+
+/// Starts `concurrency` worker loops on the current runtime.
+pub fn spawn_workers(store: Arc<dyn Store>, cfg: WorkerConfig) -> Vec<tokio::task::JoinHandle<()>> {
+    (0..cfg.queue.concurrency.max(1))
+        .map(|slot| {
+            let store = store.clone();
+            let cfg = cfg.clone();
+            tokio::spawn(async move { worker_loop(store, cfg, slot).await })
+        })
+        .collect()
+}
+
+async fn worker_loop(store: Arc<dyn Store>, cfg: WorkerConfig, slot: usize) {
+    let me = format!("{}-{slot}", cfg.worker_id);
+    let reap_every = Duration::from_millis((cfg.queue.lease_ms / 2).max(100) as u64);
+    let mut last_reap: Option<Instant> = None;
+    loop {
+        if last_reap.is_none_or(|t| t.elapsed() >= reap_every) {
+            match store.reap_expired().await {
+                Ok(n) if n > 0 => tracing::warn!(n, "requeued jobs whose lease expired"),
+                Ok(_) => {}
+                Err(e) => tracing::error!(%e, "reaper"),
+            }
+            last_reap = Some(Instant::now());
+        }
+        match store.claim_job(&me, cfg.queue.lease_ms).await {
+            Ok(Some(job)) => run_job(&store, &cfg, &me, job).await,
+            Ok(None) => tokio::time::sleep(Duration::from_millis(cfg.queue.poll_ms)).await,
+            Err(e) => {
+                tracing::error!(%e, "claiming a job");
+                tokio::time::sleep(Duration::from_millis(cfg.queue.poll_ms * 5)).await;
+            }
+        }
+    }
+}
+
+/// Why a job stopped before producing an output.
+enum Stop {
+    Cancel,
+    LeaseLost,
+}
+
+async fn run_job(store: &Arc<dyn Store>, cfg: &WorkerConfig, me: &str, job: Job) {
+    let lease = cfg.queue.lease_ms;
+    let (stop_tx, mut stop_rx) = watch::channel(None::<u8>);
+    // Heartbeat: extend the lease every third of it, and learn about cancellation.
+    let hb = {
+        let store = store.clone();
+        let (id, me) = (job.id.clone(), me.to_string());
+        tokio::spawn(async move {
+            let every = Duration::from_millis((lease / 3).max(50) as u64);
+            loop {
+                tokio::time::sleep(every).await;
+                match store.heartbeat(&id, &me, lease, 0.2, "solving").await {
+                    Ok(Heartbeat::Continue) => {}
+                    Ok(Heartbeat::CancelRequested) => {
+                        let _ = stop_tx.send(Some(0));
+                        return;
+                    }
+                    Ok(Heartbeat::LeaseLost) => {
+                        let _ = stop_tx.send(Some(1));
+                        return;
+                    }
+                    Err(e) => tracing::warn!(%e, "heartbeat"),
+                }
+            }
+        })
+    };
+    let work = async {
+        let input = load_input(store, cfg, &job).await?;
+        if cfg.pause_before_solve_ms > 0 {
+            tokio::time::sleep(Duration::from_millis(cfg.pause_before_solve_ms)).await;
+        }
+        let _ = store.heartbeat(&job.id, me, lease, 0.2, "solving").await;
+        match tokio::task::spawn_blocking(move || jobs::execute(&input)).await {
+            Ok(out) => out,
+            Err(e) => Err(JobError::Transient(format!("worker panicked: {e}"))),
+        }
+    };
+    let outcome = tokio::select! {
+        out = work => Ok(out),
+        _ = stop_rx.changed() => Err(match *stop_rx.borrow() {
+            Some(0) => Stop::Cancel,
+            _ => Stop::LeaseLost,
+        }),
+    };
+    hb.abort();
+    let recorded = match outcome {
+        Ok(Ok(out)) => {
+            let r = NewResult {
+                machine_id: job.machine_id.clone().unwrap_or_default(),
+                dataset_id: job.dataset_id.clone(),
+                kind: JobKind::parse(&job.kind)
+                    .map(|k| k.result_kind())
+                    .unwrap_or("unknown")
+                    .to_string(),
+                measured_at: out.measured_at,
+                document: out.document,
+                scalars: out.scalars,
+            };
+            match store.complete_job(&job.id, me, r).await {
+                Err(StoreError::LeaseLost(_)) => store.finish_cancelled(&job.id, me).await,
+                other => other,
+            }
+        }
+        Ok(Err(JobError::BadInput(m))) => store.fail_job(&job.id, me, "bad_input", &m, None).await,
+        Ok(Err(JobError::Transient(m))) => {
+            let retry =
+                (job.attempts < job.max_attempts).then(|| cfg.queue.backoff_ms(job.attempts));
+            store.fail_job(&job.id, me, "transient", &m, retry).await
+        }
+        Err(Stop::Cancel) => store.finish_cancelled(&job.id, me).await,
+        Err(Stop::LeaseLost) => Err(StoreError::LeaseLost(job.id.clone())),
+    };
+    match recorded {
+        Ok(j) => tracing::info!(job = %j.id, state = j.state.as_str(), "job finished"),
+        Err(e) => tracing::warn!(job = %job.id, %e, "job outcome not recorded"),
+    }
+}
+
+async fn load_input(
+    store: &Arc<dyn Store>,
+    cfg: &WorkerConfig,
+    job: &Job,
+) -> Result<JobInput, JobError> {
+    let kind = JobKind::parse(&job.kind)
+        .ok_or_else(|| JobError::BadInput(format!("unknown job kind {:?}", job.kind)))?;
+    let transient = |e: StoreError| match e {
+        StoreError::NotFound(w) => JobError::BadInput(format!("{w} not found")),
+        e => JobError::Transient(e.to_string()),
+    };
+    let machine = match &job.machine_id {
+        Some(m) => Some(store.get_machine(m).await.map_err(transient)?),
+        None => None,
+    };
+    let dataset = match &job.dataset_id {
+        Some(d) => Some((
+            store.get_dataset(d).await.map_err(transient)?,
+            store.dataset_files(d).await.map_err(transient)?,
+        )),
+        None => None,
+    };
+    Ok(JobInput {
+        kind,
+        params: job.params.clone(),
+        machine,
+        dataset,
+        limits: cfg.limits,
+    })
+}

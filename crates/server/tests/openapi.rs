@@ -1,0 +1,34 @@
+//! The committed `openapi/openapi.json` must be what the code generates. After changing
+//! the API, regenerate it with `UPDATE_OPENAPI=1 cargo test -p mtcal-server --test openapi`.
+
+#[test]
+fn committed_openapi_matches_the_code() {
+    let path = concat!(env!("CARGO_MANIFEST_DIR"), "/../../openapi/openapi.json");
+    let generated = mtcal_server::openapi_json();
+    if std::env::var_os("UPDATE_OPENAPI").is_some() {
+        std::fs::write(path, &generated).unwrap();
+    }
+    let committed = std::fs::read_to_string(path).unwrap_or_default();
+    assert!(
+        committed == generated,
+        "openapi/openapi.json differs from the code; run \
+         UPDATE_OPENAPI=1 cargo test -p mtcal-server --test openapi and commit it"
+    );
+}
+
+#[test]
+fn document_is_openapi_3_1_with_every_route_secured_but_health() {
+    let doc: serde_json::Value = serde_json::from_str(&mtcal_server::openapi_json()).unwrap();
+    assert!(doc["openapi"].as_str().unwrap().starts_with("3.1"));
+    let paths = doc["paths"].as_object().unwrap();
+    assert!(paths.len() >= 15, "{} paths", paths.len());
+    let mut ids = std::collections::BTreeSet::new();
+    for (p, ops) in paths {
+        for (method, op) in ops.as_object().unwrap() {
+            let id = op["operationId"].as_str().unwrap();
+            assert!(ids.insert(id.to_string()), "operationId {id} used twice");
+            let secured = op.get("security").is_some();
+            assert_eq!(secured, p != "/health", "{method} {p}");
+        }
+    }
+}

@@ -1,0 +1,216 @@
+//! Plain records the store reads and writes. Times are RFC 3339 UTC strings.
+
+use serde::{Deserialize, Serialize};
+use serde_json::Value;
+use std::collections::BTreeMap;
+
+/// A registered machine tool.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[cfg_attr(feature = "openapi", derive(utoipa::ToSchema))]
+pub struct Machine {
+    pub id: String,
+    pub name: String,
+    /// `{"workpiece": ["X", "Y"], "tool": ["Z"]}` (kinematics contract).
+    #[cfg_attr(feature = "openapi", schema(value_type = Object))]
+    pub topology: Value,
+    /// Travel range per axis, mm: `{"X": [-250, 250], ...}`.
+    pub travel_mm: BTreeMap<String, [f64; 2]>,
+    pub site: Option<String>,
+    pub tags: Vec<String>,
+    /// Result that drift is measured from; `None` means the machine's first result.
+    pub baseline_result_id: Option<String>,
+    pub created_at: String,
+    pub updated_at: String,
+}
+
+/// Fields of a machine that an update may change (`None`: keep).
+#[derive(Debug, Clone, Default, PartialEq, Serialize, Deserialize)]
+#[cfg_attr(feature = "openapi", derive(utoipa::ToSchema))]
+pub struct MachinePatch {
+    pub name: Option<String>,
+    #[cfg_attr(feature = "openapi", schema(value_type = Object))]
+    pub topology: Option<Value>,
+    pub travel_mm: Option<BTreeMap<String, [f64; 2]>>,
+    pub site: Option<String>,
+    pub tags: Option<Vec<String>>,
+    pub baseline_result_id: Option<String>,
+}
+
+/// One stored file of a dataset, as uploaded.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[cfg_attr(feature = "openapi", derive(utoipa::ToSchema))]
+pub struct FileMeta {
+    pub name: String,
+    pub sha256: String,
+    pub size: i64,
+}
+
+/// A dataset's metadata (the bytes are read with [`crate::Store::dataset_file`]).
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[cfg_attr(feature = "openapi", derive(utoipa::ToSchema))]
+pub struct Dataset {
+    pub id: String,
+    pub machine_id: String,
+    pub kind: String,
+    pub measured_at: String,
+    pub uploaded_at: String,
+    pub samples: i64,
+    pub total_bytes: i64,
+    /// SHA-256 over the sorted list of `name:sha256` lines of its files.
+    pub sha256: String,
+    pub files: Vec<FileMeta>,
+}
+
+/// A dataset to insert: metadata plus every file's bytes.
+#[derive(Debug, Clone)]
+pub struct NewDataset {
+    pub machine_id: String,
+    pub kind: String,
+    pub measured_at: String,
+    pub samples: i64,
+    pub files: Vec<(String, Vec<u8>)>,
+}
+
+/// Life cycle of a job.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
+#[cfg_attr(feature = "openapi", derive(utoipa::ToSchema))]
+#[serde(rename_all = "lowercase")]
+pub enum JobState {
+    Queued,
+    Running,
+    Succeeded,
+    Failed,
+    Cancelled,
+}
+
+impl JobState {
+    pub fn as_str(self) -> &'static str {
+        match self {
+            JobState::Queued => "queued",
+            JobState::Running => "running",
+            JobState::Succeeded => "succeeded",
+            JobState::Failed => "failed",
+            JobState::Cancelled => "cancelled",
+        }
+    }
+
+    pub fn parse(s: &str) -> Option<JobState> {
+        Some(match s {
+            "queued" => JobState::Queued,
+            "running" => JobState::Running,
+            "succeeded" => JobState::Succeeded,
+            "failed" => JobState::Failed,
+            "cancelled" => JobState::Cancelled,
+            _ => return None,
+        })
+    }
+
+    pub fn is_terminal(self) -> bool {
+        matches!(
+            self,
+            JobState::Succeeded | JobState::Failed | JobState::Cancelled
+        )
+    }
+}
+
+/// A job as stored.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[cfg_attr(feature = "openapi", derive(utoipa::ToSchema))]
+pub struct Job {
+    pub id: String,
+    pub kind: String,
+    pub machine_id: Option<String>,
+    pub dataset_id: Option<String>,
+    #[cfg_attr(feature = "openapi", schema(value_type = Object))]
+    pub params: Value,
+    pub state: JobState,
+    /// 0 … 1.
+    pub progress: f64,
+    pub progress_message: Option<String>,
+    pub attempts: i64,
+    pub max_attempts: i64,
+    pub error_code: Option<String>,
+    pub error_message: Option<String>,
+    pub result_id: Option<String>,
+    pub created_at: String,
+    pub started_at: Option<String>,
+    pub finished_at: Option<String>,
+}
+
+/// A job to enqueue.
+#[derive(Debug, Clone)]
+pub struct NewJob {
+    pub kind: String,
+    pub machine_id: Option<String>,
+    pub dataset_id: Option<String>,
+    pub params: Value,
+    pub max_attempts: i64,
+}
+
+/// Scalar figures of a result kept in their own columns for trend queries.
+#[derive(Debug, Clone, Default, PartialEq, Serialize, Deserialize)]
+#[cfg_attr(feature = "openapi", derive(utoipa::ToSchema))]
+pub struct ResultScalars {
+    pub residual_rms_um: Option<f64>,
+    pub condition_number: Option<f64>,
+    pub rank: Option<i64>,
+    pub ec0y_urad: Option<f64>,
+    pub eb0z_urad: Option<f64>,
+    pub ea0z_urad: Option<f64>,
+    /// Monomial coefficients of the identifiable terms (element i ↔ q^(i+1)).
+    pub term_coefficients: BTreeMap<String, Vec<f64>>,
+}
+
+/// A result to store on completion of a job.
+#[derive(Debug, Clone)]
+pub struct NewResult {
+    pub machine_id: String,
+    pub dataset_id: Option<String>,
+    pub kind: String,
+    pub measured_at: String,
+    pub document: Value,
+    pub scalars: ResultScalars,
+}
+
+/// A stored result, without its document.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[cfg_attr(feature = "openapi", derive(utoipa::ToSchema))]
+pub struct ResultMeta {
+    pub id: String,
+    pub job_id: String,
+    pub machine_id: String,
+    pub dataset_id: Option<String>,
+    pub kind: String,
+    pub measured_at: String,
+    pub created_at: String,
+    pub scalars: ResultScalars,
+}
+
+/// A stored result with its document.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[cfg_attr(feature = "openapi", derive(utoipa::ToSchema))]
+pub struct StoredResult {
+    pub meta: ResultMeta,
+    #[cfg_attr(feature = "openapi", schema(value_type = Object))]
+    pub document: Value,
+}
+
+/// For the fleet ranking: each machine's baseline and latest identification scalars.
+#[derive(Debug, Clone, PartialEq)]
+pub struct BaselinePair {
+    pub machine: Machine,
+    pub baseline: ResultMeta,
+    pub latest: ResultMeta,
+    pub results: i64,
+}
+
+/// Row counts of every table (for tests and the admin view).
+#[derive(Debug, Clone, Copy, Default, PartialEq, Eq, Serialize, Deserialize)]
+pub struct RowCounts {
+    pub machines: i64,
+    pub datasets: i64,
+    pub dataset_files: i64,
+    pub jobs: i64,
+    pub results: i64,
+    pub api_keys: i64,
+}

@@ -1,0 +1,306 @@
+//! The store's story on a temporary SQLite file: machines, datasets, the queue's
+//! guarantees (exclusive claim, lease expiry, exactly-once completion, retries,
+//! cancellation), results and keys.
+
+use mtcal_store::*;
+use serde_json::json;
+use std::collections::BTreeMap;
+
+async fn fresh() -> (tempfile::TempDir, SqliteStore) {
+    let dir = tempfile::tempdir().unwrap();
+    let path = dir.path().join("t.sqlite");
+    let s = SqliteStore::open(path.to_str().unwrap()).await.unwrap();
+    (dir, s)
+}
+
+fn machine(id: &str) -> Machine {
+    Machine {
+        id: id.into(),
+        name: format!("machine {id}"),
+        topology: json!({"workpiece": ["X", "Y"], "tool": ["Z"]}),
+        travel_mm: BTreeMap::from([("X".into(), [-100.0, 100.0])]),
+        site: Some("plant 1".into()),
+        tags: vec!["vmc".into()],
+        baseline_result_id: None,
+        created_at: String::new(),
+        updated_at: String::new(),
+    }
+}
+
+fn new_job(machine: &str) -> NewJob {
+    NewJob {
+        kind: "identify".into(),
+        machine_id: Some(machine.into()),
+        dataset_id: None,
+        params: json!({}),
+        max_attempts: 2,
+    }
+}
+
+fn result(machine: &str, at: &str, ec0y: f64) -> NewResult {
+    NewResult {
+        machine_id: machine.into(),
+        dataset_id: None,
+        kind: "identification".into(),
+        measured_at: at.into(),
+        document: json!({"kind": "identification", "ec0y": ec0y}),
+        scalars: ResultScalars {
+            ec0y_urad: Some(ec0y),
+            term_coefficients: BTreeMap::from([("EXX".into(), vec![0.01, 0.0, 0.0])]),
+            ..Default::default()
+        },
+    }
+}
+
+#[tokio::test]
+async fn machines_create_update_list() {
+    let (_d, s) = fresh().await;
+    s.create_machine(&machine("M2")).await.unwrap();
+    s.create_machine(&machine("M1")).await.unwrap();
+    assert!(matches!(
+        s.create_machine(&machine("M1")).await,
+        Err(StoreError::Conflict(_))
+    ));
+    let m = s
+        .update_machine(
+            "M1",
+            &MachinePatch {
+                name: Some("renamed".into()),
+                ..Default::default()
+            },
+        )
+        .await
+        .unwrap();
+    assert_eq!(m.name, "renamed");
+    assert_eq!(m.site.as_deref(), Some("plant 1"));
+    let all = s.list_machines(None, 10).await.unwrap();
+    assert_eq!(
+        all.iter().map(|m| m.id.as_str()).collect::<Vec<_>>(),
+        ["M1", "M2"]
+    );
+    assert_eq!(s.list_machines(Some("M1"), 10).await.unwrap().len(), 1);
+    assert!(matches!(
+        s.get_machine("nope").await,
+        Err(StoreError::NotFound(_))
+    ));
+}
+
+#[tokio::test]
+async fn datasets_keep_bytes_and_reject_atomically() {
+    let (_d, s) = fresh().await;
+    s.create_machine(&machine("M1")).await.unwrap();
+    let files = vec![
+        ("session.json".to_string(), b"{}".to_vec()),
+        ("xy.csv.gz".to_string(), vec![0x1f, 0x8b, 0, 1, 2, 255]),
+    ];
+    let d = s
+        .insert_dataset(NewDataset {
+            machine_id: "M1".into(),
+            kind: "session".into(),
+            measured_at: "2026-01-01T00:00:00Z".into(),
+            samples: 3,
+            files: files.clone(),
+        })
+        .await
+        .unwrap();
+    assert_eq!(d.total_bytes, 8);
+    assert_eq!(d.files.len(), 2);
+    assert_eq!(
+        s.dataset_file(&d.id, "xy.csv.gz").await.unwrap(),
+        files[1].1
+    );
+    // The same file name twice: nothing of it is stored.
+    let before = s.row_counts().await.unwrap();
+    let dup = s
+        .insert_dataset(NewDataset {
+            machine_id: "M1".into(),
+            kind: "session".into(),
+            measured_at: "2026-01-01T00:00:00Z".into(),
+            samples: 3,
+            files: vec![files[0].clone(), files[0].clone()],
+        })
+        .await;
+    assert!(matches!(dup, Err(StoreError::Conflict(_))));
+    assert_eq!(s.row_counts().await.unwrap(), before);
+}
+
+#[tokio::test]
+async fn claim_is_exclusive_and_completion_happens_once() {
+    let (_d, s) = fresh().await;
+    s.create_machine(&machine("M1")).await.unwrap();
+    let j = s.enqueue(new_job("M1")).await.unwrap();
+    assert_eq!(j.state, JobState::Queued);
+    let a = s.claim_job("w1", 60_000).await.unwrap().unwrap();
+    assert_eq!((a.id.as_str(), a.attempts), (j.id.as_str(), 1));
+    assert!(s.claim_job("w2", 60_000).await.unwrap().is_none());
+    // Another worker cannot complete it.
+    assert!(matches!(
+        s.complete_job(&j.id, "w2", result("M1", "2026-01-01T00:00:00Z", 1.0))
+            .await,
+        Err(StoreError::LeaseLost(_))
+    ));
+    let done = s
+        .complete_job(&j.id, "w1", result("M1", "2026-01-01T00:00:00Z", 1.0))
+        .await
+        .unwrap();
+    assert_eq!(done.state, JobState::Succeeded);
+    assert!(
+        s.complete_job(&j.id, "w1", result("M1", "2026-01-01T00:00:00Z", 1.0))
+            .await
+            .is_err()
+    );
+    assert_eq!(s.row_counts().await.unwrap().results, 1);
+}
+
+#[tokio::test]
+async fn expired_lease_is_reaped_and_the_old_worker_cannot_finish() {
+    let (_d, s) = fresh().await;
+    s.create_machine(&machine("M1")).await.unwrap();
+    let j = s.enqueue(new_job("M1")).await.unwrap();
+    s.claim_job("dead", 1).await.unwrap().unwrap();
+    tokio::time::sleep(std::time::Duration::from_millis(20)).await;
+    assert_eq!(s.reap_expired().await.unwrap(), 1);
+    assert_eq!(s.get_job(&j.id).await.unwrap().state, JobState::Queued);
+    let again = s.claim_job("alive", 60_000).await.unwrap().unwrap();
+    assert_eq!(again.attempts, 2);
+    assert_eq!(
+        s.heartbeat(&j.id, "dead", 1000, 0.5, "x").await.unwrap(),
+        Heartbeat::LeaseLost
+    );
+    assert!(
+        s.complete_job(&j.id, "dead", result("M1", "2026-01-01T00:00:00Z", 1.0))
+            .await
+            .is_err()
+    );
+    s.complete_job(&j.id, "alive", result("M1", "2026-01-01T00:00:00Z", 1.0))
+        .await
+        .unwrap();
+    // Out of attempts: a second expiry fails the job instead of requeueing it.
+    let k = s.enqueue(new_job("M1")).await.unwrap();
+    for _ in 0..2 {
+        s.claim_job("dead", 1).await.unwrap().unwrap();
+        tokio::time::sleep(std::time::Duration::from_millis(20)).await;
+        s.reap_expired().await.unwrap();
+    }
+    let k = s.get_job(&k.id).await.unwrap();
+    assert_eq!(k.state, JobState::Failed);
+    assert_eq!(k.error_code.as_deref(), Some("lease_expired"));
+}
+
+#[tokio::test]
+async fn retries_wait_for_their_backoff_and_bad_input_fails_at_once() {
+    let (_d, s) = fresh().await;
+    s.create_machine(&machine("M1")).await.unwrap();
+    let j = s.enqueue(new_job("M1")).await.unwrap();
+    s.claim_job("w", 60_000).await.unwrap().unwrap();
+    let back = s
+        .fail_job(&j.id, "w", "transient", "busy", Some(60_000))
+        .await
+        .unwrap();
+    assert_eq!(back.state, JobState::Queued);
+    assert!(
+        s.claim_job("w", 60_000).await.unwrap().is_none(),
+        "claimed before its backoff elapsed"
+    );
+    let k = s.enqueue(new_job("M1")).await.unwrap();
+    s.claim_job("w", 60_000).await.unwrap().unwrap();
+    let f = s
+        .fail_job(&k.id, "w", "bad_input", "no planes", None)
+        .await
+        .unwrap();
+    assert_eq!(f.state, JobState::Failed);
+    assert_eq!(f.attempts, 1);
+}
+
+#[tokio::test]
+async fn cancellation_of_queued_and_running_jobs() {
+    let (_d, s) = fresh().await;
+    s.create_machine(&machine("M1")).await.unwrap();
+    let q = s.enqueue(new_job("M1")).await.unwrap();
+    assert_eq!(
+        s.cancel_job(&q.id).await.unwrap().state,
+        JobState::Cancelled
+    );
+    assert!(matches!(
+        s.cancel_job(&q.id).await,
+        Err(StoreError::Conflict(_))
+    ));
+    let r = s.enqueue(new_job("M1")).await.unwrap();
+    s.claim_job("w", 60_000).await.unwrap().unwrap();
+    assert_eq!(s.cancel_job(&r.id).await.unwrap().state, JobState::Running);
+    assert_eq!(
+        s.heartbeat(&r.id, "w", 60_000, 0.3, "solving")
+            .await
+            .unwrap(),
+        Heartbeat::CancelRequested
+    );
+    assert!(
+        s.complete_job(&r.id, "w", result("M1", "2026-01-01T00:00:00Z", 1.0))
+            .await
+            .is_err()
+    );
+    assert_eq!(
+        s.finish_cancelled(&r.id, "w").await.unwrap().state,
+        JobState::Cancelled
+    );
+    assert_eq!(s.row_counts().await.unwrap().results, 0);
+}
+
+#[tokio::test]
+async fn results_in_time_order_with_baseline() {
+    let (_d, s) = fresh().await;
+    s.create_machine(&machine("M1")).await.unwrap();
+    let late = s
+        .import_result(result("M1", "2026-03-01T00:00:00Z", 3.0))
+        .await
+        .unwrap();
+    let early = s
+        .import_result(result("M1", "2026-01-01T00:00:00Z", 1.0))
+        .await
+        .unwrap();
+    s.import_result(result("M1", "2026-02-01T00:00:00Z", 2.0))
+        .await
+        .unwrap();
+    let list = s.list_results("M1", "identification").await.unwrap();
+    let ec: Vec<f64> = list.iter().map(|r| r.scalars.ec0y_urad.unwrap()).collect();
+    assert_eq!(ec, [1.0, 2.0, 3.0]);
+    let pairs = s.baseline_pairs("identification").await.unwrap();
+    assert_eq!(pairs.len(), 1);
+    assert_eq!(pairs[0].baseline.id, early.id);
+    assert_eq!(pairs[0].latest.id, late.id);
+    assert_eq!(pairs[0].results, 3);
+    assert_eq!(
+        pairs[0].latest.scalars.term_coefficients["EXX"],
+        [0.01, 0.0, 0.0]
+    );
+    let b = list[1].id.clone();
+    s.update_machine(
+        "M1",
+        &MachinePatch {
+            baseline_result_id: Some(b.clone()),
+            ..Default::default()
+        },
+    )
+    .await
+    .unwrap();
+    assert_eq!(
+        s.baseline_pairs("identification").await.unwrap()[0]
+            .baseline
+            .id,
+        b
+    );
+}
+
+#[tokio::test]
+async fn keys_are_found_by_secret_only() {
+    let (_d, s) = fresh().await;
+    let (k, secret) = s.create_key(Scope::Write, "ci").await.unwrap();
+    assert_eq!(s.key_by_secret(&secret).await.unwrap().unwrap().id, k.id);
+    assert!(s.key_by_secret("mtk_wrong").await.unwrap().is_none());
+    // The secret is not in the database.
+    let stored: Vec<String> = sqlx::query_scalar("SELECT hash FROM api_keys")
+        .fetch_all(s.pool())
+        .await
+        .unwrap();
+    assert!(!stored.iter().any(|h| h.contains(&secret[4..])));
+}
