@@ -30,11 +30,33 @@ fn grid_100() -> Poses {
     Poses::Grid(axes)
 }
 
+/// User + system CPU time of this process, s (Linux /proc/self/stat, 100 ticks/s).
+fn cpu_seconds() -> Option<f64> {
+    let stat = std::fs::read_to_string("/proc/self/stat").ok()?;
+    let rest = &stat[stat.rfind(')')? + 2..];
+    let f: Vec<&str> = rest.split_whitespace().collect();
+    let ticks: f64 = f.get(11)?.parse::<f64>().ok()? + f.get(12)?.parse::<f64>().ok()?;
+    Some(ticks / 100.0)
+}
+
 fn bench(c: &mut Criterion) {
     let desc = templates::hmc4_b();
     let chain = Chain::new(&desc).unwrap();
     let mags = Magnitudes::new(&chain, &desc, None);
     let poses = grid_100();
+    // CPU time per grid evaluation (wall time on a shared machine waits for a core).
+    if let Some(t0) = cpu_seconds() {
+        let runs = 3;
+        for _ in 0..runs {
+            black_box(local::local_stats(&chain, &mags, &poses));
+        }
+        if let Some(t1) = cpu_seconds() {
+            println!(
+                "CPU time per 10^6-pose grid evaluation: {:.3} s",
+                (t1 - t0) / runs as f64
+            );
+        }
+    }
     let mut g = c.benchmark_group("sensitivity");
     g.sample_size(10);
     g.bench_function("hmc4-b 35 errors, 100x100x100 grid", |b| {
