@@ -1,7 +1,39 @@
 //! # mtcal-formats
 //!
 //! Strict readers (and writers) of the dataset formats in `docs/datasets.md`: every
-//! rejected file gets an error naming the file, the line, the column and the rule.
+//! rejected file gets an error naming the file, the line, the column and the rule, and
+//! nothing of a rejected upload is returned.
+//!
+//! * [`session`]: measurement sessions (section 1: `session.json` + plane CSVs);
+//! * [`rotary`]: rotary-axis point sets (section 2);
+//! * [`positioning`]: positioning runs (section 3);
+//! * [`drift`]: drift logs (section 4);
+//! * [`sniff`]: which of these a file is, from its header.
+//!
+//! The rules shared by every CSV format live once in `csv_core`, limits in [`limits`],
+//! gzip handling in `gzip`.
+
+mod csv_core;
+pub mod drift;
+mod gzip;
+mod json;
+pub mod limits;
+pub mod positioning;
+pub mod rotary;
+pub mod session;
+pub mod sniff;
+
+pub use drift::{read_drift_log, read_drift_log_path, write_drift_log};
+pub use json::is_rfc3339;
+pub use limits::Limits;
+pub use positioning::{read_positioning, read_positioning_path, write_positioning};
+pub use rotary::{
+    read_rotary_points, read_rotary_points_path, write_rotary_points, write_rotary_sidecar,
+};
+pub use session::{read_session_dir, read_session_files, write_session_dir};
+pub use sniff::{DatasetKind, sniff_kind, sniff_path};
+
+pub mod plots;
 
 /// A rejected input: which file, where, and which rule it broke.
 #[derive(Debug, Clone, PartialEq, thiserror::Error)]
@@ -14,4 +46,80 @@ pub struct FormatError {
     pub column: String,
     /// The rule that was broken, as a sentence.
     pub rule: String,
+}
+
+impl FormatError {
+    pub fn new(
+        file: impl Into<String>,
+        line: u64,
+        column: impl Into<String>,
+        rule: impl Into<String>,
+    ) -> FormatError {
+        FormatError {
+            file: file.into(),
+            line,
+            column: column.into(),
+            rule: rule.into(),
+        }
+    }
+
+    /// An error about a whole file (line 0, no column).
+    pub fn file(file: impl Into<String>, rule: impl Into<String>) -> FormatError {
+        FormatError::new(file, 0, "", rule)
+    }
+}
+
+/// Reads a whole file for a path-based reader, mapping IO errors to a [`FormatError`]
+/// and refusing files larger than the byte limit before reading them.
+pub(crate) fn read_file_limited(
+    path: &std::path::Path,
+    name: &str,
+    limits: &Limits,
+) -> Result<Vec<u8>, FormatError> {
+    let meta = std::fs::metadata(path)
+        .map_err(|e| FormatError::file(name, format!("cannot read file: {e}")))?;
+    if meta.len() > limits.max_bytes as u64 {
+        return Err(FormatError::file(
+            name,
+            format!(
+                "upload exceeds the byte limit ({} bytes allowed in what remains of the upload)",
+                limits.max_bytes
+            ),
+        ));
+    }
+    std::fs::read(path).map_err(|e| FormatError::file(name, format!("cannot read file: {e}")))
+}
+
+/// The file name of a path, for messages.
+pub(crate) fn display_name(path: &std::path::Path) -> String {
+    path.file_name().map_or_else(
+        || path.display().to_string(),
+        |n| n.to_string_lossy().into_owned(),
+    )
+}
+
+/// Reads a single-file dataset given by path (still compressed if it is gzip: the
+/// byte-based readers decompress); returns its display name and contents.
+pub(crate) fn read_single(
+    path: &std::path::Path,
+    limits: &Limits,
+) -> Result<(String, Vec<u8>), FormatError> {
+    let name = display_name(path);
+    let raw = read_file_limited(path, &name, limits)?;
+    Ok((name, raw))
+}
+
+/// Decompresses (when gzip) one uploaded file under the byte limit.
+pub(crate) fn decode_single<'a>(
+    name: &str,
+    bytes: &'a [u8],
+    limits: &Limits,
+) -> Result<std::borrow::Cow<'a, [u8]>, FormatError> {
+    let mut budget = limits.max_bytes;
+    gzip::decode(name, bytes, &mut budget)
+}
+
+/// Shared by the writers: an `InvalidInput` error.
+pub(crate) fn invalid_input(msg: impl Into<String>) -> std::io::Error {
+    std::io::Error::new(std::io::ErrorKind::InvalidInput, msg.into())
 }

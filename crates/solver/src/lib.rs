@@ -18,7 +18,10 @@ pub mod terms;
 
 // Issue 2: identification core.
 pub mod basis;
+pub mod design;
 pub mod identification;
+pub mod lsq;
+pub mod noise;
 pub mod observability;
 pub mod simulate;
 pub mod stepwise;

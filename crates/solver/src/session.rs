@@ -2,7 +2,8 @@
 //! plain data. Readers in `mtcal-formats` build it; the simulator writes it; identification
 //! and diagnosis read it.
 
-use crate::axis::{Plane, Topology};
+use crate::axis::{Axis, Plane, Topology};
+use nalgebra::{DMatrix, DVector};
 use serde::{Deserialize, Serialize};
 
 /// One measurement campaign on one machine: plate mountings (planes), each with runs.
@@ -108,5 +109,237 @@ impl Session {
             .flat_map(|p| p.runs.iter())
             .map(Run::len)
             .sum()
+    }
+}
+
+/// Range (max − min) of commanded positions below which an axis counts as parked when
+/// the test kind is inferred, mm. Commanded set-points of a parked axis are constant, so
+/// 1 µm only absorbs rounding in the file.
+pub const PARKED_RANGE_MM: f64 = 1e-3;
+
+/// Largest radial deviation of the commanded path from its fitted circle, relative to the
+/// radius, for a run to be inferred as a circle.
+pub const CIRCLE_RADIAL_TOLERANCE: f64 = 0.01;
+
+/// Smallest swept angle (rad) for a run to be inferred as a circle: half a turn.
+pub const CIRCLE_MIN_SWEEP_RAD: f64 = std::f64::consts::PI;
+
+impl Run {
+    /// The run's test kind: its label when the file gives one, else inferred from the
+    /// commanded path in the plate's plane (u, v) (datasets contract, section 1):
+    ///
+    /// * the normal axis moves (range > [`PARKED_RANGE_MM`]) → [`TestKind::Free`];
+    /// * exactly one in-plane axis moves → `line_X`, `line_Y` or `line_Z` after that axis;
+    /// * both move, the path stays within [`CIRCLE_RADIAL_TOLERANCE`]·R of the least-squares
+    ///   (Kåsa) circle through it and sweeps at least [`CIRCLE_MIN_SWEEP_RAD`] in one sense
+    ///   → `circle_ccw` when the swept angle Σ Δθ, θ = atan2(v − v₀, u − u₀), is positive
+    ///   (counter-clockwise: from +u toward +v), `circle_cw` when negative;
+    /// * anything else (including a run with no motion) → [`TestKind::Free`].
+    pub fn test_kind(&self, plane: Plane) -> TestKind {
+        if let Some(kind) = self.test {
+            return kind;
+        }
+        infer_test_kind(&self.pos_mm, plane)
+    }
+}
+
+fn range(pos: &[[f64; 3]], axis: usize) -> f64 {
+    let (lo, hi) = pos
+        .iter()
+        .fold((f64::INFINITY, f64::NEG_INFINITY), |(lo, hi), p| {
+            (lo.min(p[axis]), hi.max(p[axis]))
+        });
+    hi - lo
+}
+
+fn infer_test_kind(pos: &[[f64; 3]], plane: Plane) -> TestKind {
+    if pos.len() < 2 || range(pos, plane.normal().index()) > PARKED_RANGE_MM {
+        return TestKind::Free;
+    }
+    let (u_axis, v_axis) = plane.axes();
+    let (iu, iv) = (u_axis.index(), v_axis.index());
+    let moves_u = range(pos, iu) > PARKED_RANGE_MM;
+    let moves_v = range(pos, iv) > PARKED_RANGE_MM;
+    let line = |axis: Axis| match axis {
+        Axis::X => TestKind::LineX,
+        Axis::Y => TestKind::LineY,
+        Axis::Z => TestKind::LineZ,
+    };
+    match (moves_u, moves_v) {
+        (false, false) => TestKind::Free,
+        (true, false) => line(u_axis),
+        (false, true) => line(v_axis),
+        (true, true) => {
+            let uv: Vec<(f64, f64)> = pos.iter().map(|p| (p[iu], p[iv])).collect();
+            circle_direction(&uv).unwrap_or(TestKind::Free)
+        }
+    }
+}
+
+/// Kåsa circle fit u² + v² = 2a·u + 2b·v + c solved by SVD (no normal equations), on
+/// coordinates centred at their mean for conditioning; then the radial and sweep tests.
+fn circle_direction(uv: &[(f64, f64)]) -> Option<TestKind> {
+    let n = uv.len() as f64;
+    let (mu, mv) = uv
+        .iter()
+        .fold((0.0, 0.0), |(su, sv), &(u, v)| (su + u / n, sv + v / n));
+    let a = DMatrix::from_fn(uv.len(), 3, |i, j| match j {
+        0 => 2.0 * (uv[i].0 - mu),
+        1 => 2.0 * (uv[i].1 - mv),
+        _ => 1.0,
+    });
+    let b = DVector::from_fn(uv.len(), |i, _| {
+        let (u, v) = (uv[i].0 - mu, uv[i].1 - mv);
+        u * u + v * v
+    });
+    let sol = a.svd(true, true).solve(&b, 1e-12).ok()?;
+    let (cu, cv) = (sol[0], sol[1]);
+    let r2 = sol[2] + cu * cu + cv * cv;
+    if !r2.is_finite() || r2 <= 0.0 {
+        return None;
+    }
+    let r = r2.sqrt();
+    if r <= PARKED_RANGE_MM {
+        return None;
+    }
+    let centred = uv.iter().map(|&(u, v)| (u - mu - cu, v - mv - cv));
+    if centred
+        .clone()
+        .any(|(u, v)| ((u * u + v * v).sqrt() - r).abs() > CIRCLE_RADIAL_TOLERANCE * r)
+    {
+        return None;
+    }
+    let angles: Vec<f64> = centred.map(|(u, v)| v.atan2(u)).collect();
+    let sweep: f64 = angles
+        .windows(2)
+        .map(|w| {
+            let d = w[1] - w[0];
+            // Wrap each increment into (−π, π].
+            d - (2.0 * std::f64::consts::PI)
+                * ((d + std::f64::consts::PI) / (2.0 * std::f64::consts::PI)).floor()
+        })
+        .sum();
+    if sweep >= CIRCLE_MIN_SWEEP_RAD {
+        Some(TestKind::CircleCcw)
+    } else if sweep <= -CIRCLE_MIN_SWEEP_RAD {
+        Some(TestKind::CircleCw)
+    } else {
+        None
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use std::f64::consts::PI;
+
+    fn run_of(pos_mm: Vec<[f64; 3]>) -> Run {
+        Run {
+            t_s: (0..pos_mm.len()).map(|i| i as f64).collect(),
+            du_um: vec![0.0; pos_mm.len()],
+            dv_um: vec![0.0; pos_mm.len()],
+            pos_mm,
+            ..Run::default()
+        }
+    }
+
+    /// Circle of radius `r` about (cu, cv) in `plane`, swept from θ0 by `sweep` rad, with
+    /// the normal axis parked at `w`.
+    fn circle(plane: Plane, cu: f64, cv: f64, r: f64, theta0: f64, sweep: f64, w: f64) -> Run {
+        let (u, v) = plane.axes();
+        let n = plane.normal();
+        let pos = (0..=360)
+            .map(|i| {
+                let th = theta0 + sweep * i as f64 / 360.0;
+                let mut p = [0.0; 3];
+                p[u.index()] = cu + r * th.cos();
+                p[v.index()] = cv + r * th.sin();
+                p[n.index()] = w;
+                p
+            })
+            .collect();
+        run_of(pos)
+    }
+
+    #[test]
+    fn label_wins_over_path() {
+        let mut run = circle(Plane::XY, 0.0, 0.0, 50.0, 0.0, 2.0 * PI, 0.0);
+        run.test = Some(TestKind::LineY);
+        assert_eq!(run.test_kind(Plane::XY), TestKind::LineY);
+    }
+
+    #[test]
+    fn lines_along_each_in_plane_axis() {
+        // Back and forth along X at y = 10, z = 0 (XY plane) → line_X.
+        let x: Vec<[f64; 3]> = (0..200)
+            .map(|i| [-50.0 + (i % 100) as f64, 10.0, 0.0])
+            .collect();
+        assert_eq!(run_of(x).test_kind(Plane::XY), TestKind::LineX);
+        // Along Z in the XZ plane at x = 5, y = 0 → line_Z.
+        let z: Vec<[f64; 3]> = (0..100).map(|i| [5.0, 0.0, i as f64]).collect();
+        assert_eq!(run_of(z.clone()).test_kind(Plane::XZ), TestKind::LineZ);
+        assert_eq!(run_of(z).test_kind(Plane::YZ), TestKind::LineZ);
+        // Along Y in the YZ plane at x = 120 (parked normal axis) → line_Y.
+        let y: Vec<[f64; 3]> = (0..100).map(|i| [120.0, i as f64, -3.0]).collect();
+        assert_eq!(run_of(y).test_kind(Plane::YZ), TestKind::LineY);
+    }
+
+    #[test]
+    fn circle_direction_follows_u_toward_v() {
+        for plane in Plane::ALL {
+            for theta0 in [0.0, 1.0, -2.5] {
+                let ccw = circle(plane, 12.0, -7.0, 50.0, theta0, 2.0 * PI, 3.0);
+                assert_eq!(
+                    ccw.test_kind(plane),
+                    TestKind::CircleCcw,
+                    "{plane} {theta0}"
+                );
+                let cw = circle(plane, 12.0, -7.0, 50.0, theta0, -2.0 * PI, 3.0);
+                assert_eq!(cw.test_kind(plane), TestKind::CircleCw, "{plane} {theta0}");
+            }
+        }
+        // A half circle (sweep exactly π plus a little) is still a circle; a quarter is not.
+        let half = circle(Plane::XY, 0.0, 0.0, 30.0, 0.0, 1.01 * PI, 0.0);
+        assert_eq!(half.test_kind(Plane::XY), TestKind::CircleCcw);
+        let quarter = circle(Plane::XY, 0.0, 0.0, 30.0, 0.0, 0.5 * PI, 0.0);
+        assert_eq!(quarter.test_kind(Plane::XY), TestKind::Free);
+    }
+
+    #[test]
+    fn other_paths_are_free() {
+        // The normal axis moves: XY circle with a ramp in Z.
+        let mut helix = circle(Plane::XY, 0.0, 0.0, 50.0, 0.0, 2.0 * PI, 0.0);
+        for (i, p) in helix.pos_mm.iter_mut().enumerate() {
+            p[2] = i as f64 * 0.01;
+        }
+        assert_eq!(helix.test_kind(Plane::XY), TestKind::Free);
+        // A diagonal line: both in-plane axes move, not on a circle.
+        let diag: Vec<[f64; 3]> = (0..100).map(|i| [i as f64, i as f64, 0.0]).collect();
+        assert_eq!(run_of(diag).test_kind(Plane::XY), TestKind::Free);
+        // A square path: both move, radial deviation ~41 % of the fitted radius.
+        let mut square = Vec::new();
+        for i in 0..100 {
+            let s = i as f64;
+            square.push([s, 0.0, 0.0]);
+        }
+        for i in 0..100 {
+            square.push([100.0, i as f64, 0.0]);
+        }
+        for i in 0..100 {
+            square.push([100.0 - i as f64, 100.0, 0.0]);
+        }
+        for i in 0..100 {
+            square.push([0.0, 100.0 - i as f64, 0.0]);
+        }
+        assert_eq!(run_of(square).test_kind(Plane::XY), TestKind::Free);
+        // No motion at all (a dwell) and a single sample.
+        assert_eq!(
+            run_of(vec![[1.0, 2.0, 3.0]; 10]).test_kind(Plane::XY),
+            TestKind::Free
+        );
+        assert_eq!(
+            run_of(vec![[1.0, 2.0, 3.0]]).test_kind(Plane::XY),
+            TestKind::Free
+        );
     }
 }

@@ -1,0 +1,137 @@
+//! Positioning runs (datasets contract, section 3; `docs/datasets.md`), ISO 230-2 style.
+//!
+//! CSV: `axis` (X, Y or Z), `run` (integer: the bidirectional cycle), `direction` (`+` or
+//! `-`: the approach direction), `target_mm`, `deviation_um` required; `t_s` (strictly
+//! increasing within each axis and run) and `temp_c` optional; at least one row.
+
+use crate::csv_core::{CsvTable, check_increasing, fmt_f64};
+use crate::{FormatError, Limits, invalid_input};
+use mtcal_solver::Axis;
+use mtcal_solver::datasets::{Direction, PositioningRecord, PositioningRuns};
+use std::collections::HashMap;
+use std::io::Write;
+use std::path::Path;
+
+/// Columns of a positioning file, required first.
+pub const POSITIONING_COLUMNS: [&str; 7] = [
+    "axis",
+    "run",
+    "direction",
+    "target_mm",
+    "deviation_um",
+    "t_s",
+    "temp_c",
+];
+
+/// Reads positioning runs from `bytes` (CSV, possibly gzip) named `name`.
+pub fn read_positioning(
+    name: &str,
+    bytes: &[u8],
+    limits: &Limits,
+) -> Result<PositioningRuns, FormatError> {
+    let data = crate::decode_single(name, bytes, limits)?;
+    let mut t = CsvTable::open(name, &data, limits)?;
+    let c = t.check_schema(&POSITIONING_COLUMNS, 5)?;
+    let (c_t, c_temp) = (t.col("t_s"), t.col("temp_c"));
+    let mut records = Vec::with_capacity(t.remaining_rows_hint());
+    let mut last_t: HashMap<(Axis, i64), f64> = HashMap::new();
+    while t.next_row()? {
+        let a = t.text(c[0]);
+        let axis = match a {
+            "X" => Axis::X,
+            "Y" => Axis::Y,
+            "Z" => Axis::Z,
+            _ => return Err(t.cell_error(c[0], format!("`{a}` is not an axis (X, Y or Z)"))),
+        };
+        let run = t.int(c[1])?;
+        let d = t.text(c[2]);
+        let direction = match d {
+            "+" => Direction::Plus,
+            "-" => Direction::Minus,
+            _ => return Err(t.cell_error(c[2], format!("`{d}` is not a direction (+ or -)"))),
+        };
+        let t_s = match c_t {
+            Some(ct) => {
+                let v = t.f64(ct)?;
+                let prev = last_t.insert((axis, run), v);
+                check_increasing(&t, ct, prev, v, &format!("axis {axis} run {run}"))?;
+                Some(v)
+            }
+            None => None,
+        };
+        records.push(PositioningRecord {
+            axis,
+            run,
+            direction,
+            target_mm: t.f64(c[3])?,
+            deviation_um: t.f64(c[4])?,
+            t_s,
+            temp_c: c_temp.map(|ct| t.f64(ct)).transpose()?,
+        });
+    }
+    if records.is_empty() {
+        return Err(t.header_error("", "the file has no rows after the header"));
+    }
+    records.shrink_to_fit();
+    Ok(PositioningRuns { records })
+}
+
+/// Reads positioning runs from a file (gzip accepted).
+pub fn read_positioning_path(path: &Path, limits: &Limits) -> Result<PositioningRuns, FormatError> {
+    let (name, data) = crate::read_single(path, limits)?;
+    read_positioning(&name, &data, limits)
+}
+
+/// Writes positioning runs (`t_s`, `temp_c` columns when every record has them).
+pub fn write_positioning(mut w: impl Write, runs: &PositioningRuns) -> std::io::Result<()> {
+    let first = runs.records.first();
+    let with_t = first.is_some_and(|r| r.t_s.is_some());
+    let with_temp = first.is_some_and(|r| r.temp_c.is_some());
+    let mut last_t: HashMap<(Axis, i64), f64> = HashMap::new();
+    for r in &runs.records {
+        if r.t_s.is_some() != with_t || r.temp_c.is_some() != with_temp {
+            return Err(invalid_input(
+                "t_s and temp_c must be given for all records or none",
+            ));
+        }
+        let values = [r.target_mm, r.deviation_um]
+            .into_iter()
+            .chain(r.t_s)
+            .chain(r.temp_c);
+        if values.into_iter().any(|v| !v.is_finite()) {
+            return Err(invalid_input("non-finite value in a positioning record"));
+        }
+        if let Some(t) = r.t_s
+            && last_t.insert((r.axis, r.run), t).is_some_and(|p| t <= p)
+        {
+            return Err(invalid_input("t_s is not strictly increasing within a run"));
+        }
+    }
+    let mut line = String::from("axis,run,direction,target_mm,deviation_um");
+    if with_t {
+        line.push_str(",t_s");
+    }
+    if with_temp {
+        line.push_str(",temp_c");
+    }
+    line.push('\n');
+    for r in &runs.records {
+        let dir = match r.direction {
+            Direction::Plus => "+",
+            Direction::Minus => "-",
+        };
+        line.push_str(&format!("{},{},{dir},", r.axis, r.run));
+        fmt_f64(&mut line, r.target_mm);
+        line.push(',');
+        fmt_f64(&mut line, r.deviation_um);
+        for v in r.t_s.into_iter().chain(r.temp_c) {
+            line.push(',');
+            fmt_f64(&mut line, v);
+        }
+        line.push('\n');
+        w.write_all(line.as_bytes())?;
+        line.clear();
+    }
+    w.write_all(line.as_bytes())?;
+    w.flush()
+}

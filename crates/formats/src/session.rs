@@ -1,0 +1,574 @@
+//! Measurement sessions (datasets contract, section 1; `docs/datasets.md`): a folder with
+//! `session.json` and one CSV per plate mounting and plane.
+//!
+//! `session.json` rules: `machine_id` (non-empty string) and `measured_at` (RFC 3339)
+//! required; `topology` optional (`{"workpiece": [..], "tool": [..]}` listing X, Y and Z
+//! exactly once); `temperature_c` optional finite number; `notes` optional string;
+//! `planes` a non-empty array of `{file, plane, head_offset_mm, mounting?}` with `plane`
+//! one of XY, XZ, YZ, `head_offset_mm` three finite numbers, `file` a plain file name
+//! (no directory part) named once; `mounting` defaults to the file's own name (one
+//! mounting per file) and files sharing a mounting must share the plane; unknown fields
+//! rejected unless `x-` prefixed.
+//!
+//! Plane CSV rules (on top of `csv_core`): columns `run, t_s, x_mm, y_mm, z_mm, du_um,
+//! dv_um` required, `temp_c` and `test` optional; `run` an integer; `t_s` strictly
+//! increasing within a run; `test` one of line_X, line_Y, line_Z, circle_cw, circle_ccw,
+//! free (an empty cell means "infer"), constant within a run; at least one sample.
+
+use crate::csv_core::{CsvTable, check_increasing, fmt_f64};
+use crate::json::{JsonDoc, Obj};
+use crate::{FormatError, Limits, gzip, invalid_input};
+use mtcal_solver::session::{PlaneRecord, Run, Session, TestKind};
+use mtcal_solver::{Axis, Plane, Topology};
+use serde_json::{Value, json};
+use std::collections::{BTreeMap, HashMap};
+use std::io::Write;
+use std::path::Path;
+
+/// Name of the session description inside a session folder.
+pub const SESSION_JSON: &str = "session.json";
+
+/// Columns of a plane CSV, required first.
+pub const PLANE_COLUMNS: [&str; 9] = [
+    "run", "t_s", "x_mm", "y_mm", "z_mm", "du_um", "dv_um", "temp_c", "test",
+];
+const REQUIRED: usize = 7;
+
+const TEST_NAMES: &str = "line_X, line_Y, line_Z, circle_cw, circle_ccw, free";
+
+/// session.json without the runs.
+struct PlaneSpec {
+    file: String,
+    plane: Plane,
+    head_offset_mm: [f64; 3],
+    mounting: String,
+}
+
+struct SessionSpec {
+    machine_id: String,
+    measured_at: String,
+    topology: Option<Topology>,
+    temperature_c: Option<f64>,
+    notes: Option<String>,
+    planes: Vec<PlaneSpec>,
+}
+
+/// Reads a session folder: `dir/session.json` and the plane files it names. A plane file
+/// named `f` that is absent is looked for as `f.gz`. Error messages name files relative
+/// to `dir`.
+pub fn read_session_dir(dir: &Path, limits: &Limits) -> Result<Session, FormatError> {
+    let raw = crate::read_file_limited(&dir.join(SESSION_JSON), SESSION_JSON, limits)?;
+    let mut raw_budget = limits.max_bytes - raw.len();
+    let mut budget = limits.max_bytes;
+    let json = gzip::decode(SESSION_JSON, &raw, &mut budget)?;
+    let (spec, doc) = parse_session_json(&json)?;
+    assemble(spec, |i, p| {
+        let mut path = dir.join(&p.file);
+        let mut name = p.file.clone();
+        if !path.is_file() {
+            let gz = dir.join(format!("{}.gz", p.file));
+            if gz.is_file() {
+                path = gz;
+                name = format!("{}.gz", p.file);
+            } else {
+                return Err(doc.error(
+                    &format!("planes[{i}].file"),
+                    format!(
+                        "referenced file `{}` does not exist in the session folder",
+                        p.file
+                    ),
+                ));
+            }
+        }
+        let bytes = crate::read_file_limited(
+            &path,
+            &name,
+            &Limits {
+                max_bytes: raw_budget,
+                ..*limits
+            },
+        )?;
+        raw_budget -= bytes.len();
+        let data = gzip::decode(&name, &bytes, &mut budget)?;
+        read_plane_csv(&p.file, &data, limits)
+    })
+}
+
+/// Reads a session from memory (an HTTP upload): `session_json` and the plane files keyed
+/// by the names `session.json` gives them. Files may be gzip (`.gz` names and/or gzip
+/// content). Every uploaded file must be referenced. The byte limit applies to the sum of
+/// the uploaded sizes and, separately, to the sum of the decompressed sizes.
+pub fn read_session_files(
+    session_json: &[u8],
+    files: &BTreeMap<String, Vec<u8>>,
+    limits: &Limits,
+) -> Result<Session, FormatError> {
+    let raw_total: usize = session_json.len() + files.values().map(Vec::len).sum::<usize>();
+    if raw_total > limits.max_bytes {
+        return Err(FormatError::file(
+            SESSION_JSON,
+            format!(
+                "upload of {raw_total} bytes exceeds the byte limit of {} bytes",
+                limits.max_bytes
+            ),
+        ));
+    }
+    let mut budget = limits.max_bytes;
+    let json = gzip::decode(SESSION_JSON, session_json, &mut budget)?;
+    let (spec, doc) = parse_session_json(&json)?;
+    if let Some(extra) = files
+        .keys()
+        .find(|k| !spec.planes.iter().any(|p| &p.file == *k))
+    {
+        return Err(FormatError::file(
+            extra.as_str(),
+            "uploaded file is not referenced by session.json",
+        ));
+    }
+    assemble(spec, |i, p| {
+        let bytes = files.get(&p.file).ok_or_else(|| {
+            doc.error(
+                &format!("planes[{i}].file"),
+                format!("referenced file `{}` is missing from the upload", p.file),
+            )
+        })?;
+        let data = gzip::decode(&p.file, bytes, &mut budget)?;
+        read_plane_csv(&p.file, &data, limits)
+    })
+}
+
+fn assemble(
+    spec: SessionSpec,
+    mut load: impl FnMut(usize, &PlaneSpec) -> Result<Vec<Run>, FormatError>,
+) -> Result<Session, FormatError> {
+    let mut planes = Vec::with_capacity(spec.planes.len());
+    for (i, p) in spec.planes.iter().enumerate() {
+        let runs = load(i, p)?;
+        planes.push(PlaneRecord {
+            file: p.file.clone(),
+            plane: p.plane,
+            head_offset_mm: p.head_offset_mm,
+            mounting: p.mounting.clone(),
+            runs,
+        });
+    }
+    Ok(Session {
+        machine_id: spec.machine_id,
+        measured_at: spec.measured_at,
+        topology: spec.topology,
+        temperature_c: spec.temperature_c,
+        notes: spec.notes,
+        planes,
+    })
+}
+
+/// Checks a file name taken from session.json: a plain name inside the folder.
+fn valid_file_name(name: &str) -> bool {
+    !name.is_empty()
+        && name != "."
+        && name != ".."
+        && name != SESSION_JSON
+        && !name.contains(['/', '\\', '\0', ':'])
+}
+
+fn parse_session_json(bytes: &[u8]) -> Result<(SessionSpec, JsonDoc<'static>), FormatError> {
+    let doc = JsonDoc::parse(SESSION_JSON, bytes)?;
+    let spec = {
+        let root = doc.root()?;
+        root.check_fields(&[
+            "machine_id",
+            "measured_at",
+            "topology",
+            "temperature_c",
+            "notes",
+            "planes",
+        ])?;
+        let machine_id = root.req_str("machine_id")?.to_string();
+        root.req_str("measured_at")?;
+        let measured_at = root
+            .opt_timestamp("measured_at")?
+            .unwrap_or_default()
+            .to_string();
+        let topology = match root.get("topology") {
+            None => None,
+            Some(v) => Some(parse_topology(&root.object("topology", v)?)?),
+        };
+        let temperature_c = root.opt_f64("temperature_c")?;
+        let notes = root.opt_str("notes")?.map(str::to_string);
+        let planes_v = root.required("planes")?;
+        let Value::Array(items) = planes_v else {
+            return Err(root.error("planes", "must be an array of plane objects"));
+        };
+        if items.is_empty() {
+            return Err(root.error("planes", "must list at least one plane file"));
+        }
+        let mut planes: Vec<PlaneSpec> = Vec::with_capacity(items.len());
+        let mut mountings: HashMap<String, Plane> = HashMap::new();
+        for (i, item) in items.iter().enumerate() {
+            let p = root.object(&format!("planes[{i}]"), item)?;
+            let spec = parse_plane(&p)?;
+            if planes.iter().any(|q| q.file == spec.file) {
+                return Err(p.error("file", format!("file `{}` is listed twice", spec.file)));
+            }
+            if let Some(&other) = mountings.get(&spec.mounting)
+                && other != spec.plane
+            {
+                return Err(p.error(
+                    "mounting",
+                    format!(
+                        "mounting `{}` is used in plane {other} and plane {}: files sharing a mounting must share the plane",
+                        spec.mounting, spec.plane
+                    ),
+                ));
+            }
+            mountings.insert(spec.mounting.clone(), spec.plane);
+            planes.push(spec);
+        }
+        SessionSpec {
+            machine_id,
+            measured_at,
+            topology,
+            temperature_c,
+            notes,
+            planes,
+        }
+    };
+    Ok((spec, doc))
+}
+
+fn parse_topology(o: &Obj<'_>) -> Result<Topology, FormatError> {
+    o.check_fields(&["workpiece", "tool"])?;
+    let stack = |field: &str| -> Result<Vec<Axis>, FormatError> {
+        let Some(Value::Array(items)) = o.get(field) else {
+            return Err(o.error(
+                field,
+                "must be an array of axis names (\"X\", \"Y\", \"Z\")",
+            ));
+        };
+        items
+            .iter()
+            .map(|v| {
+                v.as_str()
+                    .and_then(Axis::parse)
+                    .ok_or_else(|| o.error(field, format!("`{v}` is not an axis name (X, Y or Z)")))
+            })
+            .collect()
+    };
+    let topology = Topology {
+        workpiece: stack("workpiece")?,
+        tool: stack("tool")?,
+    };
+    topology.validate().map_err(|e| o.error("", e))?;
+    Ok(topology)
+}
+
+fn parse_plane(p: &Obj<'_>) -> Result<PlaneSpec, FormatError> {
+    p.check_fields(&["file", "plane", "head_offset_mm", "mounting"])?;
+    let file = p.req_str("file")?.to_string();
+    if !valid_file_name(&file) {
+        return Err(p.error(
+            "file",
+            format!("`{file}` is not a plain file name inside the session folder"),
+        ));
+    }
+    let plane_s = p.req_str("plane")?;
+    let plane = Plane::parse(plane_s).ok_or_else(|| {
+        p.error(
+            "plane",
+            format!("`{plane_s}` is not a plane (XY, XZ or YZ)"),
+        )
+    })?;
+    let offset = p.required("head_offset_mm")?;
+    let head_offset_mm = match offset {
+        Value::Array(a) if a.len() == 3 => {
+            let mut t = [0.0; 3];
+            for (k, v) in a.iter().enumerate() {
+                t[k] = v.as_f64().filter(|x| x.is_finite()).ok_or_else(|| {
+                    p.error("head_offset_mm", "must hold three finite numbers (mm)")
+                })?;
+            }
+            t
+        }
+        _ => {
+            return Err(p.error(
+                "head_offset_mm",
+                "must be an array of three finite numbers (mm)",
+            ));
+        }
+    };
+    let mounting = match p.opt_str("mounting")? {
+        None => file.clone(),
+        Some(m) if m.trim().is_empty() => return Err(p.error("mounting", "must not be empty")),
+        Some(m) => m.to_string(),
+    };
+    Ok(PlaneSpec {
+        file,
+        plane,
+        head_offset_mm,
+        mounting,
+    })
+}
+
+/// Reads one plane CSV (already decompressed) into runs, in order of first appearance.
+pub fn read_plane_csv(file: &str, bytes: &[u8], limits: &Limits) -> Result<Vec<Run>, FormatError> {
+    let mut t = CsvTable::open(file, bytes, limits)?;
+    let c = t.check_schema(&PLANE_COLUMNS, REQUIRED)?;
+    let (c_run, c_t, c_x, c_y, c_z, c_du, c_dv) = (c[0], c[1], c[2], c[3], c[4], c[5], c[6]);
+    let c_temp = t.col("temp_c");
+    let c_test = t.col("test");
+
+    let mut runs: Vec<Run> = Vec::new();
+    let mut by_number: HashMap<i64, usize> = HashMap::new();
+    let mut cur: Option<usize> = None;
+    while t.next_row()? {
+        let number = t.int(c_run)?;
+        let k = match cur {
+            Some(k) if runs[k].number == number => k,
+            _ => {
+                if let Some(prev) = cur {
+                    shrink(&mut runs[prev]);
+                }
+                let k = *by_number.entry(number).or_insert_with(|| {
+                    let hint = t.remaining_rows_hint();
+                    runs.push(new_run(number, hint, c_temp.is_some()));
+                    runs.len() - 1
+                });
+                cur = Some(k);
+                k
+            }
+        };
+        let ts = t.f64(c_t)?;
+        let run = &mut runs[k];
+        check_increasing(
+            &t,
+            c_t,
+            run.t_s.last().copied(),
+            ts,
+            &format!("run {number}"),
+        )?;
+        let pos = [t.f64(c_x)?, t.f64(c_y)?, t.f64(c_z)?];
+        let du = t.f64(c_du)?;
+        let dv = t.f64(c_dv)?;
+        let temp = c_temp.map(|c| t.f64(c)).transpose()?;
+        if let Some(c) = c_test {
+            let s = t.text(c);
+            let label = if s.is_empty() {
+                None
+            } else {
+                Some(TestKind::parse(s).ok_or_else(|| {
+                    t.cell_error(
+                        c,
+                        format!(
+                            "`{s}` is not a test kind (expected one of {TEST_NAMES}, or empty)"
+                        ),
+                    )
+                })?)
+            };
+            if run.t_s.is_empty() {
+                run.test = label;
+            } else if run.test != label {
+                let name = |l: Option<TestKind>| l.map_or("(empty)", TestKind::name);
+                return Err(t.cell_error(
+                    c,
+                    format!(
+                        "test label changes within run {number}: `{}` after `{}`",
+                        name(label),
+                        name(run.test)
+                    ),
+                ));
+            }
+        }
+        run.t_s.push(ts);
+        run.pos_mm.push(pos);
+        run.du_um.push(du);
+        run.dv_um.push(dv);
+        if let (Some(v), Some(temps)) = (temp, run.temp_c.as_mut()) {
+            temps.push(v);
+        }
+    }
+    if t.rows() == 0 {
+        return Err(t.header_error("", "the file has no samples after the header"));
+    }
+    if let Some(k) = cur {
+        shrink(&mut runs[k]);
+    }
+    Ok(runs)
+}
+
+fn new_run(number: i64, hint: usize, temp: bool) -> Run {
+    Run {
+        number,
+        test: None,
+        t_s: Vec::with_capacity(hint),
+        pos_mm: Vec::with_capacity(hint),
+        du_um: Vec::with_capacity(hint),
+        dv_um: Vec::with_capacity(hint),
+        temp_c: temp.then(|| Vec::with_capacity(hint)),
+    }
+}
+
+/// Gives back the capacity reserved for rows that belonged to other runs.
+fn shrink(run: &mut Run) {
+    run.t_s.shrink_to_fit();
+    run.pos_mm.shrink_to_fit();
+    run.du_um.shrink_to_fit();
+    run.dv_um.shrink_to_fit();
+    if let Some(t) = run.temp_c.as_mut() {
+        t.shrink_to_fit();
+    }
+}
+
+/// Checks runs before writing: equal column lengths, finite values, temperatures for all
+/// runs or none, and (like the reader) strictly increasing time within each run.
+fn check_runs(runs: &[Run]) -> std::io::Result<()> {
+    let temp = runs.first().is_some_and(|r| r.temp_c.is_some());
+    for r in runs {
+        let n = r.t_s.len();
+        if r.pos_mm.len() != n
+            || r.du_um.len() != n
+            || r.dv_um.len() != n
+            || r.temp_c.as_ref().is_some_and(|t| t.len() != n)
+        {
+            return Err(invalid_input(format!(
+                "run {}: columns of unequal length",
+                r.number
+            )));
+        }
+        if r.temp_c.is_some() != temp {
+            return Err(invalid_input(
+                "temp_c must be given for all runs of a file or none",
+            ));
+        }
+        let mut values = r
+            .t_s
+            .iter()
+            .chain(r.pos_mm.iter().flatten())
+            .chain(&r.du_um)
+            .chain(&r.dv_um)
+            .chain(r.temp_c.iter().flatten());
+        if values.any(|v| !v.is_finite()) {
+            return Err(invalid_input(format!("run {}: non-finite value", r.number)));
+        }
+        if r.t_s.windows(2).any(|w| w[1] <= w[0]) {
+            return Err(invalid_input(format!(
+                "run {}: t_s is not strictly increasing",
+                r.number
+            )));
+        }
+    }
+    Ok(())
+}
+
+/// Writes a plane CSV: `run,t_s,x_mm,y_mm,z_mm,du_um,dv_um`, plus `temp_c` when the runs
+/// carry temperatures and `test` when any run has a label (empty cells for the others).
+/// Numbers are written in their shortest form that reads back to the same value.
+pub fn write_plane_csv(mut w: impl Write, runs: &[Run]) -> std::io::Result<()> {
+    check_runs(runs)?;
+    let temp = runs.first().is_some_and(|r| r.temp_c.is_some());
+    let test = runs.iter().any(|r| r.test.is_some());
+    let mut line = String::with_capacity(128);
+    line.push_str("run,t_s,x_mm,y_mm,z_mm,du_um,dv_um");
+    if temp {
+        line.push_str(",temp_c");
+    }
+    if test {
+        line.push_str(",test");
+    }
+    line.push('\n');
+    w.write_all(line.as_bytes())?;
+    for r in runs {
+        for i in 0..r.t_s.len() {
+            line.clear();
+            line.push_str(&r.number.to_string());
+            for v in [
+                r.t_s[i],
+                r.pos_mm[i][0],
+                r.pos_mm[i][1],
+                r.pos_mm[i][2],
+                r.du_um[i],
+                r.dv_um[i],
+            ] {
+                line.push(',');
+                fmt_f64(&mut line, v);
+            }
+            if let Some(temps) = &r.temp_c {
+                line.push(',');
+                fmt_f64(&mut line, temps[i]);
+            }
+            if test {
+                line.push(',');
+                line.push_str(r.test.map_or("", TestKind::name));
+            }
+            line.push('\n');
+            w.write_all(line.as_bytes())?;
+        }
+    }
+    w.flush()
+}
+
+/// The session.json document of a session.
+pub fn session_json(session: &Session) -> Value {
+    let mut root = serde_json::Map::new();
+    root.insert("machine_id".into(), json!(session.machine_id));
+    root.insert("measured_at".into(), json!(session.measured_at));
+    if let Some(t) = &session.topology {
+        let names = |s: &[Axis]| s.iter().map(|a| a.to_string()).collect::<Vec<_>>();
+        root.insert(
+            "topology".into(),
+            json!({"workpiece": names(&t.workpiece), "tool": names(&t.tool)}),
+        );
+    }
+    if let Some(t) = session.temperature_c {
+        root.insert("temperature_c".into(), json!(t));
+    }
+    if let Some(n) = &session.notes {
+        root.insert("notes".into(), json!(n));
+    }
+    let planes: Vec<Value> = session
+        .planes
+        .iter()
+        .map(|p| {
+            json!({
+                "file": p.file,
+                "plane": p.plane.name(),
+                "head_offset_mm": p.head_offset_mm,
+                "mounting": p.mounting,
+            })
+        })
+        .collect();
+    root.insert("planes".into(), Value::Array(planes));
+    Value::Object(root)
+}
+
+/// Writes a session folder (used by `mtcal simulate`): each plane CSV (gzip when its name
+/// ends in `.gz`), then `session.json` last, so a folder with a session.json is complete.
+/// The session is checked first (file names, finite values, equal column lengths); an
+/// invalid session writes nothing.
+pub fn write_session_dir(dir: &Path, session: &Session) -> std::io::Result<()> {
+    let mut seen = Vec::new();
+    for p in &session.planes {
+        if !valid_file_name(&p.file) || seen.contains(&&p.file) {
+            return Err(invalid_input(format!(
+                "invalid or repeated plane file name `{}`",
+                p.file
+            )));
+        }
+        seen.push(&p.file);
+        // Validate the runs before creating anything.
+        check_runs(&p.runs)?;
+    }
+    std::fs::create_dir_all(dir)?;
+    for p in &session.planes {
+        let f = std::io::BufWriter::new(std::fs::File::create(dir.join(&p.file))?);
+        if p.file.ends_with(".gz") {
+            let mut gz = flate2::write::GzEncoder::new(f, flate2::Compression::default());
+            write_plane_csv(&mut gz, &p.runs)?;
+            gz.finish()?.flush()?;
+        } else {
+            write_plane_csv(f, &p.runs)?;
+        }
+    }
+    let text =
+        serde_json::to_string_pretty(&session_json(session)).map_err(std::io::Error::other)?;
+    std::fs::write(dir.join(SESSION_JSON), text + "\n")
+}

@@ -1,0 +1,88 @@
+//! Which dataset a file holds, from its name and first bytes (the header), so that the
+//! CLI (`mtcal diagnose PATH`) and the API can pick the reader. Sniffing only guesses;
+//! the strict reader still decides.
+
+use crate::drift::channel_kind;
+use crate::gzip;
+use crate::positioning::POSITIONING_COLUMNS;
+use crate::rotary::ROTARY_COLUMNS;
+use crate::session::{PLANE_COLUMNS, SESSION_JSON};
+use serde::{Deserialize, Serialize};
+use std::path::Path;
+
+/// The dataset kinds of the datasets contract.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, Serialize, Deserialize)]
+pub enum DatasetKind {
+    /// A `session.json` (section 1), or a folder holding one.
+    Session,
+    /// One plane CSV of a session (section 1).
+    PlaneCsv,
+    /// A rotary-axis point set (section 2).
+    RotaryPoints,
+    /// Positioning runs (section 3).
+    Positioning,
+    /// A drift log (section 4).
+    DriftLog,
+}
+
+/// Bytes looked at when sniffing (after decompression).
+const SNIFF_BYTES: usize = 64 * 1024;
+
+/// The kind of the file `name` with contents `bytes` (gzip accepted), or `None` when it
+/// matches no format. A JSON object with `machine_id` and `planes` is a session; a CSV is
+/// classified by the column names of its header (first line that is neither blank nor a
+/// `#` comment; `x-` columns ignored).
+pub fn sniff_kind(name: &str, bytes: &[u8]) -> Option<DatasetKind> {
+    let head = gzip::prefix(bytes, SNIFF_BYTES)?;
+    let text = String::from_utf8_lossy(&head);
+    let trimmed = text.trim_start_matches('\u{feff}').trim_start();
+    if trimmed.starts_with('{') || name.ends_with(".json") {
+        let is_session = text.contains("\"planes\"") && text.contains("\"machine_id\"");
+        return is_session.then_some(DatasetKind::Session);
+    }
+    let header = trimmed
+        .lines()
+        .map(str::trim)
+        .find(|l| !l.is_empty() && !l.starts_with('#'))?;
+    let cols: Vec<&str> = header
+        .split(',')
+        .map(|c| c.trim().trim_matches('"'))
+        .filter(|c| !c.starts_with("x-"))
+        .collect();
+    let has_all = |names: &[&str]| names.iter().all(|n| cols.contains(n));
+    if has_all(&PLANE_COLUMNS[..7]) {
+        Some(DatasetKind::PlaneCsv)
+    } else if has_all(&ROTARY_COLUMNS[..5]) {
+        Some(DatasetKind::RotaryPoints)
+    } else if has_all(&POSITIONING_COLUMNS[..5]) {
+        Some(DatasetKind::Positioning)
+    } else if cols.contains(&"t_s")
+        && cols.len() > 1
+        && cols
+            .iter()
+            .all(|c| *c == "t_s" || channel_kind(c).is_some())
+    {
+        Some(DatasetKind::DriftLog)
+    } else {
+        None
+    }
+}
+
+/// [`sniff_kind`] for a path: a folder holding `session.json` is a session; a file is
+/// sniffed from its first bytes. `None` when unreadable or unrecognised.
+pub fn sniff_path(path: &Path) -> Option<DatasetKind> {
+    if path.is_dir() {
+        return path
+            .join(SESSION_JSON)
+            .is_file()
+            .then_some(DatasetKind::Session);
+    }
+    use std::io::Read;
+    let mut head = Vec::new();
+    std::fs::File::open(path)
+        .ok()?
+        .take(SNIFF_BYTES as u64)
+        .read_to_end(&mut head)
+        .ok()?;
+    sniff_kind(&crate::display_name(path), &head)
+}

@@ -1,0 +1,210 @@
+//! Identification of the cradle model (location errors, ball, optional compliance) from
+//! all measured points at once, and its leave-one-pose-out validation.
+//!
+//! Nonlinear least squares: minimise Σ |p(Aᵢ, Cᵢ; q) − pᵢ|² over q (the parameters of
+//! [`model_from_params`]) by Gauss–Newton with step halving; the Jacobian by central
+//! differences; each step and the covariance σ²·V·S⁻²·Vᵀ from the SVD of the
+//! column-equilibrated Jacobian, σ² = SSR / (3N − P).
+//! Start: zero errors, the ball from the nominal inverse kinematics averaged over all
+//! points, w = Rz(C)ᵀ·Rx(A)ᵀ·(p − P).
+
+use super::model::{CradleModel, model_from_params};
+use crate::error::SolverError;
+use crate::fits::{covariance, equilibrated_condition};
+use nalgebra::{DMatrix, DVector, Rotation3, Vector3};
+
+/// One measured point: commanded A, C (rad), measured position (mm), pose index.
+#[derive(Debug, Clone, Copy)]
+pub struct Obs {
+    pub a: f64,
+    pub c: f64,
+    pub p: Vector3<f64>,
+    pub pose: usize,
+}
+
+/// A fitted model.
+#[derive(Debug, Clone)]
+pub struct KinematicFit {
+    pub q: Vec<f64>,
+    pub model: CradleModel,
+    /// Covariance of q (mm, rad).
+    pub cov: DMatrix<f64>,
+    /// σ per coordinate, mm.
+    pub sigma: f64,
+    /// RMS 3-D residual, mm.
+    pub rms: f64,
+    pub condition: f64,
+    /// Numerical rank of the Jacobian (relative threshold 1e-10 after equilibration).
+    pub rank: usize,
+    pub iterations: usize,
+    pub converged: bool,
+}
+
+const MAX_ITER: usize = 50;
+
+fn residuals(obs: &[Obs], pivot: [f64; 3], q: &[f64]) -> DVector<f64> {
+    let m = model_from_params(pivot, q);
+    let mut r = DVector::zeros(3 * obs.len());
+    for (i, o) in obs.iter().enumerate() {
+        let e = m.ball(o.a, o.c) - o.p;
+        r.fixed_rows_mut::<3>(3 * i).copy_from(&e);
+    }
+    r
+}
+
+fn jacobian(obs: &[Obs], pivot: [f64; 3], q: &[f64]) -> DMatrix<f64> {
+    const H: f64 = 1e-6;
+    let mut j = DMatrix::zeros(3 * obs.len(), q.len());
+    let mut qq = q.to_vec();
+    for k in 0..q.len() {
+        qq[k] = q[k] + H;
+        let rp = residuals(obs, pivot, &qq);
+        qq[k] = q[k] - H;
+        let rm = residuals(obs, pivot, &qq);
+        qq[k] = q[k];
+        j.set_column(k, &((rp - rm) / (2.0 * H)));
+    }
+    j
+}
+
+/// Starting parameters: zero errors and compliance, the ball from nominal inverse
+/// kinematics. `n_params` is 11 (rigid) or 17 (compliant).
+pub fn start(obs: &[Obs], pivot: [f64; 3], n_params: usize) -> Vec<f64> {
+    let p = Vector3::from(pivot);
+    let mut w = Vector3::zeros();
+    for o in obs {
+        let r = Rotation3::from_axis_angle(&Vector3::x_axis(), o.a)
+            * Rotation3::from_axis_angle(&Vector3::z_axis(), o.c);
+        w += r.inverse() * (o.p - p);
+    }
+    w /= obs.len() as f64;
+    let mut q = vec![0.0; n_params];
+    q[8] = w.x.hypot(w.y);
+    q[9] = w.y.atan2(w.x);
+    q[10] = w.z;
+    q
+}
+
+/// Fits the model to `obs` from `q0` (its length chooses rigid or compliant).
+pub fn fit_kinematics(
+    obs: &[Obs],
+    pivot: [f64; 3],
+    q0: &[f64],
+) -> Result<KinematicFit, SolverError> {
+    let np = q0.len();
+    if 3 * obs.len() <= np {
+        return Err(SolverError::Degenerate(format!(
+            "cradle model: {} coordinates for {np} parameters",
+            3 * obs.len()
+        )));
+    }
+    let mut q = q0.to_vec();
+    let mut res = residuals(obs, pivot, &q);
+    let mut ss = res.norm_squared();
+    let mut iterations = 0;
+    let mut converged = false;
+    while iterations < MAX_ITER {
+        iterations += 1;
+        let j = jacobian(obs, pivot, &q);
+        let scale: Vec<f64> = j.column_iter().map(|c| c.norm().max(1e-300)).collect();
+        let mut js = j.clone();
+        for (k, mut col) in js.column_iter_mut().enumerate() {
+            col /= scale[k];
+        }
+        let z = js
+            .svd(true, true)
+            .solve(&(-&res), 1e-12)
+            .map_err(|e| SolverError::Degenerate(format!("cradle model: {e}")))?;
+        let step: Vec<f64> = (0..np).map(|k| z[k] / scale[k]).collect();
+        let mut lambda = 1.0;
+        let mut accepted = false;
+        for _ in 0..30 {
+            let q2: Vec<f64> = q.iter().zip(&step).map(|(a, d)| a + lambda * d).collect();
+            let r2 = residuals(obs, pivot, &q2);
+            let s2 = r2.norm_squared();
+            if s2 <= ss * (1.0 + 1e-14) + 1e-30 {
+                q = q2;
+                res = r2;
+                ss = s2;
+                accepted = true;
+                break;
+            }
+            lambda *= 0.5;
+        }
+        // Size of the step in the equilibrated coordinates relative to the residual norm.
+        // (z is in residual units, mm; the floor is 1e-12 mm.)
+        let size = z.norm() * lambda;
+        let tol = 1e-9 * res.norm() + 1e-12;
+        if !accepted || size < tol {
+            converged = accepted || size < 1e3 * tol;
+            break;
+        }
+    }
+    let j = jacobian(obs, pivot, &q);
+    let dof = 3 * obs.len() - np;
+    let sigma = (ss / dof as f64).sqrt();
+    let cov = covariance(&j, sigma);
+    let condition = equilibrated_condition(&j);
+    let mut js = j.clone();
+    for mut col in js.column_iter_mut() {
+        let n = col.norm();
+        if n > 0.0 {
+            col /= n;
+        }
+    }
+    let sv = js.singular_values();
+    let rank = sv.iter().filter(|s| **s > 1e-10 * sv.max()).count();
+    Ok(KinematicFit {
+        model: model_from_params(pivot, &q),
+        q,
+        cov,
+        sigma,
+        rms: (ss / obs.len() as f64).sqrt(),
+        condition,
+        rank,
+        iterations,
+        converged,
+    })
+}
+
+/// Held-out figures of one left-out pose: RMS 3-D distance of its measured points from
+/// the nominal kinematics (before compensation) and from the fold's model (after), mm.
+#[derive(Debug, Clone, Copy)]
+pub struct HeldOut {
+    pub pose: usize,
+    pub before_rms: f64,
+    pub after_rms: f64,
+    pub after_max: f64,
+}
+
+/// Leave-one-pose-out: for each pose, fit the model on the others (starting from `q`)
+/// and predict the left-out pose.
+pub fn leave_one_pose_out(
+    obs: &[Obs],
+    pivot: [f64; 3],
+    q: &[f64],
+    n_poses: usize,
+) -> Result<Vec<HeldOut>, SolverError> {
+    let mut out = Vec::with_capacity(n_poses);
+    for k in 0..n_poses {
+        let train: Vec<Obs> = obs.iter().filter(|o| o.pose != k).copied().collect();
+        let fit = fit_kinematics(&train, pivot, q)?;
+        let (mut sb, mut sa, mut ma, mut n) = (0.0, 0.0, 0.0f64, 0usize);
+        for o in obs.iter().filter(|o| o.pose == k) {
+            let before = (o.p - fit.model.nominal_ball(o.a, o.c)).norm();
+            let after = (o.p - fit.model.ball(o.a, o.c)).norm();
+            sb += before * before;
+            sa += after * after;
+            ma = ma.max(after);
+            n += 1;
+        }
+        let n = n.max(1) as f64;
+        out.push(HeldOut {
+            pose: k,
+            before_rms: (sb / n).sqrt(),
+            after_rms: (sa / n).sqrt(),
+            after_max: ma,
+        });
+    }
+    Ok(out)
+}

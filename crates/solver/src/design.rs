@@ -1,0 +1,442 @@
+//! The observation model of a grid-encoder session: which parameters exist, and the
+//! design row of every reading (kinematics contract, "Planar grid encoder").
+//!
+//! A sample of a run in plane (u, v) with head offset t at commanded position q gives two
+//! observations, for the in-plane directions d ∈ {u, v}:
+//!
+//! ```text
+//! du = e_u(q, t) + φ_m · v_h · 10⁻³ + o_run,u + noise
+//! dv = e_v(q, t) − φ_m · u_h · 10⁻³ + o_run,v + noise
+//! ```
+//!
+//! with e the linearised volumetric error (µm) of [`crate::kinematics::linear_error_um`]
+//! — a linear function of the error parameters (basis coefficients of the 18 functions
+//! and the three squareness constants) — φ_m the in-plane rotation of the plate mounting
+//! m (µrad; +φ turns the plate from u toward v), (u_h, v_h) the head's in-plane position
+//! q + t (mm) and o the run's two zero offsets (µm).
+//!
+//! The zero offsets are eliminated exactly by centring every column and the readings
+//! within each (run, direction) group (Frisch–Waugh–Lovell); the remaining columns are
+//! ordered [mounting rotations | error parameters | extra columns] and reduced with
+//! [`crate::lsq::QrAccumulator`]. Extra columns (the diagnosis' candidate effects) are
+//! supplied through [`ExtraColumns`].
+
+use crate::axis::{Axis, Plane, Topology};
+use crate::basis::{Basis, BasisKind};
+use crate::kinematics::{squareness_gradient, term_gradient};
+use crate::lsq::{LsSolution, QrAccumulator, Reduced};
+use crate::session::{PlaneRecord, Run, Session};
+use crate::terms::{SquarenessTerm, Term};
+
+/// One error-model parameter.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub enum Param {
+    /// Coefficient of the basis function of power `power` of `term`.
+    Coef {
+        term: Term,
+        power: usize,
+    },
+    Squareness(SquarenessTerm),
+}
+
+impl Param {
+    /// The ISO name of the term the parameter belongs to.
+    pub fn term_name(&self) -> String {
+        match self {
+            Param::Coef { term, .. } => term.name(),
+            Param::Squareness(s) => s.name().to_string(),
+        }
+    }
+}
+
+/// The error model: a basis per term over the measured travel of its axis.
+#[derive(Debug, Clone)]
+pub struct ErrorModel {
+    pub topology: Topology,
+    pub kind: BasisKind,
+    pub order: usize,
+    /// Measured travel (lo, hi) per axis, `None` for an axis that never moved.
+    pub travel: [Option<(f64, f64)>; 3],
+    /// Basis of each of the 18 terms (in [`Term::all`] order); `None` without travel.
+    pub bases: Vec<Option<Basis>>,
+    /// All error parameters, terms in [`Term::all`] order, then the squareness constants.
+    pub params: Vec<Param>,
+    /// Start index in `params` of each term's coefficients.
+    pub term_start: Vec<usize>,
+}
+
+impl ErrorModel {
+    /// The model of `order` in the `kind` basis over the given measured travels.
+    pub fn new(
+        topology: Topology,
+        kind: BasisKind,
+        order: usize,
+        travel: [Option<(f64, f64)>; 3],
+    ) -> ErrorModel {
+        let mut bases = Vec::new();
+        let mut params = Vec::new();
+        let mut term_start = Vec::new();
+        for term in Term::all() {
+            term_start.push(params.len());
+            let b = travel[term.axis.index()]
+                .map(|(lo, hi)| Basis::for_term(kind, order, term, lo, hi));
+            if let Some(b) = &b {
+                for k in 0..b.len() {
+                    params.push(Param::Coef {
+                        term,
+                        power: b.first_power() + k,
+                    });
+                }
+            }
+            bases.push(b);
+        }
+        for s in SquarenessTerm::ALL {
+            params.push(Param::Squareness(s));
+        }
+        ErrorModel {
+            topology,
+            kind,
+            order,
+            travel,
+            bases,
+            params,
+            term_start,
+        }
+    }
+
+    /// Index range in `params` of term number `i` (in [`Term::all`] order).
+    pub fn term_range(&self, i: usize) -> std::ops::Range<usize> {
+        let len = self.bases[i].map_or(0, |b| b.len());
+        self.term_start[i]..self.term_start[i] + len
+    }
+
+    /// Index in `params` of a squareness constant.
+    pub fn squareness_index(&self, s: SquarenessTerm) -> usize {
+        self.params.len() - 3 + SquarenessTerm::ALL.iter().position(|&x| x == s).unwrap()
+    }
+
+    pub fn len(&self) -> usize {
+        self.params.len()
+    }
+
+    pub fn is_empty(&self) -> bool {
+        self.params.is_empty()
+    }
+
+    /// Design row of the error parameters: the sensitivity of volumetric error
+    /// component `dir` at (q, t) to every parameter (µm per unit).
+    pub fn error_row(&self, q: [f64; 3], t: [f64; 3], dir: Axis, out: &mut [f64]) {
+        let mut vals = Vec::with_capacity(self.order + 1);
+        for (i, term) in Term::all().into_iter().enumerate() {
+            let Some(b) = &self.bases[i] else { continue };
+            let g = term_gradient(&self.topology, term.axis, term.component, q, t)[dir.index()];
+            vals.clear();
+            b.eval_into(q[term.axis.index()], &mut vals);
+            let s = self.term_start[i];
+            for (k, v) in vals.iter().enumerate() {
+                out[s + k] = g * v;
+            }
+        }
+        let sg = squareness_gradient(q);
+        let n = self.params.len();
+        for j in 0..3 {
+            out[n - 3 + j] = sg[j][dir.index()];
+        }
+    }
+
+    /// Value of term number `i` at `q` for parameter vector `x` (error block only).
+    pub fn term_value(&self, i: usize, x: &[f64], q: f64) -> f64 {
+        match &self.bases[i] {
+            None => 0.0,
+            Some(b) => {
+                let r = self.term_range(i);
+                b.eval(q).iter().zip(&x[r]).map(|(v, c)| v * c).sum()
+            }
+        }
+    }
+
+    /// Gradient of term `i`'s value at `q` with respect to the error parameters.
+    pub fn term_value_gradient(&self, i: usize, q: f64) -> Vec<f64> {
+        let mut g = vec![0.0; self.params.len()];
+        if let Some(b) = &self.bases[i] {
+            let r = self.term_range(i);
+            for (k, v) in b.eval(q).into_iter().enumerate() {
+                g[r.start + k] = v;
+            }
+        }
+        g
+    }
+}
+
+/// Measured travel of each axis: the range of commanded positions over the runs in which
+/// it moved (an axis parked during a run contributes nothing there).
+pub fn measured_travel(session: &Session) -> [Option<(f64, f64)>; 3] {
+    let mut out: [Option<(f64, f64)>; 3] = [None; 3];
+    for run in session.planes.iter().flat_map(|p| p.runs.iter()) {
+        for a in 0..3 {
+            let (lo, hi) = run
+                .pos_mm
+                .iter()
+                .fold((f64::INFINITY, f64::NEG_INFINITY), |(lo, hi), q| {
+                    (lo.min(q[a]), hi.max(q[a]))
+                });
+            if hi - lo > MOVING_MM {
+                out[a] = Some(match out[a] {
+                    None => (lo, hi),
+                    Some((l, h)) => (l.min(lo), h.max(hi)),
+                });
+            }
+        }
+    }
+    out
+}
+
+/// An axis whose commanded position spans less than this in a run is parked there.
+pub const MOVING_MM: f64 = 1e-3;
+
+/// Everything known about one observation row (for extra columns and residual analysis).
+#[derive(Debug, Clone, Copy)]
+pub struct RowMeta<'a> {
+    pub plane: usize,
+    pub run: usize,
+    pub sample: usize,
+    /// 0 for u, 1 for v.
+    pub comp: usize,
+    /// The machine direction of this reading.
+    pub dir: Axis,
+    pub t_s: f64,
+    pub q: [f64; 3],
+    pub head_offset: [f64; 3],
+    pub record: &'a PlaneRecord,
+    pub run_data: &'a Run,
+}
+
+/// Additional model columns (candidate effects of the diagnosis).
+pub trait ExtraColumns {
+    fn count(&self) -> usize;
+    /// Writes the `count()` column values of the row.
+    fn fill(&self, row: &RowMeta, out: &mut [f64]);
+}
+
+/// Column layout of a session's problem.
+#[derive(Debug, Clone)]
+pub struct Layout {
+    /// Mounting names, in order of first appearance.
+    pub mountings: Vec<String>,
+    /// Mounting index of each plane record.
+    pub plane_mounting: Vec<usize>,
+    pub n_err: usize,
+    pub n_extra: usize,
+}
+
+impl Layout {
+    pub fn new(session: &Session, n_err: usize, n_extra: usize) -> Layout {
+        let mut mountings: Vec<String> = Vec::new();
+        let mut plane_mounting = Vec::new();
+        for p in &session.planes {
+            let i = match mountings.iter().position(|m| *m == p.mounting) {
+                Some(i) => i,
+                None => {
+                    mountings.push(p.mounting.clone());
+                    mountings.len() - 1
+                }
+            };
+            plane_mounting.push(i);
+        }
+        Layout {
+            mountings,
+            plane_mounting,
+            n_err,
+            n_extra,
+        }
+    }
+    pub fn n_rot(&self) -> usize {
+        self.mountings.len()
+    }
+    pub fn err_range(&self) -> std::ops::Range<usize> {
+        self.n_rot()..self.n_rot() + self.n_err
+    }
+    pub fn extra_range(&self) -> std::ops::Range<usize> {
+        self.n_rot() + self.n_err..self.total()
+    }
+    pub fn total(&self) -> usize {
+        self.n_rot() + self.n_err + self.n_extra
+    }
+}
+
+/// Fills the full design row (rotation | error | extra) of one observation; returns the
+/// reading.
+fn full_row(
+    model: &ErrorModel,
+    layout: &Layout,
+    extra: Option<&dyn ExtraColumns>,
+    meta: &RowMeta,
+    out: &mut [f64],
+) -> f64 {
+    out.iter_mut().for_each(|v| *v = 0.0);
+    let (u_ax, v_ax) = meta.record.plane.axes();
+    let t = meta.head_offset;
+    let hu = meta.q[u_ax.index()] + t[u_ax.index()];
+    let hv = meta.q[v_ax.index()] + t[v_ax.index()];
+    let m = layout.plane_mounting[meta.plane];
+    out[m] = if meta.comp == 0 {
+        hv * 1e-3
+    } else {
+        -hu * 1e-3
+    };
+    model.error_row(meta.q, t, meta.dir, &mut out[layout.err_range()]);
+    if let Some(x) = extra {
+        x.fill(meta, &mut out[layout.extra_range()]);
+    }
+    let run = meta.run_data;
+    if meta.comp == 0 {
+        run.du_um[meta.sample]
+    } else {
+        run.dv_um[meta.sample]
+    }
+}
+
+/// Visits every observation of one run, in order (sample, then u before v).
+pub fn for_each_row<'a>(
+    session: &'a Session,
+    plane: usize,
+    run: usize,
+    mut f: impl FnMut(RowMeta<'a>),
+) {
+    let record = &session.planes[plane];
+    let run_data = &record.runs[run];
+    let (u_ax, v_ax) = record.plane.axes();
+    for sample in 0..run_data.len() {
+        for (comp, dir) in [(0, u_ax), (1, v_ax)] {
+            f(RowMeta {
+                plane,
+                run,
+                sample,
+                comp,
+                dir,
+                t_s: run_data.t_s[sample],
+                q: run_data.pos_mm[sample],
+                head_offset: record.head_offset_mm,
+                record,
+                run_data,
+            });
+        }
+    }
+}
+
+/// A fitted session model.
+#[derive(Debug, Clone)]
+pub struct Fit {
+    pub layout: Layout,
+    pub reduced: Reduced,
+    pub solution: LsSolution,
+    /// Number of (run, direction) groups centred out (two zero offsets per run).
+    pub offsets_eliminated: usize,
+}
+
+impl Fit {
+    /// Error-parameter block of the solution.
+    pub fn error_params(&self) -> &[f64] {
+        &self.solution.x[self.layout.err_range()]
+    }
+}
+
+/// Fits the session model to the runs for which `include(plane, run)` is true.
+pub fn fit(
+    session: &Session,
+    model: &ErrorModel,
+    include: &dyn Fn(usize, usize) -> bool,
+    extra: Option<&dyn ExtraColumns>,
+) -> Fit {
+    let layout = Layout::new(session, model.len(), extra.map_or(0, |e| e.count()));
+    let k = layout.total();
+    let mut acc = QrAccumulator::new(k);
+    let mut row = vec![0.0; k];
+    let mut groups = 0;
+    for (p, rec) in session.planes.iter().enumerate() {
+        for r in 0..rec.runs.len() {
+            if !include(p, r) || rec.runs[r].is_empty() {
+                continue;
+            }
+            // Pass 1: means of every column and of the readings, per direction.
+            let mut sums = [vec![0.0; k + 1], vec![0.0; k + 1]];
+            let mut counts = [0usize; 2];
+            for_each_row(session, p, r, |m| {
+                let b = full_row(model, &layout, extra, &m, &mut row);
+                let s = &mut sums[m.comp];
+                for j in 0..k {
+                    s[j] += row[j];
+                }
+                s[k] += b;
+                counts[m.comp] += 1;
+            });
+            for c in 0..2 {
+                let n = counts[c].max(1) as f64;
+                sums[c].iter_mut().for_each(|v| *v /= n);
+            }
+            groups += 2;
+            // Pass 2: centred rows into the reduction.
+            for_each_row(session, p, r, |m| {
+                let b = full_row(model, &layout, extra, &m, &mut row);
+                let mean = &sums[m.comp];
+                for j in 0..k {
+                    row[j] -= mean[j];
+                }
+                acc.push(&row, b - mean[k]);
+            });
+        }
+    }
+    let reduced = acc.finish();
+    let solution = crate::lsq::solve(&reduced, groups);
+    Fit {
+        layout,
+        reduced,
+        solution,
+        offsets_eliminated: groups,
+    }
+}
+
+/// Residuals (reading − model) of every run, with each run's zero offsets taken as the
+/// mean of its own residuals (so runs left out of the fit are judged fairly: their
+/// offsets are nuisance, not prediction). Indexed [plane][run][sample] = (ru, rv), µm.
+pub fn residuals(
+    session: &Session,
+    model: &ErrorModel,
+    fit: &Fit,
+    extra: Option<&dyn ExtraColumns>,
+) -> Vec<Vec<Vec<[f64; 2]>>> {
+    let layout = &fit.layout;
+    let x = &fit.solution.x;
+    let mut row = vec![0.0; layout.total()];
+    let mut out = Vec::new();
+    for (p, rec) in session.planes.iter().enumerate() {
+        let mut runs = Vec::new();
+        for r in 0..rec.runs.len() {
+            let mut res = vec![[0.0; 2]; rec.runs[r].len()];
+            for_each_row(session, p, r, |m| {
+                let b = full_row(model, layout, extra, &m, &mut row);
+                let pred: f64 = row.iter().zip(x).map(|(a, c)| a * c).sum();
+                res[m.sample][m.comp] = b - pred;
+            });
+            for c in 0..2 {
+                let n = res.len().max(1) as f64;
+                let mean = res.iter().map(|v| v[c]).sum::<f64>() / n;
+                res.iter_mut().for_each(|v| v[c] -= mean);
+            }
+            runs.push(res);
+        }
+        out.push(runs);
+    }
+    out
+}
+
+/// Planes of a session in which `axis` is an in-plane axis.
+pub fn planes_with(axis: Axis) -> Vec<Plane> {
+    Plane::ALL
+        .into_iter()
+        .filter(|p| {
+            let (u, v) = p.axes();
+            u == axis || v == axis
+        })
+        .collect()
+}

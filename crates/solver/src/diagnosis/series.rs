@@ -1,0 +1,149 @@
+//! Diagnosis of one-dimensional recordings: positioning runs (datasets contract section 3,
+//! ISO 230-2 style) and drift logs (section 4, ISO 230-3 style).
+//!
+//! Both follow the loop of issue 6: fit the rigid model, **locate** where its residuals
+//! concentrate, **explain** them with candidate physical effects fitted jointly with the
+//! rigid model (nonlinear parameters such as a period or a time constant by a 1-D search),
+//! keep an effect only when it improves the fit on data held out of the fit (whole runs,
+//! or the late part of a log) and the information criterion, and **prove** the gain on
+//! held-out data.
+//!
+//! * [`positioning`]: smooth positioning error per axis versus backlash, reversal spikes,
+//!   cyclic error, thermal drift and a higher polynomial order.
+//! * [`drift`]: constant per channel versus first-order responses to the spindle's
+//!   running history and regressions on structure temperatures.
+//! * [`simulate`]: seedable simulators of both recordings with known effects (truth).
+//! * [`lsq`]: the small least-squares kernel (column-equilibrated SVD) they share.
+
+pub mod drift;
+pub mod lsq;
+pub mod positioning;
+pub mod simulate;
+
+pub use positioning::{Iso2302, diagnose_positioning, iso230_2};
+
+pub use drift::diagnose_drift_log;
+
+
+use serde::{Deserialize, Serialize};
+
+/// Options of the series diagnoses. [`Default`] gives the documented values.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(default)]
+pub struct SeriesOptions {
+    /// Highest polynomial order of the rigid positioning-error model (chosen by held-out
+    /// error among 1..=this). Default 3 (the project's cubic default).
+    pub max_base_order: usize,
+    /// Highest order the `model_order` candidate may raise it to. Default 9.
+    pub max_order: usize,
+    /// Most effects added per axis or channel. Default 4.
+    pub max_findings: usize,
+    /// An effect must lower BIC by at least this much (strong evidence). Default 10.
+    pub bic_threshold: f64,
+    /// ... and lower the held-out sum of squares by at least this fraction. Default 0.10.
+    pub min_heldout_gain: f64,
+    /// Held-out RMS within this multiple of the noise floor counts as explained. Default 1.5.
+    pub explained_ratio: f64,
+    /// Stop adding effects once the held-out RMS is within this multiple of the noise
+    /// floor. Default 1.1.
+    pub stop_ratio: f64,
+    /// Drift logs: fraction of the recording used to fit (the rest judges). Default 0.6.
+    pub train_fraction: f64,
+    /// Drift logs: most temperature sensors in a regression. Default 4.
+    pub max_sensors: usize,
+    /// Most points per plotted series (plots are decimated to this). Default 600.
+    pub plot_points: usize,
+}
+
+impl Default for SeriesOptions {
+    fn default() -> Self {
+        SeriesOptions {
+            max_base_order: 3,
+            max_order: 9,
+            max_findings: 4,
+            bic_threshold: 10.0,
+            min_heldout_gain: 0.10,
+            explained_ratio: 1.5,
+            stop_ratio: 1.1,
+            train_fraction: 0.6,
+            max_sensors: 4,
+            plot_points: 600,
+        }
+    }
+}
+
+/// Root mean square of a slice (0 for an empty slice).
+pub(crate) fn rms(v: &[f64]) -> f64 {
+    if v.is_empty() {
+        return 0.0;
+    }
+    (v.iter().map(|x| x * x).sum::<f64>() / v.len() as f64).sqrt()
+}
+
+/// Bayesian information criterion of a Gaussian least-squares fit:
+/// BIC = n ln(SSE/n) + k ln n (Schwarz 1978).
+pub(crate) fn bic(sse: f64, n: usize, k: usize) -> f64 {
+    let nf = n as f64;
+    nf * (sse.max(1e-300) / nf).ln() + k as f64 * nf.ln()
+}
+
+/// Golden-section minimisation of `f` on `[a, b]` (unimodal assumed), `iters` steps.
+pub(crate) fn golden_min(mut a: f64, mut b: f64, iters: usize, mut f: impl FnMut(f64) -> f64) -> (f64, f64) {
+    let g = 0.5 * (5f64.sqrt() - 1.0);
+    let mut c = b - g * (b - a);
+    let mut d = a + g * (b - a);
+    let (mut fc, mut fd) = (f(c), f(d));
+    for _ in 0..iters {
+        if fc < fd {
+            b = d;
+            d = c;
+            fd = fc;
+            c = b - g * (b - a);
+            fc = f(c);
+        } else {
+            a = c;
+            c = d;
+            fc = fd;
+            d = a + g * (b - a);
+            fd = f(d);
+        }
+    }
+    if fc < fd { (c, fc) } else { (d, fd) }
+}
+
+/// 1-D search: best point of `grid` by `f`, then golden-section refinement between its
+/// neighbours. Returns (argmin, min).
+pub(crate) fn grid_then_golden(grid: &[f64], iters: usize, mut f: impl FnMut(f64) -> f64) -> (f64, f64) {
+    let vals: Vec<f64> = grid.iter().map(|&x| f(x)).collect();
+    let (ib, &vb) = vals
+        .iter()
+        .enumerate()
+        .min_by(|a, b| a.1.total_cmp(b.1))
+        .expect("non-empty grid");
+    let lo = grid[ib.saturating_sub(1)];
+    let hi = grid[(ib + 1).min(grid.len() - 1)];
+    if iters == 0 || hi <= lo {
+        return (grid[ib], vb);
+    }
+    let (x, v) = golden_min(lo, hi, iters, &mut f);
+    if v < vb { (x, v) } else { (grid[ib], vb) }
+}
+
+/// `n` points log-spaced from `a` to `b` (both > 0).
+pub(crate) fn log_grid(a: f64, b: f64, n: usize) -> Vec<f64> {
+    let (la, lb) = (a.ln(), b.ln());
+    (0..n)
+        .map(|i| (la + (lb - la) * i as f64 / (n.max(2) - 1) as f64).exp())
+        .collect()
+}
+
+/// Indices of at most `max` points evenly spread over `0..n` (always keeps the last).
+pub(crate) fn decimate(n: usize, max: usize) -> Vec<usize> {
+    if n <= max || max < 2 {
+        return (0..n).collect();
+    }
+    let step = (n - 1) as f64 / (max - 1) as f64;
+    let mut out: Vec<usize> = (0..max).map(|i| (i as f64 * step).round() as usize).collect();
+    out.dedup();
+    out
+}

@@ -1,0 +1,203 @@
+//! Positioning-run diagnosis against truth: each simulated effect concealed with random
+//! parameters over several seeds and diagnosed with no hint, two effects at once, and
+//! clean runs.
+//!
+//! Simulation: 21 irregular targets over 500 mm, 5 bidirectional runs, reading noise
+//! σ = 0.5 µm, 20 s per reading (n = 210 readings). Tolerances follow from σ: a step or an
+//! amplitude estimated from n readings has a standard uncertainty near σ·√(2/n)·(a few
+//! for correlation with the polynomial) ≈ 0.05–0.2 µm, so absolute tolerances of 0.4 µm
+//! (≥ 2.5 σ of the worst case) or relative ones of 10–25 % for nonlinear parameters
+//! (whose uncertainty the diagnosis reports, and which the tests also check to be
+//! consistent) cannot be met by a wrong model. The held-out RMS must come within
+//! 1.5 × σ (the true noise, stricter than the estimated floor).
+
+use mtcal_solver::diagnosis::series::simulate::{PositioningEffect, PositioningSim, simulate_positioning};
+use mtcal_solver::diagnosis::series::{SeriesOptions, diagnose_positioning, iso230_2};
+use mtcal_solver::diagnosis::{DiagnosisResult, Verdict};
+use rand::rngs::StdRng;
+use rand::{Rng, SeedableRng};
+
+const NOISE: f64 = 0.5;
+
+fn run(effects: Vec<PositioningEffect>, seed: u64, with_temperature: bool) -> DiagnosisResult {
+    let cfg = PositioningSim { effects, seed, noise_um: NOISE, with_temperature, ..Default::default() };
+    diagnose_positioning(&simulate_positioning(&cfg), "sim", &SeriesOptions::default()).unwrap()
+}
+
+fn param(r: &DiagnosisResult, effect: &str, name: &str) -> f64 {
+    let f = r.findings.iter().find(|f| f.effect == effect).unwrap_or_else(|| panic!("no {effect} in {r:#?}"));
+    *f.parameters.get(name).unwrap_or_else(|| panic!("no {name} in {:?}", f.parameters))
+}
+
+/// Exactly the expected effects named (any order), verdict explained, held-out RMS
+/// within 1.5 σ.
+fn check_named(r: &DiagnosisResult, expected: &[&str]) {
+    let mut got: Vec<&str> = r.findings.iter().map(|f| f.effect.as_str()).collect();
+    got.sort_unstable();
+    let mut want = expected.to_vec();
+    want.sort_unstable();
+    assert_eq!(got, want, "{:#?}", r.findings);
+    assert_eq!(r.verdict, Verdict::Explained, "{r:#?}");
+    let last = r.findings.last().unwrap();
+    assert!(last.heldout_rms_um.after <= 1.5 * NOISE, "held-out {:?}", last.heldout_rms_um);
+    assert!(last.heldout_rms_um.after < last.heldout_rms_um.before);
+}
+
+fn close(what: &str, got: f64, want: f64, tol: f64) {
+    assert!((got - want).abs() <= tol, "{what}: got {got}, want {want} ± {tol}");
+}
+
+fn sign(rng: &mut StdRng) -> f64 {
+    if rng.random_bool(0.5) { 1.0 } else { -1.0 }
+}
+
+#[test]
+fn backlash_recovered() {
+    let mut rng = StdRng::seed_from_u64(11);
+    for seed in 0..4 {
+        let lm = sign(&mut rng) * rng.random_range(3.0..10.0);
+        let r = run(vec![PositioningEffect::Backlash { lost_motion_um: lm }], seed, false);
+        check_named(&r, &["backlash"]);
+        close("lost motion", param(&r, "backlash", "lost_motion_um"), lm, 0.4);
+        assert!(r.mismatch[0].where_.contains("approaches differ"), "{:?}", r.mismatch);
+    }
+}
+
+#[test]
+fn reversal_spike_recovered() {
+    let mut rng = StdRng::seed_from_u64(12);
+    for seed in 0..4 {
+        let (a, l) = (sign(&mut rng) * rng.random_range(4.0..10.0), rng.random_range(20.0..60.0));
+        let r = run(vec![PositioningEffect::ReversalSpike { amplitude_um: a, decay_mm: l }], seed, false);
+        check_named(&r, &["reversal_spike"]);
+        close("spike amplitude", param(&r, "reversal_spike", "amplitude_um"), a, 0.15 * a.abs());
+        close("decay length", param(&r, "reversal_spike", "decay_length_mm"), l, 0.25 * l);
+    }
+}
+
+#[test]
+fn cyclic_error_recovered() {
+    let mut rng = StdRng::seed_from_u64(13);
+    for seed in 0..4 {
+        let (a, p, ph) = (rng.random_range(2.0..5.0), rng.random_range(60.0..150.0), rng.random_range(-3.0..3.0));
+        let r = run(vec![PositioningEffect::Cyclic { amplitude_um: a, period_mm: p, phase_rad: ph }], seed, false);
+        check_named(&r, &["cyclic"]);
+        close("cyclic amplitude", param(&r, "cyclic", "amplitude_um"), a, 0.1 * a);
+        close("period", param(&r, "cyclic", "period_mm"), p, 0.02 * p);
+        let std_p = param(&r, "cyclic", "std_period_mm");
+        assert!((param(&r, "cyclic", "period_mm") - p).abs() <= 5.0 * std_p, "period outside 5 reported std");
+    }
+}
+
+#[test]
+fn thermal_drift_recovered_from_time() {
+    let mut rng = StdRng::seed_from_u64(14);
+    let duration = 5.0 * 42.0 * 20.0;
+    for seed in 0..4 {
+        let (o, s, tau) = (rng.random_range(5.0..15.0), rng.random_range(10.0..30.0), rng.random_range(0.3..1.0) * duration);
+        let e = PositioningEffect::Thermal { offset_um: o, scale_um_per_m: s, tau_s: tau, delta_t_k: 2.0 };
+        let r = run(vec![e], seed, false);
+        check_named(&r, &["thermal_drift"]);
+        close("offset growth", param(&r, "thermal_drift", "offset_growth_um"), o, 0.2 * o);
+        close("scale growth", param(&r, "thermal_drift", "scale_growth_um_per_m"), s, 0.2 * s);
+        close("time constant", param(&r, "thermal_drift", "tau_s"), tau, 0.25 * tau);
+        assert!(r.mismatch[0].where_.contains("passes offset"), "{:?}", r.mismatch);
+    }
+}
+
+#[test]
+fn thermal_drift_recovered_from_temperature() {
+    let mut rng = StdRng::seed_from_u64(15);
+    for seed in 0..3 {
+        let (o, s, dt) = (rng.random_range(5.0..15.0), rng.random_range(10.0..30.0), rng.random_range(1.0..3.0));
+        let e = PositioningEffect::Thermal { offset_um: o, scale_um_per_m: s, tau_s: 2000.0, delta_t_k: dt };
+        let r = run(vec![e], seed, true);
+        check_named(&r, &["thermal_drift"]);
+        close("offset per K", param(&r, "thermal_drift", "offset_um_per_k"), o / dt, 0.15 * o / dt);
+        close("scale per K", param(&r, "thermal_drift", "scale_um_per_m_per_k"), s / dt, 0.25 * s / dt);
+    }
+}
+
+#[test]
+fn waviness_needs_higher_order() {
+    let mut rng = StdRng::seed_from_u64(16);
+    for seed in 0..4 {
+        let a = rng.random_range(3.0..6.0);
+        let r = run(vec![PositioningEffect::Waviness { amplitude_um: a }], seed, false);
+        check_named(&r, &["model_order"]);
+        let order = param(&r, "model_order", "order");
+        assert!((6.0..=9.0).contains(&order), "order {order}: P5 + P6 needs at least 6");
+    }
+}
+
+#[test]
+fn two_effects_separated() {
+    let mut rng = StdRng::seed_from_u64(17);
+    for seed in 0..3 {
+        let lm = sign(&mut rng) * rng.random_range(3.0..8.0);
+        let (a, p) = (rng.random_range(2.0..4.0), rng.random_range(70.0..140.0));
+        let r = run(
+            vec![
+                PositioningEffect::Backlash { lost_motion_um: lm },
+                PositioningEffect::Cyclic { amplitude_um: a, period_mm: p, phase_rad: 1.0 },
+            ],
+            100 + seed,
+            false,
+        );
+        check_named(&r, &["backlash", "cyclic"]);
+        close("lost motion", param(&r, "backlash", "lost_motion_um"), lm, 0.4);
+        close("period", param(&r, "cyclic", "period_mm"), p, 0.02 * p);
+    }
+    let mut rng = StdRng::seed_from_u64(18);
+    for seed in 0..2 {
+        let (a, l) = (rng.random_range(5.0..10.0), rng.random_range(25.0..50.0));
+        let o = rng.random_range(6.0..12.0);
+        let r = run(
+            vec![
+                PositioningEffect::ReversalSpike { amplitude_um: a, decay_mm: l },
+                PositioningEffect::Thermal { offset_um: o, scale_um_per_m: 15.0, tau_s: 2500.0, delta_t_k: 2.0 },
+            ],
+            200 + seed,
+            false,
+        );
+        check_named(&r, &["reversal_spike", "thermal_drift"]);
+        close("spike amplitude", param(&r, "reversal_spike", "amplitude_um"), a, 0.15 * a);
+        close("offset growth", param(&r, "thermal_drift", "offset_growth_um"), o, 0.2 * o);
+    }
+}
+
+#[test]
+fn clean_runs_are_consistent() {
+    let mut consistent = 0;
+    for seed in 0..40 {
+        let r = run(vec![], 1000 + seed, false);
+        if r.verdict == Verdict::Consistent && r.findings.is_empty() {
+            consistent += 1;
+        }
+        // The model-independent noise floor matches the simulated noise.
+        close("noise floor", r.baseline.noise_estimate_um, NOISE, 0.15);
+    }
+    assert!(consistent >= 38, "{consistent} of 40 clean simulations consistent");
+}
+
+#[test]
+fn iso230_2_figures_match_definitions() {
+    // Pure backlash: B equals the lost motion (± noise of two means of 5 readings:
+    // σ·√(2/5) ≈ 0.32 µm, max over 21 targets ⇒ up to ~1 µm).
+    let cfg = PositioningSim {
+        effects: vec![PositioningEffect::Backlash { lost_motion_um: 8.0 }],
+        smooth_um: 0.0,
+        ..Default::default()
+    };
+    let f = &iso230_2(&simulate_positioning(&cfg))[0];
+    assert!((8.0..9.2).contains(&f.reversal_b_um), "{f:?}");
+    // E spans both direction means: ≈ B with no smooth error.
+    assert!((f.systematic_e_um - f.reversal_b_um).abs() < 1.0, "{f:?}");
+    assert!(f.accuracy_a_um > f.systematic_e_um && f.repeatability_r_um > f.reversal_b_um);
+}
+
+#[test]
+fn rejects_a_single_run() {
+    let cfg = PositioningSim { n_runs: 1, ..Default::default() };
+    assert!(diagnose_positioning(&simulate_positioning(&cfg), "sim", &SeriesOptions::default()).is_err());
+}
