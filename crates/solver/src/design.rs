@@ -59,10 +59,13 @@ pub struct ErrorModel {
     pub travel: [Option<(f64, f64)>; 3],
     /// Basis of each of the 18 terms (in [`Term::all`] order); `None` without travel.
     pub bases: Vec<Option<Basis>>,
-    /// All error parameters, terms in [`Term::all`] order, then the squareness constants.
+    /// All error parameters, terms in [`Term::all`] order, then the squareness constants
+    /// (when [`ErrorModel::squareness`]).
     pub params: Vec<Param>,
     /// Start index in `params` of each term's coefficients.
     pub term_start: Vec<usize>,
+    /// Whether the three squareness constants are parameters (the last three).
+    pub squareness: bool,
 }
 
 impl ErrorModel {
@@ -101,7 +104,39 @@ impl ErrorModel {
             bases,
             params,
             term_start,
+            squareness: true,
         }
+    }
+
+    /// The same model restricted to the terms for which `keep` is true, with or without
+    /// the squareness constants (a term left out has no basis and no parameters: its
+    /// effect is not modelled). Used by the stepwise method's two sub-problems.
+    pub fn restricted(&self, keep: impl Fn(Term) -> bool, squareness: bool) -> ErrorModel {
+        let mut out = ErrorModel::new(self.topology.clone(), self.kind, self.order, self.travel);
+        for (i, term) in Term::all().into_iter().enumerate() {
+            if !keep(term) {
+                out.bases[i] = None;
+            }
+        }
+        out.params.clear();
+        out.term_start.clear();
+        for (i, b) in out.bases.iter().enumerate() {
+            out.term_start.push(out.params.len());
+            if let Some(b) = b {
+                for k in 0..b.len() {
+                    out.params.push(Param::Coef {
+                        term: Term::all()[i],
+                        power: b.first_power() + k,
+                    });
+                }
+            }
+        }
+        if squareness {
+            out.params
+                .extend(SquarenessTerm::ALL.map(Param::Squareness));
+        }
+        out.squareness = squareness;
+        out
     }
 
     /// Index range in `params` of term number `i` (in [`Term::all`] order).
@@ -110,8 +145,9 @@ impl ErrorModel {
         self.term_start[i]..self.term_start[i] + len
     }
 
-    /// Index in `params` of a squareness constant.
+    /// Index in `params` of a squareness constant (the model must have them).
     pub fn squareness_index(&self, s: SquarenessTerm) -> usize {
+        debug_assert!(self.squareness);
         self.params.len() - 3 + SquarenessTerm::ALL.iter().position(|&x| x == s).unwrap()
     }
 
@@ -136,6 +172,9 @@ impl ErrorModel {
             for (k, v) in vals.iter().enumerate() {
                 out[s + k] = g * v;
             }
+        }
+        if !self.squareness {
+            return;
         }
         let sg = squareness_gradient(q);
         let n = self.params.len();
