@@ -6,7 +6,7 @@ use super::BadInput;
 use anyhow::Context;
 use mtcal_formats::{DatasetKind, Limits};
 use mtcal_solver::diagnosis::series::{self, SeriesOptions};
-use mtcal_solver::diagnosis::{DiagnosisResult, Verdict};
+use mtcal_solver::diagnosis::{DiagnoseOptions, DiagnosisResult, Verdict};
 use std::io::Write as _;
 use std::path::PathBuf;
 use std::process::ExitCode;
@@ -21,7 +21,7 @@ pub struct Args {
     /// Write every plot as `<id>.svg` into this directory.
     #[arg(long, value_name = "DIR")]
     pub plots: Option<PathBuf>,
-    /// Machine id written into the result (default: the file or folder name).
+    /// Machine id written into the result (default: the session's, else the file name).
     #[arg(long)]
     pub machine_id: Option<String>,
 }
@@ -64,11 +64,14 @@ pub fn run(args: Args) -> anyhow::Result<ExitCode> {
                 .map_err(|e| BadInput(format!("{}: {e}", path.display())))?
         }
         DatasetKind::Session => {
-            anyhow::bail!(
-                "{}: diagnosis of grid-encoder sessions is not available in this build yet \
-                 (positioning runs and drift logs are)",
-                path.display()
-            )
+            let session = mtcal_formats::read_session_dir(path, &limits)?;
+            let mut r =
+                mtcal_solver::diagnosis::diagnose_session(&session, &DiagnoseOptions::default())
+                    .map_err(|e| BadInput(format!("{}: {e}", path.display())))?;
+            if let Some(id) = &args.machine_id {
+                r.machine_id = id.clone();
+            }
+            r
         }
         other => {
             return Err(BadInput(format!(
