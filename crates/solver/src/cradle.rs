@@ -160,7 +160,10 @@ pub struct KinematicReport {
     pub compliant: Option<KinematicSummary>,
     pub ball: BallReport,
     pub compliance: Option<ComplianceReport>,
-    /// The model itself (for compensation).
+    /// The model itself (for compensation). Its `location.ea0a_urad` holds the sum
+    /// EA0A + EA0C, and `ea0c_urad`, `ec0c_urad` are 0 by convention (not observable; EC0C
+    /// is carried by the ball azimuth); in an unregistered frame the model is expressed
+    /// in the data frame (see `registered_frame`).
     pub model: CradleModel,
 }
 
