@@ -83,6 +83,10 @@ pub struct SensitivityRequest {
     /// squareness replace the description's magnitudes of the same names).
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub identification: Option<Box<IdentificationResult>>,
+    /// Evaluate the Jacobian at the machine's own error state (the given values and
+    /// functions, e.g. an identification; tolerances count as 0) instead of at zero error.
+    #[serde(default)]
+    pub at_error_state: bool,
     /// Run the global analysis with these options.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub global: Option<GlobalOptions>,
@@ -100,6 +104,7 @@ impl SensitivityRequest {
             share: default_share(),
             weighting: Weighting::default(),
             identification: None,
+            at_error_state: false,
             global: None,
         }
     }
@@ -157,6 +162,13 @@ pub struct SensitivityResult {
     pub share: f64,
     /// Rankings of `Ex`, `Ey`, `Ez` and `E` (the volumetric error, column norms).
     pub components: BTreeMap<String, ComponentRanking>,
+    /// Whether the Jacobian was taken at zero error (`false`) or at the error state.
+    pub at_error_state: bool,
+    /// The volumetric error of the given values/functions (tolerances as 0) over the
+    /// poses, by the exact chain: `Ex`, `Ey`, `Ez`, `E` (|E|); absent when every error is
+    /// a tolerance.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub volumetric_error_um: Option<BTreeMap<String, local::ErrorSummary>>,
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub global: Option<GlobalResult>,
     /// Sentences stating how the numbers were obtained.
@@ -206,7 +218,8 @@ pub fn analyse(req: &SensitivityRequest) -> Result<SensitivityResult, SolverErro
         )));
     }
     let mags = Magnitudes::new(&chain, &desc, req.identification.as_deref());
-    let stats = local::local_stats(&chain, &mags, &poses);
+    let stats = local::local_stats(&chain, &mags, &poses, req.at_error_state);
+    let volumetric_error_um = local::volumetric_error(&chain, &mags, &poses);
     let components = local::COMPONENTS
         .iter()
         .enumerate()
@@ -230,9 +243,15 @@ pub fn analyse(req: &SensitivityRequest) -> Result<SensitivityResult, SolverErro
         None => None,
     };
     let mut notes = vec![
-        "sensitivities are the analytic Jacobian of the exact HTM chain at zero error; \
-         paper scale: mm/mm for translational errors, mm/rad (the Abbe arm) for angular ones"
-            .to_string(),
+        format!(
+            "sensitivities are the analytic Jacobian of the exact HTM chain at {}; paper \
+             scale: mm/mm for translational errors, mm/rad (the Abbe arm) for angular ones",
+            if req.at_error_state {
+                "the machine's error state (given values and functions; tolerances as 0)"
+            } else {
+                "zero error"
+            }
+        ),
         "sensitivity of E is the length of the Jacobian column, ||dE/dg||".to_string(),
         format!(
             "normalised coefficients from the {} sensitivities' means over the poses",
@@ -297,6 +316,8 @@ pub fn analyse(req: &SensitivityRequest) -> Result<SensitivityResult, SolverErro
         weighting: req.weighting,
         share: req.share,
         components,
+        at_error_state: req.at_error_state,
+        volumetric_error_um,
         global,
         notes,
     })
