@@ -232,12 +232,20 @@ pub fn analyse(req: &SensitivityRequest) -> Result<SensitivityResult, SolverErro
         .collect();
     let global = match &req.global {
         Some(opts) => {
-            if opts.samples > 1_000_000 || opts.max_poses == 0 {
+            if opts.samples > 1_000_000 || opts.max_poses == 0 || opts.max_poses > 100_000 {
                 return Err(SolverError::Limit(
-                    "global analysis: samples <= 1000000 and max_poses >= 1".into(),
+                    "global analysis: samples <= 1000000 and 1 <= max_poses <= 100000".into(),
                 ));
             }
             let sub = poses.subsample(opts.max_poses);
+            // Work ~ samples × poses × errors; 5e8 is a few seconds on one core.
+            let work = opts.samples as f64 * sub.len() as f64 * chain.params().len() as f64;
+            if work > 5e8 {
+                return Err(SolverError::Limit(format!(
+                    "global analysis: samples × poses × errors = {work:.1e} > 5e8; lower \
+                     samples or max_poses"
+                )));
+            }
             Some(global::sobol(&chain, &mags, &sub, opts)?)
         }
         None => None,
