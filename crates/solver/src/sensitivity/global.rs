@@ -124,7 +124,7 @@ pub fn sobol(
 ) -> Result<GlobalResult, SolverError> {
     let k = chain.params().len();
     let n = opts.samples;
-    if n < 16 || n > 10_000_000 {
+    if !(16..=10_000_000).contains(&n) {
         return Err(SolverError::InvalidInput(
             "global analysis needs 16 to 10^7 samples".into(),
         ));
