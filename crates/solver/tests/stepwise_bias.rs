@@ -107,7 +107,8 @@ fn assert_unbiased(r: &IdentificationResult, truth: &Truth, name: &str) {
 /// Seed plan (t = (0, 0, −100)): stepwise EXZ and EYZ carry the bias ε × 100 mm
 /// (−0.1 and +0.1 µm/µrad: ±1.33 µm at the travel ends after the least-squares line)
 /// where predicted; EZZ and the other translational terms are unbiased (t_x = t_y = 0);
-/// step 2 reports EBZ ≈ 0 although it is 20 µrad at the ends (step 1 absorbed it all).
+/// step 2 reports EBZ ≈ 0 although it is 20 µrad at the ends (step 1 absorbed it all);
+/// the residual stays at the noise level, so nothing in the fit reveals the bias.
 /// The joint method on the same session gives no number for EXZ, EYZ, EAZ, EBZ (they
 /// are confounded through the one arm) instead of a biased one.
 #[test]
@@ -122,6 +123,15 @@ fn seed_plan_straightness_absorbs_epsilon_times_arm() {
     eprintln!("seed plan: stepwise bias EXZ {bx:.3} µm, EYZ {by:.3} µm");
     // The bias is there, far above the tolerance: (2/3)·0.1·20 µm = 1.33 µm at the ends.
     assert!(bx > 1.2 && by > 1.2, "{bx} {by}");
+    // And nothing in the fit shows it: with one arm the absorbed product is just another
+    // straightness, so the residual stays at the noise level and no misfit is reported.
+    assert!((r.fit.residual_rms_um - 0.15).abs() < 0.03);
+    assert_eq!(
+        r.observability.advice.len(),
+        1,
+        "{:?}",
+        r.observability.advice
+    );
     for name in ["EXX", "EYX", "EZX", "EXY", "EYY", "EZY", "EZZ"] {
         assert_unbiased(&r, &truth, name);
     }
@@ -186,6 +196,15 @@ fn full_plan_stepwise_biased_joint_not() {
         eprintln!("full plan: stepwise {name}(+50) = {end:.2} ± {std:.2} µrad (truth 20)");
         assert!(20.0 - end > 5.0f64.max(5.0 * std), "{name}: {end} ± {std}");
     }
+    // On this plan the lines at different arms disagree: the step-1 misfit is reported.
+    assert!(
+        r.observability
+            .advice
+            .iter()
+            .any(|a| a.starts_with("stepwise step 1: residual rms")),
+        "{:?}",
+        r.observability.advice
+    );
     let j = run(&session, Method::Joint);
     for name in ["EXZ", "EYZ", "EZZ", "EAZ", "EBZ", "EXX", "EYY"] {
         assert_unbiased(&j, &truth, name);

@@ -61,6 +61,13 @@ fn seed_plan_without_angular_errors_is_recovered() {
         assert!(r.reporting.iter().any(|s| s.starts_with("stepwise step 2")
             && s.contains("6 runs): rank 20 of 27 parameters")
             && s.ends_with("not determined: EAX, ECX, EAY, EBY, ECY, EAZ, ECZ")));
+        // The model fits: no misfit advice, only the pointer to the joint method.
+        assert_eq!(
+            r.observability.advice.len(),
+            1,
+            "{:?}",
+            r.observability.advice
+        );
         let (ratio, at) = worst_ratio(&r, &truth);
         eprintln!("seed {seed}: worst {ratio:.2} at {at}");
         assert!(ratio <= 1.0, "seed {seed}: worst {ratio:.2} at {at}");
