@@ -154,3 +154,29 @@ fn stepwise_without_lines_is_a_clear_error() {
         "{e}"
     );
 }
+
+/// Without circle runs step 2 has no data: the angular terms are reported as not
+/// identifiable (no numbers), the translational ones as usual.
+#[test]
+fn stepwise_without_circles_reports_no_angles() {
+    let (mut session, truth) = machine(Plan::Seed, 6);
+    for p in &mut session.planes {
+        let plane = p.plane;
+        p.runs
+            .retain(|r| !matches!(r.test_kind(plane), TestKind::CircleCw | TestKind::CircleCcw));
+    }
+    let r = run(&session, Method::Stepwise);
+    for (name, t) in &r.terms {
+        let angular = Term::parse(name).unwrap().is_angular();
+        assert_eq!(t.identifiable, !angular, "{name}");
+        assert_eq!(t.values.is_empty(), angular, "{name}");
+    }
+    assert_eq!(r.observability.rank, 24);
+    assert!(
+        r.reporting
+            .iter()
+            .any(|s| s.contains("0 runs): rank 0 of 27 parameters"))
+    );
+    let (ratio, at) = worst_ratio(&r, &truth);
+    assert!(ratio <= 1.0, "worst {ratio:.2} at {at}");
+}
