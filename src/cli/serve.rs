@@ -1,9 +1,82 @@
-//! `mtcal serve`.
+//! `mtcal serve`: the HTTP API and its worker in one process.
 
+use anyhow::Context;
+use mtcal_server::{ServeConfig, UploadLimits, WorkerConfig};
+use mtcal_store::QueueConfig;
+use std::io::Write;
+use std::net::SocketAddr;
 use std::process::ExitCode;
 
-pub type Args = super::Pending;
+#[derive(clap::Args)]
+pub struct Args {
+    /// Database: a SQLite file path or `sqlite://PATH` (created if missing).
+    #[arg(long, default_value = "mtcal.sqlite")]
+    pub db: String,
+    /// Address to listen on (port 0 picks a free port; the address is printed).
+    #[arg(long, default_value = "127.0.0.1:8080")]
+    pub listen: SocketAddr,
+    /// Jobs run at the same time.
+    #[arg(long, default_value_t = 2)]
+    pub concurrency: usize,
+    /// Lease of a running job, ms (a job whose worker died runs again after it).
+    #[arg(long, default_value_t = 30_000)]
+    pub lease_ms: i64,
+    /// Attempts per job (transient failures retry with exponential backoff).
+    #[arg(long, default_value_t = 3)]
+    pub max_attempts: i64,
+    /// Largest upload, bytes (default 256 MiB).
+    #[arg(long, default_value_t = 256 << 20)]
+    pub max_upload_bytes: usize,
+    /// Serve the API only; run no worker.
+    #[arg(long)]
+    pub no_worker: bool,
+    /// Testing aid: pause each job this long before solving.
+    #[arg(long, default_value_t = 0, hide = true)]
+    pub pause_before_solve_ms: u64,
+}
 
-pub fn run(_args: Args) -> anyhow::Result<ExitCode> {
-    super::pending("serve")
+impl Args {
+    pub fn config(&self) -> ServeConfig {
+        ServeConfig {
+            db_url: self.db.clone(),
+            listen: self.listen,
+            run_worker: !self.no_worker,
+            worker: WorkerConfig {
+                queue: QueueConfig {
+                    concurrency: self.concurrency.max(1),
+                    lease_ms: self.lease_ms.max(100),
+                    max_attempts: self.max_attempts.max(1),
+                    ..QueueConfig::default()
+                },
+                limits: UploadLimits {
+                    max_bytes: self.max_upload_bytes,
+                    ..UploadLimits::default()
+                },
+                pause_before_solve_ms: self.pause_before_solve_ms,
+                ..WorkerConfig::default()
+            },
+        }
+    }
+}
+
+/// Logging to stderr, `RUST_LOG` to tune (default: info for mtcal crates).
+pub fn init_logging() {
+    let filter = tracing_subscriber::EnvFilter::try_from_default_env()
+        .unwrap_or_else(|_| "warn,mtcal_server=info,mtcal_store=info".into());
+    let _ = tracing_subscriber::fmt()
+        .with_env_filter(filter)
+        .with_writer(std::io::stderr)
+        .try_init();
+}
+
+pub fn run(args: Args) -> anyhow::Result<ExitCode> {
+    init_logging();
+    let cfg = args.config();
+    let rt = tokio::runtime::Runtime::new()?;
+    rt.block_on(mtcal_server::serve(cfg, |addr| {
+        println!("mtcal: listening on http://{addr} (docs: http://{addr}/docs)");
+        let _ = std::io::stdout().flush();
+    }))
+    .with_context(|| format!("serving {}", args.db))?;
+    Ok(ExitCode::SUCCESS)
 }

@@ -3,7 +3,7 @@
 //!
 //! The bytes are kept exactly as uploaded (gzip included); parsing works on the
 //! decompressed text. Session parsing is the strict reader of `mtcal-formats`
-//! ([`read_session`]).
+//! ([`read_session`]); the sums of stored and of decompressed sizes are both limited.
 
 use crate::error::ApiError;
 use flate2::read::GzDecoder;
@@ -109,45 +109,57 @@ pub fn untar(bytes: &[u8], limits: UploadLimits) -> Result<Vec<(String, Vec<u8>)
     Ok(out)
 }
 
-/// Checks a session upload and parses it: file names unique, `session.json` present,
-/// every plane file present and valid, nothing extra. Returns the session.
-pub fn read_session(
-    files: &[(String, Vec<u8>)],
-    limits: UploadLimits,
-) -> Result<Session, ApiError> {
-    let mut texts: BTreeMap<String, Vec<u8>> = BTreeMap::new();
-    let mut total = 0usize;
+/// Checks a session upload and parses it with the strict reader of `mtcal-formats`
+/// (`read_session_files`): file names unique, `session.json` present, every plane file
+/// present and valid, nothing extra. A file uploaded as `NAME.gz` serves a plane that
+/// session.json lists as `NAME` (as in a session folder). Returns the session.
+pub fn read_session(files: &[(String, Vec<u8>)], limits: UploadLimits) -> Result<Session, ApiError> {
+    let mut session_json: Option<&[u8]> = None;
     for (name, bytes) in files {
         check_file_name(name)?;
-        let plain = if is_gzip(bytes) {
-            gunzip(name, bytes, limits.max_bytes)?
-        } else {
-            bytes.clone()
-        };
-        total += plain.len();
-        if total > limits.max_bytes {
-            return Err(ApiError::PayloadTooLarge(format!(
-                "upload decompresses to more than {} bytes",
-                limits.max_bytes
-            )));
-        }
-        // A gzip file is referred to by its name without `.gz`.
-        let key = name.strip_suffix(".gz").unwrap_or(name).to_string();
-        if texts.insert(key.clone(), plain).is_some() {
-            return Err(ApiError::InvalidDataset(format!("file {key} given twice")));
+        if name == "session.json" || name == "session.json.gz" {
+            if session_json.replace(bytes).is_some() {
+                return Err(ApiError::InvalidDataset("session.json: given twice".into()));
+            }
         }
     }
-    let session_json = texts
-        .remove("session.json")
+    let session_json = session_json
         .ok_or_else(|| ApiError::InvalidDataset("session.json: missing from the upload".into()))?;
-    let session = crate::session_reader::parse(&session_json, &texts, limits.max_samples_per_file)
-        .map_err(|e| ApiError::InvalidDataset(e.to_string()))?;
-    for name in texts.keys() {
-        if !session.planes.iter().any(|p| &p.file == name) {
-            return Err(ApiError::InvalidDataset(format!(
-                "{name}: not listed in session.json `planes`"
-            )));
+    // Names session.json lists (read leniently here; the strict reader checks it below).
+    let listed: Vec<String> = {
+        let plain = if is_gzip(session_json) {
+            gunzip("session.json", session_json, limits.max_bytes)?
+        } else {
+            session_json.to_vec()
+        };
+        serde_json::from_slice::<serde_json::Value>(&plain)
+            .ok()
+            .and_then(|v| {
+                v["planes"].as_array().map(|ps| {
+                    ps.iter()
+                        .filter_map(|p| p["file"].as_str().map(String::from))
+                        .collect()
+                })
+            })
+            .unwrap_or_default()
+    };
+    let mut planes: BTreeMap<String, Vec<u8>> = BTreeMap::new();
+    for (name, bytes) in files {
+        if name.starts_with("session.json") {
+            continue;
+        }
+        let key = match name.strip_suffix(".gz") {
+            Some(stem) if !listed.contains(name) && listed.iter().any(|l| l == stem) => stem,
+            _ => name.as_str(),
+        };
+        if planes.insert(key.to_string(), bytes.clone()).is_some() {
+            return Err(ApiError::InvalidDataset(format!("{key}: given twice")));
         }
     }
-    Ok(session)
+    let fl = mtcal_formats::Limits {
+        max_bytes: limits.max_bytes,
+        max_samples_per_file: limits.max_samples_per_file,
+    };
+    mtcal_formats::read_session_files(session_json, &planes, &fl)
+        .map_err(|e| ApiError::InvalidDataset(e.to_string()))
 }

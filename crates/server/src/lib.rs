@@ -13,7 +13,6 @@ pub mod auth;
 pub mod error;
 pub mod ingest;
 pub mod jobs;
-mod session_reader;
 pub mod trends;
 pub mod worker;
 

@@ -164,3 +164,17 @@ fn flat_log_is_consistent() {
         diagnose_drift_log(&simulate_drift_log(&cfg), "sim", &SeriesOptions::default()).unwrap();
     assert_eq!(r.verdict, Verdict::Consistent, "{r:#?}");
 }
+
+#[test]
+fn rejects_time_going_backwards_and_missing_outputs() {
+    use mtcal_solver::diagnosis::series::simulate::{DriftSim, simulate_drift_log};
+    let mut log = simulate_drift_log(&DriftSim::default());
+    log.t_s[10] = log.t_s[9];
+    let e = diagnose_drift_log(&log, "sim", &SeriesOptions::default()).unwrap_err();
+    assert!(e.to_string().contains("strictly increasing"), "{e}");
+    let mut log = simulate_drift_log(&DriftSim::default());
+    log.channels
+        .retain(|c| c.kind != ChannelKind::DisplacementUm);
+    let e = diagnose_drift_log(&log, "sim", &SeriesOptions::default()).unwrap_err();
+    assert!(e.to_string().contains("no displacement channel"), "{e}");
+}

@@ -337,6 +337,7 @@ fn clean_runs_are_consistent() {
         // The model-independent noise floor matches the simulated noise.
         close("noise floor", r.baseline.noise_estimate_um, NOISE, 0.15);
     }
+    println!("{consistent} of 40 clean simulations consistent");
     assert!(
         consistent >= 38,
         "{consistent} of 40 clean simulations consistent"

@@ -509,7 +509,9 @@ fn validate(log: &DriftLog, opts: &SeriesOptions) -> Result<usize, SolverError> 
             "drift log has {n} samples, at least 40 needed"
         )));
     }
-    if log.t_s.windows(2).any(|w| !(w[1] > w[0])) || log.t_s.iter().any(|v| !v.is_finite()) {
+    if log.t_s.windows(2).any(|w| w[1] <= w[0] || w[1].is_nan())
+        || log.t_s.iter().any(|v| !v.is_finite())
+    {
         return Err(SolverError::InvalidInput(
             "drift log time t_s must be finite and strictly increasing".into(),
         ));
@@ -634,8 +636,6 @@ pub fn diagnose_drift_log(
         Verdict::Consistent
     } else if unexplained.is_empty() {
         Verdict::Explained
-    } else if findings.is_empty() {
-        Verdict::PartlyExplained
     } else {
         Verdict::PartlyExplained
     };

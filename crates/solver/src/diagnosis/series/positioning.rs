@@ -131,7 +131,7 @@ impl AxisData {
             .fold((f64::INFINITY, f64::NEG_INFINITY), |(a, b), &v| {
                 (a.min(v), b.max(v))
             });
-        if !(hi > lo) {
+        if hi <= lo || hi.is_nan() {
             return Err(SolverError::InvalidInput(format!(
                 "axis {axis}: all targets at the same position"
             )));
