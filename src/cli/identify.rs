@@ -118,7 +118,11 @@ pub fn summary(r: &IdentificationResult) -> String {
                 s,
                 "{name:<6} {:>5} {:>36}",
                 t.unit,
-                format!("not identifiable (with {})", t.confounded_with.join(", "))
+                if t.confounded_with.is_empty() {
+                    "not identifiable (no effect in this plan)".to_string()
+                } else {
+                    format!("not identifiable (with {})", t.confounded_with.join(", "))
+                }
             );
         }
     }

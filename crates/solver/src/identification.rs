@@ -571,7 +571,7 @@ fn seen_as(names: &[String], session: &Session) -> String {
         );
     }
     format!(
-        "{} act on the readings only through one combination (translations plus angles times their Abbe arms at head offset(s) {} mm): the data determine that combination, not the terms",
+        "{} cannot be separated: they act on the readings only in combination (translations plus angles times their Abbe arms at head offset(s) {} mm); the data determine those combinations, not the terms",
         names.join(" + "),
         offsets.join(", ")
     )
