@@ -1,9 +1,291 @@
-//! `mtcal cradle`.
+//! `mtcal cradle`: 5-axis cradle A/C connection check from a rotary point set
+//! (datasets contract section 2), or `--simulate` to write an example point set.
 
+use super::BadInput;
+use anyhow::Context;
+use mtcal_solver::SolverError;
+use mtcal_solver::cradle::{
+    CradleOptions, CradleResult, CradleSimulation, check_cradle, simulate_cradle,
+};
+use std::fmt::Write as _;
+use std::path::{Path, PathBuf};
 use std::process::ExitCode;
 
-pub type Args = super::Pending;
+#[derive(clap::Args)]
+pub struct Args {
+    /// Rotary point set CSV (a_deg,c_deg,x_mm,y_mm,z_mm[,t_s]); the sidecar <stem>.json
+    /// (machine_id, measured_at) is read when present.
+    #[arg(value_name = "POINTS.csv", required_unless_present = "simulate")]
+    points: Option<PathBuf>,
+    /// Print the full result document (JSON) instead of the summary.
+    #[arg(long)]
+    json: bool,
+    /// The instrument frame is not registered to the machine axes: report only the
+    /// location errors intrinsic to the cradle (EY0C, EB0C).
+    #[arg(long)]
+    unregistered: bool,
+    /// Nominal intersection of the A and C axes in the instrument frame, mm (X,Y,Z).
+    #[arg(
+        long,
+        value_name = "X,Y,Z",
+        value_delimiter = ',',
+        num_args = 3,
+        allow_hyphen_values = true
+    )]
+    pivot_mm: Option<Vec<f64>>,
+    /// Write a simulated cradle point set (and its sidecar) to OUT.csv instead.
+    #[arg(long, value_name = "OUT.csv", conflicts_with = "points")]
+    simulate: Option<PathBuf>,
+    /// Seed of the simulation.
+    #[arg(long, default_value_t = 1, requires = "simulate")]
+    seed: u64,
+    /// Simulate a compliant A/C connection (deflection varying with A).
+    #[arg(long, requires = "simulate")]
+    compliant: bool,
+    /// Tracker noise of the simulation, µm per coordinate.
+    #[arg(long, default_value_t = 2.0, requires = "simulate")]
+    noise_um: f64,
+}
 
-pub fn run(_args: Args) -> anyhow::Result<ExitCode> {
-    super::pending("cradle")
+pub fn run(args: Args) -> anyhow::Result<ExitCode> {
+    if let Some(out) = &args.simulate {
+        return simulate(out, &args);
+    }
+    let path = args
+        .points
+        .as_ref()
+        .expect("clap requires POINTS or --simulate");
+    let limits = mtcal_formats::Limits::default();
+    let points = mtcal_formats::read_rotary_points_path(path, &limits)?;
+    let mut opts = CradleOptions {
+        registered_frame: !args.unregistered,
+        ..CradleOptions::default()
+    };
+    if let Some(p) = &args.pivot_mm {
+        if p.iter().any(|v| !v.is_finite()) {
+            return Err(BadInput("--pivot-mm: three finite numbers expected".into()).into());
+        }
+        opts.pivot_mm = [p[0], p[1], p[2]];
+    }
+    let result = check_cradle(&points, &opts).map_err(|e| match e {
+        SolverError::InvalidInput(m) | SolverError::Degenerate(m) => {
+            anyhow::Error::new(BadInput(format!("{}: {m}", path.display())))
+        }
+        other => anyhow::Error::new(other),
+    })?;
+    let text = if args.json {
+        serde_json::to_string_pretty(&result)? + "\n"
+    } else {
+        summary(&result)
+    };
+    // A closed pipe (`| head`) is not an error.
+    match std::io::Write::write_all(&mut std::io::stdout().lock(), text.as_bytes()) {
+        Err(e) if e.kind() != std::io::ErrorKind::BrokenPipe => Err(e.into()),
+        _ => Ok(ExitCode::SUCCESS),
+    }
+}
+
+fn simulate(out: &Path, args: &Args) -> anyhow::Result<ExitCode> {
+    if !(args.noise_um.is_finite() && args.noise_um >= 0.0) {
+        return Err(BadInput("--noise-um must be a finite number ≥ 0".into()).into());
+    }
+    let mut sim = CradleSimulation::example(args.compliant, args.seed);
+    sim.noise_um = args.noise_um;
+    let mut set = simulate_cradle(&sim);
+    set.measured_at = Some("2026-01-01T00:00:00Z".into());
+    let mut csv = Vec::new();
+    mtcal_formats::write_rotary_points(&mut csv, &set)?;
+    let mut json = Vec::new();
+    mtcal_formats::write_rotary_sidecar(&mut json, &set)?;
+    let name = out
+        .file_name()
+        .and_then(|n| n.to_str())
+        .with_context(|| format!("{}: not a file name", out.display()))?;
+    let sidecar = out.with_file_name(mtcal_formats::rotary::sidecar_name(name));
+    // Write both to temporaries first: nothing half-written on failure.
+    let tmp_csv = out.with_extension("csv.tmp");
+    let tmp_json = sidecar.with_extension("json.tmp");
+    std::fs::write(&tmp_csv, &csv).with_context(|| format!("writing {}", tmp_csv.display()))?;
+    std::fs::write(&tmp_json, &json).with_context(|| format!("writing {}", tmp_json.display()))?;
+    std::fs::rename(&tmp_csv, out)?;
+    std::fs::rename(&tmp_json, &sidecar)?;
+    eprintln!(
+        "wrote {} ({} points, {} A poses) and {}; truth: {}",
+        out.display(),
+        set.points.len(),
+        sim.a_deg.len(),
+        sidecar.display(),
+        serde_json::to_string(&sim.truth)?
+    );
+    Ok(ExitCode::SUCCESS)
+}
+
+fn opt(v: Option<f64>, prec: usize) -> String {
+    v.map_or("—".into(), |x| format!("{x:.prec$}"))
+}
+
+/// The human summary: per-pose table, A axis, model choice, location errors, compensation.
+pub fn summary(r: &CradleResult) -> String {
+    let mut s = String::new();
+    let _ = writeln!(
+        s,
+        "cradle check: {} points, {} A poses (machine {}), reference pose A = {}°",
+        r.n_points,
+        r.n_poses,
+        r.machine_id.as_deref().unwrap_or("—"),
+        r.reference_a_deg
+    );
+    let a = &r.a_axis;
+    let _ = writeln!(
+        s,
+        "A axis: direction ({:.7}, {:.7}, {:.7}) ± {:.1} µrad, through ({:.4}, {:.4}, {:.4}) mm",
+        a.direction[0],
+        a.direction[1],
+        a.direction[2],
+        a.direction_std_urad[0].hypot(a.direction_std_urad[1]),
+        a.point_mm[0],
+        a.point_mm[1],
+        a.point_mm[2]
+    );
+    let _ = writeln!(
+        s,
+        "\nrotation vectors per A pose (µrad; patent: e1 from the point at C = 0; phase: from all points)"
+    );
+    let _ = writeln!(
+        s,
+        "{:>7} {:>9} {:>8} | {:>8} {:>26} | {:>8} {:>26} | {:>6}",
+        "A °", "radius mm", "rms µm", "|r| pat", "r patent", "|r| ph", "r phase", "± µrad"
+    );
+    for p in &r.poses {
+        let v = |x: [f64; 3]| format!("({:7.1},{:7.1},{:7.1})", x[0], x[1], x[2]);
+        let _ = writeln!(
+            s,
+            "{:7.1} {:9.4} {:8.2} | {:8.1} {:>26} | {:8.1} {:>26} | {:6.1}",
+            p.a_deg,
+            p.radius_mm,
+            p.circle_rms_um,
+            p.rotation_point.norm_urad,
+            v(p.rotation_point.vector_urad),
+            p.rotation_phase.norm_urad,
+            v(p.rotation_phase.vector_urad),
+            p.rotation_phase.std_urad
+        );
+    }
+    let k = &r.kinematics;
+    let held = |h: Option<f64>| opt(h, 3);
+    let _ = writeln!(
+        s,
+        "\nmodel: {:?} (held-out RMS, leave one A pose out: rigid {} µm, compliant {} µm; margin {} %)",
+        k.chosen,
+        held(k.rigid.held_out_rms_um),
+        held(k.compliant.as_ref().and_then(|c| c.held_out_rms_um)),
+        k.margin * 100.0
+    );
+    if let Some(c) = &k.compliance {
+        let _ = writeln!(
+            s,
+            "compliance ρ(A) = s·sin A + k·(cos A − 1): s = ({:.1}, {:.1}, {:.1}) µrad, k = ({:.1}, {:.1}, {:.1}) µrad",
+            c.sin_urad[0],
+            c.sin_urad[1],
+            c.sin_urad[2],
+            c.cos_urad[0],
+            c.cos_urad[1],
+            c.cos_urad[2]
+        );
+    }
+    let _ = writeln!(s, "\nlocation errors (ISO 230-7):");
+    for e in &r.location_errors {
+        let _ = writeln!(
+            s,
+            "  {:<10} {:>10} ± {:<8} {:<5} {:?}{}",
+            e.name,
+            opt(e.value, 2),
+            opt(e.std, 2),
+            e.unit,
+            e.observability,
+            e.note.as_ref().map_or(String::new(), |n| format!(": {n}"))
+        );
+    }
+    let b = &k.ball;
+    let _ = writeln!(
+        s,
+        "ball: radius {:.4} mm ± {:.2} µm, height {:.4} mm ± {:.2} µm, azimuth {}°",
+        b.radius_mm,
+        b.radius_std_um,
+        b.height_mm,
+        b.height_std_um,
+        opt(b.azimuth_deg, 4)
+    );
+    let c = &r.compensation;
+    let _ = writeln!(
+        s,
+        "\ncompensation on held-out poses: RMS {:.2} µm before → {:.2} µm after",
+        c.before_rms_um, c.after_rms_um
+    );
+    for n in &r.notes {
+        let _ = writeln!(s, "note: {n}");
+    }
+    s
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn args(points: Option<PathBuf>, simulate: Option<PathBuf>, compliant: bool) -> Args {
+        Args {
+            points,
+            json: false,
+            unregistered: false,
+            pivot_mm: None,
+            simulate,
+            seed: 3,
+            compliant,
+            noise_um: 2.0,
+        }
+    }
+
+    /// `--simulate` writes a point set the strict reader accepts, and the check on it
+    /// chooses the model that was simulated.
+    #[test]
+    fn simulate_then_check() {
+        let dir = tempfile::tempdir().unwrap();
+        for compliant in [false, true] {
+            let out = dir.path().join(format!("c{compliant}.csv"));
+            run(args(None, Some(out.clone()), compliant)).unwrap();
+            assert!(out.with_extension("json").is_file());
+            let set = mtcal_formats::read_rotary_points_path(&out, &Default::default()).unwrap();
+            assert_eq!(set.machine_id.as_deref(), Some("SIM-CRADLE"));
+            let r = check_cradle(&set, &CradleOptions::default()).unwrap();
+            let text = summary(&r);
+            let want = if compliant {
+                "model: Compliant"
+            } else {
+                "model: Rigid"
+            };
+            assert!(text.contains(want), "{text}");
+            assert_eq!(
+                run(args(Some(out), None, false)).unwrap(),
+                ExitCode::SUCCESS
+            );
+        }
+    }
+
+    /// Too few A poses is the user's input being wrong (exit code 2 via `BadInput`).
+    #[test]
+    fn too_few_poses_is_bad_input() {
+        let dir = tempfile::tempdir().unwrap();
+        let path = dir.path().join("p.csv");
+        let mut csv = String::from("a_deg,c_deg,x_mm,y_mm,z_mm\n");
+        for a in [0, 30] {
+            for c in [0, 90, 180, 270] {
+                let (s, co) = f64::to_radians(c as f64).sin_cos();
+                csv += &format!("{a},{c},{},{},0\n", 100.0 * co, 100.0 * s);
+            }
+        }
+        std::fs::write(&path, csv).unwrap();
+        let e = run(args(Some(path), None, false)).unwrap_err();
+        assert!(e.chain().any(|c| c.is::<BadInput>()), "{e:#}");
+        assert!(format!("{e:#}").contains("at least 3"));
+    }
 }

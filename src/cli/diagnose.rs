@@ -1,9 +1,150 @@
-//! `mtcal diagnose`.
+//! `mtcal diagnose PATH [--json] [--plots DIR]`: mismatch diagnosis of a session folder,
+//! a positioning-run CSV or a drift-log CSV (the kind is detected from the content).
+//! Human summary by default; `--json` prints the diagnosis result document.
 
+use super::BadInput;
+use anyhow::Context;
+use mtcal_formats::{DatasetKind, Limits};
+use mtcal_solver::diagnosis::series::{self, SeriesOptions};
+use mtcal_solver::diagnosis::{DiagnosisResult, Verdict};
+use std::io::Write as _;
+use std::path::PathBuf;
 use std::process::ExitCode;
 
-pub type Args = super::Pending;
+#[derive(clap::Args, Debug)]
+pub struct Args {
+    /// A session folder, a positioning-run CSV or a drift-log CSV (`.csv.gz` too).
+    pub path: PathBuf,
+    /// Print the diagnosis result (JSON) instead of the summary.
+    #[arg(long)]
+    pub json: bool,
+    /// Write every plot as `<id>.svg` into this directory.
+    #[arg(long, value_name = "DIR")]
+    pub plots: Option<PathBuf>,
+    /// Machine id written into the result (default: the file or folder name).
+    #[arg(long)]
+    pub machine_id: Option<String>,
+}
 
-pub fn run(_args: Args) -> anyhow::Result<ExitCode> {
-    super::pending("diagnose")
+pub fn run(args: Args) -> anyhow::Result<ExitCode> {
+    let limits = Limits::default();
+    let path = &args.path;
+    if !path.exists() {
+        return Err(BadInput(format!("{}: no such file or folder", path.display())).into());
+    }
+    let kind = mtcal_formats::sniff_path(path).ok_or_else(|| {
+        BadInput(format!(
+            "{}: not a session folder (session.json), a positioning-run CSV \
+             (axis,run,direction,target_mm,deviation_um) or a drift-log CSV (t_s, <name>_um, ...)",
+            path.display()
+        ))
+    })?;
+    let machine_id = args.machine_id.clone().unwrap_or_else(|| {
+        let name = path
+            .file_name()
+            .map(|n| n.to_string_lossy().into_owned())
+            .unwrap_or_default();
+        name.trim_end_matches(".gz")
+            .trim_end_matches(".csv")
+            .to_string()
+    });
+    let opts = SeriesOptions::default();
+    let result: DiagnosisResult = match kind {
+        DatasetKind::Positioning => {
+            let runs = mtcal_formats::read_positioning_path(path, &limits)?;
+            series::diagnose_positioning(&runs, &machine_id, &opts)
+                .map_err(|e| BadInput(format!("{}: {e}", path.display())))?
+        }
+        DatasetKind::DriftLog => {
+            let log = mtcal_formats::read_drift_log_path(path, &limits)?;
+            series::diagnose_drift_log(&log, &machine_id, &opts)
+                .map_err(|e| BadInput(format!("{}: {e}", path.display())))?
+        }
+        DatasetKind::Session => {
+            anyhow::bail!(
+                "{}: diagnosis of grid-encoder sessions is not available in this build yet \
+                 (positioning runs and drift logs are)",
+                path.display()
+            )
+        }
+        other => {
+            return Err(BadInput(format!(
+                "{}: a {other:?} file cannot be diagnosed on its own; give a session folder, a \
+                 positioning-run CSV or a drift-log CSV",
+                path.display()
+            ))
+            .into());
+        }
+    };
+    if let Some(dir) = &args.plots {
+        let written = mtcal_formats::plots::write_svgs(&result.plots, dir)?;
+        if !args.json {
+            eprintln!("wrote {} plot(s) to {}", written.len(), dir.display());
+        }
+    }
+    let text = if args.json {
+        serde_json::to_string_pretty(&result).context("serialising the result")? + "\n"
+    } else {
+        summary(&result)
+    };
+    // A closed pipe (`| head`) is not an error.
+    if let Err(e) = std::io::stdout().lock().write_all(text.as_bytes())
+        && e.kind() != std::io::ErrorKind::BrokenPipe
+    {
+        return Err(e).context("writing to stdout");
+    }
+    Ok(ExitCode::SUCCESS)
+}
+
+/// The human summary: verdict, baseline, where, findings, what remains.
+pub fn summary(r: &DiagnosisResult) -> String {
+    use std::fmt::Write;
+    let mut s = String::new();
+    let verdict = match r.verdict {
+        Verdict::Consistent => "consistent (the rigid model explains the data to noise level)",
+        Verdict::Explained => "explained (the findings bring the fit to noise level)",
+        Verdict::PartlyExplained => "partly explained",
+    };
+    let _ = writeln!(s, "diagnosis of {} ({}): {verdict}", r.machine_id, r.source);
+    let b = &r.baseline;
+    let _ = writeln!(
+        s,
+        "rigid model: residual RMS {:.3} µm, held-out RMS {:.3} µm, noise floor {:.3} µm",
+        b.residual_rms_um, b.heldout_rms_um, b.noise_estimate_um
+    );
+    if !r.mismatch.is_empty() {
+        let _ = writeln!(s, "where the misfit is:");
+        for m in &r.mismatch {
+            let _ = writeln!(s, "  {:>3.0} %  {}", 100.0 * m.share_of_misfit, m.where_);
+        }
+    }
+    for f in &r.findings {
+        let _ = writeln!(
+            s,
+            "finding: {}{}: held-out RMS {:.3} → {:.3} µm",
+            f.effect,
+            f.axis
+                .as_deref()
+                .map(|a| format!(" ({a})"))
+                .unwrap_or_default(),
+            f.heldout_rms_um.before,
+            f.heldout_rms_um.after
+        );
+        let _ = writeln!(s, "  physics: {}", f.physics);
+        let params: Vec<String> = f
+            .parameters
+            .iter()
+            .filter(|(k, _)| !k.starts_with("std_"))
+            .map(|(k, v)| match f.parameters.get(&format!("std_{k}")) {
+                Some(sd) => format!("{k} = {v:.4} ± {sd:.2}"),
+                None => format!("{k} = {v:.4}"),
+            })
+            .collect();
+        let _ = writeln!(s, "  parameters: {}", params.join(", "));
+        let _ = writeln!(s, "  evidence: {}", f.evidence);
+    }
+    for u in &r.unexplained {
+        let _ = writeln!(s, "unexplained: {u}");
+    }
+    s
 }

@@ -1,9 +1,142 @@
-//! `mtcal identify`.
+//! `mtcal identify SESSION_DIR [--method joint|stepwise] [--order N] [--basis ...] [--json]`:
+//! reads a session folder (strictly), identifies the 21 terms and prints a readable
+//! summary, or the identification result document with `--json`.
 
+use super::BadInput;
+use anyhow::Context;
+use mtcal_solver::basis::BasisKind;
+use mtcal_solver::identification::{IdentificationResult, IdentifyOptions, Method, identify};
+use std::path::PathBuf;
 use std::process::ExitCode;
 
-pub type Args = super::Pending;
+#[derive(clap::Args)]
+pub struct Args {
+    /// Session folder (session.json and the plane CSV files).
+    pub session: PathBuf,
+    /// Estimator: one joint least-squares problem, or the seed patent's two steps.
+    #[arg(long, value_enum, default_value = "joint")]
+    pub method: MethodArg,
+    /// Polynomial order N of the error functions (straightness uses 2..N).
+    #[arg(long, default_value_t = 3)]
+    pub order: usize,
+    /// Basis of the error functions (same span; Legendre is better conditioned).
+    #[arg(long, value_enum, default_value = "polynomial")]
+    pub basis: BasisArg,
+    /// Spacing of the reported value grid, mm.
+    #[arg(long, default_value_t = 5.0)]
+    pub grid_mm: f64,
+    /// Print the identification result document (JSON) instead of the summary.
+    #[arg(long)]
+    pub json: bool,
+}
 
-pub fn run(_args: Args) -> anyhow::Result<ExitCode> {
-    super::pending("identify")
+#[derive(clap::ValueEnum, Clone, Copy)]
+pub enum MethodArg {
+    Joint,
+    Stepwise,
+}
+
+#[derive(clap::ValueEnum, Clone, Copy)]
+pub enum BasisArg {
+    Polynomial,
+    Legendre,
+}
+
+pub fn run(args: Args) -> anyhow::Result<ExitCode> {
+    let session = mtcal_formats::read_session_dir(&args.session, &Default::default())?;
+    let opts = IdentifyOptions {
+        method: match args.method {
+            MethodArg::Joint => Method::Joint,
+            MethodArg::Stepwise => Method::Stepwise,
+        },
+        basis: match args.basis {
+            BasisArg::Polynomial => BasisKind::Polynomial,
+            BasisArg::Legendre => BasisKind::Legendre,
+        },
+        order: args.order,
+        grid_step_mm: args.grid_mm,
+        topology: None,
+    };
+    let result = identify(&session, &opts)
+        .map_err(|e| BadInput(format!("{}: {e}", args.session.display())))?;
+    if args.json {
+        println!(
+            "{}",
+            serde_json::to_string_pretty(&result).context("serialising the result")?
+        );
+    } else {
+        print!("{}", summary(&result));
+    }
+    Ok(ExitCode::SUCCESS)
+}
+
+/// The human-readable summary: fit, identifiability, each term's range and uncertainty.
+pub fn summary(r: &IdentificationResult) -> String {
+    use std::fmt::Write;
+    let mut s = String::new();
+    let o = &r.observability;
+    let _ = writeln!(
+        s,
+        "machine {} measured {} — method {:?}, {} basis order {}",
+        r.machine_id,
+        r.measured_at,
+        r.method,
+        r.model.basis.name(),
+        r.model.order
+    );
+    let _ = writeln!(
+        s,
+        "fit: {} samples, residual RMS {:.3} µm, noise from repeated passes {}",
+        r.fit.samples,
+        r.fit.residual_rms_um,
+        r.fit
+            .noise_estimate_um
+            .map_or("n/a".to_string(), |n| format!("{n:.3} µm"))
+    );
+    let _ = writeln!(
+        s,
+        "identifiability: rank {} of {} parameters, condition number {:.3e}",
+        o.rank, o.parameters, o.condition_number
+    );
+    let _ = writeln!(
+        s,
+        "\n{:<6} {:>5} {:>12} {:>12} {:>10}",
+        "term", "unit", "min", "max", "max std"
+    );
+    for (name, t) in &r.terms {
+        if t.identifiable {
+            let min = t.values.iter().copied().fold(f64::INFINITY, f64::min);
+            let max = t.values.iter().copied().fold(f64::NEG_INFINITY, f64::max);
+            let sd = t.std.iter().copied().fold(0.0, f64::max);
+            let _ = writeln!(
+                s,
+                "{name:<6} {:>5} {min:>12.3} {max:>12.3} {sd:>10.3}",
+                t.unit
+            );
+        } else {
+            let _ = writeln!(
+                s,
+                "{name:<6} {:>5} {:>36}",
+                t.unit,
+                format!("not identifiable (with {})", t.confounded_with.join(", "))
+            );
+        }
+    }
+    for (name, q) in &r.squareness {
+        match (q.value_urad, q.std_urad) {
+            (Some(v), Some(sd)) => {
+                let _ = writeln!(s, "{name:<6} {:>5} {v:>12.3} ± {sd:.3}", "urad");
+            }
+            _ => {
+                let _ = writeln!(s, "{name:<6} {:>5} {:>36}", "urad", "not identifiable");
+            }
+        }
+    }
+    for c in &o.confounded {
+        let _ = writeln!(s, "\nconfounded: {}", c.seen_as);
+    }
+    for a in &o.advice {
+        let _ = writeln!(s, "advice: {a}");
+    }
+    s
 }

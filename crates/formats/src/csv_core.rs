@@ -16,6 +16,9 @@
 
 use crate::{FormatError, Limits};
 
+/// The UTF-8 encoding of U+FEFF, which some tools write at the start of a file.
+pub(crate) const UTF8_BOM: [u8; 3] = [0xef, 0xbb, 0xbf];
+
 /// Prefix of the columns that are accepted and ignored.
 pub const IGNORED_PREFIX: &str = "x-";
 
@@ -40,7 +43,9 @@ fn count_newlines(bytes: &[u8]) -> u64 {
 
 impl<'a> CsvTable<'a> {
     /// Checks the encoding and reads the header.
+    /// A leading UTF-8 byte-order mark (spreadsheet exports) is skipped.
     pub fn open(file: &'a str, bytes: &'a [u8], limits: &Limits) -> Result<Self, FormatError> {
+        let bytes = bytes.strip_prefix(UTF8_BOM.as_slice()).unwrap_or(bytes);
         if let Err(e) = std::str::from_utf8(bytes) {
             let at = e.valid_up_to();
             let line = 1 + count_newlines(&bytes[..at]);

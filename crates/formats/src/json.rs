@@ -4,7 +4,7 @@
 //! with `x-` (datasets contract, "Rules for every format").
 
 use crate::FormatError;
-use crate::csv_core::IGNORED_PREFIX;
+use crate::csv_core::{IGNORED_PREFIX, UTF8_BOM};
 use serde_json::{Map, Value};
 use std::collections::HashMap;
 
@@ -17,6 +17,7 @@ pub(crate) struct JsonDoc<'a> {
 
 impl<'a> JsonDoc<'a> {
     pub fn parse(file: &'a str, bytes: &[u8]) -> Result<Self, FormatError> {
+        let bytes = bytes.strip_prefix(UTF8_BOM.as_slice()).unwrap_or(bytes);
         let text = std::str::from_utf8(bytes).map_err(|e| {
             let line = 1 + bytes[..e.valid_up_to()]
                 .iter()

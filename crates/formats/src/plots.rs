@@ -34,10 +34,18 @@ const SIZE: (u32, u32) = (900, 560);
 pub fn render_svg(plot: &PlotData) -> String {
     let mut out = String::new();
     {
-        let size = if plot.kind == "polar" { (640, 680) } else { SIZE };
+        let size = if plot.kind == "polar" {
+            (640, 680)
+        } else {
+            SIZE
+        };
         let root = SVGBackend::with_string(&mut out, size).into_drawing_area();
         let _ = root.fill(&WHITE);
-        let drawn = if plot.kind == "polar" { polar(&root, plot) } else { cartesian(&root, plot) };
+        let drawn = if plot.kind == "polar" {
+            polar(&root, plot)
+        } else {
+            cartesian(&root, plot)
+        };
         if drawn.is_err() {
             let _ = root.draw(&Text::new(
                 format!("{}: nothing to draw", plot.title),
@@ -61,11 +69,16 @@ pub fn write_svgs(plots: &[PlotData], dir: &Path) -> Result<Vec<PathBuf>, Format
     std::fs::create_dir_all(dir).map_err(|e| err(dir, e))?;
     let mut paths = vec![];
     for p in plots {
-        let safe: String = p
-            .id
-            .chars()
-            .map(|c| if c.is_ascii_alphanumeric() || c == '_' || c == '-' { c } else { '_' })
-            .collect();
+        let safe: String =
+            p.id.chars()
+                .map(|c| {
+                    if c.is_ascii_alphanumeric() || c == '_' || c == '-' {
+                        c
+                    } else {
+                        '_'
+                    }
+                })
+                .collect();
         let path = dir.join(format!("{safe}.svg"));
         std::fs::write(&path, render_svg(p)).map_err(|e| err(&path, e))?;
         paths.push(path);
@@ -77,15 +90,25 @@ type Area<'a> = DrawingArea<SVGBackend<'a>, plotters::coord::Shift>;
 type DrawResult = Result<(), Box<dyn std::error::Error + 'static>>;
 
 fn finite_points(s: &PlotSeries) -> Vec<(f64, f64)> {
-    s.x.iter().zip(&s.y).map(|(&x, &y)| (x, y)).filter(|(x, y)| x.is_finite() && y.is_finite()).collect()
+    s.x.iter()
+        .zip(&s.y)
+        .map(|(&x, &y)| (x, y))
+        .filter(|(x, y)| x.is_finite() && y.is_finite())
+        .collect()
 }
 
 fn range(v: impl Iterator<Item = f64>) -> Option<(f64, f64)> {
-    let (lo, hi) = v.fold((f64::INFINITY, f64::NEG_INFINITY), |(a, b), x| (a.min(x), b.max(x)));
+    let (lo, hi) = v.fold((f64::INFINITY, f64::NEG_INFINITY), |(a, b), x| {
+        (a.min(x), b.max(x))
+    });
     if !lo.is_finite() {
         return None;
     }
-    let pad = if hi > lo { 0.05 * (hi - lo) } else { lo.abs().max(1.0) * 0.05 };
+    let pad = if hi > lo {
+        0.05 * (hi - lo)
+    } else {
+        lo.abs().max(1.0) * 0.05
+    };
     Some((lo - pad, hi + pad))
 }
 
@@ -107,7 +130,11 @@ fn cartesian(root: &Area, plot: &PlotData) -> DrawResult {
         .draw()?;
     for (k, (s, p)) in plot.series.iter().zip(&pts).enumerate() {
         let color = COLORS[k % COLORS.len()];
-        let style = ShapeStyle::from(&color).stroke_width(if s.name.starts_with("measured") { 1 } else { 2 });
+        let style = ShapeStyle::from(&color).stroke_width(if s.name.starts_with("measured") {
+            1
+        } else {
+            2
+        });
         if s.name.contains("split") {
             chart
                 .draw_series(DashedLineSeries::new(p.iter().copied(), 6, 4, style))?
@@ -120,7 +147,10 @@ fn cartesian(root: &Area, plot: &PlotData) -> DrawResult {
                 .legend(move |(x, y)| PathElement::new(vec![(x, y), (x + 18, y)], color));
         }
         if s.name.starts_with("measured") && p.len() <= 120 {
-            chart.draw_series(p.iter().map(|&(x, y)| Circle::new((x, y), 3, color.filled())))?;
+            chart.draw_series(
+                p.iter()
+                    .map(|&(x, y)| Circle::new((x, y), 3, color.filled())),
+            )?;
         }
     }
     chart
@@ -146,7 +176,12 @@ fn polar(root: &Area, plot: &PlotData) -> DrawResult {
     };
     let mut chart = ChartBuilder::on(root)
         .caption(
-            format!("{} (ring spacing {:.3} µm; {})", plot.title, scale / 2.0, plot.y_label),
+            format!(
+                "{} (ring spacing {:.3} µm; {})",
+                plot.title,
+                scale / 2.0,
+                plot.y_label
+            ),
             ("sans-serif", 16),
         )
         .margin(12)
@@ -154,17 +189,29 @@ fn polar(root: &Area, plot: &PlotData) -> DrawResult {
     let circle = |dev: f64| (0..=360).map(move |a| to_xy(f64::from(a), dev));
     chart.draw_series(LineSeries::new(circle(0.0), BLACK.mix(0.6).stroke_width(1)))?;
     for dev in [-scale, -0.5 * scale, 0.5 * scale, scale] {
-        chart.draw_series(DashedLineSeries::new(circle(dev), 2, 4, BLACK.mix(0.3).stroke_width(1)))?;
+        chart.draw_series(DashedLineSeries::new(
+            circle(dev),
+            2,
+            4,
+            BLACK.mix(0.3).stroke_width(1),
+        ))?;
     }
     for a in (0..360).step_by(45) {
         let (x, y) = to_xy(f64::from(a), scale * 1.05);
         chart.draw_series(LineSeries::new([(0.0, 0.0), (x, y)], BLACK.mix(0.15)))?;
-        chart.draw_series(std::iter::once(Text::new(format!("{a}°"), (x * 1.04, y * 1.04), ("sans-serif", 12))))?;
+        chart.draw_series(std::iter::once(Text::new(
+            format!("{a}°"),
+            (x * 1.04, y * 1.04),
+            ("sans-serif", 12),
+        )))?;
     }
     for (k, (s, p)) in plot.series.iter().zip(&pts).enumerate() {
         let color = COLORS[k % COLORS.len()];
         chart
-            .draw_series(LineSeries::new(p.iter().map(|&(a, d)| to_xy(a, d)), color.stroke_width(2)))?
+            .draw_series(LineSeries::new(
+                p.iter().map(|&(a, d)| to_xy(a, d)),
+                color.stroke_width(2),
+            ))?
             .label(s.name.as_str())
             .legend(move |(x, y)| PathElement::new(vec![(x, y), (x + 18, y)], color));
     }
@@ -192,10 +239,16 @@ mod tests {
             series: vec![
                 PlotSeries {
                     name: "measured".into(),
-                    y: x.iter().map(|a| 3.0 * (2.0 * a.to_radians()).cos()).collect(),
+                    y: x.iter()
+                        .map(|a| 3.0 * (2.0 * a.to_radians()).cos())
+                        .collect(),
                     x: x.clone(),
                 },
-                PlotSeries { name: "train | test split".into(), x: vec![100.0, 100.0], y: vec![-3.0, 3.0] },
+                PlotSeries {
+                    name: "train | test split".into(),
+                    x: vec![100.0, 100.0],
+                    y: vec![-3.0, 3.0],
+                },
             ],
         }
     }
@@ -207,15 +260,25 @@ mod tests {
         assert!(svg.contains("polyline") || svg.contains("<path"));
         assert!(svg.contains("deviation (µm)"));
         assert!(svg.contains("title &lt;&amp;&gt;"), "text must be escaped");
-        assert!(svg.matches("<circle").count() >= 73, "one marker per measured point");
-        assert!(svg.contains("stroke-dasharray") || svg.matches("<line").count() > 2 || svg.contains("polyline"));
+        assert!(
+            svg.matches("<circle").count() >= 73,
+            "one marker per measured point"
+        );
+        assert!(
+            svg.contains("stroke-dasharray")
+                || svg.matches("<line").count() > 2
+                || svg.contains("polyline")
+        );
     }
 
     #[test]
     fn polar_svg_draws_rings_and_series() {
         let svg = render_svg(&plot("polar"));
         assert!(svg.starts_with("<svg"));
-        assert!(svg.contains("90°") && svg.contains("ring spacing 3.750 µm"), "scale = 3/0.4, rings at half");
+        assert!(
+            svg.contains("90°") && svg.contains("ring spacing 3.750 µm"),
+            "scale = 3/0.4, rings at half"
+        );
     }
 
     #[test]

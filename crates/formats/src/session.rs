@@ -90,20 +90,26 @@ pub fn read_session_dir(dir: &Path, limits: &Limits) -> Result<Session, FormatEr
         )?;
         raw_budget -= bytes.len();
         let data = gzip::decode(&name, &bytes, &mut budget)?;
-        read_plane_csv(&p.file, &data, limits)
+        read_plane_csv(&name, &data, limits)
     })
 }
 
 /// Reads a session from memory (an HTTP upload): `session_json` and the plane files keyed
 /// by the names `session.json` gives them. Files may be gzip (`.gz` names and/or gzip
-/// content). Every uploaded file must be referenced. The byte limit applies to the sum of
+/// content). Every uploaded file must be referenced (an entry named `session.json` in
+/// `files` is ignored: `session_json` is the description). The byte limit applies to the sum of
 /// the uploaded sizes and, separately, to the sum of the decompressed sizes.
 pub fn read_session_files(
     session_json: &[u8],
     files: &BTreeMap<String, Vec<u8>>,
     limits: &Limits,
 ) -> Result<Session, FormatError> {
-    let raw_total: usize = session_json.len() + files.values().map(Vec::len).sum::<usize>();
+    let raw_total: usize = session_json.len()
+        + files
+            .iter()
+            .filter(|(k, _)| k.as_str() != SESSION_JSON)
+            .map(|(_, v)| v.len())
+            .sum::<usize>();
     if raw_total > limits.max_bytes {
         return Err(FormatError::file(
             SESSION_JSON,
@@ -118,6 +124,7 @@ pub fn read_session_files(
     let (spec, doc) = parse_session_json(&json)?;
     if let Some(extra) = files
         .keys()
+        .filter(|k| k.as_str() != SESSION_JSON)
         .find(|k| !spec.planes.iter().any(|p| &p.file == *k))
     {
         return Err(FormatError::file(

@@ -283,6 +283,27 @@ fn json_temperature_must_be_a_number() {
 }
 
 #[test]
+fn json_optional_strings_must_be_strings() {
+    let e = json_err(&JSON.replace("\"free text\"", "[\"free\"]"));
+    check(&e, "session.json", 6, "notes", "must be a string");
+    let e = json_err(&JSON.replace("\"mounting\": \"xy-1\"", "\"mounting\": \"\""));
+    check(
+        &e,
+        "session.json",
+        8,
+        "planes[0].mounting",
+        "must not be empty",
+    );
+}
+
+#[test]
+fn utf8_byte_order_mark_is_skipped() {
+    let json = format!("\u{feff}{JSON}");
+    let csv = format!("\u{feff}{CSV}");
+    assert_eq!(read(&json, &csv).unwrap(), read(JSON, CSV).unwrap());
+}
+
+#[test]
 fn json_planes_must_be_a_non_empty_array() {
     let e = json_err(r#"{"machine_id": "M", "measured_at": "2026-11-02T08:30:00Z", "planes": []}"#);
     check(&e, "session.json", 1, "planes", "at least one plane");
@@ -370,6 +391,13 @@ fn unreferenced_upload_rejected() {
     )
     .unwrap_err();
     check(&e, "yz.csv", 0, "", "not referenced by session.json");
+    // The description itself may travel with the files.
+    let with_json = files(&[
+        ("session.json", JSON.as_bytes()),
+        ("xy.csv", CSV.as_bytes()),
+        ("xz.csv", CSV.as_bytes()),
+    ]);
+    assert!(read_session_files(JSON.as_bytes(), &with_json, &Limits::default()).is_ok());
 }
 
 // ---- plane CSV rules ----------------------------------------------------------------
@@ -539,6 +567,18 @@ fn csv_crlf_and_quoted_fields() {
         "\"run\",t_s,x_mm,y_mm,z_mm,du_um,dv_um\r\n# c\r\n1,0,0,0,0,0,0\r\n1,\"0\",0,0,0,0,0\r\n";
     let e = csv_err(csv);
     check(&e, "xy.csv", 4, "t_s", "strictly increasing");
+}
+
+#[test]
+fn line_numbers_count_newlines_inside_quoted_fields() {
+    let csv = "run,t_s,x_mm,y_mm,z_mm,du_um,dv_um,x-note\n1,0,0,0,0,0,0,\"two\nlines\"\n1,1,0,0,0,0,oops,\n";
+    check(
+        &csv_err(csv),
+        "xy.csv",
+        4,
+        "dv_um",
+        "`oops` is not a decimal number",
+    );
 }
 
 #[test]
@@ -726,6 +766,10 @@ fn dir_reader_falls_back_to_gz() {
     std::fs::write(dir.path().join("xz.csv.gz"), gzip(CSV.as_bytes())).unwrap();
     let s = read_session_dir(dir.path(), &Limits::default()).unwrap();
     assert_eq!(s, read(JSON, CSV).unwrap());
+    // Errors inside the fallback name the file actually read.
+    std::fs::write(dir.path().join("xz.csv.gz"), gzip(b"run,t_s\n")).unwrap();
+    let e = read_session_dir(dir.path(), &Limits::default()).unwrap_err();
+    check(&e, "xz.csv.gz", 1, "x_mm", "required column is missing");
 }
 
 #[test]

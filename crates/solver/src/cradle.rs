@@ -293,8 +293,16 @@ fn summary(
 }
 
 fn location_reports(fit: &identify::KinematicFit, registered: bool) -> Vec<LocationErrorReport> {
-    // (name, parameter index, scale to report unit, unit, observability)
-    let rows: [(&str, Option<usize>, f64, &str, Observability, Option<&str>); 11] = [
+    // (name, parameter index, scale to report unit, unit, observability, note)
+    type Row<'a> = (
+        &'a str,
+        Option<usize>,
+        f64,
+        &'a str,
+        Observability,
+        Option<&'a str>,
+    );
+    let rows: [Row; 11] = [
         (
             "EY0A",
             Some(0),

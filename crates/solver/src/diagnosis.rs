@@ -105,3 +105,13 @@ pub struct PlotSeries {
     pub x: Vec<f64>,
     pub y: Vec<f64>,
 }
+
+// Grid-encoder sessions (the series of positioning runs and drift logs live in
+// `series*` submodules).
+pub mod catalogue;
+pub mod design;
+pub mod linalg;
+pub mod noise;
+pub mod session;
+
+pub use session::{DiagnoseOptions, diagnose_session};

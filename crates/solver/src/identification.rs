@@ -221,7 +221,7 @@ pub fn prepare(session: &Session, opts: &IdentifyOptions) -> Result<ErrorModel, 
             opts.order
         )));
     }
-    if !(opts.grid_step_mm > 0.0) {
+    if opts.grid_step_mm.is_nan() || opts.grid_step_mm <= 0.0 {
         return Err(SolverError::InvalidInput(
             "grid step must be positive".into(),
         ));
@@ -486,7 +486,7 @@ pub fn grid(lo: f64, hi: f64, step: f64) -> Vec<f64> {
     for k in first..=last {
         g.push(k as f64 * step);
     }
-    if !g.iter().any(|&q| q == 0.0) {
+    if !g.contains(&0.0) {
         g.push(0.0);
         g.sort_by(f64::total_cmp);
     }
@@ -546,7 +546,7 @@ fn monomial_coefficients(model: &ErrorModel, i: usize, x: &[f64]) -> Vec<f64> {
     let v = nalgebra::DMatrix::from_fn(n, n, |r, k| nodes[r].powi(k as i32 + 1));
     let f = nalgebra::DVector::from_fn(n, |r, _| model.term_value(i, x, nodes[r]));
     match v.col_piv_qr().solve(&f) {
-        Some(sol) => sol.iter().map(|&v| v).collect(),
+        Some(sol) => sol.iter().copied().collect(),
         None => vec![],
     }
 }

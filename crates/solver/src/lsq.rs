@@ -71,6 +71,18 @@ impl QrAccumulator {
         }
     }
 
+    /// Appends a row that already summarises several observations (an exact reduction
+    /// of a block); it does not count as an observation.
+    pub fn push_reduced(&mut self, a: &[f64], b: f64) {
+        self.push(a, b);
+        self.rows -= 1;
+    }
+
+    /// Counts `n` observations represented by rows given to [`Self::push_reduced`].
+    pub fn count_observations(&mut self, n: usize) {
+        self.rows += n;
+    }
+
     fn flush(&mut self) {
         if self.block_rows == 0 {
             return;

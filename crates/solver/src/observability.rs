@@ -51,7 +51,7 @@ pub fn analyse(fit: &Fit, model: &ErrorModel) -> Identifiability {
     // Union-find over undetermined error parameters sharing a null vector.
     let n = model.len();
     let mut parent: Vec<usize> = (0..n).collect();
-    fn find(p: &mut Vec<usize>, i: usize) -> usize {
+    fn find(p: &mut [usize], i: usize) -> usize {
         let mut r = i;
         while p[r] != r {
             r = p[r];

@@ -8,7 +8,10 @@ use mtcal_solver::diagnosis::series::{SeriesOptions, diagnose_drift_log};
 /// Minimal reader for the drift-log CSV (the strict reader lives in mtcal-formats, which
 /// depends on this crate).
 fn read_heat_run() -> DriftLog {
-    let path = concat!(env!("CARGO_MANIFEST_DIR"), "/../../data/fl_thermal/heat_run.csv");
+    let path = concat!(
+        env!("CARGO_MANIFEST_DIR"),
+        "/../../data/fl_thermal/heat_run.csv"
+    );
     let text = std::fs::read_to_string(path).expect("data/fl_thermal/heat_run.csv");
     let mut lines = text.lines();
     let header: Vec<&str> = lines.next().unwrap().split(',').collect();
@@ -33,7 +36,11 @@ fn read_heat_run() -> DriftLog {
         } else {
             ChannelKind::PositionMm
         };
-        channels.push(Channel { name: name.to_string(), kind, values });
+        channels.push(Channel {
+            name: name.to_string(),
+            kind,
+            values,
+        });
     }
     DriftLog { t_s, channels }
 }
@@ -59,24 +66,51 @@ fn fl_thermal_heat_run_explained_by_thermal_growth() {
             f.physics
         );
     }
-    assert!(matches!(r.verdict, Verdict::Explained | Verdict::PartlyExplained), "{:?}", r.verdict);
+    assert!(
+        matches!(r.verdict, Verdict::Explained | Verdict::PartlyExplained),
+        "{:?}",
+        r.verdict
+    );
     assert_eq!(r.source, "drift_log");
     // Every channel: thermal drift found, held-out RMS down by at least 15 %.
     assert_eq!(r.findings.len(), 5);
     for f in &r.findings {
         assert_eq!(f.effect, "thermal_drift");
         let gain = 1.0 - f.heldout_rms_um.after / f.heldout_rms_um.before;
-        assert!(gain >= 0.15, "{:?}: held-out RMS only {:.0} % lower", f.axis, 100.0 * gain);
+        assert!(
+            gain >= 0.15,
+            "{:?}: held-out RMS only {:.0} % lower",
+            f.axis,
+            100.0 * gain
+        );
     }
     // ch5 (axial spindle growth): driven by the spindle's running history.
-    let ch5 = r.findings.iter().find(|f| f.axis.as_deref() == Some("ch5")).unwrap();
+    let ch5 = r
+        .findings
+        .iter()
+        .find(|f| f.axis.as_deref() == Some("ch5"))
+        .unwrap();
     assert!(ch5.physics.contains("spindle"), "{}", ch5.physics);
-    assert!(ch5.heldout_rms_um.after <= 0.85 * ch5.heldout_rms_um.before, "{:?}", ch5.heldout_rms_um);
+    assert!(
+        ch5.heldout_rms_um.after <= 0.85 * ch5.heldout_rms_um.before,
+        "{:?}",
+        ch5.heldout_rms_um
+    );
     assert!(ch5.parameters["share_predicted"] >= 0.30);
     // Overall: quadratic mean of the channels' held-out RMS down by at least 35 %, and at
     // least 60 % of the held-out drift (sum of squares) predicted.
-    let after = (r.findings.iter().map(|f| f.heldout_rms_um.after.powi(2)).sum::<f64>() / 5.0).sqrt();
-    assert!(after <= 0.65 * r.baseline.heldout_rms_um, "{after} vs {}", r.baseline.heldout_rms_um);
+    let after = (r
+        .findings
+        .iter()
+        .map(|f| f.heldout_rms_um.after.powi(2))
+        .sum::<f64>()
+        / 5.0)
+        .sqrt();
+    assert!(
+        after <= 0.65 * r.baseline.heldout_rms_um,
+        "{after} vs {}",
+        r.baseline.heldout_rms_um
+    );
     assert!(1.0 - (after / r.baseline.heldout_rms_um).powi(2) >= 0.60);
     // The drift is far above the sample-to-sample noise: the rigid model cannot be right.
     assert!(r.baseline.heldout_rms_um > 50.0 * r.baseline.noise_estimate_um);
@@ -92,15 +126,29 @@ fn fl_thermal_heat_run_explained_by_thermal_growth() {
 fn simulated_first_order_response_recovered() {
     use mtcal_solver::diagnosis::series::simulate::{DriftSim, simulate_drift_log};
     for (seed, tau, gain) in [(1u64, 5400.0, 20.0), (2, 2400.0, -12.0), (3, 9000.0, 30.0)] {
-        let cfg = DriftSim { tau_s: tau, gain_um: gain, seed, ..Default::default() };
-        let r = diagnose_drift_log(&simulate_drift_log(&cfg), "sim", &SeriesOptions::default()).unwrap();
-        let f = r.findings.iter().find(|f| f.axis.as_deref() == Some("ch1")).expect("ch1 finding");
+        let cfg = DriftSim {
+            tau_s: tau,
+            gain_um: gain,
+            seed,
+            ..Default::default()
+        };
+        let r = diagnose_drift_log(&simulate_drift_log(&cfg), "sim", &SeriesOptions::default())
+            .unwrap();
+        let f = r
+            .findings
+            .iter()
+            .find(|f| f.axis.as_deref() == Some("ch1"))
+            .expect("ch1 finding");
         let p = &f.parameters;
         assert!(!p.contains_key("tau2_s"), "one lag expected: {p:?}");
         assert!((p["tau1_s"] - tau).abs() <= 0.02 * tau, "{p:?}");
         assert!((p["gain1_um"] - gain).abs() <= 0.01 * gain.abs(), "{p:?}");
         assert_eq!(p["rpm_exponent"], 1.0);
-        assert!(f.heldout_rms_um.after <= 1.5 * cfg.noise_um, "{:?}", f.heldout_rms_um);
+        assert!(
+            f.heldout_rms_um.after <= 1.5 * cfg.noise_um,
+            "{:?}",
+            f.heldout_rms_um
+        );
         assert_eq!(r.verdict, Verdict::Explained);
     }
 }
@@ -108,7 +156,25 @@ fn simulated_first_order_response_recovered() {
 #[test]
 fn flat_log_is_consistent() {
     use mtcal_solver::diagnosis::series::simulate::{DriftSim, simulate_drift_log};
-    let cfg = DriftSim { gain_um: 0.0, ..Default::default() };
-    let r = diagnose_drift_log(&simulate_drift_log(&cfg), "sim", &SeriesOptions::default()).unwrap();
+    let cfg = DriftSim {
+        gain_um: 0.0,
+        ..Default::default()
+    };
+    let r =
+        diagnose_drift_log(&simulate_drift_log(&cfg), "sim", &SeriesOptions::default()).unwrap();
     assert_eq!(r.verdict, Verdict::Consistent, "{r:#?}");
+}
+
+#[test]
+fn rejects_time_going_backwards_and_missing_outputs() {
+    use mtcal_solver::diagnosis::series::simulate::{DriftSim, simulate_drift_log};
+    let mut log = simulate_drift_log(&DriftSim::default());
+    log.t_s[10] = log.t_s[9];
+    let e = diagnose_drift_log(&log, "sim", &SeriesOptions::default()).unwrap_err();
+    assert!(e.to_string().contains("strictly increasing"), "{e}");
+    let mut log = simulate_drift_log(&DriftSim::default());
+    log.channels
+        .retain(|c| c.kind != ChannelKind::DisplacementUm);
+    let e = diagnose_drift_log(&log, "sim", &SeriesOptions::default()).unwrap_err();
+    assert!(e.to_string().contains("no displacement channel"), "{e}");
 }

@@ -11,7 +11,9 @@
 //! consistent) cannot be met by a wrong model. The held-out RMS must come within
 //! 1.5 × σ (the true noise, stricter than the estimated floor).
 
-use mtcal_solver::diagnosis::series::simulate::{PositioningEffect, PositioningSim, simulate_positioning};
+use mtcal_solver::diagnosis::series::simulate::{
+    PositioningEffect, PositioningSim, simulate_positioning,
+};
 use mtcal_solver::diagnosis::series::{SeriesOptions, diagnose_positioning, iso230_2};
 use mtcal_solver::diagnosis::{DiagnosisResult, Verdict};
 use rand::rngs::StdRng;
@@ -20,13 +22,30 @@ use rand::{Rng, SeedableRng};
 const NOISE: f64 = 0.5;
 
 fn run(effects: Vec<PositioningEffect>, seed: u64, with_temperature: bool) -> DiagnosisResult {
-    let cfg = PositioningSim { effects, seed, noise_um: NOISE, with_temperature, ..Default::default() };
-    diagnose_positioning(&simulate_positioning(&cfg), "sim", &SeriesOptions::default()).unwrap()
+    let cfg = PositioningSim {
+        effects,
+        seed,
+        noise_um: NOISE,
+        with_temperature,
+        ..Default::default()
+    };
+    diagnose_positioning(
+        &simulate_positioning(&cfg),
+        "sim",
+        &SeriesOptions::default(),
+    )
+    .unwrap()
 }
 
 fn param(r: &DiagnosisResult, effect: &str, name: &str) -> f64 {
-    let f = r.findings.iter().find(|f| f.effect == effect).unwrap_or_else(|| panic!("no {effect} in {r:#?}"));
-    *f.parameters.get(name).unwrap_or_else(|| panic!("no {name} in {:?}", f.parameters))
+    let f = r
+        .findings
+        .iter()
+        .find(|f| f.effect == effect)
+        .unwrap_or_else(|| panic!("no {effect} in {r:#?}"));
+    *f.parameters
+        .get(name)
+        .unwrap_or_else(|| panic!("no {name} in {:?}", f.parameters))
 }
 
 /// Exactly the expected effects named (any order), verdict explained, held-out RMS
@@ -39,12 +58,19 @@ fn check_named(r: &DiagnosisResult, expected: &[&str]) {
     assert_eq!(got, want, "{:#?}", r.findings);
     assert_eq!(r.verdict, Verdict::Explained, "{r:#?}");
     let last = r.findings.last().unwrap();
-    assert!(last.heldout_rms_um.after <= 1.5 * NOISE, "held-out {:?}", last.heldout_rms_um);
+    assert!(
+        last.heldout_rms_um.after <= 1.5 * NOISE,
+        "held-out {:?}",
+        last.heldout_rms_um
+    );
     assert!(last.heldout_rms_um.after < last.heldout_rms_um.before);
 }
 
 fn close(what: &str, got: f64, want: f64, tol: f64) {
-    assert!((got - want).abs() <= tol, "{what}: got {got}, want {want} ± {tol}");
+    assert!(
+        (got - want).abs() <= tol,
+        "{what}: got {got}, want {want} ± {tol}"
+    );
 }
 
 fn sign(rng: &mut StdRng) -> f64 {
@@ -56,10 +82,23 @@ fn backlash_recovered() {
     let mut rng = StdRng::seed_from_u64(11);
     for seed in 0..4 {
         let lm = sign(&mut rng) * rng.random_range(3.0..10.0);
-        let r = run(vec![PositioningEffect::Backlash { lost_motion_um: lm }], seed, false);
+        let r = run(
+            vec![PositioningEffect::Backlash { lost_motion_um: lm }],
+            seed,
+            false,
+        );
         check_named(&r, &["backlash"]);
-        close("lost motion", param(&r, "backlash", "lost_motion_um"), lm, 0.4);
-        assert!(r.mismatch[0].where_.contains("approaches differ"), "{:?}", r.mismatch);
+        close(
+            "lost motion",
+            param(&r, "backlash", "lost_motion_um"),
+            lm,
+            0.4,
+        );
+        assert!(
+            r.mismatch[0].where_.contains("approaches differ"),
+            "{:?}",
+            r.mismatch
+        );
     }
 }
 
@@ -67,11 +106,31 @@ fn backlash_recovered() {
 fn reversal_spike_recovered() {
     let mut rng = StdRng::seed_from_u64(12);
     for seed in 0..4 {
-        let (a, l) = (sign(&mut rng) * rng.random_range(4.0..10.0), rng.random_range(20.0..60.0));
-        let r = run(vec![PositioningEffect::ReversalSpike { amplitude_um: a, decay_mm: l }], seed, false);
+        let (a, l) = (
+            sign(&mut rng) * rng.random_range(4.0..10.0),
+            rng.random_range(20.0..60.0),
+        );
+        let r = run(
+            vec![PositioningEffect::ReversalSpike {
+                amplitude_um: a,
+                decay_mm: l,
+            }],
+            seed,
+            false,
+        );
         check_named(&r, &["reversal_spike"]);
-        close("spike amplitude", param(&r, "reversal_spike", "amplitude_um"), a, 0.15 * a.abs());
-        close("decay length", param(&r, "reversal_spike", "decay_length_mm"), l, 0.25 * l);
+        close(
+            "spike amplitude",
+            param(&r, "reversal_spike", "amplitude_um"),
+            a,
+            0.15 * a.abs(),
+        );
+        close(
+            "decay length",
+            param(&r, "reversal_spike", "decay_length_mm"),
+            l,
+            0.25 * l,
+        );
     }
 }
 
@@ -79,13 +138,33 @@ fn reversal_spike_recovered() {
 fn cyclic_error_recovered() {
     let mut rng = StdRng::seed_from_u64(13);
     for seed in 0..4 {
-        let (a, p, ph) = (rng.random_range(2.0..5.0), rng.random_range(60.0..150.0), rng.random_range(-3.0..3.0));
-        let r = run(vec![PositioningEffect::Cyclic { amplitude_um: a, period_mm: p, phase_rad: ph }], seed, false);
+        let (a, p, ph) = (
+            rng.random_range(2.0..5.0),
+            rng.random_range(60.0..150.0),
+            rng.random_range(-3.0..3.0),
+        );
+        let r = run(
+            vec![PositioningEffect::Cyclic {
+                amplitude_um: a,
+                period_mm: p,
+                phase_rad: ph,
+            }],
+            seed,
+            false,
+        );
         check_named(&r, &["cyclic"]);
-        close("cyclic amplitude", param(&r, "cyclic", "amplitude_um"), a, 0.1 * a);
+        close(
+            "cyclic amplitude",
+            param(&r, "cyclic", "amplitude_um"),
+            a,
+            0.1 * a,
+        );
         close("period", param(&r, "cyclic", "period_mm"), p, 0.02 * p);
         let std_p = param(&r, "cyclic", "std_period_mm");
-        assert!((param(&r, "cyclic", "period_mm") - p).abs() <= 5.0 * std_p, "period outside 5 reported std");
+        assert!(
+            (param(&r, "cyclic", "period_mm") - p).abs() <= 5.0 * std_p,
+            "period outside 5 reported std"
+        );
     }
 }
 
@@ -94,14 +173,42 @@ fn thermal_drift_recovered_from_time() {
     let mut rng = StdRng::seed_from_u64(14);
     let duration = 5.0 * 42.0 * 20.0;
     for seed in 0..4 {
-        let (o, s, tau) = (rng.random_range(5.0..15.0), rng.random_range(10.0..30.0), rng.random_range(0.3..1.0) * duration);
-        let e = PositioningEffect::Thermal { offset_um: o, scale_um_per_m: s, tau_s: tau, delta_t_k: 2.0 };
+        let (o, s, tau) = (
+            rng.random_range(5.0..15.0),
+            rng.random_range(10.0..30.0),
+            rng.random_range(0.3..1.0) * duration,
+        );
+        let e = PositioningEffect::Thermal {
+            offset_um: o,
+            scale_um_per_m: s,
+            tau_s: tau,
+            delta_t_k: 2.0,
+        };
         let r = run(vec![e], seed, false);
         check_named(&r, &["thermal_drift"]);
-        close("offset growth", param(&r, "thermal_drift", "offset_growth_um"), o, 0.2 * o);
-        close("scale growth", param(&r, "thermal_drift", "scale_growth_um_per_m"), s, 0.2 * s);
-        close("time constant", param(&r, "thermal_drift", "tau_s"), tau, 0.25 * tau);
-        assert!(r.mismatch[0].where_.contains("passes offset"), "{:?}", r.mismatch);
+        close(
+            "offset growth",
+            param(&r, "thermal_drift", "offset_growth_um"),
+            o,
+            0.2 * o,
+        );
+        close(
+            "scale growth",
+            param(&r, "thermal_drift", "scale_growth_um_per_m"),
+            s,
+            0.2 * s,
+        );
+        close(
+            "time constant",
+            param(&r, "thermal_drift", "tau_s"),
+            tau,
+            0.25 * tau,
+        );
+        assert!(
+            r.mismatch[0].where_.contains("passes offset"),
+            "{:?}",
+            r.mismatch
+        );
     }
 }
 
@@ -109,12 +216,31 @@ fn thermal_drift_recovered_from_time() {
 fn thermal_drift_recovered_from_temperature() {
     let mut rng = StdRng::seed_from_u64(15);
     for seed in 0..3 {
-        let (o, s, dt) = (rng.random_range(5.0..15.0), rng.random_range(10.0..30.0), rng.random_range(1.0..3.0));
-        let e = PositioningEffect::Thermal { offset_um: o, scale_um_per_m: s, tau_s: 2000.0, delta_t_k: dt };
+        let (o, s, dt) = (
+            rng.random_range(5.0..15.0),
+            rng.random_range(10.0..30.0),
+            rng.random_range(1.0..3.0),
+        );
+        let e = PositioningEffect::Thermal {
+            offset_um: o,
+            scale_um_per_m: s,
+            tau_s: 2000.0,
+            delta_t_k: dt,
+        };
         let r = run(vec![e], seed, true);
         check_named(&r, &["thermal_drift"]);
-        close("offset per K", param(&r, "thermal_drift", "offset_um_per_k"), o / dt, 0.15 * o / dt);
-        close("scale per K", param(&r, "thermal_drift", "scale_um_per_m_per_k"), s / dt, 0.25 * s / dt);
+        close(
+            "offset per K",
+            param(&r, "thermal_drift", "offset_um_per_k"),
+            o / dt,
+            0.15 * o / dt,
+        );
+        close(
+            "scale per K",
+            param(&r, "thermal_drift", "scale_um_per_m_per_k"),
+            s / dt,
+            0.25 * s / dt,
+        );
     }
 }
 
@@ -123,10 +249,17 @@ fn waviness_needs_higher_order() {
     let mut rng = StdRng::seed_from_u64(16);
     for seed in 0..4 {
         let a = rng.random_range(3.0..6.0);
-        let r = run(vec![PositioningEffect::Waviness { amplitude_um: a }], seed, false);
+        let r = run(
+            vec![PositioningEffect::Waviness { amplitude_um: a }],
+            seed,
+            false,
+        );
         check_named(&r, &["model_order"]);
         let order = param(&r, "model_order", "order");
-        assert!((6.0..=9.0).contains(&order), "order {order}: P5 + P6 needs at least 6");
+        assert!(
+            (6.0..=9.0).contains(&order),
+            "order {order}: P5 + P6 needs at least 6"
+        );
     }
 }
 
@@ -139,13 +272,22 @@ fn two_effects_separated() {
         let r = run(
             vec![
                 PositioningEffect::Backlash { lost_motion_um: lm },
-                PositioningEffect::Cyclic { amplitude_um: a, period_mm: p, phase_rad: 1.0 },
+                PositioningEffect::Cyclic {
+                    amplitude_um: a,
+                    period_mm: p,
+                    phase_rad: 1.0,
+                },
             ],
             100 + seed,
             false,
         );
         check_named(&r, &["backlash", "cyclic"]);
-        close("lost motion", param(&r, "backlash", "lost_motion_um"), lm, 0.4);
+        close(
+            "lost motion",
+            param(&r, "backlash", "lost_motion_um"),
+            lm,
+            0.4,
+        );
         close("period", param(&r, "cyclic", "period_mm"), p, 0.02 * p);
     }
     let mut rng = StdRng::seed_from_u64(18);
@@ -154,15 +296,33 @@ fn two_effects_separated() {
         let o = rng.random_range(6.0..12.0);
         let r = run(
             vec![
-                PositioningEffect::ReversalSpike { amplitude_um: a, decay_mm: l },
-                PositioningEffect::Thermal { offset_um: o, scale_um_per_m: 15.0, tau_s: 2500.0, delta_t_k: 2.0 },
+                PositioningEffect::ReversalSpike {
+                    amplitude_um: a,
+                    decay_mm: l,
+                },
+                PositioningEffect::Thermal {
+                    offset_um: o,
+                    scale_um_per_m: 15.0,
+                    tau_s: 2500.0,
+                    delta_t_k: 2.0,
+                },
             ],
             200 + seed,
             false,
         );
         check_named(&r, &["reversal_spike", "thermal_drift"]);
-        close("spike amplitude", param(&r, "reversal_spike", "amplitude_um"), a, 0.15 * a);
-        close("offset growth", param(&r, "thermal_drift", "offset_growth_um"), o, 0.2 * o);
+        close(
+            "spike amplitude",
+            param(&r, "reversal_spike", "amplitude_um"),
+            a,
+            0.15 * a,
+        );
+        close(
+            "offset growth",
+            param(&r, "thermal_drift", "offset_growth_um"),
+            o,
+            0.2 * o,
+        );
     }
 }
 
@@ -177,7 +337,11 @@ fn clean_runs_are_consistent() {
         // The model-independent noise floor matches the simulated noise.
         close("noise floor", r.baseline.noise_estimate_um, NOISE, 0.15);
     }
-    assert!(consistent >= 38, "{consistent} of 40 clean simulations consistent");
+    println!("{consistent} of 40 clean simulations consistent");
+    assert!(
+        consistent >= 38,
+        "{consistent} of 40 clean simulations consistent"
+    );
 }
 
 #[test]
@@ -185,7 +349,9 @@ fn iso230_2_figures_match_definitions() {
     // Pure backlash: B equals the lost motion (± noise of two means of 5 readings:
     // σ·√(2/5) ≈ 0.32 µm, max over 21 targets ⇒ up to ~1 µm).
     let cfg = PositioningSim {
-        effects: vec![PositioningEffect::Backlash { lost_motion_um: 8.0 }],
+        effects: vec![PositioningEffect::Backlash {
+            lost_motion_um: 8.0,
+        }],
         smooth_um: 0.0,
         ..Default::default()
     };
@@ -198,6 +364,16 @@ fn iso230_2_figures_match_definitions() {
 
 #[test]
 fn rejects_a_single_run() {
-    let cfg = PositioningSim { n_runs: 1, ..Default::default() };
-    assert!(diagnose_positioning(&simulate_positioning(&cfg), "sim", &SeriesOptions::default()).is_err());
+    let cfg = PositioningSim {
+        n_runs: 1,
+        ..Default::default()
+    };
+    assert!(
+        diagnose_positioning(
+            &simulate_positioning(&cfg),
+            "sim",
+            &SeriesOptions::default()
+        )
+        .is_err()
+    );
 }

@@ -96,8 +96,17 @@ fn sobol_indices_of_a_linear_model_match_the_closed_form() {
             max_poses: 1,
         };
         let res = global::sobol(&chain, &mags, std::slice::from_ref(&q), &opts).unwrap();
-        for (c, comp) in ["Ex", "Ey", "Ez"].iter().enumerate() {
-            let w: Vec<f64> = (0..k).map(|i| (jac[i][c] * tol[i]).powi(2)).collect();
+        // E_x, E_y, E_z, and the vector E (variance Var E_x + Var E_y + Var E_z, so its
+        // closed form uses ‖J_i‖²).
+        for (c, comp) in ["Ex", "Ey", "Ez", "E"].iter().enumerate() {
+            let s = |i: usize| {
+                if c < 3 {
+                    jac[i][c].abs()
+                } else {
+                    jac[i].norm()
+                }
+            };
+            let w: Vec<f64> = (0..k).map(|i| (s(i) * tol[i]).powi(2)).collect();
             let total: f64 = w.iter().sum();
             let out = &res.outputs[*comp];
             for e in &out.indices {
@@ -245,4 +254,103 @@ fn bad_input_is_rejected_with_the_rule() {
 
     let text = r#"{"machine": {"template": "vmc3"}, "share": 0.9, "colour": 1}"#;
     assert!(serde_json::from_str::<SensitivityRequest>(text).is_err());
+}
+
+fn row<'a>(
+    res: &'a mtcal_solver::sensitivity::SensitivityResult,
+    comp: &str,
+    e: &str,
+) -> &'a mtcal_solver::sensitivity::RankEntry {
+    res.components[comp]
+        .ranking
+        .iter()
+        .find(|r| r.error == e)
+        .unwrap()
+}
+
+/// Along a path the mean and max are those of the points; a one-point grid is the point;
+/// magnitudes given as position-dependent tables of a constant value give the same
+/// weighted figures as tolerances of that value (the two accumulation paths agree).
+#[test]
+fn path_grid_and_point_evaluations_agree() {
+    let p1 = vec![100.0, 50.0, -300.0, 30.0, 10.0];
+    let p2 = vec![-200.0, 150.0, -50.0, -60.0, 250.0];
+    let at = |points: Vec<Vec<f64>>| {
+        let mut req = SensitivityRequest::template("cradle5-ac");
+        req.points = points;
+        analyse(&req).unwrap()
+    };
+    let (r1, r2, path) = (
+        at(vec![p1.clone()]),
+        at(vec![p2.clone()]),
+        at(vec![p1.clone(), p2]),
+    );
+    assert_eq!(path.evaluation.kind, "path");
+    let mut grid_req = SensitivityRequest::template("cradle5-ac");
+    grid_req.grid = Some(
+        p1.iter()
+            .map(|&v| GridAxis {
+                min: v,
+                max: v + 1.0,
+                n: 1,
+            })
+            .collect(),
+    );
+    let grid = analyse(&grid_req).unwrap();
+    let mut tabled = templates::cradle5_ac();
+    for (name, spec) in tabled.errors.iter_mut() {
+        let t = spec.tolerance.unwrap();
+        if name.len() == 3 {
+            // Motion errors: a table of the constant value ±t (sign must not matter).
+            *spec = mtcal_solver::sensitivity::ErrorSpec {
+                positions: Some(vec![-1000.0, 1000.0]),
+                values: Some(vec![-t, -t]),
+                ..Default::default()
+            };
+        }
+    }
+    let mut tab_req = SensitivityRequest::template("cradle5-ac");
+    tab_req.machine = MachineRef::Description(tabled);
+    tab_req.points = vec![p1.clone()];
+    let tab = analyse(&tab_req).unwrap();
+    let mut checked = 0;
+    for comp in ["Ex", "Ey", "Ez", "E"] {
+        for e in &path.errors {
+            let (a, b, p) = (
+                row(&r1, comp, &e.name),
+                row(&r2, comp, &e.name),
+                row(&path, comp, &e.name),
+            );
+            let close = |x: f64, y: f64| (x - y).abs() <= 1e-9 * (1.0 + x.abs());
+            assert!(close(
+                p.sensitivity_mean,
+                0.5 * (a.sensitivity_mean + b.sensitivity_mean)
+            ));
+            assert!(close(
+                p.sensitivity_max,
+                a.sensitivity_max.max(b.sensitivity_max)
+            ));
+            assert!(close(
+                p.contribution_max_um,
+                a.contribution_max_um.max(b.contribution_max_um)
+            ));
+            let g = row(&grid, comp, &e.name);
+            assert!(
+                close(g.sensitivity_mean, a.sensitivity_mean)
+                    && close(g.coefficient, a.coefficient)
+            );
+            let t = row(&tab, comp, &e.name);
+            assert!(
+                close(t.contribution_mean_um, a.contribution_mean_um),
+                "{comp} {}",
+                e.name
+            );
+            assert!(close(t.contribution_max_um, a.contribution_max_um));
+            if a.sensitivity_mean != b.sensitivity_mean {
+                checked += 1;
+            }
+        }
+    }
+    // The two points differ for most errors, so the mean/max checks are not vacuous.
+    assert!(checked > 50, "{checked}");
 }

@@ -247,9 +247,19 @@ pub fn patent_frames(poses: &[PosePoints]) -> Result<PatentAnalysis, SolverError
         let sn = f.circle.normal_std_rad;
         ((sn[0] * sn[0] + sn[1] * sn[1] + x_std * x_std) / 3.0).sqrt()
     };
+    // Angle noise of a centre about the A axis: its tangential standard uncertainty over
+    // its distance from the axis.
     let centre_angle_std = |f: &PoseFit| {
-        let s = Vector3::from(f.circle.centre_std).norm();
-        s / proj(&f.circle.centre).norm().max(1e-300)
+        let r = proj(&f.circle.centre);
+        let t = a.cross(&r).normalize();
+        let cov = &f.circle.covariance;
+        let mut var = 0.0;
+        for i in 0..3 {
+            for j in 0..3 {
+                var += t[i] * cov[i][j] * t[j];
+            }
+        }
+        var.max(0.0).sqrt() / r.norm().max(1e-300)
     };
     let thetas: Vec<f64> = fits
         .iter()

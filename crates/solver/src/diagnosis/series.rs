@@ -24,7 +24,6 @@ pub use positioning::{Iso2302, diagnose_positioning, iso230_2};
 
 pub use drift::diagnose_drift_log;
 
-
 use serde::{Deserialize, Serialize};
 
 /// Options of the series diagnoses. [`Default`] gives the documented values.
@@ -88,7 +87,12 @@ pub(crate) fn bic(sse: f64, n: usize, k: usize) -> f64 {
 }
 
 /// Golden-section minimisation of `f` on `[a, b]` (unimodal assumed), `iters` steps.
-pub(crate) fn golden_min(mut a: f64, mut b: f64, iters: usize, mut f: impl FnMut(f64) -> f64) -> (f64, f64) {
+pub(crate) fn golden_min(
+    mut a: f64,
+    mut b: f64,
+    iters: usize,
+    mut f: impl FnMut(f64) -> f64,
+) -> (f64, f64) {
     let g = 0.5 * (5f64.sqrt() - 1.0);
     let mut c = b - g * (b - a);
     let mut d = a + g * (b - a);
@@ -113,7 +117,11 @@ pub(crate) fn golden_min(mut a: f64, mut b: f64, iters: usize, mut f: impl FnMut
 
 /// 1-D search: best point of `grid` by `f`, then golden-section refinement between its
 /// neighbours. Returns (argmin, min).
-pub(crate) fn grid_then_golden(grid: &[f64], iters: usize, mut f: impl FnMut(f64) -> f64) -> (f64, f64) {
+pub(crate) fn grid_then_golden(
+    grid: &[f64],
+    iters: usize,
+    mut f: impl FnMut(f64) -> f64,
+) -> (f64, f64) {
     let vals: Vec<f64> = grid.iter().map(|&x| f(x)).collect();
     let (ib, &vb) = vals
         .iter()
@@ -143,7 +151,9 @@ pub(crate) fn decimate(n: usize, max: usize) -> Vec<usize> {
         return (0..n).collect();
     }
     let step = (n - 1) as f64 / (max - 1) as f64;
-    let mut out: Vec<usize> = (0..max).map(|i| (i as f64 * step).round() as usize).collect();
+    let mut out: Vec<usize> = (0..max)
+        .map(|i| (i as f64 * step).round() as usize)
+        .collect();
     out.dedup();
     out
 }

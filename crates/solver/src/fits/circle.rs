@@ -123,7 +123,7 @@ fn kasa(
         .solve(&b, 1e-12)
         .map_err(|e| SolverError::Degenerate(format!("circle fit: Kåsa start failed: {e}")))?;
     let r2 = sol[2] + sol[0] * sol[0] + sol[1] * sol[1];
-    if !(r2 > 0.0) {
+    if r2.is_nan() || r2 <= 0.0 {
         return Err(SolverError::Degenerate(
             "circle fit: Kåsa start gave no circle".into(),
         ));

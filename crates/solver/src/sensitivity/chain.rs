@@ -180,6 +180,11 @@ struct Factor {
 #[derive(Debug, Clone)]
 pub struct Chain {
     factors: Vec<Factor>,
+    /// Zero-error fast path: the factors that move anything at zero error (axes and
+    /// constants), and every error occurrence as (boundary b = number of active factors
+    /// before it, factor, parameter, coefficient in µm per unit).
+    active: Vec<Factor>,
+    occurrences: Vec<(usize, Elem, usize, f64)>,
     params: Vec<ErrorParam>,
     axis_names: Vec<char>,
     travel: Vec<[f64; 2]>,
@@ -396,6 +401,8 @@ impl Chain {
             .collect();
         let mut chain = Chain {
             factors: Vec::new(),
+            active: Vec::new(),
+            occurrences: Vec::new(),
             params,
             axis_names,
             travel,
@@ -411,6 +418,16 @@ impl Chain {
             chain.push_motion_errors(a.axis);
         }
         chain.push_setup('T');
+        for f in &chain.factors {
+            match f.amount {
+                Amount::Param { index, coef } => {
+                    chain
+                        .occurrences
+                        .push((chain.active.len(), f.elem, index, coef * 1e3))
+                }
+                _ => chain.active.push(*f),
+            }
+        }
         Ok(chain)
     }
 
@@ -614,6 +631,46 @@ impl Chain {
         }
     }
 
+    /// The Jacobian at zero error (what the sensitivity measures use), by the screw form
+    /// of the same formula: with P_b = (R_b, o_b) the nominal prefix transform at the
+    /// error's place and u = R_b e_d, a translation's column is u and a rotation's is
+    /// u × (p − o_b), p the nominal tool point. Equal to [`Chain::jacobian_into`] at
+    /// `values = 0` (tested), several times faster.
+    pub fn jacobian_zero_into(&self, q: &[f64], ws: &mut Workspace, jac: &mut Vec<Vector3<f64>>) {
+        assert_eq!(q.len(), self.axis_names.len(), "pose length");
+        let n = self.active.len();
+        ws.prefix
+            .resize(n + 1, (Matrix3::identity(), Vector3::zeros()));
+        let mut r = Matrix3::identity();
+        let mut o = Vector3::zeros();
+        ws.prefix[0] = (r, o);
+        for (b, f) in self.active.iter().enumerate() {
+            let a = match f.amount {
+                Amount::Axis { index, scale } => q[index] * scale,
+                Amount::Const(v) => v,
+                Amount::Param { .. } => 0.0,
+            };
+            if a != 0.0 {
+                match f.elem {
+                    Elem::Trans(d) => o += r.column(d) * a,
+                    Elem::Rot(d) => post_rotate(&mut r, d, a),
+                }
+            }
+            ws.prefix[b + 1] = (r, o);
+        }
+        let p = r * self.tool_offset + o;
+        jac.clear();
+        jac.resize(self.params.len(), Vector3::zeros());
+        for &(b, elem, index, coef) in &self.occurrences {
+            let (rb, ob) = &ws.prefix[b];
+            let col = match elem {
+                Elem::Trans(d) => rb.column(d).into_owned(),
+                Elem::Rot(d) => rb.column(d).cross(&(p - ob)),
+            };
+            jac[index] += col * coef;
+        }
+    }
+
     /// Convenience form of [`Chain::jacobian_into`].
     pub fn jacobian(&self, q: &[f64], values: &[f64]) -> Vec<Vector3<f64>> {
         let mut ws = Workspace::default();
@@ -626,6 +683,7 @@ impl Chain {
 /// Scratch space of [`Chain::jacobian_into`], reused across poses.
 #[derive(Debug, Default, Clone)]
 pub struct Workspace {
+    prefix: Vec<(Matrix3<f64>, Vector3<f64>)>,
     outboard: Vec<Vector3<f64>>,
     amounts: Vec<f64>,
 }

@@ -8,7 +8,11 @@
 //! pose q is g_i(q) = X_i · m_i(q) (m_i: the tolerance, or the identified function). The
 //! volumetric error is taken to first order, E(q) = Σ_i J_i(q) m_i(q) X_i, with J the
 //! analytic Jacobian of the exact chain at zero error (the second-order remainder is below
-//! 10⁻⁴ of E for errors of tens of µrad). Outputs: E_x, E_y, E_z at every pose, and |E|.
+//! 10⁻⁴ of E for errors of tens of µrad). Outputs: E_x, E_y, E_z at every pose, and the
+//! volumetric error vector E, whose variance is the trace of its covariance,
+//! V = Var E_x + Var E_y + Var E_z (the mean-square volumetric error about its mean), so
+//! that its indices are shares of the mean-square volumetric error and add up like those
+//! of the components.
 //!
 //! Indices are pooled over the poses (the workspace): with V(q) the variance of the output
 //! at q, S_i = Σ_q V_i(q) / Σ_q V(q) and S_Ti = Σ_q V_Ti(q) / Σ_q V(q), i.e. the share of the
@@ -94,9 +98,10 @@ pub struct SobolEntry {
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 pub struct SobolOutput {
     pub indices: Vec<SobolEntry>,
-    /// Σ S_i: 1 for an additive output (E_x, E_y, E_z), below 1 when errors interact (|E|).
+    /// Σ S_i: 1 up to Monte-Carlo error for the first-order (additive) model.
     pub sum_first_order: f64,
-    /// RMS of the output over the workspace and the error distribution, µm.
+    /// RMS of the output over the workspace and the error distribution, µm (for E: the
+    /// RMS of |E|).
     pub rms_um: f64,
 }
 
@@ -150,14 +155,13 @@ pub fn sobol(
     let mut tt = vec![0.0; 4 * n * k];
     let mut var_total = [0.0; 4];
     let mut mean_sq = [0.0; 4];
-    let zeros = vec![0.0; k];
     let mut ws = Workspace::default();
     let mut jac: Vec<Vector3<f64>> = Vec::new();
     let mut m = Vec::new();
     let mut fa = vec![Vector3::zeros(); n];
     let mut fb = vec![Vector3::zeros(); n];
     for q in poses {
-        chain.jacobian_into(q, &zeros, &mut ws, &mut jac);
+        chain.jacobian_zero_into(q, &mut ws, &mut jac);
         mags.at_pose(q, &mut m);
         let g: Vec<Vector3<f64>> = jac.iter().zip(&m).map(|(j, mi)| j * *mi).collect();
         for j in 0..n {
@@ -166,35 +170,37 @@ pub fn sobol(
             fb[j] = g.iter().zip(rb).map(|(gi, x)| gi * *x).sum();
         }
         // Variance of each output at this pose from the 2N values.
-        for c in 0..4 {
-            let val = |v: &Vector3<f64>| if c < 3 { v[c] } else { v.norm() };
+        for c in 0..3 {
             let (mut s, mut s2) = (0.0, 0.0);
             for v in fa.iter().chain(fb.iter()) {
-                let x = val(v);
-                s += x;
-                s2 += x * x;
+                s += v[c];
+                s2 += v[c] * v[c];
             }
             let cnt = 2.0 * n as f64;
             let mean = s / cnt;
-            var_total[c] += (s2 / cnt - mean * mean) * cnt / (cnt - 1.0);
+            let var = (s2 / cnt - mean * mean) * cnt / (cnt - 1.0);
+            var_total[c] += var;
+            var_total[3] += var;
             mean_sq[c] += s2 / cnt;
+            mean_sq[3] += s2 / cnt;
         }
         for j in 0..n {
             let (ra, rb) = (&a[j * k..(j + 1) * k], &b[j * k..(j + 1) * k]);
-            let (va, vb) = (fa[j], fb[j]);
-            let (na, nb) = (va.norm(), vb.norm());
+            let vb = fb[j];
             for i in 0..k {
-                let vab = va + g[i] * (rb[i] - ra[i]);
-                let d = vab - va;
+                // f(A_B⁽ⁱ⁾) − f(A) of the linear model.
+                let d = g[i] * (rb[i] - ra[i]);
+                let (mut s1, mut st) = (0.0, 0.0);
                 for c in 0..3 {
                     let idx = (c * n + j) * k + i;
                     t1[idx] += vb[c] * d[c];
                     tt[idx] += 0.5 * d[c] * d[c];
+                    s1 += vb[c] * d[c];
+                    st += 0.5 * d[c] * d[c];
                 }
-                let dn = vab.norm() - na;
                 let idx = (3 * n + j) * k + i;
-                t1[idx] += nb * dn;
-                tt[idx] += 0.5 * dn * dn;
+                t1[idx] += s1;
+                tt[idx] += st;
             }
         }
     }

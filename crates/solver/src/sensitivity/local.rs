@@ -164,42 +164,61 @@ pub fn local_stats(chain: &Chain, mags: &Magnitudes, poses: &Poses) -> LocalStat
         .iter()
         .map(|p| if p.angular { 1e3 } else { 1.0 })
         .collect();
-    let zeros = vec![0.0; k];
-    let z = || std::array::from_fn(|_| vec![0.0; k]);
-    let (mut mean, mut max, mut mean_w, mut max_w): (
-        [Vec<f64>; 4],
-        [Vec<f64>; 4],
-        [Vec<f64>; 4],
-        [Vec<f64>; 4],
-    ) = (z(), z(), z(), z());
+    // Per parameter: [sum over poses of |J_x|, |J_y|, |J_z|, ‖J‖; their max; the same
+    // weighted by |m_i(q)|], contiguous for the inner loop.
+    let mut acc = vec![[0.0f64; 16]; k];
     let mut ws = Workspace::default();
     let mut jac: Vec<Vector3<f64>> = Vec::new();
     let mut q = Vec::new();
     let mut m = Vec::new();
+    let varying = mags.varies_with_position();
     let n = poses.len();
     for idx in 0..n {
         poses.pose(idx, &mut q);
-        chain.jacobian_into(&q, &zeros, &mut ws, &mut jac);
-        mags.at_pose(&q, &mut m);
-        for i in 0..k {
-            let col = jac[i];
-            let vals = [col.x.abs(), col.y.abs(), col.z.abs(), col.norm()];
-            let w = m[i].abs();
-            for c in 0..4 {
-                let s = vals[c] * paper[i];
-                mean[c][i] += s;
-                max[c][i] = f64::max(max[c][i], s);
-                let sw = vals[c] * w;
-                mean_w[c][i] += sw;
-                max_w[c][i] = f64::max(max_w[c][i], sw);
+        chain.jacobian_zero_into(&q, &mut ws, &mut jac);
+        if varying || idx == 0 {
+            mags.at_pose(&q, &mut m);
+        }
+        if varying {
+            for i in 0..k {
+                let col = jac[i];
+                let vals = [col.x.abs(), col.y.abs(), col.z.abs(), col.norm()];
+                let (p, w) = (paper[i], m[i].abs());
+                let a = &mut acc[i];
+                for c in 0..4 {
+                    let s = vals[c] * p;
+                    let sw = vals[c] * w;
+                    a[c] += s;
+                    a[4 + c] = a[4 + c].max(s);
+                    a[8 + c] += sw;
+                    a[12 + c] = a[12 + c].max(sw);
+                }
+            }
+        } else {
+            // Constant magnitudes: accumulate |J| only; scales are applied once below.
+            for (a, col) in acc.iter_mut().zip(&jac) {
+                let vals = [col.x.abs(), col.y.abs(), col.z.abs(), col.norm()];
+                for c in 0..4 {
+                    a[c] += vals[c];
+                    a[4 + c] = a[4 + c].max(vals[c]);
+                }
+            }
+        }
+    }
+    if !varying {
+        for (i, a) in acc.iter_mut().enumerate() {
+            let (p, w) = (paper[i], m.get(i).map_or(0.0, |v: &f64| v.abs()));
+            for c in 0..8 {
+                a[8 + c] = a[c] * w;
+                a[c] *= p;
             }
         }
     }
     let inv = 1.0 / n.max(1) as f64;
-    for c in 0..4 {
-        mean[c].iter_mut().for_each(|v| *v *= inv);
-        mean_w[c].iter_mut().for_each(|v| *v *= inv);
-    }
+    let pick = |off: usize, scale: f64| -> [Vec<f64>; 4] {
+        std::array::from_fn(|c| acc.iter().map(|a| a[off + c] * scale).collect())
+    };
+    let (mean, max, mean_w, max_w) = (pick(0, inv), pick(4, 1.0), pick(8, inv), pick(12, 1.0));
     LocalStats {
         poses: n,
         mean,

@@ -166,6 +166,13 @@ impl Magnitudes {
         }));
     }
 
+    /// Whether some magnitude depends on an axis position (a function of a motion error).
+    pub fn varies_with_position(&self) -> bool {
+        self.items.iter().zip(&self.axis).any(|(m, a)| {
+            a.is_some() && matches!(m, Magnitude::Polynomial(_) | Magnitude::Table(..))
+        })
+    }
+
     /// Whether every magnitude is an actual value (not a tolerance bound).
     pub fn all_values(&self) -> bool {
         self.items

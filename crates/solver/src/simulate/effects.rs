@@ -185,7 +185,7 @@ impl Effect {
                 scale_ppm: [0, 1, 2].map(|_| rng.random_range(8.0..25.0) * sign),
             },
             "setup_offset" => Effect::SetupOffset {
-                delta_mm: [0.0, 0.0, sign * rng.random_range(5.0..15.0)],
+                delta_mm: [0.0, 0.0, sign * rng.random_range(10.0..20.0)],
                 // A uniform offset error of every file is a re-parameterisation (the
                 // identified terms become those seen at the true offset): the detectable
                 // case is one riser declared wrongly.

@@ -71,7 +71,10 @@ struct Inputs<'a> {
 impl Inputs<'_> {
     fn heat(&self, p: f64) -> Vec<f64> {
         let s = self.speed.expect("speed channel");
-        s.values.iter().map(|&n| (n.abs() / self.rpm_max).powf(p)).collect()
+        s.values
+            .iter()
+            .map(|&n| (n.abs() / self.rpm_max).powf(p))
+            .collect()
     }
 
     fn design(&self, m: &Model) -> Design {
@@ -98,9 +101,16 @@ fn cv_sse(d: &Design, y: &[f64], n_train: usize, folds: usize) -> f64 {
         let (a, b) = (f * n_train / folds, (f + 1) * n_train / folds);
         let train: Vec<usize> = (0..n_train).filter(|&i| i < a || i >= b).collect();
         let test: Vec<usize> = (a..b).collect();
-        let fit = lsq::solve(&d.rows(&train), &train.iter().map(|&i| y[i]).collect::<Vec<_>>());
+        let fit = lsq::solve(
+            &d.rows(&train),
+            &train.iter().map(|&i| y[i]).collect::<Vec<_>>(),
+        );
         let pred = d.rows(&test).predict(&fit.coef);
-        total += test.iter().zip(&pred).map(|(&i, p)| (y[i] - p).powi(2)).sum::<f64>();
+        total += test
+            .iter()
+            .zip(&pred)
+            .map(|(&i, p)| (y[i] - p).powi(2))
+            .sum::<f64>();
     }
     total
 }
@@ -124,9 +134,15 @@ fn search_lags(inp: &Inputs, y: &[f64], p: f64, nlags: usize) -> Vec<f64> {
     let dt = (t[nt - 1] - t[0]) / (nt - 1) as f64;
     let grid = log_grid((4.0 * dt).max(60.0), 2.0 * (t[nt - 1] - t[0]), 22);
     let u = inp.heat(p);
-    let bank: Vec<Vec<f64>> = grid.iter().map(|&tau| first_order_lag(t, &u, tau)).collect();
+    let bank: Vec<Vec<f64>> = grid
+        .iter()
+        .map(|&tau| first_order_lag(t, &u, tau))
+        .collect();
     let eval = |taus: &[f64]| -> f64 {
-        let cols: Vec<Vec<f64>> = taus.iter().map(|&tau| first_order_lag(t, &u, tau)).collect();
+        let cols: Vec<Vec<f64>> = taus
+            .iter()
+            .map(|&tau| first_order_lag(t, &u, tau))
+            .collect();
         let refs: Vec<&[f64]> = cols.iter().map(|c| c.as_slice()).collect();
         train_sse(&refs, y, nt)
     };
@@ -251,32 +267,47 @@ fn lag1_autocorr(r: &[f64]) -> f64 {
     let m = r.iter().sum::<f64>() / r.len().max(1) as f64;
     let den: f64 = r.iter().map(|v| (v - m).powi(2)).sum();
     let num: f64 = r.windows(2).map(|w| (w[0] - m) * (w[1] - m)).sum();
-    if den > 0.0 { (num / den).clamp(-0.99, 0.999) } else { 0.0 }
+    if den > 0.0 {
+        (num / den).clamp(-0.99, 0.999)
+    } else {
+        0.0
+    }
 }
 
 fn describe(m: &Model, inp: &Inputs) -> String {
     let mut parts = vec![];
     if !m.taus.is_empty() {
         let p = if m.p == 1.0 { "n" } else { "n²" };
-        parts.push(format!("{} first-order lag(s) of spindle heat input ∝ {p}", m.taus.len()));
+        parts.push(format!(
+            "{} first-order lag(s) of spindle heat input ∝ {p}",
+            m.taus.len()
+        ));
     }
     if !m.sensors.is_empty() {
-        let names: Vec<&str> = m.sensors.iter().map(|&i| inp.temps[i].name.as_str()).collect();
+        let names: Vec<&str> = m
+            .sensors
+            .iter()
+            .map(|&i| inp.temps[i].name.as_str())
+            .collect();
         parts.push(format!("temperatures {}", names.join(", ")));
     }
-    if parts.is_empty() { "constant".into() } else { parts.join(" + ") }
+    if parts.is_empty() {
+        "constant".into()
+    } else {
+        parts.join(" + ")
+    }
 }
 
-fn analyse_channel(
-    ch: &Channel,
-    inp: &Inputs,
-    opts: &SeriesOptions,
-) -> ChannelOutcome {
+fn analyse_channel(ch: &Channel, inp: &Inputs, opts: &SeriesOptions) -> ChannelOutcome {
     let y = &ch.values;
     let n = y.len();
     let nt = inp.n_train;
     let noise = noise_floor(y);
-    let rigid = Model { p: 1.0, taus: vec![], sensors: vec![] };
+    let rigid = Model {
+        p: 1.0,
+        taus: vec![],
+        sensors: vec![],
+    };
     let cv_rigid = cv_sse(&inp.design(&rigid), y, nt, FOLDS);
     let mean_train = y[..nt].iter().sum::<f64>() / nt as f64;
     let rigid_res: Vec<f64> = y.iter().map(|v| v - mean_train).collect();
@@ -287,7 +318,11 @@ fn analyse_channel(
     if inp.speed.is_some() && inp.rpm_max > 0.0 {
         for p in [1.0, 2.0] {
             for nl in [1, 2] {
-                let m = Model { p, taus: search_lags(inp, y, p, nl), sensors: vec![] };
+                let m = Model {
+                    p,
+                    taus: search_lags(inp, y, p, nl),
+                    sensors: vec![],
+                };
                 let s = cv_sse(&inp.design(&m), y, nt, FOLDS);
                 cands.push((describe(&m, inp), m.clone(), s));
                 if best_spindle.as_ref().is_none_or(|(_, b)| s < *b) {
@@ -315,7 +350,8 @@ fn analyse_channel(
     let rigid_train_rms = rms(&rigid_res[..nt]);
     let rigid_test_rms = rms(&rigid_res[nt..]);
     let sse_rigid_test: f64 = rigid_res[nt..].iter().map(|v| v * v).sum();
-    let misfit_sse = (rigid_res.iter().map(|v| v * v).sum::<f64>() - n as f64 * noise * noise).max(0.0);
+    let misfit_sse =
+        (rigid_res.iter().map(|v| v * v).sum::<f64>() - n as f64 * noise * noise).max(0.0);
     // Where: the peak and the span where |drift| exceeds half of it.
     let (ipk, pk) = rigid_res
         .iter()
@@ -357,7 +393,11 @@ fn analyse_channel(
     let sse_after_test: f64 = res[nt..].iter().map(|v| v * v).sum();
     out.after_train_rms = rms(&res[..nt]);
     out.after_test_rms = rms(&res[nt..]);
-    out.share_predicted = if sse_rigid_test > 0.0 { 1.0 - sse_after_test / sse_rigid_test } else { 0.0 };
+    out.share_predicted = if sse_rigid_test > 0.0 {
+        1.0 - sse_after_test / sse_rigid_test
+    } else {
+        0.0
+    };
     out.pred = pred;
 
     // Uncertainties: Jacobian with ∂/∂ln τ columns, AR(1) inflation.
@@ -371,7 +411,10 @@ fn analyse_channel(
             let a = first_order_lag(inp.t, &u, tau * h.exp());
             let b = first_order_lag(inp.t, &u, tau * (-h).exp());
             let g = fit.coef[1 + j];
-            jac.push(format!("lntau{}", j + 1), (0..nt).map(|i| g * (a[i] - b[i]) / (2.0 * h)).collect());
+            jac.push(
+                format!("lntau{}", j + 1),
+                (0..nt).map(|i| g * (a[i] - b[i]) / (2.0 * h)).collect(),
+            );
         }
     }
     let jfit = lsq::solve(&jac, &res[..nt]);
@@ -382,7 +425,10 @@ fn analyse_channel(
         params.insert("rpm_exponent".into(), model.p);
         for (j, &tau) in model.taus.iter().enumerate() {
             params.insert(format!("tau{}_s", j + 1), tau);
-            params.insert(format!("std_tau{}_s", j + 1), tau * jfit.std[d.len() + j] * inflate);
+            params.insert(
+                format!("std_tau{}_s", j + 1),
+                tau * jfit.std[d.len() + j] * inflate,
+            );
             params.insert(format!("gain{}_um", j + 1), fit.coef[1 + j]);
             params.insert(format!("std_gain{}_um", j + 1), jfit.std[1 + j] * inflate);
         }
@@ -390,7 +436,10 @@ fn analyse_channel(
     for (k, &i) in model.sensors.iter().enumerate() {
         let name = inp.temps[i].name.trim_end_matches("_c").to_string();
         params.insert(format!("{name}_um_per_k"), fit.coef[1 + nl + k]);
-        params.insert(format!("std_{name}_um_per_k"), jfit.std[1 + nl + k] * inflate);
+        params.insert(
+            format!("std_{name}_um_per_k"),
+            jfit.std[1 + nl + k] * inflate,
+        );
     }
     params.insert("share_predicted".into(), out.share_predicted);
 
@@ -403,7 +452,10 @@ fn analyse_channel(
         (s - sse_after_test) / sse_rigid_test.max(1e-300)
     };
     if nl > 0 {
-        let m = Model { taus: vec![], ..model.clone() };
+        let m = Model {
+            taus: vec![],
+            ..model.clone()
+        };
         inputs_txt.push(format!("spindle history {:.2}", drop_share(&m)));
     }
     for (k, &i) in model.sensors.iter().enumerate() {
@@ -437,8 +489,14 @@ fn analyse_channel(
         axis: Some(ch.name.trim_end_matches("_um").to_string()),
         parameters: params,
         physics,
-        residual_rms_um: BeforeAfter { before: rigid_train_rms, after: out.after_train_rms },
-        heldout_rms_um: BeforeAfter { before: rigid_test_rms, after: out.after_test_rms },
+        residual_rms_um: BeforeAfter {
+            before: rigid_train_rms,
+            after: out.after_train_rms,
+        },
+        heldout_rms_um: BeforeAfter {
+            before: rigid_test_rms,
+            after: out.after_test_rms,
+        },
         evidence,
     });
     out
@@ -447,10 +505,16 @@ fn analyse_channel(
 fn validate(log: &DriftLog, opts: &SeriesOptions) -> Result<usize, SolverError> {
     let n = log.t_s.len();
     if n < 40 {
-        return Err(SolverError::InvalidInput(format!("drift log has {n} samples, at least 40 needed")));
+        return Err(SolverError::InvalidInput(format!(
+            "drift log has {n} samples, at least 40 needed"
+        )));
     }
-    if log.t_s.windows(2).any(|w| !(w[1] > w[0])) || log.t_s.iter().any(|v| !v.is_finite()) {
-        return Err(SolverError::InvalidInput("drift log time t_s must be finite and strictly increasing".into()));
+    if log.t_s.windows(2).any(|w| w[1] <= w[0] || w[1].is_nan())
+        || log.t_s.iter().any(|v| !v.is_finite())
+    {
+        return Err(SolverError::InvalidInput(
+            "drift log time t_s must be finite and strictly increasing".into(),
+        ));
     }
     for c in &log.channels {
         if c.values.len() != n {
@@ -461,14 +525,25 @@ fn validate(log: &DriftLog, opts: &SeriesOptions) -> Result<usize, SolverError> 
             )));
         }
         if c.values.iter().any(|v| !v.is_finite()) {
-            return Err(SolverError::InvalidInput(format!("channel {} has a non-finite value", c.name)));
+            return Err(SolverError::InvalidInput(format!(
+                "channel {} has a non-finite value",
+                c.name
+            )));
         }
     }
-    if !log.channels.iter().any(|c| c.kind == ChannelKind::DisplacementUm) {
-        return Err(SolverError::InvalidInput("drift log has no displacement channel (<name>_um)".into()));
+    if !log
+        .channels
+        .iter()
+        .any(|c| c.kind == ChannelKind::DisplacementUm)
+    {
+        return Err(SolverError::InvalidInput(
+            "drift log has no displacement channel (<name>_um)".into(),
+        ));
     }
     if !(0.2..=0.9).contains(&opts.train_fraction) {
-        return Err(SolverError::InvalidInput("train_fraction must lie in [0.2, 0.9]".into()));
+        return Err(SolverError::InvalidInput(
+            "train_fraction must lie in [0.2, 0.9]".into(),
+        ));
     }
     Ok(((n as f64) * opts.train_fraction).floor() as usize)
 }
@@ -482,13 +557,20 @@ pub fn diagnose_drift_log(
     opts: &SeriesOptions,
 ) -> Result<DiagnosisResult, SolverError> {
     let n_train = validate(log, opts)?;
-    let speed = log.channels.iter().find(|c| c.kind == ChannelKind::SpeedRpm);
+    let speed = log
+        .channels
+        .iter()
+        .find(|c| c.kind == ChannelKind::SpeedRpm);
     let rpm_max = speed.map_or(0.0, |s| s.values.iter().fold(0.0f64, |a, v| a.max(v.abs())));
     let inp = Inputs {
         t: &log.t_s,
         speed,
         rpm_max,
-        temps: log.channels.iter().filter(|c| c.kind == ChannelKind::TemperatureC).collect(),
+        temps: log
+            .channels
+            .iter()
+            .filter(|c| c.kind == ChannelKind::TemperatureC)
+            .collect(),
         n_train,
     };
     let outs: Vec<ChannelOutcome> = log
@@ -509,7 +591,10 @@ pub fn diagnose_drift_log(
     let total_misfit: f64 = outs.iter().map(|o| o.misfit_sse).sum();
     let mut mismatch: Vec<Mismatch> = outs
         .iter()
-        .filter(|o| o.rigid_test_rms > opts.explained_ratio * o.noise || o.rigid_train_rms > opts.explained_ratio * o.noise)
+        .filter(|o| {
+            o.rigid_test_rms > opts.explained_ratio * o.noise
+                || o.rigid_train_rms > opts.explained_ratio * o.noise
+        })
         .map(|o| Mismatch {
             where_: format!(
                 "{}: drifts away from its constant by up to {:.2} µm (at {:.1} h); |drift| above \
@@ -517,7 +602,11 @@ pub fn diagnose_drift_log(
                 o.name, o.peak.0, o.peak.1, o.window_h.0, o.window_h.1
             ),
             tests: vec![o.name.clone()],
-            share_of_misfit: if total_misfit > 0.0 { o.misfit_sse / total_misfit } else { 0.0 },
+            share_of_misfit: if total_misfit > 0.0 {
+                o.misfit_sse / total_misfit
+            } else {
+                0.0
+            },
         })
         .collect();
     mismatch.sort_by(|a, b| b.share_of_misfit.total_cmp(&a.share_of_misfit));
@@ -535,7 +624,11 @@ pub fn diagnose_drift_log(
                 o.rigid_test_rms,
                 o.noise,
                 100.0 * o.share_predicted,
-                if o.finding.is_none() { ", no candidate improved the cross-validated fit" } else { "" }
+                if o.finding.is_none() {
+                    ", no candidate improved the cross-validated fit"
+                } else {
+                    ""
+                }
             ));
         }
     }
@@ -543,8 +636,6 @@ pub fn diagnose_drift_log(
         Verdict::Consistent
     } else if unexplained.is_empty() {
         Verdict::Explained
-    } else if findings.is_empty() {
-        Verdict::PartlyExplained
     } else {
         Verdict::PartlyExplained
     };
@@ -555,26 +646,50 @@ pub fn diagnose_drift_log(
     let idx = decimate(t_h.len(), opts.plot_points);
     let pick = |v: &[f64]| -> Vec<f64> { idx.iter().map(|&i| v[i]).collect() };
     let mut plots = vec![];
-    for (o, ch) in outs.iter().zip(log.channels.iter().filter(|c| c.kind == ChannelKind::DisplacementUm)) {
-        let (lo, hi) = ch.values.iter().fold((f64::INFINITY, f64::NEG_INFINITY), |(a, b), &v| (a.min(v), b.max(v)));
+    for (o, ch) in outs.iter().zip(
+        log.channels
+            .iter()
+            .filter(|c| c.kind == ChannelKind::DisplacementUm),
+    ) {
+        let (lo, hi) = ch
+            .values
+            .iter()
+            .fold((f64::INFINITY, f64::NEG_INFINITY), |(a, b), &v| {
+                (a.min(v), b.max(v))
+            });
         plots.push(PlotData {
             id: format!("drift_{}", o.name.trim_end_matches("_um")),
             title: format!(
                 "{}: held-out RMS {:.2} → {:.2} µm, {:.0} % of the held-out drift predicted",
-                o.name, o.rigid_test_rms, o.after_test_rms, 100.0 * o.share_predicted
+                o.name,
+                o.rigid_test_rms,
+                o.after_test_rms,
+                100.0 * o.share_predicted
             ),
             x_label: "time (h)".into(),
             y_label: format!("{} (µm)", o.name),
             kind: "cartesian".into(),
             series: vec![
-                PlotSeries { name: "measured".into(), x: pick(&t_h), y: pick(&ch.values) },
+                PlotSeries {
+                    name: "measured".into(),
+                    x: pick(&t_h),
+                    y: pick(&ch.values),
+                },
                 PlotSeries {
                     name: "rigid model (constant)".into(),
                     x: vec![t_h[0], *t_h.last().unwrap_or(&0.0)],
                     y: vec![o.rigid_pred, o.rigid_pred],
                 },
-                PlotSeries { name: "thermal model".into(), x: pick(&t_h), y: pick(&o.pred) },
-                PlotSeries { name: "train | test split".into(), x: vec![t_split, t_split], y: vec![lo, hi] },
+                PlotSeries {
+                    name: "thermal model".into(),
+                    x: pick(&t_h),
+                    y: pick(&o.pred),
+                },
+                PlotSeries {
+                    name: "train | test split".into(),
+                    x: vec![t_split, t_split],
+                    y: vec![lo, hi],
+                },
             ],
         });
     }

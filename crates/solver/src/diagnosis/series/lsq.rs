@@ -31,7 +31,11 @@ impl Design {
     pub fn rows(&self, rows: &[usize]) -> Design {
         Design {
             names: self.names.clone(),
-            cols: self.cols.iter().map(|c| rows.iter().map(|&i| c[i]).collect()).collect(),
+            cols: self
+                .cols
+                .iter()
+                .map(|c| rows.iter().map(|&i| c[i]).collect())
+                .collect(),
         }
     }
     /// Prediction X b at every row.
@@ -125,7 +129,14 @@ pub fn solve(x: &Design, y: &[f64]) -> LsqFit {
         })
         .collect();
     let cond = if rank < p { f64::INFINITY } else { smax / smin };
-    LsqFit { coef, std, sse, n, rank, cond }
+    LsqFit {
+        coef,
+        std,
+        sse,
+        n,
+        rank,
+        cond,
+    }
 }
 
 /// Sum of squared residuals only (same solve; convenience for searches).

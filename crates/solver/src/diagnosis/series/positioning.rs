@@ -91,7 +91,13 @@ struct Model {
 
 impl Model {
     fn n_params(&self) -> usize {
-        self.order + 1 + self.terms.iter().map(|t| t.effect.n_linear() + usize::from(t.effect.nonlinear())).sum::<usize>()
+        self.order
+            + 1
+            + self
+                .terms
+                .iter()
+                .map(|t| t.effect.n_linear() + usize::from(t.effect.nonlinear()))
+                .sum::<usize>()
     }
 }
 
@@ -120,9 +126,15 @@ impl AxisData {
     fn new(axis: Axis, recs: &[&PositioningRecord]) -> Result<AxisData, SolverError> {
         let n = recs.len();
         let x: Vec<f64> = recs.iter().map(|r| r.target_mm).collect();
-        let (lo, hi) = x.iter().fold((f64::INFINITY, f64::NEG_INFINITY), |(a, b), &v| (a.min(v), b.max(v)));
-        if !(hi > lo) {
-            return Err(SolverError::InvalidInput(format!("axis {axis}: all targets at the same position")));
+        let (lo, hi) = x
+            .iter()
+            .fold((f64::INFINITY, f64::NEG_INFINITY), |(a, b), &v| {
+                (a.min(v), b.max(v))
+            });
+        if hi <= lo || hi.is_nan() {
+            return Err(SolverError::InvalidInput(format!(
+                "axis {axis}: all targets at the same position"
+            )));
         }
         let tol = 1e-6 * (hi - lo);
         let mut targets: Vec<f64> = vec![];
@@ -151,11 +163,28 @@ impl AxisData {
         let mut gaps: Vec<f64> = targets.windows(2).map(|w| w[1] - w[0]).collect();
         gaps.sort_by(f64::total_cmp);
         let spacing = gaps[gaps.len() / 2];
-        let tidx = |v: f64| targets.iter().position(|&t| (t - v).abs() <= tol).unwrap_or(0);
-        let d: Vec<f64> = recs.iter().map(|r| if r.direction == Direction::Plus { 1.0 } else { -1.0 }).collect();
+        let tidx = |v: f64| {
+            targets
+                .iter()
+                .position(|&t| (t - v).abs() <= tol)
+                .unwrap_or(0)
+        };
+        let d: Vec<f64> = recs
+            .iter()
+            .map(|r| {
+                if r.direction == Direction::Plus {
+                    1.0
+                } else {
+                    -1.0
+                }
+            })
+            .collect();
         let time_in_s = recs.iter().all(|r| r.t_s.is_some());
         let time: Vec<f64> = if time_in_s {
-            let t0 = recs.iter().map(|r| r.t_s.unwrap_or(0.0)).fold(f64::INFINITY, f64::min);
+            let t0 = recs
+                .iter()
+                .map(|r| r.t_s.unwrap_or(0.0))
+                .fold(f64::INFINITY, f64::min);
             recs.iter().map(|r| r.t_s.unwrap_or(0.0) - t0).collect()
         } else {
             (0..n).map(|i| i as f64).collect()
@@ -168,8 +197,15 @@ impl AxisData {
         Ok(AxisData {
             axis,
             s: x.iter().map(|v| (v - c) / h).collect(),
-            u: x.iter().zip(&d).map(|(v, &dd)| if dd > 0.0 { v - lo } else { hi - v }).collect(),
-            group: x.iter().zip(&d).map(|(&v, &dd)| 2 * tidx(v) + usize::from(dd < 0.0)).collect(),
+            u: x.iter()
+                .zip(&d)
+                .map(|(v, &dd)| if dd > 0.0 { v - lo } else { hi - v })
+                .collect(),
+            group: x
+                .iter()
+                .zip(&d)
+                .map(|(&v, &dd)| 2 * tidx(v) + usize::from(dd < 0.0))
+                .collect(),
             y: recs.iter().map(|r| r.deviation_um).collect(),
             run: recs.iter().map(|r| r.run).collect(),
             x,
@@ -199,27 +235,52 @@ impl AxisData {
     fn effect_cols(&self, e: Effect, theta: f64) -> Vec<(String, Vec<f64>)> {
         let scale: Vec<f64> = self.x.iter().map(|v| (v - self.lo) / 1000.0).collect();
         match e {
-            Effect::Backlash => vec![("lost_motion_um".into(), self.d.iter().map(|d| 0.5 * d).collect())],
+            Effect::Backlash => vec![(
+                "lost_motion_um".into(),
+                self.d.iter().map(|d| 0.5 * d).collect(),
+            )],
             Effect::Spike => vec![(
                 "amplitude_um".into(),
-                self.d.iter().zip(&self.u).map(|(d, u)| d * (-u / theta).exp()).collect(),
+                self.d
+                    .iter()
+                    .zip(&self.u)
+                    .map(|(d, u)| d * (-u / theta).exp())
+                    .collect(),
             )],
             Effect::Cyclic => vec![
-                ("sin".into(), self.x.iter().map(|x| (2.0 * PI * x / theta).sin()).collect()),
-                ("cos".into(), self.x.iter().map(|x| (2.0 * PI * x / theta).cos()).collect()),
+                (
+                    "sin".into(),
+                    self.x
+                        .iter()
+                        .map(|x| (2.0 * PI * x / theta).sin())
+                        .collect(),
+                ),
+                (
+                    "cos".into(),
+                    self.x
+                        .iter()
+                        .map(|x| (2.0 * PI * x / theta).cos())
+                        .collect(),
+                ),
             ],
             Effect::Thermal => {
                 let g: Vec<f64> = self.time.iter().map(|t| 1.0 - (-t / theta).exp()).collect();
                 vec![
                     ("offset_growth_um".into(), g.clone()),
-                    ("scale_growth_um_per_m".into(), g.iter().zip(&scale).map(|(a, b)| a * b).collect()),
+                    (
+                        "scale_growth_um_per_m".into(),
+                        g.iter().zip(&scale).map(|(a, b)| a * b).collect(),
+                    ),
                 ]
             }
             Effect::ThermalTemp => {
                 let dt = self.temp.clone().unwrap_or_else(|| vec![0.0; self.n()]);
                 vec![
                     ("offset_um_per_k".into(), dt.clone()),
-                    ("scale_um_per_m_per_k".into(), dt.iter().zip(&scale).map(|(a, b)| a * b).collect()),
+                    (
+                        "scale_um_per_m_per_k".into(),
+                        dt.iter().zip(&scale).map(|(a, b)| a * b).collect(),
+                    ),
                 ]
             }
         }
@@ -228,7 +289,10 @@ impl AxisData {
     fn design(&self, m: &Model) -> Design {
         let mut d = Design::new();
         for k in 0..=m.order {
-            d.push(format!("P{k}"), self.s.iter().map(|&s| legendre(k, s).0).collect());
+            d.push(
+                format!("P{k}"),
+                self.s.iter().map(|&s| legendre(k, s).0).collect(),
+            );
         }
         for t in &m.terms {
             for (name, col) in self.effect_cols(t.effect, t.theta) {
@@ -248,7 +312,9 @@ impl AxisData {
                 let (f0, f1) = (1.5 / travel, 1.0 / (2.2 * self.spacing));
                 let step = 1.0 / (6.0 * travel);
                 let n = (((f1 - f0) / step).ceil() as usize).max(2);
-                (0..=n).map(|i| f0 + (f1 - f0) * i as f64 / n as f64).collect()
+                (0..=n)
+                    .map(|i| f0 + (f1 - f0) * i as f64 / n as f64)
+                    .collect()
             }
             Effect::Thermal => {
                 let dur = self.time.iter().fold(0.0f64, |a, &b| a.max(b)).max(1.0);
@@ -266,16 +332,25 @@ impl AxisData {
     /// Fits `m + e` on `rows`, searching e's nonlinear parameter; returns the term.
     fn search(&self, m: &Model, e: Effect, rows: &[usize]) -> Term {
         if !e.nonlinear() {
-            return Term { effect: e, theta: 0.0 };
+            return Term {
+                effect: e,
+                theta: 0.0,
+            };
         }
         let y: Vec<f64> = rows.iter().map(|&i| self.y[i]).collect();
         let sse_at = |v: f64| {
             let mut mm = m.clone();
-            mm.terms.push(Term { effect: e, theta: AxisData::theta_of(e, v) });
+            mm.terms.push(Term {
+                effect: e,
+                theta: AxisData::theta_of(e, v),
+            });
             lsq::sse(&self.design(&mm).rows(rows), &y)
         };
         let (v, _) = grid_then_golden(&self.grid(e), 20, sse_at);
-        Term { effect: e, theta: AxisData::theta_of(e, v) }
+        Term {
+            effect: e,
+            theta: AxisData::theta_of(e, v),
+        }
     }
 
     fn all_rows(&self) -> Vec<usize> {
@@ -293,9 +368,16 @@ impl AxisData {
                 mm.terms.push(self.search(m, e, &train));
             }
             let d = self.design(&mm);
-            let fit = lsq::solve(&d.rows(&train), &train.iter().map(|&i| self.y[i]).collect::<Vec<_>>());
+            let fit = lsq::solve(
+                &d.rows(&train),
+                &train.iter().map(|&i| self.y[i]).collect::<Vec<_>>(),
+            );
             let pred = d.rows(&test).predict(&fit.coef);
-            total += test.iter().zip(&pred).map(|(&i, p)| (self.y[i] - p).powi(2)).sum::<f64>();
+            total += test
+                .iter()
+                .zip(&pred)
+                .map(|(&i, p)| (self.y[i] - p).powi(2))
+                .sum::<f64>();
         }
         total
     }
@@ -303,7 +385,12 @@ impl AxisData {
     fn fit_all(&self, m: &Model) -> (lsq::LsqFit, Vec<f64>) {
         let d = self.design(m);
         let fit = lsq::solve(&d, &self.y);
-        let res = self.y.iter().zip(d.predict(&fit.coef)).map(|(a, b)| a - b).collect();
+        let res = self
+            .y
+            .iter()
+            .zip(d.predict(&fit.coef))
+            .map(|(a, b)| a - b)
+            .collect();
         (fit, res)
     }
 
@@ -314,18 +401,29 @@ impl AxisData {
         let mut d = Design::new();
         let ng = 2 * self.targets.len();
         for g in 0..ng {
-            let col: Vec<f64> = self.group.iter().map(|&k| f64::from(u8::from(k == g))).collect();
+            let col: Vec<f64> = self
+                .group
+                .iter()
+                .map(|&k| f64::from(u8::from(k == g)))
+                .collect();
             if col.iter().any(|&v| v > 0.0) {
                 d.push("g", col);
             }
         }
-        let mut passes: Vec<(i64, bool)> = self.run.iter().zip(&self.d).map(|(&r, &dd)| (r, dd > 0.0)).collect();
+        let mut passes: Vec<(i64, bool)> = self
+            .run
+            .iter()
+            .zip(&self.d)
+            .map(|(&r, &dd)| (r, dd > 0.0))
+            .collect();
         passes.sort_unstable();
         passes.dedup();
         for p in passes.iter().skip(1) {
             d.push(
                 "p",
-                (0..n).map(|i| f64::from(u8::from(self.run[i] == p.0 && (self.d[i] > 0.0) == p.1))).collect(),
+                (0..n)
+                    .map(|i| f64::from(u8::from(self.run[i] == p.0 && (self.d[i] > 0.0) == p.1)))
+                    .collect(),
             );
         }
         let fit = lsq::solve(&d, &self.y);
@@ -353,11 +451,17 @@ pub struct Iso2302 {
 pub fn iso230_2(runs: &PositioningRuns) -> Vec<Iso2302> {
     let mut out = vec![];
     for axis in Axis::ALL {
-        let recs: Vec<&PositioningRecord> = runs.records.iter().filter(|r| r.axis == axis).collect();
-        let Ok(a) = AxisData::new(axis, &recs) else { continue };
+        let recs: Vec<&PositioningRecord> =
+            runs.records.iter().filter(|r| r.axis == axis).collect();
+        let Ok(a) = AxisData::new(axis, &recs) else {
+            continue;
+        };
         let nt = a.targets.len();
         let stats = |g: usize| -> Option<(f64, f64)> {
-            let v: Vec<f64> = (0..a.n()).filter(|&i| a.group[i] == g).map(|i| a.y[i]).collect();
+            let v: Vec<f64> = (0..a.n())
+                .filter(|&i| a.group[i] == g)
+                .map(|i| a.y[i])
+                .collect();
             if v.len() < 2 {
                 return None;
             }
@@ -365,8 +469,14 @@ pub fn iso230_2(runs: &PositioningRuns) -> Vec<Iso2302> {
             let s = (v.iter().map(|x| (x - m).powi(2)).sum::<f64>() / (v.len() - 1) as f64).sqrt();
             Some((m, s))
         };
-        let (mut b, mut r, mut hi, mut lo, mut ahi, mut alo) =
-            (0.0f64, 0.0f64, f64::NEG_INFINITY, f64::INFINITY, f64::NEG_INFINITY, f64::INFINITY);
+        let (mut b, mut r, mut hi, mut lo, mut ahi, mut alo) = (
+            0.0f64,
+            0.0f64,
+            f64::NEG_INFINITY,
+            f64::INFINITY,
+            f64::NEG_INFINITY,
+            f64::INFINITY,
+        );
         for i in 0..nt {
             let (p, m) = (stats(2 * i), stats(2 * i + 1));
             for (mu, s) in [p, m].into_iter().flatten() {
@@ -443,7 +553,10 @@ fn diagnose_axis(a: &AxisData, opts: &SeriesOptions) -> AxisOutcome {
     let noise = a.noise_floor();
     // Rigid model: order by LORO among 1..=max_base_order.
     let mut model = (1..=opts.max_base_order.max(1))
-        .map(|k| Model { order: k, terms: vec![] })
+        .map(|k| Model {
+            order: k,
+            terms: vec![],
+        })
         .min_by(|m1, m2| a.loro(m1, None).total_cmp(&a.loro(m2, None)))
         .expect("at least one order");
     let (base_fit, base_res) = a.fit_all(&model);
@@ -453,7 +566,12 @@ fn diagnose_axis(a: &AxisData, opts: &SeriesOptions) -> AxisOutcome {
     let mut cur_sse = base_fit.sse;
     let mut steps: Vec<Step> = vec![];
 
-    let mut effects = vec![Effect::Backlash, Effect::Spike, Effect::Cyclic, Effect::Thermal];
+    let mut effects = vec![
+        Effect::Backlash,
+        Effect::Spike,
+        Effect::Cyclic,
+        Effect::Thermal,
+    ];
     if a.temp.is_some() {
         effects.push(Effect::ThermalTemp);
     }
@@ -473,7 +591,10 @@ fn diagnose_axis(a: &AxisData, opts: &SeriesOptions) -> AxisOutcome {
             }
         };
         for &e in &effects {
-            let taken = model.terms.iter().any(|t| t.effect == e || (t.effect.name() == e.name()));
+            let taken = model
+                .terms
+                .iter()
+                .any(|t| t.effect == e || (t.effect.name() == e.name()));
             if taken {
                 continue;
             }
@@ -485,7 +606,10 @@ fn diagnose_axis(a: &AxisData, opts: &SeriesOptions) -> AxisOutcome {
             consider(m, ho, sse, Some(e));
         }
         for k in model.order + 1..=opts.max_order {
-            let m = Model { order: k, ..model.clone() };
+            let m = Model {
+                order: k,
+                ..model.clone()
+            };
             let sse = a.fit_all(&m).0.sse;
             let ho = a.loro(&m, None);
             consider(m, ho, sse, None);
@@ -494,8 +618,14 @@ fn diagnose_axis(a: &AxisData, opts: &SeriesOptions) -> AxisOutcome {
         let sse = a.fit_all(&m).0.sse;
         steps.push(Step {
             label: e.map_or("model_order", Effect::name),
-            rms: BeforeAfter { before: (cur_sse / n as f64).sqrt(), after: (sse / n as f64).sqrt() },
-            heldout: BeforeAfter { before: (cur_loro / n as f64).sqrt(), after: (ho / n as f64).sqrt() },
+            rms: BeforeAfter {
+                before: (cur_sse / n as f64).sqrt(),
+                after: (sse / n as f64).sqrt(),
+            },
+            heldout: BeforeAfter {
+                before: (cur_loro / n as f64).sqrt(),
+                after: (ho / n as f64).sqrt(),
+            },
             dbic,
             order: e.is_none().then_some((model.order, m.order)),
             effect: e,
@@ -537,11 +667,19 @@ fn diagnose_axis(a: &AxisData, opts: &SeriesOptions) -> AxisOutcome {
             params.insert("order".into(), to as f64);
         }
         if let Some(e) = st.effect {
-            let ti = model.terms.iter().position(|t| t.effect == e).expect("term present");
+            let ti = model
+                .terms
+                .iter()
+                .position(|t| t.effect == e)
+                .expect("term present");
             let t = model.terms[ti];
             let c0 = offsets[ti];
             // θ's Jacobian column index: count nonlinear terms before this one.
-            let th = theta_idx + model.terms[..ti].iter().filter(|t| t.effect.nonlinear()).count();
+            let th = theta_idx
+                + model.terms[..ti]
+                    .iter()
+                    .filter(|t| t.effect.nonlinear())
+                    .count();
             let (b, sb) = (&fit.coef[c0..], &jfit.std[c0..]);
             let unit = a.time_unit();
             match e {
@@ -584,7 +722,9 @@ fn diagnose_axis(a: &AxisData, opts: &SeriesOptions) -> AxisOutcome {
                 // Sign agreement of the per-target step with the fitted lost motion.
                 let lm = params.get("lost_motion_um").copied().unwrap_or(0.0);
                 let (agree, total) = step_signs(a, &base_res, lm);
-                format!("; step + minus − approach has the sign of the lost motion at {agree} of {total} targets")
+                format!(
+                    "; step + minus − approach has the sign of the lost motion at {agree} of {total} targets"
+                )
             }
             _ => String::new(),
         };
@@ -639,7 +779,10 @@ fn step_signs(a: &AxisData, res: &[f64], lost_motion: f64) -> (usize, usize) {
     let (mut agree, mut total) = (0, 0);
     for t in 0..a.targets.len() {
         let mean = |g: usize| {
-            let v: Vec<f64> = (0..a.n()).filter(|&i| a.group[i] == g).map(|i| res[i]).collect();
+            let v: Vec<f64> = (0..a.n())
+                .filter(|&i| a.group[i] == g)
+                .map(|i| res[i])
+                .collect();
             (!v.is_empty()).then(|| v.iter().sum::<f64>() / v.len() as f64)
         };
         if let (Some(p), Some(m)) = (mean(2 * t), mean(2 * t + 1)) {
@@ -660,14 +803,24 @@ fn dir_name(plus: bool) -> &'static str {
 fn worst_places(a: &AxisData, res: &[f64]) -> String {
     let mut v: Vec<(f64, usize)> = (0..2 * a.targets.len())
         .filter_map(|g| {
-            let r: Vec<f64> = (0..a.n()).filter(|&i| a.group[i] == g).map(|i| res[i]).collect();
+            let r: Vec<f64> = (0..a.n())
+                .filter(|&i| a.group[i] == g)
+                .map(|i| res[i])
+                .collect();
             (!r.is_empty()).then(|| (r.iter().sum::<f64>() / r.len() as f64, g))
         })
         .collect();
     v.sort_by(|x, y| y.0.abs().total_cmp(&x.0.abs()));
     v.iter()
         .take(3)
-        .map(|(m, g)| format!("{:.1} mm {} {:+.2} µm", a.targets[g / 2], dir_name(g % 2 == 0), m))
+        .map(|(m, g)| {
+            format!(
+                "{:.1} mm {} {:+.2} µm",
+                a.targets[g / 2],
+                dir_name(g % 2 == 0),
+                m
+            )
+        })
         .collect::<Vec<_>>()
         .join(", ")
 }
@@ -689,7 +842,8 @@ fn locate(a: &AxisData, res: &[f64], noise: f64) -> Vec<Mismatch> {
     };
     let mut out = vec![];
     let (ss_dir, by_dir) = explained_by(&|i| i64::from(a.d[i] > 0.0));
-    let mean = |m: &BTreeMap<i64, (f64, usize)>, k: i64| m.get(&k).map_or(0.0, |(s, c)| s / *c as f64);
+    let mean =
+        |m: &BTreeMap<i64, (f64, usize)>, k: i64| m.get(&k).map_or(0.0, |(s, c)| s / *c as f64);
     out.push(Mismatch {
         where_: format!(
             "axis {}: + and − approaches differ by {:+.2} µm on average (+ minus −), at every target",
@@ -719,11 +873,20 @@ fn locate(a: &AxisData, res: &[f64], noise: f64) -> Vec<Mismatch> {
             passes
                 .iter()
                 .take(3)
-                .map(|(k, m)| format!("run {} {} {:+.2} µm", k.div_euclid(2), dir_name(k.rem_euclid(2) == 1), m))
+                .map(|(k, m)| format!(
+                    "run {} {} {:+.2} µm",
+                    k.div_euclid(2),
+                    dir_name(k.rem_euclid(2) == 1),
+                    m
+                ))
                 .collect::<Vec<_>>()
                 .join(", ")
         ),
-        tests: passes.iter().take(3).map(|(k, _)| format!("{}#run {}", a.axis, k.div_euclid(2))).collect(),
+        tests: passes
+            .iter()
+            .take(3)
+            .map(|(k, _)| format!("{}#run {}", a.axis, k.div_euclid(2)))
+            .collect(),
         share_of_misfit: ((ss_p - ss_dir).max(0.0) / excess).min(1.0),
     });
     out.retain(|m| m.share_of_misfit >= 0.1);
@@ -731,30 +894,55 @@ fn locate(a: &AxisData, res: &[f64], noise: f64) -> Vec<Mismatch> {
     out
 }
 
-fn plots(a: &AxisData, m: &Model, coef: &[f64], base_res: &[f64], res: &[f64], opts: &SeriesOptions) -> Vec<PlotData> {
+fn plots(
+    a: &AxisData,
+    m: &Model,
+    coef: &[f64],
+    base_res: &[f64],
+    res: &[f64],
+    opts: &SeriesOptions,
+) -> Vec<PlotData> {
     let mut dev = vec![];
     for plus in [true, false] {
         let (xs, ys): (Vec<f64>, Vec<f64>) = (0..a.targets.len())
             .filter_map(|t| {
                 let g = 2 * t + usize::from(!plus);
-                let v: Vec<f64> = (0..a.n()).filter(|&i| a.group[i] == g).map(|i| a.y[i]).collect();
+                let v: Vec<f64> = (0..a.n())
+                    .filter(|&i| a.group[i] == g)
+                    .map(|i| a.y[i])
+                    .collect();
                 (!v.is_empty()).then(|| (a.targets[t], v.iter().sum::<f64>() / v.len() as f64))
             })
             .unzip();
-        dev.push(PlotSeries { name: format!("measured mean {}", dir_name(plus)), x: xs, y: ys });
+        dev.push(PlotSeries {
+            name: format!("measured mean {}", dir_name(plus)),
+            x: xs,
+            y: ys,
+        });
     }
     // Model curves on a fine grid of positions (time terms at the mean time).
     let ng = 200;
-    let grid: Vec<f64> = (0..=ng).map(|i| a.lo + (a.hi - a.lo) * i as f64 / ng as f64).collect();
+    let grid: Vec<f64> = (0..=ng)
+        .map(|i| a.lo + (a.hi - a.lo) * i as f64 / ng as f64)
+        .collect();
     let tmean = a.time.iter().sum::<f64>() / a.n() as f64;
-    let tempmean = a.temp.as_ref().map(|t| t.iter().sum::<f64>() / t.len() as f64);
+    let tempmean = a
+        .temp
+        .as_ref()
+        .map(|t| t.iter().sum::<f64>() / t.len() as f64);
     let curve = |model: &Model, coef: &[f64], plus: bool| -> Vec<f64> {
         let gd = AxisData {
             axis: a.axis,
             x: grid.clone(),
-            s: grid.iter().map(|v| (v - 0.5 * (a.lo + a.hi)) / (0.5 * (a.hi - a.lo))).collect(),
+            s: grid
+                .iter()
+                .map(|v| (v - 0.5 * (a.lo + a.hi)) / (0.5 * (a.hi - a.lo)))
+                .collect(),
             d: vec![if plus { 1.0 } else { -1.0 }; grid.len()],
-            u: grid.iter().map(|v| if plus { v - a.lo } else { a.hi - v }).collect(),
+            u: grid
+                .iter()
+                .map(|v| if plus { v - a.lo } else { a.hi - v })
+                .collect(),
             time: vec![tmean; grid.len()],
             time_in_s: a.time_in_s,
             temp: tempmean.map(|t| vec![t; grid.len()]),
@@ -769,9 +957,16 @@ fn plots(a: &AxisData, m: &Model, coef: &[f64], base_res: &[f64], res: &[f64], o
         };
         gd.design(model).predict(coef)
     };
-    let rigid = Model { order: m.order.min(opts.max_base_order), terms: vec![] };
+    let rigid = Model {
+        order: m.order.min(opts.max_base_order),
+        terms: vec![],
+    };
     let rfit = lsq::solve(&a.design(&rigid), &a.y);
-    dev.push(PlotSeries { name: "rigid model".into(), x: grid.clone(), y: curve(&rigid, &rfit.coef, true) });
+    dev.push(PlotSeries {
+        name: "rigid model".into(),
+        x: grid.clone(),
+        y: curve(&rigid, &rfit.coef, true),
+    });
     for plus in [true, false] {
         dev.push(PlotSeries {
             name: format!("model with effects {}", dir_name(plus)),
@@ -780,11 +975,17 @@ fn plots(a: &AxisData, m: &Model, coef: &[f64], base_res: &[f64], res: &[f64], o
         });
     }
     let idx = decimate(a.n(), opts.plot_points);
-    let tx: Vec<f64> = idx.iter().map(|&i| a.time[i] / if a.time_in_s { 3600.0 } else { 1.0 }).collect();
+    let tx: Vec<f64> = idx
+        .iter()
+        .map(|&i| a.time[i] / if a.time_in_s { 3600.0 } else { 1.0 })
+        .collect();
     vec![
         PlotData {
             id: format!("positioning_{}", a.axis),
-            title: format!("axis {}: positioning deviation per approach direction", a.axis),
+            title: format!(
+                "axis {}: positioning deviation per approach direction",
+                a.axis
+            ),
             x_label: "target (mm)".into(),
             y_label: "deviation (µm)".into(),
             kind: "cartesian".into(),
@@ -793,12 +994,24 @@ fn plots(a: &AxisData, m: &Model, coef: &[f64], base_res: &[f64], res: &[f64], o
         PlotData {
             id: format!("positioning_{}_residuals", a.axis),
             title: format!("axis {}: residuals before and after the effects", a.axis),
-            x_label: if a.time_in_s { "time (h)".into() } else { "record".into() },
+            x_label: if a.time_in_s {
+                "time (h)".into()
+            } else {
+                "record".into()
+            },
             y_label: "residual (µm)".into(),
             kind: "cartesian".into(),
             series: vec![
-                PlotSeries { name: "rigid model".into(), x: tx.clone(), y: idx.iter().map(|&i| base_res[i]).collect() },
-                PlotSeries { name: "with effects".into(), x: tx, y: idx.iter().map(|&i| res[i]).collect() },
+                PlotSeries {
+                    name: "rigid model".into(),
+                    x: tx.clone(),
+                    y: idx.iter().map(|&i| base_res[i]).collect(),
+                },
+                PlotSeries {
+                    name: "with effects".into(),
+                    x: tx,
+                    y: idx.iter().map(|&i| res[i]).collect(),
+                },
             ],
         },
     ]
@@ -813,12 +1026,19 @@ pub fn diagnose_positioning(
     if runs.records.is_empty() {
         return Err(SolverError::InvalidInput("no positioning records".into()));
     }
-    if runs.records.iter().any(|r| !r.target_mm.is_finite() || !r.deviation_um.is_finite()) {
-        return Err(SolverError::InvalidInput("non-finite target or deviation".into()));
+    if runs
+        .records
+        .iter()
+        .any(|r| !r.target_mm.is_finite() || !r.deviation_um.is_finite())
+    {
+        return Err(SolverError::InvalidInput(
+            "non-finite target or deviation".into(),
+        ));
     }
     let mut outs = vec![];
     for axis in Axis::ALL {
-        let recs: Vec<&PositioningRecord> = runs.records.iter().filter(|r| r.axis == axis).collect();
+        let recs: Vec<&PositioningRecord> =
+            runs.records.iter().filter(|r| r.axis == axis).collect();
         if recs.is_empty() {
             continue;
         }

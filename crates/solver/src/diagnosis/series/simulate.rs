@@ -13,7 +13,9 @@
 use super::drift::first_order_lag;
 use crate::axis::Axis;
 use crate::basis::legendre;
-use crate::datasets::{Channel, ChannelKind, Direction, DriftLog, PositioningRecord, PositioningRuns};
+use crate::datasets::{
+    Channel, ChannelKind, Direction, DriftLog, PositioningRecord, PositioningRuns,
+};
 use rand::rngs::StdRng;
 use rand::{Rng, SeedableRng};
 use rand_distr::{Distribution, Normal};
@@ -23,11 +25,27 @@ use std::f64::consts::PI;
 /// An effect added to simulated positioning runs.
 #[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
 pub enum PositioningEffect {
-    Backlash { lost_motion_um: f64 },
-    ReversalSpike { amplitude_um: f64, decay_mm: f64 },
-    Cyclic { amplitude_um: f64, period_mm: f64, phase_rad: f64 },
-    Thermal { offset_um: f64, scale_um_per_m: f64, tau_s: f64, delta_t_k: f64 },
-    Waviness { amplitude_um: f64 },
+    Backlash {
+        lost_motion_um: f64,
+    },
+    ReversalSpike {
+        amplitude_um: f64,
+        decay_mm: f64,
+    },
+    Cyclic {
+        amplitude_um: f64,
+        period_mm: f64,
+        phase_rad: f64,
+    },
+    Thermal {
+        offset_um: f64,
+        scale_um_per_m: f64,
+        tau_s: f64,
+        delta_t_k: f64,
+    },
+    Waviness {
+        amplitude_um: f64,
+    },
 }
 
 /// Configuration of [`simulate_positioning`].
@@ -88,13 +106,19 @@ pub fn simulate_positioning(cfg: &PositioningSim) -> PositioningRuns {
     let mut rng = StdRng::seed_from_u64(cfg.seed);
     let targets = iso_targets(cfg.lo_mm, cfg.hi_mm, cfg.n_targets.max(3), &mut rng);
     let (c, h) = (0.5 * (cfg.lo_mm + cfg.hi_mm), 0.5 * (cfg.hi_mm - cfg.lo_mm));
-    let poly: Vec<f64> = (0..4).map(|_| cfg.smooth_um * rng.random_range(-1.0..1.0)).collect();
+    let poly: Vec<f64> = (0..4)
+        .map(|_| cfg.smooth_um * rng.random_range(-1.0..1.0))
+        .collect();
     let noise = Normal::new(0.0, cfg.noise_um.max(0.0)).expect("noise");
     let mut records = vec![];
     let mut k = 0usize;
     for run in 1..=cfg.n_runs as i64 {
         for plus in [true, false] {
-            let order: Vec<f64> = if plus { targets.clone() } else { targets.iter().rev().copied().collect() };
+            let order: Vec<f64> = if plus {
+                targets.clone()
+            } else {
+                targets.iter().rev().copied().collect()
+            };
             for &x in &order {
                 let t = k as f64 * cfg.dwell_s;
                 k += 1;
@@ -106,11 +130,21 @@ pub fn simulate_positioning(cfg: &PositioningSim) -> PositioningRuns {
                 for e in &cfg.effects {
                     dev += match *e {
                         PositioningEffect::Backlash { lost_motion_um } => 0.5 * d * lost_motion_um,
-                        PositioningEffect::ReversalSpike { amplitude_um, decay_mm } => d * amplitude_um * (-u / decay_mm).exp(),
-                        PositioningEffect::Cyclic { amplitude_um, period_mm, phase_rad } => {
-                            amplitude_um * (2.0 * PI * x / period_mm + phase_rad).sin()
-                        }
-                        PositioningEffect::Thermal { offset_um, scale_um_per_m, tau_s, delta_t_k } => {
+                        PositioningEffect::ReversalSpike {
+                            amplitude_um,
+                            decay_mm,
+                        } => d * amplitude_um * (-u / decay_mm).exp(),
+                        PositioningEffect::Cyclic {
+                            amplitude_um,
+                            period_mm,
+                            phase_rad,
+                        } => amplitude_um * (2.0 * PI * x / period_mm + phase_rad).sin(),
+                        PositioningEffect::Thermal {
+                            offset_um,
+                            scale_um_per_m,
+                            tau_s,
+                            delta_t_k,
+                        } => {
                             let g = 1.0 - (-t / tau_s).exp();
                             temp = Some(20.0 + delta_t_k * g);
                             g * (offset_um + scale_um_per_m * (x - cfg.lo_mm) / 1000.0)
@@ -123,11 +157,17 @@ pub fn simulate_positioning(cfg: &PositioningSim) -> PositioningRuns {
                 records.push(PositioningRecord {
                     axis: cfg.axis,
                     run,
-                    direction: if plus { Direction::Plus } else { Direction::Minus },
+                    direction: if plus {
+                        Direction::Plus
+                    } else {
+                        Direction::Minus
+                    },
                     target_mm: x,
                     deviation_um: dev + noise.sample(&mut rng),
                     t_s: Some(t),
-                    temp_c: cfg.with_temperature.then(|| temp.unwrap_or(20.0) + 0.005 * noise.sample(&mut rng)),
+                    temp_c: cfg
+                        .with_temperature
+                        .then(|| temp.unwrap_or(20.0) + 0.005 * noise.sample(&mut rng)),
                 });
             }
         }
@@ -176,7 +216,11 @@ pub fn simulate_drift_log(cfg: &DriftSim) -> DriftLog {
     let mut until = 0.0;
     for &ti in &t {
         if ti >= until {
-            level = if rpm.is_empty() { 0.0 } else { cfg.rpm_max * f64::from(rng.random_range(0..=10u8)) / 10.0 };
+            level = if rpm.is_empty() {
+                0.0
+            } else {
+                cfg.rpm_max * f64::from(rng.random_range(0..=10u8)) / 10.0
+            };
             until = ti + rng.random_range(1.0..4.0) * 3600.0;
         }
         rpm.push(level);
@@ -185,17 +229,42 @@ pub fn simulate_drift_log(cfg: &DriftSim) -> DriftLog {
     let lag = first_order_lag(&t, &u, cfg.tau_s);
     let slow = first_order_lag(&t, &u, 3.0 * cfg.tau_s);
     let noise = Normal::new(0.0, cfg.noise_um).expect("noise");
-    let ch1: Vec<f64> = lag.iter().map(|v| cfg.gain_um * v + noise.sample(&mut rng)).collect();
-    let t1: Vec<f64> = slow.iter().map(|v| 22.0 + 4.0 * v + 0.01 * noise.sample(&mut rng)).collect();
+    let ch1: Vec<f64> = lag
+        .iter()
+        .map(|v| cfg.gain_um * v + noise.sample(&mut rng))
+        .collect();
+    let t1: Vec<f64> = slow
+        .iter()
+        .map(|v| 22.0 + 4.0 * v + 0.01 * noise.sample(&mut rng))
+        .collect();
     let phase = rng.random_range(0.0..2.0 * PI);
-    let t2: Vec<f64> = t.iter().map(|ti| 21.0 + 0.5 * (2.0 * PI * ti / 86400.0 + phase).sin()).collect();
+    let t2: Vec<f64> = t
+        .iter()
+        .map(|ti| 21.0 + 0.5 * (2.0 * PI * ti / 86400.0 + phase).sin())
+        .collect();
     DriftLog {
         t_s: t,
         channels: vec![
-            Channel { name: "spindle_rpm".into(), kind: ChannelKind::SpeedRpm, values: rpm },
-            Channel { name: "ch1_um".into(), kind: ChannelKind::DisplacementUm, values: ch1 },
-            Channel { name: "t1_c".into(), kind: ChannelKind::TemperatureC, values: t1 },
-            Channel { name: "t2_c".into(), kind: ChannelKind::TemperatureC, values: t2 },
+            Channel {
+                name: "spindle_rpm".into(),
+                kind: ChannelKind::SpeedRpm,
+                values: rpm,
+            },
+            Channel {
+                name: "ch1_um".into(),
+                kind: ChannelKind::DisplacementUm,
+                values: ch1,
+            },
+            Channel {
+                name: "t1_c".into(),
+                kind: ChannelKind::TemperatureC,
+                values: t1,
+            },
+            Channel {
+                name: "t2_c".into(),
+                kind: ChannelKind::TemperatureC,
+                values: t2,
+            },
         ],
     }
 }

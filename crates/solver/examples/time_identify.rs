@@ -1,0 +1,38 @@
+//! Phase timings of one identification (profiling aid):
+//! `cargo run --release -p mtcal-solver --example time_identify`
+use mtcal_solver::design::{ErrorModel, fit, measured_travel};
+use mtcal_solver::identification::{IdentifyOptions, identify};
+use mtcal_solver::simulate::{Plan, SimOptions, random_truth, simulate};
+use std::time::Instant;
+
+fn main() {
+    let out = simulate(
+        &random_truth(1),
+        &SimOptions {
+            plan: Plan::Full,
+            sample_rate_hz: 340.0,
+            ..Default::default()
+        },
+    )
+    .unwrap();
+    let s = &out.session;
+    let t = Instant::now();
+    let model = ErrorModel::new(
+        Default::default(),
+        Default::default(),
+        3,
+        measured_travel(s),
+    );
+    let f = fit(s, &model, &|_, _| true, None);
+    println!(
+        "fit: {:?} ({} compressed runs)",
+        t.elapsed(),
+        f.compressed_runs
+    );
+    let t = Instant::now();
+    let n = mtcal_solver::noise::noise_from_repeated_passes(s);
+    println!("noise: {:?} {n:?}", t.elapsed());
+    let t = Instant::now();
+    let _ = identify(s, &IdentifyOptions::default()).unwrap();
+    println!("identify: {:?}", t.elapsed());
+}

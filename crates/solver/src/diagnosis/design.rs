@@ -1,0 +1,321 @@
+//! The rigid-body (21-term) model of a session as a design matrix for diagnosis, with the
+//! per-sample metadata that effect columns and the residual split need.
+//!
+//! Rows: two per sample (du, dv). Columns: each error function in a Legendre basis on the
+//! measured travel (order N, straightness from 2), times the in-plane component of its
+//! first-order gradient (kinematics::term_gradient); the three squareness constants; one
+//! plate rotation per mounting (du: +v·10⁻³, dv: −u·10⁻³ per µrad). The per-run zero offsets
+//! are eliminated exactly by centring every column and the data within each (run,
+//! component) — the Frisch–Waugh form of estimating them jointly.
+
+use crate::axis::{Axis, Plane, Topology};
+use crate::basis::{Basis, BasisKind};
+use crate::error::SolverError;
+use crate::kinematics::{squareness_gradient, term_gradient};
+use crate::session::{Session, TestKind};
+use crate::simulate::motion::DriveState;
+use crate::simulate::truth::measured_travel;
+use crate::terms::Term;
+
+use super::linalg::Cols;
+
+/// Metadata of one sample.
+#[derive(Debug, Clone, Copy)]
+pub struct SampleMeta {
+    pub plane_idx: usize,
+    /// Global run index (over all files).
+    pub run_idx: usize,
+    pub t_s: f64,
+    pub q_mm: [f64; 3],
+    /// Commanded velocity by central differences (mm/s).
+    pub vel_mm_s: [f64; 3],
+    /// Sign of each axis's last travel (0 before it first moves).
+    pub dir: [f64; 3],
+    /// Travel since the last reversal of each axis (mm; infinite before one).
+    pub since_reversal_mm: [f64; 3],
+    pub head_mm: [f64; 3],
+    /// Whether the sample is part of a line pass or a circle, for the residual split.
+    pub test: TestKind,
+}
+
+/// One run's place in the session.
+#[derive(Debug, Clone)]
+pub struct RunInfo {
+    pub plane_idx: usize,
+    pub number: i64,
+    pub test: TestKind,
+    /// Sample range [start, end).
+    pub start: usize,
+    pub end: usize,
+    /// Index of the run among the runs of its file with the same test kind.
+    pub repeat: usize,
+}
+
+/// The session as rows and the rigid model's centred columns.
+pub struct Design {
+    pub samples: Vec<SampleMeta>,
+    pub runs: Vec<RunInfo>,
+    /// Reading axes (u, v) of each plane file.
+    pub plane_axes: Vec<(Axis, Axis)>,
+    pub files: Vec<String>,
+    pub planes: Vec<Plane>,
+    /// Centred observations, row 2s + c.
+    pub y: Vec<f64>,
+    /// Centred, unit-norm columns of the rigid model.
+    pub a: Cols,
+    /// Names of the columns of `a`.
+    pub a_names: Vec<String>,
+    pub travel: [Option<[f64; 2]>; 3],
+    pub topology: Topology,
+    /// The 18 error-function bases in column order (term, basis, first column index).
+    pub term_cols: Vec<(Term, Basis, usize)>,
+    /// Scale each column of `a` was divided by.
+    pub a_scale: Vec<f64>,
+}
+
+impl Design {
+    pub fn rows(&self) -> usize {
+        self.y.len()
+    }
+
+    /// The reading axis of row `r`.
+    pub fn row_axis(&self, r: usize) -> Axis {
+        let (u, v) = self.plane_axes[self.samples[r / 2].plane_idx];
+        if r.is_multiple_of(2) { u } else { v }
+    }
+
+    /// A column with `f(sample)` on the rows that read along `axis` (0 elsewhere),
+    /// centred per (run, component) like the rigid model's columns.
+    pub fn effect_column(&self, axis: Axis, f: impl Fn(&SampleMeta) -> f64) -> Vec<f64> {
+        let mut c = vec![0.0; self.rows()];
+        for (r, slot) in c.iter_mut().enumerate() {
+            if self.row_axis(r) == axis {
+                *slot = f(&self.samples[r / 2]);
+            }
+        }
+        self.centre(&mut c);
+        c
+    }
+
+    /// Removes the mean of each (run, component).
+    pub fn centre(&self, c: &mut [f64]) {
+        for run in &self.runs {
+            for comp in 0..2 {
+                let n = (run.end - run.start) as f64;
+                let m: f64 = (run.start..run.end).map(|s| c[2 * s + comp]).sum::<f64>() / n;
+                for s in run.start..run.end {
+                    c[2 * s + comp] -= m;
+                }
+            }
+        }
+    }
+
+    /// Rows of the runs for which `keep(run)` holds.
+    pub fn rows_of(&self, keep: impl Fn(&RunInfo) -> bool) -> Vec<usize> {
+        self.runs
+            .iter()
+            .filter(|r| keep(r))
+            .flat_map(|r| 2 * r.start..2 * r.end)
+            .collect()
+    }
+}
+
+fn infer_test(pos: &[[f64; 3]]) -> TestKind {
+    let range = |i: usize| {
+        let (lo, hi) = pos
+            .iter()
+            .fold((f64::INFINITY, f64::NEG_INFINITY), |(l, h), q| {
+                (l.min(q[i]), h.max(q[i]))
+            });
+        hi - lo
+    };
+    let moving: Vec<usize> = (0..3).filter(|&i| range(i) > 1e-6).collect();
+    match moving.as_slice() {
+        [0] => TestKind::LineX,
+        [1] => TestKind::LineY,
+        [2] => TestKind::LineZ,
+        _ => TestKind::Free,
+    }
+}
+
+/// Commanded velocity at sample i (mm/s) from the set-points alone: 0 when the axis is
+/// at rest on either side (dwell, start from rest); the central difference where both
+/// one-sided differences agree within 10 % (cruise, circles: O(dt²)); otherwise the
+/// larger one-sided difference (the sample just inside a start or stop of the motion,
+/// where the profile's ramp is shorter than the sample interval).
+pub fn velocity(t: &[f64], q: &[[f64; 3]], i: usize) -> [f64; 3] {
+    let n = q.len();
+    [0, 1, 2].map(|k| {
+        let back = (i > 0).then(|| (q[i][k] - q[i - 1][k]) / (t[i] - t[i - 1]));
+        let fwd = (i + 1 < n).then(|| (q[i + 1][k] - q[i][k]) / (t[i + 1] - t[i]));
+        match (back, fwd) {
+            (Some(b), Some(f)) => {
+                if b.abs() < 1e-9 || f.abs() < 1e-9 {
+                    0.0
+                } else if (b - f).abs() <= 0.1 * b.abs().max(f.abs()) {
+                    0.5 * (b + f)
+                } else if b.abs() > f.abs() {
+                    b
+                } else {
+                    f
+                }
+            }
+            (None, Some(f)) if f.abs() < 1e-9 => 0.0,
+            // First sample of a run: lines and circles start from rest.
+            (None, Some(_)) => 0.0,
+            (Some(b), None) => b,
+            _ => 0.0,
+        }
+    })
+}
+
+/// Builds the design of `session` with error functions of polynomial order `order`.
+pub fn build(session: &Session, topology: &Topology, order: usize) -> Result<Design, SolverError> {
+    topology.validate().map_err(SolverError::InvalidInput)?;
+    let travel = measured_travel(session);
+    let mut samples = Vec::with_capacity(session.sample_count());
+    let mut runs = Vec::new();
+    let mut plane_axes = Vec::new();
+    let mut y = Vec::with_capacity(2 * session.sample_count());
+    for (pi, p) in session.planes.iter().enumerate() {
+        plane_axes.push(p.plane.axes());
+        // Travel state through the file, approach moves between runs included.
+        let mut state: Option<DriveState> = None;
+        let mut counts: std::collections::HashMap<TestKind, usize> = Default::default();
+        for run in &p.runs {
+            if run.len() < 3 {
+                return Err(SolverError::InvalidInput(format!(
+                    "{} run {}: diagnosis needs at least 3 samples per run",
+                    p.file, run.number
+                )));
+            }
+            let test = run.test.unwrap_or_else(|| infer_test(&run.pos_mm));
+            let rep = counts.entry(test).or_insert(0);
+            let start = samples.len();
+            for i in 0..run.len() {
+                let q = run.pos_mm[i];
+                let st = state.get_or_insert_with(|| DriveState::at(q));
+                st.move_to(q);
+                let (dir, since) = (st.dir, st.since_reversal_mm);
+                let vel = velocity(&run.t_s, &run.pos_mm, i);
+                samples.push(SampleMeta {
+                    plane_idx: pi,
+                    run_idx: runs.len(),
+                    t_s: run.t_s[i],
+                    q_mm: q,
+                    vel_mm_s: vel,
+                    dir,
+                    since_reversal_mm: since,
+                    head_mm: p.head_offset_mm,
+                    test,
+                });
+                y.push(run.du_um[i]);
+                y.push(run.dv_um[i]);
+            }
+            runs.push(RunInfo {
+                plane_idx: pi,
+                number: run.number,
+                test,
+                start,
+                end: samples.len(),
+                repeat: *rep,
+            });
+            *rep += 1;
+        }
+    }
+    if samples.is_empty() {
+        return Err(SolverError::InvalidInput(
+            "the session has no samples".into(),
+        ));
+    }
+    let mut d = Design {
+        samples,
+        runs,
+        plane_axes,
+        files: session.planes.iter().map(|p| p.file.clone()).collect(),
+        planes: session.planes.iter().map(|p| p.plane).collect(),
+        y,
+        a: Vec::new(),
+        a_names: Vec::new(),
+        travel,
+        topology: topology.clone(),
+        term_cols: Vec::new(),
+        a_scale: Vec::new(),
+    };
+    let mut cols: Cols = Vec::new();
+    let mut names = Vec::new();
+    let n = d.rows();
+    for term in Term::all() {
+        let Some([lo, hi]) = travel[term.axis.index()] else {
+            continue;
+        };
+        let basis = Basis::for_term(BasisKind::Legendre, order, term, lo, hi);
+        if basis.is_empty() {
+            continue;
+        }
+        d.term_cols.push((term, basis, cols.len()));
+        let first = cols.len();
+        for k in 0..basis.len() {
+            cols.push(vec![0.0; n]);
+            names.push(format!("{term}[{k}]"));
+        }
+        let mut vals = Vec::with_capacity(basis.len());
+        for (s, m) in d.samples.iter().enumerate() {
+            let (u, v) = d.plane_axes[m.plane_idx];
+            let g = term_gradient(topology, term.axis, term.component, m.q_mm, m.head_mm);
+            if g[u.index()] == 0.0 && g[v.index()] == 0.0 {
+                continue;
+            }
+            vals.clear();
+            basis.eval_into(m.q_mm[term.axis.index()], &mut vals);
+            for (k, b) in vals.iter().enumerate() {
+                cols[first + k][2 * s] = g[u.index()] * b;
+                cols[first + k][2 * s + 1] = g[v.index()] * b;
+            }
+        }
+    }
+    for (j, name) in ["EC0Y", "EB0Z", "EA0Z"].iter().enumerate() {
+        let mut c = vec![0.0; n];
+        for (s, m) in d.samples.iter().enumerate() {
+            let (u, v) = d.plane_axes[m.plane_idx];
+            let g = squareness_gradient(m.q_mm)[j];
+            c[2 * s] = g[u.index()];
+            c[2 * s + 1] = g[v.index()];
+        }
+        cols.push(c);
+        names.push(name.to_string());
+    }
+    let mut mountings: Vec<&str> = session.planes.iter().map(|p| p.mounting.as_str()).collect();
+    mountings.sort();
+    mountings.dedup();
+    for mname in mountings {
+        let mut c = vec![0.0; n];
+        for (s, m) in d.samples.iter().enumerate() {
+            if session.planes[m.plane_idx].mounting != mname {
+                continue;
+            }
+            let (u, v) = d.plane_axes[m.plane_idx];
+            let pu = m.q_mm[u.index()] + m.head_mm[u.index()];
+            let pv = m.q_mm[v.index()] + m.head_mm[v.index()];
+            c[2 * s] = pv * 1e-3;
+            c[2 * s + 1] = -pu * 1e-3;
+        }
+        cols.push(c);
+        names.push(format!("rotation {mname}"));
+    }
+    let mut scale = Vec::with_capacity(cols.len());
+    for c in cols.iter_mut() {
+        d.centre(c);
+        let norm = c.iter().map(|v| v * v).sum::<f64>().sqrt();
+        let sc = if norm > 0.0 { norm } else { 1.0 };
+        c.iter_mut().for_each(|v| *v /= sc);
+        scale.push(sc);
+    }
+    let mut y = std::mem::take(&mut d.y);
+    d.centre(&mut y);
+    d.y = y;
+    d.a = cols;
+    d.a_names = names;
+    d.a_scale = scale;
+    Ok(d)
+}
