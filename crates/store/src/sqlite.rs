@@ -55,6 +55,29 @@ impl SqliteStore {
         Ok(SqliteStore { pool })
     }
 
+    /// Inserts many results (each with a finished `import` job) in one transaction: for
+    /// seeding benchmarks and bulk imports.
+    pub async fn import_results_bulk(&self, results: &[NewResult]) -> Result<()> {
+        let mut tx = self.pool.begin().await?;
+        let now = now_rfc3339();
+        for r in results {
+            let job_id = new_id("job");
+            sqlx::query(
+                "INSERT INTO jobs (id, seq, kind, machine_id, dataset_id, params, state, max_attempts, \
+                 run_after_ms, created_at, started_at, finished_at, progress, attempts) \
+                 VALUES (?1, 0, 'import', ?2, NULL, '{}', 'succeeded', 1, 0, ?3, ?3, ?3, 1, 0)",
+            )
+            .bind(&job_id)
+            .bind(&r.machine_id)
+            .bind(&now)
+            .execute(&mut *tx)
+            .await?;
+            insert_result(&mut tx, &job_id, r).await?;
+        }
+        tx.commit().await?;
+        Ok(())
+    }
+
     /// The underlying pool (tests, benchmarks).
     pub fn pool(&self) -> &SqlitePool {
         &self.pool

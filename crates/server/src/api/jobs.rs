@@ -59,6 +59,7 @@ pub async fn submit(
             max_attempts: s.max_attempts,
         })
         .await?;
+    s.wake.notify_one();
     Ok((StatusCode::ACCEPTED, Json(job)))
 }
 
