@@ -245,6 +245,7 @@ fn split_step_two(fx: Fit) -> (Fit, Mat<f64>) {
             reduced: lead,
             solution,
             offsets_eliminated: fx.offsets_eliminated,
+            compressed_runs: fx.compressed_runs,
         },
         g,
     )
@@ -364,6 +365,7 @@ fn combine(session: &Session, full: &ErrorModel, s1: &Step, s2: &Step, g: &Mat<f
             dof,
         },
         offsets_eliminated: s1.fit.offsets_eliminated + s2.fit.offsets_eliminated,
+        compressed_runs: s1.fit.compressed_runs + s2.fit.compressed_runs,
     }
 }
 
