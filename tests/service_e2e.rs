@@ -196,7 +196,7 @@ fn tmp() -> (tempfile::TempDir, PathBuf) {
 }
 
 #[tokio::test]
-async fn upload_identify_gives_the_result_of_the_same_computation_as_the_cli() {
+async fn upload_identify_gives_the_result_of_the_cli() {
     let (d, db) = tmp();
     let key = create_key(&db, "write");
     let server = Server::start(&db, &[]);
@@ -215,15 +215,11 @@ async fn upload_identify_gives_the_result_of_the_same_computation_as_the_cli() {
     let (s, doc) = api.get(&format!("/api/v1/jobs/{job}/result")).await;
     assert_eq!(s, StatusCode::OK);
 
-    // The CLI's computation: read the folder, identify with default options. The service
-    // must give the identical document (same reader, same solver, same options).
-    let session = mtcal_formats::read_session_dir(&dir, &mtcal_formats::Limits::default()).unwrap();
-    let local = mtcal_solver::identification::identify(
-        &session,
-        &mtcal_solver::identification::IdentifyOptions::default(),
-    )
-    .unwrap();
-    assert_eq!(doc, serde_json::to_value(&local).unwrap());
+    // The CLI on the same folder gives the identical document (same reader, solver and
+    // default options; documents are stored and returned with exact doubles).
+    let cli: Value =
+        serde_json::from_str(&mtcal(&["identify", dir.to_str().unwrap(), "--json"])).unwrap();
+    assert_eq!(doc, cli);
     // Sanity of the result against the truth of the generator: residual at noise level
     // (σ = 0.1 µm; 2132 samples give the RMS within a few per cent).
     let rms = doc["fit"]["residual_rms_um"].as_f64().unwrap();
@@ -542,4 +538,42 @@ async fn queued_job_can_be_cancelled() {
         (s, e["error"]["code"].as_str()),
         (StatusCode::CONFLICT, Some("conflict"))
     );
+}
+
+#[tokio::test]
+async fn sensitivity_job_gives_the_library_result() {
+    let (_d, db) = tmp();
+    let key = create_key(&db, "write");
+    let server = Server::start(&db, &[]);
+    let api = Api::new(&server, &key);
+    api.machine("VMC-S").await;
+    let params = json!({"machine": {"template": "vmc3"}});
+    let (s, e) = api
+        .post(
+            "/api/v1/jobs",
+            json!({"kind": "sensitivity", "params": params}),
+        )
+        .await;
+    assert_eq!(
+        (s, e["error"]["code"].as_str()),
+        (StatusCode::BAD_REQUEST, Some("invalid_request"))
+    );
+    let (s, j) = api
+        .post(
+            "/api/v1/jobs",
+            json!({"kind": "sensitivity", "machine_id": "VMC-S", "params": params}),
+        )
+        .await;
+    assert_eq!(s, StatusCode::ACCEPTED, "{j}");
+    let job = j["id"].as_str().unwrap().to_string();
+    api.wait(&job, "succeeded").await;
+    let (_, doc) = api.get(&format!("/api/v1/jobs/{job}/result")).await;
+    let mut req: mtcal_solver::sensitivity::SensitivityRequest =
+        serde_json::from_value(params).unwrap();
+    req.machine_id = "VMC-S".into();
+    let local = mtcal_solver::sensitivity::analyse(&req).unwrap();
+    assert_eq!(doc, serde_json::to_value(&local).unwrap());
+    // Not an identification: the machine's identification history stays empty.
+    let (_, hist) = api.get("/api/v1/machines/VMC-S/results").await;
+    assert_eq!(hist.as_array().unwrap().len(), 0);
 }
