@@ -766,13 +766,14 @@ impl Store for SqliteStore {
                 .iter()
                 .map(|r| result_from_row(r).map(|m| (m.id.clone(), m)))
                 .collect::<Result<_>>()?;
-            let mut machines: std::collections::HashMap<String, Machine> =
-                sqlx::query(sqlx::AssertSqlSafe(format!("SELECT {MACHINE_COLUMNS} FROM machines")))
-                    .fetch_all(&self.pool)
-                    .await?
-                    .iter()
-                    .map(|r| machine_from_row(r).map(|m| (m.id.clone(), m)))
-                    .collect::<Result<_>>()?;
+            let mut machines: std::collections::HashMap<String, Machine> = sqlx::query(
+                sqlx::AssertSqlSafe(format!("SELECT {MACHINE_COLUMNS} FROM machines")),
+            )
+            .fetch_all(&self.pool)
+            .await?
+            .iter()
+            .map(|r| machine_from_row(r).map(|m| (m.id.clone(), m)))
+            .collect::<Result<_>>()?;
             let mut out = Vec::with_capacity(pairs.len());
             for row in pairs {
                 let mid: String = row.try_get("mid")?;
