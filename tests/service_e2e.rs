@@ -1,6 +1,6 @@
 //! End-to-end tests of the service: a real `mtcal serve` process on a temporary SQLite
 //! file, driven over HTTP. Sessions come from `mtcal demo --write-session` (known
-//! polynomial errors through the exact kinematic chain, noise σ = 0.1 µm).
+//! polynomial errors simulated by `mtcal_solver::simulate`, full plan, noise σ = 0.1 µm).
 
 use mtcal_store::{RowCounts, SqliteStore, Store};
 use reqwest::StatusCode;
@@ -189,6 +189,22 @@ impl Api {
     }
 }
 
+/// Plane files of a session folder, sorted, and the folder's total size in bytes.
+fn csv_files(dir: &Path) -> (Vec<String>, u64) {
+    let mut names = Vec::new();
+    let mut total = 0;
+    for e in std::fs::read_dir(dir).unwrap() {
+        let e = e.unwrap();
+        total += e.metadata().unwrap().len();
+        let n = e.file_name().to_string_lossy().into_owned();
+        if n.ends_with(".csv") {
+            names.push(n);
+        }
+    }
+    names.sort();
+    (names, total)
+}
+
 fn tmp() -> (tempfile::TempDir, PathBuf) {
     let d = tempfile::tempdir().unwrap();
     let db = d.path().join("svc.sqlite");
@@ -207,7 +223,8 @@ async fn upload_identify_gives_the_result_of_the_cli() {
 
     let (s, ds) = api.upload_dir("VMC-1", &dir).await;
     assert_eq!(s, StatusCode::CREATED, "{ds}");
-    assert_eq!(ds["files"].as_array().unwrap().len(), 5);
+    let (csvs, _) = csv_files(&dir);
+    assert_eq!(ds["files"].as_array().unwrap().len(), csvs.len() + 1);
     let job = api.identify(&ds).await;
     let done = api.wait(&job, "succeeded").await;
     assert_eq!(done["progress"], 1.0);
@@ -221,16 +238,17 @@ async fn upload_identify_gives_the_result_of_the_cli() {
         serde_json::from_str(&mtcal(&["identify", dir.to_str().unwrap(), "--json"])).unwrap();
     assert_eq!(doc, cli);
     // Sanity of the result against the truth of the generator: residual at noise level
-    // (σ = 0.1 µm; 2132 samples give the RMS within a few per cent).
+    // (σ = 0.1 µm per component; thousands of samples give the RMS within a few per cent).
     let rms = doc["fit"]["residual_rms_um"].as_f64().unwrap();
     assert!((0.08..0.13).contains(&rms), "residual {rms}");
 
     // Raw files come back unchanged, with their checksum.
-    let raw = std::fs::read(dir.join("xy_L100.csv")).unwrap();
+    let first = &csvs[0];
+    let raw = std::fs::read(dir.join(first)).unwrap();
     let r = api
         .http
         .get(format!(
-            "{}/api/v1/datasets/{}/files/xy_L100.csv",
+            "{}/api/v1/datasets/{}/files/{first}",
             server.url,
             ds["id"].as_str().unwrap()
         ))
@@ -247,7 +265,7 @@ async fn upload_identify_gives_the_result_of_the_cli() {
         .as_array()
         .unwrap()
         .iter()
-        .find(|f| f["name"] == "xy_L100.csv")
+        .find(|f| f["name"] == first.as_str())
         .unwrap();
     assert_eq!(meta["sha256"], sum.as_str());
 
@@ -424,25 +442,32 @@ async fn rejected_requests_get_documented_errors_and_store_nothing() {
     let (d, db) = tmp();
     let key = create_key(&db, "write");
     let read_key = create_key(&db, "read");
-    let server = Server::start(&db, &["--max-upload-bytes", "150000", "--no-worker"]);
+    let dir = d.path().join("s");
+    write_session(&dir, "VMC-R", 4, 0);
+    let (csvs, size) = csv_files(&dir);
+    let limit = (size + 100_000).to_string();
+    let server = Server::start(&db, &["--max-upload-bytes", &limit, "--no-worker"]);
     let api = Api::new(&server, &key);
     api.machine("VMC-R").await;
     let before = counts(&db).await;
 
-    // Corrupt upload: a non-number in a required column.
-    let dir = d.path().join("s");
-    write_session(&dir, "VMC-R", 4, 0);
-    let p = dir.join("xz_L100.csv");
+    // Corrupt upload: a non-number in a required column (du_um of data line 10).
+    let bad_file = &csvs[1];
+    let p = dir.join(bad_file);
     let text = std::fs::read_to_string(&p).unwrap();
     let mut lines: Vec<String> = text.lines().map(String::from).collect();
-    lines[10] = lines[10].rsplit_once(',').unwrap().0.to_string() + ",abc";
+    let header: Vec<&str> = lines[0].split(',').collect();
+    let col = header.iter().position(|c| *c == "du_um").unwrap();
+    let mut cells: Vec<String> = lines[10].split(',').map(String::from).collect();
+    cells[col] = "abc".into();
+    lines[10] = cells.join(",");
     std::fs::write(&p, lines.join("\n") + "\n").unwrap();
     let (s, e) = api.upload_dir("VMC-R", &dir).await;
     assert_eq!(s, StatusCode::UNPROCESSABLE_ENTITY, "{e}");
     assert_eq!(e["error"]["code"], "invalid_dataset");
     let msg = e["error"]["message"].as_str().unwrap();
     assert!(
-        msg.contains("xz_L100.csv") && msg.contains("11") && msg.contains("dv_um"),
+        msg.contains(bad_file.as_str()) && msg.contains("11") && msg.contains("du_um"),
         "{msg}"
     );
 
@@ -471,8 +496,8 @@ async fn rejected_requests_get_documented_errors_and_store_nothing() {
         (StatusCode::FORBIDDEN, Some("forbidden"))
     );
 
-    // Oversize bodies: an upload over the configured limit (150 000 bytes; the session
-    // is ~125 kB, plus a 200 kB file), and JSON over the 1 MiB limit of other routes.
+    // Oversize bodies: an upload over the configured limit (the session's size + 100 kB,
+    // sent with a 200 kB extra file), and JSON over the 1 MiB limit of other routes.
     write_session(&dir, "VMC-R", 4, 0);
     std::fs::write(dir.join("padding.csv"), vec![b'#'; 200_000]).unwrap();
     let (s, e) = api.upload_dir("VMC-R", &dir).await;
