@@ -44,7 +44,10 @@ fn identify_json_matches_the_library_and_reads_back_exactly() {
         let l = lib.terms.get_mut(name).unwrap();
         assert_eq!(t.coefficients.len(), l.coefficients.len());
         for (a, b) in t.coefficients.iter().zip(&l.coefficients) {
-            assert!((a - b).abs() <= 1e-12 * b.abs().max(1e-12), "{name}: {a} vs {b}");
+            assert!(
+                (a - b).abs() <= 1e-12 * b.abs().max(1e-12),
+                "{name}: {a} vs {b}"
+            );
         }
         t.coefficients.clear();
         l.coefficients.clear();

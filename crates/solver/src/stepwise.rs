@@ -146,6 +146,21 @@ pub fn identify(
         }
     ));
     let mut result = report(session, model, opts, Method::Stepwise, &fit, &ident, advice);
+    if let Some(noise) = result.fit.noise_estimate_um {
+        for (n, s) in [(1, &step1), (2, &step2)] {
+            let rms = step_rms(s);
+            if rms > MISFIT_RATIO * noise {
+                result.observability.advice.push(format!(
+                    "stepwise step {n}: residual rms {rms:.3} um exceeds the noise estimate {noise:.3} um from repeated passes: {}",
+                    if n == 1 {
+                        "the lines are not explained by translational terms alone (angular errors seen through Abbe arms that differ between runs, or beyond the model order); the step-1 estimates, and the step-2 angles computed from them, are biased"
+                    } else {
+                        "the circles are not explained by the angular terms after step 1; the step-2 estimates are biased"
+                    }
+                ));
+            }
+        }
+    }
     result.reporting.extend([
         step_sentence(1, "line runs, model of the 12 translational terms without angular terms", &step1),
         step_sentence(2, "circle runs minus the step-1 prediction, model of the 9 angular terms through their Abbe arms", &step2),
@@ -395,6 +410,15 @@ fn combine_identifiability(full: &ErrorModel, s1: &Step, s2: &Step) -> Identifia
     }
 }
 
+/// A step's residual rms above this multiple of the repeated-pass noise estimate is
+/// reported as a misfit (the rms of a correct model is within a few per cent of it).
+pub const MISFIT_RATIO: f64 = 1.1;
+
+/// Residual rms of a step (µm).
+fn step_rms(s: &Step) -> f64 {
+    (s.fit.solution.rss / s.fit.reduced.rows.max(1) as f64).sqrt()
+}
+
 /// One sentence per step: data, model, rank, conditioning, undetermined terms.
 fn step_sentence(n: usize, what: &str, s: &Step) -> String {
     let mut undetermined: Vec<String> = Vec::new();
@@ -411,7 +435,7 @@ fn step_sentence(n: usize, what: &str, s: &Step) -> String {
         s.ident.rank,
         s.ident.parameters,
         s.ident.condition_number,
-        (s.fit.solution.rss / s.fit.reduced.rows.max(1) as f64).sqrt(),
+        step_rms(s),
         if undetermined.is_empty() {
             "every term of the step determined".to_string()
         } else {
