@@ -120,10 +120,9 @@ pub fn read_session(
     let mut session_json: Option<&[u8]> = None;
     for (name, bytes) in files {
         check_file_name(name)?;
-        if name == "session.json" || name == "session.json.gz" {
-            if session_json.replace(bytes).is_some() {
-                return Err(ApiError::InvalidDataset("session.json: given twice".into()));
-            }
+        let is_json = name == "session.json" || name == "session.json.gz";
+        if is_json && session_json.replace(bytes).is_some() {
+            return Err(ApiError::InvalidDataset("session.json: given twice".into()));
         }
     }
     let session_json = session_json

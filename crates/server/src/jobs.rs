@@ -1,14 +1,16 @@
 //! Job kinds and what each runs. A kind is one [`JobKind`] variant plus one arm in
 //! [`execute`] taking its inputs (a dataset, or parameters) to a JSON result document.
 //!
-//! Wired: `identify` (`mtcal_solver::identification::identify`). To come as their
-//! solver entry points land: `sensitivity` (parameters only), `cradle` (rotary point
-//! set), `diagnose` (session, drift log or positioning runs).
+//! Wired: `identify` (`mtcal_solver::identification::identify`, a session dataset) and
+//! `sensitivity` (`mtcal_solver::sensitivity::analyse`, parameters only). Not yet:
+//! `cradle` and `diagnose`, which need dataset kinds other than sessions (rotary point
+//! sets, drift logs, positioning runs) to be accepted by the upload route first.
 
 use crate::ingest::{self, UploadLimits};
 use mtcal_solver::axis::Topology;
 use mtcal_solver::basis::BasisKind;
 use mtcal_solver::identification::{self, IdentificationResult, IdentifyOptions, Method};
+use mtcal_solver::sensitivity::{self, SensitivityRequest};
 use mtcal_store::{Dataset, Machine, ResultScalars};
 use serde::{Deserialize, Serialize};
 use serde_json::Value;
@@ -20,18 +22,23 @@ use utoipa::ToSchema;
 pub enum JobKind {
     /// 21-term identification of a session dataset; result kind `identification`.
     Identify,
+    /// Error-source ranking (Cheng et al. 2012) from parameters only
+    /// (`mtcal_solver::sensitivity::SensitivityRequest`); result kind `sensitivity`.
+    Sensitivity,
 }
 
 impl JobKind {
     pub fn as_str(self) -> &'static str {
         match self {
             JobKind::Identify => "identify",
+            JobKind::Sensitivity => "sensitivity",
         }
     }
 
     pub fn parse(s: &str) -> Option<JobKind> {
         match s {
             "identify" => Some(JobKind::Identify),
+            "sensitivity" => Some(JobKind::Sensitivity),
             _ => None,
         }
     }
@@ -40,6 +47,7 @@ impl JobKind {
     pub fn result_kind(self) -> &'static str {
         match self {
             JobKind::Identify => "identification",
+            JobKind::Sensitivity => "sensitivity",
         }
     }
 
@@ -47,6 +55,7 @@ impl JobKind {
     pub fn needs_dataset(self) -> bool {
         match self {
             JobKind::Identify => true,
+            JobKind::Sensitivity => false,
         }
     }
 }
@@ -92,6 +101,9 @@ impl IdentifyParams {
 pub fn validate_params(kind: JobKind, params: &Value) -> Result<(), String> {
     match kind {
         JobKind::Identify => serde_json::from_value::<IdentifyParams>(params.clone())
+            .map(|_| ())
+            .map_err(|e| format!("params: {e}")),
+        JobKind::Sensitivity => serde_json::from_value::<SensitivityRequest>(params.clone())
             .map(|_| ())
             .map_err(|e| format!("params: {e}")),
     }
@@ -147,6 +159,21 @@ pub fn execute(input: &JobInput) -> Result<JobOutput, JobError> {
                     .map_err(|e| JobError::Transient(e.to_string()))?,
                 scalars: identification_scalars(&result),
                 measured_at: dataset.measured_at.clone(),
+            })
+        }
+        JobKind::Sensitivity => {
+            let mut req: SensitivityRequest = serde_json::from_value(input.params.clone())
+                .map_err(|e| JobError::BadInput(format!("params: {e}")))?;
+            if let Some(m) = &input.machine {
+                req.machine_id = m.id.clone();
+            }
+            let result = sensitivity::analyse(&req)
+                .map_err(|e| JobError::BadInput(format!("sensitivity: {e}")))?;
+            Ok(JobOutput {
+                document: serde_json::to_value(&result)
+                    .map_err(|e| JobError::Transient(e.to_string()))?,
+                scalars: ResultScalars::default(),
+                measured_at: mtcal_store::now_rfc3339(),
             })
         }
     }

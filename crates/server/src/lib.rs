@@ -40,6 +40,8 @@ pub struct AppState {
     pub limits: UploadLimits,
     /// Attempts given to each submitted job.
     pub max_attempts: i64,
+    /// Signalled on every enqueued job (wakes an idle worker of this process).
+    pub wake: Arc<tokio::sync::Notify>,
 }
 
 /// Body limit of every route but uploads, bytes.
@@ -162,13 +164,15 @@ pub struct ServeConfig {
 pub async fn serve(cfg: ServeConfig, ready: impl FnOnce(SocketAddr)) -> anyhow::Result<()> {
     let store = mtcal_store::open(&cfg.db_url).await?;
     let listener = tokio::net::TcpListener::bind(cfg.listen).await?;
+    let wake = Arc::new(tokio::sync::Notify::new());
     if cfg.run_worker {
-        worker::spawn_workers(store.clone(), cfg.worker.clone());
+        worker::spawn_workers(store.clone(), cfg.worker.clone(), wake.clone());
     }
     let state = AppState {
         store,
         limits: cfg.worker.limits,
         max_attempts: cfg.worker.queue.max_attempts,
+        wake,
     };
     ready(listener.local_addr()?);
     axum::serve(listener, router(state)).await?;

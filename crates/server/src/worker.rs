@@ -11,7 +11,7 @@ use crate::jobs::{self, JobError, JobInput, JobKind};
 use mtcal_store::{Heartbeat, Job, NewResult, QueueConfig, Store, StoreError};
 use std::sync::Arc;
 use std::time::{Duration, Instant};
-use tokio::sync::watch;
+use tokio::sync::{Notify, watch};
 
 /// Worker settings.
 #[derive(Debug, Clone)]
@@ -36,18 +36,25 @@ impl Default for WorkerConfig {
     }
 }
 
-/// Starts `concurrency` worker loops on the current runtime.
-pub fn spawn_workers(store: Arc<dyn Store>, cfg: WorkerConfig) -> Vec<tokio::task::JoinHandle<()>> {
+/// Starts `concurrency` worker loops on the current runtime. `wake` is signalled by the
+/// API when it enqueues a job, so that an idle worker of this process claims it at once
+/// (the poll interval only matters for jobs submitted through another process).
+pub fn spawn_workers(
+    store: Arc<dyn Store>,
+    cfg: WorkerConfig,
+    wake: Arc<Notify>,
+) -> Vec<tokio::task::JoinHandle<()>> {
     (0..cfg.queue.concurrency.max(1))
         .map(|slot| {
             let store = store.clone();
             let cfg = cfg.clone();
-            tokio::spawn(async move { worker_loop(store, cfg, slot).await })
+            let wake = wake.clone();
+            tokio::spawn(async move { worker_loop(store, cfg, slot, wake).await })
         })
         .collect()
 }
 
-async fn worker_loop(store: Arc<dyn Store>, cfg: WorkerConfig, slot: usize) {
+async fn worker_loop(store: Arc<dyn Store>, cfg: WorkerConfig, slot: usize, wake: Arc<Notify>) {
     let me = format!("{}-{slot}", cfg.worker_id);
     let reap_every = Duration::from_millis((cfg.queue.lease_ms / 2).max(100) as u64);
     let mut last_reap: Option<Instant> = None;
@@ -62,7 +69,12 @@ async fn worker_loop(store: Arc<dyn Store>, cfg: WorkerConfig, slot: usize) {
         }
         match store.claim_job(&me, cfg.queue.lease_ms).await {
             Ok(Some(job)) => run_job(&store, &cfg, &me, job).await,
-            Ok(None) => tokio::time::sleep(Duration::from_millis(cfg.queue.poll_ms)).await,
+            Ok(None) => {
+                tokio::select! {
+                    _ = wake.notified() => {}
+                    _ = tokio::time::sleep(Duration::from_millis(cfg.queue.poll_ms)) => {}
+                }
+            }
             Err(e) => {
                 tracing::error!(%e, "claiming a job");
                 tokio::time::sleep(Duration::from_millis(cfg.queue.poll_ms * 5)).await;

@@ -55,6 +55,29 @@ impl SqliteStore {
         Ok(SqliteStore { pool })
     }
 
+    /// Inserts many results (each with a finished `import` job) in one transaction: for
+    /// seeding benchmarks and bulk imports.
+    pub async fn import_results_bulk(&self, results: &[NewResult]) -> Result<()> {
+        let mut tx = self.pool.begin().await?;
+        let now = now_rfc3339();
+        for r in results {
+            let job_id = new_id("job");
+            sqlx::query(
+                "INSERT INTO jobs (id, seq, kind, machine_id, dataset_id, params, state, max_attempts, \
+                 run_after_ms, created_at, started_at, finished_at, progress, attempts) \
+                 VALUES (?1, 0, 'import', ?2, NULL, '{}', 'succeeded', 1, 0, ?3, ?3, ?3, 1, 0)",
+            )
+            .bind(&job_id)
+            .bind(&r.machine_id)
+            .bind(&now)
+            .execute(&mut *tx)
+            .await?;
+            insert_result(&mut tx, &job_id, r).await?;
+        }
+        tx.commit().await?;
+        Ok(())
+    }
+
     /// The underlying pool (tests, benchmarks).
     pub fn pool(&self) -> &SqlitePool {
         &self.pool
@@ -717,29 +740,58 @@ impl Store for SqliteStore {
 
     fn baseline_pairs<'a>(&'a self, kind: &'a str) -> StoreFuture<'a, Vec<BaselinePair>> {
         Box::pin(async move {
-            // Per machine: first and last result of `kind` in time order and their count.
-            let rows = sqlx::query(
-                "SELECT machine_id, COUNT(*) AS n, \
-                   (SELECT r2.id FROM results r2 WHERE r2.machine_id = r.machine_id AND r2.kind = ?1 \
-                    ORDER BY r2.measured_at, r2.id LIMIT 1) AS first_id, \
-                   (SELECT r3.id FROM results r3 WHERE r3.machine_id = r.machine_id AND r3.kind = ?1 \
-                    ORDER BY r3.measured_at DESC, r3.id DESC LIMIT 1) AS last_id \
-                 FROM results r WHERE kind = ?1 GROUP BY machine_id ORDER BY machine_id",
-            )
+            // Per machine with results of `kind`: count, baseline id (chosen, else first),
+            // latest id: index seeks on results(machine_id, kind, measured_at, id).
+            const PAIRS: &str = "WITH p AS (SELECT m.id AS mid, \
+                 (SELECT COUNT(*) FROM results r WHERE r.machine_id = m.id AND r.kind = ?1) AS n, \
+                 COALESCE(m.baseline_result_id, (SELECT r.id FROM results r \
+                   WHERE r.machine_id = m.id AND r.kind = ?1 ORDER BY r.measured_at, r.id LIMIT 1)) AS base_id, \
+                 (SELECT r.id FROM results r WHERE r.machine_id = m.id AND r.kind = ?1 \
+                   ORDER BY r.measured_at DESC, r.id DESC LIMIT 1) AS last_id \
+                 FROM machines m) ";
+            let pairs = sqlx::query(sqlx::AssertSqlSafe(format!(
+                "{PAIRS} SELECT mid, n, base_id, last_id FROM p WHERE n > 0 ORDER BY mid"
+            )))
             .bind(kind)
             .fetch_all(&self.pool)
             .await?;
-            let mut out = Vec::with_capacity(rows.len());
-            for row in rows {
-                let machine = self.machine(row.try_get("machine_id")?).await?;
-                let first: String = row.try_get("first_id")?;
-                let base_id = machine.baseline_result_id.clone().unwrap_or(first);
+            let metas: std::collections::HashMap<String, ResultMeta> =
+                sqlx::query(sqlx::AssertSqlSafe(format!(
+                    "{PAIRS} SELECT {RESULT_COLUMNS} FROM results WHERE id IN \
+                     (SELECT base_id FROM p WHERE n > 0 UNION SELECT last_id FROM p WHERE n > 0)"
+                )))
+                .bind(kind)
+                .fetch_all(&self.pool)
+                .await?
+                .iter()
+                .map(|r| result_from_row(r).map(|m| (m.id.clone(), m)))
+                .collect::<Result<_>>()?;
+            let mut machines: std::collections::HashMap<String, Machine> = sqlx::query(
+                sqlx::AssertSqlSafe(format!("SELECT {MACHINE_COLUMNS} FROM machines")),
+            )
+            .fetch_all(&self.pool)
+            .await?
+            .iter()
+            .map(|r| machine_from_row(r).map(|m| (m.id.clone(), m)))
+            .collect::<Result<_>>()?;
+            let mut out = Vec::with_capacity(pairs.len());
+            for row in pairs {
+                let mid: String = row.try_get("mid")?;
+                let base: String = row.try_get("base_id")?;
                 let last: String = row.try_get("last_id")?;
+                let get = |id: &str| {
+                    metas
+                        .get(id)
+                        .cloned()
+                        .ok_or_else(|| StoreError::NotFound(format!("result {id}")))
+                };
                 out.push(BaselinePair {
-                    baseline: self.result_meta(&base_id).await?,
-                    latest: self.result_meta(&last).await?,
+                    baseline: get(&base)?,
+                    latest: get(&last)?,
                     results: row.try_get("n")?,
-                    machine,
+                    machine: machines
+                        .remove(&mid)
+                        .ok_or_else(|| StoreError::NotFound(format!("machine {mid}")))?,
                 });
             }
             Ok(out)

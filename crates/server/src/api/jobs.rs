@@ -17,6 +17,9 @@ pub struct SubmitJob {
     pub kind: JobKind,
     /// The dataset to run on (required by `identify`).
     pub dataset_id: Option<String>,
+    /// The machine, for kinds without a dataset (required by `sensitivity`; the result
+    /// is filed under it).
+    pub machine_id: Option<String>,
     /// Kind-specific parameters; for `identify` see `IdentifyParams`.
     #[serde(default)]
     #[schema(value_type = Object)]
@@ -40,25 +43,37 @@ pub async fn submit(
     };
     jobs::validate_params(j.kind, &params).map_err(ApiError::InvalidRequest)?;
     let machine_id = match (&j.dataset_id, j.kind.needs_dataset()) {
-        (Some(d), _) => Some(s.store.get_dataset(d).await?.machine_id),
+        (Some(d), true) => s.store.get_dataset(d).await?.machine_id,
         (None, true) => {
             return Err(ApiError::InvalidRequest(format!(
                 "a {} job needs dataset_id",
                 j.kind.as_str()
             )));
         }
-        (None, false) => None,
+        (Some(_), false) => {
+            return Err(ApiError::InvalidRequest(format!(
+                "a {} job takes no dataset_id",
+                j.kind.as_str()
+            )));
+        }
+        (None, false) => {
+            let m = j.machine_id.as_deref().ok_or_else(|| {
+                ApiError::InvalidRequest(format!("a {} job needs machine_id", j.kind.as_str()))
+            })?;
+            s.store.get_machine(m).await?.id
+        }
     };
     let job = s
         .store
         .enqueue(NewJob {
             kind: j.kind.as_str().into(),
-            machine_id,
+            machine_id: Some(machine_id),
             dataset_id: j.dataset_id,
             params,
             max_attempts: s.max_attempts,
         })
         .await?;
+    s.wake.notify_one();
     Ok((StatusCode::ACCEPTED, Json(job)))
 }
 

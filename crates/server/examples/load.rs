@@ -1,0 +1,365 @@
+//! Load benchmark of the service (figures in BENCHMARKS.md, "Service (crates/server)").
+//!
+//! 1. **Jobs**: K small simulated sessions, each uploaded (multipart), identified and
+//!    polled (every 10 ms) through a real HTTP server with one worker, one after another;
+//!    compared with the bare work the worker does per job (strict read of the uploaded
+//!    bytes + `identify`), timed in this process. Overhead = service / bare − 1.
+//! 2. **Trends**: M machines × R results seeded directly through the store (compact
+//!    documents; the scalar columns and term coefficients trend queries read are
+//!    realistic: 10 identifiable cubic terms), then Q random trend queries over HTTP
+//!    (keep-alive), alternating `trends/term?term=EXX&at=-50,50` and `trends/summary`;
+//!    latency percentiles. The seeded database is kept and reused (MTCAL_LOAD_DB).
+//!
+//! `cargo run -p mtcal-server --example load` (dev profile: dependencies at opt-level 3).
+//! Environment: MTCAL_LOAD_JOBS (20), MTCAL_LOAD_MACHINES (10000), MTCAL_LOAD_RESULTS
+//! (100), MTCAL_LOAD_QUERIES (4000), MTCAL_LOAD_DB (a file in the temp dir).
+
+use mtcal_server::{AppState, UploadLimits, WorkerConfig};
+use mtcal_solver::identification::{IdentifyOptions, identify};
+use mtcal_solver::simulate::{SimOptions, random_truth, simulate};
+use mtcal_store::{Machine, NewResult, QueueConfig, ResultScalars, Scope, SqliteStore, Store};
+use rand::rngs::StdRng;
+use rand::{Rng, SeedableRng};
+use serde_json::{Value, json};
+use std::collections::BTreeMap;
+use std::sync::Arc;
+use std::time::{Duration, Instant};
+
+fn env(name: &str, default: usize) -> usize {
+    std::env::var(name)
+        .ok()
+        .and_then(|v| v.parse().ok())
+        .unwrap_or(default)
+}
+
+fn pct(sorted: &[f64], p: f64) -> f64 {
+    sorted[((sorted.len() as f64 - 1.0) * p).round() as usize]
+}
+
+async fn start(store: Arc<dyn Store>, worker: bool) -> String {
+    let listener = tokio::net::TcpListener::bind("127.0.0.1:0").await.unwrap();
+    let url = format!("http://{}", listener.local_addr().unwrap());
+    let wake = Arc::new(tokio::sync::Notify::new());
+    if worker {
+        let cfg = WorkerConfig {
+            queue: QueueConfig {
+                concurrency: 1,
+                ..QueueConfig::default()
+            },
+            ..WorkerConfig::default()
+        };
+        mtcal_server::worker::spawn_workers(store.clone(), cfg, wake.clone());
+    }
+    let state = AppState {
+        store,
+        limits: UploadLimits::default(),
+        max_attempts: 3,
+        wake,
+    };
+    tokio::spawn(async move { axum::serve(listener, mtcal_server::router(state)).await });
+    url
+}
+
+fn machine(id: &str) -> Machine {
+    Machine {
+        id: id.into(),
+        name: id.into(),
+        topology: json!({"workpiece": ["X", "Y"], "tool": ["Z"]}),
+        travel_mm: BTreeMap::from([
+            ("X".into(), [-100.0, 100.0]),
+            ("Y".into(), [-100.0, 100.0]),
+            ("Z".into(), [-100.0, 100.0]),
+        ]),
+        site: None,
+        tags: vec![],
+        baseline_result_id: None,
+        created_at: String::new(),
+        updated_at: String::new(),
+    }
+}
+
+async fn jobs_bench(k: usize) {
+    let dir = tempfile::tempdir().unwrap();
+    let store = Arc::new(
+        SqliteStore::open(dir.path().join("jobs.sqlite").to_str().unwrap())
+            .await
+            .unwrap(),
+    );
+    let (_, key) = store.create_key(Scope::Write, "load").await.unwrap();
+    store.create_machine(&machine("LOAD-1")).await.unwrap();
+    let url = start(store.clone(), true).await;
+    let http = reqwest::Client::new();
+    let (mut bare, mut svc, mut read, mut up, mut run) =
+        (Vec::new(), Vec::new(), Vec::new(), Vec::new(), Vec::new());
+    let mut samples = 0;
+    for i in 0..k {
+        let sim = simulate(
+            &random_truth(i as u64),
+            &SimOptions {
+                seed: i as u64,
+                sample_rate_hz: 10.0,
+                machine_id: "LOAD-1".into(),
+                measured_at: format!("2026-01-01T00:{:02}:{:02}Z", i / 60, i % 60),
+                ..SimOptions::default()
+            },
+        )
+        .unwrap();
+        let sdir = dir.path().join(format!("s{i}"));
+        mtcal_formats::write_session_dir(&sdir, &sim.session).unwrap();
+        let mut files: Vec<(String, Vec<u8>)> = std::fs::read_dir(&sdir)
+            .unwrap()
+            .map(|e| {
+                let p = e.unwrap().path();
+                (
+                    p.file_name().unwrap().to_string_lossy().into_owned(),
+                    std::fs::read(&p).unwrap(),
+                )
+            })
+            .collect();
+        files.sort();
+        samples = sim.session.sample_count();
+
+        // Bare: what the worker computes for the job.
+        let t = Instant::now();
+        let session = mtcal_server::ingest::read_session(&files, UploadLimits::default()).unwrap();
+        read.push(t.elapsed().as_secs_f64());
+        let r = identify(&session, &IdentifyOptions::default()).unwrap();
+        bare.push(t.elapsed().as_secs_f64());
+        std::hint::black_box(r);
+
+        // Service: upload, submit, poll until done, fetch the result.
+        let t = Instant::now();
+        let mut form = reqwest::multipart::Form::new();
+        for (n, b) in &files {
+            form = form.part(
+                "files",
+                reqwest::multipart::Part::bytes(b.clone()).file_name(n.clone()),
+            );
+        }
+        let ds: Value = http
+            .post(format!("{url}/api/v1/machines/LOAD-1/datasets"))
+            .bearer_auth(&key)
+            .multipart(form)
+            .send()
+            .await
+            .unwrap()
+            .json()
+            .await
+            .unwrap();
+        up.push(t.elapsed().as_secs_f64());
+        let job: Value = http
+            .post(format!("{url}/api/v1/jobs"))
+            .bearer_auth(&key)
+            .json(&json!({"kind": "identify", "dataset_id": ds["id"]}))
+            .send()
+            .await
+            .unwrap()
+            .json()
+            .await
+            .unwrap();
+        let id = job["id"].as_str().unwrap().to_string();
+        loop {
+            let j: Value = http
+                .get(format!("{url}/api/v1/jobs/{id}"))
+                .bearer_auth(&key)
+                .send()
+                .await
+                .unwrap()
+                .json()
+                .await
+                .unwrap();
+            match j["state"].as_str().unwrap() {
+                "succeeded" => {
+                    let ts = |f: &str| {
+                        time::OffsetDateTime::parse(
+                            j[f].as_str().unwrap(),
+                            &time::format_description::well_known::Rfc3339,
+                        )
+                        .unwrap()
+                    };
+                    run.push((ts("finished_at") - ts("started_at")).as_seconds_f64());
+                    break;
+                }
+                "queued" | "running" => tokio::time::sleep(Duration::from_millis(10)).await,
+                s => panic!("job {s}: {j}"),
+            }
+        }
+        let res = http
+            .get(format!("{url}/api/v1/jobs/{id}/result"))
+            .bearer_auth(&key)
+            .send()
+            .await
+            .unwrap();
+        assert!(res.status().is_success());
+        res.bytes().await.unwrap();
+        svc.push(t.elapsed().as_secs_f64());
+    }
+    // Medians: the figures are robust to the other processes sharing the machine.
+    let mean = |v: &[f64]| {
+        let mut v = v.to_vec();
+        v.sort_by(f64::total_cmp);
+        pct(&v, 0.5)
+    };
+    let (b, s) = (mean(&bare), mean(&svc));
+    println!("jobs: {k} sessions of {samples} samples (seed plan, 10 Hz), sequential, 1 worker");
+    println!(
+        "  bare read+identify  median {:.1} ms (of which strict read {:.1} ms)",
+        b * 1e3,
+        mean(&read) * 1e3
+    );
+    println!(
+        "  service end to end  median {:.1} ms (upload + submit + poll + result)",
+        s * 1e3
+    );
+    println!(
+        "  of which upload {:.1} ms, job claimed→finished {:.1} ms (server clock)",
+        mean(&up) * 1e3,
+        mean(&run) * 1e3
+    );
+    println!("  overhead            {:+.1} %", (s / b - 1.0) * 100.0);
+}
+
+fn seeded_scalars(rng: &mut StdRng, quarter: usize) -> ResultScalars {
+    let names = [
+        "EXX", "EZX", "EBX", "EXY", "EYY", "EZY", "EAY", "ECY", "EZZ", "EYX",
+    ];
+    let mut coeffs = BTreeMap::new();
+    for n in names {
+        let c1 = if n.starts_with("EX") && n != "EXX" || n == "EZX" || n == "EZY" || n == "EYX" {
+            0.0
+        } else {
+            0.02 * rng.random::<f64>()
+        };
+        coeffs.insert(
+            n.to_string(),
+            vec![
+                c1 + 1e-4 * quarter as f64,
+                1e-5 * rng.random::<f64>(),
+                1e-7 * rng.random::<f64>(),
+            ],
+        );
+    }
+    ResultScalars {
+        residual_rms_um: Some(0.1 + 0.01 * rng.random::<f64>()),
+        condition_number: Some(27.0),
+        rank: Some(39),
+        ec0y_urad: Some(10.0 + quarter as f64 * 0.3),
+        eb0z_urad: None,
+        ea0z_urad: None,
+        term_coefficients: coeffs,
+    }
+}
+
+async fn trends_bench(m: usize, r: usize, q: usize) {
+    let path = std::env::var("MTCAL_LOAD_DB").unwrap_or_else(|_| {
+        std::env::temp_dir()
+            .join(format!("mtcal-load-{m}x{r}.sqlite"))
+            .display()
+            .to_string()
+    });
+    let store = Arc::new(SqliteStore::open(&path).await.unwrap());
+    let have = store.row_counts().await.unwrap();
+    if have.results < (m * r) as i64 {
+        let t = Instant::now();
+        let mut rng = StdRng::seed_from_u64(1);
+        for i in 0..m {
+            let id = format!("M{i:05}");
+            if store.get_machine(&id).await.is_err() {
+                store.create_machine(&machine(&id)).await.unwrap();
+            }
+        }
+        let mut batch = Vec::new();
+        for i in 0..m {
+            for k in 0..r {
+                batch.push(NewResult {
+                    machine_id: format!("M{i:05}"),
+                    dataset_id: None,
+                    kind: "identification".into(),
+                    measured_at: format!("{}-{:02}-01T08:00:00Z", 2000 + k / 12, 1 + k % 12),
+                    document: json!({"kind": "identification", "seeded": true}),
+                    scalars: seeded_scalars(&mut rng, k),
+                });
+            }
+            if batch.len() >= 20_000 || i + 1 == m {
+                store.import_results_bulk(&batch).await.unwrap();
+                batch.clear();
+                eprint!("\rseeded {} machines", i + 1);
+            }
+        }
+        eprintln!(" in {:.0} s", t.elapsed().as_secs_f64());
+    }
+    let (_, key) = store.create_key(Scope::Read, "load").await.unwrap();
+    let url = start(store.clone(), false).await;
+    let http = reqwest::Client::new();
+    let mut rng = StdRng::seed_from_u64(2);
+    let (mut term, mut summary) = (Vec::new(), Vec::new());
+    for i in 0..q + 200 {
+        let mid = format!("M{:05}", rng.random_range(0..m));
+        let path = if i % 2 == 0 {
+            format!("/api/v1/machines/{mid}/trends/term?term=EXX&at=-50,50")
+        } else {
+            format!("/api/v1/machines/{mid}/trends/summary")
+        };
+        let t = Instant::now();
+        let resp = http
+            .get(format!("{url}{path}"))
+            .bearer_auth(&key)
+            .send()
+            .await
+            .unwrap();
+        assert!(resp.status().is_success());
+        let v: Value = resp.json().await.unwrap();
+        let dt = t.elapsed().as_secs_f64() * 1e3;
+        assert_eq!(v["points"].as_array().unwrap().len(), r);
+        if i >= 200 {
+            if i % 2 == 0 {
+                term.push(dt)
+            } else {
+                summary.push(dt)
+            }
+        }
+    }
+    println!(
+        "trends: {m} machines x {r} results, {q} queries after 200 warm-up, one client, keep-alive"
+    );
+    for (name, v) in [("term EXX at -50,50", &mut term), ("summary", &mut summary)] {
+        v.sort_by(f64::total_cmp);
+        println!(
+            "  {name:20} p50 {:.2} ms  p95 {:.2} ms  p99 {:.2} ms  max {:.2} ms",
+            pct(v, 0.5),
+            pct(v, 0.95),
+            pct(v, 0.99),
+            v[v.len() - 1]
+        );
+    }
+    let t = Instant::now();
+    let resp = http
+        .get(format!("{url}/api/v1/fleet/drift?limit=10"))
+        .bearer_auth(&key)
+        .send()
+        .await
+        .unwrap();
+    assert!(resp.status().is_success());
+    resp.bytes().await.unwrap();
+    println!(
+        "  fleet drift ranking over all machines: {:.0} ms",
+        t.elapsed().as_secs_f64() * 1e3
+    );
+}
+
+#[tokio::main]
+async fn main() {
+    let k = env("MTCAL_LOAD_JOBS", 20);
+    if k > 0 {
+        jobs_bench(k).await;
+    }
+    let m = env("MTCAL_LOAD_MACHINES", 10_000);
+    if m > 0 {
+        trends_bench(
+            m,
+            env("MTCAL_LOAD_RESULTS", 100),
+            env("MTCAL_LOAD_QUERIES", 4000),
+        )
+        .await;
+    }
+}
