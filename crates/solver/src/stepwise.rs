@@ -136,6 +136,29 @@ pub fn identify(
         }
     ));
     let mut result = report(session, model, opts, Method::Stepwise, &fit, &ident, advice);
+    // Say which step could not separate a group (the joint wording speaks of one fit).
+    for g in &mut result.observability.confounded {
+        let angular = g
+            .terms
+            .iter()
+            .all(|n| Term::parse(n).is_some_and(Term::is_angular));
+        let (step, data) = if angular {
+            (2, "the circle readings minus the step-1 prediction")
+        } else {
+            (1, "the line readings")
+        };
+        g.seen_as = if g.terms.len() == 1 {
+            format!(
+                "stepwise step {step}: {} has no effect of its own on {data}",
+                g.terms[0]
+            )
+        } else {
+            format!(
+                "stepwise step {step}: {} act on {data} only through one combination: the data determine that combination, not the terms",
+                g.terms.join(" + ")
+            )
+        };
+    }
     if let Some(noise) = result.fit.noise_estimate_um {
         for (n, s) in [(1, &step1), (2, &step2)] {
             let rms = step_rms(s);
