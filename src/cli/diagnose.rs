@@ -6,7 +6,7 @@ use super::BadInput;
 use anyhow::Context;
 use mtcal_formats::{DatasetKind, Limits};
 use mtcal_solver::diagnosis::series::{self, SeriesOptions};
-use mtcal_solver::diagnosis::{DiagnosisResult, Verdict};
+use mtcal_solver::diagnosis::{DiagnoseOptions, DiagnosisResult, Verdict};
 use std::io::Write as _;
 use std::path::PathBuf;
 use std::process::ExitCode;
@@ -21,7 +21,7 @@ pub struct Args {
     /// Write every plot as `<id>.svg` into this directory.
     #[arg(long, value_name = "DIR")]
     pub plots: Option<PathBuf>,
-    /// Machine id written into the result (default: the file or folder name).
+    /// Machine id written into the result (default: the session's, else the file name).
     #[arg(long)]
     pub machine_id: Option<String>,
 }
@@ -49,9 +49,12 @@ pub fn run(args: Args) -> anyhow::Result<ExitCode> {
             .to_string()
     });
     let opts = SeriesOptions::default();
+    // ISO 230-2 figures accompany the summary of positioning runs.
+    let mut iso = vec![];
     let result: DiagnosisResult = match kind {
         DatasetKind::Positioning => {
             let runs = mtcal_formats::read_positioning_path(path, &limits)?;
+            iso = series::iso230_2(&runs);
             series::diagnose_positioning(&runs, &machine_id, &opts)
                 .map_err(|e| BadInput(format!("{}: {e}", path.display())))?
         }
@@ -61,11 +64,14 @@ pub fn run(args: Args) -> anyhow::Result<ExitCode> {
                 .map_err(|e| BadInput(format!("{}: {e}", path.display())))?
         }
         DatasetKind::Session => {
-            anyhow::bail!(
-                "{}: diagnosis of grid-encoder sessions is not available in this build yet \
-                 (positioning runs and drift logs are)",
-                path.display()
-            )
+            let session = mtcal_formats::read_session_dir(path, &limits)?;
+            let mut r =
+                mtcal_solver::diagnosis::diagnose_session(&session, &DiagnoseOptions::default())
+                    .map_err(|e| BadInput(format!("{}: {e}", path.display())))?;
+            if let Some(id) = &args.machine_id {
+                r.machine_id = id.clone();
+            }
+            r
         }
         other => {
             return Err(BadInput(format!(
@@ -85,7 +91,14 @@ pub fn run(args: Args) -> anyhow::Result<ExitCode> {
     let text = if args.json {
         serde_json::to_string_pretty(&result).context("serialising the result")? + "\n"
     } else {
-        summary(&result)
+        let mut s = summary(&result);
+        for f in &iso {
+            s.push_str(&format!(
+                "ISO 230-2 axis {} ({} targets, {} runs): B = {:.2} µm, R = {:.2} µm, E = {:.2} µm, A = {:.2} µm\n",
+                f.axis, f.targets, f.runs, f.reversal_b_um, f.repeatability_r_um, f.systematic_e_um, f.accuracy_a_um
+            ));
+        }
+        s
     };
     // A closed pipe (`| head`) is not an error.
     if let Err(e) = std::io::stdout().lock().write_all(text.as_bytes())

@@ -48,6 +48,10 @@ pub struct Args {
     /// Identification result (JSON) of the same machine: its terms become the magnitudes.
     #[arg(long, value_name = "RESULT.json")]
     pub identification: Option<PathBuf>,
+    /// Take the Jacobian at the machine's error state (given values and functions, e.g.
+    /// from --identification) instead of at zero error.
+    #[arg(long)]
+    pub at_error_state: bool,
     /// Machine id to put in the result.
     #[arg(long, default_value = "")]
     pub machine_id: String,
@@ -144,6 +148,7 @@ pub fn request(args: &Args) -> anyhow::Result<SensitivityRequest> {
             Weighting::Weighted
         },
         identification,
+        at_error_state: args.at_error_state,
         global: args.global.map(|n| GlobalOptions {
             samples: n,
             ..Default::default()
@@ -207,6 +212,17 @@ pub fn render(res: &SensitivityResult, extra_rows: usize) -> String {
         && res.evaluation.points.len() == 1
     {
         let _ = writeln!(o, "point {p:?}");
+    }
+    if let Some(v) = &res.volumetric_error_um {
+        let _ = writeln!(
+            o,
+            "volumetric error of the given values (exact chain): {}",
+            ["Ex", "Ey", "Ez", "E"]
+                .iter()
+                .map(|c| format!("{c} rms {:.2} max {:.2} um", v[*c].rms_um, v[*c].max_um))
+                .collect::<Vec<_>>()
+                .join("; ")
+        );
     }
     for comp in ["Ex", "Ey", "Ez", "E"] {
         let r = &res.components[comp];

@@ -113,7 +113,10 @@ pub fn untar(bytes: &[u8], limits: UploadLimits) -> Result<Vec<(String, Vec<u8>)
 /// (`read_session_files`): file names unique, `session.json` present, every plane file
 /// present and valid, nothing extra. A file uploaded as `NAME.gz` serves a plane that
 /// session.json lists as `NAME` (as in a session folder). Returns the session.
-pub fn read_session(files: &[(String, Vec<u8>)], limits: UploadLimits) -> Result<Session, ApiError> {
+pub fn read_session(
+    files: &[(String, Vec<u8>)],
+    limits: UploadLimits,
+) -> Result<Session, ApiError> {
     let mut session_json: Option<&[u8]> = None;
     for (name, bytes) in files {
         check_file_name(name)?;

@@ -48,7 +48,7 @@ fn bench(c: &mut Criterion) {
     if let Some(t0) = cpu_seconds() {
         let runs = 3;
         for _ in 0..runs {
-            black_box(local::local_stats(&chain, &mags, &poses));
+            black_box(local::local_stats(&chain, &mags, &poses, false));
         }
         if let Some(t1) = cpu_seconds() {
             println!(
@@ -60,7 +60,7 @@ fn bench(c: &mut Criterion) {
     let mut g = c.benchmark_group("sensitivity");
     g.sample_size(10);
     g.bench_function("hmc4-b 35 errors, 100x100x100 grid", |b| {
-        b.iter(|| local::local_stats(black_box(&chain), &mags, &poses))
+        b.iter(|| local::local_stats(black_box(&chain), &mags, &poses, false))
     });
     let sub = poses.subsample(256);
     let opts = GlobalOptions {

@@ -160,7 +160,10 @@ pub struct KinematicReport {
     pub compliant: Option<KinematicSummary>,
     pub ball: BallReport,
     pub compliance: Option<ComplianceReport>,
-    /// The model itself (for compensation).
+    /// The model itself (for compensation). Its `location.ea0a_urad` holds the sum
+    /// EA0A + EA0C, and `ea0c_urad`, `ec0c_urad` are 0 by convention (not observable; EC0C
+    /// is carried by the ball azimuth); in an unregistered frame the model is expressed
+    /// in the data frame (see `registered_frame`).
     pub model: CradleModel,
 }
 
@@ -228,6 +231,7 @@ fn group_poses(points: &RotaryPointSet, min_points: usize) -> Result<Vec<PosePoi
         let key = (p.a_deg * 1e6).round() as i64;
         map.entry(key)
             .or_insert_with(|| PosePoints {
+                a_deg: p.a_deg,
                 a_rad: p.a_deg.to_radians(),
                 points: Vec::new(),
             })
@@ -238,7 +242,7 @@ fn group_poses(points: &RotaryPointSet, min_points: usize) -> Result<Vec<PosePoi
     if let Some(p) = poses.iter().find(|p| p.points.len() < min_points.max(4)) {
         return Err(SolverError::InvalidInput(format!(
             "A = {}°: {} points, at least {} needed per A pose",
-            p.a_rad.to_degrees(),
+            p.a_deg,
             p.points.len(),
             min_points.max(4)
         )));
@@ -515,7 +519,7 @@ pub fn check_cradle(
         .unwrap_or(&[])
         .iter()
         .map(|h| HeldOutPose {
-            a_deg: poses[h.pose].a_rad.to_degrees(),
+            a_deg: poses[h.pose].a_deg,
             before_rms_um: h.before_rms * 1e3,
             after_rms_um: h.after_rms * 1e3,
             after_max_um: h.after_max * 1e3,

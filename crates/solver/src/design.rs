@@ -449,11 +449,9 @@ fn compress_run(
         _ => return None,
     };
     let degree = model.order + 1;
-    let (m, s_of, q_of): (
-        usize,
-        Box<dyn Fn(&[f64; 3]) -> f64>,
-        Box<dyn Fn(f64) -> [f64; 3]>,
-    ) = match param {
+    type PathParamFn = Box<dyn Fn(&[f64; 3]) -> f64>;
+    type PathPointFn = Box<dyn Fn(f64) -> [f64; 3]>;
+    let (m, s_of, q_of): (usize, PathParamFn, PathPointFn) = match param {
         PathParam::Line { axis } => {
             let (lo, hi) = range(axis);
             let (c, h) = (0.5 * (lo + hi), 0.5 * (hi - lo));
@@ -664,16 +662,18 @@ pub fn fit(
             if !include(p, r) || rec.runs[r].is_empty() {
                 continue;
             }
-            if extra.is_none() {
-                if let Some(rows) = compress_run(session, model, &layout, p, r) {
-                    for (a, b) in &rows {
-                        acc.push_reduced(a, *b);
-                    }
-                    acc.count_observations(2 * rec.runs[r].len());
-                    groups += 2;
-                    compressed += 1;
-                    continue;
+            if let Some(rows) = extra
+                .is_none()
+                .then(|| compress_run(session, model, &layout, p, r))
+                .flatten()
+            {
+                for (a, b) in &rows {
+                    acc.push_reduced(a, *b);
                 }
+                acc.count_observations(2 * rec.runs[r].len());
+                groups += 2;
+                compressed += 1;
+                continue;
             }
             // Pass 1: means of every column and of the readings, per direction.
             let mut sums = [vec![0.0; k + 1], vec![0.0; k + 1]];

@@ -83,6 +83,10 @@ pub struct SensitivityRequest {
     /// squareness replace the description's magnitudes of the same names).
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub identification: Option<Box<IdentificationResult>>,
+    /// Evaluate the Jacobian at the machine's own error state (the given values and
+    /// functions, e.g. an identification; tolerances count as 0) instead of at zero error.
+    #[serde(default)]
+    pub at_error_state: bool,
     /// Run the global analysis with these options.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub global: Option<GlobalOptions>,
@@ -100,6 +104,7 @@ impl SensitivityRequest {
             share: default_share(),
             weighting: Weighting::default(),
             identification: None,
+            at_error_state: false,
             global: None,
         }
     }
@@ -157,6 +162,13 @@ pub struct SensitivityResult {
     pub share: f64,
     /// Rankings of `Ex`, `Ey`, `Ez` and `E` (the volumetric error, column norms).
     pub components: BTreeMap<String, ComponentRanking>,
+    /// Whether the Jacobian was taken at zero error (`false`) or at the error state.
+    pub at_error_state: bool,
+    /// The volumetric error of the given values/functions (tolerances as 0) over the
+    /// poses, by the exact chain: `Ex`, `Ey`, `Ez`, `E` (|E|); absent when every error is
+    /// a tolerance.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub volumetric_error_um: Option<BTreeMap<String, local::ErrorSummary>>,
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub global: Option<GlobalResult>,
     /// Sentences stating how the numbers were obtained.
@@ -206,7 +218,8 @@ pub fn analyse(req: &SensitivityRequest) -> Result<SensitivityResult, SolverErro
         )));
     }
     let mags = Magnitudes::new(&chain, &desc, req.identification.as_deref());
-    let stats = local::local_stats(&chain, &mags, &poses);
+    let stats = local::local_stats(&chain, &mags, &poses, req.at_error_state);
+    let volumetric_error_um = local::volumetric_error(&chain, &mags, &poses);
     let components = local::COMPONENTS
         .iter()
         .enumerate()
@@ -219,20 +232,34 @@ pub fn analyse(req: &SensitivityRequest) -> Result<SensitivityResult, SolverErro
         .collect();
     let global = match &req.global {
         Some(opts) => {
-            if opts.samples > 1_000_000 || opts.max_poses == 0 {
+            if opts.samples > 1_000_000 || opts.max_poses == 0 || opts.max_poses > 100_000 {
                 return Err(SolverError::Limit(
-                    "global analysis: samples <= 1000000 and max_poses >= 1".into(),
+                    "global analysis: samples <= 1000000 and 1 <= max_poses <= 100000".into(),
                 ));
             }
             let sub = poses.subsample(opts.max_poses);
+            // Work ~ samples × poses × errors; 5e8 is a few seconds on one core.
+            let work = opts.samples as f64 * sub.len() as f64 * chain.params().len() as f64;
+            if work > 5e8 {
+                return Err(SolverError::Limit(format!(
+                    "global analysis: samples × poses × errors = {work:.1e} > 5e8; lower \
+                     samples or max_poses"
+                )));
+            }
             Some(global::sobol(&chain, &mags, &sub, opts)?)
         }
         None => None,
     };
     let mut notes = vec![
-        "sensitivities are the analytic Jacobian of the exact HTM chain at zero error; \
-         paper scale: mm/mm for translational errors, mm/rad (the Abbe arm) for angular ones"
-            .to_string(),
+        format!(
+            "sensitivities are the analytic Jacobian of the exact HTM chain at {}; paper \
+             scale: mm/mm for translational errors, mm/rad (the Abbe arm) for angular ones",
+            if req.at_error_state {
+                "the machine's error state (given values and functions; tolerances as 0)"
+            } else {
+                "zero error"
+            }
+        ),
         "sensitivity of E is the length of the Jacobian column, ||dE/dg||".to_string(),
         format!(
             "normalised coefficients from the {} sensitivities' means over the poses",
@@ -297,6 +324,8 @@ pub fn analyse(req: &SensitivityRequest) -> Result<SensitivityResult, SolverErro
         weighting: req.weighting,
         share: req.share,
         components,
+        at_error_state: req.at_error_state,
+        volumetric_error_um,
         global,
         notes,
     })

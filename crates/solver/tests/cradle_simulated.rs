@@ -74,6 +74,19 @@ fn rigid_cradle_recovers_location_errors_and_chooses_rigid() {
         assert_eq!(r.kinematics.chosen, Dependence::Rigid, "seed {seed}");
         assert_location_errors(&r, &sim.truth, true);
         for p in &r.poses {
+            // The patent's own vectors (single point and phase variants) are also zero
+            // within their stated uncertainty, and each circle has the ball's radius.
+            for v in [p.rotation_point, p.rotation_phase] {
+                assert!(
+                    v.norm_urad < 4.0 * 3f64.sqrt() * v.std_urad,
+                    "seed {seed} A {}: {v:?}",
+                    p.a_deg
+                );
+            }
+            assert!(
+                (p.radius_mm - 150.0).abs() < 4.0 * p.radius_std_um * 1e-3,
+                "{p:?}"
+            );
             let v = p.rotation_pooled;
             assert!(
                 v.norm_urad < 4.0 * 3f64.sqrt() * v.std_urad,

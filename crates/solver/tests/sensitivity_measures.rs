@@ -354,3 +354,41 @@ fn path_grid_and_point_evaluations_agree() {
     // The two points differ for most errors, so the mean/max checks are not vacuous.
     assert!(checked > 50, "{checked}");
 }
+
+/// The paper's 581.54 / 499.98 mm through the whole API: hmc4-b with EXX and EYY given as
+/// functions (EXX(500) = −20 µm, EYY(581.5) = +40 µm), evaluated at the machine's error
+/// state at (500, 581.5, 118, 0) on the paper's scale. The volumetric error of that state
+/// is (−20, +40, 0) µm (positioning errors add directly), so |E| = √2000.
+#[test]
+fn paper_figures_at_the_error_state_through_analyse() {
+    let mut d = templates::hmc4_b();
+    let coef = |v: f64, q: f64| mtcal_solver::sensitivity::ErrorSpec {
+        coefficients: Some(vec![v / q]),
+        ..Default::default()
+    };
+    d.errors.insert("EXX".into(), coef(-20.0, 500.0));
+    d.errors.insert("EYY".into(), coef(40.0, 581.5));
+    let mut req = SensitivityRequest::template("hmc4-b");
+    req.machine = MachineRef::Description(d);
+    req.points = vec![vec![500.0, 581.5, 118.0, 0.0]];
+    req.weighting = Weighting::Paper;
+    req.at_error_state = true;
+    let res = analyse(&req).unwrap();
+    assert!((row(&res, "Ex", "ECZ").sensitivity_mean - 581.54).abs() < 1e-6);
+    assert!((row(&res, "Ey", "ECZ").sensitivity_mean - 499.98).abs() < 1e-6);
+    let v = res.volumetric_error_um.as_ref().unwrap();
+    assert!((v["Ex"].rms_um - 20.0).abs() < 1e-9 && (v["Ey"].rms_um - 40.0).abs() < 1e-9);
+    assert!((v["E"].max_um - 2000f64.sqrt()).abs() < 1e-9);
+    // At zero error (the default) the arms are the nominal 581.5 and 500.
+    req.at_error_state = false;
+    let res = analyse(&req).unwrap();
+    assert!((row(&res, "Ex", "ECZ").sensitivity_mean - 581.5).abs() < 1e-9);
+    assert!((row(&res, "Ey", "ECZ").sensitivity_mean - 500.0).abs() < 1e-9);
+    // Tolerances only: no volumetric error to report.
+    assert!(
+        analyse(&SensitivityRequest::template("vmc3"))
+            .unwrap()
+            .volumetric_error_um
+            .is_none()
+    );
+}

@@ -8,7 +8,7 @@
 //! noise shows an apparent "compliance" of the size of the axis fit's uncertainty.
 //!
 //! Each model is a linear least-squares fit of the per-pose rotation vectors (three
-//! components share the design matrix [1] or [1, sin A, cos A]), solved by SVD. The
+//! components share the design matrix `[1]` or `[1, sin A, cos A]`), solved by SVD. The
 //! held-out error of a model is √(mean over poses of |r̂₋ᵢ(Aᵢ) − rᵢ|²), r̂₋ᵢ fitted without
 //! pose i. The compliant fit needs at least 5 poses (4 left in each fold for 3
 //! coefficients).

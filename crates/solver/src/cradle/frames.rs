@@ -32,6 +32,8 @@ use serde::{Deserialize, Serialize};
 /// The points of one A pose: (commanded C in rad, measured position in mm).
 #[derive(Debug, Clone)]
 pub struct PosePoints {
+    /// Commanded A as given, degrees, and in radians.
+    pub a_deg: f64,
     pub a_rad: f64,
     pub points: Vec<(f64, Vector3<f64>)>,
 }
@@ -152,6 +154,7 @@ fn orient(n: Vector3<f64>, items: &[(f64, Vector3<f64>)]) -> Vector3<f64> {
 }
 
 struct PoseFit {
+    a_deg: f64,
     a_rad: f64,
     circle: CircleFit,
     x_point: Vector3<f64>,
@@ -187,6 +190,7 @@ fn fit_pose(p: &PosePoints) -> Result<PoseFit, SolverError> {
         0.0
     };
     Ok(PoseFit {
+        a_deg: p.a_deg,
         a_rad: p.a_rad,
         x_point,
         x_point_c: wrap(c0).abs(),
@@ -284,7 +288,7 @@ pub fn patent_frames(poses: &[PosePoints]) -> Result<PatentAnalysis, SolverError
         };
         let c = &f.circle;
         rows.push(PoseRow {
-            a_deg: f.a_rad.to_degrees(),
+            a_deg: f.a_deg,
             n_points: c.radial.len(),
             centre_mm: c.centre.into(),
             centre_std_um: c.centre_std.map(|s| s * 1e3),
@@ -320,7 +324,7 @@ pub fn patent_frames(poses: &[PosePoints]) -> Result<PatentAnalysis, SolverError
     }
     let ac = &axis_circle;
     Ok(PatentAnalysis {
-        reference_a_deg: fr.a_rad.to_degrees(),
+        reference_a_deg: fr.a_deg,
         a_axis: AAxisFit {
             direction: a.into(),
             direction_std_urad: ac.normal_std_rad.map(|s| s * 1e6),

@@ -1,21 +1,20 @@
 //! The rigid-body (21-term) model of a session as a design matrix for diagnosis, with the
 //! per-sample metadata that effect columns and the residual split need.
 //!
-//! Rows: two per sample (du, dv). Columns: each error function in a Legendre basis on the
-//! measured travel (order N, straightness from 2), times the in-plane component of its
-//! first-order gradient (kinematics::term_gradient); the three squareness constants; one
-//! plate rotation per mounting (du: +v·10⁻³, dv: −u·10⁻³ per µrad). The per-run zero offsets
+//! Rows: two per sample (du, dv). Columns: the error parameters of identification's
+//! [`ErrorModel`] (Legendre basis on the measured travel, order N, straightness from 2,
+//! then the three squareness constants: `ErrorModel::error_row`); one plate rotation per
+//! mounting (du: +v·10⁻³, dv: −u·10⁻³ per µrad). The per-run zero offsets
 //! are eliminated exactly by centring every column and the data within each (run,
 //! component) — the Frisch–Waugh form of estimating them jointly.
 
 use crate::axis::{Axis, Plane, Topology};
-use crate::basis::{Basis, BasisKind};
+use crate::basis::BasisKind;
+use crate::design::ErrorModel;
 use crate::error::SolverError;
-use crate::kinematics::{squareness_gradient, term_gradient};
 use crate::session::{Session, TestKind};
 use crate::simulate::motion::DriveState;
 use crate::simulate::truth::measured_travel;
-use crate::terms::Term;
 
 use super::linalg::Cols;
 
@@ -67,8 +66,9 @@ pub struct Design {
     pub a_names: Vec<String>,
     pub travel: [Option<[f64; 2]>; 3],
     pub topology: Topology,
-    /// The 18 error-function bases in column order (term, basis, first column index).
-    pub term_cols: Vec<(Term, Basis, usize)>,
+    /// The rigid model (identification's [`ErrorModel`], Legendre basis): its parameters
+    /// are the first columns of `a`, in its order.
+    pub model: ErrorModel,
     /// Scale each column of `a` was divided by.
     pub a_scale: Vec<f64>,
 }
@@ -239,51 +239,31 @@ pub fn build(session: &Session, topology: &Topology, order: usize) -> Result<Des
         a_names: Vec::new(),
         travel,
         topology: topology.clone(),
-        term_cols: Vec::new(),
+        model: ErrorModel::new(
+            topology.clone(),
+            BasisKind::Legendre,
+            order,
+            travel.map(|t| t.map(|[lo, hi]| (lo, hi))),
+        ),
         a_scale: Vec::new(),
     };
     let mut cols: Cols = Vec::new();
     let mut names = Vec::new();
     let n = d.rows();
-    for term in Term::all() {
-        let Some([lo, hi]) = travel[term.axis.index()] else {
-            continue;
-        };
-        let basis = Basis::for_term(BasisKind::Legendre, order, term, lo, hi);
-        if basis.is_empty() {
-            continue;
-        }
-        d.term_cols.push((term, basis, cols.len()));
-        let first = cols.len();
-        for k in 0..basis.len() {
-            cols.push(vec![0.0; n]);
-            names.push(format!("{term}[{k}]"));
-        }
-        let mut vals = Vec::with_capacity(basis.len());
-        for (s, m) in d.samples.iter().enumerate() {
-            let (u, v) = d.plane_axes[m.plane_idx];
-            let g = term_gradient(topology, term.axis, term.component, m.q_mm, m.head_mm);
-            if g[u.index()] == 0.0 && g[v.index()] == 0.0 {
-                continue;
-            }
-            vals.clear();
-            basis.eval_into(m.q_mm[term.axis.index()], &mut vals);
-            for (k, b) in vals.iter().enumerate() {
-                cols[first + k][2 * s] = g[u.index()] * b;
-                cols[first + k][2 * s + 1] = g[v.index()] * b;
-            }
-        }
+    let k = d.model.len();
+    for p in &d.model.params {
+        cols.push(vec![0.0; n]);
+        names.push(p.term_name());
     }
-    for (j, name) in ["EC0Y", "EB0Z", "EA0Z"].iter().enumerate() {
-        let mut c = vec![0.0; n];
-        for (s, m) in d.samples.iter().enumerate() {
-            let (u, v) = d.plane_axes[m.plane_idx];
-            let g = squareness_gradient(m.q_mm)[j];
-            c[2 * s] = g[u.index()];
-            c[2 * s + 1] = g[v.index()];
+    let (mut ru, mut rv) = (vec![0.0; k], vec![0.0; k]);
+    for (s, m) in d.samples.iter().enumerate() {
+        let (u, v) = d.plane_axes[m.plane_idx];
+        d.model.error_row(m.q_mm, m.head_mm, u, &mut ru);
+        d.model.error_row(m.q_mm, m.head_mm, v, &mut rv);
+        for j in 0..k {
+            cols[j][2 * s] = ru[j];
+            cols[j][2 * s + 1] = rv[j];
         }
-        cols.push(c);
-        names.push(name.to_string());
     }
     let mut mountings: Vec<&str> = session.planes.iter().map(|p| p.mounting.as_str()).collect();
     mountings.sort();

@@ -3,6 +3,11 @@
 //! profile, same rate), so their offset-free difference contains only what does not
 //! repeat. For pairs (k, k+2) of line passes, d_i = r_k,i − r_k+2,i (run means removed)
 //! and σ̂ = 1.4826·MAD(d)/√2 (robust to the few samples a reversal transient may differ by).
+//!
+//! Unlike `crate::noise` (identification's estimate: RMS of nearest-position differences)
+//! this one is robust: a vibration or drift that does not repeat between passes inflates
+//! an RMS floor by its full power, a MAD floor much less, and diagnosis stops when the
+//! held-out residual reaches the floor, so an inflated floor would hide the effect.
 
 use super::design::Design;
 

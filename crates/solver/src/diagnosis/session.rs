@@ -22,7 +22,7 @@ use super::{
 use crate::axis::Topology;
 use crate::error::SolverError;
 use crate::session::{Session, TestKind};
-use crate::terms::Component;
+use crate::terms::{Component, Term};
 use serde::{Deserialize, Serialize};
 use std::collections::BTreeMap;
 
@@ -265,23 +265,17 @@ fn periodic_best(
     Some(freqs[kbest])
 }
 
+/// Σ_k ε_k(q_k) (µrad) at every sample, from the current fit's error parameters.
 fn eps_per_sample(d: &Design, f: &Fit) -> Vec<[f64; 3]> {
-    let x = f.full.solve(&d.y);
+    let xs = f.full.solve(&d.y);
+    let x: Vec<f64> = (0..d.model.len()).map(|j| xs[j] / d.a_scale[j]).collect();
     let mut out = vec![[0.0; 3]; d.samples.len()];
-    let mut vals = Vec::new();
-    for (term, basis, first) in &d.term_cols {
+    for (i, term) in Term::all().into_iter().enumerate() {
         let Component::Rotation(dir) = term.component else {
             continue;
         };
         for (s, m) in d.samples.iter().enumerate() {
-            vals.clear();
-            basis.eval_into(m.q_mm[term.axis.index()], &mut vals);
-            let v: f64 = vals
-                .iter()
-                .enumerate()
-                .map(|(k, b)| b * x[first + k] / d.a_scale[first + k])
-                .sum();
-            out[s][dir.index()] += v;
+            out[s][dir.index()] += d.model.term_value(i, &x, m.q_mm[term.axis.index()]);
         }
     }
     out

@@ -124,9 +124,9 @@ pub fn sobol(
 ) -> Result<GlobalResult, SolverError> {
     let k = chain.params().len();
     let n = opts.samples;
-    if n < 16 {
+    if !(16..=10_000_000).contains(&n) {
         return Err(SolverError::InvalidInput(
-            "global analysis needs at least 16 samples".into(),
+            "global analysis needs 16 to 10^7 samples".into(),
         ));
     }
     if poses.is_empty() {
@@ -147,61 +147,72 @@ pub fn sobol(
             }
         }
     };
-    // Row-major N × k.
-    let a = draw(n * k);
-    let b = draw(n * k);
-    // Per output c, per sample j, per error i: first-order and total terms (summed over poses).
-    let mut t1 = vec![0.0; 4 * n * k];
-    let mut tt = vec![0.0; 4 * n * k];
-    let mut var_total = [0.0; 4];
-    let mut mean_sq = [0.0; 4];
+    // g_i(q) = J_i(q) m_i(q) for every pose: the linear model E(q) = Σ_i g_i(q) X_i.
     let mut ws = Workspace::default();
     let mut jac: Vec<Vector3<f64>> = Vec::new();
     let mut m = Vec::new();
-    let mut fa = vec![Vector3::zeros(); n];
-    let mut fb = vec![Vector3::zeros(); n];
+    let mut g: Vec<Vector3<f64>> = Vec::with_capacity(poses.len() * k);
     for q in poses {
         chain.jacobian_zero_into(q, &mut ws, &mut jac);
         mags.at_pose(q, &mut m);
-        let g: Vec<Vector3<f64>> = jac.iter().zip(&m).map(|(j, mi)| j * *mi).collect();
-        for j in 0..n {
-            let (ra, rb) = (&a[j * k..(j + 1) * k], &b[j * k..(j + 1) * k]);
-            fa[j] = g.iter().zip(ra).map(|(gi, x)| gi * *x).sum();
-            fb[j] = g.iter().zip(rb).map(|(gi, x)| gi * *x).sum();
-        }
-        // Variance of each output at this pose from the 2N values.
-        for c in 0..3 {
-            let (mut s, mut s2) = (0.0, 0.0);
-            for v in fa.iter().chain(fb.iter()) {
-                s += v[c];
-                s2 += v[c] * v[c];
+        g.extend(jac.iter().zip(&m).map(|(j, mi)| j * *mi));
+    }
+    // Rows of A and B are drawn one sample at a time (memory O(k), not O(N k)). Per sample
+    // j the first-order and total terms are summed over the poses, then accumulated
+    // (Welford) per output c and error i for their mean and standard error.
+    let mut t1 = vec![Welford::default(); 4 * k];
+    let mut tt = vec![Welford::default(); 4 * k];
+    let mut loc1 = vec![0.0; 4 * k];
+    let mut loct = vec![0.0; 4 * k];
+    // Per pose and component: Σ f and Σ f² over the 2N values f(A), f(B).
+    let mut sums = vec![[0.0f64; 6]; poses.len()];
+    for _ in 0..n {
+        let ra = draw(k);
+        let rb = draw(k);
+        loc1.iter_mut().for_each(|v| *v = 0.0);
+        loct.iter_mut().for_each(|v| *v = 0.0);
+        for (p, gp) in g.chunks_exact(k).enumerate() {
+            let fa: Vector3<f64> = gp.iter().zip(&ra).map(|(gi, x)| gi * *x).sum();
+            let fb: Vector3<f64> = gp.iter().zip(&rb).map(|(gi, x)| gi * *x).sum();
+            for c in 0..3 {
+                sums[p][c] += fa[c] + fb[c];
+                sums[p][3 + c] += fa[c] * fa[c] + fb[c] * fb[c];
             }
-            let cnt = 2.0 * n as f64;
-            let mean = s / cnt;
-            let var = (s2 / cnt - mean * mean) * cnt / (cnt - 1.0);
-            var_total[c] += var;
-            var_total[3] += var;
-            mean_sq[c] += s2 / cnt;
-            mean_sq[3] += s2 / cnt;
-        }
-        for j in 0..n {
-            let (ra, rb) = (&a[j * k..(j + 1) * k], &b[j * k..(j + 1) * k]);
-            let vb = fb[j];
             for i in 0..k {
                 // f(A_B⁽ⁱ⁾) − f(A) of the linear model.
-                let d = g[i] * (rb[i] - ra[i]);
-                let (mut s1, mut st) = (0.0, 0.0);
+                let d = gp[i] * (rb[i] - ra[i]);
                 for c in 0..3 {
-                    let idx = (c * n + j) * k + i;
-                    t1[idx] += vb[c] * d[c];
-                    tt[idx] += 0.5 * d[c] * d[c];
-                    s1 += vb[c] * d[c];
-                    st += 0.5 * d[c] * d[c];
+                    loc1[c * k + i] += fb[c] * d[c];
+                    loct[c * k + i] += 0.5 * d[c] * d[c];
                 }
-                let idx = (3 * n + j) * k + i;
-                t1[idx] += s1;
-                tt[idx] += st;
             }
+        }
+        for i in 0..k {
+            let (s1, st) = (
+                loc1[i] + loc1[k + i] + loc1[2 * k + i],
+                loct[i] + loct[k + i] + loct[2 * k + i],
+            );
+            loc1[3 * k + i] = s1;
+            loct[3 * k + i] = st;
+        }
+        for (w, v) in t1.iter_mut().zip(&loc1) {
+            w.push(*v);
+        }
+        for (w, v) in tt.iter_mut().zip(&loct) {
+            w.push(*v);
+        }
+    }
+    let mut var_total = [0.0; 4];
+    let mut mean_sq = [0.0; 4];
+    let cnt = 2.0 * n as f64;
+    for s in &sums {
+        for c in 0..3 {
+            let mean = s[c] / cnt;
+            let var = (s[3 + c] / cnt - mean * mean) * cnt / (cnt - 1.0);
+            var_total[c] += var;
+            var_total[3] += var;
+            mean_sq[c] += s[3 + c] / cnt;
+            mean_sq[3] += s[3 + c] / cnt;
         }
     }
     let mut outputs = std::collections::BTreeMap::new();
@@ -209,8 +220,8 @@ pub fn sobol(
         let v = var_total[c];
         let mut indices: Vec<SobolEntry> = (0..k)
             .map(|i| {
-                let (m1, s1) = mean_se((0..n).map(|j| t1[(c * n + j) * k + i]), n);
-                let (mt, st) = mean_se((0..n).map(|j| tt[(c * n + j) * k + i]), n);
+                let (m1, s1) = t1[c * k + i].mean_se();
+                let (mt, st) = tt[c * k + i].mean_se();
                 let scale = if v > 0.0 { 1.0 / v } else { 0.0 };
                 SobolEntry {
                     error: chain.params()[i].name.clone(),
@@ -241,10 +252,24 @@ pub fn sobol(
     })
 }
 
-/// Mean and standard error of the mean of `n` values.
-fn mean_se(it: impl Iterator<Item = f64> + Clone, n: usize) -> (f64, f64) {
-    let nf = n as f64;
-    let mean = it.clone().sum::<f64>() / nf;
-    let var = it.map(|x| (x - mean) * (x - mean)).sum::<f64>() / (nf - 1.0);
-    (mean, (var / nf).sqrt())
+/// Running mean and sum of squared deviations (Welford 1962).
+#[derive(Debug, Clone, Copy, Default)]
+struct Welford {
+    n: f64,
+    mean: f64,
+    m2: f64,
+}
+
+impl Welford {
+    fn push(&mut self, x: f64) {
+        self.n += 1.0;
+        let d = x - self.mean;
+        self.mean += d / self.n;
+        self.m2 += d * (x - self.mean);
+    }
+
+    /// Mean and standard error of the mean.
+    fn mean_se(&self) -> (f64, f64) {
+        (self.mean, (self.m2 / (self.n - 1.0) / self.n).sqrt())
+    }
 }

@@ -155,9 +155,16 @@ pub struct LocalStats {
     pub max_weighted: [Vec<f64>; 4],
 }
 
-/// Sensitivities of every error over `poses`, at zero error state (the analytic
-/// Jacobian of [`Chain::jacobian_into`]).
-pub fn local_stats(chain: &Chain, mags: &Magnitudes, poses: &Poses) -> LocalStats {
+/// Sensitivities of every error over `poses`: the analytic Jacobian at zero error
+/// ([`Chain::jacobian_zero_into`], the paper's definition), or, with `at_error_state`, at
+/// the machine's own error state g_i = m_i(q) (tolerances count as 0: they are bounds, not
+/// values), where the arms reach the actual tool point ([`Chain::jacobian_into`]).
+pub fn local_stats(
+    chain: &Chain,
+    mags: &Magnitudes,
+    poses: &Poses,
+    at_error_state: bool,
+) -> LocalStats {
     let k = chain.params().len();
     let paper: Vec<f64> = chain
         .params()
@@ -171,13 +178,19 @@ pub fn local_stats(chain: &Chain, mags: &Magnitudes, poses: &Poses) -> LocalStat
     let mut jac: Vec<Vector3<f64>> = Vec::new();
     let mut q = Vec::new();
     let mut m = Vec::new();
-    let varying = mags.varies_with_position();
+    let mut state = Vec::new();
+    let varying = mags.varies_with_position() || at_error_state;
     let n = poses.len();
     for idx in 0..n {
         poses.pose(idx, &mut q);
-        chain.jacobian_zero_into(&q, &mut ws, &mut jac);
         if varying || idx == 0 {
             mags.at_pose(&q, &mut m);
+        }
+        if at_error_state {
+            mags.state_at_pose(&q, &mut state);
+            chain.jacobian_into(&q, &state, &mut ws, &mut jac);
+        } else {
+            chain.jacobian_zero_into(&q, &mut ws, &mut jac);
         }
         if varying {
             for i in 0..k {
@@ -226,6 +239,54 @@ pub fn local_stats(chain: &Chain, mags: &Magnitudes, poses: &Poses) -> LocalStat
         mean_weighted: mean_w,
         max_weighted: max_w,
     }
+}
+
+/// RMS and max of |E_x|, |E_y|, |E_z|, |E| over the poses, µm.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct ErrorSummary {
+    pub rms_um: f64,
+    pub max_um: f64,
+}
+
+/// The volumetric error of the machine's own error state (errors given as values or
+/// functions; tolerances count as 0) over the poses, by the exact chain; `None` when every
+/// error is a tolerance.
+pub fn volumetric_error(
+    chain: &Chain,
+    mags: &Magnitudes,
+    poses: &Poses,
+) -> Option<std::collections::BTreeMap<String, ErrorSummary>> {
+    if !mags.has_values() {
+        return None;
+    }
+    let (mut sq, mut mx) = ([0.0; 4], [0.0f64; 4]);
+    let (mut q, mut state) = (Vec::new(), Vec::new());
+    for idx in 0..poses.len() {
+        poses.pose(idx, &mut q);
+        mags.state_at_pose(&q, &mut state);
+        let e = chain.error_um(&q, &state);
+        let v = [e.x.abs(), e.y.abs(), e.z.abs(), e.norm()];
+        for c in 0..4 {
+            sq[c] += v[c] * v[c];
+            mx[c] = mx[c].max(v[c]);
+        }
+    }
+    let n = poses.len().max(1) as f64;
+    Some(
+        COMPONENTS
+            .iter()
+            .enumerate()
+            .map(|(c, name)| {
+                (
+                    (*name).to_string(),
+                    ErrorSummary {
+                        rms_um: (sq[c] / n).sqrt(),
+                        max_um: mx[c],
+                    },
+                )
+            })
+            .collect(),
+    )
 }
 
 /// Which sensitivities the normalised coefficients are built from.

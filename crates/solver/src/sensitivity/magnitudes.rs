@@ -166,18 +166,28 @@ impl Magnitudes {
         }));
     }
 
+    /// The machine's error state at pose q: values and functions as given, tolerances 0.
+    pub fn state_at_pose(&self, q: &[f64], out: &mut Vec<f64>) {
+        self.at_pose(q, out);
+        for (v, m) in out.iter_mut().zip(&self.items) {
+            if matches!(m, Magnitude::Tolerance(_)) {
+                *v = 0.0;
+            }
+        }
+    }
+
+    /// Whether some error is given as a value or a function (not only tolerances).
+    pub fn has_values(&self) -> bool {
+        self.items
+            .iter()
+            .any(|m| !matches!(m, Magnitude::Tolerance(_)))
+    }
+
     /// Whether some magnitude depends on an axis position (a function of a motion error).
     pub fn varies_with_position(&self) -> bool {
         self.items.iter().zip(&self.axis).any(|(m, a)| {
             a.is_some() && matches!(m, Magnitude::Polynomial(_) | Magnitude::Table(..))
         })
-    }
-
-    /// Whether every magnitude is an actual value (not a tolerance bound).
-    pub fn all_values(&self) -> bool {
-        self.items
-            .iter()
-            .all(|m| !matches!(m, Magnitude::Tolerance(_)))
     }
 }
 

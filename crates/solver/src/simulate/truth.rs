@@ -55,39 +55,9 @@ pub struct Truth {
     pub reporting: Vec<String>,
 }
 
-/// Measured travel of each axis: the range of commanded positions over the runs in which
-/// the axis moved (an axis parked during a run contributes nothing).
+/// Measured travel of each axis as identification sees it ([`crate::design::measured_travel`]).
 pub fn measured_travel(session: &Session) -> [Option<[f64; 2]>; 3] {
-    let mut out: [Option<[f64; 2]>; 3] = [None; 3];
-    for run in session.planes.iter().flat_map(|p| p.runs.iter()) {
-        for (i, slot) in out.iter_mut().enumerate() {
-            let (lo, hi) = run
-                .pos_mm
-                .iter()
-                .fold((f64::INFINITY, f64::NEG_INFINITY), |(l, h), q| {
-                    (l.min(q[i]), h.max(q[i]))
-                });
-            if hi - lo > 1e-9 {
-                *slot = Some(match *slot {
-                    None => [lo, hi],
-                    Some([a, b]) => [a.min(lo), b.max(hi)],
-                });
-            }
-        }
-    }
-    out
-}
-
-/// Grid positions: the multiples of `step` inside `[lo, hi]`, plus 0.
-pub fn grid(lo: f64, hi: f64, step: f64) -> Vec<f64> {
-    let k0 = (lo / step - 1e-9).ceil() as i64;
-    let k1 = (hi / step + 1e-9).floor() as i64;
-    let mut g: Vec<f64> = (k0..=k1).map(|k| k as f64 * step).collect();
-    if !g.contains(&0.0) {
-        g.push(0.0);
-        g.sort_by(f64::total_cmp);
-    }
-    g
+    crate::design::measured_travel(session).map(|t| t.map(|(lo, hi)| [lo, hi]))
 }
 
 /// Least-squares line a + b·q of f over [lo, hi], continuous and uniformly weighted:
@@ -139,7 +109,7 @@ pub fn reported_values(
             (0.0, 0.0)
         };
         slope_urad.insert(term.name(), b * 1e3);
-        let positions_mm = grid(lo, hi, step_mm);
+        let positions_mm = crate::identification::grid(lo, hi, step_mm);
         let values = positions_mm.iter().map(|&q| f(q) - a - b * q).collect();
         terms.insert(
             term.name(),

@@ -1,0 +1,99 @@
+//! `mtcal identify` end to end: a simulated session written to disk in the datasets
+//! format, identified by the command-line program; and a broken file rejected with the
+//! file, line, column and rule, exit code 2.
+
+use mtcal_solver::identification::{IdentificationResult, IdentifyOptions, identify};
+use mtcal_solver::simulate::{Plan, SimOptions, random_truth, simulate};
+use std::process::Command;
+
+fn write_full_session(dir: &std::path::Path) -> mtcal_solver::session::Session {
+    let out = simulate(
+        &random_truth(21),
+        &SimOptions {
+            plan: Plan::Full,
+            sample_rate_hz: 5.0,
+            ..Default::default()
+        },
+    )
+    .unwrap();
+    mtcal_formats::write_session_dir(dir, &out.session).unwrap();
+    out.session
+}
+
+#[test]
+fn identify_json_matches_the_library_and_reads_back_exactly() {
+    let dir = tempfile::tempdir().unwrap();
+    let session = write_full_session(dir.path());
+    let out = Command::new(env!("CARGO_BIN_EXE_mtcal"))
+        .args(["identify", dir.path().to_str().unwrap(), "--json"])
+        .output()
+        .unwrap();
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    let cli: IdentificationResult = serde_json::from_slice(&out.stdout).unwrap();
+    let lib = identify(&session, &IdentifyOptions::default()).unwrap();
+    assert_eq!(cli.observability.rank, 51);
+    // The files round-trip the session, so the CLI's numbers are the library's (reported
+    // values are rounded to 1e-6; the raw coefficients agree to rounding).
+    let mut cli = cli;
+    let mut lib = lib;
+    for (name, t) in cli.terms.iter_mut() {
+        let l = lib.terms.get_mut(name).unwrap();
+        assert_eq!(t.coefficients.len(), l.coefficients.len());
+        for (a, b) in t.coefficients.iter().zip(&l.coefficients) {
+            assert!(
+                (a - b).abs() <= 1e-12 * b.abs().max(1e-12),
+                "{name}: {a} vs {b}"
+            );
+        }
+        t.coefficients.clear();
+        l.coefficients.clear();
+    }
+    assert_eq!(cli, lib);
+    // The human summary names every term.
+    let out = Command::new(env!("CARGO_BIN_EXE_mtcal"))
+        .args(["identify", dir.path().to_str().unwrap()])
+        .output()
+        .unwrap();
+    let text = String::from_utf8(out.stdout).unwrap();
+    for name in ["EXX", "ECZ", "EC0Y", "EA0Z"] {
+        assert!(text.contains(name), "{name} missing from:\n{text}");
+    }
+    assert!(text.contains("rank 51 of 51"), "{text}");
+}
+
+#[test]
+fn a_bad_number_is_rejected_with_file_line_column_and_rule() {
+    let dir = tempfile::tempdir().unwrap();
+    write_full_session(dir.path());
+    // Break one number on the 3rd data line of the first plane file.
+    let first = std::fs::read_dir(dir.path())
+        .unwrap()
+        .map(|e| e.unwrap().path())
+        .filter(|p| p.extension().is_some_and(|e| e == "csv"))
+        .min()
+        .unwrap();
+    let text = std::fs::read_to_string(&first).unwrap();
+    let mut lines: Vec<String> = text.lines().map(String::from).collect();
+    let header_line = lines.iter().position(|l| !l.starts_with('#')).unwrap();
+    let cols: Vec<&str> = lines[header_line].split(',').collect();
+    let du = cols.iter().position(|c| *c == "du_um").unwrap();
+    let target = header_line + 3;
+    let mut cells: Vec<String> = lines[target].split(',').map(String::from).collect();
+    cells[du] = "NaN".into();
+    lines[target] = cells.join(",");
+    std::fs::write(&first, lines.join("\n") + "\n").unwrap();
+    let out = Command::new(env!("CARGO_BIN_EXE_mtcal"))
+        .args(["identify", dir.path().to_str().unwrap()])
+        .output()
+        .unwrap();
+    assert_eq!(out.status.code(), Some(2));
+    let err = String::from_utf8_lossy(&out.stderr);
+    let name = first.file_name().unwrap().to_str().unwrap();
+    let want = format!("{name}:{}:du_um:", target + 1);
+    assert!(err.contains(&want), "expected `{want}` in: {err}");
+    assert!(err.to_lowercase().contains("finite"), "{err}");
+}
