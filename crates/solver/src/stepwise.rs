@@ -17,7 +17,9 @@
 //!
 //! Uncertainty: step 2 is x̂₂ = A₂⁺(b₂ − P x̂₁), with P the step-1 design on the circle
 //! rows. With G = A₂⁺ P (obtained from the same QR reduction, P's columns carried as
-//! extra columns: A₂⁺P = R₁₁⁺R₁₂), the reported covariance is
+//! extra columns: A₂⁺P = R₁₁⁺R₁₂; the circles are reduced over the full model by
+//! [`design::fit`]'s per-run path and the factor re-triangularised in that column
+//! order), the reported covariance is
 //!
 //! ```text
 //! Σ₂ = σ̂₂² (A₂ᵀA₂)⁺ + G Σ₁ Gᵀ,   cov(x̂₂, x̂₁) = −G Σ₁,
@@ -33,7 +35,7 @@
 //! sub-problem); the result document carries the union, and one `reporting` sentence per
 //! step gives its rank, condition number and undetermined terms.
 
-use crate::design::{self, ErrorModel, ExtraColumns, Fit, Layout, RowMeta};
+use crate::design::{self, ErrorModel, Fit, Layout};
 use crate::error::SolverError;
 use crate::identification::{IdentificationResult, IdentifyOptions, Method, report, thin_session};
 use crate::lsq::{self, LsSolution, Reduced};
@@ -57,18 +59,6 @@ fn is_circle(session: &Session, p: usize, r: usize) -> bool {
         rec.runs[r].test_kind(rec.plane),
         TestKind::CircleCw | TestKind::CircleCcw
     )
-}
-
-/// The step-1 model's design row as extra columns of step 2 (the matrix P).
-struct StepOneColumns<'a>(&'a ErrorModel);
-
-impl ExtraColumns for StepOneColumns<'_> {
-    fn count(&self) -> usize {
-        self.0.len()
-    }
-    fn fill(&self, row: &RowMeta, out: &mut [f64]) {
-        self.0.error_row(row.q, row.head_offset, row.dir, out);
-    }
 }
 
 /// One step's fit with what the report needs.
@@ -111,8 +101,8 @@ pub fn identify(
     // Step 2: circles minus the step-1 prediction → angular terms through their arms.
     let m2 = model.restricted(|t: Term| t.is_angular(), false);
     let s2 = circle_residual_session(session, &m1, &x1);
-    let extra = StepOneColumns(&m1);
-    let fit2x = design::fit(&s2, &m2, &|p, r| is_circle(&s2, p, r), Some(&extra));
+    let fit2all = design::fit(&s2, model, &|p, r| is_circle(&s2, p, r), None);
+    let fit2x = reorder_step_two(fit2all, model, &m2, &m1);
     let (fit2, g) = split_step_two(fit2x);
     let ident2 = observability::analyse(&fit2, &m2);
 
@@ -146,6 +136,29 @@ pub fn identify(
         }
     ));
     let mut result = report(session, model, opts, Method::Stepwise, &fit, &ident, advice);
+    // Say which step could not separate a group (the joint wording speaks of one fit).
+    for g in &mut result.observability.confounded {
+        let angular = g
+            .terms
+            .iter()
+            .all(|n| Term::parse(n).is_some_and(Term::is_angular));
+        let (step, data) = if angular {
+            (2, "the circle readings minus the step-1 prediction")
+        } else {
+            (1, "the line readings")
+        };
+        g.seen_as = if g.terms.len() == 1 {
+            format!(
+                "stepwise step {step}: {} has no effect of its own on {data}",
+                g.terms[0]
+            )
+        } else {
+            format!(
+                "stepwise step {step}: {} act on {data} only through one combination: the data determine that combination, not the terms",
+                g.terms.join(" + ")
+            )
+        };
+    }
     if let Some(noise) = result.fit.noise_estimate_um {
         for (n, s) in [(1, &step1), (2, &step2)] {
             let rms = step_rms(s);
@@ -219,6 +232,47 @@ fn circle_residual_session(session: &Session, m1: &ErrorModel, x1: &[f64]) -> Se
         });
     }
     out
+}
+
+/// The circle rows' reduction over the full model's columns (the fast per-run path of
+/// [`design::fit`]), re-triangularised with its columns ordered
+/// [rotations | step-2 parameters | step-1 parameters]: one small QR of the permuted
+/// [R | Qᵀb] (k × (k + 1)); the residual outside the column space is unchanged. The
+/// step-1 columns are the matrix P, carried as extra columns.
+fn reorder_step_two(f: Fit, full: &ErrorModel, m2: &ErrorModel, m1: &ErrorModel) -> Fit {
+    let nr = f.layout.n_rot();
+    let order: Vec<usize> = (0..nr)
+        .chain(param_map(full, m2).into_iter().map(|j| nr + j))
+        .chain(param_map(full, m1).into_iter().map(|j| nr + j))
+        .collect();
+    let k = order.len();
+    debug_assert_eq!(k, f.layout.total());
+    let red = &f.reduced;
+    let m = Mat::<f64>::from_fn(k, k + 1, |i, j| {
+        if j < k {
+            red.r[(i, order[j])]
+        } else {
+            red.qtb[i]
+        }
+    });
+    let rr = m.qr().thin_R().to_owned();
+    let layout = Layout {
+        n_err: m2.len(),
+        n_extra: m1.len(),
+        ..f.layout
+    };
+    Fit {
+        layout,
+        reduced: Reduced {
+            r: Mat::from_fn(k, k, |i, j| if j >= i { rr[(i, j)] } else { 0.0 }),
+            qtb: (0..k).map(|i| rr[(i, k)]).collect(),
+            rss: red.rss,
+            rows: red.rows,
+        },
+        solution: f.solution,
+        offsets_eliminated: f.offsets_eliminated,
+        compressed_runs: f.compressed_runs,
+    }
 }
 
 /// From the step-2 fit with P as extra columns: the fit of [rotations | angular terms]
@@ -442,4 +496,62 @@ fn step_sentence(n: usize, what: &str, s: &Step) -> String {
             format!("not determined: {}", undetermined.join(", "))
         }
     )
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::design::{ExtraColumns, RowMeta};
+    use crate::simulate::{Plan, SimOptions, random_truth, simulate};
+
+    /// P as extra columns of the dense row-by-row path.
+    struct StepOneColumns<'a>(&'a ErrorModel);
+    impl ExtraColumns for StepOneColumns<'_> {
+        fn count(&self) -> usize {
+            self.0.len()
+        }
+        fn fill(&self, row: &RowMeta, out: &mut [f64]) {
+            self.0.error_row(row.q, row.head_offset, row.dir, out);
+        }
+    }
+
+    /// The re-triangularised fast reduction gives the same step-2 solution, covariance
+    /// and G = A₂⁺P as the dense rows with P as extra columns.
+    #[test]
+    fn reordered_reduction_equals_dense_extra_columns() {
+        let opts = SimOptions {
+            plan: Plan::Full,
+            sample_rate_hz: 5.0,
+            ..Default::default()
+        };
+        let s = &simulate(&random_truth(9), &opts).unwrap().session;
+        let full = crate::identification::prepare(s, &IdentifyOptions::default()).unwrap();
+        let m1 = full.restricted(|t| !t.is_angular(), true);
+        let m2 = full.restricted(|t| t.is_angular(), false);
+        let circles = |p, r| is_circle(s, p, r);
+        let fast = reorder_step_two(design::fit(s, &full, &circles, None), &full, &m2, &m1);
+        assert!(fast.compressed_runs > 0);
+        let dense = design::fit(s, &m2, &circles, Some(&StepOneColumns(&m1)));
+        assert_eq!(dense.compressed_runs, 0);
+        let (ff, gf) = split_step_two(fast);
+        let (fd, gd) = split_step_two(dense);
+        assert_eq!(ff.solution.rank, fd.solution.rank);
+        let close = |a: f64, b: f64, scale: f64| (a - b).abs() <= 1e-7 * scale;
+        let xs = fd.solution.x.iter().fold(0.0f64, |m, v| m.max(v.abs()));
+        for (a, b) in ff.solution.x.iter().zip(&fd.solution.x) {
+            assert!(close(*a, *b, xs), "{a} vs {b}");
+        }
+        assert!(close(ff.solution.rss, fd.solution.rss, fd.solution.rss));
+        let k = gd.nrows();
+        let gs = (0..k)
+            .flat_map(|i| (0..gd.ncols()).map(move |j| (i, j)))
+            .fold(0.0f64, |m, (i, j)| m.max(gd[(i, j)].abs()));
+        for i in 0..k {
+            for j in 0..gd.ncols() {
+                assert!(close(gf[(i, j)], gd[(i, j)], gs), "G[{i},{j}]");
+            }
+            let cs = fd.solution.cov[(i, i)].abs().max(1e-30);
+            assert!(close(ff.solution.cov[(i, i)], fd.solution.cov[(i, i)], cs));
+        }
+    }
 }

@@ -68,6 +68,11 @@ fn seed_plan_without_angular_errors_is_recovered() {
             "{:?}",
             r.observability.advice
         );
+        // The undetermined angles are step 2's groups, said so.
+        assert!(!r.observability.confounded.is_empty());
+        for g in &r.observability.confounded {
+            assert!(g.seen_as.starts_with("stepwise step 2: "), "{}", g.seen_as);
+        }
         let (ratio, at) = worst_ratio(&r, &truth);
         eprintln!("seed {seed}: worst {ratio:.2} at {at}");
         assert!(ratio <= 1.0, "seed {seed}: worst {ratio:.2} at {at}");
