@@ -34,14 +34,3 @@ pub fn finish(result: anyhow::Result<ExitCode>) -> ExitCode {
         }
     }
 }
-
-/// Placeholder arguments for a subcommand whose issue has not landed yet.
-#[derive(clap::Args)]
-pub struct Pending {
-    #[arg(trailing_var_arg = true, allow_hyphen_values = true, hide = true)]
-    rest: Vec<String>,
-}
-
-pub fn pending(name: &str) -> anyhow::Result<ExitCode> {
-    anyhow::bail!("`mtcal {name}` is not available yet in this build")
-}
