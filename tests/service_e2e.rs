@@ -602,3 +602,87 @@ async fn sensitivity_job_gives_the_library_result() {
     let (_, hist) = api.get("/api/v1/machines/VMC-S/results").await;
     assert_eq!(hist.as_array().unwrap().len(), 0);
 }
+
+/// A `diagnose` job on an uploaded session gives the library's diagnosis of the same
+/// files, filed under the machine as kind `diagnosis`. The session (seed plan, 5 Hz,
+/// σ = 0.15 µm) carries 4 µm of X backlash, far above the noise: the diagnosis must name
+/// it.
+#[tokio::test]
+async fn diagnose_job_gives_the_library_diagnosis() {
+    use mtcal_solver::simulate::{Effect, Plan, SimOptions, random_truth, simulate};
+    let (d, db) = tmp();
+    let key = create_key(&db, "write");
+    let server = Server::start(&db, &[]);
+    let api = Api::new(&server, &key);
+    api.machine("VMC-D").await;
+    let sim = simulate(
+        &random_truth(3),
+        &SimOptions {
+            plan: Plan::Seed,
+            seed: 3,
+            sample_rate_hz: 5.0,
+            machine_id: "VMC-D".into(),
+            effects: vec![Effect::Backlash {
+                axis: mtcal_solver::axis::Axis::X,
+                lost_motion_um: 4.0,
+            }],
+            ..SimOptions::default()
+        },
+    )
+    .unwrap();
+    let dir = d.path().join("s");
+    mtcal_formats::write_session_dir(&dir, &sim.session).unwrap();
+    let (s, ds) = api.upload_dir("VMC-D", &dir).await;
+    assert_eq!(s, StatusCode::CREATED, "{ds}");
+    let (s, e) = api
+        .post(
+            "/api/v1/jobs",
+            json!({"kind": "diagnose", "dataset_id": ds["id"], "params": {"order": 2}}),
+        )
+        .await;
+    assert_eq!(
+        (s, e["error"]["code"].as_str()),
+        (StatusCode::BAD_REQUEST, Some("invalid_request"))
+    );
+    let (s, j) = api
+        .post(
+            "/api/v1/jobs",
+            json!({"kind": "diagnose", "dataset_id": ds["id"]}),
+        )
+        .await;
+    assert_eq!(s, StatusCode::ACCEPTED, "{j}");
+    let job = j["id"].as_str().unwrap().to_string();
+    let done = api.wait(&job, "succeeded").await;
+    let (_, doc) = api.get(&format!("/api/v1/jobs/{job}/result")).await;
+
+    let session = mtcal_formats::read_session_dir(&dir, &mtcal_formats::Limits::default()).unwrap();
+    let local = mtcal_solver::diagnosis::diagnose_session(
+        &session,
+        &mtcal_solver::diagnosis::DiagnoseOptions::default(),
+    )
+    .unwrap();
+    assert_eq!(doc, serde_json::to_value(&local).unwrap());
+    let effects: Vec<&str> = doc["findings"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .map(|f| f["effect"].as_str().unwrap())
+        .collect();
+    assert!(effects.contains(&"backlash"), "findings {effects:?}");
+
+    // Stored under the machine with its kind and the baseline residual as scalar.
+    let (s, stored) = api
+        .get(&format!(
+            "/api/v1/results/{}",
+            done["result_id"].as_str().unwrap()
+        ))
+        .await;
+    assert_eq!(s, StatusCode::OK, "{stored}");
+    assert_eq!(stored["meta"]["kind"], "diagnosis");
+    assert_eq!(stored["meta"]["machine_id"], "VMC-D");
+    assert_eq!(stored["document"], doc);
+    assert_eq!(
+        stored["meta"]["scalars"]["residual_rms_um"].as_f64(),
+        Some(local.baseline.residual_rms_um)
+    );
+}

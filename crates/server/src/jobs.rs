@@ -1,14 +1,14 @@
 //! Job kinds and what each runs. A kind is one [`JobKind`] variant plus one arm in
 //! [`execute`] taking its inputs (a dataset, or parameters) to a JSON result document.
 //!
-//! Wired: `identify` (`mtcal_solver::identification::identify`, a session dataset) and
-//! `sensitivity` (`mtcal_solver::sensitivity::analyse`, parameters only). Not yet:
-//! `cradle` and `diagnose`, which need dataset kinds other than sessions (rotary point
-//! sets, drift logs, positioning runs) to be accepted by the upload route first.
+//! Wired: `identify` (`mtcal_solver::identification::identify`, a session dataset),
+//! `diagnose` (`mtcal_solver::diagnosis::diagnose_session`, a session dataset) and
+//! `sensitivity` (`mtcal_solver::sensitivity::analyse`, parameters only).
 
 use crate::ingest::{self, UploadLimits};
 use mtcal_solver::axis::Topology;
 use mtcal_solver::basis::BasisKind;
+use mtcal_solver::diagnosis::{self, DiagnoseOptions, DiagnosisResult};
 use mtcal_solver::identification::{self, IdentificationResult, IdentifyOptions, Method};
 use mtcal_solver::sensitivity::{self, SensitivityRequest};
 use mtcal_store::{Dataset, Machine, ResultScalars};
@@ -25,6 +25,9 @@ pub enum JobKind {
     /// Error-source ranking (Cheng et al. 2012) from parameters only
     /// (`mtcal_solver::sensitivity::SensitivityRequest`); result kind `sensitivity`.
     Sensitivity,
+    /// Diagnosis of a session dataset (`mtcal_solver::diagnosis::diagnose_session`,
+    /// default options); result kind `diagnosis`.
+    Diagnose,
 }
 
 impl JobKind {
@@ -32,6 +35,7 @@ impl JobKind {
         match self {
             JobKind::Identify => "identify",
             JobKind::Sensitivity => "sensitivity",
+            JobKind::Diagnose => "diagnose",
         }
     }
 
@@ -39,6 +43,7 @@ impl JobKind {
         match s {
             "identify" => Some(JobKind::Identify),
             "sensitivity" => Some(JobKind::Sensitivity),
+            "diagnose" => Some(JobKind::Diagnose),
             _ => None,
         }
     }
@@ -48,13 +53,14 @@ impl JobKind {
         match self {
             JobKind::Identify => "identification",
             JobKind::Sensitivity => "sensitivity",
+            JobKind::Diagnose => "diagnosis",
         }
     }
 
     /// Whether the kind reads a dataset (else only its parameters).
     pub fn needs_dataset(self) -> bool {
         match self {
-            JobKind::Identify => true,
+            JobKind::Identify | JobKind::Diagnose => true,
             JobKind::Sensitivity => false,
         }
     }
@@ -80,13 +86,7 @@ impl IdentifyParams {
     /// Solver options; the machine's registered topology fills in for a session without one.
     pub fn options(&self, machine: Option<&Machine>) -> Result<IdentifyOptions, JobError> {
         let d = IdentifyOptions::default();
-        let topology = match machine {
-            Some(m) => Some(
-                serde_json::from_value::<Topology>(m.topology.clone())
-                    .map_err(|e| JobError::BadInput(format!("machine {} topology: {e}", m.id)))?,
-            ),
-            None => None,
-        };
+        let topology = machine_topology(machine)?;
         Ok(IdentifyOptions {
             method: self.method.unwrap_or(d.method),
             basis: self.basis.unwrap_or(d.basis),
@@ -106,6 +106,10 @@ pub fn validate_params(kind: JobKind, params: &Value) -> Result<(), String> {
         JobKind::Sensitivity => serde_json::from_value::<SensitivityRequest>(params.clone())
             .map(|_| ())
             .map_err(|e| format!("params: {e}")),
+        JobKind::Diagnose => match params {
+            Value::Object(m) if m.is_empty() => Ok(()),
+            _ => Err("params: a diagnose job takes no parameters (send {})".into()),
+        },
     }
 }
 
@@ -176,6 +180,44 @@ pub fn execute(input: &JobInput) -> Result<JobOutput, JobError> {
                 measured_at: mtcal_store::now_rfc3339(),
             })
         }
+        JobKind::Diagnose => {
+            let (dataset, files) = input
+                .dataset
+                .as_ref()
+                .ok_or_else(|| JobError::BadInput("diagnose needs a dataset".into()))?;
+            let session = ingest::read_session(files, input.limits)
+                .map_err(|e| JobError::BadInput(e.to_string()))?;
+            let opts = DiagnoseOptions {
+                topology: machine_topology(input.machine.as_ref())?,
+                ..DiagnoseOptions::default()
+            };
+            let result = diagnosis::diagnose_session(&session, &opts)
+                .map_err(|e| JobError::BadInput(format!("diagnosis: {e}")))?;
+            Ok(JobOutput {
+                document: serde_json::to_value(&result)
+                    .map_err(|e| JobError::Transient(e.to_string()))?,
+                scalars: diagnosis_scalars(&result),
+                measured_at: dataset.measured_at.clone(),
+            })
+        }
+    }
+}
+
+/// The machine's registered topology (stands in for a session that declares none).
+fn machine_topology(machine: Option<&Machine>) -> Result<Option<Topology>, JobError> {
+    machine
+        .map(|m| {
+            serde_json::from_value::<Topology>(m.topology.clone())
+                .map_err(|e| JobError::BadInput(format!("machine {} topology: {e}", m.id)))
+        })
+        .transpose()
+}
+
+/// The scalar columns of a diagnosis: the rigid model's residual RMS (baseline).
+pub fn diagnosis_scalars(r: &DiagnosisResult) -> ResultScalars {
+    ResultScalars {
+        residual_rms_um: Some(r.baseline.residual_rms_um).filter(|v| v.is_finite()),
+        ..ResultScalars::default()
     }
 }
 
