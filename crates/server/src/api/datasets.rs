@@ -2,7 +2,7 @@
 //! files back unchanged).
 
 use crate::error::{ApiError, ErrorBody};
-use crate::ingest;
+use crate::ingest::{self, DatasetData};
 use crate::{AppState, auth};
 use axum::Json;
 use axum::body::Bytes;
@@ -89,23 +89,46 @@ pub async fn upload(
     };
     let limits = s.limits;
     let checked = files.clone();
-    let session = tokio::task::spawn_blocking(move || ingest::read_session(&checked, limits))
+    let data = tokio::task::spawn_blocking(move || ingest::read_dataset(&checked, limits))
         .await
         .map_err(|e| ApiError::Internal(e.to_string()))??;
-    if session.machine_id != machine.id {
+    // Where the file declares its machine and time (session.json, rotary sidecar), they
+    // must match the machine uploaded to and be RFC 3339; otherwise the upload time stands.
+    let (declared_machine, measured_at) = match &data {
+        DatasetData::Session(session) => (
+            Some(("session.json", session.machine_id.as_str())),
+            normalise_time(&session.measured_at)?,
+        ),
+        DatasetData::RotaryPoints(set) => (
+            set.machine_id.as_deref().map(|m| ("sidecar", m)),
+            match &set.measured_at {
+                Some(t) => normalise_time(t).map_err(|_| {
+                    ApiError::InvalidDataset(format!(
+                        "sidecar:0:measured_at: {t:?} is not RFC 3339"
+                    ))
+                })?,
+                None => mtcal_store::now_rfc3339(),
+            },
+        ),
+        DatasetData::Positioning(_) | DatasetData::DriftLog(_) => {
+            (None, mtcal_store::now_rfc3339())
+        }
+    };
+    if let Some((file, m)) = declared_machine
+        && m != machine.id
+    {
         return Err(ApiError::InvalidDataset(format!(
-            "session.json: machine_id {:?} does not match the machine {:?} uploaded to",
-            session.machine_id, machine.id
+            "{file}: machine_id {m:?} does not match the machine {:?} uploaded to",
+            machine.id
         )));
     }
-    let measured_at = normalise_time(&session.measured_at)?;
     let d = s
         .store
         .insert_dataset(NewDataset {
             machine_id: machine.id,
-            kind: "session".into(),
+            kind: data.kind().into(),
             measured_at,
-            samples: session.sample_count() as i64,
+            samples: data.samples() as i64,
             files,
         })
         .await?;
