@@ -1,5 +1,6 @@
-//! Uploads: the files of a measurement session (multipart or one .tar.gz), checked
-//! completely before anything is stored.
+//! Uploads: the files of a dataset (multipart or one .tar.gz): a measurement session, a
+//! rotary point set, positioning runs or a drift log, checked completely before anything
+//! is stored ([`read_dataset`]).
 //!
 //! The bytes are kept exactly as uploaded (gzip included); parsing works on the
 //! decompressed text. Session parsing is the strict reader of `mtcal-formats`

@@ -56,9 +56,12 @@ async fn read_multipart(req: Request, s: &AppState) -> Result<Vec<(String, Vec<u
 #[utoipa::path(operation_id = "datasets_upload", post, path = "/api/v1/machines/{id}/datasets", tag = "datasets",
     security(("api_key" = [])), params(("id" = String, Path, description = "machine id")),
     request_body(content = SessionUpload, content_type = "multipart/form-data",
-        description = "session.json and its plane CSVs as multipart parts, or the whole \
-                       session as one .tar.gz with Content-Type application/gzip \
-                       (application/x-tar for an uncompressed archive). Any file may be gzip-compressed."),
+        description = "A session (session.json and its plane CSVs), or one rotary point-set \
+                       CSV with its optional JSON sidecar <stem>.json, or one positioning-run \
+                       CSV, or one drift-log CSV: as multipart parts, or as one .tar.gz with \
+                       Content-Type application/gzip (application/x-tar for an uncompressed \
+                       archive). Any file may be gzip-compressed. The kind is stored with the \
+                       dataset (session, rotary_points, positioning, drift_log)."),
     responses((status = 201, body = Dataset),
               (status = 413, body = ErrorBody, description = "payload_too_large"),
               (status = 415, body = ErrorBody, description = "unsupported_media_type"),
