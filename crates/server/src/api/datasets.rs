@@ -92,6 +92,12 @@ pub async fn upload(
     };
     let limits = s.limits;
     let checked = files.clone();
+    let sidecar = files
+        .iter()
+        .map(|(n, _)| n.as_str())
+        .find(|n| n.ends_with(".json") || n.ends_with(".json.gz"))
+        .unwrap_or("sidecar")
+        .to_string();
     let data = tokio::task::spawn_blocking(move || ingest::read_dataset(&checked, limits))
         .await
         .map_err(|e| ApiError::Internal(e.to_string()))??;
@@ -103,11 +109,11 @@ pub async fn upload(
             normalise_time(&session.measured_at)?,
         ),
         DatasetData::RotaryPoints(set) => (
-            set.machine_id.as_deref().map(|m| ("sidecar", m)),
+            set.machine_id.as_deref().map(|m| (sidecar.as_str(), m)),
             match &set.measured_at {
                 Some(t) => normalise_time(t).map_err(|_| {
                     ApiError::InvalidDataset(format!(
-                        "sidecar:0:measured_at: {t:?} is not RFC 3339"
+                        "{sidecar}:0:measured_at: {t:?} is not RFC 3339"
                     ))
                 })?,
                 None => mtcal_store::now_rfc3339(),
