@@ -685,6 +685,19 @@ async fn diagnose_job_gives_the_library_diagnosis() {
         stored["meta"]["scalars"]["residual_rms_um"].as_f64(),
         Some(local.baseline.residual_rms_um)
     );
+    // In the machine's history of that kind, not among its identifications.
+    let (_, hist) = api
+        .get("/api/v1/machines/VMC-D/results?kind=diagnosis")
+        .await;
+    assert_eq!(hist.as_array().unwrap().len(), 1, "{hist}");
+    assert_eq!(hist[0]["id"], done["result_id"]);
+    let (_, hist) = api.get("/api/v1/machines/VMC-D/results").await;
+    assert_eq!(hist.as_array().unwrap().len(), 0, "{hist}");
+    let (s, last) = api
+        .get("/api/v1/machines/VMC-D/results/latest?kind=diagnosis")
+        .await;
+    assert_eq!(s, StatusCode::OK);
+    assert_eq!(last["document"], doc);
 }
 
 /// A rotary point set (CSV + sidecar) is stored as kind `rotary_points` with its raw bytes,
