@@ -602,3 +602,269 @@ async fn sensitivity_job_gives_the_library_result() {
     let (_, hist) = api.get("/api/v1/machines/VMC-S/results").await;
     assert_eq!(hist.as_array().unwrap().len(), 0);
 }
+
+/// A `diagnose` job on an uploaded session gives the library's diagnosis of the same
+/// files, filed under the machine as kind `diagnosis`. The session (seed plan, 5 Hz,
+/// σ = 0.15 µm) carries 4 µm of X backlash, far above the noise: the diagnosis must name
+/// it.
+#[tokio::test]
+async fn diagnose_job_gives_the_library_diagnosis() {
+    use mtcal_solver::simulate::{Effect, Plan, SimOptions, random_truth, simulate};
+    let (d, db) = tmp();
+    let key = create_key(&db, "write");
+    let server = Server::start(&db, &[]);
+    let api = Api::new(&server, &key);
+    api.machine("VMC-D").await;
+    let sim = simulate(
+        &random_truth(3),
+        &SimOptions {
+            plan: Plan::Seed,
+            seed: 3,
+            sample_rate_hz: 5.0,
+            machine_id: "VMC-D".into(),
+            effects: vec![Effect::Backlash {
+                axis: mtcal_solver::axis::Axis::X,
+                lost_motion_um: 4.0,
+            }],
+            ..SimOptions::default()
+        },
+    )
+    .unwrap();
+    let dir = d.path().join("s");
+    mtcal_formats::write_session_dir(&dir, &sim.session).unwrap();
+    let (s, ds) = api.upload_dir("VMC-D", &dir).await;
+    assert_eq!(s, StatusCode::CREATED, "{ds}");
+    let (s, e) = api
+        .post(
+            "/api/v1/jobs",
+            json!({"kind": "diagnose", "dataset_id": ds["id"], "params": {"order": 2}}),
+        )
+        .await;
+    assert_eq!(
+        (s, e["error"]["code"].as_str()),
+        (StatusCode::BAD_REQUEST, Some("invalid_request"))
+    );
+    let (s, j) = api
+        .post(
+            "/api/v1/jobs",
+            json!({"kind": "diagnose", "dataset_id": ds["id"]}),
+        )
+        .await;
+    assert_eq!(s, StatusCode::ACCEPTED, "{j}");
+    let job = j["id"].as_str().unwrap().to_string();
+    let done = api.wait(&job, "succeeded").await;
+    let (_, doc) = api.get(&format!("/api/v1/jobs/{job}/result")).await;
+
+    let session = mtcal_formats::read_session_dir(&dir, &mtcal_formats::Limits::default()).unwrap();
+    let local = mtcal_solver::diagnosis::diagnose_session(
+        &session,
+        &mtcal_solver::diagnosis::DiagnoseOptions::default(),
+    )
+    .unwrap();
+    assert_eq!(doc, serde_json::to_value(&local).unwrap());
+    let effects: Vec<&str> = doc["findings"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .map(|f| f["effect"].as_str().unwrap())
+        .collect();
+    assert!(effects.contains(&"backlash"), "findings {effects:?}");
+
+    // Stored under the machine with its kind and the baseline residual as scalar.
+    let (s, stored) = api
+        .get(&format!(
+            "/api/v1/results/{}",
+            done["result_id"].as_str().unwrap()
+        ))
+        .await;
+    assert_eq!(s, StatusCode::OK, "{stored}");
+    assert_eq!(stored["meta"]["kind"], "diagnosis");
+    assert_eq!(stored["meta"]["machine_id"], "VMC-D");
+    assert_eq!(stored["document"], doc);
+    assert_eq!(
+        stored["meta"]["scalars"]["residual_rms_um"].as_f64(),
+        Some(local.baseline.residual_rms_um)
+    );
+    // In the machine's history of that kind, not among its identifications.
+    let (_, hist) = api
+        .get("/api/v1/machines/VMC-D/results?kind=diagnosis")
+        .await;
+    assert_eq!(hist.as_array().unwrap().len(), 1, "{hist}");
+    assert_eq!(hist[0]["id"], done["result_id"]);
+    let (_, hist) = api.get("/api/v1/machines/VMC-D/results").await;
+    assert_eq!(hist.as_array().unwrap().len(), 0, "{hist}");
+    let (s, last) = api
+        .get("/api/v1/machines/VMC-D/results/latest?kind=diagnosis")
+        .await;
+    assert_eq!(s, StatusCode::OK);
+    assert_eq!(last["document"], doc);
+}
+
+/// A rotary point set (CSV + sidecar) is stored as kind `rotary_points` with its raw bytes,
+/// and a `cradle` job gives the library's check of the same files, filed as kind `cradle`.
+/// Wrong pairings of job and dataset kind are refused at submission.
+#[tokio::test]
+async fn cradle_job_on_an_uploaded_point_set_gives_the_library_result() {
+    use mtcal_solver::cradle::simulate::{CradleSimulation, simulate_cradle};
+    let (d, db) = tmp();
+    let key = create_key(&db, "write");
+    let server = Server::start(&db, &[]);
+    let api = Api::new(&server, &key);
+    api.machine("VMC-C").await;
+    let mut set = simulate_cradle(&CradleSimulation::example(false, 1));
+    set.machine_id = Some("VMC-C".into());
+    set.measured_at = Some("2026-11-02T08:30:00Z".into());
+    let dir = d.path().join("c");
+    std::fs::create_dir(&dir).unwrap();
+    let mut csv = Vec::new();
+    mtcal_formats::write_rotary_points(&mut csv, &set).unwrap();
+    std::fs::write(dir.join("cradle.csv"), &csv).unwrap();
+    let mut side = Vec::new();
+    mtcal_formats::write_rotary_sidecar(&mut side, &set).unwrap();
+    std::fs::write(dir.join("cradle.json"), &side).unwrap();
+
+    let (s, ds) = api.upload_dir("VMC-C", &dir).await;
+    assert_eq!(s, StatusCode::CREATED, "{ds}");
+    assert_eq!(ds["kind"], "rotary_points");
+    assert_eq!(ds["samples"], set.points.len());
+    assert_eq!(ds["measured_at"], "2026-11-02T08:30:00Z");
+    let r = api
+        .http
+        .get(format!(
+            "{}/api/v1/datasets/{}/files/cradle.csv",
+            server.url,
+            ds["id"].as_str().unwrap()
+        ))
+        .bearer_auth(&key)
+        .send()
+        .await
+        .unwrap();
+    assert_eq!(r.bytes().await.unwrap().as_ref(), csv.as_slice());
+
+    for kind in ["identify", "diagnose"] {
+        let (s, e) = api
+            .post(
+                "/api/v1/jobs",
+                json!({"kind": kind, "dataset_id": ds["id"]}),
+            )
+            .await;
+        assert_eq!(
+            (s, e["error"]["code"].as_str()),
+            (StatusCode::BAD_REQUEST, Some("invalid_request")),
+            "{kind}"
+        );
+    }
+    let (s, j) = api
+        .post(
+            "/api/v1/jobs",
+            json!({"kind": "cradle", "dataset_id": ds["id"]}),
+        )
+        .await;
+    assert_eq!(s, StatusCode::ACCEPTED, "{j}");
+    let job = j["id"].as_str().unwrap().to_string();
+    let done = api.wait(&job, "succeeded").await;
+    let (_, doc) = api.get(&format!("/api/v1/jobs/{job}/result")).await;
+    let read = mtcal_formats::read_rotary_points(
+        "cradle.csv",
+        &csv,
+        Some(&side),
+        &mtcal_formats::Limits::default(),
+    )
+    .unwrap();
+    let local =
+        mtcal_solver::cradle::check_cradle(&read, &mtcal_solver::cradle::CradleOptions::default())
+            .unwrap();
+    assert_eq!(doc, serde_json::to_value(&local).unwrap());
+    let (_, stored) = api
+        .get(&format!(
+            "/api/v1/results/{}",
+            done["result_id"].as_str().unwrap()
+        ))
+        .await;
+    assert_eq!(stored["meta"]["kind"], "cradle");
+    assert_eq!(stored["meta"]["machine_id"], "VMC-C");
+}
+
+/// Positioning runs and drift logs upload as their kinds and are diagnosed by the series
+/// diagnosis; a broken CSV is refused with the reader's file:line:column and nothing is
+/// stored.
+#[tokio::test]
+async fn series_datasets_upload_and_diagnose_bad_ones_store_nothing() {
+    let (d, db) = tmp();
+    let key = create_key(&db, "write");
+    let server = Server::start(&db, &[]);
+    let api = Api::new(&server, &key);
+    api.machine("VMC-P").await;
+    // ISO 230-2 style: X axis, 5 runs each way at 11 targets, 3 µm reversal error.
+    let mut text = String::from("axis,run,direction,target_mm,deviation_um\n");
+    for run in 1..=5 {
+        for dir in ["+", "-"] {
+            for i in 0..=10 {
+                let t = f64::from(i) * 10.0;
+                let dev = 0.02 * t + if dir == "+" { 1.5 } else { -1.5 } + 0.01 * f64::from(run);
+                text += &format!("X,{run},{dir},{t},{dev}\n");
+            }
+        }
+    }
+    let dir = d.path().join("p");
+    std::fs::create_dir(&dir).unwrap();
+    std::fs::write(dir.join("pos.csv"), &text).unwrap();
+    let (s, ds) = api.upload_dir("VMC-P", &dir).await;
+    assert_eq!(s, StatusCode::CREATED, "{ds}");
+    assert_eq!(ds["kind"], "positioning");
+    assert_eq!(ds["samples"], 110);
+    let (s, j) = api
+        .post(
+            "/api/v1/jobs",
+            json!({"kind": "diagnose", "dataset_id": ds["id"]}),
+        )
+        .await;
+    assert_eq!(s, StatusCode::ACCEPTED, "{j}");
+    let job = j["id"].as_str().unwrap().to_string();
+    api.wait(&job, "succeeded").await;
+    let (_, doc) = api.get(&format!("/api/v1/jobs/{job}/result")).await;
+    let runs = mtcal_formats::read_positioning(
+        "pos.csv",
+        text.as_bytes(),
+        &mtcal_formats::Limits::default(),
+    )
+    .unwrap();
+    let local = mtcal_solver::diagnosis::series::diagnose_positioning(
+        &runs,
+        "VMC-P",
+        &mtcal_solver::diagnosis::series::SeriesOptions::default(),
+    )
+    .unwrap();
+    assert_eq!(doc, serde_json::to_value(&local).unwrap());
+
+    // Drift log: two channels over an hour.
+    let mut log = String::from("t_s,x_um,t1_c\n");
+    for i in 0..=60 {
+        let t = f64::from(i) * 60.0;
+        log += &format!(
+            "{t},{},{}\n",
+            5.0 * (1.0 - (-t / 1200.0).exp()),
+            20.0 + t / 3600.0
+        );
+    }
+    let dir = d.path().join("dl");
+    std::fs::create_dir(&dir).unwrap();
+    std::fs::write(dir.join("drift.csv"), &log).unwrap();
+    let (s, ds) = api.upload_dir("VMC-P", &dir).await;
+    assert_eq!(s, StatusCode::CREATED, "{ds}");
+    assert_eq!(ds["kind"], "drift_log");
+    assert_eq!(ds["samples"], 61);
+
+    // A bad value on line 3, column deviation_um: refused, nothing stored.
+    let before = counts(&db).await;
+    let bad = text.replacen("X,1,+,10,", "X,1,+,10,abc", 1);
+    let dir = d.path().join("bad");
+    std::fs::create_dir(&dir).unwrap();
+    std::fs::write(dir.join("bad.csv"), &bad).unwrap();
+    let (s, e) = api.upload_dir("VMC-P", &dir).await;
+    assert_eq!(s, StatusCode::UNPROCESSABLE_ENTITY, "{e}");
+    assert_eq!(e["error"]["code"], "invalid_dataset");
+    let msg = e["error"]["message"].as_str().unwrap();
+    assert!(msg.starts_with("bad.csv:3:"), "{msg}");
+    assert_eq!(counts(&db).await, before);
+}

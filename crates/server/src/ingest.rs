@@ -1,5 +1,6 @@
-//! Uploads: the files of a measurement session (multipart or one .tar.gz), checked
-//! completely before anything is stored.
+//! Uploads: the files of a dataset (multipart or one .tar.gz): a measurement session, a
+//! rotary point set, positioning runs or a drift log, checked completely before anything
+//! is stored ([`read_dataset`]).
 //!
 //! The bytes are kept exactly as uploaded (gzip included); parsing works on the
 //! decompressed text. Session parsing is the strict reader of `mtcal-formats`
@@ -7,6 +8,8 @@
 
 use crate::error::ApiError;
 use flate2::read::GzDecoder;
+use mtcal_formats::DatasetKind;
+use mtcal_solver::datasets::{DriftLog, PositioningRuns, RotaryPointSet};
 use mtcal_solver::session::Session;
 use std::collections::BTreeMap;
 use std::io::Read;
@@ -164,4 +167,125 @@ pub fn read_session(
     };
     mtcal_formats::read_session_files(session_json, &planes, &fl)
         .map_err(|e| ApiError::InvalidDataset(e.to_string()))
+}
+
+/// A checked upload of any dataset kind the service accepts.
+#[derive(Debug, Clone)]
+pub enum DatasetData {
+    /// A grid-encoder session (datasets contract, section 1).
+    Session(Session),
+    /// A rotary-axis point set, CSV with optional JSON sidecar (section 2).
+    RotaryPoints(RotaryPointSet),
+    /// Positioning runs (section 3).
+    Positioning(PositioningRuns),
+    /// A drift log (section 4).
+    DriftLog(DriftLog),
+}
+
+impl DatasetData {
+    /// The stored dataset kind: `session`, `rotary_points`, `positioning` or `drift_log`.
+    pub fn kind(&self) -> &'static str {
+        match self {
+            DatasetData::Session(_) => "session",
+            DatasetData::RotaryPoints(_) => "rotary_points",
+            DatasetData::Positioning(_) => "positioning",
+            DatasetData::DriftLog(_) => "drift_log",
+        }
+    }
+
+    /// Samples (session samples, points, records or log rows).
+    pub fn samples(&self) -> usize {
+        match self {
+            DatasetData::Session(s) => s.sample_count(),
+            DatasetData::RotaryPoints(p) => p.points.len(),
+            DatasetData::Positioning(r) => r.records.len(),
+            DatasetData::DriftLog(l) => l.t_s.len(),
+        }
+    }
+}
+
+/// Checks an upload of any kind and parses it with the strict reader of `mtcal-formats`.
+/// An upload holding `session.json` is a session ([`read_session`]); otherwise it must be
+/// one CSV (possibly gzip) whose header names its kind (`sniff_kind`): a rotary point set
+/// (with at most its JSON sidecar `<stem>.json` beside it), positioning runs or a drift
+/// log. Errors name file, line, column and rule.
+pub fn read_dataset(
+    files: &[(String, Vec<u8>)],
+    limits: UploadLimits,
+) -> Result<DatasetData, ApiError> {
+    for (name, _) in files {
+        check_file_name(name)?;
+    }
+    if files
+        .iter()
+        .any(|(n, _)| n == "session.json" || n == "session.json.gz")
+    {
+        return read_session(files, limits).map(DatasetData::Session);
+    }
+    let fl = mtcal_formats::Limits {
+        max_bytes: limits.max_bytes,
+        max_samples_per_file: limits.max_samples_per_file,
+    };
+    let csvs: Vec<&(String, Vec<u8>)> = files.iter().filter(|(n, _)| !is_json(n)).collect();
+    let [(name, bytes)] = csvs.as_slice() else {
+        return Err(ApiError::InvalidDataset(format!(
+            "upload: expected session.json with its plane CSVs, or one CSV (rotary point set, \
+             positioning runs or drift log); got {} non-JSON files",
+            csvs.len()
+        )));
+    };
+    let jsons: Vec<&(String, Vec<u8>)> = files.iter().filter(|(n, _)| is_json(n)).collect();
+    let kind = mtcal_formats::sniff_kind(name, bytes).ok_or_else(|| {
+        ApiError::InvalidDataset(format!(
+            "{name}:1:1: header names no dataset kind (rotary point set: a_deg,c_deg,x_mm,\
+             y_mm,z_mm; positioning runs: axis,run,direction,target_mm,deviation_um; drift \
+             log: t_s,<name>_um,...)"
+        ))
+    })?;
+    let sidecar = mtcal_formats::rotary::sidecar_name(name);
+    let bad = |e: mtcal_formats::FormatError| ApiError::InvalidDataset(e.to_string());
+    let no_json = || -> Result<(), ApiError> {
+        match jsons.first() {
+            Some((j, _)) => Err(ApiError::InvalidDataset(format!(
+                "{j}: unexpected file (only a rotary point set takes a JSON sidecar, \
+                 named {sidecar})"
+            ))),
+            None => Ok(()),
+        }
+    };
+    match kind {
+        DatasetKind::RotaryPoints => {
+            let side = match jsons.as_slice() {
+                [] => None,
+                [(j, b)] if *j == sidecar => Some(b.as_slice()),
+                [(j, _), ..] => {
+                    return Err(ApiError::InvalidDataset(format!(
+                        "{j}: unexpected file (the sidecar of {name} is named {sidecar})"
+                    )));
+                }
+            };
+            mtcal_formats::read_rotary_points(name, bytes, side, &fl)
+                .map(DatasetData::RotaryPoints)
+                .map_err(bad)
+        }
+        DatasetKind::Positioning => {
+            no_json()?;
+            mtcal_formats::read_positioning(name, bytes, &fl)
+                .map(DatasetData::Positioning)
+                .map_err(bad)
+        }
+        DatasetKind::DriftLog => {
+            no_json()?;
+            mtcal_formats::read_drift_log(name, bytes, &fl)
+                .map(DatasetData::DriftLog)
+                .map_err(bad)
+        }
+        DatasetKind::PlaneCsv | DatasetKind::Session => Err(ApiError::InvalidDataset(format!(
+            "{name}: a session plane file needs its session.json in the same upload"
+        ))),
+    }
+}
+
+fn is_json(name: &str) -> bool {
+    name.ends_with(".json") || name.ends_with(".json.gz")
 }

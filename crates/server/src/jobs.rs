@@ -1,14 +1,18 @@
 //! Job kinds and what each runs. A kind is one [`JobKind`] variant plus one arm in
 //! [`execute`] taking its inputs (a dataset, or parameters) to a JSON result document.
 //!
-//! Wired: `identify` (`mtcal_solver::identification::identify`, a session dataset) and
-//! `sensitivity` (`mtcal_solver::sensitivity::analyse`, parameters only). Not yet:
-//! `cradle` and `diagnose`, which need dataset kinds other than sessions (rotary point
-//! sets, drift logs, positioning runs) to be accepted by the upload route first.
+//! Wired: `identify` (`mtcal_solver::identification::identify`, a session dataset),
+//! `diagnose` (`mtcal_solver::diagnosis::diagnose_session` on a session,
+//! `diagnosis::series::{diagnose_positioning, diagnose_drift_log}` on positioning runs or
+//! a drift log), `cradle` (`mtcal_solver::cradle::check_cradle`, a rotary point set) and
+//! `sensitivity` (`mtcal_solver::sensitivity::analyse`, parameters only).
 
-use crate::ingest::{self, UploadLimits};
+use crate::ingest::{self, DatasetData, UploadLimits};
 use mtcal_solver::axis::Topology;
 use mtcal_solver::basis::BasisKind;
+use mtcal_solver::cradle::{self, CradleOptions};
+use mtcal_solver::diagnosis::series::{self, SeriesOptions};
+use mtcal_solver::diagnosis::{self, DiagnoseOptions, DiagnosisResult};
 use mtcal_solver::identification::{self, IdentificationResult, IdentifyOptions, Method};
 use mtcal_solver::sensitivity::{self, SensitivityRequest};
 use mtcal_store::{Dataset, Machine, ResultScalars};
@@ -25,6 +29,12 @@ pub enum JobKind {
     /// Error-source ranking (Cheng et al. 2012) from parameters only
     /// (`mtcal_solver::sensitivity::SensitivityRequest`); result kind `sensitivity`.
     Sensitivity,
+    /// Diagnosis (default options) of a session, positioning-run or drift-log dataset;
+    /// result kind `diagnosis`.
+    Diagnose,
+    /// Cradle (A/C) check of a rotary point set (`mtcal_solver::cradle::check_cradle`,
+    /// default options); result kind `cradle`.
+    Cradle,
 }
 
 impl JobKind {
@@ -32,6 +42,8 @@ impl JobKind {
         match self {
             JobKind::Identify => "identify",
             JobKind::Sensitivity => "sensitivity",
+            JobKind::Diagnose => "diagnose",
+            JobKind::Cradle => "cradle",
         }
     }
 
@@ -39,6 +51,8 @@ impl JobKind {
         match s {
             "identify" => Some(JobKind::Identify),
             "sensitivity" => Some(JobKind::Sensitivity),
+            "diagnose" => Some(JobKind::Diagnose),
+            "cradle" => Some(JobKind::Cradle),
             _ => None,
         }
     }
@@ -48,13 +62,25 @@ impl JobKind {
         match self {
             JobKind::Identify => "identification",
             JobKind::Sensitivity => "sensitivity",
+            JobKind::Diagnose => "diagnosis",
+            JobKind::Cradle => "cradle",
+        }
+    }
+
+    /// Whether it runs on a dataset of this stored kind (see `ingest::DatasetData::kind`).
+    pub fn accepts(self, dataset_kind: &str) -> bool {
+        match self {
+            JobKind::Identify => dataset_kind == "session",
+            JobKind::Diagnose => matches!(dataset_kind, "session" | "positioning" | "drift_log"),
+            JobKind::Cradle => dataset_kind == "rotary_points",
+            JobKind::Sensitivity => false,
         }
     }
 
     /// Whether the kind reads a dataset (else only its parameters).
     pub fn needs_dataset(self) -> bool {
         match self {
-            JobKind::Identify => true,
+            JobKind::Identify | JobKind::Diagnose | JobKind::Cradle => true,
             JobKind::Sensitivity => false,
         }
     }
@@ -80,13 +106,7 @@ impl IdentifyParams {
     /// Solver options; the machine's registered topology fills in for a session without one.
     pub fn options(&self, machine: Option<&Machine>) -> Result<IdentifyOptions, JobError> {
         let d = IdentifyOptions::default();
-        let topology = match machine {
-            Some(m) => Some(
-                serde_json::from_value::<Topology>(m.topology.clone())
-                    .map_err(|e| JobError::BadInput(format!("machine {} topology: {e}", m.id)))?,
-            ),
-            None => None,
-        };
+        let topology = machine_topology(machine)?;
         Ok(IdentifyOptions {
             method: self.method.unwrap_or(d.method),
             basis: self.basis.unwrap_or(d.basis),
@@ -106,6 +126,13 @@ pub fn validate_params(kind: JobKind, params: &Value) -> Result<(), String> {
         JobKind::Sensitivity => serde_json::from_value::<SensitivityRequest>(params.clone())
             .map(|_| ())
             .map_err(|e| format!("params: {e}")),
+        JobKind::Diagnose | JobKind::Cradle => match params {
+            Value::Object(m) if m.is_empty() => Ok(()),
+            _ => Err(format!(
+                "params: a {} job takes no parameters (send {{}})",
+                kind.as_str()
+            )),
+        },
     }
 }
 
@@ -145,12 +172,10 @@ pub fn execute(input: &JobInput) -> Result<JobOutput, JobError> {
         JobKind::Identify => {
             let params: IdentifyParams = serde_json::from_value(input.params.clone())
                 .map_err(|e| JobError::BadInput(format!("params: {e}")))?;
-            let (dataset, files) = input
-                .dataset
-                .as_ref()
-                .ok_or_else(|| JobError::BadInput("identify needs a dataset".into()))?;
-            let session = ingest::read_session(files, input.limits)
-                .map_err(|e| JobError::BadInput(e.to_string()))?;
+            let (dataset, data) = load_dataset(input)?;
+            let DatasetData::Session(session) = data else {
+                return Err(wrong_kind(input.kind, &data));
+            };
             let opts = params.options(input.machine.as_ref())?;
             let result = identification::identify(&session, &opts)
                 .map_err(|e| JobError::BadInput(format!("identification: {e}")))?;
@@ -176,6 +201,85 @@ pub fn execute(input: &JobInput) -> Result<JobOutput, JobError> {
                 measured_at: mtcal_store::now_rfc3339(),
             })
         }
+        JobKind::Diagnose => {
+            let (dataset, data) = load_dataset(input)?;
+            let result = match &data {
+                DatasetData::Session(session) => {
+                    let opts = DiagnoseOptions {
+                        topology: machine_topology(input.machine.as_ref())?,
+                        ..DiagnoseOptions::default()
+                    };
+                    diagnosis::diagnose_session(session, &opts)
+                }
+                DatasetData::Positioning(runs) => series::diagnose_positioning(
+                    runs,
+                    &dataset.machine_id,
+                    &SeriesOptions::default(),
+                ),
+                DatasetData::DriftLog(log) => {
+                    series::diagnose_drift_log(log, &dataset.machine_id, &SeriesOptions::default())
+                }
+                DatasetData::RotaryPoints(_) => return Err(wrong_kind(input.kind, &data)),
+            }
+            .map_err(|e| JobError::BadInput(format!("diagnosis: {e}")))?;
+            Ok(JobOutput {
+                document: serde_json::to_value(&result)
+                    .map_err(|e| JobError::Transient(e.to_string()))?,
+                scalars: diagnosis_scalars(&result),
+                measured_at: dataset.measured_at.clone(),
+            })
+        }
+        JobKind::Cradle => {
+            let (dataset, data) = load_dataset(input)?;
+            let DatasetData::RotaryPoints(set) = data else {
+                return Err(wrong_kind(input.kind, &data));
+            };
+            let result = cradle::check_cradle(&set, &CradleOptions::default())
+                .map_err(|e| JobError::BadInput(format!("cradle: {e}")))?;
+            Ok(JobOutput {
+                document: serde_json::to_value(&result)
+                    .map_err(|e| JobError::Transient(e.to_string()))?,
+                scalars: ResultScalars::default(),
+                measured_at: dataset.measured_at.clone(),
+            })
+        }
+    }
+}
+
+/// The job's dataset, parsed again with the reader of its kind (files stored verbatim).
+fn load_dataset(input: &JobInput) -> Result<(&Dataset, DatasetData), JobError> {
+    let (dataset, files) = input.dataset.as_ref().ok_or_else(|| {
+        JobError::BadInput(format!("a {} job needs a dataset", input.kind.as_str()))
+    })?;
+    let data =
+        ingest::read_dataset(files, input.limits).map_err(|e| JobError::BadInput(e.to_string()))?;
+    Ok((dataset, data))
+}
+
+/// The job kind cannot run on this dataset kind.
+fn wrong_kind(kind: JobKind, data: &DatasetData) -> JobError {
+    JobError::BadInput(format!(
+        "a {} job cannot run on a {} dataset",
+        kind.as_str(),
+        data.kind()
+    ))
+}
+
+/// The machine's registered topology (stands in for a session that declares none).
+fn machine_topology(machine: Option<&Machine>) -> Result<Option<Topology>, JobError> {
+    machine
+        .map(|m| {
+            serde_json::from_value::<Topology>(m.topology.clone())
+                .map_err(|e| JobError::BadInput(format!("machine {} topology: {e}", m.id)))
+        })
+        .transpose()
+}
+
+/// The scalar columns of a diagnosis: the rigid model's residual RMS (baseline).
+pub fn diagnosis_scalars(r: &DiagnosisResult) -> ResultScalars {
+    ResultScalars {
+        residual_rms_um: Some(r.baseline.residual_rms_um).filter(|v| v.is_finite()),
+        ..ResultScalars::default()
     }
 }
 

@@ -51,6 +51,7 @@ pub struct FileMeta {
 pub struct Dataset {
     pub id: String,
     pub machine_id: String,
+    /// `session`, `rotary_points`, `positioning` or `drift_log` (datasets contract).
     pub kind: String,
     pub measured_at: String,
     pub uploaded_at: String,

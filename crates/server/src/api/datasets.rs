@@ -2,7 +2,7 @@
 //! files back unchanged).
 
 use crate::error::{ApiError, ErrorBody};
-use crate::ingest;
+use crate::ingest::{self, DatasetData};
 use crate::{AppState, auth};
 use axum::Json;
 use axum::body::Bytes;
@@ -56,9 +56,12 @@ async fn read_multipart(req: Request, s: &AppState) -> Result<Vec<(String, Vec<u
 #[utoipa::path(operation_id = "datasets_upload", post, path = "/api/v1/machines/{id}/datasets", tag = "datasets",
     security(("api_key" = [])), params(("id" = String, Path, description = "machine id")),
     request_body(content = SessionUpload, content_type = "multipart/form-data",
-        description = "session.json and its plane CSVs as multipart parts, or the whole \
-                       session as one .tar.gz with Content-Type application/gzip \
-                       (application/x-tar for an uncompressed archive). Any file may be gzip-compressed."),
+        description = "A session (session.json and its plane CSVs), or one rotary point-set \
+                       CSV with its optional JSON sidecar <stem>.json, or one positioning-run \
+                       CSV, or one drift-log CSV: as multipart parts, or as one .tar.gz with \
+                       Content-Type application/gzip (application/x-tar for an uncompressed \
+                       archive). Any file may be gzip-compressed. The kind is stored with the \
+                       dataset (session, rotary_points, positioning, drift_log)."),
     responses((status = 201, body = Dataset),
               (status = 413, body = ErrorBody, description = "payload_too_large"),
               (status = 415, body = ErrorBody, description = "unsupported_media_type"),
@@ -89,23 +92,52 @@ pub async fn upload(
     };
     let limits = s.limits;
     let checked = files.clone();
-    let session = tokio::task::spawn_blocking(move || ingest::read_session(&checked, limits))
+    let sidecar = files
+        .iter()
+        .map(|(n, _)| n.as_str())
+        .find(|n| n.ends_with(".json") || n.ends_with(".json.gz"))
+        .unwrap_or("sidecar")
+        .to_string();
+    let data = tokio::task::spawn_blocking(move || ingest::read_dataset(&checked, limits))
         .await
         .map_err(|e| ApiError::Internal(e.to_string()))??;
-    if session.machine_id != machine.id {
+    // Where the file declares its machine and time (session.json, rotary sidecar), they
+    // must match the machine uploaded to and be RFC 3339; otherwise the upload time stands.
+    let (declared_machine, measured_at) = match &data {
+        DatasetData::Session(session) => (
+            Some(("session.json", session.machine_id.as_str())),
+            normalise_time(&session.measured_at)?,
+        ),
+        DatasetData::RotaryPoints(set) => (
+            set.machine_id.as_deref().map(|m| (sidecar.as_str(), m)),
+            match &set.measured_at {
+                Some(t) => normalise_time(t).map_err(|_| {
+                    ApiError::InvalidDataset(format!(
+                        "{sidecar}:0:measured_at: {t:?} is not RFC 3339"
+                    ))
+                })?,
+                None => mtcal_store::now_rfc3339(),
+            },
+        ),
+        DatasetData::Positioning(_) | DatasetData::DriftLog(_) => {
+            (None, mtcal_store::now_rfc3339())
+        }
+    };
+    if let Some((file, m)) = declared_machine
+        && m != machine.id
+    {
         return Err(ApiError::InvalidDataset(format!(
-            "session.json: machine_id {:?} does not match the machine {:?} uploaded to",
-            session.machine_id, machine.id
+            "{file}: machine_id {m:?} does not match the machine {:?} uploaded to",
+            machine.id
         )));
     }
-    let measured_at = normalise_time(&session.measured_at)?;
     let d = s
         .store
         .insert_dataset(NewDataset {
             machine_id: machine.id,
-            kind: "session".into(),
+            kind: data.kind().into(),
             measured_at,
-            samples: session.sample_count() as i64,
+            samples: data.samples() as i64,
             files,
         })
         .await?;

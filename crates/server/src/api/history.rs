@@ -12,36 +12,45 @@ use serde::{Deserialize, Serialize};
 use std::collections::BTreeMap;
 use utoipa::{IntoParams, ToSchema};
 
-/// Result kind the history routes read (the only one so far).
+/// Result kind the history routes read by default (and the only one diff and trends use).
 pub const KIND: &str = "identification";
 
+#[derive(Debug, Deserialize, IntoParams)]
+pub struct KindQuery {
+    /// Result kind: `identification` (default), `diagnosis`, `cradle` or `sensitivity`.
+    pub kind: Option<String>,
+}
+
 #[utoipa::path(operation_id = "history_list", get, path = "/api/v1/machines/{id}/results", tag = "history",
-    security(("api_key" = [])), params(("id" = String, Path)),
+    security(("api_key" = [])), params(("id" = String, Path), KindQuery),
     responses((status = 200, body = Vec<ResultMeta>, description = "in time order (measured_at)"),
               (status = 404, body = ErrorBody)))]
 pub async fn list(
     State(s): State<AppState>,
     headers: HeaderMap,
     Path(id): Path<String>,
+    ApiQuery(q): ApiQuery<KindQuery>,
 ) -> Result<Json<Vec<ResultMeta>>, ApiError> {
     auth::authorize(&s, &headers, Scope::Read).await?;
     s.store.get_machine(&id).await?;
-    Ok(Json(s.store.list_results(&id, KIND).await?))
+    let kind = q.kind.as_deref().unwrap_or(KIND);
+    Ok(Json(s.store.list_results(&id, kind).await?))
 }
 
 #[utoipa::path(operation_id = "history_latest", get, path = "/api/v1/machines/{id}/results/latest", tag = "history",
-    security(("api_key" = [])), params(("id" = String, Path)),
+    security(("api_key" = [])), params(("id" = String, Path), KindQuery),
     responses((status = 200, body = StoredResult), (status = 404, body = ErrorBody)))]
 pub async fn latest(
     State(s): State<AppState>,
     headers: HeaderMap,
     Path(id): Path<String>,
+    ApiQuery(q): ApiQuery<KindQuery>,
 ) -> Result<Json<StoredResult>, ApiError> {
     auth::authorize(&s, &headers, Scope::Read).await?;
     s.store.get_machine(&id).await?;
     let last = s
         .store
-        .list_results(&id, KIND)
+        .list_results(&id, q.kind.as_deref().unwrap_or(KIND))
         .await?
         .pop()
         .ok_or_else(|| ApiError::NotFound(format!("no result for machine {id}")))?;

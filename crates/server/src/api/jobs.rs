@@ -15,7 +15,8 @@ use utoipa::ToSchema;
 #[serde(deny_unknown_fields)]
 pub struct SubmitJob {
     pub kind: JobKind,
-    /// The dataset to run on (required by `identify`).
+    /// The dataset to run on (required by `identify` (a session), `diagnose` (a session,
+    /// positioning runs or a drift log) and `cradle` (a rotary point set)).
     pub dataset_id: Option<String>,
     /// The machine, for kinds without a dataset (required by `sensitivity`; the result
     /// is filed under it).
@@ -43,7 +44,17 @@ pub async fn submit(
     };
     jobs::validate_params(j.kind, &params).map_err(ApiError::InvalidRequest)?;
     let machine_id = match (&j.dataset_id, j.kind.needs_dataset()) {
-        (Some(d), true) => s.store.get_dataset(d).await?.machine_id,
+        (Some(d), true) => {
+            let ds = s.store.get_dataset(d).await?;
+            if !j.kind.accepts(&ds.kind) {
+                return Err(ApiError::InvalidRequest(format!(
+                    "a {} job cannot run on dataset {d} of kind {}",
+                    j.kind.as_str(),
+                    ds.kind
+                )));
+            }
+            ds.machine_id
+        }
         (None, true) => {
             return Err(ApiError::InvalidRequest(format!(
                 "a {} job needs dataset_id",
