@@ -21,7 +21,7 @@
 //! [`crate::lsq::QrAccumulator`]. Extra columns (the diagnosis' candidate effects) are
 //! supplied through [`ExtraColumns`].
 
-use crate::axis::{Axis, Plane, Topology};
+use crate::axis::{Axis, Topology};
 use crate::basis::{Basis, BasisKind};
 use crate::kinematics::{squareness_gradient, term_gradient};
 use crate::lsq::{LsSolution, QrAccumulator, Reduced};
@@ -230,8 +230,9 @@ pub fn measured_travel(session: &Session) -> [Option<(f64, f64)>; 3] {
     out
 }
 
-/// An axis whose commanded position spans less than this in a run is parked there.
-pub const MOVING_MM: f64 = 1e-3;
+/// An axis whose commanded position spans less than this in a run is parked there (the
+/// same threshold as the test-kind inference).
+pub const MOVING_MM: f64 = crate::session::PARKED_RANGE_MM;
 
 /// Everything known about one observation row (for extra columns and residual analysis).
 #[derive(Debug, Clone, Copy)]
@@ -746,17 +747,6 @@ pub fn residuals(
         out.push(runs);
     }
     out
-}
-
-/// Planes of a session in which `axis` is an in-plane axis.
-pub fn planes_with(axis: Axis) -> Vec<Plane> {
-    Plane::ALL
-        .into_iter()
-        .filter(|p| {
-            let (u, v) = p.axes();
-            u == axis || v == axis
-        })
-        .collect()
 }
 
 #[cfg(test)]
