@@ -112,6 +112,7 @@ pub mod catalogue;
 pub mod design;
 pub mod linalg;
 pub mod noise;
+pub(crate) mod search;
 pub mod session;
 
 pub use session::{DiagnoseOptions, diagnose_session};

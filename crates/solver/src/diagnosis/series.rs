@@ -86,33 +86,10 @@ pub(crate) fn bic(sse: f64, n: usize, k: usize) -> f64 {
     nf * (sse.max(1e-300) / nf).ln() + k as f64 * nf.ln()
 }
 
-/// Golden-section minimisation of `f` on `[a, b]` (unimodal assumed), `iters` steps.
-pub(crate) fn golden_min(
-    mut a: f64,
-    mut b: f64,
-    iters: usize,
-    mut f: impl FnMut(f64) -> f64,
-) -> (f64, f64) {
-    let g = 0.5 * (5f64.sqrt() - 1.0);
-    let mut c = b - g * (b - a);
-    let mut d = a + g * (b - a);
-    let (mut fc, mut fd) = (f(c), f(d));
-    for _ in 0..iters {
-        if fc < fd {
-            b = d;
-            d = c;
-            fd = fc;
-            c = b - g * (b - a);
-            fc = f(c);
-        } else {
-            a = c;
-            c = d;
-            fc = fd;
-            d = a + g * (b - a);
-            fd = f(d);
-        }
-    }
-    if fc < fd { (c, fc) } else { (d, fd) }
+/// Golden-section minimisation of `f` on `[a, b]` (unimodal assumed), `iters` steps;
+/// returns the best point found and its value.
+pub(crate) fn golden_min(a: f64, b: f64, iters: usize, f: impl FnMut(f64) -> f64) -> (f64, f64) {
+    super::search::golden_section(a, b, iters, f).best()
 }
 
 /// 1-D search: best point of `grid` by `f`, then golden-section refinement between its

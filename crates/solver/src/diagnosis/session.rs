@@ -300,30 +300,13 @@ fn try_candidate(d: &Design, f: &Fit, cand: &Candidate, eps: &[[f64; 3]]) -> Opt
             // Golden-section refinement in log θ around the best grid value.
             let (_, v0) = best?;
             let ratio = values.get(1).map_or(2.0, |v1| v1 / values[0]);
-            let (mut lo, mut hi) = ((v0 / ratio).ln(), (v0 * ratio).ln());
-            let g = 0.618_033_988_749_895;
             let eval = |lv: f64| {
                 let (b, _) = catalogue::columns(d, cand, lv.exp(), Some(eps));
                 joint_ssr(f, &b).map_or(f64::INFINITY, |t| t.0)
             };
-            let (mut a, mut b) = (hi - g * (hi - lo), lo + g * (hi - lo));
-            let (mut fa, mut fb) = (eval(a), eval(b));
-            for _ in 0..10 {
-                if fa < fb {
-                    hi = b;
-                    b = a;
-                    fb = fa;
-                    a = hi - g * (hi - lo);
-                    fa = eval(a);
-                } else {
-                    lo = a;
-                    a = b;
-                    fa = fb;
-                    b = lo + g * (hi - lo);
-                    fb = eval(b);
-                }
-            }
-            (Some((name, (0.5 * (lo + hi)).exp())), 1)
+            let bracket =
+                super::search::golden_section((v0 / ratio).ln(), (v0 * ratio).ln(), 10, eval);
+            (Some((name, bracket.centre().exp())), 1)
         }
         Search::Periodic {
             name,
