@@ -367,25 +367,6 @@ enum PathParam {
     Circle { cu: f64, cv: f64, r: f64 },
 }
 
-/// Algebraic (Kåsa) circle through points that lie on one: u² + v² = 2a·u + 2b·v + c
-/// solved by SVD on centred coordinates; exact for exact circles. Returns (a, b, r).
-fn kasa_circle(pos: &[[f64; 3]], iu: usize, iv: usize) -> Option<(f64, f64, f64)> {
-    let n = pos.len() as f64;
-    let mu = pos.iter().map(|q| q[iu]).sum::<f64>() / n;
-    let mv = pos.iter().map(|q| q[iv]).sum::<f64>() / n;
-    let a = nalgebra::DMatrix::from_fn(pos.len(), 3, |i, j| match j {
-        0 => 2.0 * (pos[i][iu] - mu),
-        1 => 2.0 * (pos[i][iv] - mv),
-        _ => 1.0,
-    });
-    let b = nalgebra::DVector::from_fn(pos.len(), |i, _| {
-        (pos[i][iu] - mu).powi(2) + (pos[i][iv] - mv).powi(2)
-    });
-    let x = a.svd(true, true).solve(&b, 1e-14).ok()?;
-    let r2 = x[2] + x[0] * x[0] + x[1] * x[1];
-    (r2 > 0.0).then(|| (mu + x[0], mv + x[1], r2.sqrt()))
-}
-
 /// Chebyshev polynomials T_0..T_{m−1} at x.
 fn chebyshev(x: f64, m: usize, out: &mut [f64]) {
     if m > 0 {
@@ -444,7 +425,8 @@ fn compress_run(
     let param = match moving.as_slice() {
         [a] => PathParam::Line { axis: *a },
         [a, b] if (*a == iu || *a == iv) && (*b == iu || *b == iv) => {
-            let (cu, cv, r) = kasa_circle(&run.pos_mm, iu, iv)?;
+            let uv: Vec<(f64, f64)> = run.pos_mm.iter().map(|q| (q[iu], q[iv])).collect();
+            let (cu, cv, r) = crate::session::kasa_circle(&uv)?;
             PathParam::Circle { cu, cv, r }
         }
         _ => return None,

@@ -177,8 +177,9 @@ fn infer_test_kind(pos: &[[f64; 3]], plane: Plane) -> TestKind {
 }
 
 /// Kåsa circle fit u² + v² = 2a·u + 2b·v + c solved by SVD (no normal equations), on
-/// coordinates centred at their mean for conditioning; then the radial and sweep tests.
-fn circle_direction(uv: &[(f64, f64)]) -> Option<TestKind> {
+/// coordinates centred at their mean for conditioning; exact for points on a circle.
+/// Returns the centre (u, v) and the radius, `None` when the points fit no circle.
+pub(crate) fn kasa_circle(uv: &[(f64, f64)]) -> Option<(f64, f64, f64)> {
     let n = uv.len() as f64;
     let (mu, mv) = uv
         .iter()
@@ -198,11 +199,17 @@ fn circle_direction(uv: &[(f64, f64)]) -> Option<TestKind> {
     if !r2.is_finite() || r2 <= 0.0 {
         return None;
     }
-    let r = r2.sqrt();
+    Some((mu + cu, mv + cv, r2.sqrt()))
+}
+
+/// Circle direction of a path: the [`kasa_circle`] through it, then the radial and sweep
+/// tests.
+fn circle_direction(uv: &[(f64, f64)]) -> Option<TestKind> {
+    let (cu, cv, r) = kasa_circle(uv)?;
     if r <= PARKED_RANGE_MM {
         return None;
     }
-    let centred = uv.iter().map(|&(u, v)| (u - mu - cu, v - mv - cv));
+    let centred = uv.iter().map(|&(u, v)| (u - cu, v - cv));
     if centred
         .clone()
         .any(|(u, v)| ((u * u + v * v).sqrt() - r).abs() > CIRCLE_RADIAL_TOLERANCE * r)
