@@ -159,13 +159,7 @@ pub const RANK_RTOL: f64 = 1e-9;
 /// reduction (e.g. per-run offsets removed by centring), for σ̂².
 pub fn solve(red: &Reduced, extra_dof: usize) -> LsSolution {
     let k = red.r.ncols();
-    let norms: Vec<f64> = (0..k)
-        .map(|j| {
-            let n = (0..k).map(|i| red.r[(i, j)].powi(2)).sum::<f64>().sqrt();
-            if n > 0.0 { n } else { 1.0 }
-        })
-        .collect();
-    let rs = Mat::<f64>::from_fn(k, k, |i, j| red.r[(i, j)] / norms[j]);
+    let (rs, norms) = scaled_columns(red, 0..k);
     let svd = rs.svd().expect("SVD of a small dense matrix converges");
     let s: Vec<f64> = (0..k).map(|i| svd.S().column_vector()[i]).collect();
     let smax = s.first().copied().unwrap_or(0.0);
@@ -212,6 +206,21 @@ pub fn solve(red: &Reduced, extra_dof: usize) -> LsSolution {
     }
 }
 
+/// Columns `cols` of R scaled to unit norm (a zero column is left as it is), and the
+/// norms: the column norms of A, since QR preserves them.
+fn scaled_columns(red: &Reduced, cols: std::ops::Range<usize>) -> (Mat<f64>, Vec<f64>) {
+    let k = red.r.nrows();
+    let norms: Vec<f64> = cols
+        .clone()
+        .map(|j| {
+            let n = (0..k).map(|i| red.r[(i, j)].powi(2)).sum::<f64>().sqrt();
+            if n > 0.0 { n } else { 1.0 }
+        })
+        .collect();
+    let m = Mat::<f64>::from_fn(k, cols.len(), |i, j| red.r[(i, cols.start + j)] / norms[j]);
+    (m, norms)
+}
+
 /// Rank of the columns `cols` of the reduced problem (column-scaled), with the same
 /// threshold as [`solve`].
 pub fn block_rank(red: &Reduced, cols: std::ops::Range<usize>) -> usize {
@@ -220,14 +229,7 @@ pub fn block_rank(red: &Reduced, cols: std::ops::Range<usize>) -> usize {
     if n == 0 {
         return 0;
     }
-    let norms: Vec<f64> = cols
-        .clone()
-        .map(|j| {
-            let n = (0..k).map(|i| red.r[(i, j)].powi(2)).sum::<f64>().sqrt();
-            if n > 0.0 { n } else { 1.0 }
-        })
-        .collect();
-    let m = Mat::<f64>::from_fn(k, n, |i, j| red.r[(i, cols.start + j)] / norms[j]);
+    let (m, _) = scaled_columns(red, cols);
     let svd = m.thin_svd().expect("SVD converges");
     let s: Vec<f64> = (0..n.min(k)).map(|i| svd.S().column_vector()[i]).collect();
     let smax = s.first().copied().unwrap_or(0.0);
