@@ -854,6 +854,37 @@ async fn series_datasets_upload_and_diagnose_bad_ones_store_nothing() {
     assert_eq!(s, StatusCode::CREATED, "{ds}");
     assert_eq!(ds["kind"], "drift_log");
     assert_eq!(ds["samples"], 61);
+    // fit_fraction (drift logs): out of range refused at submission; 0.5 gives the
+    // library's diagnosis fitted on the first half.
+    let (s, e) = api
+        .post(
+            "/api/v1/jobs",
+            json!({"kind": "diagnose", "dataset_id": ds["id"], "params": {"fit_fraction": 0.95}}),
+        )
+        .await;
+    assert_eq!(s, StatusCode::BAD_REQUEST, "{e}");
+    let (s, j) = api
+        .post(
+            "/api/v1/jobs",
+            json!({"kind": "diagnose", "dataset_id": ds["id"], "params": {"fit_fraction": 0.5}}),
+        )
+        .await;
+    assert_eq!(s, StatusCode::ACCEPTED, "{j}");
+    let job = j["id"].as_str().unwrap().to_string();
+    api.wait(&job, "succeeded").await;
+    let (_, doc) = api.get(&format!("/api/v1/jobs/{job}/result")).await;
+    let parsed =
+        mtcal_formats::read_drift_log("drift.csv", log.as_bytes(), &Default::default()).unwrap();
+    let local = mtcal_solver::diagnosis::series::diagnose_drift_log(
+        &parsed,
+        "VMC-P",
+        &mtcal_solver::diagnosis::series::SeriesOptions {
+            train_fraction: 0.5,
+            ..Default::default()
+        },
+    )
+    .unwrap();
+    assert_eq!(doc, serde_json::to_value(&local).unwrap());
 
     // A bad value on line 3, column deviation_um: refused, nothing stored.
     let before = counts(&db).await;

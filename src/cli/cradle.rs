@@ -5,7 +5,8 @@ use super::BadInput;
 use anyhow::Context;
 use mtcal_solver::SolverError;
 use mtcal_solver::cradle::{
-    CradleOptions, CradleResult, CradleSimulation, check_cradle, simulate_cradle,
+    CradleOptions, CradleResult, CradleSimulation, Deflection, angle_text, check_cradle,
+    simulate_cradle,
 };
 use std::fmt::Write as _;
 use std::path::{Path, PathBuf};
@@ -39,9 +40,15 @@ pub struct Args {
     /// Seed of the simulation.
     #[arg(long, default_value_t = 1, requires = "simulate")]
     seed: u64,
-    /// Simulate a compliant A/C connection (deflection varying with A).
-    #[arg(long, requires = "simulate")]
+    /// Simulate a compliant A/C connection (the table tilts with A about the pivot);
+    /// the same as `--deflection pivot`.
+    #[arg(long, requires = "simulate", conflicts_with = "deflection")]
     compliant: bool,
+    /// How the simulated table deflects with A: `rigid`, `pivot` (tilts about the
+    /// pivot) or `mount` (the C table tilts about its own mount 150 mm below the pivot,
+    /// and A has a positioning error varying with A).
+    #[arg(long, value_name = "KIND", requires = "simulate", value_parser = parse_deflection)]
+    deflection: Option<Deflection>,
     /// Tracker noise of the simulation, µm per coordinate.
     #[arg(long, default_value_t = 2.0, requires = "simulate")]
     noise_um: f64,
@@ -89,7 +96,12 @@ fn simulate(out: &Path, args: &Args) -> anyhow::Result<ExitCode> {
     if !(args.noise_um.is_finite() && args.noise_um >= 0.0) {
         return Err(BadInput("--noise-um must be a finite number ≥ 0".into()).into());
     }
-    let mut sim = CradleSimulation::example(args.compliant, args.seed);
+    let deflection = match (args.deflection, args.compliant) {
+        (Some(d), _) => d,
+        (None, true) => Deflection::Pivot,
+        (None, false) => Deflection::Rigid,
+    };
+    let mut sim = CradleSimulation::example_with(deflection, args.seed);
     sim.noise_um = args.noise_um;
     let mut set = simulate_cradle(&sim);
     set.measured_at = Some("2026-01-01T00:00:00Z".into());
@@ -118,6 +130,15 @@ fn simulate(out: &Path, args: &Args) -> anyhow::Result<ExitCode> {
         serde_json::to_string(&sim.truth)?
     );
     Ok(ExitCode::SUCCESS)
+}
+
+fn parse_deflection(s: &str) -> Result<Deflection, String> {
+    match s {
+        "rigid" => Ok(Deflection::Rigid),
+        "pivot" => Ok(Deflection::Pivot),
+        "mount" => Ok(Deflection::Mount),
+        other => Err(format!("`{other}`: expected rigid, pivot or mount")),
+    }
 }
 
 fn opt(v: Option<f64>, prec: usize) -> String {
@@ -171,26 +192,44 @@ pub fn summary(r: &CradleResult) -> String {
             p.rotation_phase.std_urad
         );
     }
+    let g = &r.registration;
+    let _ = writeln!(
+        s,
+        "\ninstrument frame: {} (best-fit registration: rotation {}, stated pivot {:.3} mm away; nominal kinematics then miss by {:.2} µm RMS)",
+        if g.frame == "machine" {
+            "the machine's, as stated"
+        } else {
+            "registered to the nominal kinematics (best fit)"
+        },
+        angle_text(1e-6 * g.rotation_urad[0].hypot(g.rotation_urad[1].hypot(g.rotation_urad[2]))),
+        g.pivot_offset_mm[0].hypot(g.pivot_offset_mm[1].hypot(g.pivot_offset_mm[2])),
+        g.residual_rms_um
+    );
     let k = &r.kinematics;
     let held = |h: Option<f64>| opt(h, 3);
     let _ = writeln!(
         s,
-        "\nmodel: {:?} (held-out RMS, leave one A pose out: rigid {} µm, compliant {} µm; margin {} %)",
+        "\nmodel: {:?}: {} (held-out RMS, leave one A pose out: {} µm; rigid {} µm, classic compliant {} µm; each added term must lower it by {} %)",
         k.chosen,
+        k.description,
+        held(r.floor.as_ref().map(|f| f.held_out_rms_um)),
         held(k.rigid.held_out_rms_um),
         held(k.compliant.as_ref().and_then(|c| c.held_out_rms_um)),
         k.margin * 100.0
     );
-    if let Some(c) = &k.compliance {
+    for p in &k.parameters {
         let _ = writeln!(
             s,
-            "compliance ρ(A) = s·sin A + k·(cos A − 1): s = ({:.1}, {:.1}, {:.1}) µrad, k = ({:.1}, {:.1}, {:.1}) µrad",
-            c.sin_urad[0],
-            c.sin_urad[1],
-            c.sin_urad[2],
-            c.cos_urad[0],
-            c.cos_urad[1],
-            c.cos_urad[2]
+            "  {:<4} {:>9.2} ± {:<6.2} {:<4}{}",
+            p.name,
+            p.value,
+            p.std,
+            p.unit,
+            if p.determined {
+                ""
+            } else {
+                "  possible, undetermined (|value| < 3 std)"
+            }
         );
     }
     let _ = writeln!(s, "\nlocation errors (ISO 230-7):");
@@ -241,6 +280,7 @@ mod tests {
             simulate,
             seed: 3,
             compliant,
+            deflection: None,
             noise_um: 2.0,
         }
     }

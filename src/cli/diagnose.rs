@@ -1,6 +1,9 @@
-//! `mtcal diagnose PATH [--json] [--plots DIR]`: mismatch diagnosis of a session folder,
-//! a positioning-run CSV or a drift-log CSV (the kind is detected from the content).
-//! Human summary by default; `--json` prints the diagnosis result document.
+//! `mtcal diagnose PATH [--json] [--plots DIR] [--fit-fraction F] [--predictions CSV]`:
+//! mismatch diagnosis of a session folder, a positioning-run CSV or a drift-log CSV (the
+//! kind is detected from the content). Human summary by default; `--json` prints the
+//! diagnosis result document. For drift logs, `--fit-fraction` sets the share of the
+//! recording the models are fitted on (the rest judges them) and `--predictions` writes
+//! the models' predictions at every sample (`docs/diagnosis.md`, "Prediction export").
 
 use super::BadInput;
 use anyhow::Context;
@@ -24,6 +27,14 @@ pub struct Args {
     /// Machine id written into the result (default: the session's, else the file name).
     #[arg(long)]
     pub machine_id: Option<String>,
+    /// Drift logs: fraction of the recording the models are fitted on, from the start
+    /// (0.2–0.9, default 0.6); the rest is held out to judge them.
+    #[arg(long, value_name = "F")]
+    pub fit_fraction: Option<f64>,
+    /// Drift logs: write the models' predictions at every sample to this CSV
+    /// (t_s, part, then per channel measured, model and compensation, µm).
+    #[arg(long, value_name = "CSV")]
+    pub predictions: Option<PathBuf>,
 }
 
 pub fn run(args: Args) -> anyhow::Result<ExitCode> {
@@ -48,7 +59,21 @@ pub fn run(args: Args) -> anyhow::Result<ExitCode> {
             .trim_end_matches(".csv")
             .to_string()
     });
-    let opts = SeriesOptions::default();
+    let mut opts = SeriesOptions::default();
+    if kind != DatasetKind::DriftLog && (args.fit_fraction.is_some() || args.predictions.is_some())
+    {
+        return Err(BadInput(format!(
+            "{}: --fit-fraction and --predictions apply to drift logs only",
+            path.display()
+        ))
+        .into());
+    }
+    if let Some(f) = args.fit_fraction {
+        if !(0.2..=0.9).contains(&f) {
+            return Err(BadInput(format!("--fit-fraction {f}: must lie in [0.2, 0.9]")).into());
+        }
+        opts.train_fraction = f;
+    }
     // ISO 230-2 figures accompany the summary of positioning runs.
     let mut iso = vec![];
     let result: DiagnosisResult = match kind {
@@ -60,8 +85,25 @@ pub fn run(args: Args) -> anyhow::Result<ExitCode> {
         }
         DatasetKind::DriftLog => {
             let log = mtcal_formats::read_drift_log_path(path, &limits)?;
-            series::diagnose_drift_log(&log, &machine_id, &opts)
-                .map_err(|e| BadInput(format!("{}: {e}", path.display())))?
+            let (r, pred) =
+                series::drift::diagnose_drift_log_with_predictions(&log, &machine_id, &opts)
+                    .map_err(|e| BadInput(format!("{}: {e}", path.display())))?;
+            if let Some(out) = &args.predictions {
+                let f = std::fs::File::create(out)
+                    .with_context(|| format!("creating {}", out.display()))?;
+                let mut w = std::io::BufWriter::new(f);
+                mtcal_formats::write_drift_predictions(&mut w, &pred)
+                    .and_then(|()| w.flush())
+                    .with_context(|| format!("writing {}", out.display()))?;
+                if !args.json {
+                    eprintln!(
+                        "wrote the predictions ({} samples) to {}",
+                        pred.t_s.len(),
+                        out.display()
+                    );
+                }
+            }
+            r
         }
         DatasetKind::Session => {
             let session = mtcal_formats::read_session_dir(path, &limits)?;
@@ -154,6 +196,22 @@ pub fn summary(r: &DiagnosisResult) -> String {
             })
             .collect();
         let _ = writeln!(s, "  parameters: {}", params.join(", "));
+        // Undetermined parameters, grouped by what would decide them.
+        let mut groups: Vec<(&str, Vec<String>)> = vec![];
+        for u in &f.undetermined {
+            let item = format!("{} = {:.4} ± {:.2}", u.name, u.value, u.std);
+            match groups.iter_mut().find(|(d, _)| *d == u.decide) {
+                Some((_, v)) => v.push(item),
+                None => groups.push((&u.decide, vec![item])),
+            }
+        }
+        for (decide, items) in groups {
+            let _ = writeln!(
+                s,
+                "  possible, undetermined: {} ({decide})",
+                items.join(", ")
+            );
+        }
         let _ = writeln!(s, "  evidence: {}", f.evidence);
     }
     for u in &r.unexplained {

@@ -147,3 +147,48 @@ pub fn write_drift_log(mut w: impl Write, log: &DriftLog) -> std::io::Result<()>
     w.write_all(line.as_bytes())?;
     w.flush()
 }
+/// Writes the drift-log models' predictions at full resolution (`docs/diagnosis.md`,
+/// "Prediction export"): `t_s,part` then, per displacement channel `<ch>_um`, the columns
+/// `<ch>_measured_um`, `<ch>_model_um` and `<ch>_compensation_um`. `part` is `fit` for
+/// the samples the model was fitted on and `held_out` for the rest. The compensation is
+/// −(model − model at the first sample): the correction to add along the channel's
+/// direction to cancel the predicted thermal drift since the start of the log.
+pub fn write_drift_predictions(
+    mut w: impl Write,
+    p: &mtcal_solver::diagnosis::series::drift::DriftPredictions,
+) -> std::io::Result<()> {
+    let n = p.t_s.len();
+    if p.channels
+        .iter()
+        .any(|c| c.measured_um.len() != n || c.model_um.len() != n)
+    {
+        return Err(invalid_input("prediction series of unequal lengths"));
+    }
+    let mut line = String::from("t_s,part");
+    for c in &p.channels {
+        let stem = c.name.strip_suffix("_um").unwrap_or(&c.name);
+        for col in ["measured", "model", "compensation"] {
+            line.push_str(&format!(",{stem}_{col}_um"));
+        }
+    }
+    line.push('\n');
+    w.write_all(line.as_bytes())?;
+    for i in 0..n {
+        line.clear();
+        fmt_f64(&mut line, p.t_s[i]);
+        line.push_str(if i < p.n_fit { ",fit" } else { ",held_out" });
+        for c in &p.channels {
+            for v in [
+                c.measured_um[i],
+                c.model_um[i],
+                c.model_at_start_um - c.model_um[i],
+            ] {
+                line.push(',');
+                fmt_f64(&mut line, v);
+            }
+        }
+        line.push('\n');
+        w.write_all(line.as_bytes())?;
+    }
+    Ok(())
+}

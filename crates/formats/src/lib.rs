@@ -23,7 +23,7 @@ pub mod rotary;
 pub mod session;
 pub mod sniff;
 
-pub use drift::{read_drift_log, read_drift_log_path, write_drift_log};
+pub use drift::{read_drift_log, read_drift_log_path, write_drift_log, write_drift_predictions};
 pub use json::is_rfc3339;
 pub use limits::Limits;
 pub use positioning::{read_positioning, read_positioning_path, write_positioning};

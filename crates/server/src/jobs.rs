@@ -117,6 +117,37 @@ impl IdentifyParams {
     }
 }
 
+/// Parameters of a `diagnose` job (all optional; defaults of `mtcal diagnose`).
+#[derive(Debug, Clone, Default, PartialEq, Serialize, Deserialize, ToSchema)]
+#[serde(deny_unknown_fields)]
+pub struct DiagnoseParams {
+    /// Drift logs only: fraction of the recording the models are fitted on, from the
+    /// start, in [0.2, 0.9] (default 0.6); the rest is held out to judge them.
+    pub fit_fraction: Option<f64>,
+}
+
+impl DiagnoseParams {
+    fn parse(params: &Value) -> Result<DiagnoseParams, String> {
+        let p: DiagnoseParams =
+            serde_json::from_value(params.clone()).map_err(|e| format!("params: {e}"))?;
+        if let Some(f) = p.fit_fraction
+            && !(0.2..=0.9).contains(&f)
+        {
+            return Err(format!("params: fit_fraction {f} must lie in [0.2, 0.9]"));
+        }
+        Ok(p)
+    }
+
+    /// Series options for a drift log.
+    fn series_options(&self) -> SeriesOptions {
+        let d = SeriesOptions::default();
+        SeriesOptions {
+            train_fraction: self.fit_fraction.unwrap_or(d.train_fraction),
+            ..d
+        }
+    }
+}
+
 /// Checks a job's parameters at submission, so bad ones are rejected before queueing.
 pub fn validate_params(kind: JobKind, params: &Value) -> Result<(), String> {
     match kind {
@@ -126,7 +157,8 @@ pub fn validate_params(kind: JobKind, params: &Value) -> Result<(), String> {
         JobKind::Sensitivity => serde_json::from_value::<SensitivityRequest>(params.clone())
             .map(|_| ())
             .map_err(|e| format!("params: {e}")),
-        JobKind::Diagnose | JobKind::Cradle => match params {
+        JobKind::Diagnose => DiagnoseParams::parse(params).map(|_| ()),
+        JobKind::Cradle => match params {
             Value::Object(m) if m.is_empty() => Ok(()),
             _ => Err(format!(
                 "params: a {} job takes no parameters (send {{}})",
@@ -202,7 +234,13 @@ pub fn execute(input: &JobInput) -> Result<JobOutput, JobError> {
             })
         }
         JobKind::Diagnose => {
+            let params = DiagnoseParams::parse(&input.params).map_err(JobError::BadInput)?;
             let (dataset, data) = load_dataset(input)?;
+            if params.fit_fraction.is_some() && !matches!(data, DatasetData::DriftLog(_)) {
+                return Err(JobError::BadInput(
+                    "params: fit_fraction applies to drift logs only".into(),
+                ));
+            }
             let result = match &data {
                 DatasetData::Session(session) => {
                     let opts = DiagnoseOptions {
@@ -217,7 +255,7 @@ pub fn execute(input: &JobInput) -> Result<JobOutput, JobError> {
                     &SeriesOptions::default(),
                 ),
                 DatasetData::DriftLog(log) => {
-                    series::diagnose_drift_log(log, &dataset.machine_id, &SeriesOptions::default())
+                    series::diagnose_drift_log(log, &dataset.machine_id, &params.series_options())
                 }
                 DatasetData::RotaryPoints(_) => return Err(wrong_kind(input.kind, &data)),
             }

@@ -83,7 +83,7 @@ impl utoipa::Modify for SecurityAddon {
         api::trends::term, api::trends::summary, api::trends::fleet,
         api::keys::create,
     ),
-    components(schemas(jobs::IdentifyParams, error::ErrorBody)),
+    components(schemas(jobs::IdentifyParams, jobs::DiagnoseParams, error::ErrorBody)),
     modifiers(&SecurityAddon),
     tags((name = "machines"), (name = "datasets"), (name = "jobs"), (name = "history"),
          (name = "trends"), (name = "keys"), (name = "service"))

@@ -10,16 +10,27 @@
 //!    all points (beyond the patent);
 //! 2. rigid and compliant fits of the rotation vectors against A, with their
 //!    leave-one-pose-out errors ([`compliance`], descriptive);
-//! 3. the full kinematic model ([`model`]) fitted to all points ([`identify`]), rigid
-//!    (ρ = 0) and compliant (ρ(A) = s·sin A + k·(cos A − 1), observable part): the model
-//!    is chosen by leave-one-pose-out RMS prediction error of the ball (the compliant one
-//!    only when it lowers it by more than `compliance_margin`, relative); then location
-//!    errors with standard uncertainties, the ball, the compliance coefficients;
-//! 4. held-out compensation figures: each A pose left out in turn, the model fitted on the
+//! 3. the instrument frame registered ([`register`]): the best-fit rigid map to the
+//!    nominal kinematics; a frame stated to be the machine's is kept when the data agree
+//!    with it, otherwise the check works in the best-fit frame and reports only the
+//!    intrinsic location errors (and says so);
+//! 4. the full kinematic model ([`model`]) fitted to all points ([`identify`]), chosen by
+//!    leave-one-pose-out RMS prediction error of the ball among A-dependent terms added
+//!    one at a time (forward selection, each step must lower it by more than
+//!    `compliance_margin`, relative): a tilt of the table with A about the pivot or about
+//!    the C table's mount, the A positioning error (s_A·sin A + k_A·(cos A − 1), or a
+//!    polynomial EAA(A) of order 1–3), a shift along A; then location errors with
+//!    standard uncertainties, the ball, the A-dependent terms;
+//! 5. held-out compensation figures: each A pose left out in turn, the model fitted on the
 //!    others; before = RMS distance of the pose's measured points from where the nominal
-//!    kinematics put the ball, after = RMS distance from where the model puts it. To first
-//!    order the latter is the residual after [`compensate::compensate`] (which moves the
-//!    axes by exactly the model's predicted error).
+//!    kinematics put the ball (in the registered frame), after = RMS distance from where
+//!    the model puts it. To first order the latter is the residual after
+//!    [`compensate::compensate`] (which moves the axes by exactly the model's predicted
+//!    error);
+//! 6. the held-out residual compared with the tracker noise floor √3·σ, σ the noise per
+//!    coordinate pooled from the per-pose circle fits (which no A-dependent effect
+//!    reaches): a gap is reported when the held-out RMS exceeds the floor by more than
+//!    [`FLOOR_RATIO`].
 //!
 //! # Observability (ball data alone)
 //!
@@ -37,20 +48,22 @@ pub mod compliance;
 pub mod frames;
 pub mod identify;
 pub mod model;
+pub mod register;
 pub mod simulate;
 
 pub use compensate::{Command, Compensated, compensate};
 pub use compliance::{Dependence, RotationDependence, fit_dependence};
 pub use frames::{PatentAnalysis, PoseRow, patent_frames};
-pub use model::{Ball, Compliance, CradleModel, LocationErrors};
-pub use simulate::{CradleSimulation, simulate_cradle};
+pub use model::{Ball, Compliance, CradleModel, LocationErrors, ModelSpec, Tilt};
+pub use register::RegistrationReport;
+pub use simulate::{CradleSimulation, Deflection, simulate_cradle};
 
 use crate::datasets::RotaryPointSet;
 use crate::error::SolverError;
 use crate::identification::CONVENTION;
 use frames::{AAxisFit, PosePoints};
 use identify::{Obs, fit_kinematics, leave_one_pose_out, start};
-use model::{N_RIGID, PARAM_NAMES};
+use model::params_from_model;
 use nalgebra::{Rotation3, Unit, Vector3};
 use serde::{Deserialize, Serialize};
 use std::collections::BTreeMap;
@@ -65,9 +78,10 @@ pub struct CradleOptions {
     pub registered_frame: bool,
     /// Nominal intersection of the A and C axes in the (registered) instrument frame, mm.
     pub pivot_mm: [f64; 3],
-    /// Relative reduction of the held-out RMS the compliant model must bring to be chosen
-    /// (parsimony: default 0.02; with 3N ≈ 700 coordinates and 4 extra parameters the
-    /// overfitting penalty and chance fluctuations of the held-out RMS are a few 0.1 %).
+    /// Relative reduction of the held-out RMS each added A-dependent term must bring to
+    /// be kept (parsimony: default 0.02; with 3N ≈ 700 coordinates and a few extra
+    /// parameters the overfitting penalty and chance fluctuations of the held-out RMS are
+    /// a few 0.1 %).
     pub compliance_margin: f64,
     /// Minimum number of points per A pose (at least 4: a circle has 6 parameters and
     /// 2 residuals per point, so 4 points leave 2 degrees of freedom for σ).
@@ -112,7 +126,13 @@ pub struct LocationErrorReport {
 /// Summary of one kinematic model fit.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 pub struct KinematicSummary {
+    /// `rigid` or `compliant` (anything depending on A).
     pub model: Dependence,
+    /// The terms the model carries, and in words.
+    #[serde(default)]
+    pub spec: ModelSpec,
+    #[serde(default)]
+    pub description: String,
     pub n_params: usize,
     pub rank: usize,
     pub condition: f64,
@@ -150,14 +170,58 @@ pub struct ComplianceReport {
     pub cos_urad: [f64; 3],
 }
 
+/// One A-dependent parameter of the chosen model.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct ModelParameter {
+    /// s_A, k_A, m_B, m_C (µrad), z_M (mm), e_s, e_c (µm), e_1 … e_3 (µrad).
+    pub name: String,
+    pub unit: String,
+    pub value: f64,
+    pub std: f64,
+    /// |value| ≥ 3·std; otherwise the term is possible but undetermined.
+    pub determined: bool,
+}
+
+/// The held-out residual against the tracker noise floor.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct FloorReport {
+    /// Tracker noise per coordinate pooled from the per-pose circle fits, µm.
+    pub noise_um: f64,
+    /// The floor of a 3-D RMS, √3·noise, µm.
+    pub floor_rms_um: f64,
+    /// Held-out RMS of the chosen model (leave one A pose out), µm.
+    pub held_out_rms_um: f64,
+    /// held_out / floor.
+    pub ratio: f64,
+    /// The unexplained part in quadrature, √(held_out² − floor²), µm (0 at the floor).
+    pub gap_um: f64,
+    pub at_floor: bool,
+    /// In a sentence, with the poses where the gap is largest when there is one.
+    pub statement: String,
+}
+
 /// The identified kinematic model.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 pub struct KinematicReport {
-    /// Chosen by leave-one-pose-out RMS of the ball (see `margin`).
+    /// Chosen by leave-one-pose-out RMS of the ball (see `margin`): `rigid`, or
+    /// `compliant` when any A-dependent term was kept (see `spec`).
     pub chosen: Dependence,
+    /// The chosen model's terms, and in words.
+    #[serde(default)]
+    pub spec: ModelSpec,
+    #[serde(default)]
+    pub description: String,
     pub margin: f64,
     pub rigid: KinematicSummary,
+    /// The classic compliant model (ρ(A) about the pivot, observable form), for
+    /// comparison.
     pub compliant: Option<KinematicSummary>,
+    /// Every model tried by the forward selection, in the order tried.
+    #[serde(default)]
+    pub candidates: Vec<KinematicSummary>,
+    /// The chosen model's A-dependent parameters.
+    #[serde(default)]
+    pub parameters: Vec<ModelParameter>,
     pub ball: BallReport,
     pub compliance: Option<ComplianceReport>,
     /// The model itself (for compensation). Its `location.ea0a_urad` holds the sum
@@ -206,8 +270,13 @@ pub struct CradleResult {
     /// the model is chosen in `kinematics`).
     pub rotation_model: RotationDependence,
     pub location_errors: Vec<LocationErrorReport>,
+    /// How the instrument frame was registered.
+    pub registration: RegistrationReport,
     pub kinematics: KinematicReport,
     pub compensation: CompensationReport,
+    /// The held-out residual against the tracker noise floor (`None` without held-out
+    /// poses).
+    pub floor: Option<FloorReport>,
     /// Conventions and assumptions, in sentences.
     pub notes: Vec<String>,
 }
@@ -276,21 +345,21 @@ fn data_frame(pa: &PatentAnalysis) -> (Rotation3<f64>, Vector3<f64>) {
     (rot, origin)
 }
 
-fn summary(
-    fit: &identify::KinematicFit,
-    model: Dependence,
-    held: Option<&[identify::HeldOut]>,
-) -> KinematicSummary {
+fn summary(fit: &identify::KinematicFit, held: Option<&[identify::HeldOut]>) -> KinematicSummary {
     KinematicSummary {
-        model,
+        model: if fit.spec.is_rigid() {
+            Dependence::Rigid
+        } else {
+            Dependence::Compliant
+        },
+        spec: fit.spec,
+        description: fit.spec.describe(),
         n_params: fit.q.len(),
         rank: fit.rank,
         condition: fit.condition,
         fit_rms_um: fit.rms * 1e3,
         sigma_um: fit.sigma * 1e3,
-        held_out_rms_um: held.map(|h| {
-            (h.iter().map(|x| x.after_rms * x.after_rms).sum::<f64>() / h.len() as f64).sqrt() * 1e3
-        }),
+        held_out_rms_um: held.map(|h| held_rms(h) * 1e3),
         converged: fit.converged,
         iterations: fit.iterations,
     }
@@ -432,6 +501,201 @@ fn location_reports(fit: &identify::KinematicFit, registered: bool) -> Vec<Locat
         .collect()
 }
 
+/// An angle for reports: µrad when small, degrees otherwise.
+pub fn angle_text(rad: f64) -> String {
+    if rad.abs() < 1e-2 {
+        format!("{:.0} µrad", rad * 1e6)
+    } else {
+        format!("{:.3}°", rad.to_degrees())
+    }
+}
+
+/// RMS over the held-out poses of their RMS prediction error (mm).
+fn held_rms(h: &[identify::HeldOut]) -> f64 {
+    (h.iter().map(|x| x.after_rms * x.after_rms).sum::<f64>() / h.len().max(1) as f64).sqrt()
+}
+
+/// A gap is reported when the held-out RMS exceeds the tracker floor by more than this
+/// ratio: the held-out RMS of 3N coordinates scatters by about 1/√(6N) relative (3 % for
+/// 234 points) and the model's own estimation error adds about P/(6N) (under 2 % for
+/// P ≤ 20), so 10 % is well outside chance.
+pub const FLOOR_RATIO: f64 = 1.1;
+
+/// Tracker noise per coordinate (µm) pooled from the per-pose circle fits, whose
+/// orthogonal residuals (radial and axial, 2 per point, 6 parameters per circle) no
+/// A-dependent effect reaches: σ² = Σ N·rms² / Σ (2N − 6).
+fn tracker_noise_um(poses: &[PoseRow]) -> f64 {
+    let (ss, dof) = poses.iter().fold((0.0, 0.0), |(ss, dof), p| {
+        let n = p.n_points as f64;
+        (
+            ss + n * p.circle_rms_um.powi(2),
+            dof + (2.0 * n - 6.0).max(0.0),
+        )
+    });
+    if dof > 0.0 {
+        (ss / dof).sqrt()
+    } else {
+        f64::NAN
+    }
+}
+
+/// One fitted model with its leave-one-pose-out figures.
+struct Candidate {
+    fit: identify::KinematicFit,
+    held: Option<Vec<identify::HeldOut>>,
+    /// Held-out RMS, mm (∞ without held-out poses).
+    rms: f64,
+}
+
+fn try_model(
+    obs: &[Obs],
+    pivot: [f64; 3],
+    spec: &ModelSpec,
+    from: &CradleModel,
+    n_poses: usize,
+    lopo: bool,
+) -> Result<Candidate, SolverError> {
+    let fit = fit_kinematics(obs, pivot, spec, &params_from_model(from, spec))?;
+    with_held_out(fit, obs, pivot, n_poses, lopo)
+}
+
+fn with_held_out(
+    fit: identify::KinematicFit,
+    obs: &[Obs],
+    pivot: [f64; 3],
+    n_poses: usize,
+    lopo: bool,
+) -> Result<Candidate, SolverError> {
+    let held = if lopo {
+        Some(leave_one_pose_out(obs, pivot, &fit.spec, &fit.q, n_poses)?)
+    } else {
+        None
+    };
+    let rms = held.as_deref().map_or(f64::INFINITY, held_rms);
+    Ok(Candidate { fit, held, rms })
+}
+
+/// Bayesian information criterion of a fit on 3N coordinates: 3N·ln(SSR/3N) + P·ln 3N.
+fn bic(fit: &identify::KinematicFit, n_obs: usize) -> f64 {
+    let n = 3.0 * n_obs as f64;
+    let ssr = fit.rms * fit.rms * n_obs as f64;
+    n * (ssr.max(1e-300) / n).ln() + fit.q.len() as f64 * n.ln()
+}
+
+/// Successors validated on held-out poses at each step: the best ones by BIC (the
+/// held-out validation is the expensive part).
+const VALIDATED_PER_STEP: usize = 2;
+
+/// The models one step richer than `spec` (module docs, step 4).
+fn successors(spec: &ModelSpec) -> Vec<ModelSpec> {
+    let mut v = vec![];
+    if spec.is_rigid() {
+        v.push(ModelSpec::COMPLIANT);
+    }
+    match spec.tilt {
+        Tilt::None => {
+            v.push(ModelSpec {
+                tilt: Tilt::Pivot,
+                ..*spec
+            });
+            v.push(ModelSpec {
+                tilt: Tilt::Mount,
+                ..*spec
+            });
+        }
+        Tilt::Pivot => v.push(ModelSpec {
+            tilt: Tilt::Mount,
+            ..*spec
+        }),
+        Tilt::Mount => {}
+    }
+    if !spec.a_harmonic && spec.eaa_order == 0 {
+        v.push(ModelSpec {
+            a_harmonic: true,
+            ..*spec
+        });
+    }
+    if !spec.a_harmonic && spec.eaa_order < 3 {
+        v.push(ModelSpec {
+            eaa_order: spec.eaa_order + 1,
+            ..*spec
+        });
+    }
+    if !spec.axial {
+        v.push(ModelSpec {
+            axial: true,
+            ..*spec
+        });
+    }
+    v
+}
+
+/// The chosen model's A-dependent parameters in reporting units.
+fn model_parameters(fit: &identify::KinematicFit) -> Vec<ModelParameter> {
+    fit.spec
+        .names()
+        .iter()
+        .enumerate()
+        .skip(model::N_RIGID)
+        .map(|(k, name)| {
+            let (scale, unit) = match *name {
+                "z_M" => (1.0, "mm"),
+                "e_s" | "e_c" => (1e3, "um"),
+                _ => (1e6, "urad"),
+            };
+            let (value, std) = (fit.q[k] * scale, fit.cov[(k, k)].sqrt() * scale);
+            ModelParameter {
+                name: name.to_string(),
+                unit: unit.into(),
+                value,
+                std,
+                determined: value.abs() >= 3.0 * std && std.is_finite(),
+            }
+        })
+        .collect()
+}
+
+fn floor_report(poses: &[PoseRow], held: &[HeldOutPose]) -> Option<FloorReport> {
+    if held.is_empty() {
+        return None;
+    }
+    let noise = tracker_noise_um(poses);
+    let floor = 3f64.sqrt() * noise;
+    let h = (held.iter().map(|p| p.after_rms_um.powi(2)).sum::<f64>() / held.len() as f64).sqrt();
+    let ratio = h / floor;
+    let gap = (h * h - floor * floor).max(0.0).sqrt();
+    let at_floor = ratio <= FLOOR_RATIO;
+    let statement = if at_floor {
+        format!(
+            "held-out RMS {h:.2} µm is at the tracker floor {floor:.2} µm (ratio {ratio:.2}): \
+             the model explains everything but the tracker noise"
+        )
+    } else {
+        let mut worst: Vec<&HeldOutPose> = held.iter().collect();
+        worst.sort_by(|a, b| b.after_rms_um.total_cmp(&a.after_rms_um));
+        let at: Vec<String> = worst
+            .iter()
+            .take(3)
+            .map(|p| format!("{} ({:.1} µm)", p.a_deg, p.after_rms_um))
+            .collect();
+        format!(
+            "held-out RMS {h:.2} µm against a tracker floor of {floor:.2} µm (ratio {ratio:.2}): \
+             a gap of {gap:.2} µm remains, largest at A = {} °: an A-dependent effect the \
+             model does not carry, or tracker noise that is not isotropic",
+            at.join(", ")
+        )
+    };
+    Some(FloorReport {
+        noise_um: noise,
+        floor_rms_um: floor,
+        held_out_rms_um: h,
+        ratio,
+        gap_um: gap,
+        at_floor,
+        statement,
+    })
+}
+
 /// Runs the cradle check on measured ball centres (see the module docs).
 pub fn check_cradle(
     points: &RotaryPointSet,
@@ -447,73 +711,129 @@ pub fn check_cradle(
         .collect();
     let rotation_model = fit_dependence(&a_rad, &r);
 
-    // Observations, in the registered frame or in the data frame.
-    let (pivot, transform) = if opts.registered_frame {
-        (opts.pivot_mm, None)
-    } else {
-        ([0.0; 3], Some(data_frame(&pa)))
+    let to_obs = |map: &dyn Fn(&Vector3<f64>) -> Vector3<f64>| -> Vec<Obs> {
+        poses
+            .iter()
+            .enumerate()
+            .flat_map(|(k, pose)| {
+                pose.points.iter().map(move |(c, p)| Obs {
+                    a: pose.a_rad,
+                    c: *c,
+                    p: map(p),
+                    pose: k,
+                })
+            })
+            .collect()
     };
-    let mut obs = Vec::with_capacity(points.points.len());
-    for (k, pose) in poses.iter().enumerate() {
-        for (c, p) in &pose.points {
-            let p = match &transform {
-                Some((rot, o)) => rot.inverse() * (p - o),
-                None => *p,
-            };
-            obs.push(Obs {
-                a: pose.a_rad,
-                c: *c,
-                p,
-                pose: k,
-            });
+
+    // Registration of the instrument frame (module docs, step 3).
+    let (r0, o) = data_frame(&pa);
+    let q_ball = start(
+        &to_obs(&|p| r0.inverse() * (p - o)),
+        [0.0; 3],
+        &ModelSpec::RIGID,
+    );
+    let reg = register::register(&poses, &r0, &o, [q_ball[8], q_ball[9], q_ball[10]])?;
+    let rotation_vec = reg.rotation.scaled_axis();
+    let pivot_offset = reg.apply(&Vector3::from(opts.pivot_mm));
+    let machine_frame = opts.registered_frame
+        && rotation_vec.norm() <= register::MAX_ROTATION_RAD
+        && pivot_offset.norm() <= register::MAX_SHIFT_MM;
+    let (pivot, obs) = if machine_frame {
+        (opts.pivot_mm, to_obs(&|p| *p))
+    } else {
+        ([0.0; 3], to_obs(&|p| reg.apply(p)))
+    };
+    let registration = RegistrationReport {
+        frame: if machine_frame { "machine" } else { "best_fit" }.into(),
+        rotation_urad: (rotation_vec * 1e6).into(),
+        pivot_offset_mm: pivot_offset.into(),
+        residual_rms_um: reg.residual_rms_mm * 1e3,
+    };
+
+    // Forward selection of the A-dependent terms (module docs, step 4).
+    let n_poses = poses.len();
+    let lopo_rigid = n_poses >= 4;
+    let lopo = n_poses >= 5;
+    let q0 = start(&obs, pivot, &ModelSpec::RIGID);
+    let start_model = model::model_from_params(pivot, &ModelSpec::RIGID, &q0);
+    let rigid = try_model(
+        &obs,
+        pivot,
+        &ModelSpec::RIGID,
+        &start_model,
+        n_poses,
+        lopo_rigid,
+    )?;
+    let mut candidates = vec![summary(&rigid.fit, rigid.held.as_deref())];
+    let mut compliant: Option<KinematicSummary> = None;
+    let mut best = rigid;
+    let rigid_summary = candidates[0].clone();
+    if lopo {
+        loop {
+            // Richer models fitted; the best by BIC validated on held-out poses.
+            let mut fits: Vec<identify::KinematicFit> = successors(&best.fit.spec)
+                .iter()
+                .filter_map(|spec| {
+                    // A degenerate richer model is simply not a candidate.
+                    fit_kinematics(&obs, pivot, spec, &params_from_model(&best.fit.model, spec))
+                        .ok()
+                })
+                .collect();
+            fits.sort_by(|a, b| bic(a, obs.len()).total_cmp(&bic(b, obs.len())));
+            let mut step: Option<Candidate> = None;
+            for (k, fit) in fits.into_iter().enumerate() {
+                if k >= VALIDATED_PER_STEP {
+                    candidates.push(summary(&fit, None));
+                    continue;
+                }
+                let Ok(c) = with_held_out(fit, &obs, pivot, n_poses, true) else {
+                    continue;
+                };
+                let sum = summary(&c.fit, c.held.as_deref());
+                if c.fit.spec == ModelSpec::COMPLIANT {
+                    compliant = Some(sum.clone());
+                }
+                candidates.push(sum);
+                if step.as_ref().is_none_or(|b| c.rms < b.rms) {
+                    step = Some(c);
+                }
+            }
+            match step {
+                Some(c) if c.rms < (1.0 - opts.compliance_margin) * best.rms => best = c,
+                _ => break,
+            }
         }
     }
-    let n_poses = poses.len();
-    let q0 = start(&obs, pivot, N_RIGID);
-    let rigid = fit_kinematics(&obs, pivot, &q0)?;
-    let lopo_ok = n_poses >= 4;
-    let rigid_held = if lopo_ok {
-        Some(leave_one_pose_out(&obs, pivot, &rigid.q, n_poses)?)
-    } else {
-        None
-    };
-    let (compliant, compliant_held) = if n_poses >= 4 {
-        let mut q = rigid.q.clone();
-        q.resize(PARAM_NAMES.len(), 0.0);
-        let fit = fit_kinematics(&obs, pivot, &q)?;
-        let held = if n_poses >= 5 {
-            Some(leave_one_pose_out(&obs, pivot, &fit.q, n_poses)?)
-        } else {
-            None
-        };
-        (Some(fit), held)
-    } else {
-        (None, None)
-    };
-    let held_rms = |h: &[identify::HeldOut]| {
-        (h.iter().map(|x| x.after_rms * x.after_rms).sum::<f64>() / h.len() as f64).sqrt()
-    };
-    let use_compliant = match (&rigid_held, &compliant_held) {
-        (Some(hr), Some(hc)) => held_rms(hc) < (1.0 - opts.compliance_margin) * held_rms(hr),
-        _ => false,
-    };
-    let (fit, held) = if use_compliant {
-        (
-            compliant.as_ref().expect("compliant fit"),
-            compliant_held.as_deref(),
+    if compliant.is_none() && n_poses >= 4 {
+        // The classic compliant model, for comparison (validated with 5 poses or more).
+        compliant = try_model(
+            &obs,
+            pivot,
+            &ModelSpec::COMPLIANT,
+            &best.fit.model,
+            n_poses,
+            lopo,
         )
-    } else {
-        (&rigid, rigid_held.as_deref())
-    };
+        .ok()
+        .map(|c| summary(&c.fit, c.held.as_deref()));
+    }
+    let fit = &best.fit;
+    let held = best.held.as_deref();
+    let use_compliant = !fit.spec.is_rigid();
     let std = |k: usize| fit.cov[(k, k)].sqrt();
-    let compliance = use_compliant.then(|| ComplianceReport {
-        s_a_urad: fit.q[11] * 1e6,
-        k_a_urad: fit.q[12] * 1e6,
-        m_b_urad: fit.q[13] * 1e6,
-        m_c_urad: fit.q[14] * 1e6,
-        std_urad: [std(11) * 1e6, std(12) * 1e6, std(13) * 1e6, std(14) * 1e6],
-        sin_urad: fit.model.compliance.sin_urad,
-        cos_urad: fit.model.compliance.cos_urad,
+    let std_of = |name: &str| fit.spec.index(name).map_or(0.0, std);
+    let compliance = use_compliant.then(|| {
+        let [sa, ka, mb, mc] = fit.model.compliance.observable();
+        ComplianceReport {
+            s_a_urad: sa,
+            k_a_urad: ka,
+            m_b_urad: mb,
+            m_c_urad: mc,
+            std_urad: ["s_A", "k_A", "m_B", "m_C"].map(|n| std_of(n) * 1e6),
+            sin_urad: fit.model.compliance.sin_urad,
+            cos_urad: fit.model.compliance.cos_urad,
+        }
     });
     let held_poses: Vec<HeldOutPose> = held
         .unwrap_or(&[])
@@ -532,8 +852,9 @@ pub fn check_cradle(
             (held_poses.iter().map(|h| f(h).powi(2)).sum::<f64>() / held_poses.len() as f64).sqrt()
         }
     };
+    let floor = floor_report(&pa.poses, &held_poses);
     let compensation = CompensationReport {
-        method: "leave-one-pose-out: each A pose predicted by the model fitted on the others; before = distance from the nominal kinematics, after = distance from the model (first-order residual after compensation)".into(),
+        method: "leave-one-pose-out: each A pose predicted by the model fitted on the others; before = distance from the nominal kinematics in the registered frame, after = distance from the model (first-order residual after compensation)".into(),
         before_rms_um: rms(|h| h.before_rms_um),
         after_rms_um: rms(|h| h.after_rms_um),
         poses: held_poses,
@@ -541,24 +862,36 @@ pub fn check_cradle(
     let mut notes = vec![
         "Cradle: A about X carries C about Z; tool fixed; linear axes taken as exact.".to_string(),
         "Rotation vectors: matR = [e1 e2 e3]·[et1 et2 et3]^-1 in the instrument frame, log(matR) = axis × angle, µrad; e1 from the point at C = 0 (patent) and from the phase of all points (phase).".to_string(),
-        "Compliance model of the kinematics: spatial rotation ρ(A) = s·sin A + k·(cos A − 1) of the table about the pivot.".to_string(),
+        "Model of the kinematics: location errors, ball, and the A-dependent terms kept by forward selection on held-out A poses: a tilt ρ(A) = s·sin A + k·(cos A − 1) about the pivot or the C table's mount, an A positioning error, a shift along A.".to_string(),
     ];
-    if opts.registered_frame {
+    if machine_frame {
         notes.push(format!(
-            "Instrument frame assumed registered to the machine axes; nominal A/C intersection (pivot) at {:?} mm.",
-            opts.pivot_mm
+            "Instrument frame registered to the machine axes as stated; nominal A/C intersection (pivot) at {:?} mm (the best-fit registration agrees within {} and {:.3} mm).",
+            opts.pivot_mm,
+            angle_text(rotation_vec.norm()),
+            pivot_offset.norm()
+        ));
+    } else if opts.registered_frame {
+        notes.push(format!(
+            "The instrument frame is not the machine's as stated: the best-fit registration to the nominal kinematics turns it by {} and puts the stated pivot {:.3} mm away (limits {:.0} µrad, {} mm). The check used the best-fit frame: only the location errors intrinsic to the cradle are reported. Give --pivot-mm if the frame is the machine's with the pivot elsewhere, or register the instrument to the machine axes.",
+            angle_text(rotation_vec.norm()),
+            pivot_offset.norm(),
+            register::MAX_ROTATION_RAD * 1e6,
+            register::MAX_SHIFT_MM
         ));
     } else {
-        notes.push("Instrument frame not registered: the model is fitted in a frame with X along the fitted A axis; only intrinsic location errors are reported.".to_string());
+        notes.push("Instrument frame not registered: the points were registered to the nominal kinematics (best fit); only intrinsic location errors are reported.".to_string());
     }
     if pa.poses.iter().any(|p| p.x_point_c_deg > 0.0) {
         notes.push("Some poses have no point at C = 0: the patent's e1 uses the point nearest C = 0 rotated back by −C about the normal.".to_string());
     }
     if n_poses < 5 {
         notes.push(
-            "Fewer than 5 A poses: the compliant model cannot be validated; rigid kept."
-                .to_string(),
+            "Fewer than 5 A poses: no A-dependent model can be validated; rigid kept.".to_string(),
         );
+    }
+    if let Some(f) = &floor {
+        notes.push(f.statement.clone());
     }
     Ok(CradleResult {
         kind: "cradle".into(),
@@ -567,28 +900,31 @@ pub fn check_cradle(
         measured_at: points.measured_at.clone(),
         n_points: points.points.len(),
         n_poses,
-        registered_frame: opts.registered_frame,
+        registered_frame: machine_frame,
         pivot_mm: pivot,
         reference_a_deg: pa.reference_a_deg,
         a_axis: pa.a_axis.clone(),
         poses: pa.poses.clone(),
         rotation_model,
-        location_errors: location_reports(fit, opts.registered_frame),
+        location_errors: location_reports(fit, machine_frame),
+        registration,
         kinematics: KinematicReport {
             chosen: if use_compliant {
                 Dependence::Compliant
             } else {
                 Dependence::Rigid
             },
+            spec: fit.spec,
+            description: fit.spec.describe(),
             margin: opts.compliance_margin,
-            rigid: summary(&rigid, Dependence::Rigid, rigid_held.as_deref()),
-            compliant: compliant
-                .as_ref()
-                .map(|c| summary(c, Dependence::Compliant, compliant_held.as_deref())),
+            rigid: rigid_summary,
+            compliant,
+            candidates,
+            parameters: model_parameters(fit),
             ball: BallReport {
                 radius_mm: fit.q[8],
                 radius_std_um: std(8) * 1e3,
-                azimuth_deg: opts.registered_frame.then(|| fit.q[9].to_degrees()),
+                azimuth_deg: machine_frame.then(|| fit.q[9].to_degrees()),
                 height_mm: fit.q[10],
                 height_std_um: std(10) * 1e3,
             },
@@ -596,6 +932,7 @@ pub fn check_cradle(
             model: fit.model,
         },
         compensation,
+        floor,
         notes,
     })
 }

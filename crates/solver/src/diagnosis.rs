@@ -55,6 +55,21 @@ pub struct Finding {
     pub heldout_rms_um: BeforeAfter,
     /// Why this effect was chosen (information criterion, signature counts).
     pub evidence: String,
+    /// Parameters of this effect that the data do not determine (standard uncertainty
+    /// above a third of the magnitude): possible, not established; not in `parameters`.
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    pub undetermined: Vec<Undetermined>,
+}
+
+/// A parameter the data leave undetermined, and what data would decide it.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct Undetermined {
+    /// Parameter name with its unit, as it would appear in `parameters`.
+    pub name: String,
+    pub value: f64,
+    pub std: f64,
+    /// What extra data would decide it, in a sentence.
+    pub decide: String,
 }
 
 /// `consistent` (no finding needed), `explained`, `partly_explained`.

@@ -36,5 +36,8 @@ pub mod fits;
 // Issue 6: mismatch diagnosis.
 pub mod diagnosis;
 
+// Thermal drift model of drift logs (spindle history and structure temperatures).
+pub mod thermal;
+
 pub use axis::{Axis, Plane, Topology};
 pub use error::SolverError;

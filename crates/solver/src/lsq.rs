@@ -104,9 +104,20 @@ impl QrAccumulator {
         self.block_rows = 0;
     }
 
+    /// The reduction of the rows pushed so far, leaving the accumulator open for more
+    /// (prefix problems, e.g. rolling-origin cross-validation, in one pass).
+    pub fn snapshot(&mut self) -> Reduced {
+        self.flush();
+        self.reduced()
+    }
+
     /// Finishes the reduction.
     pub fn finish(mut self) -> Reduced {
         self.flush();
+        self.reduced()
+    }
+
+    fn reduced(&self) -> Reduced {
         let k = self.k;
         let mut r = Mat::<f64>::zeros(k, k);
         let mut qtb = vec![0.0; k];

@@ -1,8 +1,11 @@
-//! Drift-log diagnosis against truth: the real FL_THERMAL heat run (fixed 60/40 split,
-//! asserted held-out improvement) and a simulated log with a known first-order response.
+//! Drift-log diagnosis against truth: the real FL_THERMAL heat run (fitted on the first
+//! 60 %, against the dataset authors' own reference model on both later windows) and a simulated log with a known first-order response.
 
 use mtcal_solver::datasets::{Channel, ChannelKind, DriftLog};
 use mtcal_solver::diagnosis::Verdict;
+use mtcal_solver::diagnosis::series::drift::{
+    ChannelPrediction, diagnose_drift_log_with_predictions,
+};
 use mtcal_solver::diagnosis::series::{SeriesOptions, diagnose_drift_log};
 
 /// Minimal reader for the drift-log CSV (the strict reader lives in mtcal-formats, which
@@ -45,78 +48,97 @@ fn read_heat_run() -> DriftLog {
     DriftLog { t_s, channels }
 }
 
-/// Measured on this recording with the default options (fit on the first 60 %, judged on
-/// the last 40 %): held-out RMS ch1 5.56 → 2.33, ch2 5.65 → 3.57, ch3 20.53 → 13.18,
-/// ch4 20.04 → 6.96, ch5 10.80 → 8.44 µm; overall (quadratic mean) 14.16 → 7.89 µm, 69 %
-/// of the held-out drift SSE predicted. The asserted margins sit below these so that small
-/// numerical changes pass while a model that loses the spindle history or the
-/// temperatures fails (the spindle-only or temperature-only candidates predict far less on
-/// ch3 and ch5).
+/// The dataset authors' best model (seq2seq on the 16 temperatures; data/fl_thermal/
+/// SOURCE.md) reports test MAE 3.56, 3.76, 3.70, 3.46 and 4.28 µm on ch1–ch5, trained on
+/// rows 0–60 % and scored on rows 60–80 %. The diagnosis fits on rows 0–60 % only (model
+/// and penalty chosen there by rolling-origin cross-validation) and must beat those
+/// figures on every channel, on rows 60–80 % and on rows 80–100 % (which the reference
+/// used to choose its epochs). Measured with the default options: MAE 1.25 / 2.02,
+/// 1.21 / 2.81, 2.05 / 0.93, 1.61 / 0.81, 2.58 / 1.53 µm (60–80 % / 80–100 %).
 #[test]
-fn fl_thermal_heat_run_explained_by_thermal_growth() {
+fn fl_thermal_beats_the_reference_model_on_every_channel_and_window() {
+    const REFERENCE_MAE_UM: [f64; 5] = [3.56, 3.76, 3.70, 3.46, 4.28];
     let log = read_heat_run();
-    let r = diagnose_drift_log(&log, "FL_THERMAL", &SeriesOptions::default()).unwrap();
-    for f in &r.findings {
+    let n = log.t_s.len();
+    let (i60, i80) = (n * 6 / 10, n * 8 / 10);
+    let (r, pred) =
+        diagnose_drift_log_with_predictions(&log, "FL_THERMAL", &SeriesOptions::default()).unwrap();
+    assert_eq!(pred.n_fit, i60);
+    assert_eq!(pred.channels.len(), 5);
+    let mae = |c: &ChannelPrediction, rows: std::ops::Range<usize>| {
+        let k = rows.len() as f64;
+        rows.map(|i| (c.measured_um[i] - c.model_um[i]).abs())
+            .sum::<f64>()
+            / k
+    };
+    let mut failures = vec![];
+    for (c, reference) in pred.channels.iter().zip(REFERENCE_MAE_UM) {
+        let (a, b) = (mae(c, i60..i80), mae(c, i80..n));
         println!(
-            "| {} | {:.2} | {:.2} | {:.0} % | {} |",
-            f.axis.as_deref().unwrap_or(""),
-            f.heldout_rms_um.before,
-            f.heldout_rms_um.after,
-            100.0 * f.parameters["share_predicted"],
-            f.physics
+            "| {} | {reference:.2} | {a:.2} | {b:.2} |",
+            c.name.trim_end_matches("_um")
         );
+        assert!(c.thermal_model, "{}: no thermal model kept", c.name);
+        if a >= reference || b >= reference {
+            failures.push(format!("{}: {a:.2} / {b:.2} vs {reference}", c.name));
+        }
     }
+    assert!(failures.is_empty(), "reference not beaten: {failures:?}");
     assert!(
         matches!(r.verdict, Verdict::Explained | Verdict::PartlyExplained),
         "{:?}",
         r.verdict
     );
     assert_eq!(r.source, "drift_log");
-    // Every channel: thermal drift found, held-out RMS down by at least 15 %.
     assert_eq!(r.findings.len(), 5);
-    for f in &r.findings {
-        assert_eq!(f.effect, "thermal_drift");
-        let gain = 1.0 - f.heldout_rms_um.after / f.heldout_rms_um.before;
-        assert!(
-            gain >= 0.15,
-            "{:?}: held-out RMS only {:.0} % lower",
-            f.axis,
-            100.0 * gain
-        );
-    }
-    // ch5 (axial spindle growth): driven by the spindle's running history.
-    let ch5 = r
-        .findings
-        .iter()
-        .find(|f| f.axis.as_deref() == Some("ch5"))
-        .unwrap();
-    assert!(ch5.physics.contains("spindle"), "{}", ch5.physics);
-    assert!(
-        ch5.heldout_rms_um.after <= 0.85 * ch5.heldout_rms_um.before,
-        "{:?}",
-        ch5.heldout_rms_um
-    );
-    assert!(ch5.parameters["share_predicted"] >= 0.30);
-    // Overall: quadratic mean of the channels' held-out RMS down by at least 35 %, and at
-    // least 60 % of the held-out drift (sum of squares) predicted.
-    let after = (r
-        .findings
-        .iter()
-        .map(|f| f.heldout_rms_um.after.powi(2))
-        .sum::<f64>()
-        / 5.0)
-        .sqrt();
-    assert!(
-        after <= 0.65 * r.baseline.heldout_rms_um,
-        "{after} vs {}",
-        r.baseline.heldout_rms_um
-    );
-    assert!(1.0 - (after / r.baseline.heldout_rms_um).powi(2) >= 0.60);
     // The drift is far above the sample-to-sample noise: the rigid model cannot be right.
     assert!(r.baseline.heldout_rms_um > 50.0 * r.baseline.noise_estimate_um);
-    // A plot per channel with the split marked.
+    for f in &r.findings {
+        assert_eq!(f.effect, "thermal_drift");
+        // Every reported parameter is determined: |value| ≥ 3 std; the rest is listed as
+        // undetermined, with what would decide it.
+        for (k, v) in &f.parameters {
+            if let Some(sd) = f.parameters.get(&format!("std_{k}")) {
+                assert!(v.abs() >= 3.0 * sd, "{:?} {k} = {v} ± {sd}", f.axis);
+            }
+        }
+        for u in &f.undetermined {
+            assert!(u.value.abs() < 3.0 * u.std || !u.std.is_finite(), "{u:?}");
+            assert!(!f.parameters.contains_key(&u.name), "{u:?}");
+            assert!(u.decide.contains("would decide"), "{u:?}");
+        }
+    }
+    // The prediction export covers every sample and agrees with the plotted model.
+    assert!(pred.channels.iter().all(|c| c.model_um.len() == n));
     let p = r.plots.iter().find(|p| p.id == "drift_ch5").unwrap();
     assert!(p.series.iter().any(|s| s.name.contains("split")));
+}
+
+/// `fit_fraction` moves the split: fitted on the first 70 %, the held-out part is the
+/// last 30 %, the export marks the same rows, and the model still predicts most of the
+/// held-out drift of every channel.
+#[test]
+fn fit_fraction_moves_the_split() {
+    let log = read_heat_run();
+    let opts = SeriesOptions {
+        train_fraction: 0.7,
+        ..SeriesOptions::default()
+    };
+    let (r, pred) = diagnose_drift_log_with_predictions(&log, "FL_THERMAL", &opts).unwrap();
+    assert_eq!(pred.n_fit, log.t_s.len() * 7 / 10);
+    for f in &r.findings {
+        assert!(
+            f.heldout_rms_um.after < 0.5 * f.heldout_rms_um.before,
+            "{:?}: {:?}",
+            f.axis,
+            f.heldout_rms_um
+        );
+    }
+    let bad = SeriesOptions {
+        train_fraction: 0.95,
+        ..SeriesOptions::default()
+    };
+    assert!(diagnose_drift_log_with_predictions(&log, "x", &bad).is_err());
 }
 
 /// A simulated log with a known first-order response to the spindle speed (24 h, 30 s
@@ -140,8 +162,16 @@ fn simulated_first_order_response_recovered() {
             .find(|f| f.axis.as_deref() == Some("ch1"))
             .expect("ch1 finding");
         let p = &f.parameters;
-        assert!(!p.contains_key("tau2_s"), "one lag expected: {p:?}");
-        assert!((p["tau1_s"] - tau).abs() <= 0.02 * tau, "{p:?}");
+        assert!(
+            !p.contains_key("tau2_s"),
+            "one lag expected: {p:?} {:?}",
+            f.undetermined
+        );
+        assert!(
+            (p["tau1_s"] - tau).abs() <= 0.02 * tau,
+            "{p:?} {:?}",
+            f.undetermined
+        );
         assert!((p["gain1_um"] - gain).abs() <= 0.01 * gain.abs(), "{p:?}");
         assert_eq!(p["rpm_exponent"], 1.0);
         assert!(

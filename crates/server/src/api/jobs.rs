@@ -21,7 +21,8 @@ pub struct SubmitJob {
     /// The machine, for kinds without a dataset (required by `sensitivity`; the result
     /// is filed under it).
     pub machine_id: Option<String>,
-    /// Kind-specific parameters; for `identify` see `IdentifyParams`.
+    /// Kind-specific parameters; for `identify` see `IdentifyParams`, for `diagnose`
+    /// `DiagnoseParams`.
     #[serde(default)]
     #[schema(value_type = Object)]
     pub params: serde_json::Value,

@@ -2,16 +2,17 @@
 //! all measured points at once, and its leave-one-pose-out validation.
 //!
 //! Nonlinear least squares: minimise Σ |p(Aᵢ, Cᵢ; q) − pᵢ|² over q (the parameters of
-//! [`model_from_params`]) by Gauss–Newton with step halving; the Jacobian by central
-//! differences; each step and the covariance σ²·V·S⁻²·Vᵀ from the SVD of the
+//! [`model_from_params`] for a [`ModelSpec`]) by Gauss–Newton with step halving
+//! ([`gauss_newton`], also used to register the instrument frame); the Jacobian by
+//! central differences; each step and the covariance σ²·V·S⁻²·Vᵀ from the SVD of the
 //! column-equilibrated Jacobian, σ² = SSR / (3N − P).
 //! Start: zero errors, the ball from the nominal inverse kinematics averaged over all
 //! points, w = Rz(C)ᵀ·Rx(A)ᵀ·(p − P).
 
-use super::model::{CradleModel, model_from_params};
+use super::model::{CradleModel, ModelSpec, model_from_params};
 use crate::error::SolverError;
 use crate::fits::{covariance, equilibrated_condition};
-use nalgebra::{DMatrix, DVector, Rotation3, Vector3};
+use nalgebra::{DMatrix, DVector, Isometry3, Rotation3, Vector3};
 
 /// One measured point: commanded A, C (rad), measured position (mm), pose index.
 #[derive(Debug, Clone, Copy)]
@@ -25,6 +26,7 @@ pub struct Obs {
 /// A fitted model.
 #[derive(Debug, Clone)]
 pub struct KinematicFit {
+    pub spec: ModelSpec,
     pub q: Vec<f64>,
     pub model: CradleModel,
     /// Covariance of q (mm, rad).
@@ -42,70 +44,74 @@ pub struct KinematicFit {
 
 const MAX_ITER: usize = 50;
 
-fn residuals(obs: &[Obs], pivot: [f64; 3], q: &[f64]) -> DVector<f64> {
-    let m = model_from_params(pivot, q);
+fn residuals(obs: &[Obs], pivot: [f64; 3], spec: &ModelSpec, q: &[f64]) -> DVector<f64> {
+    let m = model_from_params(pivot, spec, q);
+    let b = m.ball_in_table();
     let mut r = DVector::zeros(3 * obs.len());
+    // Points come grouped by pose: T_A once per A.
+    let mut a_part: Option<(f64, Isometry3<f64>)> = None;
     for (i, o) in obs.iter().enumerate() {
-        let e = m.ball(o.a, o.c) - o.p;
+        let ap = match a_part {
+            Some((a, p)) if a == o.a => p,
+            _ => {
+                let p = m.a_part(o.a);
+                a_part = Some((o.a, p));
+                p
+            }
+        };
+        let e = (ap * (m.c_part(o.c) * b)).coords - o.p;
         r.fixed_rows_mut::<3>(3 * i).copy_from(&e);
     }
     r
 }
 
-fn jacobian(obs: &[Obs], pivot: [f64; 3], q: &[f64]) -> DMatrix<f64> {
+/// Central-difference Jacobian of `f` at `q` (step 1e-6 in the parameter's unit).
+pub fn jacobian(f: &impl Fn(&[f64]) -> DVector<f64>, q: &[f64], rows: usize) -> DMatrix<f64> {
     const H: f64 = 1e-6;
-    let mut j = DMatrix::zeros(3 * obs.len(), q.len());
+    let mut j = DMatrix::zeros(rows, q.len());
     let mut qq = q.to_vec();
     for k in 0..q.len() {
         qq[k] = q[k] + H;
-        let rp = residuals(obs, pivot, &qq);
+        let rp = f(&qq);
         qq[k] = q[k] - H;
-        let rm = residuals(obs, pivot, &qq);
+        let rm = f(&qq);
         qq[k] = q[k];
         j.set_column(k, &((rp - rm) / (2.0 * H)));
     }
     j
 }
 
-/// Starting parameters: zero errors and compliance, the ball from nominal inverse
-/// kinematics. `n_params` is 11 (rigid) or 17 (compliant).
-pub fn start(obs: &[Obs], pivot: [f64; 3], n_params: usize) -> Vec<f64> {
-    let p = Vector3::from(pivot);
-    let mut w = Vector3::zeros();
-    for o in obs {
-        let r = Rotation3::from_axis_angle(&Vector3::x_axis(), o.a)
-            * Rotation3::from_axis_angle(&Vector3::z_axis(), o.c);
-        w += r.inverse() * (o.p - p);
-    }
-    w /= obs.len() as f64;
-    let mut q = vec![0.0; n_params];
-    q[8] = w.x.hypot(w.y);
-    q[9] = w.y.atan2(w.x);
-    q[10] = w.z;
-    q
+/// A Gauss–Newton solution of min ‖f(q)‖².
+#[derive(Debug, Clone)]
+pub struct GnSolution {
+    pub q: Vec<f64>,
+    pub residual: DVector<f64>,
+    pub iterations: usize,
+    pub converged: bool,
 }
 
-/// Fits the model to `obs` from `q0` (its length chooses rigid or compliant).
-pub fn fit_kinematics(
-    obs: &[Obs],
-    pivot: [f64; 3],
+/// Gauss–Newton with step halving from `q0` (module docs); `what` names the problem in
+/// errors.
+pub fn gauss_newton(
+    f: impl Fn(&[f64]) -> DVector<f64>,
     q0: &[f64],
-) -> Result<KinematicFit, SolverError> {
+    what: &str,
+) -> Result<GnSolution, SolverError> {
     let np = q0.len();
-    if 3 * obs.len() <= np {
+    let mut q = q0.to_vec();
+    let mut res = f(&q);
+    let rows = res.len();
+    if rows <= np {
         return Err(SolverError::Degenerate(format!(
-            "cradle model: {} coordinates for {np} parameters",
-            3 * obs.len()
+            "{what}: {rows} coordinates for {np} parameters"
         )));
     }
-    let mut q = q0.to_vec();
-    let mut res = residuals(obs, pivot, &q);
     let mut ss = res.norm_squared();
     let mut iterations = 0;
     let mut converged = false;
     while iterations < MAX_ITER {
         iterations += 1;
-        let j = jacobian(obs, pivot, &q);
+        let j = jacobian(&f, &q, rows);
         let scale: Vec<f64> = j.column_iter().map(|c| c.norm().max(1e-300)).collect();
         let mut js = j.clone();
         for (k, mut col) in js.column_iter_mut().enumerate() {
@@ -114,13 +120,13 @@ pub fn fit_kinematics(
         let z = js
             .svd(true, true)
             .solve(&(-&res), 1e-12)
-            .map_err(|e| SolverError::Degenerate(format!("cradle model: {e}")))?;
+            .map_err(|e| SolverError::Degenerate(format!("{what}: {e}")))?;
         let step: Vec<f64> = (0..np).map(|k| z[k] / scale[k]).collect();
         let mut lambda = 1.0;
         let mut accepted = false;
         for _ in 0..30 {
             let q2: Vec<f64> = q.iter().zip(&step).map(|(a, d)| a + lambda * d).collect();
-            let r2 = residuals(obs, pivot, &q2);
+            let r2 = f(&q2);
             let s2 = r2.norm_squared();
             if s2 <= ss * (1.0 + 1e-14) + 1e-30 {
                 q = q2;
@@ -140,11 +146,48 @@ pub fn fit_kinematics(
             break;
         }
     }
-    let j = jacobian(obs, pivot, &q);
+    Ok(GnSolution {
+        q,
+        residual: res,
+        iterations,
+        converged,
+    })
+}
+
+/// Starting parameters: zero errors and compliance, the ball from nominal inverse
+/// kinematics, the mount (if any) at the pivot.
+pub fn start(obs: &[Obs], pivot: [f64; 3], spec: &ModelSpec) -> Vec<f64> {
+    let p = Vector3::from(pivot);
+    let mut w = Vector3::zeros();
+    for o in obs {
+        let r = Rotation3::from_axis_angle(&Vector3::x_axis(), o.a)
+            * Rotation3::from_axis_angle(&Vector3::z_axis(), o.c);
+        w += r.inverse() * (o.p - p);
+    }
+    w /= obs.len() as f64;
+    let mut q = vec![0.0; spec.n_params()];
+    q[8] = w.x.hypot(w.y);
+    q[9] = w.y.atan2(w.x);
+    q[10] = w.z;
+    q
+}
+
+/// Fits the model `spec` to `obs` from `q0`.
+pub fn fit_kinematics(
+    obs: &[Obs],
+    pivot: [f64; 3],
+    spec: &ModelSpec,
+    q0: &[f64],
+) -> Result<KinematicFit, SolverError> {
+    let np = q0.len();
+    let f = |q: &[f64]| residuals(obs, pivot, spec, q);
+    let sol = gauss_newton(f, q0, "cradle model")?;
+    let ss = sol.residual.norm_squared();
+    let j = &jacobian(&f, &sol.q, sol.residual.len());
     let dof = 3 * obs.len() - np;
     let sigma = (ss / dof as f64).sqrt();
-    let cov = covariance(&j, sigma);
-    let condition = equilibrated_condition(&j);
+    let cov = covariance(j, sigma);
+    let condition = equilibrated_condition(j);
     let mut js = j.clone();
     for mut col in js.column_iter_mut() {
         let n = col.norm();
@@ -155,16 +198,22 @@ pub fn fit_kinematics(
     let sv = js.singular_values();
     let rank = sv.iter().filter(|s| **s > 1e-10 * sv.max()).count();
     Ok(KinematicFit {
-        model: model_from_params(pivot, &q),
-        q,
+        model: model_from_params(pivot, spec, &sol.q),
+        spec: *spec,
+        q: sol.q,
         cov,
         sigma,
         rms: (ss / obs.len() as f64).sqrt(),
         condition,
         rank,
-        iterations,
-        converged,
+        iterations: sol.iterations,
+        converged: sol.converged,
     })
+}
+
+/// The model of one leave-one-pose-out fold (no covariance needed).
+struct FoldFit {
+    model: CradleModel,
 }
 
 /// Held-out figures of one left-out pose: RMS 3-D distance of its measured points from
@@ -182,13 +231,21 @@ pub struct HeldOut {
 pub fn leave_one_pose_out(
     obs: &[Obs],
     pivot: [f64; 3],
+    spec: &ModelSpec,
     q: &[f64],
     n_poses: usize,
 ) -> Result<Vec<HeldOut>, SolverError> {
     let mut out = Vec::with_capacity(n_poses);
     for k in 0..n_poses {
         let train: Vec<Obs> = obs.iter().filter(|o| o.pose != k).copied().collect();
-        let fit = fit_kinematics(&train, pivot, q)?;
+        let sol = gauss_newton(
+            |q: &[f64]| residuals(&train, pivot, spec, q),
+            q,
+            "cradle model",
+        )?;
+        let fit = FoldFit {
+            model: model_from_params(pivot, spec, &sol.q),
+        };
         let (mut sb, mut sa, mut ma, mut n) = (0.0, 0.0, 0.0f64, 0usize);
         for o in obs.iter().filter(|o| o.pose == k) {
             let before = (o.p - fit.model.nominal_ball(o.a, o.c)).norm();

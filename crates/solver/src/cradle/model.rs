@@ -17,9 +17,17 @@
 //! * T_C(C) = Trans(EX0C, EY0C, 0) · Rx(EA0C) · Ry(EB0C) · Rz(C + EC0C): the C axis, in the
 //!   A body frame, has direction ≈ (EB0C, −EA0C, 1) and passes through (EX0C, EY0C, 0);
 //! * ρ(A) = s·sin A + k·(cos A − 1): compliance, a spatial rotation vector of the table
-//!   about the pivot that vanishes at A = 0 (a rigid cradle has s = k = 0; constant
-//!   deflections are location errors). Gravity loading of a tilting cradle has this
-//!   form: the load's components across and along the table go as sin A and cos A.
+//!   that vanishes at A = 0 (a rigid cradle has s = k = 0; constant deflections are
+//!   location errors). Gravity loading of a tilting cradle has this form: the load's
+//!   components across and along the table go as sin A and cos A. It acts about the
+//!   pivot, or about the C table's mount: the point M(A) = P + Rx(A)·(0, 0, z_M) at
+//!   height z_M on the C axis, turning with A (a table that tilts on its own bearing).
+//!   The full expression with the mount is
+//!   p(A, C) = t_X(A)·x̂ + M(A) + Rot(ρ(A))·(T_A(A)·T_C(C)·b − M(A)),
+//!   with t_X(A) = e_s·sin A + e_c·(cos A − 1) a shift of the table along the A axis.
+//! * EAA(A) = Σ_{j=1..3} e_j·(A/90°)^j: the angular positioning error of A beyond its
+//!   zero EA0A (a scale error, and a curvature of the A encoder or drive), added to the
+//!   commanded A in T_A: Rx(A + EA0A + EAA(A)).
 //!
 //! Nominal kinematics: p₀(A, C) = P + Rx(A)·Rz(C)·b.
 
@@ -66,6 +74,14 @@ pub struct Ball {
 pub struct Compliance {
     pub sin_urad: [f64; 3],
     pub cos_urad: [f64; 3],
+    /// Height z_M on the C axis (mm from the pivot, turning with A) of the point ρ(A)
+    /// acts about: 0 is the pivot; otherwise the C table's mount.
+    #[serde(default)]
+    pub centre_height_mm: f64,
+    /// Shift of the table along the A axis, t_X(A) = e_s·sin A + e_c·(cos A − 1):
+    /// (e_s, e_c), µm.
+    #[serde(default)]
+    pub axial_um: [f64; 2],
 }
 
 impl Compliance {
@@ -75,6 +91,7 @@ impl Compliance {
         Compliance {
             sin_urad: [sa, mb, mc],
             cos_urad: [ka, -mc, mb],
+            ..Compliance::default()
         }
     }
 
@@ -90,6 +107,18 @@ impl Compliance {
         let (s, c) = a_rad.sin_cos();
         (Vector3::from(self.sin_urad) * s + Vector3::from(self.cos_urad) * (c - 1.0)) * 1e-6
     }
+
+    /// t_X(A) in mm.
+    pub fn axial_mm(&self, a_rad: f64) -> f64 {
+        let (s, c) = a_rad.sin_cos();
+        (self.axial_um[0] * s + self.axial_um[1] * (c - 1.0)) * 1e-3
+    }
+}
+
+/// EAA(A) = Σ_{j=1..3} e_j·(A/90°)^j in rad, for coefficients `e_urad` (µrad).
+pub fn eaa_rad(e_urad: &[f64; 3], a_rad: f64) -> f64 {
+    let x = a_rad / std::f64::consts::FRAC_PI_2;
+    (e_urad[0] * x + e_urad[1] * x * x + e_urad[2] * x * x * x) * 1e-6
 }
 
 /// A cradle: nominal pivot, location errors, ball and compliance.
@@ -99,6 +128,10 @@ pub struct CradleModel {
     pub location: LocationErrors,
     pub ball: Ball,
     pub compliance: Compliance,
+    /// Angular positioning error of A beyond EA0A: EAA(A) = Σ e_j·(A/90°)^j, (e₁, e₂, e₃)
+    /// in µrad ([`eaa_rad`]).
+    #[serde(default)]
+    pub eaa_urad: [f64; 3],
 }
 
 fn rx(t: f64) -> UnitQuaternion<f64> {
@@ -118,19 +151,35 @@ impl CradleModel {
     /// Pose of the table frame in the machine frame at commanded (A, C) in radians:
     /// p = pose · w for a table point w.
     pub fn table_pose(&self, a: f64, c: f64) -> Isometry3<f64> {
+        self.a_part(a) * self.c_part(c)
+    }
+
+    /// The part of [`Self::table_pose`] that depends on A only: compliance, shift and
+    /// T_A(A).
+    pub fn a_part(&self, a: f64) -> Isometry3<f64> {
         let l = &self.location;
         let p = Vector3::from(self.pivot_mm);
         let ta = iso(
             p + Vector3::new(0.0, l.ey0a_um, l.ez0a_um) * 1e-3,
-            rz(l.ec0a_urad * 1e-6) * ry(l.eb0a_urad * 1e-6) * rx(a + l.ea0a_urad * 1e-6),
+            rz(l.ec0a_urad * 1e-6)
+                * ry(l.eb0a_urad * 1e-6)
+                * rx(a + l.ea0a_urad * 1e-6 + eaa_rad(&self.eaa_urad, a)),
         );
-        let tc = iso(
+        let k = &self.compliance;
+        let rho = UnitQuaternion::from_scaled_axis(k.rotation_vector(a));
+        let centre = p + rx(a) * Vector3::new(0.0, 0.0, k.centre_height_mm);
+        let shift = Vector3::x() * k.axial_mm(a);
+        let about_centre = iso(shift + centre - rho * centre, rho);
+        about_centre * ta
+    }
+
+    /// T_C(C), the part of [`Self::table_pose`] that depends on C only.
+    pub fn c_part(&self, c: f64) -> Isometry3<f64> {
+        let l = &self.location;
+        iso(
             Vector3::new(l.ex0c_um, l.ey0c_um, 0.0) * 1e-3,
             rx(l.ea0c_urad * 1e-6) * ry(l.eb0c_urad * 1e-6) * rz(c + l.ec0c_urad * 1e-6),
-        );
-        let rho = UnitQuaternion::from_scaled_axis(self.compliance.rotation_vector(a));
-        let about_pivot = iso(p - rho * p, rho);
-        about_pivot * ta * tc
+        )
     }
 
     /// The ball in the table frame, mm.
@@ -160,10 +209,120 @@ impl CradleModel {
     }
 }
 
-/// Names of the identification parameters, in order, with their reporting unit. Internal
-/// units: mm and rad (the first eight are location errors, then the ball, then the
-/// compliance coefficients).
-pub const PARAM_NAMES: [&str; 15] = [
+/// How the tilts of ρ(A) act.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum Tilt {
+    /// No tilt with A (m_B = m_C = 0).
+    None,
+    /// About the pivot.
+    Pivot,
+    /// About the C table's mount at a fitted height z_M on the C axis.
+    Mount,
+}
+
+/// Which A-dependent terms a kinematic model carries beyond the rigid one (the location
+/// errors and the ball). Parameter vector (mm, rad): the 11 rigid ones ([`RIGID_NAMES`]),
+/// then, when present and in this order, s_A, k_A (`a_harmonic`); m_B, m_C (a tilt);
+/// z_M (mount); e_s, e_c (`axial`); e₁ … e_order (`eaa_order`).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
+pub struct ModelSpec {
+    pub tilt: Tilt,
+    /// Rotation about A of the form s_A·sin A + k_A·(cos A − 1) (gravity torque against
+    /// a stiff drive).
+    pub a_harmonic: bool,
+    /// Polynomial order of EAA(A) (0–3).
+    pub eaa_order: usize,
+    /// Shift along the A axis with A.
+    pub axial: bool,
+}
+
+impl Default for ModelSpec {
+    fn default() -> Self {
+        ModelSpec::RIGID
+    }
+}
+
+impl ModelSpec {
+    /// Location errors and ball only.
+    pub const RIGID: ModelSpec = ModelSpec {
+        tilt: Tilt::None,
+        a_harmonic: false,
+        eaa_order: 0,
+        axial: false,
+    };
+    /// The classic compliant model: ρ(A) about the pivot, observable form (s_A, k_A, m_B,
+    /// m_C).
+    pub const COMPLIANT: ModelSpec = ModelSpec {
+        tilt: Tilt::Pivot,
+        a_harmonic: true,
+        eaa_order: 0,
+        axial: false,
+    };
+
+    /// Whether anything depends on A beyond the rigid model.
+    pub fn is_rigid(&self) -> bool {
+        *self == ModelSpec::RIGID
+    }
+
+    /// Parameter names in order (module docs).
+    pub fn names(&self) -> Vec<&'static str> {
+        let mut v = RIGID_NAMES.to_vec();
+        if self.a_harmonic {
+            v.extend(["s_A", "k_A"]);
+        }
+        if self.tilt != Tilt::None {
+            v.extend(["m_B", "m_C"]);
+        }
+        if self.tilt == Tilt::Mount {
+            v.push("z_M");
+        }
+        if self.axial {
+            v.extend(["e_s", "e_c"]);
+        }
+        v.extend(["e_1", "e_2", "e_3"].iter().take(self.eaa_order.min(3)));
+        v
+    }
+
+    pub fn n_params(&self) -> usize {
+        self.names().len()
+    }
+
+    /// Index of a parameter by name.
+    pub fn index(&self, name: &str) -> Option<usize> {
+        self.names().iter().position(|n| *n == name)
+    }
+
+    /// A sentence naming the model.
+    pub fn describe(&self) -> String {
+        if self.is_rigid() {
+            return "rigid".into();
+        }
+        let mut parts = vec![];
+        match self.tilt {
+            Tilt::None => {}
+            Tilt::Pivot => parts.push("table tilts with A about the pivot".to_string()),
+            Tilt::Mount => parts.push("table tilts with A about the C table's mount".to_string()),
+        }
+        if self.a_harmonic {
+            parts.push("A positioning error s_A·sin A + k_A·(cos A − 1)".to_string());
+        }
+        if self.eaa_order > 0 {
+            parts.push(format!(
+                "A positioning error EAA(A) of order {}",
+                self.eaa_order
+            ));
+        }
+        if self.axial {
+            parts.push("table shifts along A with A".to_string());
+        }
+        parts.join(" + ")
+    }
+}
+
+/// Names of the rigid model's parameters (internal units mm and rad): the first eight are
+/// location errors, then the ball.
+pub const RIGID_NAMES: [&str; 11] = [
     "EY0A",
     "EZ0A",
     "EB0A",
@@ -175,23 +334,21 @@ pub const PARAM_NAMES: [&str; 15] = [
     "ball_radius",
     "ball_azimuth",
     "ball_height",
-    "s_A",
-    "k_A",
-    "m_B",
-    "m_C",
 ];
 
 /// Number of rigid-model parameters (location errors and ball).
 pub const N_RIGID: usize = 11;
 
-/// Parameter vector (mm, rad) ↔ model. EA0A and EA0C act identically on a ball on the
-/// table (to first order), so one parameter carries their sum (stored in EA0A, EA0C = 0);
-/// EC0C acts exactly like the ball's azimuth, so it is carried by the azimuth (EC0C = 0).
-pub fn model_from_params(pivot_mm: [f64; 3], q: &[f64]) -> CradleModel {
-    let mut compliance = Compliance::default();
-    if q.len() >= 15 {
-        compliance = Compliance::from_observable([q[11], q[12], q[13], q[14]].map(|v| v * 1e6));
-    }
+/// Parameter vector (mm, rad) ↔ model, for the terms `spec` carries. EA0A and EA0C act
+/// identically on a ball on the table (to first order), so one parameter carries their
+/// sum (stored in EA0A, EA0C = 0); EC0C acts exactly like the ball's azimuth, so it is
+/// carried by the azimuth (EC0C = 0).
+pub fn model_from_params(pivot_mm: [f64; 3], spec: &ModelSpec, q: &[f64]) -> CradleModel {
+    let get = |name: &str| spec.index(name).map_or(0.0, |i| q[i]);
+    let mut compliance =
+        Compliance::from_observable(["s_A", "k_A", "m_B", "m_C"].map(|n| get(n) * 1e6));
+    compliance.centre_height_mm = get("z_M");
+    compliance.axial_um = [get("e_s") * 1e3, get("e_c") * 1e3];
     CradleModel {
         pivot_mm,
         location: LocationErrors {
@@ -212,27 +369,40 @@ pub fn model_from_params(pivot_mm: [f64; 3], q: &[f64]) -> CradleModel {
             height_mm: q[10],
         },
         compliance,
+        eaa_urad: ["e_1", "e_2", "e_3"].map(|n| get(n) * 1e6),
     }
 }
 
-/// Inverse of [`model_from_params`] (EA0A + EA0C summed, EC0C folded into the azimuth).
-pub fn params_from_model(m: &CradleModel, compliant: bool) -> Vec<f64> {
+/// Inverse of [`model_from_params`] (EA0A + EA0C summed, EC0C folded into the azimuth;
+/// terms `spec` does not carry are dropped).
+pub fn params_from_model(m: &CradleModel, spec: &ModelSpec) -> Vec<f64> {
     let l = &m.location;
-    let mut q = vec![
-        l.ey0a_um * 1e-3,
-        l.ez0a_um * 1e-3,
-        l.eb0a_urad * 1e-6,
-        l.ec0a_urad * 1e-6,
-        (l.ea0a_urad + l.ea0c_urad) * 1e-6,
-        l.ex0c_um * 1e-3,
-        l.ey0c_um * 1e-3,
-        l.eb0c_urad * 1e-6,
-        m.ball.radius_mm,
-        m.ball.azimuth_deg.to_radians() + l.ec0c_urad * 1e-6,
-        m.ball.height_mm,
-    ];
-    if compliant {
-        q.extend(m.compliance.observable().iter().map(|v| v * 1e-6));
-    }
-    q
+    let [sa, ka, mb, mc] = m.compliance.observable();
+    spec.names()
+        .iter()
+        .map(|name| match *name {
+            "EY0A" => l.ey0a_um * 1e-3,
+            "EZ0A" => l.ez0a_um * 1e-3,
+            "EB0A" => l.eb0a_urad * 1e-6,
+            "EC0A" => l.ec0a_urad * 1e-6,
+            "EA0A+EA0C" => (l.ea0a_urad + l.ea0c_urad) * 1e-6,
+            "EX0C" => l.ex0c_um * 1e-3,
+            "EY0C" => l.ey0c_um * 1e-3,
+            "EB0C" => l.eb0c_urad * 1e-6,
+            "ball_radius" => m.ball.radius_mm,
+            "ball_azimuth" => m.ball.azimuth_deg.to_radians() + l.ec0c_urad * 1e-6,
+            "ball_height" => m.ball.height_mm,
+            "s_A" => sa * 1e-6,
+            "k_A" => ka * 1e-6,
+            "m_B" => mb * 1e-6,
+            "m_C" => mc * 1e-6,
+            "z_M" => m.compliance.centre_height_mm,
+            "e_s" => m.compliance.axial_um[0] * 1e-3,
+            "e_c" => m.compliance.axial_um[1] * 1e-3,
+            "e_1" => m.eaa_urad[0] * 1e-6,
+            "e_2" => m.eaa_urad[1] * 1e-6,
+            "e_3" => m.eaa_urad[2] * 1e-6,
+            other => unreachable!("parameter {other}"),
+        })
+        .collect()
 }

@@ -21,12 +21,37 @@ pub struct CradleSimulation {
     pub seed: u64,
 }
 
+/// How the example cradle deflects with A.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum Deflection {
+    /// Rigid connection.
+    Rigid,
+    /// The table tilts with A about the pivot (up to ~90 µrad, observable form).
+    Pivot,
+    /// The C table tilts with A about its own mount 150 mm below the pivot, and the A
+    /// axis has a positioning error EAA(A) = 20·(A/90°) − 12·(A/90°)² µrad.
+    Mount,
+}
+
 impl CradleSimulation {
     /// An example cradle: A from −90° to 90° step 15°, C every 20°, ball 150 mm from the
     /// C axis and 60 mm above the pivot, location errors of tens of µm and µrad, tracker
     /// noise 2 µm. With `compliant`, the table deflects by up to ~90 µrad with A
     /// (observable form, see [`Compliance::from_observable`]).
     pub fn example(compliant: bool, seed: u64) -> Self {
+        Self::example_with(
+            if compliant {
+                Deflection::Pivot
+            } else {
+                Deflection::Rigid
+            },
+            seed,
+        )
+    }
+
+    /// The example cradle with the given deflection (see [`Deflection`]).
+    pub fn example_with(deflection: Deflection, seed: u64) -> Self {
         let truth = CradleModel {
             pivot_mm: [0.0, 0.0, 0.0],
             location: LocationErrors {
@@ -46,10 +71,17 @@ impl CradleSimulation {
                 azimuth_deg: 3.0,
                 height_mm: 60.0,
             },
-            compliance: if compliant {
-                Compliance::from_observable([8.0, -5.0, 60.0, -25.0])
-            } else {
-                Compliance::default()
+            compliance: match deflection {
+                Deflection::Rigid => Compliance::default(),
+                Deflection::Pivot => Compliance::from_observable([8.0, -5.0, 60.0, -25.0]),
+                Deflection::Mount => Compliance {
+                    centre_height_mm: -150.0,
+                    ..Compliance::from_observable([0.0, 0.0, 60.0, -25.0])
+                },
+            },
+            eaa_urad: match deflection {
+                Deflection::Mount => [20.0, -12.0, 0.0],
+                _ => [0.0; 3],
             },
         };
         CradleSimulation {

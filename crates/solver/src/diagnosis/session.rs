@@ -723,6 +723,7 @@ pub fn diagnose_session(
                 before: h_before,
                 after: h_after,
             },
+            undetermined: vec![],
             evidence: format!(
                 "{}: BIC {:+.1} with {} extra parameter(s); held-out RMS {:.3} -> {:.3} um over {} folds of whole runs; noise floor {:.3} um",
                 t.cand.label(),

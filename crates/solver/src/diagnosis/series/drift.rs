@@ -1,71 +1,76 @@
 //! Drift logs (datasets contract section 4, ISO 230-3 style): the rigid model predicts no
 //! movement, i.e. a constant per displacement channel. The missing physics is thermal
-//! growth of the structure, modelled two ways and chosen per channel by held-out error:
+//! growth of the structure, modelled two ways and chosen per channel on the fitting part
+//! of the recording alone:
 //!
-//! * **spindle history**: the heat input u(t) = (n(t)/n_max)^p of the spindle speed n
-//!   (p = 1 or 2) drives one or two first-order lags
-//!   Lτ[u]: τ ẋ = u − x, sampled exactly with the input held between samples,
-//!   x_k = e^{−Δt/τ} x_{k−1} + (1 − e^{−Δt/τ}) u_{k−1}, x_0 = u_0 (at rest).
-//!   Model y = c + Σ_j g_j Lτ_j[u]; g_j is the steady-state growth at full speed (µm);
-//!   τ_j by a 1-D log-grid search refined by golden section (two lags: grid of pairs,
-//!   then coordinate refinement). Two lags of opposite sign describe a fast (spindle,
-//!   head) and a slow (column, bed) path.
-//! * **structure temperatures**: y = c + Σ_i k_i T_i over a few sensors chosen by forward
-//!   selection (k_i in µm/K); optionally together with the spindle lags.
+//! * **spindle lags** (parametric, interpretable): the heat input u(t) = (n(t)/n_max)^p
+//!   of the spindle speed n (p = 1 or 2) drives one or two first-order lags
+//!   Lτ[u]: τ ẋ = u − x ([`first_order_lag`]). Model y = c + Σ_j g_j Lτ_j[u]; g_j is the
+//!   steady-state growth at full speed (µm); τ_j by a 1-D log-grid search of the fit's
+//!   sum of squares refined by golden section (two lags: grid of pairs, then coordinate
+//!   refinement). Two lags of opposite sign describe a fast (spindle, head) and a slow
+//!   (column, bed) path.
+//! * **thermal model** ([`crate::thermal`]): ridge regression on a bank of lags of the
+//!   spindle heat input (n and n², 0.1–2 h) and of every structure temperature
+//!   (0.1–2 h), its penalty chosen by rolling-origin cross-validation.
 //!
 //! Protocol: fit on the first `train_fraction` (60 %) of the recording, judge on the rest.
-//! The family (lags, exponent, sensors) is chosen by blocked 4-fold cross-validation
-//! inside the training part only, so the last 40 % is never used for a choice. Reported:
-//! held-out RMS of the rigid constant (fitted on the training part) and of the model,
-//! and the share of drift predicted, 1 − SSE_after/SSE_rigid on the held-out part.
+//! Every candidate, and the rigid constant, is scored by the same rolling-origin
+//! cross-validation inside the fitting part ([`crate::thermal::rolling_origin`]: blocks
+//! 3, 4 and 5 of 5, each predicted by the model fitted on all rows before it), so the
+//! rest of the recording is never used for a choice. (The parametric candidates' time
+//! constants are searched once on the whole fitting part, a mild optimism of their CV
+//! figure.) Parsimony ([`PARSIMONY`]): a second lag, and the thermal model instead of the
+//! parametric one, must each lower the CV sum of squares by more than 10 %; the chosen
+//! model must lower the rigid constant's CV sum of squares by `min_heldout_gain`.
+//! Reported: held-out RMS and MAE of the rigid constant (fitted on the fitting part) and
+//! of the model, and the share of drift predicted, 1 − SSE_after/SSE_rigid on the
+//! held-out part.
 //!
 //! Noise floor per channel, independent of any model: σ = 1.4826·median|Δy| / √2 (the
 //! sample-to-sample scatter; slow drift contributes nothing to it).
-//! Uncertainties: from the Jacobian including ∂/∂ln τ columns, multiplied by
-//! √((1+ρ)/(1−ρ)) with ρ the lag-1 autocorrelation of the training residuals (effective
-//! sample size of AR(1) residuals); they remain indicative, the residuals of a drift
-//! model are not white.
+//! Uncertainties: parametric model, from the Jacobian including ∂/∂ln τ columns; thermal
+//! model, from the ridge covariance ([`crate::thermal`]); both multiplied by
+//! √((1+ρ)/(1−ρ)) with ρ the lag-1 autocorrelation of the fit residuals (effective sample
+//! size of AR(1) residuals). They remain indicative, the residuals of a drift model are
+//! not white. A parameter whose standard uncertainty exceeds a third of its magnitude is
+//! not reported as a finding's parameter but listed as undetermined, with what data
+//! would decide it.
 
 use super::lsq::{self, Design};
 use super::{SeriesOptions, decimate, golden_min, log_grid, rms};
 use crate::datasets::{Channel, ChannelKind, DriftLog};
 use crate::diagnosis::{
-    Baseline, BeforeAfter, DiagnosisResult, Finding, Mismatch, PlotData, PlotSeries, Verdict,
+    Baseline, BeforeAfter, DiagnosisResult, Finding, Mismatch, PlotData, PlotSeries, Undetermined,
+    Verdict,
 };
 use crate::error::SolverError;
+use crate::thermal::{self, DETERMINED_Z, Regressor, ThermalFit, ThermalInputs, ThermalOptions};
 use std::collections::BTreeMap;
 
-/// First-order lag of `u` with time constant `tau` (s) on sample times `t` (module docs).
-pub fn first_order_lag(t: &[f64], u: &[f64], tau: f64) -> Vec<f64> {
-    let mut x = Vec::with_capacity(u.len());
-    if u.is_empty() {
-        return x;
-    }
-    x.push(u[0]);
-    for k in 1..u.len() {
-        let a = (-(t[k] - t[k - 1]) / tau).exp();
-        let prev = x[k - 1];
-        x.push(a * prev + (1.0 - a) * u[k - 1]);
-    }
-    x
-}
+pub use crate::thermal::first_order_lag;
 
-/// Which model family explains a channel.
+/// Parsimony: a richer model (a second lag; the thermal model instead of the parametric
+/// one) is chosen only when its cross-validated sum of squares is below this fraction of
+/// the simpler one's.
+pub const PARSIMONY: f64 = 0.9;
+
+/// Parametric spindle model: heat-input exponent p and lag time constants (s); no lags:
+/// the rigid constant.
 #[derive(Debug, Clone, PartialEq)]
 struct Model {
-    /// Spindle heat-input exponent p and lag time constants (s); empty: no spindle term.
     p: f64,
     taus: Vec<f64>,
-    /// Indices into the temperature channels.
-    sensors: Vec<usize>,
 }
 
 struct Inputs<'a> {
     t: &'a [f64],
     speed: Option<&'a Channel>,
     rpm_max: f64,
-    temps: Vec<&'a Channel>,
+    temps: Vec<(&'a str, &'a [f64])>,
     n_train: usize,
+    /// The thermal model's regressors (the same for every channel).
+    bank: Vec<Regressor>,
 }
 
 impl Inputs<'_> {
@@ -87,35 +92,44 @@ impl Inputs<'_> {
                 d.push(format!("lag{}", j + 1), first_order_lag(self.t, &u, tau));
             }
         }
-        for &i in &m.sensors {
-            d.push(self.temps[i].name.clone(), self.temps[i].values.clone());
-        }
         d
     }
-}
 
-/// Blocked k-fold cross-validation SSE on rows `0..n_train` (contiguous blocks).
-fn cv_sse(d: &Design, y: &[f64], n_train: usize, folds: usize) -> f64 {
-    let mut total = 0.0;
-    for f in 0..folds {
-        let (a, b) = (f * n_train / folds, (f + 1) * n_train / folds);
-        let train: Vec<usize> = (0..n_train).filter(|&i| i < a || i >= b).collect();
-        let test: Vec<usize> = (a..b).collect();
-        let fit = lsq::solve(
-            &d.rows(&train),
-            &train.iter().map(|&i| y[i]).collect::<Vec<_>>(),
-        );
-        let pred = d.rows(&test).predict(&fit.coef);
-        total += test
-            .iter()
-            .zip(&pred)
-            .map(|(&i, p)| (y[i] - p).powi(2))
-            .sum::<f64>();
+    fn thermal(&self) -> ThermalInputs<'_> {
+        ThermalInputs {
+            t_s: self.t,
+            speed_rpm: self.speed.map(|c| c.values.as_slice()),
+            temperatures: &self.temps,
+        }
     }
-    total
 }
 
-const FOLDS: usize = 4;
+/// Rolling-origin cross-validation sum of squares of a least-squares design on the
+/// fitting rows `0..n_train` (folds of [`thermal::rolling_origin`]).
+fn cv_sse(d: &Design, y: &[f64], n_train: usize) -> f64 {
+    thermal::rolling_origin(n_train)
+        .iter()
+        .map(|f| {
+            let train: Vec<usize> = (0..f.train_end).collect();
+            let fit = lsq::solve(&d.rows(&train), &y[..f.train_end]);
+            let valid: Vec<usize> = f.valid.clone().collect();
+            let pred = d.rows(&valid).predict(&fit.coef);
+            valid
+                .iter()
+                .zip(&pred)
+                .map(|(&i, p)| (y[i] - p).powi(2))
+                .sum::<f64>()
+        })
+        .sum()
+}
+
+/// Number of rows the rolling-origin folds predict.
+fn cv_rows(n_train: usize) -> usize {
+    thermal::rolling_origin(n_train)
+        .iter()
+        .map(|f| f.valid.len())
+        .sum()
+}
 
 /// Training-part SSE of y on [1, columns...].
 fn train_sse(cols: &[&[f64]], y: &[f64], n_train: usize) -> f64 {
@@ -208,35 +222,6 @@ fn search_lags(inp: &Inputs, y: &[f64], p: f64, nlags: usize) -> Vec<f64> {
     taus
 }
 
-/// Forward selection of temperature sensors on top of `base`, by blocked CV on the
-/// training part; a sensor is added when it lowers the CV SSE by at least 2 %.
-fn select_sensors(inp: &Inputs, y: &[f64], base: &Model, max: usize) -> (Model, f64) {
-    let mut m = base.clone();
-    let mut cur = cv_sse(&inp.design(&m), y, inp.n_train, FOLDS);
-    while m.sensors.len() < max {
-        let mut best: Option<(usize, f64)> = None;
-        for i in 0..inp.temps.len() {
-            if m.sensors.contains(&i) {
-                continue;
-            }
-            let mut trial = m.clone();
-            trial.sensors.push(i);
-            let s = cv_sse(&inp.design(&trial), y, inp.n_train, FOLDS);
-            if best.is_none_or(|(_, b)| s < b) {
-                best = Some((i, s));
-            }
-        }
-        match best {
-            Some((i, s)) if s < 0.98 * cur => {
-                m.sensors.push(i);
-                cur = s;
-            }
-            _ => break,
-        }
-    }
-    (m, cur)
-}
-
 /// Everything found for one displacement channel.
 struct ChannelOutcome {
     name: String,
@@ -263,38 +248,37 @@ fn noise_floor(y: &[f64]) -> f64 {
     1.4826 * d[d.len() / 2] / 2f64.sqrt()
 }
 
-fn lag1_autocorr(r: &[f64]) -> f64 {
-    let m = r.iter().sum::<f64>() / r.len().max(1) as f64;
-    let den: f64 = r.iter().map(|v| (v - m).powi(2)).sum();
-    let num: f64 = r.windows(2).map(|w| (w[0] - m) * (w[1] - m)).sum();
-    if den > 0.0 {
-        (num / den).clamp(-0.99, 0.999)
-    } else {
-        0.0
-    }
+fn describe(m: &Model) -> String {
+    let p = if m.p == 1.0 { "n" } else { "n²" };
+    format!(
+        "{} first-order lag(s) of spindle heat input ∝ {p}",
+        m.taus.len()
+    )
 }
 
-fn describe(m: &Model, inp: &Inputs) -> String {
-    let mut parts = vec![];
-    if !m.taus.is_empty() {
-        let p = if m.p == 1.0 { "n" } else { "n²" };
-        parts.push(format!(
-            "{} first-order lag(s) of spindle heat input ∝ {p}",
-            m.taus.len()
-        ));
-    }
-    if !m.sensors.is_empty() {
-        let names: Vec<&str> = m
-            .sensors
-            .iter()
-            .map(|&i| inp.temps[i].name.as_str())
-            .collect();
-        parts.push(format!("temperatures {}", names.join(", ")));
-    }
-    if parts.is_empty() {
-        "constant".into()
+/// The model chosen for a channel.
+enum Chosen {
+    Parametric { desc: String, model: Model, cv: f64 },
+    Thermal(Box<ThermalFit>),
+}
+
+/// Splits (name, value, std) into determined parameters and undetermined ones.
+fn sort_parameter(
+    params: &mut BTreeMap<String, f64>,
+    undetermined: &mut Vec<Undetermined>,
+    (name, value, std): (String, f64, f64),
+    decide: &str,
+) {
+    if value.abs() >= DETERMINED_Z * std && std.is_finite() {
+        params.insert(format!("std_{name}"), std);
+        params.insert(name, value);
     } else {
-        parts.join(" + ")
+        undetermined.push(Undetermined {
+            name,
+            value,
+            std,
+            decide: decide.to_string(),
+        });
     }
 }
 
@@ -306,46 +290,58 @@ fn analyse_channel(ch: &Channel, inp: &Inputs, opts: &SeriesOptions) -> ChannelO
     let rigid = Model {
         p: 1.0,
         taus: vec![],
-        sensors: vec![],
     };
-    let cv_rigid = cv_sse(&inp.design(&rigid), y, nt, FOLDS);
+    let nv = cv_rows(nt).max(1) as f64;
+    let cv_rigid = cv_sse(&inp.design(&rigid), y, nt);
     let mean_train = y[..nt].iter().sum::<f64>() / nt as f64;
     let rigid_res: Vec<f64> = y.iter().map(|v| v - mean_train).collect();
 
-    // Candidates, each scored by blocked CV on the training part only.
+    // Candidates, each scored by rolling-origin CV on the fitting part only.
     let mut cands: Vec<(String, Model, f64)> = vec![];
-    let mut best_spindle: Option<(Model, f64)> = None;
     if inp.speed.is_some() && inp.rpm_max > 0.0 {
         for p in [1.0, 2.0] {
             for nl in [1, 2] {
                 let m = Model {
                     p,
                     taus: search_lags(inp, y, p, nl),
-                    sensors: vec![],
                 };
-                let s = cv_sse(&inp.design(&m), y, nt, FOLDS);
-                cands.push((describe(&m, inp), m.clone(), s));
-                if best_spindle.as_ref().is_none_or(|(_, b)| s < *b) {
-                    best_spindle = Some((m, s));
-                }
+                let s = cv_sse(&inp.design(&m), y, nt);
+                cands.push((describe(&m), m, s));
             }
         }
     }
-    if !inp.temps.is_empty() && opts.max_sensors > 0 {
-        let (m, s) = select_sensors(inp, y, &rigid, opts.max_sensors);
-        cands.push((describe(&m, inp), m, s));
-        if let Some((bm, _)) = &best_spindle {
-            let (m, s) = select_sensors(inp, y, bm, opts.max_sensors);
-            if !m.sensors.is_empty() {
-                cands.push((describe(&m, inp), m, s));
-            }
-        }
-    }
-    let chosen = cands
-        .iter()
-        .min_by(|a, b| a.2.total_cmp(&b.2))
-        .filter(|c| c.2 < (1.0 - opts.min_heldout_gain) * cv_rigid)
-        .cloned();
+    // The best one-lag model; a second lag must earn its place the same way.
+    let best_of = |nl: usize| {
+        cands
+            .iter()
+            .filter(|c| c.1.taus.len() == nl)
+            .min_by(|a, b| a.2.total_cmp(&b.2))
+            .cloned()
+    };
+    let parametric = match (best_of(1), best_of(2)) {
+        (Some(one), Some(two)) if two.2 < PARSIMONY * one.2 => Some(two),
+        (one, _) => one,
+    };
+    let thermal_fit = if inp.bank.is_empty() {
+        None
+    } else {
+        thermal::fit_thermal(&inp.bank, &inp.thermal(), y, nt, &ThermalOptions::default()).ok()
+    };
+    let thermal_cv = thermal_fit
+        .as_ref()
+        .map(|f| f.cv_rms.powi(2) * f.cv_rows as f64);
+    let thermal_wins = |cv: f64| thermal_cv.is_some_and(|s| s < PARSIMONY * cv);
+    let chosen = match (parametric, thermal_fit) {
+        (Some((_, _, cv)), Some(t)) if thermal_wins(cv) => Some(Chosen::Thermal(Box::new(t))),
+        (Some((desc, model, cv)), _) => Some(Chosen::Parametric { desc, model, cv }),
+        (None, Some(t)) => Some(Chosen::Thermal(Box::new(t))),
+        (None, None) => None,
+    };
+    let chosen_cv = |c: &Chosen| match c {
+        Chosen::Parametric { cv, .. } => *cv,
+        Chosen::Thermal(_) => thermal_cv.unwrap_or(f64::INFINITY),
+    };
+    let chosen = chosen.filter(|c| chosen_cv(c) < (1.0 - opts.min_heldout_gain) * cv_rigid);
 
     let rigid_train_rms = rms(&rigid_res[..nt]);
     let rigid_test_rms = rms(&rigid_res[nt..]);
@@ -380,15 +376,80 @@ fn analyse_channel(ch: &Channel, inp: &Inputs, opts: &SeriesOptions) -> ChannelO
         peak: (rigid_res[ipk], hours(ipk)),
         window_h,
     };
-    let Some((desc, model, cv_model)) = chosen else {
+    let Some(chosen) = chosen else {
         return out;
     };
 
-    // Final fit on the training part; judge on the rest.
-    let d = inp.design(&model);
-    let train: Vec<usize> = (0..nt).collect();
-    let fit = lsq::solve(&d.rows(&train), &y[..nt]);
-    let pred = d.predict(&fit.coef);
+    // The chosen model fitted on the fitting part; judged on the rest.
+    let mut params = BTreeMap::new();
+    let mut undetermined = vec![];
+    let (pred, physics, model_txt) = match &chosen {
+        Chosen::Parametric { desc, model, .. } => (
+            parametric_fit(inp, y, model, &mut params, &mut undetermined),
+            format!(
+                "thermal growth of the structure: {} follows {desc}; the rigid-body model \
+                     assumes a constant position",
+                ch.name
+            ),
+            format!("{desc}, CV RMS {:.3} µm", (chosen_cv(&chosen) / nv).sqrt()),
+        ),
+        Chosen::Thermal(f) => {
+            for g in &f.gains {
+                let (name, decide) = if g.input == "spindle" {
+                    (
+                        "spindle_gain_um".to_string(),
+                        "the spindle paths and the temperatures move together in this log; a \
+                         run held at one speed for longer than the longest lag (2 h), \
+                         temperatures logged, would decide it"
+                            .to_string(),
+                    )
+                } else {
+                    let short = g.input.trim_end_matches("_c");
+                    (
+                        format!("{short}_um_per_k"),
+                        "the sensor's temperature moves together with other inputs in \
+                         this log; a log in which it changes on its own (e.g. an ambient \
+                         change with the spindle at rest) would decide it"
+                            .to_string(),
+                    )
+                };
+                sort_parameter(
+                    &mut params,
+                    &mut undetermined,
+                    (name, g.value, g.std),
+                    &decide,
+                );
+            }
+            let mut inputs = vec![];
+            if inp
+                .bank
+                .iter()
+                .any(|r| matches!(r.source, thermal::Source::Spindle { .. }))
+            {
+                inputs.push("the spindle's running history (heat input ∝ n and n²)".to_string());
+            }
+            if !inp.temps.is_empty() {
+                inputs.push(format!("{} structure temperatures", inp.temps.len()));
+            }
+            (
+                f.prediction.clone(),
+                format!(
+                    "thermal growth of the structure: {} follows {} through first-order lags \
+                     of 0.1–2 h; the rigid-body model assumes a constant position",
+                    ch.name,
+                    inputs.join(" and ")
+                ),
+                format!(
+                    "thermal model (ridge, λ = {:.2e}, {:.1} effective parameters of {}), CV \
+                     RMS {:.3} µm",
+                    f.lambda,
+                    f.edf,
+                    inp.bank.len(),
+                    f.cv_rms
+                ),
+            )
+        }
+    };
     let res: Vec<f64> = y.iter().zip(&pred).map(|(a, b)| a - b).collect();
     let sse_after_test: f64 = res[nt..].iter().map(|v| v * v).sum();
     out.after_train_rms = rms(&res[..nt]);
@@ -398,96 +459,33 @@ fn analyse_channel(ch: &Channel, inp: &Inputs, opts: &SeriesOptions) -> ChannelO
     } else {
         0.0
     };
-    out.pred = pred;
-
-    // Uncertainties: Jacobian with ∂/∂ln τ columns, AR(1) inflation.
-    let rho = lag1_autocorr(&res[..nt]);
-    let inflate = ((1.0 + rho) / (1.0 - rho)).sqrt();
-    let mut jac = d.rows(&train);
-    if !model.taus.is_empty() {
-        let u = inp.heat(model.p);
-        for (j, &tau) in model.taus.iter().enumerate() {
-            let h: f64 = 1e-3;
-            let a = first_order_lag(inp.t, &u, tau * h.exp());
-            let b = first_order_lag(inp.t, &u, tau * (-h).exp());
-            let g = fit.coef[1 + j];
-            jac.push(
-                format!("lntau{}", j + 1),
-                (0..nt).map(|i| g * (a[i] - b[i]) / (2.0 * h)).collect(),
-            );
-        }
-    }
-    let jfit = lsq::solve(&jac, &res[..nt]);
-    let mut params = BTreeMap::new();
-    let mut inputs_txt = vec![];
-    let nl = model.taus.len();
-    if nl > 0 {
-        params.insert("rpm_exponent".into(), model.p);
-        for (j, &tau) in model.taus.iter().enumerate() {
-            params.insert(format!("tau{}_s", j + 1), tau);
-            params.insert(
-                format!("std_tau{}_s", j + 1),
-                tau * jfit.std[d.len() + j] * inflate,
-            );
-            params.insert(format!("gain{}_um", j + 1), fit.coef[1 + j]);
-            params.insert(format!("std_gain{}_um", j + 1), jfit.std[1 + j] * inflate);
-        }
-    }
-    for (k, &i) in model.sensors.iter().enumerate() {
-        let name = inp.temps[i].name.trim_end_matches("_c").to_string();
-        params.insert(format!("{name}_um_per_k"), fit.coef[1 + nl + k]);
-        params.insert(
-            format!("std_{name}_um_per_k"),
-            jfit.std[1 + nl + k] * inflate,
-        );
-    }
     params.insert("share_predicted".into(), out.share_predicted);
-
-    // Which inputs carry it: rise of the held-out SSE when one input is dropped (refit).
-    let drop_share = |m: &Model| -> f64 {
-        let d = inp.design(m);
-        let f = lsq::solve(&d.rows(&train), &y[..nt]);
-        let p = d.predict(&f.coef);
-        let s: f64 = (nt..n).map(|i| (y[i] - p[i]).powi(2)).sum();
-        (s - sse_after_test) / sse_rigid_test.max(1e-300)
-    };
-    if nl > 0 {
-        let m = Model {
-            taus: vec![],
-            ..model.clone()
-        };
-        inputs_txt.push(format!("spindle history {:.2}", drop_share(&m)));
-    }
-    for (k, &i) in model.sensors.iter().enumerate() {
-        let mut m = model.clone();
-        m.sensors.remove(k);
-        inputs_txt.push(format!("{} {:.2}", inp.temps[i].name, drop_share(&m)));
-    }
+    let rho = thermal::lag1_autocorr(&res[..nt]);
+    out.pred = pred;
     let others: Vec<String> = cands
         .iter()
-        .map(|(d, _, s)| format!("{d}: {:.3}", (s / nt as f64).sqrt()))
+        .map(|(d, _, s)| format!("{d}: {:.3}", (s / nv).sqrt()))
         .collect();
-    let physics = format!(
-        "thermal growth of the structure: {} follows {desc}; the rigid-body model assumes a \
-         constant position",
-        ch.name
-    );
     let evidence = format!(
-        "blocked 4-fold CV RMS on the first {:.0} %: rigid {:.3} µm, chosen {:.3} µm \
-         (candidates — {}); held-out SSE rise when an input is dropped, as a share of the \
-         rigid SSE: {}; condition number {:.3e}; lag-1 autocorrelation of residuals {:.2}",
+        "rolling-origin CV RMS on the first {:.0} % (blocks 3–5 of 5, each predicted from the \
+         rows before it): rigid {:.3} µm, chosen {model_txt}; parametric candidates — {}; \
+         held-out MAE {:.3} µm (rigid {:.3} µm); lag-1 autocorrelation of residuals {:.2}",
         100.0 * opts.train_fraction,
-        (cv_rigid / nt as f64).sqrt(),
-        (cv_model / nt as f64).sqrt(),
-        others.join("; "),
-        inputs_txt.join(", "),
-        fit.cond,
+        (cv_rigid / nv).sqrt(),
+        if others.is_empty() {
+            "none (no spindle speed)".to_string()
+        } else {
+            others.join("; ")
+        },
+        thermal::mae(y, &out.pred, nt..n),
+        thermal::mae(y, &vec![mean_train; n], nt..n),
         rho
     );
     out.finding = Some(Finding {
         effect: "thermal_drift".into(),
         axis: Some(ch.name.trim_end_matches("_um").to_string()),
         parameters: params,
+        undetermined,
         physics,
         residual_rms_um: BeforeAfter {
             before: rigid_train_rms,
@@ -500,6 +498,65 @@ fn analyse_channel(ch: &Channel, inp: &Inputs, opts: &SeriesOptions) -> ChannelO
         evidence,
     });
     out
+}
+
+/// Least-squares fit of a parametric spindle model on the fitting part: its prediction
+/// at every sample; τ and gains sorted into determined parameters and
+/// undetermined ones (uncertainties from the Jacobian with ∂/∂ln τ columns, AR(1)
+/// inflation).
+fn parametric_fit(
+    inp: &Inputs,
+    y: &[f64],
+    model: &Model,
+    params: &mut BTreeMap<String, f64>,
+    undetermined: &mut Vec<Undetermined>,
+) -> Vec<f64> {
+    let nt = inp.n_train;
+    let d = inp.design(model);
+    let train: Vec<usize> = (0..nt).collect();
+    let fit = lsq::solve(&d.rows(&train), &y[..nt]);
+    let pred = d.predict(&fit.coef);
+    let res: Vec<f64> = y.iter().zip(&pred).map(|(a, b)| a - b).collect();
+    let inflate = thermal::ar1_inflation(&res[..nt]);
+    let mut jac = d.rows(&train);
+    let u = inp.heat(model.p);
+    for (j, &tau) in model.taus.iter().enumerate() {
+        let h: f64 = 1e-3;
+        let a = first_order_lag(inp.t, &u, tau * h.exp());
+        let b = first_order_lag(inp.t, &u, tau * (-h).exp());
+        let g = fit.coef[1 + j];
+        jac.push(
+            format!("lntau{}", j + 1),
+            (0..nt).map(|i| g * (a[i] - b[i]) / (2.0 * h)).collect(),
+        );
+    }
+    let jfit = lsq::solve(&jac, &res[..nt]);
+    params.insert("rpm_exponent".into(), model.p);
+    for (j, &tau) in model.taus.iter().enumerate() {
+        sort_parameter(
+            params,
+            undetermined,
+            (
+                format!("tau{}_s", j + 1),
+                tau,
+                tau * jfit.std[d.len() + j] * inflate,
+            ),
+            "a longer recording with the spindle held at one speed for several time constants \
+             would decide it",
+        );
+        sort_parameter(
+            params,
+            undetermined,
+            (
+                format!("gain{}_um", j + 1),
+                fit.coef[1 + j],
+                jfit.std[1 + j] * inflate,
+            ),
+            "speed steps that move the channel by many times its noise, each held for several \
+             time constants, would decide it",
+        );
+    }
+    pred
 }
 
 fn validate(log: &DriftLog, opts: &SeriesOptions) -> Result<usize, SolverError> {
@@ -548,6 +605,32 @@ fn validate(log: &DriftLog, opts: &SeriesOptions) -> Result<usize, SolverError> 
     Ok(((n as f64) * opts.train_fraction).floor() as usize)
 }
 
+/// The chosen models' predictions at full resolution (one value per sample), for export
+/// to a controller-side compensation.
+#[derive(Debug, Clone, PartialEq)]
+pub struct DriftPredictions {
+    pub t_s: Vec<f64>,
+    /// Samples `0..n_fit` were used to fit; the rest is held out.
+    pub n_fit: usize,
+    pub channels: Vec<ChannelPrediction>,
+}
+
+/// One displacement channel: measured and predicted values (µm, the channel's own sign:
+/// the displacement of the tool relative to the table along the channel's direction).
+#[derive(Debug, Clone, PartialEq)]
+pub struct ChannelPrediction {
+    /// Channel name as in the log (`ch1_um`).
+    pub name: String,
+    pub measured_um: Vec<f64>,
+    /// The chosen model (the rigid constant when no thermal model was kept).
+    pub model_um: Vec<f64>,
+    /// The model's value at the first sample: `model_um − model_at_start_um` is the
+    /// thermal drift since the start of the log.
+    pub model_at_start_um: f64,
+    /// Whether a thermal model was kept for this channel.
+    pub thermal_model: bool,
+}
+
 /// Diagnoses a drift log (module docs): one `thermal_drift` finding per displacement
 /// channel the inputs explain (`axis` carries the channel name without `_um`), held-out
 /// figures on the last `1 − train_fraction` of the recording, and one plot per channel.
@@ -556,22 +639,43 @@ pub fn diagnose_drift_log(
     machine_id: &str,
     opts: &SeriesOptions,
 ) -> Result<DiagnosisResult, SolverError> {
+    diagnose_drift_log_with_predictions(log, machine_id, opts).map(|(r, _)| r)
+}
+
+/// [`diagnose_drift_log`] and the models' predictions at every sample.
+pub fn diagnose_drift_log_with_predictions(
+    log: &DriftLog,
+    machine_id: &str,
+    opts: &SeriesOptions,
+) -> Result<(DiagnosisResult, DriftPredictions), SolverError> {
     let n_train = validate(log, opts)?;
     let speed = log
         .channels
         .iter()
         .find(|c| c.kind == ChannelKind::SpeedRpm);
     let rpm_max = speed.map_or(0.0, |s| s.values.iter().fold(0.0f64, |a, v| a.max(v.abs())));
+    let temps: Vec<(&str, &[f64])> = log
+        .channels
+        .iter()
+        .filter(|c| c.kind == ChannelKind::TemperatureC)
+        .map(|c| (c.name.as_str(), c.values.as_slice()))
+        .collect();
+    let bank = thermal::regressors(
+        &ThermalInputs {
+            t_s: &log.t_s,
+            speed_rpm: speed.map(|c| c.values.as_slice()),
+            temperatures: &temps,
+        },
+        &ThermalOptions::default(),
+        log.t_s[n_train - 1] - log.t_s[0],
+    );
     let inp = Inputs {
         t: &log.t_s,
         speed,
         rpm_max,
-        temps: log
-            .channels
-            .iter()
-            .filter(|c| c.kind == ChannelKind::TemperatureC)
-            .collect(),
+        temps,
         n_train,
+        bank,
     };
     let outs: Vec<ChannelOutcome> = log
         .channels
@@ -694,7 +798,26 @@ pub fn diagnose_drift_log(
         });
     }
 
-    Ok(DiagnosisResult {
+    let predictions = DriftPredictions {
+        t_s: log.t_s.clone(),
+        n_fit: n_train,
+        channels: outs
+            .iter()
+            .zip(
+                log.channels
+                    .iter()
+                    .filter(|c| c.kind == ChannelKind::DisplacementUm),
+            )
+            .map(|(o, ch)| ChannelPrediction {
+                name: ch.name.clone(),
+                measured_um: ch.values.clone(),
+                model_at_start_um: o.pred[0],
+                model_um: o.pred.clone(),
+                thermal_model: o.finding.is_some(),
+            })
+            .collect(),
+    };
+    let result = DiagnosisResult {
         kind: "diagnosis".into(),
         machine_id: machine_id.into(),
         source: "drift_log".into(),
@@ -704,5 +827,6 @@ pub fn diagnose_drift_log(
         verdict,
         unexplained,
         plots,
-    })
+    };
+    Ok((result, predictions))
 }

@@ -735,6 +735,7 @@ fn diagnose_axis(a: &AxisData, opts: &SeriesOptions) -> AxisOutcome {
             physics: physics(st.label, a.axis),
             residual_rms_um: st.rms,
             heldout_rms_um: st.heldout,
+            undetermined: vec![],
             evidence: format!(
                 "ΔBIC {:.1}; held-out RMS (leave one of {} runs out) {:.3} → {:.3} µm; noise floor {:.3} µm; condition number of the final joint fit {:.2e}{signature}",
                 st.dbic,
