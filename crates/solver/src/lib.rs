@@ -35,5 +35,8 @@ pub mod fits;
 // Issue 6: mismatch diagnosis.
 pub mod diagnosis;
 
+// Figures of the machine-tool test standards (ISO 230-2).
+pub mod standards;
+
 pub use axis::{Axis, Plane, Topology};
 pub use error::SolverError;
