@@ -326,8 +326,12 @@ fn try_candidate(
             let (axis, in_var): (crate::axis::Axis, Var) = if in_time {
                 (cand.direction?, Box::new(|m| m.t_s))
             } else {
+                // Rows read along the effect's direction (its own axis for `cyclic`).
                 let a = cand.axis?;
-                (a, Box::new(move |m| m.q_mm[a.index()]))
+                (
+                    cand.direction.unwrap_or(a),
+                    Box::new(move |m| m.q_mm[a.index()]),
+                )
             };
             let coarse: Vec<f64> = (0..)
                 .map(|i| f_lo + i as f64 * coarse_step)
@@ -658,6 +662,7 @@ fn finding_of(
             .or(t.cand.direction.map(|a| a.to_string())),
         parameters,
         physics: catalogue::physics(t.cand.effect).into(),
+        signature: catalogue::signature(&t.cand, t.theta.map(|x| x.1)),
         residual_rms_um: BeforeAfter {
             before: rms(f.ssr, n),
             after,
