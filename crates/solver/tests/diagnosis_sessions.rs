@@ -74,6 +74,7 @@ fn check(e: &Effect, r: &DiagnosisResult) {
         Effect::Waviness { .. } if !r.findings.iter().any(|f| f.effect == "waviness") => {
             "model_order"
         }
+        Effect::TemperatureGrowth { .. } => "thermal_drift",
         _ => e.name(),
     };
     let f = r
@@ -165,6 +166,20 @@ fn check(e: &Effect, r: &DiagnosisResult) {
                 assert!(
                     close(param(f, "amplitude_um"), amplitude_um, 0.1, 0.05),
                     "{ctx}"
+                );
+            }
+        }
+        // Growth following a logged temperature that rises and falls: the scale per
+        // kelvin of every axis within 15 % + 1 ppm/K (offsets per kelvin are mostly taken
+        // by the run offsets: only their change within a run is seen).
+        Effect::TemperatureGrowth {
+            scale_ppm_per_k, ..
+        } => {
+            for a in Axis::ALL {
+                let k = param(f, &format!("scale_ppm_per_k_{a}"));
+                assert!(
+                    close(k, scale_ppm_per_k[a.index()], 0.15, 1.0),
+                    "{a}: {ctx}"
                 );
             }
         }
@@ -264,6 +279,13 @@ fn concealed_waviness() {
 #[test]
 fn concealed_vibration() {
     concealed("vibration", &[8]);
+}
+
+/// Thermal growth that rises and then falls with a logged temperature (a monotonic
+/// first-order drift in time cannot follow it).
+#[test]
+fn concealed_temperature_growth() {
+    concealed("temperature_growth", &[10]);
 }
 
 #[test]

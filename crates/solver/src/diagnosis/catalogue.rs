@@ -9,6 +9,7 @@
 //! | reversal_spike | −d·exp(−s/λ) → height h, µm | decay λ, mm |
 //! | cyclic | sin, cos(2π q/P) → amplitude, phase | period P, mm |
 //! | thermal_drift | g(t)·q_j·10⁻³ and g(t) per direction j, g = 1 − e^(−t/T) → scale ppm, offset µm | T, s |
+//! | thermal_drift (temperature) | ΔT·q_j·10⁻³ and ΔT per direction j, ΔT the logged temperature's change → ppm/K, µm/K | — |
 //! | setup_offset | (Σ_k ε_k(q_k)) × e_j ·10⁻³ on one head-offset group → Δt_j, mm | — |
 //! | model_order | Legendre P_4..P_10 of the axis position, along one direction | — |
 //! | vibration | sin, cos(2π f t) → amplitude, phase | frequency f, Hz |
@@ -115,6 +116,10 @@ pub fn candidates(d: &Design) -> Vec<Candidate> {
         }
     }
     out.push(c("thermal_drift", None, None, None));
+    // Logged temperatures: growth that follows the temperature, whatever its course.
+    if d.samples.iter().all(|s| s.temp_k.is_some()) {
+        out.push(c("thermal_temperature", None, None, None));
+    }
     for dir in Axis::ALL {
         out.push(c("vibration", None, Some(dir), None));
     }
@@ -280,6 +285,19 @@ pub fn columns(
                 });
             }
         }
+        "thermal_temperature" => {
+            for j in Axis::ALL {
+                let i = j.index();
+                push(j, format!("scale_ppm_per_k_{j}"), &|s| {
+                    s.temp_k.unwrap_or(0.0) * s.q_mm[i] * 1e-3
+                });
+            }
+            for j in Axis::ALL {
+                push(j, format!("offset_um_per_k_{j}"), &|s| {
+                    s.temp_k.unwrap_or(0.0)
+                });
+            }
+        }
         "model_order" => {
             let a = c.axis.expect("axis");
             let dir = c.direction.expect("direction");
@@ -321,6 +339,15 @@ pub fn columns(
         _ => {}
     }
     (cols, names, peaks)
+}
+
+/// The effect name a candidate is reported under (the temperature-driven thermal model
+/// is a form of `thermal_drift`).
+pub fn reported_name(effect: &'static str) -> &'static str {
+    match effect {
+        "thermal_temperature" => "thermal_drift",
+        e => e,
+    }
 }
 
 /// The physics sentence of an effect (the shared table of [`super::effects`]).

@@ -163,6 +163,16 @@ pub const EFFECTS: &[EffectSpec] = &[
                 "positioning runs without t_s: T counted in records",
             ),
             p(
+                "offset_um_per_k_{axis}",
+                "um/K",
+                "sessions with logged temperatures: error_j = dT*(o_j + k_j*q_j/1000), dT the change of the logged temperature from the first sample",
+            ),
+            p(
+                "scale_ppm_per_k_{axis}",
+                "ppm/K",
+                "sessions with logged temperatures: k_j of the same model",
+            ),
+            p(
                 "offset_um_per_k",
                 "um/K",
                 "positioning runs with temp_c: error = dT*(o + k*x/1000), dT from the first record",
@@ -203,6 +213,8 @@ pub const EFFECTS: &[EffectSpec] = &[
             "time_constant_records",
             "offset_um_per_k",
             "scale_ppm_per_k",
+            "offset_um_per_k_{axis}",
+            "scale_ppm_per_k_{axis}",
             "tau{n}_s",
             "{sensor}_um_per_k",
         ],

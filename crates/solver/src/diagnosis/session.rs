@@ -666,14 +666,14 @@ fn finding_of(
         None => (rms(t.ssr, n), rms(t.heldout_ssr, f.heldout_n)),
     };
     Finding {
-        effect: t.cand.effect.into(),
+        effect: catalogue::reported_name(t.cand.effect).into(),
         axis: t
             .cand
             .axis
             .map(|a| a.to_string())
             .or(t.cand.direction.map(|a| a.to_string())),
         parameters,
-        physics: catalogue::physics(t.cand.effect).into(),
+        physics: catalogue::physics(catalogue::reported_name(t.cand.effect)).into(),
         signature: catalogue::signature(&t.cand, t.theta.map(|x| x.1)),
         residual_rms_um: BeforeAfter {
             before: rms(f.ssr, n),
