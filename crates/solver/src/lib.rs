@@ -36,5 +36,8 @@ pub mod fits;
 // Issue 6: mismatch diagnosis.
 pub mod diagnosis;
 
+// Tolerances and the decision rule of conformity.
+pub mod tolerance;
+
 pub use axis::{Axis, Plane, Topology};
 pub use error::SolverError;
