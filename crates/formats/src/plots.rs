@@ -60,11 +60,8 @@ pub fn render_svg(plot: &PlotData) -> String {
 
 /// Renders every plot into `dir` as `<id>.svg`; returns the paths written.
 pub fn write_svgs(plots: &[PlotData], dir: &Path) -> Result<Vec<PathBuf>, FormatError> {
-    let err = |p: &Path, e: std::io::Error| FormatError {
-        file: p.display().to_string(),
-        line: 0,
-        column: String::new(),
-        rule: format!("cannot write: {e}"),
+    let err = |p: &Path, e: std::io::Error| {
+        FormatError::file(p.display().to_string(), format!("cannot write: {e}"))
     };
     std::fs::create_dir_all(dir).map_err(|e| err(dir, e))?;
     let mut paths = vec![];

@@ -67,7 +67,7 @@ impl JobKind {
         }
     }
 
-    /// Whether it runs on a dataset of this stored kind (see `ingest::DatasetData::kind`).
+    /// Whether it runs on a dataset of this stored kind (see `mtcal_formats::Dataset::kind`).
     pub fn accepts(self, dataset_kind: &str) -> bool {
         match self {
             JobKind::Identify => dataset_kind == "session",
@@ -251,9 +251,9 @@ fn load_dataset(input: &JobInput) -> Result<(&Dataset, DatasetData), JobError> {
     let (dataset, files) = input.dataset.as_ref().ok_or_else(|| {
         JobError::BadInput(format!("a {} job needs a dataset", input.kind.as_str()))
     })?;
-    let data =
-        ingest::read_dataset(files, input.limits).map_err(|e| JobError::BadInput(e.to_string()))?;
-    Ok((dataset, data))
+    let data = ingest::read_dataset(files, &input.limits)
+        .map_err(|e| JobError::BadInput(e.to_string()))?;
+    Ok((dataset, data.data))
 }
 
 /// The job kind cannot run on this dataset kind.
