@@ -38,8 +38,6 @@ pub use session::{read_session_dir, read_session_files, write_session_dir};
 pub use sniff::{DatasetKind, sniff_kind, sniff_path};
 pub use upload::{Dataset, DatasetData, read_archive, read_path, read_upload};
 
-pub mod plots;
-
 /// A rejected input: which file, where, and which rule it broke.
 #[derive(Debug, Clone, PartialEq, thiserror::Error)]
 #[error("{file}:{line}:{column}: {rule}")]

@@ -77,7 +77,7 @@ pub async fn submit(
     let job = s
         .store
         .enqueue(NewJob {
-            kind: j.kind.as_str().into(),
+            kind: j.kind,
             machine_id: Some(machine_id),
             dataset_id: j.dataset_id,
             params,
