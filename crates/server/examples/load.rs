@@ -17,7 +17,7 @@
 use mtcal_client::Client;
 use mtcal_server::api::jobs::SubmitJob;
 use mtcal_server::jobs::JobKind;
-use mtcal_server::{AppState, UploadLimits, WorkerConfig};
+use mtcal_server::{UploadLimits, WorkerConfig};
 use mtcal_solver::identification::{IdentifyOptions, identify};
 use mtcal_solver::simulate::{SimOptions, random_truth, simulate};
 use mtcal_store::{
@@ -42,27 +42,17 @@ fn pct(sorted: &[f64], p: f64) -> f64 {
 }
 
 async fn start(store: Arc<dyn Store>, worker: bool) -> String {
-    let listener = tokio::net::TcpListener::bind("127.0.0.1:0").await.unwrap();
-    let url = format!("http://{}", listener.local_addr().unwrap());
-    let wake = Arc::new(tokio::sync::Notify::new());
-    if worker {
-        let cfg = WorkerConfig {
-            queue: QueueConfig {
-                concurrency: 1,
-                ..QueueConfig::default()
-            },
-            ..WorkerConfig::default()
-        };
-        mtcal_server::worker::spawn_workers(store.clone(), cfg, wake.clone());
-    }
-    let state = AppState {
-        store,
-        limits: UploadLimits::default(),
-        max_attempts: 3,
-        wake,
+    let cfg = WorkerConfig {
+        queue: QueueConfig {
+            concurrency: 1,
+            ..QueueConfig::default()
+        },
+        ..WorkerConfig::default()
     };
-    tokio::spawn(async move { axum::serve(listener, mtcal_server::router(state)).await });
-    url
+    let addr = mtcal_server::spawn_local(store, &cfg, worker)
+        .await
+        .unwrap();
+    format!("http://{addr}")
 }
 
 fn machine(id: &str) -> Machine {
@@ -110,17 +100,7 @@ async fn jobs_bench(k: usize) {
         .unwrap();
         let sdir = dir.path().join(format!("s{i}"));
         mtcal_formats::write_session_dir(&sdir, &sim.session).unwrap();
-        let mut files: Vec<(String, Vec<u8>)> = std::fs::read_dir(&sdir)
-            .unwrap()
-            .map(|e| {
-                let p = e.unwrap().path();
-                (
-                    p.file_name().unwrap().to_string_lossy().into_owned(),
-                    std::fs::read(&p).unwrap(),
-                )
-            })
-            .collect();
-        files.sort();
+        let files = mtcal_client::files_to_upload(&sdir).unwrap();
         samples = sim.session.sample_count();
 
         // Bare: what the worker computes for the job.
