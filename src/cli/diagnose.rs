@@ -54,7 +54,7 @@ pub fn run(args: Args) -> anyhow::Result<ExitCode> {
     let result: DiagnosisResult = match kind {
         DatasetKind::Positioning => {
             let runs = mtcal_formats::read_positioning_path(path, &limits)?;
-            iso = series::iso230_2(&runs);
+            iso = mtcal_solver::standards::iso230_2(&runs);
             series::diagnose_positioning(&runs, &machine_id, &opts)
                 .map_err(|e| BadInput(format!("{}: {e}", path.display())))?
         }

@@ -24,7 +24,6 @@ pub mod lsq;
 pub mod noise;
 pub mod observability;
 pub mod simulate;
-pub mod stepwise;
 
 // Issue 4: sensitivity (Cheng et al. 2012).
 pub mod sensitivity;
@@ -35,6 +34,9 @@ pub mod fits;
 
 // Issue 6: mismatch diagnosis.
 pub mod diagnosis;
+
+// Figures of the machine-tool test standards (ISO 230-2).
+pub mod standards;
 
 pub use axis::{Axis, Plane, Topology};
 pub use error::SolverError;

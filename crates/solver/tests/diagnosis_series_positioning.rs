@@ -14,8 +14,9 @@
 use mtcal_solver::diagnosis::series::simulate::{
     PositioningEffect, PositioningSim, simulate_positioning,
 };
-use mtcal_solver::diagnosis::series::{SeriesOptions, diagnose_positioning, iso230_2};
+use mtcal_solver::diagnosis::series::{SeriesOptions, diagnose_positioning};
 use mtcal_solver::diagnosis::{DiagnosisResult, Verdict};
+use mtcal_solver::standards::iso230_2;
 use rand::rngs::StdRng;
 use rand::{Rng, SeedableRng};
 

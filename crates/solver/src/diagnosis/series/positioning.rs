@@ -31,7 +31,7 @@
 //! the same target and direction after removing one offset per pass (run × direction):
 //! two-way least squares y = μ_(target,dir) + ρ_pass, σ² = SSE/(n − rank). Slow drift
 //! between passes is thus not counted as noise (ISO 230-2's repeatability would include
-//! it; [`iso230_2`] gives those figures).
+//! it; [`crate::standards::iso230_2`] gives those figures).
 
 use super::lsq::{self, Design};
 use super::{SeriesOptions, bic, decimate, grid_then_golden, log_grid, rms};
@@ -42,7 +42,6 @@ use crate::diagnosis::{
     Baseline, BeforeAfter, DiagnosisResult, Finding, Mismatch, PlotData, PlotSeries, Verdict,
 };
 use crate::error::SolverError;
-use serde::{Deserialize, Serialize};
 use std::collections::BTreeMap;
 use std::f64::consts::PI;
 
@@ -429,79 +428,6 @@ impl AxisData {
         let fit = lsq::solve(&d, &self.y);
         fit.s2().sqrt()
     }
-}
-
-/// ISO 230-2 figures of one axis (bidirectional), µm: reversal value B = max |x̄↑ − x̄↓|,
-/// repeatability R = max over targets of max(2s↑ + 2s↓ + |B_i|, 4s↑, 4s↓), systematic
-/// positioning error E = max x̄ − min x̄ over both directions, accuracy
-/// A = max(x̄ + 2s) − min(x̄ − 2s) over both directions (s: sample standard deviation of a
-/// target's readings in one direction).
-#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
-pub struct Iso2302 {
-    pub axis: Axis,
-    pub reversal_b_um: f64,
-    pub repeatability_r_um: f64,
-    pub systematic_e_um: f64,
-    pub accuracy_a_um: f64,
-    pub targets: usize,
-    pub runs: usize,
-}
-
-/// ISO 230-2 figures per axis (module [`Iso2302`]); axes with fewer than 2 runs are skipped.
-pub fn iso230_2(runs: &PositioningRuns) -> Vec<Iso2302> {
-    let mut out = vec![];
-    for axis in Axis::ALL {
-        let recs: Vec<&PositioningRecord> =
-            runs.records.iter().filter(|r| r.axis == axis).collect();
-        let Ok(a) = AxisData::new(axis, &recs) else {
-            continue;
-        };
-        let nt = a.targets.len();
-        let stats = |g: usize| -> Option<(f64, f64)> {
-            let v: Vec<f64> = (0..a.n())
-                .filter(|&i| a.group[i] == g)
-                .map(|i| a.y[i])
-                .collect();
-            if v.len() < 2 {
-                return None;
-            }
-            let m = v.iter().sum::<f64>() / v.len() as f64;
-            let s = (v.iter().map(|x| (x - m).powi(2)).sum::<f64>() / (v.len() - 1) as f64).sqrt();
-            Some((m, s))
-        };
-        let (mut b, mut r, mut hi, mut lo, mut ahi, mut alo) = (
-            0.0f64,
-            0.0f64,
-            f64::NEG_INFINITY,
-            f64::INFINITY,
-            f64::NEG_INFINITY,
-            f64::INFINITY,
-        );
-        for i in 0..nt {
-            let (p, m) = (stats(2 * i), stats(2 * i + 1));
-            for (mu, s) in [p, m].into_iter().flatten() {
-                hi = hi.max(mu);
-                lo = lo.min(mu);
-                ahi = ahi.max(mu + 2.0 * s);
-                alo = alo.min(mu - 2.0 * s);
-                r = r.max(4.0 * s);
-            }
-            if let (Some((mp, sp)), Some((mm, sm))) = (p, m) {
-                b = b.max((mp - mm).abs());
-                r = r.max(2.0 * sp + 2.0 * sm + (mp - mm).abs());
-            }
-        }
-        out.push(Iso2302 {
-            axis,
-            reversal_b_um: b,
-            repeatability_r_um: r,
-            systematic_e_um: hi - lo,
-            accuracy_a_um: ahi - alo,
-            targets: nt,
-            runs: a.runs.len(),
-        });
-    }
-    out
 }
 
 /// What one axis's diagnosis produced.
