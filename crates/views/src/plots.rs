@@ -36,7 +36,7 @@ pub mod inspect;
 mod polar;
 mod spark;
 
-pub use band::{empty_panel, error_function};
+pub use band::{empty_panel, error_function, function_band};
 pub use bars::{finding_bars, ranking_bars};
 pub use errorbars::{
     BarPoint, ErrorBarChart, PointSeries, TrendPoint, TrendSeries, XScale, error_bar_chart,

@@ -76,12 +76,25 @@ pub fn error_function(name: &str, term: &TermReport, travel_mm: Option<[f64; 2]>
         .zip(&term.values)
         .zip(&term.std)
         .map(|((&q, &v), &s)| (q, v, s))
-        .filter(|&(q, v, s)| inside(q) && q.is_finite() && v.is_finite() && s.is_finite())
+        .filter(|&(q, _, _)| inside(q))
+        .collect();
+    function_band(name, &title, &pts)
+}
+
+/// A function of position `name` (its last letter names the axis) from points
+/// (position mm, value, standard uncertainty): the values joined by a line and the band
+/// value ± 2·std, over the points' span only. Points that are not finite are left out;
+/// fewer than two points make an [`empty_panel`].
+pub fn function_band(name: &str, title: &str, points: &[(f64, f64, f64)]) -> String {
+    let pts: Vec<(f64, f64, f64)> = points
+        .iter()
+        .copied()
+        .filter(|&(q, v, s)| q.is_finite() && v.is_finite() && s.is_finite())
         .collect();
     if pts.len() < 2 {
-        return empty_panel(&title, "no values inside the measured travel");
+        return empty_panel(title, "no values inside the measured travel");
     }
-    svg(PANEL, &title, |root| band(root, name, &title, &pts))
+    svg(PANEL, title, |root| band(root, name, title, &pts))
 }
 
 fn band(root: &Area, name: &str, title: &str, pts: &[(f64, f64, f64)]) -> DrawResult {
@@ -101,6 +114,7 @@ fn band(root: &Area, name: &str, title: &str, pts: &[(f64, f64, f64)]) -> DrawRe
         .x_desc(format!("{} (mm)", moving_axis(name)))
         .x_label_formatter(&tick)
         .y_label_formatter(&tick)
+        .label_style(("sans-serif", 14))
         .x_labels(6)
         .y_labels(6)
         .light_line_style(WHITE.mix(0.0))

@@ -108,6 +108,7 @@ fn draw(root: &Area, c: &ErrorBarChart) -> DrawResult {
         .y_desc(c.y_label)
         .x_label_formatter(x_fmt)
         .y_label_formatter(&tick)
+        .label_style(("sans-serif", 14))
         .x_labels(if c.x_scale == XScale::Time { 6 } else { 10 })
         .light_line_style(WHITE.mix(0.0))
         .draw()?;
