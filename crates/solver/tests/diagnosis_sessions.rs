@@ -7,7 +7,7 @@
 
 use mtcal_solver::axis::Axis;
 use mtcal_solver::diagnosis::{
-    DiagnoseOptions, DiagnosisResult, Finding, Verdict, diagnose_session,
+    DiagnoseOptions, DiagnosisResult, Finding, Verdict, diagnose_session, effects,
 };
 use mtcal_solver::simulate::{Effect, Plan, SimOptions, random_truth, simulate};
 use rand::SeedableRng;
@@ -77,6 +77,9 @@ fn check(e: &Effect, r: &DiagnosisResult) {
         .iter()
         .find(|f| f.effect == name)
         .unwrap_or_else(|| panic!("{name} not found: {ctx}"));
+    for g in r.findings.iter().chain(&r.possible) {
+        effects::conforms(g).unwrap();
+    }
     let axis = |a: Axis| assert_eq!(f.axis.as_deref(), Some(a.to_string().as_str()), "{ctx}");
     match *e {
         // Lost motion: 3 % + 0.1 µm (reported σ ≈ 0.01-0.02 µm; the rest is the velocity

@@ -85,16 +85,23 @@ impl Design {
     }
 
     /// A column with `f(sample)` on the rows that read along `axis` (0 elsewhere),
-    /// centred per (run, component) like the rigid model's columns.
-    pub fn effect_column(&self, axis: Axis, f: impl Fn(&SampleMeta) -> f64) -> Vec<f64> {
+    /// centred per (run, component) like the rigid model's columns, and the largest |f|
+    /// before centring.
+    pub fn effect_column_peak(
+        &self,
+        axis: Axis,
+        f: impl Fn(&SampleMeta) -> f64,
+    ) -> (Vec<f64>, f64) {
         let mut c = vec![0.0; self.rows()];
+        let mut peak = 0.0f64;
         for (r, slot) in c.iter_mut().enumerate() {
             if self.row_axis(r) == axis {
                 *slot = f(&self.samples[r / 2]);
+                peak = peak.max(slot.abs());
             }
         }
         self.centre(&mut c);
-        c
+        (c, peak)
     }
 
     /// Removes the mean of each (run, component).
