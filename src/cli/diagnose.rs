@@ -6,9 +6,9 @@ use super::BadInput;
 use anyhow::Context;
 use mtcal_formats::{DatasetKind, Limits};
 use mtcal_solver::diagnosis::series::{self, SeriesOptions};
-use mtcal_solver::diagnosis::{DiagnoseOptions, DiagnosisResult, Verdict};
+use mtcal_solver::diagnosis::{DiagnoseOptions, DiagnosisResult, PlotData, Verdict};
 use std::io::Write as _;
-use std::path::PathBuf;
+use std::path::{Path, PathBuf};
 use std::process::ExitCode;
 
 #[derive(clap::Args, Debug)]
@@ -83,7 +83,7 @@ pub fn run(args: Args) -> anyhow::Result<ExitCode> {
         }
     };
     if let Some(dir) = &args.plots {
-        let written = mtcal_formats::plots::write_svgs(&result.plots, dir)?;
+        let written = write_svgs(&result.plots, dir)?;
         if !args.json {
             eprintln!("wrote {} plot(s) to {}", written.len(), dir.display());
         }
@@ -107,6 +107,20 @@ pub fn run(args: Args) -> anyhow::Result<ExitCode> {
         return Err(e).context("writing to stdout");
     }
     Ok(ExitCode::SUCCESS)
+}
+
+/// Renders every plot into `dir` as `<stem>.svg` ([`mtcal_views::plots::file_stem`]);
+/// returns the paths written. A folder that cannot be written is bad input.
+fn write_svgs(plots: &[PlotData], dir: &Path) -> anyhow::Result<Vec<PathBuf>> {
+    let err = |p: &Path, e: std::io::Error| BadInput(format!("{}: cannot write: {e}", p.display()));
+    std::fs::create_dir_all(dir).map_err(|e| err(dir, e))?;
+    let mut paths = vec![];
+    for p in plots {
+        let path = dir.join(format!("{}.svg", mtcal_views::plots::file_stem(p)));
+        std::fs::write(&path, mtcal_views::plots::render_svg(p)).map_err(|e| err(&path, e))?;
+        paths.push(path);
+    }
+    Ok(paths)
 }
 
 /// The human summary: verdict, baseline, where, findings, what remains.

@@ -33,8 +33,6 @@ pub use rotary::{
 pub use session::{read_session_dir, read_session_files, write_session_dir};
 pub use sniff::{DatasetKind, sniff_kind, sniff_path};
 
-pub mod plots;
-
 /// A rejected input: which file, where, and which rule it broke.
 #[derive(Debug, Clone, PartialEq, thiserror::Error)]
 #[error("{file}:{line}:{column}: {rule}")]

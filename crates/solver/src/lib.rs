@@ -24,7 +24,6 @@ pub mod lsq;
 pub mod noise;
 pub mod observability;
 pub mod simulate;
-pub mod stepwise;
 
 // Issue 4: sensitivity (Cheng et al. 2012).
 pub mod sensitivity;

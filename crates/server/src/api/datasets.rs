@@ -1,15 +1,16 @@
 //! `/api/v1/machines/{id}/datasets` (upload) and `/api/v1/datasets/{id}` (metadata, raw
 //! files back unchanged).
 
+use crate::AppState;
+use crate::auth::{ReadKey, WriteKey};
 use crate::error::{ApiError, ErrorBody};
 use crate::ingest::{self, DatasetData};
-use crate::{AppState, auth};
 use axum::Json;
 use axum::body::Bytes;
 use axum::extract::{FromRequest, Multipart, Path, Request, State};
 use axum::http::{HeaderMap, HeaderValue, StatusCode, header};
 use axum::response::{IntoResponse, Response};
-use mtcal_store::{Dataset, NewDataset, Scope};
+use mtcal_store::{Dataset, NewDataset};
 use utoipa::ToSchema;
 
 /// Multipart form of a session upload: one part per file, the part's file name is the
@@ -67,11 +68,11 @@ async fn read_multipart(req: Request, s: &AppState) -> Result<Vec<(String, Vec<u
               (status = 415, body = ErrorBody, description = "unsupported_media_type"),
               (status = 422, body = ErrorBody, description = "invalid_dataset: names file, line, column and rule; nothing stored")))]
 pub async fn upload(
+    _key: WriteKey,
     State(s): State<AppState>,
     Path(machine_id): Path<String>,
     req: Request,
 ) -> Result<(StatusCode, Json<Dataset>), ApiError> {
-    auth::authorize(&s, req.headers(), Scope::Write).await?;
     let machine = s.store.get_machine(&machine_id).await?;
     let ct = media(req.headers());
     let files = if ct.starts_with("multipart/form-data") {
@@ -160,11 +161,10 @@ pub fn normalise_time(t: &str) -> Result<String, ApiError> {
     security(("api_key" = [])), params(("id" = String, Path)),
     responses((status = 200, body = Dataset), (status = 404, body = ErrorBody)))]
 pub async fn get(
+    _key: ReadKey,
     State(s): State<AppState>,
-    headers: HeaderMap,
     Path(id): Path<String>,
 ) -> Result<Json<Dataset>, ApiError> {
-    auth::authorize(&s, &headers, Scope::Read).await?;
     Ok(Json(s.store.get_dataset(&id).await?))
 }
 
@@ -174,11 +174,10 @@ pub async fn get(
                content_type = "application/octet-stream", body = Vec<u8>),
               (status = 404, body = ErrorBody)))]
 pub async fn file(
+    _key: ReadKey,
     State(s): State<AppState>,
-    headers: HeaderMap,
     Path((id, name)): Path<(String, String)>,
 ) -> Result<Response, ApiError> {
-    auth::authorize(&s, &headers, Scope::Read).await?;
     let meta = s.store.get_dataset(&id).await?;
     let f = meta
         .files

@@ -12,10 +12,8 @@
 //!   deviation sits 0.4 of the radius off the circle; dotted rings at ±s/2 and ±s, with
 //!   the scale written in the caption.
 
-use crate::FormatError;
 use mtcal_solver::diagnosis::{PlotData, PlotSeries};
 use plotters::prelude::*;
-use std::path::{Path, PathBuf};
 
 const COLORS: [RGBColor; 8] = [
     RGBColor(31, 119, 180),
@@ -58,32 +56,19 @@ pub fn render_svg(plot: &PlotData) -> String {
     out
 }
 
-/// Renders every plot into `dir` as `<id>.svg`; returns the paths written.
-pub fn write_svgs(plots: &[PlotData], dir: &Path) -> Result<Vec<PathBuf>, FormatError> {
-    let err = |p: &Path, e: std::io::Error| FormatError {
-        file: p.display().to_string(),
-        line: 0,
-        column: String::new(),
-        rule: format!("cannot write: {e}"),
-    };
-    std::fs::create_dir_all(dir).map_err(|e| err(dir, e))?;
-    let mut paths = vec![];
-    for p in plots {
-        let safe: String =
-            p.id.chars()
-                .map(|c| {
-                    if c.is_ascii_alphanumeric() || c == '_' || c == '-' {
-                        c
-                    } else {
-                        '_'
-                    }
-                })
-                .collect();
-        let path = dir.join(format!("{safe}.svg"));
-        std::fs::write(&path, render_svg(p)).map_err(|e| err(&path, e))?;
-        paths.push(path);
-    }
-    Ok(paths)
+/// The file stem of a plot: its id with every character other than ASCII letters,
+/// digits, `_` and `-` replaced by `_` (so an id can never leave the output folder).
+pub fn file_stem(plot: &PlotData) -> String {
+    plot.id
+        .chars()
+        .map(|c| {
+            if c.is_ascii_alphanumeric() || c == '_' || c == '-' {
+                c
+            } else {
+                '_'
+            }
+        })
+        .collect()
 }
 
 type Area<'a> = DrawingArea<SVGBackend<'a>, plotters::coord::Shift>;
@@ -279,6 +264,13 @@ mod tests {
             svg.contains("90°") && svg.contains("ring spacing 3.750 µm"),
             "scale = 3/0.4, rings at half"
         );
+    }
+
+    #[test]
+    fn file_stem_keeps_ids_inside_the_folder() {
+        let mut p = plot("cartesian");
+        p.id = "../x y/ch5".into();
+        assert_eq!(file_stem(&p), "___x_y_ch5");
     }
 
     #[test]
