@@ -273,8 +273,7 @@ pub fn columns(
                     ej[j.index()] = 1.0;
                     *slot = e.cross(&ej)[d.row_axis(r).index()] * 1e-3;
                 }
-                let peak = col.iter().fold(0.0f64, |m, v| m.max(v.abs()));
-                d.centre(&mut col);
+                let peak = d.centre_with_peak(&mut col);
                 if col.iter().any(|v| v.abs() > 1e-12) {
                     cols.push(col);
                     names.push(format!("delta_mm_{j}"));
