@@ -210,6 +210,34 @@ pub const EFFECTS: &[EffectSpec] = &[
         decide: "a recording several time constants long, or a logged temperature of the structure",
     },
     EffectSpec {
+        name: "waviness",
+        physics: "straightness waviness of a guideway: an error across the axis, periodic in its position with a period the polynomial order cannot follow (found by its signature, outside the named catalogue)",
+        params: &[
+            p(
+                "amplitude_um",
+                "um",
+                "A >= 0: error along the named direction = A*sin(2*pi*q/P + phi), q the moving axis's position (mm)",
+            ),
+            q("period_mm", "mm", "P > 0"),
+            p("phase_rad", "rad", "phi in (-pi, pi], at q = 0"),
+        ],
+        principal: &["amplitude_um", "period_mm"],
+        any_of: false,
+        decide: "more passes of the axis over a longer travel",
+    },
+    EffectSpec {
+        name: "velocity_coupling",
+        physics: "an error across one axis that follows another axis's velocity (servo cross-coupling, or a carriage that tilts with its drive force); a static geometric model has no velocity (found by its signature, outside the named catalogue)",
+        params: &[p(
+            "coefficient_um_per_mm_s",
+            "um/(mm/s)",
+            "c: error along the named direction = c*v, v the moving axis's commanded velocity (mm/s)",
+        )],
+        principal: &["coefficient_um_per_mm_s"],
+        any_of: false,
+        decide: "runs of the axis at two different feeds",
+    },
+    EffectSpec {
         name: "setup_offset",
         physics: "the declared head offset of these files differs from the true one, so the Abbe arms of the angular errors are wrong",
         params: &[p(
@@ -406,6 +434,7 @@ mod tests {
             },
             evidence: String::new(),
             decide: None,
+            signature: None,
         }
     }
 
