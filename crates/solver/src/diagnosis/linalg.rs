@@ -151,7 +151,10 @@ mod tests {
         let b = vec![vec![1.0; 4], vec![0.0, 1.0, 2.0, 3.0]];
         let y = [3.0, 4.0, 7.0, 12.0];
         let (c, sd) = small_lstsq(&b, &y).unwrap();
-        assert!((c[0] - 2.0).abs() < 1e-12 && (c[1] - 3.0).abs() < 1e-12, "{c}");
+        assert!(
+            (c[0] - 2.0).abs() < 1e-12 && (c[1] - 3.0).abs() < 1e-12,
+            "{c}"
+        );
         assert!((sd[0] - 0.7f64.sqrt()).abs() < 1e-12, "{sd}");
         assert!((sd[1] - 0.2f64.sqrt()).abs() < 1e-12, "{sd}");
     }
