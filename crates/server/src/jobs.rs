@@ -1,5 +1,5 @@
-//! Job kinds and what each runs. A kind is one [`JobKind`] variant plus one arm in
-//! [`execute`] taking its inputs (a dataset, or parameters) to a JSON result document.
+//! Job kinds and what each runs. A kind is one [`JobKind`] variant (in the store's queue)
+//! plus one arm in [`execute`] taking its inputs (a dataset, or parameters) to a JSON result document.
 //!
 //! Wired: `identify` (`mtcal_solver::identification::identify`, a session dataset),
 //! `diagnose` (`mtcal_solver::diagnosis::diagnose_session` on a session,
@@ -20,71 +20,8 @@ use serde::{Deserialize, Serialize};
 use serde_json::Value;
 use utoipa::ToSchema;
 
-/// What a job computes.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize, ToSchema)]
-#[serde(rename_all = "lowercase")]
-pub enum JobKind {
-    /// 21-term identification of a session dataset; result kind `identification`.
-    Identify,
-    /// Error-source ranking (Cheng et al. 2012) from parameters only
-    /// (`mtcal_solver::sensitivity::SensitivityRequest`); result kind `sensitivity`.
-    Sensitivity,
-    /// Diagnosis (default options) of a session, positioning-run or drift-log dataset;
-    /// result kind `diagnosis`.
-    Diagnose,
-    /// Cradle (A/C) check of a rotary point set (`mtcal_solver::cradle::check_cradle`,
-    /// default options); result kind `cradle`.
-    Cradle,
-}
-
-impl JobKind {
-    pub fn as_str(self) -> &'static str {
-        match self {
-            JobKind::Identify => "identify",
-            JobKind::Sensitivity => "sensitivity",
-            JobKind::Diagnose => "diagnose",
-            JobKind::Cradle => "cradle",
-        }
-    }
-
-    pub fn parse(s: &str) -> Option<JobKind> {
-        match s {
-            "identify" => Some(JobKind::Identify),
-            "sensitivity" => Some(JobKind::Sensitivity),
-            "diagnose" => Some(JobKind::Diagnose),
-            "cradle" => Some(JobKind::Cradle),
-            _ => None,
-        }
-    }
-
-    /// The `kind` of the result document it produces.
-    pub fn result_kind(self) -> &'static str {
-        match self {
-            JobKind::Identify => "identification",
-            JobKind::Sensitivity => "sensitivity",
-            JobKind::Diagnose => "diagnosis",
-            JobKind::Cradle => "cradle",
-        }
-    }
-
-    /// Whether it runs on a dataset of this stored kind (see `ingest::DatasetData::kind`).
-    pub fn accepts(self, dataset_kind: &str) -> bool {
-        match self {
-            JobKind::Identify => dataset_kind == "session",
-            JobKind::Diagnose => matches!(dataset_kind, "session" | "positioning" | "drift_log"),
-            JobKind::Cradle => dataset_kind == "rotary_points",
-            JobKind::Sensitivity => false,
-        }
-    }
-
-    /// Whether the kind reads a dataset (else only its parameters).
-    pub fn needs_dataset(self) -> bool {
-        match self {
-            JobKind::Identify | JobKind::Diagnose | JobKind::Cradle => true,
-            JobKind::Sensitivity => false,
-        }
-    }
-}
+/// What a job computes: the queue's typed kind (`mtcal_store::queue`), re-used here.
+pub use mtcal_store::JobKind;
 
 /// Parameters of an `identify` job (all optional; defaults of `mtcal identify`).
 #[derive(Debug, Clone, Default, PartialEq, Serialize, Deserialize, ToSchema)]
@@ -133,6 +70,7 @@ pub fn validate_params(kind: JobKind, params: &Value) -> Result<(), String> {
                 kind.as_str()
             )),
         },
+        JobKind::Import => Err("import jobs are made by imports, not submitted".into()),
     }
 }
 
@@ -243,6 +181,9 @@ pub fn execute(input: &JobInput) -> Result<JobOutput, JobError> {
                 measured_at: dataset.measured_at.clone(),
             })
         }
+        JobKind::Import => Err(JobError::BadInput(
+            "an import job has nothing to run".into(),
+        )),
     }
 }
 
@@ -251,9 +192,9 @@ fn load_dataset(input: &JobInput) -> Result<(&Dataset, DatasetData), JobError> {
     let (dataset, files) = input.dataset.as_ref().ok_or_else(|| {
         JobError::BadInput(format!("a {} job needs a dataset", input.kind.as_str()))
     })?;
-    let data =
-        ingest::read_dataset(files, input.limits).map_err(|e| JobError::BadInput(e.to_string()))?;
-    Ok((dataset, data))
+    let data = ingest::read_dataset(files, &input.limits)
+        .map_err(|e| JobError::BadInput(e.to_string()))?;
+    Ok((dataset, data.data))
 }
 
 /// The job kind cannot run on this dataset kind.

@@ -24,7 +24,6 @@ pub mod lsq;
 pub mod noise;
 pub mod observability;
 pub mod simulate;
-pub mod stepwise;
 
 // Issue 4: sensitivity (Cheng et al. 2012).
 pub mod sensitivity;
@@ -35,6 +34,11 @@ pub mod fits;
 
 // Issue 6: mismatch diagnosis.
 pub mod diagnosis;
+
+// Figures of the machine-tool test standards (ISO 230-2, ISO 230-4) and the residuals
+// of a fit by file and test.
+pub mod residuals;
+pub mod standards;
 
 // Tolerances and the decision rule of conformity.
 pub mod tolerance;

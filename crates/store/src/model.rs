@@ -1,5 +1,6 @@
 //! Plain records the store reads and writes. Times are RFC 3339 UTC strings.
 
+use crate::queue::JobKind;
 use serde::{Deserialize, Serialize};
 use serde_json::Value;
 use std::collections::BTreeMap;
@@ -119,7 +120,7 @@ impl JobState {
 #[cfg_attr(feature = "openapi", derive(utoipa::ToSchema))]
 pub struct Job {
     pub id: String,
-    pub kind: String,
+    pub kind: JobKind,
     pub machine_id: Option<String>,
     pub dataset_id: Option<String>,
     #[cfg_attr(feature = "openapi", schema(value_type = Object))]
@@ -141,7 +142,7 @@ pub struct Job {
 /// A job to enqueue.
 #[derive(Debug, Clone)]
 pub struct NewJob {
-    pub kind: String,
+    pub kind: JobKind,
     pub machine_id: Option<String>,
     pub dataset_id: Option<String>,
     pub params: Value,

@@ -1,13 +1,13 @@
 //! History by machine: all results in time order, the latest, one result, and the
 //! difference from a baseline.
 
+use crate::AppState;
+use crate::auth::ReadKey;
 use crate::error::{ApiError, ApiQuery, ErrorBody};
 use crate::trends::{self, TermDiff};
-use crate::{AppState, auth};
 use axum::Json;
 use axum::extract::{Path, State};
-use axum::http::HeaderMap;
-use mtcal_store::{ResultMeta, Scope, StoredResult};
+use mtcal_store::{ResultMeta, StoredResult};
 use serde::{Deserialize, Serialize};
 use std::collections::BTreeMap;
 use utoipa::{IntoParams, ToSchema};
@@ -26,12 +26,11 @@ pub struct KindQuery {
     responses((status = 200, body = Vec<ResultMeta>, description = "in time order (measured_at)"),
               (status = 404, body = ErrorBody)))]
 pub async fn list(
+    _key: ReadKey,
     State(s): State<AppState>,
-    headers: HeaderMap,
     Path(id): Path<String>,
     ApiQuery(q): ApiQuery<KindQuery>,
 ) -> Result<Json<Vec<ResultMeta>>, ApiError> {
-    auth::authorize(&s, &headers, Scope::Read).await?;
     s.store.get_machine(&id).await?;
     let kind = q.kind.as_deref().unwrap_or(KIND);
     Ok(Json(s.store.list_results(&id, kind).await?))
@@ -41,12 +40,11 @@ pub async fn list(
     security(("api_key" = [])), params(("id" = String, Path), KindQuery),
     responses((status = 200, body = StoredResult), (status = 404, body = ErrorBody)))]
 pub async fn latest(
+    _key: ReadKey,
     State(s): State<AppState>,
-    headers: HeaderMap,
     Path(id): Path<String>,
     ApiQuery(q): ApiQuery<KindQuery>,
 ) -> Result<Json<StoredResult>, ApiError> {
-    auth::authorize(&s, &headers, Scope::Read).await?;
     s.store.get_machine(&id).await?;
     let last = s
         .store
@@ -61,11 +59,10 @@ pub async fn latest(
     security(("api_key" = [])), params(("id" = String, Path)),
     responses((status = 200, body = StoredResult), (status = 404, body = ErrorBody)))]
 pub async fn get(
+    _key: ReadKey,
     State(s): State<AppState>,
-    headers: HeaderMap,
     Path(id): Path<String>,
 ) -> Result<Json<StoredResult>, ApiError> {
-    auth::authorize(&s, &headers, Scope::Read).await?;
     Ok(Json(s.store.get_result(&id).await?))
 }
 
@@ -95,12 +92,11 @@ pub struct ResultDiff {
     security(("api_key" = [])), params(("id" = String, Path), DiffQuery),
     responses((status = 200, body = ResultDiff), (status = 404, body = ErrorBody)))]
 pub async fn diff(
+    _key: ReadKey,
     State(s): State<AppState>,
-    headers: HeaderMap,
     Path(id): Path<String>,
     ApiQuery(q): ApiQuery<DiffQuery>,
 ) -> Result<Json<ResultDiff>, ApiError> {
-    auth::authorize(&s, &headers, Scope::Read).await?;
     let machine = s.store.get_machine(&id).await?;
     let all = s.store.list_results(&id, KIND).await?;
     let pick =

@@ -1,14 +1,13 @@
 //! Trends: a term's value at chosen positions over time, summary figures over time, and
 //! the fleet ranked by drift since each machine's baseline.
 
+use crate::AppState;
 use crate::api::history::KIND;
+use crate::auth::ReadKey;
 use crate::error::{ApiError, ApiQuery, ErrorBody};
 use crate::trends::{self, Drift};
-use crate::{AppState, auth};
 use axum::Json;
 use axum::extract::{Path, State};
-use axum::http::HeaderMap;
-use mtcal_store::Scope;
 use serde::{Deserialize, Serialize};
 use utoipa::{IntoParams, ToSchema};
 
@@ -43,12 +42,11 @@ pub struct TermTrend {
     responses((status = 200, body = TermTrend), (status = 400, body = ErrorBody),
               (status = 404, body = ErrorBody)))]
 pub async fn term(
+    _key: ReadKey,
     State(s): State<AppState>,
-    headers: HeaderMap,
     Path(id): Path<String>,
     ApiQuery(q): ApiQuery<TermQuery>,
 ) -> Result<Json<TermTrend>, ApiError> {
-    auth::authorize(&s, &headers, Scope::Read).await?;
     let (unit, _) = trends::term_info(&q.term).ok_or_else(|| {
         ApiError::InvalidRequest(format!(
             "term {:?} is not one of the 18 ISO 230-1 functions",
@@ -116,11 +114,10 @@ pub struct SummaryTrend {
     security(("api_key" = [])), params(("id" = String, Path)),
     responses((status = 200, body = SummaryTrend), (status = 404, body = ErrorBody)))]
 pub async fn summary(
+    _key: ReadKey,
     State(s): State<AppState>,
-    headers: HeaderMap,
     Path(id): Path<String>,
 ) -> Result<Json<SummaryTrend>, ApiError> {
-    auth::authorize(&s, &headers, Scope::Read).await?;
     s.store.get_machine(&id).await?;
     let points = s
         .store
@@ -177,11 +174,10 @@ pub struct FleetDrift {
     security(("api_key" = [])), params(FleetQuery),
     responses((status = 200, body = FleetDrift), (status = 400, body = ErrorBody)))]
 pub async fn fleet(
+    _key: ReadKey,
     State(s): State<AppState>,
-    headers: HeaderMap,
     ApiQuery(q): ApiQuery<FleetQuery>,
 ) -> Result<Json<FleetDrift>, ApiError> {
-    auth::authorize(&s, &headers, Scope::Read).await?;
     let by = q.by.unwrap_or_else(|| "um".into());
     if by != "um" && by != "urad" {
         return Err(ApiError::InvalidRequest("by: `um` or `urad`".into()));

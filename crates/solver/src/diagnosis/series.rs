@@ -20,7 +20,7 @@ pub mod lsq;
 pub mod positioning;
 pub mod simulate;
 
-pub use positioning::{Iso2302, diagnose_positioning, iso230_2};
+pub use positioning::diagnose_positioning;
 
 pub use drift::diagnose_drift_log;
 

@@ -13,6 +13,7 @@
 //! | setup_offset | true head offset = declared + Δ (on the files it applies to) |
 //! | waviness | e along `direction` = A·sin(2π q/P + φ), q the moving axis, P beyond the cubic |
 //! | vibration | e along `direction` = A·sin(2π f t + φ) |
+//! | velocity_coupling | e along `direction` = c·v, v the velocity of `axis` (mm/s) |
 
 use super::motion::MotionSample;
 use crate::axis::Axis;
@@ -72,10 +73,17 @@ pub enum Effect {
         frequency_hz: f64,
         phase_rad: f64,
     },
+    /// An error along `direction` proportional to the velocity of `axis` (not in the
+    /// diagnosis' named catalogue: found by its signature).
+    VelocityCoupling {
+        axis: Axis,
+        direction: Axis,
+        coefficient_um_per_mm_s: f64,
+    },
 }
 
 /// Names accepted by [`Effect::from_spec`], as in the diagnosis result.
-pub const EFFECT_NAMES: [&str; 8] = [
+pub const EFFECT_NAMES: [&str; 9] = [
     "backlash",
     "servo_lag",
     "reversal_spike",
@@ -84,6 +92,7 @@ pub const EFFECT_NAMES: [&str; 8] = [
     "setup_offset",
     "waviness",
     "vibration",
+    "velocity_coupling",
 ];
 
 fn unit(axis: Axis, value: f64) -> Vector3<f64> {
@@ -103,6 +112,7 @@ impl Effect {
             Effect::SetupOffset { .. } => "setup_offset",
             Effect::Waviness { .. } => "waviness",
             Effect::Vibration { .. } => "vibration",
+            Effect::VelocityCoupling { .. } => "velocity_coupling",
         }
     }
 
@@ -149,6 +159,11 @@ impl Effect {
                 amplitude_um: 0.4,
                 frequency_hz: 3.7,
                 phase_rad: 0.0,
+            },
+            "velocity_coupling" => Effect::VelocityCoupling {
+                axis: Axis::Y,
+                direction: Axis::Z,
+                coefficient_um_per_mm_s: 0.1,
             },
             _ => return None,
         })
@@ -211,6 +226,11 @@ impl Effect {
                 amplitude_um: rng.random_range(0.5..1.2),
                 frequency_hz: rng.random_range(0.1..0.8) * nyquist_hz,
                 phase_rad: rng.random_range(0.0..2.0 * PI),
+            },
+            "velocity_coupling" => Effect::VelocityCoupling {
+                axis,
+                direction: Axis::from_index((axis.index() + 1 + rng.random_range(0..2)) % 3),
+                coefficient_um_per_mm_s: sign * rng.random_range(0.06..0.15),
             },
             _ => return None,
         })
@@ -337,6 +357,14 @@ impl Effect {
             } => unit(
                 direction,
                 amplitude_um * (2.0 * PI * frequency_hz * s.t_s + phase_rad).sin(),
+            ),
+            Effect::VelocityCoupling {
+                axis,
+                direction,
+                coefficient_um_per_mm_s,
+            } => unit(
+                direction,
+                coefficient_um_per_mm_s * s.vel_mm_s[axis.index()],
             ),
         }
     }

@@ -1,0 +1,446 @@
+//! The SQLite implementation of [`Store`] (WAL mode, runtime-checked queries, migrations
+//! in `migrations/sqlite`). Only SQL lives here: the rules are in [`crate::rules`], the
+//! row decoding in `rows`; the queue's statements are in [`queue`](self::queue).
+
+mod queue;
+
+use crate::error::{Db, Result, StoreError, unique_conflict};
+use crate::keys::{ApiKey, NewKey, Scope};
+use crate::model::*;
+use crate::rows::{self, DATASET_COLUMNS, KEY_COLUMNS, MACHINE_COLUMNS, RESULT_COLUMNS};
+use crate::rules::{self, MachineJson, Manifest, ResultRow};
+use crate::{Store, StoreFuture, now_rfc3339};
+use sqlx::sqlite::{
+    SqliteConnectOptions, SqliteJournalMode, SqlitePool, SqlitePoolOptions, SqliteRow,
+    SqliteSynchronous,
+};
+use sqlx::{Executor, Sqlite, Transaction};
+use std::str::FromStr;
+use std::time::Duration;
+
+/// SQLite store. Cheap to clone (a pool handle).
+#[derive(Clone)]
+pub struct SqliteStore {
+    pool: SqlitePool,
+}
+
+impl SqliteStore {
+    /// Opens (creating if needed) and migrates the database at `url` (`sqlite://PATH`,
+    /// `sqlite::memory:` or a plain file path).
+    pub async fn open(url: &str) -> Result<SqliteStore> {
+        let opts = if url.starts_with("sqlite:") {
+            SqliteConnectOptions::from_str(url).db()?
+        } else if url.contains("://") {
+            return Err(StoreError::UnsupportedUrl(url.to_string()));
+        } else {
+            SqliteConnectOptions::new().filename(url)
+        };
+        let opts = opts
+            .create_if_missing(true)
+            .journal_mode(SqliteJournalMode::Wal)
+            .synchronous(SqliteSynchronous::Normal)
+            .foreign_keys(true)
+            .busy_timeout(Duration::from_secs(10));
+        let memory = url.contains(":memory:");
+        let pool = SqlitePoolOptions::new()
+            .max_connections(if memory { 1 } else { 8 })
+            .connect_with(opts)
+            .await
+            .db()?;
+        sqlx::migrate!("../../migrations/sqlite")
+            .run(&pool)
+            .await
+            .db()?;
+        Ok(SqliteStore { pool })
+    }
+
+    async fn machine(&self, id: &str) -> Result<Machine> {
+        let q = format!("SELECT {MACHINE_COLUMNS} FROM machines WHERE id = ?1");
+        let row = row_by_id(&self.pool, q, id, "machine").await?;
+        rows::machine(&row)
+    }
+
+    async fn dataset(&self, id: &str) -> Result<Dataset> {
+        let q = format!("SELECT {DATASET_COLUMNS} FROM datasets WHERE id = ?1");
+        let row = row_by_id(&self.pool, q, id, "dataset").await?;
+        let files = sqlx::query(
+            "SELECT name, sha256, size FROM dataset_files WHERE dataset_id = ?1 ORDER BY name",
+        )
+        .bind(id)
+        .fetch_all(&self.pool)
+        .await
+        .db()?
+        .iter()
+        .map(rows::file_meta)
+        .collect::<Result<Vec<_>>>()?;
+        rows::dataset(&row, files)
+    }
+
+    async fn result_meta(&self, id: &str) -> Result<ResultMeta> {
+        let q = format!("SELECT {RESULT_COLUMNS} FROM results WHERE id = ?1");
+        let row = row_by_id(&self.pool, q, id, "result").await?;
+        rows::result_meta(&row)
+    }
+}
+
+/// The row `sql` selects with `?1` = `id`, or not found (`what id`).
+async fn row_by_id<'e>(
+    ex: impl Executor<'e, Database = Sqlite>,
+    sql: String,
+    id: &str,
+    what: &str,
+) -> Result<SqliteRow> {
+    sqlx::query(sqlx::AssertSqlSafe(sql))
+        .bind(id)
+        .fetch_optional(ex)
+        .await
+        .db()?
+        .ok_or_else(|| StoreError::NotFound(format!("{what} {id}")))
+}
+
+/// Inserts a result row inside `tx`; returns its metadata.
+async fn insert_result(
+    tx: &mut Transaction<'_, Sqlite>,
+    job_id: &str,
+    r: &NewResult,
+) -> Result<ResultMeta> {
+    let row = ResultRow::new(job_id, r)?;
+    let (m, s) = (&row.meta, &row.meta.scalars);
+    sqlx::query(
+        "INSERT INTO results (id, job_id, machine_id, dataset_id, kind, measured_at, created_at, \
+         document, residual_rms_um, condition_number, rank, ec0y_urad, eb0z_urad, ea0z_urad, \
+         term_coefficients) VALUES (?1, ?2, ?3, ?4, ?5, ?6, ?7, ?8, ?9, ?10, ?11, ?12, ?13, ?14, ?15)",
+    )
+    .bind(&m.id)
+    .bind(&m.job_id)
+    .bind(&m.machine_id)
+    .bind(&m.dataset_id)
+    .bind(&m.kind)
+    .bind(&m.measured_at)
+    .bind(&m.created_at)
+    .bind(&row.document)
+    .bind(s.residual_rms_um)
+    .bind(s.condition_number)
+    .bind(s.rank)
+    .bind(s.ec0y_urad)
+    .bind(s.eb0z_urad)
+    .bind(s.ea0z_urad)
+    .bind(&row.term_coefficients)
+    .execute(&mut **tx)
+    .await
+    .map_err(|e| unique_conflict(e, || format!("result of job {job_id}")))?;
+    Ok(row.meta)
+}
+
+/// Inserts a succeeded `import` job and its result inside `tx` (`seq` 0: an import is
+/// never queued).
+async fn insert_import(tx: &mut Transaction<'_, Sqlite>, r: &NewResult) -> Result<ResultMeta> {
+    let job_id = rules::new_id("job");
+    let now = now_rfc3339();
+    sqlx::query(
+        "INSERT INTO jobs (id, seq, kind, machine_id, dataset_id, params, state, max_attempts, \
+         run_after_ms, created_at, started_at, finished_at, progress, attempts) \
+         VALUES (?1, 0, ?2, ?3, ?4, '{}', 'succeeded', 1, 0, ?5, ?5, ?5, 1, 0)",
+    )
+    .bind(&job_id)
+    .bind(crate::JobKind::Import.as_str())
+    .bind(&r.machine_id)
+    .bind(&r.dataset_id)
+    .bind(&now)
+    .execute(&mut **tx)
+    .await
+    .map_err(|e| unique_conflict(e, || format!("import for machine {}", r.machine_id)))?;
+    let meta = insert_result(tx, &job_id, r).await?;
+    sqlx::query("UPDATE jobs SET result_id = ?2 WHERE id = ?1")
+        .bind(&job_id)
+        .bind(&meta.id)
+        .execute(&mut **tx)
+        .await
+        .db()?;
+    Ok(meta)
+}
+
+impl Store for SqliteStore {
+    fn create_machine<'a>(&'a self, m: &'a Machine) -> StoreFuture<'a, Machine> {
+        Box::pin(async move {
+            let now = now_rfc3339();
+            let json = MachineJson::of(m)?;
+            sqlx::query(
+                "INSERT INTO machines (id, name, topology, travel_mm, site, tags, \
+                 baseline_result_id, created_at, updated_at) VALUES (?1, ?2, ?3, ?4, ?5, ?6, NULL, ?7, ?7)",
+            )
+            .bind(&m.id)
+            .bind(&m.name)
+            .bind(&json.topology)
+            .bind(&json.travel_mm)
+            .bind(&m.site)
+            .bind(&json.tags)
+            .bind(&now)
+            .execute(&self.pool)
+            .await
+            .map_err(|e| unique_conflict(e, || format!("machine {} already exists", m.id)))?;
+            self.machine(&m.id).await
+        })
+    }
+
+    fn get_machine<'a>(&'a self, id: &'a str) -> StoreFuture<'a, Machine> {
+        Box::pin(self.machine(id))
+    }
+
+    fn update_machine<'a>(&'a self, id: &'a str, p: &'a MachinePatch) -> StoreFuture<'a, Machine> {
+        Box::pin(async move {
+            let mut m = self.machine(id).await?;
+            let baseline = match &p.baseline_result_id {
+                Some(b) => Some(self.result_meta(b).await?),
+                None => None,
+            };
+            rules::apply_patch(&mut m, p, baseline.as_ref())?;
+            let json = MachineJson::of(&m)?;
+            sqlx::query(
+                "UPDATE machines SET name = ?2, topology = ?3, travel_mm = ?4, site = ?5, tags = ?6, \
+                 baseline_result_id = ?7, updated_at = ?8 WHERE id = ?1",
+            )
+            .bind(id)
+            .bind(&m.name)
+            .bind(&json.topology)
+            .bind(&json.travel_mm)
+            .bind(&m.site)
+            .bind(&json.tags)
+            .bind(&m.baseline_result_id)
+            .bind(now_rfc3339())
+            .execute(&self.pool)
+            .await
+            .db()?;
+            self.machine(id).await
+        })
+    }
+
+    fn list_machines<'a>(
+        &'a self,
+        after: Option<&'a str>,
+        limit: i64,
+    ) -> StoreFuture<'a, Vec<Machine>> {
+        Box::pin(async move {
+            let q = format!(
+                "SELECT {MACHINE_COLUMNS} FROM machines WHERE id > ?1 ORDER BY id LIMIT ?2"
+            );
+            sqlx::query(sqlx::AssertSqlSafe(q))
+                .bind(after.unwrap_or(""))
+                .bind(limit)
+                .fetch_all(&self.pool)
+                .await
+                .db()?
+                .iter()
+                .map(rows::machine)
+                .collect()
+        })
+    }
+
+    fn insert_dataset<'a>(&'a self, d: NewDataset) -> StoreFuture<'a, Dataset> {
+        Box::pin(async move {
+            let id = rules::new_id("ds");
+            let manifest = Manifest::of(&d.files);
+            let mut tx = self.pool.begin().await.db()?;
+            sqlx::query(
+                "INSERT INTO datasets (id, machine_id, kind, measured_at, uploaded_at, samples, \
+                 total_bytes, sha256) VALUES (?1, ?2, ?3, ?4, ?5, ?6, ?7, ?8)",
+            )
+            .bind(&id)
+            .bind(&d.machine_id)
+            .bind(&d.kind)
+            .bind(&d.measured_at)
+            .bind(now_rfc3339())
+            .bind(d.samples)
+            .bind(manifest.total_bytes)
+            .bind(&manifest.sha256)
+            .execute(&mut *tx)
+            .await
+            .map_err(|e| unique_conflict(e, || format!("dataset of machine {}", d.machine_id)))?;
+            for (name, bytes) in &d.files {
+                let meta = manifest
+                    .files
+                    .iter()
+                    .find(|f| &f.name == name)
+                    .ok_or_else(|| StoreError::Backend(format!("file {name} not in manifest")))?;
+                sqlx::query(
+                    "INSERT INTO dataset_files (dataset_id, name, sha256, size, content) \
+                     VALUES (?1, ?2, ?3, ?4, ?5)",
+                )
+                .bind(&id)
+                .bind(name)
+                .bind(&meta.sha256)
+                .bind(meta.size)
+                .bind(bytes.as_slice())
+                .execute(&mut *tx)
+                .await
+                .map_err(|e| unique_conflict(e, || format!("file {name} given twice")))?;
+            }
+            tx.commit().await.db()?;
+            self.dataset(&id).await
+        })
+    }
+
+    fn get_dataset<'a>(&'a self, id: &'a str) -> StoreFuture<'a, Dataset> {
+        Box::pin(self.dataset(id))
+    }
+
+    fn dataset_file<'a>(&'a self, id: &'a str, name: &'a str) -> StoreFuture<'a, Vec<u8>> {
+        Box::pin(async move {
+            let row = sqlx::query(
+                "SELECT content FROM dataset_files WHERE dataset_id = ?1 AND name = ?2",
+            )
+            .bind(id)
+            .bind(name)
+            .fetch_optional(&self.pool)
+            .await
+            .db()?
+            .ok_or_else(|| StoreError::NotFound(format!("file {name} of dataset {id}")))?;
+            rows::Columns::bytes(&row, "content")
+        })
+    }
+
+    fn dataset_files<'a>(&'a self, id: &'a str) -> StoreFuture<'a, Vec<(String, Vec<u8>)>> {
+        Box::pin(async move {
+            let rows = sqlx::query(
+                "SELECT name, content FROM dataset_files WHERE dataset_id = ?1 ORDER BY name",
+            )
+            .bind(id)
+            .fetch_all(&self.pool)
+            .await
+            .db()?;
+            if rows.is_empty() {
+                return Err(StoreError::NotFound(format!("dataset {id}")));
+            }
+            rows.iter().map(rows::name_and_content).collect()
+        })
+    }
+
+    fn get_result<'a>(&'a self, id: &'a str) -> StoreFuture<'a, StoredResult> {
+        Box::pin(async move {
+            let q = format!("SELECT {RESULT_COLUMNS}, document FROM results WHERE id = ?1");
+            let row = row_by_id(&self.pool, q, id, "result").await?;
+            rows::stored_result(&row)
+        })
+    }
+
+    fn list_results<'a>(
+        &'a self,
+        machine_id: &'a str,
+        kind: &'a str,
+    ) -> StoreFuture<'a, Vec<ResultMeta>> {
+        Box::pin(async move {
+            let q = format!(
+                "SELECT {RESULT_COLUMNS} FROM results WHERE machine_id = ?1 AND kind = ?2 \
+                 ORDER BY measured_at, id"
+            );
+            sqlx::query(sqlx::AssertSqlSafe(q))
+                .bind(machine_id)
+                .bind(kind)
+                .fetch_all(&self.pool)
+                .await
+                .db()?
+                .iter()
+                .map(rows::result_meta)
+                .collect()
+        })
+    }
+
+    fn baseline_pairs<'a>(&'a self, kind: &'a str) -> StoreFuture<'a, Vec<BaselinePair>> {
+        Box::pin(async move {
+            // Per machine with results of `kind`: count, baseline id (chosen, else first),
+            // latest id: index seeks on results(machine_id, kind, measured_at, id).
+            const PAIRS: &str = "WITH p AS (SELECT m.id AS mid, \
+                 (SELECT COUNT(*) FROM results r WHERE r.machine_id = m.id AND r.kind = ?1) AS n, \
+                 COALESCE(m.baseline_result_id, (SELECT r.id FROM results r \
+                   WHERE r.machine_id = m.id AND r.kind = ?1 ORDER BY r.measured_at, r.id LIMIT 1)) AS base_id, \
+                 (SELECT r.id FROM results r WHERE r.machine_id = m.id AND r.kind = ?1 \
+                   ORDER BY r.measured_at DESC, r.id DESC LIMIT 1) AS last_id \
+                 FROM machines m) ";
+            let pairs = sqlx::query(sqlx::AssertSqlSafe(format!(
+                "{PAIRS} SELECT mid, n, base_id, last_id FROM p WHERE n > 0 ORDER BY mid"
+            )))
+            .bind(kind)
+            .fetch_all(&self.pool)
+            .await
+            .db()?;
+            let metas = sqlx::query(sqlx::AssertSqlSafe(format!(
+                "{PAIRS} SELECT {RESULT_COLUMNS} FROM results WHERE id IN \
+                 (SELECT base_id FROM p WHERE n > 0 UNION SELECT last_id FROM p WHERE n > 0)"
+            )))
+            .bind(kind)
+            .fetch_all(&self.pool)
+            .await
+            .db()?;
+            let machines = sqlx::query(sqlx::AssertSqlSafe(format!(
+                "SELECT {MACHINE_COLUMNS} FROM machines"
+            )))
+            .fetch_all(&self.pool)
+            .await
+            .db()?;
+            rows::baseline_pairs(&pairs, &metas, &machines)
+        })
+    }
+
+    fn import_result<'a>(&'a self, r: NewResult) -> StoreFuture<'a, ResultMeta> {
+        Box::pin(async move {
+            let mut tx = self.pool.begin().await.db()?;
+            let meta = insert_import(&mut tx, &r).await?;
+            tx.commit().await.db()?;
+            Ok(meta)
+        })
+    }
+
+    fn import_results_bulk<'a>(&'a self, results: &'a [NewResult]) -> StoreFuture<'a, ()> {
+        Box::pin(async move {
+            let mut tx = self.pool.begin().await.db()?;
+            for r in results {
+                insert_import(&mut tx, r).await?;
+            }
+            tx.commit().await.db()
+        })
+    }
+
+    fn create_key<'a>(&'a self, scope: Scope, label: &'a str) -> StoreFuture<'a, (ApiKey, String)> {
+        Box::pin(async move {
+            let k = NewKey::generate(scope, label);
+            sqlx::query(
+                "INSERT INTO api_keys (id, hash, prefix, scope, label, created_at) \
+                 VALUES (?1, ?2, ?3, ?4, ?5, ?6)",
+            )
+            .bind(&k.key.id)
+            .bind(&k.hash)
+            .bind(&k.key.prefix)
+            .bind(scope.as_str())
+            .bind(&k.key.label)
+            .bind(&k.key.created_at)
+            .execute(&self.pool)
+            .await
+            .db()?;
+            Ok((k.key, k.secret))
+        })
+    }
+
+    fn key_by_secret<'a>(&'a self, secret: &'a str) -> StoreFuture<'a, Option<ApiKey>> {
+        Box::pin(async move {
+            let q = format!(
+                "SELECT {KEY_COLUMNS} FROM api_keys WHERE hash = ?1 AND revoked_at IS NULL"
+            );
+            let row = sqlx::query(sqlx::AssertSqlSafe(q))
+                .bind(crate::keys::hash_secret(secret))
+                .fetch_optional(&self.pool)
+                .await
+                .db()?;
+            row.as_ref().map(rows::api_key).transpose()
+        })
+    }
+
+    fn row_counts(&self) -> StoreFuture<'_, RowCounts> {
+        Box::pin(async move {
+            let r = sqlx::query(rows::ROW_COUNTS)
+                .fetch_one(&self.pool)
+                .await
+                .db()?;
+            rows::row_counts(&r)
+        })
+    }
+}
