@@ -4,14 +4,16 @@
 //! Sessions are simulated by `mtcal_solver::simulate` from known polynomial errors
 //! ([`machine_errors`]: a machine signature plus drift growing with time).
 
-use super::submit::Client;
 use anyhow::Context;
+use mtcal_client::Client;
+use mtcal_server::api::jobs::SubmitJob;
+use mtcal_server::api::machines::NewMachine;
+use mtcal_server::jobs::JobKind;
 use mtcal_solver::basis::PolyErrors;
 use mtcal_solver::simulate::{Plan, SimOptions, simulate};
 use mtcal_solver::terms::{Term, TermKind};
 use rand::rngs::StdRng;
 use rand::{Rng, SeedableRng};
-use serde_json::json;
 use std::net::SocketAddr;
 use std::path::{Path, PathBuf};
 use std::process::ExitCode;
@@ -177,13 +179,22 @@ async fn demo(args: Args, db: PathBuf) -> anyhow::Result<ExitCode> {
     let mut jobs = Vec::new();
     for m in 0..args.machines {
         let id = format!("VMC-{:04}", m + 1);
-        c.post(
-            "/api/v1/machines",
-            &json!({"id": id, "name": format!("Vertical machining centre {}", m + 1),
-                    "site": if m % 2 == 0 { "plant-north" } else { "plant-south" },
-                    "tags": ["vmc", "demo"],
-                    "travel_mm": {"X": [-TRAVEL_MM, TRAVEL_MM], "Y": [-TRAVEL_MM, TRAVEL_MM], "Z": [-TRAVEL_MM, TRAVEL_MM]}}),
-        )
+        let travel = [-TRAVEL_MM, TRAVEL_MM];
+        c.create_machine(&NewMachine {
+            id: id.clone(),
+            name: format!("Vertical machining centre {}", m + 1),
+            topology: None,
+            travel_mm: ["X", "Y", "Z"].map(|a| (a.to_string(), travel)).into(),
+            site: Some(
+                if m % 2 == 0 {
+                    "plant-north"
+                } else {
+                    "plant-south"
+                }
+                .into(),
+            ),
+            tags: vec!["vmc".into(), "demo".into()],
+        })
         .await?;
         for q in 0..args.checks {
             let dir = work.join(format!("{id}-q{q}"));
@@ -195,27 +206,36 @@ async fn demo(args: Args, db: PathBuf) -> anyhow::Result<ExitCode> {
                 0.1,
                 (m * 100 + q) as u64,
             )?;
-            let ds = c.upload_session(&id, &dir).await?;
+            let ds = c.upload_path(&id, &dir).await?;
             let job = c
-                .post(
-                    "/api/v1/jobs",
-                    &json!({"kind": "identify", "dataset_id": ds["id"]}),
-                )
+                .submit(&SubmitJob {
+                    kind: JobKind::Identify,
+                    dataset_id: Some(ds.id),
+                    machine_id: None,
+                    params: serde_json::json!({}),
+                })
                 .await?;
-            jobs.push(job["id"].as_str().unwrap_or_default().to_string());
+            jobs.push(job.id);
         }
     }
     let _ = std::fs::remove_dir_all(&work);
     eprintln!("running {} identification jobs …", jobs.len());
     let (mut ok, mut failed) = (0, Vec::new());
     for j in &jobs {
-        let job = c.wait_job(j, Duration::from_secs(600), |_, _| {}).await?;
-        if job["state"] == "succeeded" {
+        let job = c
+            .wait_job(
+                j,
+                Duration::from_secs(600),
+                Duration::from_millis(200),
+                |_| {},
+            )
+            .await?;
+        if job.state == mtcal_store::JobState::Succeeded {
             ok += 1;
         } else {
             failed.push(format!(
                 "{j}: {}",
-                job["error_message"].as_str().unwrap_or("")
+                job.error_message.as_deref().unwrap_or("")
             ));
         }
     }
