@@ -282,7 +282,7 @@ mod tests {
         assert!(!JobKind::RUNNABLE.contains(&JobKind::Import));
         assert_eq!(
             JobKind::runnable_sql_list(),
-            "'identify', 'sensitivity', 'diagnose', 'cradle'"
+            "'identify', 'sensitivity', 'diagnose', 'cradle', 'standards'"
         );
         assert_eq!(JobKind::parse("nope"), None);
     }
