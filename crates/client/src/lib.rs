@@ -204,14 +204,13 @@ impl Client {
                 reqwest::multipart::Part::bytes(bytes.clone()).file_name(name.clone()),
             );
         }
-        self.send(
-            self.request(
+        let rb = self
+            .request(
                 Method::POST,
                 &format!("/api/v1/machines/{machine}/datasets"),
             )
-            .multipart(form),
-        )
-        .await
+            .multipart(form);
+        self.upload(machine, rb).await
     }
 
     /// Uploads one archive (`.tar.gz` when `gzip`, else `.tar`) as the request body.
@@ -226,15 +225,28 @@ impl Client {
         } else {
             "application/x-tar"
         };
-        self.send(
-            self.request(
+        let rb = self
+            .request(
                 Method::POST,
                 &format!("/api/v1/machines/{machine}/datasets"),
             )
             .header(reqwest::header::CONTENT_TYPE, ct)
-            .body(bytes),
-        )
-        .await
+            .body(bytes);
+        self.upload(machine, rb).await
+    }
+
+    /// Sends an upload. The service refuses an upload (unknown machine, key, size) before
+    /// it reads the body and closes the connection, so the client may see a broken pipe
+    /// instead of the answer; then it asks for the machine, and a refusal of that is the
+    /// reason given, else the connection error.
+    async fn upload(&self, machine: &str, rb: RequestBuilder) -> Result<Dataset> {
+        match self.send(rb).await {
+            Err(e @ ClientError::Http { .. }) => match self.machine(machine).await {
+                Err(refusal @ ClientError::Api { .. }) => Err(refusal),
+                _ => Err(e),
+            },
+            other => other,
+        }
     }
 
     /// Uploads a dataset from disk (a session folder, a dataset file with its sidecar, or

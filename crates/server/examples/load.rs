@@ -235,6 +235,7 @@ async fn trends_bench(m: usize, r: usize, q: usize) {
                     measured_at: format!("{}-{:02}-01T08:00:00Z", 2000 + k / 12, 1 + k % 12),
                     document: json!({"kind": "identification", "seeded": true}),
                     scalars: seeded_scalars(&mut rng, k),
+                    figures: vec![],
                 });
             }
             if batch.len() >= 20_000 || i + 1 == m {

@@ -70,7 +70,8 @@ impl utoipa::Modify for SecurityAddon {
         api::datasets::upload, api::datasets::get, api::datasets::file,
         api::jobs::submit, api::jobs::get, api::jobs::result, api::jobs::cancel,
         api::history::list, api::history::latest, api::history::get, api::history::diff,
-        api::trends::term, api::trends::summary, api::trends::fleet,
+        api::history::figures,
+        api::trends::term, api::trends::summary, api::trends::figure, api::trends::fleet,
         api::keys::create,
     ),
     components(schemas(jobs::IdentifyParams, error::ErrorBody)),
@@ -125,8 +126,10 @@ pub fn router(state: AppState) -> Router {
         .route("/api/v1/machines/{id}/results/latest", get(history::latest))
         .route("/api/v1/machines/{id}/results/diff", get(history::diff))
         .route("/api/v1/results/{id}", get(history::get))
+        .route("/api/v1/results/{id}/figures", get(history::figures))
         .route("/api/v1/machines/{id}/trends/term", get(trends::term))
         .route("/api/v1/machines/{id}/trends/summary", get(trends::summary))
+        .route("/api/v1/machines/{id}/trends/figure", get(trends::figure))
         .route("/api/v1/fleet/drift", get(trends::fleet))
         .route("/api/v1/keys", post(keys::create))
         .layer(DefaultBodyLimit::max(JSON_BODY_LIMIT))
