@@ -83,7 +83,6 @@ impl Client {
 
     /// Uploads every file of a session folder as multipart; returns the dataset.
     pub async fn upload_session(&self, machine: &str, dir: &Path) -> anyhow::Result<Value> {
-        let mut form = reqwest::multipart::Form::new();
         let mut names: Vec<_> = std::fs::read_dir(dir)
             .with_context(|| format!("reading {}", dir.display()))?
             .filter_map(|e| e.ok())
@@ -95,8 +94,22 @@ impl Client {
         if !names.iter().any(|n| n == "session.json") {
             return Err(super::BadInput(format!("{}: no session.json", dir.display())).into());
         }
+        let mut files = vec![];
         for n in names {
             let bytes = std::fs::read(dir.join(&n))?;
+            files.push((n, bytes));
+        }
+        self.upload_files(machine, files).await
+    }
+
+    /// Uploads the files of one dataset (name, bytes) as multipart; returns the dataset.
+    pub async fn upload_files(
+        &self,
+        machine: &str,
+        files: Vec<(String, Vec<u8>)>,
+    ) -> anyhow::Result<Value> {
+        let mut form = reqwest::multipart::Form::new();
+        for (n, bytes) in files {
             form = form.part("files", reqwest::multipart::Part::bytes(bytes).file_name(n));
         }
         let r = self
@@ -106,7 +119,7 @@ impl Client {
             .multipart(form)
             .send()
             .await
-            .context("uploading the session")?;
+            .context("uploading the dataset")?;
         Self::check(r).await
     }
 

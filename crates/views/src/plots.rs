@@ -95,6 +95,11 @@ pub(crate) fn tick(v: &f64) -> String {
     if r == 0.0 { "0".into() } else { format!("{r}") }
 }
 
+/// A position or value as the axes label it (`-40`, `2.5`).
+pub fn tick_label(v: f64) -> String {
+    tick(&v)
+}
+
 /// `um` → `µm`, `urad` → `µrad`, anything else unchanged.
 pub fn unit_label(unit: &str) -> &str {
     match unit {

@@ -10,7 +10,7 @@ use axum::body::Bytes;
 use axum::extract::{FromRequest, Multipart, Path, Request, State};
 use axum::http::{HeaderMap, HeaderValue, StatusCode, header};
 use axum::response::{IntoResponse, Response};
-use mtcal_store::{Dataset, NewDataset};
+use mtcal_store::{Dataset, Machine, NewDataset};
 use utoipa::ToSchema;
 
 /// Multipart form of a session upload: one part per file, the part's file name is the
@@ -91,6 +91,20 @@ pub async fn upload(
             "Content-Type {ct:?}: send multipart/form-data or application/gzip (a .tar.gz)"
         )));
     };
+    Ok((
+        StatusCode::CREATED,
+        Json(store_upload(&s, machine, files).await?),
+    ))
+}
+
+/// Reads the uploaded files as one dataset of `machine` with the strict reader of its
+/// kind and stores it (the upload route; the dashboard's upload form too). Nothing is
+/// stored when a file breaks a rule.
+pub async fn store_upload(
+    s: &AppState,
+    machine: Machine,
+    files: Vec<(String, Vec<u8>)>,
+) -> Result<Dataset, ApiError> {
     let limits = s.limits;
     let checked = files.clone();
     let sidecar = files
@@ -142,7 +156,7 @@ pub async fn upload(
             files,
         })
         .await?;
-    Ok((StatusCode::CREATED, Json(d)))
+    Ok(d)
 }
 
 /// RFC 3339 time as UTC (`…Z`), so that stored times sort as text.

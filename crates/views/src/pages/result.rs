@@ -378,12 +378,21 @@ pub fn cradle(c: &CradleResult) -> Markup {
                 tbody {
                     @for e in &c.location_errors {
                         tr { td { (e.name) } td.num { (with_u(e.value, e.std, &e.unit)) }
-                             td { (format!("{:?}", e.observability)) } td { (e.note.as_deref().unwrap_or("")) } }
+                             td { (observable(&e.observability)) } td { (e.note.as_deref().unwrap_or("")) } }
                     }
                 }
             }
         }
         @if !c.notes.is_empty() { section.card { h2 { "Notes" } ul.compact { @for n in &c.notes { li { (n) } } } } }
+    }
+}
+
+fn observable(o: &mtcal_solver::cradle::Observability) -> &'static str {
+    use mtcal_solver::cradle::Observability::*;
+    match o {
+        Intrinsic => "from ball data",
+        RegisteredFrame => "with the frame registered",
+        NotObservable => "not observable",
     }
 }
 
