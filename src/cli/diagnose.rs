@@ -170,6 +170,21 @@ pub fn summary(r: &DiagnosisResult) -> String {
         let _ = writeln!(s, "  parameters: {}", params.join(", "));
         let _ = writeln!(s, "  evidence: {}", f.evidence);
     }
+    for f in &r.possible {
+        let _ = writeln!(
+            s,
+            "possible, undetermined: {}{}: {}",
+            f.effect,
+            f.axis
+                .as_deref()
+                .map(|a| format!(" ({a})"))
+                .unwrap_or_default(),
+            f.decide.as_deref().unwrap_or("")
+        );
+    }
+    for why in &r.rejected {
+        let _ = writeln!(s, "rejected: {why}");
+    }
     for u in &r.unexplained {
         let _ = writeln!(s, "unexplained: {u}");
     }

@@ -121,7 +121,13 @@ async fn jobs_bench(k: usize) {
 
         // Bare: what the worker computes for the job.
         let t = Instant::now();
-        let session = mtcal_server::ingest::read_session(&files, UploadLimits::default()).unwrap();
+        let mtcal_formats::DatasetData::Session(session) =
+            mtcal_formats::read_upload(&files, &UploadLimits::default())
+                .unwrap()
+                .data
+        else {
+            unreachable!("a session folder")
+        };
         read.push(t.elapsed().as_secs_f64());
         let r = identify(&session, &IdentifyOptions::default()).unwrap();
         bare.push(t.elapsed().as_secs_f64());

@@ -192,9 +192,9 @@ fn load_dataset(input: &JobInput) -> Result<(&Dataset, DatasetData), JobError> {
     let (dataset, files) = input.dataset.as_ref().ok_or_else(|| {
         JobError::BadInput(format!("a {} job needs a dataset", input.kind.as_str()))
     })?;
-    let data =
-        ingest::read_dataset(files, input.limits).map_err(|e| JobError::BadInput(e.to_string()))?;
-    Ok((dataset, data))
+    let data = ingest::read_dataset(files, &input.limits)
+        .map_err(|e| JobError::BadInput(e.to_string()))?;
+    Ok((dataset, data.data))
 }
 
 /// The job kind cannot run on this dataset kind.

@@ -35,7 +35,9 @@ pub mod fits;
 // Issue 6: mismatch diagnosis.
 pub mod diagnosis;
 
-// Figures of the machine-tool test standards (ISO 230-2).
+// Figures of the machine-tool test standards (ISO 230-2, ISO 230-4) and the residuals
+// of a fit by file and test.
+pub mod residuals;
 pub mod standards;
 
 pub use axis::{Axis, Plane, Topology};

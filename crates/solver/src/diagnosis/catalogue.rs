@@ -177,21 +177,23 @@ pub fn search(d: &Design, c: &Candidate) -> Search {
 }
 
 /// Columns of a candidate at nonlinear value `theta` (ignored when it has none), with the
-/// names (and units) of their coefficients. `eps` is Σ_k ε_k(q_k) (µrad) per sample, for
-/// setup_offset.
+/// names (and units) of their coefficients and each column's largest |value| before
+/// centring. `eps` is Σ_k ε_k(q_k) (µrad) per sample, for setup_offset.
 pub fn columns(
     d: &Design,
     c: &Candidate,
     theta: f64,
     eps: Option<&[[f64; 3]]>,
-) -> (Cols, Vec<String>) {
+) -> (Cols, Vec<String>, Vec<f64>) {
     let mut cols = Vec::new();
     let mut names = Vec::new();
+    let mut peaks = Vec::new();
     let mut push = |axis: Axis, name: String, f: &dyn Fn(&SampleMeta) -> f64| {
-        let col = d.effect_column(axis, f);
+        let (col, peak) = d.effect_column_peak(axis, f);
         if col.iter().any(|v| v.abs() > 1e-12) {
             cols.push(col);
             names.push(name);
+            peaks.push(peak);
         }
     };
     match c.effect {
@@ -245,7 +247,7 @@ pub fn columns(
             let a = c.axis.expect("axis");
             let dir = c.direction.expect("direction");
             let Some([lo, hi]) = d.travel[a.index()] else {
-                return (cols, names);
+                return (cols, names, peaks);
             };
             let (cen, h) = (0.5 * (lo + hi), (0.5 * (hi - lo)).max(1.0));
             for k in 4..=10 {
@@ -256,7 +258,7 @@ pub fn columns(
         }
         "setup_offset" => {
             let (Some(g), Some(eps)) = (c.group, eps) else {
-                return (cols, names);
+                return (cols, names, peaks);
             };
             for j in Axis::ALL {
                 // (ε × e_j)[read axis] · 10⁻³ on the group's samples.
@@ -271,45 +273,20 @@ pub fn columns(
                     ej[j.index()] = 1.0;
                     *slot = e.cross(&ej)[d.row_axis(r).index()] * 1e-3;
                 }
-                d.centre(&mut col);
+                let peak = d.centre_with_peak(&mut col);
                 if col.iter().any(|v| v.abs() > 1e-12) {
                     cols.push(col);
                     names.push(format!("delta_mm_{j}"));
+                    peaks.push(peak);
                 }
             }
         }
         _ => {}
     }
-    (cols, names)
+    (cols, names, peaks)
 }
 
-/// A one-sentence physics statement per effect.
+/// The physics sentence of an effect (the shared table of [`super::effects`]).
 pub fn physics(effect: &str) -> &'static str {
-    match effect {
-        "backlash" => {
-            "lost motion at direction reversal of the axis drive (clearance in the screw, nut or coupling); the rigid-body model has no memory of the direction of travel"
-        }
-        "servo_lag" => {
-            "servo following error: the axis lags its set-point in proportion to velocity; the rigid-body model is static, position-only"
-        }
-        "reversal_spike" => {
-            "friction transient at an axis reversal (stick-slip, quadrant glitch) decaying with the travel after the reversal; not in a static geometric model"
-        }
-        "cyclic" => {
-            "periodic positioning error with the period of the screw lead (screw or encoder cyclic error), beyond the polynomial's order"
-        }
-        "thermal_drift" => {
-            "thermal growth of the structure over the session (first-order response): offsets and axis scale change with time, the rigid model is time-invariant"
-        }
-        "setup_offset" => {
-            "the declared head offset of these files differs from the true one, so the Abbe arms of the angular errors are wrong"
-        }
-        "model_order" => {
-            "position-bound, repeatable error with more waviness than the polynomial order can follow (guideway or scale waviness)"
-        }
-        "vibration" => {
-            "time-periodic motion of the tool relative to the workpiece (vibration), not bound to position"
-        }
-        _ => "unmodelled effect",
-    }
+    super::effects::spec(effect).map_or("unmodelled effect", |e| e.physics)
 }

@@ -85,29 +85,50 @@ impl Design {
     }
 
     /// A column with `f(sample)` on the rows that read along `axis` (0 elsewhere),
-    /// centred per (run, component) like the rigid model's columns.
-    pub fn effect_column(&self, axis: Axis, f: impl Fn(&SampleMeta) -> f64) -> Vec<f64> {
+    /// centred per (run, component) like the rigid model's columns, and its size as a
+    /// machine error per unit coefficient ([`Self::centre_with_peak`]).
+    pub fn effect_column_peak(
+        &self,
+        axis: Axis,
+        f: impl Fn(&SampleMeta) -> f64,
+    ) -> (Vec<f64>, f64) {
         let mut c = vec![0.0; self.rows()];
         for (r, slot) in c.iter_mut().enumerate() {
             if self.row_axis(r) == axis {
                 *slot = f(&self.samples[r / 2]);
             }
         }
-        self.centre(&mut c);
-        c
+        let peak = self.centre_with_peak(&mut c);
+        (c, peak)
+    }
+
+    /// Centres `c` per (run, component) and returns the largest |value| before centring
+    /// over the (run, component) groups where the column varies: where it is constant the
+    /// run's zero offset absorbs it, and its value there (e.g. a function evaluated at a
+    /// parked position outside the travel) says nothing of the effect's size.
+    pub fn centre_with_peak(&self, c: &mut [f64]) -> f64 {
+        let mut peak = 0.0f64;
+        for run in &self.runs {
+            for comp in 0..2 {
+                let rows = (run.start..run.end).map(|s| 2 * s + comp);
+                let n = (run.end - run.start) as f64;
+                let m: f64 = rows.clone().map(|r| c[r]).sum::<f64>() / n;
+                let raw = rows.clone().fold(0.0f64, |a, r| a.max(c[r].abs()));
+                let dev = rows.clone().fold(0.0f64, |a, r| a.max((c[r] - m).abs()));
+                if dev > 1e-9 * raw.max(1e-300) {
+                    peak = peak.max(raw);
+                }
+                for r in rows {
+                    c[r] -= m;
+                }
+            }
+        }
+        peak
     }
 
     /// Removes the mean of each (run, component).
     pub fn centre(&self, c: &mut [f64]) {
-        for run in &self.runs {
-            for comp in 0..2 {
-                let n = (run.end - run.start) as f64;
-                let m: f64 = (run.start..run.end).map(|s| c[2 * s + comp]).sum::<f64>() / n;
-                for s in run.start..run.end {
-                    c[2 * s + comp] -= m;
-                }
-            }
-        }
+        self.centre_with_peak(c);
     }
 
     /// Rows of the runs for which `keep(run)` holds.

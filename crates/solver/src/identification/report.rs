@@ -203,6 +203,7 @@ pub fn report(
             samples: session.sample_count(),
             residual_rms_um: round((fit.solution.rss / rows.max(1) as f64).sqrt()),
             noise_estimate_um: noise,
+            noise_pass_differences_um: None,
         },
         nuisance: Nuisance {
             mountings,

@@ -182,6 +182,7 @@ mod tests {
                 after: 0.35,
             },
             evidence: String::new(),
+            decide: None,
         }
     }
 
