@@ -40,7 +40,7 @@ pub use band::{empty_panel, error_function, function_band};
 pub use bars::{finding_bars, ranking_bars};
 pub use errorbars::{
     BarPoint, ErrorBarChart, PointSeries, TrendPoint, TrendSeries, XScale, error_bar_chart,
-    rotation_vectors, trend,
+    rotation_vectors, trend, unix_seconds,
 };
 pub use polar::{CIRCLE_COLORS, CircleTrace, circle_polar};
 pub use spark::sparkline;

@@ -467,7 +467,7 @@ pub async fn result(
             let d: IdentificationResult =
                 serde_json::from_value(doc.clone()).map_err(|e| bad_document(&r, e))?;
             let circles: Vec<CircleTrace> = array(doc, "circles");
-            let residuals: Vec<vresult::ResidualRow> = array(doc, "residuals");
+            let residuals: Vec<mtcal_solver::residuals::ResidualSummary> = array(doc, "residuals");
             let travel = |_: &str| None;
             let body = vresult::ResultBody::Identification(vresult::IdentificationView {
                 doc: &d,
