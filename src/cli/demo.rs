@@ -4,8 +4,11 @@
 //! Sessions are simulated by `mtcal_solver::simulate` from known polynomial errors
 //! ([`machine_errors`]: a machine signature plus drift growing with time).
 
-use super::submit::Client;
 use anyhow::Context;
+use mtcal_client::Client;
+use mtcal_server::api::jobs::SubmitJob;
+use mtcal_server::api::machines::NewMachine;
+use mtcal_server::jobs::JobKind;
 use mtcal_solver::basis::PolyErrors;
 use mtcal_solver::simulate::{Effect, Plan, SimOptions, simulate};
 use mtcal_solver::terms::{Term, TermKind};
@@ -180,13 +183,22 @@ async fn demo(args: Args, db: PathBuf) -> anyhow::Result<ExitCode> {
     let mut jobs = Vec::new();
     for m in 0..args.machines {
         let id = format!("VMC-{:04}", m + 1);
-        c.post(
-            "/api/v1/machines",
-            &json!({"id": id, "name": format!("Vertical machining centre {}", m + 1),
-                    "site": if m % 2 == 0 { "plant-north" } else { "plant-south" },
-                    "tags": ["vmc", "demo"],
-                    "travel_mm": {"X": [-TRAVEL_MM, TRAVEL_MM], "Y": [-TRAVEL_MM, TRAVEL_MM], "Z": [-TRAVEL_MM, TRAVEL_MM]}}),
-        )
+        let travel = [-TRAVEL_MM, TRAVEL_MM];
+        c.create_machine(&NewMachine {
+            id: id.clone(),
+            name: format!("Vertical machining centre {}", m + 1),
+            topology: None,
+            travel_mm: ["X", "Y", "Z"].map(|a| (a.to_string(), travel)).into(),
+            site: Some(
+                if m % 2 == 0 {
+                    "plant-north"
+                } else {
+                    "plant-south"
+                }
+                .into(),
+            ),
+            tags: vec!["vmc".into(), "demo".into()],
+        })
         .await?;
         for q in 0..args.checks {
             let dir = work.join(format!("{id}-q{q}"));
@@ -198,14 +210,16 @@ async fn demo(args: Args, db: PathBuf) -> anyhow::Result<ExitCode> {
                 0.1,
                 (m * 100 + q) as u64,
             )?;
-            let ds = c.upload_session(&id, &dir).await?;
+            let ds = c.upload_path(&id, &dir).await?;
             let job = c
-                .post(
-                    "/api/v1/jobs",
-                    &json!({"kind": "identify", "dataset_id": ds["id"]}),
-                )
+                .submit(&SubmitJob {
+                    kind: JobKind::Identify,
+                    dataset_id: Some(ds.id),
+                    machine_id: None,
+                    params: serde_json::json!({}),
+                })
                 .await?;
-            jobs.push(job["id"].as_str().unwrap_or_default().to_string());
+            jobs.push(job.id);
         }
     }
     jobs.extend(more_checks(&c, &work, args.machines, args.checks).await?);
@@ -213,13 +227,20 @@ async fn demo(args: Args, db: PathBuf) -> anyhow::Result<ExitCode> {
     eprintln!("running {} jobs …", jobs.len());
     let (mut ok, mut failed) = (0, Vec::new());
     for j in &jobs {
-        let job = c.wait_job(j, Duration::from_secs(600), |_, _| {}).await?;
-        if job["state"] == "succeeded" {
+        let job = c
+            .wait_job(
+                j,
+                Duration::from_secs(600),
+                Duration::from_millis(200),
+                |_| {},
+            )
+            .await?;
+        if job.state == mtcal_store::JobState::Succeeded {
             ok += 1;
         } else {
             failed.push(format!(
                 "{j}: {}",
-                job["error_message"].as_str().unwrap_or("")
+                job.error_message.as_deref().unwrap_or("")
             ));
         }
     }
@@ -277,9 +298,20 @@ async fn more_checks(
     checks: usize,
 ) -> anyhow::Result<Vec<String>> {
     let mut jobs = vec![];
-    let mut submit = async |body: serde_json::Value| -> anyhow::Result<()> {
-        let job = c.post("/api/v1/jobs", &body).await?;
-        jobs.push(job["id"].as_str().unwrap_or_default().to_string());
+    let mut submit = async |kind: JobKind,
+                            dataset_id: Option<String>,
+                            machine_id: Option<&str>,
+                            params: serde_json::Value|
+           -> anyhow::Result<()> {
+        let job = c
+            .submit(&SubmitJob {
+                kind,
+                dataset_id,
+                machine_id: machine_id.map(str::to_string),
+                params,
+            })
+            .await?;
+        jobs.push(job.id);
         Ok(())
     };
     if machines > 0 {
@@ -301,17 +333,24 @@ async fn more_checks(
         )
         .context("simulating a session with backlash")?;
         mtcal_formats::write_session_dir(&dir, &sim.session)?;
-        let ds = c.upload_session("VMC-0001", &dir).await?;
-        submit(json!({"kind": "diagnose", "dataset_id": ds["id"]})).await?;
-        submit(json!({"kind": "sensitivity", "machine_id": "VMC-0001",
-                      "params": {"machine": {"template": "vmc3"}}}))
+        let ds = c.upload_path("VMC-0001", &dir).await?;
+        submit(JobKind::Diagnose, Some(ds.id), None, json!({})).await?;
+        submit(
+            JobKind::Sensitivity,
+            None,
+            Some("VMC-0001"),
+            json!({"machine": {"template": "vmc3"}}),
+        )
         .await?;
     }
-    c.post(
-        "/api/v1/machines",
-        &json!({"id": CRADLE_MACHINE, "name": "5-axis trunnion (A/C cradle)",
-                "site": "plant-north", "tags": ["5-axis", "demo"]}),
-    )
+    c.create_machine(&NewMachine {
+        id: CRADLE_MACHINE.into(),
+        name: "5-axis trunnion (A/C cradle)".into(),
+        topology: None,
+        travel_mm: Default::default(),
+        site: Some("plant-north".into()),
+        tags: vec!["5-axis".into(), "demo".into()],
+    })
     .await?;
     let mut set = mtcal_solver::cradle::simulate::simulate_cradle(
         &mtcal_solver::cradle::simulate::CradleSimulation::example(true, 7),
@@ -325,10 +364,10 @@ async fn more_checks(
     let ds = c
         .upload_files(
             CRADLE_MACHINE,
-            vec![("cradle.csv".into(), csv), ("cradle.json".into(), sidecar)],
+            &[("cradle.csv".into(), csv), ("cradle.json".into(), sidecar)],
         )
         .await?;
-    submit(json!({"kind": "cradle", "dataset_id": ds["id"]})).await?;
+    submit(JobKind::Cradle, Some(ds.id), None, json!({})).await?;
     Ok(jobs)
 }
 

@@ -142,5 +142,6 @@ pub fn summary(r: &IdentificationResult) -> String {
     for a in &o.advice {
         let _ = writeln!(s, "advice: {a}");
     }
+    s.push_str(&super::standards::summary(&r.standards));
     s
 }

@@ -51,6 +51,10 @@ pub struct Finding {
     pub parameters: BTreeMap<String, f64>,
     /// One sentence: what the physics is and why the rigid-body model lacks it.
     pub physics: String,
+    /// For an effect found by its signature rather than named in the catalogue: the
+    /// signature in words ("a Z error that follows the Y velocity").
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub signature: Option<String>,
     pub residual_rms_um: BeforeAfter,
     pub heldout_rms_um: BeforeAfter,
     /// Why this effect was chosen (information criterion, signature counts).

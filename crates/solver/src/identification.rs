@@ -190,6 +190,17 @@ pub struct IdentificationResult {
     /// Sentences stating the reporting conventions used (straightness, squareness,
     /// circle direction).
     pub reporting: Vec<String>,
+    /// ISO 230-2 figures from the line passes and ISO 230-4 figures from the circle runs
+    /// of the session (`crate::standards`).
+    #[serde(default)]
+    pub standards: crate::standards::Standards,
+    /// Polar-plot data of every circle run: radial deviation measured and from the fitted
+    /// model.
+    #[serde(default)]
+    pub circles: Vec<crate::standards::iso230_4::CirclePlot>,
+    /// Residual RMS of the fit by file and test.
+    #[serde(default)]
+    pub residuals: Vec<crate::residuals::ResidualSummary>,
 }
 
 impl IdentificationResult {

@@ -18,7 +18,10 @@ pub struct ResidualSummary {
 
 /// Summarises residuals (reading − model, [plane][run][sample] = (u, v), µm) by file and
 /// test, in session order.
-pub fn by_file_and_test(session: &Session, residuals: &[Vec<Vec<[f64; 2]>>]) -> Vec<ResidualSummary> {
+pub fn by_file_and_test(
+    session: &Session,
+    residuals: &[Vec<Vec<[f64; 2]>>],
+) -> Vec<ResidualSummary> {
     let mut out: Vec<(ResidualSummary, f64)> = vec![];
     for (rec, res) in session.planes.iter().zip(residuals) {
         for (run, r) in rec.runs.iter().zip(res) {

@@ -60,6 +60,30 @@ impl Standards {
     }
 }
 
+/// The result document of a standards evaluation on its own (the service's `standards`
+/// job, `mtcal standards --json`): the figures with what they were computed from.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct StandardsResult {
+    /// Always `standards`.
+    pub kind: String,
+    pub machine_id: String,
+    /// `session` (line passes and circles) or `positioning` (positioning runs).
+    pub source: String,
+    #[serde(flatten)]
+    pub standards: Standards,
+}
+
+impl StandardsResult {
+    pub fn new(machine_id: &str, source: &str, standards: Standards) -> StandardsResult {
+        StandardsResult {
+            kind: "standards".into(),
+            machine_id: machine_id.into(),
+            source: source.into(),
+            standards,
+        }
+    }
+}
+
 /// ISO 230-2 from the line passes and ISO 230-4 from the circle runs of a session.
 pub fn from_session(session: &Session) -> Standards {
     let (iso230_2, not_evaluated) = iso230_2::from_session(session);

@@ -104,7 +104,11 @@ fn figures_worked_by_hand() {
     assert_eq!((f.targets, f.runs, f.n_up, f.n_down), (5, 3, 3, 3));
     assert_eq!(f.source, Source::PositioningRuns);
     // Fewer than 5 runs: said.
-    assert!(f.notes.iter().any(|n| n.contains("5 readings")), "{:?}", f.notes);
+    assert!(
+        f.notes.iter().any(|n| n.contains("5 readings")),
+        "{:?}",
+        f.notes
+    );
 }
 
 /// Stored names and values: `iso230_2.<axis>.<figure>`, and the JSON keys are the same.
@@ -150,9 +154,14 @@ fn unequal_runs_worked_by_hand() {
             deviation_um: d,
         })
     };
-    for (run, v) in [[0.0, 1.0, 4.0], [2.0, 1.0, 4.0], [0.0, 1.0, 4.0], [2.0, 1.0, 4.0]]
-        .iter()
-        .enumerate()
+    for (run, v) in [
+        [0.0, 1.0, 4.0],
+        [2.0, 1.0, 4.0],
+        [0.0, 1.0, 4.0],
+        [2.0, 1.0, 4.0],
+    ]
+    .iter()
+    .enumerate()
     {
         for (t, d) in [10.0, 20.0, 30.0].iter().zip(v) {
             push(*t, true, run as i64, *d);
@@ -233,7 +242,11 @@ fn line_passes_of_a_simulated_session() {
     assert_eq!(f.source, Source::LinePasses);
     assert_eq!(f.file.as_deref(), Some("xy_t1.csv"));
     assert_eq!((f.targets, f.runs, f.n_up, f.n_down), (11, 10, 5, 5));
-    assert!(f.notes[0].contains("not a standstill test"), "{:?}", f.notes);
+    assert!(
+        f.notes[0].contains("not a standstill test"),
+        "{:?}",
+        f.notes
+    );
     assert!(f.notes[1].contains("lost motion"), "{:?}", f.notes);
     // 11 evenly spaced targets, inset from the ends of the travel by the reading window.
     let xs: Vec<f64> = f.per_target.iter().map(|p| p.target_mm).collect();
@@ -268,9 +281,19 @@ fn line_passes_of_a_simulated_session() {
     // such readings; the window's curvature bias on the spike is h·w²/(6λ²) ≈ 1e-3 µm.
     let tol = 0.05;
     close(f.reversal_b_um, max(&b).max(-min(&b)), tol, "B");
-    close(f.mean_reversal_b_um, 0.0, 1e-9, "B mean (0 by construction)");
+    close(
+        f.mean_reversal_b_um,
+        0.0,
+        1e-9,
+        "B mean (0 by construction)",
+    );
     close(f.systematic_e_up_um, max(&up) - min(&up), tol, "E up");
-    close(f.systematic_e_down_um, max(&down) - min(&down), tol, "E down");
+    close(
+        f.systematic_e_down_um,
+        max(&down) - min(&down),
+        tol,
+        "E down",
+    );
     close(f.systematic_e_um, max(&both) - min(&both), tol, "E");
     close(f.mean_range_m_um, max(&mean) - min(&mean), tol, "M");
     // s is noise only (≈ 0.02 µm), so R↑, R↓ are small and R = max(2s↑ + 2s↓ + |B_i|)

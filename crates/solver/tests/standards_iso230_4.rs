@@ -89,7 +89,12 @@ fn radius_error_and_ovality() {
         close(d.centre_mm[0], C[0] + 1e-4, 1e-8, "centre u");
         close(d.centre_mm[1], C[1] - 6e-4, 1e-8, "centre v");
         // (chord, not arc, between samples: relative 1e-7)
-        close(d.feed_mm_min, 60.0 * 2.0 * PI * R / N as f64 / 0.01, 1e-4, "feed");
+        close(
+            d.feed_mm_min,
+            60.0 * 2.0 * PI * R / N as f64 / 0.01,
+            1e-4,
+            "feed",
+        );
     }
     assert_eq!(f.directions[0].direction, "cw");
     assert_eq!(f.directions[1].direction, "ccw");
@@ -124,7 +129,8 @@ fn squareness_gives_an_ellipse_at_45_degrees() {
 #[test]
 fn backlash_gives_hysteresis() {
     let b = 2.0;
-    let bl = move |_: f64, _: f64, ud: f64, vd: f64| (-ud.signum() * b / 2.0, -vd.signum() * b / 2.0);
+    let bl =
+        move |_: f64, _: f64, ud: f64, vd: f64| (-ud.signum() * b / 2.0, -vd.signum() * b / 2.0);
     let f = figures(&bl);
     let expect = b * (0.5f64.to_radians().cos() - 0.5f64.to_radians().sin());
     for d in &f.directions {
@@ -162,7 +168,12 @@ fn hysteresis_is_independent_of_the_common_pattern() {
     };
     let s = session_of(vec![circle(true, 1, &dev), circle(false, 2, &shifted)]);
     let g = iso230_4::from_session(&s).remove(0);
-    close(g.bidirectional.unwrap().h_um, bi.h_um, 5e-4, "H with a zero offset");
+    close(
+        g.bidirectional.unwrap().h_um,
+        bi.h_um,
+        5e-4,
+        "H with a zero offset",
+    );
 }
 
 /// Stored names, uncertainty and the noise estimate: white noise σ = 0.1 µm per component
@@ -182,7 +193,12 @@ fn noise_uncertainty_and_names() {
     let d = &f.directions[0];
     close(d.noise_um, 0.1, 0.005, "σ̂");
     close(d.u["G_um"], 2f64.sqrt() * 0.1 / 20f64.sqrt(), 0.002, "u(G)");
-    close(d.u["mean_radial_um"], 0.1 / (N as f64).sqrt(), 1e-4, "u(mean)");
+    close(
+        d.u["mean_radial_um"],
+        0.1 / (N as f64).sqrt(),
+        1e-4,
+        "u(mean)",
+    );
     let names: Vec<String> = f.scalar_figures().into_iter().map(|s| s.name).collect();
     for n in [
         "iso230_4.XY.cw.G_um",
@@ -208,7 +224,11 @@ fn partial_arc_is_said() {
     assert_eq!(run.test_kind(Plane::XY), TestKind::CircleCcw);
     let f = iso230_4::from_session(&session_of(vec![run])).remove(0);
     assert!(f.bidirectional.is_none());
-    assert!(f.notes.iter().any(|n| n.contains("not a full circle")), "{:?}", f.notes);
+    assert!(
+        f.notes.iter().any(|n| n.contains("not a full circle")),
+        "{:?}",
+        f.notes
+    );
 }
 
 /// The session simulator (exact HTM chain, trapezoidal feed, per-run encoder zeros, plate

@@ -7,7 +7,7 @@ use crate::error::{ApiError, ApiQuery, ErrorBody};
 use crate::trends::{self, TermDiff};
 use axum::Json;
 use axum::extract::{Path, State};
-use mtcal_store::{ResultMeta, StoredResult};
+use mtcal_store::{Figure, ResultMeta, StoredResult};
 use serde::{Deserialize, Serialize};
 use std::collections::BTreeMap;
 use utoipa::{IntoParams, ToSchema};
@@ -17,7 +17,8 @@ pub const KIND: &str = "identification";
 
 #[derive(Debug, Deserialize, IntoParams)]
 pub struct KindQuery {
-    /// Result kind: `identification` (default), `diagnosis`, `cradle` or `sensitivity`.
+    /// Result kind: `identification` (default), `diagnosis`, `cradle`, `standards` or
+    /// `sensitivity`.
     pub kind: Option<String>,
 }
 
@@ -73,6 +74,18 @@ pub async fn get(
     Path(id): Path<String>,
 ) -> Result<Json<StoredResult>, ApiError> {
     Ok(Json(s.store.get_result(&id).await?))
+}
+
+#[utoipa::path(operation_id = "history_figures", get, path = "/api/v1/results/{id}/figures", tag = "history",
+    security(("api_key" = [])), params(("id" = String, Path)),
+    responses((status = 200, body = Vec<Figure>, description = "the result's named figures (standards), by name"),
+              (status = 404, body = ErrorBody)))]
+pub async fn figures(
+    _key: ReadKey,
+    State(s): State<AppState>,
+    Path(id): Path<String>,
+) -> Result<Json<Vec<Figure>>, ApiError> {
+    Ok(Json(s.store.result_figures(&id).await?))
 }
 
 #[derive(Debug, Deserialize, IntoParams)]

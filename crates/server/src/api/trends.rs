@@ -1,5 +1,6 @@
-//! Trends: a term's value at chosen positions over time, summary figures over time, and
-//! the fleet ranked by drift since each machine's baseline.
+//! Trends: a term's value at chosen positions over time, summary figures over time, a
+//! named figure of the standards over time, and the fleet ranked by drift since each
+//! machine's baseline.
 
 use crate::AppState;
 use crate::api::history::KIND;
@@ -8,6 +9,7 @@ use crate::error::{ApiError, ApiQuery, ErrorBody};
 use crate::trends::{self, Drift};
 use axum::Json;
 use axum::extract::{Path, State};
+use mtcal_store::FigurePoint;
 use serde::{Deserialize, Serialize};
 use utoipa::{IntoParams, ToSchema};
 
@@ -151,6 +153,58 @@ pub async fn summary_trend(s: &AppState, id: &str) -> Result<SummaryTrend, ApiEr
         machine_id: id.to_string(),
         points,
     })
+}
+
+#[derive(Debug, Deserialize, IntoParams)]
+pub struct FigureQuery {
+    /// Figure name, e.g. `iso230_2.X.E_um` or `iso230_4.XY.bi.H_um` (docs/standards.md);
+    /// absent: list the names stored for the machine.
+    pub name: Option<String>,
+}
+
+#[derive(Debug, Clone, Serialize, Deserialize, ToSchema)]
+pub struct FigureTrend {
+    pub machine_id: String,
+    /// The figure, or null when the names are listed.
+    pub name: Option<String>,
+    /// In time order, from results of every kind that carry the figure
+    /// (`identification`, `standards`).
+    pub points: Vec<FigurePoint>,
+    /// Every figure name stored for the machine (when no name was given).
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    pub names: Vec<String>,
+}
+
+#[utoipa::path(operation_id = "trends_figure", get, path = "/api/v1/machines/{id}/trends/figure", tag = "trends",
+    security(("api_key" = [])), params(("id" = String, Path), FigureQuery),
+    responses((status = 200, body = FigureTrend), (status = 400, body = ErrorBody),
+              (status = 404, body = ErrorBody)))]
+pub async fn figure(
+    _key: ReadKey,
+    State(s): State<AppState>,
+    Path(id): Path<String>,
+    ApiQuery(q): ApiQuery<FigureQuery>,
+) -> Result<Json<FigureTrend>, ApiError> {
+    s.store.get_machine(&id).await?;
+    let Some(name) = q.name else {
+        return Ok(Json(FigureTrend {
+            names: s.store.figure_names(&id).await?,
+            machine_id: id,
+            name: None,
+            points: vec![],
+        }));
+    };
+    if !mtcal_store::rules::valid_figure_name(&name) {
+        return Err(ApiError::InvalidRequest(format!(
+            "name {name:?}: a figure name such as iso230_2.X.E_um"
+        )));
+    }
+    Ok(Json(FigureTrend {
+        points: s.store.figure_trend(&id, &name).await?,
+        machine_id: id,
+        name: Some(name),
+        names: vec![],
+    }))
 }
 
 #[derive(Debug, Deserialize, IntoParams)]

@@ -9,9 +9,12 @@
 //! | reversal_spike | −d·exp(−s/λ) → height h, µm | decay λ, mm |
 //! | cyclic | sin, cos(2π q/P) → amplitude, phase | period P, mm |
 //! | thermal_drift | g(t)·q_j·10⁻³ and g(t) per direction j, g = 1 − e^(−t/T) → scale ppm, offset µm | T, s |
+//! | thermal_drift (temperature) | ΔT·q_j·10⁻³ and ΔT per direction j, ΔT the logged temperature's change → ppm/K, µm/K | — |
 //! | setup_offset | (Σ_k ε_k(q_k)) × e_j ·10⁻³ on one head-offset group → Δt_j, mm | — |
 //! | model_order | Legendre P_4..P_10 of the axis position, along one direction | — |
 //! | vibration | sin, cos(2π f t) → amplitude, phase | frequency f, Hz |
+//! | waviness (signature) | sin, cos(2π q_a/P) along a direction j ≠ a → amplitude, phase | period P, mm |
+//! | velocity_coupling (signature) | v_a along a direction j ≠ a → coefficient, µm per mm/s | — |
 
 use super::design::{Design, SampleMeta};
 use super::linalg::Cols;
@@ -43,6 +46,20 @@ impl Candidate {
             s += &format!(" at t = {g:?}");
         }
         s
+    }
+}
+
+/// For an effect found by its signature (outside the named catalogue): the signature in
+/// words, e.g. "a Y error periodic in the X position (period 16.0 mm)".
+pub fn signature(c: &Candidate, theta: Option<f64>) -> Option<String> {
+    let (a, j) = (c.axis?, c.direction?);
+    match c.effect {
+        "waviness" => Some(format!(
+            "a {j} error periodic in the {a} position (period {:.1} mm)",
+            theta.map_or(f64::NAN, |f| 1.0 / f)
+        )),
+        "velocity_coupling" => Some(format!("a {j} error that follows the {a} velocity")),
+        _ => None,
     }
 }
 
@@ -91,8 +108,18 @@ pub fn candidates(d: &Design) -> Vec<Candidate> {
         for dir in Axis::ALL {
             out.push(c("model_order", Some(a), Some(dir), None));
         }
+        // Signatures beyond the named catalogue: an error across the axis periodic in
+        // its position, or following its velocity.
+        for dir in Axis::ALL.into_iter().filter(|&j| j != a) {
+            out.push(c("waviness", Some(a), Some(dir), None));
+            out.push(c("velocity_coupling", Some(a), Some(dir), None));
+        }
     }
     out.push(c("thermal_drift", None, None, None));
+    // Logged temperatures: growth that follows the temperature, whatever its course.
+    if d.samples.iter().all(|s| s.temp_k.is_some()) {
+        out.push(c("thermal_temperature", None, None, None));
+    }
     for dir in Axis::ALL {
         out.push(c("vibration", None, Some(dir), None));
     }
@@ -145,14 +172,21 @@ pub fn search(d: &Design, c: &Candidate) -> Search {
                 (0..14).map(|i| span * 0.05 * 1.45f64.powi(i)).collect(),
             )
         }
-        "cyclic" => {
+        "cyclic" | "waviness" => {
             let travel = c
                 .axis
                 .and_then(|a| d.travel[a.index()])
                 .map_or(100.0, |[lo, hi]| hi - lo);
+            // A screw's cyclic error has a short period (≤ 30 mm); a guideway's waviness
+            // any period from 1.5 cycles over the travel.
+            let f_lo = if c.effect == "cyclic" {
+                1.0 / 30.0
+            } else {
+                1.5 / travel
+            };
             Search::Periodic {
                 name: "period_mm",
-                f_lo: 1.0 / 30.0,
+                f_lo,
                 f_hi: 1.0 / 2.0,
                 coarse_step: 0.25 / travel,
                 fine_step: 0.02 / travel,
@@ -217,12 +251,20 @@ pub fn columns(
                 }
             });
         }
-        "cyclic" => {
+        "cyclic" | "waviness" => {
+            // Along the axis itself (cyclic) or across it (waviness).
             let a = c.axis.expect("axis");
+            let dir = c.direction.unwrap_or(a);
             let i = a.index();
             let w = 2.0 * PI * theta;
-            push(a, "sin".into(), &|s| (w * s.q_mm[i]).sin());
-            push(a, "cos".into(), &|s| (w * s.q_mm[i]).cos());
+            push(dir, "sin".into(), &|s| (w * s.q_mm[i]).sin());
+            push(dir, "cos".into(), &|s| (w * s.q_mm[i]).cos());
+        }
+        "velocity_coupling" => {
+            let (a, dir) = (c.axis.expect("axis"), c.direction.expect("direction"));
+            push(dir, "coefficient_um_per_mm_s".into(), &|s| {
+                s.vel_mm_s[a.index()]
+            });
         }
         "vibration" => {
             let dir = c.direction.expect("direction");
@@ -240,6 +282,19 @@ pub fn columns(
             for j in Axis::ALL {
                 push(j, format!("offset_um_{j}"), &|s| {
                     1.0 - (-s.t_s / theta).exp()
+                });
+            }
+        }
+        "thermal_temperature" => {
+            for j in Axis::ALL {
+                let i = j.index();
+                push(j, format!("scale_ppm_per_k_{j}"), &|s| {
+                    s.temp_k.unwrap_or(0.0) * s.q_mm[i] * 1e-3
+                });
+            }
+            for j in Axis::ALL {
+                push(j, format!("offset_um_per_k_{j}"), &|s| {
+                    s.temp_k.unwrap_or(0.0)
                 });
             }
         }
@@ -284,6 +339,15 @@ pub fn columns(
         _ => {}
     }
     (cols, names, peaks)
+}
+
+/// The effect name a candidate is reported under (the temperature-driven thermal model
+/// is a form of `thermal_drift`).
+pub fn reported_name(effect: &'static str) -> &'static str {
+    match effect {
+        "thermal_temperature" => "thermal_drift",
+        e => e,
+    }
 }
 
 /// The physics sentence of an effect (the shared table of [`super::effects`]).

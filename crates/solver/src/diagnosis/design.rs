@@ -35,6 +35,9 @@ pub struct SampleMeta {
     pub head_mm: [f64; 3],
     /// Whether the sample is part of a line pass or a circle, for the residual split.
     pub test: TestKind,
+    /// Logged temperature minus the session's first logged temperature (K), when every
+    /// run logs `temp_c`.
+    pub temp_k: Option<f64>,
 }
 
 /// One run's place in the session.
@@ -198,6 +201,11 @@ pub fn build(session: &Session, topology: &Topology, order: usize) -> Result<Des
     let mut runs = Vec::new();
     let mut plane_axes = Vec::new();
     let mut y = Vec::with_capacity(2 * session.sample_count());
+    let all_runs = || session.planes.iter().flat_map(|p| &p.runs);
+    let temp0 = all_runs()
+        .all(|r| r.temp_c.as_ref().is_some_and(|t| t.len() == r.len()))
+        .then(|| all_runs().find_map(|r| r.temp_c.as_ref()?.first().copied()))
+        .flatten();
     for (pi, p) in session.planes.iter().enumerate() {
         plane_axes.push(p.plane.axes());
         // Travel state through the file, approach moves between runs included.
@@ -229,6 +237,7 @@ pub fn build(session: &Session, topology: &Topology, order: usize) -> Result<Des
                     since_reversal_mm: since,
                     head_mm: p.head_offset_mm,
                     test,
+                    temp_k: temp0.and_then(|t0| Some(run.temp_c.as_ref()?[i] - t0)),
                 });
                 y.push(run.du_um[i]);
                 y.push(run.dv_um[i]);

@@ -163,6 +163,16 @@ pub const EFFECTS: &[EffectSpec] = &[
                 "positioning runs without t_s: T counted in records",
             ),
             p(
+                "offset_um_per_k_{axis}",
+                "um/K",
+                "sessions with logged temperatures: error_j = dT*(o_j + k_j*q_j/1000), dT the change of the logged temperature from the first sample",
+            ),
+            p(
+                "scale_ppm_per_k_{axis}",
+                "ppm/K",
+                "sessions with logged temperatures: k_j of the same model",
+            ),
+            p(
                 "offset_um_per_k",
                 "um/K",
                 "positioning runs with temp_c: error = dT*(o + k*x/1000), dT from the first record",
@@ -203,11 +213,41 @@ pub const EFFECTS: &[EffectSpec] = &[
             "time_constant_records",
             "offset_um_per_k",
             "scale_ppm_per_k",
+            "offset_um_per_k_{axis}",
+            "scale_ppm_per_k_{axis}",
             "tau{n}_s",
             "{sensor}_um_per_k",
         ],
         any_of: true,
         decide: "a recording several time constants long, or a logged temperature of the structure",
+    },
+    EffectSpec {
+        name: "waviness",
+        physics: "straightness waviness of a guideway: an error across the axis, periodic in its position with a period the polynomial order cannot follow (found by its signature, outside the named catalogue)",
+        params: &[
+            p(
+                "amplitude_um",
+                "um",
+                "A >= 0: error along the named direction = A*sin(2*pi*q/P + phi), q the moving axis's position (mm)",
+            ),
+            q("period_mm", "mm", "P > 0"),
+            p("phase_rad", "rad", "phi in (-pi, pi], at q = 0"),
+        ],
+        principal: &["amplitude_um", "period_mm"],
+        any_of: false,
+        decide: "more passes of the axis over a longer travel",
+    },
+    EffectSpec {
+        name: "velocity_coupling",
+        physics: "an error across one axis that follows another axis's velocity (servo cross-coupling, or a carriage that tilts with its drive force); a static geometric model has no velocity (found by its signature, outside the named catalogue)",
+        params: &[p(
+            "coefficient_um_per_mm_s",
+            "um/(mm/s)",
+            "c: error along the named direction = c*v, v the moving axis's commanded velocity (mm/s)",
+        )],
+        principal: &["coefficient_um_per_mm_s"],
+        any_of: false,
+        decide: "runs of the axis at two different feeds",
     },
     EffectSpec {
         name: "setup_offset",
@@ -406,6 +446,7 @@ mod tests {
             },
             evidence: String::new(),
             decide: None,
+            signature: None,
         }
     }
 

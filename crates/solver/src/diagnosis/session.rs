@@ -160,6 +160,10 @@ fn joint_ssr(red: &Reduction, f: &Fit, b: &Cols) -> Option<(f64, Vec<f64>, Vec<f
     ))
 }
 
+/// Most frequencies in one scan, and about the most rows a scan reads (per direction).
+const MAX_SCAN_FREQS: usize = 2000;
+const MAX_SCAN_ROWS: usize = 20_000;
+
 /// Frequency (in `freqs`) whose sine/cosine pair of `var` along `axis` explains most of
 /// the residual `r`, with the columns centred per (run, component) like the model. With
 /// `per_run` each run gets its own phase (incoherent sum, for a coarse scan in time).
@@ -174,10 +178,14 @@ fn periodic_best(
     freqs: &[f64],
     per_run: bool,
 ) -> Option<f64> {
+    // Whole runs, every `stride`-th, so that at most about MAX_SCAN_ROWS rows are scanned
+    // (the runs chosen still span the session).
+    let stride = (d.rows() / 3).div_ceil(MAX_SCAN_ROWS).max(1);
     let rows: Vec<(usize, usize)> = d
         .runs
         .iter()
         .enumerate()
+        .filter(|(ri, _)| ri % stride == 0)
         .flat_map(|(ri, run)| (2 * run.start..2 * run.end).map(move |row| (ri, row)))
         .filter(|&(_, row)| d.row_axis(row) == axis)
         .collect();
@@ -326,9 +334,17 @@ fn try_candidate(
             let (axis, in_var): (crate::axis::Axis, Var) = if in_time {
                 (cand.direction?, Box::new(|m| m.t_s))
             } else {
+                // Rows read along the effect's direction (its own axis for `cyclic`).
                 let a = cand.axis?;
-                (a, Box::new(move |m| m.q_mm[a.index()]))
+                (
+                    cand.direction.unwrap_or(a),
+                    Box::new(move |m| m.q_mm[a.index()]),
+                )
             };
+            // Scan sizes are bounded (a heuristic: the exact joint fit follows): at most
+            // MAX_SCAN_FREQS coarse and fine frequencies.
+            let coarse_step = coarse_step.max((f_hi - f_lo) / MAX_SCAN_FREQS as f64);
+            let fine_step = fine_step.max(2.0 * coarse_step / MAX_SCAN_FREQS as f64);
             let coarse: Vec<f64> = (0..)
                 .map(|i| f_lo + i as f64 * coarse_step)
                 .take_while(|&x| x <= f_hi)
@@ -650,14 +666,15 @@ fn finding_of(
         None => (rms(t.ssr, n), rms(t.heldout_ssr, f.heldout_n)),
     };
     Finding {
-        effect: t.cand.effect.into(),
+        effect: catalogue::reported_name(t.cand.effect).into(),
         axis: t
             .cand
             .axis
             .map(|a| a.to_string())
             .or(t.cand.direction.map(|a| a.to_string())),
         parameters,
-        physics: catalogue::physics(t.cand.effect).into(),
+        physics: catalogue::physics(catalogue::reported_name(t.cand.effect)).into(),
+        signature: catalogue::signature(&t.cand, t.theta.map(|x| x.1)),
         residual_rms_um: BeforeAfter {
             before: rms(f.ssr, n),
             after,

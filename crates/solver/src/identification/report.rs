@@ -178,6 +178,7 @@ pub fn report(
         );
     }
     let rows = fit.reduced.rows;
+    let residuals = crate::design::residuals(session, model, fit, None);
     IdentificationResult {
         kind: "identification".into(),
         machine_id: session.machine_id.clone(),
@@ -218,6 +219,9 @@ pub fn report(
         .into_iter()
         .chain(est.reporting.iter().cloned())
         .collect(),
+        standards: crate::standards::from_session(session),
+        circles: crate::standards::iso230_4::circle_plots(session, Some(&residuals)),
+        residuals: crate::residuals::by_file_and_test(session, &residuals),
     }
 }
 

@@ -269,7 +269,9 @@ pub fn evaluate(axis: Axis, source: Source, readings: &[Reading]) -> Result<Iso2
         )));
     }
     if readings.is_empty() {
-        return Err(SolverError::InvalidInput(format!("axis {axis}: no readings")));
+        return Err(SolverError::InvalidInput(format!(
+            "axis {axis}: no readings"
+        )));
     }
     let x: Vec<f64> = readings.iter().map(|r| r.target_mm).collect();
     let targets = distinct_targets(&x);
@@ -327,17 +329,23 @@ pub fn evaluate(axis: Axis, source: Source, readings: &[Reading]) -> Result<Iso2
     let u_b_mean = u_b.iter().map(|u| u * u).sum::<f64>().sqrt() / m as f64;
     let (r_up, _) = extremes(stats.iter().map(|(a, _)| (4.0 * a.s, 4.0 * a.u_s())));
     let (r_down, _) = extremes(stats.iter().map(|(_, b)| (4.0 * b.s, 4.0 * b.u_s())));
-    let (r, _) = extremes(per_target.iter().zip(&stats).zip(&u_b).map(|((p, (a, b)), ub)| {
-        let bi = 2.0 * a.s + 2.0 * b.s + p.b_um.abs();
-        let u = if bi >= 4.0 * a.s && bi >= 4.0 * b.s {
-            (4.0 * a.u_s().powi(2) + 4.0 * b.u_s().powi(2) + ub * ub).sqrt()
-        } else if a.s >= b.s {
-            4.0 * a.u_s()
-        } else {
-            4.0 * b.u_s()
-        };
-        (p.r_um, u)
-    }));
+    let (r, _) = extremes(
+        per_target
+            .iter()
+            .zip(&stats)
+            .zip(&u_b)
+            .map(|((p, (a, b)), ub)| {
+                let bi = 2.0 * a.s + 2.0 * b.s + p.b_um.abs();
+                let u = if bi >= 4.0 * a.s && bi >= 4.0 * b.s {
+                    (4.0 * a.u_s().powi(2) + 4.0 * b.u_s().powi(2) + ub * ub).sqrt()
+                } else if a.s >= b.s {
+                    4.0 * a.u_s()
+                } else {
+                    4.0 * b.u_s()
+                };
+                (p.r_um, u)
+            }),
+    );
     let ups = || stats.iter().map(|(a, _)| *a);
     let downs = || stats.iter().map(|(_, b)| *b);
     let e_up = range(ups().map(|a| (a.mean, a.u_mean())));
@@ -645,7 +653,10 @@ pub fn from_session(session: &Session) -> (Vec<Iso2302>, Vec<NotEvaluated>) {
 
 /// ISO 230-2 figures of one axis from line passes (module docs).
 fn evaluate_passes(axis: Axis, passes: &[Pass]) -> Result<Iso2302, SolverError> {
-    let lo = passes.iter().map(Pass::lo).fold(f64::NEG_INFINITY, f64::max);
+    let lo = passes
+        .iter()
+        .map(Pass::lo)
+        .fold(f64::NEG_INFINITY, f64::max);
     let hi = passes.iter().map(Pass::hi).fold(f64::INFINITY, f64::min);
     if hi.is_nan() || hi - lo < 1e-3 {
         return Err(SolverError::InvalidInput(format!(
@@ -661,7 +672,9 @@ fn evaluate_passes(axis: Axis, passes: &[Pass]) -> Result<Iso2302, SolverError> 
         .collect();
     steps.sort_by(f64::total_cmp);
     let step = steps.get(steps.len() / 2).copied().unwrap_or(0.0);
-    let w = (0.5f64).max(2.0 * step).min(0.25 * (hi - lo) / (m - 1) as f64);
+    let w = (0.5f64)
+        .max(2.0 * step)
+        .min(0.25 * (hi - lo) / (m - 1) as f64);
     let (lo, hi) = (lo + w, hi - w);
     let spacing = (hi - lo) / (m - 1) as f64;
     let targets: Vec<f64> = (0..m).map(|i| lo + spacing * i as f64).collect();

@@ -148,7 +148,11 @@ impl CirclePath {
             ccw: sweep > 0.0,
             centre_mm: [cu, cv],
             radius_mm: r0,
-            start_angle_deg: theta[0].to_degrees(),
+            // (θ just below 2π from rounding is 0.)
+            start_angle_deg: {
+                let a = theta[0].to_degrees();
+                if a > 360.0 - 1e-9 { 0.0 } else { a }
+            },
             sweep_deg: sweep.abs().to_degrees(),
             feed_mm_min: speeds.get(speeds.len() / 2).copied().unwrap_or(0.0),
             angle_deg,
@@ -431,7 +435,9 @@ pub fn from_session(session: &Session) -> Vec<Iso2304> {
             "the encoder's zero is set per run, so each path is referred to its own least-squares centre".into(),
         );
         if plane == Plane::XZ {
-            notes.push("in the XZ plane ccw turns from +X toward +Z, the opposite of G18's sense".into());
+            notes.push(
+                "in the XZ plane ccw turns from +X toward +Z, the opposite of G18's sense".into(),
+            );
         }
         let others: Vec<&str> = files[1..]
             .iter()
@@ -481,9 +487,17 @@ pub struct CirclePlot {
     pub model_um: Vec<f64>,
 }
 
-/// Polar-plot data of every circle run. `residuals` (reading − model, indexed
+/// Values rounded to 1e-4 µm (plot data; keeps documents small).
+fn round(v: Vec<f64>) -> Vec<f64> {
+    v.into_iter().map(|x| (x * 1e4).round() / 1e4).collect()
+}
+
+/// Polar-plot data of every circle run (values to 1e-4 µm). `residuals` (reading − model, indexed
 /// [plane][run][sample] = (u, v), µm) gives the model's readings as reading − residual.
-pub fn circle_plots(session: &Session, residuals: Option<&[Vec<Vec<[f64; 2]>>]>) -> Vec<CirclePlot> {
+pub fn circle_plots(
+    session: &Session,
+    residuals: Option<&[Vec<Vec<[f64; 2]>>]>,
+) -> Vec<CirclePlot> {
     let mut out = vec![];
     for (p, r, path) in circle_paths(session) {
         let rec = &session.planes[p];
@@ -495,11 +509,21 @@ pub fn circle_plots(session: &Session, residuals: Option<&[Vec<Vec<[f64; 2]>>]>)
             .and_then(|res| res.get(p)?.get(r))
             .filter(|res| res.len() == run.len())
             .and_then(|res| {
-                let du: Vec<f64> = run.du_um.iter().zip(res.iter()).map(|(d, e)| d - e[0]).collect();
-                let dv: Vec<f64> = run.dv_um.iter().zip(res.iter()).map(|(d, e)| d - e[1]).collect();
+                let du: Vec<f64> = run
+                    .du_um
+                    .iter()
+                    .zip(res.iter())
+                    .map(|(d, e)| d - e[0])
+                    .collect();
+                let dv: Vec<f64> = run
+                    .dv_um
+                    .iter()
+                    .zip(res.iter())
+                    .map(|(d, e)| d - e[1])
+                    .collect();
                 let mp = CirclePath::of(run, rec.plane, &du, &dv)?;
                 let ml = mp.lsc()?;
-                Some(mp.radial_about(&ml))
+                Some(round(mp.radial_about(&ml)))
             })
             .unwrap_or_default();
         out.push(CirclePlot {
@@ -514,7 +538,7 @@ pub fn circle_plots(session: &Session, residuals: Option<&[Vec<Vec<[f64; 2]>>]>)
             ],
             feed_mm_min: path.feed_mm_min,
             start_angle_deg: path.start_angle_deg,
-            measured_um: path.radial_about(&l),
+            measured_um: round(path.radial_about(&l)),
             angle_deg: path.angle_deg,
             model_um,
         });

@@ -183,6 +183,7 @@ mod tests {
             },
             evidence: String::new(),
             decide: None,
+            signature: None,
         }
     }
 

@@ -504,6 +504,7 @@ fn analyse_channel(ch: &Channel, inp: &Inputs, opts: &SeriesOptions) -> ChannelO
         },
         evidence,
         decide: None,
+        signature: None,
     });
     out
 }

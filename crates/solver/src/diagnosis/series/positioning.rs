@@ -675,6 +675,7 @@ fn diagnose_axis(a: &AxisData, opts: &SeriesOptions) -> AxisOutcome {
                 fit.cond
             ),
             decide: None,
+            signature: None,
         });
     }
     let final_heldout = (cur_loro / n as f64).sqrt();
