@@ -15,6 +15,7 @@ pub mod ingest;
 pub mod jobs;
 pub mod state;
 pub mod trends;
+pub mod web;
 pub mod worker;
 
 use axum::Router;
@@ -146,10 +147,13 @@ pub fn router(state: AppState) -> Router {
     let open = Router::new().route("/health", get(health)).merge(
         utoipa_swagger_ui::SwaggerUi::new("/docs").url("/api-docs/openapi.json", ApiDoc::openapi()),
     );
-    api.merge(open)
+    let app = api
+        .merge(open)
         .fallback(|| async { ApiError::NotFound("no such route".into()) })
         .layer(axum::middleware::from_fn(error::json_errors))
-        .with_state(state)
+        .with_state(state.clone());
+    // The dashboard's pages answer their errors as pages, not JSON.
+    app.merge(web::router(state))
 }
 
 /// Settings of `mtcal serve`.

@@ -47,7 +47,19 @@
     });
   }
 
+  // /signin#key=mtk_… (the link `mtcal demo` prints): fill the key in and sign in. The
+  // fragment never reaches the server; it is removed from the address bar first.
+  function signinFromFragment() {
+    var m = /^#key=([A-Za-z0-9_]+)$/.exec(window.location.hash);
+    var input = document.getElementById("key");
+    if (!m || !input || !input.form) { return; }
+    window.history.replaceState(null, "", window.location.pathname + window.location.search);
+    input.value = m[1];
+    input.form.submit();
+  }
+
   document.addEventListener("DOMContentLoaded", function () {
+    signinFromFragment();
     var jobs = document.querySelectorAll("[data-job][data-poll]");
     for (var i = 0; i < jobs.length; i++) {
       var s = jobs[i].querySelector("[data-state]");

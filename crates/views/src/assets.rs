@@ -6,8 +6,14 @@ pub const CSS: &str = include_str!("../assets/mtcal.css");
 /// The script: job progress polling and the upload form (no build step, no library).
 pub const JS: &str = include_str!("../assets/mtcal.js");
 
-pub const CSS_PATH: &str = "/static/mtcal.css";
-pub const JS_PATH: &str = "/static/mtcal.js";
+/// `/static/{name}?v={hash of the content}`: a new version is a new URL, so browsers may
+/// cache each one for long.
+pub fn href(name: &str) -> String {
+    use std::hash::{Hash, Hasher};
+    let mut h = std::hash::DefaultHasher::new();
+    get(name).map(|(_, body)| body).unwrap_or("").hash(&mut h);
+    format!("/static/{name}?v={:016x}", h.finish())
+}
 
 /// The asset at `name` (the path below `/static/`) with its content type.
 pub fn get(name: &str) -> Option<(&'static str, &'static str)> {
@@ -25,6 +31,7 @@ mod tests {
         assert!(super::get("mtcal.css").unwrap().0.starts_with("text/css"));
         assert!(super::get("mtcal.js").unwrap().1.contains("data-job"));
         assert!(super::get("../Cargo.toml").is_none());
-        assert!(super::CSS_PATH.ends_with("mtcal.css") && super::JS_PATH.ends_with("mtcal.js"));
+        assert!(super::href("mtcal.css").starts_with("/static/mtcal.css?v="));
+        assert_eq!(super::href("mtcal.js"), super::href("mtcal.js"));
     }
 }

@@ -58,8 +58,8 @@ pub fn page(title: &str, nav: Nav, viewer: Option<&Viewer>, body: Markup) -> Mar
                 meta charset="utf-8";
                 meta name="viewport" content="width=device-width, initial-scale=1";
                 title { (title) " — mtcal" }
-                link rel="stylesheet" href=(crate::assets::CSS_PATH);
-                script src=(crate::assets::JS_PATH) defer {}
+                link rel="stylesheet" href=(crate::assets::href("mtcal.css"));
+                script src=(crate::assets::href("mtcal.js")) defer {}
             }
             body {
                 header.top {
@@ -107,6 +107,22 @@ pub fn print_page(title: &str, body: Markup) -> Markup {
             }
         }
     }
+}
+
+/// An error page: the status and what went wrong, with a way back.
+pub fn error_page(viewer: Option<&Viewer>, status: u16, reason: &str, message: &str) -> Markup {
+    page(
+        reason,
+        Nav::Other,
+        viewer,
+        html! {
+            section.card #error {
+                h1 { (status) " " (reason) }
+                p.error { (message) }
+                p { a href="/" { "Back to the fleet" } }
+            }
+        },
+    )
 }
 
 /// An SVG document inline (plots escape their own text).
@@ -205,7 +221,7 @@ pub(crate) mod tests {
         let v = viewer("read");
         let html = page("Fleet", Nav::Fleet, Some(&v), html! { p { "body" } }).into_string();
         assert!(html.starts_with("<!DOCTYPE html>"));
-        assert!(html.contains(r#"href="/static/mtcal.css""#));
+        assert!(html.contains(r#"href="/static/mtcal.css?v="#));
         assert!(html.contains(r#"<a href="/" class="active">Fleet</a>"#));
         assert!(html.contains(r#"action="/signout""#));
         assert!(

@@ -40,7 +40,7 @@ pub use band::{empty_panel, error_function, function_band};
 pub use bars::{finding_bars, ranking_bars};
 pub use errorbars::{
     BarPoint, ErrorBarChart, PointSeries, TrendPoint, TrendSeries, XScale, error_bar_chart,
-    rotation_vectors, trend,
+    rotation_vectors, trend, unix_seconds,
 };
 pub use polar::{CIRCLE_COLORS, CircleTrace, circle_polar};
 pub use spark::sparkline;
@@ -93,6 +93,11 @@ pub(crate) fn svg(size: (u32, u32), title: &str, draw: impl FnOnce(&Area) -> Dra
 pub(crate) fn tick(v: &f64) -> String {
     let r = (v * 1e6).round() / 1e6;
     if r == 0.0 { "0".into() } else { format!("{r}") }
+}
+
+/// A position or value as the axes label it (`-40`, `2.5`).
+pub fn tick_label(v: f64) -> String {
+    tick(&v)
 }
 
 /// `um` → `µm`, `urad` → `µrad`, anything else unchanged.

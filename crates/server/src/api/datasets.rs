@@ -10,7 +10,7 @@ use axum::body::Bytes;
 use axum::extract::{FromRequest, Multipart, Path, Request, State};
 use axum::http::{HeaderMap, HeaderValue, StatusCode, header};
 use axum::response::{IntoResponse, Response};
-use mtcal_store::{Dataset, NewDataset};
+use mtcal_store::{Dataset, Machine, NewDataset};
 use utoipa::ToSchema;
 
 /// Multipart form of a session upload: one part per file, the part's file name is the
@@ -87,6 +87,20 @@ pub async fn upload(
             "Content-Type {ct:?}: send multipart/form-data or application/gzip (a .tar.gz)"
         )));
     };
+    Ok((
+        StatusCode::CREATED,
+        Json(store_upload(&s, machine, files).await?),
+    ))
+}
+
+/// Reads the uploaded files as one dataset of `machine` with the strict reader of its
+/// kind and stores it (the upload route; the dashboard's upload form too). Nothing is
+/// stored when a file breaks a rule.
+pub async fn store_upload(
+    s: &AppState,
+    machine: Machine,
+    files: Vec<(String, Vec<u8>)>,
+) -> Result<Dataset, ApiError> {
     let limits = s.limits;
     let (data, mut files) = tokio::task::spawn_blocking(move || {
         ingest::read_dataset(&files, &limits).map(|d| (d, files))
@@ -111,7 +125,7 @@ pub async fn upload(
             files,
         })
         .await?;
-    Ok((StatusCode::CREATED, Json(d)))
+    Ok(d)
 }
 
 /// The archive name a body of this media type is read as (its gzip-ness is checked

@@ -49,6 +49,12 @@ pub async fn term(
     Path(id): Path<String>,
     ApiQuery(q): ApiQuery<TermQuery>,
 ) -> Result<Json<TermTrend>, ApiError> {
+    Ok(Json(term_trend(&s, &id, q).await?))
+}
+
+/// A term at positions over time (`GET …/trends/term`; the dashboard's machine page
+/// too).
+pub async fn term_trend(s: &AppState, id: &str, q: TermQuery) -> Result<TermTrend, ApiError> {
     let (unit, _) = trends::term_info(&q.term).ok_or_else(|| {
         ApiError::InvalidRequest(format!(
             "term {:?} is not one of the 18 ISO 230-1 functions",
@@ -66,10 +72,10 @@ pub async fn term(
                     q.at
                 ))
             })?;
-    s.store.get_machine(&id).await?;
+    s.store.get_machine(id).await?;
     let points = s
         .store
-        .list_results(&id, KIND)
+        .list_results(id, KIND)
         .await?
         .into_iter()
         .map(|r| {
@@ -84,13 +90,13 @@ pub async fn term(
             }
         })
         .collect();
-    Ok(Json(TermTrend {
-        machine_id: id,
+    Ok(TermTrend {
+        machine_id: id.to_string(),
         term: q.term,
         unit: unit.into(),
         positions_mm: positions,
         points,
-    }))
+    })
 }
 
 #[derive(Debug, Clone, Serialize, Deserialize, ToSchema)]
@@ -120,10 +126,16 @@ pub async fn summary(
     State(s): State<AppState>,
     Path(id): Path<String>,
 ) -> Result<Json<SummaryTrend>, ApiError> {
-    s.store.get_machine(&id).await?;
+    Ok(Json(summary_trend(&s, &id).await?))
+}
+
+/// Residual, conditioning, rank and squareness over time (`GET …/trends/summary`; the
+/// dashboard's machine page too).
+pub async fn summary_trend(s: &AppState, id: &str) -> Result<SummaryTrend, ApiError> {
+    s.store.get_machine(id).await?;
     let points = s
         .store
-        .list_results(&id, KIND)
+        .list_results(id, KIND)
         .await?
         .into_iter()
         .map(|r| SummaryPoint {
@@ -137,10 +149,10 @@ pub async fn summary(
             ea0z_urad: r.scalars.ea0z_urad,
         })
         .collect();
-    Ok(Json(SummaryTrend {
-        machine_id: id,
+    Ok(SummaryTrend {
+        machine_id: id.to_string(),
         points,
-    }))
+    })
 }
 
 #[derive(Debug, Deserialize, IntoParams)]
@@ -232,6 +244,12 @@ pub async fn fleet(
     State(s): State<AppState>,
     ApiQuery(q): ApiQuery<FleetQuery>,
 ) -> Result<Json<FleetDrift>, ApiError> {
+    Ok(Json(fleet_drift(&s, q).await?))
+}
+
+/// The fleet ranked by drift (`GET /api/v1/fleet/drift`; the dashboard's fleet page
+/// too).
+pub async fn fleet_drift(s: &AppState, q: FleetQuery) -> Result<FleetDrift, ApiError> {
     let by = q.by.unwrap_or_else(|| "um".into());
     if by != "um" && by != "urad" {
         return Err(ApiError::InvalidRequest("by: `um` or `urad`".into()));
@@ -265,11 +283,11 @@ pub async fn fleet(
             .then_with(|| a.machine_id.cmp(&b.machine_id))
     });
     machines.truncate(q.limit.unwrap_or(50).max(1));
-    Ok(Json(FleetDrift {
+    Ok(FleetDrift {
         definition: "largest change since the baseline result (the machine's chosen baseline, \
                      else its first) of any term over 41 points of the registered travel"
             .into(),
         ranked_by: by,
         machines,
-    }))
+    })
 }

@@ -18,7 +18,8 @@ pub struct Side {
 }
 
 /// The difference of one function: values b − a at positions inside both measured
-/// travels with standard uncertainties, or why it is not compared.
+/// travels with standard uncertainties (NaN where unknown: no band), or why it is not
+/// compared.
 #[derive(Debug, Clone, PartialEq, Default)]
 pub struct TermDiff {
     pub name: String,

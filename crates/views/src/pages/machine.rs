@@ -78,31 +78,33 @@ pub fn machine_page(viewer: &Viewer, p: &MachinePage) -> Markup {
                 " · " a href={ "/api/v1/machines/" (super::encode(&m.id)) } { "JSON" }
             }
             @if let Some(n) = &p.notice { div.notice { (n) } }
-            section.card #trend {
-                h2 { "Trend of a term" }
-                form.filters method="get" action=(href) {
-                    label { "term"
-                        select name="term" {
-                            @for t in TERM_ORDER { option value=(t) selected[p.term == t] { (t) } }
+            div.pair {
+                section.card #trend {
+                    h2 { "Trend of a term" }
+                    form.filters method="get" action=(href) {
+                        label { "term"
+                            select name="term" {
+                                @for t in TERM_ORDER { option value=(t) selected[p.term == t] { (t) } }
+                            }
+                        }
+                        label { "at positions (mm)" input type="text" name="at" value=(p.at) size="18"; }
+                        button type="submit" { "Show" }
+                    }
+                    @match (&p.trend_error, &p.term_trend) {
+                        (Some(e), _) => { div.notice.error { (e) } }
+                        (None, None) => { p.muted { "No identification yet." } }
+                        (None, Some(t)) => {
+                            figure.plot #term-trend data-term=(t.term) {
+                                (svg(plots::trend(&format!("{} over time (±2σ)", t.term),
+                                    &format!("{} ({})", t.term, plots::unit_label(&t.unit)), &t.series)))
+                            }
                         }
                     }
-                    label { "at positions (mm)" input type="text" name="at" value=(p.at) size="18"; }
-                    button type="submit" { "Show" }
                 }
-                @match (&p.trend_error, &p.term_trend) {
-                    (Some(e), _) => { div.notice.error { (e) } }
-                    (None, None) => { p.muted { "No identification yet." } }
-                    (None, Some(t)) => {
-                        figure.plot #term-trend data-term=(t.term) {
-                            (svg(plots::trend(&format!("{} over time (±2σ)", t.term),
-                                &format!("{} ({})", t.term, plots::unit_label(&t.unit)), &t.series)))
-                        }
-                    }
+                section.card #squareness-trend {
+                    h2 { "Squareness over time (±2σ)" }
+                    figure.plot { (svg(plots::trend("EC0Y, EB0Z, EA0Z over time", "squareness (µrad)", &p.squareness))) }
                 }
-            }
-            section.card #squareness-trend {
-                h2 { "Squareness over time (±2σ)" }
-                figure.plot { (svg(plots::trend("EC0Y, EB0Z, EA0Z over time", "squareness (µrad)", &p.squareness))) }
             }
             section.card #checks {
                 h2 { "Checks" }

@@ -8,6 +8,7 @@ use maud::{Markup, html};
 use mtcal_solver::cradle::CradleResult;
 use mtcal_solver::diagnosis::DiagnosisResult;
 use mtcal_solver::identification::IdentificationResult;
+use mtcal_solver::residuals::ResidualSummary;
 use mtcal_solver::sensitivity::SensitivityResult;
 use serde::{Deserialize, Serialize};
 
@@ -28,23 +29,13 @@ pub struct VerdictRow {
     pub outcome: String,
 }
 
-/// Residual of one file and test, as in the identification result's `residuals`.
-#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
-pub struct ResidualRow {
-    pub file: String,
-    pub test: String,
-    pub runs: u32,
-    pub samples: u64,
-    pub rms_um: f64,
-}
-
 /// Everything an identification section shows. `circles` and `residuals` are the
 /// document's arrays of those names (empty when the document has none); `travel` gives
 /// the measured travel of a term (None: the reported positions are drawn as they are).
 pub struct IdentificationView<'a> {
     pub doc: &'a IdentificationResult,
     pub circles: &'a [CircleTrace],
-    pub residuals: &'a [ResidualRow],
+    pub residuals: &'a [ResidualSummary],
     pub travel: &'a dyn Fn(&str) -> Option<[f64; 2]>,
 }
 
@@ -241,7 +232,7 @@ fn angle(name: &str, v: Option<f64>) -> String {
     )
 }
 
-fn residuals(rows: &[ResidualRow]) -> Markup {
+fn residuals(rows: &[ResidualSummary]) -> Markup {
     html! {
         section.card #residuals {
             h2 { "Residual by file and test" }
@@ -378,12 +369,21 @@ pub fn cradle(c: &CradleResult) -> Markup {
                 tbody {
                     @for e in &c.location_errors {
                         tr { td { (e.name) } td.num { (with_u(e.value, e.std, &e.unit)) }
-                             td { (format!("{:?}", e.observability)) } td { (e.note.as_deref().unwrap_or("")) } }
+                             td { (observable(&e.observability)) } td { (e.note.as_deref().unwrap_or("")) } }
                     }
                 }
             }
         }
         @if !c.notes.is_empty() { section.card { h2 { "Notes" } ul.compact { @for n in &c.notes { li { (n) } } } } }
+    }
+}
+
+fn observable(o: &mtcal_solver::cradle::Observability) -> &'static str {
+    use mtcal_solver::cradle::Observability::*;
+    match o {
+        Intrinsic => "from ball data",
+        RegisteredFrame => "with the frame registered",
+        NotObservable => "not observable",
     }
 }
 

@@ -83,13 +83,14 @@ pub fn error_function(name: &str, term: &TermReport, travel_mm: Option<[f64; 2]>
 
 /// A function of position `name` (its last letter names the axis) from points
 /// (position mm, value, standard uncertainty): the values joined by a line and the band
-/// value ± 2·std, over the points' span only. Points that are not finite are left out;
+/// value ± 2·std, over the points' span only. Points whose position or value is not
+/// finite are left out; the band is drawn only when every uncertainty is known (finite);
 /// fewer than two points make an [`empty_panel`].
 pub fn function_band(name: &str, title: &str, points: &[(f64, f64, f64)]) -> String {
     let pts: Vec<(f64, f64, f64)> = points
         .iter()
         .copied()
-        .filter(|&(q, v, s)| q.is_finite() && v.is_finite() && s.is_finite())
+        .filter(|&(q, v, _)| q.is_finite() && v.is_finite())
         .collect();
     if pts.len() < 2 {
         return empty_panel(title, "no values inside the measured travel");
@@ -100,8 +101,10 @@ pub fn function_band(name: &str, title: &str, points: &[(f64, f64, f64)]) -> Str
 fn band(root: &Area, name: &str, title: &str, pts: &[(f64, f64, f64)]) -> DrawResult {
     let x0 = pts[0].0;
     let x1 = pts[pts.len() - 1].0;
-    let lo = pts.iter().map(|p| p.1 - 2.0 * p.2);
-    let hi = pts.iter().map(|p| p.1 + 2.0 * p.2);
+    let with_band = pts.iter().all(|p| p.2.is_finite());
+    let u = |p: &(f64, f64, f64)| if with_band { 2.0 * p.2 } else { 0.0 };
+    let lo = pts.iter().map(|p| p.1 - u(p));
+    let hi = pts.iter().map(|p| p.1 + u(p));
     let (y0, y1) = super::range(lo.chain(hi)).ok_or("no points")?;
     let mut chart = ChartBuilder::on(root)
         .caption(title, ("sans-serif", 16))
@@ -119,12 +122,14 @@ fn band(root: &Area, name: &str, title: &str, pts: &[(f64, f64, f64)]) -> DrawRe
         .y_labels(6)
         .light_line_style(WHITE.mix(0.0))
         .draw()?;
-    let upper = pts.iter().map(|p| (p.0, p.1 + 2.0 * p.2));
-    let lower = pts.iter().rev().map(|p| (p.0, p.1 - 2.0 * p.2));
-    chart.draw_series(std::iter::once(Polygon::new(
-        upper.chain(lower).collect::<Vec<_>>(),
-        BAND.mix(BAND_OPACITY).filled(),
-    )))?;
+    if with_band {
+        let upper = pts.iter().map(|p| (p.0, p.1 + 2.0 * p.2));
+        let lower = pts.iter().rev().map(|p| (p.0, p.1 - 2.0 * p.2));
+        chart.draw_series(std::iter::once(Polygon::new(
+            upper.chain(lower).collect::<Vec<_>>(),
+            BAND.mix(BAND_OPACITY).filled(),
+        )))?;
+    }
     chart.draw_series(LineSeries::new(
         pts.iter().map(|p| (p.0, p.1)),
         COLORS[0].stroke_width(2),
@@ -235,6 +240,14 @@ mod tests {
             plot.marks
         );
         assert!(plot.axes().is_err(), "no axes");
+    }
+
+    #[test]
+    fn without_uncertainties_the_line_has_no_band() {
+        let pts = [(0.0, 0.0, f64::NAN), (10.0, 1.0, 0.1), (20.0, 3.0, 0.1)];
+        let plot = inspect::parse(&function_band("EXX", "EXX b − a", &pts)).unwrap();
+        assert_eq!(plot.marks("polyline", &hex(COLORS[0]))[0].points.len(), 3);
+        assert!(plot.marks("polygon", &hex(BAND)).is_empty());
     }
 
     #[test]

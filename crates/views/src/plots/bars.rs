@@ -45,7 +45,7 @@ fn finding(root: &Area, title: &str, f: &Finding, noise: f64) -> DrawResult {
         .margin(8)
         .x_label_area_size(28)
         .y_label_area_size(52)
-        .build_cartesian_2d(-0.5f64..1.5f64, 0.0..top * 1.15)?;
+        .build_cartesian_2d(-0.5f64..1.5f64, 0.0..top * 1.5)?;
     chart
         .configure_mesh()
         .disable_x_mesh()
