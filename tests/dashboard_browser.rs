@@ -94,7 +94,10 @@ async fn shot(c: &Client, dir: &Path, name: &str) {
     std::fs::write(dir.join(format!("{name}.png")), png).expect("write screenshot");
 }
 
+/// The text of the element `css` matches, once it appears (a click that submits a form
+/// returns before the next page is loaded).
 async fn text(c: &Client, css: &str) -> String {
+    wait_for(c, css, Duration::from_secs(10)).await;
     c.find(Locator::Css(css))
         .await
         .unwrap_or_else(|e| panic!("{css}: {e}"))
@@ -118,6 +121,11 @@ async fn wait_for(c: &Client, css: &str, timeout: Duration) {
 #[tokio::test(flavor = "multi_thread", worker_threads = 2)]
 async fn dashboard_in_headless_chromium() {
     let Some(driver) = chromedriver() else {
+        // In CI (.ci/run installs chromium and chromium-driver, sets MTCAL_CI) it must run.
+        assert!(
+            std::env::var_os("MTCAL_CI").is_none(),
+            "chromedriver not found under MTCAL_CI"
+        );
         println!(
             "skipped: chromedriver not found at /usr/bin/chromedriver (install Debian's \
              chromium and chromium-driver, or set CHROMEDRIVER)"
