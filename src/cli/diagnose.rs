@@ -50,11 +50,11 @@ pub fn run(args: Args) -> anyhow::Result<ExitCode> {
     });
     let opts = SeriesOptions::default();
     // ISO 230-2 figures accompany the summary of positioning runs.
-    let mut iso = vec![];
+    let mut iso = mtcal_solver::standards::Standards::default();
     let result: DiagnosisResult = match kind {
         DatasetKind::Positioning => {
             let runs = mtcal_formats::read_positioning_path(path, &limits)?;
-            iso = series::iso230_2(&runs);
+            iso = mtcal_solver::standards::from_positioning_runs(&runs);
             series::diagnose_positioning(&runs, &machine_id, &opts)
                 .map_err(|e| BadInput(format!("{}: {e}", path.display())))?
         }
@@ -92,12 +92,7 @@ pub fn run(args: Args) -> anyhow::Result<ExitCode> {
         serde_json::to_string_pretty(&result).context("serialising the result")? + "\n"
     } else {
         let mut s = summary(&result);
-        for f in &iso {
-            s.push_str(&format!(
-                "ISO 230-2 axis {} ({} targets, {} runs): B = {:.2} µm, R = {:.2} µm, E = {:.2} µm, A = {:.2} µm\n",
-                f.axis, f.targets, f.runs, f.reversal_b_um, f.repeatability_r_um, f.systematic_e_um, f.accuracy_a_um
-            ));
-        }
+        s.push_str(&super::standards::summary(&iso));
         s
     };
     // A closed pipe (`| head`) is not an error.
@@ -169,6 +164,21 @@ pub fn summary(r: &DiagnosisResult) -> String {
             .collect();
         let _ = writeln!(s, "  parameters: {}", params.join(", "));
         let _ = writeln!(s, "  evidence: {}", f.evidence);
+    }
+    for f in &r.possible {
+        let _ = writeln!(
+            s,
+            "possible, undetermined: {}{}: {}",
+            f.effect,
+            f.axis
+                .as_deref()
+                .map(|a| format!(" ({a})"))
+                .unwrap_or_default(),
+            f.decide.as_deref().unwrap_or("")
+        );
+    }
+    for why in &r.rejected {
+        let _ = writeln!(s, "rejected: {why}");
     }
     for u in &r.unexplained {
         let _ = writeln!(s, "unexplained: {u}");

@@ -4,7 +4,8 @@
 //! Wired: `identify` (`mtcal_solver::identification::identify`, a session dataset),
 //! `diagnose` (`mtcal_solver::diagnosis::diagnose_session` on a session,
 //! `diagnosis::series::{diagnose_positioning, diagnose_drift_log}` on positioning runs or
-//! a drift log), `cradle` (`mtcal_solver::cradle::check_cradle`, a rotary point set) and
+//! a drift log), `cradle` (`mtcal_solver::cradle::check_cradle`, a rotary point set),
+//! `standards` (`mtcal_solver::standards`, a session or positioning runs) and
 //! `sensitivity` (`mtcal_solver::sensitivity::analyse`, parameters only).
 
 use crate::ingest::{self, DatasetData, UploadLimits};
@@ -15,7 +16,8 @@ use mtcal_solver::diagnosis::series::{self, SeriesOptions};
 use mtcal_solver::diagnosis::{self, DiagnoseOptions, DiagnosisResult};
 use mtcal_solver::identification::{self, IdentificationResult, IdentifyOptions, Method};
 use mtcal_solver::sensitivity::{self, SensitivityRequest};
-use mtcal_store::{Dataset, Machine, ResultScalars};
+use mtcal_solver::standards::{self, Standards, StandardsResult};
+use mtcal_store::{Dataset, Figure, Machine, ResultScalars};
 use serde::{Deserialize, Serialize};
 use serde_json::Value;
 use utoipa::ToSchema;
@@ -63,7 +65,7 @@ pub fn validate_params(kind: JobKind, params: &Value) -> Result<(), String> {
         JobKind::Sensitivity => serde_json::from_value::<SensitivityRequest>(params.clone())
             .map(|_| ())
             .map_err(|e| format!("params: {e}")),
-        JobKind::Diagnose | JobKind::Cradle => match params {
+        JobKind::Diagnose | JobKind::Cradle | JobKind::Standards => match params {
             Value::Object(m) if m.is_empty() => Ok(()),
             _ => Err(format!(
                 "params: a {} job takes no parameters (send {{}})",
@@ -101,6 +103,8 @@ pub struct JobInput {
 pub struct JobOutput {
     pub document: Value,
     pub scalars: ResultScalars,
+    /// Named figures (the standards'), stored in their own table.
+    pub figures: Vec<Figure>,
     pub measured_at: String,
 }
 
@@ -121,6 +125,7 @@ pub fn execute(input: &JobInput) -> Result<JobOutput, JobError> {
                 document: serde_json::to_value(&result)
                     .map_err(|e| JobError::Transient(e.to_string()))?,
                 scalars: identification_scalars(&result),
+                figures: figures(&result.standards),
                 measured_at: dataset.measured_at.clone(),
             })
         }
@@ -136,6 +141,7 @@ pub fn execute(input: &JobInput) -> Result<JobOutput, JobError> {
                 document: serde_json::to_value(&result)
                     .map_err(|e| JobError::Transient(e.to_string()))?,
                 scalars: ResultScalars::default(),
+                figures: vec![],
                 measured_at: mtcal_store::now_rfc3339(),
             })
         }
@@ -164,6 +170,7 @@ pub fn execute(input: &JobInput) -> Result<JobOutput, JobError> {
                 document: serde_json::to_value(&result)
                     .map_err(|e| JobError::Transient(e.to_string()))?,
                 scalars: diagnosis_scalars(&result),
+                figures: vec![],
                 measured_at: dataset.measured_at.clone(),
             })
         }
@@ -178,6 +185,38 @@ pub fn execute(input: &JobInput) -> Result<JobOutput, JobError> {
                 document: serde_json::to_value(&result)
                     .map_err(|e| JobError::Transient(e.to_string()))?,
                 scalars: ResultScalars::default(),
+                figures: vec![],
+                measured_at: dataset.measured_at.clone(),
+            })
+        }
+        JobKind::Standards => {
+            let (dataset, data) = load_dataset(input)?;
+            let (source, st) = match &data {
+                DatasetData::Session(session) => ("session", standards::from_session(session)),
+                DatasetData::Positioning(runs) => {
+                    ("positioning", standards::from_positioning_runs(runs))
+                }
+                _ => return Err(wrong_kind(input.kind, &data)),
+            };
+            if st.iso230_2.is_empty() && st.iso230_4.is_empty() {
+                let why: Vec<String> = st
+                    .not_evaluated
+                    .iter()
+                    .map(|n| format!("{} {}: {}", n.standard, n.what, n.reason))
+                    .collect();
+                return Err(JobError::BadInput(format!(
+                    "standards: nothing could be evaluated{}{}",
+                    if why.is_empty() { "" } else { ": " },
+                    why.join("; ")
+                )));
+            }
+            let figures = figures(&st);
+            let result = StandardsResult::new(&dataset.machine_id, source, st);
+            Ok(JobOutput {
+                document: serde_json::to_value(&result)
+                    .map_err(|e| JobError::Transient(e.to_string()))?,
+                scalars: ResultScalars::default(),
+                figures,
                 measured_at: dataset.measured_at.clone(),
             })
         }
@@ -192,9 +231,9 @@ fn load_dataset(input: &JobInput) -> Result<(&Dataset, DatasetData), JobError> {
     let (dataset, files) = input.dataset.as_ref().ok_or_else(|| {
         JobError::BadInput(format!("a {} job needs a dataset", input.kind.as_str()))
     })?;
-    let data =
-        ingest::read_dataset(files, input.limits).map_err(|e| JobError::BadInput(e.to_string()))?;
-    Ok((dataset, data))
+    let data = ingest::read_dataset(files, &input.limits)
+        .map_err(|e| JobError::BadInput(e.to_string()))?;
+    Ok((dataset, data.data))
 }
 
 /// The job kind cannot run on this dataset kind.
@@ -214,6 +253,19 @@ fn machine_topology(machine: Option<&Machine>) -> Result<Option<Topology>, JobEr
                 .map_err(|e| JobError::BadInput(format!("machine {} topology: {e}", m.id)))
         })
         .transpose()
+}
+
+/// The stored figures of the standards (`iso230_2.<axis>.<figure>`,
+/// `iso230_4.<plane>.<direction>.<figure>`).
+pub fn figures(st: &Standards) -> Vec<Figure> {
+    st.scalar_figures()
+        .into_iter()
+        .map(|f| Figure {
+            name: f.name,
+            value: f.value,
+            u: f.u,
+        })
+        .collect()
 }
 
 /// The scalar columns of a diagnosis: the rigid model's residual RMS (baseline).

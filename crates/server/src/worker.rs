@@ -143,9 +143,14 @@ async fn run_job(store: &Arc<dyn Store>, cfg: &WorkerConfig, me: &str, job: Job)
                 measured_at: out.measured_at,
                 document: out.document,
                 scalars: out.scalars,
+                figures: out.figures,
             };
             match store.complete_job(&job.id, me, r).await {
                 Err(StoreError::LeaseLost(_)) => store.finish_cancelled(&job.id, me).await,
+                // A result the store refuses would be refused again: not retried.
+                Err(StoreError::Invalid(m)) => {
+                    store.fail_job(&job.id, me, "bad_input", &m, None).await
+                }
                 other => other,
             }
         }

@@ -25,7 +25,7 @@
 use crate::basis::BasisKind;
 use crate::design::{ErrorModel, Fit, measured_travel};
 use crate::error::SolverError;
-use crate::noise::noise_from_repeated_passes;
+use crate::noise::session_floor;
 use crate::observability::Identifiability;
 use crate::session::Session;
 use serde::{Deserialize, Serialize};
@@ -139,8 +139,13 @@ pub struct Observability {
 pub struct FitSummary {
     pub samples: usize,
     pub residual_rms_um: f64,
-    /// Noise estimated independently of the model, from repeated passes.
+    /// The noise floor, estimated independently of the model from the flat
+    /// high-frequency part of the reading spectrum ([`crate::noise`]).
     pub noise_estimate_um: Option<f64>,
+    /// The check of the floor: noise from differences of repeated passes (larger when
+    /// something does not repeat from pass to pass: vibration, drift).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub noise_pass_differences_um: Option<f64>,
 }
 
 /// Nuisance parameters estimated with the errors.
@@ -185,6 +190,17 @@ pub struct IdentificationResult {
     /// Sentences stating the reporting conventions used (straightness, squareness,
     /// circle direction).
     pub reporting: Vec<String>,
+    /// ISO 230-2 figures from the line passes and ISO 230-4 figures from the circle runs
+    /// of the session (`crate::standards`).
+    #[serde(default)]
+    pub standards: crate::standards::Standards,
+    /// Polar-plot data of every circle run: radial deviation measured and from the fitted
+    /// model.
+    #[serde(default)]
+    pub circles: Vec<crate::standards::iso230_4::CirclePlot>,
+    /// Residual RMS of the fit by file and test.
+    #[serde(default)]
+    pub residuals: Vec<crate::residuals::ResidualSummary>,
 }
 
 impl IdentificationResult {
@@ -212,19 +228,19 @@ pub fn identify(
     opts: &IdentifyOptions,
 ) -> Result<IdentificationResult, SolverError> {
     let model = prepare(session, opts)?;
-    let noise = noise_from_repeated_passes(session).map(report::round);
-    let estimate = match opts.method {
+    let floor = session_floor(session);
+    let noise = floor.map(|f| report::round(f.sigma_um));
+    let mut estimate = match opts.method {
         Method::Joint => joint::estimate(session, &model),
         Method::Stepwise => stepwise::estimate(session, &model, noise)?,
     };
-    Ok(report::report(
-        session,
-        &model,
-        opts,
-        opts.method,
-        noise,
-        &estimate,
-    ))
+    if let Some(f) = &floor {
+        estimate.reporting.push(f.note());
+    }
+    let mut result = report::report(session, &model, opts, opts.method, noise, &estimate);
+    result.fit.noise_pass_differences_um =
+        floor.and_then(|f| f.pass_differences_um.map(report::round));
+    Ok(result)
 }
 
 /// What an estimation method hands to [`report::report`].

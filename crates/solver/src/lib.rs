@@ -16,7 +16,7 @@ pub mod kinematics;
 pub mod session;
 pub mod terms;
 
-// Issue 2: identification core.
+// identification core.
 pub mod basis;
 pub mod design;
 pub mod identification;
@@ -25,15 +25,23 @@ pub mod noise;
 pub mod observability;
 pub mod simulate;
 
-// Issue 4: sensitivity (Cheng et al. 2012).
+// sensitivity (Cheng et al. 2012).
 pub mod sensitivity;
 
-// Issue 5: 5-axis cradle and geometric fits.
+// 5-axis cradle and geometric fits.
 pub mod cradle;
 pub mod fits;
 
-// Issue 6: mismatch diagnosis.
+// mismatch diagnosis.
 pub mod diagnosis;
+
+// Figures of the machine-tool test standards (ISO 230-2, ISO 230-4) and the residuals
+// of a fit by file and test.
+pub mod residuals;
+pub mod standards;
+
+// Tolerances and the decision rule of conformity.
+pub mod tolerance;
 
 pub use axis::{Axis, Plane, Topology};
 pub use error::SolverError;

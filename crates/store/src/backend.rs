@@ -93,6 +93,22 @@ async fn insert_result(
     .execute(&mut **tx)
     .await
     .map_err(|e| unique_conflict(e, || format!("result of job {job_id}")))?;
+    for f in &r.figures {
+        sqlx::query(
+            "INSERT INTO result_figures (result_id, machine_id, kind, measured_at, name, value, u) \
+             VALUES ($1, $2, $3, $4, $5, $6, $7)",
+        )
+        .bind(&m.id)
+        .bind(&m.machine_id)
+        .bind(&m.kind)
+        .bind(&m.measured_at)
+        .bind(&f.name)
+        .bind(f.value)
+        .bind(f.u)
+        .execute(&mut **tx)
+        .await
+        .db()?;
+    }
     Ok(row.meta)
 }
 
@@ -342,6 +358,58 @@ impl Store for This {
             .await
             .db()?;
             rows::baseline_pairs(&pairs, &metas, &machines)
+        })
+    }
+
+    fn result_figures<'a>(&'a self, result_id: &'a str) -> StoreFuture<'a, Vec<Figure>> {
+        Box::pin(async move {
+            self.result_meta(result_id).await?;
+            sqlx::query(
+                "SELECT name, value, u FROM result_figures WHERE result_id = $1 ORDER BY name",
+            )
+            .bind(result_id)
+            .fetch_all(&self.pool)
+            .await
+            .db()?
+            .iter()
+            .map(rows::figure)
+            .collect()
+        })
+    }
+
+    fn figure_trend<'a>(
+        &'a self,
+        machine_id: &'a str,
+        name: &'a str,
+    ) -> StoreFuture<'a, Vec<FigurePoint>> {
+        Box::pin(async move {
+            sqlx::query(
+                "SELECT result_id, measured_at, value, u FROM result_figures \
+                 WHERE machine_id = $1 AND name = $2 ORDER BY measured_at, result_id",
+            )
+            .bind(machine_id)
+            .bind(name)
+            .fetch_all(&self.pool)
+            .await
+            .db()?
+            .iter()
+            .map(rows::figure_point)
+            .collect()
+        })
+    }
+
+    fn figure_names<'a>(&'a self, machine_id: &'a str) -> StoreFuture<'a, Vec<String>> {
+        Box::pin(async move {
+            sqlx::query(
+                "SELECT DISTINCT name FROM result_figures WHERE machine_id = $1 ORDER BY name",
+            )
+            .bind(machine_id)
+            .fetch_all(&self.pool)
+            .await
+            .db()?
+            .iter()
+            .map(|r| r.text("name"))
+            .collect()
         })
     }
 

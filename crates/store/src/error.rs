@@ -10,6 +10,9 @@ pub enum StoreError {
     /// The operation contradicts stored state (duplicate id, job already finished, …).
     #[error("{0}")]
     Conflict(String),
+    /// A record breaks a rule of the store (e.g. a non-finite figure); nothing stored.
+    #[error("invalid record: {0}")]
+    Invalid(String),
     /// The worker's lease on a job was taken over (it was reaped) or the job was cancelled.
     #[error("lease on job {0} lost")]
     LeaseLost(String),

@@ -74,6 +74,18 @@ pub trait Store: Queue {
     ) -> StoreFuture<'a, Vec<ResultMeta>>;
     /// For every machine with results of `kind`: baseline, latest and count.
     fn baseline_pairs<'a>(&'a self, kind: &'a str) -> StoreFuture<'a, Vec<BaselinePair>>;
+    /// The named figures of a result ([`Figure`]), by name.
+    fn result_figures<'a>(&'a self, result_id: &'a str) -> StoreFuture<'a, Vec<Figure>>;
+    /// One figure of a machine's results in time order (measured_at, then result id),
+    /// whatever the result kind (ISO 230-2 figures come from `identification` and
+    /// `standards` results alike).
+    fn figure_trend<'a>(
+        &'a self,
+        machine_id: &'a str,
+        name: &'a str,
+    ) -> StoreFuture<'a, Vec<FigurePoint>>;
+    /// The names of every figure stored for a machine, sorted.
+    fn figure_names<'a>(&'a self, machine_id: &'a str) -> StoreFuture<'a, Vec<String>>;
     /// Inserts a result without a job run (an `import` job, born succeeded).
     fn import_result<'a>(&'a self, r: NewResult) -> StoreFuture<'a, ResultMeta>;
     /// Inserts many results (each with its `import` job) in one transaction: for seeding

@@ -39,6 +39,9 @@ pub enum JobKind {
     Diagnose,
     /// Cradle (A/C) check of a rotary point set (default options); result kind `cradle`.
     Cradle,
+    /// Figures of ISO 230-2 (positioning runs, or the line passes of a session) and ISO
+    /// 230-4 (the circles of a session); result kind `standards`.
+    Standards,
     /// A result stored without a run ([`crate::Store::import_result`]): born succeeded,
     /// never claimed, never submitted through the API.
     Import,
@@ -46,11 +49,12 @@ pub enum JobKind {
 
 impl JobKind {
     /// Every kind a worker runs (all but [`JobKind::Import`]).
-    pub const RUNNABLE: [JobKind; 4] = [
+    pub const RUNNABLE: [JobKind; 5] = [
         JobKind::Identify,
         JobKind::Sensitivity,
         JobKind::Diagnose,
         JobKind::Cradle,
+        JobKind::Standards,
     ];
 
     pub fn as_str(self) -> &'static str {
@@ -59,6 +63,7 @@ impl JobKind {
             JobKind::Sensitivity => "sensitivity",
             JobKind::Diagnose => "diagnose",
             JobKind::Cradle => "cradle",
+            JobKind::Standards => "standards",
             JobKind::Import => "import",
         }
     }
@@ -69,6 +74,7 @@ impl JobKind {
             "sensitivity" => Some(JobKind::Sensitivity),
             "diagnose" => Some(JobKind::Diagnose),
             "cradle" => Some(JobKind::Cradle),
+            "standards" => Some(JobKind::Standards),
             "import" => Some(JobKind::Import),
             _ => None,
         }
@@ -82,6 +88,7 @@ impl JobKind {
             JobKind::Sensitivity => "sensitivity",
             JobKind::Diagnose => "diagnosis",
             JobKind::Cradle => "cradle",
+            JobKind::Standards => "standards",
             JobKind::Import => "import",
         }
     }
@@ -93,6 +100,7 @@ impl JobKind {
             JobKind::Identify => dataset_kind == "session",
             JobKind::Diagnose => matches!(dataset_kind, "session" | "positioning" | "drift_log"),
             JobKind::Cradle => dataset_kind == "rotary_points",
+            JobKind::Standards => matches!(dataset_kind, "session" | "positioning"),
             JobKind::Sensitivity | JobKind::Import => false,
         }
     }
@@ -100,7 +108,7 @@ impl JobKind {
     /// Whether the kind reads a dataset (else only its parameters).
     pub fn needs_dataset(self) -> bool {
         match self {
-            JobKind::Identify | JobKind::Diagnose | JobKind::Cradle => true,
+            JobKind::Identify | JobKind::Diagnose | JobKind::Cradle | JobKind::Standards => true,
             JobKind::Sensitivity | JobKind::Import => false,
         }
     }
@@ -253,7 +261,7 @@ mod tests {
         assert!(!JobKind::RUNNABLE.contains(&JobKind::Import));
         assert_eq!(
             JobKind::runnable_sql_list(),
-            "'identify', 'sensitivity', 'diagnose', 'cradle'"
+            "'identify', 'sensitivity', 'diagnose', 'cradle', 'standards'"
         );
         assert_eq!(JobKind::parse("nope"), None);
     }

@@ -135,6 +135,25 @@ pub(crate) fn result_meta(r: &impl Columns) -> Result<ResultMeta> {
     })
 }
 
+/// A figure trend point: `result_id`, `measured_at`, `value`, `u` columns.
+pub(crate) fn figure_point(r: &impl Columns) -> Result<FigurePoint> {
+    Ok(FigurePoint {
+        result_id: r.text("result_id")?,
+        measured_at: r.text("measured_at")?,
+        value: r.real("value")?,
+        u: r.opt_real("u")?,
+    })
+}
+
+/// A figure: `name`, `value`, `u` columns.
+pub(crate) fn figure(r: &impl Columns) -> Result<Figure> {
+    Ok(Figure {
+        name: r.text("name")?,
+        value: r.real("value")?,
+        u: r.opt_real("u")?,
+    })
+}
+
 pub(crate) fn stored_result(r: &impl Columns) -> Result<StoredResult> {
     Ok(StoredResult {
         meta: result_meta(r)?,
@@ -184,6 +203,7 @@ pub(crate) fn row_counts(r: &impl Columns) -> Result<RowCounts> {
         dataset_files: r.int("dataset_files")?,
         jobs: r.int("jobs")?,
         results: r.int("results")?,
+        result_figures: r.int("result_figures")?,
         api_keys: r.int("api_keys")?,
     })
 }
@@ -194,6 +214,7 @@ pub(crate) const ROW_COUNTS: &str = "SELECT (SELECT COUNT(*) FROM machines) AS m
      (SELECT COUNT(*) FROM dataset_files) AS dataset_files, \
      (SELECT COUNT(*) FROM jobs) AS jobs, \
      (SELECT COUNT(*) FROM results) AS results, \
+     (SELECT COUNT(*) FROM result_figures) AS result_figures, \
      (SELECT COUNT(*) FROM api_keys) AS api_keys";
 
 /// A stored file: `name` and `content` columns.

@@ -102,9 +102,45 @@ pub struct ResultRow {
     pub term_coefficients: String,
 }
 
+/// Whether `name` can name a figure: letters, digits, `_` and `.`, 1 to
+/// [`FIGURE_NAME_MAX`] bytes.
+pub fn valid_figure_name(name: &str) -> bool {
+    !name.is_empty()
+        && name.len() <= FIGURE_NAME_MAX
+        && name
+            .bytes()
+            .all(|b| b.is_ascii_alphanumeric() || b == b'_' || b == b'.')
+}
+
+/// Checks a result's figures before anything is stored: names of letters, digits, `_`
+/// and `.` (at most [`FIGURE_NAME_MAX`] bytes), each once; finite values; uncertainties
+/// finite and non-negative. A non-finite figure would poison every trend through it.
+pub fn check_figures(figures: &[Figure]) -> Result<()> {
+    let mut seen = std::collections::BTreeSet::new();
+    for f in figures {
+        if !valid_figure_name(&f.name) {
+            return Err(StoreError::Invalid(format!("figure name {:?}", f.name)));
+        }
+        if !seen.insert(f.name.as_str()) {
+            return Err(StoreError::Invalid(format!(
+                "figure {} given twice",
+                f.name
+            )));
+        }
+        if !f.value.is_finite() || f.u.is_some_and(|u| !u.is_finite() || u < 0.0) {
+            return Err(StoreError::Invalid(format!(
+                "figure {}: value {} and uncertainty {:?} must be finite (u ≥ 0)",
+                f.name, f.value, f.u
+            )));
+        }
+    }
+    Ok(())
+}
+
 impl ResultRow {
-    /// A new result of job `job_id`, created now.
+    /// A new result of job `job_id`, created now; its figures checked ([`check_figures`]).
     pub fn new(job_id: &str, r: &NewResult) -> Result<ResultRow> {
+        check_figures(&r.figures)?;
         Ok(ResultRow {
             meta: ResultMeta {
                 id: new_id("res"),

@@ -23,6 +23,11 @@ impl ScratchPg {
     /// stderr saying so) when the variable is not set, so tests skip visibly.
     pub async fn create(test: &str) -> Result<Option<ScratchPg>> {
         let Some(server) = std::env::var(TEST_PG_VAR).ok().filter(|s| !s.is_empty()) else {
+            // In CI (.ci/run sets MTCAL_CI) the PostgreSQL half must run, never skip.
+            assert!(
+                std::env::var_os("MTCAL_CI").is_none(),
+                "{test}: {TEST_PG_VAR} is not set under MTCAL_CI (scripts/with-postgres starts a server)"
+            );
             eprintln!("{test}: PostgreSQL part skipped ({TEST_PG_VAR} is not set)");
             return Ok(None);
         };

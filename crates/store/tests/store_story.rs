@@ -57,6 +57,7 @@ stories!(
     retries_wait_for_their_backoff_and_bad_input_fails_at_once,
     cancellation_of_queued_and_running_jobs,
     results_in_time_order_with_baseline,
+    figures_trend_by_name_and_bad_ones_store_nothing,
     keys_are_found_by_secret_only,
 );
 
@@ -96,6 +97,7 @@ fn result(machine: &str, at: &str, ec0y: f64) -> NewResult {
             term_coefficients: BTreeMap::from([("EXX".into(), vec![0.01, 0.0, 0.0])]),
             ..Default::default()
         },
+        figures: vec![],
     }
 }
 
@@ -347,6 +349,95 @@ async fn results_in_time_order_with_baseline(s: &dyn Store) {
             .id,
         b
     );
+}
+
+async fn figures_trend_by_name_and_bad_ones_store_nothing(s: &dyn Store) {
+    s.create_machine(&machine("M1")).await.unwrap();
+    s.create_machine(&machine("M2")).await.unwrap();
+    let fig = |name: &str, value: f64, u: Option<f64>| Figure {
+        name: name.into(),
+        value,
+        u,
+    };
+    let with = |machine: &str, at: &str, kind: &str, figures: Vec<Figure>| NewResult {
+        kind: kind.into(),
+        figures,
+        ..result(machine, at, 0.0)
+    };
+    let late = s
+        .import_result(with(
+            "M1",
+            "2026-03-01T00:00:00Z",
+            "standards",
+            vec![fig("iso230_2.X.E_um", 3.0, Some(0.1))],
+        ))
+        .await
+        .unwrap();
+    let early = s
+        .import_result(with(
+            "M1",
+            "2026-01-01T00:00:00Z",
+            "identification",
+            vec![
+                fig("iso230_2.X.E_um", 1.0, None),
+                fig("iso230_4.XY.bi.H_um", 0.5, Some(0.02)),
+            ],
+        ))
+        .await
+        .unwrap();
+    s.import_result(with(
+        "M2",
+        "2026-02-01T00:00:00Z",
+        "identification",
+        vec![fig("iso230_2.X.E_um", 9.0, None)],
+    ))
+    .await
+    .unwrap();
+    // In time order, across result kinds, one machine only.
+    let t = s.figure_trend("M1", "iso230_2.X.E_um").await.unwrap();
+    assert_eq!(
+        t.iter()
+            .map(|p| (p.result_id.as_str(), p.value, p.u))
+            .collect::<Vec<_>>(),
+        [
+            (early.id.as_str(), 1.0, None),
+            (late.id.as_str(), 3.0, Some(0.1))
+        ]
+    );
+    assert!(
+        s.figure_trend("M1", "iso230_2.Y.E_um")
+            .await
+            .unwrap()
+            .is_empty()
+    );
+    assert_eq!(
+        s.figure_names("M1").await.unwrap(),
+        ["iso230_2.X.E_um", "iso230_4.XY.bi.H_um"]
+    );
+    let f = s.result_figures(&early.id).await.unwrap();
+    assert_eq!(f[1], fig("iso230_4.XY.bi.H_um", 0.5, Some(0.02)));
+    assert!(matches!(
+        s.result_figures("res_none").await,
+        Err(StoreError::NotFound(_))
+    ));
+    // A non-finite value, a negative uncertainty, a bad or repeated name: refused, and
+    // nothing of the result is stored.
+    let before = s.row_counts().await.unwrap();
+    assert_eq!(before.result_figures, 4);
+    for bad in [
+        vec![fig("iso230_2.X.E_um", f64::NAN, None)],
+        vec![fig("iso230_2.X.E_um", 1.0, Some(-0.1))],
+        vec![fig("iso230_2.X.E_um", 1.0, Some(f64::INFINITY))],
+        vec![fig("iso230_2.X.E um", 1.0, None)],
+        vec![fig("", 1.0, None)],
+        vec![fig("a", 1.0, None), fig("a", 2.0, None)],
+    ] {
+        let r = s
+            .import_result(with("M1", "2026-04-01T00:00:00Z", "standards", bad))
+            .await;
+        assert!(matches!(r, Err(StoreError::Invalid(_))), "{r:?}");
+    }
+    assert_eq!(s.row_counts().await.unwrap(), before);
 }
 
 async fn keys_are_found_by_secret_only(s: &dyn Store) {

@@ -1,21 +1,52 @@
-//! SVG rendering of the diagnosis plots ([`PlotData`]) with plotters' SVG backend.
+//! SVG plots, drawn with plotters' SVG backend. Every function returns a whole `<svg>`
+//! document (with a `viewBox`, so a page can scale it) and draws only what the data give:
+//! nothing is extrapolated, and a quantity the data cannot determine is drawn as a
+//! labelled empty panel ([`empty_panel`]), never as a curve.
 //!
 //! No system fonts are needed: without plotters' `ttf`/`ab_glyph` features text is
 //! written as SVG `<text>` elements and laid out with a fixed-width estimate, so labels
 //! may sit slightly off where a viewer's font is wider or narrower.
 //!
-//! * `cartesian`: every series a line; series whose name starts with `measured` also get
-//!   a marker per point when they have at most 120 points; a series whose name contains
-//!   `split` is drawn dashed (the train/test boundary of a drift log).
-//! * `polar`: x is an angle in degrees, y a radial deviation (µm). Drawn as on a ballbar
-//!   plot: r = 1 + y/s on a unit reference circle (dev = 0), s = max|y|/0.4, so the largest
-//!   deviation sits 0.4 of the radius off the circle; dotted rings at ±s/2 and ±s, with
-//!   the scale written in the caption.
+//! * [`render_svg`]: the diagnosis figures ([`PlotData`]): `cartesian` (every series a
+//!   line; series whose name starts with `measured` also get a marker per point when
+//!   they have at most 120 points; a series whose name contains `split` is drawn dashed,
+//!   the train/test boundary of a drift log) and `polar` ([`polar`]).
+//! * [`error_function`]: one of the 18 error functions over the measured travel with its
+//!   ±2σ band.
+//! * [`circle_polar`]: a circle test, measured and modelled radial deviation, both
+//!   directions.
+//! * [`trend`], [`error_bar_chart`]: values over time (or any x) with ±2σ error bars;
+//!   [`rotation_vectors`]: a cradle's rotation vector per A pose.
+//! * [`sparkline`]: a tiny line without axes.
+//! * [`finding_bars`]: a diagnosis finding's RMS before/after, fit and held out.
+//! * [`ranking_bars`]: a sensitivity ranking.
+//!
+//! Tick labels are plain numbers (or dates, `YYYY-MM-DD`), so a reader — and the tests,
+//! through [`inspect`] (feature `inspect`) — can recover the data coordinates of every
+//! mark from the SVG alone.
 
 use mtcal_solver::diagnosis::{PlotData, PlotSeries};
 use plotters::prelude::*;
 
-const COLORS: [RGBColor; 8] = [
+mod band;
+mod bars;
+mod errorbars;
+#[cfg(any(test, feature = "inspect"))]
+pub mod inspect;
+mod polar;
+mod spark;
+
+pub use band::{empty_panel, error_function, function_band};
+pub use bars::{finding_bars, ranking_bars};
+pub use errorbars::{
+    BarPoint, ErrorBarChart, PointSeries, TrendPoint, TrendSeries, XScale, error_bar_chart,
+    rotation_vectors, trend, unix_seconds,
+};
+pub use polar::{CIRCLE_COLORS, CircleTrace, circle_polar};
+pub use spark::sparkline;
+
+/// Series colours, in order. Tests find series by these (`#rrggbb` in the SVG).
+pub const COLORS: [RGBColor; 8] = [
     RGBColor(31, 119, 180),
     RGBColor(214, 39, 40),
     RGBColor(44, 160, 44),
@@ -26,27 +57,29 @@ const COLORS: [RGBColor; 8] = [
     RGBColor(127, 127, 127),
 ];
 
-const SIZE: (u32, u32) = (900, 560);
+/// Fill of a ±2σ band (drawn with opacity [`BAND_OPACITY`]).
+pub const BAND: RGBColor = RGBColor(31, 119, 180);
+pub const BAND_OPACITY: f64 = 0.2;
 
-/// Renders one plot to an SVG document (module docs).
-pub fn render_svg(plot: &PlotData) -> String {
+/// Size of a full-width figure, px.
+pub const SIZE: (u32, u32) = (900, 560);
+/// Size of a small-multiple figure (one error function), px.
+pub const PANEL: (u32, u32) = (440, 300);
+
+pub(crate) type Area<'a> = DrawingArea<SVGBackend<'a>, plotters::coord::Shift>;
+pub(crate) type DrawResult = Result<(), Box<dyn std::error::Error + 'static>>;
+
+/// Runs `draw` on a white SVG canvas of `size`; when it fails (nothing to draw) the
+/// canvas says so under `title` instead.
+pub(crate) fn svg(size: (u32, u32), title: &str, draw: impl FnOnce(&Area) -> DrawResult) -> String {
     let mut out = String::new();
     {
-        let size = if plot.kind == "polar" {
-            (640, 680)
-        } else {
-            SIZE
-        };
         let root = SVGBackend::with_string(&mut out, size).into_drawing_area();
         let _ = root.fill(&WHITE);
-        let drawn = if plot.kind == "polar" {
-            polar(&root, plot)
-        } else {
-            cartesian(&root, plot)
-        };
-        if drawn.is_err() {
+        if draw(&root).is_err() {
+            let _ = root.fill(&WHITE);
             let _ = root.draw(&Text::new(
-                format!("{}: nothing to draw", plot.title),
+                format!("{title}: nothing to draw"),
                 (20, 20),
                 ("sans-serif", 16).into_font(),
             ));
@@ -54,6 +87,35 @@ pub fn render_svg(plot: &PlotData) -> String {
         let _ = root.present();
     }
     out
+}
+
+/// A tick label: the value rounded to 6 decimals in its shortest form (`-40`, `2.5`).
+pub(crate) fn tick(v: &f64) -> String {
+    let r = (v * 1e6).round() / 1e6;
+    if r == 0.0 { "0".into() } else { format!("{r}") }
+}
+
+/// A position or value as the axes label it (`-40`, `2.5`).
+pub fn tick_label(v: f64) -> String {
+    tick(&v)
+}
+
+/// `um` → `µm`, `urad` → `µrad`, anything else unchanged.
+pub fn unit_label(unit: &str) -> &str {
+    match unit {
+        "um" => "µm",
+        "urad" => "µrad",
+        other => other,
+    }
+}
+
+/// Renders one diagnosis figure to an SVG document (module docs).
+pub fn render_svg(plot: &PlotData) -> String {
+    if plot.kind == "polar" {
+        polar::render(plot)
+    } else {
+        svg(SIZE, &plot.title, |root| cartesian(root, plot))
+    }
 }
 
 /// The file stem of a plot: its id with every character other than ASCII letters,
@@ -71,10 +133,7 @@ pub fn file_stem(plot: &PlotData) -> String {
         .collect()
 }
 
-type Area<'a> = DrawingArea<SVGBackend<'a>, plotters::coord::Shift>;
-type DrawResult = Result<(), Box<dyn std::error::Error + 'static>>;
-
-fn finite_points(s: &PlotSeries) -> Vec<(f64, f64)> {
+pub(crate) fn finite_points(s: &PlotSeries) -> Vec<(f64, f64)> {
     s.x.iter()
         .zip(&s.y)
         .map(|(&x, &y)| (x, y))
@@ -82,10 +141,14 @@ fn finite_points(s: &PlotSeries) -> Vec<(f64, f64)> {
         .collect()
 }
 
-fn range(v: impl Iterator<Item = f64>) -> Option<(f64, f64)> {
-    let (lo, hi) = v.fold((f64::INFINITY, f64::NEG_INFINITY), |(a, b), x| {
-        (a.min(x), b.max(x))
-    });
+/// The range of `v` padded by 5 % on each side (a single value gets ±5 % of itself, at
+/// least ±0.05); `None` when there is no finite value.
+pub(crate) fn range(v: impl Iterator<Item = f64>) -> Option<(f64, f64)> {
+    let (lo, hi) = v
+        .filter(|x| x.is_finite())
+        .fold((f64::INFINITY, f64::NEG_INFINITY), |(a, b), x| {
+            (a.min(x), b.max(x))
+        });
     if !lo.is_finite() {
         return None;
     }
@@ -95,6 +158,30 @@ fn range(v: impl Iterator<Item = f64>) -> Option<(f64, f64)> {
         lo.abs().max(1.0) * 0.05
     };
     Some((lo - pad, hi + pad))
+}
+
+/// A chart with f64 axes on an SVG canvas.
+pub(crate) type Chart<'a, 'b> = ChartContext<
+    'a,
+    SVGBackend<'b>,
+    plotters::coord::cartesian::Cartesian2d<
+        plotters::coord::types::RangedCoordf64,
+        plotters::coord::types::RangedCoordf64,
+    >,
+>;
+
+/// Draws the legend of the series labelled so far.
+pub(crate) fn legend<'a, 'b: 'a>(
+    chart: &mut Chart<'a, 'b>,
+    position: SeriesLabelPosition,
+) -> DrawResult {
+    chart
+        .configure_series_labels()
+        .background_style(WHITE.mix(0.85))
+        .border_style(BLACK.mix(0.3))
+        .position(position)
+        .draw()?;
+    Ok(())
 }
 
 fn cartesian(root: &Area, plot: &PlotData) -> DrawResult {
@@ -111,6 +198,8 @@ fn cartesian(root: &Area, plot: &PlotData) -> DrawResult {
         .configure_mesh()
         .x_desc(plot.x_label.as_str())
         .y_desc(plot.y_label.as_str())
+        .x_label_formatter(&tick)
+        .y_label_formatter(&tick)
         .light_line_style(WHITE.mix(0.0))
         .draw()?;
     for (k, (s, p)) in plot.series.iter().zip(&pts).enumerate() {
@@ -138,82 +227,14 @@ fn cartesian(root: &Area, plot: &PlotData) -> DrawResult {
             )?;
         }
     }
-    chart
-        .configure_series_labels()
-        .background_style(WHITE.mix(0.85))
-        .border_style(BLACK.mix(0.3))
-        .position(SeriesLabelPosition::UpperRight)
-        .draw()?;
-    Ok(())
-}
-
-fn polar(root: &Area, plot: &PlotData) -> DrawResult {
-    let pts: Vec<Vec<(f64, f64)>> = plot.series.iter().map(finite_points).collect();
-    let m = pts.iter().flatten().fold(0.0f64, |a, p| a.max(p.1.abs()));
-    if pts.iter().all(Vec::is_empty) {
-        return Err("no points".into());
-    }
-    let scale = if m > 0.0 { m / 0.4 } else { 1.0 };
-    let to_xy = |ang_deg: f64, dev: f64| {
-        let r = 1.0 + dev / scale;
-        let a = ang_deg.to_radians();
-        (r * a.cos(), r * a.sin())
-    };
-    let mut chart = ChartBuilder::on(root)
-        .caption(
-            format!(
-                "{} (ring spacing {:.3} µm; {})",
-                plot.title,
-                scale / 2.0,
-                plot.y_label
-            ),
-            ("sans-serif", 16),
-        )
-        .margin(12)
-        .build_cartesian_2d(-1.5f64..1.5f64, -1.5f64..1.5f64)?;
-    let circle = |dev: f64| (0..=360).map(move |a| to_xy(f64::from(a), dev));
-    chart.draw_series(LineSeries::new(circle(0.0), BLACK.mix(0.6).stroke_width(1)))?;
-    for dev in [-scale, -0.5 * scale, 0.5 * scale, scale] {
-        chart.draw_series(DashedLineSeries::new(
-            circle(dev),
-            2,
-            4,
-            BLACK.mix(0.3).stroke_width(1),
-        ))?;
-    }
-    for a in (0..360).step_by(45) {
-        let (x, y) = to_xy(f64::from(a), scale * 1.05);
-        chart.draw_series(LineSeries::new([(0.0, 0.0), (x, y)], BLACK.mix(0.15)))?;
-        chart.draw_series(std::iter::once(Text::new(
-            format!("{a}°"),
-            (x * 1.04, y * 1.04),
-            ("sans-serif", 12),
-        )))?;
-    }
-    for (k, (s, p)) in plot.series.iter().zip(&pts).enumerate() {
-        let color = COLORS[k % COLORS.len()];
-        chart
-            .draw_series(LineSeries::new(
-                p.iter().map(|&(a, d)| to_xy(a, d)),
-                color.stroke_width(2),
-            ))?
-            .label(s.name.as_str())
-            .legend(move |(x, y)| PathElement::new(vec![(x, y), (x + 18, y)], color));
-    }
-    chart
-        .configure_series_labels()
-        .background_style(WHITE.mix(0.85))
-        .border_style(BLACK.mix(0.3))
-        .position(SeriesLabelPosition::LowerRight)
-        .draw()?;
-    Ok(())
+    legend(&mut chart, SeriesLabelPosition::UpperRight)
 }
 
 #[cfg(test)]
-mod tests {
+pub(crate) mod tests {
     use super::*;
 
-    fn plot(kind: &str) -> PlotData {
+    pub(crate) fn plot(kind: &str) -> PlotData {
         let x: Vec<f64> = (0..=72).map(|i| f64::from(i) * 5.0).collect();
         PlotData {
             id: "t".into(),
@@ -242,6 +263,7 @@ mod tests {
     fn cartesian_svg_has_series_and_labels() {
         let svg = render_svg(&plot("cartesian"));
         assert!(svg.starts_with("<svg"), "{}", &svg[..80.min(svg.len())]);
+        assert!(svg.contains("viewBox=\"0 0 900 560\""));
         assert!(svg.contains("polyline") || svg.contains("<path"));
         assert!(svg.contains("deviation (µm)"));
         assert!(svg.contains("title &lt;&amp;&gt;"), "text must be escaped");
@@ -253,16 +275,6 @@ mod tests {
             svg.contains("stroke-dasharray")
                 || svg.matches("<line").count() > 2
                 || svg.contains("polyline")
-        );
-    }
-
-    #[test]
-    fn polar_svg_draws_rings_and_series() {
-        let svg = render_svg(&plot("polar"));
-        assert!(svg.starts_with("<svg"));
-        assert!(
-            svg.contains("90°") && svg.contains("ring spacing 3.750 µm"),
-            "scale = 3/0.4, rings at half"
         );
     }
 
@@ -279,5 +291,13 @@ mod tests {
         p.series.clear();
         let svg = render_svg(&p);
         assert!(svg.contains("nothing to draw"));
+    }
+
+    #[test]
+    fn tick_labels_are_short_numbers() {
+        assert_eq!(tick(&-40.0), "-40");
+        assert_eq!(tick(&(0.1 + 0.2)), "0.3");
+        assert_eq!(tick(&-0.0), "0");
+        assert_eq!(tick(&2.5e-7), "0");
     }
 }

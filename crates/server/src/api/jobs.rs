@@ -37,6 +37,11 @@ pub async fn submit(
     State(s): State<AppState>,
     ApiJson(j): ApiJson<SubmitJob>,
 ) -> Result<(StatusCode, Json<Job>), ApiError> {
+    Ok((StatusCode::ACCEPTED, Json(submit_job(&s, j).await?)))
+}
+
+/// Checks and enqueues a job (`POST /api/v1/jobs`; the dashboard's upload form too).
+pub async fn submit_job(s: &AppState, j: SubmitJob) -> Result<Job, ApiError> {
     let params = if j.params.is_null() {
         serde_json::json!({})
     } else {
@@ -85,7 +90,7 @@ pub async fn submit(
         })
         .await?;
     s.wake.notify_one();
-    Ok((StatusCode::ACCEPTED, Json(job)))
+    Ok(job)
 }
 
 #[utoipa::path(operation_id = "jobs_get", get, path = "/api/v1/jobs/{id}", tag = "jobs",

@@ -121,15 +121,25 @@ pub async fn update(
     _key: WriteKey,
     State(s): State<AppState>,
     Path(id): Path<String>,
-    ApiJson(mut p): ApiJson<MachinePatch>,
+    ApiJson(p): ApiJson<MachinePatch>,
 ) -> Result<Json<Machine>, ApiError> {
+    Ok(Json(update_machine(&s, &id, p).await?))
+}
+
+/// Checks and applies a patch (`PATCH /api/v1/machines/{id}`; the dashboard's baseline
+/// form too).
+pub async fn update_machine(
+    s: &AppState,
+    id: &str,
+    mut p: MachinePatch,
+) -> Result<Machine, ApiError> {
     if let Some(t) = &p.topology {
         p.topology = Some(topology(Some(t))?);
     }
     if let Some(t) = &p.travel_mm {
         check_travel(t)?;
     }
-    Ok(Json(s.store.update_machine(&id, &p).await?))
+    Ok(s.store.update_machine(id, &p).await?)
 }
 
 #[derive(Debug, Deserialize, IntoParams)]

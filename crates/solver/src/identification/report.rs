@@ -178,6 +178,7 @@ pub fn report(
         );
     }
     let rows = fit.reduced.rows;
+    let residuals = crate::design::residuals(session, model, fit, None);
     IdentificationResult {
         kind: "identification".into(),
         machine_id: session.machine_id.clone(),
@@ -203,6 +204,7 @@ pub fn report(
             samples: session.sample_count(),
             residual_rms_um: round((fit.solution.rss / rows.max(1) as f64).sqrt()),
             noise_estimate_um: noise,
+            noise_pass_differences_um: None,
         },
         nuisance: Nuisance {
             mountings,
@@ -217,6 +219,9 @@ pub fn report(
         .into_iter()
         .chain(est.reporting.iter().cloned())
         .collect(),
+        standards: crate::standards::from_session(session),
+        circles: crate::standards::iso230_4::circle_plots(session, Some(&residuals)),
+        residuals: crate::residuals::by_file_and_test(session, &residuals),
     }
 }
 

@@ -70,7 +70,7 @@ struct Step {
 }
 
 /// The stepwise estimate (see the module documentation); `noise` is the noise estimated
-/// from repeated passes (µm), against which each step's residual is judged.
+/// floor (µm, [`crate::noise`]), against which each step's residual is judged.
 pub fn estimate(
     session: &Session,
     model: &ErrorModel,
@@ -141,7 +141,7 @@ pub fn estimate(
             let rms = step_rms(s);
             if rms > MISFIT_RATIO * noise {
                 advice.push(format!(
-                    "stepwise step {n}: residual rms {rms:.3} um exceeds the noise estimate {noise:.3} um from repeated passes: {}",
+                    "stepwise step {n}: residual rms {rms:.3} um exceeds the noise floor {noise:.3} um: {}",
                     if n == 1 {
                         "the lines are not explained by translational terms alone (angular errors seen through Abbe arms that differ between runs, or beyond the model order); the step-1 estimates, and the step-2 angles computed from them, are biased"
                     } else {
@@ -471,7 +471,7 @@ fn combine_identifiability(full: &ErrorModel, s1: &Step, s2: &Step) -> Identifia
     }
 }
 
-/// A step's residual rms above this multiple of the repeated-pass noise estimate is
+/// A step's residual rms above this multiple of the noise floor is
 /// reported as a misfit (the rms of a correct model is within a few per cent of it).
 pub const MISFIT_RATIO: f64 = 1.1;
 
