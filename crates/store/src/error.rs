@@ -17,7 +17,7 @@ pub enum StoreError {
     #[error("lease on job {0} lost")]
     LeaseLost(String),
     /// The database URL names a backend this build does not have.
-    #[error("unsupported database URL {0:?} (this build has SQLite: sqlite://PATH or a file path)")]
+    #[error("unsupported database URL {0:?} (use postgres://…, sqlite://PATH or a file path)")]
     UnsupportedUrl(String),
     /// The database cannot be reached now (connection refused or lost, pool exhausted or
     /// closed): worth retrying later.

@@ -11,9 +11,10 @@
 //! shared; a backend module holds only SQL and its migrations
 //! (`migrations/<backend>/`). Errors are [`StoreError`], which names no driver type.
 //!
-//! [`SqliteStore`] is the embedded default (WAL mode, runtime-checked `sqlx::query`,
-//! migrations in `migrations/sqlite` embedded at build time); [`open`] picks the backend
-//! from the URL.
+//! [`SqliteStore`] is the embedded default, for one process on one host (WAL mode);
+//! [`PgStore`] is for several API and worker processes on several hosts sharing one
+//! PostgreSQL database. Both use runtime-checked `sqlx::query` and migrations embedded
+//! at build time; [`open`] picks the backend from the URL.
 
 use std::future::Future;
 use std::pin::Pin;
@@ -21,14 +22,17 @@ use std::pin::Pin;
 mod error;
 pub mod keys;
 pub mod model;
+mod postgres;
 pub mod queue;
 mod rows;
 pub mod rules;
 mod sqlite;
+pub mod testing;
 
 pub use error::{Result, StoreError};
 pub use keys::{ApiKey, Scope};
 pub use model::*;
+pub use postgres::PgStore;
 pub use queue::{Heartbeat, JobKind, Queue, QueueConfig};
 pub use sqlite::SqliteStore;
 
@@ -96,11 +100,12 @@ pub trait Store: Queue {
     fn row_counts(&self) -> StoreFuture<'_, RowCounts>;
 }
 
-/// Opens the store a URL names (`sqlite://PATH`, `sqlite::memory:` or a plain file path),
-/// creating and migrating it when needed.
+/// Opens the store a URL names, migrating it when needed: `postgres://…` or
+/// `postgresql://…` (PostgreSQL), else SQLite (`sqlite://PATH`, `sqlite::memory:` or a
+/// plain file path, created when missing).
 pub async fn open(url: &str) -> Result<std::sync::Arc<dyn Store>> {
     if url.starts_with("postgres://") || url.starts_with("postgresql://") {
-        return Err(StoreError::UnsupportedUrl(url.to_string()));
+        return Ok(std::sync::Arc::new(PgStore::open(url).await?));
     }
     Ok(std::sync::Arc::new(SqliteStore::open(url).await?))
 }

@@ -20,7 +20,7 @@
 //!   backoff ([`QueueConfig::backoff_ms`]); bad input never retries.
 
 use crate::StoreFuture;
-use crate::model::{Job, JobState, NewJob, NewResult};
+use crate::model::{Job, NewJob, NewResult};
 use serde::{Deserialize, Serialize};
 
 /// What a job computes. `import` marks a result stored without a run; it cannot be
@@ -126,27 +126,6 @@ impl JobKind {
             .map(|k| format!("'{}'", k.as_str()))
             .collect::<Vec<_>>()
             .join(", ")
-    }
-}
-
-/// What cancelling a job in `state` does (the same rule in every backend).
-#[derive(Debug, Clone, Copy, PartialEq, Eq)]
-pub enum CancelAction {
-    /// Queued: cancelled at once.
-    CancelNow,
-    /// Running: `cancel_requested` is set; the worker stops at its next heartbeat.
-    Request,
-    /// Already terminal: a conflict.
-    Refuse,
-}
-
-impl CancelAction {
-    pub fn for_state(state: JobState) -> CancelAction {
-        match state {
-            JobState::Queued => CancelAction::CancelNow,
-            JobState::Running => CancelAction::Request,
-            _ => CancelAction::Refuse,
-        }
     }
 }
 

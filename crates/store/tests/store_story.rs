@@ -3,7 +3,8 @@
 //! cancellation), results and keys.
 //!
 //! Each `async fn` below takes a fresh, empty store; [`stories!`] runs it on a temporary
-//! SQLite file.
+//! SQLite file, and on PostgreSQL in a schema of its own when `MTCAL_TEST_PG` names a
+//! server (else that half says it skipped).
 
 use mtcal_store::*;
 use serde_json::json;
@@ -29,6 +30,21 @@ macro_rules! stories {
                 }
             )*
         }
+        mod on_postgres {
+            $(
+                #[tokio::test]
+                async fn $story() {
+                    let name = concat!("on_postgres::", stringify!($story));
+                    let Some(pg) = mtcal_store::testing::ScratchPg::create(name).await.unwrap()
+                    else {
+                        return;
+                    };
+                    let s = mtcal_store::PgStore::open(&pg.url).await.unwrap();
+                    super::$story(&s).await;
+                    pg.drop_schema().await.unwrap();
+                }
+            )*
+        }
     };
 }
 
@@ -36,6 +52,7 @@ stories!(
     machines_create_update_list,
     datasets_keep_bytes_and_reject_atomically,
     claim_is_exclusive_and_completion_happens_once,
+    concurrent_claims_take_each_job_once,
     expired_lease_is_reaped_and_the_old_worker_cannot_finish,
     retries_wait_for_their_backoff_and_bad_input_fails_at_once,
     cancellation_of_queued_and_running_jobs,
@@ -176,6 +193,29 @@ async fn claim_is_exclusive_and_completion_happens_once(s: &dyn Store) {
             .is_err()
     );
     assert_eq!(s.row_counts().await.unwrap().results, 1);
+}
+
+/// Four claimers drain 40 jobs at once (each claim on its own connection): every job is
+/// claimed by exactly one of them.
+async fn concurrent_claims_take_each_job_once(s: &dyn Store) {
+    s.create_machine(&machine("M1")).await.unwrap();
+    let mut queued = Vec::new();
+    for _ in 0..40 {
+        queued.push(s.enqueue(new_job("M1")).await.unwrap().id);
+    }
+    let drain = |worker: &'static str| async move {
+        let mut got = Vec::new();
+        while let Some(j) = s.claim_job(worker, 60_000).await.unwrap() {
+            assert_eq!(j.attempts, 1, "{} claimed twice", j.id);
+            got.push(j.id);
+        }
+        got
+    };
+    let (a, b, c, d) = tokio::join!(drain("w1"), drain("w2"), drain("w3"), drain("w4"));
+    let mut claimed: Vec<String> = [a, b, c, d].concat();
+    claimed.sort();
+    queued.sort();
+    assert_eq!(claimed, queued);
 }
 
 async fn expired_lease_is_reaped_and_the_old_worker_cannot_finish(s: &dyn Store) {
