@@ -29,6 +29,8 @@ enum Command {
     Cradle(cli::cradle::Args),
     /// Locate and explain mismatch between model and recordings.
     Diagnose(cli::diagnose::Args),
+    /// Figures of ISO 230-2 and ISO 230-4 from a session or positioning runs.
+    Standards(cli::standards::Args),
     /// Run the HTTP API and its worker.
     Serve(cli::serve::Args),
     /// Upload a session to a running service and run identification on it.
@@ -47,6 +49,7 @@ fn main() -> ExitCode {
         Command::Sensitivity(a) => cli::sensitivity::run(a),
         Command::Cradle(a) => cli::cradle::run(a),
         Command::Diagnose(a) => cli::diagnose::run(a),
+        Command::Standards(a) => cli::standards::run(a),
         Command::Serve(a) => cli::serve::run(a),
         Command::Submit(a) => cli::submit::run(a),
         Command::Demo(a) => cli::demo::run(a),

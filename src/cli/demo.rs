@@ -4,10 +4,13 @@
 //! Sessions are simulated by `mtcal_solver::simulate` from known polynomial errors
 //! ([`machine_errors`]: a machine signature plus drift growing with time).
 
-use super::submit::Client;
 use anyhow::Context;
+use mtcal_client::Client;
+use mtcal_server::api::jobs::SubmitJob;
+use mtcal_server::api::machines::NewMachine;
+use mtcal_server::jobs::JobKind;
 use mtcal_solver::basis::PolyErrors;
-use mtcal_solver::simulate::{Plan, SimOptions, simulate};
+use mtcal_solver::simulate::{Effect, Plan, SimOptions, simulate};
 use mtcal_solver::terms::{Term, TermKind};
 use rand::rngs::StdRng;
 use rand::{Rng, SeedableRng};
@@ -34,6 +37,9 @@ pub struct Args {
     /// Set the fleet up, print the URLs and exit instead of serving on.
     #[arg(long)]
     pub exit: bool,
+    /// Do not open the dashboard in a browser.
+    #[arg(long)]
+    pub no_browser: bool,
     /// Only write one generated session folder here (test data), then exit.
     #[arg(long, hide = true)]
     pub write_session: Option<PathBuf>,
@@ -177,13 +183,22 @@ async fn demo(args: Args, db: PathBuf) -> anyhow::Result<ExitCode> {
     let mut jobs = Vec::new();
     for m in 0..args.machines {
         let id = format!("VMC-{:04}", m + 1);
-        c.post(
-            "/api/v1/machines",
-            &json!({"id": id, "name": format!("Vertical machining centre {}", m + 1),
-                    "site": if m % 2 == 0 { "plant-north" } else { "plant-south" },
-                    "tags": ["vmc", "demo"],
-                    "travel_mm": {"X": [-TRAVEL_MM, TRAVEL_MM], "Y": [-TRAVEL_MM, TRAVEL_MM], "Z": [-TRAVEL_MM, TRAVEL_MM]}}),
-        )
+        let travel = [-TRAVEL_MM, TRAVEL_MM];
+        c.create_machine(&NewMachine {
+            id: id.clone(),
+            name: format!("Vertical machining centre {}", m + 1),
+            topology: None,
+            travel_mm: ["X", "Y", "Z"].map(|a| (a.to_string(), travel)).into(),
+            site: Some(
+                if m % 2 == 0 {
+                    "plant-north"
+                } else {
+                    "plant-south"
+                }
+                .into(),
+            ),
+            tags: vec!["vmc".into(), "demo".into()],
+        })
         .await?;
         for q in 0..args.checks {
             let dir = work.join(format!("{id}-q{q}"));
@@ -195,38 +210,51 @@ async fn demo(args: Args, db: PathBuf) -> anyhow::Result<ExitCode> {
                 0.1,
                 (m * 100 + q) as u64,
             )?;
-            let ds = c.upload_session(&id, &dir).await?;
+            let ds = c.upload_path(&id, &dir).await?;
             let job = c
-                .post(
-                    "/api/v1/jobs",
-                    &json!({"kind": "identify", "dataset_id": ds["id"]}),
-                )
+                .submit(&SubmitJob {
+                    kind: JobKind::Identify,
+                    dataset_id: Some(ds.id),
+                    machine_id: None,
+                    params: serde_json::json!({}),
+                })
                 .await?;
-            jobs.push(job["id"].as_str().unwrap_or_default().to_string());
+            jobs.push(job.id);
         }
     }
+    jobs.extend(more_checks(&c, &work, args.machines, args.checks).await?);
     let _ = std::fs::remove_dir_all(&work);
-    eprintln!("running {} identification jobs …", jobs.len());
+    eprintln!("running {} jobs …", jobs.len());
     let (mut ok, mut failed) = (0, Vec::new());
     for j in &jobs {
-        let job = c.wait_job(j, Duration::from_secs(600), |_, _| {}).await?;
-        if job["state"] == "succeeded" {
+        let job = c
+            .wait_job(
+                j,
+                Duration::from_secs(600),
+                Duration::from_millis(200),
+                |_| {},
+            )
+            .await?;
+        if job.state == mtcal_store::JobState::Succeeded {
             ok += 1;
         } else {
             failed.push(format!(
                 "{j}: {}",
-                job["error_message"].as_str().unwrap_or("")
+                job.error_message.as_deref().unwrap_or("")
             ));
         }
     }
     println!(
-        "mtcal demo: {} machines, {ok}/{} identifications succeeded",
-        args.machines,
+        "mtcal demo: {} machines, {ok}/{} jobs succeeded",
+        args.machines + 1,
         jobs.len()
     );
     for f in failed.iter().take(3) {
         println!("  failed {f}");
     }
+    // The fragment signs the browser in (the page script reads it; it is never sent).
+    let dashboard = format!("{base}/signin#key={key}");
+    println!("dashboard:     {dashboard}");
     println!("database:      {}", db.display());
     println!("API key:       {key}   (export MTCAL_API_KEY={key})");
     println!("Swagger UI:    {base}/docs");
@@ -249,9 +277,117 @@ async fn demo(args: Args, db: PathBuf) -> anyhow::Result<ExitCode> {
             ExitCode::from(1)
         });
     }
+    if !args.no_browser {
+        open_browser(&dashboard);
+    }
     println!("serving; Ctrl-C to stop");
     server.await??;
     Ok(ExitCode::SUCCESS)
+}
+
+/// Demo machine with a tilting rotary table (A/C cradle).
+const CRADLE_MACHINE: &str = "5AX-0001";
+
+/// The other kinds of check, so that every page has something to show: a diagnosis of a
+/// session of the first machine recorded with backlash, a sensitivity analysis of it,
+/// and a cradle check of a 5-axis machine. Returns the job ids.
+async fn more_checks(
+    c: &Client,
+    work: &Path,
+    machines: usize,
+    checks: usize,
+) -> anyhow::Result<Vec<String>> {
+    let mut jobs = vec![];
+    let mut submit = async |kind: JobKind,
+                            dataset_id: Option<String>,
+                            machine_id: Option<&str>,
+                            params: serde_json::Value|
+           -> anyhow::Result<()> {
+        let job = c
+            .submit(&SubmitJob {
+                kind,
+                dataset_id,
+                machine_id: machine_id.map(str::to_string),
+                params,
+            })
+            .await?;
+        jobs.push(job.id);
+        Ok(())
+    };
+    if machines > 0 {
+        // A session of the seed plan recorded with backlash in Y (the model lacks it):
+        // the diagnosis finds it and shows it before/after on held-out runs.
+        let dir = work.join("VMC-0001-backlash");
+        let sim = simulate(
+            &machine_errors(1, checks.saturating_sub(1)),
+            &SimOptions {
+                seed: 11,
+                noise_um: 0.1,
+                plan: Plan::Seed,
+                sample_rate_hz: 20.0,
+                machine_id: "VMC-0001".into(),
+                measured_at: check_time(checks.saturating_sub(1)),
+                effects: vec![Effect::from_spec("backlash").map_err(anyhow::Error::msg)?],
+                ..SimOptions::default()
+            },
+        )
+        .context("simulating a session with backlash")?;
+        mtcal_formats::write_session_dir(&dir, &sim.session)?;
+        let ds = c.upload_path("VMC-0001", &dir).await?;
+        submit(JobKind::Diagnose, Some(ds.id), None, json!({})).await?;
+        submit(
+            JobKind::Sensitivity,
+            None,
+            Some("VMC-0001"),
+            json!({"machine": {"template": "vmc3"}}),
+        )
+        .await?;
+    }
+    c.create_machine(&NewMachine {
+        id: CRADLE_MACHINE.into(),
+        name: "5-axis trunnion (A/C cradle)".into(),
+        topology: None,
+        travel_mm: Default::default(),
+        site: Some("plant-north".into()),
+        tags: vec!["5-axis".into(), "demo".into()],
+    })
+    .await?;
+    let mut set = mtcal_solver::cradle::simulate::simulate_cradle(
+        &mtcal_solver::cradle::simulate::CradleSimulation::example(true, 7),
+    );
+    set.machine_id = Some(CRADLE_MACHINE.into());
+    set.measured_at = Some(check_time(checks.saturating_sub(1)));
+    let mut csv = vec![];
+    mtcal_formats::write_rotary_points(&mut csv, &set)?;
+    let mut sidecar = vec![];
+    mtcal_formats::write_rotary_sidecar(&mut sidecar, &set)?;
+    let ds = c
+        .upload_files(
+            CRADLE_MACHINE,
+            &[("cradle.csv".into(), csv), ("cradle.json".into(), sidecar)],
+        )
+        .await?;
+    submit(JobKind::Cradle, Some(ds.id), None, json!({})).await?;
+    Ok(jobs)
+}
+
+/// Opens `url` in the desktop's browser when there is one (never fails: without a
+/// display, or without an opener, nothing happens).
+fn open_browser(url: &str) {
+    let opener = if cfg!(target_os = "macos") {
+        "open"
+    } else if std::env::var_os("DISPLAY").is_some() || std::env::var_os("WAYLAND_DISPLAY").is_some()
+    {
+        "xdg-open"
+    } else {
+        return;
+    };
+    let _ = std::process::Command::new(opener)
+        .arg(url)
+        .stdin(std::process::Stdio::null())
+        .stdout(std::process::Stdio::null())
+        .stderr(std::process::Stdio::null())
+        .spawn();
 }
 
 fn tempfile_dir(db: &Path) -> anyhow::Result<PathBuf> {

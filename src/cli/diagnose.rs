@@ -9,9 +9,9 @@ use super::BadInput;
 use anyhow::Context;
 use mtcal_formats::{DatasetKind, Limits};
 use mtcal_solver::diagnosis::series::{self, SeriesOptions};
-use mtcal_solver::diagnosis::{DiagnoseOptions, DiagnosisResult, Verdict};
+use mtcal_solver::diagnosis::{DiagnoseOptions, DiagnosisResult, PlotData, Verdict};
 use std::io::Write as _;
-use std::path::PathBuf;
+use std::path::{Path, PathBuf};
 use std::process::ExitCode;
 
 #[derive(clap::Args, Debug)]
@@ -75,11 +75,11 @@ pub fn run(args: Args) -> anyhow::Result<ExitCode> {
         opts.train_fraction = f;
     }
     // ISO 230-2 figures accompany the summary of positioning runs.
-    let mut iso = vec![];
+    let mut iso = mtcal_solver::standards::Standards::default();
     let result: DiagnosisResult = match kind {
         DatasetKind::Positioning => {
             let runs = mtcal_formats::read_positioning_path(path, &limits)?;
-            iso = series::iso230_2(&runs);
+            iso = mtcal_solver::standards::from_positioning_runs(&runs);
             series::diagnose_positioning(&runs, &machine_id, &opts)
                 .map_err(|e| BadInput(format!("{}: {e}", path.display())))?
         }
@@ -125,7 +125,7 @@ pub fn run(args: Args) -> anyhow::Result<ExitCode> {
         }
     };
     if let Some(dir) = &args.plots {
-        let written = mtcal_formats::plots::write_svgs(&result.plots, dir)?;
+        let written = write_svgs(&result.plots, dir)?;
         if !args.json {
             eprintln!("wrote {} plot(s) to {}", written.len(), dir.display());
         }
@@ -134,12 +134,7 @@ pub fn run(args: Args) -> anyhow::Result<ExitCode> {
         serde_json::to_string_pretty(&result).context("serialising the result")? + "\n"
     } else {
         let mut s = summary(&result);
-        for f in &iso {
-            s.push_str(&format!(
-                "ISO 230-2 axis {} ({} targets, {} runs): B = {:.2} µm, R = {:.2} µm, E = {:.2} µm, A = {:.2} µm\n",
-                f.axis, f.targets, f.runs, f.reversal_b_um, f.repeatability_r_um, f.systematic_e_um, f.accuracy_a_um
-            ));
-        }
+        s.push_str(&super::standards::summary(&iso));
         s
     };
     // A closed pipe (`| head`) is not an error.
@@ -149,6 +144,20 @@ pub fn run(args: Args) -> anyhow::Result<ExitCode> {
         return Err(e).context("writing to stdout");
     }
     Ok(ExitCode::SUCCESS)
+}
+
+/// Renders every plot into `dir` as `<stem>.svg` ([`mtcal_views::plots::file_stem`]);
+/// returns the paths written. A folder that cannot be written is bad input.
+fn write_svgs(plots: &[PlotData], dir: &Path) -> anyhow::Result<Vec<PathBuf>> {
+    let err = |p: &Path, e: std::io::Error| BadInput(format!("{}: cannot write: {e}", p.display()));
+    std::fs::create_dir_all(dir).map_err(|e| err(dir, e))?;
+    let mut paths = vec![];
+    for p in plots {
+        let path = dir.join(format!("{}.svg", mtcal_views::plots::file_stem(p)));
+        std::fs::write(&path, mtcal_views::plots::render_svg(p)).map_err(|e| err(&path, e))?;
+        paths.push(path);
+    }
+    Ok(paths)
 }
 
 /// The human summary: verdict, baseline, where, findings, what remains.
@@ -213,6 +222,21 @@ pub fn summary(r: &DiagnosisResult) -> String {
             );
         }
         let _ = writeln!(s, "  evidence: {}", f.evidence);
+    }
+    for f in &r.possible {
+        let _ = writeln!(
+            s,
+            "possible, undetermined: {}{}: {}",
+            f.effect,
+            f.axis
+                .as_deref()
+                .map(|a| format!(" ({a})"))
+                .unwrap_or_default(),
+            f.decide.as_deref().unwrap_or("")
+        );
+    }
+    for why in &r.rejected {
+        let _ = writeln!(s, "rejected: {why}");
     }
     for u in &r.unexplained {
         let _ = writeln!(s, "unexplained: {u}");

@@ -86,7 +86,7 @@ pub fn summary(r: &IdentificationResult) -> String {
     );
     let _ = writeln!(
         s,
-        "fit: {} samples, residual RMS {:.3} µm, noise from repeated passes {}",
+        "fit: {} samples, residual RMS {:.3} µm, noise floor {}",
         r.fit.samples,
         r.fit.residual_rms_um,
         r.fit
@@ -142,5 +142,6 @@ pub fn summary(r: &IdentificationResult) -> String {
     for a in &o.advice {
         let _ = writeln!(s, "advice: {a}");
     }
+    s.push_str(&super::standards::summary(&r.standards));
     s
 }

@@ -11,6 +11,7 @@ pub mod identify;
 pub mod sensitivity;
 pub mod serve;
 pub mod simulate;
+pub mod standards;
 pub mod submit;
 
 /// Marks an error as the user's input being wrong (exit code 2).

@@ -1,16 +1,19 @@
-//! `mtcal submit`: a client of the service. Uploads a session folder, submits an
-//! `identify` job, shows its progress, prints the result.
+//! `mtcal submit`: a client of the service (`mtcal_client`). Uploads a session (read
+//! first with the service's own reader, so a bad one is refused before it is sent),
+//! submits an `identify` job, shows its progress, prints the result.
 
-use anyhow::{Context, bail};
+use anyhow::bail;
 use indicatif::{ProgressBar, ProgressStyle};
-use serde_json::{Value, json};
-use std::path::{Path, PathBuf};
+use mtcal_client::{Client, ClientError};
+use mtcal_server::api::jobs::SubmitJob;
+use mtcal_server::jobs::JobKind;
+use std::path::PathBuf;
 use std::process::ExitCode;
-use std::time::{Duration, Instant};
+use std::time::Duration;
 
 #[derive(clap::Args)]
 pub struct Args {
-    /// Session folder (session.json and its plane files).
+    /// Session folder (session.json and its plane files), or a .tar.gz of one.
     pub session_dir: PathBuf,
     /// Machine id the session belongs to (registered with the service).
     #[arg(long)]
@@ -29,116 +32,6 @@ pub struct Args {
     pub timeout_s: u64,
 }
 
-/// A small API client.
-pub struct Client {
-    http: reqwest::Client,
-    base: String,
-    key: String,
-}
-
-impl Client {
-    pub fn new(base: &str, key: &str) -> Client {
-        Client {
-            http: reqwest::Client::new(),
-            base: base.trim_end_matches('/').to_string(),
-            key: key.to_string(),
-        }
-    }
-
-    async fn check(resp: reqwest::Response) -> anyhow::Result<Value> {
-        let status = resp.status();
-        let body: Value = resp.json().await.unwrap_or(Value::Null);
-        if !status.is_success() {
-            bail!(
-                "service answered {status}: {} ({})",
-                body["error"]["message"].as_str().unwrap_or("no message"),
-                body["error"]["code"].as_str().unwrap_or("no code")
-            );
-        }
-        Ok(body)
-    }
-
-    pub async fn get(&self, path: &str) -> anyhow::Result<Value> {
-        let r = self
-            .http
-            .get(format!("{}{path}", self.base))
-            .bearer_auth(&self.key)
-            .send()
-            .await
-            .with_context(|| format!("GET {}{path}", self.base))?;
-        Self::check(r).await
-    }
-
-    pub async fn post(&self, path: &str, body: &Value) -> anyhow::Result<Value> {
-        let r = self
-            .http
-            .post(format!("{}{path}", self.base))
-            .bearer_auth(&self.key)
-            .json(body)
-            .send()
-            .await
-            .with_context(|| format!("POST {}{path}", self.base))?;
-        Self::check(r).await
-    }
-
-    /// Uploads every file of a session folder as multipart; returns the dataset.
-    pub async fn upload_session(&self, machine: &str, dir: &Path) -> anyhow::Result<Value> {
-        let mut form = reqwest::multipart::Form::new();
-        let mut names: Vec<_> = std::fs::read_dir(dir)
-            .with_context(|| format!("reading {}", dir.display()))?
-            .filter_map(|e| e.ok())
-            .filter(|e| e.file_type().is_ok_and(|t| t.is_file()))
-            .map(|e| e.file_name().to_string_lossy().into_owned())
-            .filter(|n| n == "session.json" || n.ends_with(".csv") || n.ends_with(".csv.gz"))
-            .collect();
-        names.sort();
-        if !names.iter().any(|n| n == "session.json") {
-            return Err(super::BadInput(format!("{}: no session.json", dir.display())).into());
-        }
-        for n in names {
-            let bytes = std::fs::read(dir.join(&n))?;
-            form = form.part("files", reqwest::multipart::Part::bytes(bytes).file_name(n));
-        }
-        let r = self
-            .http
-            .post(format!("{}/api/v1/machines/{machine}/datasets", self.base))
-            .bearer_auth(&self.key)
-            .multipart(form)
-            .send()
-            .await
-            .context("uploading the session")?;
-        Self::check(r).await
-    }
-
-    /// Polls a job until it ends, calling `tick(progress, message)` on the way.
-    pub async fn wait_job(
-        &self,
-        id: &str,
-        timeout: Duration,
-        mut tick: impl FnMut(f64, &str),
-    ) -> anyhow::Result<Value> {
-        let start = Instant::now();
-        loop {
-            let job = self.get(&format!("/api/v1/jobs/{id}")).await?;
-            let state = job["state"].as_str().unwrap_or_default();
-            tick(
-                job["progress"].as_f64().unwrap_or(0.0),
-                &format!(
-                    "{state}: {}",
-                    job["progress_message"].as_str().unwrap_or("")
-                ),
-            );
-            if matches!(state, "succeeded" | "failed" | "cancelled") {
-                return Ok(job);
-            }
-            if start.elapsed() > timeout {
-                bail!("job {id} still {state} after {} s", timeout.as_secs());
-            }
-            tokio::time::sleep(Duration::from_millis(200)).await;
-        }
-    }
-}
-
 pub fn run(args: Args) -> anyhow::Result<ExitCode> {
     let rt = tokio::runtime::Runtime::new()?;
     rt.block_on(async {
@@ -153,43 +46,59 @@ pub fn run(args: Args) -> anyhow::Result<ExitCode> {
             }
         };
         let c = Client::new(&args.url, &key);
-        let ds = c.upload_session(&args.machine, &args.session_dir).await?;
-        let ds_id = ds["id"].as_str().unwrap_or_default().to_string();
-        eprintln!("uploaded dataset {ds_id} ({} samples)", ds["samples"]);
+        let ds = c
+            .upload_path(&args.machine, &args.session_dir)
+            .await
+            .map_err(|e| match e {
+                ClientError::Input(m) => anyhow::Error::from(super::BadInput(m)),
+                other => other.into(),
+            })?;
+        eprintln!("uploaded dataset {} ({} samples)", ds.id, ds.samples);
         let job = c
-            .post(
-                "/api/v1/jobs",
-                &json!({"kind": "identify", "dataset_id": ds_id}),
-            )
+            .submit(&SubmitJob {
+                kind: JobKind::Identify,
+                dataset_id: Some(ds.id.clone()),
+                machine_id: None,
+                params: serde_json::json!({}),
+            })
             .await?;
-        let id = job["id"].as_str().unwrap_or_default().to_string();
+        let id = job.id.clone();
         let bar = ProgressBar::new(100);
         bar.set_style(
             ProgressStyle::with_template("{spinner} [{elapsed_precise}] {bar:30} {pos}% {msg}")
                 .expect("valid template"),
         );
         let job = c
-            .wait_job(&id, Duration::from_secs(args.timeout_s), |p, m| {
-                bar.set_position((p * 100.0).round() as u64);
-                bar.set_message(m.to_string());
-            })
+            .wait_job(
+                &id,
+                Duration::from_secs(args.timeout_s),
+                Duration::from_millis(200),
+                |j| {
+                    bar.set_position((j.progress * 100.0).round() as u64);
+                    bar.set_message(format!(
+                        "{}: {}",
+                        j.state.as_str(),
+                        j.progress_message.as_deref().unwrap_or("")
+                    ));
+                },
+            )
             .await?;
         bar.finish_and_clear();
-        if job["state"] != "succeeded" {
+        if job.state != mtcal_store::JobState::Succeeded {
             bail!(
                 "job {id} {}: {} ({})",
-                job["state"].as_str().unwrap_or("?"),
-                job["error_message"].as_str().unwrap_or(""),
-                job["error_code"].as_str().unwrap_or("")
+                job.state.as_str(),
+                job.error_message.as_deref().unwrap_or(""),
+                job.error_code.as_deref().unwrap_or("")
             );
         }
-        let doc = c.get(&format!("/api/v1/jobs/{id}/result")).await?;
+        let doc = c.job_result(&id).await?;
         if args.json {
             println!("{}", serde_json::to_string_pretty(&doc)?);
         } else {
             println!(
                 "job {id}: result {} — residual {} µm, rank {}/{} (condition {}), EC0Y {} µrad",
-                job["result_id"].as_str().unwrap_or(""),
+                job.result_id.as_deref().unwrap_or(""),
                 doc["fit"]["residual_rms_um"],
                 doc["observability"]["rank"],
                 doc["observability"]["parameters"],

@@ -214,10 +214,12 @@ impl<'a> CsvTable<'a> {
         }
         self.rows += 1;
         if self.rows > self.max_rows {
-            return Err(self.row_error(
-                "",
-                format!("file exceeds the limit of {} samples", self.max_rows),
-            ));
+            return Err(self
+                .row_error(
+                    "",
+                    format!("file exceeds the limit of {} samples", self.max_rows),
+                )
+                .as_limit());
         }
         if self.rec.len() != self.header.len() {
             return Err(self.row_error(

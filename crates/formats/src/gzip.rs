@@ -28,6 +28,7 @@ pub(crate) fn decode<'a>(
                 "upload exceeds the byte limit ({n} bytes allowed in what remains of the upload)"
             ),
         )
+        .as_limit()
     };
     if !is_gzip(bytes) {
         if file.ends_with(".gz") {

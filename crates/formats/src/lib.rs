@@ -8,7 +8,10 @@
 //! * [`rotary`]: rotary-axis point sets (section 2);
 //! * [`positioning`]: positioning runs (section 3);
 //! * [`drift`]: drift logs (section 4);
-//! * [`sniff`]: which of these a file is, from its header.
+//! * [`sniff`]: which of these a file is, from its header;
+//! * [`upload`]: a whole upload (files in memory, an archive, or a path), whatever its
+//!   kind: the one entry point the CLI and the server share, so that both accept and
+//!   refuse the same inputs.
 //!
 //! The rules shared by every CSV format live once in `csv_core`, limits in [`limits`],
 //! gzip handling in `gzip`.
@@ -22,6 +25,7 @@ pub mod positioning;
 pub mod rotary;
 pub mod session;
 pub mod sniff;
+pub mod upload;
 
 pub use drift::{read_drift_log, read_drift_log_path, write_drift_log, write_drift_predictions};
 pub use json::is_rfc3339;
@@ -32,8 +36,7 @@ pub use rotary::{
 };
 pub use session::{read_session_dir, read_session_files, write_session_dir};
 pub use sniff::{DatasetKind, sniff_kind, sniff_path};
-
-pub mod plots;
+pub use upload::{Dataset, DatasetData, read_archive, read_path, read_upload};
 
 /// A rejected input: which file, where, and which rule it broke.
 #[derive(Debug, Clone, PartialEq, thiserror::Error)]
@@ -46,6 +49,18 @@ pub struct FormatError {
     pub column: String,
     /// The rule that was broken, as a sentence.
     pub rule: String,
+    /// A format rule, or a size limit (a service answers the latter with 413).
+    pub kind: ErrorKind,
+}
+
+/// What a [`FormatError`] is about.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+pub enum ErrorKind {
+    /// A rule of the format was broken.
+    #[default]
+    Rule,
+    /// A size limit of [`Limits`] was exceeded (bytes, samples, files).
+    Limit,
 }
 
 impl FormatError {
@@ -60,7 +75,19 @@ impl FormatError {
             line,
             column: column.into(),
             rule: rule.into(),
+            kind: ErrorKind::Rule,
         }
+    }
+
+    /// The same error, marked as an exceeded size limit.
+    pub fn as_limit(mut self) -> FormatError {
+        self.kind = ErrorKind::Limit;
+        self
+    }
+
+    /// Whether a size limit was exceeded (rather than a format rule broken).
+    pub fn is_limit(&self) -> bool {
+        self.kind == ErrorKind::Limit
     }
 
     /// An error about a whole file (line 0, no column).
@@ -85,7 +112,8 @@ pub(crate) fn read_file_limited(
                 "upload exceeds the byte limit ({} bytes allowed in what remains of the upload)",
                 limits.max_bytes
             ),
-        ));
+        )
+        .as_limit());
     }
     std::fs::read(path).map_err(|e| FormatError::file(name, format!("cannot read file: {e}")))
 }

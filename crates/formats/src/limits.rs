@@ -9,11 +9,14 @@ pub struct Limits {
     /// Largest number of bytes accepted in one upload (one call of a reader), counted
     /// both as stored and after gzip decompression, summed over all files of the upload.
     pub max_bytes: usize,
+    /// Largest number of files in one upload or archive (folders: files read).
+    pub max_files: usize,
 }
 
 impl Limits {
     pub const DEFAULT_MAX_SAMPLES_PER_FILE: usize = 5_000_000;
     pub const DEFAULT_MAX_BYTES: usize = 256 * 1024 * 1024;
+    pub const DEFAULT_MAX_FILES: usize = 1000;
 }
 
 impl Default for Limits {
@@ -21,6 +24,7 @@ impl Default for Limits {
         Limits {
             max_samples_per_file: Self::DEFAULT_MAX_SAMPLES_PER_FILE,
             max_bytes: Self::DEFAULT_MAX_BYTES,
+            max_files: Self::DEFAULT_MAX_FILES,
         }
     }
 }

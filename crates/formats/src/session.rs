@@ -21,6 +21,7 @@ use crate::{FormatError, Limits, gzip, invalid_input};
 use mtcal_solver::session::{PlaneRecord, Run, Session, TestKind};
 use mtcal_solver::{Axis, Plane, Topology};
 use serde_json::{Value, json};
+use std::borrow::Cow;
 use std::collections::{BTreeMap, HashMap};
 use std::io::Write;
 use std::path::Path;
@@ -53,94 +54,169 @@ struct SessionSpec {
     planes: Vec<PlaneSpec>,
 }
 
-/// Reads a session folder: `dir/session.json` and the plane files it names. A plane file
-/// named `f` that is absent is looked for as `f.gz`. Error messages name files relative
-/// to `dir`.
+/// Reads a session folder: `dir/session.json` (or `session.json.gz`) and the plane files
+/// it names, with the rules of an upload ([`crate::upload`]): a plane file named `f` may
+/// be present as `f.gz`; a CSV the description does not name is refused; other files
+/// (`truth.json`, notes) are ignored. Error messages name files relative to `dir`.
 pub fn read_session_dir(dir: &Path, limits: &Limits) -> Result<Session, FormatError> {
-    let raw = crate::read_file_limited(&dir.join(SESSION_JSON), SESSION_JSON, limits)?;
-    let mut raw_budget = limits.max_bytes - raw.len();
-    let mut budget = limits.max_bytes;
-    let json = gzip::decode(SESSION_JSON, &raw, &mut budget)?;
-    let (spec, doc) = parse_session_json(&json)?;
-    assemble(spec, |i, p| {
-        let mut path = dir.join(&p.file);
-        let mut name = p.file.clone();
-        if !path.is_file() {
-            let gz = dir.join(format!("{}.gz", p.file));
-            if gz.is_file() {
-                path = gz;
-                name = format!("{}.gz", p.file);
-            } else {
-                return Err(doc.error(
-                    &format!("planes[{i}].file"),
-                    format!(
-                        "referenced file `{}` does not exist in the session folder",
-                        p.file
-                    ),
-                ));
-            }
-        }
-        let bytes = crate::read_file_limited(
-            &path,
-            &name,
-            &Limits {
-                max_bytes: raw_budget,
-                ..*limits
-            },
-        )?;
-        raw_budget -= bytes.len();
-        let data = gzip::decode(&name, &bytes, &mut budget)?;
-        read_plane_csv(&name, &data, limits)
-    })
+    let (names, mut load) = crate::upload::folder(dir, limits)?;
+    if !names
+        .iter()
+        .any(|n| n == SESSION_JSON || n == SESSION_JSON_GZ)
+    {
+        return Err(FormatError::file(
+            SESSION_JSON,
+            format!("missing from the folder {}", dir.display()),
+        ));
+    }
+    read_session_named(&names, &mut load, limits).map(|r| r.session)
 }
 
-/// Reads a session from memory (an HTTP upload): `session_json` and the plane files keyed
-/// by the names `session.json` gives them. Files may be gzip (`.gz` names and/or gzip
-/// content). Every uploaded file must be referenced (an entry named `session.json` in
-/// `files` is ignored: `session_json` is the description). The byte limit applies to the sum of
-/// the uploaded sizes and, separately, to the sum of the decompressed sizes.
+/// Reads a session from memory (an HTTP upload): `session_json` and the other files keyed
+/// by name, with the rules of an upload ([`crate::upload`]; an entry named
+/// `session.json` in `files` is ignored: `session_json` is the description).
 pub fn read_session_files(
     session_json: &[u8],
     files: &BTreeMap<String, Vec<u8>>,
     limits: &Limits,
 ) -> Result<Session, FormatError> {
-    let raw_total: usize = session_json.len()
-        + files
-            .iter()
-            .filter(|(k, _)| k.as_str() != SESSION_JSON)
-            .map(|(_, v)| v.len())
-            .sum::<usize>();
-    if raw_total > limits.max_bytes {
-        return Err(FormatError::file(
-            SESSION_JSON,
-            format!(
-                "upload of {raw_total} bytes exceeds the byte limit of {} bytes",
-                limits.max_bytes
-            ),
-        ));
-    }
+    let names: Vec<String> = std::iter::once(SESSION_JSON.to_string())
+        .chain(files.keys().filter(|k| k.as_str() != SESSION_JSON).cloned())
+        .collect();
+    let mut load = |name: &str| -> Result<Cow<'_, [u8]>, FormatError> {
+        Ok(Cow::Borrowed(if name == SESSION_JSON {
+            session_json
+        } else {
+            &files[name]
+        }))
+    };
+    read_session_named(&names, &mut load, limits).map(|r| r.session)
+}
+
+/// Name of a gzip-compressed session description.
+pub const SESSION_JSON_GZ: &str = "session.json.gz";
+
+/// A session read from the files of an upload.
+pub(crate) struct SessionRead {
+    pub session: Session,
+    /// The description's name (`session.json` or `session.json.gz`).
+    pub description: String,
+    /// Every file read, the description first.
+    pub files: Vec<String>,
+    /// Files present but not part of the session (not CSV, not named by the description),
+    /// sorted.
+    pub ignored: Vec<String>,
+}
+
+/// Whether a file name is a CSV's (`.csv`, `.csv.gz`, any case).
+pub(crate) fn is_csv_name(name: &str) -> bool {
+    let n = name.to_ascii_lowercase();
+    n.ends_with(".csv") || n.ends_with(".csv.gz")
+}
+
+/// The one session reader, over the names of an upload's files and a loader of their
+/// bytes as stored (`load` is called once per file read). The description is
+/// `session.json` or `session.json.gz` (not both); a plane file named `f` is `f` or
+/// `f.gz` in the upload (not both); a CSV the description does not name is an error;
+/// other unnamed files are ignored (listed in [`SessionRead::ignored`]). The byte limit
+/// applies to the sum of the stored sizes of the files read and, separately, to the sum
+/// of their decompressed sizes.
+pub(crate) fn read_session_named<'a>(
+    names: &[String],
+    load: &mut crate::upload::Loader<'a>,
+    limits: &Limits,
+) -> Result<SessionRead, FormatError> {
+    let has = |n: &str| names.iter().any(|m| m == n);
+    let description = match (has(SESSION_JSON), has(SESSION_JSON_GZ)) {
+        (true, true) => {
+            return Err(FormatError::file(
+                SESSION_JSON_GZ,
+                "given twice: session.json and session.json.gz",
+            ));
+        }
+        (true, false) => SESSION_JSON,
+        (false, true) => SESSION_JSON_GZ,
+        (false, false) => {
+            return Err(FormatError::file(
+                SESSION_JSON,
+                "missing: a session needs its description session.json",
+            ));
+        }
+    };
+    let mut raw_budget = limits.max_bytes;
     let mut budget = limits.max_bytes;
-    let json = gzip::decode(SESSION_JSON, session_json, &mut budget)?;
-    let (spec, doc) = parse_session_json(&json)?;
-    if let Some(extra) = files
-        .keys()
-        .filter(|k| k.as_str() != SESSION_JSON)
-        .find(|k| !spec.planes.iter().any(|p| &p.file == *k))
-    {
-        return Err(FormatError::file(
-            extra.as_str(),
-            "uploaded file is not referenced by session.json",
-        ));
-    }
-    assemble(spec, |i, p| {
-        let bytes = files.get(&p.file).ok_or_else(|| {
-            doc.error(
-                &format!("planes[{i}].file"),
-                format!("referenced file `{}` is missing from the upload", p.file),
+    let mut read = |name: &str, raw_budget: &mut usize| -> Result<Cow<'a, [u8]>, FormatError> {
+        let raw = load(name)?;
+        *raw_budget = raw_budget.checked_sub(raw.len()).ok_or_else(|| {
+            FormatError::file(
+                name,
+                format!(
+                    "upload exceeds the byte limit of {} bytes (stored sizes of the files read)",
+                    limits.max_bytes
+                ),
             )
+            .as_limit()
         })?;
-        let data = gzip::decode(&p.file, bytes, &mut budget)?;
-        read_plane_csv(&p.file, &data, limits)
+        Ok(raw)
+    };
+    let raw = read(description, &mut raw_budget)?;
+    let json = gzip::decode(description, &raw, &mut budget)?;
+    let (spec, doc) = parse_session_json(&json)?;
+    drop(json);
+    drop(raw);
+    let mut stored: Vec<String> = Vec::with_capacity(spec.planes.len());
+    for (i, p) in spec.planes.iter().enumerate() {
+        let gz = format!("{}.gz", p.file);
+        let name = match (has(&p.file), has(&gz)) {
+            (true, true) => {
+                return Err(FormatError::file(
+                    gz.as_str(),
+                    format!("given twice: `{}` and `{gz}`", p.file),
+                ));
+            }
+            (true, false) => p.file.clone(),
+            (false, true) => gz,
+            (false, false) => {
+                return Err(doc.error(
+                    &format!("planes[{i}].file"),
+                    format!(
+                        "referenced file `{}` is missing (looked for `{}` and `{gz}`)",
+                        p.file, p.file
+                    ),
+                ));
+            }
+        };
+        stored.push(name);
+    }
+    let mut ignored = Vec::new();
+    for n in names {
+        if n == SESSION_JSON || n == SESSION_JSON_GZ || stored.contains(n) {
+            continue;
+        }
+        if is_csv_name(n) {
+            return Err(FormatError::file(
+                n.as_str(),
+                "uploaded file is not referenced by session.json (a CSV beside a session \
+                 must be one of its planes)",
+            ));
+        }
+        ignored.push(n.clone());
+    }
+    ignored.sort();
+    let session = assemble(spec, |i, _| {
+        let name = &stored[i];
+        let raw = read(name, &mut raw_budget)?;
+        let data = gzip::decode(name, &raw, &mut budget)?;
+        read_plane_csv(name, &data, limits)
+    })?;
+    let files = std::iter::once(description.to_string())
+        .chain(stored)
+        .collect();
+    Ok(SessionRead {
+        session,
+        description: description.to_string(),
+        files,
+        ignored,
     })
 }
 

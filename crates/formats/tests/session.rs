@@ -360,7 +360,7 @@ fn referenced_file_must_exist() {
         "session.json",
         9,
         "planes[1].file",
-        "`xz.csv` is missing from the upload",
+        "`xz.csv` is missing",
     );
     let dir = tempfile::tempdir().unwrap();
     std::fs::write(dir.path().join("session.json"), JSON).unwrap();
@@ -371,11 +371,11 @@ fn referenced_file_must_exist() {
         "session.json",
         9,
         "planes[1].file",
-        "does not exist in the session folder",
+        "`xz.csv` is missing",
     );
     let empty = tempfile::tempdir().unwrap();
     let e = read_session_dir(empty.path(), &Limits::default()).unwrap_err();
-    check(&e, "session.json", 0, "", "cannot read file");
+    check(&e, "session.json", 0, "", "missing from the folder");
 }
 
 #[test]
@@ -615,7 +615,7 @@ fn byte_limit_applies_to_the_upload_and_to_decompressed_data() {
     };
     let all = files(&[("xy.csv", CSV.as_bytes()), ("xz.csv", CSV.as_bytes())]);
     let e = read_session_files(JSON.as_bytes(), &all, &tight).unwrap_err();
-    check(&e, "session.json", 0, "", "exceeds the byte limit");
+    check(&e, "xz.csv", 0, "", "exceeds the byte limit");
     assert!(
         read_session_files(
             JSON.as_bytes(),

@@ -14,13 +14,18 @@
 //! Environment: MTCAL_LOAD_JOBS (20), MTCAL_LOAD_MACHINES (10000), MTCAL_LOAD_RESULTS
 //! (100), MTCAL_LOAD_QUERIES (4000), MTCAL_LOAD_DB (a file in the temp dir).
 
-use mtcal_server::{AppState, UploadLimits, WorkerConfig};
+use mtcal_client::Client;
+use mtcal_server::api::jobs::SubmitJob;
+use mtcal_server::jobs::JobKind;
+use mtcal_server::{UploadLimits, WorkerConfig};
 use mtcal_solver::identification::{IdentifyOptions, identify};
 use mtcal_solver::simulate::{SimOptions, random_truth, simulate};
-use mtcal_store::{Machine, NewResult, QueueConfig, ResultScalars, Scope, SqliteStore, Store};
+use mtcal_store::{
+    JobState, Machine, NewResult, QueueConfig, ResultScalars, Scope, SqliteStore, Store,
+};
 use rand::rngs::StdRng;
 use rand::{Rng, SeedableRng};
-use serde_json::{Value, json};
+use serde_json::json;
 use std::collections::BTreeMap;
 use std::sync::Arc;
 use std::time::{Duration, Instant};
@@ -37,27 +42,17 @@ fn pct(sorted: &[f64], p: f64) -> f64 {
 }
 
 async fn start(store: Arc<dyn Store>, worker: bool) -> String {
-    let listener = tokio::net::TcpListener::bind("127.0.0.1:0").await.unwrap();
-    let url = format!("http://{}", listener.local_addr().unwrap());
-    let wake = Arc::new(tokio::sync::Notify::new());
-    if worker {
-        let cfg = WorkerConfig {
-            queue: QueueConfig {
-                concurrency: 1,
-                ..QueueConfig::default()
-            },
-            ..WorkerConfig::default()
-        };
-        mtcal_server::worker::spawn_workers(store.clone(), cfg, wake.clone());
-    }
-    let state = AppState {
-        store,
-        limits: UploadLimits::default(),
-        max_attempts: 3,
-        wake,
+    let cfg = WorkerConfig {
+        queue: QueueConfig {
+            concurrency: 1,
+            ..QueueConfig::default()
+        },
+        ..WorkerConfig::default()
     };
-    tokio::spawn(async move { axum::serve(listener, mtcal_server::router(state)).await });
-    url
+    let addr = mtcal_server::spawn_local(store, &cfg, worker)
+        .await
+        .unwrap();
+    format!("http://{addr}")
 }
 
 fn machine(id: &str) -> Machine {
@@ -87,8 +82,7 @@ async fn jobs_bench(k: usize) {
     );
     let (_, key) = store.create_key(Scope::Write, "load").await.unwrap();
     store.create_machine(&machine("LOAD-1")).await.unwrap();
-    let url = start(store.clone(), true).await;
-    let http = reqwest::Client::new();
+    let client = Client::new(&start(store.clone(), true).await, &key);
     let (mut bare, mut svc, mut read, mut up, mut run) =
         (Vec::new(), Vec::new(), Vec::new(), Vec::new(), Vec::new());
     let mut samples = 0;
@@ -106,22 +100,18 @@ async fn jobs_bench(k: usize) {
         .unwrap();
         let sdir = dir.path().join(format!("s{i}"));
         mtcal_formats::write_session_dir(&sdir, &sim.session).unwrap();
-        let mut files: Vec<(String, Vec<u8>)> = std::fs::read_dir(&sdir)
-            .unwrap()
-            .map(|e| {
-                let p = e.unwrap().path();
-                (
-                    p.file_name().unwrap().to_string_lossy().into_owned(),
-                    std::fs::read(&p).unwrap(),
-                )
-            })
-            .collect();
-        files.sort();
+        let files = mtcal_client::files_to_upload(&sdir).unwrap();
         samples = sim.session.sample_count();
 
         // Bare: what the worker computes for the job.
         let t = Instant::now();
-        let session = mtcal_server::ingest::read_session(&files, UploadLimits::default()).unwrap();
+        let mtcal_formats::DatasetData::Session(session) =
+            mtcal_formats::read_upload(&files, &UploadLimits::default())
+                .unwrap()
+                .data
+        else {
+            unreachable!("a session folder")
+        };
         read.push(t.elapsed().as_secs_f64());
         let r = identify(&session, &IdentifyOptions::default()).unwrap();
         bare.push(t.elapsed().as_secs_f64());
@@ -129,69 +119,36 @@ async fn jobs_bench(k: usize) {
 
         // Service: upload, submit, poll until done, fetch the result.
         let t = Instant::now();
-        let mut form = reqwest::multipart::Form::new();
-        for (n, b) in &files {
-            form = form.part(
-                "files",
-                reqwest::multipart::Part::bytes(b.clone()).file_name(n.clone()),
-            );
-        }
-        let ds: Value = http
-            .post(format!("{url}/api/v1/machines/LOAD-1/datasets"))
-            .bearer_auth(&key)
-            .multipart(form)
-            .send()
-            .await
-            .unwrap()
-            .json()
-            .await
-            .unwrap();
+        let ds = client.upload_files("LOAD-1", &files).await.unwrap();
         up.push(t.elapsed().as_secs_f64());
-        let job: Value = http
-            .post(format!("{url}/api/v1/jobs"))
-            .bearer_auth(&key)
-            .json(&json!({"kind": "identify", "dataset_id": ds["id"]}))
-            .send()
+        let job = client
+            .submit(&SubmitJob {
+                kind: JobKind::Identify,
+                dataset_id: Some(ds.id),
+                machine_id: None,
+                params: json!({}),
+            })
             .await
+            .unwrap();
+        let j = client
+            .wait_job(
+                &job.id,
+                Duration::from_secs(600),
+                Duration::from_millis(10),
+                |_| {},
+            )
+            .await
+            .unwrap();
+        assert_eq!(j.state, JobState::Succeeded, "{j:?}");
+        let ts = |t: &Option<String>| {
+            time::OffsetDateTime::parse(
+                t.as_deref().unwrap(),
+                &time::format_description::well_known::Rfc3339,
+            )
             .unwrap()
-            .json()
-            .await
-            .unwrap();
-        let id = job["id"].as_str().unwrap().to_string();
-        loop {
-            let j: Value = http
-                .get(format!("{url}/api/v1/jobs/{id}"))
-                .bearer_auth(&key)
-                .send()
-                .await
-                .unwrap()
-                .json()
-                .await
-                .unwrap();
-            match j["state"].as_str().unwrap() {
-                "succeeded" => {
-                    let ts = |f: &str| {
-                        time::OffsetDateTime::parse(
-                            j[f].as_str().unwrap(),
-                            &time::format_description::well_known::Rfc3339,
-                        )
-                        .unwrap()
-                    };
-                    run.push((ts("finished_at") - ts("started_at")).as_seconds_f64());
-                    break;
-                }
-                "queued" | "running" => tokio::time::sleep(Duration::from_millis(10)).await,
-                s => panic!("job {s}: {j}"),
-            }
-        }
-        let res = http
-            .get(format!("{url}/api/v1/jobs/{id}/result"))
-            .bearer_auth(&key)
-            .send()
-            .await
-            .unwrap();
-        assert!(res.status().is_success());
-        res.bytes().await.unwrap();
+        };
+        run.push((ts(&j.finished_at) - ts(&j.started_at)).as_seconds_f64());
+        client.job_result(&job.id).await.unwrap();
         svc.push(t.elapsed().as_secs_f64());
     }
     // Medians: the figures are robust to the other processes sharing the machine.
@@ -278,6 +235,7 @@ async fn trends_bench(m: usize, r: usize, q: usize) {
                     measured_at: format!("{}-{:02}-01T08:00:00Z", 2000 + k / 12, 1 + k % 12),
                     document: json!({"kind": "identification", "seeded": true}),
                     scalars: seeded_scalars(&mut rng, k),
+                    figures: vec![],
                 });
             }
             if batch.len() >= 20_000 || i + 1 == m {
@@ -289,28 +247,23 @@ async fn trends_bench(m: usize, r: usize, q: usize) {
         eprintln!(" in {:.0} s", t.elapsed().as_secs_f64());
     }
     let (_, key) = store.create_key(Scope::Read, "load").await.unwrap();
-    let url = start(store.clone(), false).await;
-    let http = reqwest::Client::new();
+    let client = Client::new(&start(store.clone(), false).await, &key);
     let mut rng = StdRng::seed_from_u64(2);
     let (mut term, mut summary) = (Vec::new(), Vec::new());
     for i in 0..q + 200 {
         let mid = format!("M{:05}", rng.random_range(0..m));
-        let path = if i % 2 == 0 {
-            format!("/api/v1/machines/{mid}/trends/term?term=EXX&at=-50,50")
-        } else {
-            format!("/api/v1/machines/{mid}/trends/summary")
-        };
         let t = Instant::now();
-        let resp = http
-            .get(format!("{url}{path}"))
-            .bearer_auth(&key)
-            .send()
-            .await
-            .unwrap();
-        assert!(resp.status().is_success());
-        let v: Value = resp.json().await.unwrap();
+        let points = if i % 2 == 0 {
+            let v = client
+                .term_trend(&mid, "EXX", &[-50.0, 50.0])
+                .await
+                .unwrap();
+            v.points.len()
+        } else {
+            client.summary_trend(&mid).await.unwrap().points.len()
+        };
         let dt = t.elapsed().as_secs_f64() * 1e3;
-        assert_eq!(v["points"].as_array().unwrap().len(), r);
+        assert_eq!(points, r);
         if i >= 200 {
             if i % 2 == 0 {
                 term.push(dt)
@@ -333,14 +286,7 @@ async fn trends_bench(m: usize, r: usize, q: usize) {
         );
     }
     let t = Instant::now();
-    let resp = http
-        .get(format!("{url}/api/v1/fleet/drift?limit=10"))
-        .bearer_auth(&key)
-        .send()
-        .await
-        .unwrap();
-    assert!(resp.status().is_success());
-    resp.bytes().await.unwrap();
+    client.fleet_drift(None, Some(10)).await.unwrap();
     println!(
         "  fleet drift ranking over all machines: {:.0} ms",
         t.elapsed().as_secs_f64() * 1e3

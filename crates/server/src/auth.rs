@@ -1,30 +1,78 @@
 //! API-key authentication: `Authorization: Bearer <key>` (or `X-Api-Key: <key>`), scopes
 //! read ⊂ write ⊂ admin. Health and the documentation are the only open routes.
+//!
+//! Two pieces:
+//! * [`authenticate`], a middleware in front of every `/api/v1` route, outside the body
+//!   limits, decompression and every extractor: a request without a valid key gets 401
+//!   before anything looks at its body, query or content type. It puts the [`ApiKey`] in
+//!   the request's extensions.
+//! * the extractors [`ReadKey`], [`WriteKey`] and [`AdminKey`]: a handler names the scope
+//!   it needs by taking one of them as its first argument (403 when the key's scope is
+//!   lower), before any extractor that reads the request.
 
 use crate::AppState;
 use crate::error::ApiError;
+use axum::extract::{FromRequestParts, Request, State};
 use axum::http::HeaderMap;
+use axum::http::request::Parts;
+use axum::middleware::Next;
+use axum::response::{IntoResponse, Response};
 use mtcal_store::{ApiKey, Scope};
 
-/// The key presented with a request, checked against `needed`.
-pub async fn authorize(
-    state: &AppState,
-    headers: &HeaderMap,
-    needed: Scope,
-) -> Result<ApiKey, ApiError> {
-    let secret = headers
+/// The secret a request presents, if any.
+fn presented(headers: &HeaderMap) -> Option<&str> {
+    headers
         .get(axum::http::header::AUTHORIZATION)
         .and_then(|v| v.to_str().ok())
         .and_then(|v| v.strip_prefix("Bearer "))
         .or_else(|| headers.get("x-api-key").and_then(|v| v.to_str().ok()))
-        .ok_or_else(|| {
-            ApiError::Unauthorized("missing API key (send `Authorization: Bearer <key>`)".into())
-        })?;
-    let key = state
+        .map(str::trim)
+}
+
+/// The stored key a request presents: 401 when missing, unknown or revoked.
+pub async fn key_of(state: &AppState, headers: &HeaderMap) -> Result<ApiKey, ApiError> {
+    let secret = presented(headers).ok_or_else(|| {
+        ApiError::Unauthorized("missing API key (send `Authorization: Bearer <key>`)".into())
+    })?;
+    state
         .store
-        .key_by_secret(secret.trim())
+        .key_by_secret(secret)
         .await?
-        .ok_or_else(|| ApiError::Unauthorized("unknown or revoked API key".into()))?;
+        .ok_or_else(|| ApiError::Unauthorized("unknown or revoked API key".into()))
+}
+
+/// Middleware: authenticates every request (401 first), leaving the key in the
+/// request's extensions for the scope extractors.
+pub async fn authenticate(State(state): State<AppState>, mut req: Request, next: Next) -> Response {
+    match key_of(&state, req.headers()).await {
+        Ok(key) => {
+            req.extensions_mut().insert(key);
+            next.run(req).await
+        }
+        Err(e) => e.into_response(),
+    }
+}
+
+/// Middleware for routes whose layers read the body before the handler runs (uploads:
+/// decompression): the scope check of [`WriteKey`], ahead of them.
+pub async fn require_write(State(state): State<AppState>, req: Request, next: Next) -> Response {
+    let (mut parts, body) = req.into_parts();
+    match authorize(&parts, &state, Scope::Write).await {
+        Ok(key) => {
+            parts.extensions.insert(key);
+            next.run(Request::from_parts(parts, body)).await
+        }
+        Err(e) => e.into_response(),
+    }
+}
+
+/// The request's key, checked against `needed` (403 when its scope is lower).
+async fn authorize(parts: &Parts, state: &AppState, needed: Scope) -> Result<ApiKey, ApiError> {
+    let key = match parts.extensions.get::<ApiKey>() {
+        Some(k) => k.clone(),
+        // A route outside the middleware still authenticates.
+        None => key_of(state, &parts.headers).await?,
+    };
     if !key.scope.allows(needed) {
         return Err(ApiError::Forbidden(format!(
             "this route needs a key with scope {}; key {} has scope {}",
@@ -35,3 +83,38 @@ pub async fn authorize(
     }
     Ok(key)
 }
+
+macro_rules! scope_extractor {
+    ($(#[$doc:meta])* $name:ident, $scope:expr) => {
+        $(#[$doc])*
+        #[derive(Debug, Clone)]
+        pub struct $name(pub ApiKey);
+
+        impl FromRequestParts<AppState> for $name {
+            type Rejection = ApiError;
+
+            async fn from_request_parts(
+                parts: &mut Parts,
+                state: &AppState,
+            ) -> Result<Self, ApiError> {
+                authorize(parts, state, $scope).await.map($name)
+            }
+        }
+    };
+}
+
+scope_extractor!(
+    /// A key with at least read scope.
+    ReadKey,
+    Scope::Read
+);
+scope_extractor!(
+    /// A key with at least write scope.
+    WriteKey,
+    Scope::Write
+);
+scope_extractor!(
+    /// A key with admin scope.
+    AdminKey,
+    Scope::Admin
+);

@@ -1,10 +1,11 @@
-//! Job kinds and what each runs. A kind is one [`JobKind`] variant plus one arm in
-//! [`execute`] taking its inputs (a dataset, or parameters) to a JSON result document.
+//! Job kinds and what each runs. A kind is one [`JobKind`] variant (in the store's queue)
+//! plus one arm in [`execute`] taking its inputs (a dataset, or parameters) to a JSON result document.
 //!
 //! Wired: `identify` (`mtcal_solver::identification::identify`, a session dataset),
 //! `diagnose` (`mtcal_solver::diagnosis::diagnose_session` on a session,
 //! `diagnosis::series::{diagnose_positioning, diagnose_drift_log}` on positioning runs or
-//! a drift log), `cradle` (`mtcal_solver::cradle::check_cradle`, a rotary point set) and
+//! a drift log), `cradle` (`mtcal_solver::cradle::check_cradle`, a rotary point set),
+//! `standards` (`mtcal_solver::standards`, a session or positioning runs) and
 //! `sensitivity` (`mtcal_solver::sensitivity::analyse`, parameters only).
 
 use crate::ingest::{self, DatasetData, UploadLimits};
@@ -15,76 +16,14 @@ use mtcal_solver::diagnosis::series::{self, SeriesOptions};
 use mtcal_solver::diagnosis::{self, DiagnoseOptions, DiagnosisResult};
 use mtcal_solver::identification::{self, IdentificationResult, IdentifyOptions, Method};
 use mtcal_solver::sensitivity::{self, SensitivityRequest};
-use mtcal_store::{Dataset, Machine, ResultScalars};
+use mtcal_solver::standards::{self, Standards, StandardsResult};
+use mtcal_store::{Dataset, Figure, Machine, ResultScalars};
 use serde::{Deserialize, Serialize};
 use serde_json::Value;
 use utoipa::ToSchema;
 
-/// What a job computes.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize, ToSchema)]
-#[serde(rename_all = "lowercase")]
-pub enum JobKind {
-    /// 21-term identification of a session dataset; result kind `identification`.
-    Identify,
-    /// Error-source ranking (Cheng et al. 2012) from parameters only
-    /// (`mtcal_solver::sensitivity::SensitivityRequest`); result kind `sensitivity`.
-    Sensitivity,
-    /// Diagnosis (default options) of a session, positioning-run or drift-log dataset;
-    /// result kind `diagnosis`.
-    Diagnose,
-    /// Cradle (A/C) check of a rotary point set (`mtcal_solver::cradle::check_cradle`,
-    /// default options); result kind `cradle`.
-    Cradle,
-}
-
-impl JobKind {
-    pub fn as_str(self) -> &'static str {
-        match self {
-            JobKind::Identify => "identify",
-            JobKind::Sensitivity => "sensitivity",
-            JobKind::Diagnose => "diagnose",
-            JobKind::Cradle => "cradle",
-        }
-    }
-
-    pub fn parse(s: &str) -> Option<JobKind> {
-        match s {
-            "identify" => Some(JobKind::Identify),
-            "sensitivity" => Some(JobKind::Sensitivity),
-            "diagnose" => Some(JobKind::Diagnose),
-            "cradle" => Some(JobKind::Cradle),
-            _ => None,
-        }
-    }
-
-    /// The `kind` of the result document it produces.
-    pub fn result_kind(self) -> &'static str {
-        match self {
-            JobKind::Identify => "identification",
-            JobKind::Sensitivity => "sensitivity",
-            JobKind::Diagnose => "diagnosis",
-            JobKind::Cradle => "cradle",
-        }
-    }
-
-    /// Whether it runs on a dataset of this stored kind (see `ingest::DatasetData::kind`).
-    pub fn accepts(self, dataset_kind: &str) -> bool {
-        match self {
-            JobKind::Identify => dataset_kind == "session",
-            JobKind::Diagnose => matches!(dataset_kind, "session" | "positioning" | "drift_log"),
-            JobKind::Cradle => dataset_kind == "rotary_points",
-            JobKind::Sensitivity => false,
-        }
-    }
-
-    /// Whether the kind reads a dataset (else only its parameters).
-    pub fn needs_dataset(self) -> bool {
-        match self {
-            JobKind::Identify | JobKind::Diagnose | JobKind::Cradle => true,
-            JobKind::Sensitivity => false,
-        }
-    }
-}
+/// What a job computes: the queue's typed kind (`mtcal_store::queue`), re-used here.
+pub use mtcal_store::JobKind;
 
 /// Parameters of an `identify` job (all optional; defaults of `mtcal identify`).
 #[derive(Debug, Clone, Default, PartialEq, Serialize, Deserialize, ToSchema)]
@@ -158,13 +97,14 @@ pub fn validate_params(kind: JobKind, params: &Value) -> Result<(), String> {
             .map(|_| ())
             .map_err(|e| format!("params: {e}")),
         JobKind::Diagnose => DiagnoseParams::parse(params).map(|_| ()),
-        JobKind::Cradle => match params {
+        JobKind::Cradle | JobKind::Standards => match params {
             Value::Object(m) if m.is_empty() => Ok(()),
             _ => Err(format!(
                 "params: a {} job takes no parameters (send {{}})",
                 kind.as_str()
             )),
         },
+        JobKind::Import => Err("import jobs are made by imports, not submitted".into()),
     }
 }
 
@@ -195,6 +135,8 @@ pub struct JobInput {
 pub struct JobOutput {
     pub document: Value,
     pub scalars: ResultScalars,
+    /// Named figures (the standards'), stored in their own table.
+    pub figures: Vec<Figure>,
     pub measured_at: String,
 }
 
@@ -215,6 +157,7 @@ pub fn execute(input: &JobInput) -> Result<JobOutput, JobError> {
                 document: serde_json::to_value(&result)
                     .map_err(|e| JobError::Transient(e.to_string()))?,
                 scalars: identification_scalars(&result),
+                figures: figures(&result.standards),
                 measured_at: dataset.measured_at.clone(),
             })
         }
@@ -230,6 +173,7 @@ pub fn execute(input: &JobInput) -> Result<JobOutput, JobError> {
                 document: serde_json::to_value(&result)
                     .map_err(|e| JobError::Transient(e.to_string()))?,
                 scalars: ResultScalars::default(),
+                figures: vec![],
                 measured_at: mtcal_store::now_rfc3339(),
             })
         }
@@ -264,6 +208,7 @@ pub fn execute(input: &JobInput) -> Result<JobOutput, JobError> {
                 document: serde_json::to_value(&result)
                     .map_err(|e| JobError::Transient(e.to_string()))?,
                 scalars: diagnosis_scalars(&result),
+                figures: vec![],
                 measured_at: dataset.measured_at.clone(),
             })
         }
@@ -278,9 +223,44 @@ pub fn execute(input: &JobInput) -> Result<JobOutput, JobError> {
                 document: serde_json::to_value(&result)
                     .map_err(|e| JobError::Transient(e.to_string()))?,
                 scalars: ResultScalars::default(),
+                figures: vec![],
                 measured_at: dataset.measured_at.clone(),
             })
         }
+        JobKind::Standards => {
+            let (dataset, data) = load_dataset(input)?;
+            let (source, st) = match &data {
+                DatasetData::Session(session) => ("session", standards::from_session(session)),
+                DatasetData::Positioning(runs) => {
+                    ("positioning", standards::from_positioning_runs(runs))
+                }
+                _ => return Err(wrong_kind(input.kind, &data)),
+            };
+            if st.iso230_2.is_empty() && st.iso230_4.is_empty() {
+                let why: Vec<String> = st
+                    .not_evaluated
+                    .iter()
+                    .map(|n| format!("{} {}: {}", n.standard, n.what, n.reason))
+                    .collect();
+                return Err(JobError::BadInput(format!(
+                    "standards: nothing could be evaluated{}{}",
+                    if why.is_empty() { "" } else { ": " },
+                    why.join("; ")
+                )));
+            }
+            let figures = figures(&st);
+            let result = StandardsResult::new(&dataset.machine_id, source, st);
+            Ok(JobOutput {
+                document: serde_json::to_value(&result)
+                    .map_err(|e| JobError::Transient(e.to_string()))?,
+                scalars: ResultScalars::default(),
+                figures,
+                measured_at: dataset.measured_at.clone(),
+            })
+        }
+        JobKind::Import => Err(JobError::BadInput(
+            "an import job has nothing to run".into(),
+        )),
     }
 }
 
@@ -289,9 +269,9 @@ fn load_dataset(input: &JobInput) -> Result<(&Dataset, DatasetData), JobError> {
     let (dataset, files) = input.dataset.as_ref().ok_or_else(|| {
         JobError::BadInput(format!("a {} job needs a dataset", input.kind.as_str()))
     })?;
-    let data =
-        ingest::read_dataset(files, input.limits).map_err(|e| JobError::BadInput(e.to_string()))?;
-    Ok((dataset, data))
+    let data = ingest::read_dataset(files, &input.limits)
+        .map_err(|e| JobError::BadInput(e.to_string()))?;
+    Ok((dataset, data.data))
 }
 
 /// The job kind cannot run on this dataset kind.
@@ -311,6 +291,19 @@ fn machine_topology(machine: Option<&Machine>) -> Result<Option<Topology>, JobEr
                 .map_err(|e| JobError::BadInput(format!("machine {} topology: {e}", m.id)))
         })
         .transpose()
+}
+
+/// The stored figures of the standards (`iso230_2.<axis>.<figure>`,
+/// `iso230_4.<plane>.<direction>.<figure>`).
+pub fn figures(st: &Standards) -> Vec<Figure> {
+    st.scalar_figures()
+        .into_iter()
+        .map(|f| Figure {
+            name: f.name,
+            value: f.value,
+            u: f.u,
+        })
+        .collect()
 }
 
 /// The scalar columns of a diagnosis: the rigid model's residual RMS (baseline).

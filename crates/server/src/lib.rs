@@ -13,14 +13,15 @@ pub mod auth;
 pub mod error;
 pub mod ingest;
 pub mod jobs;
+pub mod state;
 pub mod trends;
+pub mod web;
 pub mod worker;
 
 use axum::Router;
 use axum::extract::DefaultBodyLimit;
 use axum::http::StatusCode;
 use axum::routing::{get, post};
-use mtcal_store::Store;
 use std::net::SocketAddr;
 use std::sync::Arc;
 use std::time::Duration;
@@ -31,18 +32,8 @@ use utoipa::openapi::security::{HttpAuthScheme, HttpBuilder, SecurityScheme};
 
 pub use error::ApiError;
 pub use ingest::UploadLimits;
+pub use state::AppState;
 pub use worker::WorkerConfig;
-
-/// Shared state of the handlers.
-#[derive(Clone)]
-pub struct AppState {
-    pub store: Arc<dyn Store>,
-    pub limits: UploadLimits,
-    /// Attempts given to each submitted job.
-    pub max_attempts: i64,
-    /// Signalled on every enqueued job (wakes an idle worker of this process).
-    pub wake: Arc<tokio::sync::Notify>,
-}
 
 /// Body limit of every route but uploads, bytes.
 pub const JSON_BODY_LIMIT: usize = 1 << 20;
@@ -80,7 +71,8 @@ impl utoipa::Modify for SecurityAddon {
         api::datasets::upload, api::datasets::get, api::datasets::file,
         api::jobs::submit, api::jobs::get, api::jobs::result, api::jobs::cancel,
         api::history::list, api::history::latest, api::history::get, api::history::diff,
-        api::trends::term, api::trends::summary, api::trends::fleet,
+        api::history::figures,
+        api::trends::term, api::trends::summary, api::trends::figure, api::trends::fleet,
         api::keys::create,
     ),
     components(schemas(jobs::IdentifyParams, jobs::DiagnoseParams, error::ErrorBody)),
@@ -99,19 +91,24 @@ pub fn openapi_json() -> String {
     s
 }
 
-/// The whole HTTP application.
+/// The whole HTTP application. Every `/api/v1` route sits behind [`auth::authenticate`],
+/// the outermost layer, so that a request without a valid key is refused (401) before
+/// body limits, decompression or any extractor look at it.
 pub fn router(state: AppState) -> Router {
     use api::*;
     let uploads = Router::new()
         .route("/api/v1/machines/{id}/datasets", post(datasets::upload))
         .layer(DefaultBodyLimit::max(state.limits.max_bytes))
         .layer(RequestDecompressionLayer::new())
+        .layer(axum::middleware::from_fn_with_state(
+            state.clone(),
+            auth::require_write,
+        ))
         .layer(TimeoutLayer::with_status_code(
             StatusCode::REQUEST_TIMEOUT,
             UPLOAD_TIMEOUT,
         ));
     let rest = Router::new()
-        .route("/health", get(health))
         .route(
             "/api/v1/machines",
             post(machines::create).get(machines::list),
@@ -130,23 +127,33 @@ pub fn router(state: AppState) -> Router {
         .route("/api/v1/machines/{id}/results/latest", get(history::latest))
         .route("/api/v1/machines/{id}/results/diff", get(history::diff))
         .route("/api/v1/results/{id}", get(history::get))
+        .route("/api/v1/results/{id}/figures", get(history::figures))
         .route("/api/v1/machines/{id}/trends/term", get(trends::term))
         .route("/api/v1/machines/{id}/trends/summary", get(trends::summary))
+        .route("/api/v1/machines/{id}/trends/figure", get(trends::figure))
         .route("/api/v1/fleet/drift", get(trends::fleet))
         .route("/api/v1/keys", post(keys::create))
-        .merge(
-            utoipa_swagger_ui::SwaggerUi::new("/docs")
-                .url("/api-docs/openapi.json", ApiDoc::openapi()),
-        )
         .layer(DefaultBodyLimit::max(JSON_BODY_LIMIT))
         .layer(TimeoutLayer::with_status_code(
             StatusCode::REQUEST_TIMEOUT,
             REQUEST_TIMEOUT,
         ));
-    uploads
+    let api = uploads
         .merge(rest)
+        .route_layer(axum::middleware::from_fn_with_state(
+            state.clone(),
+            auth::authenticate,
+        ));
+    let open = Router::new().route("/health", get(health)).merge(
+        utoipa_swagger_ui::SwaggerUi::new("/docs").url("/api-docs/openapi.json", ApiDoc::openapi()),
+    );
+    let app = api
+        .merge(open)
         .fallback(|| async { ApiError::NotFound("no such route".into()) })
-        .with_state(state)
+        .layer(axum::middleware::from_fn(error::json_errors))
+        .with_state(state.clone());
+    // The dashboard's pages answer their errors as pages, not JSON.
+    app.merge(web::router(state))
 }
 
 /// Settings of `mtcal serve`.
@@ -159,22 +166,43 @@ pub struct ServeConfig {
     pub run_worker: bool,
 }
 
+/// The service on `store`: starts `worker.queue.concurrency` workers on the current
+/// runtime when `run_worker`, and returns the HTTP application. `mtcal serve`, the
+/// end-to-end tests and the load generator all start the service through here.
+pub fn app(store: Arc<dyn mtcal_store::Store>, worker: &WorkerConfig, run_worker: bool) -> Router {
+    let wake = Arc::new(tokio::sync::Notify::new());
+    if run_worker {
+        worker::spawn_workers(store.clone(), worker.clone(), wake.clone());
+    }
+    router(AppState {
+        store,
+        limits: worker.limits,
+        max_attempts: worker.queue.max_attempts,
+        wake,
+    })
+}
+
+/// Starts the service on `store` on a free port of 127.0.0.1, served in the background of
+/// the current runtime (tests, benchmarks); returns its address.
+pub async fn spawn_local(
+    store: Arc<dyn mtcal_store::Store>,
+    worker: &WorkerConfig,
+    run_worker: bool,
+) -> std::io::Result<SocketAddr> {
+    let listener = tokio::net::TcpListener::bind("127.0.0.1:0").await?;
+    let addr = listener.local_addr()?;
+    let app = app(store, worker, run_worker);
+    tokio::spawn(async move { axum::serve(listener, app).await });
+    Ok(addr)
+}
+
 /// Opens the store, starts the workers and serves until the process ends. `ready` is
 /// called with the bound address (port 0 picks a free one).
 pub async fn serve(cfg: ServeConfig, ready: impl FnOnce(SocketAddr)) -> anyhow::Result<()> {
     let store = mtcal_store::open(&cfg.db_url).await?;
     let listener = tokio::net::TcpListener::bind(cfg.listen).await?;
-    let wake = Arc::new(tokio::sync::Notify::new());
-    if cfg.run_worker {
-        worker::spawn_workers(store.clone(), cfg.worker.clone(), wake.clone());
-    }
-    let state = AppState {
-        store,
-        limits: cfg.worker.limits,
-        max_attempts: cfg.worker.queue.max_attempts,
-        wake,
-    };
+    let app = app(store, &cfg.worker, cfg.run_worker);
     ready(listener.local_addr()?);
-    axum::serve(listener, router(state)).await?;
+    axum::serve(listener, app).await?;
     Ok(())
 }

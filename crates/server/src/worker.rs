@@ -7,7 +7,7 @@
 //! (the blocking computation is abandoned, its result discarded).
 
 use crate::ingest::UploadLimits;
-use crate::jobs::{self, JobError, JobInput, JobKind};
+use crate::jobs::{self, JobError, JobInput};
 use mtcal_store::{Heartbeat, Job, NewResult, QueueConfig, Store, StoreError};
 use std::sync::Arc;
 use std::time::{Duration, Instant};
@@ -139,16 +139,18 @@ async fn run_job(store: &Arc<dyn Store>, cfg: &WorkerConfig, me: &str, job: Job)
             let r = NewResult {
                 machine_id: job.machine_id.clone().unwrap_or_default(),
                 dataset_id: job.dataset_id.clone(),
-                kind: JobKind::parse(&job.kind)
-                    .map(|k| k.result_kind())
-                    .unwrap_or("unknown")
-                    .to_string(),
+                kind: job.kind.result_kind().to_string(),
                 measured_at: out.measured_at,
                 document: out.document,
                 scalars: out.scalars,
+                figures: out.figures,
             };
             match store.complete_job(&job.id, me, r).await {
                 Err(StoreError::LeaseLost(_)) => store.finish_cancelled(&job.id, me).await,
+                // A result the store refuses would be refused again: not retried.
+                Err(StoreError::Invalid(m)) => {
+                    store.fail_job(&job.id, me, "bad_input", &m, None).await
+                }
                 other => other,
             }
         }
@@ -172,8 +174,6 @@ async fn load_input(
     cfg: &WorkerConfig,
     job: &Job,
 ) -> Result<JobInput, JobError> {
-    let kind = JobKind::parse(&job.kind)
-        .ok_or_else(|| JobError::BadInput(format!("unknown job kind {:?}", job.kind)))?;
     let transient = |e: StoreError| match e {
         StoreError::NotFound(w) => JobError::BadInput(format!("{w} not found")),
         e => JobError::Transient(e.to_string()),
@@ -190,7 +190,7 @@ async fn load_input(
         None => None,
     };
     Ok(JobInput {
-        kind,
+        kind: job.kind,
         params: job.params.clone(),
         machine,
         dataset,

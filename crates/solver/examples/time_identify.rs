@@ -30,7 +30,7 @@ fn main() {
         f.compressed_runs
     );
     let t = Instant::now();
-    let n = mtcal_solver::noise::noise_from_repeated_passes(s);
+    let n = mtcal_solver::noise::session_floor(s);
     println!("noise: {:?} {n:?}", t.elapsed());
     let t = Instant::now();
     let _ = identify(s, &IdentifyOptions::default()).unwrap();

@@ -51,6 +51,10 @@ pub struct Finding {
     pub parameters: BTreeMap<String, f64>,
     /// One sentence: what the physics is and why the rigid-body model lacks it.
     pub physics: String,
+    /// For an effect found by its signature rather than named in the catalogue: the
+    /// signature in words ("a Z error that follows the Y velocity").
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub signature: Option<String>,
     pub residual_rms_um: BeforeAfter,
     pub heldout_rms_um: BeforeAfter,
     /// Why this effect was chosen (information criterion, signature counts).
@@ -59,6 +63,10 @@ pub struct Finding {
     /// above a third of the magnitude): possible, not established; not in `parameters`.
     #[serde(default, skip_serializing_if = "Vec::is_empty")]
     pub undetermined: Vec<Undetermined>,
+    /// For a possible but undetermined effect: which parameters the data leave open and
+    /// what extra data would decide it.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub decide: Option<String>,
 }
 
 /// A parameter the data leave undetermined, and what data would decide it.
@@ -91,7 +99,15 @@ pub struct DiagnosisResult {
     pub source: String,
     pub baseline: Baseline,
     pub mismatch: Vec<Mismatch>,
+    /// Effects found, modelled and determined by the data (they count for the verdict).
     pub findings: Vec<Finding>,
+    /// Effects the evidence points to whose parameters the data do not determine
+    /// ("possible, undetermined"), each with what would decide it; not in the verdict.
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    pub possible: Vec<Finding>,
+    /// Candidates rejected as physically implausible, with the reason.
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    pub rejected: Vec<String>,
     pub verdict: Verdict,
     /// What remains unexplained, and where (empty when explained).
     #[serde(default, skip_serializing_if = "Vec::is_empty")]
@@ -125,8 +141,9 @@ pub struct PlotSeries {
 // `series*` submodules).
 pub mod catalogue;
 pub mod design;
+pub mod effects;
 pub mod linalg;
-pub mod noise;
+pub mod reduced;
 pub(crate) mod search;
 pub mod session;
 

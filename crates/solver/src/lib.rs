@@ -16,7 +16,7 @@ pub mod kinematics;
 pub mod session;
 pub mod terms;
 
-// Issue 2: identification core.
+// identification core.
 pub mod basis;
 pub mod design;
 pub mod identification;
@@ -24,17 +24,24 @@ pub mod lsq;
 pub mod noise;
 pub mod observability;
 pub mod simulate;
-pub mod stepwise;
 
-// Issue 4: sensitivity (Cheng et al. 2012).
+// sensitivity (Cheng et al. 2012).
 pub mod sensitivity;
 
-// Issue 5: 5-axis cradle and geometric fits.
+// 5-axis cradle and geometric fits.
 pub mod cradle;
 pub mod fits;
 
-// Issue 6: mismatch diagnosis.
+// mismatch diagnosis.
 pub mod diagnosis;
+
+// Figures of the machine-tool test standards (ISO 230-2, ISO 230-4) and the residuals
+// of a fit by file and test.
+pub mod residuals;
+pub mod standards;
+
+// Tolerances and the decision rule of conformity.
+pub mod tolerance;
 
 // Thermal drift model of drift logs (spindle history and structure temperatures).
 pub mod thermal;

@@ -235,7 +235,22 @@ pub fn simulate(truth: &PolyErrors, opts: &SimOptions) -> Result<SimOutput, Solv
                 test: Some(kind),
                 ..Run::default()
             };
+            let logs_temperature = opts
+                .effects
+                .iter()
+                .any(|e| e.temperature_rise_k(0.0).is_some());
+            if logs_temperature {
+                run.temp_c = Some(Vec::with_capacity(samples.len()));
+            }
             for s in &samples {
+                if let Some(temp) = run.temp_c.as_mut() {
+                    let rise: f64 = opts
+                        .effects
+                        .iter()
+                        .filter_map(|e| e.temperature_rise_k(s.t_s))
+                        .sum();
+                    temp.push(20.0 + rise);
+                }
                 let (du, dv) = measure(truth, opts, s, t_true, (ua, va), phi);
                 run.t_s.push(s.t_s);
                 run.pos_mm.push(s.q_mm);

@@ -14,8 +14,9 @@
 use mtcal_solver::diagnosis::series::simulate::{
     PositioningEffect, PositioningSim, simulate_positioning,
 };
-use mtcal_solver::diagnosis::series::{SeriesOptions, diagnose_positioning, iso230_2};
-use mtcal_solver::diagnosis::{DiagnosisResult, Verdict};
+use mtcal_solver::diagnosis::series::{SeriesOptions, diagnose_positioning};
+use mtcal_solver::diagnosis::{DiagnosisResult, Verdict, effects};
+use mtcal_solver::standards::iso230_2;
 use rand::rngs::StdRng;
 use rand::{Rng, SeedableRng};
 
@@ -57,6 +58,9 @@ fn check_named(r: &DiagnosisResult, expected: &[&str]) {
     want.sort_unstable();
     assert_eq!(got, want, "{:#?}", r.findings);
     assert_eq!(r.verdict, Verdict::Explained, "{r:#?}");
+    for f in &r.findings {
+        effects::conforms(f).unwrap();
+    }
     let last = r.findings.last().unwrap();
     assert!(
         last.heldout_rms_um.after <= 1.5 * NOISE,
@@ -112,7 +116,7 @@ fn reversal_spike_recovered() {
         );
         let r = run(
             vec![PositioningEffect::ReversalSpike {
-                amplitude_um: a,
+                height_um: a,
                 decay_mm: l,
             }],
             seed,
@@ -121,13 +125,13 @@ fn reversal_spike_recovered() {
         check_named(&r, &["reversal_spike"]);
         close(
             "spike amplitude",
-            param(&r, "reversal_spike", "amplitude_um"),
+            param(&r, "reversal_spike", "height_um"),
             a,
             0.15 * a.abs(),
         );
         close(
             "decay length",
-            param(&r, "reversal_spike", "decay_length_mm"),
+            param(&r, "reversal_spike", "decay_mm"),
             l,
             0.25 * l,
         );
@@ -180,7 +184,7 @@ fn thermal_drift_recovered_from_time() {
         );
         let e = PositioningEffect::Thermal {
             offset_um: o,
-            scale_um_per_m: s,
+            scale_ppm: s,
             tau_s: tau,
             delta_t_k: 2.0,
         };
@@ -188,19 +192,19 @@ fn thermal_drift_recovered_from_time() {
         check_named(&r, &["thermal_drift"]);
         close(
             "offset growth",
-            param(&r, "thermal_drift", "offset_growth_um"),
+            param(&r, "thermal_drift", "offset_um"),
             o,
             0.2 * o,
         );
         close(
             "scale growth",
-            param(&r, "thermal_drift", "scale_growth_um_per_m"),
+            param(&r, "thermal_drift", "scale_ppm"),
             s,
             0.2 * s,
         );
         close(
             "time constant",
-            param(&r, "thermal_drift", "tau_s"),
+            param(&r, "thermal_drift", "time_constant_s"),
             tau,
             0.25 * tau,
         );
@@ -223,7 +227,7 @@ fn thermal_drift_recovered_from_temperature() {
         );
         let e = PositioningEffect::Thermal {
             offset_um: o,
-            scale_um_per_m: s,
+            scale_ppm: s,
             tau_s: 2000.0,
             delta_t_k: dt,
         };
@@ -237,7 +241,7 @@ fn thermal_drift_recovered_from_temperature() {
         );
         close(
             "scale per K",
-            param(&r, "thermal_drift", "scale_um_per_m_per_k"),
+            param(&r, "thermal_drift", "scale_ppm_per_k"),
             s / dt,
             0.25 * s / dt,
         );
@@ -255,7 +259,7 @@ fn waviness_needs_higher_order() {
             false,
         );
         check_named(&r, &["model_order"]);
-        let order = param(&r, "model_order", "order");
+        let order = param(&r, "model_order", "extra_order");
         assert!(
             (6.0..=9.0).contains(&order),
             "order {order}: P5 + P6 needs at least 6"
@@ -297,12 +301,12 @@ fn two_effects_separated() {
         let r = run(
             vec![
                 PositioningEffect::ReversalSpike {
-                    amplitude_um: a,
+                    height_um: a,
                     decay_mm: l,
                 },
                 PositioningEffect::Thermal {
                     offset_um: o,
-                    scale_um_per_m: 15.0,
+                    scale_ppm: 15.0,
                     tau_s: 2500.0,
                     delta_t_k: 2.0,
                 },
@@ -313,13 +317,13 @@ fn two_effects_separated() {
         check_named(&r, &["reversal_spike", "thermal_drift"]);
         close(
             "spike amplitude",
-            param(&r, "reversal_spike", "amplitude_um"),
+            param(&r, "reversal_spike", "height_um"),
             a,
             0.15 * a,
         );
         close(
             "offset growth",
-            param(&r, "thermal_drift", "offset_growth_um"),
+            param(&r, "thermal_drift", "offset_um"),
             o,
             0.2 * o,
         );

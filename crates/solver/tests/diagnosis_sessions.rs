@@ -2,12 +2,12 @@
 //! with no hint; the right effect must be named, its parameters recovered within the
 //! stated tolerances, and the held-out residual brought within 1.5× the noise floor.
 //!
-//! Sample rate 10 Hz (seed plan, ~9 900 samples) keeps each diagnosis to a few seconds;
-//! one seed per effect runs by default, more under `--ignored`.
+//! Sample rate 10 Hz (seed plan, ~9 900 samples) keeps each diagnosis under a second;
+//! every effect runs over four seeds and the clean sweep over 40, in CI.
 
 use mtcal_solver::axis::Axis;
 use mtcal_solver::diagnosis::{
-    DiagnoseOptions, DiagnosisResult, Finding, Verdict, diagnose_session,
+    DiagnoseOptions, DiagnosisResult, Finding, Verdict, diagnose_session, effects,
 };
 use mtcal_solver::simulate::{Effect, Plan, SimOptions, random_truth, simulate};
 use rand::SeedableRng;
@@ -68,8 +68,13 @@ fn param(f: &Finding, k: &str) -> f64 {
 /// The finding for `e`, checked against its truth with the tolerances of the docs.
 fn check(e: &Effect, r: &DiagnosisResult) {
     let ctx = format!("{e:?}\n{r:#?}");
+    // Waviness is found by its signature as a periodic straightness error, or, when a
+    // polynomial of higher order fits as well, as the model order.
     let name = match e {
-        Effect::Waviness { .. } => "model_order",
+        Effect::Waviness { .. } if !r.findings.iter().any(|f| f.effect == "waviness") => {
+            "model_order"
+        }
+        Effect::TemperatureGrowth { .. } => "thermal_drift",
         _ => e.name(),
     };
     let f = r
@@ -77,6 +82,9 @@ fn check(e: &Effect, r: &DiagnosisResult) {
         .iter()
         .find(|f| f.effect == name)
         .unwrap_or_else(|| panic!("{name} not found: {ctx}"));
+    for g in r.findings.iter().chain(&r.possible) {
+        effects::conforms(g).unwrap();
+    }
     let axis = |a: Axis| assert_eq!(f.axis.as_deref(), Some(a.to_string().as_str()), "{ctx}");
     match *e {
         // Lost motion: 3 % + 0.1 µm (reported σ ≈ 0.01-0.02 µm; the rest is the velocity
@@ -144,8 +152,59 @@ fn check(e: &Effect, r: &DiagnosisResult) {
                 "{ctx}"
             );
         }
-        // Waviness: named as model order on the right axis.
-        Effect::Waviness { axis: a, .. } => axis(a),
+        // Waviness: on the right axis; as a periodic error, with its period within 3 %
+        // and its amplitude within 10 % + 0.05 µm.
+        Effect::Waviness {
+            axis: a,
+            period_mm,
+            amplitude_um,
+            ..
+        } => {
+            axis(a);
+            if f.effect == "waviness" {
+                assert!(close(param(f, "period_mm"), period_mm, 0.03, 0.0), "{ctx}");
+                assert!(
+                    close(param(f, "amplitude_um"), amplitude_um, 0.1, 0.05),
+                    "{ctx}"
+                );
+            }
+        }
+        // Growth following a logged temperature that rises and falls: the scale per
+        // kelvin of every axis within 15 % + 1 ppm/K (offsets per kelvin are mostly taken
+        // by the run offsets: only their change within a run is seen).
+        Effect::TemperatureGrowth {
+            scale_ppm_per_k, ..
+        } => {
+            for a in Axis::ALL {
+                let k = param(f, &format!("scale_ppm_per_k_{a}"));
+                assert!(
+                    close(k, scale_ppm_per_k[a.index()], 0.15, 1.0),
+                    "{a}: {ctx}"
+                );
+            }
+        }
+        // Velocity coupling (outside the named catalogue): the moving axis named, the
+        // coefficient within 5 %, the signature in words.
+        Effect::VelocityCoupling {
+            axis: a,
+            direction,
+            coefficient_um_per_mm_s,
+        } => {
+            axis(a);
+            assert!(
+                close(
+                    param(f, "coefficient_um_per_mm_s"),
+                    coefficient_um_per_mm_s,
+                    0.05,
+                    0.0
+                ),
+                "{ctx}"
+            );
+            assert_eq!(
+                f.signature.as_deref(),
+                Some(format!("a {direction} error that follows the {a} velocity").as_str())
+            );
+        }
         // Vibration: direction, frequency 0.2 %, amplitude 5 % + 0.02 µm.
         Effect::Vibration {
             direction,
@@ -222,13 +281,132 @@ fn concealed_vibration() {
     concealed("vibration", &[8]);
 }
 
-/// Every effect over three more seeds (≈ 2 min on a busy 2-core machine).
+/// Thermal growth that rises and then falls with a logged temperature (a monotonic
+/// first-order drift in time cannot follow it).
 #[test]
-#[ignore]
-fn concealed_effects_more_seeds() {
-    for name in mtcal_solver::simulate::effects::EFFECT_NAMES {
-        concealed(name, &[11, 12, 13]);
+fn concealed_temperature_growth() {
+    concealed("temperature_growth", &[10]);
+}
+
+#[test]
+fn concealed_velocity_coupling() {
+    concealed("velocity_coupling", &[9]);
+}
+
+/// A session with one known effect, no hint given.
+fn diagnose_with(effect: Effect, seed: u64) -> DiagnosisResult {
+    let o = SimOptions {
+        plan: Plan::Seed,
+        seed,
+        sample_rate_hz: RATE,
+        effects: vec![effect],
+        ..SimOptions::default()
+    };
+    let out = simulate(&random_truth(seed), &o).unwrap();
+    diagnose_session(&out.session, &DiagnoseOptions::default()).unwrap()
+}
+
+/// Outside the named catalogue: a Y error periodic in X with period 16 mm (a guideway
+/// waviness six times finer than the travel, which no polynomial of the model follows) is
+/// found by its signature, modelled, and proven on held-out runs.
+#[test]
+fn periodic_straightness_found_by_signature() {
+    let r = diagnose_with(
+        Effect::Waviness {
+            axis: Axis::X,
+            direction: Axis::Y,
+            amplitude_um: 0.7,
+            period_mm: 16.0,
+            phase_rad: 1.0,
+        },
+        41,
+    );
+    let f = r
+        .findings
+        .iter()
+        .find(|f| f.effect == "waviness")
+        .unwrap_or_else(|| panic!("{r:#?}"));
+    assert_eq!(
+        f.signature.as_deref(),
+        Some("a Y error periodic in the X position (period 16.0 mm)"),
+        "{r:#?}"
+    );
+    assert!(close(param(f, "period_mm"), 16.0, 0.01, 0.0), "{r:#?}");
+    assert!(close(param(f, "amplitude_um"), 0.7, 0.1, 0.03), "{r:#?}");
+    assert!(f.heldout_rms_um.after < 0.8 * f.heldout_rms_um.before);
+    assert_eq!(r.verdict, Verdict::Explained, "{r:#?}");
+    effects::conforms(f).unwrap();
+}
+
+/// The wavy straightness of the issue (EYX, 0.8 µm at a 35 mm period): identification's
+/// residual is above its floor, and the diagnosis, on the same floor, finds and names it
+/// instead of answering "consistent".
+#[test]
+fn wavy_straightness_found_and_named() {
+    let r = diagnose_with(
+        Effect::Waviness {
+            axis: Axis::X,
+            direction: Axis::Y,
+            amplitude_um: 0.8,
+            period_mm: 35.0,
+            phase_rad: 0.3,
+        },
+        42,
+    );
+    assert_ne!(r.verdict, Verdict::Consistent, "{r:#?}");
+    let f = r
+        .findings
+        .iter()
+        .find(|f| matches!(f.effect.as_str(), "waviness" | "model_order"))
+        .unwrap_or_else(|| panic!("{r:#?}"));
+    assert_eq!(f.axis.as_deref(), Some("X"));
+    if f.effect == "waviness" {
+        assert!(close(param(f, "period_mm"), 35.0, 0.03, 0.0), "{r:#?}");
     }
+    assert!(
+        f.heldout_rms_um.after <= 1.2 * r.baseline.noise_estimate_um,
+        "{r:#?}"
+    );
+}
+
+/// Thermal growth with a time constant thirty times the session: the drift is a straight
+/// line in time, so its time constant and scale trade off and the data cannot tell them.
+/// The effect is listed as possible, undetermined, with what would decide it, and does
+/// not count as a finding.
+#[test]
+fn undetermined_thermal_is_reported_as_possible() {
+    let r = diagnose_with(
+        Effect::ThermalDrift {
+            time_constant_s: 60_000.0,
+            offset_um: [20.0, -20.0, 10.0],
+            scale_ppm: [250.0, -250.0, 200.0],
+        },
+        43,
+    );
+    let p = r
+        .possible
+        .iter()
+        .find(|f| f.effect == "thermal_drift")
+        .unwrap_or_else(|| panic!("{r:#?}"));
+    let why = p.decide.as_deref().unwrap();
+    assert!(why.contains("time_constant_s"), "{why}");
+    assert!(why.contains("several time constants long"), "{why}");
+    assert!(
+        r.findings.iter().all(|f| f.effect != "thermal_drift"),
+        "{r:#?}"
+    );
+}
+
+/// Every effect over three more seeds, on all cores.
+#[test]
+fn concealed_effects_more_seeds() {
+    let jobs: Vec<u64> = (0..mtcal_solver::simulate::effects::EFFECT_NAMES.len() as u64).collect();
+    par_map(&jobs, |i| {
+        concealed(
+            mtcal_solver::simulate::effects::EFFECT_NAMES[i as usize],
+            &[11, 12, 13],
+        )
+    });
 }
 
 /// Two effects at once are separated: both named with their parameters.
@@ -269,15 +447,43 @@ fn clean_sessions_are_consistent() {
     }
 }
 
-/// ≥ 95 % of 40 clean seeds give `consistent` with no finding (≈ 2-3 min under load).
+/// `f(seed)` for every seed, on all cores (each diagnosis is single-threaded).
+fn par_map<T: Send>(seeds: &[u64], f: impl Fn(u64) -> T + Sync) -> Vec<T> {
+    let threads = std::thread::available_parallelism().map_or(2, |n| n.get());
+    let chunk = seeds.len().div_ceil(threads).max(1);
+    std::thread::scope(|s| {
+        let handles: Vec<_> = seeds
+            .chunks(chunk)
+            .map(|c| s.spawn(|| c.iter().map(|&x| f(x)).collect::<Vec<T>>()))
+            .collect();
+        handles
+            .into_iter()
+            .flat_map(|h| h.join().expect("worker"))
+            .collect()
+    })
+}
+
+/// ≥ 95 % of 40 clean seeds give `consistent` with no finding (about 30 s of CPU in the
+/// dev profile, spread over the cores).
 #[test]
-#[ignore]
 fn clean_sessions_are_consistent_in_95_percent_of_40_seeds() {
-    let ok = (200..240)
-        .filter(|&s| {
-            let r = clean(s);
-            r.verdict == Verdict::Consistent && r.findings.is_empty()
-        })
-        .count();
-    assert!(ok >= 38, "{ok} of 40");
+    let seeds: Vec<u64> = (200..240).collect();
+    let results = par_map(&seeds, |s| {
+        let r = clean(s);
+        (
+            s,
+            r.verdict == Verdict::Consistent && r.findings.is_empty(),
+            r,
+        )
+    });
+    let bad: Vec<String> = results
+        .iter()
+        .filter(|(_, ok, _)| !ok)
+        .map(|(s, _, r)| format!("seed {s}: {:?} {:?}", r.verdict, r.findings))
+        .collect();
+    assert!(
+        bad.len() <= 2,
+        "{} of 40 not consistent: {bad:#?}",
+        bad.len()
+    );
 }

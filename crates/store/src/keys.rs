@@ -53,6 +53,33 @@ pub struct ApiKey {
     pub created_at: String,
 }
 
+/// A key about to be stored: the record, the secret (shown once, never stored) and the
+/// hash that is stored.
+#[derive(Debug, Clone)]
+pub struct NewKey {
+    pub key: ApiKey,
+    pub secret: String,
+    pub hash: String,
+}
+
+impl NewKey {
+    /// A fresh key of `scope`, created now; its prefix is the secret's first 8 characters.
+    pub fn generate(scope: Scope, label: &str) -> NewKey {
+        let secret = generate_secret();
+        NewKey {
+            key: ApiKey {
+                id: crate::rules::new_id("key"),
+                prefix: secret[..8].to_string(),
+                scope,
+                label: label.to_string(),
+                created_at: crate::now_rfc3339(),
+            },
+            hash: hash_secret(&secret),
+            secret,
+        }
+    }
+}
+
 /// A freshly generated secret.
 pub fn generate_secret() -> String {
     let mut bytes = [0u8; 16];

@@ -1,5 +1,6 @@
 //! Plain records the store reads and writes. Times are RFC 3339 UTC strings.
 
+use crate::queue::JobKind;
 use serde::{Deserialize, Serialize};
 use serde_json::Value;
 use std::collections::BTreeMap;
@@ -119,7 +120,7 @@ impl JobState {
 #[cfg_attr(feature = "openapi", derive(utoipa::ToSchema))]
 pub struct Job {
     pub id: String,
-    pub kind: String,
+    pub kind: JobKind,
     pub machine_id: Option<String>,
     pub dataset_id: Option<String>,
     #[cfg_attr(feature = "openapi", schema(value_type = Object))]
@@ -141,7 +142,7 @@ pub struct Job {
 /// A job to enqueue.
 #[derive(Debug, Clone)]
 pub struct NewJob {
-    pub kind: String,
+    pub kind: JobKind,
     pub machine_id: Option<String>,
     pub dataset_id: Option<String>,
     pub params: Value,
@@ -162,6 +163,34 @@ pub struct ResultScalars {
     pub term_coefficients: BTreeMap<String, Vec<f64>>,
 }
 
+/// One named scalar figure of a result (the standards' figures, e.g. `iso230_2.X.E_um`,
+/// `iso230_4.XY.bi.H_um`): stored in its own table so that it trends and takes
+/// tolerances. Names: letters, digits, `_` and `.`, at most [`FIGURE_NAME_MAX`] bytes.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[cfg_attr(feature = "openapi", derive(utoipa::ToSchema))]
+pub struct Figure {
+    pub name: String,
+    /// Value in the unit its name ends with (`_um`: µm).
+    pub value: f64,
+    /// Standard uncertainty (k = 1), when known.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub u: Option<f64>,
+}
+
+/// Longest figure name accepted, bytes.
+pub const FIGURE_NAME_MAX: usize = 128;
+
+/// One result's value of a figure, for a trend.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[cfg_attr(feature = "openapi", derive(utoipa::ToSchema))]
+pub struct FigurePoint {
+    pub result_id: String,
+    pub measured_at: String,
+    pub value: f64,
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub u: Option<f64>,
+}
+
 /// A result to store on completion of a job.
 #[derive(Debug, Clone)]
 pub struct NewResult {
@@ -171,6 +200,8 @@ pub struct NewResult {
     pub measured_at: String,
     pub document: Value,
     pub scalars: ResultScalars,
+    /// Named scalar figures ([`Figure`]); empty for kinds that have none.
+    pub figures: Vec<Figure>,
 }
 
 /// A stored result, without its document.
@@ -213,5 +244,6 @@ pub struct RowCounts {
     pub dataset_files: i64,
     pub jobs: i64,
     pub results: i64,
+    pub result_figures: i64,
     pub api_keys: i64,
 }

@@ -1,9 +1,13 @@
-//! The durable job queue, in the service's own `jobs` table.
+//! The durable job queue, in the service's own `jobs` table: the [`Queue`] half of a
+//! store, its typed [`JobKind`], and the rules every backend shares.
 //!
 //! * **Claim**: one `UPDATE jobs … WHERE id = (SELECT … state = 'queued' AND run_after_ms
-//!   <= now ORDER BY seq LIMIT 1) RETURNING …`. SQLite serialises writers, so two workers
-//!   never claim the same job; PostgreSQL would add `FOR UPDATE SKIP LOCKED` to the
-//!   sub-select. Claiming counts an attempt and sets a lease (owner + expiry).
+//!   <= now AND kind IN (runnable kinds) ORDER BY seq LIMIT 1) RETURNING …`. SQLite
+//!   serialises writers, so two workers never claim the same job; PostgreSQL adds
+//!   `FOR UPDATE SKIP LOCKED` to the sub-select. Claiming counts an attempt and sets a
+//!   lease (owner + expiry). A worker claims only the kinds its build knows
+//!   ([`JobKind::RUNNABLE`]), so an older worker sharing a database with a newer API leaves
+//!   new kinds to newer workers.
 //! * **Lease and heartbeat**: a running worker extends its lease every few seconds and
 //!   records progress; the heartbeat tells it when cancellation was requested or when its
 //!   lease was lost.
@@ -15,7 +19,169 @@
 //! * **Retries**: transient failures (database busy, worker panic) retry with exponential
 //!   backoff ([`QueueConfig::backoff_ms`]); bad input never retries.
 
+use crate::StoreFuture;
+use crate::model::{Job, NewJob, NewResult};
 use serde::{Deserialize, Serialize};
+
+/// What a job computes. `import` marks a result stored without a run; it cannot be
+/// submitted.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, Serialize, Deserialize)]
+#[cfg_attr(feature = "openapi", derive(utoipa::ToSchema))]
+#[serde(rename_all = "lowercase")]
+pub enum JobKind {
+    /// 21-term identification of a session dataset; result kind `identification`.
+    Identify,
+    /// Error-source ranking (Cheng et al. 2012) from parameters only; result kind
+    /// `sensitivity`.
+    Sensitivity,
+    /// Diagnosis (default options) of a session, positioning-run or drift-log dataset;
+    /// result kind `diagnosis`.
+    Diagnose,
+    /// Cradle (A/C) check of a rotary point set (default options); result kind `cradle`.
+    Cradle,
+    /// Figures of ISO 230-2 (positioning runs, or the line passes of a session) and ISO
+    /// 230-4 (the circles of a session); result kind `standards`.
+    Standards,
+    /// A result stored without a run ([`crate::Store::import_result`]): born succeeded,
+    /// never claimed, never submitted through the API.
+    Import,
+}
+
+impl JobKind {
+    /// Every kind a worker runs (all but [`JobKind::Import`]).
+    pub const RUNNABLE: [JobKind; 5] = [
+        JobKind::Identify,
+        JobKind::Sensitivity,
+        JobKind::Diagnose,
+        JobKind::Cradle,
+        JobKind::Standards,
+    ];
+
+    pub fn as_str(self) -> &'static str {
+        match self {
+            JobKind::Identify => "identify",
+            JobKind::Sensitivity => "sensitivity",
+            JobKind::Diagnose => "diagnose",
+            JobKind::Cradle => "cradle",
+            JobKind::Standards => "standards",
+            JobKind::Import => "import",
+        }
+    }
+
+    pub fn parse(s: &str) -> Option<JobKind> {
+        match s {
+            "identify" => Some(JobKind::Identify),
+            "sensitivity" => Some(JobKind::Sensitivity),
+            "diagnose" => Some(JobKind::Diagnose),
+            "cradle" => Some(JobKind::Cradle),
+            "standards" => Some(JobKind::Standards),
+            "import" => Some(JobKind::Import),
+            _ => None,
+        }
+    }
+
+    /// The `kind` of the result document it produces (an import keeps the kind it was
+    /// given).
+    pub fn result_kind(self) -> &'static str {
+        match self {
+            JobKind::Identify => "identification",
+            JobKind::Sensitivity => "sensitivity",
+            JobKind::Diagnose => "diagnosis",
+            JobKind::Cradle => "cradle",
+            JobKind::Standards => "standards",
+            JobKind::Import => "import",
+        }
+    }
+
+    /// Whether it runs on a dataset of this stored kind (`session`, `rotary_points`,
+    /// `positioning`, `drift_log`).
+    pub fn accepts(self, dataset_kind: &str) -> bool {
+        match self {
+            JobKind::Identify => dataset_kind == "session",
+            JobKind::Diagnose => matches!(dataset_kind, "session" | "positioning" | "drift_log"),
+            JobKind::Cradle => dataset_kind == "rotary_points",
+            JobKind::Standards => matches!(dataset_kind, "session" | "positioning"),
+            JobKind::Sensitivity | JobKind::Import => false,
+        }
+    }
+
+    /// Whether the kind reads a dataset (else only its parameters).
+    pub fn needs_dataset(self) -> bool {
+        match self {
+            JobKind::Identify | JobKind::Diagnose | JobKind::Cradle | JobKind::Standards => true,
+            JobKind::Sensitivity | JobKind::Import => false,
+        }
+    }
+
+    /// Whether clients may submit it (every kind but [`JobKind::Import`]).
+    pub fn is_runnable(self) -> bool {
+        self != JobKind::Import
+    }
+
+    /// `'identify', 'sensitivity', …`: the runnable kinds as an SQL list (constants only,
+    /// never user input), for the claim query of every backend.
+    pub fn runnable_sql_list() -> String {
+        JobKind::RUNNABLE
+            .iter()
+            .map(|k| format!("'{}'", k.as_str()))
+            .collect::<Vec<_>>()
+            .join(", ")
+    }
+}
+
+/// A write guarded by `state = 'running' AND lease_owner = worker` changed `rows` rows:
+/// exactly one while the worker holds the lease of job `id`, else the lease is lost.
+pub(crate) fn lease_held(rows: u64, id: &str) -> crate::Result<()> {
+    if rows == 1 {
+        Ok(())
+    } else {
+        Err(crate::StoreError::LeaseLost(id.to_string()))
+    }
+}
+
+/// The queue half of a store. Implementations must make each method atomic.
+pub trait Queue: Send + Sync + 'static {
+    fn enqueue<'a>(&'a self, j: NewJob) -> StoreFuture<'a, Job>;
+    fn get_job<'a>(&'a self, id: &'a str) -> StoreFuture<'a, Job>;
+    /// Cancels a queued job at once; asks a running one to stop (the worker sees it at its
+    /// next heartbeat). Terminal jobs are a conflict.
+    fn cancel_job<'a>(&'a self, id: &'a str) -> StoreFuture<'a, Job>;
+    /// Claims the oldest runnable job for `worker` with a lease of `lease_ms`, in one
+    /// `UPDATE … RETURNING`; counts an attempt.
+    fn claim_job<'a>(&'a self, worker: &'a str, lease_ms: i64) -> StoreFuture<'a, Option<Job>>;
+    /// Extends the lease and records progress.
+    fn heartbeat<'a>(
+        &'a self,
+        id: &'a str,
+        worker: &'a str,
+        lease_ms: i64,
+        progress: f64,
+        message: &'a str,
+    ) -> StoreFuture<'a, Heartbeat>;
+    /// Stores the result and marks the job succeeded, in one transaction, only while
+    /// `worker` holds the lease: a job completes exactly once.
+    fn complete_job<'a>(
+        &'a self,
+        id: &'a str,
+        worker: &'a str,
+        r: NewResult,
+    ) -> StoreFuture<'a, Job>;
+    /// Records a failure: back to the queue after `retry_after_ms`, or failed for good
+    /// when `None`.
+    fn fail_job<'a>(
+        &'a self,
+        id: &'a str,
+        worker: &'a str,
+        code: &'a str,
+        message: &'a str,
+        retry_after_ms: Option<i64>,
+    ) -> StoreFuture<'a, Job>;
+    /// Marks a running job whose cancellation was requested as cancelled.
+    fn finish_cancelled<'a>(&'a self, id: &'a str, worker: &'a str) -> StoreFuture<'a, Job>;
+    /// Requeues (or fails, when out of attempts) running jobs whose lease has expired;
+    /// returns how many.
+    fn reap_expired<'a>(&'a self) -> StoreFuture<'a, u64>;
+}
 
 /// What a heartbeat learnt.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
@@ -84,5 +250,19 @@ mod tests {
         assert_eq!(c.backoff_ms(4), 800);
         assert_eq!(c.backoff_ms(5), 1_000);
         assert_eq!(c.backoff_ms(60), 1_000);
+    }
+
+    #[test]
+    fn kinds_round_trip_and_import_is_not_runnable() {
+        for k in JobKind::RUNNABLE.into_iter().chain([JobKind::Import]) {
+            assert_eq!(JobKind::parse(k.as_str()), Some(k));
+            assert_eq!(serde_json::to_value(k).unwrap(), k.as_str());
+        }
+        assert!(!JobKind::RUNNABLE.contains(&JobKind::Import));
+        assert_eq!(
+            JobKind::runnable_sql_list(),
+            "'identify', 'sensitivity', 'diagnose', 'cradle', 'standards'"
+        );
+        assert_eq!(JobKind::parse("nope"), None);
     }
 }

@@ -1,17 +1,65 @@
-//! The store's story on a temporary SQLite file: machines, datasets, the queue's
-//! guarantees (exclusive claim, lease expiry, exactly-once completion, retries,
+//! The store's story, told once and run against every backend: machines, datasets, the
+//! queue's guarantees (exclusive claim, lease expiry, exactly-once completion, retries,
 //! cancellation), results and keys.
+//!
+//! Each `async fn` below takes a fresh, empty store; [`stories!`] runs it on a temporary
+//! SQLite file, and on PostgreSQL in a schema of its own when `MTCAL_TEST_PG` names a
+//! server (else that half says it skipped).
 
 use mtcal_store::*;
 use serde_json::json;
 use std::collections::BTreeMap;
 
-async fn fresh() -> (tempfile::TempDir, SqliteStore) {
+/// A fresh SQLite store in a temporary directory (kept alive by the returned guard).
+async fn sqlite() -> (tempfile::TempDir, SqliteStore) {
     let dir = tempfile::tempdir().unwrap();
     let path = dir.path().join("t.sqlite");
     let s = SqliteStore::open(path.to_str().unwrap()).await.unwrap();
     (dir, s)
 }
+
+/// One `#[tokio::test]` per backend for every story named.
+macro_rules! stories {
+    ($($story:ident),* $(,)?) => {
+        mod on_sqlite {
+            $(
+                #[tokio::test]
+                async fn $story() {
+                    let (_dir, s) = super::sqlite().await;
+                    super::$story(&s).await;
+                }
+            )*
+        }
+        mod on_postgres {
+            $(
+                #[tokio::test]
+                async fn $story() {
+                    let name = concat!("on_postgres::", stringify!($story));
+                    let Some(pg) = mtcal_store::testing::ScratchPg::create(name).await.unwrap()
+                    else {
+                        return;
+                    };
+                    let s = mtcal_store::PgStore::open(&pg.url).await.unwrap();
+                    super::$story(&s).await;
+                    pg.drop_schema().await.unwrap();
+                }
+            )*
+        }
+    };
+}
+
+stories!(
+    machines_create_update_list,
+    datasets_keep_bytes_and_reject_atomically,
+    claim_is_exclusive_and_completion_happens_once,
+    concurrent_claims_take_each_job_once,
+    expired_lease_is_reaped_and_the_old_worker_cannot_finish,
+    retries_wait_for_their_backoff_and_bad_input_fails_at_once,
+    cancellation_of_queued_and_running_jobs,
+    results_in_time_order_with_baseline,
+    figures_trend_by_name_and_bad_ones_store_nothing,
+    keys_are_found_by_secret_only,
+);
 
 fn machine(id: &str) -> Machine {
     Machine {
@@ -29,7 +77,7 @@ fn machine(id: &str) -> Machine {
 
 fn new_job(machine: &str) -> NewJob {
     NewJob {
-        kind: "identify".into(),
+        kind: JobKind::Identify,
         machine_id: Some(machine.into()),
         dataset_id: None,
         params: json!({}),
@@ -49,12 +97,11 @@ fn result(machine: &str, at: &str, ec0y: f64) -> NewResult {
             term_coefficients: BTreeMap::from([("EXX".into(), vec![0.01, 0.0, 0.0])]),
             ..Default::default()
         },
+        figures: vec![],
     }
 }
 
-#[tokio::test]
-async fn machines_create_update_list() {
-    let (_d, s) = fresh().await;
+async fn machines_create_update_list(s: &dyn Store) {
     s.create_machine(&machine("M2")).await.unwrap();
     s.create_machine(&machine("M1")).await.unwrap();
     assert!(matches!(
@@ -85,9 +132,7 @@ async fn machines_create_update_list() {
     ));
 }
 
-#[tokio::test]
-async fn datasets_keep_bytes_and_reject_atomically() {
-    let (_d, s) = fresh().await;
+async fn datasets_keep_bytes_and_reject_atomically(s: &dyn Store) {
     s.create_machine(&machine("M1")).await.unwrap();
     let files = vec![
         ("session.json".to_string(), b"{}".to_vec()),
@@ -124,9 +169,7 @@ async fn datasets_keep_bytes_and_reject_atomically() {
     assert_eq!(s.row_counts().await.unwrap(), before);
 }
 
-#[tokio::test]
-async fn claim_is_exclusive_and_completion_happens_once() {
-    let (_d, s) = fresh().await;
+async fn claim_is_exclusive_and_completion_happens_once(s: &dyn Store) {
     s.create_machine(&machine("M1")).await.unwrap();
     let j = s.enqueue(new_job("M1")).await.unwrap();
     assert_eq!(j.state, JobState::Queued);
@@ -152,9 +195,30 @@ async fn claim_is_exclusive_and_completion_happens_once() {
     assert_eq!(s.row_counts().await.unwrap().results, 1);
 }
 
-#[tokio::test]
-async fn expired_lease_is_reaped_and_the_old_worker_cannot_finish() {
-    let (_d, s) = fresh().await;
+/// Four claimers drain 40 jobs at once (each claim on its own connection): every job is
+/// claimed by exactly one of them.
+async fn concurrent_claims_take_each_job_once(s: &dyn Store) {
+    s.create_machine(&machine("M1")).await.unwrap();
+    let mut queued = Vec::new();
+    for _ in 0..40 {
+        queued.push(s.enqueue(new_job("M1")).await.unwrap().id);
+    }
+    let drain = |worker: &'static str| async move {
+        let mut got = Vec::new();
+        while let Some(j) = s.claim_job(worker, 60_000).await.unwrap() {
+            assert_eq!(j.attempts, 1, "{} claimed twice", j.id);
+            got.push(j.id);
+        }
+        got
+    };
+    let (a, b, c, d) = tokio::join!(drain("w1"), drain("w2"), drain("w3"), drain("w4"));
+    let mut claimed: Vec<String> = [a, b, c, d].concat();
+    claimed.sort();
+    queued.sort();
+    assert_eq!(claimed, queued);
+}
+
+async fn expired_lease_is_reaped_and_the_old_worker_cannot_finish(s: &dyn Store) {
     s.create_machine(&machine("M1")).await.unwrap();
     let j = s.enqueue(new_job("M1")).await.unwrap();
     s.claim_job("dead", 1).await.unwrap().unwrap();
@@ -187,9 +251,7 @@ async fn expired_lease_is_reaped_and_the_old_worker_cannot_finish() {
     assert_eq!(k.error_code.as_deref(), Some("lease_expired"));
 }
 
-#[tokio::test]
-async fn retries_wait_for_their_backoff_and_bad_input_fails_at_once() {
-    let (_d, s) = fresh().await;
+async fn retries_wait_for_their_backoff_and_bad_input_fails_at_once(s: &dyn Store) {
     s.create_machine(&machine("M1")).await.unwrap();
     let j = s.enqueue(new_job("M1")).await.unwrap();
     s.claim_job("w", 60_000).await.unwrap().unwrap();
@@ -212,9 +274,7 @@ async fn retries_wait_for_their_backoff_and_bad_input_fails_at_once() {
     assert_eq!(f.attempts, 1);
 }
 
-#[tokio::test]
-async fn cancellation_of_queued_and_running_jobs() {
-    let (_d, s) = fresh().await;
+async fn cancellation_of_queued_and_running_jobs(s: &dyn Store) {
     s.create_machine(&machine("M1")).await.unwrap();
     let q = s.enqueue(new_job("M1")).await.unwrap();
     assert_eq!(
@@ -246,9 +306,7 @@ async fn cancellation_of_queued_and_running_jobs() {
     assert_eq!(s.row_counts().await.unwrap().results, 0);
 }
 
-#[tokio::test]
-async fn results_in_time_order_with_baseline() {
-    let (_d, s) = fresh().await;
+async fn results_in_time_order_with_baseline(s: &dyn Store) {
     s.create_machine(&machine("M1")).await.unwrap();
     let late = s
         .import_result(result("M1", "2026-03-01T00:00:00Z", 3.0))
@@ -261,6 +319,8 @@ async fn results_in_time_order_with_baseline() {
     s.import_result(result("M1", "2026-02-01T00:00:00Z", 2.0))
         .await
         .unwrap();
+    // Imports are born succeeded: nothing to claim.
+    assert!(s.claim_job("w", 60_000).await.unwrap().is_none());
     let list = s.list_results("M1", "identification").await.unwrap();
     let ec: Vec<f64> = list.iter().map(|r| r.scalars.ec0y_urad.unwrap()).collect();
     assert_eq!(ec, [1.0, 2.0, 3.0]);
@@ -291,16 +351,116 @@ async fn results_in_time_order_with_baseline() {
     );
 }
 
-#[tokio::test]
-async fn keys_are_found_by_secret_only() {
-    let (_d, s) = fresh().await;
+async fn figures_trend_by_name_and_bad_ones_store_nothing(s: &dyn Store) {
+    s.create_machine(&machine("M1")).await.unwrap();
+    s.create_machine(&machine("M2")).await.unwrap();
+    let fig = |name: &str, value: f64, u: Option<f64>| Figure {
+        name: name.into(),
+        value,
+        u,
+    };
+    let with = |machine: &str, at: &str, kind: &str, figures: Vec<Figure>| NewResult {
+        kind: kind.into(),
+        figures,
+        ..result(machine, at, 0.0)
+    };
+    let late = s
+        .import_result(with(
+            "M1",
+            "2026-03-01T00:00:00Z",
+            "standards",
+            vec![fig("iso230_2.X.E_um", 3.0, Some(0.1))],
+        ))
+        .await
+        .unwrap();
+    let early = s
+        .import_result(with(
+            "M1",
+            "2026-01-01T00:00:00Z",
+            "identification",
+            vec![
+                fig("iso230_2.X.E_um", 1.0, None),
+                fig("iso230_4.XY.bi.H_um", 0.5, Some(0.02)),
+            ],
+        ))
+        .await
+        .unwrap();
+    s.import_result(with(
+        "M2",
+        "2026-02-01T00:00:00Z",
+        "identification",
+        vec![fig("iso230_2.X.E_um", 9.0, None)],
+    ))
+    .await
+    .unwrap();
+    // In time order, across result kinds, one machine only.
+    let t = s.figure_trend("M1", "iso230_2.X.E_um").await.unwrap();
+    assert_eq!(
+        t.iter()
+            .map(|p| (p.result_id.as_str(), p.value, p.u))
+            .collect::<Vec<_>>(),
+        [
+            (early.id.as_str(), 1.0, None),
+            (late.id.as_str(), 3.0, Some(0.1))
+        ]
+    );
+    assert!(
+        s.figure_trend("M1", "iso230_2.Y.E_um")
+            .await
+            .unwrap()
+            .is_empty()
+    );
+    assert_eq!(
+        s.figure_names("M1").await.unwrap(),
+        ["iso230_2.X.E_um", "iso230_4.XY.bi.H_um"]
+    );
+    let f = s.result_figures(&early.id).await.unwrap();
+    assert_eq!(f[1], fig("iso230_4.XY.bi.H_um", 0.5, Some(0.02)));
+    assert!(matches!(
+        s.result_figures("res_none").await,
+        Err(StoreError::NotFound(_))
+    ));
+    // A non-finite value, a negative uncertainty, a bad or repeated name: refused, and
+    // nothing of the result is stored.
+    let before = s.row_counts().await.unwrap();
+    assert_eq!(before.result_figures, 4);
+    for bad in [
+        vec![fig("iso230_2.X.E_um", f64::NAN, None)],
+        vec![fig("iso230_2.X.E_um", 1.0, Some(-0.1))],
+        vec![fig("iso230_2.X.E_um", 1.0, Some(f64::INFINITY))],
+        vec![fig("iso230_2.X.E um", 1.0, None)],
+        vec![fig("", 1.0, None)],
+        vec![fig("a", 1.0, None), fig("a", 2.0, None)],
+    ] {
+        let r = s
+            .import_result(with("M1", "2026-04-01T00:00:00Z", "standards", bad))
+            .await;
+        assert!(matches!(r, Err(StoreError::Invalid(_))), "{r:?}");
+    }
+    assert_eq!(s.row_counts().await.unwrap(), before);
+}
+
+async fn keys_are_found_by_secret_only(s: &dyn Store) {
     let (k, secret) = s.create_key(Scope::Write, "ci").await.unwrap();
     assert_eq!(s.key_by_secret(&secret).await.unwrap().unwrap().id, k.id);
     assert!(s.key_by_secret("mtk_wrong").await.unwrap().is_none());
-    // The secret is not in the database.
-    let stored: Vec<String> = sqlx::query_scalar("SELECT hash FROM api_keys")
-        .fetch_all(s.pool())
-        .await
-        .unwrap();
-    assert!(!stored.iter().any(|h| h.contains(&secret[4..])));
+    let (other, other_secret) = s.create_key(Scope::Read, "other").await.unwrap();
+    assert_ne!(other_secret, secret);
+    let found = s.key_by_secret(&other_secret).await.unwrap().unwrap();
+    assert_eq!((found.id, found.scope), (other.id, Scope::Read));
+}
+
+/// The secret of a key appears nowhere in the SQLite files (database and write-ahead log).
+#[tokio::test]
+async fn sqlite_keeps_no_key_secret() {
+    let (dir, s) = sqlite().await;
+    let (_, secret) = s.create_key(Scope::Admin, "ops").await.unwrap();
+    let mut bytes = Vec::new();
+    for e in std::fs::read_dir(dir.path()).unwrap() {
+        bytes.extend(std::fs::read(e.unwrap().path()).unwrap());
+    }
+    let hash = keys::hash_secret(&secret);
+    let has = |needle: &str| bytes.windows(needle.len()).any(|w| w == needle.as_bytes());
+    assert!(has(&hash), "the hash is stored, so the scan reads the data");
+    assert!(!has(&secret[4..]));
 }

@@ -1,15 +1,16 @@
 //! `/api/v1/machines/{id}/datasets` (upload) and `/api/v1/datasets/{id}` (metadata, raw
 //! files back unchanged).
 
+use crate::AppState;
+use crate::auth::{ReadKey, WriteKey};
 use crate::error::{ApiError, ErrorBody};
-use crate::ingest::{self, DatasetData};
-use crate::{AppState, auth};
+use crate::ingest;
 use axum::Json;
 use axum::body::Bytes;
 use axum::extract::{FromRequest, Multipart, Path, Request, State};
 use axum::http::{HeaderMap, HeaderValue, StatusCode, header};
 use axum::response::{IntoResponse, Response};
-use mtcal_store::{Dataset, NewDataset, Scope};
+use mtcal_store::{Dataset, Machine, NewDataset};
 use utoipa::ToSchema;
 
 /// Multipart form of a session upload: one part per file, the part's file name is the
@@ -67,70 +68,53 @@ async fn read_multipart(req: Request, s: &AppState) -> Result<Vec<(String, Vec<u
               (status = 415, body = ErrorBody, description = "unsupported_media_type"),
               (status = 422, body = ErrorBody, description = "invalid_dataset: names file, line, column and rule; nothing stored")))]
 pub async fn upload(
+    _key: WriteKey,
     State(s): State<AppState>,
     Path(machine_id): Path<String>,
     req: Request,
 ) -> Result<(StatusCode, Json<Dataset>), ApiError> {
-    auth::authorize(&s, req.headers(), Scope::Write).await?;
     let machine = s.store.get_machine(&machine_id).await?;
     let ct = media(req.headers());
     let files = if ct.starts_with("multipart/form-data") {
         read_multipart(req, &s).await?
-    } else if ct.starts_with("application/gzip")
-        || ct.starts_with("application/x-gzip")
-        || ct.starts_with("application/x-tar")
-        || ct.starts_with("application/octet-stream")
-    {
+    } else if let Some(name) = archive_name(&ct) {
         let body = Bytes::from_request(req, &s)
             .await
             .map_err(|r| ApiError::from_rejection(r.status(), r.body_text()))?;
-        ingest::untar(&body, s.limits)?
+        ingest::untar(name, &body, &s.limits)?
     } else {
         return Err(ApiError::UnsupportedMediaType(format!(
             "Content-Type {ct:?}: send multipart/form-data or application/gzip (a .tar.gz)"
         )));
     };
+    Ok((
+        StatusCode::CREATED,
+        Json(store_upload(&s, machine, files).await?),
+    ))
+}
+
+/// Reads the uploaded files as one dataset of `machine` with the strict reader of its
+/// kind and stores it (the upload route; the dashboard's upload form too). Nothing is
+/// stored when a file breaks a rule.
+pub async fn store_upload(
+    s: &AppState,
+    machine: Machine,
+    files: Vec<(String, Vec<u8>)>,
+) -> Result<Dataset, ApiError> {
     let limits = s.limits;
-    let checked = files.clone();
-    let sidecar = files
-        .iter()
-        .map(|(n, _)| n.as_str())
-        .find(|n| n.ends_with(".json") || n.ends_with(".json.gz"))
-        .unwrap_or("sidecar")
-        .to_string();
-    let data = tokio::task::spawn_blocking(move || ingest::read_dataset(&checked, limits))
-        .await
-        .map_err(|e| ApiError::Internal(e.to_string()))??;
-    // Where the file declares its machine and time (session.json, rotary sidecar), they
-    // must match the machine uploaded to and be RFC 3339; otherwise the upload time stands.
-    let (declared_machine, measured_at) = match &data {
-        DatasetData::Session(session) => (
-            Some(("session.json", session.machine_id.as_str())),
-            normalise_time(&session.measured_at)?,
-        ),
-        DatasetData::RotaryPoints(set) => (
-            set.machine_id.as_deref().map(|m| (sidecar.as_str(), m)),
-            match &set.measured_at {
-                Some(t) => normalise_time(t).map_err(|_| {
-                    ApiError::InvalidDataset(format!(
-                        "{sidecar}:0:measured_at: {t:?} is not RFC 3339"
-                    ))
-                })?,
-                None => mtcal_store::now_rfc3339(),
-            },
-        ),
-        DatasetData::Positioning(_) | DatasetData::DriftLog(_) => {
-            (None, mtcal_store::now_rfc3339())
-        }
-    };
-    if let Some((file, m)) = declared_machine
-        && m != machine.id
-    {
-        return Err(ApiError::InvalidDataset(format!(
-            "{file}: machine_id {m:?} does not match the machine {:?} uploaded to",
-            machine.id
-        )));
-    }
+    let (data, mut files) = tokio::task::spawn_blocking(move || {
+        ingest::read_dataset(&files, &limits).map(|d| (d, files))
+    })
+    .await
+    .map_err(|e| ApiError::Internal(e.to_string()))??;
+    data.check_machine(&machine.id)?;
+    let measured_at = data
+        .measured_at_utc()?
+        .unwrap_or_else(mtcal_store::now_rfc3339);
+    // Only the files read are stored (files beside a session that it does not use are
+    // ignored), in the order read.
+    files.retain(|(n, _)| data.files.contains(n));
+    files.sort_by_key(|(n, _)| data.files.iter().position(|f| f == n));
     let d = s
         .store
         .insert_dataset(NewDataset {
@@ -141,30 +125,31 @@ pub async fn upload(
             files,
         })
         .await?;
-    Ok((StatusCode::CREATED, Json(d)))
+    Ok(d)
 }
 
-/// RFC 3339 time as UTC (`…Z`), so that stored times sort as text.
-pub fn normalise_time(t: &str) -> Result<String, ApiError> {
-    use time::format_description::well_known::Rfc3339;
-    let parsed = time::OffsetDateTime::parse(t, &Rfc3339).map_err(|_| {
-        ApiError::InvalidDataset(format!("session.json:0:measured_at: {t:?} is not RFC 3339"))
-    })?;
-    parsed
-        .to_offset(time::UtcOffset::UTC)
-        .format(&Rfc3339)
-        .map_err(|e| ApiError::Internal(e.to_string()))
+/// The archive name a body of this media type is read as (its gzip-ness is checked
+/// against the content, as for any `.gz` file name).
+fn archive_name(media_type: &str) -> Option<&'static str> {
+    if media_type.starts_with("application/gzip") || media_type.starts_with("application/x-gzip") {
+        Some("upload.tar.gz")
+    } else if media_type.starts_with("application/x-tar")
+        || media_type.starts_with("application/octet-stream")
+    {
+        Some("upload.tar")
+    } else {
+        None
+    }
 }
 
 #[utoipa::path(operation_id = "datasets_get", get, path = "/api/v1/datasets/{id}", tag = "datasets",
     security(("api_key" = [])), params(("id" = String, Path)),
     responses((status = 200, body = Dataset), (status = 404, body = ErrorBody)))]
 pub async fn get(
+    _key: ReadKey,
     State(s): State<AppState>,
-    headers: HeaderMap,
     Path(id): Path<String>,
 ) -> Result<Json<Dataset>, ApiError> {
-    auth::authorize(&s, &headers, Scope::Read).await?;
     Ok(Json(s.store.get_dataset(&id).await?))
 }
 
@@ -174,11 +159,10 @@ pub async fn get(
                content_type = "application/octet-stream", body = Vec<u8>),
               (status = 404, body = ErrorBody)))]
 pub async fn file(
+    _key: ReadKey,
     State(s): State<AppState>,
-    headers: HeaderMap,
     Path((id, name)): Path<(String, String)>,
 ) -> Result<Response, ApiError> {
-    auth::authorize(&s, &headers, Scope::Read).await?;
     let meta = s.store.get_dataset(&id).await?;
     let f = meta
         .files

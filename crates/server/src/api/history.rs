@@ -1,13 +1,13 @@
 //! History by machine: all results in time order, the latest, one result, and the
 //! difference from a baseline.
 
+use crate::AppState;
+use crate::auth::ReadKey;
 use crate::error::{ApiError, ApiQuery, ErrorBody};
 use crate::trends::{self, TermDiff};
-use crate::{AppState, auth};
 use axum::Json;
 use axum::extract::{Path, State};
-use axum::http::HeaderMap;
-use mtcal_store::{ResultMeta, Scope, StoredResult};
+use mtcal_store::{Figure, ResultMeta, StoredResult};
 use serde::{Deserialize, Serialize};
 use std::collections::BTreeMap;
 use utoipa::{IntoParams, ToSchema};
@@ -17,7 +17,8 @@ pub const KIND: &str = "identification";
 
 #[derive(Debug, Deserialize, IntoParams)]
 pub struct KindQuery {
-    /// Result kind: `identification` (default), `diagnosis`, `cradle` or `sensitivity`.
+    /// Result kind: `identification` (default), `diagnosis`, `cradle`, `standards` or
+    /// `sensitivity`.
     pub kind: Option<String>,
 }
 
@@ -26,27 +27,34 @@ pub struct KindQuery {
     responses((status = 200, body = Vec<ResultMeta>, description = "in time order (measured_at)"),
               (status = 404, body = ErrorBody)))]
 pub async fn list(
+    _key: ReadKey,
     State(s): State<AppState>,
-    headers: HeaderMap,
     Path(id): Path<String>,
     ApiQuery(q): ApiQuery<KindQuery>,
 ) -> Result<Json<Vec<ResultMeta>>, ApiError> {
-    auth::authorize(&s, &headers, Scope::Read).await?;
-    s.store.get_machine(&id).await?;
-    let kind = q.kind.as_deref().unwrap_or(KIND);
-    Ok(Json(s.store.list_results(&id, kind).await?))
+    Ok(Json(results(&s, &id, q.kind.as_deref()).await?))
+}
+
+/// The results of kind `kind` (default identification) of machine `id` in time order
+/// (`GET …/results`; the dashboard's machine page too).
+pub async fn results(
+    s: &AppState,
+    id: &str,
+    kind: Option<&str>,
+) -> Result<Vec<ResultMeta>, ApiError> {
+    s.store.get_machine(id).await?;
+    Ok(s.store.list_results(id, kind.unwrap_or(KIND)).await?)
 }
 
 #[utoipa::path(operation_id = "history_latest", get, path = "/api/v1/machines/{id}/results/latest", tag = "history",
     security(("api_key" = [])), params(("id" = String, Path), KindQuery),
     responses((status = 200, body = StoredResult), (status = 404, body = ErrorBody)))]
 pub async fn latest(
+    _key: ReadKey,
     State(s): State<AppState>,
-    headers: HeaderMap,
     Path(id): Path<String>,
     ApiQuery(q): ApiQuery<KindQuery>,
 ) -> Result<Json<StoredResult>, ApiError> {
-    auth::authorize(&s, &headers, Scope::Read).await?;
     s.store.get_machine(&id).await?;
     let last = s
         .store
@@ -61,12 +69,23 @@ pub async fn latest(
     security(("api_key" = [])), params(("id" = String, Path)),
     responses((status = 200, body = StoredResult), (status = 404, body = ErrorBody)))]
 pub async fn get(
+    _key: ReadKey,
     State(s): State<AppState>,
-    headers: HeaderMap,
     Path(id): Path<String>,
 ) -> Result<Json<StoredResult>, ApiError> {
-    auth::authorize(&s, &headers, Scope::Read).await?;
     Ok(Json(s.store.get_result(&id).await?))
+}
+
+#[utoipa::path(operation_id = "history_figures", get, path = "/api/v1/results/{id}/figures", tag = "history",
+    security(("api_key" = [])), params(("id" = String, Path)),
+    responses((status = 200, body = Vec<Figure>, description = "the result's named figures (standards), by name"),
+              (status = 404, body = ErrorBody)))]
+pub async fn figures(
+    _key: ReadKey,
+    State(s): State<AppState>,
+    Path(id): Path<String>,
+) -> Result<Json<Vec<Figure>>, ApiError> {
+    Ok(Json(s.store.result_figures(&id).await?))
 }
 
 #[derive(Debug, Deserialize, IntoParams)]
@@ -95,14 +114,19 @@ pub struct ResultDiff {
     security(("api_key" = [])), params(("id" = String, Path), DiffQuery),
     responses((status = 200, body = ResultDiff), (status = 404, body = ErrorBody)))]
 pub async fn diff(
+    _key: ReadKey,
     State(s): State<AppState>,
-    headers: HeaderMap,
     Path(id): Path<String>,
     ApiQuery(q): ApiQuery<DiffQuery>,
 ) -> Result<Json<ResultDiff>, ApiError> {
-    auth::authorize(&s, &headers, Scope::Read).await?;
-    let machine = s.store.get_machine(&id).await?;
-    let all = s.store.list_results(&id, KIND).await?;
+    Ok(Json(diff_results(&s, &id, &q).await?))
+}
+
+/// The difference of two results of machine `id` (`GET …/results/diff`; the
+/// dashboard's compare page too).
+pub async fn diff_results(s: &AppState, id: &str, q: &DiffQuery) -> Result<ResultDiff, ApiError> {
+    let machine = s.store.get_machine(id).await?;
+    let all = s.store.list_results(id, KIND).await?;
     let pick =
         |rid: Option<&String>, default: Option<&ResultMeta>| -> Result<ResultMeta, ApiError> {
             match rid {
@@ -128,12 +152,12 @@ pub async fn diff(
         ));
     }
     let (terms, squareness) = trends::diff(&machine, &baseline.scalars, &against.scalars, step);
-    Ok(Json(ResultDiff {
-        machine_id: id,
+    Ok(ResultDiff {
+        machine_id: id.to_string(),
         drift: trends::drift(&machine, &baseline.scalars, &against.scalars),
         baseline,
         against,
         terms,
         squareness,
-    }))
+    })
 }

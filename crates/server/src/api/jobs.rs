@@ -1,12 +1,13 @@
 //! `/api/v1/jobs`: submit, status with progress, result, cancel.
 
+use crate::AppState;
+use crate::auth::{ReadKey, WriteKey};
 use crate::error::{ApiError, ApiJson, ErrorBody};
 use crate::jobs::{self, JobKind};
-use crate::{AppState, auth};
 use axum::Json;
 use axum::extract::{Path, State};
-use axum::http::{HeaderMap, StatusCode};
-use mtcal_store::{Job, JobState, NewJob, Scope};
+use axum::http::StatusCode;
+use mtcal_store::{Job, JobState, NewJob};
 use serde::{Deserialize, Serialize};
 use utoipa::ToSchema;
 
@@ -33,11 +34,15 @@ pub struct SubmitJob {
     responses((status = 202, body = Job), (status = 400, body = ErrorBody),
               (status = 404, body = ErrorBody)))]
 pub async fn submit(
+    _key: WriteKey,
     State(s): State<AppState>,
-    headers: HeaderMap,
     ApiJson(j): ApiJson<SubmitJob>,
 ) -> Result<(StatusCode, Json<Job>), ApiError> {
-    auth::authorize(&s, &headers, Scope::Write).await?;
+    Ok((StatusCode::ACCEPTED, Json(submit_job(&s, j).await?)))
+}
+
+/// Checks and enqueues a job (`POST /api/v1/jobs`; the dashboard's upload form too).
+pub async fn submit_job(s: &AppState, j: SubmitJob) -> Result<Job, ApiError> {
     let params = if j.params.is_null() {
         serde_json::json!({})
     } else {
@@ -78,7 +83,7 @@ pub async fn submit(
     let job = s
         .store
         .enqueue(NewJob {
-            kind: j.kind.as_str().into(),
+            kind: j.kind,
             machine_id: Some(machine_id),
             dataset_id: j.dataset_id,
             params,
@@ -86,18 +91,17 @@ pub async fn submit(
         })
         .await?;
     s.wake.notify_one();
-    Ok((StatusCode::ACCEPTED, Json(job)))
+    Ok(job)
 }
 
 #[utoipa::path(operation_id = "jobs_get", get, path = "/api/v1/jobs/{id}", tag = "jobs",
     security(("api_key" = [])), params(("id" = String, Path)),
     responses((status = 200, body = Job), (status = 404, body = ErrorBody)))]
 pub async fn get(
+    _key: ReadKey,
     State(s): State<AppState>,
-    headers: HeaderMap,
     Path(id): Path<String>,
 ) -> Result<Json<Job>, ApiError> {
-    auth::authorize(&s, &headers, Scope::Read).await?;
     Ok(Json(s.store.get_job(&id).await?))
 }
 
@@ -107,11 +111,10 @@ pub async fn get(
               (status = 409, body = ErrorBody, description = "job_not_finished, or the job failed"),
               (status = 404, body = ErrorBody)))]
 pub async fn result(
+    _key: ReadKey,
     State(s): State<AppState>,
-    headers: HeaderMap,
     Path(id): Path<String>,
 ) -> Result<Json<serde_json::Value>, ApiError> {
-    auth::authorize(&s, &headers, Scope::Read).await?;
     let job = s.store.get_job(&id).await?;
     match (job.state, &job.result_id) {
         (JobState::Succeeded, Some(r)) => Ok(Json(s.store.get_result(r).await?.document)),
@@ -132,10 +135,9 @@ pub async fn result(
     responses((status = 200, body = Job, description = "cancelled, or cancellation requested of a running job"),
               (status = 409, body = ErrorBody, description = "the job already finished")))]
 pub async fn cancel(
+    _key: WriteKey,
     State(s): State<AppState>,
-    headers: HeaderMap,
     Path(id): Path<String>,
 ) -> Result<Json<Job>, ApiError> {
-    auth::authorize(&s, &headers, Scope::Write).await?;
     Ok(Json(s.store.cancel_job(&id).await?))
 }

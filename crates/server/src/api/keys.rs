@@ -1,10 +1,11 @@
 //! `/api/v1/keys` (admin): create API keys.
 
+use crate::AppState;
+use crate::auth::AdminKey;
 use crate::error::{ApiError, ApiJson, ErrorBody};
-use crate::{AppState, auth};
 use axum::Json;
 use axum::extract::State;
-use axum::http::{HeaderMap, StatusCode};
+use axum::http::StatusCode;
 use mtcal_store::{ApiKey, Scope};
 use serde::{Deserialize, Serialize};
 use utoipa::ToSchema;
@@ -27,11 +28,10 @@ pub struct CreatedKey {
     security(("api_key" = [])),
     responses((status = 201, body = CreatedKey), (status = 403, body = ErrorBody)))]
 pub async fn create(
+    _key: AdminKey,
     State(s): State<AppState>,
-    headers: HeaderMap,
     ApiJson(k): ApiJson<NewKey>,
 ) -> Result<(StatusCode, Json<CreatedKey>), ApiError> {
-    auth::authorize(&s, &headers, Scope::Admin).await?;
     let (key, secret) = s.store.create_key(k.scope, &k.label).await?;
     Ok((StatusCode::CREATED, Json(CreatedKey { key, secret })))
 }

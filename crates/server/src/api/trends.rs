@@ -1,14 +1,15 @@
-//! Trends: a term's value at chosen positions over time, summary figures over time, and
-//! the fleet ranked by drift since each machine's baseline.
+//! Trends: a term's value at chosen positions over time, summary figures over time, a
+//! named figure of the standards over time, and the fleet ranked by drift since each
+//! machine's baseline.
 
+use crate::AppState;
 use crate::api::history::KIND;
+use crate::auth::ReadKey;
 use crate::error::{ApiError, ApiQuery, ErrorBody};
 use crate::trends::{self, Drift};
-use crate::{AppState, auth};
 use axum::Json;
 use axum::extract::{Path, State};
-use axum::http::HeaderMap;
-use mtcal_store::Scope;
+use mtcal_store::FigurePoint;
 use serde::{Deserialize, Serialize};
 use utoipa::{IntoParams, ToSchema};
 
@@ -43,12 +44,17 @@ pub struct TermTrend {
     responses((status = 200, body = TermTrend), (status = 400, body = ErrorBody),
               (status = 404, body = ErrorBody)))]
 pub async fn term(
+    _key: ReadKey,
     State(s): State<AppState>,
-    headers: HeaderMap,
     Path(id): Path<String>,
     ApiQuery(q): ApiQuery<TermQuery>,
 ) -> Result<Json<TermTrend>, ApiError> {
-    auth::authorize(&s, &headers, Scope::Read).await?;
+    Ok(Json(term_trend(&s, &id, q).await?))
+}
+
+/// A term at positions over time (`GET …/trends/term`; the dashboard's machine page
+/// too).
+pub async fn term_trend(s: &AppState, id: &str, q: TermQuery) -> Result<TermTrend, ApiError> {
     let (unit, _) = trends::term_info(&q.term).ok_or_else(|| {
         ApiError::InvalidRequest(format!(
             "term {:?} is not one of the 18 ISO 230-1 functions",
@@ -66,10 +72,10 @@ pub async fn term(
                     q.at
                 ))
             })?;
-    s.store.get_machine(&id).await?;
+    s.store.get_machine(id).await?;
     let points = s
         .store
-        .list_results(&id, KIND)
+        .list_results(id, KIND)
         .await?
         .into_iter()
         .map(|r| {
@@ -84,13 +90,13 @@ pub async fn term(
             }
         })
         .collect();
-    Ok(Json(TermTrend {
-        machine_id: id,
+    Ok(TermTrend {
+        machine_id: id.to_string(),
         term: q.term,
         unit: unit.into(),
         positions_mm: positions,
         points,
-    }))
+    })
 }
 
 #[derive(Debug, Clone, Serialize, Deserialize, ToSchema)]
@@ -116,15 +122,20 @@ pub struct SummaryTrend {
     security(("api_key" = [])), params(("id" = String, Path)),
     responses((status = 200, body = SummaryTrend), (status = 404, body = ErrorBody)))]
 pub async fn summary(
+    _key: ReadKey,
     State(s): State<AppState>,
-    headers: HeaderMap,
     Path(id): Path<String>,
 ) -> Result<Json<SummaryTrend>, ApiError> {
-    auth::authorize(&s, &headers, Scope::Read).await?;
-    s.store.get_machine(&id).await?;
+    Ok(Json(summary_trend(&s, &id).await?))
+}
+
+/// Residual, conditioning, rank and squareness over time (`GET …/trends/summary`; the
+/// dashboard's machine page too).
+pub async fn summary_trend(s: &AppState, id: &str) -> Result<SummaryTrend, ApiError> {
+    s.store.get_machine(id).await?;
     let points = s
         .store
-        .list_results(&id, KIND)
+        .list_results(id, KIND)
         .await?
         .into_iter()
         .map(|r| SummaryPoint {
@@ -138,9 +149,61 @@ pub async fn summary(
             ea0z_urad: r.scalars.ea0z_urad,
         })
         .collect();
-    Ok(Json(SummaryTrend {
-        machine_id: id,
+    Ok(SummaryTrend {
+        machine_id: id.to_string(),
         points,
+    })
+}
+
+#[derive(Debug, Deserialize, IntoParams)]
+pub struct FigureQuery {
+    /// Figure name, e.g. `iso230_2.X.E_um` or `iso230_4.XY.bi.H_um` (docs/standards.md);
+    /// absent: list the names stored for the machine.
+    pub name: Option<String>,
+}
+
+#[derive(Debug, Clone, Serialize, Deserialize, ToSchema)]
+pub struct FigureTrend {
+    pub machine_id: String,
+    /// The figure, or null when the names are listed.
+    pub name: Option<String>,
+    /// In time order, from results of every kind that carry the figure
+    /// (`identification`, `standards`).
+    pub points: Vec<FigurePoint>,
+    /// Every figure name stored for the machine (when no name was given).
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    pub names: Vec<String>,
+}
+
+#[utoipa::path(operation_id = "trends_figure", get, path = "/api/v1/machines/{id}/trends/figure", tag = "trends",
+    security(("api_key" = [])), params(("id" = String, Path), FigureQuery),
+    responses((status = 200, body = FigureTrend), (status = 400, body = ErrorBody),
+              (status = 404, body = ErrorBody)))]
+pub async fn figure(
+    _key: ReadKey,
+    State(s): State<AppState>,
+    Path(id): Path<String>,
+    ApiQuery(q): ApiQuery<FigureQuery>,
+) -> Result<Json<FigureTrend>, ApiError> {
+    s.store.get_machine(&id).await?;
+    let Some(name) = q.name else {
+        return Ok(Json(FigureTrend {
+            names: s.store.figure_names(&id).await?,
+            machine_id: id,
+            name: None,
+            points: vec![],
+        }));
+    };
+    if !mtcal_store::rules::valid_figure_name(&name) {
+        return Err(ApiError::InvalidRequest(format!(
+            "name {name:?}: a figure name such as iso230_2.X.E_um"
+        )));
+    }
+    Ok(Json(FigureTrend {
+        points: s.store.figure_trend(&id, &name).await?,
+        machine_id: id,
+        name: Some(name),
+        names: vec![],
     }))
 }
 
@@ -177,11 +240,16 @@ pub struct FleetDrift {
     security(("api_key" = [])), params(FleetQuery),
     responses((status = 200, body = FleetDrift), (status = 400, body = ErrorBody)))]
 pub async fn fleet(
+    _key: ReadKey,
     State(s): State<AppState>,
-    headers: HeaderMap,
     ApiQuery(q): ApiQuery<FleetQuery>,
 ) -> Result<Json<FleetDrift>, ApiError> {
-    auth::authorize(&s, &headers, Scope::Read).await?;
+    Ok(Json(fleet_drift(&s, q).await?))
+}
+
+/// The fleet ranked by drift (`GET /api/v1/fleet/drift`; the dashboard's fleet page
+/// too).
+pub async fn fleet_drift(s: &AppState, q: FleetQuery) -> Result<FleetDrift, ApiError> {
     let by = q.by.unwrap_or_else(|| "um".into());
     if by != "um" && by != "urad" {
         return Err(ApiError::InvalidRequest("by: `um` or `urad`".into()));
@@ -215,11 +283,11 @@ pub async fn fleet(
             .then_with(|| a.machine_id.cmp(&b.machine_id))
     });
     machines.truncate(q.limit.unwrap_or(50).max(1));
-    Ok(Json(FleetDrift {
+    Ok(FleetDrift {
         definition: "largest change since the baseline result (the machine's chosen baseline, \
                      else its first) of any term over 41 points of the registered travel"
             .into(),
         ranked_by: by,
         machines,
-    }))
+    })
 }

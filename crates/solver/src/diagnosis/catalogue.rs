@@ -9,9 +9,12 @@
 //! | reversal_spike | −d·exp(−s/λ) → height h, µm | decay λ, mm |
 //! | cyclic | sin, cos(2π q/P) → amplitude, phase | period P, mm |
 //! | thermal_drift | g(t)·q_j·10⁻³ and g(t) per direction j, g = 1 − e^(−t/T) → scale ppm, offset µm | T, s |
+//! | thermal_drift (temperature) | ΔT·q_j·10⁻³ and ΔT per direction j, ΔT the logged temperature's change → ppm/K, µm/K | — |
 //! | setup_offset | (Σ_k ε_k(q_k)) × e_j ·10⁻³ on one head-offset group → Δt_j, mm | — |
 //! | model_order | Legendre P_4..P_10 of the axis position, along one direction | — |
 //! | vibration | sin, cos(2π f t) → amplitude, phase | frequency f, Hz |
+//! | waviness (signature) | sin, cos(2π q_a/P) along a direction j ≠ a → amplitude, phase | period P, mm |
+//! | velocity_coupling (signature) | v_a along a direction j ≠ a → coefficient, µm per mm/s | — |
 
 use super::design::{Design, SampleMeta};
 use super::linalg::Cols;
@@ -43,6 +46,20 @@ impl Candidate {
             s += &format!(" at t = {g:?}");
         }
         s
+    }
+}
+
+/// For an effect found by its signature (outside the named catalogue): the signature in
+/// words, e.g. "a Y error periodic in the X position (period 16.0 mm)".
+pub fn signature(c: &Candidate, theta: Option<f64>) -> Option<String> {
+    let (a, j) = (c.axis?, c.direction?);
+    match c.effect {
+        "waviness" => Some(format!(
+            "a {j} error periodic in the {a} position (period {:.1} mm)",
+            theta.map_or(f64::NAN, |f| 1.0 / f)
+        )),
+        "velocity_coupling" => Some(format!("a {j} error that follows the {a} velocity")),
+        _ => None,
     }
 }
 
@@ -91,8 +108,18 @@ pub fn candidates(d: &Design) -> Vec<Candidate> {
         for dir in Axis::ALL {
             out.push(c("model_order", Some(a), Some(dir), None));
         }
+        // Signatures beyond the named catalogue: an error across the axis periodic in
+        // its position, or following its velocity.
+        for dir in Axis::ALL.into_iter().filter(|&j| j != a) {
+            out.push(c("waviness", Some(a), Some(dir), None));
+            out.push(c("velocity_coupling", Some(a), Some(dir), None));
+        }
     }
     out.push(c("thermal_drift", None, None, None));
+    // Logged temperatures: growth that follows the temperature, whatever its course.
+    if d.samples.iter().all(|s| s.temp_k.is_some()) {
+        out.push(c("thermal_temperature", None, None, None));
+    }
     for dir in Axis::ALL {
         out.push(c("vibration", None, Some(dir), None));
     }
@@ -145,14 +172,21 @@ pub fn search(d: &Design, c: &Candidate) -> Search {
                 (0..14).map(|i| span * 0.05 * 1.45f64.powi(i)).collect(),
             )
         }
-        "cyclic" => {
+        "cyclic" | "waviness" => {
             let travel = c
                 .axis
                 .and_then(|a| d.travel[a.index()])
                 .map_or(100.0, |[lo, hi]| hi - lo);
+            // A screw's cyclic error has a short period (≤ 30 mm); a guideway's waviness
+            // any period from 1.5 cycles over the travel.
+            let f_lo = if c.effect == "cyclic" {
+                1.0 / 30.0
+            } else {
+                1.5 / travel
+            };
             Search::Periodic {
                 name: "period_mm",
-                f_lo: 1.0 / 30.0,
+                f_lo,
                 f_hi: 1.0 / 2.0,
                 coarse_step: 0.25 / travel,
                 fine_step: 0.02 / travel,
@@ -177,21 +211,23 @@ pub fn search(d: &Design, c: &Candidate) -> Search {
 }
 
 /// Columns of a candidate at nonlinear value `theta` (ignored when it has none), with the
-/// names (and units) of their coefficients. `eps` is Σ_k ε_k(q_k) (µrad) per sample, for
-/// setup_offset.
+/// names (and units) of their coefficients and each column's largest |value| before
+/// centring. `eps` is Σ_k ε_k(q_k) (µrad) per sample, for setup_offset.
 pub fn columns(
     d: &Design,
     c: &Candidate,
     theta: f64,
     eps: Option<&[[f64; 3]]>,
-) -> (Cols, Vec<String>) {
+) -> (Cols, Vec<String>, Vec<f64>) {
     let mut cols = Vec::new();
     let mut names = Vec::new();
+    let mut peaks = Vec::new();
     let mut push = |axis: Axis, name: String, f: &dyn Fn(&SampleMeta) -> f64| {
-        let col = d.effect_column(axis, f);
+        let (col, peak) = d.effect_column_peak(axis, f);
         if col.iter().any(|v| v.abs() > 1e-12) {
             cols.push(col);
             names.push(name);
+            peaks.push(peak);
         }
     };
     match c.effect {
@@ -215,12 +251,20 @@ pub fn columns(
                 }
             });
         }
-        "cyclic" => {
+        "cyclic" | "waviness" => {
+            // Along the axis itself (cyclic) or across it (waviness).
             let a = c.axis.expect("axis");
+            let dir = c.direction.unwrap_or(a);
             let i = a.index();
             let w = 2.0 * PI * theta;
-            push(a, "sin".into(), &|s| (w * s.q_mm[i]).sin());
-            push(a, "cos".into(), &|s| (w * s.q_mm[i]).cos());
+            push(dir, "sin".into(), &|s| (w * s.q_mm[i]).sin());
+            push(dir, "cos".into(), &|s| (w * s.q_mm[i]).cos());
+        }
+        "velocity_coupling" => {
+            let (a, dir) = (c.axis.expect("axis"), c.direction.expect("direction"));
+            push(dir, "coefficient_um_per_mm_s".into(), &|s| {
+                s.vel_mm_s[a.index()]
+            });
         }
         "vibration" => {
             let dir = c.direction.expect("direction");
@@ -241,11 +285,24 @@ pub fn columns(
                 });
             }
         }
+        "thermal_temperature" => {
+            for j in Axis::ALL {
+                let i = j.index();
+                push(j, format!("scale_ppm_per_k_{j}"), &|s| {
+                    s.temp_k.unwrap_or(0.0) * s.q_mm[i] * 1e-3
+                });
+            }
+            for j in Axis::ALL {
+                push(j, format!("offset_um_per_k_{j}"), &|s| {
+                    s.temp_k.unwrap_or(0.0)
+                });
+            }
+        }
         "model_order" => {
             let a = c.axis.expect("axis");
             let dir = c.direction.expect("direction");
             let Some([lo, hi]) = d.travel[a.index()] else {
-                return (cols, names);
+                return (cols, names, peaks);
             };
             let (cen, h) = (0.5 * (lo + hi), (0.5 * (hi - lo)).max(1.0));
             for k in 4..=10 {
@@ -256,7 +313,7 @@ pub fn columns(
         }
         "setup_offset" => {
             let (Some(g), Some(eps)) = (c.group, eps) else {
-                return (cols, names);
+                return (cols, names, peaks);
             };
             for j in Axis::ALL {
                 // (ε × e_j)[read axis] · 10⁻³ on the group's samples.
@@ -271,45 +328,29 @@ pub fn columns(
                     ej[j.index()] = 1.0;
                     *slot = e.cross(&ej)[d.row_axis(r).index()] * 1e-3;
                 }
-                d.centre(&mut col);
+                let peak = d.centre_with_peak(&mut col);
                 if col.iter().any(|v| v.abs() > 1e-12) {
                     cols.push(col);
                     names.push(format!("delta_mm_{j}"));
+                    peaks.push(peak);
                 }
             }
         }
         _ => {}
     }
-    (cols, names)
+    (cols, names, peaks)
 }
 
-/// A one-sentence physics statement per effect.
-pub fn physics(effect: &str) -> &'static str {
+/// The effect name a candidate is reported under (the temperature-driven thermal model
+/// is a form of `thermal_drift`).
+pub fn reported_name(effect: &'static str) -> &'static str {
     match effect {
-        "backlash" => {
-            "lost motion at direction reversal of the axis drive (clearance in the screw, nut or coupling); the rigid-body model has no memory of the direction of travel"
-        }
-        "servo_lag" => {
-            "servo following error: the axis lags its set-point in proportion to velocity; the rigid-body model is static, position-only"
-        }
-        "reversal_spike" => {
-            "friction transient at an axis reversal (stick-slip, quadrant glitch) decaying with the travel after the reversal; not in a static geometric model"
-        }
-        "cyclic" => {
-            "periodic positioning error with the period of the screw lead (screw or encoder cyclic error), beyond the polynomial's order"
-        }
-        "thermal_drift" => {
-            "thermal growth of the structure over the session (first-order response): offsets and axis scale change with time, the rigid model is time-invariant"
-        }
-        "setup_offset" => {
-            "the declared head offset of these files differs from the true one, so the Abbe arms of the angular errors are wrong"
-        }
-        "model_order" => {
-            "position-bound, repeatable error with more waviness than the polynomial order can follow (guideway or scale waviness)"
-        }
-        "vibration" => {
-            "time-periodic motion of the tool relative to the workpiece (vibration), not bound to position"
-        }
-        _ => "unmodelled effect",
+        "thermal_temperature" => "thermal_drift",
+        e => e,
     }
+}
+
+/// The physics sentence of an effect (the shared table of [`super::effects`]).
+pub fn physics(effect: &str) -> &'static str {
+    super::effects::spec(effect).map_or("unmodelled effect", |e| e.physics)
 }

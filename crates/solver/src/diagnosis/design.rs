@@ -35,6 +35,9 @@ pub struct SampleMeta {
     pub head_mm: [f64; 3],
     /// Whether the sample is part of a line pass or a circle, for the residual split.
     pub test: TestKind,
+    /// Logged temperature minus the session's first logged temperature (K), when every
+    /// run logs `temp_c`.
+    pub temp_k: Option<f64>,
 }
 
 /// One run's place in the session.
@@ -85,29 +88,50 @@ impl Design {
     }
 
     /// A column with `f(sample)` on the rows that read along `axis` (0 elsewhere),
-    /// centred per (run, component) like the rigid model's columns.
-    pub fn effect_column(&self, axis: Axis, f: impl Fn(&SampleMeta) -> f64) -> Vec<f64> {
+    /// centred per (run, component) like the rigid model's columns, and its size as a
+    /// machine error per unit coefficient ([`Self::centre_with_peak`]).
+    pub fn effect_column_peak(
+        &self,
+        axis: Axis,
+        f: impl Fn(&SampleMeta) -> f64,
+    ) -> (Vec<f64>, f64) {
         let mut c = vec![0.0; self.rows()];
         for (r, slot) in c.iter_mut().enumerate() {
             if self.row_axis(r) == axis {
                 *slot = f(&self.samples[r / 2]);
             }
         }
-        self.centre(&mut c);
-        c
+        let peak = self.centre_with_peak(&mut c);
+        (c, peak)
+    }
+
+    /// Centres `c` per (run, component) and returns the largest |value| before centring
+    /// over the (run, component) groups where the column varies: where it is constant the
+    /// run's zero offset absorbs it, and its value there (e.g. a function evaluated at a
+    /// parked position outside the travel) says nothing of the effect's size.
+    pub fn centre_with_peak(&self, c: &mut [f64]) -> f64 {
+        let mut peak = 0.0f64;
+        for run in &self.runs {
+            for comp in 0..2 {
+                let rows = (run.start..run.end).map(|s| 2 * s + comp);
+                let n = (run.end - run.start) as f64;
+                let m: f64 = rows.clone().map(|r| c[r]).sum::<f64>() / n;
+                let raw = rows.clone().fold(0.0f64, |a, r| a.max(c[r].abs()));
+                let dev = rows.clone().fold(0.0f64, |a, r| a.max((c[r] - m).abs()));
+                if dev > 1e-9 * raw.max(1e-300) {
+                    peak = peak.max(raw);
+                }
+                for r in rows {
+                    c[r] -= m;
+                }
+            }
+        }
+        peak
     }
 
     /// Removes the mean of each (run, component).
     pub fn centre(&self, c: &mut [f64]) {
-        for run in &self.runs {
-            for comp in 0..2 {
-                let n = (run.end - run.start) as f64;
-                let m: f64 = (run.start..run.end).map(|s| c[2 * s + comp]).sum::<f64>() / n;
-                for s in run.start..run.end {
-                    c[2 * s + comp] -= m;
-                }
-            }
-        }
+        self.centre_with_peak(c);
     }
 
     /// Rows of the runs for which `keep(run)` holds.
@@ -177,6 +201,11 @@ pub fn build(session: &Session, topology: &Topology, order: usize) -> Result<Des
     let mut runs = Vec::new();
     let mut plane_axes = Vec::new();
     let mut y = Vec::with_capacity(2 * session.sample_count());
+    let all_runs = || session.planes.iter().flat_map(|p| &p.runs);
+    let temp0 = all_runs()
+        .all(|r| r.temp_c.as_ref().is_some_and(|t| t.len() == r.len()))
+        .then(|| all_runs().find_map(|r| r.temp_c.as_ref()?.first().copied()))
+        .flatten();
     for (pi, p) in session.planes.iter().enumerate() {
         plane_axes.push(p.plane.axes());
         // Travel state through the file, approach moves between runs included.
@@ -208,6 +237,7 @@ pub fn build(session: &Session, topology: &Topology, order: usize) -> Result<Des
                     since_reversal_mm: since,
                     head_mm: p.head_offset_mm,
                     test,
+                    temp_k: temp0.and_then(|t0| Some(run.temp_c.as_ref()?[i] - t0)),
                 });
                 y.push(run.du_um[i]);
                 y.push(run.dv_um[i]);

@@ -104,24 +104,31 @@ impl Projector {
     }
 }
 
-/// Small dense least squares min ‖B c − y‖ by SVD (B has few columns); returns the
-/// coefficients and their unit-variance standard deviations √diag((BᵀB)⁺), computed from
-/// the SVD (V Σ⁻¹ row norms), or `None` when B has no usable column.
+/// Small dense least squares min ‖B c − y‖ (B has few columns, many rows): a thin
+/// Householder QR of [B | y] (faer) reduces it to the (m + 1)-square triangle, whose
+/// leading m × m block R is solved by SVD. Returns the coefficients and their
+/// unit-variance standard deviations √diag((BᵀB)⁺) = row norms of V Σ⁻¹ (from R's SVD:
+/// BᵀB = RᵀR), or `None` when B has no usable column.
 pub fn small_lstsq(b: &Cols, y: &[f64]) -> Option<(DVector<f64>, DVector<f64>)> {
     let m = b.len();
     let n = y.len();
     if m == 0 || n < m {
         return None;
     }
-    let bm = DMatrix::from_fn(n, m, |i, j| b[j][i]);
-    let svd = bm.svd(true, true);
+    let bm = faer::Mat::<f64>::from_fn(n, m + 1, |i, j| if j < m { b[j][i] } else { y[i] });
+    let qr = bm.qr();
+    let r = qr.thin_R();
+    let k = r.nrows().min(m);
+    let rm = DMatrix::from_fn(m, m, |i, j| if i < k && j >= i { r[(i, j)] } else { 0.0 });
+    let qty = DVector::from_fn(m, |i, _| if i < k { r[(i, m)] } else { 0.0 });
+    let svd = rm.svd(true, true);
     let s = &svd.singular_values;
     let smax = s.iter().cloned().fold(0.0, f64::max);
     if smax <= 0.0 {
         return None;
     }
     let tol = 1e-9 * smax;
-    let c = svd.solve(&DVector::from_column_slice(y), tol).ok()?;
+    let c = svd.solve(&qty, tol).ok()?;
     let vt = svd.v_t.as_ref()?;
     let sd = DVector::from_fn(m, |i, _| {
         (0..s.len())
@@ -131,4 +138,24 @@ pub fn small_lstsq(b: &Cols, y: &[f64]) -> Option<(DVector<f64>, DVector<f64>)> 
             .sqrt()
     });
     Some((c, sd))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// Against a fit worked by hand: y = 2 + 3x at x = 0, 1, 2, 3 plus residuals
+    /// (+1, −1, −1, +1) orthogonal to both columns; (BᵀB)⁻¹ = [[7, −3], [−3, 2]]/10.
+    #[test]
+    fn small_lstsq_by_hand() {
+        let b = vec![vec![1.0; 4], vec![0.0, 1.0, 2.0, 3.0]];
+        let y = [3.0, 4.0, 7.0, 12.0];
+        let (c, sd) = small_lstsq(&b, &y).unwrap();
+        assert!(
+            (c[0] - 2.0).abs() < 1e-12 && (c[1] - 3.0).abs() < 1e-12,
+            "{c}"
+        );
+        assert!((sd[0] - 0.7f64.sqrt()).abs() < 1e-12, "{sd}");
+        assert!((sd[1] - 0.2f64.sqrt()).abs() < 1e-12, "{sd}");
+    }
 }

@@ -9,16 +9,15 @@
 //! 2. for every candidate, search its nonlinear parameter, fit it jointly, compute
 //!    ΔBIC = n·ln(SSR₁/SSR₀) + (m + n_nonlinear)·ln n and the held-out RMS;
 //! 3. accept the candidate with the lowest held-out RMS among those with ΔBIC < −10 and a
-//!    held-out gain ≥ 0.5 %; repeat until none qualifies or the held-out RMS is at or below
-//!    the noise floor (the held-out RMS of a clean session sits at the floor).
+//!    held-out gain ≥ 0.5 %; repeat until none qualifies (reaching the noise floor does
+//!    not stop the search: a small effect near the floor is still found on its evidence).
 
 use super::catalogue::{self, Candidate, Search};
 use super::design::{self, Design};
-use super::linalg::{Cols, Projector, dot, small_lstsq};
-use super::noise::noise_floor;
-use super::{
-    Baseline, BeforeAfter, DiagnosisResult, Finding, Mismatch, PlotData, PlotSeries, Verdict,
-};
+use super::effects;
+use super::linalg::{Cols, dot, small_lstsq};
+use super::reduced::{ModelProj, Reduction, predict_run};
+use super::{Baseline, BeforeAfter, DiagnosisResult, Finding, Mismatch, PlotData, PlotSeries};
 use crate::axis::Topology;
 use crate::error::SolverError;
 use crate::session::{Session, TestKind};
@@ -59,14 +58,11 @@ impl Default for DiagnoseOptions {
     }
 }
 
-fn restrict(col: &[f64], rows: &[usize]) -> Vec<f64> {
-    rows.iter().map(|&r| col[r]).collect()
-}
-
-/// The current model fitted on all rows and on each fold's training rows.
+/// The current model fitted on all rows and on each fold's training runs.
 struct Fit {
+    /// Accepted effect columns (unit norm).
     cols: Cols,
-    full: Projector,
+    full: ModelProj,
     resid: Vec<f64>,
     ssr: f64,
     folds: Vec<Fold>,
@@ -75,16 +71,18 @@ struct Fit {
 }
 
 struct Fold {
-    train: Vec<usize>,
     held: Vec<usize>,
-    proj: Projector,
-    y_train: Vec<f64>,
+    proj: ModelProj,
+    /// Residual of the data on the training runs (zero elsewhere).
     r_train: Vec<f64>,
 }
 
-fn fit(d: &Design, cols: Cols, k: usize) -> Fit {
-    let full = Projector::new(&cols, None);
-    let resid = full.residual(&d.y);
+/// Fits the rigid model plus the effect columns `cols` on all runs and on the training
+/// runs of each of the `k` folds (run index within its file mod k).
+fn fit(d: &Design, red: &Reduction, cols: Cols, k: usize) -> Fit {
+    let all: Vec<usize> = (0..d.runs.len()).collect();
+    let full = ModelProj::new(red, all, &cols);
+    let resid = full.residual(red, &d.y);
     let ssr = dot(&resid, &resid);
     let mut folds = Vec::new();
     let mut heldout_ssr = 0.0;
@@ -94,31 +92,26 @@ fn fit(d: &Design, cols: Cols, k: usize) -> Fit {
         first_run[r.plane_idx] = first_run[r.plane_idx].min(i);
     }
     for f in 0..k {
-        let in_fold = |ri: usize| (ri - first_run[d.runs[ri].plane_idx]) % k == f;
-        let mut train = Vec::new();
-        let mut held = Vec::new();
-        for (ri, r) in d.runs.iter().enumerate() {
-            let target = if in_fold(ri) { &mut held } else { &mut train };
-            target.extend(2 * r.start..2 * r.end);
-        }
+        let (held, train): (Vec<usize>, Vec<usize>) =
+            (0..d.runs.len()).partition(|&ri| (ri - first_run[d.runs[ri].plane_idx]) % k == f);
         if held.is_empty() || train.is_empty() {
             continue;
         }
-        let proj = Projector::new(&cols, Some(&train));
-        let y_train = restrict(&d.y, &train);
-        let r_train = proj.residual(&y_train);
-        let x = proj.solve(&y_train);
-        for &h in &held {
-            let pred: f64 = cols.iter().zip(x.iter()).map(|(c, xj)| c[h] * xj).sum();
-            let e = d.y[h] - pred;
-            heldout_ssr += e * e;
-            heldout_n += 1;
+        let proj = ModelProj::new(red, train, &cols);
+        let r_train = proj.residual(red, &d.y);
+        let coef = proj.fit(red, &d.y);
+        for &g in &held {
+            let pred = predict_run(red, &cols, &coef, g);
+            let rs = &red.runs[g];
+            for (i, p) in pred.iter().enumerate() {
+                let e = d.y[rs.row0 + i] - p;
+                heldout_ssr += e * e;
+            }
+            heldout_n += rs.rows;
         }
         folds.push(Fold {
-            train,
             held,
             proj,
-            y_train,
             r_train,
         });
     }
@@ -139,6 +132,9 @@ struct Trial {
     theta: Option<(&'static str, f64)>,
     cols: Cols,
     names: Vec<String>,
+    /// Largest |value| of each column before centring (its size as a machine error per
+    /// unit coefficient).
+    peaks: Vec<f64>,
     coef: Vec<f64>,
     coef_sd: Vec<f64>,
     ssr: f64,
@@ -148,8 +144,8 @@ struct Trial {
 }
 
 /// SSR of the current model plus `b`, fitted jointly (Frisch–Waugh on the full rows).
-fn joint_ssr(f: &Fit, b: &Cols) -> Option<(f64, Vec<f64>, Vec<f64>)> {
-    let bp: Cols = b.iter().map(|c| f.full.residual(c)).collect();
+fn joint_ssr(red: &Reduction, f: &Fit, b: &Cols) -> Option<(f64, Vec<f64>, Vec<f64>)> {
+    let bp: Cols = b.iter().map(|c| f.full.residual(red, c)).collect();
     let (c, sd) = small_lstsq(&bp, &f.resid)?;
     let mut r = f.resid.clone();
     for (col, cj) in bp.iter().zip(c.iter()) {
@@ -163,6 +159,10 @@ fn joint_ssr(f: &Fit, b: &Cols) -> Option<(f64, Vec<f64>, Vec<f64>)> {
         sd.iter().copied().collect(),
     ))
 }
+
+/// Most frequencies in one scan, and about the most rows a scan reads (per direction).
+const MAX_SCAN_FREQS: usize = 2000;
+const MAX_SCAN_ROWS: usize = 20_000;
 
 /// Frequency (in `freqs`) whose sine/cosine pair of `var` along `axis` explains most of
 /// the residual `r`, with the columns centred per (run, component) like the model. With
@@ -178,10 +178,14 @@ fn periodic_best(
     freqs: &[f64],
     per_run: bool,
 ) -> Option<f64> {
+    // Whole runs, every `stride`-th, so that at most about MAX_SCAN_ROWS rows are scanned
+    // (the runs chosen still span the session).
+    let stride = (d.rows() / 3).div_ceil(MAX_SCAN_ROWS).max(1);
     let rows: Vec<(usize, usize)> = d
         .runs
         .iter()
         .enumerate()
+        .filter(|(ri, _)| ri % stride == 0)
         .flat_map(|(ri, run)| (2 * run.start..2 * run.end).map(move |row| (ri, row)))
         .filter(|&(_, row)| d.row_axis(row) == axis)
         .collect();
@@ -266,8 +270,8 @@ fn periodic_best(
 }
 
 /// Σ_k ε_k(q_k) (µrad) at every sample, from the current fit's error parameters.
-fn eps_per_sample(d: &Design, f: &Fit) -> Vec<[f64; 3]> {
-    let xs = f.full.solve(&d.y);
+fn eps_per_sample(d: &Design, red: &Reduction, f: &Fit) -> Vec<[f64; 3]> {
+    let xs = f.full.fit(red, &d.y).a;
     let x: Vec<f64> = (0..d.model.len()).map(|j| xs[j] / d.a_scale[j]).collect();
     let mut out = vec![[0.0; 3]; d.samples.len()];
     for (i, term) in Term::all().into_iter().enumerate() {
@@ -281,18 +285,24 @@ fn eps_per_sample(d: &Design, f: &Fit) -> Vec<[f64; 3]> {
     out
 }
 
-fn try_candidate(d: &Design, f: &Fit, cand: &Candidate, eps: &[[f64; 3]]) -> Option<Trial> {
+fn try_candidate(
+    d: &Design,
+    red: &Reduction,
+    f: &Fit,
+    cand: &Candidate,
+    eps: &[[f64; 3]],
+) -> Option<Trial> {
     let n = d.rows() as f64;
     let (theta, extra) = match catalogue::search(d, cand) {
         Search::None => (None, 0),
         Search::Grid(name, values) => {
             let mut best: Option<(f64, f64)> = None;
             for &v in &values {
-                let (b, _) = catalogue::columns(d, cand, v, Some(eps));
+                let (b, _, _) = catalogue::columns(d, cand, v, Some(eps));
                 if b.is_empty() {
                     return None;
                 }
-                let (ssr, _, _) = joint_ssr(f, &b)?;
+                let (ssr, _, _) = joint_ssr(red, f, &b)?;
                 if best.is_none_or(|(s, _)| ssr < s) {
                     best = Some((ssr, v));
                 }
@@ -301,8 +311,8 @@ fn try_candidate(d: &Design, f: &Fit, cand: &Candidate, eps: &[[f64; 3]]) -> Opt
             let (_, v0) = best?;
             let ratio = values.get(1).map_or(2.0, |v1| v1 / values[0]);
             let eval = |lv: f64| {
-                let (b, _) = catalogue::columns(d, cand, lv.exp(), Some(eps));
-                joint_ssr(f, &b).map_or(f64::INFINITY, |t| t.0)
+                let (b, _, _) = catalogue::columns(d, cand, lv.exp(), Some(eps));
+                joint_ssr(red, f, &b).map_or(f64::INFINITY, |t| t.0)
             };
             let bracket =
                 super::search::golden_section((v0 / ratio).ln(), (v0 * ratio).ln(), 10, eval);
@@ -324,9 +334,17 @@ fn try_candidate(d: &Design, f: &Fit, cand: &Candidate, eps: &[[f64; 3]]) -> Opt
             let (axis, in_var): (crate::axis::Axis, Var) = if in_time {
                 (cand.direction?, Box::new(|m| m.t_s))
             } else {
+                // Rows read along the effect's direction (its own axis for `cyclic`).
                 let a = cand.axis?;
-                (a, Box::new(move |m| m.q_mm[a.index()]))
+                (
+                    cand.direction.unwrap_or(a),
+                    Box::new(move |m| m.q_mm[a.index()]),
+                )
             };
+            // Scan sizes are bounded (a heuristic: the exact joint fit follows): at most
+            // MAX_SCAN_FREQS coarse and fine frequencies.
+            let coarse_step = coarse_step.max((f_hi - f_lo) / MAX_SCAN_FREQS as f64);
+            let fine_step = fine_step.max(2.0 * coarse_step / MAX_SCAN_FREQS as f64);
             let coarse: Vec<f64> = (0..)
                 .map(|i| f_lo + i as f64 * coarse_step)
                 .take_while(|&x| x <= f_hi)
@@ -343,12 +361,12 @@ fn try_candidate(d: &Design, f: &Fit, cand: &Candidate, eps: &[[f64; 3]]) -> Opt
         }
     };
     let th = theta.map_or(0.0, |t| t.1);
-    let (cols, names) = catalogue::columns(d, cand, th, Some(eps));
+    let (cols, names, peaks) = catalogue::columns(d, cand, th, Some(eps));
     if cols.is_empty() {
         return None;
     }
-    let (ssr, coef, sd) = joint_ssr(f, &cols)?;
-    let hssr = heldout_ssr_with(d, f, &cols);
+    let (ssr, coef, sd) = joint_ssr(red, f, &cols)?;
+    let hssr = heldout_ssr_with(d, red, f, &cols);
     let k = cols.len() + extra;
     let dbic = n * (ssr / f.ssr).ln() + k as f64 * n.ln();
     Some(Trial {
@@ -356,6 +374,7 @@ fn try_candidate(d: &Design, f: &Fit, cand: &Candidate, eps: &[[f64; 3]]) -> Opt
         theta,
         cols,
         names,
+        peaks,
         coef,
         coef_sd: sd,
         ssr,
@@ -366,35 +385,28 @@ fn try_candidate(d: &Design, f: &Fit, cand: &Candidate, eps: &[[f64; 3]]) -> Opt
 }
 
 /// Held-out SSR of the current model plus `b` (whole runs held out, K folds).
-fn heldout_ssr_with(d: &Design, f: &Fit, b: &Cols) -> f64 {
+fn heldout_ssr_with(d: &Design, red: &Reduction, f: &Fit, b: &Cols) -> f64 {
     let mut total = 0.0;
     for fold in &f.folds {
-        let bt: Cols = b.iter().map(|c| restrict(c, &fold.train)).collect();
-        let bp: Cols = bt.iter().map(|c| fold.proj.residual(c)).collect();
+        let bp: Cols = b.iter().map(|c| fold.proj.residual(red, c)).collect();
         let Some((c, _)) = small_lstsq(&bp, &fold.r_train) else {
             return f64::INFINITY;
         };
-        let mut yt = fold.y_train.clone();
-        for (col, cj) in bt.iter().zip(c.iter()) {
+        let mut yt = d.y.clone();
+        for (col, cj) in b.iter().zip(c.iter()) {
             for (y, v) in yt.iter_mut().zip(col) {
                 *y -= cj * v;
             }
         }
-        let x = fold.proj.solve(&yt);
-        for &h in &fold.held {
-            let mut pred: f64 = f
-                .cols
-                .iter()
-                .zip(x.iter())
-                .map(|(col, xj)| col[h] * xj)
-                .sum();
-            pred += b
-                .iter()
-                .zip(c.iter())
-                .map(|(col, cj)| col[h] * cj)
-                .sum::<f64>();
-            let e = d.y[h] - pred;
-            total += e * e;
+        let coef = fold.proj.fit(red, &yt);
+        for &g in &fold.held {
+            let pred = predict_run(red, &f.cols, &coef, g);
+            let rs = &red.runs[g];
+            for (i, p) in pred.iter().enumerate() {
+                let row = rs.row0 + i;
+                let e = yt[row] - p;
+                total += e * e;
+            }
         }
     }
     total
@@ -637,6 +649,95 @@ fn plots(d: &Design, before: &[f64], after: &[f64]) -> Vec<PlotData> {
     out
 }
 
+/// The finding of a trial: before/after figures from the current fit `f` and, once the
+/// effect is added, the new fit `nf` (without it, the trial's own figures).
+fn finding_of(
+    t: &Trial,
+    parameters: BTreeMap<String, f64>,
+    f: &Fit,
+    nf: Option<&Fit>,
+    h_before: f64,
+    n: usize,
+    folds: usize,
+    floor: f64,
+) -> Finding {
+    let (after, h_after) = match nf {
+        Some(nf) => (rms(nf.ssr, n), rms(nf.heldout_ssr, nf.heldout_n)),
+        None => (rms(t.ssr, n), rms(t.heldout_ssr, f.heldout_n)),
+    };
+    Finding {
+        effect: catalogue::reported_name(t.cand.effect).into(),
+        axis: t
+            .cand
+            .axis
+            .map(|a| a.to_string())
+            .or(t.cand.direction.map(|a| a.to_string())),
+        parameters,
+        physics: catalogue::physics(catalogue::reported_name(t.cand.effect)).into(),
+        signature: catalogue::signature(&t.cand, t.theta.map(|x| x.1)),
+        undetermined: vec![],
+        residual_rms_um: BeforeAfter {
+            before: rms(f.ssr, n),
+            after,
+        },
+        heldout_rms_um: BeforeAfter {
+            before: h_before,
+            after: h_after,
+        },
+        evidence: format!(
+            "{}: BIC {:+.1} with {} extra parameter(s); held-out RMS {:.3} -> {:.3} um over {} folds of whole runs; noise floor {:.3} um",
+            t.cand.label(),
+            t.dbic,
+            t.cols.len() + t.extra_params,
+            h_before,
+            h_after,
+            folds,
+            floor
+        ),
+        decide: None,
+    }
+}
+
+/// Standard uncertainty of a trial's nonlinear parameter from the curvature of the
+/// profiled sum of squares S(θ) (the linear parameters re-fitted at every θ):
+/// var(θ̂) = 2σ²/S''(θ̂), by central differences (in ln θ for time constants and decay
+/// lengths, in frequency for periods and frequencies). Returns the reported name and σ;
+/// infinite when S is not convex there (θ not determined).
+fn theta_std(
+    d: &Design,
+    red: &Reduction,
+    f: &Fit,
+    t: &Trial,
+    eps: &[[f64; 3]],
+    sigma: f64,
+) -> Option<(&'static str, f64)> {
+    let (name, th) = t.theta?;
+    let ssr_at = |v: f64| {
+        let (b, _, _) = catalogue::columns(d, &t.cand, v, Some(eps));
+        joint_ssr(red, f, &b).map_or(f64::NAN, |r| r.0)
+    };
+    let (log, h) = match catalogue::search(d, &t.cand) {
+        Search::Periodic { fine_step, .. } => (false, fine_step),
+        _ => (true, 0.02),
+    };
+    let (lo, hi) = if log {
+        (th * (-h).exp(), th * h.exp())
+    } else {
+        (th - h, th + h)
+    };
+    let curv = (ssr_at(lo) + ssr_at(hi) - 2.0 * t.ssr) / (h * h);
+    let sd_lin = if curv > 0.0 {
+        (2.0 * sigma * sigma / curv).sqrt()
+    } else {
+        f64::INFINITY
+    };
+    Some(match (name, log) {
+        (_, true) => (name, th * sd_lin),
+        ("period_mm", false) => ("period_mm", sd_lin / (th * th)),
+        _ => (name, sd_lin),
+    })
+}
+
 /// Diagnoses a grid-encoder session: see the module documentation.
 pub fn diagnose_session(
     session: &Session,
@@ -647,20 +748,23 @@ pub fn diagnose_session(
         .clone()
         .or_else(|| opts.topology.clone())
         .unwrap_or_default();
-    let d = design::build(session, &topology, opts.order)?;
+    let mut d = design::build(session, &topology, opts.order)?;
     let n = d.rows();
     let folds = opts.folds.max(2);
-    let mut f = fit(&d, d.a.clone(), folds);
+    let red = Reduction::new(&d);
+    // The dense rigid columns are no longer needed: the reduction holds them exactly.
+    d.a = Vec::new();
+    let mut f = fit(&d, &red, Vec::new(), folds);
     let dof = n
-        .saturating_sub(2 * 2 * d.runs.len() / 2 + f.full.rank)
+        .saturating_sub(2 * 2 * d.runs.len() / 2 + f.full.rank())
         .max(1);
     let base_rms = (f.ssr / dof as f64).sqrt();
     let base_heldout = rms(f.heldout_ssr, f.heldout_n);
-    let (floor, floor_note) = match noise_floor(&d) {
-        Some((s, m)) => (s, format!("from {m} differences of repeated passes")),
+    let (floor, floor_note) = match crate::noise::session_floor(session) {
+        Some(nf) => (nf.sigma_um, nf.note()),
         None => (
             base_rms,
-            "no repeated passes: the rigid model's residual stands in for the noise floor".into(),
+            "no run long enough for the spectrum and no repeated passes: the rigid model's residual stands in for the noise floor".into(),
         ),
     };
     let before_resid = f.resid.clone();
@@ -671,79 +775,86 @@ pub fn diagnose_session(
     };
     let cands = catalogue::candidates(&d);
     let mut findings = Vec::new();
+    let mut possible = Vec::new();
+    let mut rejected = Vec::new();
+    // Candidates set aside (undetermined or implausible) are not tried again.
+    let mut set_aside: Vec<String> = Vec::new();
     let mut dof_used = 0usize;
     while findings.len() < opts.max_findings {
+        // No stop at the floor: an effect is accepted on its evidence (BIC and held-out
+        // gain), so a small misfit near the floor is still looked for.
         let cur_heldout = rms(f.heldout_ssr, f.heldout_n);
-        if cur_heldout <= floor {
+        let eps = eps_per_sample(&d, &red, &f);
+        let mut qualifying: Vec<Trial> = cands
+            .iter()
+            .filter(|c| !set_aside.contains(&c.label()))
+            .filter_map(|c| try_candidate(&d, &red, &f, c, &eps))
+            .filter(|t| {
+                t.dbic < -opts.min_bic_gain
+                    && rms(t.heldout_ssr, f.heldout_n) < cur_heldout * (1.0 - opts.min_heldout_gain)
+            })
+            .collect();
+        qualifying.sort_by(|a, b| a.heldout_ssr.total_cmp(&b.heldout_ssr));
+        let mut accepted = None;
+        for t in qualifying {
+            let sigma = (t.ssr
+                / (dof.saturating_sub(dof_used + t.cols.len() + t.extra_params)).max(1) as f64)
+                .sqrt();
+            let mut params = report_parameters(&t, sigma, &d);
+            if let Some((name, sd)) = theta_std(&d, &red, &f, &t, &eps, sigma) {
+                params.insert(format!("std_{name}"), sd);
+            }
+            let explained = ((f.ssr - t.ssr).max(0.0) / n as f64).sqrt();
+            let size: f64 = t
+                .coef
+                .iter()
+                .zip(&t.peaks)
+                .map(|(c, p)| (c * p).abs())
+                .sum();
+            if let Some(why) = effects::implausible(&t.cand.label(), size, explained, floor) {
+                rejected.push(why);
+                set_aside.push(t.cand.label());
+                continue;
+            }
+            let finding = finding_of(&t, params, &f, None, cur_heldout, n, folds, floor);
+            if let Some(why) = effects::undetermined(&finding) {
+                possible.push(Finding {
+                    decide: Some(why),
+                    ..finding
+                });
+                set_aside.push(t.cand.label());
+                continue;
+            }
+            accepted = Some((t, finding));
             break;
         }
-        let eps = eps_per_sample(&d, &f);
-        let mut best: Option<Trial> = None;
-        for c in &cands {
-            let Some(t) = try_candidate(&d, &f, c, &eps) else {
-                continue;
-            };
-            let h = rms(t.heldout_ssr, f.heldout_n);
-            if t.dbic < -opts.min_bic_gain
-                && h < cur_heldout * (1.0 - opts.min_heldout_gain)
-                && best
-                    .as_ref()
-                    .is_none_or(|b| h < rms(b.heldout_ssr, f.heldout_n))
-            {
-                best = Some(t);
-            }
-        }
-        let Some(t) = best else { break };
+        let Some((t, finding)) = accepted else { break };
         dof_used += t.cols.len() + t.extra_params;
-        let sigma = (t.ssr / (dof.saturating_sub(dof_used)).max(1) as f64).sqrt();
-        let params = report_parameters(&t, sigma, &d);
-        let before = rms(f.ssr, n);
-        let h_before = cur_heldout;
         let mut cols = f.cols.clone();
         for c in &t.cols {
             let nrm = dot(c, c).sqrt().max(1e-300);
             cols.push(c.iter().map(|v| v / nrm).collect());
         }
-        let nf = fit(&d, cols, folds);
-        let h_after = rms(nf.heldout_ssr, nf.heldout_n);
-        findings.push(Finding {
-            effect: t.cand.effect.into(),
-            axis: t
-                .cand
-                .axis
-                .map(|a| a.to_string())
-                .or(t.cand.direction.map(|a| a.to_string())),
-            parameters: params,
-            physics: catalogue::physics(t.cand.effect).into(),
-            residual_rms_um: BeforeAfter {
-                before,
-                after: rms(nf.ssr, n),
-            },
-            heldout_rms_um: BeforeAfter {
-                before: h_before,
-                after: h_after,
-            },
-            undetermined: vec![],
-            evidence: format!(
-                "{}: BIC {:+.1} with {} extra parameter(s); held-out RMS {:.3} -> {:.3} um over {} folds of whole runs; noise floor {:.3} um",
-                t.cand.label(),
-                t.dbic,
-                t.cols.len() + t.extra_params,
-                h_before,
-                h_after,
-                folds,
-                floor
-            ),
-        });
+        let nf = fit(&d, &red, cols, folds);
+        findings.push(finding_of(
+            &t,
+            finding.parameters,
+            &f,
+            Some(&nf),
+            cur_heldout,
+            n,
+            folds,
+            floor,
+        ));
         f = nf;
     }
     let final_heldout = rms(f.heldout_ssr, f.heldout_n);
     let at_noise = final_heldout <= opts.noise_level_ratio * floor;
-    let verdict = match (findings.is_empty(), at_noise) {
-        (true, true) => Verdict::Consistent,
-        (false, true) => Verdict::Explained,
-        _ => Verdict::PartlyExplained,
-    };
+    let verdict = effects::verdict(
+        base_heldout <= opts.noise_level_ratio * floor,
+        at_noise,
+        findings.len(),
+    );
     let mut unexplained = Vec::new();
     if !at_noise {
         let rest = locate(&d, &f.resid, floor);
@@ -775,6 +886,8 @@ pub fn diagnose_session(
         },
         mismatch,
         findings,
+        possible,
+        rejected,
         verdict,
         unexplained,
         plots,

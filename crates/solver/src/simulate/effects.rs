@@ -13,6 +13,8 @@
 //! | setup_offset | true head offset = declared + Δ (on the files it applies to) |
 //! | waviness | e along `direction` = A·sin(2π q/P + φ), q the moving axis, P beyond the cubic |
 //! | vibration | e along `direction` = A·sin(2π f t + φ) |
+//! | velocity_coupling | e along `direction` = c·v, v the velocity of `axis` (mm/s) |
+//! | temperature_growth | e_j = ΔT(t)·(o_j + k_j·q_j·10⁻³), ΔT = P·(t/t_p)·e^(1 − t/t_p) rising to P at t_p then falling; the session logs 20 °C + ΔT |
 
 use super::motion::MotionSample;
 use crate::axis::Axis;
@@ -72,10 +74,26 @@ pub enum Effect {
         frequency_hz: f64,
         phase_rad: f64,
     },
+    /// An error along `direction` proportional to the velocity of `axis` (not in the
+    /// diagnosis' named catalogue: found by its signature).
+    VelocityCoupling {
+        axis: Axis,
+        direction: Axis,
+        coefficient_um_per_mm_s: f64,
+    },
+    /// Thermal growth following a structure temperature that rises and then falls; the
+    /// temperature is logged with every sample (`temp_c`).
+    TemperatureGrowth {
+        peak_k: f64,
+        peak_at_s: f64,
+        /// Growth per kelvin along X, Y, Z (µm/K) and scale per kelvin (ppm/K).
+        offset_um_per_k: [f64; 3],
+        scale_ppm_per_k: [f64; 3],
+    },
 }
 
 /// Names accepted by [`Effect::from_spec`], as in the diagnosis result.
-pub const EFFECT_NAMES: [&str; 8] = [
+pub const EFFECT_NAMES: [&str; 10] = [
     "backlash",
     "servo_lag",
     "reversal_spike",
@@ -84,6 +102,8 @@ pub const EFFECT_NAMES: [&str; 8] = [
     "setup_offset",
     "waviness",
     "vibration",
+    "velocity_coupling",
+    "temperature_growth",
 ];
 
 fn unit(axis: Axis, value: f64) -> Vector3<f64> {
@@ -103,6 +123,8 @@ impl Effect {
             Effect::SetupOffset { .. } => "setup_offset",
             Effect::Waviness { .. } => "waviness",
             Effect::Vibration { .. } => "vibration",
+            Effect::VelocityCoupling { .. } => "velocity_coupling",
+            Effect::TemperatureGrowth { .. } => "temperature_growth",
         }
     }
 
@@ -149,6 +171,17 @@ impl Effect {
                 amplitude_um: 0.4,
                 frequency_hz: 3.7,
                 phase_rad: 0.0,
+            },
+            "velocity_coupling" => Effect::VelocityCoupling {
+                axis: Axis::Y,
+                direction: Axis::Z,
+                coefficient_um_per_mm_s: 0.1,
+            },
+            "temperature_growth" => Effect::TemperatureGrowth {
+                peak_k: 2.0,
+                peak_at_s: 400.0,
+                offset_um_per_k: [1.0, 1.0, 2.0],
+                scale_ppm_per_k: [11.5, 11.5, 11.5],
             },
             _ => return None,
         })
@@ -211,6 +244,17 @@ impl Effect {
                 amplitude_um: rng.random_range(0.5..1.2),
                 frequency_hz: rng.random_range(0.1..0.8) * nyquist_hz,
                 phase_rad: rng.random_range(0.0..2.0 * PI),
+            },
+            "velocity_coupling" => Effect::VelocityCoupling {
+                axis,
+                direction: Axis::from_index((axis.index() + 1 + rng.random_range(0..2)) % 3),
+                coefficient_um_per_mm_s: sign * rng.random_range(0.06..0.15),
+            },
+            "temperature_growth" => Effect::TemperatureGrowth {
+                peak_k: rng.random_range(1.5..3.0),
+                peak_at_s: rng.random_range(250.0..500.0),
+                offset_um_per_k: [0, 1, 2].map(|_| rng.random_range(-2.0..2.0)),
+                scale_ppm_per_k: [0, 1, 2].map(|_| sign * rng.random_range(8.0..15.0)),
             },
             _ => return None,
         })
@@ -338,6 +382,37 @@ impl Effect {
                 direction,
                 amplitude_um * (2.0 * PI * frequency_hz * s.t_s + phase_rad).sin(),
             ),
+            Effect::VelocityCoupling {
+                axis,
+                direction,
+                coefficient_um_per_mm_s,
+            } => unit(
+                direction,
+                coefficient_um_per_mm_s * s.vel_mm_s[axis.index()],
+            ),
+            Effect::TemperatureGrowth {
+                offset_um_per_k,
+                scale_ppm_per_k,
+                ..
+            } => {
+                let dt = self.temperature_rise_k(s.t_s).unwrap_or(0.0);
+                Vector3::from_fn(|j, _| {
+                    dt * (offset_um_per_k[j] + scale_ppm_per_k[j] * s.q_mm[j] * 1e-3)
+                })
+            }
+        }
+    }
+
+    /// The rise of the logged temperature (K) at time `t_s`, for an effect that logs one.
+    pub fn temperature_rise_k(&self, t_s: f64) -> Option<f64> {
+        match *self {
+            Effect::TemperatureGrowth {
+                peak_k, peak_at_s, ..
+            } => {
+                let x = t_s.max(0.0) / peak_at_s;
+                Some(peak_k * x * (1.0 - x).exp())
+            }
+            _ => None,
         }
     }
 }

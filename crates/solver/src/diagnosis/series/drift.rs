@@ -239,7 +239,12 @@ struct ChannelOutcome {
     window_h: (f64, f64),
 }
 
+/// The shared noise floor ([`crate::noise::spectral_floor`]) of one channel; a log too
+/// short for one spectral segment falls back to 1.4826·median|Δy|/√2.
 fn noise_floor(y: &[f64]) -> f64 {
+    if let Some((s, _)) = crate::noise::spectral_floor([y]) {
+        return s;
+    }
     let mut d: Vec<f64> = y.windows(2).map(|w| (w[1] - w[0]).abs()).collect();
     if d.is_empty() {
         return 0.0;
@@ -496,6 +501,8 @@ fn analyse_channel(ch: &Channel, inp: &Inputs, opts: &SeriesOptions) -> ChannelO
             after: out.after_test_rms,
         },
         evidence,
+        decide: None,
+        signature: None,
     });
     out
 }
@@ -824,6 +831,8 @@ pub fn diagnose_drift_log_with_predictions(
         baseline,
         mismatch,
         findings,
+        possible: vec![],
+        rejected: vec![],
         verdict,
         unexplained,
         plots,

@@ -11,11 +11,14 @@
 //!
 //! | effect | columns | nonlinear parameter (1-D search) |
 //! |---|---|---|
-//! | `backlash` (lost motion) | d/2 (coefficient = step B between + and − approaches) | — |
-//! | `reversal_spike` | d·exp(−u/λ), u = distance from the first target after the reversal | decay length λ |
+//! | `backlash` (lost motion) | −d/2 (coefficient b = mean(−) − mean(+), the negative of ISO 230-2's B) | — |
+//! | `reversal_spike` | −d·exp(−u/λ), u = distance from the first target after the reversal | decay length λ |
 //! | `cyclic` | sin(2πx/P), cos(2πx/P) | period P |
-//! | `thermal_drift` (time) | g, g·(x − x_min)/1000, g = 1 − exp(−(t − t₀)/τ) | time constant τ |
-//! | `thermal_drift` (temperature) | ΔT, ΔT·(x − x_min)/1000 | — |
+//! | `thermal_drift` (time) | g, g·x/1000, g = 1 − exp(−(t − t₀)/τ) | time constant τ |
+//! | `thermal_drift` (temperature) | ΔT, ΔT·x/1000 | — |
+//!
+//! Parameter names, units and signs are those of every diagnosis
+//! ([`crate::diagnosis::effects`]).
 //! | `model_order` | P_k(s), k = N+1..K | — |
 //!
 //! Without `t_s` the record order stands for time (τ is then in records).
@@ -31,18 +34,18 @@
 //! the same target and direction after removing one offset per pass (run × direction):
 //! two-way least squares y = μ_(target,dir) + ρ_pass, σ² = SSE/(n − rank). Slow drift
 //! between passes is thus not counted as noise (ISO 230-2's repeatability would include
-//! it; [`iso230_2`] gives those figures).
+//! it; [`crate::standards::iso230_2`] gives those figures).
 
 use super::lsq::{self, Design};
 use super::{SeriesOptions, bic, decimate, grid_then_golden, log_grid, rms};
 use crate::axis::Axis;
 use crate::basis::legendre;
 use crate::datasets::{Direction, PositioningRecord, PositioningRuns};
+use crate::diagnosis::effects;
 use crate::diagnosis::{
-    Baseline, BeforeAfter, DiagnosisResult, Finding, Mismatch, PlotData, PlotSeries, Verdict,
+    Baseline, BeforeAfter, DiagnosisResult, Finding, Mismatch, PlotData, PlotSeries,
 };
 use crate::error::SolverError;
-use serde::{Deserialize, Serialize};
 use std::collections::BTreeMap;
 use std::f64::consts::PI;
 
@@ -233,18 +236,18 @@ impl AxisData {
 
     /// Columns of one effect at parameter `theta`.
     fn effect_cols(&self, e: Effect, theta: f64) -> Vec<(String, Vec<f64>)> {
-        let scale: Vec<f64> = self.x.iter().map(|v| (v - self.lo) / 1000.0).collect();
+        let scale: Vec<f64> = self.x.iter().map(|v| v / 1000.0).collect();
         match e {
             Effect::Backlash => vec![(
                 "lost_motion_um".into(),
-                self.d.iter().map(|d| 0.5 * d).collect(),
+                self.d.iter().map(|d| -0.5 * d).collect(),
             )],
             Effect::Spike => vec![(
-                "amplitude_um".into(),
+                "height_um".into(),
                 self.d
                     .iter()
                     .zip(&self.u)
-                    .map(|(d, u)| d * (-u / theta).exp())
+                    .map(|(d, u)| -d * (-u / theta).exp())
                     .collect(),
             )],
             Effect::Cyclic => vec![
@@ -266,9 +269,9 @@ impl AxisData {
             Effect::Thermal => {
                 let g: Vec<f64> = self.time.iter().map(|t| 1.0 - (-t / theta).exp()).collect();
                 vec![
-                    ("offset_growth_um".into(), g.clone()),
+                    ("offset_um".into(), g.clone()),
                     (
-                        "scale_growth_um_per_m".into(),
+                        "scale_ppm".into(),
                         g.iter().zip(&scale).map(|(a, b)| a * b).collect(),
                     ),
                 ]
@@ -278,7 +281,7 @@ impl AxisData {
                 vec![
                     ("offset_um_per_k".into(), dt.clone()),
                     (
-                        "scale_um_per_m_per_k".into(),
+                        "scale_ppm_per_k".into(),
                         dt.iter().zip(&scale).map(|(a, b)| a * b).collect(),
                     ),
                 ]
@@ -429,79 +432,6 @@ impl AxisData {
         let fit = lsq::solve(&d, &self.y);
         fit.s2().sqrt()
     }
-}
-
-/// ISO 230-2 figures of one axis (bidirectional), µm: reversal value B = max |x̄↑ − x̄↓|,
-/// repeatability R = max over targets of max(2s↑ + 2s↓ + |B_i|, 4s↑, 4s↓), systematic
-/// positioning error E = max x̄ − min x̄ over both directions, accuracy
-/// A = max(x̄ + 2s) − min(x̄ − 2s) over both directions (s: sample standard deviation of a
-/// target's readings in one direction).
-#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
-pub struct Iso2302 {
-    pub axis: Axis,
-    pub reversal_b_um: f64,
-    pub repeatability_r_um: f64,
-    pub systematic_e_um: f64,
-    pub accuracy_a_um: f64,
-    pub targets: usize,
-    pub runs: usize,
-}
-
-/// ISO 230-2 figures per axis (module [`Iso2302`]); axes with fewer than 2 runs are skipped.
-pub fn iso230_2(runs: &PositioningRuns) -> Vec<Iso2302> {
-    let mut out = vec![];
-    for axis in Axis::ALL {
-        let recs: Vec<&PositioningRecord> =
-            runs.records.iter().filter(|r| r.axis == axis).collect();
-        let Ok(a) = AxisData::new(axis, &recs) else {
-            continue;
-        };
-        let nt = a.targets.len();
-        let stats = |g: usize| -> Option<(f64, f64)> {
-            let v: Vec<f64> = (0..a.n())
-                .filter(|&i| a.group[i] == g)
-                .map(|i| a.y[i])
-                .collect();
-            if v.len() < 2 {
-                return None;
-            }
-            let m = v.iter().sum::<f64>() / v.len() as f64;
-            let s = (v.iter().map(|x| (x - m).powi(2)).sum::<f64>() / (v.len() - 1) as f64).sqrt();
-            Some((m, s))
-        };
-        let (mut b, mut r, mut hi, mut lo, mut ahi, mut alo) = (
-            0.0f64,
-            0.0f64,
-            f64::NEG_INFINITY,
-            f64::INFINITY,
-            f64::NEG_INFINITY,
-            f64::INFINITY,
-        );
-        for i in 0..nt {
-            let (p, m) = (stats(2 * i), stats(2 * i + 1));
-            for (mu, s) in [p, m].into_iter().flatten() {
-                hi = hi.max(mu);
-                lo = lo.min(mu);
-                ahi = ahi.max(mu + 2.0 * s);
-                alo = alo.min(mu - 2.0 * s);
-                r = r.max(4.0 * s);
-            }
-            if let (Some((mp, sp)), Some((mm, sm))) = (p, m) {
-                b = b.max((mp - mm).abs());
-                r = r.max(2.0 * sp + 2.0 * sm + (mp - mm).abs());
-            }
-        }
-        out.push(Iso2302 {
-            axis,
-            reversal_b_um: b,
-            repeatability_r_um: r,
-            systematic_e_um: hi - lo,
-            accuracy_a_um: ahi - alo,
-            targets: nt,
-            runs: a.runs.len(),
-        });
-    }
-    out
 }
 
 /// What one axis's diagnosis produced.
@@ -664,7 +594,7 @@ fn diagnose_axis(a: &AxisData, opts: &SeriesOptions) -> AxisOutcome {
         let mut params = BTreeMap::new();
         if let Some((from, to)) = st.order {
             params.insert("order_before".into(), from as f64);
-            params.insert("order".into(), to as f64);
+            params.insert("extra_order".into(), to as f64);
         }
         if let Some(e) = st.effect {
             let ti = model
@@ -688,32 +618,32 @@ fn diagnose_axis(a: &AxisData, opts: &SeriesOptions) -> AxisOutcome {
                     params.insert("std_lost_motion_um".into(), sb[0]);
                 }
                 Effect::Spike => {
-                    params.insert("amplitude_um".into(), b[0]);
-                    params.insert("std_amplitude_um".into(), sb[0]);
-                    params.insert("decay_length_mm".into(), t.theta);
-                    params.insert("std_decay_length_mm".into(), jfit.std[th]);
+                    params.insert("height_um".into(), b[0]);
+                    params.insert("std_height_um".into(), sb[0]);
+                    params.insert("decay_mm".into(), t.theta);
+                    params.insert("std_decay_mm".into(), jfit.std[th]);
                 }
                 Effect::Cyclic => {
                     let amp = b[0].hypot(b[1]);
                     params.insert("amplitude_um".into(), amp);
                     params.insert("std_amplitude_um".into(), sb[0].hypot(sb[1]) / 2f64.sqrt());
-                    params.insert("phase_deg".into(), b[1].atan2(b[0]).to_degrees());
+                    params.insert("phase_rad".into(), b[1].atan2(b[0]));
                     params.insert("period_mm".into(), t.theta);
                     params.insert("std_period_mm".into(), jfit.std[th]);
                 }
                 Effect::Thermal => {
-                    params.insert("offset_growth_um".into(), b[0]);
-                    params.insert("std_offset_growth_um".into(), sb[0]);
-                    params.insert("scale_growth_um_per_m".into(), b[1]);
-                    params.insert("std_scale_growth_um_per_m".into(), sb[1]);
-                    params.insert(format!("tau_{unit}"), t.theta);
-                    params.insert(format!("std_tau_{unit}"), jfit.std[th]);
+                    params.insert("offset_um".into(), b[0]);
+                    params.insert("std_offset_um".into(), sb[0]);
+                    params.insert("scale_ppm".into(), b[1]);
+                    params.insert("std_scale_ppm".into(), sb[1]);
+                    params.insert(format!("time_constant_{unit}"), t.theta);
+                    params.insert(format!("std_time_constant_{unit}"), jfit.std[th]);
                 }
                 Effect::ThermalTemp => {
                     params.insert("offset_um_per_k".into(), b[0]);
                     params.insert("std_offset_um_per_k".into(), sb[0]);
-                    params.insert("scale_um_per_m_per_k".into(), b[1]);
-                    params.insert("std_scale_um_per_m_per_k".into(), sb[1]);
+                    params.insert("scale_ppm_per_k".into(), b[1]);
+                    params.insert("std_scale_ppm_per_k".into(), sb[1]);
                 }
             }
         }
@@ -723,7 +653,7 @@ fn diagnose_axis(a: &AxisData, opts: &SeriesOptions) -> AxisOutcome {
                 let lm = params.get("lost_motion_um").copied().unwrap_or(0.0);
                 let (agree, total) = step_signs(a, &base_res, lm);
                 format!(
-                    "; step + minus − approach has the sign of the lost motion at {agree} of {total} targets"
+                    "; step − minus + approach has the sign of the lost motion at {agree} of {total} targets"
                 )
             }
             _ => String::new(),
@@ -745,6 +675,8 @@ fn diagnose_axis(a: &AxisData, opts: &SeriesOptions) -> AxisOutcome {
                 noise,
                 fit.cond
             ),
+            decide: None,
+            signature: None,
         });
     }
     let final_heldout = (cur_loro / n as f64).sqrt();
@@ -774,8 +706,9 @@ fn diagnose_axis(a: &AxisData, opts: &SeriesOptions) -> AxisOutcome {
     }
 }
 
-/// Targets where (mean + approach − mean − approach) of the rigid residuals has the sign of
-/// `lost_motion`, and the number of targets with both directions.
+/// Targets where (mean − approach − mean + approach) of the rigid residuals has the sign of
+/// `lost_motion` (its convention, [`crate::diagnosis::effects`]), and the number of
+/// targets with both directions.
 fn step_signs(a: &AxisData, res: &[f64], lost_motion: f64) -> (usize, usize) {
     let (mut agree, mut total) = (0, 0);
     for t in 0..a.targets.len() {
@@ -788,7 +721,7 @@ fn step_signs(a: &AxisData, res: &[f64], lost_motion: f64) -> (usize, usize) {
         };
         if let (Some(p), Some(m)) = (mean(2 * t), mean(2 * t + 1)) {
             total += 1;
-            if (p - m) * lost_motion > 0.0 {
+            if (m - p) * lost_motion > 0.0 {
                 agree += 1;
             }
         }
@@ -1076,13 +1009,9 @@ pub fn diagnose_positioning(
         let _ = o.final_heldout;
     }
     mismatch.sort_by(|x: &Mismatch, y| y.share_of_misfit.total_cmp(&x.share_of_misfit));
-    let verdict = if findings.is_empty() && !any_needs {
-        Verdict::Consistent
-    } else if unexplained.is_empty() && !findings.is_empty() {
-        Verdict::Explained
-    } else {
-        Verdict::PartlyExplained
-    };
+    // Findings whose parameters the data do not determine are listed as possible.
+    let (findings, possible) = effects::split_undetermined(findings);
+    let verdict = effects::verdict(!any_needs, unexplained.is_empty(), findings.len());
     Ok(DiagnosisResult {
         kind: "diagnosis".into(),
         machine_id: machine_id.into(),
@@ -1090,6 +1019,8 @@ pub fn diagnose_positioning(
         baseline,
         mismatch,
         findings,
+        possible,
+        rejected: vec![],
         verdict,
         unexplained,
         plots,

@@ -5,9 +5,9 @@
 //! targets in ascending order, then a − pass in descending order; targets irregularly
 //! spaced (ISO 230-2 § 3.1: spacing varied so periodic errors are not aliased).
 //! Effect definitions match the diagnosis columns (see [`super::positioning`]):
-//! backlash ±L/2 by approach direction; reversal spike d·A·exp(−u/λ) with u the distance
-//! from the first target of the pass; cyclic A·sin(2πx/P + φ); thermal growth
-//! g(t)·(offset + scale·(x − x_min)/1000) with g = 1 − exp(−t/τ) (temperature
+//! backlash −d·L/2 by approach direction d; reversal spike −d·h·exp(−u/λ) with u the
+//! distance from the first target of the pass; cyclic A·sin(2πx/P + φ); thermal growth
+//! g(t)·(offset + scale·x/1000) with g = 1 − exp(−t/τ) (temperature
 //! T = 20 °C + ΔT·g when recorded); waviness A·(P₅(s) + 0.7 P₆(s)) (Legendre, s ∈ [−1, 1]).
 
 use super::drift::first_order_lag;
@@ -29,7 +29,7 @@ pub enum PositioningEffect {
         lost_motion_um: f64,
     },
     ReversalSpike {
-        amplitude_um: f64,
+        height_um: f64,
         decay_mm: f64,
     },
     Cyclic {
@@ -39,7 +39,7 @@ pub enum PositioningEffect {
     },
     Thermal {
         offset_um: f64,
-        scale_um_per_m: f64,
+        scale_ppm: f64,
         tau_s: f64,
         delta_t_k: f64,
     },
@@ -129,11 +129,11 @@ pub fn simulate_positioning(cfg: &PositioningSim) -> PositioningRuns {
                 let mut temp = None;
                 for e in &cfg.effects {
                     dev += match *e {
-                        PositioningEffect::Backlash { lost_motion_um } => 0.5 * d * lost_motion_um,
+                        PositioningEffect::Backlash { lost_motion_um } => -0.5 * d * lost_motion_um,
                         PositioningEffect::ReversalSpike {
-                            amplitude_um,
+                            height_um,
                             decay_mm,
-                        } => d * amplitude_um * (-u / decay_mm).exp(),
+                        } => -d * height_um * (-u / decay_mm).exp(),
                         PositioningEffect::Cyclic {
                             amplitude_um,
                             period_mm,
@@ -141,13 +141,13 @@ pub fn simulate_positioning(cfg: &PositioningSim) -> PositioningRuns {
                         } => amplitude_um * (2.0 * PI * x / period_mm + phase_rad).sin(),
                         PositioningEffect::Thermal {
                             offset_um,
-                            scale_um_per_m,
+                            scale_ppm,
                             tau_s,
                             delta_t_k,
                         } => {
                             let g = 1.0 - (-t / tau_s).exp();
                             temp = Some(20.0 + delta_t_k * g);
-                            g * (offset_um + scale_um_per_m * (x - cfg.lo_mm) / 1000.0)
+                            g * (offset_um + scale_ppm * x / 1000.0)
                         }
                         PositioningEffect::Waviness { amplitude_um } => {
                             amplitude_um * (legendre(5, s).0 + 0.7 * legendre(6, s).0)

@@ -35,9 +35,9 @@
 //! sub-problem); the result document carries the union, and one `reporting` sentence per
 //! step gives its rank, condition number and undetermined terms.
 
+use super::{Estimate, thin_session};
 use crate::design::{self, ErrorModel, Fit, Layout};
 use crate::error::SolverError;
-use crate::identification::{IdentificationResult, IdentifyOptions, Method, report, thin_session};
 use crate::lsq::{self, LsSolution, Reduced};
 use crate::observability::{self, Identifiability};
 use crate::session::{Run, Session, TestKind};
@@ -69,12 +69,13 @@ struct Step {
     runs: usize,
 }
 
-/// Stepwise identification (see the module documentation).
-pub fn identify(
+/// The stepwise estimate (see the module documentation); `noise` is the noise estimated
+/// floor (µm, [`crate::noise`]), against which each step's residual is judged.
+pub fn estimate(
     session: &Session,
     model: &ErrorModel,
-    opts: &IdentifyOptions,
-) -> Result<IdentificationResult, SolverError> {
+    noise: Option<f64>,
+) -> Result<Estimate, SolverError> {
     let count = |f: &dyn Fn(&Session, usize, usize) -> bool| -> usize {
         (0..session.planes.len())
             .map(|p| {
@@ -135,36 +136,12 @@ pub fn identify(
             "; see its advice for the extra head offsets that separate the rest"
         }
     ));
-    let mut result = report(session, model, opts, Method::Stepwise, &fit, &ident, advice);
-    // Say which step could not separate a group (the joint wording speaks of one fit).
-    for g in &mut result.observability.confounded {
-        let angular = g
-            .terms
-            .iter()
-            .all(|n| Term::parse(n).is_some_and(Term::is_angular));
-        let (step, data) = if angular {
-            (2, "the circle readings minus the step-1 prediction")
-        } else {
-            (1, "the line readings")
-        };
-        g.seen_as = if g.terms.len() == 1 {
-            format!(
-                "stepwise step {step}: {} has no effect of its own on {data}",
-                g.terms[0]
-            )
-        } else {
-            format!(
-                "stepwise step {step}: {} act on {data} only through one combination: the data determine that combination, not the terms",
-                g.terms.join(" + ")
-            )
-        };
-    }
-    if let Some(noise) = result.fit.noise_estimate_um {
+    if let Some(noise) = noise {
         for (n, s) in [(1, &step1), (2, &step2)] {
             let rms = step_rms(s);
             if rms > MISFIT_RATIO * noise {
-                result.observability.advice.push(format!(
-                    "stepwise step {n}: residual rms {rms:.3} um exceeds the noise estimate {noise:.3} um from repeated passes: {}",
+                advice.push(format!(
+                    "stepwise step {n}: residual rms {rms:.3} um exceeds the noise floor {noise:.3} um: {}",
                     if n == 1 {
                         "the lines are not explained by translational terms alone (angular errors seen through Abbe arms that differ between runs, or beyond the model order); the step-1 estimates, and the step-2 angles computed from them, are biased"
                     } else {
@@ -174,13 +151,43 @@ pub fn identify(
             }
         }
     }
-    result.reporting.extend([
+    let reporting = vec![
         step_sentence(1, "line runs, model of the 12 translational terms without angular terms", &step1),
         step_sentence(2, "circle runs minus the step-1 prediction, model of the 9 angular terms through their Abbe arms", &step2),
         "stepwise uncertainty: step-1 uncertainty is propagated into step 2 (covariance G Σ1 Gᵀ added, G = A2⁺P); the bias from angular Abbe effects absorbed in step 1 is not part of any std".into(),
         "stepwise nuisance: the reported plate rotations are those of step 1 (lines); step 2 estimates them again from the circles".into(),
-    ]);
-    Ok(result)
+    ];
+    Ok(Estimate {
+        fit,
+        ident,
+        advice,
+        seen_as: Some(seen_as),
+        reporting,
+    })
+}
+
+/// Which step could not separate a group (the joint wording speaks of one fit): all
+/// angular terms are step 2's, the rest step 1's.
+fn seen_as(terms: &[String]) -> String {
+    let angular = terms
+        .iter()
+        .all(|n| Term::parse(n).is_some_and(Term::is_angular));
+    let (step, data) = if angular {
+        (2, "the circle readings minus the step-1 prediction")
+    } else {
+        (1, "the line readings")
+    };
+    if terms.len() == 1 {
+        format!(
+            "stepwise step {step}: {} has no effect of its own on {data}",
+            terms[0]
+        )
+    } else {
+        format!(
+            "stepwise step {step}: {} act on {data} only through one combination: the data determine that combination, not the terms",
+            terms.join(" + ")
+        )
+    }
 }
 
 /// A copy of the session holding only the circle runs, each reading minus the step-1
@@ -464,7 +471,7 @@ fn combine_identifiability(full: &ErrorModel, s1: &Step, s2: &Step) -> Identifia
     }
 }
 
-/// A step's residual rms above this multiple of the repeated-pass noise estimate is
+/// A step's residual rms above this multiple of the noise floor is
 /// reported as a misfit (the rms of a correct model is within a few per cent of it).
 pub const MISFIT_RATIO: f64 = 1.1;
 
@@ -525,7 +532,7 @@ mod tests {
             ..Default::default()
         };
         let s = &simulate(&random_truth(9), &opts).unwrap().session;
-        let full = crate::identification::prepare(s, &IdentifyOptions::default()).unwrap();
+        let full = super::super::prepare(s, &super::super::IdentifyOptions::default()).unwrap();
         let m1 = full.restricted(|t| !t.is_angular(), true);
         let m2 = full.restricted(|t| t.is_angular(), false);
         let circles = |p, r| is_circle(s, p, r);

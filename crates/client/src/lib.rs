@@ -1,0 +1,435 @@
+//! # mtcal-client
+//!
+//! The typed HTTP client of the mtcal service: one method per operation of API v1, with
+//! the request and response types of the server (`mtcal_server::api`) and the records of
+//! the store (`mtcal_store`), so that a change of the API breaks its clients at compile
+//! time. Used by `mtcal submit`, the load generator and the end-to-end tests.
+//!
+//! Every refusal of the service is a [`ClientError::Api`] with its status and the stable
+//! error code of docs/api.md.
+
+use mtcal_server::api::history::ResultDiff;
+use mtcal_server::api::jobs::SubmitJob;
+use mtcal_server::api::keys::{CreatedKey, NewKey};
+use mtcal_server::api::machines::NewMachine;
+use mtcal_server::api::trends::{FleetDrift, SummaryTrend, TermTrend};
+use mtcal_store::{Dataset, Job, Machine, MachinePatch, ResultMeta, Scope, StoredResult};
+use reqwest::{Method, RequestBuilder, StatusCode};
+use serde::de::DeserializeOwned;
+use serde_json::Value;
+use std::path::Path;
+use std::time::{Duration, Instant};
+
+/// Why a call failed.
+#[derive(Debug, thiserror::Error)]
+pub enum ClientError {
+    /// The service refused the request (`{"error": {"code", "message"}}`).
+    #[error("service answered {status}: {message} ({code})")]
+    Api {
+        status: StatusCode,
+        code: String,
+        message: String,
+    },
+    /// The service could not be reached, or the answer could not be read.
+    #[error("{context}: {source}")]
+    Http {
+        context: String,
+        #[source]
+        source: reqwest::Error,
+    },
+    /// A local input could not be read (files to upload).
+    #[error("{0}")]
+    Input(String),
+    /// A job did not end in time.
+    #[error("job {id} still {state} after {waited_s} s")]
+    Timeout {
+        id: String,
+        state: String,
+        waited_s: u64,
+    },
+}
+
+impl ClientError {
+    /// The HTTP status of a refusal.
+    pub fn status(&self) -> Option<StatusCode> {
+        match self {
+            ClientError::Api { status, .. } => Some(*status),
+            _ => None,
+        }
+    }
+
+    /// The stable error code of a refusal.
+    pub fn code(&self) -> Option<&str> {
+        match self {
+            ClientError::Api { code, .. } => Some(code),
+            _ => None,
+        }
+    }
+}
+
+pub type Result<T, E = ClientError> = std::result::Result<T, E>;
+
+/// A client of one service with one API key.
+#[derive(Debug, Clone)]
+pub struct Client {
+    http: reqwest::Client,
+    base: String,
+    key: String,
+}
+
+/// Files as uploaded: (name, bytes).
+pub type Files = Vec<(String, Vec<u8>)>;
+
+impl Client {
+    /// A client of the service at `base` (e.g. `http://127.0.0.1:8080`) using `key`.
+    pub fn new(base: &str, key: &str) -> Client {
+        Client {
+            http: reqwest::Client::new(),
+            base: base.trim_end_matches('/').to_string(),
+            key: key.to_string(),
+        }
+    }
+
+    /// The same service with another key.
+    pub fn with_key(&self, key: &str) -> Client {
+        Client {
+            key: key.to_string(),
+            ..self.clone()
+        }
+    }
+
+    /// The service's base URL.
+    pub fn base(&self) -> &str {
+        &self.base
+    }
+
+    /// A request to `path` (absolute, e.g. `/api/v1/machines`) carrying the key.
+    pub fn request(&self, method: Method, path: &str) -> RequestBuilder {
+        self.http
+            .request(method, format!("{}{path}", self.base))
+            .bearer_auth(&self.key)
+    }
+
+    /// Sends a request: the response when it is a success, the refusal as
+    /// [`ClientError::Api`] otherwise.
+    pub async fn send_raw(&self, rb: RequestBuilder) -> Result<(String, reqwest::Response)> {
+        let context = rb
+            .try_clone()
+            .and_then(|r| r.build().ok())
+            .map(|r| format!("{} {}", r.method(), r.url()))
+            .unwrap_or_else(|| "request".into());
+        let resp = rb.send().await.map_err(|source| ClientError::Http {
+            context: context.clone(),
+            source,
+        })?;
+        let status = resp.status();
+        if !status.is_success() {
+            let body: Value = resp.json().await.unwrap_or(Value::Null);
+            let text = |k: &str| body["error"][k].as_str().unwrap_or("").to_string();
+            return Err(ClientError::Api {
+                status,
+                code: text("code"),
+                message: text("message"),
+            });
+        }
+        Ok((context, resp))
+    }
+
+    /// Sends a request; its JSON answer, or the refusal as [`ClientError::Api`].
+    pub async fn send<T: DeserializeOwned>(&self, rb: RequestBuilder) -> Result<T> {
+        let (context, resp) = self.send_raw(rb).await?;
+        resp.json()
+            .await
+            .map_err(|source| ClientError::Http { context, source })
+    }
+
+    async fn get<T: DeserializeOwned>(&self, path: &str) -> Result<T> {
+        self.send(self.request(Method::GET, path)).await
+    }
+
+    async fn post<T: DeserializeOwned>(
+        &self,
+        path: &str,
+        body: &impl serde::Serialize,
+    ) -> Result<T> {
+        self.send(self.request(Method::POST, path).json(body)).await
+    }
+
+    /// `GET /health`.
+    pub async fn health(&self) -> Result<mtcal_server::api::Health> {
+        self.get("/health").await
+    }
+
+    // Machines.
+
+    pub async fn create_machine(&self, m: &NewMachine) -> Result<Machine> {
+        self.post("/api/v1/machines", m).await
+    }
+
+    pub async fn machine(&self, id: &str) -> Result<Machine> {
+        self.get(&format!("/api/v1/machines/{id}")).await
+    }
+
+    pub async fn update_machine(&self, id: &str, p: &MachinePatch) -> Result<Machine> {
+        self.send(
+            self.request(Method::PATCH, &format!("/api/v1/machines/{id}"))
+                .json(p),
+        )
+        .await
+    }
+
+    pub async fn machines(&self, after: Option<&str>, limit: Option<i64>) -> Result<Vec<Machine>> {
+        let mut rb = self.request(Method::GET, "/api/v1/machines");
+        if let Some(a) = after {
+            rb = rb.query(&[("after", a)]);
+        }
+        if let Some(l) = limit {
+            rb = rb.query(&[("limit", l)]);
+        }
+        self.send(rb).await
+    }
+
+    // Datasets.
+
+    /// Uploads files as multipart parts.
+    pub async fn upload_files(
+        &self,
+        machine: &str,
+        files: &[(String, Vec<u8>)],
+    ) -> Result<Dataset> {
+        let mut form = reqwest::multipart::Form::new();
+        for (name, bytes) in files {
+            form = form.part(
+                "files",
+                reqwest::multipart::Part::bytes(bytes.clone()).file_name(name.clone()),
+            );
+        }
+        let rb = self
+            .request(
+                Method::POST,
+                &format!("/api/v1/machines/{machine}/datasets"),
+            )
+            .multipart(form);
+        self.upload(machine, rb).await
+    }
+
+    /// Uploads one archive (`.tar.gz` when `gzip`, else `.tar`) as the request body.
+    pub async fn upload_archive(
+        &self,
+        machine: &str,
+        bytes: Vec<u8>,
+        gzip: bool,
+    ) -> Result<Dataset> {
+        let ct = if gzip {
+            "application/gzip"
+        } else {
+            "application/x-tar"
+        };
+        let rb = self
+            .request(
+                Method::POST,
+                &format!("/api/v1/machines/{machine}/datasets"),
+            )
+            .header(reqwest::header::CONTENT_TYPE, ct)
+            .body(bytes);
+        self.upload(machine, rb).await
+    }
+
+    /// Sends an upload. The service refuses an upload (unknown machine, key, size) before
+    /// it reads the body and closes the connection, so the client may see a broken pipe
+    /// instead of the answer; then it asks for the machine, and a refusal of that is the
+    /// reason given, else the connection error.
+    async fn upload(&self, machine: &str, rb: RequestBuilder) -> Result<Dataset> {
+        match self.send(rb).await {
+            Err(e @ ClientError::Http { .. }) => match self.machine(machine).await {
+                Err(refusal @ ClientError::Api { .. }) => Err(refusal),
+                _ => Err(e),
+            },
+            other => other,
+        }
+    }
+
+    /// Uploads a dataset from disk (a session folder, a dataset file with its sidecar, or
+    /// an archive). It is read first with the service's own reader
+    /// (`mtcal_formats::read_path`), so a bad input is refused here with the message the
+    /// service would give; then the files read are sent.
+    pub async fn upload_path(&self, machine: &str, path: &Path) -> Result<Dataset> {
+        let files = files_to_upload(path)?;
+        self.upload_files(machine, &files).await
+    }
+
+    pub async fn dataset(&self, id: &str) -> Result<Dataset> {
+        self.get(&format!("/api/v1/datasets/{id}")).await
+    }
+
+    /// The bytes of one file of a dataset, as uploaded.
+    pub async fn dataset_file(&self, id: &str, name: &str) -> Result<Vec<u8>> {
+        let rb = self.request(Method::GET, &format!("/api/v1/datasets/{id}/files/{name}"));
+        let (context, resp) = self.send_raw(rb).await?;
+        let bytes = resp
+            .bytes()
+            .await
+            .map_err(|source| ClientError::Http { context, source })?;
+        Ok(bytes.to_vec())
+    }
+
+    // Jobs.
+
+    pub async fn submit(&self, j: &SubmitJob) -> Result<Job> {
+        self.post("/api/v1/jobs", j).await
+    }
+
+    pub async fn job(&self, id: &str) -> Result<Job> {
+        self.get(&format!("/api/v1/jobs/{id}")).await
+    }
+
+    /// The result document of a succeeded job.
+    pub async fn job_result(&self, id: &str) -> Result<Value> {
+        self.get(&format!("/api/v1/jobs/{id}/result")).await
+    }
+
+    pub async fn cancel(&self, id: &str) -> Result<Job> {
+        self.post(&format!("/api/v1/jobs/{id}/cancel"), &serde_json::json!({}))
+            .await
+    }
+
+    /// Polls a job every `poll` until it ends (succeeded, failed or cancelled), calling
+    /// `tick` with each state seen; [`ClientError::Timeout`] after `timeout`.
+    pub async fn wait_job(
+        &self,
+        id: &str,
+        timeout: Duration,
+        poll: Duration,
+        mut tick: impl FnMut(&Job),
+    ) -> Result<Job> {
+        let start = Instant::now();
+        loop {
+            let job = self.job(id).await?;
+            tick(&job);
+            if job.state.is_terminal() {
+                return Ok(job);
+            }
+            if start.elapsed() > timeout {
+                return Err(ClientError::Timeout {
+                    id: id.into(),
+                    state: job.state.as_str().into(),
+                    waited_s: timeout.as_secs(),
+                });
+            }
+            tokio::time::sleep(poll).await;
+        }
+    }
+
+    // History and trends.
+
+    /// A machine's results of `kind` (default identification) in time order.
+    pub async fn results(&self, machine: &str, kind: Option<&str>) -> Result<Vec<ResultMeta>> {
+        let mut rb = self.request(Method::GET, &format!("/api/v1/machines/{machine}/results"));
+        if let Some(k) = kind {
+            rb = rb.query(&[("kind", k)]);
+        }
+        self.send(rb).await
+    }
+
+    pub async fn latest(&self, machine: &str, kind: Option<&str>) -> Result<StoredResult> {
+        let mut rb = self.request(
+            Method::GET,
+            &format!("/api/v1/machines/{machine}/results/latest"),
+        );
+        if let Some(k) = kind {
+            rb = rb.query(&[("kind", k)]);
+        }
+        self.send(rb).await
+    }
+
+    pub async fn result(&self, id: &str) -> Result<StoredResult> {
+        self.get(&format!("/api/v1/results/{id}")).await
+    }
+
+    /// `results/diff` with its query parameters (`baseline`, `against`, `step_mm`, …) as
+    /// given.
+    pub async fn diff(&self, machine: &str, query: &[(&str, &str)]) -> Result<ResultDiff> {
+        self.send(
+            self.request(
+                Method::GET,
+                &format!("/api/v1/machines/{machine}/results/diff"),
+            )
+            .query(query),
+        )
+        .await
+    }
+
+    /// A term's values at `at` (mm) over the machine's results.
+    pub async fn term_trend(&self, machine: &str, term: &str, at: &[f64]) -> Result<TermTrend> {
+        let at = at.iter().map(f64::to_string).collect::<Vec<_>>().join(",");
+        self.send(
+            self.request(
+                Method::GET,
+                &format!("/api/v1/machines/{machine}/trends/term"),
+            )
+            .query(&[("term", term), ("at", &at)]),
+        )
+        .await
+    }
+
+    pub async fn summary_trend(&self, machine: &str) -> Result<SummaryTrend> {
+        self.get(&format!("/api/v1/machines/{machine}/trends/summary"))
+            .await
+    }
+
+    /// The fleet ranked by drift (`by`: `um` or `urad`).
+    pub async fn fleet_drift(&self, by: Option<&str>, limit: Option<usize>) -> Result<FleetDrift> {
+        let mut rb = self.request(Method::GET, "/api/v1/fleet/drift");
+        if let Some(b) = by {
+            rb = rb.query(&[("by", b)]);
+        }
+        if let Some(l) = limit {
+            rb = rb.query(&[("limit", l)]);
+        }
+        self.send(rb).await
+    }
+
+    // Keys.
+
+    pub async fn create_key(&self, scope: Scope, label: &str) -> Result<CreatedKey> {
+        self.post(
+            "/api/v1/keys",
+            &NewKey {
+                scope,
+                label: label.into(),
+            },
+        )
+        .await
+    }
+}
+
+/// The files of a dataset on disk that an upload sends: those the service's reader reads
+/// (files a session ignores are left out), in the order read.
+pub fn files_to_upload(path: &Path) -> Result<Files> {
+    let limits = mtcal_formats::Limits::default();
+    let dataset =
+        mtcal_formats::read_path(path, &limits).map_err(|e| ClientError::Input(e.to_string()))?;
+    let read = |p: &Path| {
+        std::fs::read(p).map_err(|e| ClientError::Input(format!("{}: {e}", p.display())))
+    };
+    let mut files: Files =
+        if !path.is_dir() && mtcal_formats::upload::is_archive_name(&path.to_string_lossy()) {
+            let name = path.file_name().unwrap_or_default().to_string_lossy();
+            mtcal_formats::read_archive(&name, &read(path)?, &limits)
+                .map_err(|e| ClientError::Input(e.to_string()))?
+        } else {
+            // The files read sit in the folder, or beside the file given.
+            let dir = if path.is_dir() {
+                path
+            } else {
+                path.parent().unwrap_or(Path::new("."))
+            };
+            dataset
+                .files
+                .iter()
+                .map(|n| read(&dir.join(n)).map(|b| (n.clone(), b)))
+                .collect::<Result<_>>()?
+        };
+    files.retain(|(n, _)| dataset.files.contains(n));
+    Ok(files)
+}

@@ -1,0 +1,211 @@
+//! The dashboard: server-rendered pages (crates/views) at `/`, `/machines/{id}`,
+//! `/results/{id}`, `/compare?a=&b=`, `/jobs`, `/signin`, `/signout` and the vendored
+//! assets at `/static/*`.
+//!
+//! Every page is rendered from the same functions that back the documented API routes
+//! (everything a page shows is also served by a route of docs/api.md), and every form
+//! posts to a web route that checks the session cookie and its CSRF token and then calls
+//! those same functions: there is no private data path. Sessions: [`session`].
+
+pub mod pages;
+pub mod session;
+
+use crate::error::ApiError;
+use crate::{AppState, JSON_BODY_LIMIT, REQUEST_TIMEOUT, UPLOAD_TIMEOUT};
+use axum::Router;
+use axum::extract::{DefaultBodyLimit, Form, Path, Query, State};
+use axum::http::{StatusCode, header};
+use axum::response::{Html, IntoResponse, Redirect, Response};
+use axum::routing::{get, post};
+use axum_extra::extract::PrivateCookieJar;
+use serde::Deserialize;
+use session::{Session, WebState};
+use tower_http::timeout::TimeoutLayer;
+
+/// An error shown as an HTML page (the API's error, its status and message; a 500's
+/// cause is logged, not shown).
+#[derive(Debug)]
+pub struct WebError(pub ApiError);
+
+impl From<ApiError> for WebError {
+    fn from(e: ApiError) -> Self {
+        WebError(e)
+    }
+}
+
+impl From<mtcal_store::StoreError> for WebError {
+    fn from(e: mtcal_store::StoreError) -> Self {
+        WebError(e.into())
+    }
+}
+
+impl IntoResponse for WebError {
+    fn into_response(self) -> Response {
+        let status = self.0.status();
+        let message = match &self.0 {
+            ApiError::Internal(cause) => {
+                tracing::error!(%cause, "web page failed");
+                "something went wrong on the server; the cause is in its log".to_string()
+            }
+            e => e.to_string(),
+        };
+        let page = mtcal_views::pages::error_page(
+            None,
+            status.as_u16(),
+            status.canonical_reason().unwrap_or("error"),
+            &message,
+        );
+        (status, Html(page.into_string())).into_response()
+    }
+}
+
+/// The result of a page handler.
+pub type PageResult = Result<Response, WebError>;
+
+/// An HTML page response.
+pub fn html(m: mtcal_views::Markup) -> Response {
+    ([(header::CACHE_CONTROL, "no-store")], Html(m.into_string())).into_response()
+}
+
+/// The dashboard's routes (merged into the service's router outside the API's JSON
+/// error layer: their errors are pages).
+pub fn router(app: AppState) -> Router {
+    let upload_limit = app.limits.max_bytes;
+    let state = WebState {
+        app,
+        key: session::cookie_key(),
+    };
+    let uploads = Router::new()
+        .route("/machines/{id}/upload", post(pages::upload))
+        .layer(DefaultBodyLimit::max(upload_limit))
+        .layer(TimeoutLayer::with_status_code(
+            StatusCode::REQUEST_TIMEOUT,
+            UPLOAD_TIMEOUT,
+        ));
+    let rest = Router::new()
+        .route("/", get(pages::fleet))
+        .route("/machines/{id}", get(pages::machine))
+        .route("/machines/{id}/baseline", post(pages::set_baseline))
+        .route("/results/{id}", get(pages::result))
+        .route("/compare", get(pages::compare))
+        .route("/jobs/{file}", get(pages::job_json))
+        .route("/signin", get(signin_form).post(signin))
+        .route("/signout", post(signout))
+        .route("/static/{file}", get(asset))
+        .layer(DefaultBodyLimit::max(JSON_BODY_LIMIT))
+        .layer(TimeoutLayer::with_status_code(
+            StatusCode::REQUEST_TIMEOUT,
+            REQUEST_TIMEOUT,
+        ));
+    uploads.merge(rest).with_state(state)
+}
+
+/// `/static/{file}`: the vendored stylesheet and script (pages link them with a content
+/// hash, `mtcal_views::assets::href`).
+async fn asset(Path(file): Path<String>) -> Response {
+    match mtcal_views::assets::get(&file) {
+        Some((content_type, body)) => (
+            [
+                (header::CONTENT_TYPE, content_type),
+                (header::CACHE_CONTROL, "public, max-age=86400"),
+            ],
+            body,
+        )
+            .into_response(),
+        None => WebError(ApiError::NotFound(format!("no asset {file}"))).into_response(),
+    }
+}
+
+#[derive(Debug, Deserialize)]
+struct NextQuery {
+    next: Option<String>,
+}
+
+/// Where to go after signing in: a path of this site only (no `//host`, no scheme).
+fn local_path(next: Option<&str>) -> String {
+    match next {
+        Some(n) if n.starts_with('/') && !n.starts_with("//") && !n.contains('\\') => n.into(),
+        _ => "/".into(),
+    }
+}
+
+async fn signin_form(jar: PrivateCookieJar, Query(q): Query<NextQuery>) -> Response {
+    let (jar, token) = session::signin_token(jar);
+    let next = local_path(q.next.as_deref());
+    (
+        jar,
+        html(mtcal_views::pages::signin::signin_page(&token, &next, None)),
+    )
+        .into_response()
+}
+
+#[derive(Debug, Deserialize)]
+struct SigninForm {
+    csrf: String,
+    key: String,
+    next: Option<String>,
+}
+
+/// Checks the key; on success starts a session and goes on to `next`.
+async fn signin(
+    State(s): State<WebState>,
+    jar: PrivateCookieJar,
+    Form(f): Form<SigninForm>,
+) -> PageResult {
+    let next = local_path(f.next.as_deref());
+    if !session::signin_token_ok(&jar, &f.csrf) {
+        let (jar, token) = session::signin_token(jar);
+        let page = mtcal_views::pages::signin::signin_page(
+            &token,
+            &next,
+            Some("the sign-in form expired; enter the key again"),
+        );
+        return Ok((StatusCode::FORBIDDEN, jar, html(page)).into_response());
+    }
+    let secret = f.key.trim();
+    match s
+        .app
+        .store
+        .key_by_secret(secret)
+        .await
+        .map_err(ApiError::from)?
+    {
+        Some(_) => Ok((session::start(jar, secret), Redirect::to(&next)).into_response()),
+        None => {
+            let (jar, token) = session::signin_token(jar);
+            let page = mtcal_views::pages::signin::signin_page(
+                &token,
+                &next,
+                Some("unknown or revoked API key"),
+            );
+            Ok((StatusCode::UNAUTHORIZED, jar, html(page)).into_response())
+        }
+    }
+}
+
+#[derive(Debug, Deserialize)]
+pub struct CsrfForm {
+    pub csrf: String,
+}
+
+async fn signout(session: Session, jar: PrivateCookieJar, Form(f): Form<CsrfForm>) -> PageResult {
+    session.check_csrf(&f.csrf)?;
+    Ok((session::end(jar), Redirect::to("/signin")).into_response())
+}
+
+#[cfg(test)]
+mod tests {
+    use super::local_path;
+
+    #[test]
+    fn next_stays_on_this_site() {
+        assert_eq!(
+            local_path(Some("/machines/A?term=EXX")),
+            "/machines/A?term=EXX"
+        );
+        assert_eq!(local_path(Some("//evil.example/")), "/");
+        assert_eq!(local_path(Some("https://evil.example/")), "/");
+        assert_eq!(local_path(Some("/\\evil.example")), "/");
+        assert_eq!(local_path(None), "/");
+    }
+}

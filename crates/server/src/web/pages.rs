@@ -1,0 +1,654 @@
+//! Page handlers: each reads through the service functions of the API routes
+//! (`crate::api::*`) and hands plain view data to crates/views.
+
+use super::session::{Session, WebState};
+use super::{PageResult, WebError, html};
+use crate::AppState;
+use crate::api::history::{self, DiffQuery, KIND};
+use crate::api::jobs::{self as api_jobs, SubmitJob};
+use crate::api::trends::{self as api_trends, FleetQuery, TermQuery};
+use crate::error::ApiError;
+use crate::jobs::JobKind;
+use axum::Json;
+use axum::extract::{Form, FromRequest, Multipart, Path, Query, Request, State};
+use axum::response::{IntoResponse, Redirect};
+use mtcal_solver::identification::IdentificationResult;
+use mtcal_store::{Job, Machine, MachinePatch, ResultMeta, StoredResult};
+use mtcal_views::pages::{
+    self as views, compare, fleet as vfleet, jobs as vjobs, machine as vmachine, result as vresult,
+};
+use mtcal_views::plots::{CircleTrace, TrendPoint, TrendSeries};
+use serde::Deserialize;
+
+/// Result kinds shown on a machine page, in this order.
+const KINDS: [&str; 4] = ["identification", "diagnosis", "cradle", "sensitivity"];
+
+/// Machines listed at most on the fleet page, and how many get a sparkline.
+const FLEET_LIMIT: usize = 10_000;
+const SPARKLINES: usize = 200;
+
+fn job_row(j: &Job) -> vjobs::JobRow {
+    vjobs::JobRow {
+        id: j.id.clone(),
+        kind: j.kind.as_str().into(),
+        machine_id: j.machine_id.clone(),
+        state: j.state.as_str().into(),
+        progress: j.progress,
+        progress_message: j.progress_message.clone(),
+        error_code: j.error_code.clone(),
+        error_message: j.error_message.clone(),
+        result_id: j.result_id.clone(),
+        created_at: j.created_at.clone(),
+    }
+}
+
+/// Every machine of the store (the machine list route, page by page).
+async fn all_machines(s: &AppState) -> Result<Vec<Machine>, ApiError> {
+    let mut out: Vec<Machine> = vec![];
+    loop {
+        let page = s
+            .store
+            .list_machines(out.last().map(|m| m.id.as_str()), 1000)
+            .await?;
+        let done = page.len() < 1000;
+        out.extend(page);
+        if done || out.len() >= FLEET_LIMIT {
+            return Ok(out);
+        }
+    }
+}
+
+/// The baseline of a machine: its chosen one, else its first identification.
+fn baseline_of(m: &Machine, ids: &[ResultMeta]) -> Option<String> {
+    m.baseline_result_id
+        .clone()
+        .or_else(|| ids.first().map(|r| r.id.clone()))
+}
+
+#[derive(Debug, Deserialize, Default)]
+pub struct FleetParams {
+    site: Option<String>,
+    tag: Option<String>,
+    sort: Option<String>,
+}
+
+/// `/`: the fleet.
+pub async fn fleet(
+    session: Session,
+    State(s): State<WebState>,
+    Query(q): Query<FleetParams>,
+) -> PageResult {
+    let app = &s.app;
+    let ranked = api_trends::fleet_drift(
+        app,
+        FleetQuery {
+            by: Some("um".into()),
+            limit: Some(FLEET_LIMIT),
+        },
+    )
+    .await?;
+    let machines = all_machines(app).await?;
+    let site = q.site.filter(|v| !v.is_empty());
+    let tag = q.tag.filter(|v| !v.is_empty());
+    let mut sites: Vec<String> = machines.iter().filter_map(|m| m.site.clone()).collect();
+    sites.sort();
+    sites.dedup();
+    let mut tags: Vec<String> = machines.iter().flat_map(|m| m.tags.clone()).collect();
+    tags.sort();
+    tags.dedup();
+    let mut rows = vec![];
+    for m in machines.iter().filter(|m| {
+        site.as_ref().is_none_or(|s| m.site.as_ref() == Some(s))
+            && tag.as_ref().is_none_or(|t| m.tags.contains(t))
+    }) {
+        let entry = ranked.machines.iter().find(|e| e.machine_id == m.id);
+        let drift = |value: f64, unit: &str, term: &Option<String>| vfleet::Drift {
+            value,
+            std: None,
+            unit: unit.into(),
+            term: term.clone(),
+            at_mm: None,
+        };
+        rows.push(vfleet::FleetRow {
+            machine_id: m.id.clone(),
+            name: m.name.clone(),
+            site: m.site.clone(),
+            tags: m.tags.clone(),
+            last_check: entry.map(|e| (e.latest_result_id.clone(), e.latest_measured_at.clone())),
+            verdict: None,
+            drift_um: entry.map(|e| drift(e.drift.drift_um, "um", &e.drift.worst_term_um)),
+            drift_urad: entry.map(|e| drift(e.drift.drift_urad, "urad", &e.drift.worst_term_urad)),
+            worst_trend: vec![],
+            active_alerts: 0,
+        });
+    }
+    let sort = q.sort.unwrap_or_else(|| "drift".into());
+    let key = |r: &vfleet::FleetRow, urad: bool| {
+        let d = if urad { &r.drift_urad } else { &r.drift_um };
+        d.as_ref().map_or(f64::NEG_INFINITY, |d| d.value)
+    };
+    match sort.as_str() {
+        "name" => rows.sort_by(|a, b| a.machine_id.cmp(&b.machine_id)),
+        "last_check" => rows.sort_by(|a, b| {
+            b.last_check
+                .as_ref()
+                .map(|c| &c.1)
+                .cmp(&a.last_check.as_ref().map(|c| &c.1))
+        }),
+        s => {
+            let urad = s == "drift_urad";
+            rows.sort_by(|a, b| key(b, urad).total_cmp(&key(a, urad)));
+        }
+    }
+    // Machines with active alerts first (stable: the chosen order within).
+    rows.sort_by_key(|r| r.active_alerts == 0);
+    for r in rows.iter_mut().take(SPARKLINES) {
+        r.worst_trend = worst_trend(app, r).await?;
+    }
+    let page = vfleet::FleetPage {
+        rows,
+        alerts: vec![],
+        sites,
+        tags,
+        site,
+        tag,
+        sort,
+        definition: ranked.definition,
+    };
+    Ok(html(vfleet::fleet_page(&session.viewer(), &page)))
+}
+
+/// The worst term's values over the checks, at the end of its registered travel where
+/// it changed most (the term trend route).
+async fn worst_trend(app: &AppState, r: &vfleet::FleetRow) -> Result<Vec<f64>, ApiError> {
+    let Some(term) = r.drift_um.as_ref().and_then(|d| d.term.clone()) else {
+        return Ok(vec![]);
+    };
+    let machine = app.store.get_machine(&r.machine_id).await?;
+    let Some((_, axis)) = crate::trends::term_info(&term) else {
+        return Ok(vec![]);
+    };
+    let [lo, hi] = crate::trends::travel(&machine, axis);
+    let t = api_trends::term_trend(
+        app,
+        &r.machine_id,
+        TermQuery {
+            term,
+            at: format!("{lo},{hi}"),
+        },
+    )
+    .await?;
+    let column = |i: usize| -> Vec<f64> {
+        t.points
+            .iter()
+            .map(|p| p.values[i].unwrap_or(f64::NAN))
+            .collect()
+    };
+    let change = |v: &[f64]| {
+        let f: Vec<f64> = v.iter().copied().filter(|x| x.is_finite()).collect();
+        match (f.first(), f.last()) {
+            (Some(a), Some(b)) => (b - a).abs(),
+            _ => 0.0,
+        }
+    };
+    let (a, b) = (column(0), column(1));
+    Ok(if change(&b) > change(&a) { b } else { a })
+}
+
+#[derive(Debug, Deserialize, Default)]
+pub struct MachineParams {
+    term: Option<String>,
+    at: Option<String>,
+    /// Jobs just submitted (comma-separated ids).
+    jobs: Option<String>,
+    notice: Option<String>,
+}
+
+/// One line about a stored result for the checks table.
+fn summary(r: &ResultMeta) -> String {
+    let sc = &r.scalars;
+    let mut parts = vec![];
+    if let Some(v) = sc.residual_rms_um {
+        parts.push(format!("residual {} µm", views::num(v)));
+    }
+    if let Some(k) = sc.rank {
+        parts.push(format!("rank {k}"));
+    }
+    parts.join(", ")
+}
+
+/// Positions of the term trend when none are given: the ends of the term's reported
+/// grid in the latest identification (inside its measured travel).
+fn default_positions(latest: Option<&IdentificationResult>, term: &str) -> String {
+    let grid = latest
+        .and_then(|d| d.terms.get(term))
+        .map(|t| t.positions_mm.clone())
+        .unwrap_or_default();
+    match (grid.first(), grid.last()) {
+        (Some(a), Some(b)) if a != b => format!(
+            "{},{}",
+            mtcal_views::plots::tick_label(*a),
+            mtcal_views::plots::tick_label(*b)
+        ),
+        _ => "0".into(),
+    }
+}
+
+/// `/machines/{id}`.
+pub async fn machine(
+    session: Session,
+    State(s): State<WebState>,
+    Path(id): Path<String>,
+    Query(q): Query<MachineParams>,
+) -> PageResult {
+    let app = &s.app;
+    let m = app.store.get_machine(&id).await?;
+    let mut checks = vec![];
+    let mut identifications = vec![];
+    for kind in KINDS {
+        let list = history::results(app, &id, Some(kind)).await?;
+        if kind == KIND {
+            identifications = list.clone();
+        }
+        checks.extend(list);
+    }
+    let baseline = baseline_of(&m, &identifications);
+    checks.sort_by(|a, b| {
+        b.measured_at
+            .cmp(&a.measured_at)
+            .then(b.created_at.cmp(&a.created_at))
+    });
+    let checks = checks
+        .iter()
+        .map(|r| vmachine::CheckRow {
+            result_id: r.id.clone(),
+            kind: r.kind.clone(),
+            measured_at: r.measured_at.clone(),
+            verdict: None,
+            summary: summary(r),
+            is_baseline: baseline.as_deref() == Some(r.id.as_str()),
+        })
+        .collect();
+    let latest = match identifications.last() {
+        Some(r) => serde_json::from_value::<IdentificationResult>(
+            app.store.get_result(&r.id).await?.document,
+        )
+        .ok(),
+        None => None,
+    };
+    let term = q
+        .term
+        .filter(|t| crate::trends::term_info(t).is_some())
+        .unwrap_or_else(|| "EXX".into());
+    let at =
+        q.at.filter(|a| !a.trim().is_empty())
+            .unwrap_or_else(|| default_positions(latest.as_ref(), &term));
+    let (term_trend, trend_error) = if identifications.is_empty() {
+        (None, None)
+    } else {
+        match api_trends::term_trend(
+            app,
+            &id,
+            TermQuery {
+                term: term.clone(),
+                at: at.clone(),
+            },
+        )
+        .await
+        {
+            Ok(t) => {
+                let series = t
+                    .positions_mm
+                    .iter()
+                    .enumerate()
+                    .map(|(i, q)| TrendSeries {
+                        name: format!("{} at {} mm", t.term, mtcal_views::plots::tick_label(*q)),
+                        points: t
+                            .points
+                            .iter()
+                            .map(|p| TrendPoint {
+                                measured_at: p.measured_at.clone(),
+                                value: p.values[i],
+                                std: None,
+                            })
+                            .collect(),
+                    })
+                    .collect();
+                (
+                    Some(vmachine::TermTrend {
+                        term: t.term,
+                        unit: t.unit,
+                        series,
+                    }),
+                    None,
+                )
+            }
+            Err(ApiError::InvalidRequest(msg)) => (None, Some(msg)),
+            Err(e) => return Err(e.into()),
+        }
+    };
+    let summary = api_trends::summary_trend(app, &id).await?;
+    let squareness = [
+        (
+            "EC0Y",
+            (|p: &api_trends::SummaryPoint| p.ec0y_urad) as fn(&_) -> _,
+        ),
+        ("EB0Z", |p| p.eb0z_urad),
+        ("EA0Z", |p| p.ea0z_urad),
+    ]
+    .iter()
+    .map(|(name, f)| TrendSeries {
+        name: name.to_string(),
+        points: summary
+            .points
+            .iter()
+            .map(|p| TrendPoint {
+                measured_at: p.measured_at.clone(),
+                value: f(p),
+                std: None,
+            })
+            .collect(),
+    })
+    .collect();
+    let mut jobs = vec![];
+    for j in q
+        .jobs
+        .as_deref()
+        .unwrap_or("")
+        .split(',')
+        .filter(|j| !j.is_empty())
+        .take(10)
+    {
+        if let Ok(job) = app.store.get_job(j).await
+            && job.machine_id.as_deref() == Some(id.as_str())
+        {
+            jobs.push(job_row(&job));
+        }
+    }
+    let page = vmachine::MachinePage {
+        machine: vmachine::MachineInfo {
+            id: m.id.clone(),
+            name: m.name.clone(),
+            site: m.site.clone(),
+            tags: m.tags.clone(),
+            travel_mm: m.travel_mm.iter().map(|(k, v)| (k.clone(), *v)).collect(),
+            baseline_result_id: baseline,
+        },
+        checks,
+        term,
+        at,
+        term_trend,
+        trend_error,
+        squareness,
+        jobs,
+        notice: q.notice,
+    };
+    Ok(html(vmachine::machine_page(&session.viewer(), &page)))
+}
+
+#[derive(Debug, Deserialize)]
+pub struct BaselineForm {
+    csrf: String,
+    result_id: String,
+}
+
+/// `POST /machines/{id}/baseline`: the machine update of the API with
+/// `baseline_result_id`.
+pub async fn set_baseline(
+    session: Session,
+    State(s): State<WebState>,
+    Path(id): Path<String>,
+    Form(f): Form<BaselineForm>,
+) -> PageResult {
+    session.check_csrf(&f.csrf)?;
+    session.require_write()?;
+    let r = s.app.store.get_result(&f.result_id).await?;
+    if r.meta.machine_id != id || r.meta.kind != KIND {
+        return Err(WebError(ApiError::InvalidRequest(format!(
+            "result {} is not an identification of machine {id}",
+            f.result_id
+        ))));
+    }
+    crate::api::machines::update_machine(
+        &s.app,
+        &id,
+        MachinePatch {
+            baseline_result_id: Some(f.result_id),
+            ..MachinePatch::default()
+        },
+    )
+    .await?;
+    Ok(Redirect::to(&format!(
+        "{}?notice={}",
+        views::machine_href(&id),
+        views::encode("baseline set")
+    ))
+    .into_response())
+}
+
+/// The document's array `field` read as `T`s (empty when absent or of another shape).
+fn array<T: serde::de::DeserializeOwned>(doc: &serde_json::Value, field: &str) -> Vec<T> {
+    doc.get(field)
+        .and_then(|v| serde_json::from_value(v.clone()).ok())
+        .unwrap_or_default()
+}
+
+fn bad_document(r: &StoredResult, e: serde_json::Error) -> WebError {
+    WebError(ApiError::Internal(format!(
+        "result {} of kind {} does not read as its document: {e}",
+        r.meta.id, r.meta.kind
+    )))
+}
+
+/// `/results/{id}`.
+pub async fn result(
+    session: Session,
+    State(s): State<WebState>,
+    Path(id): Path<String>,
+) -> PageResult {
+    let app = &s.app;
+    let r = app.store.get_result(&id).await?;
+    let m = app.store.get_machine(&r.meta.machine_id).await?;
+    let ids = history::results(app, &m.id, None).await?;
+    let header = vresult::ResultHeader {
+        id: r.meta.id.clone(),
+        machine_id: r.meta.machine_id.clone(),
+        kind: r.meta.kind.clone(),
+        measured_at: r.meta.measured_at.clone(),
+        created_at: r.meta.created_at.clone(),
+        dataset_id: r.meta.dataset_id.clone(),
+        is_baseline: r.meta.kind == KIND && baseline_of(&m, &ids).as_deref() == Some(id.as_str()),
+        verdict: None,
+    };
+    let doc = &r.document;
+    let viewer = session.viewer();
+    let page = match r.meta.kind.as_str() {
+        "identification" => {
+            let d: IdentificationResult =
+                serde_json::from_value(doc.clone()).map_err(|e| bad_document(&r, e))?;
+            let circles: Vec<CircleTrace> = array(doc, "circles");
+            let residuals: Vec<mtcal_solver::residuals::ResidualSummary> = array(doc, "residuals");
+            let travel = |_: &str| None;
+            let body = vresult::ResultBody::Identification(vresult::IdentificationView {
+                doc: &d,
+                circles: &circles,
+                residuals: &residuals,
+                travel: &travel,
+            });
+            vresult::result_page(&viewer, &header, &[], &body)
+        }
+        "diagnosis" => {
+            let d = serde_json::from_value(doc.clone()).map_err(|e| bad_document(&r, e))?;
+            vresult::result_page(&viewer, &header, &[], &vresult::ResultBody::Diagnosis(&d))
+        }
+        "cradle" => {
+            let d = serde_json::from_value(doc.clone()).map_err(|e| bad_document(&r, e))?;
+            vresult::result_page(&viewer, &header, &[], &vresult::ResultBody::Cradle(&d))
+        }
+        "sensitivity" => {
+            let d = serde_json::from_value(doc.clone()).map_err(|e| bad_document(&r, e))?;
+            vresult::result_page(&viewer, &header, &[], &vresult::ResultBody::Sensitivity(&d))
+        }
+        other => {
+            return Err(WebError(ApiError::NotFound(format!(
+                "no page for results of kind {other}"
+            ))));
+        }
+    };
+    Ok(html(page))
+}
+
+#[derive(Debug, Deserialize)]
+pub struct CompareParams {
+    a: String,
+    b: String,
+}
+
+/// `/compare?a=&b=`: the diff route with `baseline=a&against=b`.
+pub async fn compare(
+    session: Session,
+    State(s): State<WebState>,
+    Query(q): Query<CompareParams>,
+) -> PageResult {
+    let app = &s.app;
+    let a = app.store.get_result(&q.a).await?.meta;
+    let d = history::diff_results(
+        app,
+        &a.machine_id,
+        &DiffQuery {
+            baseline: Some(q.a.clone()),
+            against: Some(q.b.clone()),
+            step_mm: None,
+        },
+    )
+    .await?;
+    let side = |r: &ResultMeta| compare::Side {
+        result_id: r.id.clone(),
+        measured_at: r.measured_at.clone(),
+        residual_rms_um: r.scalars.residual_rms_um,
+        rank: r.scalars.rank,
+        verdict: None,
+    };
+    let sq = |r: &ResultMeta, name: &str| match name {
+        "EC0Y" => r.scalars.ec0y_urad,
+        "EB0Z" => r.scalars.eb0z_urad,
+        _ => r.scalars.ea0z_urad,
+    };
+    let page = compare::ComparePage {
+        machine_id: d.machine_id.clone(),
+        a: side(&d.baseline),
+        b: side(&d.against),
+        terms: d
+            .terms
+            .iter()
+            .map(|(name, t)| compare::TermDiff {
+                name: name.clone(),
+                unit: t.unit.clone(),
+                positions_mm: t.positions_mm.clone(),
+                diff: t.delta.clone(),
+                std: vec![f64::NAN; t.delta.len()],
+                not_compared: (!t.identifiable)
+                    .then(|| "not identifiable in one of the two checks".to_string()),
+            })
+            .collect(),
+        squareness: ["EC0Y", "EB0Z", "EA0Z"]
+            .iter()
+            .map(|n| compare::SquarenessDiff {
+                name: n.to_string(),
+                a: (sq(&d.baseline, n), None),
+                b: (sq(&d.against, n), None),
+                diff: (d.squareness.get(*n).copied().flatten(), None),
+            })
+            .collect(),
+    };
+    Ok(html(compare::compare_page(&session.viewer(), &page)))
+}
+
+/// `/jobs/{id}.json`: the job as the API's `GET /api/v1/jobs/{id}` (polled by the page
+/// script with the session cookie).
+pub async fn job_json(
+    _session: Session,
+    State(s): State<WebState>,
+    Path(file): Path<String>,
+) -> Result<Json<Job>, WebError> {
+    let id = file
+        .strip_suffix(".json")
+        .ok_or_else(|| WebError(ApiError::NotFound(format!("no such page /jobs/{file}"))))?;
+    Ok(Json(s.app.store.get_job(id).await?))
+}
+
+/// `POST /machines/{id}/upload` (multipart: `csrf` first, then `files`, optionally
+/// `diagnose`): the dataset upload of the API, then the job its kind calls for
+/// (`identify` for a session, and `diagnose` too when asked; `cradle` for a rotary point
+/// set; `diagnose` for positioning runs and drift logs), then back to the machine page
+/// watching the jobs.
+pub async fn upload(
+    session: Session,
+    State(s): State<WebState>,
+    Path(id): Path<String>,
+    req: Request,
+) -> PageResult {
+    let app = &s.app;
+    let mut mp = Multipart::from_request(req, &s)
+        .await
+        .map_err(|r| ApiError::from_rejection(r.status(), r.body_text()))?;
+    let bad = |e: axum::extract::multipart::MultipartError| {
+        WebError(ApiError::from_rejection(e.status(), e.body_text()))
+    };
+    // The token comes first in the form: nothing else is read without it.
+    let first = mp.next_field().await.map_err(bad)?;
+    let token = match first {
+        Some(f) if f.name() == Some("csrf") => f.text().await.map_err(bad)?,
+        _ => String::new(),
+    };
+    session.check_csrf(&token)?;
+    session.require_write()?;
+    let machine = app.store.get_machine(&id).await?;
+    let mut files = vec![];
+    let mut diagnose = false;
+    while let Some(field) = mp.next_field().await.map_err(bad)? {
+        match field.name() {
+            Some("diagnose") => diagnose = true,
+            Some("files") => {
+                let name = field.file_name().unwrap_or_default().to_string();
+                let bytes = field.bytes().await.map_err(bad)?;
+                if !name.is_empty() {
+                    files.push((name, bytes.to_vec()));
+                }
+            }
+            _ => {}
+        }
+    }
+    if files.is_empty() {
+        return Err(WebError(ApiError::InvalidRequest(
+            "choose the files of one dataset to upload".into(),
+        )));
+    }
+    let dataset = crate::api::datasets::store_upload(app, machine, files).await?;
+    let kinds: Vec<JobKind> = match dataset.kind.as_str() {
+        "session" if diagnose => vec![JobKind::Identify, JobKind::Diagnose],
+        "session" => vec![JobKind::Identify],
+        "rotary_points" => vec![JobKind::Cradle],
+        _ => vec![JobKind::Diagnose],
+    };
+    let mut ids = vec![];
+    for kind in kinds {
+        let job = api_jobs::submit_job(
+            app,
+            SubmitJob {
+                kind,
+                dataset_id: Some(dataset.id.clone()),
+                machine_id: None,
+                params: serde_json::Value::Null,
+            },
+        )
+        .await?;
+        ids.push(job.id);
+    }
+    Ok(Redirect::to(&format!(
+        "{}?jobs={}",
+        views::machine_href(&id),
+        views::encode(&ids.join(","))
+    ))
+    .into_response())
+}

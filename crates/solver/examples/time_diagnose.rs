@@ -1,0 +1,71 @@
+//! Diagnosis against identification on the same session, side by side: wall time and
+//! peak resident memory of each (Linux: `VmHWM`, reset through `/proc/self/clear_refs`).
+//!
+//! `cargo run -p mtcal-solver --example time_diagnose -- [SAMPLES]` (default 300 000:
+//! the full plan, 198 runs, at the sample rate that gives that many samples).
+use mtcal_solver::diagnosis::{DiagnoseOptions, diagnose_session};
+use mtcal_solver::identification::{IdentifyOptions, identify};
+use mtcal_solver::simulate::{Plan, SimOptions, random_truth, simulate};
+use std::time::Instant;
+
+/// Peak resident set (MB) since the last reset, and a reset.
+fn peak_mb() -> Option<f64> {
+    let s = std::fs::read_to_string("/proc/self/status").ok()?;
+    let kb: f64 = s
+        .lines()
+        .find(|l| l.starts_with("VmHWM:"))?
+        .split_whitespace()
+        .nth(1)?
+        .parse()
+        .ok()?;
+    Some(kb / 1024.0)
+}
+
+fn reset_peak() {
+    let _ = std::fs::write("/proc/self/clear_refs", "5");
+}
+
+fn main() {
+    let samples: f64 = std::env::args()
+        .nth(1)
+        .and_then(|a| a.parse().ok())
+        .unwrap_or(300_000.0);
+    // The full plan gives about 2 940 samples per Hz of sample rate.
+    let rate = samples / 2941.0;
+    let out = simulate(
+        &random_truth(1),
+        &SimOptions {
+            plan: Plan::Full,
+            sample_rate_hz: rate,
+            ..Default::default()
+        },
+    )
+    .unwrap();
+    let s = &out.session;
+    println!(
+        "session: {} samples, {} runs, {rate:.1} Hz; resident {:.0} MB",
+        s.sample_count(),
+        s.planes.iter().map(|p| p.runs.len()).sum::<usize>(),
+        peak_mb().unwrap_or(f64::NAN)
+    );
+    reset_peak();
+    let t = Instant::now();
+    let id = identify(s, &IdentifyOptions::default()).unwrap();
+    let ti = t.elapsed().as_secs_f64();
+    let mi = peak_mb().unwrap_or(f64::NAN);
+    println!(
+        "identify: {ti:.3} s, peak resident {mi:.0} MB (residual {:.3} um, floor {:?})",
+        id.fit.residual_rms_um, id.fit.noise_estimate_um
+    );
+    reset_peak();
+    let t = Instant::now();
+    let d = diagnose_session(s, &DiagnoseOptions::default()).unwrap();
+    let td = t.elapsed().as_secs_f64();
+    let md = peak_mb().unwrap_or(f64::NAN);
+    println!(
+        "diagnose: {td:.3} s, peak resident {md:.0} MB (verdict {:?}, {} finding(s)); {:.1} x identify",
+        d.verdict,
+        d.findings.len(),
+        td / ti
+    );
+}

@@ -1,0 +1,489 @@
+//! The effects a diagnosis reports, one entry per mechanism, shared by sessions,
+//! positioning runs and drift logs: the physics sentence, every parameter with its unit
+//! and its one sign convention, the parameters that must be determined for a finding,
+//! and what extra data would decide an undetermined one. The table is written out in
+//! docs/diagnosis.md ("Effects and sign conventions"); a test holds every parameter a
+//! finding reports to a name of this table.
+//!
+//! d is the sign of the axis's travel (+1 moving, or approaching the target, toward +),
+//! errors are in the tool-relative-to-workpiece sense (positive: the tool point ends up
+//! further toward + than commanded; for positioning runs, the reading's deviation).
+
+use super::{Finding, Verdict};
+
+/// One parameter: its name (`{axis}` stands for X, Y or Z, `{n}` for 1, 2, …,
+/// `{sensor}` for a temperature channel), unit and sign convention.
+#[derive(Debug, Clone, Copy)]
+pub struct ParamSpec {
+    pub name: &'static str,
+    pub unit: &'static str,
+    pub convention: &'static str,
+    /// A nonlinear parameter (time constant, length, period, frequency): undetermined
+    /// when σ > value/2; a linear coefficient is undetermined when |value| < 2σ.
+    pub nonlinear: bool,
+}
+
+/// One mechanism.
+#[derive(Debug, Clone, Copy)]
+pub struct EffectSpec {
+    pub name: &'static str,
+    pub physics: &'static str,
+    pub params: &'static [ParamSpec],
+    /// Parameters that must each be determined (|value| ≥ 2σ for a linear parameter,
+    /// σ ≤ value/2 for a nonlinear one); with `any_of`, at least one of them.
+    pub principal: &'static [&'static str],
+    pub any_of: bool,
+    /// What extra data would decide the effect when its parameters are undetermined.
+    pub decide: &'static str,
+}
+
+const fn p(name: &'static str, unit: &'static str, convention: &'static str) -> ParamSpec {
+    ParamSpec {
+        name,
+        unit,
+        convention,
+        nonlinear: false,
+    }
+}
+
+const fn q(name: &'static str, unit: &'static str, convention: &'static str) -> ParamSpec {
+    ParamSpec {
+        name,
+        unit,
+        convention,
+        nonlinear: true,
+    }
+}
+
+/// Every mechanism with a name.
+pub const EFFECTS: &[EffectSpec] = &[
+    EffectSpec {
+        name: "backlash",
+        physics: "lost motion at direction reversal of the axis drive (clearance and elastic wind-up in screw, nut, bearings or coupling); the rigid-body model has no memory of the direction of travel",
+        params: &[p(
+            "lost_motion_um",
+            "um",
+            "b > 0 when the axis stops short of its target in the direction of travel: error = -d*b/2, i.e. b = mean(- approach) - mean(+ approach), the negative of ISO 230-2's reversal value B",
+        )],
+        principal: &["lost_motion_um"],
+        any_of: false,
+        decide: "more reversals of the axis (circles, or bidirectional runs)",
+    },
+    EffectSpec {
+        name: "servo_lag",
+        physics: "servo following error: the axis lags its set-point in proportion to velocity; the rigid-body model is static, position-only",
+        params: &[p(
+            "lag_s",
+            "s",
+            "tau > 0 when the axis lags its set-point: error = -tau*v (v the commanded velocity, mm/s, error in um = tau*v*1000)",
+        )],
+        principal: &["lag_s"],
+        any_of: false,
+        decide: "runs at two different feeds",
+    },
+    EffectSpec {
+        name: "reversal_spike",
+        physics: "friction transient after an axis reversal (stick-slip, quadrant glitch, servo recovery) decaying with the travel since the reversal; not in a static geometric model",
+        params: &[
+            p(
+                "height_um",
+                "um",
+                "h > 0 when the transient lags like backlash: error = -d*h*exp(-s/lambda), s the travel since the reversal (positioning runs: from the first target of the pass)",
+            ),
+            q(
+                "decay_mm",
+                "mm",
+                "lambda > 0, the decay length of the transient",
+            ),
+        ],
+        principal: &["height_um", "decay_mm"],
+        any_of: false,
+        decide: "denser samples or targets within a few decay lengths after each reversal",
+    },
+    EffectSpec {
+        name: "cyclic",
+        physics: "periodic positioning error with the period of the screw lead or of the encoder (screw or encoder cyclic error), beyond the polynomial's order",
+        params: &[
+            p(
+                "amplitude_um",
+                "um",
+                "A >= 0: error = A*sin(2*pi*q/P + phi), q the axis position (mm)",
+            ),
+            q("period_mm", "mm", "P > 0"),
+            p("phase_rad", "rad", "phi in (-pi, pi], at q = 0"),
+        ],
+        principal: &["amplitude_um", "period_mm"],
+        any_of: false,
+        decide: "more samples or targets per period over a longer travel",
+    },
+    EffectSpec {
+        name: "vibration",
+        physics: "time-periodic motion of the tool relative to the workpiece (vibration), not bound to position",
+        params: &[
+            p(
+                "amplitude_um",
+                "um",
+                "A >= 0: error = A*sin(2*pi*f*t + phi) along the named direction, t the session time (s)",
+            ),
+            q("frequency_hz", "Hz", "f > 0"),
+            p("phase_rad", "rad", "phi in (-pi, pi], at t = 0"),
+        ],
+        principal: &["amplitude_um", "frequency_hz"],
+        any_of: false,
+        decide: "longer runs, or a sample rate well above twice the frequency",
+    },
+    EffectSpec {
+        name: "thermal_drift",
+        physics: "thermal growth of the structure (first-order response to the heat input, or following a logged temperature): offsets and axis scale change with time, the rigid model is time-invariant",
+        params: &[
+            p(
+                "offset_um_{axis}",
+                "um",
+                "final offset o_j along j: error_j = g*(o_j + k_j*q_j/1000), g = 1 - exp(-t/T), t from the start of the recording",
+            ),
+            p(
+                "scale_ppm_{axis}",
+                "ppm",
+                "final scale error k_j of axis j (um per m of position from 0), same g",
+            ),
+            p(
+                "offset_um",
+                "um",
+                "positioning runs: final offset o of the axis, error = g*(o + k*x/1000)",
+            ),
+            p(
+                "scale_ppm",
+                "ppm",
+                "positioning runs: final scale error k of the axis (um per m from x = 0)",
+            ),
+            q("time_constant_s", "s", "T > 0 of g = 1 - exp(-t/T)"),
+            q(
+                "time_constant_records",
+                "records",
+                "positioning runs without t_s: T counted in records",
+            ),
+            p(
+                "offset_um_per_k_{axis}",
+                "um/K",
+                "sessions with logged temperatures: error_j = dT*(o_j + k_j*q_j/1000), dT the change of the logged temperature from the first sample",
+            ),
+            p(
+                "scale_ppm_per_k_{axis}",
+                "ppm/K",
+                "sessions with logged temperatures: k_j of the same model",
+            ),
+            p(
+                "offset_um_per_k",
+                "um/K",
+                "positioning runs with temp_c: error = dT*(o + k*x/1000), dT from the first record",
+            ),
+            p(
+                "scale_ppm_per_k",
+                "ppm/K",
+                "positioning runs with temp_c: k of the same model",
+            ),
+            p(
+                "rpm_exponent",
+                "1",
+                "drift logs: heat input u = (n/n_max)^p of the spindle speed n",
+            ),
+            q(
+                "tau{n}_s",
+                "s",
+                "drift logs: time constant of lag n, tau x' = u - x",
+            ),
+            p(
+                "gain{n}_um",
+                "um",
+                "drift logs: steady-state growth of lag n at full speed, positive toward +",
+            ),
+            p(
+                "{sensor}_um_per_k",
+                "um/K",
+                "drift logs: growth per kelvin of a structure temperature",
+            ),
+            p(
+                "share_predicted",
+                "1",
+                "drift logs: 1 - SSE(model)/SSE(rigid) on the held-out part",
+            ),
+        ],
+        principal: &[
+            "time_constant_s",
+            "time_constant_records",
+            "offset_um_per_k",
+            "scale_ppm_per_k",
+            "offset_um_per_k_{axis}",
+            "scale_ppm_per_k_{axis}",
+            "tau{n}_s",
+            "{sensor}_um_per_k",
+        ],
+        any_of: true,
+        decide: "a recording several time constants long, or a logged temperature of the structure",
+    },
+    EffectSpec {
+        name: "waviness",
+        physics: "straightness waviness of a guideway: an error across the axis, periodic in its position with a period the polynomial order cannot follow (found by its signature, outside the named catalogue)",
+        params: &[
+            p(
+                "amplitude_um",
+                "um",
+                "A >= 0: error along the named direction = A*sin(2*pi*q/P + phi), q the moving axis's position (mm)",
+            ),
+            q("period_mm", "mm", "P > 0"),
+            p("phase_rad", "rad", "phi in (-pi, pi], at q = 0"),
+        ],
+        principal: &["amplitude_um", "period_mm"],
+        any_of: false,
+        decide: "more passes of the axis over a longer travel",
+    },
+    EffectSpec {
+        name: "velocity_coupling",
+        physics: "an error across one axis that follows another axis's velocity (servo cross-coupling, or a carriage that tilts with its drive force); a static geometric model has no velocity (found by its signature, outside the named catalogue)",
+        params: &[p(
+            "coefficient_um_per_mm_s",
+            "um/(mm/s)",
+            "c: error along the named direction = c*v, v the moving axis's commanded velocity (mm/s)",
+        )],
+        principal: &["coefficient_um_per_mm_s"],
+        any_of: false,
+        decide: "runs of the axis at two different feeds",
+    },
+    EffectSpec {
+        name: "setup_offset",
+        physics: "the declared head offset of these files differs from the true one, so the Abbe arms of the angular errors are wrong",
+        params: &[p(
+            "delta_mm_{axis}",
+            "mm",
+            "true head offset = declared + delta, along axis j",
+        )],
+        principal: &["delta_mm_{axis}"],
+        any_of: true,
+        decide: "a third head offset along the same direction (redundant arms)",
+    },
+    EffectSpec {
+        name: "model_order",
+        physics: "position-bound, repeatable error with more waviness than the polynomial order can follow (guideway or scale waviness)",
+        params: &[
+            p(
+                "rms_um",
+                "um",
+                "RMS over the data of the added higher-order function (its sign is that of the fitted function)",
+            ),
+            p(
+                "extra_order",
+                "1",
+                "the highest polynomial order of the extended model",
+            ),
+            p(
+                "order_before",
+                "1",
+                "positioning runs: the polynomial order of the rigid model",
+            ),
+        ],
+        principal: &[],
+        any_of: false,
+        decide: "more passes over the travel",
+    },
+];
+
+/// The entry of an effect name.
+pub fn spec(name: &str) -> Option<&'static EffectSpec> {
+    EFFECTS.iter().find(|e| e.name == name)
+}
+
+/// Whether `name` is an instance of the pattern (`{axis}`, `{n}`, `{sensor}`).
+pub fn matches_pattern(pattern: &str, name: &str) -> bool {
+    let Some(i) = pattern.find('{') else {
+        return pattern == name;
+    };
+    let j = pattern[i..].find('}').map_or(pattern.len(), |j| i + j + 1);
+    let (pre, hole, post) = (&pattern[..i], &pattern[i + 1..j - 1], &pattern[j..]);
+    let Some(mid) = name
+        .strip_prefix(pre)
+        .and_then(|rest| rest.strip_suffix(post))
+    else {
+        return false;
+    };
+    match hole {
+        "axis" => matches!(mid, "X" | "Y" | "Z"),
+        "n" => !mid.is_empty() && mid.bytes().all(|b| b.is_ascii_digit()),
+        _ => !mid.is_empty(),
+    }
+}
+
+/// The parameter spec a reported name belongs to (`std_` prefixes stripped).
+pub fn param_spec(effect: &EffectSpec, name: &str) -> Option<&'static ParamSpec> {
+    let base = name.strip_prefix("std_").unwrap_or(name);
+    effect.params.iter().find(|p| matches_pattern(p.name, base))
+}
+
+/// Checks that every parameter a finding reports is a parameter of its effect in the
+/// table (names, units and signs are then those of the table).
+pub fn conforms(f: &Finding) -> Result<(), String> {
+    let spec = spec(&f.effect).ok_or_else(|| format!("effect {} not in the table", f.effect))?;
+    for name in f.parameters.keys() {
+        if param_spec(spec, name).is_none() {
+            return Err(format!("{}: parameter {name} not in the table", f.effect));
+        }
+    }
+    Ok(())
+}
+
+/// Why a finding's parameters are undetermined (`None`: determined): each principal
+/// parameter (or, for `any_of`, one of them) with a reported σ must satisfy σ ≤ value/2
+/// (nonlinear: time constants, lengths, frequencies) or |value| ≥ 2σ (coefficients).
+/// Parameters reported without σ are determined by the fit's joint test (BIC).
+pub fn undetermined(f: &Finding) -> Option<String> {
+    let spec = spec(&f.effect)?;
+    let mut bad = Vec::new();
+    let mut good = 0;
+    for (name, &v) in &f.parameters {
+        if name.starts_with("std_") || !spec.principal.iter().any(|p| matches_pattern(p, name)) {
+            continue;
+        }
+        let Some(&sd) = f.parameters.get(&format!("std_{name}")) else {
+            good += 1;
+            continue;
+        };
+        let ps = param_spec(spec, name);
+        let unit = ps.map_or("", |p| p.unit);
+        let ok = if ps.is_some_and(|p| p.nonlinear) {
+            sd.is_finite() && sd <= 0.5 * v.abs()
+        } else {
+            sd.is_finite() && v.abs() >= 2.0 * sd
+        };
+        if ok {
+            good += 1;
+        } else {
+            bad.push(format!("{name} = {v:.4} ± {sd:.4} {unit}"));
+        }
+    }
+    let fails = if spec.any_of {
+        good == 0 && !bad.is_empty()
+    } else {
+        !bad.is_empty()
+    };
+    fails.then(|| {
+        format!(
+            "parameters not determined by the data: {}; would be decided by {}",
+            bad.join(", "),
+            spec.decide
+        )
+    })
+}
+
+/// Splits findings into the determined ones and the possible ones (each with its
+/// `decide` sentence), by [`undetermined`].
+pub fn split_undetermined(findings: Vec<Finding>) -> (Vec<Finding>, Vec<Finding>) {
+    let mut determined = Vec::new();
+    let mut possible = Vec::new();
+    for f in findings {
+        match undetermined(&f) {
+            Some(why) => possible.push(Finding {
+                decide: Some(why),
+                ..f
+            }),
+            None => determined.push(f),
+        }
+    }
+    (determined, possible)
+}
+
+/// Largest ratio allowed between an effect's size as a machine error and the RMS misfit
+/// it explains (plus the noise floor): beyond it the parameters are degenerate with the
+/// nuisance parameters (run offsets, plate rotation) or the rigid terms.
+pub const MAX_SIZE_RATIO: f64 = 100.0;
+
+/// Why a candidate is physically implausible (`None`: plausible): its size as a machine
+/// error, `size_um`, against the misfit it explains.
+pub fn implausible(label: &str, size_um: f64, explained_um: f64, floor_um: f64) -> Option<String> {
+    (size_um > MAX_SIZE_RATIO * (explained_um + floor_um)).then(|| {
+        format!(
+            "{label} rejected: its parameters describe a machine error of {size_um:.3} um to explain a misfit of {explained_um:.3} um RMS (noise floor {floor_um:.3} um); parameters that large for so little are degenerate with the run offsets, plate rotations or rigid terms"
+        )
+    })
+}
+
+/// The one verdict rule: `consistent` when the rigid model is at noise level and no
+/// finding is determined, `explained` when determined findings bring the held-out
+/// residual to noise level, `partly_explained` otherwise.
+pub fn verdict(rigid_at_noise: bool, final_at_noise: bool, determined_findings: usize) -> Verdict {
+    match (determined_findings, rigid_at_noise, final_at_noise) {
+        (0, true, _) => Verdict::Consistent,
+        (n, _, true) if n > 0 => Verdict::Explained,
+        _ => Verdict::PartlyExplained,
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn patterns() {
+        assert!(matches_pattern("scale_ppm_{axis}", "scale_ppm_X"));
+        assert!(!matches_pattern("scale_ppm_{axis}", "scale_ppm_W"));
+        assert!(matches_pattern("tau{n}_s", "tau12_s"));
+        assert!(!matches_pattern("tau{n}_s", "tau_s"));
+        assert!(matches_pattern("{sensor}_um_per_k", "t14_um_per_k"));
+        assert!(matches_pattern("lag_s", "lag_s"));
+    }
+
+    fn finding(effect: &str, params: &[(&str, f64)]) -> Finding {
+        Finding {
+            effect: effect.into(),
+            axis: None,
+            parameters: params.iter().map(|(k, v)| (k.to_string(), *v)).collect(),
+            physics: String::new(),
+            residual_rms_um: super::super::BeforeAfter {
+                before: 1.0,
+                after: 0.5,
+            },
+            heldout_rms_um: super::super::BeforeAfter {
+                before: 1.0,
+                after: 0.5,
+            },
+            evidence: String::new(),
+            decide: None,
+            signature: None,
+            undetermined: vec![],
+        }
+    }
+
+    /// The real-data case: offset −28.7 ± 122 µm, scale 107 ± 609, τ 8 189 ± 40 569 s
+    /// is undetermined; a well-measured τ is not.
+    #[test]
+    fn undetermined_thermal() {
+        let f = finding(
+            "thermal_drift",
+            &[
+                ("offset_um", -28.7),
+                ("std_offset_um", 122.0),
+                ("scale_ppm", 107.0),
+                ("std_scale_ppm", 609.0),
+                ("time_constant_s", 8189.0),
+                ("std_time_constant_s", 40569.0),
+            ],
+        );
+        assert!(undetermined(&f).unwrap().contains("time_constant_s"));
+        let g = finding(
+            "thermal_drift",
+            &[("time_constant_s", 1200.0), ("std_time_constant_s", 150.0)],
+        );
+        assert_eq!(undetermined(&g), None);
+        let b = finding(
+            "backlash",
+            &[("lost_motion_um", 0.3), ("std_lost_motion_um", 0.2)],
+        );
+        assert!(undetermined(&b).is_some());
+    }
+
+    #[test]
+    fn verdicts() {
+        assert_eq!(verdict(true, true, 0), Verdict::Consistent);
+        assert_eq!(verdict(false, true, 1), Verdict::Explained);
+        assert_eq!(verdict(false, false, 1), Verdict::PartlyExplained);
+        assert_eq!(verdict(false, false, 0), Verdict::PartlyExplained);
+    }
+}

@@ -1,0 +1,708 @@
+//! ISO 230-2:2014 figures of an axis: accuracy and repeatability of positioning.
+//!
+//! Readings: x_ij = measured − target position (µm) at target P_i (i = 1..m), run j, for
+//! the approach with increasing command (↑, [`Direction::Plus`]) and decreasing command
+//! (↓). With n↑, n↓ the readings per target and direction:
+//!
+//! | figure | formula |
+//! |---|---|
+//! | mean unidirectional deviation | x̄_i↑ = (1/n↑) Σ_j x_ij↑, x̄_i↓ likewise |
+//! | mean bidirectional deviation | x̄_i = (x̄_i↑ + x̄_i↓)/2 |
+//! | reversal value at a target | B_i = x̄_i↑ − x̄_i↓ |
+//! | standard uncertainty estimator | s_i↑ = √(Σ_j (x_ij↑ − x̄_i↑)² / (n↑ − 1)), s_i↓ likewise |
+//! | unidirectional repeatability | R_i↑ = 4 s_i↑, R_i↓ = 4 s_i↓ |
+//! | bidirectional repeatability | R_i = max(2 s_i↑ + 2 s_i↓ + \|B_i\|, R_i↑, R_i↓) |
+//! | reversal value of the axis | B = max_i \|B_i\| |
+//! | mean reversal value | B̄ = (1/m) Σ_i B_i |
+//! | repeatability of the axis | R↑ = max_i R_i↑, R↓ = max_i R_i↓, R = max_i R_i |
+//! | systematic positional deviation | E↑ = max x̄_i↑ − min x̄_i↑, E↓ likewise; E = max(x̄_i↑, x̄_i↓) − min(x̄_i↑, x̄_i↓) |
+//! | range of mean bidirectional deviation | M = max x̄_i − min x̄_i |
+//! | accuracy | A↑ = max(x̄_i↑ + 2 s_i↑) − min(x̄_i↑ − 2 s_i↑), A↓ likewise; A = max over both directions of (x̄ + 2s) − min over both of (x̄ − 2s) |
+//!
+//! E is not max(E↑, E↓) and R is not max(R↑, R↓): both take the two directions together.
+//!
+//! **Uncertainty** of each figure (the `u` map): the sampling standard uncertainty from
+//! the run-to-run scatter, at the targets that determine the figure (first-order; the
+//! instrument's own uncertainty is not included): u(x̄) = s/√n, u(s) = s/√(2(n − 1)),
+//! combined in quadrature through the figure's formula (e.g. u(E↑) = √(u(x̄_max)² +
+//! u(x̄_min)²), u(R_i↑) = 4 u(s_i↑), u(A↑) from u(x̄ ± 2s) = √(s²/n + 4 u(s)²)).
+//!
+//! **Line passes of a session** ([`from_session`]): each pass of a line test at constant
+//! feed is read as one approach of a bidirectional run over evenly spaced targets of the
+//! line's common travel (deviation at a target: local straight-line fit of the samples of
+//! that pass within a small window). It is not a standstill test, and a grid encoder's
+//! zero is set per run, so each pass is referred to its mean over the targets: a constant
+//! reversal (lost motion) is not observed and B̄ is 0 by construction. The result says so.
+
+use crate::axis::Axis;
+use crate::datasets::{Direction, PositioningRecord, PositioningRuns};
+use crate::error::SolverError;
+use crate::session::{Session, TestKind};
+use crate::standards::{NotEvaluated, ScalarFigure, extremes, nearest_first};
+use serde::{Deserialize, Serialize};
+use std::collections::BTreeMap;
+
+/// Where the readings of an ISO 230-2 evaluation come from.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum Source {
+    /// Standstill readings of a positioning-run file (datasets contract, section 3).
+    PositioningRuns,
+    /// Constant-feed line passes of a grid-encoder session (module docs).
+    LinePasses,
+}
+
+/// One reading: deviation `x` = measured − target (µm) at a target, in one run.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Reading {
+    pub target_mm: f64,
+    /// Approach with increasing command (↑).
+    pub up: bool,
+    /// Run (or pass) identifier.
+    pub run: i64,
+    pub deviation_um: f64,
+}
+
+/// The per-target figures (module table), µm.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct TargetFigures {
+    pub target_mm: f64,
+    pub n_up: usize,
+    pub n_down: usize,
+    /// x̄_i↑
+    pub mean_up_um: f64,
+    /// x̄_i↓
+    pub mean_down_um: f64,
+    /// x̄_i
+    pub mean_um: f64,
+    /// s_i↑
+    pub s_up_um: f64,
+    /// s_i↓
+    pub s_down_um: f64,
+    /// B_i = x̄_i↑ − x̄_i↓ (signed)
+    #[serde(rename = "B_um")]
+    pub b_um: f64,
+    /// R_i↑ = 4 s_i↑
+    #[serde(rename = "R_up_um")]
+    pub r_up_um: f64,
+    /// R_i↓ = 4 s_i↓
+    #[serde(rename = "R_down_um")]
+    pub r_down_um: f64,
+    /// R_i = max(2 s_i↑ + 2 s_i↓ + |B_i|, R_i↑, R_i↓)
+    #[serde(rename = "R_um")]
+    pub r_um: f64,
+}
+
+/// ISO 230-2 figures of one axis (module docs), µm.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct Iso2302 {
+    pub axis: Axis,
+    pub source: Source,
+    /// Session file the passes come from (line passes only).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub file: Option<String>,
+    /// Head offset of that file, mm (line passes only).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub head_offset_mm: Option<[f64; 3]>,
+    /// Sentences qualifying the figures (how the readings were taken, departures from the
+    /// standard's test cycle).
+    #[serde(default)]
+    pub notes: Vec<String>,
+    /// Number of targets m.
+    pub targets: usize,
+    /// Number of runs (distinct run or pass identifiers).
+    pub runs: usize,
+    /// Smallest number of readings per target in the ↑ and in the ↓ direction.
+    pub n_up: usize,
+    pub n_down: usize,
+    pub per_target: Vec<TargetFigures>,
+    /// B = max |B_i|
+    #[serde(rename = "B_um")]
+    pub reversal_b_um: f64,
+    /// B̄ = mean B_i
+    #[serde(rename = "B_mean_um")]
+    pub mean_reversal_b_um: f64,
+    /// R↑ = max R_i↑
+    #[serde(rename = "R_up_um")]
+    pub repeatability_r_up_um: f64,
+    /// R↓ = max R_i↓
+    #[serde(rename = "R_down_um")]
+    pub repeatability_r_down_um: f64,
+    /// R = max R_i
+    #[serde(rename = "R_um")]
+    pub repeatability_r_um: f64,
+    /// E↑
+    #[serde(rename = "E_up_um")]
+    pub systematic_e_up_um: f64,
+    /// E↓
+    #[serde(rename = "E_down_um")]
+    pub systematic_e_down_um: f64,
+    /// E (both directions together)
+    #[serde(rename = "E_um")]
+    pub systematic_e_um: f64,
+    /// M = max x̄_i − min x̄_i
+    #[serde(rename = "M_um")]
+    pub mean_range_m_um: f64,
+    /// A↑
+    #[serde(rename = "A_up_um")]
+    pub accuracy_a_up_um: f64,
+    /// A↓
+    #[serde(rename = "A_down_um")]
+    pub accuracy_a_down_um: f64,
+    /// A (both directions together)
+    #[serde(rename = "A_um")]
+    pub accuracy_a_um: f64,
+    /// Standard uncertainty of each axis figure, keyed by its name (`E_um`, ...), µm.
+    pub u: BTreeMap<String, f64>,
+}
+
+/// Names of the axis figures, in the order of [`Iso2302::values`].
+pub const FIGURES: [&str; 12] = [
+    "B_um",
+    "B_mean_um",
+    "R_up_um",
+    "R_down_um",
+    "R_um",
+    "E_up_um",
+    "E_down_um",
+    "E_um",
+    "M_um",
+    "A_up_um",
+    "A_down_um",
+    "A_um",
+];
+
+impl Iso2302 {
+    /// The axis figures in [`FIGURES`] order.
+    pub fn values(&self) -> [f64; 12] {
+        [
+            self.reversal_b_um,
+            self.mean_reversal_b_um,
+            self.repeatability_r_up_um,
+            self.repeatability_r_down_um,
+            self.repeatability_r_um,
+            self.systematic_e_up_um,
+            self.systematic_e_down_um,
+            self.systematic_e_um,
+            self.mean_range_m_um,
+            self.accuracy_a_up_um,
+            self.accuracy_a_down_um,
+            self.accuracy_a_um,
+        ]
+    }
+
+    /// The axis figures as stored scalars, named `iso230_2.<axis>.<figure>`.
+    pub fn scalar_figures(&self) -> Vec<ScalarFigure> {
+        FIGURES
+            .iter()
+            .zip(self.values())
+            .map(|(name, value)| ScalarFigure {
+                name: format!("iso230_2.{}.{name}", self.axis),
+                value,
+                u: self.u.get(*name).copied(),
+            })
+            .collect()
+    }
+}
+
+/// Readings of one target and direction: mean, s, n.
+#[derive(Debug, Clone, Copy)]
+struct Stats {
+    mean: f64,
+    s: f64,
+    n: usize,
+}
+
+impl Stats {
+    fn of(v: &[f64]) -> Option<Stats> {
+        if v.len() < 2 {
+            return None;
+        }
+        let n = v.len();
+        let mean = v.iter().sum::<f64>() / n as f64;
+        let s = (v.iter().map(|x| (x - mean).powi(2)).sum::<f64>() / (n - 1) as f64).sqrt();
+        Some(Stats { mean, s, n })
+    }
+    /// u(x̄) = s/√n
+    fn u_mean(&self) -> f64 {
+        self.s / (self.n as f64).sqrt()
+    }
+    /// u(s) = s/√(2(n − 1))
+    fn u_s(&self) -> f64 {
+        self.s / (2.0 * (self.n - 1) as f64).sqrt()
+    }
+    /// u(x̄ ± 2s)
+    fn u_band(&self) -> f64 {
+        (self.u_mean().powi(2) + 4.0 * self.u_s().powi(2)).sqrt()
+    }
+}
+
+/// Range max − min with its uncertainty √(u_max² + u_min²).
+fn range(v: impl IntoIterator<Item = (f64, f64)>) -> (f64, f64) {
+    let (hi, lo) = extremes(v);
+    (hi.0 - lo.0, hi.1.hypot(lo.1))
+}
+
+/// Distinct targets of `x` (sorted), merged within 1e-6 of the travel.
+fn distinct_targets(x: &[f64]) -> Vec<f64> {
+    let mut sorted: Vec<f64> = x.to_vec();
+    sorted.sort_by(f64::total_cmp);
+    let tol = 1e-6 * (sorted[sorted.len() - 1] - sorted[0]);
+    let mut targets: Vec<f64> = vec![];
+    for v in sorted {
+        if targets.last().is_none_or(|&l| v - l > tol) {
+            targets.push(v);
+        }
+    }
+    targets
+}
+
+/// ISO 230-2 figures of one axis from its readings (module docs). Every target needs at
+/// least two readings in each direction; at least two targets.
+pub fn evaluate(axis: Axis, source: Source, readings: &[Reading]) -> Result<Iso2302, SolverError> {
+    if readings
+        .iter()
+        .any(|r| !r.target_mm.is_finite() || !r.deviation_um.is_finite())
+    {
+        return Err(SolverError::InvalidInput(format!(
+            "axis {axis}: non-finite target or deviation"
+        )));
+    }
+    if readings.is_empty() {
+        return Err(SolverError::InvalidInput(format!(
+            "axis {axis}: no readings"
+        )));
+    }
+    let x: Vec<f64> = readings.iter().map(|r| r.target_mm).collect();
+    let targets = distinct_targets(&x);
+    if targets.len() < 2 {
+        return Err(SolverError::InvalidInput(format!(
+            "axis {axis}: {} target(s); at least 2 are needed",
+            targets.len()
+        )));
+    }
+    let tol = 1e-6 * (targets[targets.len() - 1] - targets[0]);
+    let mut per_target = Vec::with_capacity(targets.len());
+    let mut stats = Vec::with_capacity(targets.len());
+    for &t in &targets {
+        let dir = |up: bool| -> Result<Stats, SolverError> {
+            let v: Vec<f64> = readings
+                .iter()
+                .filter(|r| r.up == up && (r.target_mm - t).abs() <= tol)
+                .map(|r| r.deviation_um)
+                .collect();
+            Stats::of(&v).ok_or_else(|| {
+                SolverError::InvalidInput(format!(
+                    "axis {axis}: target {t} mm has {} reading(s) approached {}; at least 2 per direction are needed",
+                    v.len(),
+                    if up { "with increasing command (+)" } else { "with decreasing command (−)" }
+                ))
+            })
+        };
+        let (up, down) = (dir(true)?, dir(false)?);
+        let b = up.mean - down.mean;
+        let bi = 2.0 * up.s + 2.0 * down.s + b.abs();
+        per_target.push(TargetFigures {
+            target_mm: t,
+            n_up: up.n,
+            n_down: down.n,
+            mean_up_um: up.mean,
+            mean_down_um: down.mean,
+            mean_um: 0.5 * (up.mean + down.mean),
+            s_up_um: up.s,
+            s_down_um: down.s,
+            b_um: b,
+            r_up_um: 4.0 * up.s,
+            r_down_um: 4.0 * down.s,
+            r_um: bi.max(4.0 * up.s).max(4.0 * down.s),
+        });
+        stats.push((up, down));
+    }
+    let m = targets.len();
+    // u(B_i) = √(s↑²/n↑ + s↓²/n↓)
+    let u_b: Vec<f64> = stats
+        .iter()
+        .map(|(a, b)| a.u_mean().hypot(b.u_mean()))
+        .collect();
+    let (b_max, _) = extremes(per_target.iter().zip(&u_b).map(|(p, &u)| (p.b_um.abs(), u)));
+    let b_mean = per_target.iter().map(|p| p.b_um).sum::<f64>() / m as f64;
+    let u_b_mean = u_b.iter().map(|u| u * u).sum::<f64>().sqrt() / m as f64;
+    let (r_up, _) = extremes(stats.iter().map(|(a, _)| (4.0 * a.s, 4.0 * a.u_s())));
+    let (r_down, _) = extremes(stats.iter().map(|(_, b)| (4.0 * b.s, 4.0 * b.u_s())));
+    let (r, _) = extremes(
+        per_target
+            .iter()
+            .zip(&stats)
+            .zip(&u_b)
+            .map(|((p, (a, b)), ub)| {
+                let bi = 2.0 * a.s + 2.0 * b.s + p.b_um.abs();
+                let u = if bi >= 4.0 * a.s && bi >= 4.0 * b.s {
+                    (4.0 * a.u_s().powi(2) + 4.0 * b.u_s().powi(2) + ub * ub).sqrt()
+                } else if a.s >= b.s {
+                    4.0 * a.u_s()
+                } else {
+                    4.0 * b.u_s()
+                };
+                (p.r_um, u)
+            }),
+    );
+    let ups = || stats.iter().map(|(a, _)| *a);
+    let downs = || stats.iter().map(|(_, b)| *b);
+    let e_up = range(ups().map(|a| (a.mean, a.u_mean())));
+    let e_down = range(downs().map(|a| (a.mean, a.u_mean())));
+    let e = range(ups().chain(downs()).map(|a| (a.mean, a.u_mean())));
+    let mm = range(
+        stats
+            .iter()
+            .map(|(a, b)| (0.5 * (a.mean + b.mean), 0.5 * a.u_mean().hypot(b.u_mean()))),
+    );
+    let accuracy = |v: Vec<Stats>| {
+        let (hi, _) = extremes(v.iter().map(|a| (a.mean + 2.0 * a.s, a.u_band())));
+        let (_, lo) = extremes(v.iter().map(|a| (a.mean - 2.0 * a.s, a.u_band())));
+        (hi.0 - lo.0, hi.1.hypot(lo.1))
+    };
+    let a_up = accuracy(ups().collect());
+    let a_down = accuracy(downs().collect());
+    let a = accuracy(ups().chain(downs()).collect());
+    let mut runs: Vec<i64> = readings.iter().map(|r| r.run).collect();
+    runs.sort_unstable();
+    runs.dedup();
+    let mut notes = vec![];
+    let (n_up, n_down) = (
+        stats.iter().map(|(a, _)| a.n).min().unwrap_or(0),
+        stats.iter().map(|(_, b)| b.n).min().unwrap_or(0),
+    );
+    if n_up < 5 || n_down < 5 {
+        notes.push(format!(
+            "ISO 230-2 asks for 5 readings per target and direction; this test has at least {n_up} (+) and {n_down} (−)"
+        ));
+    }
+    if m < 5 {
+        notes.push(format!(
+            "ISO 230-2 asks for at least 5 targets; this test has {m}"
+        ));
+    }
+    let values = [
+        (b_max.0, b_max.1),
+        (b_mean, u_b_mean),
+        r_up,
+        r_down,
+        r,
+        e_up,
+        e_down,
+        e,
+        mm,
+        a_up,
+        a_down,
+        a,
+    ];
+    let u = FIGURES
+        .iter()
+        .zip(values)
+        .map(|(n, (_, u))| (n.to_string(), u))
+        .collect();
+    Ok(Iso2302 {
+        axis,
+        source,
+        file: None,
+        head_offset_mm: None,
+        notes,
+        targets: m,
+        runs: runs.len(),
+        n_up,
+        n_down,
+        per_target,
+        reversal_b_um: b_max.0,
+        mean_reversal_b_um: b_mean,
+        repeatability_r_up_um: r_up.0,
+        repeatability_r_down_um: r_down.0,
+        repeatability_r_um: r.0,
+        systematic_e_up_um: e_up.0,
+        systematic_e_down_um: e_down.0,
+        systematic_e_um: e.0,
+        mean_range_m_um: mm.0,
+        accuracy_a_up_um: a_up.0,
+        accuracy_a_down_um: a_down.0,
+        accuracy_a_um: a.0,
+        u,
+    })
+}
+
+fn readings_of(recs: &[&PositioningRecord]) -> Vec<Reading> {
+    recs.iter()
+        .map(|r| Reading {
+            target_mm: r.target_mm,
+            up: r.direction == Direction::Plus,
+            run: r.run,
+            deviation_um: r.deviation_um,
+        })
+        .collect()
+}
+
+/// ISO 230-2 figures of every axis of positioning runs, and the axes that could not be
+/// evaluated (with the reason).
+pub fn from_positioning_runs(runs: &PositioningRuns) -> (Vec<Iso2302>, Vec<NotEvaluated>) {
+    let mut out = vec![];
+    let mut skipped = vec![];
+    for axis in Axis::ALL {
+        let recs: Vec<&PositioningRecord> =
+            runs.records.iter().filter(|r| r.axis == axis).collect();
+        if recs.is_empty() {
+            continue;
+        }
+        match evaluate(axis, Source::PositioningRuns, &readings_of(&recs)) {
+            Ok(f) => out.push(f),
+            Err(e) => skipped.push(NotEvaluated {
+                standard: "iso230_2".into(),
+                what: axis.to_string(),
+                reason: e.to_string(),
+            }),
+        }
+    }
+    (out, skipped)
+}
+
+/// ISO 230-2 figures per axis of positioning runs; axes that cannot be evaluated are
+/// left out ([`from_positioning_runs`] says why).
+pub fn iso230_2(runs: &PositioningRuns) -> Vec<Iso2302> {
+    from_positioning_runs(runs).0
+}
+
+/// One line pass: positions along the line (mm) and along-line deviations (µm) of the
+/// samples taken while the command progressed (the end dwell dropped).
+struct Pass {
+    run: i64,
+    up: bool,
+    pos: Vec<f64>,
+    dev: Vec<f64>,
+}
+
+impl Pass {
+    /// The samples of a line run along `axis` in plane component `comp` (0: u, 1: v),
+    /// keeping each sample only when the command has advanced past the previous kept one
+    /// (so neither the standstill at the start nor the end dwell).
+    fn of(run: &crate::session::Run, axis: Axis, comp: usize) -> Option<Pass> {
+        let i = axis.index();
+        let first = run.pos_mm.first()?[i];
+        let last = run.pos_mm.last()?[i];
+        let up = last > first;
+        let sgn = if up { 1.0 } else { -1.0 };
+        let dev = if comp == 0 { &run.du_um } else { &run.dv_um };
+        let (mut pos, mut d) = (vec![], vec![]);
+        for (p, &v) in run.pos_mm.iter().zip(dev) {
+            // The samples before the command leaves the start still belong to the
+            // previous motion (standstill after the reversal): dropped.
+            let last = pos.last().copied().unwrap_or(first);
+            if sgn * (p[i] - last) > 0.0 {
+                pos.push(p[i]);
+                d.push(v);
+            }
+        }
+        (pos.len() >= 2).then_some(Pass {
+            run: run.number,
+            up,
+            pos,
+            dev: d,
+        })
+    }
+
+    fn lo(&self) -> f64 {
+        self.pos.iter().copied().fold(f64::INFINITY, f64::min)
+    }
+
+    fn hi(&self) -> f64 {
+        self.pos.iter().copied().fold(f64::NEG_INFINITY, f64::max)
+    }
+
+    /// Deviation at `p`: straight-line least-squares fit of the samples within ±`w`,
+    /// evaluated at `p`; linear interpolation when fewer than 3 samples fall in it.
+    fn at(&self, p: f64, w: f64) -> f64 {
+        let near: Vec<(f64, f64)> = self
+            .pos
+            .iter()
+            .zip(&self.dev)
+            .filter(|(q, _)| (*q - p).abs() <= w)
+            .map(|(&q, &d)| (q - p, d))
+            .collect();
+        if near.len() >= 3 {
+            let n = near.len() as f64;
+            let (mq, md) = near
+                .iter()
+                .fold((0.0, 0.0), |(a, b), (q, d)| (a + q / n, b + d / n));
+            let sqq: f64 = near.iter().map(|(q, _)| (q - mq).powi(2)).sum();
+            let sqd: f64 = near.iter().map(|(q, d)| (q - mq) * (d - md)).sum();
+            let slope = if sqq > 0.0 { sqd / sqq } else { 0.0 };
+            return md - slope * mq;
+        }
+        // Samples are sorted along the pass's direction; interpolate between neighbours.
+        let mut idx: Vec<usize> = (0..self.pos.len()).collect();
+        idx.sort_by(|&a, &b| self.pos[a].total_cmp(&self.pos[b]));
+        let k = idx
+            .windows(2)
+            .position(|w2| self.pos[w2[1]] >= p)
+            .unwrap_or(idx.len() - 2);
+        let (a, b) = (idx[k], idx[k + 1]);
+        let (pa, pb) = (self.pos[a], self.pos[b]);
+        if pb == pa {
+            return self.dev[a];
+        }
+        let f = ((p - pa) / (pb - pa)).clamp(0.0, 1.0);
+        self.dev[a] + f * (self.dev[b] - self.dev[a])
+    }
+}
+
+/// The line passes along each axis of every plane file: (plane index, axis) → passes.
+fn line_passes(session: &Session) -> Vec<(usize, Axis, Vec<Pass>)> {
+    let mut out: Vec<(usize, Axis, Vec<Pass>)> = vec![];
+    for (p, rec) in session.planes.iter().enumerate() {
+        let (u_ax, v_ax) = rec.plane.axes();
+        for run in &rec.runs {
+            let axis = match run.test_kind(rec.plane) {
+                TestKind::LineX => Axis::X,
+                TestKind::LineY => Axis::Y,
+                TestKind::LineZ => Axis::Z,
+                _ => continue,
+            };
+            let comp = if axis == u_ax {
+                0
+            } else if axis == v_ax {
+                1
+            } else {
+                continue;
+            };
+            let Some(pass) = Pass::of(run, axis, comp) else {
+                continue;
+            };
+            match out.iter_mut().find(|(pp, a, _)| *pp == p && *a == axis) {
+                Some(e) => e.2.push(pass),
+                None => out.push((p, axis, vec![pass])),
+            }
+        }
+    }
+    out
+}
+
+/// Number of targets over a travel of `len` mm for line passes: ISO 230-2's at least
+/// five per metre, and never fewer than 11.
+pub fn line_target_count(len_mm: f64) -> usize {
+    ((5.0 * len_mm / 1000.0).ceil() as usize + 1).max(11)
+}
+
+/// ISO 230-2 figures per axis from the line passes of a session (module docs), one per
+/// axis: from the plane file whose head offset is nearest the tool reference point
+/// (smallest |t|; the first in the session on ties) among those with at least two passes
+/// in each direction. Axes with line passes but no usable file are listed as not
+/// evaluated.
+pub fn from_session(session: &Session) -> (Vec<Iso2302>, Vec<NotEvaluated>) {
+    let groups = line_passes(session);
+    let mut out = vec![];
+    let mut skipped = vec![];
+    for axis in Axis::ALL {
+        if !groups.iter().any(|(_, a, _)| *a == axis) {
+            continue;
+        }
+        let mut cands: Vec<usize> = (0..groups.len())
+            .filter(|&g| {
+                let (_, a, passes) = &groups[g];
+                *a == axis
+                    && passes.iter().filter(|p| p.up).count() >= 2
+                    && passes.iter().filter(|p| !p.up).count() >= 2
+            })
+            .map(|g| groups[g].0)
+            .collect();
+        nearest_first(session, &mut cands);
+        let chosen = cands
+            .first()
+            .and_then(|&p| groups.iter().find(|(q, a, _)| *q == p && *a == axis));
+        let Some((p, _, passes)) = chosen else {
+            skipped.push(NotEvaluated {
+                standard: "iso230_2".into(),
+                what: axis.to_string(),
+                reason: format!(
+                    "no plane file has at least two line passes along {axis} in each direction"
+                ),
+            });
+            continue;
+        };
+        match evaluate_passes(axis, passes) {
+            Ok(mut f) => {
+                let rec = &session.planes[*p];
+                f.file = Some(rec.file.clone());
+                f.head_offset_mm = Some(rec.head_offset_mm);
+                let others: Vec<&str> = cands[1..]
+                    .iter()
+                    .map(|&q| session.planes[q].file.as_str())
+                    .collect();
+                if !others.is_empty() {
+                    f.notes.push(format!(
+                        "other files with passes along {axis}, not evaluated here: {}",
+                        others.join(", ")
+                    ));
+                }
+                out.push(f);
+            }
+            Err(e) => skipped.push(NotEvaluated {
+                standard: "iso230_2".into(),
+                what: axis.to_string(),
+                reason: e.to_string(),
+            }),
+        }
+    }
+    (out, skipped)
+}
+
+/// ISO 230-2 figures of one axis from line passes (module docs).
+fn evaluate_passes(axis: Axis, passes: &[Pass]) -> Result<Iso2302, SolverError> {
+    let lo = passes
+        .iter()
+        .map(Pass::lo)
+        .fold(f64::NEG_INFINITY, f64::max);
+    let hi = passes.iter().map(Pass::hi).fold(f64::INFINITY, f64::min);
+    if hi.is_nan() || hi - lo < 1e-3 {
+        return Err(SolverError::InvalidInput(format!(
+            "axis {axis}: the line passes share no common travel"
+        )));
+    }
+    let m = line_target_count(hi - lo);
+    // Window: ±0.5 mm, at least two sample steps, at most a quarter of the spacing. The
+    // targets are inset by it, so that every window is two-sided.
+    let mut steps: Vec<f64> = passes
+        .iter()
+        .flat_map(|p| p.pos.windows(2).map(|w| (w[1] - w[0]).abs()))
+        .collect();
+    steps.sort_by(f64::total_cmp);
+    let step = steps.get(steps.len() / 2).copied().unwrap_or(0.0);
+    let w = (0.5f64)
+        .max(2.0 * step)
+        .min(0.25 * (hi - lo) / (m - 1) as f64);
+    let (lo, hi) = (lo + w, hi - w);
+    let spacing = (hi - lo) / (m - 1) as f64;
+    let targets: Vec<f64> = (0..m).map(|i| lo + spacing * i as f64).collect();
+    let mut readings = vec![];
+    for (k, pass) in passes.iter().enumerate() {
+        let dev: Vec<f64> = targets.iter().map(|&t| pass.at(t, w)).collect();
+        let mean = dev.iter().sum::<f64>() / m as f64;
+        for (&t, d) in targets.iter().zip(dev) {
+            readings.push(Reading {
+                target_mm: t,
+                up: pass.up,
+                // Passes of one file are distinct runs even when numbered alike.
+                run: pass.run * 1_000_000 + k as i64,
+                deviation_um: d - mean,
+            });
+        }
+    }
+    let mut f = evaluate(axis, Source::LinePasses, &readings)?;
+    f.runs = passes.len();
+    f.notes.insert(
+        0,
+        format!(
+            "from constant-feed line passes: each pass is one approach of a bidirectional run over {m} evenly spaced targets ({lo:.3} to {hi:.3} mm), read on the fly (local straight-line fit within ±{w:.3} mm); this is not a standstill test"
+        ),
+    );
+    f.notes.insert(
+        1,
+        "the encoder's zero is set per pass, so each pass is referred to its mean over the targets: a constant reversal (lost motion) is not observed and B_mean is 0 by construction".into(),
+    );
+    Ok(f)
+}

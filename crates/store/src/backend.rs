@@ -1,0 +1,716 @@
+//! The store's statements and their binding, written once and compiled once per backend
+//! (each backend module mounts this file as its `backend` submodule and provides `Db`
+//! (the sqlx database), `This` (its store type, with a `pool` field) and `dialect`
+//! (the few statements whose SQL differs)). Placeholders are `$N`, which SQLite and
+//! PostgreSQL both read; everything else is SQL both dialects share. Rules live in
+//! [`crate::rules`] and [`crate::queue`], row decoding in `crate::rows`.
+
+use super::{Db, This, dialect};
+use crate::error::{Db as _, Result, StoreError, unique_conflict};
+use crate::keys::{ApiKey, NewKey, Scope};
+use crate::model::*;
+use crate::queue::{Heartbeat, JobKind, Queue, lease_held};
+use crate::rows::{
+    self, Columns, DATASET_COLUMNS, JOB_COLUMNS, KEY_COLUMNS, MACHINE_COLUMNS, RESULT_COLUMNS,
+};
+use crate::rules::{self, MachineJson, Manifest, ResultRow};
+use crate::{Store, StoreFuture, now_ms, now_rfc3339};
+use sqlx::{Executor, Transaction};
+
+impl This {
+    async fn machine(&self, id: &str) -> Result<Machine> {
+        let q = format!("SELECT {MACHINE_COLUMNS} FROM machines WHERE id = $1");
+        let row = row_by_id(&self.pool, q, id, "machine").await?;
+        rows::machine(&row)
+    }
+
+    async fn dataset(&self, id: &str) -> Result<Dataset> {
+        let q = format!("SELECT {DATASET_COLUMNS} FROM datasets WHERE id = $1");
+        let row = row_by_id(&self.pool, q, id, "dataset").await?;
+        let files = sqlx::query(
+            "SELECT name, sha256, size FROM dataset_files WHERE dataset_id = $1 ORDER BY name",
+        )
+        .bind(id)
+        .fetch_all(&self.pool)
+        .await
+        .db()?
+        .iter()
+        .map(rows::file_meta)
+        .collect::<Result<Vec<_>>>()?;
+        rows::dataset(&row, files)
+    }
+
+    async fn result_meta(&self, id: &str) -> Result<ResultMeta> {
+        let q = format!("SELECT {RESULT_COLUMNS} FROM results WHERE id = $1");
+        let row = row_by_id(&self.pool, q, id, "result").await?;
+        rows::result_meta(&row)
+    }
+}
+
+/// The row `sql` selects with `$1` = `id`, or not found (`what id`).
+async fn row_by_id<'e>(
+    ex: impl Executor<'e, Database = Db>,
+    sql: String,
+    id: &str,
+    what: &str,
+) -> Result<<Db as sqlx::Database>::Row> {
+    sqlx::query(sqlx::AssertSqlSafe(sql))
+        .bind(id)
+        .fetch_optional(ex)
+        .await
+        .db()?
+        .ok_or_else(|| StoreError::NotFound(format!("{what} {id}")))
+}
+
+/// Inserts a result row inside `tx`; returns its metadata.
+async fn insert_result(
+    tx: &mut Transaction<'_, Db>,
+    job_id: &str,
+    r: &NewResult,
+) -> Result<ResultMeta> {
+    let row = ResultRow::new(job_id, r)?;
+    let (m, s) = (&row.meta, &row.meta.scalars);
+    sqlx::query(
+        "INSERT INTO results (id, job_id, machine_id, dataset_id, kind, measured_at, created_at, \
+         document, residual_rms_um, condition_number, rank, ec0y_urad, eb0z_urad, ea0z_urad, \
+         term_coefficients) VALUES ($1, $2, $3, $4, $5, $6, $7, $8, $9, $10, $11, $12, $13, $14, $15)",
+    )
+    .bind(&m.id)
+    .bind(&m.job_id)
+    .bind(&m.machine_id)
+    .bind(&m.dataset_id)
+    .bind(&m.kind)
+    .bind(&m.measured_at)
+    .bind(&m.created_at)
+    .bind(&row.document)
+    .bind(s.residual_rms_um)
+    .bind(s.condition_number)
+    .bind(s.rank)
+    .bind(s.ec0y_urad)
+    .bind(s.eb0z_urad)
+    .bind(s.ea0z_urad)
+    .bind(&row.term_coefficients)
+    .execute(&mut **tx)
+    .await
+    .map_err(|e| unique_conflict(e, || format!("result of job {job_id}")))?;
+    for f in &r.figures {
+        sqlx::query(
+            "INSERT INTO result_figures (result_id, machine_id, kind, measured_at, name, value, u) \
+             VALUES ($1, $2, $3, $4, $5, $6, $7)",
+        )
+        .bind(&m.id)
+        .bind(&m.machine_id)
+        .bind(&m.kind)
+        .bind(&m.measured_at)
+        .bind(&f.name)
+        .bind(f.value)
+        .bind(f.u)
+        .execute(&mut **tx)
+        .await
+        .db()?;
+    }
+    Ok(row.meta)
+}
+
+/// Inserts a succeeded `import` job and its result inside `tx` (`seq` 0: an import is
+/// never queued).
+async fn insert_import(tx: &mut Transaction<'_, Db>, r: &NewResult) -> Result<ResultMeta> {
+    let job_id = rules::new_id("job");
+    let now = now_rfc3339();
+    sqlx::query(
+        "INSERT INTO jobs (id, seq, kind, machine_id, dataset_id, params, state, max_attempts, \
+         run_after_ms, created_at, started_at, finished_at, progress, attempts) \
+         VALUES ($1, 0, $2, $3, $4, '{}', 'succeeded', 1, 0, $5, $5, $5, 1, 0)",
+    )
+    .bind(&job_id)
+    .bind(crate::JobKind::Import.as_str())
+    .bind(&r.machine_id)
+    .bind(&r.dataset_id)
+    .bind(&now)
+    .execute(&mut **tx)
+    .await
+    .map_err(|e| unique_conflict(e, || format!("import for machine {}", r.machine_id)))?;
+    let meta = insert_result(tx, &job_id, r).await?;
+    sqlx::query("UPDATE jobs SET result_id = $2 WHERE id = $1")
+        .bind(&job_id)
+        .bind(&meta.id)
+        .execute(&mut **tx)
+        .await
+        .db()?;
+    Ok(meta)
+}
+
+impl Store for This {
+    fn create_machine<'a>(&'a self, m: &'a Machine) -> StoreFuture<'a, Machine> {
+        Box::pin(async move {
+            let now = now_rfc3339();
+            let json = MachineJson::of(m)?;
+            sqlx::query(
+                "INSERT INTO machines (id, name, topology, travel_mm, site, tags, \
+                 baseline_result_id, created_at, updated_at) VALUES ($1, $2, $3, $4, $5, $6, NULL, $7, $7)",
+            )
+            .bind(&m.id)
+            .bind(&m.name)
+            .bind(&json.topology)
+            .bind(&json.travel_mm)
+            .bind(&m.site)
+            .bind(&json.tags)
+            .bind(&now)
+            .execute(&self.pool)
+            .await
+            .map_err(|e| unique_conflict(e, || format!("machine {} already exists", m.id)))?;
+            self.machine(&m.id).await
+        })
+    }
+
+    fn get_machine<'a>(&'a self, id: &'a str) -> StoreFuture<'a, Machine> {
+        Box::pin(self.machine(id))
+    }
+
+    fn update_machine<'a>(&'a self, id: &'a str, p: &'a MachinePatch) -> StoreFuture<'a, Machine> {
+        Box::pin(async move {
+            let mut m = self.machine(id).await?;
+            let baseline = match &p.baseline_result_id {
+                Some(b) => Some(self.result_meta(b).await?),
+                None => None,
+            };
+            rules::apply_patch(&mut m, p, baseline.as_ref())?;
+            let json = MachineJson::of(&m)?;
+            sqlx::query(
+                "UPDATE machines SET name = $2, topology = $3, travel_mm = $4, site = $5, tags = $6, \
+                 baseline_result_id = $7, updated_at = $8 WHERE id = $1",
+            )
+            .bind(id)
+            .bind(&m.name)
+            .bind(&json.topology)
+            .bind(&json.travel_mm)
+            .bind(&m.site)
+            .bind(&json.tags)
+            .bind(&m.baseline_result_id)
+            .bind(now_rfc3339())
+            .execute(&self.pool)
+            .await
+            .db()?;
+            self.machine(id).await
+        })
+    }
+
+    fn list_machines<'a>(
+        &'a self,
+        after: Option<&'a str>,
+        limit: i64,
+    ) -> StoreFuture<'a, Vec<Machine>> {
+        Box::pin(async move {
+            let q = format!(
+                "SELECT {MACHINE_COLUMNS} FROM machines WHERE id > $1 ORDER BY id LIMIT $2"
+            );
+            sqlx::query(sqlx::AssertSqlSafe(q))
+                .bind(after.unwrap_or(""))
+                .bind(limit)
+                .fetch_all(&self.pool)
+                .await
+                .db()?
+                .iter()
+                .map(rows::machine)
+                .collect()
+        })
+    }
+
+    fn insert_dataset<'a>(&'a self, d: NewDataset) -> StoreFuture<'a, Dataset> {
+        Box::pin(async move {
+            let id = rules::new_id("ds");
+            let manifest = Manifest::of(&d.files);
+            let mut tx = self.pool.begin().await.db()?;
+            sqlx::query(
+                "INSERT INTO datasets (id, machine_id, kind, measured_at, uploaded_at, samples, \
+                 total_bytes, sha256) VALUES ($1, $2, $3, $4, $5, $6, $7, $8)",
+            )
+            .bind(&id)
+            .bind(&d.machine_id)
+            .bind(&d.kind)
+            .bind(&d.measured_at)
+            .bind(now_rfc3339())
+            .bind(d.samples)
+            .bind(manifest.total_bytes)
+            .bind(&manifest.sha256)
+            .execute(&mut *tx)
+            .await
+            .map_err(|e| unique_conflict(e, || format!("dataset of machine {}", d.machine_id)))?;
+            for (name, bytes) in &d.files {
+                let meta = manifest
+                    .files
+                    .iter()
+                    .find(|f| &f.name == name)
+                    .ok_or_else(|| StoreError::Backend(format!("file {name} not in manifest")))?;
+                sqlx::query(
+                    "INSERT INTO dataset_files (dataset_id, name, sha256, size, content) \
+                     VALUES ($1, $2, $3, $4, $5)",
+                )
+                .bind(&id)
+                .bind(name)
+                .bind(&meta.sha256)
+                .bind(meta.size)
+                .bind(bytes.as_slice())
+                .execute(&mut *tx)
+                .await
+                .map_err(|e| unique_conflict(e, || format!("file {name} given twice")))?;
+            }
+            tx.commit().await.db()?;
+            self.dataset(&id).await
+        })
+    }
+
+    fn get_dataset<'a>(&'a self, id: &'a str) -> StoreFuture<'a, Dataset> {
+        Box::pin(self.dataset(id))
+    }
+
+    fn dataset_file<'a>(&'a self, id: &'a str, name: &'a str) -> StoreFuture<'a, Vec<u8>> {
+        Box::pin(async move {
+            let row = sqlx::query(
+                "SELECT content FROM dataset_files WHERE dataset_id = $1 AND name = $2",
+            )
+            .bind(id)
+            .bind(name)
+            .fetch_optional(&self.pool)
+            .await
+            .db()?
+            .ok_or_else(|| StoreError::NotFound(format!("file {name} of dataset {id}")))?;
+            rows::Columns::bytes(&row, "content")
+        })
+    }
+
+    fn dataset_files<'a>(&'a self, id: &'a str) -> StoreFuture<'a, Vec<(String, Vec<u8>)>> {
+        Box::pin(async move {
+            let rows = sqlx::query(
+                "SELECT name, content FROM dataset_files WHERE dataset_id = $1 ORDER BY name",
+            )
+            .bind(id)
+            .fetch_all(&self.pool)
+            .await
+            .db()?;
+            if rows.is_empty() {
+                return Err(StoreError::NotFound(format!("dataset {id}")));
+            }
+            rows.iter().map(rows::name_and_content).collect()
+        })
+    }
+
+    fn get_result<'a>(&'a self, id: &'a str) -> StoreFuture<'a, StoredResult> {
+        Box::pin(async move {
+            let q = format!("SELECT {RESULT_COLUMNS}, document FROM results WHERE id = $1");
+            let row = row_by_id(&self.pool, q, id, "result").await?;
+            rows::stored_result(&row)
+        })
+    }
+
+    fn list_results<'a>(
+        &'a self,
+        machine_id: &'a str,
+        kind: &'a str,
+    ) -> StoreFuture<'a, Vec<ResultMeta>> {
+        Box::pin(async move {
+            let q = format!(
+                "SELECT {RESULT_COLUMNS} FROM results WHERE machine_id = $1 AND kind = $2 \
+                 ORDER BY measured_at, id"
+            );
+            sqlx::query(sqlx::AssertSqlSafe(q))
+                .bind(machine_id)
+                .bind(kind)
+                .fetch_all(&self.pool)
+                .await
+                .db()?
+                .iter()
+                .map(rows::result_meta)
+                .collect()
+        })
+    }
+
+    fn baseline_pairs<'a>(&'a self, kind: &'a str) -> StoreFuture<'a, Vec<BaselinePair>> {
+        Box::pin(async move {
+            // Per machine with results of `kind`: count, baseline id (chosen, else first),
+            // latest id: index seeks on results(machine_id, kind, measured_at, id).
+            const PAIRS: &str = "WITH p AS (SELECT m.id AS mid, \
+                 (SELECT COUNT(*) FROM results r WHERE r.machine_id = m.id AND r.kind = $1) AS n, \
+                 COALESCE(m.baseline_result_id, (SELECT r.id FROM results r \
+                   WHERE r.machine_id = m.id AND r.kind = $1 ORDER BY r.measured_at, r.id LIMIT 1)) AS base_id, \
+                 (SELECT r.id FROM results r WHERE r.machine_id = m.id AND r.kind = $1 \
+                   ORDER BY r.measured_at DESC, r.id DESC LIMIT 1) AS last_id \
+                 FROM machines m) ";
+            let pairs = sqlx::query(sqlx::AssertSqlSafe(format!(
+                "{PAIRS} SELECT mid, n, base_id, last_id FROM p WHERE n > 0 ORDER BY mid"
+            )))
+            .bind(kind)
+            .fetch_all(&self.pool)
+            .await
+            .db()?;
+            let metas = sqlx::query(sqlx::AssertSqlSafe(format!(
+                "{PAIRS} SELECT {RESULT_COLUMNS} FROM results WHERE id IN \
+                 (SELECT base_id FROM p WHERE n > 0 UNION SELECT last_id FROM p WHERE n > 0)"
+            )))
+            .bind(kind)
+            .fetch_all(&self.pool)
+            .await
+            .db()?;
+            let machines = sqlx::query(sqlx::AssertSqlSafe(format!(
+                "SELECT {MACHINE_COLUMNS} FROM machines"
+            )))
+            .fetch_all(&self.pool)
+            .await
+            .db()?;
+            rows::baseline_pairs(&pairs, &metas, &machines)
+        })
+    }
+
+    fn result_figures<'a>(&'a self, result_id: &'a str) -> StoreFuture<'a, Vec<Figure>> {
+        Box::pin(async move {
+            self.result_meta(result_id).await?;
+            sqlx::query(
+                "SELECT name, value, u FROM result_figures WHERE result_id = $1 ORDER BY name",
+            )
+            .bind(result_id)
+            .fetch_all(&self.pool)
+            .await
+            .db()?
+            .iter()
+            .map(rows::figure)
+            .collect()
+        })
+    }
+
+    fn figure_trend<'a>(
+        &'a self,
+        machine_id: &'a str,
+        name: &'a str,
+    ) -> StoreFuture<'a, Vec<FigurePoint>> {
+        Box::pin(async move {
+            sqlx::query(
+                "SELECT result_id, measured_at, value, u FROM result_figures \
+                 WHERE machine_id = $1 AND name = $2 ORDER BY measured_at, result_id",
+            )
+            .bind(machine_id)
+            .bind(name)
+            .fetch_all(&self.pool)
+            .await
+            .db()?
+            .iter()
+            .map(rows::figure_point)
+            .collect()
+        })
+    }
+
+    fn figure_names<'a>(&'a self, machine_id: &'a str) -> StoreFuture<'a, Vec<String>> {
+        Box::pin(async move {
+            sqlx::query(
+                "SELECT DISTINCT name FROM result_figures WHERE machine_id = $1 ORDER BY name",
+            )
+            .bind(machine_id)
+            .fetch_all(&self.pool)
+            .await
+            .db()?
+            .iter()
+            .map(|r| r.text("name"))
+            .collect()
+        })
+    }
+
+    fn import_result<'a>(&'a self, r: NewResult) -> StoreFuture<'a, ResultMeta> {
+        Box::pin(async move {
+            let mut tx = self.pool.begin().await.db()?;
+            let meta = insert_import(&mut tx, &r).await?;
+            tx.commit().await.db()?;
+            Ok(meta)
+        })
+    }
+
+    fn import_results_bulk<'a>(&'a self, results: &'a [NewResult]) -> StoreFuture<'a, ()> {
+        Box::pin(async move {
+            let mut tx = self.pool.begin().await.db()?;
+            for r in results {
+                insert_import(&mut tx, r).await?;
+            }
+            tx.commit().await.db()
+        })
+    }
+
+    fn create_key<'a>(&'a self, scope: Scope, label: &'a str) -> StoreFuture<'a, (ApiKey, String)> {
+        Box::pin(async move {
+            let k = NewKey::generate(scope, label);
+            sqlx::query(
+                "INSERT INTO api_keys (id, hash, prefix, scope, label, created_at) \
+                 VALUES ($1, $2, $3, $4, $5, $6)",
+            )
+            .bind(&k.key.id)
+            .bind(&k.hash)
+            .bind(&k.key.prefix)
+            .bind(scope.as_str())
+            .bind(&k.key.label)
+            .bind(&k.key.created_at)
+            .execute(&self.pool)
+            .await
+            .db()?;
+            Ok((k.key, k.secret))
+        })
+    }
+
+    fn key_by_secret<'a>(&'a self, secret: &'a str) -> StoreFuture<'a, Option<ApiKey>> {
+        Box::pin(async move {
+            let q = format!(
+                "SELECT {KEY_COLUMNS} FROM api_keys WHERE hash = $1 AND revoked_at IS NULL"
+            );
+            let row = sqlx::query(sqlx::AssertSqlSafe(q))
+                .bind(crate::keys::hash_secret(secret))
+                .fetch_optional(&self.pool)
+                .await
+                .db()?;
+            row.as_ref().map(rows::api_key).transpose()
+        })
+    }
+
+    fn row_counts(&self) -> StoreFuture<'_, RowCounts> {
+        Box::pin(async move {
+            let r = sqlx::query(rows::ROW_COUNTS)
+                .fetch_one(&self.pool)
+                .await
+                .db()?;
+            rows::row_counts(&r)
+        })
+    }
+}
+
+/// The job `id`, read through `ex` (the pool or a transaction).
+async fn job_by_id<'e>(ex: impl Executor<'e, Database = Db>, id: &str) -> Result<Job> {
+    let q = format!("SELECT {JOB_COLUMNS} FROM jobs WHERE id = $1");
+    rows::job(&row_by_id(ex, q, id, "job").await?)
+}
+
+/// Reads job `id` as `tx` left it, then commits.
+async fn commit_with_job(mut tx: Transaction<'_, Db>, id: &str) -> Result<Job> {
+    let job = job_by_id(&mut *tx, id).await?;
+    tx.commit().await.db()?;
+    Ok(job)
+}
+
+impl This {
+    async fn job(&self, id: &str) -> Result<Job> {
+        job_by_id(&self.pool, id).await
+    }
+}
+
+impl Queue for This {
+    fn enqueue<'a>(&'a self, j: NewJob) -> StoreFuture<'a, Job> {
+        Box::pin(async move {
+            let id = rules::new_id("job");
+            let q = format!(
+                "INSERT INTO jobs (id, seq, kind, machine_id, dataset_id, params, state, max_attempts, \
+                 run_after_ms, created_at) VALUES ($1, {seq}, $2, $3, $4, $5, 'queued', $6, $7, $8)",
+                seq = dialect::NEXT_SEQ
+            );
+            sqlx::query(sqlx::AssertSqlSafe(q))
+                .bind(&id)
+                .bind(j.kind.as_str())
+                .bind(&j.machine_id)
+                .bind(&j.dataset_id)
+                .bind(serde_json::to_string(&j.params).db()?)
+                .bind(j.max_attempts.max(1))
+                .bind(now_ms())
+                .bind(now_rfc3339())
+                .execute(&self.pool)
+                .await
+                .map_err(|e| unique_conflict(e, || format!("job {id}")))?;
+            self.job(&id).await
+        })
+    }
+
+    fn get_job<'a>(&'a self, id: &'a str) -> StoreFuture<'a, Job> {
+        Box::pin(self.job(id))
+    }
+
+    fn cancel_job<'a>(&'a self, id: &'a str) -> StoreFuture<'a, Job> {
+        Box::pin(async move {
+            // One statement (atomic in every backend), reading the state before the update:
+            // queued → cancelled now; running → cancellation requested; else untouched.
+            let q = format!(
+                "UPDATE jobs SET \
+                   state = CASE WHEN state = 'queued' THEN 'cancelled' ELSE state END, \
+                   finished_at = CASE WHEN state = 'queued' THEN $2 ELSE finished_at END, \
+                   cancel_requested = CASE WHEN state = 'running' THEN 1 ELSE cancel_requested END \
+                 WHERE id = $1 AND state IN ('queued', 'running') RETURNING {JOB_COLUMNS}"
+            );
+            let row = sqlx::query(sqlx::AssertSqlSafe(q))
+                .bind(id)
+                .bind(now_rfc3339())
+                .fetch_optional(&self.pool)
+                .await
+                .db()?;
+            match row {
+                Some(row) => rows::job(&row),
+                None => Err(StoreError::Conflict(format!(
+                    "job {id} is already {}",
+                    self.job(id).await?.state.as_str()
+                ))),
+            }
+        })
+    }
+
+    fn claim_job<'a>(&'a self, worker: &'a str, lease_ms: i64) -> StoreFuture<'a, Option<Job>> {
+        Box::pin(async move {
+            let now = now_ms();
+            let q = format!(
+                "UPDATE jobs SET state = 'running', lease_owner = $1, lease_expires_ms = $2, \
+                 attempts = attempts + 1, started_at = COALESCE(started_at, $3), \
+                 progress = 0, progress_message = 'claimed' \
+                 WHERE id = (SELECT id FROM jobs WHERE state = 'queued' AND run_after_ms <= $4 \
+                             AND kind IN ({kinds}) ORDER BY run_after_ms, seq LIMIT 1 {lock}) \
+                 RETURNING {JOB_COLUMNS}",
+                kinds = JobKind::runnable_sql_list(),
+                lock = dialect::CLAIM_LOCK
+            );
+            let row = sqlx::query(sqlx::AssertSqlSafe(q))
+                .bind(worker)
+                .bind(now + lease_ms)
+                .bind(now_rfc3339())
+                .bind(now)
+                .fetch_optional(&self.pool)
+                .await
+                .db()?;
+            row.as_ref().map(rows::job).transpose()
+        })
+    }
+
+    fn heartbeat<'a>(
+        &'a self,
+        id: &'a str,
+        worker: &'a str,
+        lease_ms: i64,
+        progress: f64,
+        message: &'a str,
+    ) -> StoreFuture<'a, Heartbeat> {
+        Box::pin(async move {
+            let row = sqlx::query(
+                "UPDATE jobs SET lease_expires_ms = $3, progress = $4, progress_message = $5 \
+                 WHERE id = $1 AND state = 'running' AND lease_owner = $2 \
+                 RETURNING cancel_requested",
+            )
+            .bind(id)
+            .bind(worker)
+            .bind(now_ms() + lease_ms)
+            .bind(progress.clamp(0.0, 1.0))
+            .bind(message)
+            .fetch_optional(&self.pool)
+            .await
+            .db()?;
+            Ok(match row {
+                None => Heartbeat::LeaseLost,
+                Some(r) if r.int("cancel_requested")? != 0 => Heartbeat::CancelRequested,
+                Some(_) => Heartbeat::Continue,
+            })
+        })
+    }
+
+    fn complete_job<'a>(
+        &'a self,
+        id: &'a str,
+        worker: &'a str,
+        r: NewResult,
+    ) -> StoreFuture<'a, Job> {
+        Box::pin(async move {
+            let mut tx = self.pool.begin().await.db()?;
+            // Take the lease back first: this write makes the transaction the only writer,
+            // and fails when another worker owns the job now.
+            let owned = sqlx::query(
+                "UPDATE jobs SET progress = 1, progress_message = 'done' \
+                 WHERE id = $1 AND state = 'running' AND lease_owner = $2 AND cancel_requested = 0",
+            )
+            .bind(id)
+            .bind(worker)
+            .execute(&mut *tx)
+            .await
+            .db()?;
+            lease_held(owned.rows_affected(), id)?;
+            let meta = insert_result(&mut tx, id, &r).await?;
+            sqlx::query(
+                "UPDATE jobs SET state = 'succeeded', result_id = $2, finished_at = $3, \
+                 lease_owner = NULL, lease_expires_ms = NULL, error_code = NULL, error_message = NULL \
+                 WHERE id = $1",
+            )
+            .bind(id)
+            .bind(&meta.id)
+            .bind(now_rfc3339())
+            .execute(&mut *tx)
+            .await
+            .db()?;
+            commit_with_job(tx, id).await
+        })
+    }
+
+    fn fail_job<'a>(
+        &'a self,
+        id: &'a str,
+        worker: &'a str,
+        code: &'a str,
+        message: &'a str,
+        retry_after_ms: Option<i64>,
+    ) -> StoreFuture<'a, Job> {
+        Box::pin(async move {
+            // Retry: back to the queue after the delay; else failed for good.
+            let done = sqlx::query(
+                "UPDATE jobs SET state = CASE WHEN $5 IS NULL THEN 'failed' ELSE 'queued' END, \
+                 run_after_ms = COALESCE($5, run_after_ms), \
+                 finished_at = CASE WHEN $5 IS NULL THEN $6 ELSE NULL END, \
+                 lease_owner = NULL, lease_expires_ms = NULL, error_code = $3, error_message = $4 \
+                 WHERE id = $1 AND state = 'running' AND lease_owner = $2",
+            )
+            .bind(id)
+            .bind(worker)
+            .bind(code)
+            .bind(message)
+            .bind(retry_after_ms.map(|delay| now_ms() + delay))
+            .bind(now_rfc3339())
+            .execute(&self.pool)
+            .await
+            .db()?;
+            lease_held(done.rows_affected(), id)?;
+            self.job(id).await
+        })
+    }
+
+    fn finish_cancelled<'a>(&'a self, id: &'a str, worker: &'a str) -> StoreFuture<'a, Job> {
+        Box::pin(async move {
+            let done = sqlx::query(
+                "UPDATE jobs SET state = 'cancelled', finished_at = $3, lease_owner = NULL, \
+                 lease_expires_ms = NULL WHERE id = $1 AND state = 'running' AND lease_owner = $2",
+            )
+            .bind(id)
+            .bind(worker)
+            .bind(now_rfc3339())
+            .execute(&self.pool)
+            .await
+            .db()?;
+            lease_held(done.rows_affected(), id)?;
+            self.job(id).await
+        })
+    }
+
+    fn reap_expired<'a>(&'a self) -> StoreFuture<'a, u64> {
+        Box::pin(async move {
+            let now = now_ms();
+            let done = sqlx::query(
+                "UPDATE jobs SET \
+                   state = CASE WHEN cancel_requested = 1 THEN 'cancelled' \
+                                WHEN attempts >= max_attempts THEN 'failed' ELSE 'queued' END, \
+                   finished_at = CASE WHEN cancel_requested = 1 OR attempts >= max_attempts \
+                                      THEN $2 ELSE NULL END, \
+                   error_code = 'lease_expired', \
+                   error_message = 'the worker running this job stopped renewing its lease', \
+                   lease_owner = NULL, lease_expires_ms = NULL, run_after_ms = $1 \
+                 WHERE state = 'running' AND lease_expires_ms < $1",
+            )
+            .bind(now)
+            .bind(now_rfc3339())
+            .execute(&self.pool)
+            .await
+            .db()?;
+            Ok(done.rows_affected())
+        })
+    }
+}

@@ -1,0 +1,61 @@
+//! The PostgreSQL backend: any number of API and worker processes on any number of hosts
+//! share one database. Runtime-checked queries (no database needed to build), migrations
+//! in `migrations/postgres` embedded at build time and applied under the migrator's
+//! advisory lock (processes starting together migrate once). The statements are the
+//! shared ones of `backend.rs`; only the connection and the dialect live here.
+//!
+//! Raw dataset files are kept in `dataset_files.content` (`BYTEA`) with the upload limits
+//! of the API, as on SQLite. A fleet whose raw files outgrow the database would move
+//! `content` to an object store keyed by the file's SHA-256 (the column becoming the key);
+//! that path is described in the README, not built.
+
+use crate::error::{Db as _, Result};
+use sqlx::postgres::{PgConnectOptions, PgPoolOptions};
+use std::str::FromStr;
+use std::time::Duration;
+
+type Db = sqlx::Postgres;
+type This = PgStore;
+
+/// The statements whose SQL differs from SQLite's.
+mod dialect {
+    /// The next submission number: the identity column's sequence.
+    pub const NEXT_SEQ: &str = "DEFAULT";
+    /// Row locking of the claim's sub-select: concurrent claimers skip a row another
+    /// claimer holds instead of waiting for it, so each claims a different job.
+    pub const CLAIM_LOCK: &str = "FOR UPDATE SKIP LOCKED";
+}
+
+/// The shared statements, compiled for PostgreSQL.
+#[allow(clippy::duplicate_mod)] // compiled once per backend on purpose
+#[path = "../backend.rs"]
+mod backend;
+
+/// PostgreSQL store. Cheap to clone (a pool handle).
+#[derive(Clone)]
+pub struct PgStore {
+    pool: sqlx::PgPool,
+}
+
+/// Connections per process: enough for the API's handlers and a worker's jobs and
+/// heartbeats; a server's `max_connections` (100 by default) bounds processes × this.
+const MAX_CONNECTIONS: u32 = 16;
+
+impl PgStore {
+    /// Connects to `url` (`postgres://user:password@host:port/database`, with the usual
+    /// parameters: `sslmode`, `options=-c search_path=…`, …) and applies the migrations.
+    pub async fn open(url: &str) -> Result<PgStore> {
+        let opts = PgConnectOptions::from_str(url).db()?;
+        let pool = PgPoolOptions::new()
+            .max_connections(MAX_CONNECTIONS)
+            .acquire_timeout(Duration::from_secs(10))
+            .connect_with(opts)
+            .await
+            .db()?;
+        sqlx::migrate!("../../migrations/postgres")
+            .run(&pool)
+            .await
+            .db()?;
+        Ok(PgStore { pool })
+    }
+}

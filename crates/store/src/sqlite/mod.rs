@@ -1,0 +1,64 @@
+//! The SQLite backend (the embedded default; single host): WAL mode, runtime-checked
+//! queries, migrations in `migrations/sqlite` embedded at build time. The statements are
+//! the shared ones of `backend.rs`; only the connection and the dialect live here.
+//!
+//! SQLite serialises writers, so the claim's `UPDATE … WHERE id = (SELECT …)` is
+//! exclusive as it stands.
+
+use crate::error::{Db as _, Result, StoreError};
+use sqlx::sqlite::{SqliteConnectOptions, SqliteJournalMode, SqlitePoolOptions, SqliteSynchronous};
+use std::str::FromStr;
+use std::time::Duration;
+
+type Db = sqlx::Sqlite;
+type This = SqliteStore;
+
+/// The statements whose SQL differs from PostgreSQL's.
+mod dialect {
+    /// The next submission number of `jobs.seq` (writers are serialised, so no race).
+    pub const NEXT_SEQ: &str = "(SELECT COALESCE(MAX(seq), 0) + 1 FROM jobs)";
+    /// Row locking of the claim's sub-select: none needed.
+    pub const CLAIM_LOCK: &str = "";
+}
+
+/// The shared statements, compiled for SQLite.
+#[allow(clippy::duplicate_mod)] // compiled once per backend on purpose
+#[path = "../backend.rs"]
+mod backend;
+
+/// SQLite store. Cheap to clone (a pool handle).
+#[derive(Clone)]
+pub struct SqliteStore {
+    pool: sqlx::SqlitePool,
+}
+
+impl SqliteStore {
+    /// Opens (creating if needed) and migrates the database at `url` (`sqlite://PATH`,
+    /// `sqlite::memory:` or a plain file path).
+    pub async fn open(url: &str) -> Result<SqliteStore> {
+        let opts = if url.starts_with("sqlite:") {
+            SqliteConnectOptions::from_str(url).db()?
+        } else if url.contains("://") {
+            return Err(StoreError::UnsupportedUrl(url.to_string()));
+        } else {
+            SqliteConnectOptions::new().filename(url)
+        };
+        let opts = opts
+            .create_if_missing(true)
+            .journal_mode(SqliteJournalMode::Wal)
+            .synchronous(SqliteSynchronous::Normal)
+            .foreign_keys(true)
+            .busy_timeout(Duration::from_secs(10));
+        let memory = url.contains(":memory:");
+        let pool = SqlitePoolOptions::new()
+            .max_connections(if memory { 1 } else { 8 })
+            .connect_with(opts)
+            .await
+            .db()?;
+        sqlx::migrate!("../../migrations/sqlite")
+            .run(&pool)
+            .await
+            .db()?;
+        Ok(SqliteStore { pool })
+    }
+}

@@ -1,0 +1,237 @@
+//! The fleet page: every machine with its last check, verdict, drift since its baseline
+//! with its uncertainty and a sparkline of its worst term; machines with active alerts
+//! first; filters by site and tag; the active alerts.
+
+use super::{Nav, Viewer, csrf_field, machine_href, page, result_href, svg, verdict_badge, when};
+use crate::plots;
+use maud::{Markup, html};
+
+/// Drift since the baseline: the largest change of any term over the intersection of
+/// the two checks' measured travels, with its standard uncertainty.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Drift {
+    pub value: f64,
+    pub std: Option<f64>,
+    /// `um` or `urad`.
+    pub unit: String,
+    /// The term (and position, mm) where it is largest.
+    pub term: Option<String>,
+    pub at_mm: Option<f64>,
+}
+
+#[derive(Debug, Clone, PartialEq)]
+pub struct FleetRow {
+    pub machine_id: String,
+    pub name: String,
+    pub site: Option<String>,
+    pub tags: Vec<String>,
+    /// The latest identification: result id and time.
+    pub last_check: Option<(String, String)>,
+    pub verdict: Option<String>,
+    pub drift_um: Option<Drift>,
+    pub drift_urad: Option<Drift>,
+    /// The term of the largest drift and its value at the drift position over the
+    /// machine's checks, in time order (the sparkline).
+    pub worst_trend: Vec<f64>,
+    pub active_alerts: usize,
+}
+
+/// An alert as listed (raised when drift exceeds its threshold by more than the combined
+/// uncertainty).
+#[derive(Debug, Clone, PartialEq)]
+pub struct AlertRow {
+    pub id: String,
+    pub machine_id: String,
+    pub raised_at: String,
+    pub message: String,
+    pub acknowledged: bool,
+}
+
+/// What the page shows and how it was filtered.
+#[derive(Debug, Clone, PartialEq, Default)]
+pub struct FleetPage {
+    /// In display order (the caller sorts: alerts first, then the chosen order).
+    pub rows: Vec<FleetRow>,
+    pub alerts: Vec<AlertRow>,
+    pub sites: Vec<String>,
+    pub tags: Vec<String>,
+    pub site: Option<String>,
+    pub tag: Option<String>,
+    /// `drift` (default), `name` or `last_check`.
+    pub sort: String,
+    /// How drift is defined (from the API).
+    pub definition: String,
+}
+
+fn drift(d: &Option<Drift>) -> Markup {
+    match d {
+        None => html! { span.muted { "—" } },
+        Some(d) => html! {
+            span title=[d.term.as_ref().map(|t| match d.at_mm {
+                Some(q) => format!("{t} at {} mm", plots::tick(&q)),
+                None => t.clone(),
+            })] {
+                (super::with_u(Some(d.value), d.std, &d.unit))
+            }
+        },
+    }
+}
+
+fn select(name: &str, label: &str, options: &[String], chosen: &Option<String>) -> Markup {
+    html! {
+        label { (label)
+            select name=(name) {
+                option value="" { "all" }
+                @for o in options { option value=(o) selected[chosen.as_deref() == Some(o.as_str())] { (o) } }
+            }
+        }
+    }
+}
+
+pub fn fleet_page(viewer: &Viewer, f: &FleetPage) -> Markup {
+    let sorts = [
+        ("drift", "drift (µm)"),
+        ("drift_urad", "drift (µrad)"),
+        ("name", "name"),
+        ("last_check", "last check"),
+    ];
+    let active: Vec<&AlertRow> = f.alerts.iter().filter(|a| !a.acknowledged).collect();
+    page(
+        "Fleet",
+        Nav::Fleet,
+        Some(viewer),
+        html! {
+            h1 { "Fleet" }
+            p.lead { (f.rows.len()) " machine(s). Drift: " (f.definition) }
+            @if !active.is_empty() {
+                section.card #alerts {
+                    h2 { "Active alerts " span.badge.alert { (active.len()) } }
+                    table {
+                        thead { tr { th { "machine" } th { "raised" } th { "alert" } th {} } }
+                        tbody {
+                            @for a in &active {
+                                tr.alert data-alert=(a.id) {
+                                    td { a href=(machine_href(&a.machine_id)) { (a.machine_id) } }
+                                    td { (when(&a.raised_at)) }
+                                    td { (a.message) }
+                                    td {
+                                        @if viewer.can_write() {
+                                            form.inline method="post" action={ "/alerts/" (super::encode(&a.id)) "/ack" } {
+                                                (csrf_field(&viewer.csrf))
+                                                button.secondary type="submit" { "Acknowledge" }
+                                            }
+                                        }
+                                    }
+                                }
+                            }
+                        }
+                    }
+                }
+            }
+            form.filters method="get" action="/" {
+                (select("site", "site", &f.sites, &f.site))
+                (select("tag", "tag", &f.tags, &f.tag))
+                label { "sort by"
+                    select name="sort" {
+                        @for (v, l) in sorts { option value=(v) selected[f.sort == v] { (l) } }
+                    }
+                }
+                button type="submit" { "Apply" }
+            }
+            table #fleet {
+                thead { tr {
+                    th { "machine" } th { "site" } th { "tags" } th { "last check" } th { "verdict" }
+                    th.num { "drift since baseline (µm)" } th.num { "drift (µrad)" } th { "worst term" }
+                } }
+                tbody {
+                    @for r in &f.rows {
+                        tr.alerted[r.active_alerts > 0] data-machine=(r.machine_id) {
+                            td {
+                                a href=(machine_href(&r.machine_id)) { (r.machine_id) }
+                                @if r.name != r.machine_id { br; span.muted { (r.name) } }
+                                @if r.active_alerts > 0 { " " span.badge.alert title="active alerts" { (r.active_alerts) } }
+                            }
+                            td { (r.site.as_deref().unwrap_or("")) }
+                            td { @for t in &r.tags { span.tag { (t) } } }
+                            td { @match &r.last_check {
+                                Some((id, at)) => { a href=(result_href(id)) { (when(at)) } }
+                                None => { span.muted { "no check yet" } }
+                            } }
+                            td { (verdict_badge(r.verdict.as_deref())) }
+                            td.num { (drift(&r.drift_um)) }
+                            td.num { (drift(&r.drift_urad)) }
+                            td.spark title=[r.drift_um.as_ref().and_then(|d| d.term.clone())] {
+                                @if r.worst_trend.len() > 1 { (svg(plots::sparkline(&r.worst_trend))) }
+                            }
+                        }
+                    }
+                }
+            }
+        },
+    )
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::pages::tests::viewer;
+
+    fn row(id: &str, alerts: usize) -> FleetRow {
+        FleetRow {
+            machine_id: id.into(),
+            name: format!("{id} name"),
+            site: Some("north".into()),
+            tags: vec!["5-axis".into()],
+            last_check: Some(("r1".into(), "2026-04-06T08:00:00Z".into())),
+            verdict: Some("fail".into()),
+            drift_um: Some(Drift {
+                value: 4.2,
+                std: Some(0.3),
+                unit: "um".into(),
+                term: Some("EXX".into()),
+                at_mm: Some(50.0),
+            }),
+            drift_urad: None,
+            worst_trend: vec![0.0, 1.0, 4.2],
+            active_alerts: alerts,
+        }
+    }
+
+    #[test]
+    fn fleet_rows_alerts_and_filters() {
+        let page = FleetPage {
+            rows: vec![row("VMC-1", 1), row("VMC-2", 0)],
+            alerts: vec![AlertRow {
+                id: "a1".into(),
+                machine_id: "VMC-1".into(),
+                raised_at: "2026-04-06T09:00:00Z".into(),
+                message: "EXX drift 4.2 µm > 3 µm".into(),
+                acknowledged: false,
+            }],
+            sites: vec!["north".into(), "south".into()],
+            tags: vec!["5-axis".into()],
+            site: Some("north".into()),
+            tag: None,
+            sort: "drift".into(),
+            definition: "largest change".into(),
+        };
+        let html = fleet_page(&viewer("write"), &page).into_string();
+        assert!(
+            html.contains(r#"<tr class="alerted" data-machine="VMC-1">"#),
+            "{html}"
+        );
+        assert!(
+            html.contains(r#"data-machine="VMC-2">"#)
+                && !html.contains(r#"<tr class="alerted" data-machine="VMC-2">"#),
+            "{html}"
+        );
+        assert!(html.contains("4.200 ± 0.600 µm"), "drift with U = 2u");
+        assert!(html.contains(r#"title="EXX at 50 mm""#));
+        assert!(html.contains(r#"<option value="north" selected>north</option>"#));
+        assert!(html.contains(r#"action="/alerts/a1/ack""#));
+        assert!(html.contains("<svg"), "sparkline");
+        let read = fleet_page(&viewer("read"), &page).into_string();
+        assert!(!read.contains("/ack"), "a read key cannot acknowledge");
+        assert!(read.contains("EXX drift 4.2 µm"), "but sees the alert");
+    }
+}

@@ -1,0 +1,241 @@
+//! The machine page: trends of any term at chosen positions and of the squareness
+//! errors (±2σ bars), the history of checks with verdicts, the baseline, the upload form
+//! and the progress of its jobs.
+
+use super::jobs::{JobRow, job_progress};
+use super::result::TERM_ORDER;
+use super::{Nav, Viewer, csrf_field, machine_href, page, result_href, svg, verdict_badge, when};
+use crate::plots::{self, TrendSeries};
+use maud::{Markup, html};
+
+#[derive(Debug, Clone, PartialEq, Default)]
+pub struct MachineInfo {
+    pub id: String,
+    pub name: String,
+    pub site: Option<String>,
+    pub tags: Vec<String>,
+    /// Registered travel per axis, mm.
+    pub travel_mm: Vec<(String, [f64; 2])>,
+    pub baseline_result_id: Option<String>,
+}
+
+/// One stored result of the machine.
+#[derive(Debug, Clone, PartialEq)]
+pub struct CheckRow {
+    pub result_id: String,
+    /// `identification`, `diagnosis`, `cradle`, `sensitivity`.
+    pub kind: String,
+    pub measured_at: String,
+    pub verdict: Option<String>,
+    /// One line: residual, rank, findings, …
+    pub summary: String,
+    pub is_baseline: bool,
+}
+
+/// The term trend asked for: a series per position, or why there is none (e.g. a
+/// position outside the measured travel).
+#[derive(Debug, Clone, PartialEq)]
+pub struct TermTrend {
+    pub term: String,
+    pub unit: String,
+    pub series: Vec<TrendSeries>,
+}
+
+#[derive(Debug, Clone, PartialEq, Default)]
+pub struct MachinePage {
+    pub machine: MachineInfo,
+    /// In time order, newest first.
+    pub checks: Vec<CheckRow>,
+    /// The term and positions of the trend form (`at`: comma-separated mm).
+    pub term: String,
+    pub at: String,
+    /// None before the first identification.
+    pub term_trend: Option<TermTrend>,
+    /// Why the trend asked for cannot be shown (e.g. a position outside the travel).
+    pub trend_error: Option<String>,
+    /// EC0Y, EB0Z, EA0Z over time.
+    pub squareness: Vec<TrendSeries>,
+    /// Jobs of this machine not yet finished, and those just submitted.
+    pub jobs: Vec<JobRow>,
+    /// A message after a form (e.g. "baseline set").
+    pub notice: Option<String>,
+}
+
+pub fn machine_page(viewer: &Viewer, p: &MachinePage) -> Markup {
+    let m = &p.machine;
+    let href = machine_href(&m.id);
+    page(
+        &m.id,
+        Nav::Other,
+        Some(viewer),
+        html! {
+            h1 { (m.id) @if m.name != m.id { " " span.muted { (m.name) } } }
+            p.lead {
+                @if let Some(s) = &m.site { "site " (s) " · " }
+                @for t in &m.tags { span.tag { (t) } }
+                " travel "
+                @for (axis, [lo, hi]) in &m.travel_mm { (axis) " " (lo) "…" (hi) " mm  " }
+                " · " a href={ "/api/v1/machines/" (super::encode(&m.id)) } { "JSON" }
+            }
+            @if let Some(n) = &p.notice { div.notice { (n) } }
+            div.pair {
+                section.card #trend {
+                    h2 { "Trend of a term" }
+                    form.filters method="get" action=(href) {
+                        label { "term"
+                            select name="term" {
+                                @for t in TERM_ORDER { option value=(t) selected[p.term == t] { (t) } }
+                            }
+                        }
+                        label { "at positions (mm)" input type="text" name="at" value=(p.at) size="18"; }
+                        button type="submit" { "Show" }
+                    }
+                    @match (&p.trend_error, &p.term_trend) {
+                        (Some(e), _) => { div.notice.error { (e) } }
+                        (None, None) => { p.muted { "No identification yet." } }
+                        (None, Some(t)) => {
+                            figure.plot #term-trend data-term=(t.term) {
+                                (svg(plots::trend(&format!("{} over time (±2σ)", t.term),
+                                    &format!("{} ({})", t.term, plots::unit_label(&t.unit)), &t.series)))
+                            }
+                        }
+                    }
+                }
+                section.card #squareness-trend {
+                    h2 { "Squareness over time (±2σ)" }
+                    figure.plot { (svg(plots::trend("EC0Y, EB0Z, EA0Z over time", "squareness (µrad)", &p.squareness))) }
+                }
+            }
+            section.card #checks {
+                h2 { "Checks" }
+                table {
+                    thead { tr { th { "measured" } th { "kind" } th { "verdict" } th { "summary" } th {} } }
+                    tbody {
+                        @for c in &p.checks {
+                            tr data-result=(c.result_id) data-kind=(c.kind) {
+                                td { a href=(result_href(&c.result_id)) { (when(&c.measured_at)) } }
+                                td { (c.kind) }
+                                td { @if c.kind == "identification" { (verdict_badge(c.verdict.as_deref())) } }
+                                td { (c.summary) }
+                                td {
+                                    @if c.is_baseline { span.badge { "baseline" } }
+                                    @else if c.kind == "identification" && viewer.can_write() {
+                                        form.inline method="post" action={ (href) "/baseline" } {
+                                            (csrf_field(&viewer.csrf))
+                                            input type="hidden" name="result_id" value=(c.result_id);
+                                            button.secondary type="submit" { "Set as baseline" }
+                                        }
+                                    }
+                                    @if c.kind == "identification" && !c.is_baseline {
+                                        @if let Some(b) = &m.baseline_result_id {
+                                            " " a href={ "/compare?a=" (super::encode(b)) "&b=" (super::encode(&c.result_id)) } { "compare with baseline" }
+                                        }
+                                    }
+                                }
+                            }
+                        }
+                    }
+                }
+            }
+            @if !p.jobs.is_empty() {
+                section.card #jobs {
+                    h2 { "Jobs" }
+                    @for j in &p.jobs { (job_progress(j, true)) }
+                }
+            }
+            @if viewer.can_write() {
+                section.card #upload {
+                    h2 { "Upload a check" }
+                    p.muted { "A session (session.json and its plane CSVs, or one .tar.gz), a rotary point set, \
+                               a positioning-run or drift-log CSV (docs/datasets.md). The job is chosen by the \
+                               dataset's kind: identification for a session, a cradle check for a point set, a \
+                               diagnosis for a positioning run or a drift log." }
+                    form.upload.stack method="post" action={ (href) "/upload" } enctype="multipart/form-data" {
+                        (csrf_field(&viewer.csrf))
+                        label { "files" input type="file" name="files" multiple required; }
+                        span.files.muted {}
+                        label { input type="checkbox" name="diagnose" value="1"; " also diagnose a session" }
+                        button type="submit" { "Upload and run" }
+                    }
+                }
+            }
+        },
+    )
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::pages::tests::viewer;
+    use crate::plots::TrendPoint;
+
+    fn page() -> MachinePage {
+        MachinePage {
+            machine: MachineInfo {
+                id: "VMC-1".into(),
+                name: "VMC-1".into(),
+                baseline_result_id: Some("r1".into()),
+                ..MachineInfo::default()
+            },
+            checks: vec![
+                CheckRow {
+                    result_id: "r2".into(),
+                    kind: "identification".into(),
+                    measured_at: "2026-04-06T08:00:00Z".into(),
+                    verdict: Some("pass".into()),
+                    summary: "residual 0.150 µm".into(),
+                    is_baseline: false,
+                },
+                CheckRow {
+                    result_id: "r1".into(),
+                    kind: "identification".into(),
+                    measured_at: "2026-01-05T08:00:00Z".into(),
+                    verdict: None,
+                    summary: "residual 0.140 µm".into(),
+                    is_baseline: true,
+                },
+            ],
+            term: "EXX".into(),
+            at: "50".into(),
+            term_trend: Some(TermTrend {
+                term: "EXX".into(),
+                unit: "um".into(),
+                series: vec![TrendSeries {
+                    name: "EXX at 50 mm".into(),
+                    points: vec![TrendPoint {
+                        measured_at: "2026-01-05T08:00:00Z".into(),
+                        value: Some(1.0),
+                        std: Some(0.1),
+                    }],
+                }],
+            }),
+            ..MachinePage::default()
+        }
+    }
+
+    #[test]
+    fn write_key_gets_forms_read_key_does_not() {
+        let html = machine_page(&viewer("write"), &page()).into_string();
+        assert!(html.contains(r#"action="/machines/VMC-1/upload""#));
+        assert!(html.contains(r#"enctype="multipart/form-data""#));
+        assert!(html.contains(r#"action="/machines/VMC-1/baseline""#));
+        assert!(html.contains(r#"href="/compare?a=r1&amp;b=r2""#));
+        assert!(html.contains(r#"id="term-trend""#));
+        assert_eq!(
+            html.matches(r#"name="csrf""#).count(),
+            3,
+            "sign-out, baseline, upload"
+        );
+        let read = machine_page(&viewer("read"), &page()).into_string();
+        assert!(!read.contains("/upload") && !read.contains("/baseline"));
+    }
+
+    #[test]
+    fn a_refused_trend_says_why() {
+        let mut p = page();
+        p.trend_error = Some("position 300 mm is outside the measured travel −50…50 mm".into());
+        let html = machine_page(&viewer("read"), &p).into_string();
+        assert!(html.contains("outside the measured travel"));
+        assert!(!html.contains(r#"id="term-trend""#));
+    }
+}

@@ -1,0 +1,554 @@
+//! The result page, and its sections as reusable functions (the check report renders
+//! the same sections in [`super::print_page`]): identification, diagnosis, cradle,
+//! sensitivity, and the verdict table.
+
+use super::{Nav, Viewer, csrf_field, machine_href, num, page, svg, verdict_badge, when, with_u};
+use crate::plots::{self, CircleTrace};
+use maud::{Markup, html};
+use mtcal_solver::cradle::CradleResult;
+use mtcal_solver::diagnosis::DiagnosisResult;
+use mtcal_solver::identification::IdentificationResult;
+use mtcal_solver::residuals::ResidualSummary;
+use mtcal_solver::sensitivity::SensitivityResult;
+use serde::{Deserialize, Serialize};
+
+/// One line of a verdict: a quantity checked against its limit by the decision rule
+/// (pass when |value| + U ≤ limit, fail when |value| − U > limit, else undecided).
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct VerdictRow {
+    /// e.g. `EXX`, `EC0Y`, `iso230_2.X.E_um`.
+    pub quantity: String,
+    /// Where (e.g. `max over −50…50 mm`), empty when not positional.
+    pub at: String,
+    pub value: f64,
+    /// Standard uncertainty u (U = 2u).
+    pub std: Option<f64>,
+    pub limit: f64,
+    pub unit: String,
+    /// `pass`, `fail` or `undecided`.
+    pub outcome: String,
+}
+
+/// Everything an identification section shows. `circles` and `residuals` are the
+/// document's arrays of those names (empty when the document has none); `travel` gives
+/// the measured travel of a term (None: the reported positions are drawn as they are).
+pub struct IdentificationView<'a> {
+    pub doc: &'a IdentificationResult,
+    pub circles: &'a [CircleTrace],
+    pub residuals: &'a [ResidualSummary],
+    pub travel: &'a dyn Fn(&str) -> Option<[f64; 2]>,
+}
+
+/// The header facts of a stored result.
+#[derive(Debug, Clone, PartialEq)]
+pub struct ResultHeader {
+    pub id: String,
+    pub machine_id: String,
+    /// `identification`, `diagnosis`, `cradle`, `sensitivity`.
+    pub kind: String,
+    pub measured_at: String,
+    pub created_at: String,
+    pub dataset_id: Option<String>,
+    pub is_baseline: bool,
+    /// The overall verdict, when a tolerance profile applies.
+    pub verdict: Option<String>,
+}
+
+/// The body of a result page, by kind.
+pub enum ResultBody<'a> {
+    Identification(IdentificationView<'a>),
+    Diagnosis(&'a DiagnosisResult),
+    Cradle(&'a CradleResult),
+    Sensitivity(&'a SensitivityResult),
+}
+
+/// The 18 functions in the ISO 230-1 table's order: per moving axis, positioning, the
+/// two straightnesses, roll, then pitch and yaw.
+pub const TERM_ORDER: [&str; 18] = [
+    "EXX", "EYX", "EZX", "EAX", "EBX", "ECX", "EYY", "EXY", "EZY", "EBY", "EAY", "ECY", "EZZ",
+    "EXZ", "EYZ", "ECZ", "EAZ", "EBZ",
+];
+
+/// The result page.
+pub fn result_page(
+    viewer: &Viewer,
+    header: &ResultHeader,
+    verdict: &[VerdictRow],
+    body: &ResultBody,
+) -> Markup {
+    let title = format!("{} {} of {}", header.kind, header.id, header.machine_id);
+    page(
+        &title,
+        Nav::Other,
+        Some(viewer),
+        html! {
+            h1 { (header.kind) " of " a href=(machine_href(&header.machine_id)) { (header.machine_id) }
+                 " " (verdict_badge(header.verdict.as_deref())) }
+            p.lead {
+                "Measured " (when(&header.measured_at)) " · computed " (when(&header.created_at))
+                " · result " code { (header.id) }
+                @if let Some(d) = &header.dataset_id { " · dataset " code { (d) } }
+                @if header.is_baseline { " · " span.badge { "baseline" } }
+                " · " a href={ "/api/v1/results/" (super::encode(&header.id)) } { "JSON" }
+            }
+            @if header.kind == "identification" && viewer.can_write() && !header.is_baseline {
+                form.inline method="post" action={ (machine_href(&header.machine_id)) "/baseline" } {
+                    (csrf_field(&viewer.csrf))
+                    input type="hidden" name="result_id" value=(header.id);
+                    button.secondary type="submit" { "Set as baseline" }
+                }
+            }
+            @if !verdict.is_empty() { (verdict_table(verdict)) }
+            (sections(body))
+        },
+    )
+}
+
+/// The sections of a result body (no page around them).
+pub fn sections(body: &ResultBody) -> Markup {
+    match body {
+        ResultBody::Identification(v) => identification(v),
+        ResultBody::Diagnosis(d) => diagnosis(d),
+        ResultBody::Cradle(c) => cradle(c),
+        ResultBody::Sensitivity(s) => sensitivity(s),
+    }
+}
+
+/// The verdict table: each quantity, its value ± U, the limit and the outcome.
+pub fn verdict_table(rows: &[VerdictRow]) -> Markup {
+    html! {
+        section.card #verdict {
+            h2 { "Verdict" }
+            p.muted { "Decision rule (ISO 14253-1): pass when |value| + U ≤ limit, fail when \
+                       |value| − U > limit, undecided otherwise; U = 2u." }
+            table {
+                thead { tr { th { "quantity" } th { "where" } th.num { "value ± U" } th.num { "limit" } th { "outcome" } } }
+                tbody {
+                    @for r in rows {
+                        tr {
+                            td { (r.quantity) } td { (r.at) }
+                            td.num { (with_u(Some(r.value), r.std, &r.unit)) }
+                            td.num { (num(r.limit)) " " (plots::unit_label(&r.unit)) }
+                            td { (verdict_badge(Some(&r.outcome))) }
+                        }
+                    }
+                }
+            }
+        }
+    }
+}
+
+/// Fit figures, squareness, the 18 error functions, residuals, circle tests,
+/// identifiability and reporting notes of an identification.
+pub fn identification(v: &IdentificationView) -> Markup {
+    let d = v.doc;
+    let o = &d.observability;
+    html! {
+        section.card #fit {
+            h2 { "Fit" }
+            dl.facts {
+                dt { "method" } dd { (format!("{:?}", d.method).to_lowercase()) ", " (format!("{:?}", d.model.basis).to_lowercase()) " basis, order " (d.model.order) }
+                dt { "samples" } dd { (d.fit.samples) }
+                dt { "residual RMS" } dd { (num(d.fit.residual_rms_um)) " µm" }
+                dt { "noise from repeated passes" } dd {
+                    @match d.fit.noise_estimate_um { Some(n) => { (num(n)) " µm" } None => { "— (no repeated passes)" } }
+                }
+                dt { "identifiability" } dd { "rank " (o.rank) " of " (o.parameters) " parameters, condition number " (format!("{:.3e}", o.condition_number)) }
+            }
+        }
+        (squareness(d))
+        section.card #terms {
+            h2 { "Error functions over the measured travel (±2σ)" }
+            div.grid.three {
+                @for name in TERM_ORDER {
+                    @if let Some(t) = d.terms.get(name) {
+                        figure.plot data-term=(name) data-identifiable=(t.identifiable) {
+                            (svg(plots::error_function(name, t, (v.travel)(name))))
+                        }
+                    }
+                }
+            }
+        }
+        @if !v.residuals.is_empty() { (residuals(v.residuals)) }
+        @if !v.circles.is_empty() { (circles(v.circles)) }
+        section.card #identifiability {
+            h2 { "Identifiability" }
+            @if o.not_identifiable.is_empty() {
+                p { "Every term is separately identifiable with this plan." }
+            } @else {
+                p { "Not identifiable (never shown as a number of its own): " (o.not_identifiable.join(", ")) }
+                ul.compact { @for c in &o.confounded { li { (c.terms.join(" + ")) " — seen as " (c.seen_as) } } }
+            }
+            @if !o.advice.is_empty() {
+                h3 { "Advice" }
+                ul.compact { @for a in &o.advice { li { (a) } } }
+            }
+            h3 { "Reporting conventions" }
+            ul.compact { @for r in &d.reporting { li { (r) } } }
+        }
+    }
+}
+
+fn squareness(d: &IdentificationResult) -> Markup {
+    html! {
+        section.card #squareness {
+            h2 { "Squareness" }
+            table {
+                thead { tr { th { "term" } th.num { "value ± U" } th { "angle" } th { "reported as" } } }
+                tbody {
+                    @for (name, s) in ["EC0Y", "EB0Z", "EA0Z"].iter().filter_map(|n| d.squareness.get(*n).map(|s| (n, s))) {
+                        tr data-term=(name) {
+                            td { (name) }
+                            @if s.identifiable {
+                                td.num { (with_u(s.value_urad, s.std_urad, "urad")) }
+                                td { (angle(name, s.value_urad)) }
+                                td { (s.reported_as.as_deref().unwrap_or("")) }
+                            } @else {
+                                td.num colspan="3" { "not identifiable"
+                                    @if !s.confounded_with.is_empty() { " (with " (s.confounded_with.join(", ")) ")" } }
+                            }
+                        }
+                    }
+                }
+            }
+        }
+    }
+}
+
+/// The angle between two axes from a squareness value (docs/conventions.md: X–Y =
+/// 90° + EC0Y, X–Z = 90° − EB0Z, Y–Z = 90° + EA0Z).
+fn angle(name: &str, v: Option<f64>) -> String {
+    let Some(v) = v else { return String::new() };
+    let (axes, sign) = match name {
+        "EC0Y" => ("X–Y", 1.0),
+        "EB0Z" => ("X–Z", -1.0),
+        "EA0Z" => ("Y–Z", 1.0),
+        _ => return String::new(),
+    };
+    format!(
+        "{axes} = 90° {} {} µrad",
+        if sign * v >= 0.0 { "+" } else { "−" },
+        num(v.abs())
+    )
+}
+
+fn residuals(rows: &[ResidualSummary]) -> Markup {
+    html! {
+        section.card #residuals {
+            h2 { "Residual by file and test" }
+            table {
+                thead { tr { th { "file" } th { "test" } th.num { "runs" } th.num { "samples" } th.num { "RMS (µm)" } } }
+                tbody { @for r in rows { tr { td { (r.file) } td { (r.test) } td.num { (r.runs) } td.num { (r.samples) } td.num { (num(r.rms_um)) } } } }
+            }
+        }
+    }
+}
+
+/// Circle tests grouped by file, plane and radius (both directions in one polar plot).
+fn circles(all: &[CircleTrace]) -> Markup {
+    let mut groups: Vec<Vec<CircleTrace>> = vec![];
+    for c in all {
+        match groups
+            .iter_mut()
+            .find(|g| g[0].file == c.file && g[0].plane == c.plane && g[0].radius_mm == c.radius_mm)
+        {
+            Some(g) => g.push(c.clone()),
+            None => groups.push(vec![c.clone()]),
+        }
+    }
+    html! {
+        section.card #circles {
+            h2 { "Circle tests" }
+            p.muted { "Radial deviation (measured − nominal radius) and the fitted model's, \
+                       counter-clockwise (ccw) and clockwise (cw), on a scaled radial axis." }
+            div.grid {
+                @for g in &groups {
+                    figure.plot.polar data-file=(g[0].file) {
+                        (svg(plots::circle_polar(g)))
+                        figcaption { (g[0].file) ", " (g[0].plane) " plane, R " (g[0].radius_mm) " mm, F "
+                            (g[0].feed_mm_min) " mm/min, centre (" (num(g[0].centre_mm[0])) ", " (num(g[0].centre_mm[1])) ") mm" }
+                    }
+                }
+            }
+        }
+    }
+}
+
+/// Verdict, baseline figures, where the misfit is, the findings with their before/after
+/// plots and held-out figures, the diagnosis plots and what remains unexplained.
+pub fn diagnosis(d: &DiagnosisResult) -> Markup {
+    let verdict = match d.verdict {
+        mtcal_solver::diagnosis::Verdict::Consistent => "consistent",
+        mtcal_solver::diagnosis::Verdict::Explained => "explained",
+        mtcal_solver::diagnosis::Verdict::PartlyExplained => "partly explained",
+    };
+    html! {
+        section.card #diagnosis {
+            h2 { "Diagnosis of a " (d.source.replace('_', " ")) ": " (verdict) }
+            dl.facts {
+                dt { "rigid model, residual RMS" } dd { (num(d.baseline.residual_rms_um)) " µm" }
+                dt { "rigid model, held-out RMS" } dd { (num(d.baseline.heldout_rms_um)) " µm" }
+                dt { "noise floor" } dd { (num(d.baseline.noise_estimate_um)) " µm" }
+            }
+            @if !d.mismatch.is_empty() {
+                h3 { "Where the model and the recording differ" }
+                table {
+                    thead { tr { th { "where" } th.num { "share of misfit" } th { "tests" } } }
+                    tbody { @for m in &d.mismatch { tr { td { (m.where_) } td.num { (format!("{:.0} %", 100.0 * m.share_of_misfit)) } td { (m.tests.join(", ")) } } } }
+                }
+            }
+        }
+        @for f in &d.findings {
+            section.card.finding data-effect=(f.effect) {
+                h2 { "Finding: " (f.effect.replace('_', " ")) @if let Some(a) = &f.axis { " (" (a) ")" } }
+                div.pair {
+                    div {
+                        p { (f.physics) }
+                        table {
+                            thead { tr { th { "" } th.num { "before (µm)" } th.num { "after (µm)" } } }
+                            tbody {
+                                tr { td { "residual RMS (fit)" } td.num { (num(f.residual_rms_um.before)) } td.num { (num(f.residual_rms_um.after)) } }
+                                tr { td { "held-out RMS" } td.num { (num(f.heldout_rms_um.before)) } td.num { (num(f.heldout_rms_um.after)) } }
+                            }
+                        }
+                        h3 { "Parameters" }
+                        table { tbody { @for (k, v) in &f.parameters { tr { td { (k) } td.num { (num(*v)) } } } } }
+                        p.muted { (f.evidence) }
+                    }
+                    figure.plot { (svg(plots::finding_bars(f, d.baseline.noise_estimate_um))) }
+                }
+            }
+        }
+        @if !d.plots.is_empty() {
+            section.card #diagnosis-plots {
+                h2 { "Before and after" }
+                div.grid { @for p in &d.plots { figure.plot data-plot=(p.id) { (svg(plots::render_svg(p))) } } }
+            }
+        }
+        @if !d.unexplained.is_empty() {
+            section.card { h2 { "Unexplained" } ul.compact { @for u in &d.unexplained { li { (u) } } } }
+        }
+    }
+}
+
+/// The A axis, the per-pose table, the rotation vectors per A pose, the location errors,
+/// the model chosen and the held-out compensation.
+pub fn cradle(c: &CradleResult) -> Markup {
+    let k = &c.kinematics;
+    html! {
+        section.card #cradle {
+            h2 { "Cradle (A/C) check" }
+            dl.facts {
+                dt { "points / A poses" } dd { (c.n_points) " / " (c.n_poses) }
+                dt { "instrument frame" } dd { @if c.registered_frame { "registered to the machine axes" } @else { "unregistered (intrinsic figures only)" } }
+                dt { "A axis direction" } dd { (format!("({:.6}, {:.6}, {:.6})", c.a_axis.direction[0], c.a_axis.direction[1], c.a_axis.direction[2])) }
+                dt { "model chosen (held-out poses)" } dd { (format!("{:?}", k.chosen).to_lowercase()) }
+                dt { "compensation, held out" } dd { (num(c.compensation.before_rms_um)) " µm → " (num(c.compensation.after_rms_um)) " µm RMS" }
+            }
+        }
+        section.card #rotation-vectors {
+            h2 { "Rotation vector per A pose" }
+            figure.plot { (svg(plots::rotation_vectors(&c.poses))) }
+            table {
+                thead { tr { th.num { "A (deg)" } th.num { "points" } th.num { "circle RMS (µm)" } th.num { "|r| pooled ± U" } th.num { "|r| patent ± U" } } }
+                tbody {
+                    @for p in &c.poses {
+                        tr {
+                            td.num { (num(p.a_deg)) } td.num { (p.n_points) } td.num { (num(p.circle_rms_um)) }
+                            td.num { (with_u(Some(p.rotation_pooled.norm_urad), Some(p.rotation_pooled.std_urad), "urad")) }
+                            td.num { (with_u(Some(p.rotation_point.norm_urad), Some(p.rotation_point.std_urad), "urad")) }
+                        }
+                    }
+                }
+            }
+        }
+        section.card #location-errors {
+            h2 { "Location errors (ISO 230-7)" }
+            table {
+                thead { tr { th { "error" } th.num { "value ± U" } th { "observable" } th { "note" } } }
+                tbody {
+                    @for e in &c.location_errors {
+                        tr { td { (e.name) } td.num { (with_u(e.value, e.std, &e.unit)) }
+                             td { (observable(&e.observability)) } td { (e.note.as_deref().unwrap_or("")) } }
+                    }
+                }
+            }
+        }
+        @if !c.notes.is_empty() { section.card { h2 { "Notes" } ul.compact { @for n in &c.notes { li { (n) } } } } }
+    }
+}
+
+fn observable(o: &mtcal_solver::cradle::Observability) -> &'static str {
+    use mtcal_solver::cradle::Observability::*;
+    match o {
+        Intrinsic => "from ball data",
+        RegisteredFrame => "with the frame registered",
+        NotObservable => "not observable",
+    }
+}
+
+/// Each component's ranking (bars of the first 12 and the key errors), the volumetric
+/// error and the machine evaluated.
+pub fn sensitivity(s: &SensitivityResult) -> Markup {
+    html! {
+        section.card #sensitivity {
+            h2 { "Sensitivity of " (s.machine.name) }
+            p.muted { (s.machine.description) " — evaluated at " (s.evaluation.poses) " pose(s) (" (s.evaluation.kind) "), key errors cover "
+                      (format!("{:.0} %", 100.0 * s.share)) " of each component." }
+            @if let Some(v) = &s.volumetric_error_um {
+                table {
+                    thead { tr { th { "component" } th.num { "RMS (µm)" } th.num { "max (µm)" } } }
+                    tbody { @for (k, e) in v { tr { td { (k) } td.num { (num(e.rms_um)) } td.num { (num(e.max_um)) } } } }
+                }
+            }
+        }
+        div.grid {
+            @for (name, r) in &s.components {
+                figure.plot data-component=(name) {
+                    (svg(plots::ranking_bars(name, r, 12)))
+                    figcaption { "key errors: " (r.key_errors.join(", ")) }
+                }
+            }
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::pages::tests::viewer;
+    use crate::plots::inspect;
+    use mtcal_solver::identification::{IdentifyOptions, identify};
+    use mtcal_solver::simulate::{Plan, SimOptions, random_truth, simulate};
+
+    fn header(kind: &str) -> ResultHeader {
+        ResultHeader {
+            id: "r1".into(),
+            machine_id: "SIM-0001".into(),
+            kind: kind.into(),
+            measured_at: "2026-01-05T08:00:00Z".into(),
+            created_at: "2026-01-05T09:00:00Z".into(),
+            dataset_id: Some("d1".into()),
+            is_baseline: false,
+            verdict: Some("undecided".into()),
+        }
+    }
+
+    /// The `<figure …>…</figure>` of a term.
+    fn figure<'a>(html: &'a str, term: &str) -> &'a str {
+        let start = html
+            .find(&format!(r#"<figure class="plot" data-term="{term}""#))
+            .unwrap_or_else(|| panic!("figure of {term}"));
+        let end = html[start..].find("</figure>").unwrap() + start;
+        &html[start..end]
+    }
+
+    #[test]
+    fn identification_page_draws_identified_terms_and_only_labels_the_others() {
+        // The seed plan (one head offset) leaves most terms confounded.
+        let out = simulate(
+            &random_truth(3),
+            &SimOptions {
+                plan: Plan::Seed,
+                seed: 3,
+                sample_rate_hz: 10.0,
+                ..Default::default()
+            },
+        )
+        .unwrap();
+        let doc = identify(&out.session, &IdentifyOptions::default()).unwrap();
+        let verdict = [VerdictRow {
+            quantity: "EXX".into(),
+            at: "max over the travel".into(),
+            value: 2.0,
+            std: Some(0.1),
+            limit: 2.1,
+            unit: "um".into(),
+            outcome: "undecided".into(),
+        }];
+        let travel = |_: &str| None;
+        let body = ResultBody::Identification(IdentificationView {
+            doc: &doc,
+            circles: &[],
+            residuals: &[],
+            travel: &travel,
+        });
+        let html =
+            result_page(&viewer("write"), &header("identification"), &verdict, &body).into_string();
+        assert!(html.contains("Set as baseline"));
+        assert!(html.contains("2.000 ± 0.200 µm") && html.contains("2.100 µm"));
+        for name in TERM_ORDER {
+            let t = &doc.terms[name];
+            let fig = figure(&html, name);
+            assert!(fig.contains(&format!(r#"data-identifiable="{}""#, t.identifiable)));
+            if t.identifiable {
+                // The curve passes through the reported values (read back via the axes).
+                let plot = inspect::parse(fig).unwrap();
+                let axes = plot.axes().unwrap();
+                let line = &plot.marks("polyline", &inspect::hex(plots::COLORS[0]))[0];
+                assert_eq!(line.points.len(), t.values.len(), "{name}");
+                for (p, v) in line.points.iter().zip(&t.values) {
+                    let tol = 1.5 / axes.y.scale.abs();
+                    assert!((axes.y.value(p.1) - v).abs() <= tol, "{name}");
+                }
+            } else {
+                assert!(fig.contains("not identifiable"), "{name}");
+                assert!(
+                    !fig.contains("<polyline") && !fig.contains("<polygon"),
+                    "{name}"
+                );
+            }
+        }
+        assert!(doc.terms.values().any(|t| t.identifiable));
+        assert!(doc.terms.values().any(|t| !t.identifiable));
+        assert!(html.contains("Advice"), "the seed plan gets advice");
+    }
+
+    #[test]
+    fn circle_tests_are_grouped_by_file_with_both_directions() {
+        let c = |dir: &str| CircleTrace {
+            file: "xy.csv".into(),
+            run: 1,
+            plane: "XY".into(),
+            direction: dir.into(),
+            radius_mm: 50.0,
+            centre_mm: [0.0, 0.0],
+            feed_mm_min: 500.0,
+            start_angle_deg: 0.0,
+            angle_deg: vec![0.0, 90.0, 180.0, 270.0],
+            measured_um: vec![1.0, -1.0, 1.0, -1.0],
+            model_um: vec![0.9, -0.9, 0.9, -0.9],
+        };
+        let html = circles(&[c("ccw"), c("cw")]).into_string();
+        assert_eq!(
+            html.matches("<svg").count(),
+            1,
+            "one polar plot for both directions"
+        );
+        assert!(html.contains("measured ccw") && html.contains("model cw"));
+    }
+
+    #[test]
+    fn cradle_and_sensitivity_sections_render() {
+        use mtcal_solver::cradle::{CradleOptions, check_cradle, simulate::CradleSimulation};
+        let points =
+            mtcal_solver::cradle::simulate::simulate_cradle(&CradleSimulation::example(true, 1));
+        let c = check_cradle(&points, &CradleOptions::default()).unwrap();
+        let html = cradle(&c).into_string();
+        assert!(html.contains("Rotation vector per A pose"));
+        let plot = inspect::parse(&html).unwrap();
+        let bars = plot
+            .marks("line", &inspect::hex(plots::COLORS[0]))
+            .into_iter()
+            .filter(|m| m.points[0].0 == m.points[1].0 && m.points[0].1 != m.points[1].1)
+            .count();
+        assert_eq!(bars, c.poses.len(), "one ±2σ bar per A pose");
+
+        let req: mtcal_solver::sensitivity::SensitivityRequest =
+            serde_json::from_str(r#"{"machine": {"template": "vmc3"}}"#).unwrap();
+        let s = mtcal_solver::sensitivity::analyse(&req).unwrap();
+        let html = sensitivity(&s).into_string();
+        assert_eq!(html.matches("<svg").count(), s.components.len());
+        assert!(html.contains("key errors:"));
+    }
+}

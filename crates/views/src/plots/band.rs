@@ -1,0 +1,259 @@
+//! One error function over the measured travel with its ±2σ band, and the labelled
+//! empty panel that stands in for a term the data cannot determine.
+
+use super::{Area, BAND, BAND_OPACITY, COLORS, DrawResult, PANEL, svg, tick, unit_label};
+use mtcal_solver::identification::TermReport;
+use plotters::prelude::*;
+
+/// The moving axis of an ISO 230-1 error name (`EXZ` → `Z`, `EC0Y` → `Y`).
+fn moving_axis(name: &str) -> char {
+    name.chars().last().unwrap_or('?')
+}
+
+/// An empty panel of the small-multiple size with a frame, `title` on top and `message`
+/// in the middle: no axes, no curve.
+pub fn empty_panel(title: &str, message: &str) -> String {
+    svg(PANEL, title, |root| {
+        let (w, h) = (PANEL.0 as i32, PANEL.1 as i32);
+        root.draw(&Rectangle::new(
+            [(1, 1), (w - 2, h - 2)],
+            BLACK.mix(0.25).stroke_width(1),
+        ))?;
+        let style = |size| {
+            ("sans-serif", size).into_font().color(&BLACK.mix(0.7)).pos(
+                plotters::style::text_anchor::Pos::new(
+                    plotters::style::text_anchor::HPos::Center,
+                    plotters::style::text_anchor::VPos::Center,
+                ),
+            )
+        };
+        root.draw(&Text::new(title.to_string(), (w / 2, 24), style(18)))?;
+        // Wrap the message at about 48 characters a line.
+        let mut lines: Vec<String> = vec![];
+        for word in message.split_whitespace() {
+            match lines.last_mut() {
+                Some(l) if l.len() + word.len() < 48 => {
+                    l.push(' ');
+                    l.push_str(word);
+                }
+                _ => lines.push(word.to_string()),
+            }
+        }
+        let top = h / 2 - 9 * lines.len() as i32;
+        for (k, l) in lines.iter().enumerate() {
+            root.draw(&Text::new(
+                l.clone(),
+                (w / 2, top + 18 * k as i32),
+                style(14),
+            ))?;
+        }
+        Ok(())
+    })
+}
+
+/// The function `name` (e.g. `EXX`) as reported: its values at the reported positions
+/// joined by a line, and the band value ± 2·std, over `travel_mm` (the measured travel;
+/// positions outside it are not drawn). A term that is not identifiable, or has no value
+/// inside the travel, is an [`empty_panel`] saying so.
+pub fn error_function(name: &str, term: &TermReport, travel_mm: Option<[f64; 2]>) -> String {
+    let unit = unit_label(&term.unit);
+    let title = format!("{name} ({unit})");
+    if !term.identifiable {
+        let with = if term.confounded_with.is_empty() {
+            "no effect in this plan".to_string()
+        } else {
+            format!(
+                "cannot be separated from {}",
+                term.confounded_with.join(", ")
+            )
+        };
+        return empty_panel(&title, &format!("not identifiable: {with}"));
+    }
+    let inside = |q: f64| travel_mm.is_none_or(|[lo, hi]| q >= lo && q <= hi);
+    let pts: Vec<(f64, f64, f64)> = term
+        .positions_mm
+        .iter()
+        .zip(&term.values)
+        .zip(&term.std)
+        .map(|((&q, &v), &s)| (q, v, s))
+        .filter(|&(q, _, _)| inside(q))
+        .collect();
+    function_band(name, &title, &pts)
+}
+
+/// A function of position `name` (its last letter names the axis) from points
+/// (position mm, value, standard uncertainty): the values joined by a line and the band
+/// value ± 2·std, over the points' span only. Points whose position or value is not
+/// finite are left out; the band is drawn only when every uncertainty is known (finite);
+/// fewer than two points make an [`empty_panel`].
+pub fn function_band(name: &str, title: &str, points: &[(f64, f64, f64)]) -> String {
+    let pts: Vec<(f64, f64, f64)> = points
+        .iter()
+        .copied()
+        .filter(|&(q, v, _)| q.is_finite() && v.is_finite())
+        .collect();
+    if pts.len() < 2 {
+        return empty_panel(title, "no values inside the measured travel");
+    }
+    svg(PANEL, title, |root| band(root, name, title, &pts))
+}
+
+fn band(root: &Area, name: &str, title: &str, pts: &[(f64, f64, f64)]) -> DrawResult {
+    let x0 = pts[0].0;
+    let x1 = pts[pts.len() - 1].0;
+    let with_band = pts.iter().all(|p| p.2.is_finite());
+    let u = |p: &(f64, f64, f64)| if with_band { 2.0 * p.2 } else { 0.0 };
+    let lo = pts.iter().map(|p| p.1 - u(p));
+    let hi = pts.iter().map(|p| p.1 + u(p));
+    let (y0, y1) = super::range(lo.chain(hi)).ok_or("no points")?;
+    let mut chart = ChartBuilder::on(root)
+        .caption(title, ("sans-serif", 16))
+        .margin(8)
+        .x_label_area_size(36)
+        .y_label_area_size(52)
+        .build_cartesian_2d(x0..x1, y0..y1)?;
+    chart
+        .configure_mesh()
+        .x_desc(format!("{} (mm)", moving_axis(name)))
+        .x_label_formatter(&tick)
+        .y_label_formatter(&tick)
+        .label_style(("sans-serif", 14))
+        .x_labels(6)
+        .y_labels(6)
+        .light_line_style(WHITE.mix(0.0))
+        .draw()?;
+    if with_band {
+        let upper = pts.iter().map(|p| (p.0, p.1 + 2.0 * p.2));
+        let lower = pts.iter().rev().map(|p| (p.0, p.1 - 2.0 * p.2));
+        chart.draw_series(std::iter::once(Polygon::new(
+            upper.chain(lower).collect::<Vec<_>>(),
+            BAND.mix(BAND_OPACITY).filled(),
+        )))?;
+    }
+    chart.draw_series(LineSeries::new(
+        pts.iter().map(|p| (p.0, p.1)),
+        COLORS[0].stroke_width(2),
+    ))?;
+    Ok(())
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::plots::inspect::{self, hex};
+
+    fn term(identifiable: bool) -> TermReport {
+        // EXX = 2 µm/100 mm · q + 1e-4 µm/mm² · q², std growing away from 0.
+        let positions_mm: Vec<f64> = (-10..=10).map(|k| f64::from(k) * 5.0).collect();
+        TermReport {
+            unit: "um".into(),
+            values: positions_mm
+                .iter()
+                .map(|q| 0.02 * q + 1e-4 * q * q)
+                .collect(),
+            std: positions_mm
+                .iter()
+                .map(|q| 0.05 + 0.002 * q.abs())
+                .collect(),
+            positions_mm,
+            identifiable,
+            confounded_with: if identifiable {
+                vec![]
+            } else {
+                vec!["EYX".into(), "ECX".into()]
+            },
+            coefficients: vec![0.02, 1e-4, 0.0],
+        }
+    }
+
+    #[test]
+    fn line_and_band_sit_where_the_values_say() {
+        let t = term(true);
+        let svg = error_function("EXX", &t, Some([-50.0, 50.0]));
+        let plot = inspect::parse(&svg).unwrap();
+        let axes = plot.axes().unwrap();
+        let line = plot.marks("polyline", &hex(COLORS[0]));
+        assert_eq!(line.len(), 1, "one curve");
+        assert_eq!(line[0].points.len(), 21, "one vertex per reported position");
+        // Each vertex at (q, value) within a pixel, read through the tick labels.
+        for (p, (q, v)) in line[0]
+            .points
+            .iter()
+            .zip(t.positions_mm.iter().zip(&t.values))
+        {
+            assert!((axes.x.px(*q) - p.0).abs() <= 1.0, "x of {q}");
+            assert!((axes.y.px(*v) - p.1).abs() <= 1.0, "y of {q}");
+        }
+        // The band: upper edge value + 2σ forward, lower edge value − 2σ backward.
+        let band = plot.marks("polygon", &hex(BAND));
+        assert_eq!(band.len(), 1);
+        let b = &band[0].points;
+        assert_eq!(b.len(), 42);
+        for (i, q) in t.positions_mm.iter().enumerate() {
+            let up = t.values[i] + 2.0 * t.std[i];
+            let down = t.values[i] - 2.0 * t.std[i];
+            assert!((axes.y.px(up) - b[i].1).abs() <= 1.0, "upper edge at {q}");
+            assert!(
+                (axes.y.px(down) - b[41 - i].1).abs() <= 1.0,
+                "lower edge at {q}"
+            );
+        }
+        // At q = 50 the band is 4σ = 4·0.15 µm wide: in pixels, 0.6 µm on the y scale.
+        let width = (b[20].1 - b[21].1).abs();
+        assert!((width - 0.6 * axes.y.scale.abs()).abs() <= 1.5, "{width}");
+        assert!((band[0].opacity - BAND_OPACITY).abs() < 1e-9);
+    }
+
+    #[test]
+    fn nothing_is_drawn_outside_the_measured_travel() {
+        let t = term(true);
+        let svg = error_function("EXX", &t, Some([-20.0, 30.0]));
+        let plot = inspect::parse(&svg).unwrap();
+        let axes = plot.axes().unwrap();
+        let line = &plot.marks("polyline", &hex(COLORS[0]))[0];
+        assert_eq!(line.points.len(), 11, "-20, -15, …, 30");
+        let xs: Vec<f64> = line.points.iter().map(|p| axes.x.value(p.0)).collect();
+        assert!(
+            (xs[0] + 20.0).abs() < 0.5 && (xs[10] - 30.0).abs() < 0.5,
+            "{xs:?}"
+        );
+        // The x axis spans the travel, not beyond: no tick label outside it.
+        for t in plot.texts.iter().filter(|t| t.anchor == "middle") {
+            if let Some(v) = inspect::label_value(&t.content) {
+                assert!((-20.0..=30.0).contains(&v), "tick {v}");
+            }
+        }
+    }
+
+    #[test]
+    fn a_term_that_is_not_identifiable_is_an_empty_labelled_panel() {
+        let svg = error_function("EAX", &term(false), Some([-50.0, 50.0]));
+        let plot = inspect::parse(&svg).unwrap();
+        assert!(plot.has_text("EAX (µm)"));
+        assert!(plot.has_text("not identifiable"));
+        assert!(plot.has_text("EYX") && plot.has_text("ECX"));
+        assert!(
+            plot.marks
+                .iter()
+                .all(|m| m.tag != "polyline" && m.tag != "polygon" && m.tag != "circle"),
+            "no curve, band or marker: {:?}",
+            plot.marks
+        );
+        assert!(plot.axes().is_err(), "no axes");
+    }
+
+    #[test]
+    fn without_uncertainties_the_line_has_no_band() {
+        let pts = [(0.0, 0.0, f64::NAN), (10.0, 1.0, 0.1), (20.0, 3.0, 0.1)];
+        let plot = inspect::parse(&function_band("EXX", "EXX b − a", &pts)).unwrap();
+        assert_eq!(plot.marks("polyline", &hex(COLORS[0]))[0].points.len(), 3);
+        assert!(plot.marks("polygon", &hex(BAND)).is_empty());
+    }
+
+    #[test]
+    fn a_term_without_values_in_the_travel_is_an_empty_panel() {
+        let svg = error_function("EXX", &term(true), Some([200.0, 300.0]));
+        assert!(svg.contains("no values inside the measured travel"));
+        assert!(!svg.contains("<polyline"));
+    }
+}

@@ -1,0 +1,323 @@
+//! Polar plots of radial deviations, drawn as on a ballbar plot: the angle θ (degrees,
+//! counter-clockwise from +u toward +v of the plane) is the polar angle, and a deviation
+//! d (µm) is drawn at radius r = 1 + d/s about a unit reference circle (d = 0). The ring
+//! spacing `step` is the smallest of 1, 2, 2.5, 5 × 10ᵏ µm with 2·step ≥ max|d|; s = 5·step,
+//! so the dotted rings at ±step and ±2·step sit at r = 1 ± 0.2 and 1 ± 0.4 and bound every
+//! point. Each ring is labelled with its deviation (the scaled radial axis).
+
+use super::{Area, COLORS, DrawResult, finite_points, svg};
+use mtcal_solver::diagnosis::{PlotData, PlotSeries};
+use plotters::prelude::*;
+use plotters::style::text_anchor::{HPos, Pos, VPos};
+use serde::{Deserialize, Serialize};
+
+/// Size of a polar figure, px.
+pub const POLAR: (u32, u32) = (640, 680);
+
+/// Colours of a circle test's series: `measured ccw`, `model ccw`, `measured cw`,
+/// `model cw` (one hue per direction, the model darker and drawn thicker).
+pub const CIRCLE_COLORS: [RGBColor; 4] = [
+    RGBColor(107, 174, 214),
+    RGBColor(8, 69, 148),
+    RGBColor(252, 146, 114),
+    RGBColor(165, 15, 21),
+];
+
+/// One circle test as in the identification result's `circles`: radial deviation
+/// (measured − nominal radius, µm) at up to 360 angles, and the same from the fitted
+/// model.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct CircleTrace {
+    pub file: String,
+    pub run: u32,
+    /// `XY`, `XZ` or `YZ`.
+    pub plane: String,
+    /// `ccw` or `cw`.
+    pub direction: String,
+    pub radius_mm: f64,
+    pub centre_mm: [f64; 2],
+    pub feed_mm_min: f64,
+    pub start_angle_deg: f64,
+    pub angle_deg: Vec<f64>,
+    pub measured_um: Vec<f64>,
+    pub model_um: Vec<f64>,
+}
+
+/// The smallest 1, 2, 2.5 or 5 × 10ᵏ not below `x` (> 0).
+pub(crate) fn nice_ceil(x: f64) -> f64 {
+    let e = x.log10().floor();
+    let base = 10f64.powf(e);
+    [1.0, 2.0, 2.5, 5.0, 10.0]
+        .iter()
+        .map(|m| m * base)
+        .find(|v| *v >= x * (1.0 - 1e-12))
+        .unwrap_or(10.0 * base)
+}
+
+/// A diagnosis figure of kind `polar` (module docs; angle labels 0°, 45°, …).
+pub(crate) fn render(plot: &PlotData) -> String {
+    let title = format!("{} ({})", plot.title, plot.y_label);
+    svg(POLAR, &plot.title, |root| {
+        draw(
+            root,
+            &title,
+            &plot.series,
+            &|a| format!("{a}°"),
+            &|k, _| COLORS[k % COLORS.len()],
+        )
+    })
+}
+
+/// Measured and modelled radial deviation of one circle, both directions when given
+/// (series `measured ccw`, `model ccw`, `measured cw`, `model cw`; models drawn thicker).
+/// The circles should be of one plane and radius; the title names the first.
+pub fn circle_polar(circles: &[CircleTrace]) -> String {
+    let Some(first) = circles.first() else {
+        return svg(POLAR, "circle", |_| Err("no circle".into()));
+    };
+    let mut series = vec![];
+    for c in circles {
+        for (what, y) in [("measured", &c.measured_um), ("model", &c.model_um)] {
+            series.push(PlotSeries {
+                name: format!("{what} {}", c.direction),
+                x: c.angle_deg.clone(),
+                y: y.clone(),
+            });
+        }
+    }
+    let mut axes = first.plane.chars();
+    let (u, v) = (axes.next().unwrap_or('u'), axes.next().unwrap_or('v'));
+    let title = format!(
+        "{} run {}: {} circle R{} mm, radial deviation (µm)",
+        first.file, first.run, first.plane, first.radius_mm
+    );
+    let angle = move |a: i32| match a {
+        0 => format!("0° +{u}"),
+        90 => format!("90° +{v}"),
+        180 => format!("180° −{u}"),
+        270 => format!("270° −{v}"),
+        _ => format!("{a}°"),
+    };
+    let color = |_: usize, s: &PlotSeries| {
+        let model = usize::from(s.name.starts_with("model"));
+        let cw = if s.name.ends_with(" cw") { 2 } else { 0 };
+        CIRCLE_COLORS[cw + model]
+    };
+    svg(POLAR, &title, |root| {
+        draw(root, &title, &series, &angle, &color)
+    })
+}
+
+fn draw(
+    root: &Area,
+    title: &str,
+    series: &[PlotSeries],
+    angle_label: &dyn Fn(i32) -> String,
+    color: &dyn Fn(usize, &PlotSeries) -> RGBColor,
+) -> DrawResult {
+    let pts: Vec<Vec<(f64, f64)>> = series.iter().map(finite_points).collect();
+    if pts.iter().all(Vec::is_empty) {
+        return Err("no points".into());
+    }
+    let m = pts.iter().flatten().fold(0.0f64, |a, p| a.max(p.1.abs()));
+    let step = if m > 0.0 { nice_ceil(m / 2.0) } else { 1.0 };
+    let scale = 5.0 * step;
+    let to_xy = |ang_deg: f64, dev: f64| {
+        let r = 1.0 + dev / scale;
+        let a = ang_deg.to_radians();
+        (r * a.cos(), r * a.sin())
+    };
+    // A square plotting area, so that circles stay round.
+    let area = root.titled(title, ("sans-serif", 16))?;
+    let (w, h) = area.dim_in_pixel();
+    let side = w.min(h);
+    let area = area.shrink(((w - side) / 2, (h - side) / 2), (side, side));
+    let mut chart = ChartBuilder::on(&area)
+        .margin(12)
+        .build_cartesian_2d(-1.75f64..1.75f64, -1.75f64..1.75f64)?;
+    let circle = |dev: f64| (0..=360).map(move |a| to_xy(f64::from(a), dev));
+    chart.draw_series(LineSeries::new(circle(0.0), BLACK.mix(0.6).stroke_width(1)))?;
+    let label_style = ("sans-serif", 12)
+        .into_font()
+        .color(&BLACK.mix(0.7))
+        .pos(Pos::new(HPos::Left, VPos::Center));
+    for k in [-2.0, -1.0, 0.0, 1.0, 2.0] {
+        let dev = k * step;
+        if k != 0.0 {
+            chart.draw_series(DashedLineSeries::new(
+                circle(dev),
+                2,
+                4,
+                BLACK.mix(0.3).stroke_width(1),
+            ))?;
+        }
+        // Ring labels along the 67.5° ray, where no angle label sits.
+        let (x, y) = to_xy(67.5, dev);
+        let text = if k == 0.0 {
+            "0 µm".to_string()
+        } else {
+            format!(
+                "{}{} µm",
+                if dev > 0.0 { "+" } else { "−" },
+                super::tick(&dev.abs())
+            )
+        };
+        chart.draw_series(std::iter::once(Text::new(
+            text,
+            (x, y),
+            label_style.clone(),
+        )))?;
+    }
+    for a in (0..360).step_by(45) {
+        let (x, y) = to_xy(f64::from(a), 2.1 * step);
+        chart.draw_series(LineSeries::new([(0.0, 0.0), (x, y)], BLACK.mix(0.15)))?;
+        // Labels outward of the ray's end: left-aligned on the right half, right-aligned
+        // on the left half.
+        let c = f64::from(a).to_radians().cos();
+        let h = if c > 0.1 {
+            HPos::Left
+        } else if c < -0.1 {
+            HPos::Right
+        } else {
+            HPos::Center
+        };
+        let style = TextStyle::from(("sans-serif", 12).into_font()).pos(Pos::new(h, VPos::Center));
+        chart.draw_series(std::iter::once(Text::new(
+            angle_label(a),
+            (x * 1.04, y * 1.04),
+            style,
+        )))?;
+    }
+    for (k, (s, p)) in series.iter().zip(&pts).enumerate() {
+        let color = color(k, s);
+        let width = if s.name.starts_with("model") { 2 } else { 1 };
+        chart
+            .draw_series(LineSeries::new(
+                p.iter().map(|&(a, d)| to_xy(a, d)),
+                color.stroke_width(width),
+            ))?
+            .label(s.name.as_str())
+            .legend(move |(x, y)| PathElement::new(vec![(x, y), (x + 18, y)], color));
+    }
+    super::legend(&mut chart, SeriesLabelPosition::LowerRight)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::plots::inspect::{self, hex};
+    use crate::plots::render_svg;
+
+    fn circle(direction: &str, sign: f64) -> CircleTrace {
+        let angle_deg: Vec<f64> = (0..360).step_by(5).map(f64::from).collect();
+        // An oval: +3 µm along ±u, −3 µm along ±v (a squareness-free scale mismatch).
+        let measured_um = angle_deg
+            .iter()
+            .map(|a| 3.0 * (2.0 * a.to_radians()).cos() + 0.2 * sign)
+            .collect();
+        let model_um = angle_deg
+            .iter()
+            .map(|a| 2.8 * (2.0 * a.to_radians()).cos())
+            .collect();
+        CircleTrace {
+            file: "xy.csv".into(),
+            run: 3,
+            plane: "XY".into(),
+            direction: direction.into(),
+            radius_mm: 50.0,
+            centre_mm: [0.0, 0.0],
+            feed_mm_min: 500.0,
+            start_angle_deg: 0.0,
+            angle_deg,
+            measured_um,
+            model_um,
+        }
+    }
+
+    #[test]
+    fn nice_steps() {
+        assert_eq!(nice_ceil(1.6), 2.0);
+        assert_eq!(nice_ceil(2.1), 2.5);
+        assert_eq!(nice_ceil(0.03), 0.05);
+        assert_eq!(nice_ceil(5.0), 5.0);
+        assert_eq!(nice_ceil(7.0), 10.0);
+    }
+
+    /// Centre and radius (px) of the reference circle: the solid grey polyline of 361
+    /// points.
+    fn reference(plot: &inspect::Plot) -> ((f64, f64), f64) {
+        let r = plot
+            .marks
+            .iter()
+            .find(|m| {
+                m.tag == "polyline"
+                    && m.points.len() == 361
+                    && m.stroke.as_deref() == Some("#000000")
+            })
+            .expect("reference circle");
+        let n = r.points.len() as f64;
+        let cx = r.points.iter().map(|p| p.0).sum::<f64>() / n;
+        let cy = r.points.iter().map(|p| p.1).sum::<f64>() / n;
+        let rad = r
+            .points
+            .iter()
+            .map(|p| ((p.0 - cx).powi(2) + (p.1 - cy).powi(2)).sqrt())
+            .sum::<f64>()
+            / n;
+        ((cx, cy), rad)
+    }
+
+    #[test]
+    fn both_directions_measured_and_model_at_their_radii() {
+        let svg = circle_polar(&[circle("ccw", 1.0), circle("cw", -1.0)]);
+        let plot = inspect::parse(&svg).unwrap();
+        let ((cx, cy), r0) = reference(&plot);
+        // max|d| = 3.2 µm → step 2 µm, s = 10 µm: 1 µm is r0/10 px.
+        assert!(plot.has_text("+4 µm") && plot.has_text("−2 µm") && plot.has_text("0 µm"));
+        assert!(plot.has_text("0° +X") && plot.has_text("90° +Y"));
+        let c = circle("ccw", 1.0);
+        for (k, name) in ["measured ccw", "model ccw", "measured cw", "model cw"]
+            .iter()
+            .enumerate()
+        {
+            assert!(plot.has_text(name));
+            let line = plot.marks("polyline", &hex(CIRCLE_COLORS[k]));
+            let line = line.iter().find(|m| m.points.len() == 72).expect(name);
+            let sign = if k < 2 { 1.0 } else { -1.0 };
+            for (i, p) in line.points.iter().enumerate() {
+                let a = c.angle_deg[i];
+                let d = if k % 2 == 0 {
+                    3.0 * (2.0 * a.to_radians()).cos() + 0.2 * sign
+                } else {
+                    2.8 * (2.0 * a.to_radians()).cos()
+                };
+                let (dx, dy) = (p.0 - cx, cy - p.1);
+                let r = (dx * dx + dy * dy).sqrt();
+                assert!(
+                    (r - r0 * (1.0 + d / 10.0)).abs() <= 1.5,
+                    "{name} at {a}°: {r} px"
+                );
+                let ang = dy.atan2(dx).to_degrees().rem_euclid(360.0);
+                let diff = (ang - a + 180.0).rem_euclid(360.0) - 180.0;
+                assert!(diff.abs() < 1.0, "{name}: angle {ang} vs {a}");
+            }
+        }
+        // Counter-clockwise on screen: 90° (+Y) is above the centre.
+        let ccw = plot.marks("polyline", &hex(CIRCLE_COLORS[0]));
+        let p90 = ccw.iter().find(|m| m.points.len() == 72).unwrap().points[18];
+        assert!(p90.1 < cy - 0.5 * r0);
+    }
+
+    #[test]
+    fn diagnosis_polar_keeps_its_rings() {
+        let svg = render_svg(&crate::plots::tests::plot("polar"));
+        assert!(svg.starts_with("<svg"));
+        // max|d| = 3 → step 2 µm.
+        assert!(svg.contains("90°") && svg.contains("+2 µm") && svg.contains("−4 µm"));
+    }
+
+    #[test]
+    fn no_circle_says_so() {
+        assert!(circle_polar(&[]).contains("nothing to draw"));
+    }
+}

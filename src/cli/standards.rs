@@ -1,0 +1,141 @@
+//! `mtcal standards PATH [--json]`: the figures of ISO 230-2 and ISO 230-4 of a session
+//! folder (line passes and circle runs) or ISO 230-2 of a positioning-run CSV. Human
+//! summary by default; `--json` prints the `standards` document (the same object as the
+//! identification result's `standards`).
+
+use super::BadInput;
+use anyhow::Context;
+use mtcal_formats::{DatasetKind, Limits};
+use mtcal_solver::standards::{self, Standards};
+use std::fmt::Write as _;
+use std::path::PathBuf;
+use std::process::ExitCode;
+
+#[derive(clap::Args, Debug)]
+pub struct Args {
+    /// A session folder or a positioning-run CSV (`.csv.gz` too).
+    pub path: PathBuf,
+    /// Print the figures (JSON) instead of the summary.
+    #[arg(long)]
+    pub json: bool,
+}
+
+pub fn run(args: Args) -> anyhow::Result<ExitCode> {
+    let limits = Limits::default();
+    let path = &args.path;
+    if !path.exists() {
+        return Err(BadInput(format!("{}: no such file or folder", path.display())).into());
+    }
+    let st = match mtcal_formats::sniff_path(path) {
+        Some(DatasetKind::Session) => {
+            standards::from_session(&mtcal_formats::read_session_dir(path, &limits)?)
+        }
+        Some(DatasetKind::Positioning) => {
+            standards::from_positioning_runs(&mtcal_formats::read_positioning_path(path, &limits)?)
+        }
+        _ => {
+            return Err(BadInput(format!(
+                "{}: not a session folder (session.json) or a positioning-run CSV \
+                 (axis,run,direction,target_mm,deviation_um)",
+                path.display()
+            ))
+            .into());
+        }
+    };
+    if args.json {
+        println!(
+            "{}",
+            serde_json::to_string_pretty(&st).context("serialising the figures")?
+        );
+    } else {
+        print!("{}", summary(&st));
+    }
+    Ok(ExitCode::SUCCESS)
+}
+
+/// The figures as text tables: ISO 230-2 per axis, ISO 230-4 per plane and direction,
+/// then what could not be evaluated.
+pub fn summary(st: &Standards) -> String {
+    let mut s = String::new();
+    if !st.iso230_2.is_empty() {
+        let _ = writeln!(
+            s,
+            "\nISO 230-2 (µm)  {:>7} {:>7} {:>7} {:>7} {:>7} {:>7} {:>7} {:>7} {:>7} {:>7} {:>7} {:>7}",
+            "B", "B_mean", "R_up", "R_down", "R", "E_up", "E_down", "E", "M", "A_up", "A_down", "A"
+        );
+        for f in &st.iso230_2 {
+            let _ = write!(s, "axis {}          ", f.axis);
+            for v in f.values() {
+                let _ = write!(s, " {v:>7.3}");
+            }
+            let from = match (&f.file, f.head_offset_mm) {
+                (Some(file), Some(t)) => format!(
+                    "line passes of {file}, head offset ({}, {}, {}) mm",
+                    t[0], t[1], t[2]
+                ),
+                _ => "positioning runs".into(),
+            };
+            let _ = writeln!(
+                s,
+                "\n  {} targets, {} runs ({} up, {} down per target), {from}",
+                f.targets, f.runs, f.n_up, f.n_down
+            );
+            for n in &f.notes {
+                let _ = writeln!(s, "  note: {n}");
+            }
+        }
+    }
+    if !st.iso230_4.is_empty() {
+        let _ = writeln!(
+            s,
+            "\nISO 230-4 (µm)  {:<4} {:>8} {:>10} {:>8} {:>8} {:>9} {:>8} {:>8} {:>8}",
+            "dir", "Ø mm", "F mm/min", "start °", "G", "mean rad", "F_max", "F_min", "H"
+        );
+        for f in &st.iso230_4 {
+            for d in &f.directions {
+                let _ = writeln!(
+                    s,
+                    "plane {:<9} {:<4} {:>8.3} {:>10.1} {:>8.1} {:>8.3} {:>9.3} {:>8.3} {:>8.3}",
+                    format!("{:?}", f.plane),
+                    d.direction,
+                    f.diameter_mm,
+                    d.feed_mm_min,
+                    d.start_angle_deg,
+                    d.g_um,
+                    d.mean_radial_um,
+                    d.f_max_um,
+                    d.f_min_um
+                );
+            }
+            if let Some(b) = &f.bidirectional {
+                let _ = writeln!(
+                    s,
+                    "plane {:<9} {:<4} {:>8} {:>10} {:>8} {:>8.3} {:>9.3} {:>8.3} {:>8.3} {:>8.3}",
+                    format!("{:?}", f.plane),
+                    "bi",
+                    "",
+                    "",
+                    "",
+                    b.g_um,
+                    b.mean_radial_um,
+                    b.f_max_um,
+                    b.f_min_um,
+                    b.h_um
+                );
+            }
+            let t = f.head_offset_mm;
+            let _ = writeln!(
+                s,
+                "  from {}, head offset ({}, {}, {}) mm",
+                f.file, t[0], t[1], t[2]
+            );
+            for n in &f.notes {
+                let _ = writeln!(s, "  note: {n}");
+            }
+        }
+    }
+    for n in &st.not_evaluated {
+        let _ = writeln!(s, "not evaluated: {} {}: {}", n.standard, n.what, n.reason);
+    }
+    s
+}

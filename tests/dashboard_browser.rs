@@ -1,0 +1,444 @@
+//! The dashboard in a real headless Chromium driven over WebDriver (chromedriver), on the
+//! demo fleet of `mtcal demo`: sign in with a key, see the fleet ranked as the API ranks
+//! it, open a machine and read its trend plot back against the API's values, open
+//! results (an identification's error functions, a diagnosis's polar plot of a circle
+//! test), upload a session through the form and see the new check appear, compare two
+//! checks, sign out. One browser session, a small fleet.
+//!
+//! A screenshot of each page is saved under `target/tmp/dashboard/`. The test skips, with
+//! a printed reason, only when chromedriver is absent (`CHROMEDRIVER` names another path
+//! than `/usr/bin/chromedriver`).
+
+use fantoccini::{Client, ClientBuilder, Locator};
+use mtcal_views::plots::{COLORS, inspect};
+use serde_json::{Value, json};
+use std::io::{BufRead, BufReader};
+use std::path::{Path, PathBuf};
+use std::process::{Child, Command, Stdio};
+use std::time::{Duration, Instant};
+
+/// Kills a child process when dropped (by its own handle).
+struct Guard(Child);
+
+impl Drop for Guard {
+    fn drop(&mut self) {
+        let _ = self.0.kill();
+        let _ = self.0.wait();
+    }
+}
+
+fn chromedriver() -> Option<PathBuf> {
+    let p = PathBuf::from(
+        std::env::var("CHROMEDRIVER").unwrap_or_else(|_| "/usr/bin/chromedriver".into()),
+    );
+    p.exists().then_some(p)
+}
+
+fn free_port() -> u16 {
+    std::net::TcpListener::bind("127.0.0.1:0")
+        .and_then(|l| l.local_addr())
+        .map(|a| a.port())
+        .expect("a free port")
+}
+
+/// `mtcal demo` serving a small fleet on a free port: (guard, base URL, API key).
+fn start_demo(dir: &Path) -> (Guard, String, String) {
+    let mut child = Command::new(env!("CARGO_BIN_EXE_mtcal"))
+        .args(["demo", "--no-browser", "--machines", "3", "--checks", "3"])
+        .args(["--listen", "127.0.0.1:0", "--db"])
+        .arg(dir.join("demo.sqlite"))
+        .stdout(Stdio::piped())
+        .stderr(Stdio::null())
+        .spawn()
+        .expect("mtcal demo starts");
+    let out = BufReader::new(child.stdout.take().expect("stdout"));
+    let guard = Guard(child);
+    let (mut dashboard, mut key) = (String::new(), String::new());
+    for line in out.lines() {
+        let line = line.expect("demo output");
+        if let Some(rest) = line.strip_prefix("dashboard:") {
+            dashboard = rest.trim().to_string();
+        }
+        if let Some(rest) = line.strip_prefix("API key:") {
+            key = rest.split_whitespace().next().unwrap_or("").to_string();
+        }
+        assert!(!line.contains("failed "), "demo job failed: {line}");
+        if line.starts_with("serving") {
+            break;
+        }
+    }
+    let base = dashboard
+        .split("/signin")
+        .next()
+        .expect("the dashboard URL is printed first")
+        .to_string();
+    assert!(base.starts_with("http://127.0.0.1:"), "{dashboard}");
+    assert!(key.starts_with("mtk_"));
+    (guard, base, key)
+}
+
+/// The API, as a client of the documented routes.
+async fn api(base: &str, key: &str, path: &str) -> Value {
+    let r = reqwest::Client::new()
+        .get(format!("{base}{path}"))
+        .bearer_auth(key)
+        .send()
+        .await
+        .expect("API answers");
+    assert!(r.status().is_success(), "GET {path}: {}", r.status());
+    r.json().await.expect("JSON")
+}
+
+async fn shot(c: &Client, dir: &Path, name: &str) {
+    let png = c.screenshot().await.expect("screenshot");
+    std::fs::write(dir.join(format!("{name}.png")), png).expect("write screenshot");
+}
+
+/// The text of the element `css` matches, once it appears (a click that submits a form
+/// returns before the next page is loaded).
+async fn text(c: &Client, css: &str) -> String {
+    wait_for(c, css, Duration::from_secs(10)).await;
+    c.find(Locator::Css(css))
+        .await
+        .unwrap_or_else(|e| panic!("{css}: {e}"))
+        .text()
+        .await
+        .expect("text")
+}
+
+/// Waits until `css` matches an element (the page script reloads pages).
+async fn wait_for(c: &Client, css: &str, timeout: Duration) {
+    let t0 = Instant::now();
+    loop {
+        if c.find(Locator::Css(css)).await.is_ok() {
+            return;
+        }
+        assert!(t0.elapsed() < timeout, "{css} did not appear");
+        tokio::time::sleep(Duration::from_millis(250)).await;
+    }
+}
+
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn dashboard_in_headless_chromium() {
+    let Some(driver) = chromedriver() else {
+        // In CI (.ci/run installs chromium and chromium-driver, sets MTCAL_CI) it must run.
+        assert!(
+            std::env::var_os("MTCAL_CI").is_none(),
+            "chromedriver not found under MTCAL_CI"
+        );
+        println!(
+            "skipped: chromedriver not found at /usr/bin/chromedriver (install Debian's \
+             chromium and chromium-driver, or set CHROMEDRIVER)"
+        );
+        return;
+    };
+    let shots = Path::new(env!("CARGO_TARGET_TMPDIR")).join("dashboard");
+    std::fs::create_dir_all(&shots).unwrap();
+    let work = tempfile::tempdir().unwrap();
+    let (_demo, base, key) = start_demo(work.path());
+
+    let port = free_port();
+    let _driver = Guard(
+        Command::new(driver)
+            .arg(format!("--port={port}"))
+            .stdout(Stdio::null())
+            .stderr(Stdio::null())
+            .spawn()
+            .expect("chromedriver starts"),
+    );
+    let profile = work.path().join("chromium-profile");
+    let caps = json!({"goog:chromeOptions": {"args": [
+        "--headless", "--no-sandbox", "--disable-gpu", "--disable-quic", "--no-first-run",
+        "--disable-background-networking", "--disable-component-update", "--disable-sync",
+        "--window-size=1400,1000", format!("--user-data-dir={}", profile.display()),
+    ]}});
+    let caps = match caps {
+        Value::Object(m) => m,
+        _ => unreachable!(),
+    };
+    let mut client = None;
+    let t0 = Instant::now();
+    while client.is_none() {
+        match ClientBuilder::new(hyper_util::client::legacy::connect::HttpConnector::new())
+            .capabilities(caps.clone())
+            .connect(&format!("http://127.0.0.1:{port}"))
+            .await
+        {
+            Ok(c) => client = Some(c),
+            Err(e) => {
+                assert!(t0.elapsed() < Duration::from_secs(30), "chromedriver: {e}");
+                tokio::time::sleep(Duration::from_millis(200)).await;
+            }
+        }
+    }
+    let c = client.unwrap();
+    // Run in a task so that the browser is closed even when an assertion fails.
+    let task = {
+        let (c, work) = (c.clone(), work.path().to_path_buf());
+        tokio::spawn(async move { run(&c, &base, &key, &shots, &work).await })
+    };
+    let outcome = task.await;
+    let _ = c.close().await;
+    if let Err(e) = outcome {
+        std::panic::resume_unwind(e.into_panic());
+    }
+}
+
+async fn run(c: &Client, base: &str, key: &str, shots: &Path, work: &Path) {
+    // Without a session, a page sends the browser to the sign-in form.
+    c.goto(&format!("{base}/machines/VMC-0001")).await.unwrap();
+    assert!(c.current_url().await.unwrap().path().starts_with("/signin"));
+    shot(c, shots, "signin").await;
+    // A wrong key is refused and changes nothing.
+    c.find(Locator::Css("#key"))
+        .await
+        .unwrap()
+        .send_keys("mtk_00000000000000000000000000000000")
+        .await
+        .unwrap();
+    c.find(Locator::Css("form.stack button"))
+        .await
+        .unwrap()
+        .click()
+        .await
+        .unwrap();
+    assert!(
+        text(c, "#signin-error")
+            .await
+            .contains("unknown or revoked API key")
+    );
+    // The key signs in and goes on to the page asked for.
+    c.find(Locator::Css("#key"))
+        .await
+        .unwrap()
+        .send_keys(key)
+        .await
+        .unwrap();
+    c.find(Locator::Css("form.stack button"))
+        .await
+        .unwrap()
+        .click()
+        .await
+        .unwrap();
+    wait_for(c, "#term-trend", Duration::from_secs(10)).await;
+    assert_eq!(c.current_url().await.unwrap().path(), "/machines/VMC-0001");
+
+    // The fleet, ranked as the API ranks it (drift in µm, largest first).
+    c.goto(&format!("{base}/")).await.unwrap();
+    let ranked = api(base, key, "/api/v1/fleet/drift?by=um").await;
+    let want: Vec<String> = ranked["machines"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .map(|m| m["machine_id"].as_str().unwrap().to_string())
+        .collect();
+    let mut rows = vec![];
+    for r in c.find_all(Locator::Css("#fleet tbody tr")).await.unwrap() {
+        rows.push(r.attr("data-machine").await.unwrap().unwrap());
+    }
+    assert_eq!(&rows[..want.len()], &want[..], "fleet order");
+    assert!(
+        rows.contains(&"5AX-0001".to_string()),
+        "machines without drift listed too"
+    );
+    shot(c, shots, "fleet").await;
+
+    // A machine: the trend plot's points are the API's values.
+    c.find(Locator::Css(r#"#fleet tr[data-machine="VMC-0001"] a"#))
+        .await
+        .unwrap()
+        .click()
+        .await
+        .unwrap();
+    wait_for(c, "#term-trend", Duration::from_secs(10)).await;
+    let at = c
+        .find(Locator::Css(r#"input[name="at"]"#))
+        .await
+        .unwrap()
+        .prop("value")
+        .await
+        .unwrap()
+        .unwrap();
+    let trend = api(
+        base,
+        key,
+        &format!("/api/v1/machines/VMC-0001/trends/term?term=EXX&at={at}"),
+    )
+    .await;
+    let svg = c
+        .find(Locator::Css("#term-trend svg"))
+        .await
+        .unwrap()
+        .html(false)
+        .await
+        .unwrap();
+    let plot = inspect::parse(&svg).unwrap();
+    let axes = plot.axes().unwrap();
+    let points = trend["points"].as_array().unwrap();
+    assert_eq!(points.len(), 3, "three quarterly checks");
+    for (series, colour) in COLORS
+        .iter()
+        .take(trend["positions_mm"].as_array().unwrap().len())
+        .enumerate()
+    {
+        let marks: Vec<_> = plot
+            .marks("circle", &inspect::hex(*colour))
+            .into_iter()
+            .filter(|m| m.r == 4.0 && m.fill.is_some())
+            .collect();
+        assert_eq!(marks.len(), points.len(), "one marker per check");
+        for (m, p) in marks.iter().zip(points) {
+            let t = mtcal_views::plots::unix_seconds(p["measured_at"].as_str().unwrap()).unwrap();
+            let v = p["values"][series].as_f64().unwrap();
+            let (x, y) = axes.data(m.points[0]);
+            assert!((x - t).abs() <= 1.5 / axes.x.scale.abs(), "time of {p}");
+            assert!(
+                (y - v).abs() <= 1.5 / axes.y.scale.abs(),
+                "value {y} vs {v}"
+            );
+        }
+    }
+    shot(c, shots, "machine").await;
+
+    // A result: the identification's 18 error functions; a diagnosis's polar plot.
+    let latest = api(base, key, "/api/v1/machines/VMC-0001/results/latest").await;
+    let rid = latest["meta"]["id"].as_str().unwrap();
+    c.goto(&format!("{base}/results/{rid}")).await.unwrap();
+    assert_eq!(
+        c.find_all(Locator::Css("#terms figure"))
+            .await
+            .unwrap()
+            .len(),
+        18
+    );
+    shot(c, shots, "result").await;
+    let diag = api(
+        base,
+        key,
+        "/api/v1/machines/VMC-0001/results/latest?kind=diagnosis",
+    )
+    .await;
+    c.goto(&format!(
+        "{base}/results/{}",
+        diag["meta"]["id"].as_str().unwrap()
+    ))
+    .await
+    .unwrap();
+    let polar = c
+        .find(Locator::Css(r#"figure[data-plot="circle_polar"] svg"#))
+        .await
+        .unwrap()
+        .html(false)
+        .await
+        .unwrap();
+    let plot = inspect::parse(&polar).unwrap();
+    assert!(
+        plot.has_text("90°") && plot.has_text("0 µm"),
+        "a polar plot with rings"
+    );
+    assert!(
+        plot.marks
+            .iter()
+            .filter(|m| m.tag == "polyline" && m.points.len() > 100)
+            .count()
+            >= 3
+    );
+    assert!(
+        !c.find_all(Locator::Css("section.finding"))
+            .await
+            .unwrap()
+            .is_empty()
+    );
+    shot(c, shots, "diagnosis").await;
+
+    // Upload a new check through the form and watch it appear with its verdict.
+    let session = work.join("VMC-0002-q3");
+    let st = Command::new(env!("CARGO_BIN_EXE_mtcal"))
+        .args(["demo", "--write-session"])
+        .arg(&session)
+        .args(["--machine", "VMC-0002", "--seed", "2", "--quarter", "3"])
+        .status()
+        .unwrap();
+    assert!(st.success());
+    let mut files: Vec<String> = std::fs::read_dir(&session)
+        .unwrap()
+        .map(|e| e.unwrap().path().display().to_string())
+        .collect();
+    files.sort();
+    c.goto(&format!("{base}/machines/VMC-0002")).await.unwrap();
+    let before = c
+        .find_all(Locator::Css("#checks tbody tr"))
+        .await
+        .unwrap()
+        .len();
+    c.find(Locator::Css(r#"form.upload input[type="file"]"#))
+        .await
+        .unwrap()
+        .send_keys(&files.join("\n"))
+        .await
+        .unwrap();
+    c.find(Locator::Css("form.upload button[type=submit]"))
+        .await
+        .unwrap()
+        .click()
+        .await
+        .unwrap();
+    wait_for(c, "#jobs .job", Duration::from_secs(20)).await;
+    shot(c, shots, "upload").await;
+    // The page reloads when the job ends; the new check is the newest row.
+    let t0 = Instant::now();
+    loop {
+        let n = c
+            .find_all(Locator::Css("#checks tbody tr"))
+            .await
+            .unwrap()
+            .len();
+        if n == before + 1 {
+            break;
+        }
+        assert!(
+            t0.elapsed() < Duration::from_secs(60),
+            "the new check did not appear"
+        );
+        tokio::time::sleep(Duration::from_millis(500)).await;
+    }
+    let newest = text(c, "#checks tbody tr:first-child").await;
+    assert!(newest.contains("2026-10-05"), "{newest}");
+    assert!(
+        c.find(Locator::Css(
+            "#checks tbody tr:first-child .badge.verdict, #checks tbody tr:first-child .badge.none"
+        ))
+        .await
+        .is_ok(),
+        "a verdict (or that no tolerance applies)"
+    );
+    shot(c, shots, "machine-after-upload").await;
+
+    // Compare the new check with the baseline.
+    c.find(Locator::Css(
+        "#checks tbody tr:first-child a[href^='/compare']",
+    ))
+    .await
+    .unwrap()
+    .click()
+    .await
+    .unwrap();
+    assert_eq!(
+        c.find_all(Locator::Css("#term-diffs figure"))
+            .await
+            .unwrap()
+            .len(),
+        18
+    );
+    shot(c, shots, "compare").await;
+
+    // Sign out: the session is gone.
+    c.find(Locator::Css("header form button"))
+        .await
+        .unwrap()
+        .click()
+        .await
+        .unwrap();
+    c.goto(&format!("{base}/")).await.unwrap();
+    assert!(c.current_url().await.unwrap().path().starts_with("/signin"));
+}

@@ -1,0 +1,58 @@
+//! `mtcal submit` (the CLI's client of the service) against a running service.
+
+use crate::common::*;
+use serde_json::Value;
+use std::process::{Command, Output};
+
+/// `mtcal submit DIR --machine M --url … --key …` plus `extra`, run off the async threads
+/// (the service runs in this process).
+async fn submit(app: &App, dir: &std::path::Path, machine: &str, extra: &[&str]) -> Output {
+    let mut args: Vec<String> = vec![
+        "submit".into(),
+        dir.display().to_string(),
+        "--machine".into(),
+        machine.into(),
+        "--url".into(),
+        app.url.clone(),
+        "--key".into(),
+        app.write_key.clone(),
+    ];
+    args.extend(extra.iter().map(|a| a.to_string()));
+    tokio::task::spawn_blocking(move || Command::new(BIN).args(args).output().unwrap())
+        .await
+        .unwrap()
+}
+
+#[tokio::test]
+async fn submit_uploads_identifies_and_prints_the_result() {
+    let app = spawn_app().await;
+    app.machine("VMC-1").await;
+    let dir = app.path("s");
+    write_session(&dir, "VMC-1", 2, 1);
+    let out = submit(&app, &dir, "VMC-1", &["--json"]).await;
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    let doc: Value = serde_json::from_slice(&out.stdout).unwrap();
+    let stored = app.client.latest("VMC-1", None).await.unwrap();
+    assert_eq!(doc, stored.document);
+
+    // A machine the service does not know: its refusal, with its message.
+    let out = submit(&app, &dir, "VMC-2", &[]).await;
+    assert!(!out.status.success());
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert!(err.contains("machine VMC-2 not found"), "{err}");
+    // A folder the reader refuses never reaches the service: exit code 2.
+    std::fs::write(dir.join("stray.csv"), "a,b\n1,2\n").unwrap();
+    let before = app.counts().await;
+    let out = submit(&app, &dir, "VMC-1", &[]).await;
+    assert_eq!(out.status.code(), Some(2));
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert!(
+        err.contains("stray.csv:0:: uploaded file is not referenced"),
+        "{err}"
+    );
+    assert_eq!(app.counts().await, before);
+}

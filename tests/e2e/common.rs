@@ -1,0 +1,253 @@
+//! The one harness of the end-to-end tests: an in-process service on a fresh SQLite file.
+
+#![allow(dead_code)]
+
+use mtcal_client::{Client, ClientError};
+use mtcal_server::api::jobs::SubmitJob;
+use mtcal_server::api::machines::NewMachine;
+use mtcal_server::jobs::JobKind;
+use mtcal_server::{UploadLimits, WorkerConfig};
+use mtcal_store::{Job, JobState, QueueConfig, RowCounts, Scope, Store};
+use reqwest::StatusCode;
+use serde_json::Value;
+use std::path::{Path, PathBuf};
+use std::process::Command;
+use std::sync::Arc;
+use std::time::Duration;
+
+pub const BIN: &str = env!("CARGO_BIN_EXE_mtcal");
+
+/// A service running in this test, with a key of each scope.
+pub struct App {
+    /// Client with a write key.
+    pub client: Client,
+    pub read_key: String,
+    pub write_key: String,
+    pub admin_key: String,
+    pub url: String,
+    pub store: Arc<dyn Store>,
+    /// The database file.
+    pub db: PathBuf,
+    /// A folder for the test's files (removed at the end with the database).
+    pub dir: tempfile::TempDir,
+}
+
+/// How to start the service.
+#[derive(Debug, Clone)]
+pub struct AppOptions {
+    pub run_worker: bool,
+    pub concurrency: usize,
+    pub max_upload_bytes: usize,
+}
+
+impl Default for AppOptions {
+    fn default() -> Self {
+        AppOptions {
+            run_worker: true,
+            concurrency: 2,
+            max_upload_bytes: UploadLimits::default().max_bytes,
+        }
+    }
+}
+
+/// The service with default options (worker on).
+pub async fn spawn_app() -> App {
+    spawn_app_with(AppOptions::default()).await
+}
+
+pub async fn spawn_app_with(o: AppOptions) -> App {
+    let dir = tempfile::tempdir().unwrap();
+    let db = dir.path().join("svc.sqlite");
+    let store = mtcal_store::open(db.to_str().unwrap()).await.unwrap();
+    let key = |scope| {
+        let store = store.clone();
+        async move { store.create_key(scope, "e2e").await.unwrap().1 }
+    };
+    let (read_key, write_key, admin_key) = (
+        key(Scope::Read).await,
+        key(Scope::Write).await,
+        key(Scope::Admin).await,
+    );
+    let worker = WorkerConfig {
+        queue: QueueConfig {
+            concurrency: o.concurrency,
+            ..QueueConfig::default()
+        },
+        limits: UploadLimits {
+            max_bytes: o.max_upload_bytes,
+            ..UploadLimits::default()
+        },
+        ..WorkerConfig::default()
+    };
+    let addr = mtcal_server::spawn_local(store.clone(), &worker, o.run_worker)
+        .await
+        .unwrap();
+    let url = format!("http://{addr}");
+    App {
+        client: Client::new(&url, &write_key),
+        read_key,
+        write_key,
+        admin_key,
+        url,
+        store,
+        db,
+        dir,
+    }
+}
+
+impl App {
+    /// A client of this service with `key`.
+    pub fn with_key(&self, key: &str) -> Client {
+        self.client.with_key(key)
+    }
+
+    pub async fn counts(&self) -> RowCounts {
+        self.store.row_counts().await.unwrap()
+    }
+
+    /// A path inside the test's folder.
+    pub fn path(&self, name: &str) -> PathBuf {
+        self.dir.path().join(name)
+    }
+
+    /// Registers machine `id` with ±100 mm of travel on every axis.
+    pub async fn machine(&self, id: &str) {
+        register(&self.client, id).await;
+    }
+
+    /// Submits an `identify` job on a dataset; returns the job id.
+    pub async fn identify(&self, dataset_id: &str) -> String {
+        submit(&self.client, JobKind::Identify, Some(dataset_id), None)
+            .await
+            .id
+    }
+
+    /// Waits for a job to reach `want` (failing at once if it ends otherwise).
+    pub async fn wait(&self, job: &str, want: JobState) -> Job {
+        wait(&self.client, job, want).await
+    }
+}
+
+pub async fn register(c: &Client, id: &str) {
+    let travel = [-100.0, 100.0];
+    c.create_machine(&NewMachine {
+        id: id.into(),
+        name: id.into(),
+        topology: None,
+        travel_mm: ["X", "Y", "Z"].map(|a| (a.to_string(), travel)).into(),
+        site: Some("test".into()),
+        tags: vec![],
+    })
+    .await
+    .unwrap();
+}
+
+pub fn job(kind: JobKind, dataset_id: Option<&str>, machine_id: Option<&str>) -> SubmitJob {
+    SubmitJob {
+        kind,
+        dataset_id: dataset_id.map(String::from),
+        machine_id: machine_id.map(String::from),
+        params: serde_json::json!({}),
+    }
+}
+
+pub async fn submit(
+    c: &Client,
+    kind: JobKind,
+    dataset_id: Option<&str>,
+    machine_id: Option<&str>,
+) -> Job {
+    c.submit(&job(kind, dataset_id, machine_id)).await.unwrap()
+}
+
+/// Waits (up to 60 s) for a job to reach `want`; a job that ends in another state fails
+/// the test with its error.
+pub async fn wait(c: &Client, job: &str, want: JobState) -> Job {
+    let start = std::time::Instant::now();
+    loop {
+        let j = c.job(job).await.unwrap();
+        if j.state == want {
+            return j;
+        }
+        assert!(
+            !j.state.is_terminal(),
+            "job {job} ended {j:?}, not {want:?}"
+        );
+        assert!(start.elapsed() < Duration::from_secs(60), "job still {j:?}");
+        tokio::time::sleep(Duration::from_millis(50)).await;
+    }
+}
+
+/// The status and code of a refused call (panics on success).
+#[track_caller]
+pub fn refused<T: std::fmt::Debug>(r: Result<T, ClientError>) -> (StatusCode, String) {
+    match r {
+        Err(ClientError::Api { status, code, .. }) => (status, code),
+        other => panic!("expected a refusal, got {other:?}"),
+    }
+}
+
+/// The message of a refused call.
+#[track_caller]
+pub fn refusal_message<T: std::fmt::Debug>(r: Result<T, ClientError>) -> String {
+    match r {
+        Err(ClientError::Api { message, .. }) => message,
+        other => panic!("expected a refusal, got {other:?}"),
+    }
+}
+
+/// Runs the `mtcal` binary; its stdout (the command must succeed).
+pub fn mtcal(args: &[&str]) -> String {
+    let out = Command::new(BIN).args(args).output().unwrap();
+    assert!(
+        out.status.success(),
+        "mtcal {args:?}: {}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    String::from_utf8(out.stdout).unwrap()
+}
+
+/// Writes the demo session of machine `machine` (drift seed `seed`, check `quarter`).
+pub fn write_session(dir: &Path, machine: &str, seed: u64, quarter: usize) {
+    mtcal(&[
+        "demo",
+        "--write-session",
+        dir.to_str().unwrap(),
+        "--machine",
+        machine,
+        "--seed",
+        &seed.to_string(),
+        "--quarter",
+        &quarter.to_string(),
+    ]);
+}
+
+/// Every file of a folder (name, bytes), sorted by name.
+pub fn folder_files(dir: &Path) -> Vec<(String, Vec<u8>)> {
+    let mut files: Vec<(String, Vec<u8>)> = std::fs::read_dir(dir)
+        .unwrap()
+        .map(|e| {
+            let p = e.unwrap().path();
+            (
+                p.file_name().unwrap().to_string_lossy().into_owned(),
+                std::fs::read(&p).unwrap(),
+            )
+        })
+        .collect();
+    files.sort();
+    files
+}
+
+/// The plane files (`.csv`) of a session folder, sorted.
+pub fn csv_names(dir: &Path) -> Vec<String> {
+    folder_files(dir)
+        .into_iter()
+        .map(|(n, _)| n)
+        .filter(|n| n.ends_with(".csv"))
+        .collect()
+}
+
+/// A JSON value as a typed one (documents of results).
+pub fn typed<T: serde::de::DeserializeOwned>(v: &Value) -> T {
+    serde_json::from_value(v.clone()).unwrap()
+}

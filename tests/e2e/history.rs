@@ -1,0 +1,97 @@
+//! History and trends return what was stored.
+
+use crate::common::*;
+use mtcal_solver::identification::IdentificationResult;
+use mtcal_store::JobState;
+
+#[tokio::test]
+async fn history_and_trends_return_what_was_stored() {
+    let app = spawn_app().await;
+    for m in ["VMC-A", "VMC-B"] {
+        app.machine(m).await;
+    }
+    // Upload out of time order: history must come back in measured_at order.
+    let mut jobs = Vec::new();
+    for (m, seed, q) in [
+        ("VMC-A", 1, 2),
+        ("VMC-A", 1, 0),
+        ("VMC-A", 1, 1),
+        ("VMC-B", 2, 0),
+        ("VMC-B", 2, 1),
+    ] {
+        let dir = app.path(&format!("{m}-{q}"));
+        write_session(&dir, m, seed, q);
+        let ds = app.client.upload_path(m, &dir).await.unwrap();
+        jobs.push(app.identify(&ds.id).await);
+    }
+    for j in &jobs {
+        app.wait(j, JobState::Succeeded).await;
+    }
+    let hist = app.client.results("VMC-A", None).await.unwrap();
+    let times: Vec<&str> = hist.iter().map(|r| r.measured_at.as_str()).collect();
+    assert_eq!(
+        times,
+        [
+            "2026-01-05T08:00:00Z",
+            "2026-04-05T08:00:00Z",
+            "2026-07-05T08:00:00Z"
+        ]
+    );
+    let latest = app.client.latest("VMC-A", None).await.unwrap();
+    assert_eq!(latest.meta.id, hist[2].id);
+
+    // Stored documents, for the expected values.
+    let mut docs: Vec<IdentificationResult> = Vec::new();
+    for r in &hist {
+        docs.push(typed(&app.client.result(&r.id).await.unwrap().document));
+    }
+    let trend = app
+        .client
+        .term_trend("VMC-A", "EXX", &[50.0, -50.0])
+        .await
+        .unwrap();
+    assert_eq!(trend.unit, "um");
+    for (p, doc) in trend.points.iter().zip(&docs) {
+        for (k, q) in [50.0, -50.0].iter().enumerate() {
+            let want = doc.term_value_at("EXX", *q).unwrap();
+            let got = p.values[k].unwrap();
+            assert!(
+                (got - want).abs() <= 1e-12 * (1.0 + want.abs()),
+                "{got} vs {want}"
+            );
+        }
+    }
+    let summary = app.client.summary_trend("VMC-A").await.unwrap();
+    for (p, doc) in summary.points.iter().zip(&docs) {
+        assert_eq!(p.ec0y_urad, doc.squareness["EC0Y"].value_urad);
+        assert_eq!(p.residual_rms_um, Some(doc.fit.residual_rms_um));
+    }
+    // The generator drifts EC0Y by 3·rate µrad per quarter (rate ≥ 0.5): the identified
+    // squareness follows within its uncertainty.
+    let ec: Vec<f64> = docs
+        .iter()
+        .map(|d| d.squareness["EC0Y"].value_urad.unwrap())
+        .collect();
+    assert!(ec[1] > ec[0] + 1.0 && ec[2] > ec[1] + 1.0, "EC0Y {ec:?}");
+
+    // Difference from the baseline (default: the first result).
+    let diff = app.client.diff("VMC-A", &[]).await.unwrap();
+    assert_eq!(diff.baseline.id, hist[0].id);
+    assert_eq!(diff.against.id, hist[2].id);
+    let dsq = diff.squareness["EC0Y"].unwrap();
+    assert!((dsq - (ec[2] - ec[0])).abs() < 1e-9);
+    let exx = &diff.terms["EXX"];
+    let i = exx.positions_mm.iter().position(|&q| q == 50.0).unwrap();
+    let want =
+        docs[2].term_value_at("EXX", 50.0).unwrap() - docs[0].term_value_at("EXX", 50.0).unwrap();
+    assert!((exx.delta[i] - want).abs() < 1e-9);
+
+    // Fleet: both machines ranked, each with its own baseline and latest result.
+    let fleet = app.client.fleet_drift(Some("urad"), None).await.unwrap();
+    let ms = &fleet.machines;
+    assert_eq!(ms.len(), 2);
+    assert!(ms[0].drift.drift_urad >= ms[1].drift.drift_urad);
+    let a = ms.iter().find(|m| m.machine_id == "VMC-A").unwrap();
+    assert_eq!(a.results, 3);
+    assert!(a.drift.drift_urad >= (ec[2] - ec[0]).abs() - 1e-9);
+}

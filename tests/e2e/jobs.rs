@@ -1,0 +1,188 @@
+//! Jobs of every kind give the library's result on the same input; cancellation.
+
+use crate::common::*;
+use mtcal_server::jobs::JobKind;
+use mtcal_store::JobState;
+use reqwest::StatusCode;
+use serde_json::json;
+
+#[tokio::test]
+async fn queued_job_can_be_cancelled() {
+    let app = spawn_app_with(AppOptions {
+        run_worker: false,
+        ..AppOptions::default()
+    })
+    .await;
+    app.machine("VMC-C").await;
+    let dir = app.path("s");
+    write_session(&dir, "VMC-C", 5, 0);
+    let ds = app.client.upload_path("VMC-C", &dir).await.unwrap();
+    let job = app.identify(&ds.id).await;
+    let j = app.client.cancel(&job).await.unwrap();
+    assert_eq!(j.state, JobState::Cancelled);
+    assert_eq!(
+        refused(app.client.job_result(&job).await),
+        (StatusCode::CONFLICT, "job_not_finished".into())
+    );
+    assert_eq!(
+        refused(app.client.cancel(&job).await),
+        (StatusCode::CONFLICT, "conflict".into())
+    );
+}
+
+#[tokio::test]
+async fn sensitivity_job_gives_the_library_result() {
+    let app = spawn_app().await;
+    app.machine("VMC-S").await;
+    let params = json!({"machine": {"template": "vmc3"}});
+    let mut j = job(JobKind::Sensitivity, None, None);
+    j.params = params.clone();
+    assert_eq!(
+        refused(app.client.submit(&j).await),
+        (StatusCode::BAD_REQUEST, "invalid_request".into())
+    );
+    j.machine_id = Some("VMC-S".into());
+    let id = app.client.submit(&j).await.unwrap().id;
+    app.wait(&id, JobState::Succeeded).await;
+    let doc = app.client.job_result(&id).await.unwrap();
+    let mut req: mtcal_solver::sensitivity::SensitivityRequest = typed(&params);
+    req.machine_id = "VMC-S".into();
+    let local = mtcal_solver::sensitivity::analyse(&req).unwrap();
+    assert_eq!(doc, serde_json::to_value(&local).unwrap());
+    // Not an identification: the machine's identification history stays empty.
+    assert!(app.client.results("VMC-S", None).await.unwrap().is_empty());
+}
+
+/// A `diagnose` job on an uploaded session gives the library's diagnosis of the same
+/// files, filed under the machine as kind `diagnosis`. The session (seed plan, 5 Hz,
+/// σ = 0.15 µm) carries 4 µm of X backlash, far above the noise: the diagnosis must name
+/// it.
+#[tokio::test]
+async fn diagnose_job_gives_the_library_diagnosis() {
+    use mtcal_solver::simulate::{Effect, Plan, SimOptions, random_truth, simulate};
+    let app = spawn_app().await;
+    app.machine("VMC-D").await;
+    let sim = simulate(
+        &random_truth(3),
+        &SimOptions {
+            plan: Plan::Seed,
+            seed: 3,
+            sample_rate_hz: 5.0,
+            machine_id: "VMC-D".into(),
+            effects: vec![Effect::Backlash {
+                axis: mtcal_solver::axis::Axis::X,
+                lost_motion_um: 4.0,
+            }],
+            ..SimOptions::default()
+        },
+    )
+    .unwrap();
+    let dir = app.path("s");
+    mtcal_formats::write_session_dir(&dir, &sim.session).unwrap();
+    let ds = app.client.upload_path("VMC-D", &dir).await.unwrap();
+    let mut j = job(JobKind::Diagnose, Some(&ds.id), None);
+    j.params = json!({"order": 2});
+    assert_eq!(
+        refused(app.client.submit(&j).await),
+        (StatusCode::BAD_REQUEST, "invalid_request".into())
+    );
+    let id = submit(&app.client, JobKind::Diagnose, Some(&ds.id), None)
+        .await
+        .id;
+    let done = app.wait(&id, JobState::Succeeded).await;
+    let doc = app.client.job_result(&id).await.unwrap();
+
+    let session = mtcal_formats::read_session_dir(&dir, &mtcal_formats::Limits::default()).unwrap();
+    let local = mtcal_solver::diagnosis::diagnose_session(
+        &session,
+        &mtcal_solver::diagnosis::DiagnoseOptions::default(),
+    )
+    .unwrap();
+    assert_eq!(doc, serde_json::to_value(&local).unwrap());
+    let effects: Vec<&str> = doc["findings"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .map(|f| f["effect"].as_str().unwrap())
+        .collect();
+    assert!(effects.contains(&"backlash"), "findings {effects:?}");
+
+    // Stored under the machine with its kind and the baseline residual as scalar.
+    let result_id = done.result_id.unwrap();
+    let stored = app.client.result(&result_id).await.unwrap();
+    assert_eq!(stored.meta.kind, "diagnosis");
+    assert_eq!(stored.meta.machine_id, "VMC-D");
+    assert_eq!(stored.document, doc);
+    assert_eq!(
+        stored.meta.scalars.residual_rms_um,
+        Some(local.baseline.residual_rms_um)
+    );
+    // In the machine's history of that kind, not among its identifications.
+    let hist = app
+        .client
+        .results("VMC-D", Some("diagnosis"))
+        .await
+        .unwrap();
+    assert_eq!(hist.len(), 1);
+    assert_eq!(hist[0].id, result_id);
+    assert!(app.client.results("VMC-D", None).await.unwrap().is_empty());
+    let last = app.client.latest("VMC-D", Some("diagnosis")).await.unwrap();
+    assert_eq!(last.document, doc);
+}
+
+/// A rotary point set (CSV + sidecar) is stored as kind `rotary_points` with its raw bytes,
+/// and a `cradle` job gives the library's check of the same files, filed as kind `cradle`.
+/// Wrong pairings of job and dataset kind are refused at submission.
+#[tokio::test]
+async fn cradle_job_on_an_uploaded_point_set_gives_the_library_result() {
+    use mtcal_solver::cradle::simulate::{CradleSimulation, simulate_cradle};
+    let app = spawn_app().await;
+    app.machine("VMC-C").await;
+    let mut set = simulate_cradle(&CradleSimulation::example(false, 1));
+    set.machine_id = Some("VMC-C".into());
+    set.measured_at = Some("2026-11-02T08:30:00Z".into());
+    let dir = app.path("c");
+    std::fs::create_dir(&dir).unwrap();
+    let mut csv = Vec::new();
+    mtcal_formats::write_rotary_points(&mut csv, &set).unwrap();
+    std::fs::write(dir.join("cradle.csv"), &csv).unwrap();
+    let mut side = Vec::new();
+    mtcal_formats::write_rotary_sidecar(&mut side, &set).unwrap();
+    std::fs::write(dir.join("cradle.json"), &side).unwrap();
+
+    let ds = app.client.upload_path("VMC-C", &dir).await.unwrap();
+    assert_eq!(ds.kind, "rotary_points");
+    assert_eq!(ds.samples, set.points.len() as i64);
+    assert_eq!(ds.measured_at, "2026-11-02T08:30:00Z");
+    assert_eq!(
+        app.client.dataset_file(&ds.id, "cradle.csv").await.unwrap(),
+        csv
+    );
+
+    for kind in [JobKind::Identify, JobKind::Diagnose] {
+        assert_eq!(
+            refused(app.client.submit(&job(kind, Some(&ds.id), None)).await),
+            (StatusCode::BAD_REQUEST, "invalid_request".into()),
+            "{kind:?}"
+        );
+    }
+    let id = submit(&app.client, JobKind::Cradle, Some(&ds.id), None)
+        .await
+        .id;
+    let done = app.wait(&id, JobState::Succeeded).await;
+    let doc = app.client.job_result(&id).await.unwrap();
+    let read = mtcal_formats::read_rotary_points(
+        "cradle.csv",
+        &csv,
+        Some(&side),
+        &mtcal_formats::Limits::default(),
+    )
+    .unwrap();
+    let local =
+        mtcal_solver::cradle::check_cradle(&read, &mtcal_solver::cradle::CradleOptions::default())
+            .unwrap();
+    assert_eq!(doc, serde_json::to_value(&local).unwrap());
+    let stored = app.client.result(&done.result_id.unwrap()).await.unwrap();
+    assert_eq!(stored.meta.kind, "cradle");
+    assert_eq!(stored.meta.machine_id, "VMC-C");
+}

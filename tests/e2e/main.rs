@@ -1,0 +1,16 @@
+//! End-to-end tests of the service, one module per feature. Each test starts its own
+//! service in this process on a fresh SQLite file ([`common::spawn_app`], port 0) and
+//! drives it over HTTP with the typed client (`mtcal_client`); only the test that kills a
+//! worker mid-job runs real `mtcal serve` processes ([`restart`]). Sessions come from
+//! `mtcal demo --write-session` (known polynomial errors simulated by
+//! `mtcal_solver::simulate`, full plan, noise σ = 0.1 µm).
+
+mod common;
+
+mod auth;
+mod cli;
+mod history;
+mod jobs;
+mod restart;
+mod series;
+mod uploads;

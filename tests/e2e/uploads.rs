@@ -1,0 +1,219 @@
+//! Uploads: a session folder identified through the service gives the CLI's result; the
+//! raw files come back unchanged; archives; the service and the CLI accept and refuse the
+//! same folders; refused uploads store nothing.
+
+use crate::common::*;
+use mtcal_store::JobState;
+use reqwest::{Method, StatusCode};
+use serde_json::Value;
+
+#[tokio::test]
+async fn upload_identify_gives_the_result_of_the_cli() {
+    let app = spawn_app().await;
+    app.machine("VMC-1").await;
+    let dir = app.path("s");
+    write_session(&dir, "VMC-1", 7, 0);
+
+    let ds = app.client.upload_path("VMC-1", &dir).await.unwrap();
+    let csvs = csv_names(&dir);
+    assert_eq!(ds.files.len(), csvs.len() + 1);
+    let job = app.identify(&ds.id).await;
+    let done = app.wait(&job, JobState::Succeeded).await;
+    assert_eq!((done.progress, done.attempts), (1.0, 1));
+    let doc = app.client.job_result(&job).await.unwrap();
+
+    // The CLI on the same folder gives the identical document (same reader, solver and
+    // default options; documents are stored and returned with exact doubles).
+    let cli: Value =
+        serde_json::from_str(&mtcal(&["identify", dir.to_str().unwrap(), "--json"])).unwrap();
+    assert_eq!(doc, cli);
+    // Sanity of the result against the truth of the generator: residual at noise level
+    // (σ = 0.1 µm per component; thousands of samples give the RMS within a few per cent).
+    let rms = doc["fit"]["residual_rms_um"].as_f64().unwrap();
+    assert!((0.08..0.13).contains(&rms), "residual {rms}");
+
+    // Raw files come back unchanged, with their checksum.
+    let first = &csvs[0];
+    let raw = std::fs::read(dir.join(first)).unwrap();
+    let (_, resp) = app
+        .client
+        .send_raw(app.client.request(
+            Method::GET,
+            &format!("/api/v1/datasets/{}/files/{first}", ds.id),
+        ))
+        .await
+        .unwrap();
+    let sum = resp.headers()["x-checksum-sha256"]
+        .to_str()
+        .unwrap()
+        .to_string();
+    assert_eq!(resp.bytes().await.unwrap().as_ref(), raw.as_slice());
+    let meta = ds.files.iter().find(|f| &f.name == first).unwrap();
+    assert_eq!(meta.sha256, sum);
+    assert_eq!(app.client.dataset_file(&ds.id, first).await.unwrap(), raw);
+
+    // The same session as one .tar.gz (files inside a folder) gives the same dataset.
+    let mut tar = tar::Builder::new(flate2::write::GzEncoder::new(
+        Vec::new(),
+        flate2::Compression::fast(),
+    ));
+    tar.append_dir_all("session", &dir).unwrap();
+    let gz = tar.into_inner().unwrap().finish().unwrap();
+    let ds2 = app.client.upload_archive("VMC-1", gz, true).await.unwrap();
+    assert_eq!(ds2.samples, ds.samples);
+    assert_eq!(ds2.sha256, ds.sha256, "same files, same manifest checksum");
+}
+
+/// The service and the CLI read uploads with one reader: a `simulate` folder (with its
+/// truth.json) is accepted by both, the extra file not stored; a `.gz` name over plain
+/// content and a forgotten plane file are refused by both with the same message.
+#[tokio::test]
+async fn service_and_cli_accept_and_refuse_the_same_folders() {
+    let app = spawn_app().await;
+    app.machine("SIM-0001").await;
+    let dir = app.path("sim");
+    mtcal(&[
+        "simulate",
+        "--out",
+        dir.to_str().unwrap(),
+        "--plan",
+        "seed",
+        "--seed",
+        "3",
+    ]);
+    assert!(dir.join("truth.json").is_file());
+    // The whole folder as multipart and as a .tar.gz.
+    let ds = app
+        .client
+        .upload_files("SIM-0001", &folder_files(&dir))
+        .await
+        .unwrap();
+    assert!(ds.files.iter().all(|f| f.name != "truth.json"), "{ds:?}");
+    let mut tar = tar::Builder::new(flate2::write::GzEncoder::new(
+        Vec::new(),
+        flate2::Compression::fast(),
+    ));
+    tar.append_dir_all("sim", &dir).unwrap();
+    let gz = tar.into_inner().unwrap().finish().unwrap();
+    let ds2 = app
+        .client
+        .upload_archive("SIM-0001", gz, true)
+        .await
+        .unwrap();
+    assert_eq!(ds2.sha256, ds.sha256);
+    mtcal(&["identify", dir.to_str().unwrap()]);
+
+    // Two broken variants of the folder: the CLI's error is the service's message.
+    let plane = csv_names(&dir)[0].clone();
+    let plain = std::fs::read(dir.join(&plane)).unwrap();
+    type Breaker<'a> = Box<dyn Fn(&std::path::Path) + 'a>;
+    let breakers: [(&str, Breaker); 2] = [
+        (
+            "a .gz name over plain content",
+            Box::new(|d| {
+                std::fs::remove_file(d.join(&plane)).unwrap();
+                std::fs::write(d.join(format!("{plane}.gz")), &plain).unwrap();
+            }),
+        ),
+        (
+            "a plane file session.json does not list",
+            Box::new(|d| std::fs::write(d.join("extra.csv"), &plain).unwrap()),
+        ),
+    ];
+    for (what, breaker) in breakers {
+        let bad = app.path(&format!("bad-{}", what.len()));
+        std::fs::create_dir(&bad).unwrap();
+        for (n, b) in folder_files(&dir) {
+            std::fs::write(bad.join(n), b).unwrap();
+        }
+        breaker(&bad);
+        let before = app.counts().await;
+        let r = app
+            .client
+            .upload_files("SIM-0001", &folder_files(&bad))
+            .await;
+        let message = refusal_message(r);
+        let out = std::process::Command::new(BIN)
+            .args(["identify", bad.to_str().unwrap()])
+            .output()
+            .unwrap();
+        assert!(!out.status.success(), "{what}: the CLI accepted it");
+        let stderr = String::from_utf8_lossy(&out.stderr);
+        assert!(
+            stderr.contains(&message),
+            "{what}: CLI {stderr:?}, service {message:?}"
+        );
+        assert_eq!(app.counts().await, before, "{what}");
+    }
+}
+
+#[tokio::test]
+async fn refused_uploads_get_documented_errors_and_store_nothing() {
+    let app0 = spawn_app().await;
+    let dir = app0.path("s");
+    write_session(&dir, "VMC-R", 4, 0);
+    let size: usize = folder_files(&dir).iter().map(|(_, b)| b.len()).sum();
+    let app = spawn_app_with(AppOptions {
+        run_worker: false,
+        max_upload_bytes: size + 100_000,
+        ..AppOptions::default()
+    })
+    .await;
+    app.machine("VMC-R").await;
+    let before = app.counts().await;
+
+    // Corrupt upload: a non-number in a required column (du_um of data line 10).
+    let csvs = csv_names(&dir);
+    let bad_file = &csvs[1];
+    let p = dir.join(bad_file);
+    let text = std::fs::read_to_string(&p).unwrap();
+    let mut lines: Vec<String> = text.lines().map(String::from).collect();
+    let header: Vec<&str> = lines[0].split(',').collect();
+    let col = header.iter().position(|c| *c == "du_um").unwrap();
+    let mut cells: Vec<String> = lines[10].split(',').map(String::from).collect();
+    cells[col] = "abc".into();
+    lines[10] = cells.join(",");
+    std::fs::write(&p, lines.join("\n") + "\n").unwrap();
+    let r = app.client.upload_files("VMC-R", &folder_files(&dir)).await;
+    let msg = refusal_message(r);
+    assert!(msg.starts_with(&format!("{bad_file}:11:du_um:")), "{msg}");
+    let r = app.client.upload_files("VMC-R", &folder_files(&dir)).await;
+    assert_eq!(
+        refused(r),
+        (StatusCode::UNPROCESSABLE_ENTITY, "invalid_dataset".into())
+    );
+
+    // Oversize bodies: an upload over the configured limit (the session's size + 100 kB,
+    // sent with a 200 kB extra file), and JSON over the 1 MiB limit of other routes.
+    write_session(&dir, "VMC-R", 4, 0);
+    let mut files = folder_files(&dir);
+    files.push(("padding.txt".into(), vec![b'#'; 200_000]));
+    let r = app.client.upload_files("VMC-R", &files).await;
+    assert_eq!(
+        refused(r),
+        (StatusCode::PAYLOAD_TOO_LARGE, "payload_too_large".into())
+    );
+    let big = mtcal_server::api::machines::NewMachine {
+        id: "X3".into(),
+        name: "x".repeat(2 << 20),
+        topology: None,
+        travel_mm: Default::default(),
+        site: None,
+        tags: vec![],
+    };
+    assert_eq!(
+        refused(app.client.create_machine(&big).await),
+        (StatusCode::PAYLOAD_TOO_LARGE, "payload_too_large".into())
+    );
+    // A session of another machine.
+    let other = app.path("other");
+    write_session(&other, "VMC-OTHER", 4, 0);
+    let r = app.client.upload_path("VMC-R", &other).await;
+    assert!(refusal_message(r).contains("machine_id \"VMC-OTHER\" does not match"));
+
+    assert_eq!(
+        app.counts().await,
+        before,
+        "a rejected request changed the database"
+    );
+}
