@@ -32,3 +32,28 @@ fn document_is_openapi_3_1_with_every_route_secured_but_health() {
         }
     }
 }
+
+/// A parameter declared `in: path` is one of the path's `{…}` segments, and every other
+/// parameter is in the query (the document once declared query parameters as path
+/// parameters, which validators refuse and Swagger UI shows wrongly).
+#[test]
+fn parameters_are_in_the_path_only_when_the_path_has_them() {
+    let doc: serde_json::Value = serde_json::from_str(&mtcal_server::openapi_json()).unwrap();
+    let mut query = 0;
+    for (p, ops) in doc["paths"].as_object().unwrap() {
+        for (method, op) in ops.as_object().unwrap() {
+            for param in op["parameters"].as_array().into_iter().flatten() {
+                let name = param["name"].as_str().unwrap();
+                let in_path = p.contains(&format!("{{{name}}}"));
+                let declared = param["in"].as_str().unwrap();
+                assert_eq!(
+                    declared,
+                    if in_path { "path" } else { "query" },
+                    "{method} {p}: parameter {name}"
+                );
+                query += usize::from(!in_path);
+            }
+        }
+    }
+    assert!(query >= 5, "{query} query parameters");
+}

@@ -16,6 +16,7 @@ use utoipa::{IntoParams, ToSchema};
 pub const KIND: &str = "identification";
 
 #[derive(Debug, Deserialize, IntoParams)]
+#[into_params(parameter_in = Query)]
 pub struct KindQuery {
     /// Result kind: `identification` (default), `diagnosis`, `cradle`, `standards` or
     /// `sensitivity`.
@@ -89,6 +90,7 @@ pub async fn figures(
 }
 
 #[derive(Debug, Deserialize, IntoParams)]
+#[into_params(parameter_in = Query)]
 pub struct DiffQuery {
     /// Baseline result (default: the machine's baseline, else its first result).
     pub baseline: Option<String>,

@@ -143,6 +143,7 @@ pub async fn update_machine(
 }
 
 #[derive(Debug, Deserialize, IntoParams)]
+#[into_params(parameter_in = Query)]
 pub struct ListQuery {
     /// Return machines whose id sorts after this one (pagination).
     pub after: Option<String>,

@@ -14,6 +14,7 @@ use serde::{Deserialize, Serialize};
 use utoipa::{IntoParams, ToSchema};
 
 #[derive(Debug, Deserialize, IntoParams)]
+#[into_params(parameter_in = Query)]
 pub struct TermQuery {
     /// ISO 230-1 name of one of the 18 functions, e.g. `EXX`.
     pub term: String,
@@ -156,6 +157,7 @@ pub async fn summary_trend(s: &AppState, id: &str) -> Result<SummaryTrend, ApiEr
 }
 
 #[derive(Debug, Deserialize, IntoParams)]
+#[into_params(parameter_in = Query)]
 pub struct FigureQuery {
     /// Figure name, e.g. `iso230_2.X.E_um` or `iso230_4.XY.bi.H_um` (docs/standards.md);
     /// absent: list the names stored for the machine.
@@ -208,6 +210,7 @@ pub async fn figure(
 }
 
 #[derive(Debug, Deserialize, IntoParams)]
+#[into_params(parameter_in = Query)]
 pub struct FleetQuery {
     /// `um` (translational drift, default) or `urad` (angular and squareness).
     pub by: Option<String>,
