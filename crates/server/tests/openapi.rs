@@ -27,6 +27,10 @@ fn document_is_openapi_3_1_with_every_route_secured_but_health() {
         for (method, op) in ops.as_object().unwrap() {
             let id = op["operationId"].as_str().unwrap();
             assert!(ids.insert(id.to_string()), "operationId {id} used twice");
+            assert!(
+                op["summary"].as_str().is_some_and(|t| !t.is_empty()),
+                "{method} {p}: no summary"
+            );
             let secured = op.get("security").is_some();
             assert_eq!(secured, p != "/health", "{method} {p}");
         }

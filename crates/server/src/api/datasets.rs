@@ -54,7 +54,7 @@ async fn read_multipart(req: Request, s: &AppState) -> Result<Vec<(String, Vec<u
     Ok(files)
 }
 
-#[utoipa::path(operation_id = "datasets_upload", post, path = "/api/v1/machines/{id}/datasets", tag = "datasets",
+#[utoipa::path(operation_id = "datasets_upload", summary = "Upload a dataset (session folder as multipart or tar.gz, or one series file)", post, path = "/api/v1/machines/{id}/datasets", tag = "datasets",
     security(("api_key" = [])), params(("id" = String, Path, description = "machine id")),
     request_body(content = SessionUpload, content_type = "multipart/form-data",
         description = "A session (session.json and its plane CSVs), or one rotary point-set \
@@ -142,7 +142,7 @@ fn archive_name(media_type: &str) -> Option<&'static str> {
     }
 }
 
-#[utoipa::path(operation_id = "datasets_get", get, path = "/api/v1/datasets/{id}", tag = "datasets",
+#[utoipa::path(operation_id = "datasets_get", summary = "A dataset: its kind, samples, files and checksums", get, path = "/api/v1/datasets/{id}", tag = "datasets",
     security(("api_key" = [])), params(("id" = String, Path)),
     responses((status = 200, body = Dataset), (status = 404, body = ErrorBody)))]
 pub async fn get(
@@ -153,7 +153,7 @@ pub async fn get(
     Ok(Json(s.store.get_dataset(&id).await?))
 }
 
-#[utoipa::path(operation_id = "datasets_file", get, path = "/api/v1/datasets/{id}/files/{name}", tag = "datasets",
+#[utoipa::path(operation_id = "datasets_file", summary = "One raw file of a dataset, unchanged as uploaded", get, path = "/api/v1/datasets/{id}/files/{name}", tag = "datasets",
     security(("api_key" = [])), params(("id" = String, Path), ("name" = String, Path)),
     responses((status = 200, description = "the file's bytes as uploaded; header x-checksum-sha256",
                content_type = "application/octet-stream", body = Vec<u8>),

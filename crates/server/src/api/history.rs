@@ -23,7 +23,7 @@ pub struct KindQuery {
     pub kind: Option<String>,
 }
 
-#[utoipa::path(operation_id = "history_list", get, path = "/api/v1/machines/{id}/results", tag = "history",
+#[utoipa::path(operation_id = "history_list", summary = "A machine's results in time order", get, path = "/api/v1/machines/{id}/results", tag = "history",
     security(("api_key" = [])), params(("id" = String, Path), KindQuery),
     responses((status = 200, body = Vec<ResultMeta>, description = "in time order (measured_at)"),
               (status = 404, body = ErrorBody)))]
@@ -47,7 +47,7 @@ pub async fn results(
     Ok(s.store.list_results(id, kind.unwrap_or(KIND)).await?)
 }
 
-#[utoipa::path(operation_id = "history_latest", get, path = "/api/v1/machines/{id}/results/latest", tag = "history",
+#[utoipa::path(operation_id = "history_latest", summary = "A machine's latest result", get, path = "/api/v1/machines/{id}/results/latest", tag = "history",
     security(("api_key" = [])), params(("id" = String, Path), KindQuery),
     responses((status = 200, body = StoredResult), (status = 404, body = ErrorBody)))]
 pub async fn latest(
@@ -66,7 +66,7 @@ pub async fn latest(
     Ok(Json(s.store.get_result(&last.id).await?))
 }
 
-#[utoipa::path(operation_id = "history_get", get, path = "/api/v1/results/{id}", tag = "history",
+#[utoipa::path(operation_id = "history_get", summary = "A stored result", get, path = "/api/v1/results/{id}", tag = "history",
     security(("api_key" = [])), params(("id" = String, Path)),
     responses((status = 200, body = StoredResult), (status = 404, body = ErrorBody)))]
 pub async fn get(
@@ -77,7 +77,7 @@ pub async fn get(
     Ok(Json(s.store.get_result(&id).await?))
 }
 
-#[utoipa::path(operation_id = "history_figures", get, path = "/api/v1/results/{id}/figures", tag = "history",
+#[utoipa::path(operation_id = "history_figures", summary = "The named figures of a result", get, path = "/api/v1/results/{id}/figures", tag = "history",
     security(("api_key" = [])), params(("id" = String, Path)),
     responses((status = 200, body = Vec<Figure>, description = "the result's named figures (standards), by name"),
               (status = 404, body = ErrorBody)))]
@@ -112,7 +112,7 @@ pub struct ResultDiff {
     pub drift: trends::Drift,
 }
 
-#[utoipa::path(operation_id = "history_diff", get, path = "/api/v1/machines/{id}/results/diff", tag = "history",
+#[utoipa::path(operation_id = "history_diff", summary = "Difference of a result from the baseline, term by term", get, path = "/api/v1/machines/{id}/results/diff", tag = "history",
     security(("api_key" = [])), params(("id" = String, Path), DiffQuery),
     responses((status = 200, body = ResultDiff), (status = 404, body = ErrorBody)))]
 pub async fn diff(

@@ -29,7 +29,7 @@ pub struct SubmitJob {
     pub params: serde_json::Value,
 }
 
-#[utoipa::path(operation_id = "jobs_submit", post, path = "/api/v1/jobs", tag = "jobs", request_body = SubmitJob,
+#[utoipa::path(operation_id = "jobs_submit", summary = "Submit a job (identify, sensitivity, diagnose, cradle, standards)", post, path = "/api/v1/jobs", tag = "jobs", request_body = SubmitJob,
     security(("api_key" = [])),
     responses((status = 202, body = Job), (status = 400, body = ErrorBody),
               (status = 404, body = ErrorBody)))]
@@ -94,7 +94,7 @@ pub async fn submit_job(s: &AppState, j: SubmitJob) -> Result<Job, ApiError> {
     Ok(job)
 }
 
-#[utoipa::path(operation_id = "jobs_get", get, path = "/api/v1/jobs/{id}", tag = "jobs",
+#[utoipa::path(operation_id = "jobs_get", summary = "A job: state, progress, error", get, path = "/api/v1/jobs/{id}", tag = "jobs",
     security(("api_key" = [])), params(("id" = String, Path)),
     responses((status = 200, body = Job), (status = 404, body = ErrorBody)))]
 pub async fn get(
@@ -105,7 +105,7 @@ pub async fn get(
     Ok(Json(s.store.get_job(&id).await?))
 }
 
-#[utoipa::path(operation_id = "jobs_result", get, path = "/api/v1/jobs/{id}/result", tag = "jobs",
+#[utoipa::path(operation_id = "jobs_result", summary = "The result document of a succeeded job", get, path = "/api/v1/jobs/{id}/result", tag = "jobs",
     security(("api_key" = [])), params(("id" = String, Path)),
     responses((status = 200, description = "the result document (results contract)", body = Object),
               (status = 409, body = ErrorBody, description = "job_not_finished, or the job failed"),
@@ -130,7 +130,7 @@ pub async fn result(
     }
 }
 
-#[utoipa::path(operation_id = "jobs_cancel", post, path = "/api/v1/jobs/{id}/cancel", tag = "jobs",
+#[utoipa::path(operation_id = "jobs_cancel", summary = "Cancel a queued or running job", post, path = "/api/v1/jobs/{id}/cancel", tag = "jobs",
     security(("api_key" = [])), params(("id" = String, Path)),
     responses((status = 200, body = Job, description = "cancelled, or cancellation requested of a running job"),
               (status = 409, body = ErrorBody, description = "the job already finished")))]

@@ -24,7 +24,7 @@ pub struct CreatedKey {
     pub secret: String,
 }
 
-#[utoipa::path(operation_id = "keys_create", post, path = "/api/v1/keys", tag = "keys", request_body = NewKey,
+#[utoipa::path(operation_id = "keys_create", summary = "Create an API key (admin)", post, path = "/api/v1/keys", tag = "keys", request_body = NewKey,
     security(("api_key" = [])),
     responses((status = 201, body = CreatedKey), (status = 403, body = ErrorBody)))]
 pub async fn create(

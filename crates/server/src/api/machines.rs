@@ -75,7 +75,7 @@ pub fn check_id(id: &str) -> Result<(), ApiError> {
     }
 }
 
-#[utoipa::path(operation_id = "machines_create", post, path = "/api/v1/machines", tag = "machines", request_body = NewMachine,
+#[utoipa::path(operation_id = "machines_create", summary = "Register a machine", post, path = "/api/v1/machines", tag = "machines", request_body = NewMachine,
     security(("api_key" = [])),
     responses((status = 201, body = Machine), (status = 400, body = ErrorBody),
                (status = 409, body = ErrorBody)))]
@@ -103,7 +103,7 @@ pub async fn create(
     ))
 }
 
-#[utoipa::path(operation_id = "machines_get", get, path = "/api/v1/machines/{id}", tag = "machines",
+#[utoipa::path(operation_id = "machines_get", summary = "A machine", get, path = "/api/v1/machines/{id}", tag = "machines",
     security(("api_key" = [])), params(("id" = String, Path)),
     responses((status = 200, body = Machine), (status = 404, body = ErrorBody)))]
 pub async fn get(
@@ -114,7 +114,7 @@ pub async fn get(
     Ok(Json(s.store.get_machine(&id).await?))
 }
 
-#[utoipa::path(operation_id = "machines_update", patch, path = "/api/v1/machines/{id}", tag = "machines", request_body = MachinePatch,
+#[utoipa::path(operation_id = "machines_update", summary = "Update a machine (name, travel, site, tags, baseline)", patch, path = "/api/v1/machines/{id}", tag = "machines", request_body = MachinePatch,
     security(("api_key" = [])), params(("id" = String, Path)),
     responses((status = 200, body = Machine), (status = 404, body = ErrorBody)))]
 pub async fn update(
@@ -151,7 +151,7 @@ pub struct ListQuery {
     pub limit: Option<i64>,
 }
 
-#[utoipa::path(operation_id = "machines_list", get, path = "/api/v1/machines", tag = "machines", params(ListQuery),
+#[utoipa::path(operation_id = "machines_list", summary = "List machines (keyset pagination)", get, path = "/api/v1/machines", tag = "machines", params(ListQuery),
     security(("api_key" = [])),
     responses((status = 200, body = Vec<Machine>)))]
 pub async fn list(

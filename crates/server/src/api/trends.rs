@@ -40,7 +40,7 @@ pub struct TermTrend {
     pub points: Vec<TermPoint>,
 }
 
-#[utoipa::path(operation_id = "trends_term", get, path = "/api/v1/machines/{id}/trends/term", tag = "trends",
+#[utoipa::path(operation_id = "trends_term", summary = "A term's value at chosen positions over time", get, path = "/api/v1/machines/{id}/trends/term", tag = "trends",
     security(("api_key" = [])), params(("id" = String, Path), TermQuery),
     responses((status = 200, body = TermTrend), (status = 400, body = ErrorBody),
               (status = 404, body = ErrorBody)))]
@@ -119,7 +119,7 @@ pub struct SummaryTrend {
     pub points: Vec<SummaryPoint>,
 }
 
-#[utoipa::path(operation_id = "trends_summary", get, path = "/api/v1/machines/{id}/trends/summary", tag = "trends",
+#[utoipa::path(operation_id = "trends_summary", summary = "Summary figures and squareness over time", get, path = "/api/v1/machines/{id}/trends/summary", tag = "trends",
     security(("api_key" = [])), params(("id" = String, Path)),
     responses((status = 200, body = SummaryTrend), (status = 404, body = ErrorBody)))]
 pub async fn summary(
@@ -177,7 +177,7 @@ pub struct FigureTrend {
     pub names: Vec<String>,
 }
 
-#[utoipa::path(operation_id = "trends_figure", get, path = "/api/v1/machines/{id}/trends/figure", tag = "trends",
+#[utoipa::path(operation_id = "trends_figure", summary = "One figure of the standards over time", get, path = "/api/v1/machines/{id}/trends/figure", tag = "trends",
     security(("api_key" = [])), params(("id" = String, Path), FigureQuery),
     responses((status = 200, body = FigureTrend), (status = 400, body = ErrorBody),
               (status = 404, body = ErrorBody)))]
@@ -239,7 +239,7 @@ pub struct FleetDrift {
     pub machines: Vec<FleetEntry>,
 }
 
-#[utoipa::path(operation_id = "trends_fleet", get, path = "/api/v1/fleet/drift", tag = "trends",
+#[utoipa::path(operation_id = "trends_fleet", summary = "The fleet ranked by drift since each machine's baseline", get, path = "/api/v1/fleet/drift", tag = "trends",
     security(("api_key" = [])), params(FleetQuery),
     responses((status = 200, body = FleetDrift), (status = 400, body = ErrorBody)))]
 pub async fn fleet(
