@@ -37,6 +37,15 @@ async fn history_and_trends_return_what_was_stored() {
             "2026-07-05T08:00:00Z"
         ]
     );
+    // An unknown result kind is refused with the kinds, not answered with an empty list.
+    let msg = refusal_message(app.client.results("VMC-A", Some("bogus")).await);
+    assert!(msg.contains("one of identification"), "{msg}");
+    let diagnoses = app
+        .client
+        .results("VMC-A", Some("diagnosis"))
+        .await
+        .unwrap();
+    assert!(diagnoses.is_empty());
     let latest = app.client.latest("VMC-A", None).await.unwrap();
     assert_eq!(latest.meta.id, hist[2].id);
 

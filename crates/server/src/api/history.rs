@@ -7,7 +7,7 @@ use crate::error::{ApiError, ApiQuery, ErrorBody};
 use crate::trends::{self, TermDiff};
 use axum::Json;
 use axum::extract::{Path, State};
-use mtcal_store::{Figure, ResultMeta, StoredResult};
+use mtcal_store::{Figure, JobKind, ResultMeta, StoredResult};
 use serde::{Deserialize, Serialize};
 use std::collections::BTreeMap;
 use utoipa::{IntoParams, ToSchema};
@@ -26,7 +26,7 @@ pub struct KindQuery {
 #[utoipa::path(operation_id = "history_list", summary = "A machine's results in time order", get, path = "/api/v1/machines/{id}/results", tag = "history",
     security(("api_key" = [])), params(("id" = String, Path), KindQuery),
     responses((status = 200, body = Vec<ResultMeta>, description = "in time order (measured_at)"),
-              (status = 404, body = ErrorBody)))]
+              (status = 400, body = ErrorBody), (status = 404, body = ErrorBody)))]
 pub async fn list(
     _key: ReadKey,
     State(s): State<AppState>,
@@ -43,13 +43,30 @@ pub async fn results(
     id: &str,
     kind: Option<&str>,
 ) -> Result<Vec<ResultMeta>, ApiError> {
+    let kind = result_kind(kind)?;
     s.store.get_machine(id).await?;
-    Ok(s.store.list_results(id, kind.unwrap_or(KIND)).await?)
+    Ok(s.store.list_results(id, kind).await?)
+}
+
+/// The result kind a query names (default identification); an unknown kind is a 400
+/// that lists the kinds, not an empty list.
+fn result_kind(kind: Option<&str>) -> Result<&str, ApiError> {
+    let Some(kind) = kind else { return Ok(KIND) };
+    let kinds = JobKind::RUNNABLE.map(JobKind::result_kind);
+    if kinds.contains(&kind) {
+        Ok(kind)
+    } else {
+        Err(ApiError::InvalidRequest(format!(
+            "kind {kind:?}: one of {}",
+            kinds.join(", ")
+        )))
+    }
 }
 
 #[utoipa::path(operation_id = "history_latest", summary = "A machine's latest result", get, path = "/api/v1/machines/{id}/results/latest", tag = "history",
     security(("api_key" = [])), params(("id" = String, Path), KindQuery),
-    responses((status = 200, body = StoredResult), (status = 404, body = ErrorBody)))]
+    responses((status = 200, body = StoredResult), (status = 400, body = ErrorBody),
+              (status = 404, body = ErrorBody)))]
 pub async fn latest(
     _key: ReadKey,
     State(s): State<AppState>,
@@ -59,7 +76,7 @@ pub async fn latest(
     s.store.get_machine(&id).await?;
     let last = s
         .store
-        .list_results(&id, q.kind.as_deref().unwrap_or(KIND))
+        .list_results(&id, result_kind(q.kind.as_deref())?)
         .await?
         .pop()
         .ok_or_else(|| ApiError::NotFound(format!("no result for machine {id}")))?;
