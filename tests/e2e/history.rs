@@ -84,6 +84,18 @@ async fn history_and_trends_return_what_was_stored() {
     assert!(ec[1] > ec[0] + 1.0 && ec[2] > ec[1] + 1.0, "EC0Y {ec:?}");
 
     // Difference from the baseline (default: the first result).
+    // Read keys cannot make the service allocate without bound: a step too fine for the
+    // travel is refused, and so is a travel of absurd size.
+    let msg = refusal_message(app.client.diff("VMC-A", &[("step_mm", "0.000001")]).await);
+    assert!(msg.contains("positions per term"), "{msg}");
+    for huge in [1e9, 1e300] {
+        let patch = mtcal_store::MachinePatch {
+            travel_mm: Some([("X".to_string(), [-huge, huge])].into()),
+            ..Default::default()
+        };
+        let msg = refusal_message(app.client.update_machine("VMC-A", &patch).await);
+        assert!(msg.contains("travel_mm.X"), "{msg}");
+    }
     let diff = app.client.diff("VMC-A", &[]).await.unwrap();
     assert_eq!(diff.baseline.id, hist[0].id);
     assert_eq!(diff.against.id, hist[2].id);

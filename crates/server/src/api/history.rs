@@ -12,6 +12,10 @@ use serde::{Deserialize, Serialize};
 use std::collections::BTreeMap;
 use utoipa::{IntoParams, ToSchema};
 
+/// Most positions per term a difference evaluates (`step_mm` is refused below
+/// travel / this).
+pub const MAX_DIFF_POSITIONS: usize = 10_000;
+
 /// Result kind the history routes read by default (and the only one diff and trends use).
 pub const KIND: &str = "identification";
 
@@ -169,6 +173,19 @@ pub async fn diff_results(s: &AppState, id: &str, q: &DiffQuery) -> Result<Resul
         return Err(ApiError::InvalidRequest(
             "step_mm must be a positive number".into(),
         ));
+    }
+    // At most MAX_DIFF_POSITIONS per term, whatever the step and travel (memory bound).
+    let widest = ['X', 'Y', 'Z']
+        .map(|a| trends::travel(&machine, a))
+        .iter()
+        .map(|[lo, hi]| hi - lo)
+        .fold(0.0, f64::max);
+    if widest / step > MAX_DIFF_POSITIONS as f64 {
+        return Err(ApiError::InvalidRequest(format!(
+            "step_mm {step}: at most {MAX_DIFF_POSITIONS} positions per term over the travel \
+             ({widest} mm); use step_mm >= {}",
+            widest / MAX_DIFF_POSITIONS as f64
+        )));
     }
     let (terms, squareness) = trends::diff(&machine, &baseline.scalars, &against.scalars, step);
     Ok(ResultDiff {

@@ -48,12 +48,17 @@ fn topology(v: Option<&serde_json::Value>) -> Result<serde_json::Value, ApiError
     Ok(serde_json::to_value(t).expect("topology serialises"))
 }
 
+/// Largest |travel end| accepted, mm (100 m: beyond any machine tool's axis).
+pub const MAX_TRAVEL_MM: f64 = 100_000.0;
+
 fn check_travel(travel: &BTreeMap<String, [f64; 2]>) -> Result<(), ApiError> {
     for (axis, [lo, hi]) in travel {
         let ordered = lo.is_finite() && hi.is_finite() && lo < hi;
-        if !matches!(axis.as_str(), "X" | "Y" | "Z") || !ordered {
+        let bounded = lo.abs() <= MAX_TRAVEL_MM && hi.abs() <= MAX_TRAVEL_MM;
+        if !matches!(axis.as_str(), "X" | "Y" | "Z") || !ordered || !bounded {
             return Err(ApiError::InvalidRequest(format!(
-                "travel_mm.{axis}: needs axis X, Y or Z and finite [min, max] with min < max"
+                "travel_mm.{axis}: needs axis X, Y or Z and finite [min, max] with min < max \
+                 and |min|, |max| <= {MAX_TRAVEL_MM} mm"
             )));
         }
     }
