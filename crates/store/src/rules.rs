@@ -115,6 +115,31 @@ pub fn valid_figure_name(name: &str) -> bool {
 /// Checks a result's figures before anything is stored: names of letters, digits, `_`
 /// and `.` (at most [`FIGURE_NAME_MAX`] bytes), each once; finite values; uncertainties
 /// finite and non-negative. A non-finite figure would poison every trend through it.
+/// The trend scalars of a result must be finite: one non-finite coefficient would make
+/// every later trend, difference and fleet ranking of the machine unanswerable, so such a
+/// result is refused (nothing stored) instead.
+pub fn check_scalars(s: &ResultScalars) -> Result<()> {
+    let named = [
+        ("residual_rms_um", s.residual_rms_um),
+        ("ec0y_urad", s.ec0y_urad),
+        ("eb0z_urad", s.eb0z_urad),
+        ("ea0z_urad", s.ea0z_urad),
+    ];
+    for (name, v) in named {
+        if v.is_some_and(|v| !v.is_finite()) {
+            return Err(StoreError::Invalid(format!("{name} is not finite")));
+        }
+    }
+    for (term, c) in &s.term_coefficients {
+        if c.iter().any(|v| !v.is_finite()) {
+            return Err(StoreError::Invalid(format!(
+                "term {term}: a coefficient is not finite"
+            )));
+        }
+    }
+    Ok(())
+}
+
 pub fn check_figures(figures: &[Figure]) -> Result<()> {
     let mut seen = std::collections::BTreeSet::new();
     for f in figures {
@@ -141,6 +166,7 @@ impl ResultRow {
     /// A new result of job `job_id`, created now; its figures checked ([`check_figures`]).
     pub fn new(job_id: &str, r: &NewResult) -> Result<ResultRow> {
         check_figures(&r.figures)?;
+        check_scalars(&r.scalars)?;
         Ok(ResultRow {
             meta: ResultMeta {
                 id: new_id("res"),
@@ -162,6 +188,24 @@ impl ResultRow {
 mod tests {
     use super::*;
     use serde_json::json;
+
+    #[test]
+    fn non_finite_scalars_are_refused() {
+        let mut s = ResultScalars::default();
+        assert!(check_scalars(&s).is_ok());
+        s.term_coefficients
+            .insert("EXX".into(), vec![1.0, f64::NAN]);
+        let e = check_scalars(&s).unwrap_err().to_string();
+        assert!(e.contains("term EXX"), "{e}");
+        s.term_coefficients.clear();
+        s.ec0y_urad = Some(f64::INFINITY);
+        assert!(
+            check_scalars(&s)
+                .unwrap_err()
+                .to_string()
+                .contains("ec0y_urad")
+        );
+    }
 
     #[test]
     fn manifest_is_the_sha256_of_the_sorted_listing() {
