@@ -336,11 +336,20 @@ impl Store for This {
                  (SELECT r.id FROM results r WHERE r.machine_id = m.id AND r.kind = $1 \
                    ORDER BY r.measured_at DESC, r.id DESC LIMIT 1) AS last_id \
                  FROM machines m) ";
+            // One read snapshot for the three queries: a result landing between them
+            // must not leave a pair whose result or machine is missing.
+            let mut tx = self.pool.begin().await.db()?;
+            if !dialect::SNAPSHOT.is_empty() {
+                sqlx::query(dialect::SNAPSHOT)
+                    .execute(&mut *tx)
+                    .await
+                    .db()?;
+            }
             let pairs = sqlx::query(sqlx::AssertSqlSafe(format!(
                 "{PAIRS} SELECT mid, n, base_id, last_id FROM p WHERE n > 0 ORDER BY mid"
             )))
             .bind(kind)
-            .fetch_all(&self.pool)
+            .fetch_all(&mut *tx)
             .await
             .db()?;
             let metas = sqlx::query(sqlx::AssertSqlSafe(format!(
@@ -348,15 +357,16 @@ impl Store for This {
                  (SELECT base_id FROM p WHERE n > 0 UNION SELECT last_id FROM p WHERE n > 0)"
             )))
             .bind(kind)
-            .fetch_all(&self.pool)
+            .fetch_all(&mut *tx)
             .await
             .db()?;
             let machines = sqlx::query(sqlx::AssertSqlSafe(format!(
                 "SELECT {MACHINE_COLUMNS} FROM machines"
             )))
-            .fetch_all(&self.pool)
+            .fetch_all(&mut *tx)
             .await
             .db()?;
+            tx.commit().await.db()?;
             rows::baseline_pairs(&pairs, &metas, &machines)
         })
     }

@@ -24,6 +24,9 @@ mod dialect {
     /// Row locking of the claim's sub-select: concurrent claimers skip a row another
     /// claimer holds instead of waiting for it, so each claims a different job.
     pub const CLAIM_LOCK: &str = "FOR UPDATE SKIP LOCKED";
+    /// Statement that makes a transaction's reads one snapshot (READ COMMITTED, the
+    /// default, takes a new snapshot per statement).
+    pub const SNAPSHOT: &str = "SET TRANSACTION ISOLATION LEVEL REPEATABLE READ, READ ONLY";
 }
 
 /// The shared statements, compiled for PostgreSQL.

@@ -19,6 +19,9 @@ mod dialect {
     pub const NEXT_SEQ: &str = "(SELECT COALESCE(MAX(seq), 0) + 1 FROM jobs)";
     /// Row locking of the claim's sub-select: none needed.
     pub const CLAIM_LOCK: &str = "";
+    /// Statement that makes a transaction's reads one snapshot: none needed (in WAL mode
+    /// a transaction reads one snapshot from its first read on).
+    pub const SNAPSHOT: &str = "";
 }
 
 /// The shared statements, compiled for SQLite.
