@@ -33,6 +33,8 @@ enum Command {
     Standards(cli::standards::Args),
     /// Run the HTTP API and its worker.
     Serve(cli::serve::Args),
+    /// Run only the worker (API and worker processes on several hosts, one database).
+    Worker(cli::serve::WorkerArgs),
     /// Upload a session to a running service and run identification on it.
     Submit(cli::submit::Args),
     /// Start the service on a fresh database with a simulated fleet to look at.
@@ -51,6 +53,7 @@ fn main() -> ExitCode {
         Command::Diagnose(a) => cli::diagnose::run(a),
         Command::Standards(a) => cli::standards::run(a),
         Command::Serve(a) => cli::serve::run(a),
+        Command::Worker(a) => cli::serve::run_worker(a),
         Command::Submit(a) => cli::submit::run(a),
         Command::Demo(a) => cli::demo::run(a),
         Command::Admin(a) => cli::admin::run(a),

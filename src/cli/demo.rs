@@ -163,14 +163,16 @@ async fn demo(args: Args, db: PathBuf) -> anyhow::Result<ExitCode> {
     let (_, key) = store.create_key(mtcal_store::Scope::Admin, "demo").await?;
     drop(store);
     let serve = super::serve::Args {
-        db: db_url.clone(),
+        worker: super::serve::WorkerArgs {
+            db: db_url.clone(),
+            concurrency: 2,
+            lease_ms: 30_000,
+            max_attempts: 3,
+            max_upload_bytes: 256 << 20,
+            pause_before_solve_ms: 0,
+        },
         listen: args.listen,
-        concurrency: 2,
-        lease_ms: 30_000,
-        max_attempts: 3,
-        max_upload_bytes: 256 << 20,
         no_worker: false,
-        pause_before_solve_ms: 0,
     };
     let (tx, rx) = tokio::sync::oneshot::channel();
     let server = tokio::spawn(mtcal_server::serve(serve.config(), move |a| {

@@ -1,4 +1,5 @@
-//! `mtcal serve`: the HTTP API and its worker in one process.
+//! `mtcal serve`: the HTTP API (and its worker unless `--no-worker`); `mtcal worker`:
+//! only the worker, for API and worker processes on several hosts sharing a database.
 
 use anyhow::Context;
 use mtcal_server::{ServeConfig, UploadLimits, WorkerConfig};
@@ -7,14 +8,13 @@ use std::io::Write;
 use std::net::SocketAddr;
 use std::process::ExitCode;
 
+/// What a worker process runs with (shared by `mtcal serve` and `mtcal worker`).
 #[derive(clap::Args)]
-pub struct Args {
-    /// Database: a SQLite file path or `sqlite://PATH` (created if missing).
-    #[arg(long, default_value = "mtcal.sqlite")]
+pub struct WorkerArgs {
+    /// Database: a SQLite file path or `sqlite://PATH` (created if missing; one host), or
+    /// `postgres://user@host/db` (any number of API and worker processes on any hosts).
+    #[arg(long, env = "MTCAL_DB", default_value = "mtcal.sqlite")]
     pub db: String,
-    /// Address to listen on (port 0 picks a free port; the address is printed).
-    #[arg(long, default_value = "127.0.0.1:8080")]
-    pub listen: SocketAddr,
     /// Jobs run at the same time.
     #[arg(long, default_value_t = 2)]
     pub concurrency: usize,
@@ -27,34 +27,49 @@ pub struct Args {
     /// Largest upload, bytes (default 256 MiB).
     #[arg(long, default_value_t = 256 << 20)]
     pub max_upload_bytes: usize,
-    /// Serve the API only; run no worker.
-    #[arg(long)]
-    pub no_worker: bool,
     /// Testing aid: pause each job this long before solving.
     #[arg(long, default_value_t = 0, hide = true)]
     pub pause_before_solve_ms: u64,
 }
 
+impl WorkerArgs {
+    pub fn config(&self) -> WorkerConfig {
+        WorkerConfig {
+            queue: QueueConfig {
+                concurrency: self.concurrency.max(1),
+                lease_ms: self.lease_ms.max(100),
+                max_attempts: self.max_attempts.max(1),
+                ..QueueConfig::default()
+            },
+            limits: UploadLimits {
+                max_bytes: self.max_upload_bytes,
+                ..UploadLimits::default()
+            },
+            pause_before_solve_ms: self.pause_before_solve_ms,
+            ..WorkerConfig::default()
+        }
+    }
+}
+
+#[derive(clap::Args)]
+pub struct Args {
+    #[command(flatten)]
+    pub worker: WorkerArgs,
+    /// Address to listen on (port 0 picks a free port; the address is printed).
+    #[arg(long, env = "MTCAL_LISTEN", default_value = "127.0.0.1:8080")]
+    pub listen: SocketAddr,
+    /// Serve the API only; run no worker (workers run as `mtcal worker` elsewhere).
+    #[arg(long)]
+    pub no_worker: bool,
+}
+
 impl Args {
     pub fn config(&self) -> ServeConfig {
         ServeConfig {
-            db_url: self.db.clone(),
+            db_url: self.worker.db.clone(),
             listen: self.listen,
             run_worker: !self.no_worker,
-            worker: WorkerConfig {
-                queue: QueueConfig {
-                    concurrency: self.concurrency.max(1),
-                    lease_ms: self.lease_ms.max(100),
-                    max_attempts: self.max_attempts.max(1),
-                    ..QueueConfig::default()
-                },
-                limits: UploadLimits {
-                    max_bytes: self.max_upload_bytes,
-                    ..UploadLimits::default()
-                },
-                pause_before_solve_ms: self.pause_before_solve_ms,
-                ..WorkerConfig::default()
-            },
+            worker: self.worker.config(),
         }
     }
 }
@@ -77,6 +92,23 @@ pub fn run(args: Args) -> anyhow::Result<ExitCode> {
         println!("mtcal: listening on http://{addr} (docs: http://{addr}/docs)");
         let _ = std::io::stdout().flush();
     }))
-    .with_context(|| format!("serving {}", args.db))?;
+    .with_context(|| format!("serving {}", args.worker.db))?;
+    Ok(ExitCode::SUCCESS)
+}
+
+/// `mtcal worker`: claims and runs jobs of the database until the process is stopped.
+/// Stopping it (SIGTERM, Ctrl-C) does not hand its running jobs back: they run again on
+/// another worker once their lease expires (`--lease-ms`).
+pub fn run_worker(args: WorkerArgs) -> anyhow::Result<ExitCode> {
+    init_logging();
+    let rt = tokio::runtime::Runtime::new()?;
+    rt.block_on(async {
+        let handles = mtcal_server::run_workers(&args.db, args.config()).await?;
+        println!("mtcal: {} worker(s) on {}", handles, args.db);
+        let _ = std::io::stdout().flush();
+        tokio::signal::ctrl_c().await?;
+        anyhow::Ok(())
+    })
+    .with_context(|| format!("working on {}", args.db))?;
     Ok(ExitCode::SUCCESS)
 }

@@ -1,5 +1,6 @@
-//! A worker killed (SIGKILL) mid-job: the job is finished exactly once by the next
-//! process. The one test with real `mtcal serve` processes, since it kills one.
+//! Real processes sharing one database: a worker killed (SIGKILL) mid-job, whose job is
+//! finished exactly once by the next process; an API process without a worker
+//! (`serve --no-worker`) whose jobs a separate `mtcal worker` process runs.
 
 use crate::common::*;
 use mtcal_client::Client;
@@ -93,4 +94,57 @@ async fn worker_killed_mid_job_finishes_the_job_exactly_once_after_restart() {
     assert_eq!((counts.jobs, counts.results), (1, 1));
     let r = c.result(&done.result_id.unwrap()).await.unwrap();
     assert_eq!(r.meta.job_id, job);
+}
+
+/// A running `mtcal worker`; killed on drop.
+struct Worker(Child);
+
+impl Worker {
+    fn start(db: &Path) -> Worker {
+        let mut child = Command::new(BIN)
+            .args(["worker", "--db", db.to_str().unwrap()])
+            .stdout(Stdio::piped())
+            .stderr(Stdio::null())
+            .spawn()
+            .expect("mtcal worker starts");
+        let mut line = String::new();
+        BufReader::new(child.stdout.take().unwrap())
+            .read_line(&mut line)
+            .unwrap();
+        assert!(line.contains("worker(s) on"), "{line:?}");
+        Worker(child)
+    }
+}
+
+impl Drop for Worker {
+    fn drop(&mut self) {
+        let _ = self.0.kill();
+        let _ = self.0.wait();
+    }
+}
+
+#[tokio::test]
+async fn an_api_without_worker_and_a_separate_worker_process_share_the_queue() {
+    let dir = tempfile::tempdir().unwrap();
+    let db = dir.path().join("svc.sqlite");
+    let store = SqliteStore::open(db.to_str().unwrap()).await.unwrap();
+    let (_, key) = store
+        .create_key(mtcal_store::Scope::Write, "e2e")
+        .await
+        .unwrap();
+    let session = dir.path().join("s");
+    write_session(&session, "VMC-W", 2, 0);
+    let api = Server::start(&db, &["--no-worker"]);
+    let c = Client::new(&api.url, &key);
+    register(&c, "VMC-W").await;
+    let ds = c.upload_path("VMC-W", &session).await.unwrap();
+    let kind = mtcal_server::jobs::JobKind::Identify;
+    let job = submit(&c, kind, Some(&ds.id), None).await.id;
+    // No worker anywhere: the job stays queued.
+    tokio::time::sleep(std::time::Duration::from_millis(1500)).await;
+    assert_eq!(c.job(&job).await.unwrap().state, JobState::Queued);
+    let _worker = Worker::start(&db);
+    let done = wait(&c, &job, JobState::Succeeded).await;
+    assert_eq!(done.attempts, 1, "{done:?}");
+    assert_eq!(store.row_counts().await.unwrap().results, 1);
 }

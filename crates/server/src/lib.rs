@@ -196,6 +196,15 @@ pub async fn spawn_local(
     Ok(addr)
 }
 
+/// Opens the store `db_url` names and starts `worker.queue.concurrency` workers on the
+/// current runtime (`mtcal worker`: no HTTP); they poll the queue, so they need no
+/// signal from the API process that queued the job. Returns how many were started.
+pub async fn run_workers(db_url: &str, worker: WorkerConfig) -> anyhow::Result<usize> {
+    let store = mtcal_store::open(db_url).await?;
+    let handles = worker::spawn_workers(store, worker, Arc::new(tokio::sync::Notify::new()));
+    Ok(handles.len())
+}
+
 /// Opens the store, starts the workers and serves until the process ends. `ready` is
 /// called with the bound address (port 0 picks a free one).
 pub async fn serve(cfg: ServeConfig, ready: impl FnOnce(SocketAddr)) -> anyhow::Result<()> {
