@@ -56,8 +56,9 @@ impl Drop for Server {
     }
 }
 
-#[tokio::test]
-async fn worker_killed_mid_job_finishes_the_job_exactly_once_after_restart() {
+/// A folder with the SQLite file `svc.sqlite` the processes share, its store and a
+/// write key.
+async fn shared_db() -> (tempfile::TempDir, SqliteStore, String) {
     let dir = tempfile::tempdir().unwrap();
     let db = dir.path().join("svc.sqlite");
     let store = SqliteStore::open(db.to_str().unwrap()).await.unwrap();
@@ -65,7 +66,13 @@ async fn worker_killed_mid_job_finishes_the_job_exactly_once_after_restart() {
         .create_key(mtcal_store::Scope::Write, "e2e")
         .await
         .unwrap();
-    let session = dir.path().join("s");
+    (dir, store, key)
+}
+
+#[tokio::test]
+async fn worker_killed_mid_job_finishes_the_job_exactly_once_after_restart() {
+    let (dir, store, key) = shared_db().await;
+    let (db, session) = (dir.path().join("svc.sqlite"), dir.path().join("s"));
     write_session(&session, "VMC-K", 3, 0);
     let first = Server::start(
         &db,
@@ -125,14 +132,8 @@ impl Drop for Worker {
 
 #[tokio::test]
 async fn an_api_without_worker_and_a_separate_worker_process_share_the_queue() {
-    let dir = tempfile::tempdir().unwrap();
-    let db = dir.path().join("svc.sqlite");
-    let store = SqliteStore::open(db.to_str().unwrap()).await.unwrap();
-    let (_, key) = store
-        .create_key(mtcal_store::Scope::Write, "e2e")
-        .await
-        .unwrap();
-    let session = dir.path().join("s");
+    let (dir, store, key) = shared_db().await;
+    let (db, session) = (dir.path().join("svc.sqlite"), dir.path().join("s"));
     write_session(&session, "VMC-W", 2, 0);
     let api = Server::start(&db, &["--no-worker"]);
     let c = Client::new(&api.url, &key);
