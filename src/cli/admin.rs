@@ -14,9 +14,13 @@ pub struct Args {
 pub enum Command {
     /// Create an API key; prints the secret (shown once, stored hashed).
     CreateKey {
-        /// Database: a SQLite file path or `sqlite://PATH`.
-        #[arg(long, default_value = "mtcal.sqlite")]
+        /// Database: a SQLite file path or `sqlite://PATH`, or `postgres://…`.
+        #[arg(long, env = "MTCAL_DB", default_value = "mtcal.sqlite")]
         db: String,
+        /// Create the SQLite file when it does not exist (else a typo in --db is refused
+        /// instead of making a new empty database whose keys the service never sees).
+        #[arg(long)]
+        create: bool,
         /// read, write or admin.
         #[arg(long, default_value = "write")]
         scope: String,
@@ -28,10 +32,25 @@ pub enum Command {
 
 pub fn run(args: Args) -> anyhow::Result<ExitCode> {
     match args.command {
-        Command::CreateKey { db, scope, label } => {
+        Command::CreateKey {
+            db,
+            scope,
+            label,
+            create,
+        } => {
             let scope = Scope::parse(&scope).ok_or_else(|| {
                 super::BadInput(format!("--scope {scope:?}: read, write or admin"))
             })?;
+            let file = db.strip_prefix("sqlite://").unwrap_or(&db);
+            let is_file = !(db.starts_with("postgres://")
+                || db.starts_with("postgresql://")
+                || db.starts_with("sqlite::memory:"));
+            if is_file && !create && !std::path::Path::new(file).exists() {
+                return Err(super::BadInput(format!(
+                    "--db {db}: no such database (give --create to make a new one)"
+                ))
+                .into());
+            }
             let rt = tokio::runtime::Runtime::new()?;
             let (key, secret) = rt.block_on(async {
                 let store = mtcal_store::open(&db)

@@ -56,3 +56,33 @@ async fn submit_uploads_identifies_and_prints_the_result() {
     );
     assert_eq!(app.counts().await, before);
 }
+
+/// `admin create-key` on a database file that does not exist is refused (a typo in --db
+/// would otherwise make a new empty database whose keys the service never sees), unless
+/// `--create` says so.
+#[test]
+fn create_key_refuses_a_missing_database_unless_told_to_create_it() {
+    let dir = tempfile::tempdir().unwrap();
+    let db = dir.path().join("typo.sqlite");
+    let run = |extra: &[&str]| {
+        Command::new(BIN)
+            .args(["admin", "create-key", "--db", db.to_str().unwrap()])
+            .args(extra)
+            .env_remove("MTCAL_DB")
+            .output()
+            .unwrap()
+    };
+    let out = run(&[]);
+    assert_eq!(out.status.code(), Some(2));
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert!(err.contains("no such database"), "{err}");
+    assert!(!db.exists());
+    let out = run(&["--create"]);
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    assert!(String::from_utf8_lossy(&out.stdout).starts_with("mtk_"));
+    assert!(run(&[]).status.success(), "the file exists now");
+}
