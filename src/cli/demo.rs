@@ -178,7 +178,18 @@ async fn demo(args: Args, db: PathBuf) -> anyhow::Result<ExitCode> {
     let server = tokio::spawn(mtcal_server::serve(serve.config(), move |a| {
         let _ = tx.send(a);
     }));
-    let addr = rx.await.context("the service did not start")?;
+    let Ok(addr) = rx.await else {
+        // The service ended before it listened: its own error says why (address in use).
+        let why = match server.await {
+            Ok(Err(e)) => e,
+            Ok(Ok(())) => anyhow::anyhow!("the service stopped"),
+            Err(e) => e.into(),
+        };
+        return Err(why.context(format!(
+            "starting the service on {} (if the address is in use, try --listen 127.0.0.1:0)",
+            args.listen
+        )));
+    };
     let base = format!("http://{addr}");
     let c = Client::new(&base, &key);
     let work = tempfile_dir(&db)?;

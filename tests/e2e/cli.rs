@@ -86,3 +86,20 @@ fn create_key_refuses_a_missing_database_unless_told_to_create_it() {
     assert!(String::from_utf8_lossy(&out.stdout).starts_with("mtk_"));
     assert!(run(&[]).status.success(), "the file exists now");
 }
+
+/// `mtcal demo` on an address already in use says so and how to pick a free port.
+#[test]
+fn demo_on_a_taken_address_says_so() {
+    let taken = std::net::TcpListener::bind("127.0.0.1:0").unwrap();
+    let addr = taken.local_addr().unwrap().to_string();
+    let dir = tempfile::tempdir().unwrap();
+    let out = Command::new(BIN)
+        .args(["demo", "--no-browser", "--exit", "--listen", &addr, "--db"])
+        .arg(dir.path().join("demo.sqlite"))
+        .output()
+        .unwrap();
+    assert!(!out.status.success());
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert!(err.contains("--listen 127.0.0.1:0"), "{err}");
+    assert!(err.contains("already in use"), "the system's reason: {err}");
+}
