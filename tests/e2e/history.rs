@@ -54,6 +54,9 @@ async fn history_and_trends_return_what_was_stored() {
     for r in &hist {
         docs.push(typed(&app.client.result(&r.id).await.unwrap().document));
     }
+    // A squareness name asked as a term points to where its trend is.
+    let msg = refusal_message(app.client.term_trend("VMC-A", "EC0Y", &[0.0]).await);
+    assert!(msg.contains("trends/summary"), "{msg}");
     let trend = app
         .client
         .term_trend("VMC-A", "EXX", &[50.0, -50.0])

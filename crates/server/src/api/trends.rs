@@ -57,8 +57,14 @@ pub async fn term(
 /// too).
 pub async fn term_trend(s: &AppState, id: &str, q: TermQuery) -> Result<TermTrend, ApiError> {
     let (unit, _) = trends::term_info(&q.term).ok_or_else(|| {
+        let hint = if matches!(q.term.as_str(), "EC0Y" | "EB0Z" | "EA0Z") {
+            " (a squareness error, a constant: its trend is in \
+             GET /api/v1/machines/{id}/trends/summary)"
+        } else {
+            ""
+        };
         ApiError::InvalidRequest(format!(
-            "term {:?} is not one of the 18 ISO 230-1 functions",
+            "term {:?} is not one of the 18 ISO 230-1 functions{hint}",
             q.term
         ))
     })?;
