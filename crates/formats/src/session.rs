@@ -203,11 +203,24 @@ pub(crate) fn read_session_named<'a>(
         ignored.push(n.clone());
     }
     ignored.sort();
-    let session = assemble(spec, |i, _| {
-        let name = &stored[i];
-        let raw = read(name, &mut raw_budget)?;
-        let data = gzip::decode(name, &raw, &mut budget)?;
-        read_plane_csv(name, &data, limits)
+    // Load and decompress in order (the byte budgets are shared and charged in file
+    // order), then parse the plane files on all cores: parsing is the cost of a read.
+    let raws = stored
+        .iter()
+        .map(|name| read(name, &mut raw_budget))
+        .collect::<Result<Vec<_>, _>>()?;
+    let data = stored
+        .iter()
+        .zip(&raws)
+        .map(|(name, raw)| gzip::decode(name, raw, &mut budget))
+        .collect::<Result<Vec<_>, _>>()?;
+    let mut parsed = parse_planes_in_parallel(&stored, &data, limits).into_iter();
+    drop(data);
+    drop(raws);
+    let session = assemble(spec, |_, _| {
+        parsed
+            .next()
+            .expect("one parsed plane file per plane of the description")
     })?;
     let files = std::iter::once(description.to_string())
         .chain(stored)
@@ -218,6 +231,55 @@ pub(crate) fn read_session_named<'a>(
         files,
         ignored,
     })
+}
+
+/// Parses the plane files with [`read_plane_csv`] on up to
+/// [`std::thread::available_parallelism`] threads; results in the order of `names` (so the
+/// first error reported is the first in file order, as in a sequential read).
+fn parse_planes_in_parallel(
+    names: &[String],
+    data: &[Cow<'_, [u8]>],
+    limits: &Limits,
+) -> Vec<Result<Vec<Run>, FormatError>> {
+    let threads = std::thread::available_parallelism()
+        .map_or(1, |n| n.get())
+        .min(data.len());
+    if threads <= 1 {
+        return names
+            .iter()
+            .zip(data)
+            .map(|(name, bytes)| read_plane_csv(name, bytes, limits))
+            .collect();
+    }
+    let next = std::sync::atomic::AtomicUsize::new(0);
+    let mut out: Vec<Option<Result<Vec<Run>, FormatError>>> = Vec::new();
+    out.resize_with(data.len(), || None);
+    let done = std::thread::scope(|s| {
+        let workers: Vec<_> = (0..threads)
+            .map(|_| {
+                s.spawn(|| {
+                    let mut mine = Vec::new();
+                    loop {
+                        let i = next.fetch_add(1, std::sync::atomic::Ordering::Relaxed);
+                        if i >= data.len() {
+                            break mine;
+                        }
+                        mine.push((i, read_plane_csv(&names[i], &data[i], limits)));
+                    }
+                })
+            })
+            .collect();
+        workers
+            .into_iter()
+            .flat_map(|w| w.join().unwrap_or_else(|p| std::panic::resume_unwind(p)))
+            .collect::<Vec<_>>()
+    });
+    for (i, r) in done {
+        out[i] = Some(r);
+    }
+    out.into_iter()
+        .map(|r| r.expect("every plane file parsed by one worker"))
+        .collect()
 }
 
 fn assemble(

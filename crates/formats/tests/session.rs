@@ -792,3 +792,28 @@ fn writer_refuses_invalid_sessions_and_writes_nothing() {
     assert!(write_plane_csv(Vec::new(), &s.planes[0].runs).is_err());
     assert!(!target.exists());
 }
+
+/// The plane files are parsed in parallel; the error reported is still the first in the
+/// order of the description (xy.csv before xz.csv), and a valid read equals the files
+/// read one by one.
+#[test]
+fn parallel_parse_reports_the_first_bad_file_in_description_order() {
+    let bad_xy = "run,t_s,x_mm,y_mm,z_mm,du_um,dv_um\n1,0.0,0,0,0,0.1,zz\n";
+    let bad_xz = "run,t_s,x_mm,y_mm,z_mm,du_um,dv_um\n1,0.0,0,0,0,yy,0.2\n";
+    for _ in 0..20 {
+        let e = read_session_files(
+            JSON.as_bytes(),
+            &files(&[("xy.csv", bad_xy.as_bytes()), ("xz.csv", bad_xz.as_bytes())]),
+            &Limits::default(),
+        )
+        .expect_err("both files are bad");
+        assert_eq!(e.file, "xy.csv", "{e}");
+        assert_eq!((e.line, e.column.as_str()), (2, "dv_um"), "{e}");
+    }
+    let s = read(JSON, CSV).unwrap();
+    let limits = Limits::default();
+    for (plane, name) in s.planes.iter().zip(["xy.csv", "xz.csv"]) {
+        let one = read_plane_csv(name, CSV.as_bytes(), &limits).unwrap();
+        assert_eq!(plane.runs, one);
+    }
+}
