@@ -4,6 +4,8 @@
 //! - `parse_sequential`: every plane file parsed one after the other on one core
 //!   ([`read_plane_csv`], files already in memory): the parse time;
 //! - `read_session_dir`: the session reader (files read, plane files parsed on all cores);
+//! - `identify_simulated` / `identify_read`: `identify` alone on the simulator's session
+//!   and on the same session read back from its files;
 //! - `read_and_identify`: `read_session_dir` + `identify`, i.e. `mtcal identify` without
 //!   the printing.
 //!
@@ -55,6 +57,13 @@ fn bench(c: &mut Criterion) {
     });
     g.bench_function("read_session_dir", |b| {
         b.iter(|| black_box(read_session_dir(dir.path(), &limits).unwrap()))
+    });
+    let read = read_session_dir(dir.path(), &limits).unwrap();
+    g.bench_function("identify_simulated", |b| {
+        b.iter(|| black_box(identify(&out.session, &IdentifyOptions::default()).unwrap()))
+    });
+    g.bench_function("identify_read", |b| {
+        b.iter(|| black_box(identify(&read, &IdentifyOptions::default()).unwrap()))
     });
     g.bench_function("read_and_identify", |b| {
         b.iter(|| {

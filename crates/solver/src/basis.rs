@@ -156,7 +156,7 @@ pub struct PolyErrors {
 impl PolyErrors {
     /// Value of `term` at `q_mm` (µm or µrad).
     pub fn value(&self, term: Term, q_mm: f64) -> f64 {
-        match self.coefficients.get(&term.name()) {
+        match self.coefficients.get(term.code()) {
             None => 0.0,
             Some(c) => {
                 // Horner on q·(c1 + q·(c2 + …)).
@@ -171,7 +171,8 @@ impl PolyErrors {
 
     /// Sets the coefficients of `term` (index i ↔ power i+1).
     pub fn set(&mut self, term: Term, coefficients: Vec<f64>) {
-        self.coefficients.insert(term.name(), coefficients);
+        self.coefficients
+            .insert(term.code().to_string(), coefficients);
     }
 }
 

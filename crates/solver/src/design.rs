@@ -23,10 +23,12 @@
 
 use crate::axis::{Axis, Topology};
 use crate::basis::{Basis, BasisKind};
-use crate::kinematics::{squareness_gradient, term_gradient};
+use crate::kinematics::{abbe_arm_mm, squareness_gradient, term_gradient};
 use crate::lsq::{LsSolution, QrAccumulator, Reduced};
 use crate::session::{PlaneRecord, Run, Session};
+use crate::terms::Component;
 use crate::terms::{SquarenessTerm, Term};
+use nalgebra::Vector3;
 
 /// One error-model parameter.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -181,6 +183,51 @@ impl ErrorModel {
         for j in 0..3 {
             out[n - 3 + j] = sg[j][dir.index()];
         }
+    }
+
+    /// Volumetric error (µm) of the model at (q, t) for the error parameters `x` (error
+    /// block only): e = Σ_k [δ_k + ε_k × a_k] + squareness, i.e. the vector whose
+    /// component `dir` is `error_row(q, t, dir) · x`, with one Abbe arm per axis instead of
+    /// one gradient per term and direction (the per-sample residuals of a report use it).
+    pub fn error_vector(
+        &self,
+        q: [f64; 3],
+        t: [f64; 3],
+        x: &[f64],
+        vals: &mut Vec<f64>,
+    ) -> Vector3<f64> {
+        let mut e = Vector3::zeros();
+        for axis in Axis::ALL {
+            let mut delta = Vector3::zeros();
+            let mut eps = Vector3::zeros();
+            for term in Term::all().into_iter().filter(|t| t.axis == axis) {
+                let i = term.index();
+                let Some(b) = &self.bases[i] else { continue };
+                vals.clear();
+                b.eval_into(q[axis.index()], vals);
+                let s = self.term_start[i];
+                let v: f64 = vals
+                    .iter()
+                    .zip(&x[s..s + vals.len()])
+                    .map(|(a, c)| a * c)
+                    .sum();
+                match term.component {
+                    Component::Translation(d) => delta[d.index()] += v,
+                    Component::Rotation(d) => eps[d.index()] += v,
+                }
+            }
+            e += delta;
+            if eps != Vector3::zeros() {
+                e += eps.cross(&abbe_arm_mm(&self.topology, axis, q, t)) * 1e-3;
+            }
+        }
+        if self.squareness {
+            let n = self.params.len();
+            for (j, g) in squareness_gradient(q).iter().enumerate() {
+                e += g * x[n - 3 + j];
+            }
+        }
+        e
     }
 
     /// Value of term number `i` at `q` for parameter vector `x` (error block only).
@@ -709,16 +756,34 @@ pub fn residuals(
     let layout = &fit.layout;
     let x = &fit.solution.x;
     let mut row = vec![0.0; layout.total()];
+    let mut vals = Vec::new();
     let mut out = Vec::new();
     for (p, rec) in session.planes.iter().enumerate() {
         let mut runs = Vec::new();
         for r in 0..rec.runs.len() {
-            let mut res = vec![[0.0; 2]; rec.runs[r].len()];
-            for_each_row(session, p, r, |m| {
-                let b = full_row(model, layout, extra, &m, &mut row);
-                let pred: f64 = row.iter().zip(x).map(|(a, c)| a * c).sum();
-                res[m.sample][m.comp] = b - pred;
-            });
+            let run = &rec.runs[r];
+            let mut res = vec![[0.0; 2]; run.len()];
+            if extra.is_some() {
+                for_each_row(session, p, r, |m| {
+                    let b = full_row(model, layout, extra, &m, &mut row);
+                    let pred: f64 = row.iter().zip(x).map(|(a, c)| a * c).sum();
+                    res[m.sample][m.comp] = b - pred;
+                });
+            } else {
+                // The same prediction as the design row times x (geometric_row), computed
+                // once per sample for both reading directions.
+                let (u_ax, v_ax) = rec.plane.axes();
+                let t = rec.head_offset_mm;
+                let rot = x[layout.plane_mounting[p]];
+                let x_err = &x[layout.err_range()];
+                for (i, q) in run.pos_mm.iter().enumerate() {
+                    let e = model.error_vector(*q, t, x_err, &mut vals);
+                    let hu = q[u_ax.index()] + t[u_ax.index()];
+                    let hv = q[v_ax.index()] + t[v_ax.index()];
+                    res[i][0] = run.du_um[i] - (rot * hv * 1e-3 + e[u_ax.index()]);
+                    res[i][1] = run.dv_um[i] - (-rot * hu * 1e-3 + e[v_ax.index()]);
+                }
+            }
             for c in 0..2 {
                 let n = res.len().max(1) as f64;
                 let mean = res.iter().map(|v| v[c]).sum::<f64>() / n;
@@ -747,6 +812,57 @@ mod tests {
 
     /// The exact per-run compression gives the same triangular factor as the dense rows:
     /// same solution, residual sum of squares, covariance and observation count.
+    #[test]
+    fn per_sample_residuals_equal_design_row_times_solution() {
+        // The residuals' fast path (one error vector per sample) against the design row
+        // times the solution (the dense path, forced by an empty set of extra columns),
+        // on a simulated machine with every term non-zero and two head offsets.
+        let out = simulate(
+            &random_truth(11),
+            &SimOptions {
+                plan: Plan::Full,
+                sample_rate_hz: 2.0,
+                ..Default::default()
+            },
+        )
+        .unwrap();
+        let s = &out.session;
+        let model = ErrorModel::new(
+            Topology::default(),
+            BasisKind::Legendre,
+            3,
+            measured_travel(s),
+        );
+        let f = fit(s, &model, &|_, _| true, None);
+        let fast = residuals(s, &model, &f, None);
+        let dense = residuals(s, &model, &f, Some(&NoExtra));
+        let mut compared = 0;
+        for (a, b) in fast
+            .iter()
+            .flatten()
+            .flatten()
+            .zip(dense.iter().flatten().flatten())
+        {
+            for c in 0..2 {
+                assert!((a[c] - b[c]).abs() < 1e-9, "{a:?} vs {b:?}");
+                compared += 1;
+            }
+        }
+        assert_eq!(compared, 2 * s.sample_count());
+        let rms = (fast
+            .iter()
+            .flatten()
+            .flatten()
+            .map(|r| r[0] * r[0] + r[1] * r[1])
+            .sum::<f64>()
+            / (2 * s.sample_count()) as f64)
+            .sqrt();
+        assert!(
+            rms > 0.05 && rms < 0.5,
+            "residual RMS {rms} µm (noise 0.15 µm)"
+        );
+    }
+
     #[test]
     fn compressed_runs_equal_the_dense_problem() {
         let out = simulate(

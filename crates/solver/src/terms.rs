@@ -57,17 +57,33 @@ impl Term {
         out
     }
 
-    /// ISO 230-1 name, e.g. `EXX`, `EAY`, `ECZ`.
-    pub fn name(self) -> String {
-        let dir = match self.component {
-            Component::Translation(d) => d.letter(),
-            Component::Rotation(d) => d.rot_letter(),
+    /// Position of the term in [`Term::all`]: 6 · axis + (0, 1, 2 for translations along
+    /// X, Y, Z; 3, 4, 5 for rotations about them).
+    pub fn index(self) -> usize {
+        let (offset, dir) = match self.component {
+            Component::Translation(d) => (0, d),
+            Component::Rotation(d) => (3, d),
         };
-        format!("E{}{}", dir, self.axis.letter())
+        6 * self.axis.index() + offset + dir.index()
+    }
+
+    /// ISO 230-1 name, e.g. `EXX`, `EAY`, `ECZ`, without allocating (per-sample code
+    /// looks coefficients up by it).
+    pub fn code(self) -> &'static str {
+        const NAMES: [&str; 18] = [
+            "EXX", "EYX", "EZX", "EAX", "EBX", "ECX", "EXY", "EYY", "EZY", "EAY", "EBY", "ECY",
+            "EXZ", "EYZ", "EZZ", "EAZ", "EBZ", "ECZ",
+        ];
+        NAMES[self.index()]
+    }
+
+    /// ISO 230-1 name, e.g. `EXX`, `EAY`, `ECZ`, as an owned string.
+    pub fn name(self) -> String {
+        self.code().to_string()
     }
 
     pub fn parse(name: &str) -> Option<Term> {
-        Term::all().into_iter().find(|t| t.name() == name)
+        Term::all().into_iter().find(|t| t.code() == name)
     }
 
     pub fn kind(self) -> TermKind {
@@ -165,5 +181,13 @@ mod tests {
         assert_eq!(Term::parse("ECZ").unwrap().kind(), TermKind::Roll);
         assert_eq!(Term::parse("EAY").unwrap().kind(), TermKind::PitchYaw);
         assert_eq!(Term::parse("EQX"), None);
+        for (i, t) in Term::all().into_iter().enumerate() {
+            assert_eq!(t.index(), i);
+            let dir = match t.component {
+                Component::Translation(d) => d.letter(),
+                Component::Rotation(d) => d.rot_letter(),
+            };
+            assert_eq!(t.code(), format!("E{dir}{}", t.axis.letter()));
+        }
     }
 }
