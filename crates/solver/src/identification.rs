@@ -228,12 +228,24 @@ pub fn identify(
     opts: &IdentifyOptions,
 ) -> Result<IdentificationResult, SolverError> {
     let model = prepare(session, opts)?;
-    let floor = session_floor(session);
-    let noise = floor.map(|f| report::round(f.sigma_um));
-    let mut estimate = match opts.method {
-        Method::Joint => joint::estimate(session, &model),
-        Method::Stepwise => stepwise::estimate(session, &model, noise)?,
+    // The noise floor is independent of the model: the joint method estimates it on a
+    // second core while it fits (the stepwise method needs it first).
+    let (floor, mut estimate) = match opts.method {
+        Method::Joint => std::thread::scope(|s| {
+            let floor = s.spawn(|| session_floor(session));
+            let estimate = joint::estimate(session, &model);
+            let floor = floor
+                .join()
+                .unwrap_or_else(|p| std::panic::resume_unwind(p));
+            (floor, estimate)
+        }),
+        Method::Stepwise => {
+            let floor = session_floor(session);
+            let noise = floor.map(|f| report::round(f.sigma_um));
+            (floor, stepwise::estimate(session, &model, noise)?)
+        }
     };
+    let noise = floor.map(|f| report::round(f.sigma_um));
     if let Some(f) = &floor {
         estimate.reporting.push(f.note());
     }
