@@ -140,7 +140,7 @@ pub fn run(args: Args) -> anyhow::Result<ExitCode> {
         )?;
         return Ok(ExitCode::SUCCESS);
     }
-    super::serve::init_logging();
+    super::serve::init_logging(super::serve::LogFormat::Text);
     let db = match &args.db {
         Some(p) => p.clone(),
         None => std::env::temp_dir()
@@ -170,14 +170,20 @@ async fn demo(args: Args, db: PathBuf) -> anyhow::Result<ExitCode> {
             max_attempts: 3,
             max_upload_bytes: 256 << 20,
             pause_before_solve_ms: 0,
+            grace_seconds: 5,
+            log_format: super::serve::LogFormat::Text,
         },
         listen: args.listen,
         no_worker: false,
     };
     let (tx, rx) = tokio::sync::oneshot::channel();
-    let server = tokio::spawn(mtcal_server::serve(serve.config(), move |a| {
-        let _ = tx.send(a);
-    }));
+    let server = tokio::spawn(mtcal_server::serve(
+        serve.config(),
+        move |a| {
+            let _ = tx.send(a);
+        },
+        mtcal_server::shutdown_signal(),
+    ));
     let Ok(addr) = rx.await else {
         // The service ended before it listened: its own error says why (address in use).
         let why = match server.await {

@@ -30,6 +30,21 @@ pub struct WorkerArgs {
     /// Testing aid: pause each job this long before solving.
     #[arg(long, default_value_t = 0, hide = true)]
     pub pause_before_solve_ms: u64,
+    /// On SIGTERM or Ctrl-C: seconds a running job may take to finish before it is
+    /// handed back to the queue (another worker claims it at once).
+    #[arg(long, env = "MTCAL_GRACE_SECONDS", default_value_t = 20)]
+    pub grace_seconds: u64,
+    /// Log format on stderr: `text` (for people) or `json` (one object per line, for
+    /// log collectors).
+    #[arg(long, env = "MTCAL_LOG_FORMAT", value_enum, default_value_t = LogFormat::Text)]
+    pub log_format: LogFormat,
+}
+
+/// Log format of `--log-format`.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, clap::ValueEnum)]
+pub enum LogFormat {
+    Text,
+    Json,
 }
 
 impl WorkerArgs {
@@ -46,6 +61,7 @@ impl WorkerArgs {
                 ..UploadLimits::default()
             },
             pause_before_solve_ms: self.pause_before_solve_ms,
+            grace: std::time::Duration::from_secs(self.grace_seconds.min(3600)),
             ..WorkerConfig::default()
         }
     }
@@ -74,39 +90,49 @@ impl Args {
     }
 }
 
-/// Logging to stderr, `RUST_LOG` to tune (default: info for mtcal crates).
-pub fn init_logging() {
+/// Logging to stderr, `RUST_LOG` to tune (default: info for mtcal crates); `json`
+/// writes one JSON object per event (time, level, target, fields).
+pub fn init_logging(format: LogFormat) {
     let filter = tracing_subscriber::EnvFilter::try_from_default_env()
         .unwrap_or_else(|_| "warn,mtcal_server=info,mtcal_store=info".into());
-    let _ = tracing_subscriber::fmt()
+    let builder = tracing_subscriber::fmt()
         .with_env_filter(filter)
-        .with_writer(std::io::stderr)
-        .try_init();
+        .with_writer(std::io::stderr);
+    let _ = match format {
+        LogFormat::Text => builder.try_init(),
+        LogFormat::Json => builder.json().try_init(),
+    };
 }
 
 pub fn run(args: Args) -> anyhow::Result<ExitCode> {
-    init_logging();
+    init_logging(args.worker.log_format);
     let cfg = args.config();
     let rt = tokio::runtime::Runtime::new()?;
-    rt.block_on(mtcal_server::serve(cfg, |addr| {
-        println!("mtcal: listening on http://{addr} (docs: http://{addr}/docs)");
-        let _ = std::io::stdout().flush();
-    }))
+    rt.block_on(mtcal_server::serve(
+        cfg,
+        |addr| {
+            println!("mtcal: listening on http://{addr} (docs: http://{addr}/docs)");
+            let _ = std::io::stdout().flush();
+        },
+        mtcal_server::shutdown_signal(),
+    ))
     .with_context(|| format!("serving {}", args.worker.db))?;
     Ok(ExitCode::SUCCESS)
 }
 
-/// `mtcal worker`: claims and runs jobs of the database until the process is stopped.
-/// Stopping it (SIGTERM, Ctrl-C) does not hand its running jobs back: they run again on
-/// another worker once their lease expires (`--lease-ms`).
+/// `mtcal worker`: claims and runs jobs of the database until SIGTERM or Ctrl-C; then
+/// it stops claiming, lets running jobs finish within `--grace-seconds` and hands the
+/// others back to the queue, where another worker claims them at once.
 pub fn run_worker(args: WorkerArgs) -> anyhow::Result<ExitCode> {
-    init_logging();
+    init_logging(args.log_format);
     let rt = tokio::runtime::Runtime::new()?;
     rt.block_on(async {
-        let handles = mtcal_server::run_workers(&args.db, args.config()).await?;
-        println!("mtcal: {} worker(s) on {}", handles, args.db);
+        let workers = mtcal_server::run_workers(&args.db, args.config()).await?;
+        println!("mtcal: {} worker(s) on {}", workers.len(), args.db);
         let _ = std::io::stdout().flush();
-        tokio::signal::ctrl_c().await?;
+        mtcal_server::shutdown_signal().await;
+        tracing::info!("stopping: finishing or handing back running jobs");
+        workers.shutdown().await;
         anyhow::Ok(())
     })
     .with_context(|| format!("working on {}", args.db))?;

@@ -87,6 +87,47 @@ fn create_key_refuses_a_missing_database_unless_told_to_create_it() {
     assert!(run(&[]).status.success(), "the file exists now");
 }
 
+/// `admin list-keys` shows every key without its secret; `admin revoke-key` revokes one
+/// (the list then shows when) and names an unknown id as such.
+#[test]
+fn admin_lists_and_revokes_keys() {
+    let dir = tempfile::tempdir().unwrap();
+    let db = dir.path().join("k.sqlite");
+    let db = db.to_str().unwrap();
+    let secret = mtcal(&[
+        "admin",
+        "create-key",
+        "--db",
+        db,
+        "--create",
+        "--label",
+        "line 1",
+    ]);
+    let listed: serde_json::Value =
+        serde_json::from_str(&mtcal(&["admin", "list-keys", "--db", db, "--json"])).unwrap();
+    let keys = listed.as_array().unwrap();
+    assert_eq!(keys.len(), 1);
+    assert_eq!(keys[0]["label"], "line 1");
+    assert!(keys[0]["revoked_at"].is_null());
+    let id = keys[0]["id"].as_str().unwrap();
+    let table = mtcal(&["admin", "list-keys", "--db", db]);
+    assert!(
+        table.contains(id) && !table.contains(secret.trim()),
+        "{table}"
+    );
+    mtcal(&["admin", "revoke-key", "--db", db, id]);
+    let listed: serde_json::Value =
+        serde_json::from_str(&mtcal(&["admin", "list-keys", "--db", db, "--json"])).unwrap();
+    assert!(listed[0]["revoked_at"].is_string(), "{listed}");
+    let out = Command::new(BIN)
+        .args(["admin", "revoke-key", "--db", db, "key_nope"])
+        .output()
+        .unwrap();
+    assert_eq!(out.status.code(), Some(2));
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert!(err.contains("no key key_nope"), "{err}");
+}
+
 /// `mtcal demo` on an address already in use says so and how to pick a free port.
 #[test]
 fn demo_on_a_taken_address_says_so() {

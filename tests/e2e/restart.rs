@@ -1,6 +1,7 @@
 //! Real processes sharing one database: a worker killed (SIGKILL) mid-job, whose job is
 //! finished exactly once by the next process; an API process without a worker
-//! (`serve --no-worker`) whose jobs a separate `mtcal worker` process runs.
+//! (`serve --no-worker`) whose jobs a separate `mtcal worker` process runs; a worker
+//! stopped with SIGTERM that hands its job back, claimed at once by the next worker.
 
 use crate::common::*;
 use mtcal_client::Client;
@@ -106,10 +107,34 @@ async fn worker_killed_mid_job_finishes_the_job_exactly_once_after_restart() {
 /// A running `mtcal worker`; killed on drop.
 struct Worker(Child);
 
+/// Sends SIGTERM to `child` and waits (at most 20 s) for it to exit; its exit status.
+fn terminate(child: &mut Child) -> std::process::ExitStatus {
+    let pid = child.id().to_string();
+    assert!(
+        Command::new("kill")
+            .args(["-TERM", &pid])
+            .status()
+            .unwrap()
+            .success()
+    );
+    let t0 = std::time::Instant::now();
+    loop {
+        if let Some(status) = child.try_wait().unwrap() {
+            return status;
+        }
+        assert!(
+            t0.elapsed() < std::time::Duration::from_secs(20),
+            "no exit 20 s after SIGTERM"
+        );
+        std::thread::sleep(std::time::Duration::from_millis(50));
+    }
+}
+
 impl Worker {
-    fn start(db: &Path) -> Worker {
+    fn start(db: &Path, extra: &[&str]) -> Worker {
         let mut child = Command::new(BIN)
             .args(["worker", "--db", db.to_str().unwrap()])
+            .args(extra)
             .stdout(Stdio::piped())
             .stderr(Stdio::null())
             .spawn()
@@ -144,8 +169,50 @@ async fn an_api_without_worker_and_a_separate_worker_process_share_the_queue() {
     // No worker anywhere: the job stays queued.
     tokio::time::sleep(std::time::Duration::from_millis(1500)).await;
     assert_eq!(c.job(&job).await.unwrap().state, JobState::Queued);
-    let _worker = Worker::start(&db);
+    let _worker = Worker::start(&db, &[]);
     let done = wait(&c, &job, JobState::Succeeded).await;
     assert_eq!(done.attempts, 1, "{done:?}");
     assert_eq!(store.row_counts().await.unwrap().results, 1);
+}
+
+#[tokio::test]
+async fn a_worker_stopped_by_sigterm_hands_its_job_back_and_the_next_worker_claims_it_at_once() {
+    let (dir, store, key) = shared_db().await;
+    let (db, session) = (dir.path().join("svc.sqlite"), dir.path().join("s"));
+    write_session(&session, "VMC-T", 4, 0);
+    let mut api = Server::start(&db, &["--no-worker"]);
+    let c = Client::new(&api.url, &key);
+    register(&c, "VMC-T").await;
+    let ds = c.upload_path("VMC-T", &session).await.unwrap();
+    let kind = mtcal_server::jobs::JobKind::Identify;
+    let job = submit(&c, kind, Some(&ds.id), None).await.id;
+    // A lease of 10 minutes: if the job were not handed back, nobody could take it over
+    // within the test's wait.
+    let mut first = Worker::start(
+        &db,
+        &[
+            "--pause-before-solve-ms",
+            "60000",
+            "--lease-ms",
+            "600000",
+            "--grace-seconds",
+            "1",
+        ],
+    );
+    wait(&c, &job, JobState::Running).await;
+    let status = terminate(&mut first.0);
+    assert!(status.success(), "worker exit after SIGTERM: {status}");
+    let back = c.job(&job).await.unwrap();
+    assert_eq!(
+        (back.state, back.attempts),
+        (JobState::Queued, 0),
+        "{back:?}"
+    );
+    let _second = Worker::start(&db, &[]);
+    let done = wait(&c, &job, JobState::Succeeded).await;
+    assert_eq!(done.attempts, 1, "{done:?}");
+    assert_eq!(store.row_counts().await.unwrap().results, 1);
+    // The API process also stops cleanly on SIGTERM.
+    let status = terminate(&mut api.child);
+    assert!(status.success(), "serve exit after SIGTERM: {status}");
 }

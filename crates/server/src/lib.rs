@@ -5,8 +5,8 @@
 //! one process. Storage goes through [`mtcal_store::Store`] only.
 //!
 //! Limits: every route has a body-size limit (1 MiB; uploads [`ingest::UploadLimits`],
-//! 256 MiB by default) and a time limit (30 s; uploads 300 s). Every route but `/health`
-//! and the documentation needs an API key (see [`auth`]).
+//! 256 MiB by default) and a time limit (30 s; uploads 300 s). Every route but `/health`,
+//! `/ready` and the documentation needs an API key (see [`auth`]).
 
 pub mod api;
 pub mod auth;
@@ -33,7 +33,7 @@ use utoipa::openapi::security::{HttpAuthScheme, HttpBuilder, SecurityScheme};
 pub use error::ApiError;
 pub use ingest::UploadLimits;
 pub use state::AppState;
-pub use worker::WorkerConfig;
+pub use worker::{WorkerConfig, Workers};
 
 /// Body limit of every route but uploads, bytes.
 pub const JSON_BODY_LIMIT: usize = 1 << 20;
@@ -73,7 +73,8 @@ impl utoipa::Modify for SecurityAddon {
         api::history::list, api::history::latest, api::history::get, api::history::diff,
         api::history::figures,
         api::trends::term, api::trends::summary, api::trends::figure, api::trends::fleet,
-        api::keys::create,
+        api::keys::create, api::keys::list, api::keys::revoke,
+        api::ready,
     ),
     components(schemas(jobs::IdentifyParams, jobs::DiagnoseParams, error::ErrorBody)),
     modifiers(&SecurityAddon),
@@ -132,7 +133,8 @@ pub fn router(state: AppState) -> Router {
         .route("/api/v1/machines/{id}/trends/summary", get(trends::summary))
         .route("/api/v1/machines/{id}/trends/figure", get(trends::figure))
         .route("/api/v1/fleet/drift", get(trends::fleet))
-        .route("/api/v1/keys", post(keys::create))
+        .route("/api/v1/keys", post(keys::create).get(keys::list))
+        .route("/api/v1/keys/{id}", axum::routing::delete(keys::revoke))
         .layer(DefaultBodyLimit::max(JSON_BODY_LIMIT))
         .layer(TimeoutLayer::with_status_code(
             StatusCode::REQUEST_TIMEOUT,
@@ -144,9 +146,13 @@ pub fn router(state: AppState) -> Router {
             state.clone(),
             auth::authenticate,
         ));
-    let open = Router::new().route("/health", get(health)).merge(
-        utoipa_swagger_ui::SwaggerUi::new("/docs").url("/api-docs/openapi.json", ApiDoc::openapi()),
-    );
+    let open = Router::new()
+        .route("/health", get(health))
+        .route("/ready", get(ready))
+        .merge(
+            utoipa_swagger_ui::SwaggerUi::new("/docs")
+                .url("/api-docs/openapi.json", ApiDoc::openapi()),
+        );
     let app = api
         .merge(open)
         .fallback(|| async { ApiError::NotFound("no such route".into()) })
@@ -167,19 +173,26 @@ pub struct ServeConfig {
 }
 
 /// The service on `store`: starts `worker.queue.concurrency` workers on the current
-/// runtime when `run_worker`, and returns the HTTP application. `mtcal serve`, the
-/// end-to-end tests and the load generator all start the service through here.
-pub fn app(store: Arc<dyn mtcal_store::Store>, worker: &WorkerConfig, run_worker: bool) -> Router {
+/// runtime when `run_worker`, and returns the HTTP application with them. `mtcal serve`,
+/// the end-to-end tests and the load generator all start the service through here.
+pub fn app(
+    store: Arc<dyn mtcal_store::Store>,
+    worker: &WorkerConfig,
+    run_worker: bool,
+) -> (Router, Workers) {
     let wake = Arc::new(tokio::sync::Notify::new());
-    if run_worker {
-        worker::spawn_workers(store.clone(), worker.clone(), wake.clone());
-    }
-    router(AppState {
+    let workers = if run_worker {
+        worker::spawn_workers(store.clone(), worker.clone(), wake.clone())
+    } else {
+        Workers::none()
+    };
+    let router = router(AppState {
         store,
         limits: worker.limits,
         max_attempts: worker.queue.max_attempts,
         wake,
-    })
+    });
+    (router, workers)
 }
 
 /// Starts the service on `store` on a free port of 127.0.0.1, served in the background of
@@ -191,27 +204,66 @@ pub async fn spawn_local(
 ) -> std::io::Result<SocketAddr> {
     let listener = tokio::net::TcpListener::bind("127.0.0.1:0").await?;
     let addr = listener.local_addr()?;
-    let app = app(store, worker, run_worker);
-    tokio::spawn(async move { axum::serve(listener, app).await });
+    let (app, _workers) = app(store, worker, run_worker);
+    tokio::spawn(async move {
+        let _keep = _workers;
+        axum::serve(listener, app).await
+    });
     Ok(addr)
 }
 
 /// Opens the store `db_url` names and starts `worker.queue.concurrency` workers on the
 /// current runtime (`mtcal worker`: no HTTP); they poll the queue, so they need no
-/// signal from the API process that queued the job. Returns how many were started.
-pub async fn run_workers(db_url: &str, worker: WorkerConfig) -> anyhow::Result<usize> {
+/// signal from the API process that queued the job.
+pub async fn run_workers(db_url: &str, worker: WorkerConfig) -> anyhow::Result<Workers> {
     let store = mtcal_store::open(db_url).await?;
-    let handles = worker::spawn_workers(store, worker, Arc::new(tokio::sync::Notify::new()));
-    Ok(handles.len())
+    Ok(worker::spawn_workers(
+        store,
+        worker,
+        Arc::new(tokio::sync::Notify::new()),
+    ))
 }
 
-/// Opens the store, starts the workers and serves until the process ends. `ready` is
-/// called with the bound address (port 0 picks a free one).
-pub async fn serve(cfg: ServeConfig, ready: impl FnOnce(SocketAddr)) -> anyhow::Result<()> {
+/// Resolves on SIGTERM or SIGINT (Ctrl-C).
+pub async fn shutdown_signal() {
+    let ctrl_c = async {
+        let _ = tokio::signal::ctrl_c().await;
+    };
+    #[cfg(unix)]
+    let term = async {
+        match tokio::signal::unix::signal(tokio::signal::unix::SignalKind::terminate()) {
+            Ok(mut s) => {
+                s.recv().await;
+            }
+            Err(_) => std::future::pending::<()>().await,
+        }
+    };
+    #[cfg(not(unix))]
+    let term = std::future::pending::<()>();
+    tokio::select! {
+        _ = ctrl_c => {}
+        _ = term => {}
+    }
+}
+
+/// Opens the store, starts the workers and serves until `stop` resolves (`mtcal serve`:
+/// [`shutdown_signal`]); then stops accepting connections, lets requests in flight end,
+/// and shuts the workers down ([`Workers::shutdown`]: running jobs finish within the
+/// grace period or are handed back). `ready` is called with the bound address (port 0
+/// picks a free one).
+pub async fn serve(
+    cfg: ServeConfig,
+    ready: impl FnOnce(SocketAddr),
+    stop: impl std::future::Future<Output = ()> + Send + 'static,
+) -> anyhow::Result<()> {
     let store = mtcal_store::open(&cfg.db_url).await?;
     let listener = tokio::net::TcpListener::bind(cfg.listen).await?;
-    let app = app(store, &cfg.worker, cfg.run_worker);
+    let (app, workers) = app(store, &cfg.worker, cfg.run_worker);
     ready(listener.local_addr()?);
-    axum::serve(listener, app).await?;
+    axum::serve(listener, app)
+        .with_graceful_shutdown(stop)
+        .await?;
+    tracing::info!("stopping: no new connections; workers finishing or handing back jobs");
+    workers.shutdown().await;
     Ok(())
 }

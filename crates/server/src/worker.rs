@@ -5,6 +5,11 @@
 //! without retry; transient trouble or a panic → back to the queue after the backoff,
 //! failed once the attempts are spent; cancellation seen at a heartbeat → cancelled
 //! (the blocking computation is abandoned, its result discarded).
+//!
+//! Shutdown ([`Workers::shutdown`], on SIGTERM or Ctrl-C): the workers stop claiming;
+//! a running job has the grace period ([`WorkerConfig::grace`]) to finish, after which
+//! it is handed back to the queue (`release_job`: queued at once, the attempt not
+//! counted), so another worker claims it without waiting for the lease to expire.
 
 use crate::ingest::UploadLimits;
 use crate::jobs::{self, JobError, JobInput};
@@ -23,6 +28,9 @@ pub struct WorkerConfig {
     /// Testing aid: pause this long after loading a job's input, before solving
     /// (heartbeats continue), so that tests can kill a worker mid-job.
     pub pause_before_solve_ms: u64,
+    /// How long a running job may take to finish once shutdown is asked for, before it
+    /// is handed back to the queue.
+    pub grace: Duration,
 }
 
 impl Default for WorkerConfig {
@@ -32,6 +40,40 @@ impl Default for WorkerConfig {
             worker_id: format!("w{}", &uuid::Uuid::new_v4().simple().to_string()[..8]),
             limits: UploadLimits::default(),
             pause_before_solve_ms: 0,
+            grace: Duration::from_secs(20),
+        }
+    }
+}
+
+/// The worker loops of one process, and the switch that stops them.
+pub struct Workers {
+    handles: Vec<tokio::task::JoinHandle<()>>,
+    stop: watch::Sender<bool>,
+}
+
+impl Workers {
+    /// No workers (an API-only process).
+    pub fn none() -> Workers {
+        Workers {
+            handles: Vec::new(),
+            stop: watch::channel(false).0,
+        }
+    }
+
+    pub fn len(&self) -> usize {
+        self.handles.len()
+    }
+
+    pub fn is_empty(&self) -> bool {
+        self.handles.is_empty()
+    }
+
+    /// Stops claiming, lets running jobs finish within the grace period, hands the others
+    /// back to the queue, and returns when every loop has ended.
+    pub async fn shutdown(self) {
+        let _ = self.stop.send(true);
+        for h in self.handles {
+            let _ = h.await;
         }
     }
 }
@@ -39,26 +81,41 @@ impl Default for WorkerConfig {
 /// Starts `concurrency` worker loops on the current runtime. `wake` is signalled by the
 /// API when it enqueues a job, so that an idle worker of this process claims it at once
 /// (the poll interval only matters for jobs submitted through another process).
-pub fn spawn_workers(
-    store: Arc<dyn Store>,
-    cfg: WorkerConfig,
-    wake: Arc<Notify>,
-) -> Vec<tokio::task::JoinHandle<()>> {
-    (0..cfg.queue.concurrency.max(1))
+pub fn spawn_workers(store: Arc<dyn Store>, cfg: WorkerConfig, wake: Arc<Notify>) -> Workers {
+    let (stop, stopping) = watch::channel(false);
+    let handles = (0..cfg.queue.concurrency.max(1))
         .map(|slot| {
             let store = store.clone();
             let cfg = cfg.clone();
             let wake = wake.clone();
-            tokio::spawn(async move { worker_loop(store, cfg, slot, wake).await })
+            let stopping = stopping.clone();
+            tokio::spawn(async move { worker_loop(store, cfg, slot, wake, stopping).await })
         })
-        .collect()
+        .collect();
+    Workers { handles, stop }
 }
 
-async fn worker_loop(store: Arc<dyn Store>, cfg: WorkerConfig, slot: usize, wake: Arc<Notify>) {
+/// Resolves once shutdown has been asked for (never, if the switch is dropped unset).
+async fn stop_requested(mut stopping: watch::Receiver<bool>) {
+    if stopping.wait_for(|s| *s).await.is_err() {
+        std::future::pending::<()>().await;
+    }
+}
+
+async fn worker_loop(
+    store: Arc<dyn Store>,
+    cfg: WorkerConfig,
+    slot: usize,
+    wake: Arc<Notify>,
+    stopping: watch::Receiver<bool>,
+) {
     let me = format!("{}-{slot}", cfg.worker_id);
     let reap_every = Duration::from_millis((cfg.queue.lease_ms / 2).max(100) as u64);
     let mut last_reap: Option<Instant> = None;
     loop {
+        if *stopping.borrow() {
+            return;
+        }
         if last_reap.is_none_or(|t| t.elapsed() >= reap_every) {
             match store.reap_expired().await {
                 Ok(n) if n > 0 => tracing::warn!(n, "requeued jobs whose lease expired"),
@@ -68,11 +125,12 @@ async fn worker_loop(store: Arc<dyn Store>, cfg: WorkerConfig, slot: usize, wake
             last_reap = Some(Instant::now());
         }
         match store.claim_job(&me, cfg.queue.lease_ms).await {
-            Ok(Some(job)) => run_job(&store, &cfg, &me, job).await,
+            Ok(Some(job)) => run_job(&store, &cfg, &me, job, stopping.clone()).await,
             Ok(None) => {
                 tokio::select! {
                     _ = wake.notified() => {}
                     _ = tokio::time::sleep(Duration::from_millis(cfg.queue.poll_ms)) => {}
+                    _ = stop_requested(stopping.clone()) => {}
                 }
             }
             Err(e) => {
@@ -87,9 +145,17 @@ async fn worker_loop(store: Arc<dyn Store>, cfg: WorkerConfig, slot: usize, wake
 enum Stop {
     Cancel,
     LeaseLost,
+    /// Shutdown, and the grace period is over: hand the job back.
+    HandBack,
 }
 
-async fn run_job(store: &Arc<dyn Store>, cfg: &WorkerConfig, me: &str, job: Job) {
+async fn run_job(
+    store: &Arc<dyn Store>,
+    cfg: &WorkerConfig,
+    me: &str,
+    job: Job,
+    stopping: watch::Receiver<bool>,
+) {
     let lease = cfg.queue.lease_ms;
     let (stop_tx, mut stop_rx) = watch::channel(None::<u8>);
     // Heartbeat: extend the lease every third of it, and learn about cancellation.
@@ -126,12 +192,17 @@ async fn run_job(store: &Arc<dyn Store>, cfg: &WorkerConfig, me: &str, job: Job)
             Err(e) => Err(JobError::Transient(format!("worker panicked: {e}"))),
         }
     };
+    let grace = cfg.grace;
     let outcome = tokio::select! {
         out = work => Ok(out),
         _ = stop_rx.changed() => Err(match *stop_rx.borrow() {
             Some(0) => Stop::Cancel,
             _ => Stop::LeaseLost,
         }),
+        _ = async move {
+            stop_requested(stopping).await;
+            tokio::time::sleep(grace).await;
+        } => Err(Stop::HandBack),
     };
     hb.abort();
     let recorded = match outcome {
@@ -162,6 +233,10 @@ async fn run_job(store: &Arc<dyn Store>, cfg: &WorkerConfig, me: &str, job: Job)
         }
         Err(Stop::Cancel) => store.finish_cancelled(&job.id, me).await,
         Err(Stop::LeaseLost) => Err(StoreError::LeaseLost(job.id.clone())),
+        Err(Stop::HandBack) => {
+            tracing::warn!(job = %job.id, "shutting down: job handed back to the queue");
+            store.release_job(&job.id, me).await
+        }
     };
     match recorded {
         Ok(j) => tracing::info!(job = %j.id, state = j.state.as_str(), "job finished"),

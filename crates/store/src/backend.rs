@@ -476,6 +476,48 @@ impl Store for This {
         })
     }
 
+    fn list_keys(&self) -> StoreFuture<'_, Vec<ApiKey>> {
+        Box::pin(async move {
+            let q = format!("SELECT {KEY_COLUMNS} FROM api_keys ORDER BY created_at, id");
+            sqlx::query(sqlx::AssertSqlSafe(q))
+                .fetch_all(&self.pool)
+                .await
+                .db()?
+                .iter()
+                .map(rows::api_key)
+                .collect()
+        })
+    }
+
+    fn revoke_key<'a>(&'a self, id: &'a str) -> StoreFuture<'a, ApiKey> {
+        Box::pin(async move {
+            sqlx::query("UPDATE api_keys SET revoked_at = $2 WHERE id = $1 AND revoked_at IS NULL")
+                .bind(id)
+                .bind(now_rfc3339())
+                .execute(&self.pool)
+                .await
+                .db()?;
+            let q = format!("SELECT {KEY_COLUMNS} FROM api_keys WHERE id = $1");
+            let row = row_by_id(&self.pool, q, id, "key").await?;
+            rows::api_key(&row)
+        })
+    }
+
+    fn pending_migrations(&self) -> StoreFuture<'_, Vec<i64>> {
+        Box::pin(async move {
+            let applied: Vec<i64> =
+                sqlx::query_scalar("SELECT version FROM _sqlx_migrations WHERE success")
+                    .fetch_all(&self.pool)
+                    .await
+                    .db()?;
+            Ok(dialect::MIGRATOR
+                .iter()
+                .map(|m| m.version)
+                .filter(|v| !applied.contains(v))
+                .collect())
+        })
+    }
+
     fn row_counts(&self) -> StoreFuture<'_, RowCounts> {
         Box::pin(async move {
             let r = sqlx::query(rows::ROW_COUNTS)
@@ -676,6 +718,29 @@ impl Queue for This {
             .bind(message)
             .bind(retry_after_ms.map(|delay| now_ms() + delay))
             .bind(now_rfc3339())
+            .execute(&self.pool)
+            .await
+            .db()?;
+            lease_held(done.rows_affected(), id)?;
+            self.job(id).await
+        })
+    }
+
+    fn release_job<'a>(&'a self, id: &'a str, worker: &'a str) -> StoreFuture<'a, Job> {
+        Box::pin(async move {
+            let done = sqlx::query(
+                "UPDATE jobs SET \
+                   state = CASE WHEN cancel_requested = 1 THEN 'cancelled' ELSE 'queued' END, \
+                   finished_at = CASE WHEN cancel_requested = 1 THEN $3 ELSE NULL END, \
+                   attempts = CASE WHEN attempts > 0 THEN attempts - 1 ELSE 0 END, \
+                   run_after_ms = $4, lease_owner = NULL, lease_expires_ms = NULL, \
+                   progress = 0, progress_message = 'handed back by a stopping worker' \
+                 WHERE id = $1 AND state = 'running' AND lease_owner = $2",
+            )
+            .bind(id)
+            .bind(worker)
+            .bind(now_rfc3339())
+            .bind(now_ms())
             .execute(&self.pool)
             .await
             .db()?;

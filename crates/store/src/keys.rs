@@ -51,6 +51,8 @@ pub struct ApiKey {
     pub scope: Scope,
     pub label: String,
     pub created_at: String,
+    /// When the key was revoked (RFC 3339); a revoked key authenticates nothing.
+    pub revoked_at: Option<String>,
 }
 
 /// A key about to be stored: the record, the secret (shown once, never stored) and the
@@ -73,6 +75,7 @@ impl NewKey {
                 scope,
                 label: label.to_string(),
                 created_at: crate::now_rfc3339(),
+                revoked_at: None,
             },
             hash: hash_secret(&secret),
             secret,

@@ -96,6 +96,15 @@ pub trait Store: Queue {
     /// Creates a key; returns it with the secret, which is not stored.
     fn create_key<'a>(&'a self, scope: Scope, label: &'a str) -> StoreFuture<'a, (ApiKey, String)>;
     fn key_by_secret<'a>(&'a self, secret: &'a str) -> StoreFuture<'a, Option<ApiKey>>;
+    /// Every key, revoked ones included, oldest first (never a secret or a hash).
+    fn list_keys(&self) -> StoreFuture<'_, Vec<ApiKey>>;
+    /// Revokes key `id` (from now on it authenticates nothing); revoking a revoked key
+    /// keeps its first revocation time. Not found: [`StoreError::NotFound`].
+    fn revoke_key<'a>(&'a self, id: &'a str) -> StoreFuture<'a, ApiKey>;
+
+    /// Migrations this build embeds that the database has not applied (empty: ready).
+    /// Fails when the database cannot be reached.
+    fn pending_migrations(&self) -> StoreFuture<'_, Vec<i64>>;
 
     fn row_counts(&self) -> StoreFuture<'_, RowCounts>;
 }

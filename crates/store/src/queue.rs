@@ -176,6 +176,10 @@ pub trait Queue: Send + Sync + 'static {
         message: &'a str,
         retry_after_ms: Option<i64>,
     ) -> StoreFuture<'a, Job>;
+    /// Hands a running job back to the queue (a worker that is stopping): queued at once,
+    /// lease cleared, the attempt not counted, so another worker claims it without waiting
+    /// for the lease to expire. A job whose cancellation was requested is cancelled.
+    fn release_job<'a>(&'a self, id: &'a str, worker: &'a str) -> StoreFuture<'a, Job>;
     /// Marks a running job whose cancellation was requested as cancelled.
     fn finish_cancelled<'a>(&'a self, id: &'a str, worker: &'a str) -> StoreFuture<'a, Job>;
     /// Requeues (or fails, when out of attempts) running jobs whose lease has expired;

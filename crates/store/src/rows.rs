@@ -73,7 +73,7 @@ pub(crate) const DATASET_COLUMNS: &str =
     "id, machine_id, kind, measured_at, uploaded_at, samples, total_bytes, sha256";
 
 /// Columns of an API key (never its hash).
-pub(crate) const KEY_COLUMNS: &str = "id, prefix, scope, label, created_at";
+pub(crate) const KEY_COLUMNS: &str = "id, prefix, scope, label, created_at, revoked_at";
 
 pub(crate) fn machine(r: &impl Columns) -> Result<Machine> {
     Ok(Machine {
@@ -192,6 +192,7 @@ pub(crate) fn api_key(r: &impl Columns) -> Result<ApiKey> {
             .ok_or_else(|| StoreError::Backend(format!("unknown scope {scope:?}")))?,
         label: r.text("label")?,
         created_at: r.text("created_at")?,
+        revoked_at: r.opt_text("revoked_at")?,
     })
 }
 

@@ -59,6 +59,9 @@ stories!(
     results_in_time_order_with_baseline,
     figures_trend_by_name_and_bad_ones_store_nothing,
     keys_are_found_by_secret_only,
+    keys_are_listed_and_a_revoked_key_authenticates_nothing,
+    a_released_job_is_claimable_at_once_without_spending_an_attempt,
+    migrations_are_all_applied,
 );
 
 fn machine(id: &str) -> Machine {
@@ -448,6 +451,66 @@ async fn keys_are_found_by_secret_only(s: &dyn Store) {
     assert_ne!(other_secret, secret);
     let found = s.key_by_secret(&other_secret).await.unwrap().unwrap();
     assert_eq!((found.id, found.scope), (other.id, Scope::Read));
+}
+
+async fn keys_are_listed_and_a_revoked_key_authenticates_nothing(s: &dyn Store) {
+    let (a, secret_a) = s.create_key(Scope::Write, "line 1").await.unwrap();
+    let (b, secret_b) = s.create_key(Scope::Read, "dashboard").await.unwrap();
+    let listed = s.list_keys().await.unwrap();
+    assert_eq!(listed.len(), 2);
+    assert!(listed.iter().all(|k| k.revoked_at.is_none()));
+    assert!(listed.iter().any(|k| k.id == a.id && k.label == "line 1"));
+    let revoked = s.revoke_key(&a.id).await.unwrap();
+    let when = revoked.revoked_at.clone().expect("revocation time");
+    assert!(s.key_by_secret(&secret_a).await.unwrap().is_none());
+    assert_eq!(s.key_by_secret(&secret_b).await.unwrap().unwrap().id, b.id);
+    // Revoking again keeps the first time; an unknown key is not found.
+    assert_eq!(s.revoke_key(&a.id).await.unwrap().revoked_at, Some(when));
+    assert!(matches!(
+        s.revoke_key("key_nope").await,
+        Err(StoreError::NotFound(_))
+    ));
+    let listed = s.list_keys().await.unwrap();
+    assert_eq!(listed.iter().filter(|k| k.revoked_at.is_some()).count(), 1);
+}
+
+async fn a_released_job_is_claimable_at_once_without_spending_an_attempt(s: &dyn Store) {
+    s.create_machine(&machine("M1")).await.unwrap();
+    let j = s.enqueue(new_job("M1")).await.unwrap();
+    let a = s.claim_job("w1", 600_000).await.unwrap().unwrap();
+    assert_eq!(a.attempts, 1);
+    // Only the lease holder may hand it back.
+    assert!(matches!(
+        s.release_job(&j.id, "w2").await,
+        Err(StoreError::LeaseLost(_))
+    ));
+    let back = s.release_job(&j.id, "w1").await.unwrap();
+    assert_eq!((back.state, back.attempts), (JobState::Queued, 0));
+    // Claimable at once by another worker (the lease of 10 minutes is not waited for).
+    let b = s.claim_job("w2", 60_000).await.unwrap().unwrap();
+    assert_eq!((b.id.as_str(), b.attempts), (j.id.as_str(), 1));
+    // The first worker can no longer finish it.
+    assert!(matches!(
+        s.complete_job(&j.id, "w1", result("M1", "2026-01-01T00:00:00Z", 1.0))
+            .await,
+        Err(StoreError::LeaseLost(_))
+    ));
+    s.complete_job(&j.id, "w2", result("M1", "2026-01-01T00:00:00Z", 1.0))
+        .await
+        .unwrap();
+    assert_eq!(s.row_counts().await.unwrap().results, 1);
+    // A running job whose cancellation was asked for is cancelled when handed back.
+    let k = s.enqueue(new_job("M1")).await.unwrap();
+    s.claim_job("w1", 60_000).await.unwrap().unwrap();
+    s.cancel_job(&k.id).await.unwrap();
+    assert_eq!(
+        s.release_job(&k.id, "w1").await.unwrap().state,
+        JobState::Cancelled
+    );
+}
+
+async fn migrations_are_all_applied(s: &dyn Store) {
+    assert_eq!(s.pending_migrations().await.unwrap(), Vec::<i64>::new());
 }
 
 /// The secret of a key appears nowhere in the SQLite files (database and write-ahead log).

@@ -1,10 +1,11 @@
-//! `/api/v1/keys` (admin): create API keys.
+//! `/api/v1/keys` (admin): create, list and revoke API keys. Secrets are shown once, at
+//! creation; a list shows prefixes and labels, never a secret or its hash.
 
 use crate::AppState;
 use crate::auth::AdminKey;
 use crate::error::{ApiError, ApiJson, ErrorBody};
 use axum::Json;
-use axum::extract::State;
+use axum::extract::{Path, State};
 use axum::http::StatusCode;
 use mtcal_store::{ApiKey, Scope};
 use serde::{Deserialize, Serialize};
@@ -34,4 +35,28 @@ pub async fn create(
 ) -> Result<(StatusCode, Json<CreatedKey>), ApiError> {
     let (key, secret) = s.store.create_key(k.scope, &k.label).await?;
     Ok((StatusCode::CREATED, Json(CreatedKey { key, secret })))
+}
+
+#[utoipa::path(operation_id = "keys_list", summary = "List API keys, revoked ones included (admin)", get, path = "/api/v1/keys", tag = "keys",
+    security(("api_key" = [])),
+    responses((status = 200, body = Vec<ApiKey>), (status = 401, body = ErrorBody), (status = 403, body = ErrorBody)))]
+pub async fn list(
+    _key: AdminKey,
+    State(s): State<AppState>,
+) -> Result<Json<Vec<ApiKey>>, ApiError> {
+    Ok(Json(s.store.list_keys().await?))
+}
+
+/// Revokes a key: from the next request on it authenticates nothing (401). Revoking a
+/// revoked key changes nothing and answers the key as it is.
+#[utoipa::path(operation_id = "keys_revoke", summary = "Revoke an API key (admin)", delete, path = "/api/v1/keys/{id}", tag = "keys",
+    params(("id" = String, Path, description = "Key id (`key_…`)")),
+    security(("api_key" = [])),
+    responses((status = 200, body = ApiKey), (status = 401, body = ErrorBody), (status = 403, body = ErrorBody), (status = 404, body = ErrorBody)))]
+pub async fn revoke(
+    _key: AdminKey,
+    State(s): State<AppState>,
+    Path(id): Path<String>,
+) -> Result<Json<ApiKey>, ApiError> {
+    Ok(Json(s.store.revoke_key(&id).await?))
 }

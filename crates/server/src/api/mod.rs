@@ -7,8 +7,12 @@ pub mod keys;
 pub mod machines;
 pub mod trends;
 
+use crate::AppState;
+use crate::error::{ApiError, ErrorBody};
 use axum::Json;
+use axum::extract::State;
 use serde::{Deserialize, Serialize};
+use std::time::Duration;
 use utoipa::ToSchema;
 
 #[derive(Debug, Clone, Serialize, Deserialize, ToSchema)]
@@ -17,11 +21,48 @@ pub struct Health {
     pub version: String,
 }
 
-/// Liveness (no key needed).
-#[utoipa::path(operation_id = "health", get, path = "/health", tag = "service", responses((status = 200, body = Health)))]
+/// Liveness (no key needed): the process answers; says nothing of the database (see
+/// [`ready`]).
+#[utoipa::path(operation_id = "health", summary = "Liveness", get, path = "/health", tag = "service", responses((status = 200, body = Health)))]
 pub async fn health() -> Json<Health> {
     Json(Health {
         status: "ok".into(),
         version: env!("CARGO_PKG_VERSION").into(),
     })
+}
+
+#[derive(Debug, Clone, Serialize, Deserialize, ToSchema)]
+pub struct Ready {
+    /// `ready`.
+    pub status: String,
+    pub version: String,
+}
+
+/// How long `/ready` waits for the database before it answers 503.
+pub const READY_TIMEOUT: Duration = Duration::from_secs(3);
+
+/// Readiness (no key needed): the database answers within 3 s and has every migration
+/// this build embeds. 503 with the reason otherwise, so a load balancer or an
+/// orchestrator sends no traffic to a process that cannot serve it.
+#[utoipa::path(operation_id = "ready", summary = "Readiness: database reachable, migrations applied", get, path = "/ready", tag = "service",
+    responses((status = 200, body = Ready), (status = 503, body = ErrorBody)))]
+pub async fn ready(State(s): State<AppState>) -> Result<Json<Ready>, ApiError> {
+    let pending = tokio::time::timeout(READY_TIMEOUT, s.store.pending_migrations())
+        .await
+        .map_err(|_| {
+            ApiError::NotReady(format!(
+                "the database did not answer within {} s",
+                READY_TIMEOUT.as_secs()
+            ))
+        })?
+        .map_err(|e| ApiError::NotReady(format!("the database cannot be reached: {e}")))?;
+    if !pending.is_empty() {
+        return Err(ApiError::NotReady(format!(
+            "migrations not applied: {pending:?}"
+        )));
+    }
+    Ok(Json(Ready {
+        status: "ready".into(),
+        version: env!("CARGO_PKG_VERSION").into(),
+    }))
 }

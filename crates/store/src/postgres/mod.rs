@@ -19,6 +19,8 @@ type This = PgStore;
 
 /// The statements whose SQL differs from SQLite's.
 mod dialect {
+    /// The migrations of `migrations/postgres`, embedded at build time.
+    pub static MIGRATOR: sqlx::migrate::Migrator = sqlx::migrate!("../../migrations/postgres");
     /// The next submission number: the identity column's sequence.
     pub const NEXT_SEQ: &str = "DEFAULT";
     /// Row locking of the claim's sub-select: concurrent claimers skip a row another
@@ -55,10 +57,7 @@ impl PgStore {
             .connect_with(opts)
             .await
             .db()?;
-        sqlx::migrate!("../../migrations/postgres")
-            .run(&pool)
-            .await
-            .db()?;
+        dialect::MIGRATOR.run(&pool).await.db()?;
         Ok(PgStore { pool })
     }
 }

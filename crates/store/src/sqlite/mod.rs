@@ -15,6 +15,8 @@ type This = SqliteStore;
 
 /// The statements whose SQL differs from PostgreSQL's.
 mod dialect {
+    /// The migrations of `migrations/sqlite`, embedded at build time.
+    pub static MIGRATOR: sqlx::migrate::Migrator = sqlx::migrate!("../../migrations/sqlite");
     /// The next submission number of `jobs.seq` (writers are serialised, so no race).
     pub const NEXT_SEQ: &str = "(SELECT COALESCE(MAX(seq), 0) + 1 FROM jobs)";
     /// Row locking of the claim's sub-select: none needed.
@@ -58,10 +60,7 @@ impl SqliteStore {
             .connect_with(opts)
             .await
             .db()?;
-        sqlx::migrate!("../../migrations/sqlite")
-            .run(&pool)
-            .await
-            .db()?;
+        dialect::MIGRATOR.run(&pool).await.db()?;
         Ok(SqliteStore { pool })
     }
 }
