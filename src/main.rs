@@ -34,7 +34,7 @@ enum Command {
     /// Run the HTTP API and its worker.
     Serve(cli::serve::Args),
     /// Run only the worker (API and worker processes on several hosts, one database).
-    Worker(cli::serve::WorkerArgs),
+    Worker(cli::serve::WorkerCmd),
     /// Upload a session to a running service and run identification on it.
     Submit(cli::submit::Args),
     /// Start the service on a fresh database with a simulated fleet to look at.

@@ -120,19 +120,54 @@ pub fn run(args: Args) -> anyhow::Result<ExitCode> {
     Ok(ExitCode::SUCCESS)
 }
 
+#[derive(clap::Args)]
+pub struct WorkerCmd {
+    #[command(flatten)]
+    pub worker: WorkerArgs,
+    /// Also serve `/health`, `/ready` and `/metrics` (Prometheus) on this address, for a
+    /// worker process that has no API.
+    #[arg(long, env = "MTCAL_METRICS_LISTEN")]
+    pub metrics_listen: Option<SocketAddr>,
+}
+
 /// `mtcal worker`: claims and runs jobs of the database until SIGTERM or Ctrl-C; then
 /// it stops claiming, lets running jobs finish within `--grace-seconds` and hands the
 /// others back to the queue, where another worker claims them at once.
-pub fn run_worker(args: WorkerArgs) -> anyhow::Result<ExitCode> {
+pub fn run_worker(cmd: WorkerCmd) -> anyhow::Result<ExitCode> {
+    let args = cmd.worker;
     init_logging(args.log_format);
     let rt = tokio::runtime::Runtime::new()?;
     rt.block_on(async {
-        let workers = mtcal_server::run_workers(&args.db, args.config()).await?;
+        let (store, workers) = mtcal_server::run_workers(&args.db, args.config()).await?;
+        let (stop_probes, probes_stopped) = tokio::sync::oneshot::channel::<()>();
+        let probes = match cmd.metrics_listen {
+            Some(addr) => {
+                let listener = tokio::net::TcpListener::bind(addr)
+                    .await
+                    .with_context(|| format!("--metrics-listen {addr}"))?;
+                println!(
+                    "mtcal: metrics on http://{}/metrics",
+                    listener.local_addr()?
+                );
+                Some(tokio::spawn(mtcal_server::serve_probes(
+                    store,
+                    listener,
+                    async move {
+                        let _ = probes_stopped.await;
+                    },
+                )))
+            }
+            None => None,
+        };
         println!("mtcal: {} worker(s) on {}", workers.len(), args.db);
         let _ = std::io::stdout().flush();
         mtcal_server::shutdown_signal().await;
         tracing::info!("stopping: finishing or handing back running jobs");
         workers.shutdown().await;
+        let _ = stop_probes.send(());
+        if let Some(p) = probes {
+            let _ = p.await;
+        }
         anyhow::Ok(())
     })
     .with_context(|| format!("working on {}", args.db))?;

@@ -44,6 +44,23 @@ async fn sensitivity_job_gives_the_library_result() {
     j.machine_id = Some("VMC-S".into());
     let id = app.client.submit(&j).await.unwrap().id;
     app.wait(&id, JobState::Succeeded).await;
+    // The worker recorded the job's run and queue wait in the process's metrics.
+    let metrics = reqwest::get(format!("{}/metrics", app.url))
+        .await
+        .unwrap()
+        .text()
+        .await
+        .unwrap();
+    for series in [
+        r#"mtcal_job_duration_seconds_count{kind="sensitivity",outcome="succeeded"}"#,
+        r#"mtcal_job_queue_wait_seconds_count{kind="sensitivity"}"#,
+    ] {
+        let n: f64 = metrics
+            .lines()
+            .find_map(|l| l.strip_prefix(series)?.trim().parse().ok())
+            .unwrap_or_else(|| panic!("no {series} in {metrics}"));
+        assert!(n >= 1.0, "{series} {n}");
+    }
     let doc = app.client.job_result(&id).await.unwrap();
     let mut req: mtcal_solver::sensitivity::SensitivityRequest = typed(&params);
     req.machine_id = "VMC-S".into();

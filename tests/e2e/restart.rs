@@ -104,8 +104,8 @@ async fn worker_killed_mid_job_finishes_the_job_exactly_once_after_restart() {
     assert_eq!(r.meta.job_id, job);
 }
 
-/// A running `mtcal worker`; killed on drop.
-struct Worker(Child);
+/// A running `mtcal worker` and the URL of its metrics (with `--metrics-listen`).
+struct Worker(Child, Option<String>);
 
 /// Sends SIGTERM to `child` and waits (at most 20 s) for it to exit; its exit status.
 fn terminate(child: &mut Child) -> std::process::ExitStatus {
@@ -139,12 +139,22 @@ impl Worker {
             .stderr(Stdio::null())
             .spawn()
             .expect("mtcal worker starts");
-        let mut line = String::new();
-        BufReader::new(child.stdout.take().unwrap())
-            .read_line(&mut line)
-            .unwrap();
-        assert!(line.contains("worker(s) on"), "{line:?}");
-        Worker(child)
+        let mut out = BufReader::new(child.stdout.take().unwrap());
+        let mut metrics = None;
+        loop {
+            let mut line = String::new();
+            assert!(out.read_line(&mut line).unwrap() > 0, "worker exited");
+            if line.contains("metrics on") {
+                metrics = line
+                    .split_whitespace()
+                    .find(|w| w.starts_with("http://"))
+                    .map(str::to_string);
+            }
+            if line.contains("worker(s) on") {
+                break;
+            }
+        }
+        Worker(child, metrics)
     }
 }
 
@@ -208,10 +218,26 @@ async fn a_worker_stopped_by_sigterm_hands_its_job_back_and_the_next_worker_clai
         (JobState::Queued, 0),
         "{back:?}"
     );
-    let _second = Worker::start(&db, &[]);
+    let second = Worker::start(&db, &["--metrics-listen", "127.0.0.1:0"]);
     let done = wait(&c, &job, JobState::Succeeded).await;
     assert_eq!(done.attempts, 1, "{done:?}");
     assert_eq!(store.row_counts().await.unwrap().results, 1);
+    // The worker process serves its own metrics: the job it ran, and the queue's gauges.
+    let metrics = reqwest::get(second.1.clone().expect("metrics URL"))
+        .await
+        .unwrap()
+        .text()
+        .await
+        .unwrap();
+    assert!(
+        metrics
+            .contains(r#"mtcal_job_duration_seconds_count{kind="identify",outcome="succeeded"} 1"#),
+        "{metrics}"
+    );
+    assert!(
+        metrics.contains(r#"mtcal_jobs{kind="identify",state="succeeded"} 1"#),
+        "{metrics}"
+    );
     // The API process also stops cleanly on SIGTERM.
     let status = terminate(&mut api.child);
     assert!(status.success(), "serve exit after SIGTERM: {status}");

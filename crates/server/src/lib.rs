@@ -6,13 +6,15 @@
 //!
 //! Limits: every route has a body-size limit (1 MiB; uploads [`ingest::UploadLimits`],
 //! 256 MiB by default) and a time limit (30 s; uploads 300 s). Every route but `/health`,
-//! `/ready` and the documentation needs an API key (see [`auth`]).
+//! `/ready`, `/metrics` ([`metrics`]) and the documentation needs an API key (see
+//! [`auth`]).
 
 pub mod api;
 pub mod auth;
 pub mod error;
 pub mod ingest;
 pub mod jobs;
+pub mod metrics;
 pub mod state;
 pub mod trends;
 pub mod web;
@@ -146,13 +148,9 @@ pub fn router(state: AppState) -> Router {
             state.clone(),
             auth::authenticate,
         ));
-    let open = Router::new()
-        .route("/health", get(health))
-        .route("/ready", get(ready))
-        .merge(
-            utoipa_swagger_ui::SwaggerUi::new("/docs")
-                .url("/api-docs/openapi.json", ApiDoc::openapi()),
-        );
+    let open = probes().merge(
+        utoipa_swagger_ui::SwaggerUi::new("/docs").url("/api-docs/openapi.json", ApiDoc::openapi()),
+    );
     let app = api
         .merge(open)
         .fallback(|| async { ApiError::NotFound("no such route".into()) })
@@ -160,6 +158,36 @@ pub fn router(state: AppState) -> Router {
         .with_state(state.clone());
     // The dashboard's pages answer their errors as pages, not JSON.
     app.merge(web::router(state))
+        .route_layer(axum::middleware::from_fn(metrics::track))
+}
+
+/// The routes without a key for load balancers, orchestrators and Prometheus:
+/// `/health`, `/ready`, `/metrics` (served by `mtcal serve` on its address and by
+/// `mtcal worker --metrics-listen`).
+fn probes() -> Router<AppState> {
+    Router::new()
+        .route("/health", get(api::health))
+        .route("/ready", get(api::ready))
+        .route("/metrics", get(metrics::serve_metrics))
+}
+
+/// Serves [`probes`] for a worker-only process on `listener` until `stop` resolves.
+pub async fn serve_probes(
+    store: Arc<dyn mtcal_store::Store>,
+    listener: tokio::net::TcpListener,
+    stop: impl std::future::Future<Output = ()> + Send + 'static,
+) -> std::io::Result<()> {
+    let app = probes()
+        .route_layer(axum::middleware::from_fn(metrics::track))
+        .with_state(AppState {
+            store,
+            limits: UploadLimits::default(),
+            max_attempts: 1,
+            wake: Arc::new(tokio::sync::Notify::new()),
+        });
+    axum::serve(listener, app)
+        .with_graceful_shutdown(stop)
+        .await
 }
 
 /// Settings of `mtcal serve`.
@@ -215,13 +243,14 @@ pub async fn spawn_local(
 /// Opens the store `db_url` names and starts `worker.queue.concurrency` workers on the
 /// current runtime (`mtcal worker`: no HTTP); they poll the queue, so they need no
 /// signal from the API process that queued the job.
-pub async fn run_workers(db_url: &str, worker: WorkerConfig) -> anyhow::Result<Workers> {
+pub async fn run_workers(
+    db_url: &str,
+    worker: WorkerConfig,
+) -> anyhow::Result<(Arc<dyn mtcal_store::Store>, Workers)> {
     let store = mtcal_store::open(db_url).await?;
-    Ok(worker::spawn_workers(
-        store,
-        worker,
-        Arc::new(tokio::sync::Notify::new()),
-    ))
+    let workers =
+        worker::spawn_workers(store.clone(), worker, Arc::new(tokio::sync::Notify::new()));
+    Ok((store, workers))
 }
 
 /// Resolves on SIGTERM or SIGINT (Ctrl-C).

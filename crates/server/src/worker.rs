@@ -192,6 +192,15 @@ async fn run_job(
             Err(e) => Err(JobError::Transient(format!("worker panicked: {e}"))),
         }
     };
+    let kind = job.kind.as_str();
+    let claimed = Instant::now();
+    if let Some(waited) = job
+        .started_at
+        .as_deref()
+        .and_then(|s| crate::metrics::seconds_between(&job.created_at, s))
+    {
+        crate::metrics::metrics().job_claimed(kind, waited);
+    }
     let grace = cfg.grace;
     let outcome = tokio::select! {
         out = work => Ok(out),
@@ -238,6 +247,12 @@ async fn run_job(
             store.release_job(&job.id, me).await
         }
     };
+    let outcome = match &recorded {
+        Ok(j) if j.state == mtcal_store::JobState::Queued => "requeued",
+        Ok(j) => j.state.as_str(),
+        Err(_) => "lost",
+    };
+    crate::metrics::metrics().job_finished(kind, outcome, claimed.elapsed().as_secs_f64());
     match recorded {
         Ok(j) => tracing::info!(job = %j.id, state = j.state.as_str(), "job finished"),
         Err(e) => tracing::warn!(job = %job.id, %e, "job outcome not recorded"),

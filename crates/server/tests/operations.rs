@@ -18,6 +18,16 @@ fn app(store: Arc<dyn Store>) -> axum::Router {
     })
 }
 
+/// The status and body of `req`.
+async fn call(app: &axum::Router, req: Request<Body>) -> (StatusCode, Vec<u8>) {
+    let resp = app.clone().oneshot(req).await.unwrap();
+    let status = resp.status();
+    let bytes = axum::body::to_bytes(resp.into_body(), 1 << 20)
+        .await
+        .unwrap();
+    (status, bytes.to_vec())
+}
+
 async fn send(
     app: &axum::Router,
     method: &str,
@@ -28,19 +38,8 @@ async fn send(
     if let Some(k) = key {
         r = r.header("authorization", format!("Bearer {k}"));
     }
-    let resp = app
-        .clone()
-        .oneshot(r.body(Body::empty()).unwrap())
-        .await
-        .unwrap();
-    let status = resp.status();
-    let bytes = axum::body::to_bytes(resp.into_body(), 1 << 20)
-        .await
-        .unwrap();
-    (
-        status,
-        serde_json::from_slice(&bytes).unwrap_or(Value::Null),
-    )
+    let (status, body) = call(app, r.body(Body::empty()).unwrap()).await;
+    (status, serde_json::from_slice(&body).unwrap_or(Value::Null))
 }
 
 #[tokio::test]
@@ -103,4 +102,81 @@ async fn admin_lists_and_revokes_keys_and_a_revoked_key_is_refused_at_once() {
     assert_eq!(s, StatusCode::UNAUTHORIZED, "{b}");
     let (s, _) = send(&app, "DELETE", "/api/v1/keys/key_nope", Some(&admin)).await;
     assert_eq!(s, StatusCode::NOT_FOUND);
+}
+
+async fn text(app: &axum::Router, uri: &str) -> (StatusCode, String) {
+    let (status, body) = call(
+        app,
+        Request::builder().uri(uri).body(Body::empty()).unwrap(),
+    )
+    .await;
+    (status, String::from_utf8(body).unwrap())
+}
+
+/// The value of the sample `name{labels}` in a text exposition (labels as written).
+fn sample(exposition: &str, series: &str) -> Option<f64> {
+    exposition
+        .lines()
+        .find_map(|l| l.strip_prefix(series)?.trim().parse().ok())
+}
+
+#[tokio::test]
+async fn metrics_count_requests_by_route_template_and_jobs_by_state_without_a_key() {
+    let store = mtcal_store::open("sqlite::memory:").await.unwrap();
+    let (_, read) = store.create_key(Scope::Read, "r").await.unwrap();
+    let app = app(store.clone());
+    let series =
+        r#"mtcal_http_requests_total{method="GET",route="/api/v1/machines/{id}",status="404"}"#;
+    let (_, before) = text(&app, "/metrics").await;
+    let n0 = sample(&before, series).unwrap_or(0.0);
+    for id in ["VMC-SECRET-1", "VMC-SECRET-2"] {
+        let (s, _) = send(&app, "GET", &format!("/api/v1/machines/{id}"), Some(&read)).await;
+        assert_eq!(s, StatusCode::NOT_FOUND);
+    }
+    let (s, _) = send(&app, "GET", "/api/v1/machines/VMC-1", None).await;
+    assert_eq!(s, StatusCode::UNAUTHORIZED);
+    // Jobs by kind and state, from the store at the scrape.
+    let m = mtcal_store::Machine {
+        id: "M1".into(),
+        name: "M1".into(),
+        topology: Default::default(),
+        travel_mm: [("X".to_string(), [-100.0, 100.0])].into(),
+        site: None,
+        tags: vec![],
+        baseline_result_id: None,
+        created_at: String::new(),
+        updated_at: String::new(),
+    };
+    store.create_machine(&m).await.unwrap();
+    for _ in 0..3 {
+        store
+            .enqueue(mtcal_store::NewJob {
+                kind: mtcal_store::JobKind::Sensitivity,
+                machine_id: Some("M1".into()),
+                dataset_id: None,
+                params: serde_json::json!({}),
+                max_attempts: 3,
+            })
+            .await
+            .unwrap();
+    }
+    let (s, after) = text(&app, "/metrics").await;
+    assert_eq!(s, StatusCode::OK);
+    assert_eq!(sample(&after, series), Some(n0 + 2.0), "{after}");
+    assert!(
+        !after.contains("VMC-SECRET"),
+        "routes by template, never by id"
+    );
+    let unauthorized =
+        r#"mtcal_http_requests_total{method="GET",route="/api/v1/machines/{id}",status="401"}"#;
+    assert!(
+        sample(&after, unauthorized).is_some_and(|n| n >= 1.0),
+        "{after}"
+    );
+    assert_eq!(
+        sample(&after, r#"mtcal_jobs{kind="sensitivity",state="queued"}"#),
+        Some(3.0),
+        "{after}"
+    );
+    assert!(after.contains("mtcal_http_request_duration_seconds_bucket"));
 }

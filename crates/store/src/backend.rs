@@ -726,6 +726,26 @@ impl Queue for This {
         })
     }
 
+    fn job_counts(&self) -> StoreFuture<'_, Vec<crate::queue::JobCount>> {
+        Box::pin(async move {
+            let rows = sqlx::query(
+                "SELECT kind, state, COUNT(*) AS n FROM jobs GROUP BY kind, state ORDER BY kind, state",
+            )
+            .fetch_all(&self.pool)
+            .await
+            .db()?;
+            rows.iter()
+                .map(|r| {
+                    Ok(crate::queue::JobCount {
+                        kind: r.text("kind")?,
+                        state: r.text("state")?,
+                        count: r.int("n")?,
+                    })
+                })
+                .collect()
+        })
+    }
+
     fn release_job<'a>(&'a self, id: &'a str, worker: &'a str) -> StoreFuture<'a, Job> {
         Box::pin(async move {
             let done = sqlx::query(

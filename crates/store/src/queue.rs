@@ -176,6 +176,9 @@ pub trait Queue: Send + Sync + 'static {
         message: &'a str,
         retry_after_ms: Option<i64>,
     ) -> StoreFuture<'a, Job>;
+    /// How many jobs there are of each kind in each state (states with none are left
+    /// out): the queue's gauges.
+    fn job_counts(&self) -> StoreFuture<'_, Vec<JobCount>>;
     /// Hands a running job back to the queue (a worker that is stopping): queued at once,
     /// lease cleared, the attempt not counted, so another worker claims it without waiting
     /// for the lease to expire. A job whose cancellation was requested is cancelled.
@@ -185,6 +188,14 @@ pub trait Queue: Send + Sync + 'static {
     /// Requeues (or fails, when out of attempts) running jobs whose lease has expired;
     /// returns how many.
     fn reap_expired<'a>(&'a self) -> StoreFuture<'a, u64>;
+}
+
+/// Number of jobs of one kind in one state.
+#[derive(Debug, Clone, PartialEq, Eq, Serialize, Deserialize)]
+pub struct JobCount {
+    pub kind: String,
+    pub state: String,
+    pub count: i64,
 }
 
 /// What a heartbeat learnt.

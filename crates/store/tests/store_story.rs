@@ -486,6 +486,13 @@ async fn a_released_job_is_claimable_at_once_without_spending_an_attempt(s: &dyn
     ));
     let back = s.release_job(&j.id, "w1").await.unwrap();
     assert_eq!((back.state, back.attempts), (JobState::Queued, 0));
+    let counts = s.job_counts().await.unwrap();
+    assert_eq!(counts.len(), 1, "{counts:?}");
+    assert_eq!(
+        (counts[0].state.as_str(), counts[0].count),
+        ("queued", 1),
+        "{counts:?}"
+    );
     // Claimable at once by another worker (the lease of 10 minutes is not waited for).
     let b = s.claim_job("w2", 60_000).await.unwrap().unwrap();
     assert_eq!((b.id.as_str(), b.attempts), (j.id.as_str(), 1));

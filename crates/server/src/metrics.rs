@@ -1,0 +1,216 @@
+//! Prometheus metrics of one process, served at `GET /metrics` (text exposition format
+//! of OpenMetrics, no key: counts and durations only, never a machine id or a secret;
+//! restrict it by network like the health probes).
+//!
+//! - `mtcal_http_requests_total{method, route, status}` and
+//!   `mtcal_http_request_duration_seconds{method, route}`: every request that matched a
+//!   route, by the route's template (`/api/v1/machines/{id}`), not the raw URI, so the
+//!   label set stays bounded.
+//! - `mtcal_jobs{kind, state}`: jobs in the database by kind and state, read from the
+//!   store at each scrape (the same from every process sharing the database).
+//! - `mtcal_job_duration_seconds{kind, outcome}` (claim to outcome) and
+//!   `mtcal_job_queue_wait_seconds{kind}` (submission to claim): recorded by this
+//!   process's workers.
+
+use axum::extract::{MatchedPath, Request, State};
+use axum::http::header;
+use axum::middleware::Next;
+use axum::response::{IntoResponse, Response};
+use prometheus_client::encoding::EncodeLabelSet;
+use prometheus_client::metrics::counter::Counter;
+use prometheus_client::metrics::family::Family;
+use prometheus_client::metrics::gauge::Gauge;
+use prometheus_client::metrics::histogram::{Histogram, exponential_buckets};
+use prometheus_client::registry::Registry;
+use std::sync::OnceLock;
+use std::time::Instant;
+
+#[derive(Clone, Debug, Hash, PartialEq, Eq, EncodeLabelSet)]
+struct RequestLabels {
+    method: String,
+    route: String,
+    status: u16,
+}
+
+#[derive(Clone, Debug, Hash, PartialEq, Eq, EncodeLabelSet)]
+struct RouteLabels {
+    method: String,
+    route: String,
+}
+
+#[derive(Clone, Debug, Hash, PartialEq, Eq, EncodeLabelSet)]
+struct JobLabels {
+    kind: String,
+    state: String,
+}
+
+#[derive(Clone, Debug, Hash, PartialEq, Eq, EncodeLabelSet)]
+struct OutcomeLabels {
+    kind: String,
+    outcome: String,
+}
+
+#[derive(Clone, Debug, Hash, PartialEq, Eq, EncodeLabelSet)]
+struct KindLabels {
+    kind: String,
+}
+
+/// The process's metrics and their registry.
+pub struct Metrics {
+    registry: Registry,
+    requests: Family<RequestLabels, Counter>,
+    latency: Family<RouteLabels, Histogram>,
+    jobs: Family<JobLabels, Gauge>,
+    job_duration: Family<OutcomeLabels, Histogram>,
+    queue_wait: Family<KindLabels, Histogram>,
+}
+
+/// The metrics of this process.
+pub fn metrics() -> &'static Metrics {
+    static METRICS: OnceLock<Metrics> = OnceLock::new();
+    METRICS.get_or_init(Metrics::new)
+}
+
+impl Metrics {
+    fn new() -> Metrics {
+        let mut registry = Registry::with_prefix("mtcal");
+        let requests = Family::<RequestLabels, Counter>::default();
+        // 1 ms … 65 s for requests; 0.1 s … 1.8 h for jobs and queue waits.
+        let latency = Family::<RouteLabels, Histogram>::new_with_constructor(|| {
+            Histogram::new(exponential_buckets(0.001, 2.0, 17))
+        });
+        let jobs = Family::<JobLabels, Gauge>::default();
+        let job_duration = Family::<OutcomeLabels, Histogram>::new_with_constructor(|| {
+            Histogram::new(exponential_buckets(0.1, 2.0, 17))
+        });
+        let queue_wait = Family::<KindLabels, Histogram>::new_with_constructor(|| {
+            Histogram::new(exponential_buckets(0.1, 2.0, 17))
+        });
+        registry.register(
+            "http_requests",
+            "HTTP requests by method, route template and status",
+            requests.clone(),
+        );
+        registry.register(
+            "http_request_duration_seconds",
+            "HTTP request latency by method and route template",
+            latency.clone(),
+        );
+        registry.register(
+            "jobs",
+            "Jobs in the database by kind and state",
+            jobs.clone(),
+        );
+        registry.register(
+            "job_duration_seconds",
+            "Job run time, from claim to outcome, by kind and outcome",
+            job_duration.clone(),
+        );
+        registry.register(
+            "job_queue_wait_seconds",
+            "Time a job waited in the queue, from submission to claim, by kind",
+            queue_wait.clone(),
+        );
+        Metrics {
+            registry,
+            requests,
+            latency,
+            jobs,
+            job_duration,
+            queue_wait,
+        }
+    }
+
+    /// Records a job's run (claim to `outcome`: succeeded, failed, retry, cancelled,
+    /// handed_back, lost).
+    pub fn job_finished(&self, kind: &str, outcome: &str, seconds: f64) {
+        self.job_duration
+            .get_or_create(&OutcomeLabels {
+                kind: kind.into(),
+                outcome: outcome.into(),
+            })
+            .observe(seconds);
+    }
+
+    /// Records how long a job waited before it was claimed.
+    pub fn job_claimed(&self, kind: &str, waited_seconds: f64) {
+        self.queue_wait
+            .get_or_create(&KindLabels { kind: kind.into() })
+            .observe(waited_seconds.max(0.0));
+    }
+
+    /// Sets the job gauges to `counts` (kinds and states not listed are dropped).
+    pub fn set_job_counts(&self, counts: &[mtcal_store::JobCount]) {
+        self.jobs.clear();
+        for c in counts {
+            self.jobs
+                .get_or_create(&JobLabels {
+                    kind: c.kind.clone(),
+                    state: c.state.clone(),
+                })
+                .set(c.count);
+        }
+    }
+
+    /// The text exposition of every metric.
+    pub fn encode(&self) -> String {
+        let mut out = String::new();
+        prometheus_client::encoding::text::encode(&mut out, &self.registry)
+            .expect("writing to a String cannot fail");
+        out
+    }
+}
+
+/// Middleware (a route layer): counts and times every request by its route template.
+pub async fn track(req: Request, next: Next) -> Response {
+    let route = req
+        .extensions()
+        .get::<MatchedPath>()
+        .map_or_else(|| "(unmatched)".to_string(), |p| p.as_str().to_string());
+    let method = req.method().as_str().to_string();
+    let t0 = Instant::now();
+    let resp = next.run(req).await;
+    let m = metrics();
+    m.latency
+        .get_or_create(&RouteLabels {
+            method: method.clone(),
+            route: route.clone(),
+        })
+        .observe(t0.elapsed().as_secs_f64());
+    m.requests
+        .get_or_create(&RequestLabels {
+            method,
+            route,
+            status: resp.status().as_u16(),
+        })
+        .inc();
+    resp
+}
+
+/// `GET /metrics`: the job gauges refreshed from the store, then every metric. When the
+/// store does not answer, the gauges keep their last values (the HTTP and job metrics
+/// are this process's own and still valid).
+pub async fn serve_metrics(State(s): State<crate::AppState>) -> Response {
+    let m = metrics();
+    if let Ok(Ok(counts)) =
+        tokio::time::timeout(std::time::Duration::from_secs(3), s.store.job_counts()).await
+    {
+        m.set_job_counts(&counts);
+    }
+    (
+        [(
+            header::CONTENT_TYPE,
+            "application/openmetrics-text; version=1.0.0; charset=utf-8",
+        )],
+        m.encode(),
+    )
+        .into_response()
+}
+
+/// Seconds between two RFC 3339 times (`None` if either does not parse).
+pub fn seconds_between(from: &str, to: &str) -> Option<f64> {
+    let parse = |s: &str| {
+        time::OffsetDateTime::parse(s, &time::format_description::well_known::Rfc3339).ok()
+    };
+    Some((parse(to)? - parse(from)?).as_seconds_f64())
+}
