@@ -128,6 +128,47 @@ fn admin_lists_and_revokes_keys() {
     assert!(err.contains("no key key_nope"), "{err}");
 }
 
+/// The command lines of the deployment examples (`deploy/`) are ones `mtcal` accepts:
+/// each is run with `--help` appended, which succeeds only when every argument before it
+/// is known (so a renamed flag breaks this test, not a plant's service).
+#[test]
+fn deployment_examples_use_flags_mtcal_accepts() {
+    let root = env!("CARGO_MANIFEST_DIR");
+    let unit = std::fs::read_to_string(format!("{root}/deploy/mtcal.service")).unwrap();
+    let image = std::fs::read_to_string(format!("{root}/deploy/Containerfile")).unwrap();
+    let mut lines: Vec<Vec<String>> = Vec::new();
+    let words = |s: &str| s.split_whitespace().map(str::to_string).collect::<Vec<_>>();
+    for l in unit.lines().chain(image.lines()) {
+        let l = l.trim_start_matches('#').trim();
+        if let Some(cmd) = l.strip_prefix("ExecStart=/usr/local/bin/mtcal ") {
+            lines.push(words(cmd));
+        } else if let Some(cmd) = l.split_once("/usr/local/bin/mtcal ").map(|(_, c)| c) {
+            lines.push(words(cmd));
+        } else if let Some(rest) = l.split_once(" mtcal ").map(|(_, c)| c) {
+            if rest.starts_with("serve") || rest.starts_with("worker") || rest.starts_with("admin")
+            {
+                lines.push(words(rest));
+            }
+        } else if let Some(cmd) = l.strip_prefix("CMD ") {
+            let v: Vec<String> = serde_json::from_str(cmd).unwrap();
+            lines.push(v);
+        }
+    }
+    assert!(lines.len() >= 5, "{lines:?}");
+    for args in lines {
+        let out = Command::new(BIN)
+            .args(&args)
+            .arg("--help")
+            .output()
+            .unwrap();
+        assert!(
+            out.status.success(),
+            "mtcal {args:?}: {}",
+            String::from_utf8_lossy(&out.stderr)
+        );
+    }
+}
+
 /// `mtcal demo` on an address already in use says so and how to pick a free port.
 #[test]
 fn demo_on_a_taken_address_says_so() {
