@@ -1,13 +1,14 @@
 //! Real processes sharing one database: a worker killed (SIGKILL) mid-job, whose job is
 //! finished exactly once by the next process; an API process without a worker
 //! (`serve --no-worker`) whose jobs a separate `mtcal worker` process runs; a worker
-//! stopped with SIGTERM that hands its job back, claimed at once by the next worker.
+//! stopped with SIGTERM that hands its job back, claimed at once by the next worker; and
+//! on PostgreSQL, one API process and three worker processes that run 200 jobs exactly
+//! once each, around a worker stopped by SIGTERM and one killed by SIGKILL.
 
 use crate::common::*;
 use mtcal_client::Client;
-use mtcal_store::{JobState, SqliteStore, Store};
+use mtcal_store::{JobState, Queue, SqliteStore, Store};
 use std::io::{BufRead, BufReader};
-use std::path::Path;
 use std::process::{Child, Command, Stdio};
 
 /// A running `mtcal serve`; killed (SIGKILL) on drop.
@@ -17,15 +18,10 @@ struct Server {
 }
 
 impl Server {
-    fn start(db: &Path, extra: &[&str]) -> Server {
+    fn start(db: impl AsRef<std::ffi::OsStr>, extra: &[&str]) -> Server {
         let mut child = Command::new(BIN)
-            .args([
-                "serve",
-                "--db",
-                db.to_str().unwrap(),
-                "--listen",
-                "127.0.0.1:0",
-            ])
+            .args(["serve", "--listen", "127.0.0.1:0", "--db"])
+            .arg(db)
             .args(extra)
             .stdout(Stdio::piped())
             .stderr(Stdio::null())
@@ -131,9 +127,10 @@ fn terminate(child: &mut Child) -> std::process::ExitStatus {
 }
 
 impl Worker {
-    fn start(db: &Path, extra: &[&str]) -> Worker {
+    fn start(db: impl AsRef<std::ffi::OsStr>, extra: &[&str]) -> Worker {
         let mut child = Command::new(BIN)
-            .args(["worker", "--db", db.to_str().unwrap()])
+            .args(["worker", "--db"])
+            .arg(db)
             .args(extra)
             .stdout(Stdio::piped())
             .stderr(Stdio::null())
@@ -241,4 +238,99 @@ async fn a_worker_stopped_by_sigterm_hands_its_job_back_and_the_next_worker_clai
     // The API process also stops cleanly on SIGTERM.
     let status = terminate(&mut api.child);
     assert!(status.success(), "serve exit after SIGTERM: {status}");
+}
+
+/// On PostgreSQL: one API process (`serve --no-worker`) and worker processes on other
+/// "hosts" (processes) sharing the database. A worker stopped by SIGTERM hands its job
+/// back (the next worker claims it at once, though its lease was 10 minutes); a worker
+/// killed by SIGKILL mid-job loses its lease and the job runs again elsewhere; then three
+/// workers drain 200 more jobs. Every job finishes exactly once, with one result each.
+#[tokio::test]
+async fn on_postgres_three_workers_run_200_jobs_exactly_once_around_sigterm_and_sigkill() {
+    use mtcal_store::testing::ScratchPg;
+    let Some(pg) = ScratchPg::create("e2e::restart::on_postgres")
+        .await
+        .unwrap()
+    else {
+        return;
+    };
+    let store = mtcal_store::PgStore::open(&pg.url).await.unwrap();
+    let (_, key) = store
+        .create_key(mtcal_store::Scope::Write, "e2e")
+        .await
+        .unwrap();
+    let dir = tempfile::tempdir().unwrap();
+    let session = dir.path().join("s");
+    write_session(&session, "VMC-PG", 6, 0);
+    let api = Server::start(&pg.url, &["--no-worker"]);
+    let c = Client::new(&api.url, &key);
+    register(&c, "VMC-PG").await;
+    let ds = c.upload_path("VMC-PG", &session).await.unwrap();
+    let kind = mtcal_server::jobs::JobKind::Identify;
+    let first = submit(&c, kind, Some(&ds.id), None).await.id;
+
+    // SIGTERM: the job is handed back, not left to its 10-minute lease.
+    let mut stopping = Worker::start(
+        &pg.url,
+        &[
+            "--pause-before-solve-ms",
+            "60000",
+            "--lease-ms",
+            "600000",
+            "--grace-seconds",
+            "1",
+        ],
+    );
+    wait(&c, &first, JobState::Running).await;
+    assert!(terminate(&mut stopping.0).success());
+    let back = c.job(&first).await.unwrap();
+    assert_eq!(
+        (back.state, back.attempts),
+        (JobState::Queued, 0),
+        "{back:?}"
+    );
+
+    // The next worker claims it at once; SIGKILL while it holds it (lease 1.5 s).
+    let killed = Worker::start(
+        &pg.url,
+        &["--pause-before-solve-ms", "60000", "--lease-ms", "1500"],
+    );
+    wait(&c, &first, JobState::Running).await;
+    drop(killed);
+
+    let workers: Vec<Worker> = (0..3)
+        .map(|_| Worker::start(&pg.url, &["--lease-ms", "1500", "--concurrency", "1"]))
+        .collect();
+    let mut jobs = vec![first.clone()];
+    for _ in 0..200 {
+        jobs.push(submit(&c, kind, Some(&ds.id), None).await.id);
+    }
+    let t0 = std::time::Instant::now();
+    loop {
+        let counts = store.job_counts().await.unwrap();
+        let done: i64 = counts
+            .iter()
+            .filter(|n| n.state == "succeeded")
+            .map(|n| n.count)
+            .sum();
+        if done == 201 {
+            break;
+        }
+        assert!(counts.iter().all(|n| n.state != "failed"), "{counts:?}");
+        assert!(t0.elapsed().as_secs() < 240, "not drained: {counts:?}");
+        tokio::time::sleep(std::time::Duration::from_millis(200)).await;
+    }
+    drop(workers);
+    let counts = store.row_counts().await.unwrap();
+    assert_eq!((counts.jobs, counts.results), (201, 201));
+    let mut result_ids = std::collections::BTreeSet::new();
+    for id in &jobs {
+        let j = c.job(id).await.unwrap();
+        assert_eq!(j.state, JobState::Succeeded);
+        assert!(result_ids.insert(j.result_id.clone().unwrap()), "{j:?}");
+    }
+    // The first job: one attempt killed, one finished (the handed-back one not counted).
+    assert_eq!(c.job(&first).await.unwrap().attempts, 2);
+    drop(api);
+    pg.drop_schema().await.unwrap();
 }
