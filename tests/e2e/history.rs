@@ -73,6 +73,31 @@ async fn history_and_trends_return_what_was_stored() {
             );
         }
     }
+    // Each value carries its standard uncertainty: the one the result reports there.
+    for (p, doc) in trend.points.iter().zip(&docs) {
+        let exx = &doc.terms["EXX"];
+        for (k, q) in [50.0, -50.0].iter().enumerate() {
+            let i = exx.positions_mm.iter().position(|x| x == q).unwrap();
+            let u = p.u[k].expect("u stored");
+            assert!(
+                (u - exx.std[i]).abs() <= 1e-3 + 1e-3 * exx.std[i],
+                "{u} vs {}",
+                exx.std[i]
+            );
+        }
+    }
+    // Nothing outside the travel the checks measured: a position beyond it is refused
+    // with the measured travel in the message (the machine's registered ±100 mm does not
+    // count).
+    let [_, x_hi] = docs[2].model.measured_travel_mm["X"];
+    let beyond = x_hi + 10.0;
+    let (status, body) = refused(app.client.term_trend("VMC-A", "EXX", &[beyond]).await);
+    assert_eq!(status.as_u16(), 422, "{body}");
+    let msg = refusal_message(app.client.term_trend("VMC-A", "EXX", &[beyond]).await);
+    assert!(
+        msg.contains("measured over") && msg.contains(&format!("{x_hi}")),
+        "{msg}"
+    );
     let summary = app.client.summary_trend("VMC-A").await.unwrap();
     for (p, doc) in summary.points.iter().zip(&docs) {
         assert_eq!(p.ec0y_urad, doc.squareness["EC0Y"].value_urad);
@@ -109,6 +134,25 @@ async fn history_and_trends_return_what_was_stored() {
     let want =
         docs[2].term_value_at("EXX", 50.0).unwrap() - docs[0].term_value_at("EXX", 50.0).unwrap();
     assert!((exx.delta[i] - want).abs() < 1e-9);
+    // The grid lies in the travel both checks measured, each difference with u² = u₀² + u₂².
+    let [lo, hi] = exx.travel_mm.expect("the checks overlap");
+    let (t0, t2) = (
+        docs[0].model.measured_travel_mm["X"],
+        docs[2].model.measured_travel_mm["X"],
+    );
+    assert_eq!([lo, hi], [t0[0].max(t2[0]), t0[1].min(t2[1])]);
+    assert!(exx.positions_mm.iter().all(|&q| q >= lo && q <= hi));
+    let std_at = |d: &IdentificationResult, q: f64| {
+        let t = &d.terms["EXX"];
+        t.std[t.positions_mm.iter().position(|&x| x == q).unwrap()]
+    };
+    let want_u = std_at(&docs[0], 50.0).hypot(std_at(&docs[2], 50.0));
+    assert!(
+        (exx.u[i] - want_u).abs() <= 2e-3 + 1e-3 * want_u,
+        "{} vs {want_u}",
+        exx.u[i]
+    );
+    assert!(diff.drift.drift_um_u.is_some() && diff.drift.drift_urad_u.is_some());
 
     // Fleet: both machines ranked, each with its own baseline and latest result.
     let fleet = app.client.fleet_drift(Some("urad"), None).await.unwrap();

@@ -9,10 +9,15 @@
 //!    realistic: 10 identifiable cubic terms), then Q random trend queries over HTTP
 //!    (keep-alive), alternating `trends/term?term=EXX&at=-50,50` and `trends/summary`;
 //!    latency percentiles. The seeded database is kept and reused (MTCAL_LOAD_DB).
+//!    With `MTCAL_TEST_PG` set, the same on PostgreSQL (a fresh schema, seeded each run).
+//! 3. **Throughput**: N identify jobs of one small session queued at once, drained by
+//!    1 worker on SQLite and by 1, 2 and 4 workers on PostgreSQL (`MTCAL_TEST_PG`):
+//!    jobs per second from the first submission to the last success.
 //!
-//! `cargo run -p mtcal-server --example load` (dev profile: dependencies at opt-level 3).
-//! Environment: MTCAL_LOAD_JOBS (20), MTCAL_LOAD_MACHINES (10000), MTCAL_LOAD_RESULTS
-//! (100), MTCAL_LOAD_QUERIES (4000), MTCAL_LOAD_DB (a file in the temp dir).
+//! `scripts/with-postgres cargo run -p mtcal-server --example load` (dev profile:
+//! dependencies optimised). Environment: MTCAL_LOAD_JOBS (20), MTCAL_LOAD_MACHINES
+//! (10000), MTCAL_LOAD_RESULTS (100), MTCAL_LOAD_QUERIES (4000), MTCAL_LOAD_DB (a file in
+//! the temp dir), MTCAL_LOAD_THROUGHPUT (jobs per throughput run, 100; 0 skips).
 
 use mtcal_client::Client;
 use mtcal_server::api::jobs::SubmitJob;
@@ -42,9 +47,14 @@ fn pct(sorted: &[f64], p: f64) -> f64 {
 }
 
 async fn start(store: Arc<dyn Store>, worker: bool) -> String {
+    start_with(store, worker, 1).await
+}
+
+async fn start_with(store: Arc<dyn Store>, worker: bool, concurrency: usize) -> String {
     let cfg = WorkerConfig {
         queue: QueueConfig {
-            concurrency: 1,
+            concurrency,
+            poll_ms: 20,
             ..QueueConfig::default()
         },
         ..WorkerConfig::default()
@@ -203,18 +213,100 @@ fn seeded_scalars(rng: &mut StdRng, quarter: usize) -> ResultScalars {
         ec0y_urad: Some(10.0 + quarter as f64 * 0.3),
         eb0z_urad: None,
         ea0z_urad: None,
+        measured_travel_mm: ["X", "Y", "Z"]
+            .map(|a| (a.to_string(), [-100.0, 100.0]))
+            .into(),
+        term_covariance: coeffs
+            .keys()
+            .map(|n| {
+                let d = [1e-6, 1e-10, 1e-14];
+                let cov = (0..3)
+                    .map(|i| (0..3).map(|j| if i == j { d[i] } else { 0.0 }).collect())
+                    .collect();
+                (n.clone(), cov)
+            })
+            .collect(),
         term_coefficients: coeffs,
     }
 }
 
-async fn trends_bench(m: usize, r: usize, q: usize) {
+/// A fresh store: a SQLite file in `dir`, or a new schema on the PostgreSQL server
+/// `MTCAL_TEST_PG` names.
+async fn fresh_store(pg: bool, dir: &std::path::Path, name: &str) -> Arc<dyn Store> {
+    if pg {
+        let scratch = mtcal_store::testing::ScratchPg::create(name)
+            .await
+            .unwrap()
+            .expect("MTCAL_TEST_PG names a server");
+        Arc::new(mtcal_store::PgStore::open(&scratch.url).await.unwrap())
+    } else {
+        let path = dir.join(format!("{name}.sqlite"));
+        Arc::new(SqliteStore::open(path.to_str().unwrap()).await.unwrap())
+    }
+}
+
+/// `n` identify jobs of one small session, queued at once and drained by `workers`
+/// worker slots; jobs per second from the first submission to the last success.
+async fn throughput_bench(pg: bool, workers: usize, n: usize) -> f64 {
+    let dir = tempfile::tempdir().unwrap();
+    let store = fresh_store(pg, dir.path(), &format!("throughput_{workers}")).await;
+    let (_, key) = store.create_key(Scope::Write, "load").await.unwrap();
+    store.create_machine(&machine("LOAD-T")).await.unwrap();
+    let sim = simulate(
+        &random_truth(3),
+        &SimOptions {
+            seed: 3,
+            sample_rate_hz: 10.0,
+            machine_id: "LOAD-T".into(),
+            ..SimOptions::default()
+        },
+    )
+    .unwrap();
+    let sdir = dir.path().join("s");
+    mtcal_formats::write_session_dir(&sdir, &sim.session).unwrap();
+    let files = mtcal_client::files_to_upload(&sdir).unwrap();
+    let client = Client::new(&start_with(store.clone(), true, workers).await, &key);
+    let ds = client.upload_files("LOAD-T", &files).await.unwrap();
+    let t = Instant::now();
+    for _ in 0..n {
+        client
+            .submit(&SubmitJob {
+                kind: JobKind::Identify,
+                dataset_id: Some(ds.id.clone()),
+                machine_id: None,
+                params: json!({}),
+            })
+            .await
+            .unwrap();
+    }
+    loop {
+        let counts = store.job_counts().await.unwrap();
+        let done: i64 = counts
+            .iter()
+            .filter(|c| c.state == "succeeded")
+            .map(|c| c.count)
+            .sum();
+        assert!(counts.iter().all(|c| c.state != "failed"), "{counts:?}");
+        if done as usize == n {
+            break;
+        }
+        tokio::time::sleep(Duration::from_millis(5)).await;
+    }
+    n as f64 / t.elapsed().as_secs_f64()
+}
+
+async fn trends_bench(m: usize, r: usize, q: usize, pg: bool) {
     let path = std::env::var("MTCAL_LOAD_DB").unwrap_or_else(|_| {
         std::env::temp_dir()
             .join(format!("mtcal-load-{m}x{r}.sqlite"))
             .display()
             .to_string()
     });
-    let store = Arc::new(SqliteStore::open(&path).await.unwrap());
+    let store: Arc<dyn Store> = if pg {
+        fresh_store(true, std::path::Path::new("."), "trends").await
+    } else {
+        Arc::new(SqliteStore::open(&path).await.unwrap())
+    };
     let have = store.row_counts().await.unwrap();
     if have.results < (m * r) as i64 {
         let t = Instant::now();
@@ -273,7 +365,8 @@ async fn trends_bench(m: usize, r: usize, q: usize) {
         }
     }
     println!(
-        "trends: {m} machines x {r} results, {q} queries after 200 warm-up, one client, keep-alive"
+        "trends on {}: {m} machines x {r} results, {q} queries after 200 warm-up, one client, keep-alive",
+        if pg { "PostgreSQL" } else { "SQLite" }
     );
     for (name, v) in [("term EXX at -50,50", &mut term), ("summary", &mut summary)] {
         v.sort_by(f64::total_cmp);
@@ -299,13 +392,28 @@ async fn main() {
     if k > 0 {
         jobs_bench(k).await;
     }
+    let pg = std::env::var_os(mtcal_store::testing::TEST_PG_VAR).is_some();
+    let n = env("MTCAL_LOAD_THROUGHPUT", 100);
+    if n > 0 {
+        println!("throughput: {n} identify jobs of one seed-plan session (10 Hz), queued at once");
+        let sqlite = throughput_bench(false, 1, n).await;
+        println!("  SQLite, 1 worker:     {sqlite:.1} jobs/s");
+        if pg {
+            for w in [1, 2, 4] {
+                let rate = throughput_bench(true, w, n).await;
+                println!("  PostgreSQL, {w} worker(s): {rate:.1} jobs/s");
+            }
+        }
+    }
     let m = env("MTCAL_LOAD_MACHINES", 10_000);
     if m > 0 {
-        trends_bench(
-            m,
+        let (r, q) = (
             env("MTCAL_LOAD_RESULTS", 100),
             env("MTCAL_LOAD_QUERIES", 4000),
-        )
-        .await;
+        );
+        trends_bench(m, r, q, false).await;
+        if pg {
+            trends_bench(m, r, q, true).await;
+        }
     }
 }

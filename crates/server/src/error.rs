@@ -49,6 +49,9 @@ pub enum ApiError {
     UnsupportedMediaType(String),
     #[error("{0}")]
     JobNotFinished(String),
+    /// A position outside the travel the check measured (no figure is extrapolated).
+    #[error("{0}")]
+    OutsideTravel(String),
     /// The service cannot serve yet (database unreachable, migrations missing).
     #[error("{0}")]
     NotReady(String),
@@ -68,6 +71,7 @@ impl ApiError {
             ApiError::PayloadTooLarge(_) => StatusCode::PAYLOAD_TOO_LARGE,
             ApiError::UnsupportedMediaType(_) => StatusCode::UNSUPPORTED_MEDIA_TYPE,
             ApiError::NotReady(_) => StatusCode::SERVICE_UNAVAILABLE,
+            ApiError::OutsideTravel(_) => StatusCode::UNPROCESSABLE_ENTITY,
             ApiError::Internal(_) => StatusCode::INTERNAL_SERVER_ERROR,
         }
     }
@@ -84,6 +88,7 @@ impl ApiError {
             ApiError::UnsupportedMediaType(_) => "unsupported_media_type",
             ApiError::JobNotFinished(_) => "job_not_finished",
             ApiError::NotReady(_) => "not_ready",
+            ApiError::OutsideTravel(_) => "outside_measured_travel",
             ApiError::Internal(_) => "internal",
         }
     }

@@ -330,5 +330,20 @@ pub fn identification_scalars(r: &IdentificationResult) -> ResultScalars {
             .filter(|(_, t)| t.identifiable && !t.coefficients.is_empty())
             .map(|(n, t)| (n.clone(), t.coefficients.clone()))
             .collect(),
+        measured_travel_mm: r.model.measured_travel_mm.clone(),
+        term_covariance: r
+            .terms
+            .iter()
+            .filter(|(_, t)| {
+                t.identifiable
+                    && !t.coefficients.is_empty()
+                    && t.coefficient_covariance.len() == t.coefficients.len()
+            })
+            .map(|(n, t)| (n.clone(), t.coefficient_covariance.clone()))
+            .chain(r.squareness.iter().filter_map(|(n, s)| {
+                s.value_urad?;
+                Some((n.clone(), vec![vec![s.std_urad?.powi(2)]]))
+            }))
+            .collect(),
     }
 }

@@ -1,21 +1,24 @@
 //! Figures derived from stored results: term values at chosen positions, differences
-//! between two results, and drift since a baseline.
+//! between two results, and drift since a baseline — each evaluated only inside the
+//! travel the check measured, each with its standard uncertainty.
 //!
 //! A term f(q) = Σ_{i≥1} c_i q^i (monomial coefficients, results contract) is evaluated
-//! by Horner's rule. Drift between a baseline b and a later result r is the largest
-//! |f_r(q) − f_b(q)| over 41 evenly spaced positions of the machine's registered travel
-//! of the term's axis (±100 mm when none is registered), taken separately over the
-//! translational terms (µm) and over the angular terms and squareness (µrad). A term that
-//! is not identifiable in either result is left out and listed.
+//! by Horner's rule; its standard uncertainty is u(q) = √(gᵀ Σ g), g = (q, q², …), Σ the
+//! coefficients' covariance stored with the result. A difference of two independent
+//! checks has u² = u_a² + u_b². Drift between a baseline b and a later result r is the
+//! largest |f_r(q) − f_b(q)| over 41 evenly spaced positions of the *intersection* of the
+//! two checks' measured travels of the term's axis, taken separately over the
+//! translational terms (µm) and over the angular terms and squareness (µrad), with the
+//! uncertainty of the difference where it is largest. A term not identifiable in either
+//! result is left out and listed; so is a term whose two measured travels do not overlap
+//! (or are not recorded): nothing is extrapolated.
 
 use mtcal_solver::terms::Term;
-use mtcal_store::{Machine, ResultScalars};
+use mtcal_store::ResultScalars;
 use serde::{Deserialize, Serialize};
 use std::collections::BTreeMap;
 use utoipa::ToSchema;
 
-/// Travel used when a machine has none registered for an axis, mm.
-pub const DEFAULT_TRAVEL_MM: [f64; 2] = [-100.0, 100.0];
 const GRID_POINTS: usize = 41;
 
 /// f(q) = Σ c_i q^(i+1).
@@ -27,19 +30,61 @@ pub fn eval(coefficients: &[f64], q_mm: f64) -> f64 {
         * q_mm
 }
 
+/// Standard uncertainty √(gᵀ Σ g) of f(q), g = (q, q², …), from the coefficients'
+/// covariance `cov`.
+pub fn std_at(cov: &[Vec<f64>], q_mm: f64) -> f64 {
+    let g: Vec<f64> = (1..=cov.len()).map(|k| q_mm.powi(k as i32)).collect();
+    let mut v = 0.0;
+    for (a, row) in cov.iter().enumerate() {
+        for (b, c) in row.iter().enumerate() {
+            v += g[a] * g[b] * c;
+        }
+    }
+    v.max(0.0).sqrt()
+}
+
+/// Standard uncertainty of term `name` of `s` at q (`None`: no covariance stored).
+pub fn term_std(s: &ResultScalars, name: &str, q_mm: f64) -> Option<f64> {
+    Some(std_at(s.term_covariance.get(name)?, q_mm))
+}
+
+/// Standard uncertainty of a squareness value of `s` (stored as a 1 × 1 covariance).
+pub fn squareness_std(s: &ResultScalars, name: &str) -> Option<f64> {
+    Some(
+        s.term_covariance
+            .get(name)?
+            .first()?
+            .first()?
+            .max(0.0)
+            .sqrt(),
+    )
+}
+
 /// `unit` and axis letter of an ISO 230-1 term name (`None` if not one of the 18).
 pub fn term_info(name: &str) -> Option<(&'static str, char)> {
     let t = Term::parse(name)?;
     Some((t.unit(), t.axis.letter()))
 }
 
-/// Registered travel of an axis, or the default.
-pub fn travel(machine: &Machine, axis: char) -> [f64; 2] {
-    machine
-        .travel_mm
-        .get(&axis.to_string())
-        .copied()
-        .unwrap_or(DEFAULT_TRAVEL_MM)
+/// Travel the check measured on `axis`, [min, max] mm (`None`: the axis did not move,
+/// or the result predates the record).
+pub fn measured(s: &ResultScalars, axis: char) -> Option<[f64; 2]> {
+    s.measured_travel_mm.get(&axis.to_string()).copied()
+}
+
+/// The travel both checks measured on `axis` (`None`: unknown or no overlap).
+pub fn common_travel(a: &ResultScalars, b: &ResultScalars, axis: char) -> Option<[f64; 2]> {
+    let ([l1, h1], [l2, h2]) = (measured(a, axis)?, measured(b, axis)?);
+    let (lo, hi) = (l1.max(l2), h1.min(h2));
+    (hi > lo).then_some([lo, hi])
+}
+
+/// A sentence stating the measured travel of `axis` in `s`.
+pub fn travel_sentence(s: &ResultScalars, axis: char) -> String {
+    match measured(s, axis) {
+        Some([lo, hi]) => format!("{axis} was measured over [{lo}, {hi}] mm"),
+        None => format!("{axis} has no measured travel in this check"),
+    }
 }
 
 fn grid([lo, hi]: [f64; 2]) -> impl Iterator<Item = f64> {
@@ -49,46 +94,65 @@ fn grid([lo, hi]: [f64; 2]) -> impl Iterator<Item = f64> {
 /// Drift of one machine since its baseline.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize, ToSchema)]
 pub struct Drift {
-    /// Largest change of a translational term over the travel, µm.
+    /// Largest change of a translational term over the travel both checks measured, µm.
     pub drift_um: f64,
+    /// Its standard uncertainty (both checks' covariances), µm; null when not stored.
+    pub drift_um_u: Option<f64>,
     /// Largest change of an angular term or a squareness, µrad.
     pub drift_urad: f64,
+    /// Its standard uncertainty, µrad; null when not stored.
+    pub drift_urad_u: Option<f64>,
     /// Term with the largest change in µm.
     pub worst_term_um: Option<String>,
     /// Term with the largest change in µrad.
     pub worst_term_urad: Option<String>,
-    /// Terms not identifiable in the baseline or the latest result (left out).
+    /// Terms not identifiable in the baseline or the latest result, or whose measured
+    /// travels do not overlap (left out: nothing is extrapolated).
     pub not_compared: Vec<String>,
 }
 
-/// Drift between two results' scalars for `machine`.
-pub fn drift(machine: &Machine, base: &ResultScalars, latest: &ResultScalars) -> Drift {
+/// Drift between two results' scalars: over the intersection of their measured travels.
+pub fn drift(base: &ResultScalars, latest: &ResultScalars) -> Drift {
     let mut d = Drift {
         drift_um: 0.0,
+        drift_um_u: None,
         drift_urad: 0.0,
+        drift_urad_u: None,
         worst_term_um: None,
         worst_term_urad: None,
         not_compared: Vec::new(),
     };
+    let u_diff = |name: &str, q: f64| -> Option<f64> {
+        Some(term_std(base, name, q)?.hypot(term_std(latest, name, q)?))
+    };
     for t in Term::all() {
         let name = t.name();
-        let (Some(b), Some(l)) = (
+        let (Some(b), Some(l), Some(travel)) = (
             base.term_coefficients.get(&name),
             latest.term_coefficients.get(&name),
+            common_travel(base, latest, t.axis.letter()),
         ) else {
             d.not_compared.push(name);
             continue;
         };
-        let m = grid(travel(machine, t.axis.letter()))
-            .map(|q| (eval(l, q) - eval(b, q)).abs())
-            .fold(0.0, f64::max);
-        let (best, worst) = if t.is_angular() {
-            (&mut d.drift_urad, &mut d.worst_term_urad)
+        let (m, at) = grid(travel)
+            .map(|q| ((eval(l, q) - eval(b, q)).abs(), q))
+            .fold(
+                (0.0, travel[0]),
+                |best, x| if x.0 > best.0 { x } else { best },
+            );
+        let (best, best_u, worst) = if t.is_angular() {
+            (
+                &mut d.drift_urad,
+                &mut d.drift_urad_u,
+                &mut d.worst_term_urad,
+            )
         } else {
-            (&mut d.drift_um, &mut d.worst_term_um)
+            (&mut d.drift_um, &mut d.drift_um_u, &mut d.worst_term_um)
         };
-        if m > *best {
+        if m > *best || worst.is_none() {
             *best = m;
+            *best_u = u_diff(&name, at);
             *worst = Some(name);
         }
     }
@@ -99,8 +163,11 @@ pub fn drift(machine: &Machine, base: &ResultScalars, latest: &ResultScalars) ->
     ] {
         match (b, l) {
             (Some(b), Some(l)) => {
-                if (l - b).abs() > d.drift_urad {
+                if (l - b).abs() > d.drift_urad || d.worst_term_urad.is_none() {
                     d.drift_urad = (l - b).abs();
+                    d.drift_urad_u = squareness_std(base, name)
+                        .zip(squareness_std(latest, name))
+                        .map(|(x, y)| x.hypot(y));
                     d.worst_term_urad = Some(name.into());
                 }
             }
@@ -110,21 +177,26 @@ pub fn drift(machine: &Machine, base: &ResultScalars, latest: &ResultScalars) ->
     d
 }
 
-/// Change of one term between two results on a grid.
+/// Change of one term between two results on a grid of the travel both measured.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize, ToSchema)]
 pub struct TermDiff {
     pub unit: String,
+    /// The travel both checks measured on the term's axis, [min, max] mm (null when they
+    /// do not overlap or it is not recorded: then no position is compared).
+    pub travel_mm: Option<[f64; 2]>,
     pub positions_mm: Vec<f64>,
     /// other − baseline at each position; empty when `identifiable` is false.
     pub delta: Vec<f64>,
+    /// Standard uncertainty of each difference (u² = u_baseline² + u_other²); empty when
+    /// a covariance is not stored.
+    pub u: Vec<f64>,
     /// Identifiable in both results.
     pub identifiable: bool,
 }
 
-/// Term-by-term differences (other − baseline) on every `step_mm` of the travel
-/// (always including 0), plus the squareness differences.
+/// Term-by-term differences (other − baseline) on every `step_mm` of the travel both
+/// checks measured (including 0 when inside), plus the squareness differences.
 pub fn diff(
-    machine: &Machine,
     base: &ResultScalars,
     other: &ResultScalars,
     step_mm: f64,
@@ -132,24 +204,34 @@ pub fn diff(
     let mut terms = BTreeMap::new();
     for t in Term::all() {
         let name = t.name();
-        let [lo, hi] = travel(machine, t.axis.letter());
-        let k0 = (lo / step_mm).ceil() as i64;
-        let k1 = (hi / step_mm).floor() as i64;
-        let positions: Vec<f64> = (k0..=k1).map(|k| k as f64 * step_mm).collect();
+        let travel = common_travel(base, other, t.axis.letter());
+        let positions: Vec<f64> = travel.map_or_else(Vec::new, |[lo, hi]| {
+            let k0 = (lo / step_mm).ceil() as i64;
+            let k1 = (hi / step_mm).floor() as i64;
+            (k0..=k1).map(|k| k as f64 * step_mm).collect()
+        });
         let entry = match (
             base.term_coefficients.get(&name),
             other.term_coefficients.get(&name),
         ) {
             (Some(b), Some(o)) => TermDiff {
                 unit: t.unit().into(),
+                travel_mm: travel,
                 delta: positions.iter().map(|&q| eval(o, q) - eval(b, q)).collect(),
+                u: positions
+                    .iter()
+                    .map(|&q| Some(term_std(base, &name, q)?.hypot(term_std(other, &name, q)?)))
+                    .collect::<Option<Vec<f64>>>()
+                    .unwrap_or_default(),
                 positions_mm: positions,
                 identifiable: true,
             },
             _ => TermDiff {
                 unit: t.unit().into(),
+                travel_mm: travel,
                 positions_mm: Vec::new(),
                 delta: Vec::new(),
+                u: Vec::new(),
                 identifiable: false,
             },
         };
@@ -167,31 +249,33 @@ pub fn diff(
 #[cfg(test)]
 mod tests {
     use super::*;
-    use serde_json::json;
 
-    fn machine() -> Machine {
-        Machine {
-            id: "M".into(),
-            name: "M".into(),
-            topology: json!({}),
-            travel_mm: BTreeMap::from([("X".into(), [-200.0, 300.0])]),
-            site: None,
-            tags: vec![],
-            baseline_result_id: None,
-            created_at: String::new(),
-            updated_at: String::new(),
-        }
-    }
-
-    fn scalars(exx: Vec<f64>, eax: Option<Vec<f64>>, ec0y: f64) -> ResultScalars {
+    /// Scalars of a check that measured X over `travel`, with EXX, optionally EAX, and
+    /// EC0Y; every coefficient with standard uncertainty `u` (independent).
+    fn scalars(
+        exx: Vec<f64>,
+        eax: Option<Vec<f64>>,
+        ec0y: f64,
+        travel: [f64; 2],
+        u: f64,
+    ) -> ResultScalars {
         let mut s = ResultScalars {
             ec0y_urad: Some(ec0y),
             ..Default::default()
         };
+        s.measured_travel_mm.insert("X".into(), travel);
+        let diag = |n: usize| {
+            (0..n)
+                .map(|i| (0..n).map(|j| if i == j { u * u } else { 0.0 }).collect())
+                .collect::<Vec<Vec<f64>>>()
+        };
+        s.term_covariance.insert("EXX".into(), diag(exx.len()));
         s.term_coefficients.insert("EXX".into(), exx);
         if let Some(a) = eax {
+            s.term_covariance.insert("EAX".into(), diag(a.len()));
             s.term_coefficients.insert("EAX".into(), a);
         }
+        s.term_covariance.insert("EC0Y".into(), vec![vec![0.04]]);
         s
     }
 
@@ -205,32 +289,67 @@ mod tests {
     }
 
     #[test]
-    fn drift_is_the_largest_change_over_the_registered_travel() {
-        // ΔEXX(q) = 0.01 q: largest at the far end of the X travel, |0.01 · 300| = 3 µm.
-        let b = scalars(vec![0.0], Some(vec![0.001]), 5.0);
-        let l = scalars(vec![0.01], Some(vec![0.001]), 3.5);
-        let d = drift(&machine(), &b, &l);
-        assert!((d.drift_um - 3.0).abs() < 1e-12, "{d:?}");
+    fn std_at_is_the_quadratic_form_of_the_monomials() {
+        // f = c1 q + c2 q², Var c1 = 1e-4, Var c2 = 1e-8, Cov = -1e-6: by hand at q = 10,
+        // Var f = 100·1e-4 + 1e4·1e-8 + 2·10·100·(−1e-6) = 0.01 + 1e-4 − 2e-3 = 0.0081.
+        let cov = vec![vec![1e-4, -1e-6], vec![-1e-6, 1e-8]];
+        assert!((std_at(&cov, 10.0) - 0.0081f64.sqrt()).abs() < 1e-12);
+        assert_eq!(std_at(&cov, 0.0), 0.0);
+    }
+
+    #[test]
+    fn drift_is_the_largest_change_over_the_travel_both_checks_measured() {
+        // ΔEXX(q) = 0.01 q. The baseline measured X over [−200, 300], the latest over
+        // [−50, 50]: the drift is |0.01 · 50| = 0.5 µm at q = 50, not 3 µm at 300.
+        let b = scalars(vec![0.0], Some(vec![0.001]), 5.0, [-200.0, 300.0], 0.002);
+        let l = scalars(vec![0.01], Some(vec![0.001]), 3.5, [-50.0, 50.0], 0.002);
+        let d = drift(&b, &l);
+        assert!((d.drift_um - 0.5).abs() < 1e-12, "{d:?}");
         assert_eq!(d.worst_term_um.as_deref(), Some("EXX"));
-        // Squareness moved by 1.5 µrad; EAX did not move.
+        // u of the difference at q = 50: √2 · 0.002 · 50.
+        let u = d.drift_um_u.unwrap();
+        assert!((u - 2f64.sqrt() * 0.1).abs() < 1e-12, "{u}");
+        // Squareness moved by 1.5 µrad (u = √2 · 0.2); EAX did not move.
         assert!((d.drift_urad - 1.5).abs() < 1e-12);
         assert_eq!(d.worst_term_urad.as_deref(), Some("EC0Y"));
+        assert!((d.drift_urad_u.unwrap() - 2f64.sqrt() * 0.2).abs() < 1e-12);
         assert!(d.not_compared.contains(&"EYY".to_string()));
         assert!(!d.not_compared.contains(&"EAX".to_string()));
     }
 
     #[test]
-    fn diff_grid_includes_zero_and_follows_the_travel() {
-        let b = scalars(vec![0.0, 1e-4], None, 1.0);
-        let o = scalars(vec![0.002, 1e-4], None, 2.0);
-        let (terms, sq) = diff(&machine(), &b, &o, 50.0);
+    fn checks_whose_travels_do_not_overlap_are_not_compared() {
+        let b = scalars(vec![0.0], None, 5.0, [-200.0, -100.0], 0.002);
+        let l = scalars(vec![0.01], None, 5.0, [0.0, 100.0], 0.002);
+        let d = drift(&b, &l);
+        assert_eq!(d.drift_um, 0.0);
+        assert!(d.worst_term_um.is_none());
+        assert!(d.not_compared.contains(&"EXX".to_string()), "{d:?}");
+        let (terms, _) = diff(&b, &l, 10.0);
+        assert!(terms["EXX"].travel_mm.is_none());
+        assert!(terms["EXX"].positions_mm.is_empty());
+        // A result without a recorded travel is not compared either.
+        let mut old = b.clone();
+        old.measured_travel_mm.clear();
+        assert!(drift(&old, &l).not_compared.contains(&"EXX".to_string()));
+    }
+
+    #[test]
+    fn diff_grid_includes_zero_and_stays_inside_the_common_travel() {
+        let b = scalars(vec![0.0, 1e-4], None, 1.0, [-200.0, 300.0], 0.001);
+        let o = scalars(vec![0.002, 1e-4], None, 2.0, [-120.0, 180.0], 0.001);
+        let (terms, sq) = diff(&b, &o, 50.0);
         let exx = &terms["EXX"];
-        assert_eq!(exx.positions_mm.first(), Some(&-200.0));
-        assert_eq!(exx.positions_mm.last(), Some(&300.0));
+        assert_eq!(exx.travel_mm, Some([-120.0, 180.0]));
+        assert_eq!(exx.positions_mm.first(), Some(&-100.0));
+        assert_eq!(exx.positions_mm.last(), Some(&150.0));
         let i0 = exx.positions_mm.iter().position(|&q| q == 0.0).unwrap();
-        assert_eq!(exx.delta[i0], 0.0);
+        assert_eq!((exx.delta[i0], exx.u[i0]), (0.0, 0.0));
         let i = exx.positions_mm.iter().position(|&q| q == 100.0).unwrap();
         assert!((exx.delta[i] - 0.2).abs() < 1e-12);
+        // u at 100: √2 · √(0.001² · 100² + 0.001² · 100⁴).
+        let want = 2f64.sqrt() * (1e-6f64 * 1e4 + 1e-6 * 1e8).sqrt();
+        assert!((exx.u[i] - want).abs() < 1e-9, "{} vs {want}", exx.u[i]);
         assert!(!terms["EAX"].identifiable);
         assert_eq!(sq["EC0Y"], Some(1.0));
         assert_eq!(sq["EB0Z"], None);

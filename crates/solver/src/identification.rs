@@ -95,6 +95,11 @@ pub struct TermReport {
     /// (straightness: after removing its least-squares line). Empty when not identifiable.
     #[serde(default)]
     pub coefficients: Vec<f64>,
+    /// Covariance of `coefficients` (row-major, n × n, units² of the coefficients): the
+    /// standard uncertainty of the term at q is √(gᵀ Σ g) with g = (q, q², …). Empty when
+    /// not identifiable.
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    pub coefficient_covariance: Vec<Vec<f64>>,
 }
 
 /// One squareness value (results contract).
@@ -168,6 +173,11 @@ pub struct Nuisance {
 pub struct ModelInfo {
     pub basis: BasisKind,
     pub order: usize,
+    /// Travel each axis covered in the session's line and circle runs, [min, max] mm, by
+    /// axis letter: the terms are determined there and nowhere else (no figure of this
+    /// result is evaluated outside it). Axes that did not move are absent.
+    #[serde(default)]
+    pub measured_travel_mm: BTreeMap<String, [f64; 2]>,
 }
 
 /// The identification result document (shared/spec/results.md, "Identification result").

@@ -139,18 +139,24 @@ pub fn estimable(fit: &Fit, w_err: &[f64]) -> bool {
 
 /// Variance of the functional wᵀx_err.
 pub fn functional_variance(fit: &Fit, w_err: &[f64]) -> f64 {
+    functional_covariance(fit, w_err, w_err).max(0.0)
+}
+
+/// Covariance w_aᵀ Σ w_b of two linear functionals of the error parameters (same layout
+/// as [`functional_variance`]).
+pub fn functional_covariance(fit: &Fit, wa: &[f64], wb: &[f64]) -> f64 {
     let off = fit.layout.n_rot();
     let cov = &fit.solution.cov;
     let mut v = 0.0;
-    for (a, wa) in w_err.iter().enumerate() {
-        if *wa == 0.0 {
+    for (a, x) in wa.iter().enumerate() {
+        if *x == 0.0 {
             continue;
         }
-        for (b, wb) in w_err.iter().enumerate() {
-            v += wa * wb * cov[(off + a, off + b)];
+        for (b, y) in wb.iter().enumerate() {
+            v += x * y * cov[(off + a, off + b)];
         }
     }
-    v.max(0.0)
+    v
 }
 
 /// Names of the terms of a parameter group, deduplicated in order.

@@ -189,6 +189,28 @@ pub fn analyse(req: &SensitivityRequest) -> Result<SensitivityResult, SolverErro
     }
     let chain = Chain::new(&desc)?;
     let n_axes = chain.axis_names().len();
+    // With an identification, the identified functions exist only over the travel it
+    // measured: the default grid stays inside it, and a given pose outside is refused
+    // (nothing is extrapolated).
+    let measured = measured_limits(&chain, req.identification.as_deref());
+    let travel: Vec<[f64; 2]> = chain
+        .travel()
+        .iter()
+        .zip(&measured)
+        .map(|(&[lo, hi], m)| match m {
+            Some([a, b]) => [lo.max(*a), hi.min(*b)],
+            None => [lo, hi],
+        })
+        .collect();
+    if let Some(k) = travel.iter().position(|[lo, hi]| hi < lo) {
+        return Err(SolverError::InvalidInput(format!(
+            "axis {}: the machine's travel {:?} mm and the travel the identification measured \
+             {:?} mm do not overlap",
+            chain.axis_names()[k],
+            chain.travel()[k],
+            measured[k].unwrap_or_default()
+        )));
+    }
     let poses = match (&req.grid, req.points.is_empty()) {
         (Some(_), false) => {
             return Err(SolverError::InvalidInput(
@@ -198,8 +220,7 @@ pub fn analyse(req: &SensitivityRequest) -> Result<SensitivityResult, SolverErro
         (Some(g), true) => Poses::Grid(g.clone()),
         (None, false) => Poses::Points(req.points.clone()),
         (None, true) => Poses::Grid(
-            chain
-                .travel()
+            travel
                 .iter()
                 .map(|t| GridAxis {
                     min: t[0],
@@ -210,6 +231,7 @@ pub fn analyse(req: &SensitivityRequest) -> Result<SensitivityResult, SolverErro
         ),
     };
     poses.validate(n_axes)?;
+    check_inside_measured(&poses, &measured, chain.axis_names())?;
     const MAX_POSES: usize = 10_000_000;
     if poses.len() > MAX_POSES {
         return Err(SolverError::Limit(format!(
@@ -269,6 +291,13 @@ pub fn analyse(req: &SensitivityRequest) -> Result<SensitivityResult, SolverErro
             }
         ),
     ];
+    if measured.iter().any(Option::is_some) {
+        notes.push(
+            "poses lie inside the travel the identification measured (the identified \
+             functions are not evaluated beyond it)"
+                .into(),
+        );
+    }
     if req.identification.is_some() {
         notes.push(
             "magnitudes of identified terms are the identified functions as reported \
@@ -329,4 +358,65 @@ pub fn analyse(req: &SensitivityRequest) -> Result<SensitivityResult, SolverErro
         global,
         notes,
     })
+}
+
+/// Travel the identification measured on each chain axis that it has motion terms for
+/// (its `model.measured_travel_mm`; for a document without it, the range of the
+/// identifiable terms' reported positions).
+fn measured_limits(chain: &Chain, ident: Option<&IdentificationResult>) -> Vec<Option<[f64; 2]>> {
+    chain
+        .axis_names()
+        .iter()
+        .map(|&a| {
+            let id = ident?;
+            if let Some(t) = id.model.measured_travel_mm.get(&a.to_string()) {
+                return Some(*t);
+            }
+            let positions = id
+                .terms
+                .iter()
+                .filter(|(n, t)| n.ends_with(a) && t.identifiable)
+                .flat_map(|(_, t)| t.positions_mm.iter().copied());
+            let (lo, hi) = positions.fold((f64::INFINITY, f64::NEG_INFINITY), |(l, h), q| {
+                (l.min(q), h.max(q))
+            });
+            (hi > lo).then_some([lo, hi])
+        })
+        .collect()
+}
+
+/// Refuses poses outside the measured travel of an axis (`measured[k]`).
+fn check_inside_measured(
+    poses: &Poses,
+    measured: &[Option<[f64; 2]>],
+    names: &[char],
+) -> Result<(), SolverError> {
+    let outside = |k: usize, q: f64| -> Result<(), SolverError> {
+        match measured.get(k).copied().flatten() {
+            Some([lo, hi]) if q < lo - 1e-9 || q > hi + 1e-9 => {
+                Err(SolverError::InvalidInput(format!(
+                    "axis {} at {q} mm: outside the travel the identification measured \
+                     [{lo}, {hi}] mm (its functions are not evaluated beyond it)",
+                    names[k]
+                )))
+            }
+            _ => Ok(()),
+        }
+    };
+    match poses {
+        Poses::Points(p) => {
+            for q in p {
+                for (k, &v) in q.iter().enumerate() {
+                    outside(k, v)?;
+                }
+            }
+        }
+        Poses::Grid(g) => {
+            for (k, a) in g.iter().enumerate() {
+                outside(k, a.min)?;
+                outside(k, a.max)?;
+            }
+        }
+    }
+    Ok(())
 }

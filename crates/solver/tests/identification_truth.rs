@@ -232,3 +232,77 @@ fn reported_uncertainties_are_honest() {
         "{inside} of {total} within 2σ ({share:.3})"
     );
 }
+
+/// The result states the travel each axis measured (where it moved in the plan's runs),
+/// and each identifiable term's coefficient covariance gives back the reported standard
+/// uncertainty at every reported position: u(q) = √(gᵀ Σ g), g = (q, q², q³). Checked on
+/// the positioning, roll, pitch and yaw terms (straightness values are reported after
+/// removing their least-squares line, so their u(q) is that of the raw function only at
+/// the coefficients' level).
+#[test]
+fn measured_travel_and_coefficient_covariance_reproduce_the_reported_uncertainty() {
+    let (session, _) = session_for(Plan::Full, 21);
+    let r = identify(&session, &IdentifyOptions::default()).unwrap();
+    let travel = &r.model.measured_travel_mm;
+    for axis in ["X", "Y", "Z"] {
+        let [lo, hi] = travel[axis];
+        let idx = ["X", "Y", "Z"].iter().position(|a| *a == axis).unwrap();
+        // Over the runs in which the axis moved (a parked axis determines nothing).
+        let span = |r: &mtcal_solver::session::Run| {
+            r.pos_mm
+                .iter()
+                .map(|q| q[idx])
+                .fold((f64::INFINITY, f64::NEG_INFINITY), |(a, b), q| {
+                    (a.min(q), b.max(q))
+                })
+        };
+        let (plo, phi) = session
+            .planes
+            .iter()
+            .flat_map(|p| p.runs.iter().map(span))
+            .filter(|(a, b)| b - a > mtcal_solver::session::PARKED_RANGE_MM)
+            .fold((f64::INFINITY, f64::NEG_INFINITY), |(a, b), (l, h)| {
+                (a.min(l), b.max(h))
+            });
+        assert!(
+            (lo - plo).abs() < 1e-6 && (hi - phi).abs() < 1e-6,
+            "{axis}: {lo}..{hi} vs {plo}..{phi}"
+        );
+        for (name, t) in &r.terms {
+            if !name.ends_with(axis) || !t.identifiable {
+                continue;
+            }
+            assert!(
+                t.positions_mm
+                    .iter()
+                    .all(|q| *q >= lo - 1e-9 && *q <= hi + 1e-9),
+                "{name}"
+            );
+        }
+    }
+    let mut checked = 0;
+    for (name, t) in &r.terms {
+        let straightness = name.as_bytes()[1] != name.as_bytes()[2]
+            && matches!(name.as_bytes()[1], b'X' | b'Y' | b'Z');
+        if !t.identifiable || straightness {
+            continue;
+        }
+        let n = t.coefficients.len();
+        assert_eq!(t.coefficient_covariance.len(), n, "{name}");
+        for (q, u) in t.positions_mm.iter().zip(&t.std) {
+            let g: Vec<f64> = (1..=n).map(|k| q.powi(k as i32)).collect();
+            let var: f64 = (0..n)
+                .flat_map(|a| (0..n).map(move |b| (a, b)))
+                .map(|(a, b)| g[a] * g[b] * t.coefficient_covariance[a][b])
+                .sum();
+            let from_cov = var.max(0.0).sqrt();
+            // The reported std is rounded (results contract); compare to that precision.
+            assert!(
+                (from_cov - u).abs() <= 1e-3 + 1e-3 * u,
+                "{name} at {q}: {from_cov} vs reported {u}"
+            );
+            checked += 1;
+        }
+    }
+    assert!(checked > 100, "{checked}");
+}

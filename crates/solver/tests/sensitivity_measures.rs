@@ -192,6 +192,29 @@ fn identified_magnitudes_drive_the_ranking() {
     let ex = &res.components["Ex"];
     assert_eq!(ex.ranking[0].error, "EXX");
     assert!((ex.ranking[0].contribution_mean_um - 25.0).abs() < 1e-9);
+
+    // The same identification stating that X was measured over [−100, 100] mm: X = 500
+    // would extrapolate its functions, and is refused; the default grid stays inside.
+    let mut ident = req.identification.take().unwrap();
+    ident
+        .model
+        .measured_travel_mm
+        .insert("X".into(), [-100.0, 100.0]);
+    req.identification = Some(ident);
+    let msg = invalid(&req);
+    assert!(
+        msg.contains("axis X at 500 mm") && msg.contains("[-100, 100]"),
+        "{msg}"
+    );
+    req.points.clear();
+    let res = analyse(&req).unwrap();
+    assert!(
+        res.notes
+            .iter()
+            .any(|n| n.contains("inside the travel the identification measured")),
+        "{:?}",
+        res.notes
+    );
 }
 
 /// docs/machines/<template>.json are exactly the templates (the files document them).

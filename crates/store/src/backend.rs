@@ -73,7 +73,8 @@ async fn insert_result(
     sqlx::query(
         "INSERT INTO results (id, job_id, machine_id, dataset_id, kind, measured_at, created_at, \
          document, residual_rms_um, condition_number, rank, ec0y_urad, eb0z_urad, ea0z_urad, \
-         term_coefficients) VALUES ($1, $2, $3, $4, $5, $6, $7, $8, $9, $10, $11, $12, $13, $14, $15)",
+         term_coefficients, measured_travel, term_covariance) \
+         VALUES ($1, $2, $3, $4, $5, $6, $7, $8, $9, $10, $11, $12, $13, $14, $15, $16, $17)",
     )
     .bind(&m.id)
     .bind(&m.job_id)
@@ -90,6 +91,8 @@ async fn insert_result(
     .bind(s.eb0z_urad)
     .bind(s.ea0z_urad)
     .bind(&row.term_coefficients)
+    .bind(&row.measured_travel)
+    .bind(&row.term_covariance)
     .execute(&mut **tx)
     .await
     .map_err(|e| unique_conflict(e, || format!("result of job {job_id}")))?;

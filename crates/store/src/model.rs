@@ -161,6 +161,14 @@ pub struct ResultScalars {
     pub ea0z_urad: Option<f64>,
     /// Monomial coefficients of the identifiable terms (element i ↔ q^(i+1)).
     pub term_coefficients: BTreeMap<String, Vec<f64>>,
+    /// Travel each axis measured, [min, max] mm, by axis letter: the terms are determined
+    /// there only. Empty when unknown (results stored before it was recorded).
+    #[serde(default)]
+    pub measured_travel_mm: BTreeMap<String, [f64; 2]>,
+    /// Covariance of each identifiable term's coefficients (n × n, same order), and the
+    /// variance of each squareness value as a 1 × 1 matrix under its name.
+    #[serde(default)]
+    pub term_covariance: BTreeMap<String, Vec<Vec<f64>>>,
 }
 
 /// One named scalar figure of a result (the standards' figures, e.g. `iso230_2.X.E_um`,

@@ -100,6 +100,8 @@ pub struct ResultRow {
     pub meta: ResultMeta,
     pub document: String,
     pub term_coefficients: String,
+    pub measured_travel: String,
+    pub term_covariance: String,
 }
 
 /// Whether `name` can name a figure: letters, digits, `_` and `.`, 1 to
@@ -134,6 +136,35 @@ pub fn check_scalars(s: &ResultScalars) -> Result<()> {
         if c.iter().any(|v| !v.is_finite()) {
             return Err(StoreError::Invalid(format!(
                 "term {term}: a coefficient is not finite"
+            )));
+        }
+    }
+    for (axis, [lo, hi]) in &s.measured_travel_mm {
+        if !(lo.is_finite() && hi.is_finite() && lo < hi && hi - lo <= 1e5) {
+            return Err(StoreError::Invalid(format!(
+                "measured travel of {axis}: [{lo}, {hi}] mm must be finite, increasing, at most 100 m"
+            )));
+        }
+    }
+    for (term, cov) in &s.term_covariance {
+        // A squareness value's variance is a 1 × 1 covariance.
+        let squareness = match term.as_str() {
+            "EC0Y" => Some(s.ec0y_urad),
+            "EB0Z" => Some(s.eb0z_urad),
+            "EA0Z" => Some(s.ea0z_urad),
+            _ => None,
+        };
+        let n = match squareness {
+            Some(v) => usize::from(v.is_some()),
+            None => s.term_coefficients.get(term).map_or(0, Vec::len),
+        };
+        if cov.len() != n
+            || cov
+                .iter()
+                .any(|row| row.len() != n || row.iter().any(|v| !v.is_finite()))
+        {
+            return Err(StoreError::Invalid(format!(
+                "term {term}: the covariance must be a finite {n} × {n} matrix (one row and column per coefficient)"
             )));
         }
     }
@@ -180,6 +211,8 @@ impl ResultRow {
             },
             document: serde_json::to_string(&r.document).db()?,
             term_coefficients: serde_json::to_string(&r.scalars.term_coefficients).db()?,
+            measured_travel: serde_json::to_string(&r.scalars.measured_travel_mm).db()?,
+            term_covariance: serde_json::to_string(&r.scalars.term_covariance).db()?,
         })
     }
 }

@@ -176,8 +176,8 @@ pub async fn diff_results(s: &AppState, id: &str, q: &DiffQuery) -> Result<Resul
     }
     // At most MAX_DIFF_POSITIONS per term, whatever the step and travel (memory bound).
     let widest = ['X', 'Y', 'Z']
-        .map(|a| trends::travel(&machine, a))
         .iter()
+        .filter_map(|&a| trends::common_travel(&baseline.scalars, &against.scalars, a))
         .map(|[lo, hi]| hi - lo)
         .fold(0.0, f64::max);
     if widest / step > MAX_DIFF_POSITIONS as f64 {
@@ -187,10 +187,10 @@ pub async fn diff_results(s: &AppState, id: &str, q: &DiffQuery) -> Result<Resul
             widest / MAX_DIFF_POSITIONS as f64
         )));
     }
-    let (terms, squareness) = trends::diff(&machine, &baseline.scalars, &against.scalars, step);
+    let (terms, squareness) = trends::diff(&baseline.scalars, &against.scalars, step);
     Ok(ResultDiff {
         machine_id: id.to_string(),
-        drift: trends::drift(&machine, &baseline.scalars, &against.scalars),
+        drift: trends::drift(&baseline.scalars, &against.scalars),
         baseline,
         against,
         terms,

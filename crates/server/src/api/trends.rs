@@ -9,7 +9,7 @@ use crate::error::{ApiError, ApiQuery, ErrorBody};
 use crate::trends::{self, Drift};
 use axum::Json;
 use axum::extract::{Path, State};
-use mtcal_store::FigurePoint;
+use mtcal_store::{FigurePoint, ResultMeta};
 use serde::{Deserialize, Serialize};
 use utoipa::{IntoParams, ToSchema};
 
@@ -26,8 +26,12 @@ pub struct TermQuery {
 pub struct TermPoint {
     pub result_id: String,
     pub measured_at: String,
-    /// Value at each position (`um` or `urad`); null when the term was not identifiable.
+    /// Value at each position (`um` or `urad`); null when the term was not identifiable
+    /// in this check or the position lies outside the travel it measured.
     pub values: Vec<Option<f64>>,
+    /// Standard uncertainty of each value (from the check's stored covariance); null
+    /// where the value is null or no covariance is stored.
+    pub u: Vec<Option<f64>>,
 }
 
 #[derive(Debug, Clone, Serialize, Deserialize, ToSchema)]
@@ -43,7 +47,7 @@ pub struct TermTrend {
 #[utoipa::path(operation_id = "trends_term", summary = "A term's value at chosen positions over time", get, path = "/api/v1/machines/{id}/trends/term", tag = "trends",
     security(("api_key" = [])), params(("id" = String, Path), TermQuery),
     responses((status = 200, body = TermTrend), (status = 400, body = ErrorBody),
-              (status = 404, body = ErrorBody)))]
+              (status = 404, body = ErrorBody), (status = 422, body = ErrorBody, description = "a position outside the travel every check measured")))]
 pub async fn term(
     _key: ReadKey,
     State(s): State<AppState>,
@@ -80,17 +84,47 @@ pub async fn term_trend(s: &AppState, id: &str, q: TermQuery) -> Result<TermTren
                 ))
             })?;
     s.store.get_machine(id).await?;
-    let points = s
-        .store
-        .list_results(id, KIND)
-        .await?
+    let results = s.store.list_results(id, KIND).await?;
+    // A position no check with this term measured is refused, saying where they measured.
+    let axis = trends::term_info(&q.term).map_or('X', |(_, a)| a);
+    let with_term: Vec<_> = results
+        .iter()
+        .filter(|r| r.scalars.term_coefficients.contains_key(&q.term))
+        .collect();
+    for &p in &positions {
+        let inside = |r: &&ResultMeta| {
+            trends::measured(&r.scalars, axis).is_some_and(|[lo, hi]| p >= lo && p <= hi)
+        };
+        if !with_term.is_empty() && !with_term.iter().any(inside) {
+            let latest = with_term.last().expect("not empty");
+            return Err(ApiError::OutsideTravel(format!(
+                "{} at {p} mm: outside the travel every check of machine {id} measured (in the \
+                 latest, {}); terms are not evaluated where they were not measured",
+                q.term,
+                trends::travel_sentence(&latest.scalars, axis)
+            )));
+        }
+    }
+    let points = results
         .into_iter()
         .map(|r| {
             let c = r.scalars.term_coefficients.get(&q.term);
+            let travel = trends::measured(&r.scalars, axis);
+            let at = |p: f64| {
+                let [lo, hi] = travel?;
+                (p >= lo && p <= hi).then_some(p)
+            };
             TermPoint {
                 values: positions
                     .iter()
-                    .map(|&p| c.map(|c| trends::eval(c, p)))
+                    .map(|&p| Some(trends::eval(c?, at(p)?)))
+                    .collect(),
+                u: positions
+                    .iter()
+                    .map(|&p| {
+                        c?;
+                        trends::term_std(&r.scalars, &q.term, at(p)?)
+                    })
                     .collect(),
                 result_id: r.id,
                 measured_at: r.measured_at,
@@ -269,7 +303,7 @@ pub async fn fleet_drift(s: &AppState, q: FleetQuery) -> Result<FleetDrift, ApiE
         .await?
         .into_iter()
         .map(|p| FleetEntry {
-            drift: trends::drift(&p.machine, &p.baseline.scalars, &p.latest.scalars),
+            drift: trends::drift(&p.baseline.scalars, &p.latest.scalars),
             machine_id: p.machine.id,
             name: p.machine.name,
             site: p.machine.site,
@@ -294,7 +328,8 @@ pub async fn fleet_drift(s: &AppState, q: FleetQuery) -> Result<FleetDrift, ApiE
     machines.truncate(q.limit.unwrap_or(50).max(1));
     Ok(FleetDrift {
         definition: "largest change since the baseline result (the machine's chosen baseline, \
-                     else its first) of any term over 41 points of the registered travel"
+                     else its first) of any term over 41 points of the travel both checks \
+                     measured, with its standard uncertainty there"
             .into(),
         ranked_by: by,
         machines,

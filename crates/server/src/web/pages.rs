@@ -158,17 +158,25 @@ pub async fn fleet(
     Ok(html(vfleet::fleet_page(&session.viewer(), &page)))
 }
 
-/// The worst term's values over the checks, at the end of its registered travel where
-/// it changed most (the term trend route).
+/// The worst term's values over the checks, at the end of the latest check's measured
+/// travel where it changed most (the term trend route).
 async fn worst_trend(app: &AppState, r: &vfleet::FleetRow) -> Result<Vec<f64>, ApiError> {
     let Some(term) = r.drift_um.as_ref().and_then(|d| d.term.clone()) else {
         return Ok(vec![]);
     };
-    let machine = app.store.get_machine(&r.machine_id).await?;
     let Some((_, axis)) = crate::trends::term_info(&term) else {
         return Ok(vec![]);
     };
-    let [lo, hi] = crate::trends::travel(&machine, axis);
+    let results = app
+        .store
+        .list_results(&r.machine_id, "identification")
+        .await?;
+    let Some([lo, hi]) = results
+        .last()
+        .and_then(|l| crate::trends::measured(&l.scalars, axis))
+    else {
+        return Ok(vec![]);
+    };
     let t = api_trends::term_trend(
         app,
         &r.machine_id,

@@ -7,7 +7,7 @@ use super::{
     CONVENTION, Confounded, Estimate, FitSummary, IdentificationResult, IdentifyOptions, Method,
     ModelInfo, MountingReport, Nuisance, Observability, SquarenessReport, TermReport,
 };
-use crate::design::ErrorModel;
+use crate::design::{ErrorModel, Fit};
 use crate::observability;
 use crate::session::Session;
 use crate::terms::{SquarenessTerm, Term, TermKind};
@@ -58,6 +58,7 @@ pub fn report(
             identifiable: term_ok[i],
             confounded_with: confounded_with[i].clone(),
             coefficients: vec![],
+            coefficient_covariance: vec![],
         };
         if let (true, Some((lo, hi))) = (term_ok[i], model.travel[term.axis.index()]) {
             let straight = term.kind() == TermKind::Straightness;
@@ -81,6 +82,7 @@ pub fn report(
                     .push(round(observability::functional_variance(fit, &w).sqrt()));
             }
             rep.coefficients = monomial_coefficients(model, i, x);
+            rep.coefficient_covariance = coefficient_covariance(model, fit, i);
         }
         terms.insert(name, rep);
     }
@@ -188,6 +190,13 @@ pub fn report(
         model: ModelInfo {
             basis: model.kind,
             order: model.order,
+            measured_travel_mm: crate::axis::Axis::ALL
+                .into_iter()
+                .filter_map(|a| {
+                    let (lo, hi) = model.travel[a.index()]?;
+                    Some((a.letter().to_string(), [lo, hi]))
+                })
+                .collect(),
         },
         terms,
         squareness,
@@ -311,6 +320,33 @@ fn monomial_coefficients(model: &ErrorModel, i: usize, x: &[f64]) -> Vec<f64> {
         Some(sol) => sol.iter().copied().collect(),
         None => vec![],
     }
+}
+
+/// Covariance of the monomial coefficients of term `i` ([`monomial_coefficients`] is
+/// linear in the parameters: its gradient is its value at the unit vectors), as
+/// g_kᵀ Σ g_l from the fit's covariance.
+fn coefficient_covariance(model: &ErrorModel, fit: &Fit, i: usize) -> Vec<Vec<f64>> {
+    let range = model.term_range(i);
+    let mut unit = vec![0.0; model.len()];
+    let mut rows: Vec<Vec<f64>> = Vec::new();
+    for j in range.clone() {
+        unit[j] = 1.0;
+        let c = monomial_coefficients(model, i, &unit);
+        unit[j] = 0.0;
+        if rows.is_empty() {
+            rows = vec![vec![0.0; model.len()]; c.len()];
+        }
+        for (k, v) in c.into_iter().enumerate() {
+            rows[k][j] = v;
+        }
+    }
+    rows.iter()
+        .map(|a| {
+            rows.iter()
+                .map(|b| observability::functional_covariance(fit, a, b))
+                .collect()
+        })
+        .collect()
 }
 
 /// A sentence saying how a confounded group is seen by the data.

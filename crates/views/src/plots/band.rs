@@ -163,6 +163,7 @@ mod tests {
                 vec!["EYX".into(), "ECX".into()]
             },
             coefficients: vec![0.02, 1e-4, 0.0],
+            coefficient_covariance: vec![],
         }
     }
 
