@@ -121,9 +121,9 @@ pub fn run(args: Args) -> anyhow::Result<ExitCode> {
             let keys =
                 rt.block_on(async { anyhow::Ok(open(&db.db, false).await?.list_keys().await?) })?;
             if json {
-                println!("{}", serde_json::to_string_pretty(&keys)?);
+                super::emit(&(serde_json::to_string_pretty(&keys)? + "\n"))?;
             } else {
-                print!("{}", table(&keys));
+                super::emit(&table(&keys))?;
             }
         }
         Command::RevokeKey { db, id } => {

@@ -85,11 +85,8 @@ pub fn run(args: Args) -> anyhow::Result<ExitCode> {
     } else {
         summary(&result)
     };
-    // A closed pipe (`| head`) is not an error.
-    match std::io::Write::write_all(&mut std::io::stdout().lock(), text.as_bytes()) {
-        Err(e) if e.kind() != std::io::ErrorKind::BrokenPipe => Err(e.into()),
-        _ => Ok(ExitCode::SUCCESS),
-    }
+    super::emit(&text)?;
+    Ok(ExitCode::SUCCESS)
 }
 
 fn simulate(out: &Path, args: &Args) -> anyhow::Result<ExitCode> {

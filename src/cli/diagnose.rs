@@ -137,12 +137,7 @@ pub fn run(args: Args) -> anyhow::Result<ExitCode> {
         s.push_str(&super::standards::summary(&iso));
         s
     };
-    // A closed pipe (`| head`) is not an error.
-    if let Err(e) = std::io::stdout().lock().write_all(text.as_bytes())
-        && e.kind() != std::io::ErrorKind::BrokenPipe
-    {
-        return Err(e).context("writing to stdout");
-    }
+    super::emit(&text)?;
     Ok(ExitCode::SUCCESS)
 }
 

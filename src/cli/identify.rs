@@ -60,12 +60,11 @@ pub fn run(args: Args) -> anyhow::Result<ExitCode> {
     let result = identify(&session, &opts)
         .map_err(|e| BadInput(format!("{}: {e}", args.session.display())))?;
     if args.json {
-        println!(
-            "{}",
-            serde_json::to_string_pretty(&result).context("serialising the result")?
-        );
+        super::emit(
+            &(serde_json::to_string_pretty(&result).context("serialising the result")? + "\n"),
+        )?;
     } else {
-        print!("{}", summary(&result));
+        super::emit(&summary(&result))?;
     }
     Ok(ExitCode::SUCCESS)
 }

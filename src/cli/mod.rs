@@ -20,6 +20,20 @@ pub mod submit;
 pub struct BadInput(pub String);
 
 /// Prints the error chain to stderr and picks the exit code.
+/// Writes a command's output to stdout. A closed pipe (`mtcal identify … --json | head`)
+/// is not an error: the reader has what it wanted, so the command ends quietly instead of
+/// panicking as `println!` does.
+pub fn emit(text: &str) -> anyhow::Result<()> {
+    use std::io::Write;
+    let mut out = std::io::stdout().lock();
+    match out.write_all(text.as_bytes()).and_then(|()| out.flush()) {
+        Err(e) if e.kind() != std::io::ErrorKind::BrokenPipe => {
+            Err(anyhow::Error::new(e).context("writing to stdout"))
+        }
+        _ => Ok(()),
+    }
+}
+
 pub fn finish(result: anyhow::Result<ExitCode>) -> ExitCode {
     match result {
         Ok(code) => code,

@@ -163,9 +163,9 @@ pub fn run(args: Args) -> anyhow::Result<ExitCode> {
         other => anyhow::Error::new(other),
     })?;
     if args.json {
-        println!("{}", serde_json::to_string_pretty(&res)?);
+        super::emit(&(serde_json::to_string_pretty(&res)? + "\n"))?;
     } else {
-        print!("{}", render(&res, args.extra_rows));
+        super::emit(&render(&res, args.extra_rows))?;
     }
     Ok(ExitCode::SUCCESS)
 }

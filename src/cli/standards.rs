@@ -43,12 +43,11 @@ pub fn run(args: Args) -> anyhow::Result<ExitCode> {
         }
     };
     if args.json {
-        println!(
-            "{}",
-            serde_json::to_string_pretty(&st).context("serialising the figures")?
-        );
+        super::emit(
+            &(serde_json::to_string_pretty(&st).context("serialising the figures")? + "\n"),
+        )?;
     } else {
-        print!("{}", summary(&st));
+        super::emit(&summary(&st))?;
     }
     Ok(ExitCode::SUCCESS)
 }

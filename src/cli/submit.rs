@@ -94,7 +94,7 @@ pub fn run(args: Args) -> anyhow::Result<ExitCode> {
         }
         let doc = c.job_result(&id).await?;
         if args.json {
-            println!("{}", serde_json::to_string_pretty(&doc)?);
+            super::emit(&(serde_json::to_string_pretty(&doc)? + "\n"))?;
         } else {
             println!(
                 "job {id}: result {} — residual {} µm, rank {}/{} (condition {}), EC0Y {} µrad",

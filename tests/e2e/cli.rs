@@ -169,6 +169,59 @@ fn deployment_examples_use_flags_mtcal_accepts() {
     }
 }
 
+/// `mtcal identify … --json | head` ends quietly (exit 0, no panic) when the reader closes
+/// the pipe early; a plane file with a finite but absurd deviation (1e308 µm) is refused
+/// at its cell instead of giving NaN figures.
+#[test]
+fn identify_survives_a_closed_pipe_and_refuses_absurd_magnitudes() {
+    let dir = tempfile::tempdir().unwrap();
+    let session = dir.path().join("s");
+    write_session(&session, "VMC-P", 1, 0);
+    let mut child = Command::new(BIN)
+        .args(["identify", "--json"])
+        .arg(&session)
+        .stdout(std::process::Stdio::piped())
+        .stderr(std::process::Stdio::piped())
+        .spawn()
+        .unwrap();
+    let mut first = [0u8; 1];
+    std::io::Read::read_exact(child.stdout.as_mut().unwrap(), &mut first).unwrap();
+    drop(child.stdout.take());
+    let out = child.wait_with_output().unwrap();
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert!(
+        out.status.success() && !err.contains("panicked"),
+        "{:?}: {err}",
+        out.status
+    );
+
+    let csv = std::fs::read_dir(&session)
+        .unwrap()
+        .map(|e| e.unwrap().path())
+        .find(|p| p.extension().is_some_and(|x| x == "csv"))
+        .unwrap();
+    let text = std::fs::read_to_string(&csv).unwrap();
+    let mut lines: Vec<String> = text.lines().map(str::to_string).collect();
+    let header: Vec<&str> = lines[0].split(',').collect();
+    let col = header.iter().position(|c| *c == "du_um").unwrap();
+    let mut cells: Vec<String> = lines[3].split(',').map(str::to_string).collect();
+    cells[col] = "1e308".into();
+    lines[3] = cells.join(",");
+    std::fs::write(&csv, lines.join("\n") + "\n").unwrap();
+    let out = Command::new(BIN)
+        .arg("identify")
+        .arg(&session)
+        .output()
+        .unwrap();
+    assert_eq!(out.status.code(), Some(2));
+    let err = String::from_utf8_lossy(&out.stderr);
+    let name = csv.file_name().unwrap().to_string_lossy();
+    assert!(
+        err.contains(&format!("{name}:4:du_um")) && err.contains("plausible deviation"),
+        "{err}"
+    );
+}
+
 /// `mtcal demo` on an address already in use says so and how to pick a free port.
 #[test]
 fn demo_on_a_taken_address_says_so() {

@@ -274,6 +274,22 @@ impl<'a> CsvTable<'a> {
         }
     }
 
+    /// The cell as a number within ±`max` (a plausibility bound of [`crate::Limits`],
+    /// `what` names the quantity and unit, e.g. `deviation (µm)`).
+    pub fn f64_within(&self, idx: usize, max: f64, what: &str) -> Result<f64, FormatError> {
+        let v = self.f64(idx)?;
+        if v.abs() > max {
+            return Err(self.err_at(
+                idx,
+                format!(
+                    "{v:e} is beyond the plausible {what} of ±{max} (a unit mistake? the \
+                     limit is configurable)"
+                ),
+            ));
+        }
+        Ok(v)
+    }
+
     /// The cell as a decimal integer.
     pub fn int(&self, idx: usize) -> Result<i64, FormatError> {
         if let Some(v) = fast_int(&self.rec[idx]) {

@@ -73,11 +73,12 @@ pub fn read_drift_log(name: &str, bytes: &[u8], limits: &Limits) -> Result<Drift
     }
     let mut t_s: Vec<f64> = Vec::with_capacity(hint);
     while t.next_row()? {
-        let v = t.f64(c_t)?;
+        let v = t.f64_within(c_t, limits.max_abs_time_s, "time (s)")?;
         check_increasing(&t, c_t, t_s.last().copied(), v, "the file")?;
         t_s.push(v);
         for (i, ch) in channels.iter_mut() {
-            ch.values.push(t.f64(*i)?);
+            ch.values
+                .push(t.f64_within(*i, limits.max_abs_value, "channel value")?);
         }
     }
     if t_s.is_empty() {

@@ -52,7 +52,7 @@ pub fn read_positioning(
         };
         let t_s = match c_t {
             Some(ct) => {
-                let v = t.f64(ct)?;
+                let v = t.f64_within(ct, limits.max_abs_time_s, "time (s)")?;
                 let prev = last_t.insert((axis, run), v);
                 check_increasing(&t, ct, prev, v, &format!("axis {axis} run {run}"))?;
                 Some(v)
@@ -63,10 +63,12 @@ pub fn read_positioning(
             axis,
             run,
             direction,
-            target_mm: t.f64(c[3])?,
-            deviation_um: t.f64(c[4])?,
+            target_mm: t.f64_within(c[3], limits.max_abs_position_mm, "position (mm)")?,
+            deviation_um: t.f64_within(c[4], limits.max_abs_deviation_um, "deviation (µm)")?,
             t_s,
-            temp_c: c_temp.map(|ct| t.f64(ct)).transpose()?,
+            temp_c: c_temp
+                .map(|ct| t.f64_within(ct, limits.max_abs_temperature_c, "temperature (°C)"))
+                .transpose()?,
         });
     }
     if records.is_empty() {

@@ -43,7 +43,7 @@ pub fn read_rotary_points(
     while t.next_row()? {
         let t_s = match c_t {
             Some(ct) => {
-                let v = t.f64(ct)?;
+                let v = t.f64_within(ct, limits.max_abs_time_s, "time (s)")?;
                 check_increasing(&t, ct, prev_t, v, "the file")?;
                 prev_t = Some(v);
                 Some(v)
@@ -51,11 +51,11 @@ pub fn read_rotary_points(
             None => None,
         };
         points.push(RotaryPoint {
-            a_deg: t.f64(c[0])?,
-            c_deg: t.f64(c[1])?,
-            x_mm: t.f64(c[2])?,
-            y_mm: t.f64(c[3])?,
-            z_mm: t.f64(c[4])?,
+            a_deg: t.f64_within(c[0], limits.max_abs_angle_deg, "angle (°)")?,
+            c_deg: t.f64_within(c[1], limits.max_abs_angle_deg, "angle (°)")?,
+            x_mm: t.f64_within(c[2], limits.max_abs_position_mm, "position (mm)")?,
+            y_mm: t.f64_within(c[3], limits.max_abs_position_mm, "position (mm)")?,
+            z_mm: t.f64_within(c[4], limits.max_abs_position_mm, "position (mm)")?,
             t_s,
         });
     }

@@ -482,7 +482,7 @@ pub fn read_plane_csv(file: &str, bytes: &[u8], limits: &Limits) -> Result<Vec<R
                 k
             }
         };
-        let ts = t.f64(c_t)?;
+        let ts = t.f64_within(c_t, limits.max_abs_time_s, "time (s)")?;
         let run = &mut runs[k];
         check_increasing(
             &t,
@@ -491,10 +491,14 @@ pub fn read_plane_csv(file: &str, bytes: &[u8], limits: &Limits) -> Result<Vec<R
             ts,
             &format!("run {number}"),
         )?;
-        let pos = [t.f64(c_x)?, t.f64(c_y)?, t.f64(c_z)?];
-        let du = t.f64(c_du)?;
-        let dv = t.f64(c_dv)?;
-        let temp = c_temp.map(|c| t.f64(c)).transpose()?;
+        let position = |c| t.f64_within(c, limits.max_abs_position_mm, "position (mm)");
+        let pos = [position(c_x)?, position(c_y)?, position(c_z)?];
+        let deviation = |c| t.f64_within(c, limits.max_abs_deviation_um, "deviation (µm)");
+        let du = deviation(c_du)?;
+        let dv = deviation(c_dv)?;
+        let temp = c_temp
+            .map(|c| t.f64_within(c, limits.max_abs_temperature_c, "temperature (°C)"))
+            .transpose()?;
         if let Some(c) = c_test {
             let s = t.text(c);
             let label = if s.is_empty() {

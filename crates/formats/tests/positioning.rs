@@ -179,3 +179,13 @@ fn write_read_round_trip() {
     bad.records[5].deviation_um = f64::NAN;
     assert!(write_positioning(Vec::new(), &bad).is_err());
 }
+
+/// Deviations in mm or targets in µm beyond the plausibility bounds are refused at their
+/// cell (a target of 500 000 mm is a unit mistake).
+#[test]
+fn implausible_targets_and_deviations_are_refused() {
+    let e = err(&format!("{HEADER}\nX,1,+,500000,1.5\n"));
+    check(&e, "pos.csv", 2, "target_mm", "plausible position (mm)");
+    let e = err(&format!("{HEADER}\nX,1,+,100,2e7\n"));
+    check(&e, "pos.csv", 2, "deviation_um", "plausible deviation (µm)");
+}

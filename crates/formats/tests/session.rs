@@ -817,3 +817,36 @@ fn parallel_parse_reports_the_first_bad_file_in_description_order() {
         assert_eq!(plane.runs, one);
     }
 }
+
+/// A finite but absurd magnitude (1e308 µm, a position in µm where mm are required) is
+/// refused at its cell instead of reaching the solver (where it made every figure NaN);
+/// the bounds are the configurable `Limits`.
+#[test]
+fn implausible_magnitudes_are_refused_at_their_cell() {
+    let bad =
+        |row: &str| format!("run,t_s,x_mm,y_mm,z_mm,du_um,dv_um\n1,0.0,0,0,0,0.1,0.2\n{row}\n");
+    let e = csv_err(&bad("1,0.1,1,0,0,1e308,0.3"));
+    check(
+        &e,
+        "xy.csv",
+        3,
+        "du_um",
+        "plausible deviation (µm) of ±10000",
+    );
+    let e = csv_err(&bad("1,0.1,250000,0,0,0.2,0.3"));
+    check(&e, "xy.csv", 3, "x_mm", "plausible position (mm)");
+    let e = csv_err(&bad("1,1e12,1,0,0,0.2,0.3"));
+    check(&e, "xy.csv", 3, "t_s", "plausible time (s)");
+    // Within a raised limit, the same value is read.
+    let limits = Limits {
+        max_abs_position_mm: 1e6,
+        ..Limits::default()
+    };
+    let runs = read_plane_csv(
+        "xy.csv",
+        bad("1,0.1,250000,0,0,0.2,0.3").as_bytes(),
+        &limits,
+    )
+    .unwrap();
+    assert_eq!(runs[0].pos_mm[1][0], 250_000.0);
+}
