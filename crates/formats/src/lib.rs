@@ -63,6 +63,24 @@ pub enum ErrorKind {
     Limit,
 }
 
+/// Longest file name, column name or rule kept in a [`FormatError`], bytes: the cell or
+/// header a message quotes comes from the input, and a 10 MB cell must not make a 10 MB
+/// message (in a log line or an HTTP answer).
+pub const MAX_MESSAGE_PART: usize = 512;
+
+/// `s`, cut to [`MAX_MESSAGE_PART`] bytes (at a character boundary) with its full length
+/// said when longer.
+fn bounded(s: String) -> String {
+    if s.len() <= MAX_MESSAGE_PART {
+        return s;
+    }
+    let mut end = MAX_MESSAGE_PART;
+    while !s.is_char_boundary(end) {
+        end -= 1;
+    }
+    format!("{}… ({} bytes in all)", &s[..end], s.len())
+}
+
 impl FormatError {
     pub fn new(
         file: impl Into<String>,
@@ -71,10 +89,10 @@ impl FormatError {
         rule: impl Into<String>,
     ) -> FormatError {
         FormatError {
-            file: file.into(),
+            file: bounded(file.into()),
             line,
-            column: column.into(),
-            rule: rule.into(),
+            column: bounded(column.into()),
+            rule: bounded(rule.into()),
             kind: ErrorKind::Rule,
         }
     }

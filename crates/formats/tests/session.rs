@@ -850,3 +850,16 @@ fn implausible_magnitudes_are_refused_at_their_cell() {
     .unwrap();
     assert_eq!(runs[0].pos_mm[1][0], 250_000.0);
 }
+
+/// A huge cell gives a bounded message: the quote is cut, its length said.
+#[test]
+fn a_huge_cell_gives_a_bounded_message() {
+    let cell = "z".repeat(1 << 20);
+    let e = csv_err(&format!(
+        "run,t_s,x_mm,y_mm,z_mm,du_um,dv_um\n1,0.0,0,0,0,{cell},0.2\n"
+    ));
+    let text = e.to_string();
+    assert!(text.len() < 1200, "{} bytes", text.len());
+    assert!(text.contains("bytes in all"), "{text}");
+    assert_eq!((e.line, e.column.as_str()), (2, "du_um"));
+}
