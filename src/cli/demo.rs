@@ -171,6 +171,7 @@ async fn demo(args: Args, db: PathBuf) -> anyhow::Result<ExitCode> {
             max_upload_bytes: 256 << 20,
             pause_before_solve_ms: 0,
             grace_seconds: 5,
+            job_timeout_seconds: 3600,
             log_format: super::serve::LogFormat::Text,
         },
         listen: args.listen,

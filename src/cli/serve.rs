@@ -30,6 +30,9 @@ pub struct WorkerArgs {
     /// Testing aid: pause each job this long before solving.
     #[arg(long, default_value_t = 0, hide = true)]
     pub pause_before_solve_ms: u64,
+    /// Longest run of one job, seconds: a job still running then fails (code `timeout`).
+    #[arg(long, env = "MTCAL_JOB_TIMEOUT_SECONDS", default_value_t = 3600)]
+    pub job_timeout_seconds: u64,
     /// On SIGTERM or Ctrl-C: seconds a running job may take to finish before it is
     /// handed back to the queue (another worker claims it at once).
     #[arg(long, env = "MTCAL_GRACE_SECONDS", default_value_t = 20)]
@@ -62,6 +65,7 @@ impl WorkerArgs {
             },
             pause_before_solve_ms: self.pause_before_solve_ms,
             grace: std::time::Duration::from_secs(self.grace_seconds.min(3600)),
+            max_run: std::time::Duration::from_secs(self.job_timeout_seconds.clamp(1, 7 * 86_400)),
             ..WorkerConfig::default()
         }
     }

@@ -334,3 +334,36 @@ async fn on_postgres_three_workers_run_200_jobs_exactly_once_around_sigterm_and_
     drop(api);
     pg.drop_schema().await.unwrap();
 }
+
+/// A job that runs past `--job-timeout-seconds` fails with code `timeout` (its heartbeats
+/// would otherwise renew the lease forever) and is not retried.
+#[tokio::test]
+async fn a_job_past_its_run_time_limit_fails_with_timeout() {
+    let (dir, _store, key) = shared_db().await;
+    let (db, session) = (dir.path().join("svc.sqlite"), dir.path().join("s"));
+    write_session(&session, "VMC-L", 5, 0);
+    let api = Server::start(
+        &db,
+        &[
+            "--pause-before-solve-ms",
+            "60000",
+            "--job-timeout-seconds",
+            "1",
+        ],
+    );
+    let c = Client::new(&api.url, &key);
+    register(&c, "VMC-L").await;
+    let ds = c.upload_path("VMC-L", &session).await.unwrap();
+    let kind = mtcal_server::jobs::JobKind::Identify;
+    let job = submit(&c, kind, Some(&ds.id), None).await.id;
+    let failed = wait(&c, &job, JobState::Failed).await;
+    assert_eq!(failed.error_code.as_deref(), Some("timeout"), "{failed:?}");
+    assert_eq!(failed.attempts, 1);
+    assert!(
+        failed
+            .error_message
+            .as_deref()
+            .is_some_and(|m| m.contains("longer than the limit of 1 s")),
+        "{failed:?}"
+    );
+}

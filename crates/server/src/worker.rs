@@ -6,6 +6,8 @@
 //! failed once the attempts are spent; cancellation seen at a heartbeat → cancelled
 //! (the blocking computation is abandoned, its result discarded).
 //!
+//! A job that runs longer than [`WorkerConfig::max_run`] fails with code `timeout`.
+//!
 //! Shutdown ([`Workers::shutdown`], on SIGTERM or Ctrl-C): the workers stop claiming;
 //! a running job has the grace period ([`WorkerConfig::grace`]) to finish, after which
 //! it is handed back to the queue (`release_job`: queued at once, the attempt not
@@ -31,6 +33,9 @@ pub struct WorkerConfig {
     /// How long a running job may take to finish once shutdown is asked for, before it
     /// is handed back to the queue.
     pub grace: Duration,
+    /// Longest run of one job (from its claim): a job still running then fails with
+    /// code `timeout` and is not retried (heartbeats alone would renew its lease forever).
+    pub max_run: Duration,
 }
 
 impl Default for WorkerConfig {
@@ -41,6 +46,7 @@ impl Default for WorkerConfig {
             limits: UploadLimits::default(),
             pause_before_solve_ms: 0,
             grace: Duration::from_secs(20),
+            max_run: Duration::from_secs(3600),
         }
     }
 }
@@ -147,6 +153,8 @@ enum Stop {
     LeaseLost,
     /// Shutdown, and the grace period is over: hand the job back.
     HandBack,
+    /// The job ran longer than [`WorkerConfig::max_run`].
+    TimedOut,
 }
 
 async fn run_job(
@@ -212,6 +220,7 @@ async fn run_job(
             stop_requested(stopping).await;
             tokio::time::sleep(grace).await;
         } => Err(Stop::HandBack),
+        _ = tokio::time::sleep(cfg.max_run) => Err(Stop::TimedOut),
     };
     hb.abort();
     let recorded = match outcome {
@@ -242,6 +251,16 @@ async fn run_job(
         }
         Err(Stop::Cancel) => store.finish_cancelled(&job.id, me).await,
         Err(Stop::LeaseLost) => Err(StoreError::LeaseLost(job.id.clone())),
+        // The blocking computation cannot be interrupted: it is abandoned and its result
+        // discarded, as on cancellation.
+        Err(Stop::TimedOut) => {
+            let m = format!(
+                "the job ran longer than the limit of {} s and was stopped (the service's \
+                 --job-timeout-seconds)",
+                cfg.max_run.as_secs()
+            );
+            store.fail_job(&job.id, me, "timeout", &m, None).await
+        }
         Err(Stop::HandBack) => {
             tracing::warn!(job = %job.id, "shutting down: job handed back to the queue");
             store.release_job(&job.id, me).await
