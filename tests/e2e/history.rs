@@ -124,6 +124,18 @@ async fn history_and_trends_return_what_was_stored() {
         let msg = refusal_message(app.client.update_machine("VMC-A", &patch).await);
         assert!(msg.contains("travel_mm.X"), "{msg}");
     }
+    // A result of another machine is the same conflict in a diff as in a baseline PATCH.
+    let b_result = app.client.results("VMC-B", None).await.unwrap()[0]
+        .id
+        .clone();
+    let (status, code) = refused(app.client.diff("VMC-A", &[("baseline", &b_result)]).await);
+    assert_eq!((status.as_u16(), code.as_str()), (409, "conflict"));
+    let patch = mtcal_store::MachinePatch {
+        baseline_result_id: Some(b_result.clone()),
+        ..Default::default()
+    };
+    let (status, code) = refused(app.client.update_machine("VMC-A", &patch).await);
+    assert_eq!((status.as_u16(), code.as_str()), (409, "conflict"));
     let diff = app.client.diff("VMC-A", &[]).await.unwrap();
     assert_eq!(diff.baseline.id, hist[0].id);
     assert_eq!(diff.against.id, hist[2].id);

@@ -135,7 +135,7 @@ pub struct ResultDiff {
 
 #[utoipa::path(operation_id = "history_diff", summary = "Difference of a result from the baseline, term by term", get, path = "/api/v1/machines/{id}/results/diff", tag = "history",
     security(("api_key" = [])), params(("id" = String, Path), DiffQuery),
-    responses((status = 200, body = ResultDiff), (status = 404, body = ErrorBody)))]
+    responses((status = 200, body = ResultDiff), (status = 400, body = ErrorBody), (status = 404, body = ErrorBody), (status = 409, body = ErrorBody, description = "a named result belongs to another machine")))]
 pub async fn diff(
     _key: ReadKey,
     State(s): State<AppState>,
@@ -150,6 +150,28 @@ pub async fn diff(
 pub async fn diff_results(s: &AppState, id: &str, q: &DiffQuery) -> Result<ResultDiff, ApiError> {
     let machine = s.store.get_machine(id).await?;
     let all = s.store.list_results(id, KIND).await?;
+    // A named result that is not one of this machine's identifications: the same answer
+    // as a baseline PATCH gives (409 when it belongs to another machine).
+    for rid in [q.baseline.as_ref(), q.against.as_ref()]
+        .into_iter()
+        .flatten()
+    {
+        if all.iter().any(|m| &m.id == rid) {
+            continue;
+        }
+        let other = s.store.get_result(rid).await?;
+        return Err(if other.meta.machine_id != id {
+            ApiError::Conflict(format!(
+                "result {rid} belongs to machine {}, not {id}",
+                other.meta.machine_id
+            ))
+        } else {
+            ApiError::InvalidRequest(format!(
+                "result {rid} is a {} result; the difference compares {KIND} results",
+                other.meta.kind
+            ))
+        });
+    }
     let pick =
         |rid: Option<&String>, default: Option<&ResultMeta>| -> Result<ResultMeta, ApiError> {
             match rid {
