@@ -174,4 +174,20 @@ async fn history_and_trends_return_what_was_stored() {
     let a = ms.iter().find(|m| m.machine_id == "VMC-A").unwrap();
     assert_eq!(a.results, 3);
     assert!(a.drift.drift_urad >= (ec[2] - ec[0]).abs() - 1e-9);
+    assert_eq!(a.baseline_result_id, hist[0].id);
+    // The ranking is maintained, not recomputed per request: a new baseline shows at once.
+    let patch = mtcal_store::MachinePatch {
+        baseline_result_id: Some(hist[1].id.clone()),
+        ..Default::default()
+    };
+    app.client.update_machine("VMC-A", &patch).await.unwrap();
+    let fleet = app.client.fleet_drift(Some("urad"), None).await.unwrap();
+    let a = fleet
+        .machines
+        .iter()
+        .find(|m| m.machine_id == "VMC-A")
+        .unwrap();
+    assert_eq!(a.baseline_result_id, hist[1].id);
+    let want = mtcal_server::trends::drift(&hist[1].scalars, &hist[2].scalars);
+    assert_eq!(a.drift, want);
 }

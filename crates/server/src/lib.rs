@@ -12,6 +12,7 @@
 pub mod api;
 pub mod auth;
 pub mod error;
+pub mod fleet;
 pub mod ingest;
 pub mod jobs;
 pub mod metrics;
@@ -287,7 +288,14 @@ pub async fn serve(
 ) -> anyhow::Result<()> {
     let store = mtcal_store::open(&cfg.db_url).await?;
     let listener = tokio::net::TcpListener::bind(cfg.listen).await?;
-    let (app, workers) = app(store, &cfg.worker, cfg.run_worker);
+    let (app, workers) = app(store.clone(), &cfg.worker, cfg.run_worker);
+    // Drift of results stored before this version or imported in bulk.
+    tokio::spawn(async move {
+        match fleet::refresh_all(store.as_ref()).await {
+            Ok(n) => tracing::info!(machines = n, "fleet drift refreshed"),
+            Err(e) => tracing::warn!(%e, "fleet drift not refreshed"),
+        }
+    });
     ready(listener.local_addr()?);
     axum::serve(listener, app)
         .with_graceful_shutdown(stop)

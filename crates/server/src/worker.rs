@@ -266,6 +266,14 @@ async fn run_job(
             store.release_job(&job.id, me).await
         }
     };
+    if let Ok(j) = &recorded
+        && j.state == mtcal_store::JobState::Succeeded
+        && job.kind.result_kind() == crate::api::history::KIND
+        && let Some(m) = &job.machine_id
+        && let Err(e) = crate::fleet::refresh_machine(store.as_ref(), m).await
+    {
+        tracing::warn!(machine = %m, %e, "fleet drift not refreshed");
+    }
     let outcome = match &recorded {
         Ok(j) if j.state == mtcal_store::JobState::Queued => "requeued",
         Ok(j) => j.state.as_str(),

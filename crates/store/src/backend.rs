@@ -426,6 +426,74 @@ impl Store for This {
         })
     }
 
+    fn put_fleet_drift<'a>(&'a self, row: &'a FleetDriftRow) -> StoreFuture<'a, bool> {
+        Box::pin(async move {
+            let done = sqlx::query(
+                "INSERT INTO fleet_drift (machine_id, read_at_ms, drift_um, drift_urad, entry) \
+                 VALUES ($1, $2, $3, $4, $5) ON CONFLICT (machine_id) DO UPDATE SET \
+                 read_at_ms = EXCLUDED.read_at_ms, drift_um = EXCLUDED.drift_um, \
+                 drift_urad = EXCLUDED.drift_urad, entry = EXCLUDED.entry \
+                 WHERE fleet_drift.read_at_ms <= EXCLUDED.read_at_ms",
+            )
+            .bind(&row.machine_id)
+            .bind(row.read_at_ms)
+            .bind(row.drift_um)
+            .bind(row.drift_urad)
+            .bind(serde_json::to_string(&row.entry).db()?)
+            .execute(&self.pool)
+            .await
+            .db()?;
+            Ok(done.rows_affected() == 1)
+        })
+    }
+
+    fn delete_fleet_drift<'a>(&'a self, machine_id: &'a str) -> StoreFuture<'a, ()> {
+        Box::pin(async move {
+            sqlx::query("DELETE FROM fleet_drift WHERE machine_id = $1")
+                .bind(machine_id)
+                .execute(&self.pool)
+                .await
+                .db()?;
+            Ok(())
+        })
+    }
+
+    fn fleet_drift_ranked(
+        &self,
+        by_um: bool,
+        limit: usize,
+    ) -> StoreFuture<'_, Vec<(FleetDriftRow, String, Option<String>)>> {
+        Box::pin(async move {
+            let order = if by_um { "drift_um" } else { "drift_urad" };
+            let q = format!(
+                "SELECT f.machine_id, f.read_at_ms, f.drift_um, f.drift_urad, f.entry, m.name, \
+                 m.site FROM fleet_drift f JOIN machines m ON m.id = f.machine_id \
+                 ORDER BY f.{order} DESC, f.machine_id LIMIT $1"
+            );
+            let rows = sqlx::query(sqlx::AssertSqlSafe(q))
+                .bind(i64::try_from(limit).unwrap_or(i64::MAX))
+                .fetch_all(&self.pool)
+                .await
+                .db()?;
+            rows.iter()
+                .map(|r| {
+                    let entry: String = r.text("entry")?;
+                    Ok((
+                        FleetDriftRow {
+                            machine_id: r.text("machine_id")?,
+                            read_at_ms: r.int("read_at_ms")?,
+                            drift_um: r.real("drift_um")?,
+                            drift_urad: r.real("drift_urad")?,
+                            entry: serde_json::from_str(&entry).db()?,
+                        },
+                        r.text("name")?,
+                        r.opt_text("site")?,
+                    ))
+                })
+                .collect()
+        })
+    }
+
     fn import_result<'a>(&'a self, r: NewResult) -> StoreFuture<'a, ResultMeta> {
         Box::pin(async move {
             let mut tx = self.pool.begin().await.db()?;

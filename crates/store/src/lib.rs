@@ -86,6 +86,20 @@ pub trait Store: Queue {
     ) -> StoreFuture<'a, Vec<FigurePoint>>;
     /// The names of every figure stored for a machine, sorted.
     fn figure_names<'a>(&'a self, machine_id: &'a str) -> StoreFuture<'a, Vec<String>>;
+
+    // The fleet's drift, maintained by the service.
+    /// Stores a machine's drift unless the stored row was computed from a later read
+    /// (`read_at_ms`); returns whether it was stored.
+    fn put_fleet_drift<'a>(&'a self, row: &'a FleetDriftRow) -> StoreFuture<'a, bool>;
+    /// Removes a machine's drift (it has no result of the kind any more).
+    fn delete_fleet_drift<'a>(&'a self, machine_id: &'a str) -> StoreFuture<'a, ()>;
+    /// The machines' drift, largest first by `drift_um` (`by_um`) or `drift_urad`, at
+    /// most `limit`, with each machine's current name and site.
+    fn fleet_drift_ranked(
+        &self,
+        by_um: bool,
+        limit: usize,
+    ) -> StoreFuture<'_, Vec<(FleetDriftRow, String, Option<String>)>>;
     /// Inserts a result without a job run (an `import` job, born succeeded).
     fn import_result<'a>(&'a self, r: NewResult) -> StoreFuture<'a, ResultMeta>;
     /// Inserts many results (each with its `import` job) in one transaction: for seeding

@@ -244,6 +244,20 @@ pub struct BaselinePair {
     pub results: i64,
 }
 
+/// A machine's drift since its baseline as the fleet ranking stores it (computed by the
+/// service when a result lands or the baseline changes).
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct FleetDriftRow {
+    pub machine_id: String,
+    /// When the results it was computed from were read (ms since the epoch): a row from
+    /// an older read never replaces a newer one.
+    pub read_at_ms: i64,
+    pub drift_um: f64,
+    pub drift_urad: f64,
+    /// The ranking's entry for the machine (ids, result count, drift, uncertainty).
+    pub entry: serde_json::Value,
+}
+
 /// Row counts of every table (for tests and the admin view).
 #[derive(Debug, Clone, Copy, Default, PartialEq, Eq, Serialize, Deserialize)]
 pub struct RowCounts {

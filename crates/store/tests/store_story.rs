@@ -62,6 +62,7 @@ stories!(
     keys_are_listed_and_a_revoked_key_authenticates_nothing,
     a_released_job_is_claimable_at_once_without_spending_an_attempt,
     migrations_are_all_applied,
+    fleet_drift_is_ranked_and_an_older_computation_never_replaces_a_newer,
 );
 
 fn machine(id: &str) -> Machine {
@@ -513,6 +514,48 @@ async fn a_released_job_is_claimable_at_once_without_spending_an_attempt(s: &dyn
     assert_eq!(
         s.release_job(&k.id, "w1").await.unwrap().state,
         JobState::Cancelled
+    );
+}
+
+async fn fleet_drift_is_ranked_and_an_older_computation_never_replaces_a_newer(s: &dyn Store) {
+    for id in ["M1", "M2", "M3"] {
+        s.create_machine(&machine(id)).await.unwrap();
+    }
+    let row = |id: &str, at: i64, um: f64, urad: f64| FleetDriftRow {
+        machine_id: id.into(),
+        read_at_ms: at,
+        drift_um: um,
+        drift_urad: urad,
+        entry: serde_json::json!({"machine_id": id, "drift_um": um}),
+    };
+    assert!(s.put_fleet_drift(&row("M1", 10, 3.0, 1.0)).await.unwrap());
+    assert!(s.put_fleet_drift(&row("M2", 10, 5.0, 0.5)).await.unwrap());
+    assert!(s.put_fleet_drift(&row("M3", 10, 1.0, 9.0)).await.unwrap());
+    let ids = |v: Vec<(FleetDriftRow, String, Option<String>)>| {
+        v.into_iter()
+            .map(|(r, _, _)| r.machine_id)
+            .collect::<Vec<_>>()
+    };
+    assert_eq!(
+        ids(s.fleet_drift_ranked(true, 10).await.unwrap()),
+        ["M2", "M1", "M3"]
+    );
+    assert_eq!(
+        ids(s.fleet_drift_ranked(false, 2).await.unwrap()),
+        ["M3", "M1"]
+    );
+    // A computation from an older read is ignored; a newer one replaces.
+    assert!(!s.put_fleet_drift(&row("M2", 9, 0.0, 0.0)).await.unwrap());
+    assert!(s.put_fleet_drift(&row("M1", 11, 7.0, 1.0)).await.unwrap());
+    let ranked = s.fleet_drift_ranked(true, 10).await.unwrap();
+    assert_eq!(ids(ranked.clone()), ["M1", "M2", "M3"]);
+    assert_eq!(ranked[1].0.drift_um, 5.0);
+    assert_eq!(ranked[0].0.entry["drift_um"], 7.0);
+    assert_eq!(ranked[0].1, "machine M1", "the machine's current name");
+    s.delete_fleet_drift("M1").await.unwrap();
+    assert_eq!(
+        ids(s.fleet_drift_ranked(true, 10).await.unwrap()),
+        ["M2", "M3"]
     );
 }
 

@@ -144,7 +144,12 @@ pub async fn update_machine(
     if let Some(t) = &p.travel_mm {
         check_travel(t)?;
     }
-    Ok(s.store.update_machine(id, &p).await?)
+    let baseline_changes = p.baseline_result_id.is_some();
+    let m = s.store.update_machine(id, &p).await?;
+    if baseline_changes {
+        crate::fleet::refresh_machine(s.store.as_ref(), id).await?;
+    }
+    Ok(m)
 }
 
 #[derive(Debug, Deserialize, IntoParams)]

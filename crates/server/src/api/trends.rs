@@ -297,35 +297,21 @@ pub async fn fleet_drift(s: &AppState, q: FleetQuery) -> Result<FleetDrift, ApiE
     if by != "um" && by != "urad" {
         return Err(ApiError::InvalidRequest("by: `um` or `urad`".into()));
     }
-    let mut machines: Vec<FleetEntry> = s
+    // Maintained as results land and baselines change (crate::fleet); ranked by the
+    // database.
+    let machines: Vec<FleetEntry> = s
         .store
-        .baseline_pairs(KIND)
+        .fleet_drift_ranked(by == "um", q.limit.unwrap_or(50).clamp(1, 100_000))
         .await?
         .into_iter()
-        .map(|p| FleetEntry {
-            drift: trends::drift(&p.baseline.scalars, &p.latest.scalars),
-            machine_id: p.machine.id,
-            name: p.machine.name,
-            site: p.machine.site,
-            baseline_result_id: p.baseline.id,
-            latest_result_id: p.latest.id,
-            latest_measured_at: p.latest.measured_at,
-            results: p.results,
+        .map(|(row, name, site)| {
+            let mut e: FleetEntry = serde_json::from_value(row.entry)
+                .map_err(|e| ApiError::Internal(format!("stored fleet entry: {e}")))?;
+            e.name = name;
+            e.site = site;
+            Ok(e)
         })
-        .collect();
-    let key = |e: &FleetEntry| {
-        if by == "um" {
-            e.drift.drift_um
-        } else {
-            e.drift.drift_urad
-        }
-    };
-    machines.sort_by(|a, b| {
-        key(b)
-            .total_cmp(&key(a))
-            .then_with(|| a.machine_id.cmp(&b.machine_id))
-    });
-    machines.truncate(q.limit.unwrap_or(50).max(1));
+        .collect::<Result<_, ApiError>>()?;
     Ok(FleetDrift {
         definition: "largest change since the baseline result (the machine's chosen baseline, \
                      else its first) of any term over 41 points of the travel both checks \
