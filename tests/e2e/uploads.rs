@@ -217,3 +217,28 @@ async fn refused_uploads_get_documented_errors_and_store_nothing() {
         "a rejected request changed the database"
     );
 }
+
+/// More uploads at once than the process reads at once (`MAX_CONCURRENT_UPLOADS`): the
+/// others wait for a slot, none is refused, each is stored once.
+#[tokio::test]
+async fn concurrent_uploads_beyond_the_limit_wait_and_all_succeed() {
+    let app = spawn_app().await;
+    app.machine("VMC-U").await;
+    let n = 3 * mtcal_server::MAX_CONCURRENT_UPLOADS;
+    let dirs: Vec<_> = (0..n)
+        .map(|q| {
+            let d = app.path(&format!("u{q}"));
+            write_session(&d, "VMC-U", 9, q % 4);
+            d
+        })
+        .collect();
+    let mut set = tokio::task::JoinSet::new();
+    for d in dirs {
+        let c = app.client.clone();
+        set.spawn(async move { c.upload_path("VMC-U", &d).await.map(|ds| ds.id) });
+    }
+    while let Some(done) = set.join_next().await {
+        done.unwrap().unwrap();
+    }
+    assert_eq!(app.counts().await.datasets, n as i64);
+}

@@ -44,6 +44,11 @@ pub const JSON_BODY_LIMIT: usize = 1 << 20;
 pub const REQUEST_TIMEOUT: Duration = Duration::from_secs(30);
 /// Time limit of uploads.
 pub const UPLOAD_TIMEOUT: Duration = Duration::from_secs(300);
+/// Uploads read at the same time by one process; more wait for a slot (within the
+/// upload time limit) before their body is read. An upload may decompress to the byte
+/// limit (256 MiB) and its columns take about as much again, so two at a time bound a
+/// process's upload memory near 1 GB whatever the number of clients.
+pub const MAX_CONCURRENT_UPLOADS: usize = 2;
 
 struct SecurityAddon;
 
@@ -104,6 +109,9 @@ pub fn router(state: AppState) -> Router {
         .route("/api/v1/machines/{id}/datasets", post(datasets::upload))
         .layer(DefaultBodyLimit::max(state.limits.max_bytes))
         .layer(RequestDecompressionLayer::new())
+        .layer(tower::limit::ConcurrencyLimitLayer::new(
+            MAX_CONCURRENT_UPLOADS,
+        ))
         .layer(axum::middleware::from_fn_with_state(
             state.clone(),
             auth::require_write,
