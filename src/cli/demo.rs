@@ -176,6 +176,7 @@ async fn demo(args: Args, db: PathBuf) -> anyhow::Result<ExitCode> {
         },
         listen: args.listen,
         no_worker: false,
+        header_timeout_seconds: 10,
     };
     let (tx, rx) = tokio::sync::oneshot::channel();
     let server = tokio::spawn(mtcal_server::serve(

@@ -81,6 +81,9 @@ pub struct Args {
     /// Serve the API only; run no worker (workers run as `mtcal worker` elsewhere).
     #[arg(long)]
     pub no_worker: bool,
+    /// Seconds a client has to send a request's head (slow clients are disconnected).
+    #[arg(long, env = "MTCAL_HEADER_TIMEOUT_SECONDS", default_value_t = 10)]
+    pub header_timeout_seconds: u64,
 }
 
 impl Args {
@@ -89,6 +92,9 @@ impl Args {
             db_url: self.worker.db.clone(),
             listen: self.listen,
             run_worker: !self.no_worker,
+            header_timeout: std::time::Duration::from_secs(
+                self.header_timeout_seconds.clamp(1, 600),
+            ),
             worker: self.worker.config(),
         }
     }

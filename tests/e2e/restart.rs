@@ -367,3 +367,46 @@ async fn a_job_past_its_run_time_limit_fails_with_timeout() {
         "{failed:?}"
     );
 }
+
+/// A client that trickles its request head (a header line every 300 ms, never the empty
+/// line) is disconnected after `--header-timeout-seconds`, while other clients are served.
+#[tokio::test]
+async fn a_client_trickling_its_request_head_is_disconnected() {
+    use std::io::{Read, Write};
+    let (dir, _store, _key) = shared_db().await;
+    let api = Server::start(
+        dir.path().join("svc.sqlite"),
+        &["--header-timeout-seconds", "1"],
+    );
+    let addr = api.url.trim_start_matches("http://").to_string();
+    let mut slow = std::net::TcpStream::connect(&addr).unwrap();
+    slow.set_read_timeout(Some(std::time::Duration::from_millis(300)))
+        .unwrap();
+    slow.write_all(b"GET /health HTTP/1.1\r\nHost: mtcal\r\n")
+        .unwrap();
+    let t0 = std::time::Instant::now();
+    let closed_after = loop {
+        assert!(
+            t0.elapsed() < std::time::Duration::from_secs(8),
+            "still open after 8 s"
+        );
+        let mut buf = [0u8; 256];
+        match slow.read(&mut buf) {
+            // EOF, or the server's answer before it closes: either way it gave up on us.
+            Ok(_) => break t0.elapsed(),
+            Err(e)
+                if e.kind() == std::io::ErrorKind::WouldBlock
+                    || e.kind() == std::io::ErrorKind::TimedOut => {}
+            Err(_) => break t0.elapsed(),
+        }
+        if slow.write_all(b"X-Slow: 1\r\n").is_err() {
+            break t0.elapsed();
+        }
+    };
+    assert!(
+        closed_after >= std::time::Duration::from_millis(500),
+        "{closed_after:?}"
+    );
+    let health = reqwest::get(format!("{}/health", api.url)).await.unwrap();
+    assert!(health.status().is_success());
+}

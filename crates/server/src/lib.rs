@@ -194,9 +194,7 @@ pub async fn serve_probes(
             max_attempts: 1,
             wake: Arc::new(tokio::sync::Notify::new()),
         });
-    axum::serve(listener, app)
-        .with_graceful_shutdown(stop)
-        .await
+    serve_http(listener, app, HEADER_READ_TIMEOUT, stop).await
 }
 
 /// Settings of `mtcal serve`.
@@ -207,6 +205,8 @@ pub struct ServeConfig {
     pub worker: WorkerConfig,
     /// Run the worker in this process (API only when false).
     pub run_worker: bool,
+    /// [`HEADER_READ_TIMEOUT`] unless set otherwise.
+    pub header_timeout: Duration,
 }
 
 /// The service on `store`: starts `worker.queue.concurrency` workers on the current
@@ -244,9 +244,69 @@ pub async fn spawn_local(
     let (app, _workers) = app(store, worker, run_worker);
     tokio::spawn(async move {
         let _keep = _workers;
-        axum::serve(listener, app).await
+        serve_http(listener, app, HEADER_READ_TIMEOUT, std::future::pending()).await
     });
     Ok(addr)
+}
+
+/// Time a client has to send a request's head (request line and headers) on an HTTP/1
+/// connection, from the connection's start or the previous response: a connection that
+/// trickles its head (a slow-loris client) is closed instead of holding a task forever.
+pub const HEADER_READ_TIMEOUT: Duration = Duration::from_secs(10);
+/// Time requests in flight have to finish once the server stops.
+pub const SHUTDOWN_DRAIN: Duration = Duration::from_secs(30);
+
+/// Serves `app` on `listener` (HTTP/1 and HTTP/2) until `stop` resolves; then stops
+/// accepting, lets requests in flight end (at most [`SHUTDOWN_DRAIN`]) and returns. Each
+/// HTTP/1 connection must send a request head within `header_timeout`.
+pub async fn serve_http(
+    listener: tokio::net::TcpListener,
+    app: Router,
+    header_timeout: Duration,
+    stop: impl std::future::Future<Output = ()> + Send,
+) -> std::io::Result<()> {
+    use hyper_util::rt::{TokioExecutor, TokioIo, TokioTimer};
+    use hyper_util::server::conn::auto::Builder;
+    let mut builder = Builder::new(TokioExecutor::new());
+    builder
+        .http1()
+        .timer(TokioTimer::new())
+        .header_read_timeout(header_timeout);
+    let graceful = hyper_util::server::graceful::GracefulShutdown::new();
+    tokio::pin!(stop);
+    loop {
+        tokio::select! {
+            accepted = listener.accept() => {
+                let stream = match accepted {
+                    Ok((stream, _)) => stream,
+                    Err(e) => {
+                        // Out of file descriptors and the like: wait, do not spin.
+                        tracing::warn!(%e, "accepting a connection");
+                        tokio::time::sleep(Duration::from_millis(50)).await;
+                        continue;
+                    }
+                };
+                let _ = stream.set_nodelay(true);
+                let service = hyper_util::service::TowerToHyperService::new(app.clone());
+                let conn = builder
+                    .serve_connection_with_upgrades(TokioIo::new(stream), service)
+                    .into_owned();
+                let conn = graceful.watch(conn);
+                tokio::spawn(async move {
+                    let _ = conn.await;
+                });
+            }
+            _ = &mut stop => break,
+        }
+    }
+    drop(listener);
+    tokio::select! {
+        _ = graceful.shutdown() => {}
+        _ = tokio::time::sleep(SHUTDOWN_DRAIN) => {
+            tracing::warn!("requests still in flight after the drain period were dropped");
+        }
+    }
+    Ok(())
 }
 
 /// Opens the store `db_url` names and starts `worker.queue.concurrency` workers on the
@@ -305,9 +365,7 @@ pub async fn serve(
         }
     });
     ready(listener.local_addr()?);
-    axum::serve(listener, app)
-        .with_graceful_shutdown(stop)
-        .await?;
+    serve_http(listener, app, cfg.header_timeout, stop).await?;
     tracing::info!("stopping: no new connections; workers finishing or handing back jobs");
     workers.shutdown().await;
     Ok(())
