@@ -181,13 +181,57 @@ async fn history_and_trends_return_what_was_stored() {
         ..Default::default()
     };
     app.client.update_machine("VMC-A", &patch).await.unwrap();
-    let fleet = app.client.fleet_drift(Some("urad"), None).await.unwrap();
-    let a = fleet
-        .machines
-        .iter()
-        .find(|m| m.machine_id == "VMC-A")
-        .unwrap();
+    let a = fleet_entry(&app, "VMC-A").await;
     assert_eq!(a.baseline_result_id, hist[1].id);
     let want = mtcal_server::trends::drift(&hist[1].scalars, &hist[2].scalars);
     assert_eq!(a.drift, want);
+
+    // Excluding a check (write key, with a reason): it stays readable by id with who,
+    // when and why, and leaves the history, trends and fleet drift at once.
+    let http = reqwest::Client::new();
+    let exclude = |key: &str, reason: &str| {
+        http.post(format!("{}/api/v1/results/{}/exclude", app.url, hist[2].id))
+            .bearer_auth(key.to_string())
+            .json(&serde_json::json!({ "reason": reason }))
+            .send()
+    };
+    assert_eq!(
+        exclude(&app.read_key, "bad setup").await.unwrap().status(),
+        403
+    );
+    assert_eq!(exclude(&app.write_key, "  ").await.unwrap().status(), 400);
+    let r = exclude(&app.write_key, "probe loose").await.unwrap();
+    assert_eq!(r.status(), 200);
+    let meta: serde_json::Value = r.json().await.unwrap();
+    assert_eq!(meta["excluded"]["reason"], "probe loose");
+    assert!(meta["excluded"]["by"].as_str().unwrap().starts_with("key "));
+    let hist2 = app.client.results("VMC-A", None).await.unwrap();
+    assert_eq!(hist2.len(), 2);
+    assert_eq!(
+        app.client.latest("VMC-A", None).await.unwrap().meta.id,
+        hist[1].id
+    );
+    let trend = app
+        .client
+        .term_trend("VMC-A", "EXX", &[50.0])
+        .await
+        .unwrap();
+    assert_eq!(trend.points.len(), 2);
+    let a = fleet_entry(&app, "VMC-A").await;
+    assert_eq!(
+        (a.latest_result_id.as_str(), a.results),
+        (hist[1].id.as_str(), 2)
+    );
+    let kept = app.client.result(&hist[2].id).await.unwrap();
+    assert_eq!(kept.meta.excluded.unwrap().reason, "probe loose");
+}
+
+/// The fleet ranking's entry of machine `id`.
+async fn fleet_entry(app: &App, id: &str) -> mtcal_server::api::trends::FleetEntry {
+    let fleet = app.client.fleet_drift(Some("urad"), None).await.unwrap();
+    fleet
+        .machines
+        .into_iter()
+        .find(|m| m.machine_id == id)
+        .unwrap()
 }

@@ -79,7 +79,7 @@ impl utoipa::Modify for SecurityAddon {
         api::datasets::upload, api::datasets::get, api::datasets::file,
         api::jobs::submit, api::jobs::get, api::jobs::result, api::jobs::cancel,
         api::history::list, api::history::latest, api::history::get, api::history::diff,
-        api::history::figures,
+        api::history::figures, api::history::exclude,
         api::trends::term, api::trends::summary, api::trends::figure, api::trends::fleet,
         api::keys::create, api::keys::list, api::keys::revoke,
         api::ready,
@@ -139,6 +139,7 @@ pub fn router(state: AppState) -> Router {
         .route("/api/v1/machines/{id}/results/latest", get(history::latest))
         .route("/api/v1/machines/{id}/results/diff", get(history::diff))
         .route("/api/v1/results/{id}", get(history::get))
+        .route("/api/v1/results/{id}/exclude", post(history::exclude))
         .route("/api/v1/results/{id}/figures", get(history::figures))
         .route("/api/v1/machines/{id}/trends/term", get(trends::term))
         .route("/api/v1/machines/{id}/trends/summary", get(trends::summary))

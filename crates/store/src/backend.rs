@@ -314,7 +314,7 @@ impl Store for This {
         Box::pin(async move {
             let q = format!(
                 "SELECT {RESULT_COLUMNS} FROM results WHERE machine_id = $1 AND kind = $2 \
-                 ORDER BY measured_at, id"
+                 AND excluded_at IS NULL ORDER BY measured_at, id"
             );
             sqlx::query(sqlx::AssertSqlSafe(q))
                 .bind(machine_id)
@@ -333,11 +333,14 @@ impl Store for This {
             // Per machine with results of `kind`: count, baseline id (chosen, else first),
             // latest id: index seeks on results(machine_id, kind, measured_at, id).
             const PAIRS: &str = "WITH p AS (SELECT m.id AS mid, \
-                 (SELECT COUNT(*) FROM results r WHERE r.machine_id = m.id AND r.kind = $1) AS n, \
-                 COALESCE(m.baseline_result_id, (SELECT r.id FROM results r \
-                   WHERE r.machine_id = m.id AND r.kind = $1 ORDER BY r.measured_at, r.id LIMIT 1)) AS base_id, \
+                 (SELECT COUNT(*) FROM results r WHERE r.machine_id = m.id AND r.kind = $1 \
+                   AND r.excluded_at IS NULL) AS n, \
+                 COALESCE((SELECT r.id FROM results r WHERE r.id = m.baseline_result_id \
+                   AND r.excluded_at IS NULL), (SELECT r.id FROM results r \
+                   WHERE r.machine_id = m.id AND r.kind = $1 AND r.excluded_at IS NULL \
+                   ORDER BY r.measured_at, r.id LIMIT 1)) AS base_id, \
                  (SELECT r.id FROM results r WHERE r.machine_id = m.id AND r.kind = $1 \
-                   ORDER BY r.measured_at DESC, r.id DESC LIMIT 1) AS last_id \
+                   AND r.excluded_at IS NULL ORDER BY r.measured_at DESC, r.id DESC LIMIT 1) AS last_id \
                  FROM machines m) ";
             // One read snapshot for the three queries: a result landing between them
             // must not leave a pair whose result or machine is missing.
@@ -398,7 +401,9 @@ impl Store for This {
         Box::pin(async move {
             sqlx::query(
                 "SELECT result_id, measured_at, value, u FROM result_figures \
-                 WHERE machine_id = $1 AND name = $2 ORDER BY measured_at, result_id",
+                 WHERE machine_id = $1 AND name = $2 AND result_id NOT IN \
+                 (SELECT id FROM results WHERE machine_id = $1 AND excluded_at IS NOT NULL) \
+                 ORDER BY measured_at, result_id",
             )
             .bind(machine_id)
             .bind(name)
@@ -423,6 +428,28 @@ impl Store for This {
             .iter()
             .map(|r| r.text("name"))
             .collect()
+        })
+    }
+
+    fn exclude_result<'a>(
+        &'a self,
+        id: &'a str,
+        by: &'a str,
+        reason: &'a str,
+    ) -> StoreFuture<'a, ResultMeta> {
+        Box::pin(async move {
+            sqlx::query(
+                "UPDATE results SET excluded_at = $2, excluded_by = $3, excluded_reason = $4 \
+                 WHERE id = $1 AND excluded_at IS NULL",
+            )
+            .bind(id)
+            .bind(now_rfc3339())
+            .bind(by)
+            .bind(reason)
+            .execute(&self.pool)
+            .await
+            .db()?;
+            self.result_meta(id).await
         })
     }
 

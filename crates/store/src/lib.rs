@@ -87,6 +87,16 @@ pub trait Store: Queue {
     /// The names of every figure stored for a machine, sorted.
     fn figure_names<'a>(&'a self, machine_id: &'a str) -> StoreFuture<'a, Vec<String>>;
 
+    /// Excludes a result from the history (kept, readable by id, recorded with who, when
+    /// and why; left out of lists, trends and drift). Excluding an excluded result keeps
+    /// the first record.
+    fn exclude_result<'a>(
+        &'a self,
+        id: &'a str,
+        by: &'a str,
+        reason: &'a str,
+    ) -> StoreFuture<'a, ResultMeta>;
+
     // The fleet's drift, maintained by the service.
     /// Stores a machine's drift unless the stored row was computed from a later read
     /// (`read_at_ms`); returns whether it was stored.

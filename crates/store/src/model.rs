@@ -224,6 +224,21 @@ pub struct ResultMeta {
     pub measured_at: String,
     pub created_at: String,
     pub scalars: ResultScalars,
+    /// Set when the result was excluded from the history (see [`Exclusion`]).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub excluded: Option<Exclusion>,
+}
+
+/// Why and by whom a result was excluded from the history: it stays stored and readable
+/// by id, but no list, trend, difference, drift or figure trend uses it.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[cfg_attr(feature = "openapi", derive(utoipa::ToSchema))]
+pub struct Exclusion {
+    /// RFC 3339.
+    pub at: String,
+    /// The id of the API key (or the operator) that excluded it.
+    pub by: String,
+    pub reason: String,
 }
 
 /// A stored result with its document.

@@ -66,7 +66,7 @@ pub(crate) const JOB_COLUMNS: &str = "id, kind, machine_id, dataset_id, params, 
 /// Columns of a result's metadata (its document apart).
 pub(crate) const RESULT_COLUMNS: &str = "id, job_id, machine_id, dataset_id, kind, measured_at, \
      created_at, residual_rms_um, condition_number, rank, ec0y_urad, eb0z_urad, ea0z_urad, \
-     term_coefficients, measured_travel, term_covariance";
+     term_coefficients, measured_travel, term_covariance, excluded_at, excluded_by, excluded_reason";
 
 /// Columns of a dataset (its files apart).
 pub(crate) const DATASET_COLUMNS: &str =
@@ -133,6 +133,14 @@ pub(crate) fn result_meta(r: &impl Columns) -> Result<ResultMeta> {
             term_coefficients: r.json("term_coefficients")?,
             measured_travel_mm: r.json("measured_travel")?,
             term_covariance: r.json("term_covariance")?,
+        },
+        excluded: match r.opt_text("excluded_at")? {
+            Some(at) => Some(Exclusion {
+                at,
+                by: r.opt_text("excluded_by")?.unwrap_or_default(),
+                reason: r.opt_text("excluded_reason")?.unwrap_or_default(),
+            }),
+            None => None,
         },
     })
 }

@@ -208,6 +208,7 @@ impl ResultRow {
                 measured_at: r.measured_at.clone(),
                 created_at: crate::now_rfc3339(),
                 scalars: r.scalars.clone(),
+                excluded: None,
             },
             document: serde_json::to_string(&r.document).db()?,
             term_coefficients: serde_json::to_string(&r.scalars.term_coefficients).db()?,
@@ -286,6 +287,7 @@ mod tests {
             measured_at: String::new(),
             created_at: String::new(),
             scalars: Default::default(),
+            excluded: None,
         }
     }
 

@@ -353,6 +353,30 @@ async fn results_in_time_order_with_baseline(s: &dyn Store) {
             .id,
         b
     );
+    // Excluding the chosen baseline: the pair falls back to the first result; excluding
+    // the latest: the latest left becomes it.
+    let ex = s.exclude_result(&b, "key k1", "wrong probe").await.unwrap();
+    assert_eq!(ex.excluded.as_ref().unwrap().reason, "wrong probe");
+    let again = s.exclude_result(&b, "key k2", "again").await.unwrap();
+    assert_eq!(again.excluded, ex.excluded, "the first record is kept");
+    let list = s.list_results("M1", "identification").await.unwrap();
+    assert_eq!(list.len(), 2);
+    assert!(list.iter().all(|r| r.id != b));
+    let p = &s.baseline_pairs("identification").await.unwrap()[0];
+    assert_eq!(
+        (p.baseline.id.as_str(), p.latest.id.as_str(), p.results),
+        (early.id.as_str(), late.id.as_str(), 2)
+    );
+    s.exclude_result(&late.id, "key k1", "bad").await.unwrap();
+    let p = &s.baseline_pairs("identification").await.unwrap()[0];
+    assert_eq!((p.latest.id.as_str(), p.results), (early.id.as_str(), 1));
+    // Still readable by id, with the record.
+    let kept = s.get_result(&late.id).await.unwrap();
+    assert_eq!(kept.meta.excluded.unwrap().by, "key k1");
+    assert!(matches!(
+        s.exclude_result("res_nope", "k", "r").await,
+        Err(StoreError::NotFound(_))
+    ));
 }
 
 async fn figures_trend_by_name_and_bad_ones_store_nothing(s: &dyn Store) {

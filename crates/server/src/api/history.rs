@@ -2,8 +2,8 @@
 //! difference from a baseline.
 
 use crate::AppState;
-use crate::auth::ReadKey;
-use crate::error::{ApiError, ApiQuery, ErrorBody};
+use crate::auth::{ReadKey, WriteKey};
+use crate::error::{ApiError, ApiJson, ApiQuery, ErrorBody};
 use crate::trends::{self, TermDiff};
 use axum::Json;
 use axum::extract::{Path, State};
@@ -218,4 +218,40 @@ pub async fn diff_results(s: &AppState, id: &str, q: &DiffQuery) -> Result<Resul
         terms,
         squareness,
     })
+}
+
+/// Why a result is excluded.
+#[derive(Debug, Clone, Serialize, Deserialize, ToSchema)]
+#[serde(deny_unknown_fields)]
+pub struct ExcludeResult {
+    /// Why (recorded with the key and the time), 1 to 1000 characters.
+    pub reason: String,
+}
+
+/// Excludes a result from the machine's history: it stays stored and readable here, with
+/// who excluded it, when and why, but no list, trend, difference, drift or figure trend
+/// uses it any more (a check with a wrong setup, or one whose figures would mislead).
+/// The fleet's drift of the machine is recomputed at once.
+#[utoipa::path(operation_id = "history_exclude", summary = "Exclude a result from the history (recorded)", post, path = "/api/v1/results/{id}/exclude", tag = "history",
+    security(("api_key" = [])), params(("id" = String, Path)), request_body = ExcludeResult,
+    responses((status = 200, body = ResultMeta), (status = 400, body = ErrorBody), (status = 401, body = ErrorBody),
+              (status = 403, body = ErrorBody), (status = 404, body = ErrorBody)))]
+pub async fn exclude(
+    WriteKey(key): WriteKey,
+    State(s): State<AppState>,
+    Path(id): Path<String>,
+    ApiJson(body): ApiJson<ExcludeResult>,
+) -> Result<Json<ResultMeta>, ApiError> {
+    let reason = body.reason.trim();
+    if reason.is_empty() || reason.chars().count() > 1000 {
+        return Err(ApiError::InvalidRequest(
+            "reason: say why, in 1 to 1000 characters".into(),
+        ));
+    }
+    let meta = s
+        .store
+        .exclude_result(&id, &format!("key {} ({})", key.id, key.label), reason)
+        .await?;
+    crate::fleet::refresh_machine(s.store.as_ref(), &meta.machine_id).await?;
+    Ok(Json(meta))
 }
