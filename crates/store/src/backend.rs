@@ -224,9 +224,13 @@ impl Store for This {
             let id = rules::new_id("ds");
             let manifest = Manifest::of(&d.files);
             let mut tx = self.pool.begin().await.db()?;
-            sqlx::query(
+            // The same files with the same bytes for the same machine: a repeated upload,
+            // whose second copy would count the check twice in every trend. One statement
+            // (a read followed by a write in one transaction would deadlock SQLite writers).
+            let inserted = sqlx::query(
                 "INSERT INTO datasets (id, machine_id, kind, measured_at, uploaded_at, samples, \
-                 total_bytes, sha256) VALUES ($1, $2, $3, $4, $5, $6, $7, $8)",
+                 total_bytes, sha256) SELECT $1, $2, $3, $4, $5, $6, $7, $8 WHERE NOT EXISTS \
+                 (SELECT 1 FROM datasets WHERE machine_id = $2 AND sha256 = $8)",
             )
             .bind(&id)
             .bind(&d.machine_id)
@@ -239,6 +243,22 @@ impl Store for This {
             .execute(&mut *tx)
             .await
             .map_err(|e| unique_conflict(e, || format!("dataset of machine {}", d.machine_id)))?;
+            if inserted.rows_affected() == 0 {
+                tx.rollback().await.db()?;
+                let e: String = sqlx::query_scalar(
+                    "SELECT id FROM datasets WHERE machine_id = $1 AND sha256 = $2 ORDER BY id LIMIT 1",
+                )
+                .bind(&d.machine_id)
+                .bind(&manifest.sha256)
+                .fetch_one(&self.pool)
+                .await
+                .db()?;
+                return Err(StoreError::Conflict(format!(
+                    "this upload is identical to dataset {e} of machine {} (the same files with \
+                     the same bytes): submit a new job on {e} instead of uploading it again",
+                    d.machine_id
+                )));
+            }
             for (name, bytes) in &d.files {
                 let meta = manifest
                     .files

@@ -57,6 +57,8 @@ pub trait Store: Queue {
 
     // Datasets.
     /// Stores a dataset and all its files in one transaction.
+    /// Stores a dataset; an upload identical to one of the machine's datasets (same
+    /// manifest checksum) is a [`StoreError::Conflict`] naming the earlier dataset.
     fn insert_dataset<'a>(&'a self, d: NewDataset) -> StoreFuture<'a, Dataset>;
     fn get_dataset<'a>(&'a self, id: &'a str) -> StoreFuture<'a, Dataset>;
     /// The bytes of one file, as uploaded.

@@ -142,16 +142,14 @@ async fn datasets_keep_bytes_and_reject_atomically(s: &dyn Store) {
         ("session.json".to_string(), b"{}".to_vec()),
         ("xy.csv.gz".to_string(), vec![0x1f, 0x8b, 0, 1, 2, 255]),
     ];
-    let d = s
-        .insert_dataset(NewDataset {
-            machine_id: "M1".into(),
-            kind: "session".into(),
-            measured_at: "2026-01-01T00:00:00Z".into(),
-            samples: 3,
-            files: files.clone(),
-        })
-        .await
-        .unwrap();
+    let new = |files: Vec<(String, Vec<u8>)>| NewDataset {
+        machine_id: "M1".into(),
+        kind: "session".into(),
+        measured_at: "2026-01-01T00:00:00Z".into(),
+        samples: 3,
+        files,
+    };
+    let d = s.insert_dataset(new(files.clone())).await.unwrap();
     assert_eq!(d.total_bytes, 8);
     assert_eq!(d.files.len(), 2);
     assert_eq!(
@@ -161,15 +159,16 @@ async fn datasets_keep_bytes_and_reject_atomically(s: &dyn Store) {
     // The same file name twice: nothing of it is stored.
     let before = s.row_counts().await.unwrap();
     let dup = s
-        .insert_dataset(NewDataset {
-            machine_id: "M1".into(),
-            kind: "session".into(),
-            measured_at: "2026-01-01T00:00:00Z".into(),
-            samples: 3,
-            files: vec![files[0].clone(), files[0].clone()],
-        })
+        .insert_dataset(new(vec![files[0].clone(), files[0].clone()]))
         .await;
     assert!(matches!(dup, Err(StoreError::Conflict(_))));
+    assert_eq!(s.row_counts().await.unwrap(), before);
+    // The same files again for the same machine: refused, naming the first dataset.
+    let again = s.insert_dataset(new(files.clone())).await;
+    match again {
+        Err(StoreError::Conflict(m)) => assert!(m.contains(&d.id), "{m}"),
+        other => panic!("expected a conflict, got {other:?}"),
+    }
     assert_eq!(s.row_counts().await.unwrap(), before);
 }
 

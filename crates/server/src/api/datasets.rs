@@ -64,6 +64,7 @@ async fn read_multipart(req: Request, s: &AppState) -> Result<Vec<(String, Vec<u
                        archive). Any file may be gzip-compressed. The kind is stored with the \
                        dataset (session, rotary_points, positioning, drift_log)."),
     responses((status = 201, body = Dataset),
+              (status = 409, body = ErrorBody, description = "conflict: identical to an earlier dataset of the machine, which the message names"),
               (status = 413, body = ErrorBody, description = "payload_too_large"),
               (status = 415, body = ErrorBody, description = "unsupported_media_type"),
               (status = 422, body = ErrorBody, description = "invalid_dataset: names file, line, column and rule; nothing stored")))]
