@@ -11,6 +11,7 @@
 
 pub mod api;
 pub mod auth;
+pub mod contract;
 pub mod error;
 pub mod fleet;
 pub mod ingest;
@@ -33,6 +34,7 @@ use tower_http::timeout::TimeoutLayer;
 use utoipa::OpenApi;
 use utoipa::openapi::security::{HttpAuthScheme, HttpBuilder, SecurityScheme};
 
+use contract::Statuses;
 pub use error::ApiError;
 pub use ingest::UploadLimits;
 pub use state::AppState;
@@ -85,7 +87,7 @@ impl utoipa::Modify for SecurityAddon {
         api::ready,
     ),
     components(schemas(jobs::IdentifyParams, jobs::DiagnoseParams, error::ErrorBody)),
-    modifiers(&SecurityAddon),
+    modifiers(&SecurityAddon, &Statuses),
     tags((name = "machines"), (name = "datasets"), (name = "jobs"), (name = "history"),
          (name = "trends"), (name = "keys"), (name = "service"))
 )]

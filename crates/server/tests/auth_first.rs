@@ -2,27 +2,15 @@
 //! is wrong with its body, query, content type or encoding; a key of too low a scope is
 //! 403 before the body is read; only then do 400/413/415 apply.
 
+mod common;
+
 use axum::body::Body;
-use axum::http::{Request, StatusCode, header};
-use mtcal_server::{AppState, UploadLimits, router};
-use mtcal_store::Scope;
-use std::sync::Arc;
-use tower::ServiceExt;
+use axum::http::{Request, StatusCode};
+use common::{request, send};
 
 async fn app() -> (axum::Router, String, String) {
-    let store = mtcal_store::open("sqlite::memory:").await.unwrap();
-    let (_, read) = store.create_key(Scope::Read, "r").await.unwrap();
-    let (_, write) = store.create_key(Scope::Write, "w").await.unwrap();
-    let state = AppState {
-        store,
-        limits: UploadLimits {
-            max_bytes: 1000,
-            ..UploadLimits::default()
-        },
-        max_attempts: 3,
-        wake: Arc::new(tokio::sync::Notify::new()),
-    };
-    (router(state), read, write)
+    let (app, keys, _) = common::app().await;
+    (app, keys.read, keys.write)
 }
 
 /// A request that is wrong in some way other than its key.
@@ -137,53 +125,11 @@ impl Broken {
     }
 }
 
-fn request(
-    method: &str,
-    uri: &str,
-    ct: &str,
-    enc: Option<&str>,
-    body: Vec<u8>,
-    key: Option<&str>,
-) -> Request<Body> {
-    let mut r = Request::builder().method(method).uri(uri);
-    if !ct.is_empty() {
-        r = r.header(header::CONTENT_TYPE, ct);
-    }
-    if let Some(e) = enc {
-        r = r.header(header::CONTENT_ENCODING, e);
-    }
-    if let Some(k) = key {
-        r = r.header(header::AUTHORIZATION, format!("Bearer {k}"));
-    }
-    r.body(Body::from(body)).unwrap()
-}
-
-async fn send(app: &axum::Router, req: Request<Body>) -> (StatusCode, serde_json::Value) {
-    let resp = app.clone().oneshot(req).await.unwrap();
-    let status = resp.status();
-    let bytes = axum::body::to_bytes(resp.into_body(), usize::MAX)
-        .await
-        .unwrap();
-    (status, serde_json::from_slice(&bytes).unwrap_or_default())
-}
-
 #[tokio::test]
 async fn no_key_is_401_before_any_other_rejection() {
     let (app, _, write) = app().await;
     // The machine the upload routes name exists, so the write key sees the real rejection.
-    let (s, _) = send(
-        &app,
-        request(
-            "POST",
-            "/api/v1/machines",
-            "application/json",
-            None,
-            br#"{"id": "M", "name": "m"}"#.to_vec(),
-            Some(&write),
-        ),
-    )
-    .await;
-    assert_eq!(s, StatusCode::CREATED);
+    common::machine(&app, &write, "M").await;
     for r in broken() {
         let (m, uri, ct) = (r.method, r.uri, r.content_type);
         for key in [None, Some("mtk_00000000000000000000000000000000")] {

@@ -5,6 +5,7 @@ use std::fmt;
 
 /// A nominal linear axis of a 3-axis machine (also used as a direction index 0, 1, 2).
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, PartialOrd, Ord, Serialize, Deserialize)]
+#[cfg_attr(feature = "openapi", derive(utoipa::ToSchema))]
 pub enum Axis {
     X,
     Y,
@@ -55,6 +56,7 @@ impl fmt::Display for Axis {
 
 /// Plane of a grid-encoder plate. The in-plane axes (u, v) are (X, Y), (X, Z) or (Y, Z).
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, Serialize, Deserialize)]
+#[cfg_attr(feature = "openapi", derive(utoipa::ToSchema))]
 pub enum Plane {
     XY,
     XZ,
@@ -111,6 +113,7 @@ impl fmt::Display for Plane {
 /// Default (the seed's vertical machining centre): workpiece `[X, Y]` (saddle X carries
 /// table Y), tool `[Z]`.
 #[derive(Debug, Clone, PartialEq, Eq, Serialize, Deserialize)]
+#[cfg_attr(feature = "openapi", derive(utoipa::ToSchema))]
 pub struct Topology {
     pub workpiece: Vec<Axis>,
     pub tool: Vec<Axis>,

@@ -22,6 +22,7 @@ use std::collections::BTreeMap;
 
 /// Family of basis functions.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Default, Serialize, Deserialize)]
+#[cfg_attr(feature = "openapi", derive(utoipa::ToSchema))]
 #[serde(rename_all = "lowercase")]
 pub enum BasisKind {
     /// Monomials q^k (the seed patent's form).
@@ -145,6 +146,7 @@ pub fn legendre(k: usize, s: f64) -> (f64, f64) {
 ///
 /// This is the form of a simulation's truth (`truth.json`) and of an identified model.
 #[derive(Debug, Clone, PartialEq, Default, Serialize, Deserialize)]
+#[cfg_attr(feature = "openapi", derive(utoipa::ToSchema))]
 pub struct PolyErrors {
     /// Coefficients per term, keyed by ISO 230-1 name; element i is the coefficient of
     /// q^(i+1) (so element 0 of a straightness function must be 0).

@@ -70,6 +70,7 @@ use std::collections::BTreeMap;
 
 /// Options of [`check_cradle`].
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[cfg_attr(feature = "openapi", derive(utoipa::ToSchema))]
 #[serde(default)]
 pub struct CradleOptions {
     /// The instrument frame is registered to the machine axes (X, Y, Z). When false the
@@ -101,6 +102,7 @@ impl Default for CradleOptions {
 
 /// How a location error can be known from ball data.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
+#[cfg_attr(feature = "openapi", derive(utoipa::ToSchema), schema(as = CradleObservability))]
 #[serde(rename_all = "snake_case")]
 pub enum Observability {
     /// From ball data alone, in any instrument frame.
@@ -113,6 +115,7 @@ pub enum Observability {
 
 /// One ISO 230-7 location error.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[cfg_attr(feature = "openapi", derive(utoipa::ToSchema))]
 pub struct LocationErrorReport {
     pub name: String,
     /// `um` or `urad`.
@@ -125,6 +128,7 @@ pub struct LocationErrorReport {
 
 /// Summary of one kinematic model fit.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[cfg_attr(feature = "openapi", derive(utoipa::ToSchema))]
 pub struct KinematicSummary {
     /// `rigid` or `compliant` (anything depending on A).
     pub model: Dependence,
@@ -146,6 +150,7 @@ pub struct KinematicSummary {
 
 /// The ball's identified position on the table.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[cfg_attr(feature = "openapi", derive(utoipa::ToSchema))]
 pub struct BallReport {
     pub radius_mm: f64,
     pub radius_std_um: f64,
@@ -159,6 +164,7 @@ pub struct BallReport {
 /// (spatial frame), µrad, in its observable form s = (s_A, m_B, m_C),
 /// k = (k_A, −m_C, m_B) (see [`Compliance`]; the rest is an A axis tilt).
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[cfg_attr(feature = "openapi", derive(utoipa::ToSchema))]
 pub struct ComplianceReport {
     pub s_a_urad: f64,
     pub k_a_urad: f64,
@@ -172,6 +178,7 @@ pub struct ComplianceReport {
 
 /// One A-dependent parameter of the chosen model.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[cfg_attr(feature = "openapi", derive(utoipa::ToSchema))]
 pub struct ModelParameter {
     /// s_A, k_A, m_B, m_C (µrad), z_M (mm), e_s, e_c (µm), e_1 … e_3 (µrad).
     pub name: String,
@@ -184,6 +191,7 @@ pub struct ModelParameter {
 
 /// The held-out residual against the tracker noise floor.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[cfg_attr(feature = "openapi", derive(utoipa::ToSchema))]
 pub struct FloorReport {
     /// Tracker noise per coordinate pooled from the per-pose circle fits, µm.
     pub noise_um: f64,
@@ -202,6 +210,7 @@ pub struct FloorReport {
 
 /// The identified kinematic model.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[cfg_attr(feature = "openapi", derive(utoipa::ToSchema))]
 pub struct KinematicReport {
     /// Chosen by leave-one-pose-out RMS of the ball (see `margin`): `rigid`, or
     /// `compliant` when any A-dependent term was kept (see `spec`).
@@ -233,6 +242,7 @@ pub struct KinematicReport {
 
 /// Held-out compensation figures of one A pose.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[cfg_attr(feature = "openapi", derive(utoipa::ToSchema))]
 pub struct HeldOutPose {
     pub a_deg: f64,
     pub before_rms_um: f64,
@@ -242,6 +252,7 @@ pub struct HeldOutPose {
 
 /// Compensation before/after on held-out poses (chosen model).
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[cfg_attr(feature = "openapi", derive(utoipa::ToSchema))]
 pub struct CompensationReport {
     pub method: String,
     pub poses: Vec<HeldOutPose>,
@@ -251,6 +262,7 @@ pub struct CompensationReport {
 
 /// The cradle result document.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[cfg_attr(feature = "openapi", derive(utoipa::ToSchema))]
 pub struct CradleResult {
     /// Always `cradle`.
     pub kind: String,

@@ -6,6 +6,7 @@ use serde::{Deserialize, Serialize};
 
 /// Section 2: measured ball-centre positions at commanded (A, C), instrument frame.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[cfg_attr(feature = "openapi", derive(utoipa::ToSchema))]
 pub struct RotaryPointSet {
     pub machine_id: Option<String>,
     pub measured_at: Option<String>,
@@ -15,6 +16,7 @@ pub struct RotaryPointSet {
 }
 
 #[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+#[cfg_attr(feature = "openapi", derive(utoipa::ToSchema))]
 pub struct RotaryPoint {
     pub a_deg: f64,
     pub c_deg: f64,
@@ -26,6 +28,7 @@ pub struct RotaryPoint {
 
 /// Approach direction of a positioning target (ISO 230-2).
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, Serialize, Deserialize)]
+#[cfg_attr(feature = "openapi", derive(utoipa::ToSchema))]
 pub enum Direction {
     Plus,
     Minus,
@@ -33,11 +36,13 @@ pub enum Direction {
 
 /// Section 3: positioning runs along one or more axes (ISO 230-2 style).
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[cfg_attr(feature = "openapi", derive(utoipa::ToSchema))]
 pub struct PositioningRuns {
     pub records: Vec<PositioningRecord>,
 }
 
 #[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+#[cfg_attr(feature = "openapi", derive(utoipa::ToSchema))]
 pub struct PositioningRecord {
     pub axis: Axis,
     /// Bidirectional cycle number.
@@ -51,6 +56,7 @@ pub struct PositioningRecord {
 
 /// What a drift-log channel carries, from its name's suffix.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, Serialize, Deserialize)]
+#[cfg_attr(feature = "openapi", derive(utoipa::ToSchema))]
 pub enum ChannelKind {
     /// `<name>_um`: a displacement (the outputs to explain).
     DisplacementUm,
@@ -63,6 +69,7 @@ pub enum ChannelKind {
 }
 
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[cfg_attr(feature = "openapi", derive(utoipa::ToSchema))]
 pub struct Channel {
     /// Full column name, e.g. `ch5_um`.
     pub name: String,
@@ -72,6 +79,7 @@ pub struct Channel {
 
 /// Section 4: a drift log (thermal / time series, ISO 230-3 style).
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[cfg_attr(feature = "openapi", derive(utoipa::ToSchema))]
 pub struct DriftLog {
     pub t_s: Vec<f64>,
     pub channels: Vec<Channel>,

@@ -11,6 +11,7 @@ pub mod series;
 
 /// Residual figures of the rigid (baseline) model.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[cfg_attr(feature = "openapi", derive(utoipa::ToSchema))]
 pub struct Baseline {
     pub residual_rms_um: f64,
     /// RMS on data not used to fit the model (whole runs, or the late part of a log).
@@ -21,6 +22,7 @@ pub struct Baseline {
 
 /// Where the misfit concentrates.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[cfg_attr(feature = "openapi", derive(utoipa::ToSchema))]
 pub struct Mismatch {
     /// Human-readable place: tests, positions, angles, times, directions.
     #[serde(rename = "where")]
@@ -33,6 +35,7 @@ pub struct Mismatch {
 
 /// A before/after pair of RMS figures, µm.
 #[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+#[cfg_attr(feature = "openapi", derive(utoipa::ToSchema))]
 pub struct BeforeAfter {
     pub before: f64,
     pub after: f64,
@@ -40,6 +43,7 @@ pub struct BeforeAfter {
 
 /// One physical effect found, modelled and checked on held-out data.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[cfg_attr(feature = "openapi", derive(utoipa::ToSchema))]
 pub struct Finding {
     /// `backlash`, `servo_lag`, `reversal_spike`, `cyclic`, `thermal_drift`,
     /// `setup_offset`, `model_order`, `vibration`, or another name (then `physics` says
@@ -71,6 +75,7 @@ pub struct Finding {
 
 /// A parameter the data leave undetermined, and what data would decide it.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[cfg_attr(feature = "openapi", derive(utoipa::ToSchema))]
 pub struct Undetermined {
     /// Parameter name with its unit, as it would appear in `parameters`.
     pub name: String,
@@ -82,6 +87,7 @@ pub struct Undetermined {
 
 /// `consistent` (no finding needed), `explained`, `partly_explained`.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
+#[cfg_attr(feature = "openapi", derive(utoipa::ToSchema))]
 #[serde(rename_all = "snake_case")]
 pub enum Verdict {
     Consistent,
@@ -91,6 +97,7 @@ pub enum Verdict {
 
 /// The diagnosis result document.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[cfg_attr(feature = "openapi", derive(utoipa::ToSchema))]
 pub struct DiagnosisResult {
     /// Always `diagnosis`.
     pub kind: String,
@@ -120,6 +127,7 @@ pub struct DiagnosisResult {
 
 /// Data for one figure: several named series of (x, y) points.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[cfg_attr(feature = "openapi", derive(utoipa::ToSchema))]
 pub struct PlotData {
     pub id: String,
     pub title: String,
@@ -131,6 +139,7 @@ pub struct PlotData {
 }
 
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[cfg_attr(feature = "openapi", derive(utoipa::ToSchema))]
 pub struct PlotSeries {
     pub name: String,
     pub x: Vec<f64>,

@@ -44,6 +44,7 @@ pub const CONVENTION: &str =
 
 /// Which estimator to run.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Default, Serialize, Deserialize)]
+#[cfg_attr(feature = "openapi", derive(utoipa::ToSchema))]
 #[serde(rename_all = "lowercase")]
 pub enum Method {
     /// One least-squares problem over all runs, nuisance parameters estimated jointly.
@@ -55,6 +56,7 @@ pub enum Method {
 
 /// Options of an identification.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[cfg_attr(feature = "openapi", derive(utoipa::ToSchema))]
 pub struct IdentifyOptions {
     pub method: Method,
     pub basis: BasisKind,
@@ -80,6 +82,7 @@ impl Default for IdentifyOptions {
 
 /// Values of one of the 18 error functions on the reporting grid (results contract).
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[cfg_attr(feature = "openapi", derive(utoipa::ToSchema))]
 pub struct TermReport {
     /// `um` or `urad`.
     pub unit: String,
@@ -104,6 +107,7 @@ pub struct TermReport {
 
 /// One squareness value (results contract).
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[cfg_attr(feature = "openapi", derive(utoipa::ToSchema))]
 pub struct SquarenessReport {
     pub value_urad: Option<f64>,
     pub std_urad: Option<f64>,
@@ -119,6 +123,7 @@ pub struct SquarenessReport {
 
 /// A group of terms the data cannot separate, and how it is seen.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[cfg_attr(feature = "openapi", derive(utoipa::ToSchema))]
 pub struct Confounded {
     pub terms: Vec<String>,
     pub seen_as: String,
@@ -126,6 +131,7 @@ pub struct Confounded {
 
 /// Identifiability of the error model for the session's plan.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[cfg_attr(feature = "openapi", derive(utoipa::ToSchema))]
 pub struct Observability {
     /// Number of error-model parameters (51 for the cubic model).
     pub parameters: usize,
@@ -141,6 +147,7 @@ pub struct Observability {
 
 /// Goodness of fit.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[cfg_attr(feature = "openapi", derive(utoipa::ToSchema))]
 pub struct FitSummary {
     pub samples: usize,
     pub residual_rms_um: f64,
@@ -155,6 +162,7 @@ pub struct FitSummary {
 
 /// Nuisance parameters estimated with the errors.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[cfg_attr(feature = "openapi", derive(utoipa::ToSchema))]
 pub struct MountingReport {
     /// In-plane rotation φ of the plate (+φ turns it from u toward v), `None` when the
     /// data cannot determine it.
@@ -163,6 +171,7 @@ pub struct MountingReport {
 }
 
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[cfg_attr(feature = "openapi", derive(utoipa::ToSchema))]
 pub struct Nuisance {
     pub mountings: BTreeMap<String, MountingReport>,
     /// Number of runs (each with two zero offsets).
@@ -170,6 +179,7 @@ pub struct Nuisance {
 }
 
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[cfg_attr(feature = "openapi", derive(utoipa::ToSchema))]
 pub struct ModelInfo {
     pub basis: BasisKind,
     pub order: usize,
@@ -182,6 +192,7 @@ pub struct ModelInfo {
 
 /// The identification result document (shared/spec/results.md, "Identification result").
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[cfg_attr(feature = "openapi", derive(utoipa::ToSchema))]
 pub struct IdentificationResult {
     /// Always `identification`.
     pub kind: String,

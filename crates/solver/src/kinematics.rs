@@ -25,6 +25,7 @@ use serde::{Deserialize, Serialize};
 
 /// The six motion errors of one axis at one position.
 #[derive(Debug, Clone, Copy, Default, PartialEq, Serialize, Deserialize)]
+#[cfg_attr(feature = "openapi", derive(utoipa::ToSchema))]
 pub struct MotionErrors {
     /// δ = (E_X·, E_Y·, E_Z·), µm.
     pub translation_um: [f64; 3],

@@ -6,6 +6,7 @@ use serde::{Deserialize, Serialize};
 
 /// RMS residual of the runs of one test kind in one plane file.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[cfg_attr(feature = "openapi", derive(utoipa::ToSchema))]
 pub struct ResidualSummary {
     pub file: String,
     /// `line_X`, `circle_ccw`, ... (the run's test kind).

@@ -31,6 +31,7 @@ use std::collections::BTreeMap;
 
 /// The machine to analyse: a template by name, or a full description.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[cfg_attr(feature = "openapi", derive(utoipa::ToSchema))]
 #[serde(rename_all = "snake_case")]
 pub enum MachineRef {
     Template(String),
@@ -58,6 +59,7 @@ fn default_share() -> f64 {
 
 /// Input of a sensitivity analysis (the `sensitivity` job kind).
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[cfg_attr(feature = "openapi", derive(utoipa::ToSchema))]
 #[serde(deny_unknown_fields)]
 pub struct SensitivityRequest {
     #[serde(default)]
@@ -112,6 +114,7 @@ impl SensitivityRequest {
 
 /// One error of the model, as reported.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[cfg_attr(feature = "openapi", derive(utoipa::ToSchema))]
 pub struct ErrorInfo {
     pub name: String,
     pub class: ErrorClass,
@@ -124,6 +127,7 @@ pub struct ErrorInfo {
 
 /// Machine summary in a result.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[cfg_attr(feature = "openapi", derive(utoipa::ToSchema))]
 pub struct MachineSummary {
     pub name: String,
     pub description: String,
@@ -138,6 +142,7 @@ pub struct MachineSummary {
 
 /// Where the local sensitivities were evaluated.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[cfg_attr(feature = "openapi", derive(utoipa::ToSchema))]
 pub struct Evaluation {
     /// `point`, `path` or `grid`.
     pub kind: String,
@@ -150,6 +155,7 @@ pub struct Evaluation {
 
 /// The sensitivity result document.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[cfg_attr(feature = "openapi", derive(utoipa::ToSchema))]
 pub struct SensitivityResult {
     /// Always `sensitivity`.
     pub kind: String,

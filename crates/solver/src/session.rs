@@ -8,6 +8,7 @@ use serde::{Deserialize, Serialize};
 
 /// One measurement campaign on one machine: plate mountings (planes), each with runs.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[cfg_attr(feature = "openapi", derive(utoipa::ToSchema))]
 pub struct Session {
     pub machine_id: String,
     /// RFC 3339 time stamp of the campaign.
@@ -21,6 +22,7 @@ pub struct Session {
 
 /// One plane file: the runs recorded with one plate in one plane at one head offset.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[cfg_attr(feature = "openapi", derive(utoipa::ToSchema))]
 pub struct PlaneRecord {
     /// File name inside the session folder (used in messages and diagnosis reports).
     pub file: String,
@@ -34,6 +36,7 @@ pub struct PlaneRecord {
 
 /// Label of a run (optional column `test`; inferred from the path when absent).
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, Serialize, Deserialize)]
+#[cfg_attr(feature = "openapi", derive(utoipa::ToSchema))]
 pub enum TestKind {
     LineX,
     LineY,
@@ -74,6 +77,7 @@ impl TestKind {
 ///
 /// All vectors have the same length; `t_s` is strictly increasing.
 #[derive(Debug, Clone, PartialEq, Default, Serialize, Deserialize)]
+#[cfg_attr(feature = "openapi", derive(utoipa::ToSchema))]
 pub struct Run {
     /// Run number within its file.
     pub number: i64,

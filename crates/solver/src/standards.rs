@@ -20,6 +20,7 @@ use serde::{Deserialize, Serialize};
 
 /// One scalar figure of a standard: its stored name, value and standard uncertainty.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[cfg_attr(feature = "openapi", derive(utoipa::ToSchema))]
 pub struct ScalarFigure {
     /// `iso230_2.<axis>.<figure>` or `iso230_4.<plane>.<direction>.<figure>`.
     pub name: String,
@@ -32,6 +33,7 @@ pub struct ScalarFigure {
 
 /// Something a standard could not be evaluated for, and why.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[cfg_attr(feature = "openapi", derive(utoipa::ToSchema))]
 pub struct NotEvaluated {
     /// `iso230_2` or `iso230_4`.
     pub standard: String,
@@ -42,6 +44,7 @@ pub struct NotEvaluated {
 
 /// The standards' figures of one session (or of positioning runs: `iso230_4` empty).
 #[derive(Debug, Clone, PartialEq, Default, Serialize, Deserialize)]
+#[cfg_attr(feature = "openapi", derive(utoipa::ToSchema))]
 pub struct Standards {
     pub iso230_2: Vec<Iso2302>,
     pub iso230_4: Vec<Iso2304>,
@@ -63,6 +66,7 @@ impl Standards {
 /// The result document of a standards evaluation on its own (the service's `standards`
 /// job, `mtcal standards --json`): the figures with what they were computed from.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[cfg_attr(feature = "openapi", derive(utoipa::ToSchema))]
 pub struct StandardsResult {
     /// Always `standards`.
     pub kind: String,

@@ -11,6 +11,7 @@ use std::fmt;
 
 /// Kind of a motion error, as ISO 230-1 classifies it.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, Serialize, Deserialize)]
+#[cfg_attr(feature = "openapi", derive(utoipa::ToSchema))]
 pub enum TermKind {
     Positioning,
     Straightness,
@@ -20,6 +21,7 @@ pub enum TermKind {
 
 /// Whether an error component is a translation (µm) or a rotation (µrad).
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, Serialize, Deserialize)]
+#[cfg_attr(feature = "openapi", derive(utoipa::ToSchema))]
 pub enum Component {
     /// Translation along the given direction.
     Translation(Axis),
@@ -29,6 +31,7 @@ pub enum Component {
 
 /// One of the 18 motion-error functions: the error `component` of the moving `axis`.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, Serialize, Deserialize)]
+#[cfg_attr(feature = "openapi", derive(utoipa::ToSchema))]
 pub struct Term {
     pub axis: Axis,
     pub component: Component,
@@ -114,6 +117,7 @@ impl fmt::Display for Term {
 /// The three squareness errors (constants, µrad), as right-hand rotations of the
 /// secondary axis about the normal: X–Y = 90° + EC0Y, X–Z = 90° − EB0Z, Y–Z = 90° + EA0Z.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, Serialize, Deserialize)]
+#[cfg_attr(feature = "openapi", derive(utoipa::ToSchema))]
 pub enum SquarenessTerm {
     /// Y about Z, relative to X.
     EC0Y,
@@ -146,6 +150,7 @@ impl SquarenessTerm {
 /// Values of the three squareness constants, µrad (model constants γ, β, α of the
 /// contract's nominal axis directions u_Y, u_Z).
 #[derive(Debug, Clone, Copy, Default, PartialEq, Serialize, Deserialize)]
+#[cfg_attr(feature = "openapi", derive(utoipa::ToSchema))]
 pub struct Squareness {
     pub ec0y_urad: f64,
     pub eb0z_urad: f64,

@@ -55,7 +55,7 @@ async fn read_multipart(req: Request, s: &AppState) -> Result<Vec<(String, Vec<u
 }
 
 #[utoipa::path(operation_id = "datasets_upload", summary = "Upload a dataset (session folder as multipart or tar.gz, or one series file)", post, path = "/api/v1/machines/{id}/datasets", tag = "datasets",
-    security(("api_key" = [])), params(("id" = String, Path, description = "machine id")),
+    security(("api_key" = ["write"])), params(("id" = String, Path, description = "machine id")),
     request_body(content = SessionUpload, content_type = "multipart/form-data",
         description = "A session (session.json and its plane CSVs), or one rotary point-set \
                        CSV with its optional JSON sidecar <stem>.json, or one positioning-run \
@@ -157,7 +157,7 @@ pub async fn get(
 #[utoipa::path(operation_id = "datasets_file", summary = "One raw file of a dataset, unchanged as uploaded", get, path = "/api/v1/datasets/{id}/files/{name}", tag = "datasets",
     security(("api_key" = [])), params(("id" = String, Path), ("name" = String, Path)),
     responses((status = 200, description = "the file's bytes as uploaded; header x-checksum-sha256",
-               content_type = "application/octet-stream", body = Vec<u8>),
+               content_type = "application/octet-stream", body = crate::contract::FileBytes),
               (status = 404, body = ErrorBody)))]
 pub async fn file(
     _key: ReadKey,

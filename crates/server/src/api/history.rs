@@ -69,7 +69,7 @@ fn result_kind(kind: Option<&str>) -> Result<&str, ApiError> {
 
 #[utoipa::path(operation_id = "history_latest", summary = "A machine's latest result", get, path = "/api/v1/machines/{id}/results/latest", tag = "history",
     security(("api_key" = [])), params(("id" = String, Path), KindQuery),
-    responses((status = 200, body = StoredResult), (status = 400, body = ErrorBody),
+    responses((status = 200, body = crate::contract::StoredResultSchema), (status = 400, body = ErrorBody),
               (status = 404, body = ErrorBody)))]
 pub async fn latest(
     _key: ReadKey,
@@ -89,7 +89,7 @@ pub async fn latest(
 
 #[utoipa::path(operation_id = "history_get", summary = "A stored result", get, path = "/api/v1/results/{id}", tag = "history",
     security(("api_key" = [])), params(("id" = String, Path)),
-    responses((status = 200, body = StoredResult), (status = 404, body = ErrorBody)))]
+    responses((status = 200, body = crate::contract::StoredResultSchema), (status = 404, body = ErrorBody)))]
 pub async fn get(
     _key: ReadKey,
     State(s): State<AppState>,
@@ -233,7 +233,7 @@ pub struct ExcludeResult {
 /// uses it any more (a check with a wrong setup, or one whose figures would mislead).
 /// The fleet's drift of the machine is recomputed at once.
 #[utoipa::path(operation_id = "history_exclude", summary = "Exclude a result from the history (recorded)", post, path = "/api/v1/results/{id}/exclude", tag = "history",
-    security(("api_key" = [])), params(("id" = String, Path)), request_body = ExcludeResult,
+    security(("api_key" = ["write"])), params(("id" = String, Path)), request_body = ExcludeResult,
     responses((status = 200, body = ResultMeta), (status = 400, body = ErrorBody), (status = 401, body = ErrorBody),
               (status = 403, body = ErrorBody), (status = 404, body = ErrorBody)))]
 pub async fn exclude(

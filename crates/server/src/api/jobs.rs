@@ -30,7 +30,7 @@ pub struct SubmitJob {
 }
 
 #[utoipa::path(operation_id = "jobs_submit", summary = "Submit a job (identify, sensitivity, diagnose, cradle, standards)", post, path = "/api/v1/jobs", tag = "jobs", request_body = SubmitJob,
-    security(("api_key" = [])),
+    security(("api_key" = ["write"])),
     responses((status = 202, body = Job), (status = 400, body = ErrorBody),
               (status = 404, body = ErrorBody)))]
 pub async fn submit(
@@ -107,7 +107,7 @@ pub async fn get(
 
 #[utoipa::path(operation_id = "jobs_result", summary = "The result document of a succeeded job", get, path = "/api/v1/jobs/{id}/result", tag = "jobs",
     security(("api_key" = [])), params(("id" = String, Path)),
-    responses((status = 200, description = "the result document (results contract)", body = Object),
+    responses((status = 200, description = "the result document (results contract)", body = crate::contract::ResultDocument),
               (status = 409, body = ErrorBody, description = "job_not_finished, or the job failed"),
               (status = 404, body = ErrorBody)))]
 pub async fn result(
@@ -131,7 +131,7 @@ pub async fn result(
 }
 
 #[utoipa::path(operation_id = "jobs_cancel", summary = "Cancel a queued or running job", post, path = "/api/v1/jobs/{id}/cancel", tag = "jobs",
-    security(("api_key" = [])), params(("id" = String, Path)),
+    security(("api_key" = ["write"])), params(("id" = String, Path)),
     responses((status = 200, body = Job, description = "cancelled, or cancellation requested of a running job"),
               (status = 409, body = ErrorBody, description = "the job already finished")))]
 pub async fn cancel(

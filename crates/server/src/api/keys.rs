@@ -26,7 +26,7 @@ pub struct CreatedKey {
 }
 
 #[utoipa::path(operation_id = "keys_create", summary = "Create an API key (admin)", post, path = "/api/v1/keys", tag = "keys", request_body = NewKey,
-    security(("api_key" = [])),
+    security(("api_key" = ["admin"])),
     responses((status = 201, body = CreatedKey), (status = 403, body = ErrorBody)))]
 pub async fn create(
     _key: AdminKey,
@@ -38,7 +38,7 @@ pub async fn create(
 }
 
 #[utoipa::path(operation_id = "keys_list", summary = "List API keys, revoked ones included (admin)", get, path = "/api/v1/keys", tag = "keys",
-    security(("api_key" = [])),
+    security(("api_key" = ["admin"])),
     responses((status = 200, body = Vec<ApiKey>), (status = 401, body = ErrorBody), (status = 403, body = ErrorBody)))]
 pub async fn list(
     _key: AdminKey,
@@ -51,7 +51,7 @@ pub async fn list(
 /// revoked key changes nothing and answers the key as it is.
 #[utoipa::path(operation_id = "keys_revoke", summary = "Revoke an API key (admin)", delete, path = "/api/v1/keys/{id}", tag = "keys",
     params(("id" = String, Path, description = "Key id (`key_…`)")),
-    security(("api_key" = [])),
+    security(("api_key" = ["admin"])),
     responses((status = 200, body = ApiKey), (status = 401, body = ErrorBody), (status = 403, body = ErrorBody), (status = 404, body = ErrorBody)))]
 pub async fn revoke(
     _key: AdminKey,

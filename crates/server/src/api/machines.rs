@@ -81,7 +81,7 @@ pub fn check_id(id: &str) -> Result<(), ApiError> {
 }
 
 #[utoipa::path(operation_id = "machines_create", summary = "Register a machine", post, path = "/api/v1/machines", tag = "machines", request_body = NewMachine,
-    security(("api_key" = [])),
+    security(("api_key" = ["write"])),
     responses((status = 201, body = Machine), (status = 400, body = ErrorBody),
                (status = 409, body = ErrorBody)))]
 pub async fn create(
@@ -120,8 +120,9 @@ pub async fn get(
 }
 
 #[utoipa::path(operation_id = "machines_update", summary = "Update a machine (name, travel, site, tags, baseline)", patch, path = "/api/v1/machines/{id}", tag = "machines", request_body = MachinePatch,
-    security(("api_key" = [])), params(("id" = String, Path)),
-    responses((status = 200, body = Machine), (status = 404, body = ErrorBody)))]
+    security(("api_key" = ["write"])), params(("id" = String, Path)),
+    responses((status = 200, body = Machine), (status = 404, body = ErrorBody),
+              (status = 409, body = ErrorBody, description = "the baseline named is a result of another machine")))]
 pub async fn update(
     _key: WriteKey,
     State(s): State<AppState>,

@@ -17,6 +17,7 @@ use serde::{Deserialize, Serialize};
 
 /// A 5-axis command: mm and degrees.
 #[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+#[cfg_attr(feature = "openapi", derive(utoipa::ToSchema))]
 pub struct Command {
     pub x_mm: f64,
     pub y_mm: f64,
@@ -27,6 +28,7 @@ pub struct Command {
 
 /// The corrected command and how well its orientation matches.
 #[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+#[cfg_attr(feature = "openapi", derive(utoipa::ToSchema))]
 pub struct Compensated {
     pub command: Command,
     /// Angle between the achieved and intended tool axis in the table frame, µrad.

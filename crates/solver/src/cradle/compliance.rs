@@ -18,6 +18,7 @@ use serde::{Deserialize, Serialize};
 
 /// The two candidate models.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
+#[cfg_attr(feature = "openapi", derive(utoipa::ToSchema))]
 #[serde(rename_all = "lowercase")]
 pub enum Dependence {
     Rigid,
@@ -26,6 +27,7 @@ pub enum Dependence {
 
 /// One fitted model of r(A), µrad.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[cfg_attr(feature = "openapi", derive(utoipa::ToSchema))]
 pub struct DependenceFit {
     pub model: Dependence,
     pub r0_urad: [f64; 3],
@@ -40,6 +42,7 @@ pub struct DependenceFit {
 
 /// Both candidate fits of the rotation vectors.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[cfg_attr(feature = "openapi", derive(utoipa::ToSchema))]
 pub struct RotationDependence {
     pub rigid: DependenceFit,
     pub compliant: Option<DependenceFit>,

@@ -42,6 +42,7 @@ pub struct PosePoints {
 /// uncertainty per component (isotropic first-order propagation of the two frames' and
 /// the centre angle's uncertainties).
 #[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+#[cfg_attr(feature = "openapi", derive(utoipa::ToSchema))]
 pub struct RotationVector {
     pub vector_urad: [f64; 3],
     pub norm_urad: f64,
@@ -64,6 +65,7 @@ impl RotationVector {
 
 /// One row of the per-pose table.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[cfg_attr(feature = "openapi", derive(utoipa::ToSchema))]
 pub struct PoseRow {
     pub a_deg: f64,
     pub n_points: usize,
@@ -98,6 +100,7 @@ pub struct PoseRow {
 
 /// The A axis from the circle through the pose centres.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[cfg_attr(feature = "openapi", derive(utoipa::ToSchema))]
 pub struct AAxisFit {
     pub direction: [f64; 3],
     pub direction_std_urad: [f64; 2],
@@ -112,6 +115,7 @@ pub struct AAxisFit {
 
 /// Output of [`patent_frames`].
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[cfg_attr(feature = "openapi", derive(utoipa::ToSchema))]
 pub struct PatentAnalysis {
     pub reference_a_deg: f64,
     pub a_axis: AAxisFit,

@@ -36,6 +36,7 @@ use serde::{Deserialize, Serialize};
 
 /// ISO 230-7 location errors of a cradle (µm, µrad).
 #[derive(Debug, Clone, Copy, Default, PartialEq, Serialize, Deserialize)]
+#[cfg_attr(feature = "openapi", derive(utoipa::ToSchema))]
 pub struct LocationErrors {
     pub ey0a_um: f64,
     pub ez0a_um: f64,
@@ -53,6 +54,7 @@ pub struct LocationErrors {
 
 /// The ball's position on the C table (table frame).
 #[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+#[cfg_attr(feature = "openapi", derive(utoipa::ToSchema))]
 pub struct Ball {
     /// Distance from the C axis, mm.
     pub radius_mm: f64,
@@ -71,6 +73,7 @@ pub struct Ball {
 /// k = (k_A, −m_C, m_B) ([`Compliance::observable`]); s_A, k_A are the A axis's angular
 /// positioning deviation about the pivot.
 #[derive(Debug, Clone, Copy, Default, PartialEq, Serialize, Deserialize)]
+#[cfg_attr(feature = "openapi", derive(utoipa::ToSchema))]
 pub struct Compliance {
     pub sin_urad: [f64; 3],
     pub cos_urad: [f64; 3],
@@ -123,6 +126,7 @@ pub fn eaa_rad(e_urad: &[f64; 3], a_rad: f64) -> f64 {
 
 /// A cradle: nominal pivot, location errors, ball and compliance.
 #[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+#[cfg_attr(feature = "openapi", derive(utoipa::ToSchema))]
 pub struct CradleModel {
     pub pivot_mm: [f64; 3],
     pub location: LocationErrors,
@@ -211,6 +215,7 @@ impl CradleModel {
 
 /// How the tilts of ρ(A) act.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
+#[cfg_attr(feature = "openapi", derive(utoipa::ToSchema))]
 #[serde(rename_all = "snake_case")]
 pub enum Tilt {
     /// No tilt with A (m_B = m_C = 0).
@@ -226,6 +231,7 @@ pub enum Tilt {
 /// then, when present and in this order, s_A, k_A (`a_harmonic`); m_B, m_C (a tilt);
 /// z_M (mount); e_s, e_c (`axial`); e₁ … e_order (`eaa_order`).
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
+#[cfg_attr(feature = "openapi", derive(utoipa::ToSchema))]
 pub struct ModelSpec {
     pub tilt: Tilt,
     /// Rotation about A of the form s_A·sin A + k_A·(cos A − 1) (gravity torque against

@@ -45,6 +45,7 @@ impl Registration {
 
 /// How the frame was chosen, for the result document.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[cfg_attr(feature = "openapi", derive(utoipa::ToSchema))]
 pub struct RegistrationReport {
     /// `machine`: the instrument frame is the machine's as stated (and the data agree);
     /// `best_fit`: the points were registered to the nominal kinematics and only the

@@ -28,6 +28,7 @@ use serde::{Deserialize, Serialize};
 
 /// Options of the series diagnoses. [`Default`] gives the documented values.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[cfg_attr(feature = "openapi", derive(utoipa::ToSchema))]
 #[serde(default)]
 pub struct SeriesOptions {
     /// Highest polynomial order of the rigid positioning-error model (chosen by held-out

@@ -27,6 +27,7 @@ use std::collections::BTreeMap;
 
 /// Options of a session diagnosis.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[cfg_attr(feature = "openapi", derive(utoipa::ToSchema))]
 pub struct DiagnoseOptions {
     /// Polynomial order of the rigid model's error functions (default 3).
     pub order: usize,

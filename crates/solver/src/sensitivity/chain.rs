@@ -48,6 +48,7 @@ use std::collections::BTreeMap;
 
 /// One axis of a machine description.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[cfg_attr(feature = "openapi", derive(utoipa::ToSchema))]
 #[serde(deny_unknown_fields)]
 pub struct AxisSpec {
     /// X, Y, Z (linear, along that direction) or A, B, C (rotary, about X, Y, Z).
@@ -74,6 +75,7 @@ impl AxisSpec {
 /// value, polynomial coefficients in the axis position (element i ↔ q^(i+1)), or a table of
 /// values on positions (linear interpolation, end values held outside).
 #[derive(Debug, Clone, Default, PartialEq, Serialize, Deserialize)]
+#[cfg_attr(feature = "openapi", derive(utoipa::ToSchema))]
 #[serde(deny_unknown_fields)]
 pub struct ErrorSpec {
     #[serde(default, skip_serializing_if = "Option::is_none")]
@@ -101,6 +103,7 @@ impl ErrorSpec {
 /// the errors taken into account with their magnitudes (docs/sensitivity.md, "Machine
 /// description").
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[cfg_attr(feature = "openapi", derive(utoipa::ToSchema))]
 #[serde(deny_unknown_fields)]
 pub struct MachineDescription {
     pub name: String,
@@ -119,6 +122,7 @@ pub struct MachineDescription {
 
 /// What kind of geometric error a parameter is.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
+#[cfg_attr(feature = "openapi", derive(utoipa::ToSchema))]
 #[serde(rename_all = "snake_case")]
 pub enum ErrorClass {
     /// One of the six motion errors of an axis (a function of its position).
@@ -133,6 +137,7 @@ pub enum ErrorClass {
 
 /// One error parameter of a compiled chain.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[cfg_attr(feature = "openapi", derive(utoipa::ToSchema))]
 pub struct ErrorParam {
     pub name: String,
     pub class: ErrorClass,

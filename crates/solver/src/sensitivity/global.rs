@@ -41,6 +41,7 @@ use serde::{Deserialize, Serialize};
 
 /// Distribution of the errors within their tolerances.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Default, Serialize, Deserialize)]
+#[cfg_attr(feature = "openapi", derive(utoipa::ToSchema))]
 #[serde(rename_all = "snake_case")]
 pub enum ErrorDistribution {
     /// Uniform on ±tolerance.
@@ -52,6 +53,7 @@ pub enum ErrorDistribution {
 
 /// Options of the global analysis.
 #[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+#[cfg_attr(feature = "openapi", derive(utoipa::ToSchema))]
 #[serde(deny_unknown_fields)]
 pub struct GlobalOptions {
     /// Base sample size N (cost N·(k + 2) model evaluations per pose).
@@ -86,6 +88,7 @@ impl Default for GlobalOptions {
 
 /// Sobol indices of one error for one output.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[cfg_attr(feature = "openapi", derive(utoipa::ToSchema))]
 pub struct SobolEntry {
     pub error: String,
     pub first_order: f64,
@@ -96,6 +99,7 @@ pub struct SobolEntry {
 
 /// Indices of every error for one output, by decreasing total index.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[cfg_attr(feature = "openapi", derive(utoipa::ToSchema))]
 pub struct SobolOutput {
     pub indices: Vec<SobolEntry>,
     /// Σ S_i: 1 up to Monte-Carlo error for the first-order (additive) model.
@@ -107,6 +111,7 @@ pub struct SobolOutput {
 
 /// The global analysis, per output (order as `local::COMPONENTS`).
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[cfg_attr(feature = "openapi", derive(utoipa::ToSchema))]
 pub struct GlobalResult {
     pub samples: usize,
     pub distribution: ErrorDistribution,

@@ -21,6 +21,7 @@ use serde::{Deserialize, Serialize};
 
 /// One axis of an evaluation grid: `n` evenly spaced positions from `min` to `max`.
 #[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+#[cfg_attr(feature = "openapi", derive(utoipa::ToSchema))]
 #[serde(deny_unknown_fields)]
 pub struct GridAxis {
     pub min: f64,
@@ -243,6 +244,7 @@ pub fn local_stats(
 
 /// RMS and max of |E_x|, |E_y|, |E_z|, |E| over the poses, µm.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[cfg_attr(feature = "openapi", derive(utoipa::ToSchema))]
 pub struct ErrorSummary {
     pub rms_um: f64,
     pub max_um: f64,
@@ -291,6 +293,7 @@ pub fn volumetric_error(
 
 /// Which sensitivities the normalised coefficients are built from.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Default, Serialize, Deserialize)]
+#[cfg_attr(feature = "openapi", derive(utoipa::ToSchema))]
 #[serde(rename_all = "snake_case")]
 pub enum Weighting {
     /// Sensitivity × magnitude (µm): the default; comparable across units.
@@ -302,6 +305,7 @@ pub enum Weighting {
 
 /// One row of a ranking table.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[cfg_attr(feature = "openapi", derive(utoipa::ToSchema))]
 pub struct RankEntry {
     pub error: String,
     /// Unit of the error (`um` or `urad`).
@@ -319,6 +323,7 @@ pub struct RankEntry {
 
 /// The ranking of one component.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[cfg_attr(feature = "openapi", derive(utoipa::ToSchema))]
 pub struct ComponentRanking {
     /// Rows by decreasing coefficient.
     pub ranking: Vec<RankEntry>,

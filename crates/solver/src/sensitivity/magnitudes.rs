@@ -12,6 +12,7 @@ use serde::{Deserialize, Serialize};
 
 /// Where an error's magnitude came from.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
+#[cfg_attr(feature = "openapi", derive(utoipa::ToSchema))]
 #[serde(rename_all = "snake_case")]
 pub enum MagnitudeSource {
     Tolerance,

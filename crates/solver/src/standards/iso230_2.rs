@@ -44,6 +44,7 @@ use std::collections::BTreeMap;
 
 /// Where the readings of an ISO 230-2 evaluation come from.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
+#[cfg_attr(feature = "openapi", derive(utoipa::ToSchema))]
 #[serde(rename_all = "snake_case")]
 pub enum Source {
     /// Standstill readings of a positioning-run file (datasets contract, section 3).
@@ -65,6 +66,7 @@ pub struct Reading {
 
 /// The per-target figures (module table), µm.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[cfg_attr(feature = "openapi", derive(utoipa::ToSchema))]
 pub struct TargetFigures {
     pub target_mm: f64,
     pub n_up: usize,
@@ -95,6 +97,7 @@ pub struct TargetFigures {
 
 /// ISO 230-2 figures of one axis (module docs), µm.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[cfg_attr(feature = "openapi", derive(utoipa::ToSchema))]
 pub struct Iso2302 {
     pub axis: Axis,
     pub source: Source,

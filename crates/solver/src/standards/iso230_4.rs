@@ -206,6 +206,7 @@ impl CirclePath {
 
 /// Figures of one circle (one direction), µm.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[cfg_attr(feature = "openapi", derive(utoipa::ToSchema))]
 pub struct CircleFigures {
     /// `cw` or `ccw` (counter-clockwise: from +u toward +v).
     pub direction: String,
@@ -235,6 +236,7 @@ pub struct CircleFigures {
 
 /// Bidirectional figures (both directions of one plane), µm.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[cfg_attr(feature = "openapi", derive(utoipa::ToSchema))]
 pub struct Bidirectional {
     /// G(b)
     #[serde(rename = "G_um")]
@@ -252,6 +254,7 @@ pub struct Bidirectional {
 
 /// ISO 230-4 figures of one plane: the items to report and the figures per direction.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[cfg_attr(feature = "openapi", derive(utoipa::ToSchema))]
 pub struct Iso2304 {
     pub plane: Plane,
     pub file: String,
@@ -470,6 +473,7 @@ pub fn from_session(session: &Session) -> Vec<Iso2304> {
 /// deviation from the nominal radius, each path about its own least-squares centre, at
 /// the bin angles, measured and from the fitted model.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[cfg_attr(feature = "openapi", derive(utoipa::ToSchema))]
 pub struct CirclePlot {
     pub file: String,
     pub run: i64,

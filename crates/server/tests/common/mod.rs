@@ -1,0 +1,96 @@
+//! The in-process harness of the server's request tests: the router on an in-memory
+//! store with a key of each scope, driven without a socket.
+
+#![allow(dead_code)]
+
+use axum::body::Body;
+use axum::http::{Request, StatusCode, header};
+use mtcal_server::{AppState, UploadLimits, router};
+use mtcal_store::{Scope, Store};
+use serde_json::Value;
+use std::sync::Arc;
+use tower::ServiceExt;
+
+/// A key of each scope.
+pub struct Keys {
+    pub read: String,
+    pub write: String,
+    pub admin: String,
+}
+
+/// Upload limit of [`app`], bytes.
+pub const MAX_UPLOAD: usize = 1000;
+
+/// The API on an in-memory store (uploads limited to [`MAX_UPLOAD`] bytes).
+pub async fn app() -> (axum::Router, Keys, Arc<dyn Store>) {
+    let store = mtcal_store::open("sqlite::memory:").await.unwrap();
+    let (_, read) = store.create_key(Scope::Read, "r").await.unwrap();
+    let (_, write) = store.create_key(Scope::Write, "w").await.unwrap();
+    let (_, admin) = store.create_key(Scope::Admin, "a").await.unwrap();
+    let state = AppState {
+        store: store.clone(),
+        limits: UploadLimits {
+            max_bytes: MAX_UPLOAD,
+            ..UploadLimits::default()
+        },
+        max_attempts: 3,
+        wake: Arc::new(tokio::sync::Notify::new()),
+    };
+    (router(state), Keys { read, write, admin }, store)
+}
+
+/// A request; empty `ct` sends no Content-Type.
+pub fn request(
+    method: &str,
+    uri: &str,
+    ct: &str,
+    enc: Option<&str>,
+    body: Vec<u8>,
+    key: Option<&str>,
+) -> Request<Body> {
+    let mut r = Request::builder().method(method).uri(uri);
+    if !ct.is_empty() {
+        r = r.header(header::CONTENT_TYPE, ct);
+    }
+    if let Some(e) = enc {
+        r = r.header(header::CONTENT_ENCODING, e);
+    }
+    if let Some(k) = key {
+        r = r.header(header::AUTHORIZATION, format!("Bearer {k}"));
+    }
+    r.body(Body::from(body)).unwrap()
+}
+
+/// Sends a request; its status and its body when that is JSON (else null).
+pub async fn send(app: &axum::Router, req: Request<Body>) -> (StatusCode, Value) {
+    let resp = app.clone().oneshot(req).await.unwrap();
+    let status = resp.status();
+    let json = resp
+        .headers()
+        .get(header::CONTENT_TYPE)
+        .is_some_and(|v| v.as_bytes().starts_with(b"application/json"));
+    let bytes = axum::body::to_bytes(resp.into_body(), usize::MAX)
+        .await
+        .unwrap();
+    let body = if json {
+        serde_json::from_slice(&bytes).unwrap_or_default()
+    } else {
+        Value::Null
+    };
+    (status, body)
+}
+
+/// Registers machine `id` with `write_key`.
+pub async fn machine(app: &axum::Router, write_key: &str, id: &str) {
+    let body = serde_json::json!({"id": id, "name": id}).to_string();
+    let req = request(
+        "POST",
+        "/api/v1/machines",
+        "application/json",
+        None,
+        body.into_bytes(),
+        Some(write_key),
+    );
+    let (s, b) = send(app, req).await;
+    assert_eq!(s, StatusCode::CREATED, "{b}");
+}
