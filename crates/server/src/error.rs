@@ -21,7 +21,7 @@ pub struct ErrorBody {
 #[derive(Debug, Clone, Serialize, Deserialize, ToSchema)]
 pub struct ErrorDetail {
     /// Stable code: unauthorized, forbidden, not_found, conflict, invalid_request,
-    /// invalid_dataset, payload_too_large, unsupported_media_type, job_not_finished,
+    /// invalid_encoding, invalid_dataset, payload_too_large, unsupported_media_type, job_not_finished,
     /// method_not_allowed, timeout, internal.
     pub code: String,
     pub message: String,
@@ -40,6 +40,9 @@ pub enum ApiError {
     Conflict(String),
     #[error("{0}")]
     InvalidRequest(String),
+    /// A body that cannot be decoded as its Content-Encoding says (a broken gzip stream).
+    #[error("{0}")]
+    InvalidEncoding(String),
     /// An upload broke a dataset rule (message: file, line, column, rule).
     #[error("{0}")]
     InvalidDataset(String),
@@ -66,7 +69,7 @@ impl ApiError {
             ApiError::Forbidden(_) => StatusCode::FORBIDDEN,
             ApiError::NotFound(_) => StatusCode::NOT_FOUND,
             ApiError::Conflict(_) | ApiError::JobNotFinished(_) => StatusCode::CONFLICT,
-            ApiError::InvalidRequest(_) => StatusCode::BAD_REQUEST,
+            ApiError::InvalidRequest(_) | ApiError::InvalidEncoding(_) => StatusCode::BAD_REQUEST,
             ApiError::InvalidDataset(_) => StatusCode::UNPROCESSABLE_ENTITY,
             ApiError::PayloadTooLarge(_) => StatusCode::PAYLOAD_TOO_LARGE,
             ApiError::UnsupportedMediaType(_) => StatusCode::UNSUPPORTED_MEDIA_TYPE,
@@ -83,6 +86,7 @@ impl ApiError {
             ApiError::NotFound(_) => "not_found",
             ApiError::Conflict(_) => "conflict",
             ApiError::InvalidRequest(_) => "invalid_request",
+            ApiError::InvalidEncoding(_) => "invalid_encoding",
             ApiError::InvalidDataset(_) => "invalid_dataset",
             ApiError::PayloadTooLarge(_) => "payload_too_large",
             ApiError::UnsupportedMediaType(_) => "unsupported_media_type",
@@ -101,6 +105,22 @@ impl ApiError {
             }
             StatusCode::UNSUPPORTED_MEDIA_TYPE => ApiError::UnsupportedMediaType(text),
             _ => ApiError::InvalidRequest(text),
+        }
+    }
+
+    /// Maps a rejection met while reading a body sent with Content-Encoding `encoding`
+    /// (decoded by the route's decompression layer): any failure but its size is the
+    /// encoding's (`invalid_encoding`).
+    pub fn from_body_rejection(
+        status: StatusCode,
+        text: String,
+        encoding: Option<&str>,
+    ) -> ApiError {
+        match encoding {
+            Some(enc) if status != StatusCode::PAYLOAD_TOO_LARGE => ApiError::InvalidEncoding(
+                format!("the body cannot be decoded as Content-Encoding {enc}: {text}"),
+            ),
+            _ => ApiError::from_rejection(status, text),
         }
     }
 }
@@ -204,6 +224,16 @@ where
     type Rejection = ApiError;
 
     async fn from_request(req: axum::extract::Request, state: &S) -> Result<Self, ApiError> {
+        if let Some(enc) = req
+            .headers()
+            .get(axum::http::header::CONTENT_ENCODING)
+            .filter(|e| e.as_bytes() != b"identity")
+        {
+            return Err(ApiError::UnsupportedMediaType(format!(
+                "Content-Encoding {:?}: this route reads an unencoded JSON body",
+                String::from_utf8_lossy(enc.as_bytes())
+            )));
+        }
         match Json::<T>::from_request(req, state).await {
             Ok(Json(v)) => Ok(ApiJson(v)),
             Err(r) => Err(ApiError::from_rejection(r.status(), r.body_text())),

@@ -111,6 +111,7 @@ pub fn router(state: AppState) -> Router {
         .route("/api/v1/machines/{id}/datasets", post(datasets::upload))
         .layer(DefaultBodyLimit::max(state.limits.max_bytes))
         .layer(RequestDecompressionLayer::new())
+        .layer(axum::middleware::from_fn(api::datasets::note_encoding))
         .layer(tower::limit::ConcurrencyLimitLayer::new(
             MAX_CONCURRENT_UPLOADS,
         ))

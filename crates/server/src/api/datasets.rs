@@ -30,7 +30,34 @@ fn media(headers: &HeaderMap) -> String {
         .to_ascii_lowercase()
 }
 
+/// The Content-Encoding an upload was sent with, noted by [`note_encoding`] before the
+/// decompression layer decodes the body and removes the header.
+#[derive(Debug, Clone)]
+struct SentEncoding(String);
+
+/// Middleware in front of the upload route's decompression: notes the request's
+/// Content-Encoding, so that a body that fails to decode is named as such
+/// (`invalid_encoding`).
+pub async fn note_encoding(mut req: Request, next: axum::middleware::Next) -> Response {
+    let enc = req
+        .headers()
+        .get(header::CONTENT_ENCODING)
+        .map(|v| String::from_utf8_lossy(v.as_bytes()).into_owned())
+        .filter(|e| e != "identity");
+    if let Some(e) = enc {
+        req.extensions_mut().insert(SentEncoding(e));
+    }
+    next.run(req).await
+}
+
+/// The Content-Encoding the request was sent with (see [`note_encoding`]).
+fn encoding(req: &Request) -> Option<String> {
+    req.extensions().get::<SentEncoding>().map(|e| e.0.clone())
+}
+
 async fn read_multipart(req: Request, s: &AppState) -> Result<Vec<(String, Vec<u8>)>, ApiError> {
+    let enc = encoding(&req);
+    let rejected = |status, text| ApiError::from_body_rejection(status, text, enc.as_deref());
     let mut mp = Multipart::from_request(req, s)
         .await
         .map_err(|r| ApiError::from_rejection(r.status(), r.body_text()))?;
@@ -38,7 +65,7 @@ async fn read_multipart(req: Request, s: &AppState) -> Result<Vec<(String, Vec<u
     while let Some(field) = mp
         .next_field()
         .await
-        .map_err(|e| ApiError::from_rejection(e.status(), e.body_text()))?
+        .map_err(|e| rejected(e.status(), e.body_text()))?
     {
         let name = field
             .file_name()
@@ -48,7 +75,7 @@ async fn read_multipart(req: Request, s: &AppState) -> Result<Vec<(String, Vec<u
         let bytes = field
             .bytes()
             .await
-            .map_err(|e| ApiError::from_rejection(e.status(), e.body_text()))?;
+            .map_err(|e| rejected(e.status(), e.body_text()))?;
         files.push((name, bytes.to_vec()));
     }
     Ok(files)
@@ -79,9 +106,10 @@ pub async fn upload(
     let files = if ct.starts_with("multipart/form-data") {
         read_multipart(req, &s).await?
     } else if let Some(name) = archive_name(&ct) {
-        let body = Bytes::from_request(req, &s)
-            .await
-            .map_err(|r| ApiError::from_rejection(r.status(), r.body_text()))?;
+        let enc = encoding(&req);
+        let body = Bytes::from_request(req, &s).await.map_err(|r| {
+            ApiError::from_body_rejection(r.status(), r.body_text(), enc.as_deref())
+        })?;
         ingest::untar(name, &body, &s.limits)?
     } else {
         return Err(ApiError::UnsupportedMediaType(format!(
