@@ -251,3 +251,24 @@ pub fn csv_names(dir: &Path) -> Vec<String> {
 pub fn typed<T: serde::de::DeserializeOwned>(v: &Value) -> T {
     serde_json::from_value(v.clone()).unwrap()
 }
+
+/// Writes the simulated cradle point set of machine `machine` (example 1, measured
+/// 2026-11-02T08:30:00Z) to `dir` as `cradle.csv` and its sidecar `cradle.json`; returns
+/// the set and both files' bytes.
+pub fn write_cradle_set(
+    dir: &Path,
+    machine: &str,
+) -> (mtcal_solver::datasets::RotaryPointSet, Vec<u8>, Vec<u8>) {
+    use mtcal_solver::cradle::simulate::{CradleSimulation, simulate_cradle};
+    let mut set = simulate_cradle(&CradleSimulation::example(false, 1));
+    set.machine_id = Some(machine.into());
+    set.measured_at = Some("2026-11-02T08:30:00Z".into());
+    std::fs::create_dir_all(dir).unwrap();
+    let mut csv = Vec::new();
+    mtcal_formats::write_rotary_points(&mut csv, &set).unwrap();
+    std::fs::write(dir.join("cradle.csv"), &csv).unwrap();
+    let mut side = Vec::new();
+    mtcal_formats::write_rotary_sidecar(&mut side, &set).unwrap();
+    std::fs::write(dir.join("cradle.json"), &side).unwrap();
+    (set, csv, side)
+}

@@ -152,20 +152,10 @@ async fn diagnose_job_gives_the_library_diagnosis() {
 /// Wrong pairings of job and dataset kind are refused at submission.
 #[tokio::test]
 async fn cradle_job_on_an_uploaded_point_set_gives_the_library_result() {
-    use mtcal_solver::cradle::simulate::{CradleSimulation, simulate_cradle};
     let app = spawn_app().await;
     app.machine("VMC-C").await;
-    let mut set = simulate_cradle(&CradleSimulation::example(false, 1));
-    set.machine_id = Some("VMC-C".into());
-    set.measured_at = Some("2026-11-02T08:30:00Z".into());
     let dir = app.path("c");
-    std::fs::create_dir(&dir).unwrap();
-    let mut csv = Vec::new();
-    mtcal_formats::write_rotary_points(&mut csv, &set).unwrap();
-    std::fs::write(dir.join("cradle.csv"), &csv).unwrap();
-    let mut side = Vec::new();
-    mtcal_formats::write_rotary_sidecar(&mut side, &set).unwrap();
-    std::fs::write(dir.join("cradle.json"), &side).unwrap();
+    let (set, csv, side) = write_cradle_set(&dir, "VMC-C");
 
     let ds = app.client.upload_path("VMC-C", &dir).await.unwrap();
     assert_eq!(ds.kind, "rotary_points");

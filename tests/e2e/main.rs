@@ -12,5 +12,6 @@ mod cli;
 mod history;
 mod jobs;
 mod restart;
+mod schemathesis;
 mod series;
 mod uploads;

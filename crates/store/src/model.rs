@@ -29,7 +29,7 @@ pub struct Machine {
 #[cfg_attr(feature = "openapi", derive(utoipa::ToSchema))]
 pub struct MachinePatch {
     pub name: Option<String>,
-    #[cfg_attr(feature = "openapi", schema(value_type = Object))]
+    #[cfg_attr(feature = "openapi", schema(value_type = Option<Object>))]
     pub topology: Option<Value>,
     pub travel_mm: Option<BTreeMap<String, [f64; 2]>>,
     pub site: Option<String>,

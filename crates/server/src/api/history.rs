@@ -24,6 +24,7 @@ pub const KIND: &str = "identification";
 pub struct KindQuery {
     /// Result kind: `identification` (default), `diagnosis`, `cradle`, `standards` or
     /// `sensitivity`.
+    #[param(pattern = "^(identification|diagnosis|cradle|standards|sensitivity)$")]
     pub kind: Option<String>,
 }
 
@@ -117,7 +118,8 @@ pub struct DiffQuery {
     pub baseline: Option<String>,
     /// Result compared with it (default: the latest).
     pub against: Option<String>,
-    /// Grid step, mm (default 5).
+    /// Grid step, mm (default 5); at most 10 000 positions per term over the travel.
+    #[param(exclusive_minimum = 0)]
     pub step_mm: Option<f64>,
 }
 
@@ -225,6 +227,7 @@ pub async fn diff_results(s: &AppState, id: &str, q: &DiffQuery) -> Result<Resul
 #[serde(deny_unknown_fields)]
 pub struct ExcludeResult {
     /// Why (recorded with the key and the time), 1 to 1000 characters.
+    #[schema(min_length = 1, max_length = 1000)]
     pub reason: String,
 }
 

@@ -17,6 +17,7 @@ use utoipa::{IntoParams, ToSchema};
 #[into_params(parameter_in = Query)]
 pub struct TermQuery {
     /// ISO 230-1 name of one of the 18 functions, e.g. `EXX`.
+    #[param(pattern = "^E[XYZABC][XYZ]$")]
     pub term: String,
     /// Positions, mm, comma-separated, e.g. `50,-50`.
     pub at: String,
@@ -201,6 +202,7 @@ pub async fn summary_trend(s: &AppState, id: &str) -> Result<SummaryTrend, ApiEr
 pub struct FigureQuery {
     /// Figure name, e.g. `iso230_2.X.E_um` or `iso230_4.XY.bi.H_um` (docs/standards.md);
     /// absent: list the names stored for the machine.
+    #[param(pattern = "^[A-Za-z0-9_.]{1,128}$")]
     pub name: Option<String>,
 }
 
@@ -253,6 +255,7 @@ pub async fn figure(
 #[into_params(parameter_in = Query)]
 pub struct FleetQuery {
     /// `um` (translational drift, default) or `urad` (angular and squareness).
+    #[param(pattern = "^(um|urad)$")]
     pub by: Option<String>,
     /// At most this many machines (default 50).
     pub limit: Option<usize>,
