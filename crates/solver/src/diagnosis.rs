@@ -87,7 +87,7 @@ pub struct Undetermined {
 
 /// `consistent` (no finding needed), `explained`, `partly_explained`.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
-#[cfg_attr(feature = "openapi", derive(utoipa::ToSchema))]
+#[cfg_attr(feature = "openapi", derive(utoipa::ToSchema), schema(as = DiagnosisVerdict))]
 #[serde(rename_all = "snake_case")]
 pub enum Verdict {
     Consistent,

@@ -33,7 +33,7 @@ pub struct ScalarFigure {
 
 /// Something a standard could not be evaluated for, and why.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
-#[cfg_attr(feature = "openapi", derive(utoipa::ToSchema))]
+#[cfg_attr(feature = "openapi", derive(utoipa::ToSchema), schema(as = StandardsNotEvaluated))]
 pub struct NotEvaluated {
     /// `iso230_2` or `iso230_4`.
     pub standard: String,

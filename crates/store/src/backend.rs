@@ -331,20 +331,26 @@ impl Store for This {
         machine_id: &'a str,
         kind: &'a str,
     ) -> StoreFuture<'a, Vec<ResultMeta>> {
+        Box::pin(async move { Ok(self.list_results_checked(machine_id, kind).await?.0) })
+    }
+
+    fn list_results_checked<'a>(
+        &'a self,
+        machine_id: &'a str,
+        kind: &'a str,
+    ) -> StoreFuture<'a, (Vec<ResultMeta>, Vec<SkippedRow>)> {
         Box::pin(async move {
             let q = format!(
                 "SELECT {RESULT_COLUMNS} FROM results WHERE machine_id = $1 AND kind = $2 \
                  AND excluded_at IS NULL ORDER BY measured_at, id"
             );
-            sqlx::query(sqlx::AssertSqlSafe(q))
+            let rows = sqlx::query(sqlx::AssertSqlSafe(q))
                 .bind(machine_id)
                 .bind(kind)
                 .fetch_all(&self.pool)
                 .await
-                .db()?
-                .iter()
-                .map(rows::result_meta)
-                .collect()
+                .db()?;
+            Ok(rows::result_meta_checked(&rows))
         })
     }
 

@@ -68,12 +68,20 @@ pub trait Store: Queue {
 
     // Results.
     fn get_result<'a>(&'a self, id: &'a str) -> StoreFuture<'a, StoredResult>;
-    /// A machine's results of `kind` in time order (measured_at, then id).
+    /// A machine's results of `kind` in time order (measured_at, then id). A stored row
+    /// that does not decode (written by an older version, a null where a number belongs)
+    /// is left out; [`Store::list_results_checked`] says which.
     fn list_results<'a>(
         &'a self,
         machine_id: &'a str,
         kind: &'a str,
     ) -> StoreFuture<'a, Vec<ResultMeta>>;
+    /// [`Store::list_results`] with the rows left out because they do not decode.
+    fn list_results_checked<'a>(
+        &'a self,
+        machine_id: &'a str,
+        kind: &'a str,
+    ) -> StoreFuture<'a, (Vec<ResultMeta>, Vec<SkippedRow>)>;
     /// For every machine with results of `kind`: baseline, latest and count.
     fn baseline_pairs<'a>(&'a self, kind: &'a str) -> StoreFuture<'a, Vec<BaselinePair>>;
     /// The named figures of a result ([`Figure`]), by name.

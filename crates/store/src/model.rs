@@ -355,6 +355,26 @@ pub struct Alert {
     pub acknowledged_by: Option<String>,
 }
 
+/// A stored row a list left out because it does not decode, and why: the rest of the
+/// list is served (one bad row must not fail every reader of a machine's history).
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[cfg_attr(feature = "openapi", derive(utoipa::ToSchema))]
+pub struct SkippedRow {
+    /// The row's id (a result id), or `?` when even that does not read.
+    pub id: String,
+    pub reason: String,
+}
+
+impl SkippedRow {
+    /// The warning sentence readers return with the rows they served.
+    pub fn warning(&self) -> String {
+        format!(
+            "result {} skipped: its stored row does not decode ({})",
+            self.id, self.reason
+        )
+    }
+}
+
 /// Row counts of every table (for tests and the admin view).
 #[derive(Debug, Clone, Copy, Default, PartialEq, Eq, Serialize, Deserialize)]
 pub struct RowCounts {

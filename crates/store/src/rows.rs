@@ -150,6 +150,21 @@ pub(crate) fn result_meta(r: &impl Columns) -> Result<ResultMeta> {
     })
 }
 
+/// Rows decoded as results, those that do not decode set aside with the reason.
+pub(crate) fn result_meta_checked<R: Columns>(rows: &[R]) -> (Vec<ResultMeta>, Vec<SkippedRow>) {
+    let (mut ok, mut skipped) = (Vec::new(), Vec::new());
+    for r in rows {
+        match result_meta(r) {
+            Ok(m) => ok.push(m),
+            Err(e) => skipped.push(SkippedRow {
+                id: r.text("id").unwrap_or_else(|_| "?".into()),
+                reason: e.to_string(),
+            }),
+        }
+    }
+    (ok, skipped)
+}
+
 /// A figure trend point: `result_id`, `measured_at`, `value`, `u` columns.
 pub(crate) fn figure_point(r: &impl Columns) -> Result<FigurePoint> {
     Ok(FigurePoint {

@@ -7,7 +7,7 @@ use crate::error::{ApiError, ApiJson, ApiQuery, ErrorBody};
 use crate::trends::{self, TermDiff};
 use axum::Json;
 use axum::extract::{Path, State};
-use mtcal_store::{Figure, JobKind, ResultMeta, StoredResult};
+use mtcal_store::{Figure, JobKind, ResultMeta, SkippedRow, StoredResult};
 use serde::{Deserialize, Serialize};
 use std::collections::BTreeMap;
 use utoipa::{IntoParams, ToSchema};
@@ -30,15 +30,37 @@ pub struct KindQuery {
 
 #[utoipa::path(operation_id = "history_list", summary = "A machine's results in time order", get, path = "/api/v1/machines/{id}/results", tag = "history",
     security(("api_key" = [])), params(("id" = String, Path), KindQuery),
-    responses((status = 200, body = Vec<ResultMeta>, description = "in time order (measured_at)"),
+    responses((status = 200, body = Vec<ResultMeta>, description = "in time order (measured_at)",
+               headers(("x-mtcal-warning" = String, description = "present when stored results were left out because their rows do not decode: one sentence each, naming the result, separated by `; `"))),
               (status = 400, body = ErrorBody), (status = 404, body = ErrorBody)))]
 pub async fn list(
     _key: ReadKey,
     State(s): State<AppState>,
     Path(id): Path<String>,
     ApiQuery(q): ApiQuery<KindQuery>,
-) -> Result<Json<Vec<ResultMeta>>, ApiError> {
-    Ok(Json(results(&s, &id, q.kind.as_deref()).await?))
+) -> Result<(axum::http::HeaderMap, Json<Vec<ResultMeta>>), ApiError> {
+    let (list, skipped) = results_checked(&s, &id, q.kind.as_deref()).await?;
+    let mut headers = axum::http::HeaderMap::new();
+    if !skipped.is_empty() {
+        let text: Vec<String> = skipped.iter().map(SkippedRow::warning).collect();
+        // Header values are visible ASCII.
+        let text: String = text
+            .join("; ")
+            .chars()
+            .map(|c| {
+                if c.is_ascii_graphic() || c == ' ' {
+                    c
+                } else {
+                    '?'
+                }
+            })
+            .take(4096)
+            .collect();
+        if let Ok(v) = axum::http::HeaderValue::from_str(&text) {
+            headers.insert("x-mtcal-warning", v);
+        }
+    }
+    Ok((headers, Json(list)))
 }
 
 /// The results of kind `kind` (default identification) of machine `id` in time order
@@ -48,9 +70,18 @@ pub async fn results(
     id: &str,
     kind: Option<&str>,
 ) -> Result<Vec<ResultMeta>, ApiError> {
+    Ok(results_checked(s, id, kind).await?.0)
+}
+
+/// [`results`] with the stored rows left out because they do not decode.
+pub async fn results_checked(
+    s: &AppState,
+    id: &str,
+    kind: Option<&str>,
+) -> Result<(Vec<ResultMeta>, Vec<SkippedRow>), ApiError> {
     let kind = result_kind(kind)?;
     s.store.get_machine(id).await?;
-    Ok(s.store.list_results(id, kind).await?)
+    Ok(s.store.list_results_checked(id, kind).await?)
 }
 
 /// The result kind a query names (default identification); an unknown kind is a 400
@@ -133,6 +164,10 @@ pub struct ResultDiff {
     /// µrad; null when not identifiable in one of them.
     pub squareness: BTreeMap<String, Option<f64>>,
     pub drift: trends::Drift,
+    /// Stored results left out because their rows do not decode, one sentence each
+    /// naming the result (absent when none).
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    pub warnings: Vec<String>,
 }
 
 #[utoipa::path(operation_id = "history_diff", summary = "Difference of a result from the baseline, term by term", get, path = "/api/v1/machines/{id}/results/diff", tag = "history",
@@ -151,7 +186,7 @@ pub async fn diff(
 /// dashboard's compare page too).
 pub async fn diff_results(s: &AppState, id: &str, q: &DiffQuery) -> Result<ResultDiff, ApiError> {
     let machine = s.store.get_machine(id).await?;
-    let all = s.store.list_results(id, KIND).await?;
+    let (all, skipped) = s.store.list_results_checked(id, KIND).await?;
     // A named result that is not one of this machine's identifications: the same answer
     // as a baseline PATCH gives (409 when it belongs to another machine).
     for rid in [q.baseline.as_ref(), q.against.as_ref()]
@@ -219,6 +254,7 @@ pub async fn diff_results(s: &AppState, id: &str, q: &DiffQuery) -> Result<Resul
         against,
         terms,
         squareness,
+        warnings: skipped.iter().map(SkippedRow::warning).collect(),
     })
 }
 

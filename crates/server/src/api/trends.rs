@@ -9,7 +9,7 @@ use crate::error::{ApiError, ApiQuery, ErrorBody};
 use crate::trends::{self, Drift};
 use axum::Json;
 use axum::extract::{Path, State};
-use mtcal_store::{FigurePoint, ResultMeta};
+use mtcal_store::{FigurePoint, ResultMeta, SkippedRow};
 use serde::{Deserialize, Serialize};
 use utoipa::{IntoParams, ToSchema};
 
@@ -43,6 +43,10 @@ pub struct TermTrend {
     pub positions_mm: Vec<f64>,
     /// In time order.
     pub points: Vec<TermPoint>,
+    /// Stored results left out because their rows do not decode, one sentence each
+    /// naming the result (absent when none).
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    pub warnings: Vec<String>,
 }
 
 #[utoipa::path(operation_id = "trends_term", summary = "A term's value at chosen positions over time", get, path = "/api/v1/machines/{id}/trends/term", tag = "trends",
@@ -85,7 +89,7 @@ pub async fn term_trend(s: &AppState, id: &str, q: TermQuery) -> Result<TermTren
                 ))
             })?;
     s.store.get_machine(id).await?;
-    let results = s.store.list_results(id, KIND).await?;
+    let (results, skipped) = s.store.list_results_checked(id, KIND).await?;
     // A position no check with this term measured is refused, saying where they measured.
     let axis = trends::term_info(&q.term).map_or('X', |(_, a)| a);
     let with_term: Vec<_> = results
@@ -138,6 +142,7 @@ pub async fn term_trend(s: &AppState, id: &str, q: TermQuery) -> Result<TermTren
         unit: unit.into(),
         positions_mm: positions,
         points,
+        warnings: skipped.iter().map(SkippedRow::warning).collect(),
     })
 }
 
@@ -158,6 +163,10 @@ pub struct SummaryTrend {
     pub machine_id: String,
     /// In time order.
     pub points: Vec<SummaryPoint>,
+    /// Stored results left out because their rows do not decode, one sentence each
+    /// naming the result (absent when none).
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    pub warnings: Vec<String>,
 }
 
 #[utoipa::path(operation_id = "trends_summary", summary = "Summary figures and squareness over time", get, path = "/api/v1/machines/{id}/trends/summary", tag = "trends",
@@ -175,10 +184,8 @@ pub async fn summary(
 /// dashboard's machine page too).
 pub async fn summary_trend(s: &AppState, id: &str) -> Result<SummaryTrend, ApiError> {
     s.store.get_machine(id).await?;
-    let points = s
-        .store
-        .list_results(id, KIND)
-        .await?
+    let (results, skipped) = s.store.list_results_checked(id, KIND).await?;
+    let points = results
         .into_iter()
         .map(|r| SummaryPoint {
             result_id: r.id,
@@ -194,6 +201,7 @@ pub async fn summary_trend(s: &AppState, id: &str) -> Result<SummaryTrend, ApiEr
     Ok(SummaryTrend {
         machine_id: id.to_string(),
         points,
+        warnings: skipped.iter().map(SkippedRow::warning).collect(),
     })
 }
 
@@ -292,6 +300,10 @@ pub struct FleetDrift {
     pub definition: String,
     pub ranked_by: String,
     pub machines: Vec<FleetEntry>,
+    /// Machines left out because their stored drift does not decode, one sentence each
+    /// naming the result (absent when none).
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    pub warnings: Vec<String>,
 }
 
 #[utoipa::path(operation_id = "trends_fleet", summary = "The fleet ranked by drift since each machine's baseline", get, path = "/api/v1/fleet/drift", tag = "trends",
@@ -318,22 +330,30 @@ pub async fn fleet_drift(s: &AppState, q: FleetQuery) -> Result<FleetDrift, ApiE
     }
     // Maintained as results land and baselines change (crate::fleet); ranked by the
     // database.
-    let machines: Vec<FleetEntry> = s
+    // A stored entry that does not decode (written by an older version) is left out
+    // and named, not a 500 for the whole fleet.
+    let (mut machines, mut warnings) = (Vec::new(), Vec::new());
+    for (row, name, site) in s
         .store
         .fleet_drift_ranked(by == "um", q.limit.unwrap_or(50).clamp(1, 100_000))
         .await?
-        .into_iter()
-        .map(|(row, name, site)| {
-            let mut e: FleetEntry = serde_json::from_value(row.entry)
-                .map_err(|e| ApiError::Internal(format!("stored fleet entry: {e}")))?;
-            e.name = name;
-            e.site = site;
-            Ok(e)
-        })
-        .collect::<Result<_, ApiError>>()?;
+    {
+        match serde_json::from_value::<FleetEntry>(row.entry) {
+            Ok(mut e) => {
+                e.name = name;
+                e.site = site;
+                machines.push(e);
+            }
+            Err(e) => warnings.push(format!(
+                "machine {} skipped: its stored drift does not decode ({e})",
+                row.machine_id
+            )),
+        }
+    }
     Ok(FleetDrift {
         definition: DRIFT_DEFINITION.into(),
         ranked_by: by,
         machines,
+        warnings,
     })
 }

@@ -23,7 +23,12 @@ pub const MAX_UPLOAD: usize = 1000;
 
 /// The API on an in-memory store (uploads limited to [`MAX_UPLOAD`] bytes).
 pub async fn app() -> (axum::Router, Keys, Arc<dyn Store>) {
-    let store = mtcal_store::open("sqlite::memory:").await.unwrap();
+    app_on("sqlite::memory:").await
+}
+
+/// [`app`] on the store `url` names.
+pub async fn app_on(url: &str) -> (axum::Router, Keys, Arc<dyn Store>) {
+    let store = mtcal_store::open(url).await.unwrap();
     let (_, read) = store.create_key(Scope::Read, "r").await.unwrap();
     let (_, write) = store.create_key(Scope::Write, "w").await.unwrap();
     let (_, admin) = store.create_key(Scope::Admin, "a").await.unwrap();
