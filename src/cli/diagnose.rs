@@ -107,9 +107,24 @@ pub fn run(args: Args) -> anyhow::Result<ExitCode> {
         }
         DatasetKind::Session => {
             let session = mtcal_formats::read_session_dir(path, &limits)?;
-            let mut r =
-                mtcal_solver::diagnosis::diagnose_session(&session, &DiagnoseOptions::default())
-                    .map_err(|e| BadInput(format!("{}: {e}", path.display())))?;
+            // Progress on stderr (drawn only when it is a terminal).
+            let bar = indicatif::ProgressBar::new(100);
+            bar.set_style(
+                indicatif::ProgressStyle::with_template(
+                    "{spinner} [{elapsed_precise}] {bar:30} {pos}% {msg}",
+                )
+                .expect("valid template"),
+            );
+            let r = mtcal_solver::diagnosis::diagnose_session_with_progress(
+                &session,
+                &DiagnoseOptions::default(),
+                &mut |phase: &str, f: f64| {
+                    bar.set_position((f * 100.0).round() as u64);
+                    bar.set_message(phase.to_string());
+                },
+            );
+            bar.finish_and_clear();
+            let mut r = r.map_err(|e| BadInput(format!("{}: {e}", path.display())))?;
             if let Some(id) = &args.machine_id {
                 r.machine_id = id.clone();
             }

@@ -70,6 +70,60 @@ async fn sensitivity_job_gives_the_library_result() {
     assert!(app.client.results("VMC-S", None).await.unwrap().is_empty());
 }
 
+/// A running `diagnose` job's progress field moves through the diagnosis's phases:
+/// polled while it runs, it shows more than one phase with fractions between the
+/// loading (0.2) and the end (1), never going back.
+#[tokio::test]
+async fn diagnose_job_progress_moves_through_phases() {
+    use mtcal_solver::simulate::{Plan, SimOptions, random_truth, simulate};
+    let app = spawn_app().await;
+    app.machine("VMC-P").await;
+    // Full plan at 20 Hz (about 60 000 samples): a diagnosis of a second or more.
+    let sim = simulate(
+        &random_truth(4),
+        &SimOptions {
+            plan: Plan::Full,
+            seed: 4,
+            sample_rate_hz: 20.0,
+            machine_id: "VMC-P".into(),
+            ..SimOptions::default()
+        },
+    )
+    .unwrap();
+    let dir = app.path("p");
+    mtcal_formats::write_session_dir(&dir, &sim.session).unwrap();
+    let ds = app.client.upload_path("VMC-P", &dir).await.unwrap();
+    let id = submit(&app.client, JobKind::Diagnose, Some(&ds.id), None)
+        .await
+        .id;
+    let mut seen: Vec<(f64, String)> = Vec::new();
+    let start = std::time::Instant::now();
+    loop {
+        let j = app.client.job(&id).await.unwrap();
+        let now = (j.progress, j.progress_message.clone().unwrap_or_default());
+        if seen.last() != Some(&now) {
+            seen.push(now);
+        }
+        if j.state.is_terminal() {
+            assert_eq!(j.state, JobState::Succeeded, "{j:?}");
+            break;
+        }
+        assert!(
+            start.elapsed() < std::time::Duration::from_secs(120),
+            "{seen:?}"
+        );
+        tokio::time::sleep(std::time::Duration::from_millis(20)).await;
+    }
+    assert!(seen.windows(2).all(|w| w[1].0 >= w[0].0), "{seen:?}");
+    let phases: std::collections::BTreeSet<&str> = seen
+        .iter()
+        .filter(|(p, _)| *p > 0.2 && *p < 1.0)
+        .map(|(_, m)| m.split(':').next().unwrap_or(""))
+        .collect();
+    assert!(phases.len() >= 2, "{seen:?}");
+    assert_eq!(seen.last().unwrap().0, 1.0);
+}
+
 /// A `diagnose` job on an uploaded session gives the library's diagnosis of the same
 /// files, filed under the machine as kind `diagnosis`. The session (seed plan, 5 Hz,
 /// σ = 0.15 µm) carries 4 µm of X backlash, far above the noise: the diagnosis must name

@@ -142,6 +142,24 @@ pub struct JobOutput {
 
 /// Runs a job's solver work. Blocking: call it off the async threads.
 pub fn execute(input: &JobInput) -> Result<JobOutput, JobError> {
+    execute_with_progress(input, &mut |_, _| {})
+}
+
+/// [`execute`], reporting `progress(fraction, phase)` as the solver advances (fractions
+/// in [0, 1], never decreasing; today a session diagnosis reports its phases, the other
+/// kinds only their end).
+pub fn execute_with_progress(
+    input: &JobInput,
+    progress: &mut dyn FnMut(f64, &str),
+) -> Result<JobOutput, JobError> {
+    let out = run(input, progress);
+    if out.is_ok() {
+        progress(1.0, "done");
+    }
+    out
+}
+
+fn run(input: &JobInput, progress: &mut dyn FnMut(f64, &str)) -> Result<JobOutput, JobError> {
     match input.kind {
         JobKind::Identify => {
             let params: IdentifyParams = serde_json::from_value(input.params.clone())
@@ -191,7 +209,11 @@ pub fn execute(input: &JobInput) -> Result<JobOutput, JobError> {
                         topology: machine_topology(input.machine.as_ref())?,
                         ..DiagnoseOptions::default()
                     };
-                    diagnosis::diagnose_session(session, &opts)
+                    diagnosis::diagnose_session_with_progress(
+                        session,
+                        &opts,
+                        &mut |phase: &str, f: f64| progress(f, phase),
+                    )
                 }
                 DatasetData::Positioning(runs) => series::diagnose_positioning(
                     runs,

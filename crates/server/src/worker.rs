@@ -147,6 +147,9 @@ async fn worker_loop(
     }
 }
 
+/// Shortest interval between two progress writes of a job.
+const PROGRESS_EVERY: Duration = Duration::from_millis(100);
+
 /// Why a job stopped before producing an output.
 enum Stop {
     Cancel,
@@ -166,15 +169,26 @@ async fn run_job(
 ) {
     let lease = cfg.queue.lease_ms;
     let (stop_tx, mut stop_rx) = watch::channel(None::<u8>);
-    // Heartbeat: extend the lease every third of it, and learn about cancellation.
+    // The solver's progress (fraction of the job, phase), written with each heartbeat.
+    let (progress_tx, mut progress_rx) = watch::channel((0.2, "solving".to_string()));
+    // Heartbeat: extend the lease every third of it, and learn about cancellation; a new
+    // phase is written at once, at most every PROGRESS_EVERY.
     let hb = {
         let store = store.clone();
         let (id, me) = (job.id.clone(), me.to_string());
         tokio::spawn(async move {
             let every = Duration::from_millis((lease / 3).max(50) as u64);
+            let mut changed = true;
             loop {
-                tokio::time::sleep(every).await;
-                match store.heartbeat(&id, &me, lease, 0.2, "solving").await {
+                tokio::select! {
+                    _ = tokio::time::sleep(every) => {}
+                    r = progress_rx.changed(), if changed => {
+                        changed = r.is_ok();
+                        tokio::time::sleep(PROGRESS_EVERY).await;
+                    }
+                }
+                let (progress, message) = progress_rx.borrow_and_update().clone();
+                match store.heartbeat(&id, &me, lease, progress, &message).await {
                     Ok(Heartbeat::Continue) => {}
                     Ok(Heartbeat::CancelRequested) => {
                         let _ = stop_tx.send(Some(0));
@@ -195,7 +209,16 @@ async fn run_job(
             tokio::time::sleep(Duration::from_millis(cfg.pause_before_solve_ms)).await;
         }
         let _ = store.heartbeat(&job.id, me, lease, 0.2, "solving").await;
-        match tokio::task::spawn_blocking(move || jobs::execute(&input)).await {
+        let report = move |fraction: f64, phase: &str| {
+            // Solving spans 0.2..0.95 of the job (loading before, storing after).
+            let _ = progress_tx.send((0.2 + 0.75 * fraction.clamp(0.0, 1.0), phase.to_string()));
+        };
+        match tokio::task::spawn_blocking(move || {
+            let mut report = report;
+            jobs::execute_with_progress(&input, &mut report)
+        })
+        .await
+        {
             Ok(out) => out,
             Err(e) => Err(JobError::Transient(format!("worker panicked: {e}"))),
         }

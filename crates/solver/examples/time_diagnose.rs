@@ -1,5 +1,6 @@
 //! Diagnosis against identification on the same session, side by side: wall time and
-//! peak resident memory of each (Linux: `VmHWM`, reset through `/proc/self/clear_refs`).
+//! CPU time and peak resident memory of each (Linux: `/proc/self/stat`; `VmHWM`, reset
+//! through `/proc/self/clear_refs`).
 //!
 //! `cargo run -p mtcal-solver --example time_diagnose -- [SAMPLES]` (default 300 000:
 //! the full plan, 198 runs, at the sample rate that gives that many samples).
@@ -19,6 +20,23 @@ fn peak_mb() -> Option<f64> {
         .parse()
         .ok()?;
     Some(kb / 1024.0)
+}
+
+/// CPU time (user + system, all threads) of the process so far, s (Linux, 100 ticks/s).
+fn cpu_s() -> f64 {
+    std::fs::read_to_string("/proc/self/stat")
+        .ok()
+        .and_then(|s| {
+            let rest = &s[s.rfind(')')? + 2..];
+            let f: Vec<f64> = rest
+                .split_whitespace()
+                .skip(11)
+                .take(2)
+                .filter_map(|v| v.parse().ok())
+                .collect();
+            (f.len() == 2).then(|| (f[0] + f[1]) / 100.0)
+        })
+        .unwrap_or(f64::NAN)
 }
 
 fn reset_peak() {
@@ -49,23 +67,26 @@ fn main() {
         peak_mb().unwrap_or(f64::NAN)
     );
     reset_peak();
-    let t = Instant::now();
+    let (t, c) = (Instant::now(), cpu_s());
     let id = identify(s, &IdentifyOptions::default()).unwrap();
     let ti = t.elapsed().as_secs_f64();
+    let ci = cpu_s() - c;
     let mi = peak_mb().unwrap_or(f64::NAN);
     println!(
-        "identify: {ti:.3} s, peak resident {mi:.0} MB (residual {:.3} um, floor {:?})",
+        "identify: {ti:.3} s (CPU {ci:.2} s), peak resident {mi:.0} MB (residual {:.3} um, floor {:?})",
         id.fit.residual_rms_um, id.fit.noise_estimate_um
     );
     reset_peak();
-    let t = Instant::now();
+    let (t, c) = (Instant::now(), cpu_s());
     let d = diagnose_session(s, &DiagnoseOptions::default()).unwrap();
     let td = t.elapsed().as_secs_f64();
+    let cd = cpu_s() - c;
     let md = peak_mb().unwrap_or(f64::NAN);
     println!(
-        "diagnose: {td:.3} s, peak resident {md:.0} MB (verdict {:?}, {} finding(s)); {:.1} x identify",
+        "diagnose: {td:.3} s (CPU {cd:.2} s), peak resident {md:.0} MB (verdict {:?}, {} finding(s)); {:.1} x identify (CPU {:.1} x)",
         d.verdict,
         d.findings.len(),
-        td / ti
+        td / ti,
+        cd / ci
     );
 }

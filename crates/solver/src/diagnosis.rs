@@ -156,6 +156,7 @@ pub mod moments;
 pub mod reduced;
 pub(crate) mod search;
 pub mod session;
+pub mod thermal_search;
 
 pub use session::{DiagnoseOptions, diagnose_session, diagnose_session_with_progress};
 

@@ -18,6 +18,7 @@ use super::effects;
 use super::linalg::{Cols, dot};
 use super::moments::{self, Moments, Sets};
 use super::reduced::Reduction;
+use super::thermal_search::ThermalBasis;
 use super::{
     Baseline, BeforeAfter, DiagnosisResult, Finding, Mismatch, Monotone, NoProgress, PlotData,
     PlotSeries, Progress,
@@ -341,9 +342,24 @@ fn try_candidate(
     let (theta, extra) = match catalogue::search(d, cand) {
         Search::None => (None, 0),
         Search::Grid(name, values) => {
+            // The thermal time constant is searched on the reduced problem
+            // ([`ThermalBasis`]); other parameters from their columns.
+            let basis = (cand.effect == "thermal_drift").then(|| {
+                let mut u: Vec<&[f64]> = f.cols.iter().map(Vec::as_slice).collect();
+                u.push(&d.y);
+                ThermalBasis::new(d, red, &u)
+            });
+            let ssr_at = |v: f64| match &basis {
+                Some(b) => {
+                    moments::joint_fit(red, sets, Some(&b.at(v)), &f.base, false)
+                        .all
+                        .ssr
+                }
+                None => ssr_at(d, red, sets, f, cand, v, eps),
+            };
             let mut best: Option<(f64, f64)> = None;
             for &v in &values {
-                let ssr = ssr_at(d, red, sets, f, cand, v, eps);
+                let ssr = ssr_at(v);
                 if !ssr.is_finite() {
                     return None;
                 }
@@ -354,7 +370,7 @@ fn try_candidate(
             // Golden-section refinement in log θ around the best grid value.
             let (_, v0) = best?;
             let ratio = values.get(1).map_or(2.0, |v1| v1 / values[0]);
-            let eval = |lv: f64| ssr_at(d, red, sets, f, cand, lv.exp(), eps);
+            let eval = |lv: f64| ssr_at(lv.exp());
             let bracket =
                 super::search::golden_section((v0 / ratio).ln(), (v0 * ratio).ln(), 10, eval);
             (Some((name, bracket.centre().exp())), 1)
@@ -422,6 +438,50 @@ fn try_candidate(
         dbic,
         extra_params: extra,
     })
+}
+
+/// `try_one` on every candidate, on all cores (candidates taken in turn by each thread);
+/// the results in the candidates' order. `report(i, c)` is called on this thread with
+/// the number of candidates done so far and the next one this thread takes.
+fn try_all<'c>(
+    cands: &[&'c Candidate],
+    mut report: impl FnMut(usize, &'c Candidate),
+    try_one: impl Fn(&Candidate) -> Option<Trial> + Sync,
+) -> Vec<Option<Trial>> {
+    use std::sync::atomic::{AtomicUsize, Ordering};
+    let threads = std::thread::available_parallelism()
+        .map_or(1, |n| n.get())
+        .min(cands.len())
+        .max(1);
+    let next = AtomicUsize::new(0);
+    let done = AtomicUsize::new(0);
+    let work = || {
+        let mut out = Vec::new();
+        loop {
+            let i = next.fetch_add(1, Ordering::Relaxed);
+            let Some(c) = cands.get(i) else { break };
+            out.push((i, try_one(c)));
+            done.fetch_add(1, Ordering::Relaxed);
+        }
+        out
+    };
+    let mut all: Vec<(usize, Option<Trial>)> = std::thread::scope(|s| {
+        let helpers: Vec<_> = (1..threads).map(|_| s.spawn(work)).collect();
+        let mut mine = Vec::new();
+        loop {
+            let i = next.fetch_add(1, Ordering::Relaxed);
+            let Some(c) = cands.get(i) else { break };
+            report(done.load(Ordering::Relaxed), c);
+            mine.push((i, try_one(c)));
+            done.fetch_add(1, Ordering::Relaxed);
+        }
+        for h in helpers {
+            mine.extend(h.join().expect("candidate thread"));
+        }
+        mine
+    });
+    all.sort_by_key(|(i, _)| *i);
+    all.into_iter().map(|(_, t)| t).collect()
 }
 
 /// Physical parameters of an accepted trial (with `std_*` uncertainties), scaled by the
@@ -813,25 +873,28 @@ pub fn diagnose_session_with_progress(
             .iter()
             .any(|c| c.effect == "setup_offset")
             .then(|| eps_per_sample(&d, &red, &f));
-        let mut qualifying: Vec<Trial> = Vec::new();
         let tried: Vec<&Candidate> = cands
             .iter()
             .filter(|c| !set_aside.contains(&c.label()))
             .collect();
-        for (i, c) in tried.iter().enumerate() {
-            progress.report(
-                &format!("round {} of candidates: {}", round + 1.0, c.label()),
-                0.1 + 0.85 * (round + i as f64 / tried.len() as f64) / rounds,
-            );
-            let Some(t) = try_candidate(&d, &red, &sets, &f, c, eps.as_deref()) else {
-                continue;
-            };
-            if t.dbic < -opts.min_bic_gain
-                && rms(t.heldout_ssr, heldout_n) < cur_heldout * (1.0 - opts.min_heldout_gain)
-            {
-                qualifying.push(t);
-            }
-        }
+        let trials = try_all(
+            &tried,
+            |i, c| {
+                progress.report(
+                    &format!("round {} of candidates: {}", round + 1.0, c.label()),
+                    0.1 + 0.85 * (round + i as f64 / tried.len() as f64) / rounds,
+                )
+            },
+            |c| try_candidate(&d, &red, &sets, &f, c, eps.as_deref()),
+        );
+        let mut qualifying: Vec<Trial> = trials
+            .into_iter()
+            .flatten()
+            .filter(|t| {
+                t.dbic < -opts.min_bic_gain
+                    && rms(t.heldout_ssr, heldout_n) < cur_heldout * (1.0 - opts.min_heldout_gain)
+            })
+            .collect();
         qualifying.sort_by(|a, b| a.heldout_ssr.total_cmp(&b.heldout_ssr));
         let mut accepted = None;
         for t in qualifying {

@@ -1,0 +1,160 @@
+//! The search of the thermal drift's time constant T on the reduced problem.
+//!
+//! The thermal columns along direction j are g(t)·q_j·10⁻³ and g(t), g = 1 − e^(−t/T).
+//! Within run g, with t_m its middle time, h its half duration and τ = (t − t_m)/h ∈
+//! [−1, 1], e^(−t/T) = e^(−t_m/T) e^(−β τ), β = h/T, and e^(−β τ) = Σ_{k<K} c_k(β) T_k(τ)
+//! (Chebyshev interpolation at K nodes; the error is about 2(β/2)^K/K!, 4·10⁻¹¹ for
+//! β = 0.1 and K = 6, relative to e^(−t_m/T)). So every T's columns are, run by run, fixed
+//! combinations of the 6K basis columns ψ_{j,k} = T_k(τ)·[q_j·10⁻³, 1] along j, whose
+//! moments ([`Moments`]) are formed in one pass over the rows; the profile S(T) of the
+//! joint fit then costs only small products per run and trial T. The search uses this
+//! profile; the chosen T is evaluated exactly from its own columns.
+
+use super::design::Design;
+use super::moments::{Moments, RunMoments};
+use super::reduced::Reduction;
+use std::f64::consts::PI;
+
+/// Chebyshev terms per run.
+const K: usize = 6;
+
+/// The basis moments of the thermal columns, ready for any time constant.
+pub struct ThermalBasis {
+    mom: Moments,
+    /// Middle time and half duration of each run.
+    span: Vec<(f64, f64)>,
+}
+
+impl ThermalBasis {
+    /// One pass over the rows; `extra` are the base columns U of the joint fits.
+    pub fn new(d: &Design, red: &Reduction, extra: &[&[f64]]) -> ThermalBasis {
+        let span: Vec<(f64, f64)> = d
+            .runs
+            .iter()
+            .map(|r| {
+                let (a, b) = (d.samples[r.start].t_s, d.samples[r.end - 1].t_s);
+                (0.5 * (a + b), (0.5 * (b - a)).max(1e-9))
+            })
+            .collect();
+        let mut tk = [0.0; K];
+        let mom = Moments::new(red, 6 * K, extra, |row, out| {
+            out.iter_mut().for_each(|v| *v = 0.0);
+            let s = &d.samples[row / 2];
+            let j = d.row_axis(row).index();
+            let (tm, h) = span[s.run_idx];
+            let tau = (s.t_s - tm) / h;
+            tk[0] = 1.0;
+            tk[1] = tau;
+            for k in 2..K {
+                tk[k] = 2.0 * tau * tk[k - 1] - tk[k - 2];
+            }
+            for k in 0..K {
+                out[j * K + k] = tk[k] * s.q_mm[j] * 1e-3;
+                out[(3 + j) * K + k] = tk[k];
+            }
+        });
+        ThermalBasis { mom, span }
+    }
+
+    /// The moments of the six thermal columns (scale X, Y, Z, offset X, Y, Z) at time
+    /// constant `t`.
+    pub fn at(&self, t: f64) -> Moments {
+        let m = 6;
+        let mb = 6 * K;
+        let u = self.mom.u;
+        let runs = self
+            .mom
+            .runs
+            .iter()
+            .zip(&self.span)
+            .map(|(rm, &(tm, h))| {
+                let g = coefficients(tm, h, t);
+                let r = rm.z.len() / mb;
+                // Column c of the six uses basis columns c·K .. c·K + K with weights g.
+                let mut z = vec![0.0; m * r];
+                let mut xu = vec![0.0; m * u];
+                for c in 0..m {
+                    for (k, gk) in g.iter().enumerate() {
+                        let b = c * K + k;
+                        for (o, v) in z[c * r..(c + 1) * r].iter_mut().zip(&rm.z[b * r..]) {
+                            *o += gk * v;
+                        }
+                        for (o, v) in xu[c * u..(c + 1) * u].iter_mut().zip(&rm.xu[b * u..]) {
+                            *o += gk * v;
+                        }
+                    }
+                }
+                let mut xx = vec![0.0; m * m];
+                for c in 0..m {
+                    for e in 0..m {
+                        let mut acc = 0.0;
+                        for (k, gk) in g.iter().enumerate() {
+                            let row =
+                                &rm.xx[(c * K + k) * mb + e * K..(c * K + k) * mb + e * K + K];
+                            acc += gk * row.iter().zip(&g).map(|(x, gl)| x * gl).sum::<f64>();
+                        }
+                        xx[c * m + e] = acc;
+                    }
+                }
+                RunMoments { z, xx, xu }
+            })
+            .collect();
+        Moments {
+            m,
+            u,
+            runs,
+            peaks: vec![0.0; m],
+            varies: vec![true; m],
+        }
+    }
+}
+
+/// Chebyshev coefficients on a run (middle `tm`, half duration `h`) of
+/// g(t) = 1 − e^(−t/T) in τ = (t − tm)/h.
+fn coefficients(tm: f64, h: f64, t: f64) -> [f64; K] {
+    let beta = h / t;
+    let scale = (-tm / t).exp();
+    let mut c = [0.0; K];
+    for i in 0..K {
+        let th = PI * (i as f64 + 0.5) / K as f64;
+        let f = (-beta * th.cos()).exp();
+        for (k, ck) in c.iter_mut().enumerate() {
+            *ck += 2.0 / K as f64 * f * (k as f64 * th).cos();
+        }
+    }
+    c[0] *= 0.5;
+    let mut g = c.map(|ck| -scale * ck);
+    g[0] += 1.0;
+    g
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// The interpolant reproduces g(t) = 1 − e^(−t/T) on a run (β = 0.1) within the
+    /// truncation bound 2(β/2)^K/K!·e^β·e^(−t_m/T) ≈ 9·10⁻¹².
+    #[test]
+    fn chebyshev_reproduces_the_growth() {
+        let (tm, h, t) = (500.0, 30.0, 300.0);
+        let g = coefficients(tm, h, t);
+        for i in 0..=20 {
+            let tau = -1.0 + 0.1 * i as f64;
+            let (mut p0, mut p1) = (1.0, tau);
+            let mut v = g[0] + g[1] * tau;
+            for gk in &g[2..] {
+                let p2 = 2.0 * tau * p1 - p0;
+                v += gk * p2;
+                (p0, p1) = (p1, p2);
+            }
+            let want = 1.0 - (-(tm + h * tau) / t).exp();
+            let beta: f64 = h / t;
+            let fact: f64 = (1..=K).map(|k| k as f64).product();
+            let bound = 2.0 * (beta / 2.0).powi(K as i32) / fact * beta.exp() * (-tm / t).exp();
+            assert!(
+                (v - want).abs() < bound,
+                "{tau}: {v} vs {want}, bound {bound}"
+            );
+        }
+    }
+}
