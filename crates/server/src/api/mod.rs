@@ -1,6 +1,7 @@
 //! Handlers, one module per resource.
 
 pub mod datasets;
+pub mod exports;
 pub mod history;
 pub mod jobs;
 pub mod keys;
