@@ -323,7 +323,8 @@ fn reported_value_at_reproduces_every_reported_value() {
             assert_eq!(r.reported_value_at(name, 10.0), None, "{name}");
             continue;
         }
-        if name.as_bytes()[1] != name.as_bytes()[2] && matches!(name.as_bytes()[1], b'X' | b'Y' | b'Z')
+        if name.as_bytes()[1] != name.as_bytes()[2]
+            && matches!(name.as_bytes()[1], b'X' | b'Y' | b'Z')
         {
             straight += 1;
         }
