@@ -31,6 +31,11 @@ enum Command {
     Diagnose(cli::diagnose::Args),
     /// Figures of ISO 230-2 and ISO 230-4 from a session or positioning runs.
     Standards(cli::standards::Args),
+    /// Compensation table of an identification result for a controller (ISG, Etalon,
+    /// Heidenhain, CSV).
+    Export(cli::export::Args),
+    /// The check report: one self-contained HTML page (prints on A4).
+    Report(cli::report::Args),
     /// Run the HTTP API and its worker.
     Serve(cli::serve::Args),
     /// Run only the worker (API and worker processes on several hosts, one database).
@@ -52,6 +57,8 @@ fn main() -> ExitCode {
         Command::Cradle(a) => cli::cradle::run(a),
         Command::Diagnose(a) => cli::diagnose::run(a),
         Command::Standards(a) => cli::standards::run(a),
+        Command::Export(a) => cli::export::run(a),
+        Command::Report(a) => cli::report::run(a),
         Command::Serve(a) => cli::serve::run(a),
         Command::Worker(a) => cli::serve::run_worker(a),
         Command::Submit(a) => cli::submit::run(a),

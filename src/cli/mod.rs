@@ -7,7 +7,9 @@ pub mod admin;
 pub mod cradle;
 pub mod demo;
 pub mod diagnose;
+pub mod export;
 pub mod identify;
+pub mod report;
 pub mod sensitivity;
 pub mod serve;
 pub mod simulate;
@@ -19,7 +21,25 @@ pub mod submit;
 #[error("{0}")]
 pub struct BadInput(pub String);
 
-/// Prints the error chain to stderr and picks the exit code.
+/// Reads a JSON document, reporting the file, line and column of a syntax or schema error
+/// (a bad input, exit code 2).
+pub fn read_json<T: serde::de::DeserializeOwned>(
+    path: &std::path::Path,
+    what: &str,
+) -> anyhow::Result<T> {
+    use anyhow::Context;
+    let text = std::fs::read_to_string(path)
+        .with_context(|| format!("reading {what} {}", path.display()))?;
+    serde_json::from_str(&text).map_err(|e| {
+        anyhow::Error::new(BadInput(format!(
+            "{}: line {} column {}: {e}",
+            path.display(),
+            e.line(),
+            e.column()
+        )))
+    })
+}
+
 /// Writes a command's output to stdout. A closed pipe (`mtcal identify … --json | head`)
 /// is not an error: the reader has what it wanted, so the command ends quietly instead of
 /// panicking as `println!` does.
@@ -34,6 +54,7 @@ pub fn emit(text: &str) -> anyhow::Result<()> {
     }
 }
 
+/// Prints the error chain to stderr and picks the exit code.
 pub fn finish(result: anyhow::Result<ExitCode>) -> ExitCode {
     match result {
         Ok(code) => code,

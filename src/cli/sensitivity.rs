@@ -2,7 +2,7 @@
 //! volumetric error (Cheng et al. 2012), locally and, with `--global N`, by Sobol indices.
 //! Method and formats: docs/sensitivity.md.
 
-use super::BadInput;
+use super::{BadInput, read_json};
 use anyhow::Context;
 use mtcal_solver::SolverError;
 use mtcal_solver::identification::IdentificationResult;
@@ -93,20 +93,6 @@ fn parse_grid(s: &str) -> anyhow::Result<Vec<GridAxis>> {
             Ok(GridAxis { min, max, n })
         })
         .collect()
-}
-
-/// Reads a JSON document, reporting the file, line and column of a syntax or schema error.
-fn read_json<T: serde::de::DeserializeOwned>(path: &Path, what: &str) -> anyhow::Result<T> {
-    let text = std::fs::read_to_string(path)
-        .with_context(|| format!("reading {what} {}", path.display()))?;
-    serde_json::from_str(&text).map_err(|e| {
-        bad(format!(
-            "{}: line {} column {}: {e}",
-            path.display(),
-            e.line(),
-            e.column()
-        ))
-    })
 }
 
 pub fn request(args: &Args) -> anyhow::Result<SensitivityRequest> {

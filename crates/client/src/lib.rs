@@ -20,6 +20,15 @@ use serde_json::Value;
 use std::path::Path;
 use std::time::{Duration, Instant};
 
+/// A text file the service sends (an export, a report): its media type, its
+/// `Content-Disposition` (when an attachment) and its text.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Download {
+    pub content_type: String,
+    pub disposition: Option<String>,
+    pub text: String,
+}
+
 /// Why a call failed.
 #[derive(Debug, thiserror::Error)]
 pub enum ClientError {
@@ -344,6 +353,43 @@ impl Client {
 
     pub async fn result(&self, id: &str) -> Result<StoredResult> {
         self.get(&format!("/api/v1/results/{id}")).await
+    }
+
+    /// `GET /api/v1/results/{id}/export` with its query (`format`, `step_mm`): the
+    /// compensation table.
+    pub async fn export(&self, id: &str, query: &[(&str, &str)]) -> Result<Download> {
+        self.download(
+            self.request(Method::GET, &format!("/api/v1/results/{id}/export"))
+                .query(query),
+        )
+        .await
+    }
+
+    /// `GET /api/v1/results/{id}/report`: the check report (HTML).
+    pub async fn report(&self, id: &str) -> Result<Download> {
+        self.download(self.request(Method::GET, &format!("/api/v1/results/{id}/report")))
+            .await
+    }
+
+    async fn download(&self, rb: RequestBuilder) -> Result<Download> {
+        let (context, resp) = self.send_raw(rb).await?;
+        let header = |name: reqwest::header::HeaderName| {
+            resp.headers()
+                .get(name)
+                .and_then(|v| v.to_str().ok())
+                .map(String::from)
+        };
+        let content_type = header(reqwest::header::CONTENT_TYPE).unwrap_or_default();
+        let disposition = header(reqwest::header::CONTENT_DISPOSITION);
+        let text = resp
+            .text()
+            .await
+            .map_err(|source| ClientError::Http { context, source })?;
+        Ok(Download {
+            content_type,
+            disposition,
+            text,
+        })
     }
 
     /// `results/diff` with its query parameters (`baseline`, `against`, `step_mm`, …) as

@@ -21,8 +21,9 @@ pub struct ErrorBody {
 #[derive(Debug, Clone, Serialize, Deserialize, ToSchema)]
 pub struct ErrorDetail {
     /// Stable code: unauthorized, forbidden, not_found, conflict, invalid_request,
-    /// invalid_encoding, invalid_dataset, payload_too_large, unsupported_media_type, job_not_finished,
-    /// method_not_allowed, timeout, internal.
+    /// invalid_encoding, invalid_dataset, payload_too_large, unsupported_media_type,
+    /// job_not_finished, method_not_allowed, timeout, outside_measured_travel,
+    /// not_identifiable, not_ready, internal.
     pub code: String,
     pub message: String,
 }
@@ -55,6 +56,9 @@ pub enum ApiError {
     /// A position outside the travel the check measured (no figure is extrapolated).
     #[error("{0}")]
     OutsideTravel(String),
+    /// Nothing of a result can be exported: no term is identifiable.
+    #[error("{0}")]
+    NotIdentifiable(String),
     /// The service cannot serve yet (database unreachable, migrations missing).
     #[error("{0}")]
     NotReady(String),
@@ -74,7 +78,9 @@ impl ApiError {
             ApiError::PayloadTooLarge(_) => StatusCode::PAYLOAD_TOO_LARGE,
             ApiError::UnsupportedMediaType(_) => StatusCode::UNSUPPORTED_MEDIA_TYPE,
             ApiError::NotReady(_) => StatusCode::SERVICE_UNAVAILABLE,
-            ApiError::OutsideTravel(_) => StatusCode::UNPROCESSABLE_ENTITY,
+            ApiError::OutsideTravel(_) | ApiError::NotIdentifiable(_) => {
+                StatusCode::UNPROCESSABLE_ENTITY
+            }
             ApiError::Internal(_) => StatusCode::INTERNAL_SERVER_ERROR,
         }
     }
@@ -93,6 +99,7 @@ impl ApiError {
             ApiError::JobNotFinished(_) => "job_not_finished",
             ApiError::NotReady(_) => "not_ready",
             ApiError::OutsideTravel(_) => "outside_measured_travel",
+            ApiError::NotIdentifiable(_) => "not_identifiable",
             ApiError::Internal(_) => "internal",
         }
     }

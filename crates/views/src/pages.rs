@@ -13,6 +13,7 @@ pub mod compare;
 pub mod fleet;
 pub mod jobs;
 pub mod machine;
+pub mod report;
 pub mod result;
 pub mod signin;
 

@@ -2,6 +2,7 @@
 
 pub mod alerts;
 pub mod datasets;
+pub mod exports;
 pub mod history;
 pub mod jobs;
 pub mod keys;

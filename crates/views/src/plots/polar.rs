@@ -43,6 +43,24 @@ pub struct CircleTrace {
     pub model_um: Vec<f64>,
 }
 
+impl From<&mtcal_solver::standards::iso230_4::CirclePlot> for CircleTrace {
+    fn from(c: &mtcal_solver::standards::iso230_4::CirclePlot) -> Self {
+        CircleTrace {
+            file: c.file.clone(),
+            run: u32::try_from(c.run).unwrap_or(0),
+            plane: c.plane.to_string(),
+            direction: c.direction.clone(),
+            radius_mm: c.radius_mm,
+            centre_mm: c.centre_mm,
+            feed_mm_min: c.feed_mm_min,
+            start_angle_deg: c.start_angle_deg,
+            angle_deg: c.angle_deg.clone(),
+            measured_um: c.measured_um.clone(),
+            model_um: c.model_um.clone(),
+        }
+    }
+}
+
 /// The smallest 1, 2, 2.5 or 5 × 10ᵏ not below `x` (> 0).
 pub(crate) fn nice_ceil(x: f64) -> f64 {
     let e = x.log10().floor();

@@ -1,0 +1,171 @@
+//! What a plant acts on, from a stored identification result: its compensation table for
+//! a controller (`GET /api/v1/results/{id}/export?format=…`) and its check report (`GET
+//! /api/v1/results/{id}/report`, one self-contained HTML page). Both are thin: the table
+//! is [`mtcal_formats::compensation`], the page [`mtcal_views::pages::report`].
+
+use crate::AppState;
+use crate::auth::ReadKey;
+use crate::error::{ApiError, ApiQuery, ErrorBody};
+use axum::extract::{Path, State};
+use axum::http::{HeaderValue, header};
+use axum::response::{IntoResponse, Response};
+use mtcal_formats::compensation::{Compensation, DEFAULT_STEP_MM, ExportError, Format};
+use mtcal_solver::diagnosis::DiagnosisResult;
+use mtcal_solver::identification::IdentificationResult;
+use mtcal_store::StoredResult;
+use mtcal_views::pages::report::{CheckReport, check_report};
+use serde::Deserialize;
+use utoipa::IntoParams;
+
+#[derive(Debug, Deserialize, IntoParams)]
+#[into_params(parameter_in = Query)]
+pub struct ExportQuery {
+    /// `isg` (ISG / Beckhoff volumetric compensation CSV), `etalon` (Etalon exchange
+    /// format), `heidenhain` (KinematicsComp-style COM tables) or `csv` (plain, ISO 230-1
+    /// names).
+    pub format: Option<String>,
+    /// Spacing of the table's positions, mm (default 5; from the start of each measured
+    /// travel, its end always included).
+    pub step_mm: Option<f64>,
+}
+
+#[utoipa::path(operation_id = "results_export", summary = "Compensation table of an identification result for a controller", get,
+    path = "/api/v1/results/{id}/export", tag = "history",
+    security(("api_key" = [])), params(("id" = String, Path), ExportQuery),
+    responses((status = 200, description = "the table (attachment): the identifiable terms over the measured travel, mm and rad \
+                                            (csv: µm and µrad); the header comment states the sign convention (compensation = −error) \
+                                            and names the terms left out",
+               content_type = "text/plain", body = String),
+              (status = 400, body = ErrorBody, description = "unknown or missing format (the message names the formats), bad step, or not an identification result"),
+              (status = 404, body = ErrorBody),
+              (status = 422, body = ErrorBody, description = "not_identifiable: no term of the result is identifiable")))]
+pub async fn export(
+    _key: ReadKey,
+    State(s): State<AppState>,
+    Path(id): Path<String>,
+    ApiQuery(q): ApiQuery<ExportQuery>,
+) -> Result<Response, ApiError> {
+    let format = Format::parse(q.format.as_deref().unwrap_or_default()).map_err(|_| {
+        ApiError::InvalidRequest(format!(
+            "format `{}`: use one of {}",
+            q.format.as_deref().unwrap_or(""),
+            Format::names()
+        ))
+    })?;
+    let r = s.store.get_result(&id).await?;
+    let doc = identification(&r)?;
+    let table = Compensation::from_result(&doc, q.step_mm.unwrap_or(DEFAULT_STEP_MM)).map_err(
+        |e| match e {
+            ExportError::BadStep(m) => ApiError::InvalidRequest(format!("step_mm: {m}")),
+            e @ ExportError::NothingIdentifiable(_) => ApiError::NotIdentifiable(e.to_string()),
+        },
+    )?;
+    let name = format!(
+        "{}-{}.{}.{}",
+        file_safe(&r.meta.machine_id),
+        file_safe(&r.meta.id),
+        format.name(),
+        format.extension()
+    );
+    Ok(attachment(
+        format.write(&table),
+        format.content_type(),
+        Some(&name),
+    ))
+}
+
+#[utoipa::path(operation_id = "results_report", summary = "Check report of an identification result (self-contained HTML, prints on A4)", get,
+    path = "/api/v1/results/{id}/report", tag = "history",
+    security(("api_key" = [])), params(("id" = String, Path)),
+    responses((status = 200, description = "one self-contained HTML page: machine, date, instrument and plan, the standards' figures \
+                                            (verdicts when a tolerance profile applies, else \"no tolerance\"), the 21 terms with ±2σ bands \
+                                            and identifiability, circle polar plots, the findings of a diagnosis of the same dataset, \
+                                            the compensation table's summary and what the data could not determine",
+               content_type = "text/html", body = String),
+              (status = 400, body = ErrorBody, description = "not an identification result"),
+              (status = 404, body = ErrorBody)))]
+pub async fn report(
+    _key: ReadKey,
+    State(s): State<AppState>,
+    Path(id): Path<String>,
+) -> Result<Response, ApiError> {
+    let r = s.store.get_result(&id).await?;
+    let doc = identification(&r)?;
+    let diagnosis = diagnosis_of(&s, &r).await?;
+    let now = mtcal_store::now_rfc3339();
+    let page = check_report(&CheckReport {
+        doc: &doc,
+        result_id: Some(&r.meta.id),
+        generated_at: &now,
+        verdict: None,
+        diagnosis: diagnosis.as_ref(),
+    });
+    Ok(attachment(
+        page.into_string(),
+        "text/html; charset=utf-8",
+        None,
+    ))
+}
+
+/// The identification document of a stored result (400 for another kind).
+fn identification(r: &StoredResult) -> Result<IdentificationResult, ApiError> {
+    if r.meta.kind != "identification" {
+        return Err(ApiError::InvalidRequest(format!(
+            "result {} is a {} result; exports and reports are made from identification results",
+            r.meta.id, r.meta.kind
+        )));
+    }
+    serde_json::from_value(r.document.clone()).map_err(|e| {
+        ApiError::Internal(format!(
+            "result {} does not read as an identification: {e}",
+            r.meta.id
+        ))
+    })
+}
+
+/// The latest diagnosis of the same dataset, when one was run.
+async fn diagnosis_of(s: &AppState, r: &StoredResult) -> Result<Option<DiagnosisResult>, ApiError> {
+    let Some(dataset) = &r.meta.dataset_id else {
+        return Ok(None);
+    };
+    let list = s
+        .store
+        .list_results(&r.meta.machine_id, "diagnosis")
+        .await?;
+    let Some(m) = list
+        .iter()
+        .rev()
+        .find(|m| m.dataset_id.as_ref() == Some(dataset))
+    else {
+        return Ok(None);
+    };
+    let d = s.store.get_result(&m.id).await?;
+    Ok(serde_json::from_value(d.document).ok())
+}
+
+/// A text body with its content type, as an attachment named `name` when given.
+fn attachment(body: String, content_type: &'static str, name: Option<&str>) -> Response {
+    let mut resp = body.into_response();
+    let h = resp.headers_mut();
+    h.insert(header::CONTENT_TYPE, HeaderValue::from_static(content_type));
+    if let Some(v) =
+        name.and_then(|n| HeaderValue::from_str(&format!("attachment; filename=\"{n}\"")).ok())
+    {
+        h.insert(header::CONTENT_DISPOSITION, v);
+    }
+    resp
+}
+
+/// Letters, digits, `-`, `_` and `.` of `s`; anything else becomes `_` (a file name in a
+/// header).
+fn file_safe(s: &str) -> String {
+    s.chars()
+        .map(|c| {
+            if c.is_ascii_alphanumeric() || "-_.".contains(c) {
+                c
+            } else {
+                '_'
+            }
+        })
+        .collect()
+}

@@ -1,0 +1,461 @@
+//! The check report: one self-contained HTML page per check (no external asset, the
+//! stylesheet inlined, plots as inline SVG), laid out to print on A4 (`@page` and print
+//! rules in the stylesheet). It reuses the result page's sections ([`super::result`])
+//! and adds what a signed report needs: the check's facts (machine, date, instrument,
+//! plan), the figures of the standards with their verdicts (or "no tolerance"), the
+//! diagnosis findings when a diagnosis of the check exists, the compensation table's
+//! summary, and what the data could not determine.
+
+use super::result::{self, IdentificationView, VerdictRow};
+use super::{num, print_page, verdict_badge, when};
+use crate::plots::{CircleTrace, unit_label};
+use maud::{Markup, html};
+use mtcal_formats::compensation::{Compensation, DEFAULT_STEP_MM, ExportError, Format};
+use mtcal_solver::diagnosis::DiagnosisResult;
+use mtcal_solver::identification::IdentificationResult;
+use mtcal_solver::terms::Term;
+use mtcal_solver::tolerance::Verdict;
+
+/// Everything the report shows. `verdict` is the result's verdict against a tolerance
+/// profile ([`mtcal_solver::tolerance::evaluate`]; `None`: no profile applies, and every
+/// figure says "no tolerance").
+pub struct CheckReport<'a> {
+    pub doc: &'a IdentificationResult,
+    /// The stored result's id (`None` for a result read from a file).
+    pub result_id: Option<&'a str>,
+    /// When the report was made (RFC 3339).
+    pub generated_at: &'a str,
+    pub verdict: Option<&'a Verdict>,
+    /// A diagnosis of the same check, when one was run.
+    pub diagnosis: Option<&'a DiagnosisResult>,
+}
+
+/// What recorded the data of an identification: its sessions are planar grid-encoder
+/// recordings (docs/datasets.md).
+pub const INSTRUMENT: &str = "planar grid encoder (cross-grid plate and scanning head)";
+
+/// The report page.
+pub fn check_report(r: &CheckReport) -> Markup {
+    let d = r.doc;
+    let title = format!("Check report {} {}", d.machine_id, when(&d.measured_at));
+    let circles: Vec<CircleTrace> = d.circles.iter().map(CircleTrace::from).collect();
+    let travel = |name: &str| {
+        let t = Term::parse(name)?;
+        d.model
+            .measured_travel_mm
+            .get(&t.axis.letter().to_string())
+            .copied()
+    };
+    let view = IdentificationView {
+        doc: d,
+        circles: &circles,
+        residuals: &d.residuals,
+        travel: &travel,
+    };
+    let compensation = Compensation::from_result(d, DEFAULT_STEP_MM);
+    let rows: Vec<VerdictRow> = r.verdict.map(verdict_rows).unwrap_or_default();
+    print_page(
+        &title,
+        html! {
+            article.report {
+                (facts(r))
+                (standards(r))
+                @if !rows.is_empty() { (result::verdict_table(&rows)) }
+                (result::identification(&view))
+                (diagnosis(r.diagnosis))
+                (compensation_summary(&compensation))
+                (undetermined(d, &compensation))
+                p.muted.signature {
+                    "Figures are value ± U, U = 2u (k = 2); plots show ±2σ. Nothing is evaluated \
+                     outside the travel the check measured. Report made by mtcal "
+                    (env!("CARGO_PKG_VERSION")) " on " (when(r.generated_at)) "."
+                }
+            }
+        },
+    )
+}
+
+/// The verdict's items as the result page's verdict table shows them.
+fn verdict_rows(v: &Verdict) -> Vec<VerdictRow> {
+    v.items
+        .iter()
+        .map(|i| VerdictRow {
+            quantity: i.item.clone(),
+            at: match (i.position_mm, i.travel_mm) {
+                (Some(q), Some([lo, hi])) => {
+                    format!("at {} mm of [{}, {}] mm", num(q), num(lo), num(hi))
+                }
+                (Some(q), None) => format!("at {} mm", num(q)),
+                _ => String::new(),
+            },
+            value: i.value.unwrap_or(f64::NAN),
+            std: i.u,
+            limit: i.limit,
+            unit: i.unit.clone(),
+            outcome: i.decision.as_str().to_string(),
+        })
+        .collect()
+}
+
+fn facts(r: &CheckReport) -> Markup {
+    let d = r.doc;
+    let files: Vec<&str> = {
+        let mut f: Vec<&str> = d.residuals.iter().map(|x| x.file.as_str()).collect();
+        f.dedup();
+        f
+    };
+    html! {
+        section.card #check {
+            h1 { "Check report: " (d.machine_id) " "
+                 (verdict_badge(r.verdict.and_then(|v| v.decision).map(|d| d.as_str()))) }
+            dl.facts {
+                dt { "machine" } dd { (d.machine_id) }
+                dt { "measured" } dd { (when(&d.measured_at)) }
+                @if let Some(id) = r.result_id { dt { "result" } dd { code { (id) } } }
+                dt { "instrument" } dd { (INSTRUMENT) }
+                dt { "plan" } dd {
+                    (files.len()) " plane file(s), " (d.nuisance.runs) " runs, "
+                    (d.nuisance.mountings.len()) " mounting(s), " (d.fit.samples) " samples"
+                    @if !files.is_empty() { ": " (files.join(", ")) }
+                }
+                dt { "measured travel" } dd {
+                    @for (i, (axis, [lo, hi])) in d.model.measured_travel_mm.iter().enumerate() {
+                        @if i > 0 { "; " } (axis) " [" (num(*lo)) ", " (num(*hi)) "] mm"
+                    }
+                }
+                dt { "model" } dd { (format!("{:?}", d.method).to_lowercase()) " identification, "
+                    (d.model.basis.name()) " basis of order " (d.model.order) }
+                dt { "convention" } dd { (d.convention) }
+            }
+        }
+    }
+}
+
+/// ISO 230-2 and ISO 230-4 figures, each with its verdict or "no tolerance".
+fn standards(r: &CheckReport) -> Markup {
+    let st = &r.doc.standards;
+    let figures = st.scalar_figures();
+    let verdict_of = |name: &str| {
+        r.verdict
+            .and_then(|v| v.items.iter().find(|i| i.item == name))
+            .map(|i| (i.limit, i.decision.as_str()))
+    };
+    html! {
+        section.card #standards {
+            h2 { "Figures of the standards (ISO 230-2, ISO 230-4)" }
+            @if r.verdict.is_none() {
+                p.muted { "No tolerance profile applies to this machine: figures are reported without a verdict." }
+            }
+            @if figures.is_empty() {
+                p { "No figure of ISO 230-2 or ISO 230-4 could be evaluated from this check." }
+            } @else {
+                @for f in &st.iso230_2 {
+                    @for n in &f.notes { p.muted { "ISO 230-2, " (f.axis) ": " (n) } }
+                }
+                table {
+                    thead { tr { th { "figure" } th.num { "value ± U" } th.num { "limit" } th { "verdict" } } }
+                    tbody {
+                        @for f in &figures {
+                            @let v = verdict_of(&f.name);
+                            tr data-figure=(f.name) {
+                                td { (f.name) }
+                                td.num { (super::with_u(Some(f.value), f.u, "um")) }
+                                td.num { @if let Some((limit, _)) = v { (num(limit)) " µm" } @else { "—" } }
+                                td { (verdict_badge(v.map(|x| x.1))) }
+                            }
+                        }
+                    }
+                }
+            }
+        }
+    }
+}
+
+fn diagnosis(d: Option<&DiagnosisResult>) -> Markup {
+    match d {
+        Some(d) => html! { div #findings { (result::diagnosis(d)) } },
+        None => html! {
+            section.card #findings {
+                h2 { "Diagnosis" }
+                p { "No diagnosis was run on this check: no finding to report." }
+            }
+        },
+    }
+}
+
+/// Per exported term: axis, points, travel, largest |error|; the squareness values; the
+/// formats and the sign convention.
+fn compensation_summary(c: &Result<Compensation, ExportError>) -> Markup {
+    html! {
+        section.card #compensation {
+            h2 { "Compensation table" }
+            @match c {
+                Err(e) => { p { "No compensation table: " (e.to_string()) } }
+                Ok(c) => {
+                    p.muted { "Errors of the identifiable terms on every " (DEFAULT_STEP_MM) " mm of the measured \
+                               travel (and its end), as exported for controllers (formats: " (Format::names())
+                              "); compensation = −error." }
+                    table {
+                        thead { tr { th { "term" } th { "axis" } th.num { "points" } th.num { "from (mm)" } th.num { "to (mm)" } th.num { "max |error|" } } }
+                        tbody {
+                            @for a in &c.axes {
+                                @for col in &a.columns {
+                                    @let angular = Term::parse(&col.term).is_some_and(Term::is_angular);
+                                    @let (scale, unit) = if angular { (1e6, "urad") } else { (1e3, "um") };
+                                    @let max = col.values.iter().fold(0.0f64, |m, v| m.max(v.abs())) * scale;
+                                    tr data-term=(col.term) {
+                                        td { (col.term) } td { (a.axis) } td.num { (a.positions_mm.len()) }
+                                        td.num { (num(a.positions_mm[0])) } td.num { (num(a.positions_mm[a.positions_mm.len() - 1])) }
+                                        td.num { (num(max)) " " (unit_label(unit)) }
+                                    }
+                                }
+                            }
+                            @for (n, v) in &c.squareness {
+                                tr data-term=(n) { td { (n) } td { "—" } td.num { "1" } td.num { "—" } td.num { "—" } td.num { (num(v.abs() * 1e6)) " µrad" } }
+                            }
+                        }
+                    }
+                    @if !c.not_identifiable.is_empty() {
+                        p { "Left out of the table (not identifiable): " (c.not_identifiable.join(", ")) }
+                    }
+                }
+            }
+        }
+    }
+}
+
+/// Everything the check's data could not determine, in one place.
+fn undetermined(d: &IdentificationResult, c: &Result<Compensation, ExportError>) -> Markup {
+    let o = &d.observability;
+    let not_moved: Vec<&str> = ["X", "Y", "Z"]
+        .into_iter()
+        .filter(|a| !d.model.measured_travel_mm.contains_key(*a))
+        .collect();
+    let left_out = c
+        .as_ref()
+        .map(|c| c.not_identifiable.clone())
+        .unwrap_or_default();
+    let nothing = o.not_identifiable.is_empty()
+        && not_moved.is_empty()
+        && d.standards.not_evaluated.is_empty()
+        && left_out.is_empty();
+    html! {
+        section.card #undetermined {
+            h2 { "What the data could not determine" }
+            @if nothing {
+                p { "Every term of the model is determined by this check, and every standard's figure could be evaluated." }
+            } @else {
+                ul.compact {
+                    @if !o.not_identifiable.is_empty() {
+                        li { "Terms not identifiable with this plan: " (o.not_identifiable.join(", ")) }
+                    }
+                    @for g in &o.confounded { li { (g.terms.join(" + ")) " cannot be separated (seen as " (g.seen_as) ")" } }
+                    @if !not_moved.is_empty() {
+                        li { "Axes that did not move (nothing is known of them): " (not_moved.join(", ")) }
+                    }
+                    @for n in &d.standards.not_evaluated {
+                        li { (n.standard) " " (n.what) ": " (n.reason) }
+                    }
+                    @if !left_out.is_empty() { li { "Left out of the compensation table: " (left_out.join(", ")) } }
+                    li { "Nothing outside the measured travel: "
+                        @for (i, (axis, [lo, hi])) in d.model.measured_travel_mm.iter().enumerate() {
+                            @if i > 0 { "; " } (axis) " [" (num(*lo)) ", " (num(*hi)) "] mm"
+                        }
+                    }
+                }
+                @if !o.advice.is_empty() {
+                    h3 { "What would determine them" }
+                    ul.compact { @for a in &o.advice { li { (a) } } }
+                }
+            }
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use mtcal_solver::diagnosis::{Baseline, BeforeAfter, Finding, Verdict};
+    use mtcal_solver::identification::{IdentifyOptions, identify};
+    use mtcal_solver::simulate::{Plan, SimOptions, random_truth, simulate};
+
+    /// The seed plan (rank 34 of 51: some terms not identifiable) at 10 Hz.
+    fn simulated_check() -> IdentificationResult {
+        let out = simulate(
+            &random_truth(7),
+            &SimOptions {
+                plan: Plan::Seed,
+                seed: 7,
+                sample_rate_hz: 10.0,
+                ..Default::default()
+            },
+        )
+        .unwrap();
+        identify(&out.session, &IdentifyOptions::default()).unwrap()
+    }
+
+    fn finding() -> DiagnosisResult {
+        DiagnosisResult {
+            kind: "diagnosis".into(),
+            machine_id: "SIM-0007".into(),
+            source: "session".into(),
+            baseline: Baseline {
+                residual_rms_um: 1.2,
+                heldout_rms_um: 1.3,
+                noise_estimate_um: 0.15,
+            },
+            mismatch: vec![],
+            findings: vec![Finding {
+                effect: "backlash".into(),
+                axis: Some("X".into()),
+                parameters: [("backlash_um".to_string(), 4.0)].into(),
+                physics: "lost motion at reversal".into(),
+                signature: None,
+                residual_rms_um: BeforeAfter {
+                    before: 1.2,
+                    after: 0.2,
+                },
+                heldout_rms_um: BeforeAfter {
+                    before: 1.3,
+                    after: 0.2,
+                },
+                evidence: "BIC".into(),
+                undetermined: vec![],
+                decide: None,
+            }],
+            possible: vec![],
+            rejected: vec![],
+            verdict: Verdict::Explained,
+            unexplained: vec![],
+            plots: vec![],
+        }
+    }
+
+    /// The `<section …id="…"…>` of the page, or a panic naming it.
+    fn section<'a>(html: &'a str, id: &str) -> &'a str {
+        let start = html
+            .find(&format!("id=\"{id}\""))
+            .unwrap_or_else(|| panic!("no section {id}"));
+        let end = html[start..]
+            .find("</section>")
+            .map_or(html.len(), |e| start + e);
+        &html[start..end]
+    }
+
+    /// Every section is there, the page is self-contained and printable on A4, and what
+    /// is not determined is said.
+    #[test]
+    fn report_of_a_simulated_check_holds_every_section() {
+        let doc = simulated_check();
+        let html = check_report(&CheckReport {
+            doc: &doc,
+            result_id: Some("r-42"),
+            generated_at: "2026-11-25T09:00:00Z",
+            verdict: None,
+            diagnosis: None,
+        })
+        .into_string();
+        // Self-contained: no external stylesheet, script, image or font.
+        for bad in [
+            "<link",
+            "<script",
+            "src=\"http",
+            "href=\"http",
+            "url(http",
+            "@import",
+        ] {
+            assert!(!html.contains(bad), "external asset: {bad}");
+        }
+        assert!(html.contains("@page { size: A4"), "A4 print rule");
+        let facts = section(&html, "check");
+        for want in [
+            doc.machine_id.as_str(),
+            "r-42",
+            INSTRUMENT,
+            "plan",
+            "measured travel",
+        ] {
+            assert!(facts.contains(want), "facts lack {want}");
+        }
+        assert!(facts.contains(&when(&doc.measured_at)));
+        // Standards: every scalar figure has a row, with "no tolerance".
+        let st = section(&html, "standards");
+        let figures = doc.standards.scalar_figures();
+        assert!(!figures.is_empty());
+        for f in &figures {
+            assert!(
+                st.contains(&format!("data-figure=\"{}\"", f.name)),
+                "{}",
+                f.name
+            );
+        }
+        assert_eq!(st.matches("no tolerance</span>").count(), figures.len());
+        // The 18 functions drawn or labelled, squareness, identifiability, circles.
+        let terms = section(&html, "terms");
+        assert_eq!(terms.matches("<svg").count(), 18);
+        assert!(terms.contains("data-identifiable=\"false\""));
+        assert!(terms.contains("2σ"));
+        for id in ["fit", "squareness", "identifiability"] {
+            section(&html, id);
+        }
+        let circles = section(&html, "circles");
+        assert!(
+            circles.matches("<svg").count() >= 1,
+            "polar plots of the circles"
+        );
+        assert!(section(&html, "findings").contains("No diagnosis was run"));
+        // Compensation: a row per exported term, and the terms left out named.
+        let comp = section(&html, "compensation");
+        let c = Compensation::from_result(&doc, DEFAULT_STEP_MM).unwrap();
+        for a in &c.axes {
+            for col in &a.columns {
+                assert!(
+                    comp.contains(&format!("data-term=\"{}\"", col.term)),
+                    "{}",
+                    col.term
+                );
+            }
+        }
+        assert!(!c.not_identifiable.is_empty());
+        for n in &doc.observability.not_identifiable {
+            assert!(comp.contains(n.as_str()), "{n} not said to be left out");
+            assert!(section(&html, "undetermined").contains(n.as_str()), "{n}");
+        }
+        // No verdict table without a tolerance profile.
+        assert!(!html.contains("id=\"verdict\""));
+    }
+
+    /// With a tolerance profile's decisions the figures carry their verdicts and the
+    /// verdict table appears; a diagnosis's findings are shown.
+    #[test]
+    fn verdicts_and_findings_are_shown_when_given() {
+        let doc = simulated_check();
+        let figure = doc.standards.scalar_figures()[0].clone();
+        let mut figures = mtcal_solver::tolerance::identification_figures(&doc);
+        figures.add_standards([(figure.name.as_str(), figure.value, figure.u)]);
+        let limits = mtcal_solver::tolerance::Limits {
+            standards: [(figure.name.clone(), figure.value.abs() + 100.0)].into(),
+            ..Default::default()
+        };
+        let verdict = mtcal_solver::tolerance::evaluate(&limits, &figures);
+        let diag = finding();
+        let html = check_report(&CheckReport {
+            doc: &doc,
+            result_id: None,
+            generated_at: "2026-11-25T09:00:00Z",
+            verdict: Some(&verdict),
+            diagnosis: Some(&diag),
+        })
+        .into_string();
+        let st = section(&html, "standards");
+        let row_start = st
+            .find(&format!("data-figure=\"{}\"", figure.name))
+            .unwrap();
+        let row = &st[row_start..row_start + st[row_start..].find("</tr>").unwrap()];
+        assert!(row.contains("badge verdict pass"), "{row}");
+        assert!(!st.contains("No tolerance profile applies"));
+        section(&html, "verdict");
+        assert!(html.contains("Finding: backlash (X)"));
+        assert!(section(&html, "check").contains("badge verdict pass"));
+    }
+}

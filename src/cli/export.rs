@@ -1,0 +1,71 @@
+//! `mtcal export RESULT.json --format isg|etalon|heidenhain|csv [--step-mm S] [--out F]`:
+//! the compensation table of an identification result for a controller
+//! (docs/compensation.md). Only identifiable terms, only over the measured travel; the
+//! file's header comment states the sign convention (compensation = −error) and names
+//! the terms left out.
+
+use super::BadInput;
+use anyhow::Context;
+use mtcal_formats::compensation::{Compensation, DEFAULT_STEP_MM, ExportError, Format};
+use mtcal_solver::identification::IdentificationResult;
+use std::path::{Path, PathBuf};
+use std::process::ExitCode;
+
+#[derive(clap::Args, Debug)]
+pub struct Args {
+    /// An identification result: the document `mtcal identify --json` prints, or a stored
+    /// result as `GET /api/v1/results/{id}` returns it.
+    pub result: PathBuf,
+    /// isg, etalon, heidenhain or csv.
+    #[arg(long)]
+    pub format: String,
+    /// Spacing of the table's positions, mm (from the start of each measured travel; the
+    /// end is always included).
+    #[arg(long, default_value_t = DEFAULT_STEP_MM)]
+    pub step_mm: f64,
+    /// Write the file here instead of to stdout.
+    #[arg(long)]
+    pub out: Option<PathBuf>,
+}
+
+pub fn run(args: Args) -> anyhow::Result<ExitCode> {
+    let format = Format::parse(&args.format).map_err(BadInput)?;
+    let doc = read_identification(&args.result)?;
+    let table = Compensation::from_result(&doc, args.step_mm).map_err(|e| match e {
+        ExportError::BadStep(m) => BadInput(format!("--step-mm: {m}")),
+        e @ ExportError::NothingIdentifiable(_) => {
+            BadInput(format!("{}: {e}", args.result.display()))
+        }
+    })?;
+    let text = format.write(&table);
+    match &args.out {
+        Some(p) => std::fs::write(p, text).with_context(|| format!("writing {}", p.display()))?,
+        None => super::emit(&text)?,
+    }
+    Ok(ExitCode::SUCCESS)
+}
+
+/// An identification result from a file: the document itself, or a stored result
+/// (`{"meta": …, "document": …}`); anything else is a bad input naming the file.
+pub fn read_identification(path: &Path) -> anyhow::Result<IdentificationResult> {
+    let v: serde_json::Value = super::read_json(path, "result")?;
+    let doc = match v.get("document") {
+        Some(d) if v.get("meta").is_some() => d.clone(),
+        _ => v,
+    };
+    let kind = doc.get("kind").and_then(|k| k.as_str()).unwrap_or("");
+    if kind != "identification" {
+        return Err(BadInput(format!(
+            "{}: a result of kind `{kind}`; an identification result is needed",
+            path.display()
+        ))
+        .into());
+    }
+    serde_json::from_value(doc).map_err(|e| {
+        BadInput(format!(
+            "{}: not an identification result: {e}",
+            path.display()
+        ))
+        .into()
+    })
+}

@@ -1,0 +1,133 @@
+//! `mtcal export` and `mtcal report` end to end: an identification result written to
+//! disk, exported in every format (the file the formats crate writes) and reported as a
+//! self-contained HTML page; bad input is refused with exit code 2 and a message.
+
+use mtcal_formats::compensation::{Compensation, Format};
+use mtcal_solver::identification::{IdentificationResult, IdentifyOptions, identify};
+use mtcal_solver::simulate::{Plan, SimOptions, random_truth, simulate};
+use std::path::Path;
+use std::process::{Command, Output};
+
+fn mtcal(args: &[&str]) -> Output {
+    Command::new(env!("CARGO_BIN_EXE_mtcal"))
+        .args(args)
+        .output()
+        .unwrap()
+}
+
+/// The seed plan's result (some terms not identifiable), written to `dir/result.json`.
+fn result_file(dir: &Path) -> (IdentificationResult, String) {
+    let out = simulate(
+        &random_truth(11),
+        &SimOptions {
+            plan: Plan::Seed,
+            seed: 11,
+            sample_rate_hz: 10.0,
+            ..Default::default()
+        },
+    )
+    .unwrap();
+    let r = identify(&out.session, &IdentifyOptions::default()).unwrap();
+    let path = dir.join("result.json");
+    std::fs::write(&path, serde_json::to_string_pretty(&r).unwrap()).unwrap();
+    (r, path.to_str().unwrap().to_string())
+}
+
+#[test]
+fn export_writes_each_format_and_refuses_bad_input() {
+    let dir = tempfile::tempdir().unwrap();
+    let (r, path) = result_file(dir.path());
+    for f in Format::ALL {
+        let out = mtcal(&["export", &path, "--format", f.name(), "--step-mm", "10"]);
+        assert!(
+            out.status.success(),
+            "{}",
+            String::from_utf8_lossy(&out.stderr)
+        );
+        let want = f.write(&Compensation::from_result(&r, 10.0).unwrap());
+        assert_eq!(String::from_utf8(out.stdout).unwrap(), want, "{}", f.name());
+    }
+    let file = dir.path().join("x.com");
+    let out = mtcal(&[
+        "export",
+        &path,
+        "--format",
+        "heidenhain",
+        "--out",
+        file.to_str().unwrap(),
+    ]);
+    assert!(out.status.success());
+    assert!(
+        std::fs::read_to_string(&file)
+            .unwrap()
+            .contains("BEGIN X.COM MM")
+    );
+    for (args, says) in [
+        (vec!["--format", "fanuc"], "isg, etalon, heidenhain, csv"),
+        (vec!["--format", "isg", "--step-mm", "0"], "--step-mm"),
+    ] {
+        let mut a = vec!["export", path.as_str()];
+        a.extend(args);
+        let out = mtcal(&a);
+        assert_eq!(out.status.code(), Some(2));
+        let err = String::from_utf8_lossy(&out.stderr);
+        assert!(err.contains(says), "{err}");
+    }
+    // Not an identification result.
+    let other = dir.path().join("other.json");
+    std::fs::write(&other, r#"{"kind": "diagnosis"}"#).unwrap();
+    let out = mtcal(&["export", other.to_str().unwrap(), "--format", "isg"]);
+    assert_eq!(out.status.code(), Some(2));
+    assert!(String::from_utf8_lossy(&out.stderr).contains("kind `diagnosis`"));
+}
+
+#[test]
+fn report_writes_a_self_contained_page_with_verdicts_from_tolerances() {
+    let dir = tempfile::tempdir().unwrap();
+    let (r, path) = result_file(dir.path());
+    let html = dir.path().join("check.html");
+    let out = mtcal(&["report", &path, "--out", html.to_str().unwrap()]);
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    let page = std::fs::read_to_string(&html).unwrap();
+    for id in [
+        "check",
+        "standards",
+        "terms",
+        "circles",
+        "findings",
+        "compensation",
+        "undetermined",
+    ] {
+        assert!(page.contains(&format!("id=\"{id}\"")), "{id}");
+    }
+    assert!(page.contains("no tolerance"));
+    // A tolerance profile's limits: the figure gets its verdict.
+    let figure = r.standards.scalar_figures()[0].clone();
+    let limits = dir.path().join("limits.json");
+    std::fs::write(
+        &limits,
+        format!(
+            r#"{{"standards": {{"{}": {}}}}}"#,
+            figure.name,
+            figure.value.abs() + 50.0
+        ),
+    )
+    .unwrap();
+    let out = mtcal(&["report", &path, "--tolerances", limits.to_str().unwrap()]);
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    let page = String::from_utf8(out.stdout).unwrap();
+    assert!(page.contains("id=\"verdict\"") && page.contains("badge verdict pass"));
+    // A limit that is not positive is refused, naming the file.
+    std::fs::write(&limits, r#"{"terms": {"EXX": -1}}"#).unwrap();
+    let out = mtcal(&["report", &path, "--tolerances", limits.to_str().unwrap()]);
+    assert_eq!(out.status.code(), Some(2));
+    assert!(String::from_utf8_lossy(&out.stderr).contains("limits.json"));
+}
