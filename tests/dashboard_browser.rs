@@ -2,10 +2,15 @@
 //! demo fleet of `mtcal demo`: sign in with a key, see the fleet ranked as the API ranks
 //! it, open a machine and read its trend plot back against the API's values, open
 //! results (an identification's error functions, a diagnosis's polar plot of a circle
-//! test), upload a session through the form and see the new check appear, compare two
-//! checks, sign out. One browser session, a small fleet.
+//! test), give a machine a tolerance profile and a drift threshold through the API,
+//! upload a drifted session through the form and see the new check appear with its
+//! verdict and its drift alert on the fleet page, acknowledge the alert on the alerts
+//! page, see the jobs page, compare two checks, sign out. One browser session, a small
+//! fleet.
 //!
-//! A screenshot of each page is saved under `target/tmp/dashboard/`. The test skips, with
+//! A screenshot of each page is saved under `target/tmp/dashboard/`; with
+//! `UPDATE_SCREENSHOTS=1` those of the README (fleet, machine, result, compare, jobs,
+//! alerts) are copied to `docs/screenshots/` too. The test skips, with
 //! a printed reason, only when chromedriver is absent (`CHROMEDRIVER` names another path
 //! than `/usr/bin/chromedriver`).
 
@@ -89,9 +94,31 @@ async fn api(base: &str, key: &str, path: &str) -> Value {
     r.json().await.expect("JSON")
 }
 
+/// The pages whose screenshots the README shows (docs/screenshots/).
+const DOCUMENTED: [&str; 6] = ["fleet", "machine", "result", "compare", "jobs", "alerts"];
+
 async fn shot(c: &Client, dir: &Path, name: &str) {
     let png = c.screenshot().await.expect("screenshot");
-    std::fs::write(dir.join(format!("{name}.png")), png).expect("write screenshot");
+    std::fs::write(dir.join(format!("{name}.png")), &png).expect("write screenshot");
+    if DOCUMENTED.contains(&name) && std::env::var_os("UPDATE_SCREENSHOTS").is_some() {
+        let docs = Path::new(env!("CARGO_MANIFEST_DIR")).join("docs/screenshots");
+        std::fs::write(docs.join(format!("{name}.png")), &png).expect("write docs screenshot");
+    }
+}
+
+/// A write to the API (the demo key has admin scope).
+async fn api_send(base: &str, key: &str, method: &str, path: &str, body: Value) -> Value {
+    let r = reqwest::Client::new()
+        .request(method.parse().unwrap(), format!("{base}{path}"))
+        .bearer_auth(key)
+        .json(&body)
+        .send()
+        .await
+        .expect("API answers");
+    let status = r.status();
+    let v: Value = r.json().await.unwrap_or(Value::Null);
+    assert!(status.is_success(), "{method} {path}: {status} {v}");
+    v
 }
 
 /// The text of the element `css` matches, once it appears (a click that submits a form
@@ -241,7 +268,7 @@ async fn run(c: &Client, base: &str, key: &str, shots: &Path, work: &Path) {
         rows.contains(&"5AX-0001".to_string()),
         "machines without drift listed too"
     );
-    shot(c, shots, "fleet").await;
+    shot(c, shots, "fleet-before").await;
 
     // A machine: the trend plot's points are the API's values.
     c.find(Locator::Css(r#"#fleet tr[data-machine="VMC-0001"] a"#))
@@ -298,7 +325,7 @@ async fn run(c: &Client, base: &str, key: &str, shots: &Path, work: &Path) {
             );
         }
     }
-    shot(c, shots, "machine").await;
+    shot(c, shots, "machine-trend").await;
 
     // A result: the identification's 18 error functions; a diagnosis's polar plot.
     let latest = api(base, key, "/api/v1/machines/VMC-0001/results/latest").await;
@@ -311,7 +338,7 @@ async fn run(c: &Client, base: &str, key: &str, shots: &Path, work: &Path) {
             .len(),
         18
     );
-    shot(c, shots, "result").await;
+    shot(c, shots, "result-without-tolerance").await;
     let diag = api(
         base,
         key,
@@ -351,7 +378,31 @@ async fn run(c: &Client, base: &str, key: &str, shots: &Path, work: &Path) {
     );
     shot(c, shots, "diagnosis").await;
 
-    // Upload a new check through the form and watch it appear with its verdict.
+    // A tolerance profile of VMC-0002 (its own, so it wins over any tag's): a term
+    // limit far above the demo's errors, and a drift threshold of 0.1 µm that the demo's
+    // drift of EXX (5 nm/mm per quarter and unit rate, rate ≥ 0.5) exceeds by far after
+    // three quarters.
+    api_send(
+        base,
+        key,
+        "POST",
+        "/api/v1/tolerances",
+        json!({
+            "scope": "machine", "target": "VMC-0002",
+            "limits": {"terms": {"EXX": 1000.0, "EYY": 1000.0}, "drift_um": 0.1}
+        }),
+    )
+    .await;
+    assert!(
+        api(base, key, "/api/v1/alerts?machine=VMC-0002")
+            .await
+            .as_array()
+            .unwrap()
+            .is_empty(),
+        "no alert before the drifted check lands"
+    );
+
+    // Upload a drifted check through the form and watch it appear with its verdict.
     let session = work.join("VMC-0002-q3");
     let st = Command::new(env!("CARGO_BIN_EXE_mtcal"))
         .args(["demo", "--write-session"])
@@ -404,15 +455,123 @@ async fn run(c: &Client, base: &str, key: &str, shots: &Path, work: &Path) {
     }
     let newest = text(c, "#checks tbody tr:first-child").await;
     assert!(newest.contains("2026-10-05"), "{newest}");
+    let new_id = c
+        .find(Locator::Css("#checks tbody tr:first-child"))
+        .await
+        .unwrap()
+        .attr("data-result")
+        .await
+        .unwrap()
+        .unwrap();
+    let verdict = api(base, key, &format!("/api/v1/results/{new_id}/verdict")).await;
+    assert_eq!(verdict["verdict"]["decision"], "pass", "{verdict}");
+    assert_eq!(
+        text(c, "#checks tbody tr:first-child .badge.verdict").await,
+        "pass",
+        "the verdict shown is the API's"
+    );
+    // The drift alert it raised: on the machine page, and first on the fleet page.
+    // (The worker checks drift right after it records the job's success: allow it a
+    // moment.)
+    let t0 = Instant::now();
+    let alerts = loop {
+        let a = api(base, key, "/api/v1/alerts?machine=VMC-0002&active=true").await;
+        if !a.as_array().unwrap().is_empty() || t0.elapsed() > Duration::from_secs(10) {
+            break a;
+        }
+        tokio::time::sleep(Duration::from_millis(200)).await;
+    };
+    assert_eq!(alerts.as_array().unwrap().len(), 1, "{alerts}");
+    c.refresh().await.unwrap();
+    wait_for(c, "#checks", Duration::from_secs(10)).await;
+    let alert_id = alerts[0]["id"].as_str().unwrap().to_string();
+    assert_eq!(alerts[0]["result_id"], new_id.as_str());
     assert!(
-        c.find(Locator::Css(
-            "#checks tbody tr:first-child .badge.verdict, #checks tbody tr:first-child .badge.none"
-        ))
+        c.find(Locator::Css(&format!(
+            r#"#alerts tr[data-alert="{alert_id}"]"#
+        )))
         .await
         .is_ok(),
-        "a verdict (or that no tolerance applies)"
+        "the machine page lists the alert"
     );
-    shot(c, shots, "machine-after-upload").await;
+    shot(c, shots, "machine").await;
+    c.goto(&format!("{base}/")).await.unwrap();
+    wait_for(c, "#fleet", Duration::from_secs(10)).await;
+    let first = c
+        .find(Locator::Css("#fleet tbody tr:first-child"))
+        .await
+        .unwrap();
+    assert_eq!(
+        first.attr("data-machine").await.unwrap().as_deref(),
+        Some("VMC-0002"),
+        "machines with active alerts first"
+    );
+    assert_eq!(
+        first.attr("class").await.unwrap().as_deref(),
+        Some("alerted")
+    );
+    assert!(
+        text(c, &format!(r#"#alerts tr[data-alert="{alert_id}"]"#))
+            .await
+            .contains("EXX")
+    );
+    assert_eq!(
+        text(c, r#"#fleet tr[data-machine="VMC-0002"] .badge.verdict"#).await,
+        "pass"
+    );
+    shot(c, shots, "fleet").await;
+
+    // The jobs page lists the upload's job, succeeded.
+    c.goto(&format!("{base}/jobs")).await.unwrap();
+    wait_for(c, "#jobs tbody tr", Duration::from_secs(10)).await;
+    assert!(
+        text(c, "#jobs tbody tr:first-child")
+            .await
+            .contains("succeeded"),
+        "the newest job is the upload's"
+    );
+    shot(c, shots, "jobs").await;
+
+    // The alerts page: acknowledge it (a write key), then it is no longer active.
+    c.goto(&format!("{base}/alerts")).await.unwrap();
+    wait_for(
+        c,
+        &format!(r#"tr[data-alert="{alert_id}"]"#),
+        Duration::from_secs(10),
+    )
+    .await;
+    shot(c, shots, "alerts").await;
+    c.find(Locator::Css(&format!(
+        r#"tr[data-alert="{alert_id}"] button"#
+    )))
+    .await
+    .unwrap()
+    .click()
+    .await
+    .unwrap();
+    wait_for(c, "#no-alerts", Duration::from_secs(10)).await;
+    let acked = api(base, key, "/api/v1/alerts?machine=VMC-0002").await;
+    assert_eq!(acked[0]["active"], false, "{acked}");
+    assert!(
+        acked[0]["acknowledged_by"]
+            .as_str()
+            .unwrap()
+            .contains("demo")
+    );
+    // The new check's result page: its verdict table, item by item as the API decides.
+    c.goto(&format!("{base}/results/{new_id}")).await.unwrap();
+    wait_for(c, "#verdict", Duration::from_secs(10)).await;
+    let items = verdict["verdict"]["items"].as_array().unwrap();
+    assert_eq!(
+        c.find_all(Locator::Css("#verdict tbody tr"))
+            .await
+            .unwrap()
+            .len(),
+        items.len()
+    );
+    shot(c, shots, "result").await;
+    c.goto(&format!("{base}/machines/VMC-0002")).await.unwrap();
+    wait_for(c, "#checks", Duration::from_secs(10)).await;
 
     // Compare the new check with the baseline.
     c.find(Locator::Css(

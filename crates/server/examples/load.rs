@@ -8,7 +8,9 @@
 //!    documents; the scalar columns and term coefficients trend queries read are
 //!    realistic: 10 identifiable cubic terms), then Q random trend queries over HTTP
 //!    (keep-alive), alternating `trends/term?term=EXX&at=-50,50` and `trends/summary`;
-//!    latency percentiles. The seeded database is kept and reused (MTCAL_LOAD_DB).
+//!    latency percentiles; then the fleet ranking (`fleet/drift`) and the dashboard's
+//!    fleet page (HTML, signed in with a session cookie). The seeded database is kept
+//!    and reused (MTCAL_LOAD_DB).
 //!    With `MTCAL_TEST_PG` set, the same on PostgreSQL (a fresh schema, seeded each run).
 //! 3. **Throughput**: N identify jobs of one small session queued at once, drained by
 //!    1 worker on SQLite and by 1, 2 and 4 workers on PostgreSQL (`MTCAL_TEST_PG`):
@@ -75,8 +77,23 @@ fn machine(id: &str) -> Machine {
             ("Y".into(), [-100.0, 100.0]),
             ("Z".into(), [-100.0, 100.0]),
         ]),
-        site: None,
-        tags: vec![],
+        // Half the fleet tagged `vmc`, half `hmc` (the fleet page's tag filter).
+        site: Some(
+            if id.ends_with(['0', '1', '2']) {
+                "north"
+            } else {
+                "south"
+            }
+            .into(),
+        ),
+        tags: vec![
+            if id.ends_with(['0', '2', '4', '6', '8']) {
+                "vmc"
+            } else {
+                "hmc"
+            }
+            .into(),
+        ],
         baseline_result_id: None,
         created_at: String::new(),
         updated_at: String::new(),
@@ -347,7 +364,8 @@ async fn trends_bench(m: usize, r: usize, q: usize, pg: bool) {
         t.elapsed().as_secs_f64()
     );
     let (_, key) = store.create_key(Scope::Read, "load").await.unwrap();
-    let client = Client::new(&start(store.clone(), false).await, &key);
+    let base = start(store.clone(), false).await;
+    let client = Client::new(&base, &key);
     let mut rng = StdRng::seed_from_u64(2);
     let (mut term, mut summary) = (Vec::new(), Vec::new());
     for i in 0..q + 200 {
@@ -402,6 +420,72 @@ async fn trends_bench(m: usize, r: usize, q: usize, pg: bool) {
         pct(&fleet, 0.95),
         pct(&fleet, 0.99),
         fleet[fleet.len() - 1]
+    );
+    fleet_page_bench(&base, &key, m).await;
+}
+
+/// The value of cookie `name` in a response's `Set-Cookie` headers.
+fn set_cookie(r: &reqwest::Response, name: &str) -> Option<String> {
+    r.headers()
+        .get_all(reqwest::header::SET_COOKIE)
+        .iter()
+        .filter_map(|v| v.to_str().ok())
+        .find_map(|v| {
+            let pair = v.split(';').next()?;
+            let (n, value) = pair.split_once('=')?;
+            (n.trim() == name).then(|| value.to_string())
+        })
+}
+
+/// The dashboard's fleet page (HTML, one signed-in browser session): 220 requests after
+/// signing in, the first 20 discarded, alternating the default order (drift, alerts
+/// first), the µrad order, a tag filter and the second page.
+async fn fleet_page_bench(base: &str, key: &str, m: usize) {
+    let http = reqwest::Client::builder()
+        .redirect(reqwest::redirect::Policy::none())
+        .build()
+        .unwrap();
+    let form = http.get(format!("{base}/signin")).send().await.unwrap();
+    let pre = set_cookie(&form, "mtcal_signin").expect("sign-in cookie");
+    let html = form.text().await.unwrap();
+    let csrf = html
+        .split(r#"name="csrf" value=""#)
+        .nth(1)
+        .and_then(|t| t.split('"').next())
+        .expect("csrf field")
+        .to_string();
+    let signed = http
+        .post(format!("{base}/signin"))
+        .header(reqwest::header::COOKIE, format!("mtcal_signin={pre}"))
+        .form(&[("csrf", csrf.as_str()), ("key", key), ("next", "/")])
+        .send()
+        .await
+        .unwrap();
+    let session = set_cookie(&signed, "mtcal_session").expect("session cookie");
+    let pages = ["/", "/?sort=drift_urad", "/?tag=vmc", "/?page=2"];
+    let mut times = Vec::new();
+    for i in 0..220 {
+        let t = Instant::now();
+        let r = http
+            .get(format!("{base}{}", pages[i % pages.len()]))
+            .header(reqwest::header::COOKIE, format!("mtcal_session={session}"))
+            .send()
+            .await
+            .unwrap();
+        assert!(r.status().is_success(), "fleet page: {}", r.status());
+        let body = r.text().await.unwrap();
+        assert!(body.contains("data-machine="), "a fleet page");
+        if i >= 20 {
+            times.push(t.elapsed().as_secs_f64() * 1e3);
+        }
+    }
+    times.sort_by(f64::total_cmp);
+    println!(
+        "  fleet page (HTML, 100 of {m} machines, 4 views)  p50 {:.2} ms  p95 {:.2} ms  p99 {:.2} ms  max {:.2} ms",
+        pct(&times, 0.5),
+        pct(&times, 0.95),
+        pct(&times, 0.99),
+        times[times.len() - 1]
     );
 }
 

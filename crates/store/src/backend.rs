@@ -560,6 +560,8 @@ impl Store for This {
             };
             let filter =
                 "($1 IS NULL OR m.site = $1) AND ($2 IS NULL OR m.tags LIKE $2 ESCAPE '!')";
+            // The page's ids are chosen on narrow rows (id and sort keys only); only those
+            // rows are then read whole (a machine's entry is kilobytes).
             let sql = format!(
                 "SELECT m.id AS mid, m.name, m.topology, m.travel_mm, m.site, m.tags, \
                  m.baseline_result_id, m.created_at, m.updated_at, \
@@ -567,9 +569,13 @@ impl Store for This {
                  f.latest_measured_at, \
                  (SELECT COUNT(*) FROM alerts a WHERE a.machine_id = m.id \
                   AND a.acknowledged_at IS NULL) AS active_alerts \
-                 FROM machines m LEFT JOIN fleet_drift f ON f.machine_id = m.id \
-                 WHERE {filter} ORDER BY (SELECT COUNT(*) FROM alerts a WHERE a.machine_id = m.id \
-                 AND a.acknowledged_at IS NULL) > 0 DESC, {order} LIMIT $3 OFFSET $4"
+                 FROM (SELECT m.id AS pid, ROW_NUMBER() OVER (ORDER BY \
+                   (SELECT COUNT(*) FROM alerts a WHERE a.machine_id = m.id \
+                    AND a.acknowledged_at IS NULL) > 0 DESC, {order}) AS rn \
+                   FROM machines m LEFT JOIN fleet_drift f ON f.machine_id = m.id \
+                   WHERE {filter} ORDER BY rn LIMIT $3 OFFSET $4) p \
+                 JOIN machines m ON m.id = p.pid \
+                 LEFT JOIN fleet_drift f ON f.machine_id = m.id ORDER BY p.rn"
             );
             let found = sqlx::query(sqlx::AssertSqlSafe(sql))
                 .bind(&q.site)
