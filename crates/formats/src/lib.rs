@@ -18,6 +18,7 @@
 //! The rules shared by every CSV format live once in `csv_core`, limits in [`limits`],
 //! gzip handling in `gzip`.
 
+pub mod compensation;
 mod csv_core;
 pub mod drift;
 mod gzip;

@@ -9,6 +9,7 @@
 //! `/ready`, `/metrics` ([`metrics`]) and the documentation needs an API key (see
 //! [`auth`]).
 
+pub mod alerts;
 pub mod api;
 pub mod auth;
 pub mod error;
@@ -17,6 +18,7 @@ pub mod ingest;
 pub mod jobs;
 pub mod metrics;
 pub mod state;
+pub mod tolerances;
 pub mod trends;
 pub mod web;
 pub mod worker;
@@ -77,17 +79,22 @@ impl utoipa::Modify for SecurityAddon {
         api::health,
         api::machines::create, api::machines::get, api::machines::update, api::machines::list,
         api::datasets::upload, api::datasets::get, api::datasets::file,
-        api::jobs::submit, api::jobs::get, api::jobs::result, api::jobs::cancel,
+        api::jobs::submit, api::jobs::list, api::jobs::get, api::jobs::result, api::jobs::cancel,
         api::history::list, api::history::latest, api::history::get, api::history::diff,
         api::history::figures, api::history::exclude,
         api::trends::term, api::trends::summary, api::trends::figure, api::trends::fleet,
         api::keys::create, api::keys::list, api::keys::revoke,
         api::ready,
+        api::tolerances::create, api::tolerances::list, api::tolerances::get,
+        api::tolerances::replace, api::tolerances::delete, api::tolerances::verdict,
+        api::alerts::list, api::alerts::ack,
     ),
     components(schemas(jobs::IdentifyParams, jobs::DiagnoseParams, error::ErrorBody)),
     modifiers(&SecurityAddon),
     tags((name = "machines"), (name = "datasets"), (name = "jobs"), (name = "history"),
-         (name = "trends"), (name = "keys"), (name = "service"))
+         (name = "trends"), (name = "keys"), (name = "service"),
+         (name = "tolerances", description = "Tolerance profiles and verdicts (ISO 14253-1 decision rule, U = 2u)"),
+         (name = "alerts", description = "Drift alerts raised when a result lands"))
 )]
 pub struct ApiDoc;
 
@@ -131,7 +138,7 @@ pub fn router(state: AppState) -> Router {
         )
         .route("/api/v1/datasets/{id}", get(datasets::get))
         .route("/api/v1/datasets/{id}/files/{name}", get(datasets::file))
-        .route("/api/v1/jobs", post(jobs::submit))
+        .route("/api/v1/jobs", post(jobs::submit).get(jobs::list))
         .route("/api/v1/jobs/{id}", get(jobs::get))
         .route("/api/v1/jobs/{id}/result", get(jobs::result))
         .route("/api/v1/jobs/{id}/cancel", post(jobs::cancel))
@@ -145,6 +152,22 @@ pub fn router(state: AppState) -> Router {
         .route("/api/v1/machines/{id}/trends/summary", get(trends::summary))
         .route("/api/v1/machines/{id}/trends/figure", get(trends::figure))
         .route("/api/v1/fleet/drift", get(trends::fleet))
+        .route(
+            "/api/v1/tolerances",
+            post(api::tolerances::create).get(api::tolerances::list),
+        )
+        .route(
+            "/api/v1/tolerances/{id}",
+            get(api::tolerances::get)
+                .put(api::tolerances::replace)
+                .delete(api::tolerances::delete),
+        )
+        .route(
+            "/api/v1/results/{id}/verdict",
+            get(api::tolerances::verdict),
+        )
+        .route("/api/v1/alerts", get(api::alerts::list))
+        .route("/api/v1/alerts/{id}/ack", post(api::alerts::ack))
         .route("/api/v1/keys", post(keys::create).get(keys::list))
         .route("/api/v1/keys/{id}", axum::routing::delete(keys::revoke))
         .layer(DefaultBodyLimit::max(JSON_BODY_LIMIT))

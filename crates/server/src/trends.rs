@@ -111,6 +111,59 @@ pub struct Drift {
     pub not_compared: Vec<String>,
 }
 
+/// A term both checks identified: its coefficients in the baseline and the latest, and
+/// the travel both measured on its axis.
+struct Comparable<'a> {
+    term: Term,
+    base: &'a [f64],
+    latest: &'a [f64],
+    travel: [f64; 2],
+}
+
+/// The terms two checks can be compared on, and the names of those they cannot (not
+/// identifiable in either, or measured travels that do not overlap).
+fn comparable<'a>(
+    base: &'a ResultScalars,
+    latest: &'a ResultScalars,
+) -> (Vec<Comparable<'a>>, Vec<String>) {
+    let (mut yes, mut no) = (Vec::new(), Vec::new());
+    for t in Term::all() {
+        let name = t.name();
+        match (
+            base.term_coefficients.get(&name),
+            latest.term_coefficients.get(&name),
+            common_travel(base, latest, t.axis.letter()),
+        ) {
+            (Some(b), Some(l), Some(travel)) => yes.push(Comparable {
+                term: t,
+                base: b,
+                latest: l,
+                travel,
+            }),
+            _ => no.push(name),
+        }
+    }
+    (yes, no)
+}
+
+/// A squareness error in two checks: name, baseline value, latest value and the standard
+/// uncertainty of their difference (None when a covariance is not stored).
+type SquarenessPair = (&'static str, Option<f64>, Option<f64>, Option<f64>);
+
+/// The three squareness errors of two checks.
+fn squareness_pairs(base: &ResultScalars, latest: &ResultScalars) -> [SquarenessPair; 3] {
+    let u = |name: &str| {
+        squareness_std(base, name)
+            .zip(squareness_std(latest, name))
+            .map(|(x, y)| x.hypot(y))
+    };
+    [
+        ("EC0Y", base.ec0y_urad, latest.ec0y_urad, u("EC0Y")),
+        ("EB0Z", base.eb0z_urad, latest.eb0z_urad, u("EB0Z")),
+        ("EA0Z", base.ea0z_urad, latest.ea0z_urad, u("EA0Z")),
+    ]
+}
+
 /// Drift between two results' scalars: over the intersection of their measured travels.
 pub fn drift(base: &ResultScalars, latest: &ResultScalars) -> Drift {
     let mut d = Drift {
@@ -125,16 +178,16 @@ pub fn drift(base: &ResultScalars, latest: &ResultScalars) -> Drift {
     let u_diff = |name: &str, q: f64| -> Option<f64> {
         Some(term_std(base, name, q)?.hypot(term_std(latest, name, q)?))
     };
-    for t in Term::all() {
+    let (terms, not_compared) = comparable(base, latest);
+    d.not_compared = not_compared;
+    for Comparable {
+        term: t,
+        base: b,
+        latest: l,
+        travel,
+    } in terms
+    {
         let name = t.name();
-        let (Some(b), Some(l), Some(travel)) = (
-            base.term_coefficients.get(&name),
-            latest.term_coefficients.get(&name),
-            common_travel(base, latest, t.axis.letter()),
-        ) else {
-            d.not_compared.push(name);
-            continue;
-        };
         let (m, at) = grid(travel)
             .map(|q| ((eval(l, q) - eval(b, q)).abs(), q))
             .fold(
@@ -156,18 +209,12 @@ pub fn drift(base: &ResultScalars, latest: &ResultScalars) -> Drift {
             *worst = Some(name);
         }
     }
-    for (name, b, l) in [
-        ("EC0Y", base.ec0y_urad, latest.ec0y_urad),
-        ("EB0Z", base.eb0z_urad, latest.eb0z_urad),
-        ("EA0Z", base.ea0z_urad, latest.ea0z_urad),
-    ] {
+    for (name, b, l, u) in squareness_pairs(base, latest) {
         match (b, l) {
             (Some(b), Some(l)) => {
                 if (l - b).abs() > d.drift_urad || d.worst_term_urad.is_none() {
                     d.drift_urad = (l - b).abs();
-                    d.drift_urad_u = squareness_std(base, name)
-                        .zip(squareness_std(latest, name))
-                        .map(|(x, y)| x.hypot(y));
+                    d.drift_urad_u = u;
                     d.worst_term_urad = Some(name.into());
                 }
             }
@@ -175,6 +222,45 @@ pub fn drift(base: &ResultScalars, latest: &ResultScalars) -> Drift {
         }
     }
     d
+}
+
+/// Each change since the baseline as a figure of the decision rule
+/// ([`mtcal_solver::tolerance::Figure`]): a term's `latest − base` with its standard
+/// uncertainty (u² = u_base² + u_latest²) on the drift grid of the travel both checks
+/// measured; a squareness's difference with its uncertainty. Left out (nothing to decide
+/// on): a term not identifiable in either check, without overlapping measured travels,
+/// or without a stored covariance in either (a change is only judged with its
+/// uncertainty).
+pub fn changes(
+    base: &ResultScalars,
+    latest: &ResultScalars,
+) -> BTreeMap<String, mtcal_solver::tolerance::Figure> {
+    use mtcal_solver::tolerance::Figure;
+    let mut out = BTreeMap::new();
+    for Comparable {
+        term: t,
+        base: b,
+        latest: l,
+        travel,
+    } in comparable(base, latest).0
+    {
+        let name = t.name();
+        let points: Option<Vec<(f64, f64, f64)>> = grid(travel)
+            .map(|q| {
+                let u = term_std(base, &name, q)?.hypot(term_std(latest, &name, q)?);
+                Some((q, eval(l, q) - eval(b, q), u))
+            })
+            .collect();
+        if let Some(fig) = points.and_then(|p| Figure::over_travel(t.unit(), p)) {
+            out.insert(name, fig);
+        }
+    }
+    for (name, b, l, u) in squareness_pairs(base, latest) {
+        if let (Some(b), Some(l), Some(u)) = (b, l, u) {
+            out.insert(name.to_string(), Figure::constant("urad", l - b, Some(u)));
+        }
+    }
+    out
 }
 
 /// Change of one term between two results on a grid of the travel both measured.

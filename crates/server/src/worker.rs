@@ -270,9 +270,10 @@ async fn run_job(
         && j.state == mtcal_store::JobState::Succeeded
         && job.kind.result_kind() == crate::api::history::KIND
         && let Some(m) = &job.machine_id
-        && let Err(e) = crate::fleet::refresh_machine(store.as_ref(), m).await
+        && let Some(r) = &j.result_id
+        && let Err(e) = crate::fleet::result_landed(store, m, r).await
     {
-        tracing::warn!(machine = %m, %e, "fleet drift not refreshed");
+        tracing::warn!(machine = %m, %e, "fleet drift or drift alerts not refreshed");
     }
     let outcome = match &recorded {
         Ok(j) if j.state == mtcal_store::JobState::Queued => "requeued",

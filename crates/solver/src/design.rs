@@ -437,9 +437,9 @@ fn chebyshev(x: f64, m: usize, out: &mut [f64]) {
 /// interpolation at m nodes (one P per reading direction), checked at a handful of
 /// samples. Used to reduce the run ([`compress_run`]) and to predict its readings
 /// ([`residuals`]) at O(m) per sample.
-struct RunInterpolant {
+pub(crate) struct RunInterpolant {
     /// Number of basis functions m.
-    m: usize,
+    pub(crate) m: usize,
     /// Trigonometric degree (circles) = polynomial degree − 1 of the lines' basis.
     degree: usize,
     path: PathParam,
@@ -450,13 +450,13 @@ struct RunInterpolant {
     centre: f64,
     half: f64,
     /// P (m × k) per reading direction (u, v).
-    pms: [nalgebra::DMatrix<f64>; 2],
+    pub(crate) pms: [nalgebra::DMatrix<f64>; 2],
 }
 
 impl RunInterpolant {
     /// The interpolant of run `r` of plane `p`, or `None` when the run is not a line or
     /// circle path (or is too short to be worth it).
-    fn new(
+    pub(crate) fn new(
         session: &Session,
         model: &ErrorModel,
         layout: &Layout,
@@ -612,7 +612,7 @@ impl RunInterpolant {
         }
     }
 
-    fn basis_at_q(&self, q: &[f64; 3], out: &mut [f64]) {
+    pub(crate) fn basis_at_q(&self, q: &[f64; 3], out: &mut [f64]) {
         match self.path {
             PathParam::Circle { cu, cv, r } => {
                 self.trig((q[self.iu] - cu) / r, (q[self.iv] - cv) / r, out)

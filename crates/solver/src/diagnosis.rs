@@ -143,8 +143,52 @@ pub mod catalogue;
 pub mod design;
 pub mod effects;
 pub mod linalg;
+pub mod moments;
 pub mod reduced;
 pub(crate) mod search;
 pub mod session;
 
-pub use session::{DiagnoseOptions, diagnose_session};
+pub use session::{DiagnoseOptions, diagnose_session, diagnose_session_with_progress};
+
+/// Progress of a diagnosis: `report(phase, fraction)`, the phase in words and the
+/// fraction of the whole work done, in [0, 1] and never decreasing. Any
+/// `FnMut(&str, f64)` is one.
+pub trait Progress {
+    fn report(&mut self, phase: &str, fraction: f64);
+}
+
+impl<F: FnMut(&str, f64)> Progress for F {
+    fn report(&mut self, phase: &str, fraction: f64) {
+        self(phase, fraction)
+    }
+}
+
+/// No progress reports.
+pub struct NoProgress;
+
+impl Progress for NoProgress {
+    fn report(&mut self, _: &str, _: f64) {}
+}
+
+/// Holds a [`Progress`] to its contract: fractions clamped to [0, 1] and never below
+/// one already reported.
+pub(crate) struct Monotone<'a> {
+    inner: &'a mut dyn Progress,
+    last: f64,
+}
+
+impl<'a> Monotone<'a> {
+    pub(crate) fn new(inner: &'a mut dyn Progress) -> Self {
+        Monotone { inner, last: 0.0 }
+    }
+
+    pub(crate) fn report(&mut self, phase: &str, fraction: f64) {
+        let f = if fraction.is_finite() {
+            fraction.clamp(self.last, 1.0)
+        } else {
+            self.last
+        };
+        self.last = f;
+        self.inner.report(phase, f);
+    }
+}

@@ -36,7 +36,7 @@ pub mod report;
 pub mod stepwise;
 
 pub use joint::thin_session;
-pub use report::{grid, ls_line_functionals};
+pub use report::{grid, ls_line_functionals, ls_line_weights};
 
 /// The convention line every result document carries (see docs/conventions.md).
 pub const CONVENTION: &str =
@@ -226,6 +226,30 @@ impl IdentificationResult {
             acc = acc * q_mm + c;
         }
         Some(acc * q_mm)
+    }
+
+    /// Value of an identified term at `q_mm` in the result's reporting convention (µm or
+    /// µrad): [`IdentificationResult::term_value_at`], and for a straightness its
+    /// deviation from its least-squares line over the measured travel of its axis
+    /// ([`ls_line_weights`]), as the document's `values` are. `None` when the term is
+    /// unknown, not identifiable, or its axis has no measured travel.
+    pub fn reported_value_at(&self, name: &str, q_mm: f64) -> Option<f64> {
+        let term = crate::terms::Term::parse(name)?;
+        let f = self.term_value_at(name, q_mm)?;
+        if term.kind() != crate::terms::TermKind::Straightness {
+            return Some(f);
+        }
+        let [lo, hi] = *self
+            .model
+            .measured_travel_mm
+            .get(&term.axis.letter().to_string())?;
+        let (mut a, mut b) = (0.0, 0.0);
+        for (q, wa, wb) in ls_line_weights(lo, hi) {
+            let v = self.term_value_at(name, q)?;
+            a += wa * v;
+            b += wb * v;
+        }
+        Some(f - a - b * q_mm)
     }
 }
 

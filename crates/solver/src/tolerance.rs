@@ -35,6 +35,7 @@ pub const RULE: &str = "ISO 14253-1 style, U = 2u: pass when |value| + U <= limi
                         point fails";
 
 /// Outcome of comparing a measured value with a limit.
+#[cfg_attr(feature = "openapi", derive(utoipa::ToSchema))]
 #[derive(Debug, Clone, Copy, PartialEq, Eq, PartialOrd, Ord, Hash, Serialize, Deserialize)]
 #[serde(rename_all = "lowercase")]
 pub enum Decision {
@@ -268,6 +269,7 @@ fn not_determined(confounded_with: &[String]) -> String {
 
 /// A tolerance profile's limits. Every limit is on the magnitude and positive; units are
 /// those of the item (µm or µrad; a figure of a standard carries its unit in its name).
+#[cfg_attr(feature = "openapi", derive(utoipa::ToSchema))]
 #[derive(Debug, Clone, Default, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]
 pub struct Limits {
@@ -377,6 +379,7 @@ pub fn is_standard_figure(name: &str) -> bool {
 }
 
 /// One limit decided against one figure.
+#[cfg_attr(feature = "openapi", derive(utoipa::ToSchema))]
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 pub struct VerdictItem {
     /// `EXX`, `EC0Y`, `iso230_2.X.E_um`, …
@@ -404,6 +407,7 @@ pub struct VerdictItem {
 
 /// A limit of the profile the result has no figure for (a standard's figure in a result
 /// that does not compute it): it does not take part in the verdict.
+#[cfg_attr(feature = "openapi", derive(utoipa::ToSchema))]
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 pub struct NotEvaluated {
     pub item: String,
@@ -411,6 +415,7 @@ pub struct NotEvaluated {
 }
 
 /// A result's verdict against a profile's limits.
+#[cfg_attr(feature = "openapi", derive(utoipa::ToSchema))]
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 pub struct Verdict {
     /// Fail when any item fails, else undecided when any is undecided, else pass; `None`

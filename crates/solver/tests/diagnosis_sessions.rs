@@ -487,3 +487,48 @@ fn clean_sessions_are_consistent_in_95_percent_of_40_seeds() {
         bad.len()
     );
 }
+
+/// Progress: the callback sees the phases in order with fractions that start at 0, never
+/// decrease and end at 1, and the result is the one without a callback.
+#[test]
+fn progress_is_reported_through_the_phases() {
+    let o = SimOptions {
+        seed: 5,
+        sample_rate_hz: RATE,
+        effects: vec![Effect::Backlash {
+            axis: Axis::Y,
+            lost_motion_um: 2.0,
+        }],
+        ..SimOptions::default()
+    };
+    let out = simulate(&random_truth(5), &o).unwrap();
+    let mut seen: Vec<(String, f64)> = Vec::new();
+    let r = mtcal_solver::diagnosis::diagnose_session_with_progress(
+        &out.session,
+        &DiagnoseOptions::default(),
+        &mut |phase: &str, f: f64| seen.push((phase.to_string(), f)),
+    )
+    .unwrap();
+    assert_eq!(
+        r,
+        diagnose_session(&out.session, &DiagnoseOptions::default()).unwrap()
+    );
+    assert_eq!(seen.first().unwrap().1, 0.0);
+    assert_eq!(seen.last().unwrap(), &("done".to_string(), 1.0));
+    assert!(seen.windows(2).all(|w| w[1].1 >= w[0].1), "{seen:?}");
+    let phase = |p: &str| seen.iter().position(|(s, _)| s.starts_with(p));
+    let order: Vec<usize> = [
+        "reducing the rigid model",
+        "noise floor",
+        "round 1 of candidates",
+        "refitting with backlash Y",
+        "round 2 of candidates",
+        "report",
+    ]
+    .iter()
+    .map(|p| phase(p).unwrap_or_else(|| panic!("no phase {p}: {seen:?}")))
+    .collect();
+    assert!(order.windows(2).all(|w| w[0] < w[1]), "{order:?}");
+    // Intermediate fractions, not only the ends.
+    assert!(seen.iter().filter(|(_, f)| *f > 0.1 && *f < 0.95).count() > 20);
+}

@@ -306,3 +306,32 @@ fn measured_travel_and_coefficient_covariance_reproduce_the_reported_uncertainty
     }
     assert!(checked > 100, "{checked}");
 }
+
+/// Evaluating a result document anywhere: `reported_value_at` (the stored monomial
+/// coefficients, and for a straightness minus its least-squares line over the measured
+/// travel) gives back every reported value of every identifiable term. The reported
+/// values come from the fit's parameters by another path (the functionals of the model
+/// basis), so this checks the coefficients and the line removal against them; reported
+/// values are rounded to 1e-6.
+#[test]
+fn reported_value_at_reproduces_every_reported_value() {
+    let (session, _) = session_for(Plan::Full, 22);
+    let r = identify(&session, &IdentifyOptions::default()).unwrap();
+    let mut straight = 0;
+    for (name, t) in &r.terms {
+        if !t.identifiable {
+            assert_eq!(r.reported_value_at(name, 10.0), None, "{name}");
+            continue;
+        }
+        if name.as_bytes()[1] != name.as_bytes()[2] && matches!(name.as_bytes()[1], b'X' | b'Y' | b'Z')
+        {
+            straight += 1;
+        }
+        for (q, v) in t.positions_mm.iter().zip(&t.values) {
+            let got = r.reported_value_at(name, *q).unwrap();
+            assert!((got - v).abs() < 2e-6, "{name} at {q}: {got} vs {v}");
+        }
+    }
+    assert!(straight >= 4, "straightness terms checked: {straight}");
+    assert_eq!(r.reported_value_at("EQX", 0.0), None);
+}

@@ -476,10 +476,12 @@ impl Store for This {
     fn put_fleet_drift<'a>(&'a self, row: &'a FleetDriftRow) -> StoreFuture<'a, bool> {
         Box::pin(async move {
             let done = sqlx::query(
-                "INSERT INTO fleet_drift (machine_id, read_at_ms, drift_um, drift_urad, entry) \
-                 VALUES ($1, $2, $3, $4, $5) ON CONFLICT (machine_id) DO UPDATE SET \
+                "INSERT INTO fleet_drift (machine_id, read_at_ms, drift_um, drift_urad, entry, \
+                 latest_measured_at) \
+                 VALUES ($1, $2, $3, $4, $5, $6) ON CONFLICT (machine_id) DO UPDATE SET \
                  read_at_ms = EXCLUDED.read_at_ms, drift_um = EXCLUDED.drift_um, \
-                 drift_urad = EXCLUDED.drift_urad, entry = EXCLUDED.entry \
+                 drift_urad = EXCLUDED.drift_urad, entry = EXCLUDED.entry, \
+                 latest_measured_at = EXCLUDED.latest_measured_at \
                  WHERE fleet_drift.read_at_ms <= EXCLUDED.read_at_ms",
             )
             .bind(&row.machine_id)
@@ -487,6 +489,7 @@ impl Store for This {
             .bind(row.drift_um)
             .bind(row.drift_urad)
             .bind(serde_json::to_string(&row.entry).db()?)
+            .bind(&row.latest_measured_at)
             .execute(&self.pool)
             .await
             .db()?;
@@ -513,8 +516,9 @@ impl Store for This {
         Box::pin(async move {
             let order = if by_um { "drift_um" } else { "drift_urad" };
             let q = format!(
-                "SELECT f.machine_id, f.read_at_ms, f.drift_um, f.drift_urad, f.entry, m.name, \
-                 m.site FROM fleet_drift f JOIN machines m ON m.id = f.machine_id \
+                "SELECT f.machine_id, f.read_at_ms, f.drift_um, f.drift_urad, f.entry, \
+                 f.latest_measured_at, m.name, m.site \
+                 FROM fleet_drift f JOIN machines m ON m.id = f.machine_id \
                  ORDER BY f.{order} DESC, f.machine_id LIMIT $1"
             );
             let rows = sqlx::query(sqlx::AssertSqlSafe(q))
@@ -523,21 +527,96 @@ impl Store for This {
                 .await
                 .db()?;
             rows.iter()
-                .map(|r| {
-                    let entry: String = r.text("entry")?;
-                    Ok((
-                        FleetDriftRow {
-                            machine_id: r.text("machine_id")?,
-                            read_at_ms: r.int("read_at_ms")?,
-                            drift_um: r.real("drift_um")?,
-                            drift_urad: r.real("drift_urad")?,
-                            entry: serde_json::from_str(&entry).db()?,
-                        },
-                        r.text("name")?,
-                        r.opt_text("site")?,
-                    ))
-                })
+                .map(|r| Ok((rows::fleet_drift(r)?, r.text("name")?, r.opt_text("site")?)))
                 .collect()
+        })
+    }
+
+    fn fleet_page<'a>(&'a self, q: &'a FleetPageQuery) -> StoreFuture<'a, FleetPage> {
+        Box::pin(async move {
+            let order = match q.sort {
+                FleetSort::DriftUm => "f.drift_um DESC NULLS LAST, m.id",
+                FleetSort::DriftUrad => "f.drift_urad DESC NULLS LAST, m.id",
+                FleetSort::Name => "m.id",
+                FleetSort::LastCheck => "f.latest_measured_at DESC NULLS LAST, m.id",
+            };
+            // Tags are kept as a JSON array: match the quoted tag, LIKE's wildcards escaped.
+            let tag = match &q.tag {
+                Some(t) => Some(format!(
+                    "%{}%",
+                    serde_json::to_string(t)
+                        .db()?
+                        .replace('!', "!!")
+                        .replace('%', "!%")
+                        .replace('_', "!_")
+                )),
+                None => None,
+            };
+            let filter =
+                "($1 IS NULL OR m.site = $1) AND ($2 IS NULL OR m.tags LIKE $2 ESCAPE '!')";
+            let sql = format!(
+                "SELECT m.id AS mid, m.name, m.topology, m.travel_mm, m.site, m.tags, \
+                 m.baseline_result_id, m.created_at, m.updated_at, \
+                 f.machine_id, f.read_at_ms, f.drift_um, f.drift_urad, f.entry, \
+                 f.latest_measured_at, \
+                 (SELECT COUNT(*) FROM alerts a WHERE a.machine_id = m.id \
+                  AND a.acknowledged_at IS NULL) AS active_alerts \
+                 FROM machines m LEFT JOIN fleet_drift f ON f.machine_id = m.id \
+                 WHERE {filter} ORDER BY (SELECT COUNT(*) FROM alerts a WHERE a.machine_id = m.id \
+                 AND a.acknowledged_at IS NULL) > 0 DESC, {order} LIMIT $3 OFFSET $4"
+            );
+            let found = sqlx::query(sqlx::AssertSqlSafe(sql))
+                .bind(&q.site)
+                .bind(&tag)
+                .bind(q.limit)
+                .bind(q.offset)
+                .fetch_all(&self.pool)
+                .await
+                .db()?;
+            let total: i64 = sqlx::query_scalar(sqlx::AssertSqlSafe(format!(
+                "SELECT COUNT(*) FROM machines m WHERE {filter}"
+            )))
+            .bind(&q.site)
+            .bind(&tag)
+            .fetch_one(&self.pool)
+            .await
+            .db()?;
+            let rows = found
+                .iter()
+                .map(|r| {
+                    let drift = match r.opt_text("machine_id")? {
+                        Some(_) => Some(rows::fleet_drift(r)?),
+                        None => None,
+                    };
+                    Ok(FleetPageRow {
+                        machine: rows::machine_as(r, "mid")?,
+                        drift,
+                        active_alerts: r.int("active_alerts")?,
+                    })
+                })
+                .collect::<Result<Vec<_>>>()?;
+            let sites: Vec<Option<String>> = sqlx::query_scalar(
+                "SELECT DISTINCT site FROM machines WHERE site IS NOT NULL ORDER BY site",
+            )
+            .fetch_all(&self.pool)
+            .await
+            .db()?;
+            let tag_lists: Vec<String> = sqlx::query_scalar("SELECT DISTINCT tags FROM machines")
+                .fetch_all(&self.pool)
+                .await
+                .db()?;
+            let mut tags = Vec::new();
+            for t in &tag_lists {
+                tags.extend(serde_json::from_str::<Vec<String>>(t).db()?);
+            }
+            tags.sort();
+            tags.dedup();
+            Ok(FleetPage {
+                rows,
+                total,
+                sites: sites.into_iter().flatten().collect(),
+                tags,
+            })
         })
     }
 
@@ -618,6 +697,194 @@ impl Store for This {
             let q = format!("SELECT {KEY_COLUMNS} FROM api_keys WHERE id = $1");
             let row = row_by_id(&self.pool, q, id, "key").await?;
             rows::api_key(&row)
+        })
+    }
+
+    fn list_jobs<'a>(&'a self, state: Option<JobState>, limit: i64) -> StoreFuture<'a, Vec<Job>> {
+        Box::pin(async move {
+            let q = format!(
+                "SELECT {JOB_COLUMNS} FROM jobs WHERE ($1 IS NULL OR state = $1) \
+                 ORDER BY created_at DESC, seq DESC LIMIT $2"
+            );
+            sqlx::query(sqlx::AssertSqlSafe(q))
+                .bind(state.map(|s| s.as_str()))
+                .bind(limit)
+                .fetch_all(&self.pool)
+                .await
+                .db()?
+                .iter()
+                .map(rows::job)
+                .collect()
+        })
+    }
+
+    fn create_tolerance<'a>(
+        &'a self,
+        p: &'a ToleranceProfile,
+    ) -> StoreFuture<'a, ToleranceProfile> {
+        Box::pin(async move {
+            let now = now_rfc3339();
+            sqlx::query(
+                "INSERT INTO tolerance_profiles (id, scope, target, limits, webhook_url, \
+                 created_at, updated_at) VALUES ($1, $2, $3, $4, $5, $6, $6)",
+            )
+            .bind(&p.id)
+            .bind(&p.scope)
+            .bind(&p.target)
+            .bind(serde_json::to_string(&p.limits).db()?)
+            .bind(&p.webhook_url)
+            .bind(&now)
+            .execute(&self.pool)
+            .await
+            .map_err(|e| {
+                unique_conflict(e, || {
+                    format!("{} {} already has a tolerance profile", p.scope, p.target)
+                })
+            })?;
+            self.get_tolerance(&p.id).await
+        })
+    }
+
+    fn get_tolerance<'a>(&'a self, id: &'a str) -> StoreFuture<'a, ToleranceProfile> {
+        Box::pin(async move {
+            let q = format!(
+                "SELECT {} FROM tolerance_profiles WHERE id = $1",
+                rows::TOLERANCE_COLUMNS
+            );
+            rows::tolerance(&row_by_id(&self.pool, q, id, "tolerance profile").await?)
+        })
+    }
+
+    fn list_tolerances(&self) -> StoreFuture<'_, Vec<ToleranceProfile>> {
+        Box::pin(async move {
+            let q = format!(
+                "SELECT {} FROM tolerance_profiles ORDER BY scope, target",
+                rows::TOLERANCE_COLUMNS
+            );
+            sqlx::query(sqlx::AssertSqlSafe(q))
+                .fetch_all(&self.pool)
+                .await
+                .db()?
+                .iter()
+                .map(rows::tolerance)
+                .collect()
+        })
+    }
+
+    fn update_tolerance<'a>(
+        &'a self,
+        id: &'a str,
+        limits: &'a serde_json::Value,
+        webhook_url: Option<&'a str>,
+    ) -> StoreFuture<'a, ToleranceProfile> {
+        Box::pin(async move {
+            let done = sqlx::query(
+                "UPDATE tolerance_profiles SET limits = $2, webhook_url = $3, updated_at = $4 \
+                 WHERE id = $1",
+            )
+            .bind(id)
+            .bind(serde_json::to_string(limits).db()?)
+            .bind(webhook_url)
+            .bind(now_rfc3339())
+            .execute(&self.pool)
+            .await
+            .db()?;
+            if done.rows_affected() == 0 {
+                return Err(StoreError::NotFound(format!("tolerance profile {id}")));
+            }
+            self.get_tolerance(id).await
+        })
+    }
+
+    fn delete_tolerance<'a>(&'a self, id: &'a str) -> StoreFuture<'a, ()> {
+        Box::pin(async move {
+            let done = sqlx::query("DELETE FROM tolerance_profiles WHERE id = $1")
+                .bind(id)
+                .execute(&self.pool)
+                .await
+                .db()?;
+            if done.rows_affected() == 0 {
+                return Err(StoreError::NotFound(format!("tolerance profile {id}")));
+            }
+            Ok(())
+        })
+    }
+
+    fn raise_alert<'a>(&'a self, a: &'a Alert) -> StoreFuture<'a, Option<Alert>> {
+        Box::pin(async move {
+            let done = sqlx::query(
+                "INSERT INTO alerts (id, machine_id, result_id, baseline_result_id, profile_id, \
+                 raised_at, message, items, acknowledged_at, acknowledged_by) \
+                 VALUES ($1, $2, $3, $4, $5, $6, $7, $8, NULL, NULL) \
+                 ON CONFLICT (result_id) DO NOTHING",
+            )
+            .bind(&a.id)
+            .bind(&a.machine_id)
+            .bind(&a.result_id)
+            .bind(&a.baseline_result_id)
+            .bind(&a.profile_id)
+            .bind(&a.raised_at)
+            .bind(&a.message)
+            .bind(serde_json::to_string(&a.items).db()?)
+            .execute(&self.pool)
+            .await
+            .db()?;
+            if done.rows_affected() == 0 {
+                return Ok(None);
+            }
+            self.get_alert(&a.id).await.map(Some)
+        })
+    }
+
+    fn get_alert<'a>(&'a self, id: &'a str) -> StoreFuture<'a, Alert> {
+        Box::pin(async move {
+            let q = format!("SELECT {} FROM alerts WHERE id = $1", rows::ALERT_COLUMNS);
+            rows::alert(&row_by_id(&self.pool, q, id, "alert").await?)
+        })
+    }
+
+    fn list_alerts<'a>(
+        &'a self,
+        machine_id: Option<&'a str>,
+        active: Option<bool>,
+        limit: i64,
+    ) -> StoreFuture<'a, Vec<Alert>> {
+        Box::pin(async move {
+            let state = match active {
+                Some(true) => " AND acknowledged_at IS NULL",
+                Some(false) => " AND acknowledged_at IS NOT NULL",
+                None => "",
+            };
+            let q = format!(
+                "SELECT {} FROM alerts WHERE ($1 IS NULL OR machine_id = $1){state} \
+                 ORDER BY raised_at DESC, id DESC LIMIT $2",
+                rows::ALERT_COLUMNS
+            );
+            sqlx::query(sqlx::AssertSqlSafe(q))
+                .bind(machine_id)
+                .bind(limit)
+                .fetch_all(&self.pool)
+                .await
+                .db()?
+                .iter()
+                .map(rows::alert)
+                .collect()
+        })
+    }
+
+    fn acknowledge_alert<'a>(&'a self, id: &'a str, by: &'a str) -> StoreFuture<'a, Alert> {
+        Box::pin(async move {
+            sqlx::query(
+                "UPDATE alerts SET acknowledged_at = $2, acknowledged_by = $3 \
+                 WHERE id = $1 AND acknowledged_at IS NULL",
+            )
+            .bind(id)
+            .bind(now_rfc3339())
+            .bind(by)
+            .execute(&self.pool)
+            .await
+            .db()?;
+            self.get_alert(id).await
         })
     }
 

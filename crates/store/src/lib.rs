@@ -112,11 +112,52 @@ pub trait Store: Queue {
         by_um: bool,
         limit: usize,
     ) -> StoreFuture<'_, Vec<(FleetDriftRow, String, Option<String>)>>;
+    /// One page of the fleet ([`FleetPageQuery`]): machines with their drift rows and
+    /// active alert counts, filtered, sorted and counted by the database.
+    fn fleet_page<'a>(&'a self, q: &'a FleetPageQuery) -> StoreFuture<'a, FleetPage>;
     /// Inserts a result without a job run (an `import` job, born succeeded).
     fn import_result<'a>(&'a self, r: NewResult) -> StoreFuture<'a, ResultMeta>;
     /// Inserts many results (each with its `import` job) in one transaction: for seeding
     /// benchmarks and bulk imports.
     fn import_results_bulk<'a>(&'a self, results: &'a [NewResult]) -> StoreFuture<'a, ()>;
+
+    /// Jobs newest first (created_at, then seq), of one state or all, at most `limit`.
+    fn list_jobs<'a>(&'a self, state: Option<JobState>, limit: i64) -> StoreFuture<'a, Vec<Job>>;
+
+    // Tolerance profiles.
+    /// Stores a new profile; one per (scope, target): a second is a
+    /// [`StoreError::Conflict`] naming the first.
+    fn create_tolerance<'a>(&'a self, p: &'a ToleranceProfile)
+    -> StoreFuture<'a, ToleranceProfile>;
+    fn get_tolerance<'a>(&'a self, id: &'a str) -> StoreFuture<'a, ToleranceProfile>;
+    /// Every profile, by scope then target (profiles are few: one per machine or tag at
+    /// most).
+    fn list_tolerances(&self) -> StoreFuture<'_, Vec<ToleranceProfile>>;
+    /// Replaces a profile's limits and webhook.
+    fn update_tolerance<'a>(
+        &'a self,
+        id: &'a str,
+        limits: &'a serde_json::Value,
+        webhook_url: Option<&'a str>,
+    ) -> StoreFuture<'a, ToleranceProfile>;
+    fn delete_tolerance<'a>(&'a self, id: &'a str) -> StoreFuture<'a, ()>;
+
+    // Drift alerts.
+    /// Stores an alert unless its result already raised one; returns the stored alert
+    /// (`None`: the result had one, e.g. a job run twice).
+    fn raise_alert<'a>(&'a self, a: &'a Alert) -> StoreFuture<'a, Option<Alert>>;
+    fn get_alert<'a>(&'a self, id: &'a str) -> StoreFuture<'a, Alert>;
+    /// Alerts newest first, of one machine or all, active only (`Some(true)`),
+    /// acknowledged only (`Some(false)`) or both, at most `limit`.
+    fn list_alerts<'a>(
+        &'a self,
+        machine_id: Option<&'a str>,
+        active: Option<bool>,
+        limit: i64,
+    ) -> StoreFuture<'a, Vec<Alert>>;
+    /// Acknowledges an alert (recorded with `by` and the time); acknowledging an
+    /// acknowledged alert keeps the first record.
+    fn acknowledge_alert<'a>(&'a self, id: &'a str, by: &'a str) -> StoreFuture<'a, Alert>;
 
     // Keys.
     /// Creates a key; returns it with the secret, which is not stored.

@@ -271,6 +271,88 @@ pub struct FleetDriftRow {
     pub drift_urad: f64,
     /// The ranking's entry for the machine (ids, result count, drift, uncertainty).
     pub entry: serde_json::Value,
+    /// When the latest result was measured (the fleet page sorts by it).
+    #[serde(default)]
+    pub latest_measured_at: Option<String>,
+}
+
+/// The orders of the fleet page.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum FleetSort {
+    /// Largest drift in µm first.
+    DriftUm,
+    /// Largest drift in µrad first.
+    DriftUrad,
+    /// By machine id.
+    Name,
+    /// Most recent check first.
+    LastCheck,
+}
+
+/// One page of the fleet: machines filtered by site and tag, those with active alerts
+/// first, then in `sort` order.
+#[derive(Debug, Clone, PartialEq)]
+pub struct FleetPageQuery {
+    pub site: Option<String>,
+    pub tag: Option<String>,
+    pub sort: FleetSort,
+    pub offset: i64,
+    pub limit: i64,
+}
+
+/// A machine on the fleet page: its drift row (None before its first identification)
+/// and how many active alerts it has.
+#[derive(Debug, Clone, PartialEq)]
+pub struct FleetPageRow {
+    pub machine: Machine,
+    pub drift: Option<FleetDriftRow>,
+    pub active_alerts: i64,
+}
+
+/// A fleet page and how many machines match the filter in all.
+#[derive(Debug, Clone, PartialEq)]
+pub struct FleetPage {
+    pub rows: Vec<FleetPageRow>,
+    pub total: i64,
+    /// Every site and every tag of the fleet, sorted (the filters' choices).
+    pub sites: Vec<String>,
+    pub tags: Vec<String>,
+}
+
+/// A tolerance profile as stored: the limits a machine's results are judged against,
+/// for one machine (`scope` `machine`, `target` its id) or for every machine with a tag
+/// (`scope` `tag`, `target` the tag). `limits` is the JSON of the solver's
+/// `tolerance::Limits` (the service validates it); `webhook_url` (tag profiles) receives
+/// the drift alerts of the tag's machines.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct ToleranceProfile {
+    pub id: String,
+    pub scope: String,
+    pub target: String,
+    pub limits: Value,
+    pub webhook_url: Option<String>,
+    pub created_at: String,
+    pub updated_at: String,
+}
+
+/// A drift alert as stored: raised when `result_id` landed with a change since
+/// `baseline_result_id` beyond the drift threshold of `profile_id` by more than the
+/// expanded uncertainty. `items` is the JSON of the alerting verdict items. Active until
+/// acknowledged.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct Alert {
+    pub id: String,
+    pub machine_id: String,
+    pub result_id: String,
+    pub baseline_result_id: String,
+    pub profile_id: String,
+    pub raised_at: String,
+    /// One line saying what changed, by how much, against which threshold.
+    pub message: String,
+    pub items: Value,
+    pub acknowledged_at: Option<String>,
+    /// The key that acknowledged it (`key <id> (<label>)`).
+    pub acknowledged_by: Option<String>,
 }
 
 /// Row counts of every table (for tests and the admin view).

@@ -76,8 +76,13 @@ pub(crate) const DATASET_COLUMNS: &str =
 pub(crate) const KEY_COLUMNS: &str = "id, prefix, scope, label, created_at, revoked_at";
 
 pub(crate) fn machine(r: &impl Columns) -> Result<Machine> {
+    machine_as(r, "id")
+}
+
+/// A machine from a row whose id column is named `id_column` (a join).
+pub(crate) fn machine_as(r: &impl Columns, id_column: &str) -> Result<Machine> {
     Ok(Machine {
-        id: r.text("id")?,
+        id: r.text(id_column)?,
         name: r.text("name")?,
         topology: r.json("topology")?,
         travel_mm: r.json("travel_mm")?,
@@ -203,6 +208,54 @@ pub(crate) fn api_key(r: &impl Columns) -> Result<ApiKey> {
         label: r.text("label")?,
         created_at: r.text("created_at")?,
         revoked_at: r.opt_text("revoked_at")?,
+    })
+}
+
+/// A fleet drift row (columns `machine_id`, `read_at_ms`, `drift_um`, `drift_urad`,
+/// `entry`, `latest_measured_at`).
+pub(crate) fn fleet_drift(r: &impl Columns) -> Result<FleetDriftRow> {
+    Ok(FleetDriftRow {
+        machine_id: r.text("machine_id")?,
+        read_at_ms: r.int("read_at_ms")?,
+        drift_um: r.real("drift_um")?,
+        drift_urad: r.real("drift_urad")?,
+        entry: r.json("entry")?,
+        latest_measured_at: r.opt_text("latest_measured_at")?,
+    })
+}
+
+/// The columns of a tolerance profile, in [`tolerance`]'s order.
+pub(crate) const TOLERANCE_COLUMNS: &str =
+    "id, scope, target, limits, webhook_url, created_at, updated_at";
+
+pub(crate) fn tolerance(r: &impl Columns) -> Result<ToleranceProfile> {
+    Ok(ToleranceProfile {
+        id: r.text("id")?,
+        scope: r.text("scope")?,
+        target: r.text("target")?,
+        limits: r.json("limits")?,
+        webhook_url: r.opt_text("webhook_url")?,
+        created_at: r.text("created_at")?,
+        updated_at: r.text("updated_at")?,
+    })
+}
+
+/// The columns of an alert.
+pub(crate) const ALERT_COLUMNS: &str = "id, machine_id, result_id, baseline_result_id, \
+     profile_id, raised_at, message, items, acknowledged_at, acknowledged_by";
+
+pub(crate) fn alert(r: &impl Columns) -> Result<Alert> {
+    Ok(Alert {
+        id: r.text("id")?,
+        machine_id: r.text("machine_id")?,
+        result_id: r.text("result_id")?,
+        baseline_result_id: r.text("baseline_result_id")?,
+        profile_id: r.text("profile_id")?,
+        raised_at: r.text("raised_at")?,
+        message: r.text("message")?,
+        items: r.json("items")?,
+        acknowledged_at: r.opt_text("acknowledged_at")?,
+        acknowledged_by: r.opt_text("acknowledged_by")?,
     })
 }
 

@@ -63,6 +63,8 @@ stories!(
     a_released_job_is_claimable_at_once_without_spending_an_attempt,
     migrations_are_all_applied,
     fleet_drift_is_ranked_and_an_older_computation_never_replaces_a_newer,
+    tolerance_profiles_one_per_target_and_alerts_acknowledged_once,
+    fleet_page_puts_alerted_machines_first_then_filters_sorts_and_counts,
 );
 
 fn machine(id: &str) -> Machine {
@@ -550,6 +552,7 @@ async fn fleet_drift_is_ranked_and_an_older_computation_never_replaces_a_newer(s
         drift_um: um,
         drift_urad: urad,
         entry: serde_json::json!({"machine_id": id, "drift_um": um}),
+        latest_measured_at: Some(format!("2026-0{}-01T00:00:00Z", 1 + at % 9)),
     };
     assert!(s.put_fleet_drift(&row("M1", 10, 3.0, 1.0)).await.unwrap());
     assert!(s.put_fleet_drift(&row("M2", 10, 5.0, 0.5)).await.unwrap());
@@ -579,6 +582,315 @@ async fn fleet_drift_is_ranked_and_an_older_computation_never_replaces_a_newer(s
     assert_eq!(
         ids(s.fleet_drift_ranked(true, 10).await.unwrap()),
         ["M2", "M3"]
+    );
+}
+
+async fn tolerance_profiles_one_per_target_and_alerts_acknowledged_once(s: &dyn Store) {
+    s.create_machine(&machine("M1")).await.unwrap();
+    let profile = |id: &str, scope: &str, target: &str| ToleranceProfile {
+        id: id.into(),
+        scope: scope.into(),
+        target: target.into(),
+        limits: json!({"terms": {"EXX": 5.0}, "drift_um": 2.0}),
+        webhook_url: None,
+        created_at: String::new(),
+        updated_at: String::new(),
+    };
+    let p = s
+        .create_tolerance(&profile("tol_1", "machine", "M1"))
+        .await
+        .unwrap();
+    assert_eq!(p.limits["terms"]["EXX"], 5.0);
+    assert!(!p.created_at.is_empty());
+    s.create_tolerance(&profile("tol_2", "tag", "vmc"))
+        .await
+        .unwrap();
+    // One profile per (scope, target); the same target in the other scope is another.
+    let e = s
+        .create_tolerance(&profile("tol_3", "machine", "M1"))
+        .await
+        .unwrap_err();
+    assert!(
+        matches!(&e, StoreError::Conflict(m) if m.contains("machine M1")),
+        "{e}"
+    );
+    s.create_tolerance(&profile("tol_4", "tag", "M1"))
+        .await
+        .unwrap();
+    let all: Vec<(String, String)> = s
+        .list_tolerances()
+        .await
+        .unwrap()
+        .into_iter()
+        .map(|p| (p.scope, p.target))
+        .collect();
+    assert_eq!(
+        all,
+        [
+            ("machine".to_string(), "M1".to_string()),
+            ("tag".into(), "M1".into()),
+            ("tag".into(), "vmc".into())
+        ]
+    );
+    let u = s
+        .update_tolerance(
+            "tol_2",
+            &json!({"drift_um": 3.0}),
+            Some("http://127.0.0.1:9/hook"),
+        )
+        .await
+        .unwrap();
+    assert_eq!(u.limits, json!({"drift_um": 3.0}));
+    assert_eq!(u.webhook_url.as_deref(), Some("http://127.0.0.1:9/hook"));
+    assert!(matches!(
+        s.update_tolerance("nope", &json!({}), None).await,
+        Err(StoreError::NotFound(_))
+    ));
+    s.delete_tolerance("tol_4").await.unwrap();
+    assert!(matches!(
+        s.get_tolerance("tol_4").await,
+        Err(StoreError::NotFound(_))
+    ));
+    assert!(matches!(
+        s.delete_tolerance("tol_4").await,
+        Err(StoreError::NotFound(_))
+    ));
+
+    // Jobs newest first, filtered by state (the dashboard's jobs page).
+    let j1 = s.enqueue(new_job("M1")).await.unwrap();
+    let j2 = s.enqueue(new_job("M1")).await.unwrap();
+    s.cancel_job(&j1.id).await.unwrap();
+    let listed: Vec<String> = s
+        .list_jobs(None, 10)
+        .await
+        .unwrap()
+        .into_iter()
+        .map(|j| j.id)
+        .collect();
+    assert_eq!(listed, [j2.id.clone(), j1.id.clone()]);
+    let queued = s.list_jobs(Some(JobState::Queued), 10).await.unwrap();
+    assert_eq!(queued.len(), 1);
+    assert_eq!(queued[0].id, j2.id);
+    assert_eq!(s.list_jobs(None, 1).await.unwrap().len(), 1);
+
+    // Alerts: one per landed result; listed newest first; filtered; acknowledged once.
+    let r1 = s
+        .import_result(result("M1", "2026-01-01T00:00:00Z", 1.0))
+        .await
+        .unwrap();
+    let r2 = s
+        .import_result(result("M1", "2026-02-01T00:00:00Z", 9.0))
+        .await
+        .unwrap();
+    let alert = |id: &str, result: &str, at: &str| Alert {
+        id: id.into(),
+        machine_id: "M1".into(),
+        result_id: result.into(),
+        baseline_result_id: r1.id.clone(),
+        profile_id: "tol_1".into(),
+        raised_at: at.into(),
+        message: "EXX changed".into(),
+        items: json!([{"item": "EXX"}]),
+        acknowledged_at: None,
+        acknowledged_by: None,
+    };
+    let a1 = s
+        .raise_alert(&alert("al_1", &r1.id, "2026-03-01T00:00:00Z"))
+        .await
+        .unwrap()
+        .unwrap();
+    assert_eq!(a1.items[0]["item"], "EXX");
+    // The same result again (a job run twice) raises nothing more.
+    assert!(
+        s.raise_alert(&alert("al_x", &r1.id, "2026-03-02T00:00:00Z"))
+            .await
+            .unwrap()
+            .is_none()
+    );
+    s.raise_alert(&alert("al_2", &r2.id, "2026-03-03T00:00:00Z"))
+        .await
+        .unwrap()
+        .unwrap();
+    let ids = |v: Vec<Alert>| v.into_iter().map(|a| a.id).collect::<Vec<_>>();
+    assert_eq!(
+        ids(s.list_alerts(None, None, 10).await.unwrap()),
+        ["al_2", "al_1"]
+    );
+    assert_eq!(
+        ids(s.list_alerts(Some("M1"), None, 1).await.unwrap()),
+        ["al_2"]
+    );
+    assert!(
+        s.list_alerts(Some("M2"), None, 10)
+            .await
+            .unwrap()
+            .is_empty()
+    );
+    let acked = s.acknowledge_alert("al_1", "key k1 (ops)").await.unwrap();
+    assert_eq!(acked.acknowledged_by.as_deref(), Some("key k1 (ops)"));
+    let first = acked.acknowledged_at.clone().unwrap();
+    let again = s.acknowledge_alert("al_1", "key k2 (other)").await.unwrap();
+    assert_eq!(again.acknowledged_at.as_deref(), Some(first.as_str()));
+    assert_eq!(again.acknowledged_by.as_deref(), Some("key k1 (ops)"));
+    assert_eq!(
+        ids(s.list_alerts(None, Some(true), 10).await.unwrap()),
+        ["al_2"]
+    );
+    assert_eq!(
+        ids(s.list_alerts(Some("M1"), Some(false), 10).await.unwrap()),
+        ["al_1"]
+    );
+    assert!(matches!(
+        s.acknowledge_alert("nope", "x").await,
+        Err(StoreError::NotFound(_))
+    ));
+}
+
+async fn fleet_page_puts_alerted_machines_first_then_filters_sorts_and_counts(s: &dyn Store) {
+    let mk = |id: &str, site: &str, tags: &[&str]| Machine {
+        site: Some(site.into()),
+        tags: tags.iter().map(|t| t.to_string()).collect(),
+        ..machine(id)
+    };
+    s.create_machine(&mk("A", "north", &["vmc"])).await.unwrap();
+    s.create_machine(&mk("B", "north", &["5_axis"]))
+        .await
+        .unwrap();
+    s.create_machine(&mk("C", "south", &["vmc", "50%"]))
+        .await
+        .unwrap();
+    s.create_machine(&mk("D", "south", &["5xaxis"]))
+        .await
+        .unwrap();
+    let row = |id: &str, um: f64, urad: f64, at: &str| FleetDriftRow {
+        machine_id: id.into(),
+        read_at_ms: 1,
+        drift_um: um,
+        drift_urad: urad,
+        entry: json!({"machine_id": id}),
+        latest_measured_at: Some(at.into()),
+    };
+    s.put_fleet_drift(&row("A", 1.0, 9.0, "2026-03-01T00:00:00Z"))
+        .await
+        .unwrap();
+    s.put_fleet_drift(&row("B", 5.0, 1.0, "2026-01-01T00:00:00Z"))
+        .await
+        .unwrap();
+    s.put_fleet_drift(&row("C", 3.0, 2.0, "2026-02-01T00:00:00Z"))
+        .await
+        .unwrap();
+    // D has no check yet: no drift row, listed last by drift.
+    let q = |sort, site: Option<&str>, tag: Option<&str>| FleetPageQuery {
+        site: site.map(Into::into),
+        tag: tag.map(Into::into),
+        sort,
+        offset: 0,
+        limit: 10,
+    };
+    let ids = |p: &FleetPage| {
+        p.rows
+            .iter()
+            .map(|r| r.machine.id.clone())
+            .collect::<Vec<_>>()
+    };
+    let p = s
+        .fleet_page(&q(FleetSort::DriftUm, None, None))
+        .await
+        .unwrap();
+    assert_eq!(ids(&p), ["B", "C", "A", "D"]);
+    assert_eq!(p.total, 4);
+    assert_eq!(p.sites, ["north", "south"]);
+    assert_eq!(p.tags, ["50%", "5_axis", "5xaxis", "vmc"]);
+    assert!(p.rows[3].drift.is_none());
+    assert_eq!(p.rows[0].drift.as_ref().unwrap().drift_um, 5.0);
+    assert_eq!(
+        ids(&s
+            .fleet_page(&q(FleetSort::DriftUrad, None, None))
+            .await
+            .unwrap()),
+        ["A", "C", "B", "D"]
+    );
+    assert_eq!(
+        ids(&s
+            .fleet_page(&q(FleetSort::LastCheck, None, None))
+            .await
+            .unwrap()),
+        ["A", "C", "B", "D"]
+    );
+    assert_eq!(
+        ids(&s.fleet_page(&q(FleetSort::Name, None, None)).await.unwrap()),
+        ["A", "B", "C", "D"]
+    );
+    // Filters: site; tag matched whole, LIKE's wildcards taken literally.
+    let p = s
+        .fleet_page(&q(FleetSort::DriftUm, Some("south"), None))
+        .await
+        .unwrap();
+    assert_eq!((ids(&p), p.total), (vec!["C".to_string(), "D".into()], 2));
+    assert_eq!(
+        ids(&s
+            .fleet_page(&q(FleetSort::Name, None, Some("vmc")))
+            .await
+            .unwrap()),
+        ["A", "C"]
+    );
+    assert_eq!(
+        ids(&s
+            .fleet_page(&q(FleetSort::Name, None, Some("5_axis")))
+            .await
+            .unwrap()),
+        ["B"]
+    );
+    assert_eq!(
+        ids(&s
+            .fleet_page(&q(FleetSort::Name, None, Some("50%")))
+            .await
+            .unwrap()),
+        ["C"]
+    );
+    assert!(
+        s.fleet_page(&q(FleetSort::Name, None, Some("vm")))
+            .await
+            .unwrap()
+            .rows
+            .is_empty()
+    );
+    // A machine with an active alert comes first; an acknowledged one does not count.
+    let r = s
+        .import_result(result("A", "2026-03-01T00:00:00Z", 1.0))
+        .await
+        .unwrap();
+    let alert = |id: &str| Alert {
+        id: id.into(),
+        machine_id: "A".into(),
+        result_id: r.id.clone(),
+        baseline_result_id: r.id.clone(),
+        profile_id: "p".into(),
+        raised_at: "2026-03-02T00:00:00Z".into(),
+        message: "m".into(),
+        items: json!([]),
+        acknowledged_at: None,
+        acknowledged_by: None,
+    };
+    s.raise_alert(&alert("al_1")).await.unwrap();
+    let p = s
+        .fleet_page(&q(FleetSort::DriftUm, None, None))
+        .await
+        .unwrap();
+    assert_eq!(ids(&p), ["A", "B", "C", "D"]);
+    assert_eq!(p.rows[0].active_alerts, 1);
+    // Paging.
+    let mut page2 = q(FleetSort::DriftUm, None, None);
+    (page2.offset, page2.limit) = (1, 2);
+    let p = s.fleet_page(&page2).await.unwrap();
+    assert_eq!((ids(&p), p.total), (vec!["B".to_string(), "C".into()], 4));
+    s.acknowledge_alert("al_1", "x").await.unwrap();
+    assert_eq!(
+        ids(&s
+            .fleet_page(&q(FleetSort::DriftUm, None, None))
+            .await
+            .unwrap()),
+        ["B", "C", "A", "D"]
     );
 }
 

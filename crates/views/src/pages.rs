@@ -8,6 +8,7 @@
 
 use maud::{DOCTYPE, Markup, PreEscaped, html};
 
+pub mod alerts;
 pub mod compare;
 pub mod fleet;
 pub mod jobs;
@@ -45,6 +46,7 @@ pub fn csrf_field(token: &str) -> Markup {
 pub enum Nav {
     Fleet,
     Jobs,
+    Alerts,
     Other,
 }
 
@@ -68,6 +70,7 @@ pub fn page(title: &str, nav: Nav, viewer: Option<&Viewer>, body: Markup) -> Mar
                         nav {
                             a href="/" class=[(nav == Nav::Fleet).then_some("active")] { "Fleet" }
                             a href="/jobs" class=[(nav == Nav::Jobs).then_some("active")] { "Jobs" }
+                            a href="/alerts" class=[(nav == Nav::Alerts).then_some("active")] { "Alerts" }
                             a href="/docs" { "API" }
                         }
                         div.who {

@@ -141,3 +141,45 @@ pub async fn cancel(
 ) -> Result<Json<Job>, ApiError> {
     Ok(Json(s.store.cancel_job(&id).await?))
 }
+
+/// Most jobs one list returns.
+pub const MAX_JOBS: usize = 1000;
+
+#[derive(Debug, Default, Deserialize, utoipa::IntoParams)]
+#[into_params(parameter_in = Query)]
+pub struct JobListQuery {
+    /// Only jobs in this state: `queued`, `running`, `succeeded`, `failed`, `cancelled`.
+    pub state: Option<String>,
+    /// At most this many, newest first (default 100, at most 1000).
+    pub limit: Option<usize>,
+}
+
+/// Jobs newest first (`GET /api/v1/jobs`; the dashboard's jobs page too).
+pub async fn list_jobs(s: &AppState, q: &JobListQuery) -> Result<Vec<Job>, ApiError> {
+    let state = match q.state.as_deref().filter(|v| !v.is_empty()) {
+        None => None,
+        Some(v) => Some(JobState::parse(v).ok_or_else(|| {
+            ApiError::InvalidRequest(format!(
+                "state: queued, running, succeeded, failed or cancelled, got {v:?}"
+            ))
+        })?),
+    };
+    let limit = q.limit.unwrap_or(100);
+    if limit == 0 || limit > MAX_JOBS {
+        return Err(ApiError::InvalidRequest(format!(
+            "limit: 1 to {MAX_JOBS}, got {limit}"
+        )));
+    }
+    Ok(s.store.list_jobs(state, limit as i64).await?)
+}
+
+#[utoipa::path(operation_id = "jobs_list", summary = "Jobs, newest first (by state)", get, path = "/api/v1/jobs", tag = "jobs",
+    security(("api_key" = [])), params(JobListQuery),
+    responses((status = 200, body = Vec<Job>), (status = 400, body = ErrorBody), (status = 401, body = ErrorBody)))]
+pub async fn list(
+    _key: ReadKey,
+    State(s): State<AppState>,
+    crate::error::ApiQuery(q): crate::error::ApiQuery<JobListQuery>,
+) -> Result<Json<Vec<Job>>, ApiError> {
+    Ok(Json(list_jobs(&s, &q).await?))
+}

@@ -1,10 +1,12 @@
 //! Handlers, one module per resource.
 
+pub mod alerts;
 pub mod datasets;
 pub mod history;
 pub mod jobs;
 pub mod keys;
 pub mod machines;
+pub mod tolerances;
 pub mod trends;
 
 use crate::AppState;

@@ -269,6 +269,18 @@ pub struct FleetEntry {
     pub results: i64,
     #[serde(flatten)]
     pub drift: Drift,
+    /// The latest result's verdict against the machine's tolerance profile (null: no
+    /// profile applies, or none of its limits applies to the result).
+    #[serde(default)]
+    pub verdict: Option<mtcal_solver::tolerance::Decision>,
+    /// The tolerance profile the verdict is against.
+    #[serde(default)]
+    pub tolerance_profile_id: Option<String>,
+    /// The worst µm term's value in each check, in time order, at the end of the latest
+    /// check's measured travel where it changed more (null: not identified or not
+    /// measured there); the fleet page's sparkline.
+    #[serde(default)]
+    pub sparkline: Vec<Option<f64>>,
 }
 
 #[derive(Debug, Clone, Serialize, Deserialize, ToSchema)]
@@ -290,8 +302,12 @@ pub async fn fleet(
     Ok(Json(fleet_drift(&s, q).await?))
 }
 
-/// The fleet ranked by drift (`GET /api/v1/fleet/drift`; the dashboard's fleet page
-/// too).
+/// How drift is measured, in words (the fleet route and page say it).
+pub const DRIFT_DEFINITION: &str = "largest change since the baseline result (the machine's \
+     chosen baseline, else its first) of any term over 41 points of the travel both checks \
+     measured, with its standard uncertainty there";
+
+/// The fleet ranked by drift (`GET /api/v1/fleet/drift`).
 pub async fn fleet_drift(s: &AppState, q: FleetQuery) -> Result<FleetDrift, ApiError> {
     let by = q.by.unwrap_or_else(|| "um".into());
     if by != "um" && by != "urad" {
@@ -313,10 +329,7 @@ pub async fn fleet_drift(s: &AppState, q: FleetQuery) -> Result<FleetDrift, ApiE
         })
         .collect::<Result<_, ApiError>>()?;
     Ok(FleetDrift {
-        definition: "largest change since the baseline result (the machine's chosen baseline, \
-                     else its first) of any term over 41 points of the travel both checks \
-                     measured, with its standard uncertainty there"
-            .into(),
+        definition: DRIFT_DEFINITION.into(),
         ranked_by: by,
         machines,
     })

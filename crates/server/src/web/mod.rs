@@ -1,5 +1,5 @@
 //! The dashboard: server-rendered pages (crates/views) at `/`, `/machines/{id}`,
-//! `/results/{id}`, `/compare?a=&b=`, `/jobs`, `/signin`, `/signout` and the vendored
+//! `/results/{id}`, `/compare?a=&b=`, `/jobs`, `/alerts`, `/signin`, `/signout` and the vendored
 //! assets at `/static/*`.
 //!
 //! Every page is rendered from the same functions that back the documented API routes
@@ -88,6 +88,9 @@ pub fn router(app: AppState) -> Router {
         .route("/machines/{id}/baseline", post(pages::set_baseline))
         .route("/results/{id}", get(pages::result))
         .route("/compare", get(pages::compare))
+        .route("/alerts", get(pages::alerts))
+        .route("/alerts/{id}/ack", post(pages::ack_alert))
+        .route("/jobs", get(pages::jobs))
         .route("/jobs/{file}", get(pages::job_json))
         .route("/signin", get(signin_form).post(signin))
         .route("/signout", post(signout))
@@ -122,7 +125,7 @@ struct NextQuery {
 }
 
 /// Where to go after signing in: a path of this site only (no `//host`, no scheme).
-fn local_path(next: Option<&str>) -> String {
+pub(crate) fn local_path(next: Option<&str>) -> String {
     match next {
         Some(n) if n.starts_with('/') && !n.starts_with("//") && !n.contains('\\') => n.into(),
         _ => "/".into(),

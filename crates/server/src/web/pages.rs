@@ -4,16 +4,22 @@
 use super::session::{Session, WebState};
 use super::{PageResult, WebError, html};
 use crate::AppState;
+use crate::alerts::AlertView;
+use crate::api::alerts::AlertQuery;
 use crate::api::history::{self, DiffQuery, KIND};
 use crate::api::jobs::{self as api_jobs, SubmitJob};
-use crate::api::trends::{self as api_trends, FleetQuery, TermQuery};
+use crate::api::trends::{self as api_trends, TermQuery};
 use crate::error::ApiError;
 use crate::jobs::JobKind;
 use axum::Json;
 use axum::extract::{Form, FromRequest, Multipart, Path, Query, Request, State};
 use axum::response::{IntoResponse, Redirect};
 use mtcal_solver::identification::IdentificationResult;
-use mtcal_store::{Job, Machine, MachinePatch, ResultMeta, StoredResult};
+use mtcal_solver::tolerance::Verdict;
+use mtcal_store::{
+    FleetPageQuery, FleetSort, Job, Machine, MachinePatch, ResultMeta, StoredResult,
+};
+use mtcal_views::pages::alerts::{self as valerts, AlertRow};
 use mtcal_views::pages::{
     self as views, compare, fleet as vfleet, jobs as vjobs, machine as vmachine, result as vresult,
 };
@@ -23,9 +29,8 @@ use serde::Deserialize;
 /// Result kinds shown on a machine page, in this order.
 const KINDS: [&str; 4] = ["identification", "diagnosis", "cradle", "sensitivity"];
 
-/// Machines listed at most on the fleet page, and how many get a sparkline.
-const FLEET_LIMIT: usize = 10_000;
-const SPARKLINES: usize = 200;
+/// Machines per fleet page.
+pub const FLEET_PAGE_ROWS: usize = 100;
 
 fn job_row(j: &Job) -> vjobs::JobRow {
     vjobs::JobRow {
@@ -42,20 +47,51 @@ fn job_row(j: &Job) -> vjobs::JobRow {
     }
 }
 
-/// Every machine of the store (the machine list route, page by page).
-async fn all_machines(s: &AppState) -> Result<Vec<Machine>, ApiError> {
-    let mut out: Vec<Machine> = vec![];
-    loop {
-        let page = s
-            .store
-            .list_machines(out.last().map(|m| m.id.as_str()), 1000)
-            .await?;
-        let done = page.len() < 1000;
-        out.extend(page);
-        if done || out.len() >= FLEET_LIMIT {
-            return Ok(out);
-        }
+fn alert_row(a: &AlertView) -> AlertRow {
+    AlertRow {
+        id: a.id.clone(),
+        machine_id: a.machine_id.clone(),
+        result_id: a.result_id.clone(),
+        raised_at: a.raised_at.clone(),
+        message: a.message.clone(),
+        acknowledged: !a.active,
+        acknowledged_at: a.acknowledged_at.clone(),
+        acknowledged_by: a.acknowledged_by.clone(),
     }
+}
+
+/// The verdict table's rows of a verdict (an undetermined item shows no value).
+fn verdict_rows(v: &Verdict) -> Vec<vresult::VerdictRow> {
+    v.items
+        .iter()
+        .map(|i| vresult::VerdictRow {
+            quantity: i.item.clone(),
+            at: match (i.position_mm, i.travel_mm) {
+                (Some(q), Some([lo, hi])) => format!(
+                    "at {} mm (checked over {}…{} mm)",
+                    views::num(q),
+                    views::num(lo),
+                    views::num(hi)
+                ),
+                _ if i.value.is_none() => i.reason.clone(),
+                _ => String::new(),
+            },
+            value: i.value.unwrap_or(f64::NAN),
+            std: i.u,
+            limit: i.limit,
+            unit: i.unit.clone(),
+            outcome: i.decision.as_str().into(),
+        })
+        .collect()
+}
+
+/// The overall verdict of result `id` as a badge word (None: no profile or no limit
+/// applies).
+async fn verdict_word(app: &AppState, id: &str) -> Result<Option<String>, ApiError> {
+    let v = crate::api::tolerances::result_verdict(app, id).await?;
+    Ok(v.verdict
+        .and_then(|v| v.decision)
+        .map(|d| d.as_str().to_string()))
 }
 
 /// The baseline of a machine: its chosen one, else its first identification.
@@ -70,137 +106,116 @@ pub struct FleetParams {
     site: Option<String>,
     tag: Option<String>,
     sort: Option<String>,
+    /// 1-based.
+    page: Option<usize>,
 }
 
-/// `/`: the fleet.
+/// `/`: the fleet, one page of [`FLEET_PAGE_ROWS`] machines: those with active alerts
+/// first, then in the order chosen; filtered, sorted and counted by the database from the
+/// maintained rows (drift, verdict, sparkline: `crate::fleet`), so that a page costs the
+/// same at 10 000 machines as at 10.
 pub async fn fleet(
     session: Session,
     State(s): State<WebState>,
     Query(q): Query<FleetParams>,
 ) -> PageResult {
     let app = &s.app;
-    let ranked = api_trends::fleet_drift(
+    let site = q.site.filter(|v| !v.is_empty());
+    let tag = q.tag.filter(|v| !v.is_empty());
+    let sort = q.sort.unwrap_or_else(|| "drift".into());
+    let order = match sort.as_str() {
+        "drift" => FleetSort::DriftUm,
+        "drift_urad" => FleetSort::DriftUrad,
+        "name" => FleetSort::Name,
+        "last_check" => FleetSort::LastCheck,
+        other => {
+            return Err(WebError(ApiError::InvalidRequest(format!(
+                "sort: drift, drift_urad, name or last_check, got {other:?}"
+            ))));
+        }
+    };
+    let page_no = q.page.unwrap_or(1).max(1);
+    let found = app
+        .store
+        .fleet_page(&FleetPageQuery {
+            site: site.clone(),
+            tag: tag.clone(),
+            sort: order,
+            offset: ((page_no - 1) * FLEET_PAGE_ROWS) as i64,
+            limit: FLEET_PAGE_ROWS as i64,
+        })
+        .await?;
+    let alerts = crate::api::alerts::list_alerts(
         app,
-        FleetQuery {
-            by: Some("um".into()),
-            limit: Some(FLEET_LIMIT),
+        &AlertQuery {
+            active: Some(true),
+            limit: Some(crate::api::alerts::MAX_ALERTS),
+            ..AlertQuery::default()
         },
     )
     .await?;
-    let machines = all_machines(app).await?;
-    let site = q.site.filter(|v| !v.is_empty());
-    let tag = q.tag.filter(|v| !v.is_empty());
-    let mut sites: Vec<String> = machines.iter().filter_map(|m| m.site.clone()).collect();
-    sites.sort();
-    sites.dedup();
-    let mut tags: Vec<String> = machines.iter().flat_map(|m| m.tags.clone()).collect();
-    tags.sort();
-    tags.dedup();
-    let mut rows = vec![];
-    for m in machines.iter().filter(|m| {
-        site.as_ref().is_none_or(|s| m.site.as_ref() == Some(s))
-            && tag.as_ref().is_none_or(|t| m.tags.contains(t))
-    }) {
-        let entry = ranked.machines.iter().find(|e| e.machine_id == m.id);
-        let drift = |value: f64, unit: &str, term: &Option<String>| vfleet::Drift {
-            value,
-            std: None,
-            unit: unit.into(),
-            term: term.clone(),
-            at_mm: None,
-        };
-        rows.push(vfleet::FleetRow {
-            machine_id: m.id.clone(),
-            name: m.name.clone(),
-            site: m.site.clone(),
-            tags: m.tags.clone(),
-            last_check: entry.map(|e| (e.latest_result_id.clone(), e.latest_measured_at.clone())),
-            verdict: None,
-            drift_um: entry.map(|e| drift(e.drift.drift_um, "um", &e.drift.worst_term_um)),
-            drift_urad: entry.map(|e| drift(e.drift.drift_urad, "urad", &e.drift.worst_term_urad)),
-            worst_trend: vec![],
-            active_alerts: 0,
-        });
-    }
-    let sort = q.sort.unwrap_or_else(|| "drift".into());
-    let key = |r: &vfleet::FleetRow, urad: bool| {
-        let d = if urad { &r.drift_urad } else { &r.drift_um };
-        d.as_ref().map_or(f64::NEG_INFINITY, |d| d.value)
+    let drift = |value: f64, std: Option<f64>, unit: &str, term: &Option<String>| vfleet::Drift {
+        value,
+        std,
+        unit: unit.into(),
+        term: term.clone(),
+        at_mm: None,
     };
-    match sort.as_str() {
-        "name" => rows.sort_by(|a, b| a.machine_id.cmp(&b.machine_id)),
-        "last_check" => rows.sort_by(|a, b| {
-            b.last_check
-                .as_ref()
-                .map(|c| &c.1)
-                .cmp(&a.last_check.as_ref().map(|c| &c.1))
-        }),
-        s => {
-            let urad = s == "drift_urad";
-            rows.sort_by(|a, b| key(b, urad).total_cmp(&key(a, urad)));
-        }
-    }
-    // Machines with active alerts first (stable: the chosen order within).
-    rows.sort_by_key(|r| r.active_alerts == 0);
-    for r in rows.iter_mut().take(SPARKLINES) {
-        r.worst_trend = worst_trend(app, r).await?;
-    }
+    let rows = found
+        .rows
+        .iter()
+        .map(|r| {
+            let m = &r.machine;
+            // A row written by an older version reads without the newer fields.
+            let entry = r.drift.as_ref().and_then(|d| {
+                serde_json::from_value::<api_trends::FleetEntry>(d.entry.clone()).ok()
+            });
+            let e = entry.as_ref();
+            vfleet::FleetRow {
+                machine_id: m.id.clone(),
+                name: m.name.clone(),
+                site: m.site.clone(),
+                tags: m.tags.clone(),
+                last_check: e.map(|e| (e.latest_result_id.clone(), e.latest_measured_at.clone())),
+                verdict: e.and_then(|e| e.verdict).map(|d| d.as_str().to_string()),
+                drift_um: e.map(|e| {
+                    drift(
+                        e.drift.drift_um,
+                        e.drift.drift_um_u,
+                        "um",
+                        &e.drift.worst_term_um,
+                    )
+                }),
+                drift_urad: e.map(|e| {
+                    drift(
+                        e.drift.drift_urad,
+                        e.drift.drift_urad_u,
+                        "urad",
+                        &e.drift.worst_term_urad,
+                    )
+                }),
+                worst_trend: e
+                    .map(|e| e.sparkline.iter().map(|v| v.unwrap_or(f64::NAN)).collect())
+                    .unwrap_or_default(),
+                active_alerts: r.active_alerts.max(0) as usize,
+            }
+        })
+        .collect();
+    let total = found.total.max(0) as usize;
     let page = vfleet::FleetPage {
         rows,
-        alerts: vec![],
-        sites,
-        tags,
+        alerts: alerts.iter().map(alert_row).collect(),
+        sites: found.sites,
+        tags: found.tags,
         site,
         tag,
         sort,
-        definition: ranked.definition,
+        definition: api_trends::DRIFT_DEFINITION.into(),
+        total,
+        page: page_no,
+        pages: total.div_ceil(FLEET_PAGE_ROWS).max(1),
     };
     Ok(html(vfleet::fleet_page(&session.viewer(), &page)))
-}
-
-/// The worst term's values over the checks, at the end of the latest check's measured
-/// travel where it changed most (the term trend route).
-async fn worst_trend(app: &AppState, r: &vfleet::FleetRow) -> Result<Vec<f64>, ApiError> {
-    let Some(term) = r.drift_um.as_ref().and_then(|d| d.term.clone()) else {
-        return Ok(vec![]);
-    };
-    let Some((_, axis)) = crate::trends::term_info(&term) else {
-        return Ok(vec![]);
-    };
-    let results = app
-        .store
-        .list_results(&r.machine_id, "identification")
-        .await?;
-    let Some([lo, hi]) = results
-        .last()
-        .and_then(|l| crate::trends::measured(&l.scalars, axis))
-    else {
-        return Ok(vec![]);
-    };
-    let t = api_trends::term_trend(
-        app,
-        &r.machine_id,
-        TermQuery {
-            term,
-            at: format!("{lo},{hi}"),
-        },
-    )
-    .await?;
-    let column = |i: usize| -> Vec<f64> {
-        t.points
-            .iter()
-            .map(|p| p.values[i].unwrap_or(f64::NAN))
-            .collect()
-    };
-    let change = |v: &[f64]| {
-        let f: Vec<f64> = v.iter().copied().filter(|x| x.is_finite()).collect();
-        match (f.first(), f.last()) {
-            (Some(a), Some(b)) => (b - a).abs(),
-            _ => 0.0,
-        }
-    };
-    let (a, b) = (column(0), column(1));
-    Ok(if change(&b) > change(&a) { b } else { a })
 }
 
 #[derive(Debug, Deserialize, Default)]
@@ -266,17 +281,39 @@ pub async fn machine(
             .cmp(&a.measured_at)
             .then(b.created_at.cmp(&a.created_at))
     });
-    let checks = checks
-        .iter()
-        .map(|r| vmachine::CheckRow {
+    let profiles = app.store.list_tolerances().await?;
+    let tolerance = crate::tolerances::applicable(&profiles, &m)
+        .map(|p| format!("{} {} ({})", p.scope, p.target, p.id));
+    let mut rows = Vec::with_capacity(checks.len());
+    for r in &checks {
+        // Each identification's document is read only when a profile applies.
+        let verdict = if tolerance.is_some() && r.kind == KIND {
+            let stored = app.store.get_result(&r.id).await?;
+            crate::tolerances::verdict(app.store.as_ref(), &profiles, &m, &stored)
+                .await?
+                .and_then(|(_, v)| v.decision)
+                .map(|d| d.as_str().to_string())
+        } else {
+            None
+        };
+        rows.push(vmachine::CheckRow {
             result_id: r.id.clone(),
             kind: r.kind.clone(),
             measured_at: r.measured_at.clone(),
-            verdict: None,
+            verdict,
             summary: summary(r),
             is_baseline: baseline.as_deref() == Some(r.id.as_str()),
-        })
-        .collect();
+        });
+    }
+    let checks = rows;
+    let alerts = crate::api::alerts::list_alerts(
+        app,
+        &AlertQuery {
+            machine: Some(id.clone()),
+            ..AlertQuery::default()
+        },
+    )
+    .await?;
     let latest = match identifications.last() {
         Some(r) => serde_json::from_value::<IdentificationResult>(
             app.store.get_result(&r.id).await?.document,
@@ -390,6 +427,8 @@ pub async fn machine(
         squareness,
         jobs,
         notice: q.notice,
+        alerts: alerts.iter().map(alert_row).collect(),
+        tolerance,
     };
     Ok(html(vmachine::machine_page(&session.viewer(), &page)))
 }
@@ -458,6 +497,12 @@ pub async fn result(
     let r = app.store.get_result(&id).await?;
     let m = app.store.get_machine(&r.meta.machine_id).await?;
     let ids = history::results(app, &m.id, None).await?;
+    let verdict = crate::api::tolerances::result_verdict(app, &id).await?;
+    let verdict_table = verdict
+        .verdict
+        .as_ref()
+        .map(verdict_rows)
+        .unwrap_or_default();
     let header = vresult::ResultHeader {
         id: r.meta.id.clone(),
         machine_id: r.meta.machine_id.clone(),
@@ -466,7 +511,11 @@ pub async fn result(
         created_at: r.meta.created_at.clone(),
         dataset_id: r.meta.dataset_id.clone(),
         is_baseline: r.meta.kind == KIND && baseline_of(&m, &ids).as_deref() == Some(id.as_str()),
-        verdict: None,
+        verdict: verdict
+            .verdict
+            .as_ref()
+            .and_then(|v| v.decision)
+            .map(|d| d.as_str().to_string()),
     };
     let doc = &r.document;
     let viewer = session.viewer();
@@ -483,19 +532,34 @@ pub async fn result(
                 residuals: &residuals,
                 travel: &travel,
             });
-            vresult::result_page(&viewer, &header, &[], &body)
+            vresult::result_page(&viewer, &header, &verdict_table, &body)
         }
         "diagnosis" => {
             let d = serde_json::from_value(doc.clone()).map_err(|e| bad_document(&r, e))?;
-            vresult::result_page(&viewer, &header, &[], &vresult::ResultBody::Diagnosis(&d))
+            vresult::result_page(
+                &viewer,
+                &header,
+                &verdict_table,
+                &vresult::ResultBody::Diagnosis(&d),
+            )
         }
         "cradle" => {
             let d = serde_json::from_value(doc.clone()).map_err(|e| bad_document(&r, e))?;
-            vresult::result_page(&viewer, &header, &[], &vresult::ResultBody::Cradle(&d))
+            vresult::result_page(
+                &viewer,
+                &header,
+                &verdict_table,
+                &vresult::ResultBody::Cradle(&d),
+            )
         }
         "sensitivity" => {
             let d = serde_json::from_value(doc.clone()).map_err(|e| bad_document(&r, e))?;
-            vresult::result_page(&viewer, &header, &[], &vresult::ResultBody::Sensitivity(&d))
+            vresult::result_page(
+                &viewer,
+                &header,
+                &verdict_table,
+                &vresult::ResultBody::Sensitivity(&d),
+            )
         }
         other => {
             return Err(WebError(ApiError::NotFound(format!(
@@ -530,12 +594,16 @@ pub async fn compare(
         },
     )
     .await?;
-    let side = |r: &ResultMeta| compare::Side {
+    let (va, vb) = (
+        verdict_word(app, &d.baseline.id).await?,
+        verdict_word(app, &d.against.id).await?,
+    );
+    let side = |r: &ResultMeta, verdict: Option<String>| compare::Side {
         result_id: r.id.clone(),
         measured_at: r.measured_at.clone(),
         residual_rms_um: r.scalars.residual_rms_um,
         rank: r.scalars.rank,
-        verdict: None,
+        verdict,
     };
     let sq = |r: &ResultMeta, name: &str| match name {
         "EC0Y" => r.scalars.ec0y_urad,
@@ -544,8 +612,8 @@ pub async fn compare(
     };
     let page = compare::ComparePage {
         machine_id: d.machine_id.clone(),
-        a: side(&d.baseline),
-        b: side(&d.against),
+        a: side(&d.baseline, va),
+        b: side(&d.against, vb),
         terms: d
             .terms
             .iter()
@@ -661,4 +729,90 @@ pub async fn upload(
         views::encode(&ids.join(","))
     ))
     .into_response())
+}
+
+#[derive(Debug, Deserialize, Default)]
+pub struct AlertsParams {
+    machine: Option<String>,
+    /// `active` (default), `acknowledged` or `all`.
+    state: Option<String>,
+}
+
+/// `/alerts`: the alert list route.
+pub async fn alerts(
+    session: Session,
+    State(s): State<WebState>,
+    Query(q): Query<AlertsParams>,
+) -> PageResult {
+    let machine = q.machine.filter(|m| !m.trim().is_empty());
+    let state = q.state.unwrap_or_else(|| "active".into());
+    let active = match state.as_str() {
+        "active" => Some(true),
+        "acknowledged" => Some(false),
+        "all" => None,
+        other => {
+            return Err(WebError(ApiError::InvalidRequest(format!(
+                "state: active, acknowledged or all, got {other:?}"
+            ))));
+        }
+    };
+    let list = crate::api::alerts::list_alerts(
+        &s.app,
+        &AlertQuery {
+            machine: machine.clone(),
+            active,
+            limit: Some(crate::api::alerts::MAX_ALERTS),
+        },
+    )
+    .await?;
+    let page = valerts::AlertsPage {
+        alerts: list.iter().map(alert_row).collect(),
+        machine,
+        state,
+    };
+    Ok(html(valerts::alerts_page(&session.viewer(), &page)))
+}
+
+#[derive(Debug, Deserialize)]
+pub struct AckForm {
+    csrf: String,
+    next: Option<String>,
+}
+
+/// `POST /alerts/{id}/ack`: the acknowledge route of the API, then back to `next`.
+pub async fn ack_alert(
+    session: Session,
+    State(s): State<WebState>,
+    Path(id): Path<String>,
+    Form(f): Form<AckForm>,
+) -> PageResult {
+    session.check_csrf(&f.csrf)?;
+    session.require_write()?;
+    let by = format!("key {} ({})", session.key.id, session.key.label);
+    crate::api::alerts::acknowledge(&s.app, &id, &by).await?;
+    Ok(Redirect::to(&super::local_path(f.next.as_deref())).into_response())
+}
+
+#[derive(Debug, Deserialize, Default)]
+pub struct JobsParams {
+    state: Option<String>,
+}
+
+/// `/jobs`: the job list route (newest first, by state).
+pub async fn jobs(
+    session: Session,
+    State(s): State<WebState>,
+    Query(q): Query<JobsParams>,
+) -> PageResult {
+    let state = q.state.unwrap_or_default();
+    let list = api_jobs::list_jobs(
+        &s.app,
+        &api_jobs::JobListQuery {
+            state: Some(state.clone()),
+            limit: Some(api_jobs::MAX_JOBS),
+        },
+    )
+    .await?;
+    let rows: Vec<vjobs::JobRow> = list.iter().map(job_row).collect();
+    Ok(html(vjobs::jobs_page(&session.viewer(), &rows, &state)))
 }

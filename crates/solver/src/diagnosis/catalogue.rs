@@ -19,7 +19,6 @@
 use super::design::{Design, SampleMeta};
 use super::linalg::Cols;
 use crate::axis::Axis;
-use crate::basis::legendre;
 use std::f64::consts::PI;
 
 /// One candidate: an effect on an axis/direction (or a head-offset group).
@@ -210,46 +209,98 @@ pub fn search(d: &Design, c: &Candidate) -> Search {
     }
 }
 
-/// Columns of a candidate at nonlinear value `theta` (ignored when it has none), with the
-/// names (and units) of their coefficients and each column's largest |value| before
-/// centring. `eps` is Σ_k ε_k(q_k) (µrad) per sample, for setup_offset.
-pub fn columns(
-    d: &Design,
+/// The columns of a candidate: their coefficients' names (with units), the reading axis
+/// of each (its values are nonzero only on rows read along it; `None`: every row), and
+/// `fill(sample, meta, reading axis, out)` writing every column's value at a row (entries
+/// of columns along another axis are then set to 0). The design centres them per (run,
+/// direction) like the rigid columns.
+pub struct Columns<'a> {
+    pub names: Vec<String>,
+    pub axes: Vec<Option<Axis>>,
+    #[allow(clippy::type_complexity)]
+    fill: Box<dyn Fn(usize, &SampleMeta, Axis, &mut [f64]) + 'a>,
+    /// Per reading axis: whether some column can be nonzero on its rows.
+    active: [bool; 3],
+}
+
+impl<'a> Columns<'a> {
+    fn new(
+        names: Vec<String>,
+        axes: Vec<Option<Axis>>,
+        fill: impl Fn(usize, &SampleMeta, Axis, &mut [f64]) + 'a,
+    ) -> Self {
+        let active = [0, 1, 2].map(|i| axes.iter().any(|a| a.is_none_or(|a| a.index() == i)));
+        Columns {
+            names,
+            axes,
+            fill: Box::new(fill),
+            active,
+        }
+    }
+
+    fn none() -> Self {
+        Columns::new(Vec::new(), Vec::new(), |_, _, _, _| {})
+    }
+
+    pub fn len(&self) -> usize {
+        self.names.len()
+    }
+
+    pub fn is_empty(&self) -> bool {
+        self.names.is_empty()
+    }
+
+    /// The values of every column at row `row` of the design.
+    #[inline]
+    pub fn at(&self, d: &Design, row: usize, out: &mut [f64]) {
+        let read = d.row_axis(row);
+        if !self.active[read.index()] {
+            out.iter_mut().for_each(|v| *v = 0.0);
+            return;
+        }
+        (self.fill)(row / 2, &d.samples[row / 2], read, out);
+        for (o, a) in out.iter_mut().zip(&self.axes) {
+            if a.is_some_and(|a| a != read) {
+                *o = 0.0;
+            }
+        }
+    }
+}
+
+/// The columns of a candidate at nonlinear value `theta` (ignored when it has none).
+/// `eps` is Σ_k ε_k(q_k) (µrad) per sample, for setup_offset.
+pub fn specs<'a>(
+    d: &'a Design,
     c: &Candidate,
     theta: f64,
-    eps: Option<&[[f64; 3]]>,
-) -> (Cols, Vec<String>, Vec<f64>) {
-    let mut cols = Vec::new();
-    let mut names = Vec::new();
-    let mut peaks = Vec::new();
-    let mut push = |axis: Axis, name: String, f: &dyn Fn(&SampleMeta) -> f64| {
-        let (col, peak) = d.effect_column_peak(axis, f);
-        if col.iter().any(|v| v.abs() > 1e-12) {
-            cols.push(col);
-            names.push(name);
-            peaks.push(peak);
-        }
-    };
+    eps: Option<&'a [[f64; 3]]>,
+) -> Columns<'a> {
+    let one = |name: &str, axis: Axis| (vec![name.to_string()], vec![Some(axis)]);
     match c.effect {
         "backlash" => {
             let a = c.axis.expect("axis");
-            push(a, "lost_motion_um".into(), &|s| -0.5 * s.dir[a.index()]);
+            let (n, ax) = one("lost_motion_um", a);
+            Columns::new(n, ax, move |_, s, _, o| o[0] = -0.5 * s.dir[a.index()])
         }
         "servo_lag" => {
             let a = c.axis.expect("axis");
-            push(a, "lag_s".into(), &|s| -s.vel_mm_s[a.index()] * 1e3);
+            let (n, ax) = one("lag_s", a);
+            Columns::new(n, ax, move |_, s, _, o| o[0] = -s.vel_mm_s[a.index()] * 1e3)
         }
         "reversal_spike" => {
             let a = c.axis.expect("axis");
             let i = a.index();
-            push(a, "height_um".into(), &|s| {
+            let (n, ax) = one("height_um", a);
+            Columns::new(n, ax, move |_, s, _, o| {
                 let x = s.since_reversal_mm[i];
-                if x.is_finite() {
+                // exp(−x/λ) is below 5·10⁻¹⁸ (beyond double precision next to the
+                // transient's height) past 40 decay lengths.
+                o[0] = if x < 40.0 * theta {
                     -s.dir[i] * (-x / theta).exp()
                 } else {
                     0.0
-                }
-            });
+                };
+            })
         }
         "cyclic" | "waviness" => {
             // Along the axis itself (cyclic) or across it (waviness).
@@ -257,86 +308,133 @@ pub fn columns(
             let dir = c.direction.unwrap_or(a);
             let i = a.index();
             let w = 2.0 * PI * theta;
-            push(dir, "sin".into(), &|s| (w * s.q_mm[i]).sin());
-            push(dir, "cos".into(), &|s| (w * s.q_mm[i]).cos());
+            Columns::new(
+                vec!["sin".into(), "cos".into()],
+                vec![Some(dir); 2],
+                move |_, s, _, o| (o[0], o[1]) = (w * s.q_mm[i]).sin_cos(),
+            )
         }
         "velocity_coupling" => {
             let (a, dir) = (c.axis.expect("axis"), c.direction.expect("direction"));
-            push(dir, "coefficient_um_per_mm_s".into(), &|s| {
-                s.vel_mm_s[a.index()]
-            });
+            let (n, ax) = one("coefficient_um_per_mm_s", dir);
+            Columns::new(n, ax, move |_, s, _, o| o[0] = s.vel_mm_s[a.index()])
         }
         "vibration" => {
             let dir = c.direction.expect("direction");
             let w = 2.0 * PI * theta;
-            push(dir, "sin".into(), &|s| (w * s.t_s).sin());
-            push(dir, "cos".into(), &|s| (w * s.t_s).cos());
+            Columns::new(
+                vec!["sin".into(), "cos".into()],
+                vec![Some(dir); 2],
+                move |_, s, _, o| (o[0], o[1]) = (w * s.t_s).sin_cos(),
+            )
         }
-        "thermal_drift" => {
-            for j in Axis::ALL {
-                let i = j.index();
-                push(j, format!("scale_ppm_{j}"), &|s| {
-                    (1.0 - (-s.t_s / theta).exp()) * s.q_mm[i] * 1e-3
-                });
-            }
-            for j in Axis::ALL {
-                push(j, format!("offset_um_{j}"), &|s| {
-                    1.0 - (-s.t_s / theta).exp()
-                });
-            }
-        }
-        "thermal_temperature" => {
-            for j in Axis::ALL {
-                let i = j.index();
-                push(j, format!("scale_ppm_per_k_{j}"), &|s| {
-                    s.temp_k.unwrap_or(0.0) * s.q_mm[i] * 1e-3
-                });
-            }
-            for j in Axis::ALL {
-                push(j, format!("offset_um_per_k_{j}"), &|s| {
+        "thermal_drift" | "thermal_temperature" => {
+            // Scale (per axis) then offset (per axis), times g = 1 − e^(−t/T) or ΔT.
+            let temp = c.effect == "thermal_temperature";
+            let (scale, offset) = if temp {
+                ("scale_ppm_per_k", "offset_um_per_k")
+            } else {
+                ("scale_ppm", "offset_um")
+            };
+            let names = Axis::ALL
+                .map(|j| format!("{scale}_{j}"))
+                .into_iter()
+                .chain(Axis::ALL.map(|j| format!("{offset}_{j}")))
+                .collect();
+            let axes = Axis::ALL.into_iter().chain(Axis::ALL).map(Some).collect();
+            Columns::new(names, axes, move |_, s, read, o| {
+                let g = if temp {
                     s.temp_k.unwrap_or(0.0)
-                });
-            }
+                } else {
+                    1.0 - (-s.t_s / theta).exp()
+                };
+                let i = read.index();
+                o[i] = g * s.q_mm[i] * 1e-3;
+                o[3 + i] = g;
+            })
         }
         "model_order" => {
             let a = c.axis.expect("axis");
             let dir = c.direction.expect("direction");
             let Some([lo, hi]) = d.travel[a.index()] else {
-                return (cols, names, peaks);
+                return Columns::none();
             };
             let (cen, h) = (0.5 * (lo + hi), (0.5 * (hi - lo)).max(1.0));
-            for k in 4..=10 {
-                push(dir, format!("P{k}"), &|s| {
-                    legendre(k, (s.q_mm[a.index()] - cen) / h).0
-                });
-            }
+            let i = a.index();
+            Columns::new(
+                (4..=10).map(|k| format!("P{k}")).collect(),
+                vec![Some(dir); 7],
+                move |_, s, _, o| {
+                    // Bonnet's recurrence: (k+1) P_{k+1} = (2k+1) x P_k − k P_{k−1}.
+                    let x = (s.q_mm[i] - cen) / h;
+                    let (mut p0, mut p1) = (1.0, x);
+                    for k in 1..10 {
+                        let p2 = ((2 * k + 1) as f64 * x * p1 - k as f64 * p0) / (k + 1) as f64;
+                        p0 = p1;
+                        p1 = p2;
+                        if k + 1 >= 4 {
+                            o[k + 1 - 4] = p1;
+                        }
+                    }
+                },
+            )
         }
         "setup_offset" => {
             let (Some(g), Some(eps)) = (c.group, eps) else {
-                return (cols, names, peaks);
+                return Columns::none();
             };
-            for j in Axis::ALL {
-                // (ε × e_j)[read axis] · 10⁻³ on the group's samples.
-                let mut col = vec![0.0; d.rows()];
-                for (r, slot) in col.iter_mut().enumerate() {
-                    let s = &d.samples[r / 2];
-                    if s.head_mm != g {
-                        continue;
+            Columns::new(
+                Axis::ALL.map(|j| format!("delta_mm_{j}")).to_vec(),
+                vec![None; 3],
+                move |si, s, read, o| {
+                    // (ε × e_j)[read axis] · 10⁻³ on the group's samples.
+                    let e = nalgebra::Vector3::from(eps[si]);
+                    for (j, slot) in o.iter_mut().enumerate() {
+                        *slot = if s.head_mm == g {
+                            let mut ej = nalgebra::Vector3::zeros();
+                            ej[j] = 1.0;
+                            e.cross(&ej)[read.index()] * 1e-3
+                        } else {
+                            0.0
+                        };
                     }
-                    let e = nalgebra::Vector3::from(eps[r / 2]);
-                    let mut ej = nalgebra::Vector3::zeros();
-                    ej[j.index()] = 1.0;
-                    *slot = e.cross(&ej)[d.row_axis(r).index()] * 1e-3;
-                }
-                let peak = d.centre_with_peak(&mut col);
-                if col.iter().any(|v| v.abs() > 1e-12) {
-                    cols.push(col);
-                    names.push(format!("delta_mm_{j}"));
-                    peaks.push(peak);
-                }
-            }
+                },
+            )
         }
-        _ => {}
+        _ => Columns::none(),
+    }
+}
+
+/// Columns of a candidate at nonlinear value `theta` as full-length vectors, centred per
+/// (run, direction) ([`specs`]), with the names (and units) of their coefficients and
+/// each column's largest |value| before centring; columns the run offsets absorb whole
+/// are left out.
+pub fn columns(
+    d: &Design,
+    c: &Candidate,
+    theta: f64,
+    eps: Option<&[[f64; 3]]>,
+) -> (Cols, Vec<String>, Vec<f64>) {
+    let spec = specs(d, c, theta, eps);
+    let m = spec.len();
+    let mut all = vec![vec![0.0; d.rows()]; m];
+    let mut buf = vec![0.0; m];
+    for r in 0..d.rows() {
+        spec.at(d, r, &mut buf);
+        for (col, v) in all.iter_mut().zip(&buf) {
+            col[r] = *v;
+        }
+    }
+    let mut cols = Vec::new();
+    let mut names = Vec::new();
+    let mut peaks = Vec::new();
+    for (mut col, name) in all.into_iter().zip(spec.names) {
+        let peak = d.centre_with_peak(&mut col);
+        if col.iter().any(|v| v.abs() > 1e-12) {
+            cols.push(col);
+            names.push(name);
+            peaks.push(peak);
+        }
     }
     (cols, names, peaks)
 }

@@ -16,8 +16,6 @@ use crate::session::{Session, TestKind};
 use crate::simulate::motion::DriveState;
 use crate::simulate::truth::measured_travel;
 
-use super::linalg::Cols;
-
 /// Metadata of one sample.
 #[derive(Debug, Clone, Copy)]
 pub struct SampleMeta {
@@ -63,17 +61,13 @@ pub struct Design {
     pub planes: Vec<Plane>,
     /// Centred observations, row 2s + c.
     pub y: Vec<f64>,
-    /// Centred, unit-norm columns of the rigid model.
-    pub a: Cols,
-    /// Names of the columns of `a`.
-    pub a_names: Vec<String>,
     pub travel: [Option<[f64; 2]>; 3],
     pub topology: Topology,
     /// The rigid model (identification's [`ErrorModel`], Legendre basis): its parameters
-    /// are the first columns of `a`, in its order.
+    /// are the first rigid columns, in its order; one plate rotation per mounting follows
+    /// (the columns themselves are only formed reduced, run by run:
+    /// [`super::reduced::Reduction`]).
     pub model: ErrorModel,
-    /// Scale each column of `a` was divided by.
-    pub a_scale: Vec<f64>,
 }
 
 impl Design {
@@ -85,24 +79,6 @@ impl Design {
     pub fn row_axis(&self, r: usize) -> Axis {
         let (u, v) = self.plane_axes[self.samples[r / 2].plane_idx];
         if r.is_multiple_of(2) { u } else { v }
-    }
-
-    /// A column with `f(sample)` on the rows that read along `axis` (0 elsewhere),
-    /// centred per (run, component) like the rigid model's columns, and its size as a
-    /// machine error per unit coefficient ([`Self::centre_with_peak`]).
-    pub fn effect_column_peak(
-        &self,
-        axis: Axis,
-        f: impl Fn(&SampleMeta) -> f64,
-    ) -> (Vec<f64>, f64) {
-        let mut c = vec![0.0; self.rows()];
-        for (r, slot) in c.iter_mut().enumerate() {
-            if self.row_axis(r) == axis {
-                *slot = f(&self.samples[r / 2]);
-            }
-        }
-        let peak = self.centre_with_peak(&mut c);
-        (c, peak)
     }
 
     /// Centres `c` per (run, component) and returns the largest |value| before centring
@@ -265,8 +241,6 @@ pub fn build(session: &Session, topology: &Topology, order: usize) -> Result<Des
         files: session.planes.iter().map(|p| p.file.clone()).collect(),
         planes: session.planes.iter().map(|p| p.plane).collect(),
         y,
-        a: Vec::new(),
-        a_names: Vec::new(),
         travel,
         topology: topology.clone(),
         model: ErrorModel::new(
@@ -275,57 +249,9 @@ pub fn build(session: &Session, topology: &Topology, order: usize) -> Result<Des
             order,
             travel.map(|t| t.map(|[lo, hi]| (lo, hi))),
         ),
-        a_scale: Vec::new(),
     };
-    let mut cols: Cols = Vec::new();
-    let mut names = Vec::new();
-    let n = d.rows();
-    let k = d.model.len();
-    for p in &d.model.params {
-        cols.push(vec![0.0; n]);
-        names.push(p.term_name());
-    }
-    let (mut ru, mut rv) = (vec![0.0; k], vec![0.0; k]);
-    for (s, m) in d.samples.iter().enumerate() {
-        let (u, v) = d.plane_axes[m.plane_idx];
-        d.model.error_row(m.q_mm, m.head_mm, u, &mut ru);
-        d.model.error_row(m.q_mm, m.head_mm, v, &mut rv);
-        for j in 0..k {
-            cols[j][2 * s] = ru[j];
-            cols[j][2 * s + 1] = rv[j];
-        }
-    }
-    let mut mountings: Vec<&str> = session.planes.iter().map(|p| p.mounting.as_str()).collect();
-    mountings.sort();
-    mountings.dedup();
-    for mname in mountings {
-        let mut c = vec![0.0; n];
-        for (s, m) in d.samples.iter().enumerate() {
-            if session.planes[m.plane_idx].mounting != mname {
-                continue;
-            }
-            let (u, v) = d.plane_axes[m.plane_idx];
-            let pu = m.q_mm[u.index()] + m.head_mm[u.index()];
-            let pv = m.q_mm[v.index()] + m.head_mm[v.index()];
-            c[2 * s] = pv * 1e-3;
-            c[2 * s + 1] = -pu * 1e-3;
-        }
-        cols.push(c);
-        names.push(format!("rotation {mname}"));
-    }
-    let mut scale = Vec::with_capacity(cols.len());
-    for c in cols.iter_mut() {
-        d.centre(c);
-        let norm = c.iter().map(|v| v * v).sum::<f64>().sqrt();
-        let sc = if norm > 0.0 { norm } else { 1.0 };
-        c.iter_mut().for_each(|v| *v /= sc);
-        scale.push(sc);
-    }
     let mut y = std::mem::take(&mut d.y);
     d.centre(&mut y);
     d.y = y;
-    d.a = cols;
-    d.a_names = names;
-    d.a_scale = scale;
     Ok(d)
 }

@@ -1,57 +1,57 @@
-//! Exact per-run reduction of the rigid model for the session diagnosis, and the
-//! projections of the greedy loop built on it.
+//! Exact per-run reduction of the rigid model for the session diagnosis.
 //!
 //! A run's rigid columns A_g (its rows of the 21-term model and plate rotations, centred
-//! per run and direction) span a space of small dimension r_g: along a line every column
-//! is a polynomial of degree ≤ N + 1 in the moving coordinate, around a circle a
-//! trigonometric polynomial of degree ≤ N + 1 in the angle (the structure identification's
-//! per-run compression uses). One thin QR of A_g and an SVD of its R factor give an
-//! orthonormal basis Q_g (n_g × r_g, singular values below 10⁻¹² of the run's largest
-//! dropped: exact structure, not a truncation) and the reduced block Ã_g = Q_gᵀ A_g, with
-//! A_g = Q_g Ã_g. Since col(A) ⊂ V = ⊕ col(Q_g), the projection onto the rigid model of
-//! any column b is P_A b = Q P_Ã (Qᵀ b): the large problem (2 rows per sample, ≈ 55
-//! columns) is replaced by one of Σ r_g rows, and a candidate column costs O(n·r_g)
-//! instead of O(n·k). No normal matrix is formed: P_Ã comes from the SVD of Ã
-//! ([`Projector`]).
+//! per run and reading direction) lie in a space of small dimension: along a line every
+//! column is a polynomial of degree ≤ N + 1 in the moving coordinate, around a circle a
+//! trigonometric polynomial of degree ≤ N + 1 in the angle. Identification's
+//! [`RunInterpolant`] gives A_g = Φ_g P_g exactly (Φ_g the run's basis functions at its
+//! samples, P_g from interpolation at m nodes, one per reading direction). With the
+//! centred basis Φ_c = Q_Φ R (thin QR, the constant column dropped: centring removes
+//! it), each direction's block is A_c = Q_Φ (R P), so Q_g = diag(Q_Φ, Q_Φ) is an
+//! orthonormal basis of a space V_g ⊇ col(A_g) and Ã_g = Q_gᵀ A_g = [R P_u; R P_v] —
+//! the exact reduced block, found at O(n_g m²) without forming A_g. Runs that are not a
+//! line or a circle path (or too short for the interpolant) are reduced from their dense
+//! rows: a thin QR of A_g, an SVD of its R factor, singular values below 10⁻¹² of the
+//! largest dropped (exact structure, not a truncation).
 //!
-//! Accepted effects E enter by Frisch–Waugh: with E_⊥ = (I − P_A)E orthonormalised (Gram–
-//! Schmidt, twice), P_[A E] b = P_A b + E_⊥ E_⊥ᵀ b. The held-out folds are sets of whole
-//! runs, so a fold's rigid projection is the same reduction on its runs' blocks.
+//! Since col(A) ⊂ V = ⊕ V_g, the projection of any column b onto the rigid model is
+//! P_A b = Q P_Ã (Qᵀ b): the large problem (2 rows per sample, ≈ 55 columns) becomes one
+//! of Σ r_g reduced rows, and every fit of the diagnosis is assembled from per-run
+//! moments ([`super::moments`]).
 
 use super::design::Design;
-use super::linalg::{Cols, Projector, dot, small_lstsq};
-use nalgebra::DVector;
+use super::linalg::Cols;
+use crate::design::{Layout, RunInterpolant};
+use crate::session::Session;
+use nalgebra::DMatrix;
 
-/// One run's orthonormal basis of its rigid columns.
+/// One run's orthonormal basis Q_g of a space holding its rigid columns.
 pub struct RunSpace {
     /// First row (2 × first sample) and number of rows of the run.
     pub row0: usize,
     pub rows: usize,
-    /// Q_g, column-major (rows × r).
+    /// Basis rows, row-major: one per sample shared by both reading directions
+    /// (`shared`: Q_g = diag(Q_Φ, Q_Φ)), or one per row.
     q: Vec<f64>,
+    /// Width of one basis row.
+    w: usize,
+    shared: bool,
+    /// Dimension r_g of the run's reduced block.
     pub r: usize,
     /// Offset of the run's block in the reduced coordinates.
     pub red0: usize,
 }
 
 impl RunSpace {
-    fn col(&self, j: usize) -> &[f64] {
-        &self.q[j * self.rows..(j + 1) * self.rows]
-    }
-
-    /// Q_gᵀ b (b: the full-length column).
-    fn coords(&self, b: &[f64]) -> Vec<f64> {
-        let bg = &b[self.row0..self.row0 + self.rows];
-        (0..self.r).map(|j| dot(self.col(j), bg)).collect()
-    }
-
-    /// out[rows of g] −= Q_g c.
-    fn sub(&self, c: &[f64], out: &mut [f64]) {
-        let o = &mut out[self.row0..self.row0 + self.rows];
-        for (j, cj) in c.iter().enumerate() {
-            for (v, q) in o.iter_mut().zip(self.col(j)) {
-                *v -= cj * q;
-            }
+    /// Offset in the run's reduced coordinates and basis values of row `i` of the run
+    /// (counted from the run's first row): Q_g[i, off..off + len] = values, 0 elsewhere.
+    #[inline]
+    pub fn row(&self, i: usize) -> (usize, &[f64]) {
+        if self.shared {
+            let s = i / 2;
+            ((i % 2) * self.w, &self.q[s * self.w..(s + 1) * self.w])
+        } else {
+            (0, &self.q[i * self.w..(i + 1) * self.w])
         }
     }
 }
@@ -59,8 +59,11 @@ impl RunSpace {
 /// The reduction of every run (module documentation).
 pub struct Reduction {
     pub runs: Vec<RunSpace>,
-    /// Ã: the k rigid columns in reduced coordinates (length Σ r_g each).
+    /// Ã: the k rigid columns in reduced coordinates (length Σ r_g each), each divided by
+    /// its norm over the centred rows (`scale`).
     pub a: Cols,
+    /// Norm of each rigid column (centred per run and direction) over all rows.
+    pub scale: Vec<f64>,
     /// Σ r_g.
     pub dim: usize,
     /// Rows of the full problem (2 per sample).
@@ -68,214 +71,209 @@ pub struct Reduction {
 }
 
 impl Reduction {
-    /// Reduces the rigid columns `d.a` run by run.
-    pub fn new(d: &Design) -> Reduction {
-        let k = d.a.len();
+    /// Reduces the rigid model of `d` (built from `session`) run by run. The columns are
+    /// the error parameters of `d.model`, then one plate rotation per mounting (sorted by
+    /// name): du = +v·10⁻³, dv = −u·10⁻³ per µrad, the point being position plus head
+    /// offset.
+    pub fn new(session: &Session, d: &Design) -> Reduction {
+        let n_err = d.model.len();
+        let layout = Layout::new(session, n_err, 0);
+        let mut sorted = layout.mountings.clone();
+        sorted.sort();
+        // Column of the diagnosis for each column of identification's layout
+        // (rotations of the mountings in order of appearance, then the errors).
+        let col_of: Vec<usize> = layout
+            .mountings
+            .iter()
+            .map(|m| n_err + sorted.iter().position(|x| x == m).unwrap_or(0))
+            .chain(0..n_err)
+            .collect();
+        let k = n_err + sorted.len();
         let mut runs = Vec::with_capacity(d.runs.len());
-        let mut blocks: Vec<nalgebra::DMatrix<f64>> = Vec::with_capacity(d.runs.len());
+        let mut blocks: Vec<DMatrix<f64>> = Vec::with_capacity(d.runs.len());
         let mut red0 = 0;
-        for run in &d.runs {
-            let (row0, rows) = (2 * run.start, 2 * (run.end - run.start));
-            let m = faer::Mat::<f64>::from_fn(rows, k, |i, j| d.a[j][row0 + i]);
-            let qr = m.qr();
-            let q = qr.compute_thin_Q();
-            let kk = rows.min(k);
-            let rf = qr.thin_R();
-            let rn =
-                nalgebra::DMatrix::from_fn(kk, k, |i, j| if j >= i { rf[(i, j)] } else { 0.0 });
-            let svd = rn.svd(true, true);
-            let (u, vt) = (svd.u.expect("u"), svd.v_t.expect("v_t"));
-            let s = &svd.singular_values;
-            let smax = s.iter().copied().fold(0.0, f64::max);
-            let keep: Vec<usize> = (0..s.len()).filter(|&i| s[i] > 1e-12 * smax).collect();
-            let r = keep.len();
-            let mut qg = vec![0.0; rows * r];
-            for (c, &ki) in keep.iter().enumerate() {
-                for l in 0..kk {
-                    let ul = u[(l, ki)];
-                    if ul == 0.0 {
-                        continue;
-                    }
-                    for i in 0..rows {
-                        qg[c * rows + i] += q[(i, l)] * ul;
-                    }
-                }
+        let mut g = 0;
+        for (p, plane) in session.planes.iter().enumerate() {
+            let rot = col_of[layout.plane_mounting[p]];
+            for r in 0..plane.runs.len() {
+                let info = &d.runs[g];
+                g += 1;
+                let (mut space, block) = match RunInterpolant::new(session, &d.model, &layout, p, r)
+                {
+                    Some(it) => interpolated(d, info.start, info.end, &it, &col_of, k),
+                    None => dense(d, info.start, info.end, rot, k),
+                };
+                space.red0 = red0;
+                red0 += space.r;
+                runs.push(space);
+                blocks.push(block);
             }
-            // Ã_g = Σ_keep Vᵀ (r × k).
-            blocks.push(nalgebra::DMatrix::from_fn(r, k, |c, j| {
-                s[keep[c]] * vt[(keep[c], j)]
-            }));
-            runs.push(RunSpace {
-                row0,
-                rows,
-                q: qg,
-                r,
-                red0,
-            });
-            red0 += r;
         }
         let dim = red0;
+        let mut scale = vec![0.0; k];
+        for b in &blocks {
+            for (j, s) in scale.iter_mut().enumerate() {
+                *s += b.column(j).norm_squared();
+            }
+        }
+        for s in scale.iter_mut() {
+            *s = if *s > 0.0 { s.sqrt() } else { 1.0 };
+        }
         let mut a = vec![vec![0.0; dim]; k];
-        for (g, b) in runs.iter().zip(&blocks) {
-            for j in 0..k {
-                for c in 0..g.r {
-                    a[j][g.red0 + c] = b[(c, j)];
+        for (rs, b) in runs.iter().zip(&blocks) {
+            for (j, col) in a.iter_mut().enumerate() {
+                for c in 0..rs.r {
+                    col[rs.red0 + c] = b[(c, j)] / scale[j];
                 }
             }
         }
         Reduction {
             runs,
             a,
+            scale,
             dim,
             n: d.rows(),
         }
     }
+
+    /// Ã_g a: the rigid model's prediction on run `g` in its reduced coordinates.
+    pub fn predict_reduced(&self, g: usize, a: &[f64]) -> Vec<f64> {
+        let rs = &self.runs[g];
+        (0..rs.r)
+            .map(|c| {
+                self.a
+                    .iter()
+                    .zip(a)
+                    .map(|(col, x)| col[rs.red0 + c] * x)
+                    .sum()
+            })
+            .collect()
+    }
 }
 
-/// The current model (rigid columns and accepted effects) fitted on a set of runs.
-pub struct ModelProj {
-    runs: Vec<usize>,
-    /// Reduced rows of those runs.
-    red_rows: Vec<usize>,
-    pa: Projector,
-    /// Accepted effect columns (full length) and (I − P_A)E on the runs' rows.
-    e: Cols,
-    e_perp: Cols,
-    /// Orthonormal basis of `e_perp`.
-    e_orth: Cols,
-}
-
-/// Coefficients of a fitted model: the rigid columns (scaled) and the effects.
-pub struct Coef {
-    pub a: DVector<f64>,
-    pub c: Vec<f64>,
-}
-
-impl ModelProj {
-    /// The model [A | effects] on the rows of `runs`.
-    pub fn new(red: &Reduction, runs: Vec<usize>, effects: &Cols) -> ModelProj {
-        let red_rows: Vec<usize> = runs
-            .iter()
-            .flat_map(|&g| red.runs[g].red0..red.runs[g].red0 + red.runs[g].r)
-            .collect();
-        let pa = Projector::new(&red.a, Some(&red_rows));
-        let mut p = ModelProj {
-            runs,
-            red_rows,
-            pa,
-            e: effects.clone(),
-            e_perp: Vec::new(),
-            e_orth: Vec::new(),
-        };
-        for e in effects {
-            let ep = p.rigid_residual(red, e);
-            let mut o = ep.clone();
-            let n0 = dot(&o, &o).sqrt();
-            for _ in 0..2 {
-                for b in &p.e_orth {
-                    let c = dot(b, &o);
-                    o.iter_mut().zip(b).for_each(|(v, bv)| *v -= c * bv);
-                }
+/// The reduction of a line or circle run from its interpolant (module documentation).
+fn interpolated(
+    d: &Design,
+    start: usize,
+    end: usize,
+    it: &RunInterpolant,
+    col_of: &[usize],
+    k: usize,
+) -> (RunSpace, DMatrix<f64>) {
+    let n = end - start;
+    let m = it.m;
+    let w = m - 1;
+    let mut phi = vec![0.0; m];
+    let mut fm = faer::Mat::<f64>::zeros(n, w);
+    let mut mean = vec![0.0; w];
+    for i in 0..n {
+        it.basis_at_q(&d.samples[start + i].q_mm, &mut phi);
+        for j in 0..w {
+            fm[(i, j)] = phi[j + 1];
+            mean[j] += phi[j + 1];
+        }
+    }
+    for (j, mu) in mean.iter().enumerate() {
+        let mu = mu / n as f64;
+        for v in fm.col_mut(j).iter_mut() {
+            *v -= mu;
+        }
+    }
+    let qr = fm.qr();
+    let qm = qr.compute_thin_Q();
+    let rr = qr.thin_R();
+    let mut q = vec![0.0; n * w];
+    for i in 0..n {
+        for j in 0..w {
+            q[i * w + j] = qm[(i, j)];
+        }
+    }
+    let mut block = DMatrix::zeros(2 * w, k);
+    for (comp, pm) in it.pms.iter().enumerate() {
+        for i in 0..w {
+            for (idc, &dc) in col_of.iter().enumerate() {
+                let v: f64 = (i..w).map(|j| rr[(i, j)] * pm[(j + 1, idc)]).sum();
+                block[(comp * w + i, dc)] += v;
             }
-            let nrm = dot(&o, &o).sqrt();
-            if nrm > 1e-9 * n0.max(1e-300) {
-                o.iter_mut().for_each(|v| *v /= nrm);
-                p.e_orth.push(o);
-            }
-            p.e_perp.push(ep);
-        }
-        p
-    }
-
-    /// Numerical rank of [A | effects] on the runs.
-    pub fn rank(&self) -> usize {
-        self.pa.rank + self.e_orth.len()
-    }
-
-    /// Rows of the runs (full-length indices).
-    pub fn rows<'a>(&'a self, red: &'a Reduction) -> impl Iterator<Item = usize> + 'a {
-        self.runs
-            .iter()
-            .flat_map(|&g| red.runs[g].row0..red.runs[g].row0 + red.runs[g].rows)
-    }
-
-    /// (I − P_A) b on the runs' rows (zero elsewhere).
-    fn rigid_residual(&self, red: &Reduction, b: &[f64]) -> Vec<f64> {
-        let mut z = Vec::with_capacity(self.red_rows.len());
-        for &g in &self.runs {
-            z.extend(red.runs[g].coords(b));
-        }
-        let w = self.pa.residual(&z);
-        let mut out = vec![0.0; red.n];
-        let mut off = 0;
-        for &g in &self.runs {
-            let rs = &red.runs[g];
-            out[rs.row0..rs.row0 + rs.rows].copy_from_slice(&b[rs.row0..rs.row0 + rs.rows]);
-            let pz: Vec<f64> = (0..rs.r).map(|c| z[off + c] - w[off + c]).collect();
-            rs.sub(&pz, &mut out);
-            off += rs.r;
-        }
-        out
-    }
-
-    /// (I − P_[A E]) b on the runs' rows (zero elsewhere).
-    pub fn residual(&self, red: &Reduction, b: &[f64]) -> Vec<f64> {
-        let mut out = self.rigid_residual(red, b);
-        for e in &self.e_orth {
-            let c = dot(e, &out);
-            out.iter_mut().zip(e).for_each(|(v, ev)| *v -= c * ev);
-        }
-        out
-    }
-
-    /// Least-squares coefficients of the model for the data `y` on the runs (Frisch–Waugh:
-    /// effects from (I − P_A)y on (I − P_A)E, then the rigid part from what remains).
-    pub fn fit(&self, red: &Reduction, y: &[f64]) -> Coef {
-        let c: Vec<f64> = if self.e.is_empty() {
-            Vec::new()
-        } else {
-            let ra = self.rigid_residual(red, y);
-            small_lstsq(&self.e_perp, &ra)
-                .map(|(c, _)| c.iter().copied().collect())
-                .unwrap_or_else(|| vec![0.0; self.e.len()])
-        };
-        let mut y2 = y.to_vec();
-        for (e, cj) in self.e.iter().zip(&c) {
-            y2.iter_mut().zip(e).for_each(|(v, ev)| *v -= cj * ev);
-        }
-        let mut z = Vec::with_capacity(self.red_rows.len());
-        for &g in &self.runs {
-            z.extend(red.runs[g].coords(&y2));
-        }
-        Coef {
-            a: self.pa.solve(&z),
-            c,
         }
     }
+    (
+        RunSpace {
+            row0: 2 * start,
+            rows: 2 * n,
+            q,
+            w,
+            shared: true,
+            r: 2 * w,
+            red0: 0,
+        },
+        block,
+    )
 }
 
-/// The model's prediction on run `g`'s rows: Q_g Ã_g a + E_g c.
-pub fn predict_run(red: &Reduction, effects: &Cols, coef: &Coef, g: usize) -> Vec<f64> {
-    let rs = &red.runs[g];
-    let ac: Vec<f64> = (0..rs.r)
-        .map(|c| {
-            red.a
-                .iter()
-                .zip(coef.a.iter())
-                .map(|(col, x)| col[rs.red0 + c] * x)
-                .sum::<f64>()
-        })
-        .collect();
-    let mut out = vec![0.0; rs.rows];
-    for (c, v) in ac.iter().enumerate() {
-        for (o, q) in out.iter_mut().zip(rs.col(c)) {
-            *o += v * q;
+/// The reduction of any run from its dense, centred rigid rows (module documentation).
+fn dense(d: &Design, start: usize, end: usize, rot: usize, k: usize) -> (RunSpace, DMatrix<f64>) {
+    let n_err = d.model.len();
+    let rows = 2 * (end - start);
+    let mut m = faer::Mat::<f64>::zeros(rows, k);
+    let mut buf = vec![0.0; n_err];
+    for s in start..end {
+        let meta = &d.samples[s];
+        let (u, v) = d.plane_axes[meta.plane_idx];
+        let pu = meta.q_mm[u.index()] + meta.head_mm[u.index()];
+        let pv = meta.q_mm[v.index()] + meta.head_mm[v.index()];
+        for (comp, (dir, rv)) in [(u, pv * 1e-3), (v, -pu * 1e-3)].into_iter().enumerate() {
+            let i = 2 * (s - start) + comp;
+            d.model.error_row(meta.q_mm, meta.head_mm, dir, &mut buf);
+            for (j, b) in buf.iter().enumerate() {
+                m[(i, j)] = *b;
+            }
+            m[(i, rot)] = rv;
         }
     }
-    for (e, cj) in effects.iter().zip(&coef.c) {
-        for (i, o) in out.iter_mut().enumerate() {
-            *o += cj * e[rs.row0 + i];
+    for j in 0..k {
+        for comp in 0..2 {
+            let mean = (comp..rows).step_by(2).map(|i| m[(i, j)]).sum::<f64>() / (rows / 2) as f64;
+            for i in (comp..rows).step_by(2) {
+                m[(i, j)] -= mean;
+            }
         }
     }
-    out
+    let qr = m.qr();
+    let qm = qr.compute_thin_Q();
+    let kk = rows.min(k);
+    let rf = qr.thin_R();
+    let rn = DMatrix::from_fn(kk, k, |i, j| if j >= i { rf[(i, j)] } else { 0.0 });
+    let svd = rn.svd(true, true);
+    let (uu, vt) = (svd.u.expect("u"), svd.v_t.expect("v_t"));
+    let s = &svd.singular_values;
+    let smax = s.iter().copied().fold(0.0, f64::max);
+    let keep: Vec<usize> = (0..s.len()).filter(|&i| s[i] > 1e-12 * smax).collect();
+    let r = keep.len();
+    let mut q = vec![0.0; rows * r];
+    for (c, &ki) in keep.iter().enumerate() {
+        for l in 0..kk {
+            let ul = uu[(l, ki)];
+            if ul == 0.0 {
+                continue;
+            }
+            for i in 0..rows {
+                q[i * r + c] += qm[(i, l)] * ul;
+            }
+        }
+    }
+    // Ã_g = Σ_keep Vᵀ (r × k).
+    let block = DMatrix::from_fn(r, k, |c, j| s[keep[c]] * vt[(keep[c], j)]);
+    (
+        RunSpace {
+            row0: 2 * start,
+            rows,
+            q,
+            w: r,
+            shared: false,
+            r,
+            red0: 0,
+        },
+        block,
+    )
 }

@@ -12,12 +12,16 @@
 //!    held-out gain ≥ 0.5 %; repeat until none qualifies (reaching the noise floor does
 //!    not stop the search: a small effect near the floor is still found on its evidence).
 
-use super::catalogue::{self, Candidate, Search};
+use super::catalogue::{self, Candidate, Columns, Search};
 use super::design::{self, Design};
 use super::effects;
-use super::linalg::{Cols, dot, small_lstsq};
-use super::reduced::{ModelProj, Reduction, predict_run};
-use super::{Baseline, BeforeAfter, DiagnosisResult, Finding, Mismatch, PlotData, PlotSeries};
+use super::linalg::{Cols, dot};
+use super::moments::{self, Moments, Sets};
+use super::reduced::Reduction;
+use super::{
+    Baseline, BeforeAfter, DiagnosisResult, Finding, Mismatch, Monotone, NoProgress, PlotData,
+    PlotSeries, Progress,
+};
 use crate::axis::Topology;
 use crate::error::SolverError;
 use crate::session::{Session, TestKind};
@@ -58,71 +62,48 @@ impl Default for DiagnoseOptions {
     }
 }
 
-/// The current model fitted on all rows and on each fold's training runs.
+/// The current model (rigid terms and the accepted effects) fitted on all runs and on
+/// each fold's training runs.
 struct Fit {
-    /// Accepted effect columns (unit norm).
+    /// Accepted effect columns (centred, unit norm).
     cols: Cols,
-    full: ModelProj,
+    /// Moments of [accepted effects | y] (the base of every joint fit).
+    base: Moments,
+    /// Coefficients of the rigid columns (scaled) on all runs.
+    a: Vec<f64>,
     resid: Vec<f64>,
     ssr: f64,
-    folds: Vec<Fold>,
     heldout_ssr: f64,
-    heldout_n: usize,
-}
-
-struct Fold {
-    held: Vec<usize>,
-    proj: ModelProj,
-    /// Residual of the data on the training runs (zero elsewhere).
-    r_train: Vec<f64>,
+    /// Numerical rank of [rigid | effects] on all runs.
+    rank: usize,
 }
 
 /// Fits the rigid model plus the effect columns `cols` on all runs and on the training
-/// runs of each of the `k` folds (run index within its file mod k).
-fn fit(d: &Design, red: &Reduction, cols: Cols, k: usize) -> Fit {
-    let all: Vec<usize> = (0..d.runs.len()).collect();
-    let full = ModelProj::new(red, all, &cols);
-    let resid = full.residual(red, &d.y);
-    let ssr = dot(&resid, &resid);
-    let mut folds = Vec::new();
-    let mut heldout_ssr = 0.0;
-    let mut heldout_n = 0;
-    let mut first_run = vec![usize::MAX; d.files.len()];
-    for (i, r) in d.runs.iter().enumerate() {
-        first_run[r.plane_idx] = first_run[r.plane_idx].min(i);
+/// runs of each fold, and forms the residual on all rows.
+fn fit(d: &Design, red: &Reduction, sets: &Sets, cols: Cols) -> Fit {
+    let mut u: Vec<&[f64]> = cols.iter().map(Vec::as_slice).collect();
+    u.push(&d.y);
+    let base = Moments::of_columns(red, &u);
+    let jf = moments::joint_fit(red, sets, None, &base, true);
+    let mut resid = d.y.clone();
+    for (col, e) in cols.iter().zip(&jf.all.x) {
+        resid.iter_mut().zip(col).for_each(|(r, v)| *r -= e * v);
     }
-    for f in 0..k {
-        let (held, train): (Vec<usize>, Vec<usize>) =
-            (0..d.runs.len()).partition(|&ri| (ri - first_run[d.runs[ri].plane_idx]) % k == f);
-        if held.is_empty() || train.is_empty() {
-            continue;
+    for (g, rs) in red.runs.iter().enumerate() {
+        let pa = red.predict_reduced(g, &jf.all.a);
+        for i in 0..rs.rows {
+            let (off, q) = rs.row(i);
+            resid[rs.row0 + i] -= dot(&pa[off..off + q.len()], q);
         }
-        let proj = ModelProj::new(red, train, &cols);
-        let r_train = proj.residual(red, &d.y);
-        let coef = proj.fit(red, &d.y);
-        for &g in &held {
-            let pred = predict_run(red, &cols, &coef, g);
-            let rs = &red.runs[g];
-            for (i, p) in pred.iter().enumerate() {
-                let e = d.y[rs.row0 + i] - p;
-                heldout_ssr += e * e;
-            }
-            heldout_n += rs.rows;
-        }
-        folds.push(Fold {
-            held,
-            proj,
-            r_train,
-        });
     }
     Fit {
+        rank: sets.all.rank() + jf.all.rank,
         cols,
-        full,
+        base,
+        a: jf.all.a,
         resid,
-        ssr,
-        folds,
-        heldout_ssr,
-        heldout_n,
+        ssr: jf.all.ssr,
+        heldout_ssr: jf.heldout_ssr,
     }
 }
 
@@ -130,46 +111,80 @@ fn fit(d: &Design, red: &Reduction, cols: Cols, k: usize) -> Fit {
 struct Trial {
     cand: Candidate,
     theta: Option<(&'static str, f64)>,
-    cols: Cols,
+    /// Number of columns.
+    ncols: usize,
     names: Vec<String>,
     /// Largest |value| of each column before centring (its size as a machine error per
     /// unit coefficient).
     peaks: Vec<f64>,
     coef: Vec<f64>,
     coef_sd: Vec<f64>,
+    /// Σ over the rows of the centred columns' cross-products (for the fitted RMS).
+    gram: nalgebra::DMatrix<f64>,
     ssr: f64,
     heldout_ssr: f64,
     dbic: f64,
     extra_params: usize,
 }
 
-/// SSR of the current model plus `b`, fitted jointly (Frisch–Waugh on the full rows).
-fn joint_ssr(red: &Reduction, f: &Fit, b: &Cols) -> Option<(f64, Vec<f64>, Vec<f64>)> {
-    let bp: Cols = b.iter().map(|c| f.full.residual(red, c)).collect();
-    let (c, sd) = small_lstsq(&bp, &f.resid)?;
-    let mut r = f.resid.clone();
-    for (col, cj) in bp.iter().zip(c.iter()) {
-        for (ri, v) in r.iter_mut().zip(col) {
-            *ri -= cj * v;
-        }
+/// The joint fit of the current model plus a candidate's columns: its moments (one pass
+/// over the rows), the columns that vary, and the fit on all runs (and the folds, with
+/// `heldout`).
+fn evaluate(
+    d: &Design,
+    red: &Reduction,
+    sets: &Sets,
+    f: &Fit,
+    specs: &Columns,
+    heldout: bool,
+) -> Option<(Moments, Vec<usize>, moments::JointFit)> {
+    let mut u: Vec<&[f64]> = f.cols.iter().map(Vec::as_slice).collect();
+    u.push(&d.y);
+    let mom = Moments::new(red, specs.len(), &u, |row, out| specs.at(d, row, out));
+    let keep: Vec<usize> = (0..specs.len()).filter(|&j| mom.varies[j]).collect();
+    if keep.is_empty() {
+        return None;
     }
-    Some((
-        dot(&r, &r),
-        c.iter().copied().collect(),
-        sd.iter().copied().collect(),
-    ))
+    let mom = if keep.len() == specs.len() {
+        mom
+    } else {
+        mom.select(&keep)
+    };
+    let jf = moments::joint_fit(red, sets, Some(&mom), &f.base, heldout);
+    Some((mom, keep, jf))
 }
 
-/// Most frequencies in one scan, and about the most rows a scan reads (per direction).
-const MAX_SCAN_FREQS: usize = 2000;
-const MAX_SCAN_ROWS: usize = 20_000;
+/// SSR of the current model plus the candidate's columns at θ (∞ when it has none).
+fn ssr_at(
+    d: &Design,
+    red: &Reduction,
+    sets: &Sets,
+    f: &Fit,
+    cand: &Candidate,
+    theta: f64,
+    eps: Option<&[[f64; 3]]>,
+) -> f64 {
+    let specs = catalogue::specs(d, cand, theta, eps);
+    evaluate(d, red, sets, f, &specs, false).map_or(f64::INFINITY, |(_, _, jf)| jf.all.ssr)
+}
 
-/// Frequency (in `freqs`) whose sine/cosine pair of `var` along `axis` explains most of
-/// the residual `r`, with the columns centred per (run, component) like the model. With
-/// `per_run` each run gets its own phase (incoherent sum, for a coarse scan in time).
+/// Most frequencies in one scan, and the most (row, frequency) pairs a scan evaluates.
+const MAX_SCAN_FREQS: usize = 2000;
+const MAX_SCAN_WORK: usize = 20_000_000;
+
+/// Frequencies evaluated together (independent phasor chains, vectorised).
+const LANES: usize = 4;
+
+/// Frequency (in `freqs`, evenly spaced) whose sine/cosine pair of `var` along `axis`
+/// explains most of the residual `r`, with the columns centred per (run, component) like
+/// the model. With `per_run` each run gets its own phase (incoherent sum, for a coarse
+/// scan in time).
 ///
 /// This is a scan heuristic only: the 2×2 moment system of each candidate frequency is
-/// solved in closed form; the chosen frequency is then fitted jointly by SVD.
+/// solved in closed form; the chosen frequency is then fitted jointly. The work is bounded:
+/// whole runs, every `stride`-th, so that at most [`MAX_SCAN_WORK`] (row, frequency) pairs
+/// are evaluated (the runs chosen still span the session). sin/cos of w_k·x follow by
+/// rotation from w_0·x, [`LANES`] frequencies at a time.
 fn periodic_best(
     d: &Design,
     r: &[f64],
@@ -178,24 +193,21 @@ fn periodic_best(
     freqs: &[f64],
     per_run: bool,
 ) -> Option<f64> {
-    // Whole runs, every `stride`-th, so that at most about MAX_SCAN_ROWS rows are scanned
-    // (the runs chosen still span the session).
-    let stride = (d.rows() / 3).div_ceil(MAX_SCAN_ROWS).max(1);
-    let rows: Vec<(usize, usize)> = d
+    let nf = freqs.len();
+    let f0 = *freqs.first()?;
+    let reads = |run: &design::RunInfo| {
+        let (u, v) = d.plane_axes[run.plane_idx];
+        u == axis || v == axis
+    };
+    let axis_rows: usize = d
         .runs
         .iter()
-        .enumerate()
-        .filter(|(ri, _)| ri % stride == 0)
-        .flat_map(|(ri, run)| (2 * run.start..2 * run.end).map(move |row| (ri, row)))
-        .filter(|&(_, row)| d.row_axis(row) == axis)
-        .collect();
-    if rows.is_empty() {
-        return None;
-    }
-    let x: Vec<f64> = rows
-        .iter()
-        .map(|&(_, row)| var(&d.samples[row / 2]))
-        .collect();
+        .filter(|r| reads(r))
+        .map(|r| r.end - r.start)
+        .sum();
+    let stride = (axis_rows * nf).div_ceil(MAX_SCAN_WORK).max(1);
+    let df = if nf > 1 { freqs[1] - f0 } else { 0.0 };
+    let two_pi = 2.0 * std::f64::consts::PI;
     // Explained sum of squares of the centred 2-column fit from its moments
     // (ss, cc, sc, rs, rc).
     let solve = |m: &[f64; 5]| {
@@ -208,57 +220,88 @@ fn periodic_best(
         let b = (ss * rc - sc * rs) / det;
         a * rs + b * rc
     };
-    // Frequencies are evenly spaced: sin/cos of w_k·x by rotation from w_0·x by Δw·x.
-    let nf = freqs.len();
-    let f0 = *freqs.first()?;
-    let df = if nf > 1 { freqs[1] - f0 } else { 0.0 };
-    let two_pi = 2.0 * std::f64::consts::PI;
+    let nb = nf.div_ceil(LANES);
     let mut score = vec![0.0; nf];
     let mut total = vec![[0.0; 5]; nf];
-    // Per group: n, Σsin, Σcos, Σsin², Σcos², Σsin·cos, Σr·sin, Σr·cos.
-    let mut acc = vec![[0.0; 8]; nf];
-    let mut i = 0;
-    while i < rows.len() {
-        let ri = rows[i].0;
-        acc.iter_mut().for_each(|a| *a = [0.0; 8]);
-        // One (run, component) group: the rows of a run read along `axis`.
-        while i < rows.len() && rows[i].0 == ri {
-            let rv = r[rows[i].1];
-            let (mut sn, mut cs) = (two_pi * f0 * x[i]).sin_cos();
-            let (ds, dc) = (two_pi * df * x[i]).sin_cos();
-            for a in acc.iter_mut() {
-                a[0] += 1.0;
-                a[1] += sn;
-                a[2] += cs;
-                a[3] += sn * sn;
-                a[4] += cs * cs;
-                a[5] += sn * cs;
-                a[6] += rv * sn;
-                a[7] += rv * cs;
-                let ns = sn * dc + cs * ds;
-                cs = cs * dc - sn * ds;
-                sn = ns;
-            }
-            i += 1;
+    let mut any = false;
+    // Per row of a group: its residual, the rotation by LANES·Δw·x, and the phasors
+    // (sin, cos) of its LANES current frequencies.
+    let mut rv = Vec::new();
+    let mut step = Vec::new();
+    let mut sn = Vec::new();
+    let mut cs = Vec::new();
+    for (ri, run) in d.runs.iter().enumerate() {
+        if ri % stride != 0 || !reads(run) {
+            continue;
         }
-        for k in 0..nf {
-            let a = &acc[k];
-            let n = a[0];
-            let m = [
-                a[3] - a[1] * a[1] / n,
-                a[4] - a[2] * a[2] / n,
-                a[5] - a[1] * a[2] / n,
-                a[6],
-                a[7],
-            ];
-            if per_run {
-                score[k] += solve(&m);
-            } else {
-                for j in 0..5 {
-                    total[k][j] += m[j];
+        rv.clear();
+        step.clear();
+        sn.clear();
+        cs.clear();
+        // The run's rows read along `axis` (one component of each sample).
+        for row in 2 * run.start..2 * run.end {
+            if d.row_axis(row) != axis {
+                continue;
+            }
+            rv.push(r[row]);
+            let x = var(&d.samples[row / 2]);
+            let (s1, c1) = (two_pi * df * x).sin_cos();
+            step.push((two_pi * df * LANES as f64 * x).sin_cos());
+            let (mut s, mut c) = (two_pi * f0 * x).sin_cos();
+            for _ in 0..LANES {
+                sn.push(s);
+                cs.push(c);
+                (s, c) = (s * c1 + c * s1, c * c1 - s * s1);
+            }
+        }
+        let n = rv.len() as f64;
+        if rv.is_empty() {
+            continue;
+        }
+        any = true;
+        for b in 0..nb {
+            // Σsin, Σcos, Σsin², Σcos², Σsin·cos, Σr·sin, Σr·cos of the group, by lane.
+            let mut acc = [[0.0; LANES]; 7];
+            for (i, (&r, &(s4, c4))) in rv.iter().zip(&step).enumerate() {
+                let ps = &mut sn[i * LANES..(i + 1) * LANES];
+                let pc = &mut cs[i * LANES..(i + 1) * LANES];
+                for l in 0..LANES {
+                    let (s, c) = (ps[l], pc[l]);
+                    acc[0][l] += s;
+                    acc[1][l] += c;
+                    acc[2][l] += s * s;
+                    acc[3][l] += c * c;
+                    acc[4][l] += s * c;
+                    acc[5][l] += r * s;
+                    acc[6][l] += r * c;
+                    ps[l] = s * c4 + c * s4;
+                    pc[l] = c * c4 - s * s4;
+                }
+            }
+            for l in 0..LANES {
+                let k = b * LANES + l;
+                if k >= nf {
+                    break;
+                }
+                let m = [
+                    acc[2][l] - acc[0][l] * acc[0][l] / n,
+                    acc[3][l] - acc[1][l] * acc[1][l] / n,
+                    acc[4][l] - acc[0][l] * acc[1][l] / n,
+                    acc[5][l],
+                    acc[6][l],
+                ];
+                if per_run {
+                    score[k] += solve(&m);
+                } else {
+                    for j in 0..5 {
+                        total[k][j] += m[j];
+                    }
                 }
             }
         }
+    }
+    if !any {
+        return None;
     }
     if !per_run {
         for k in 0..nf {
@@ -271,8 +314,7 @@ fn periodic_best(
 
 /// Σ_k ε_k(q_k) (µrad) at every sample, from the current fit's error parameters.
 fn eps_per_sample(d: &Design, red: &Reduction, f: &Fit) -> Vec<[f64; 3]> {
-    let xs = f.full.fit(red, &d.y).a;
-    let x: Vec<f64> = (0..d.model.len()).map(|j| xs[j] / d.a_scale[j]).collect();
+    let x: Vec<f64> = (0..d.model.len()).map(|j| f.a[j] / red.scale[j]).collect();
     let mut out = vec![[0.0; 3]; d.samples.len()];
     for (i, term) in Term::all().into_iter().enumerate() {
         let Component::Rotation(dir) = term.component else {
@@ -285,12 +327,14 @@ fn eps_per_sample(d: &Design, red: &Reduction, f: &Fit) -> Vec<[f64; 3]> {
     out
 }
 
+#[allow(clippy::too_many_arguments)]
 fn try_candidate(
     d: &Design,
     red: &Reduction,
+    sets: &Sets,
     f: &Fit,
     cand: &Candidate,
-    eps: &[[f64; 3]],
+    eps: Option<&[[f64; 3]]>,
 ) -> Option<Trial> {
     let n = d.rows() as f64;
     let (theta, extra) = match catalogue::search(d, cand) {
@@ -298,11 +342,10 @@ fn try_candidate(
         Search::Grid(name, values) => {
             let mut best: Option<(f64, f64)> = None;
             for &v in &values {
-                let (b, _, _) = catalogue::columns(d, cand, v, Some(eps));
-                if b.is_empty() {
+                let ssr = ssr_at(d, red, sets, f, cand, v, eps);
+                if !ssr.is_finite() {
                     return None;
                 }
-                let (ssr, _, _) = joint_ssr(red, f, &b)?;
                 if best.is_none_or(|(s, _)| ssr < s) {
                     best = Some((ssr, v));
                 }
@@ -310,10 +353,7 @@ fn try_candidate(
             // Golden-section refinement in log θ around the best grid value.
             let (_, v0) = best?;
             let ratio = values.get(1).map_or(2.0, |v1| v1 / values[0]);
-            let eval = |lv: f64| {
-                let (b, _, _) = catalogue::columns(d, cand, lv.exp(), Some(eps));
-                joint_ssr(red, f, &b).map_or(f64::INFINITY, |t| t.0)
-            };
+            let eval = |lv: f64| ssr_at(d, red, sets, f, cand, lv.exp(), eps);
             let bracket =
                 super::search::golden_section((v0 / ratio).ln(), (v0 * ratio).ln(), 10, eval);
             (Some((name, bracket.centre().exp())), 1)
@@ -361,55 +401,26 @@ fn try_candidate(
         }
     };
     let th = theta.map_or(0.0, |t| t.1);
-    let (cols, names, peaks) = catalogue::columns(d, cand, th, Some(eps));
-    if cols.is_empty() {
-        return None;
-    }
-    let (ssr, coef, sd) = joint_ssr(red, f, &cols)?;
-    let hssr = heldout_ssr_with(d, red, f, &cols);
-    let k = cols.len() + extra;
+    let specs = catalogue::specs(d, cand, th, eps);
+    let (mom, keep, jf) = evaluate(d, red, sets, f, &specs, true)?;
+    let m = keep.len();
+    let ssr = jf.all.ssr;
+    let k = m + extra;
     let dbic = n * (ssr / f.ssr).ln() + k as f64 * n.ln();
     Some(Trial {
         cand: cand.clone(),
         theta,
-        cols,
-        names,
-        peaks,
-        coef,
-        coef_sd: sd,
+        ncols: m,
+        names: keep.iter().map(|&j| specs.names[j].clone()).collect(),
+        peaks: mom.peaks.clone(),
+        coef: jf.all.x[..m].to_vec(),
+        coef_sd: jf.all.sd[..m].to_vec(),
+        gram: mom.gram(),
         ssr,
-        heldout_ssr: hssr,
+        heldout_ssr: jf.heldout_ssr,
         dbic,
         extra_params: extra,
     })
-}
-
-/// Held-out SSR of the current model plus `b` (whole runs held out, K folds).
-fn heldout_ssr_with(d: &Design, red: &Reduction, f: &Fit, b: &Cols) -> f64 {
-    let mut total = 0.0;
-    for fold in &f.folds {
-        let bp: Cols = b.iter().map(|c| fold.proj.residual(red, c)).collect();
-        let Some((c, _)) = small_lstsq(&bp, &fold.r_train) else {
-            return f64::INFINITY;
-        };
-        let mut yt = d.y.clone();
-        for (col, cj) in b.iter().zip(c.iter()) {
-            for (y, v) in yt.iter_mut().zip(col) {
-                *y -= cj * v;
-            }
-        }
-        let coef = fold.proj.fit(red, &yt);
-        for &g in &fold.held {
-            let pred = predict_run(red, &f.cols, &coef, g);
-            let rs = &red.runs[g];
-            for (i, p) in pred.iter().enumerate() {
-                let row = rs.row0 + i;
-                let e = yt[row] - p;
-                total += e * e;
-            }
-        }
-    }
-    total
 }
 
 /// Physical parameters of an accepted trial (with `std_*` uncertainties), scaled by the
@@ -435,11 +446,8 @@ fn report_parameters(t: &Trial, sigma: f64, d: &Design) -> BTreeMap<String, f64>
     if t.cand.effect == "model_order" {
         // Size of the extra (higher-order) function as seen in the data: RMS of its fit.
         let n = d.rows() as f64;
-        let mut fitted = vec![0.0; d.rows()];
-        for (c, k) in t.cols.iter().zip(&t.coef) {
-            fitted.iter_mut().zip(c).for_each(|(f, v)| *f += k * v);
-        }
-        let rms = (dot(&fitted, &fitted) / n).sqrt();
+        let c = nalgebra::DVector::from_column_slice(&t.coef);
+        let rms = ((c.transpose() * &t.gram * &c)[(0, 0)].max(0.0) / n).sqrt();
         p.insert("rms_um".into(), rms);
         p.insert("extra_order".into(), 10.0);
         return p;
@@ -657,13 +665,13 @@ fn finding_of(
     f: &Fit,
     nf: Option<&Fit>,
     h_before: f64,
-    n: usize,
+    (n, heldout_n): (usize, usize),
     folds: usize,
     floor: f64,
 ) -> Finding {
     let (after, h_after) = match nf {
-        Some(nf) => (rms(nf.ssr, n), rms(nf.heldout_ssr, nf.heldout_n)),
-        None => (rms(t.ssr, n), rms(t.heldout_ssr, f.heldout_n)),
+        Some(nf) => (rms(nf.ssr, n), rms(nf.heldout_ssr, heldout_n)),
+        None => (rms(t.ssr, n), rms(t.heldout_ssr, heldout_n)),
     };
     Finding {
         effect: catalogue::reported_name(t.cand.effect).into(),
@@ -688,7 +696,7 @@ fn finding_of(
             "{}: BIC {:+.1} with {} extra parameter(s); held-out RMS {:.3} -> {:.3} um over {} folds of whole runs; noise floor {:.3} um",
             t.cand.label(),
             t.dbic,
-            t.cols.len() + t.extra_params,
+            t.ncols + t.extra_params,
             h_before,
             h_after,
             folds,
@@ -706,15 +714,16 @@ fn finding_of(
 fn theta_std(
     d: &Design,
     red: &Reduction,
+    sets: &Sets,
     f: &Fit,
     t: &Trial,
-    eps: &[[f64; 3]],
+    eps: Option<&[[f64; 3]]>,
     sigma: f64,
 ) -> Option<(&'static str, f64)> {
     let (name, th) = t.theta?;
     let ssr_at = |v: f64| {
-        let (b, _, _) = catalogue::columns(d, &t.cand, v, Some(eps));
-        joint_ssr(red, f, &b).map_or(f64::NAN, |r| r.0)
+        let s = ssr_at(d, red, sets, f, &t.cand, v, eps);
+        if s.is_finite() { s } else { f64::NAN }
     };
     let (log, h) = match catalogue::search(d, &t.cand) {
         Search::Periodic { fine_step, .. } => (false, fine_step),
@@ -743,23 +752,35 @@ pub fn diagnose_session(
     session: &Session,
     opts: &DiagnoseOptions,
 ) -> Result<DiagnosisResult, SolverError> {
+    diagnose_session_with_progress(session, opts, &mut NoProgress)
+}
+
+/// [`diagnose_session`], reporting its phases and the fraction of the work done to
+/// `progress` (fractions in [0, 1], never decreasing, ending at 1).
+pub fn diagnose_session_with_progress(
+    session: &Session,
+    opts: &DiagnoseOptions,
+    progress: &mut dyn Progress,
+) -> Result<DiagnosisResult, SolverError> {
+    let mut progress = Monotone::new(progress);
+    progress.report("reducing the rigid model", 0.0);
     let topology = session
         .topology
         .clone()
         .or_else(|| opts.topology.clone())
         .unwrap_or_default();
-    let mut d = design::build(session, &topology, opts.order)?;
+    let d = design::build(session, &topology, opts.order)?;
     let n = d.rows();
     let folds = opts.folds.max(2);
-    let red = Reduction::new(&d);
-    // The dense rigid columns are no longer needed: the reduction holds them exactly.
-    d.a = Vec::new();
-    let mut f = fit(&d, &red, Vec::new(), folds);
-    let dof = n
-        .saturating_sub(2 * 2 * d.runs.len() / 2 + f.full.rank())
-        .max(1);
+    let red = Reduction::new(session, &d);
+    let sets = Sets::new(&d, &red, folds);
+    let heldout_n = sets.heldout_n;
+    progress.report("fitting the rigid model", 0.05);
+    let mut f = fit(&d, &red, &sets, Vec::new());
+    let dof = n.saturating_sub(2 * d.runs.len() + f.rank).max(1);
     let base_rms = (f.ssr / dof as f64).sqrt();
-    let base_heldout = rms(f.heldout_ssr, f.heldout_n);
+    let base_heldout = rms(f.heldout_ssr, heldout_n);
+    progress.report("noise floor", 0.08);
     let (floor, floor_note) = match crate::noise::session_floor(session) {
         Some(nf) => (nf.sigma_um, nf.note()),
         None => (
@@ -780,28 +801,44 @@ pub fn diagnose_session(
     // Candidates set aside (undetermined or implausible) are not tried again.
     let mut set_aside: Vec<String> = Vec::new();
     let mut dof_used = 0usize;
+    // Each round of candidates takes an equal share of the fraction between 0.1 and 0.95.
+    let rounds = (opts.max_findings + 1) as f64;
     while findings.len() < opts.max_findings {
         // No stop at the floor: an effect is accepted on its evidence (BIC and held-out
         // gain), so a small misfit near the floor is still looked for.
-        let cur_heldout = rms(f.heldout_ssr, f.heldout_n);
-        let eps = eps_per_sample(&d, &red, &f);
-        let mut qualifying: Vec<Trial> = cands
+        let round = findings.len() as f64;
+        let cur_heldout = rms(f.heldout_ssr, heldout_n);
+        let eps = cands
+            .iter()
+            .any(|c| c.effect == "setup_offset")
+            .then(|| eps_per_sample(&d, &red, &f));
+        let mut qualifying: Vec<Trial> = Vec::new();
+        let tried: Vec<&Candidate> = cands
             .iter()
             .filter(|c| !set_aside.contains(&c.label()))
-            .filter_map(|c| try_candidate(&d, &red, &f, c, &eps))
-            .filter(|t| {
-                t.dbic < -opts.min_bic_gain
-                    && rms(t.heldout_ssr, f.heldout_n) < cur_heldout * (1.0 - opts.min_heldout_gain)
-            })
             .collect();
+        for (i, c) in tried.iter().enumerate() {
+            progress.report(
+                &format!("round {} of candidates: {}", round + 1.0, c.label()),
+                0.1 + 0.85 * (round + i as f64 / tried.len() as f64) / rounds,
+            );
+            let Some(t) = try_candidate(&d, &red, &sets, &f, c, eps.as_deref()) else {
+                continue;
+            };
+            if t.dbic < -opts.min_bic_gain
+                && rms(t.heldout_ssr, heldout_n) < cur_heldout * (1.0 - opts.min_heldout_gain)
+            {
+                qualifying.push(t);
+            }
+        }
         qualifying.sort_by(|a, b| a.heldout_ssr.total_cmp(&b.heldout_ssr));
         let mut accepted = None;
         for t in qualifying {
             let sigma = (t.ssr
-                / (dof.saturating_sub(dof_used + t.cols.len() + t.extra_params)).max(1) as f64)
+                / (dof.saturating_sub(dof_used + t.ncols + t.extra_params)).max(1) as f64)
                 .sqrt();
             let mut params = report_parameters(&t, sigma, &d);
-            if let Some((name, sd)) = theta_std(&d, &red, &f, &t, &eps, sigma) {
+            if let Some((name, sd)) = theta_std(&d, &red, &sets, &f, &t, eps.as_deref(), sigma) {
                 params.insert(format!("std_{name}"), sd);
             }
             let explained = ((f.ssr - t.ssr).max(0.0) / n as f64).sqrt();
@@ -816,7 +853,16 @@ pub fn diagnose_session(
                 set_aside.push(t.cand.label());
                 continue;
             }
-            let finding = finding_of(&t, params, &f, None, cur_heldout, n, folds, floor);
+            let finding = finding_of(
+                &t,
+                params,
+                &f,
+                None,
+                cur_heldout,
+                (n, heldout_n),
+                folds,
+                floor,
+            );
             if let Some(why) = effects::undetermined(&finding) {
                 possible.push(Finding {
                     decide: Some(why),
@@ -829,26 +875,33 @@ pub fn diagnose_session(
             break;
         }
         let Some((t, finding)) = accepted else { break };
-        dof_used += t.cols.len() + t.extra_params;
+        progress.report(
+            &format!("refitting with {}", t.cand.label()),
+            0.1 + 0.85 * (round + 0.99) / rounds,
+        );
+        dof_used += t.ncols + t.extra_params;
         let mut cols = f.cols.clone();
-        for c in &t.cols {
+        let th = t.theta.map_or(0.0, |x| x.1);
+        let (new_cols, _, _) = catalogue::columns(&d, &t.cand, th, eps.as_deref());
+        for c in &new_cols {
             let nrm = dot(c, c).sqrt().max(1e-300);
             cols.push(c.iter().map(|v| v / nrm).collect());
         }
-        let nf = fit(&d, &red, cols, folds);
+        let nf = fit(&d, &red, &sets, cols);
         findings.push(finding_of(
             &t,
             finding.parameters,
             &f,
             Some(&nf),
             cur_heldout,
-            n,
+            (n, heldout_n),
             folds,
             floor,
         ));
         f = nf;
     }
-    let final_heldout = rms(f.heldout_ssr, f.heldout_n);
+    progress.report("report", 0.95);
+    let final_heldout = rms(f.heldout_ssr, heldout_n);
     let at_noise = final_heldout <= opts.noise_level_ratio * floor;
     let verdict = effects::verdict(
         base_heldout <= opts.noise_level_ratio * floor,
@@ -875,6 +928,7 @@ pub fn diagnose_session(
         ));
     }
     let plots = plots(&d, &before_resid, &f.resid);
+    progress.report("done", 1.0);
     Ok(DiagnosisResult {
         kind: "diagnosis".into(),
         machine_id: session.machine_id.clone(),

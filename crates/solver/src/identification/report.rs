@@ -276,26 +276,32 @@ const GL8: [(f64, f64); 8] = [
     (0.960_289_856_497_536_3, 0.101_228_536_290_376_26),
 ];
 
-/// The least-squares line a + b·q of term `i` over [lo, hi] (continuous, uniform weight),
-/// as linear functionals (a, b) of the error parameters. With s = (q − c)/h mapping the
-/// travel onto [−1, 1]: a' = ½∫f ds, b' = (3/2)∫f s ds (Legendre projection), then
-/// b = b'/h, a = a' − b c.
-pub fn ls_line_functionals(model: &ErrorModel, i: usize, lo: f64, hi: f64) -> (Vec<f64>, Vec<f64>) {
+/// Quadrature weights of the least-squares line a + b·q of a function f over [lo, hi]
+/// (continuous, uniform weight): a = Σ_k wa_k f(q_k), b = Σ_k wb_k f(q_k), returned as
+/// (q_k, wa_k, wb_k). With s = (q − c)/h mapping the travel onto [−1, 1]: a' = ½∫f ds,
+/// b' = (3/2)∫f s ds (Legendre projection), then b = b'/h, a = a' − b c; the integrals by
+/// 8-point Gauss–Legendre, exact for polynomials up to degree 15.
+pub fn ls_line_weights(lo: f64, hi: f64) -> [(f64, f64, f64); 8] {
     let c = 0.5 * (lo + hi);
     let h = 0.5 * (hi - lo);
+    GL8.map(|(s, w)| {
+        let wb = 1.5 * w * s / h;
+        (c + h * s, 0.5 * w - wb * c, wb)
+    })
+}
+
+/// The least-squares line a + b·q of term `i` over [lo, hi] ([`ls_line_weights`]), as
+/// linear functionals (a, b) of the error parameters.
+pub fn ls_line_functionals(model: &ErrorModel, i: usize, lo: f64, hi: f64) -> (Vec<f64>, Vec<f64>) {
     let n = model.len();
     let mut a = vec![0.0; n];
     let mut b = vec![0.0; n];
-    for (s, w) in GL8 {
-        let g = model.term_value_gradient(i, c + h * s);
+    for (q, wa, wb) in ls_line_weights(lo, hi) {
+        let g = model.term_value_gradient(i, q);
         for j in 0..n {
-            a[j] += 0.5 * w * g[j];
-            b[j] += 1.5 * w * s * g[j];
+            a[j] += wa * g[j];
+            b[j] += wb * g[j];
         }
-    }
-    for j in 0..n {
-        b[j] /= h;
-        a[j] -= b[j] * c;
     }
     (a, b)
 }

@@ -2,7 +2,7 @@
 //! with its uncertainty and a sparkline of its worst term; machines with active alerts
 //! first; filters by site and tag; the active alerts.
 
-use super::{Nav, Viewer, csrf_field, machine_href, page, result_href, svg, verdict_badge, when};
+use super::{Nav, Viewer, machine_href, page, result_href, svg, verdict_badge, when};
 use crate::plots;
 use maud::{Markup, html};
 
@@ -36,16 +36,7 @@ pub struct FleetRow {
     pub active_alerts: usize,
 }
 
-/// An alert as listed (raised when drift exceeds its threshold by more than the combined
-/// uncertainty).
-#[derive(Debug, Clone, PartialEq)]
-pub struct AlertRow {
-    pub id: String,
-    pub machine_id: String,
-    pub raised_at: String,
-    pub message: String,
-    pub acknowledged: bool,
-}
+pub use super::alerts::AlertRow;
 
 /// What the page shows and how it was filtered.
 #[derive(Debug, Clone, PartialEq, Default)]
@@ -61,6 +52,23 @@ pub struct FleetPage {
     pub sort: String,
     /// How drift is defined (from the API).
     pub definition: String,
+    /// Machines matching the filters in all, this page (1-based) and the number of pages.
+    pub total: usize,
+    pub page: usize,
+    pub pages: usize,
+}
+
+/// The fleet page's URL with these filters at page `page`.
+fn page_href(f: &FleetPage, page: usize) -> String {
+    let mut q = vec![format!("sort={}", super::encode(&f.sort))];
+    if let Some(s) = &f.site {
+        q.push(format!("site={}", super::encode(s)));
+    }
+    if let Some(t) = &f.tag {
+        q.push(format!("tag={}", super::encode(t)));
+    }
+    q.push(format!("page={page}"));
+    format!("/?{}", q.join("&"))
 }
 
 fn drift(d: &Option<Drift>) -> Markup {
@@ -95,37 +103,23 @@ pub fn fleet_page(viewer: &Viewer, f: &FleetPage) -> Markup {
         ("name", "name"),
         ("last_check", "last check"),
     ];
-    let active: Vec<&AlertRow> = f.alerts.iter().filter(|a| !a.acknowledged).collect();
+    let active: Vec<AlertRow> = f
+        .alerts
+        .iter()
+        .filter(|a| !a.acknowledged)
+        .cloned()
+        .collect();
     page(
         "Fleet",
         Nav::Fleet,
         Some(viewer),
         html! {
             h1 { "Fleet" }
-            p.lead { (f.rows.len()) " machine(s). Drift: " (f.definition) }
+            p.lead { (f.total) " machine(s). Drift: " (f.definition) }
             @if !active.is_empty() {
                 section.card #alerts {
                     h2 { "Active alerts " span.badge.alert { (active.len()) } }
-                    table {
-                        thead { tr { th { "machine" } th { "raised" } th { "alert" } th {} } }
-                        tbody {
-                            @for a in &active {
-                                tr.alert data-alert=(a.id) {
-                                    td { a href=(machine_href(&a.machine_id)) { (a.machine_id) } }
-                                    td { (when(&a.raised_at)) }
-                                    td { (a.message) }
-                                    td {
-                                        @if viewer.can_write() {
-                                            form.inline method="post" action={ "/alerts/" (super::encode(&a.id)) "/ack" } {
-                                                (csrf_field(&viewer.csrf))
-                                                button.secondary type="submit" { "Acknowledge" }
-                                            }
-                                        }
-                                    }
-                                }
-                            }
-                        }
-                    }
+                    (super::alerts::alert_table(viewer, &active, "/"))
                 }
             }
             form.filters method="get" action="/" {
@@ -167,6 +161,13 @@ pub fn fleet_page(viewer: &Viewer, f: &FleetPage) -> Markup {
                     }
                 }
             }
+            @if f.pages > 1 {
+                nav.pager {
+                    @if f.page > 1 { a href=(page_href(f, f.page - 1)) rel="prev" { "← previous" } " " }
+                    "page " (f.page) " of " (f.pages)
+                    @if f.page < f.pages { " " a href=(page_href(f, f.page + 1)) rel="next" { "next →" } }
+                }
+            }
         },
     )
 }
@@ -206,7 +207,7 @@ mod tests {
                 machine_id: "VMC-1".into(),
                 raised_at: "2026-04-06T09:00:00Z".into(),
                 message: "EXX drift 4.2 µm > 3 µm".into(),
-                acknowledged: false,
+                ..AlertRow::default()
             }],
             sites: vec!["north".into(), "south".into()],
             tags: vec!["5-axis".into()],
@@ -214,6 +215,9 @@ mod tests {
             tag: None,
             sort: "drift".into(),
             definition: "largest change".into(),
+            total: 250,
+            page: 2,
+            pages: 3,
         };
         let html = fleet_page(&viewer("write"), &page).into_string();
         assert!(
@@ -230,6 +234,12 @@ mod tests {
         assert!(html.contains(r#"<option value="north" selected>north</option>"#));
         assert!(html.contains(r#"action="/alerts/a1/ack""#));
         assert!(html.contains("<svg"), "sparkline");
+        assert!(html.contains("250 machine(s)"));
+        assert!(
+            html.contains(r#"href="/?sort=drift&amp;site=north&amp;page=3""#),
+            "{html}"
+        );
+        assert!(html.contains(r#"href="/?sort=drift&amp;site=north&amp;page=1""#));
         let read = fleet_page(&viewer("read"), &page).into_string();
         assert!(!read.contains("/ack"), "a read key cannot acknowledge");
         assert!(read.contains("EXX drift 4.2 µm"), "but sees the alert");

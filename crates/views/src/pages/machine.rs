@@ -59,6 +59,11 @@ pub struct MachinePage {
     pub jobs: Vec<JobRow>,
     /// A message after a form (e.g. "baseline set").
     pub notice: Option<String>,
+    /// The machine's drift alerts, newest first (active ones shown with a way to
+    /// acknowledge them).
+    pub alerts: Vec<super::alerts::AlertRow>,
+    /// The tolerance profile that applies (`scope target`), if any.
+    pub tolerance: Option<String>,
 }
 
 pub fn machine_page(viewer: &Viewer, p: &MachinePage) -> Markup {
@@ -78,6 +83,12 @@ pub fn machine_page(viewer: &Viewer, p: &MachinePage) -> Markup {
                 " · " a href={ "/api/v1/machines/" (super::encode(&m.id)) } { "JSON" }
             }
             @if let Some(n) = &p.notice { div.notice { (n) } }
+            @if !p.alerts.is_empty() {
+                section.card #alerts {
+                    h2 { "Drift alerts " span.badge.alert { (p.alerts.iter().filter(|a| !a.acknowledged).count()) " active" } }
+                    (super::alerts::alert_table(viewer, &p.alerts, &href))
+                }
+            }
             div.pair {
                 section.card #trend {
                     h2 { "Trend of a term" }
@@ -108,6 +119,12 @@ pub fn machine_page(viewer: &Viewer, p: &MachinePage) -> Markup {
             }
             section.card #checks {
                 h2 { "Checks" }
+                p.muted #tolerance {
+                    @match &p.tolerance {
+                        Some(t) => { "Verdicts against the tolerance profile of " (t) " (pass when |value| + U ≤ limit, fail when |value| − U > limit, U = 2u)." }
+                        None => { "No tolerance profile applies to this machine (docs/api.md: tolerances)." }
+                    }
+                }
                 table {
                     thead { tr { th { "measured" } th { "kind" } th { "verdict" } th { "summary" } th {} } }
                     tbody {

@@ -1,0 +1,582 @@
+//! Tolerance profiles (API, validation, scopes), verdicts decided at their limits, and
+//! drift alerts raised when a result lands: against hand-worked changes with known
+//! uncertainties, listed, acknowledged, and POSTed to a webhook on 127.0.0.1.
+
+use axum::body::Body;
+use axum::http::{Request, StatusCode};
+use mtcal_server::{AppState, UploadLimits, router};
+use mtcal_store::{Figure, Machine, NewResult, ResultScalars, Scope, Store};
+use serde_json::{Value, json};
+use std::collections::BTreeMap;
+use std::sync::Arc;
+use tower::ServiceExt;
+
+fn app(store: Arc<dyn Store>) -> axum::Router {
+    router(AppState {
+        store,
+        limits: UploadLimits::default(),
+        max_attempts: 3,
+        wake: Arc::new(tokio::sync::Notify::new()),
+    })
+}
+
+async fn send(
+    app: &axum::Router,
+    method: &str,
+    uri: &str,
+    key: &str,
+    body: Option<Value>,
+) -> (StatusCode, Value) {
+    let r = Request::builder()
+        .method(method)
+        .uri(uri)
+        .header("authorization", format!("Bearer {key}"))
+        .header("content-type", "application/json");
+    let req = match body {
+        Some(b) => r.body(Body::from(b.to_string())).unwrap(),
+        None => r.body(Body::empty()).unwrap(),
+    };
+    let resp = app.clone().oneshot(req).await.unwrap();
+    let status = resp.status();
+    let bytes = axum::body::to_bytes(resp.into_body(), 1 << 20)
+        .await
+        .unwrap();
+    (
+        status,
+        serde_json::from_slice(&bytes).unwrap_or(Value::Null),
+    )
+}
+
+struct Fixture {
+    _dir: tempfile::TempDir,
+    store: Arc<dyn Store>,
+    app: axum::Router,
+    read: String,
+    write: String,
+}
+
+async fn fixture() -> Fixture {
+    let dir = tempfile::tempdir().unwrap();
+    let store = mtcal_store::open(dir.path().join("t.sqlite").to_str().unwrap())
+        .await
+        .unwrap();
+    let (_, read) = store.create_key(Scope::Read, "viewer").await.unwrap();
+    let (_, write) = store.create_key(Scope::Write, "ops").await.unwrap();
+    Fixture {
+        _dir: dir,
+        app: app(store.clone()),
+        store,
+        read,
+        write,
+    }
+}
+
+fn machine(id: &str, tags: &[&str]) -> Machine {
+    Machine {
+        id: id.into(),
+        name: id.into(),
+        topology: json!({"workpiece": ["X", "Y"], "tool": ["Z"]}),
+        travel_mm: BTreeMap::from([("X".into(), [-200.0, 200.0])]),
+        site: None,
+        tags: tags.iter().map(|t| t.to_string()).collect(),
+        baseline_result_id: None,
+        created_at: String::new(),
+        updated_at: String::new(),
+    }
+}
+
+fn message(b: &Value) -> String {
+    b["error"]["message"]
+        .as_str()
+        .unwrap_or_default()
+        .to_string()
+}
+
+#[tokio::test]
+async fn profiles_are_written_with_a_write_key_and_bad_ones_refused_naming_the_field() {
+    let f = fixture().await;
+    f.store
+        .create_machine(&machine("M1", &["vmc"]))
+        .await
+        .unwrap();
+    let good = json!({"scope": "machine", "target": "M1",
+                      "limits": {"terms": {"EXX": 5.0}, "squareness": {"EC0Y": 30.0},
+                                 "standards": {"iso230_2.X.E_um": 8.0}, "drift_um": 2.0}});
+    let (s, b) = send(
+        &f.app,
+        "POST",
+        "/api/v1/tolerances",
+        &f.read,
+        Some(good.clone()),
+    )
+    .await;
+    assert_eq!(s, StatusCode::FORBIDDEN, "{b}");
+    for (body, field) in [
+        (
+            json!({"scope": "plant", "target": "M1", "limits": {"drift_um": 1.0}}),
+            "scope",
+        ),
+        (
+            json!({"scope": "machine", "target": "", "limits": {"drift_um": 1.0}}),
+            "target",
+        ),
+        (
+            json!({"scope": "machine", "target": "M1", "limits": {}}),
+            "limits",
+        ),
+        (
+            json!({"scope": "machine", "target": "M1", "limits": {"terms": {"EQX": 1.0}}}),
+            "limits.terms.EQX",
+        ),
+        (
+            json!({"scope": "machine", "target": "M1", "limits": {"squareness": {"EC0Y": -1.0}}}),
+            "limits.squareness.EC0Y",
+        ),
+        (
+            json!({"scope": "machine", "target": "M1", "limits": {"standards": {"iso230_2.W.E_um": 1.0}}}),
+            "limits.standards.iso230_2.W.E_um",
+        ),
+        (
+            json!({"scope": "machine", "target": "M1", "limits": {"drift_urad": 0.0}}),
+            "limits.drift_urad",
+        ),
+        (
+            json!({"scope": "machine", "target": "M1", "limits": {"termz": {}}}),
+            "termz",
+        ),
+        (
+            json!({"scope": "machine", "target": "M1", "limits": {"terms": {"EXX": "five"}}}),
+            "limits.terms.EXX",
+        ),
+        (
+            json!({"scope": "machine", "target": "M1", "limits": {"drift_um": 1.0},
+                "webhook_url": "http://127.0.0.1:1/x"}),
+            "webhook_url",
+        ),
+        (
+            json!({"scope": "tag", "target": "vmc", "limits": {"drift_um": 1.0},
+                "webhook_url": "ftp://127.0.0.1/x"}),
+            "webhook_url",
+        ),
+    ] {
+        let (s, b) = send(
+            &f.app,
+            "POST",
+            "/api/v1/tolerances",
+            &f.write,
+            Some(body.clone()),
+        )
+        .await;
+        assert_eq!(s, StatusCode::BAD_REQUEST, "{body}: {b}");
+        assert!(
+            message(&b).contains(field),
+            "{body}: {b} should name {field}"
+        );
+    }
+    let (s, b) = send(
+        &f.app,
+        "POST",
+        "/api/v1/tolerances",
+        &f.write,
+        Some(json!({"scope": "machine", "target": "NOPE", "limits": {"drift_um": 1.0}})),
+    )
+    .await;
+    assert_eq!(s, StatusCode::NOT_FOUND, "{b}");
+    assert!(
+        f.store.list_tolerances().await.unwrap().is_empty(),
+        "nothing stored"
+    );
+
+    let (s, p) = send(
+        &f.app,
+        "POST",
+        "/api/v1/tolerances",
+        &f.write,
+        Some(good.clone()),
+    )
+    .await;
+    assert_eq!(s, StatusCode::CREATED, "{p}");
+    assert_eq!(p["limits"]["terms"]["EXX"], 5.0);
+    let id = p["id"].as_str().unwrap().to_string();
+    let (s, b) = send(&f.app, "POST", "/api/v1/tolerances", &f.write, Some(good)).await;
+    assert_eq!(s, StatusCode::CONFLICT, "{b}");
+    let (s, list) = send(&f.app, "GET", "/api/v1/tolerances", &f.read, None).await;
+    assert_eq!((s, list.as_array().unwrap().len()), (StatusCode::OK, 1));
+    let (s, b) = send(
+        &f.app,
+        "PUT",
+        &format!("/api/v1/tolerances/{id}"),
+        &f.read,
+        Some(json!({"limits": {"drift_um": 3.0}})),
+    )
+    .await;
+    assert_eq!(s, StatusCode::FORBIDDEN, "{b}");
+    let (s, b) = send(
+        &f.app,
+        "PUT",
+        &format!("/api/v1/tolerances/{id}"),
+        &f.write,
+        Some(json!({"limits": {"drift_um": -3.0}})),
+    )
+    .await;
+    assert_eq!(s, StatusCode::BAD_REQUEST, "{b}");
+    assert!(message(&b).contains("limits.drift_um"), "{b}");
+    let (s, b) = send(
+        &f.app,
+        "PUT",
+        &format!("/api/v1/tolerances/{id}"),
+        &f.write,
+        Some(json!({"limits": {"drift_um": 3.0}})),
+    )
+    .await;
+    assert_eq!(s, StatusCode::OK, "{b}");
+    assert_eq!(
+        b["limits"],
+        json!({"terms": {}, "squareness": {}, "standards": {}, "drift_um": 3.0, "drift_urad": null})
+    );
+    let (s, got) = send(
+        &f.app,
+        "GET",
+        &format!("/api/v1/tolerances/{id}"),
+        &f.read,
+        None,
+    )
+    .await;
+    assert_eq!(
+        (s, &got["limits"]["drift_um"]),
+        (StatusCode::OK, &json!(3.0))
+    );
+    let (s, _) = send(
+        &f.app,
+        "DELETE",
+        &format!("/api/v1/tolerances/{id}"),
+        &f.read,
+        None,
+    )
+    .await;
+    assert_eq!(s, StatusCode::FORBIDDEN);
+    let (s, _) = send(
+        &f.app,
+        "DELETE",
+        &format!("/api/v1/tolerances/{id}"),
+        &f.write,
+        None,
+    )
+    .await;
+    assert_eq!(s, StatusCode::NO_CONTENT);
+    let (s, _) = send(
+        &f.app,
+        "GET",
+        &format!("/api/v1/tolerances/{id}"),
+        &f.read,
+        None,
+    )
+    .await;
+    assert_eq!(s, StatusCode::NOT_FOUND);
+}
+
+/// A standards result with ISO 230-2 E = 6.0 µm, u = 0.5 µm (U = 1 µm).
+fn standards_result(machine: &str) -> NewResult {
+    NewResult {
+        machine_id: machine.into(),
+        dataset_id: None,
+        kind: "standards".into(),
+        measured_at: "2026-01-05T08:00:00Z".into(),
+        document: json!({}),
+        scalars: ResultScalars::default(),
+        figures: vec![Figure {
+            name: "iso230_2.X.E_um".into(),
+            value: 6.0,
+            u: Some(0.5),
+        }],
+    }
+}
+
+#[tokio::test]
+async fn verdict_at_the_limit_with_the_machines_own_profile_winning_over_its_tags() {
+    let f = fixture().await;
+    f.store
+        .create_machine(&machine("M1", &["line-a"]))
+        .await
+        .unwrap();
+    let r = f.store.import_result(standards_result("M1")).await.unwrap();
+    let uri = format!("/api/v1/results/{}/verdict", r.id);
+    let (s, v) = send(&f.app, "GET", &uri, &f.read, None).await;
+    assert_eq!(s, StatusCode::OK, "{v}");
+    assert_eq!((&v["profile"], &v["verdict"]), (&Value::Null, &Value::Null));
+
+    // The tag's profile: E + U = 6 + 1 = 7 <= 7 passes (at the limit).
+    let tag = json!({"scope": "tag", "target": "line-a", "limits": {"standards": {"iso230_2.X.E_um": 7.0}}});
+    let (s, b) = send(&f.app, "POST", "/api/v1/tolerances", &f.write, Some(tag)).await;
+    assert_eq!(s, StatusCode::CREATED, "{b}");
+    let (_, v) = send(&f.app, "GET", &uri, &f.read, None).await;
+    assert_eq!(v["profile"]["scope"], "tag");
+    assert_eq!(v["verdict"]["decision"], "pass", "{v}");
+    assert_eq!(v["verdict"]["items"][0]["expanded_u"], 1.0);
+    assert_eq!(v["verdict"]["k"], 2.0);
+
+    // The machine's own profile wins: 6.95 lies inside [E − U, E + U]: undecided;
+    // then 4.99 < E − U = 5: fail; 5.0 = E − U is not beyond it: undecided.
+    let own = json!({"scope": "machine", "target": "M1", "limits": {"standards": {"iso230_2.X.E_um": 6.95}}});
+    let (_, p) = send(&f.app, "POST", "/api/v1/tolerances", &f.write, Some(own)).await;
+    let pid = p["id"].as_str().unwrap().to_string();
+    let (_, v) = send(&f.app, "GET", &uri, &f.read, None).await;
+    assert_eq!(v["profile"]["scope"], "machine");
+    assert_eq!(v["verdict"]["decision"], "undecided", "{v}");
+    for (limit, decision) in [
+        (4.99, "fail"),
+        (5.0, "undecided"),
+        (7.0, "pass"),
+        (6.99, "undecided"),
+    ] {
+        let (s, b) = send(
+            &f.app,
+            "PUT",
+            &format!("/api/v1/tolerances/{pid}"),
+            &f.write,
+            Some(json!({"limits": {"standards": {"iso230_2.X.E_um": limit}}})),
+        )
+        .await;
+        assert_eq!(s, StatusCode::OK, "{b}");
+        let (_, v) = send(&f.app, "GET", &uri, &f.read, None).await;
+        assert_eq!(v["verdict"]["decision"], decision, "limit {limit}: {v}");
+    }
+    // A limit the result has no figure for takes no part.
+    let (_, _) = send(
+        &f.app,
+        "PUT",
+        &format!("/api/v1/tolerances/{pid}"),
+        &f.write,
+        Some(json!({"limits": {"standards": {"iso230_4.XY.bi.G_um": 3.0}}})),
+    )
+    .await;
+    let (_, v) = send(&f.app, "GET", &uri, &f.read, None).await;
+    assert_eq!(v["verdict"]["decision"], Value::Null, "{v}");
+    assert_eq!(
+        v["verdict"]["not_evaluated"][0]["item"],
+        "iso230_4.XY.bi.G_um"
+    );
+}
+
+/// An identification's scalars: EXX = c1·q over the measured travel X ∈ [−50, 50] mm,
+/// its coefficient's variance `var` (so u(q) = √var·|q|).
+fn identification(machine: &str, at: &str, c1: f64, var: f64) -> NewResult {
+    NewResult {
+        machine_id: machine.into(),
+        dataset_id: None,
+        kind: "identification".into(),
+        measured_at: at.into(),
+        document: json!({"kind": "identification"}),
+        scalars: ResultScalars {
+            term_coefficients: BTreeMap::from([("EXX".into(), vec![c1])]),
+            term_covariance: BTreeMap::from([("EXX".into(), vec![vec![var]])]),
+            measured_travel_mm: BTreeMap::from([("X".into(), [-50.0, 50.0])]),
+            ..ResultScalars::default()
+        },
+        figures: vec![],
+    }
+}
+
+// Hand-worked: both checks have var(c1) = s² with s = 1/(50·√2), so the change
+// Δ(q) = c1·q has u(q) = √2·s·|q| = 1 µm at q = ±50 mm, where |Δ| − U is largest.
+// Threshold T = 5 µm. c1 = 0.12: |Δ| = 6 = T + 1σ, |Δ| − U = 4 ≤ 5: no alert.
+// c1 = 0.16: |Δ| = 8 = T + 3σ, |Δ| − U = 6 > 5: alert.
+const S2: f64 = 1.0 / 5000.0;
+
+#[tokio::test]
+async fn a_drift_inside_its_uncertainty_raises_no_alert_one_3_sigma_outside_does() {
+    let f = fixture().await;
+    f.store
+        .create_machine(&machine("M1", &["vmc"]))
+        .await
+        .unwrap();
+    let (s, b) = send(
+        &f.app,
+        "POST",
+        "/api/v1/tolerances",
+        &f.write,
+        Some(json!({"scope": "machine", "target": "M1", "limits": {"drift_um": 5.0}})),
+    )
+    .await;
+    assert_eq!(s, StatusCode::CREATED, "{b}");
+    let base = f
+        .store
+        .import_result(identification("M1", "2026-01-05T08:00:00Z", 0.0, S2))
+        .await
+        .unwrap();
+    assert!(
+        mtcal_server::fleet::result_landed(&f.store, "M1", &base.id)
+            .await
+            .unwrap()
+            .is_none(),
+        "the baseline never alerts"
+    );
+    let inside = f
+        .store
+        .import_result(identification("M1", "2026-04-05T08:00:00Z", 0.12, S2))
+        .await
+        .unwrap();
+    assert!(
+        mtcal_server::fleet::result_landed(&f.store, "M1", &inside.id)
+            .await
+            .unwrap()
+            .is_none(),
+        "T + 1σ is inside the expanded uncertainty"
+    );
+    let outside = f
+        .store
+        .import_result(identification("M1", "2026-07-05T08:00:00Z", 0.16, S2))
+        .await
+        .unwrap();
+    let alert = mtcal_server::fleet::result_landed(&f.store, "M1", &outside.id)
+        .await
+        .unwrap()
+        .expect("T + 3σ alerts");
+    assert_eq!(alert.items.len(), 1);
+    let item = &alert.items[0];
+    assert_eq!(item.item, "EXX");
+    assert!((item.value.unwrap().abs() - 8.0).abs() < 1e-9, "{item:?}");
+    assert!((item.u.unwrap() - 1.0).abs() < 1e-9, "{item:?}");
+    assert_eq!(item.position_mm.map(f64::abs), Some(50.0));
+    assert_eq!(item.limit, 5.0);
+    assert_eq!(alert.baseline_result_id, base.id);
+    assert!(alert.message.contains("EXX"), "{}", alert.message);
+    // Landing twice (a job run again) raises no second alert.
+    assert!(
+        mtcal_server::fleet::result_landed(&f.store, "M1", &outside.id)
+            .await
+            .unwrap()
+            .is_none()
+    );
+
+    // Listed, filtered, acknowledged once with who and when.
+    let (s, list) = send(
+        &f.app,
+        "GET",
+        "/api/v1/alerts?machine=M1&active=true",
+        &f.read,
+        None,
+    )
+    .await;
+    assert_eq!(s, StatusCode::OK, "{list}");
+    assert_eq!(list.as_array().unwrap().len(), 1);
+    assert_eq!(list[0]["id"], alert.id.as_str());
+    assert_eq!(list[0]["active"], true);
+    let (s, _) = send(&f.app, "GET", "/api/v1/alerts?machine=M2", &f.read, None).await;
+    assert_eq!(s, StatusCode::OK);
+    let (s, b) = send(&f.app, "GET", "/api/v1/alerts?active=maybe", &f.read, None).await;
+    assert_eq!(s, StatusCode::BAD_REQUEST, "{b}");
+    let ack = format!("/api/v1/alerts/{}/ack", alert.id);
+    let (s, _) = send(&f.app, "POST", &ack, &f.read, None).await;
+    assert_eq!(s, StatusCode::FORBIDDEN);
+    let (s, a) = send(&f.app, "POST", &ack, &f.write, None).await;
+    assert_eq!(s, StatusCode::OK, "{a}");
+    assert_eq!(a["active"], false);
+    assert!(
+        a["acknowledged_by"].as_str().unwrap().contains("(ops)"),
+        "{a}"
+    );
+    assert!(a["acknowledged_at"].is_string());
+    let (_, list) = send(&f.app, "GET", "/api/v1/alerts?active=true", &f.read, None).await;
+    assert!(list.as_array().unwrap().is_empty(), "{list}");
+    let (s, _) = send(
+        &f.app,
+        "POST",
+        "/api/v1/alerts/alert_nope/ack",
+        &f.write,
+        None,
+    )
+    .await;
+    assert_eq!(s, StatusCode::NOT_FOUND);
+
+    // Without a drift threshold nothing alerts.
+    f.store.create_machine(&machine("M2", &[])).await.unwrap();
+    let b2 = f
+        .store
+        .import_result(identification("M2", "2026-01-05T08:00:00Z", 0.0, S2))
+        .await
+        .unwrap();
+    let r2 = f
+        .store
+        .import_result(identification("M2", "2026-04-05T08:00:00Z", 0.5, S2))
+        .await
+        .unwrap();
+    let _ = b2;
+    assert!(
+        mtcal_server::fleet::result_landed(&f.store, "M2", &r2.id)
+            .await
+            .unwrap()
+            .is_none()
+    );
+}
+
+/// A webhook receiver on 127.0.0.1: answers 500 to the first `fail_first` requests, then
+/// 200; every body it accepted goes to the channel.
+async fn receiver(fail_first: usize) -> (String, tokio::sync::mpsc::UnboundedReceiver<Value>) {
+    use std::sync::atomic::{AtomicUsize, Ordering};
+    let (tx, rx) = tokio::sync::mpsc::unbounded_channel();
+    let seen = Arc::new(AtomicUsize::new(0));
+    let handler = move |axum::Json(body): axum::Json<Value>| {
+        let (tx, seen) = (tx.clone(), seen.clone());
+        async move {
+            if seen.fetch_add(1, Ordering::SeqCst) < fail_first {
+                return StatusCode::INTERNAL_SERVER_ERROR;
+            }
+            tx.send(body).unwrap();
+            StatusCode::NO_CONTENT
+        }
+    };
+    let listener = tokio::net::TcpListener::bind("127.0.0.1:0").await.unwrap();
+    let addr = listener.local_addr().unwrap();
+    assert!(addr.ip().is_loopback());
+    let app = axum::Router::new().route("/hook", axum::routing::post(handler));
+    tokio::spawn(async move { axum::serve(listener, app).await });
+    (format!("http://{addr}/hook"), rx)
+}
+
+#[tokio::test]
+async fn an_alert_is_posted_to_the_webhook_of_the_machines_tag_and_a_dead_one_fails_nothing() {
+    let f = fixture().await;
+    let (url, mut rx) = receiver(1).await;
+    // A webhook that nobody answers (a closed port on 127.0.0.1).
+    let dead = {
+        let l = std::net::TcpListener::bind("127.0.0.1:0").unwrap();
+        format!("http://{}/hook", l.local_addr().unwrap())
+    };
+    f.store
+        .create_machine(&machine("M1", &["line-a", "line-b"]))
+        .await
+        .unwrap();
+    for (tag, hook, drift) in [("line-a", &url, json!(5.0)), ("line-b", &dead, json!(50.0))] {
+        let (s, b) = send(&f.app, "POST", "/api/v1/tolerances", &f.write,
+            Some(json!({"scope": "tag", "target": tag, "limits": {"drift_um": drift}, "webhook_url": hook}))).await;
+        assert_eq!(s, StatusCode::CREATED, "{b}");
+        assert_eq!(b["webhook_url"], hook.as_str());
+    }
+    let base = f
+        .store
+        .import_result(identification("M1", "2026-01-05T08:00:00Z", 0.0, S2))
+        .await
+        .unwrap();
+    mtcal_server::fleet::result_landed(&f.store, "M1", &base.id)
+        .await
+        .unwrap();
+    let r = f
+        .store
+        .import_result(identification("M1", "2026-04-05T08:00:00Z", 0.16, S2))
+        .await
+        .unwrap();
+    // The first tag's profile applies (5 µm); both tags' webhooks are told.
+    let alert = mtcal_server::fleet::result_landed(&f.store, "M1", &r.id)
+        .await
+        .unwrap()
+        .expect("alert");
+    let got = tokio::time::timeout(std::time::Duration::from_secs(20), rx.recv())
+        .await
+        .expect("the webhook is called within its tries")
+        .unwrap();
+    assert_eq!(got["id"], alert.id.as_str(), "after one refused try: {got}");
+    assert_eq!(got["machine_id"], "M1");
+    assert_eq!(got["items"][0]["item"], "EXX");
+    assert_eq!(got["active"], true);
+}

@@ -1,0 +1,429 @@
+//! Exact least squares of the rigid model plus extra columns, assembled from per-run
+//! moments on the reduction of [`super::reduced`].
+//!
+//! For columns X (an effect's, the accepted effects' and the data y), each run g
+//! contributes its moments Z_g = Q_gᵀ X_g and G_g = X_gᵀ X_g (columns centred per run and
+//! reading direction: Q_g's columns are centred, so Q_gᵀ X_g needs no centring, and
+//! X_gᵀX_g is corrected by the per-direction sums). For a set S of runs and W_S an
+//! orthonormal basis of the reduced rigid block Ã_S:
+//!
+//!   C_S = Σ_S G_g − (W_Sᵀ Z_S)ᵀ (W_Sᵀ Z_S) = Xᵀ (I − P_A) X on the rows of S,
+//!
+//! so the joint fit of [A | X'] to y on S (Frisch–Waugh) is the small system
+//! C_X'X' x = C_X'y, with SSR = C_yy − C_yX' x and the rigid coefficients
+//! a = Ã_S⁺ (z_y − Z_X' x). A run h held out of the fit has the residual
+//! e_h = X_h w − Q_h Ã_h a, w = (−x, 1), whose squared norm is
+//! wᵀ G_h w − 2 (Z_h w)·(Ã_h a) + ‖Ã_h a‖² (Q_h orthonormal).
+//!
+//! One pass over the rows per set of columns (O(n·(r_g + m))) is all that touches the
+//! samples; every fit, on all runs and on each fold of held-out runs, is then of the size
+//! of the reduced problem. The small system is solved by an eigen-decomposition of the
+//! equilibrated (unit-diagonal) C_X'X', eigenvalues below 10⁻¹² of the largest dropped;
+//! a column with less than 10⁻¹⁰ of its sum of squares outside the model is dropped.
+
+use super::design::Design;
+use super::linalg::{Projector, dot};
+use super::reduced::Reduction;
+use nalgebra::{DMatrix, SymmetricEigen};
+
+/// Moments of m columns on one run.
+#[derive(Clone)]
+pub struct RunMoments {
+    /// Q_gᵀ X, by column: z[j·r + c].
+    pub z: Vec<f64>,
+    /// Centred X_gᵀ X_g (m × m, row-major).
+    pub xx: Vec<f64>,
+    /// X_gᵀ U_g with the extra columns U (m × u, row-major).
+    pub xu: Vec<f64>,
+}
+
+/// Moments of m columns on every run.
+pub struct Moments {
+    pub m: usize,
+    /// Number of extra columns U.
+    pub u: usize,
+    pub runs: Vec<RunMoments>,
+    /// Per column: largest |value| over the (run, direction) groups where it varies (its
+    /// size as a machine error per unit coefficient; the run offsets absorb a constant).
+    pub peaks: Vec<f64>,
+    /// Per column: whether it varies in some group (is not absorbed by the run offsets).
+    pub varies: Vec<bool>,
+}
+
+impl Moments {
+    /// One pass over the rows: `fill(row, out)` writes the m column values at `row`;
+    /// `extra` are full-length centred columns U.
+    pub fn new(
+        red: &Reduction,
+        m: usize,
+        extra: &[&[f64]],
+        mut fill: impl FnMut(usize, &mut [f64]),
+    ) -> Moments {
+        let u = extra.len();
+        let mut vals = vec![0.0; m];
+        let mut peaks = vec![0.0f64; m];
+        let mut varies = vec![false; m];
+        let mut runs = Vec::with_capacity(red.runs.len());
+        for rs in &red.runs {
+            let r = rs.r;
+            let mut rm = RunMoments {
+                z: vec![0.0; m * r],
+                xx: vec![0.0; m * m],
+                xu: vec![0.0; m * u],
+            };
+            let mut sums = vec![[0.0; 2]; m];
+            let mut lo = vec![[f64::INFINITY; 2]; m];
+            let mut hi = vec![[f64::NEG_INFINITY; 2]; m];
+            // Whether a row of the direction had every column 0 (a value for lo/hi).
+            let mut zero = [false; 2];
+            for i in 0..rs.rows {
+                let row = rs.row0 + i;
+                let comp = i & 1;
+                fill(row, &mut vals);
+                if vals.iter().all(|&v| v == 0.0) {
+                    zero[comp] = true;
+                    continue;
+                }
+                for (j, &v) in vals.iter().enumerate() {
+                    sums[j][comp] += v;
+                    lo[j][comp] = lo[j][comp].min(v);
+                    hi[j][comp] = hi[j][comp].max(v);
+                }
+                let (off, qrow) = rs.row(i);
+                for (j, &v) in vals.iter().enumerate() {
+                    if v == 0.0 {
+                        continue;
+                    }
+                    let z = &mut rm.z[j * r + off..j * r + off + qrow.len()];
+                    for (zz, q) in z.iter_mut().zip(qrow) {
+                        *zz += v * q;
+                    }
+                    for (x, w) in rm.xx[j * m..(j + 1) * m].iter_mut().zip(&vals) {
+                        *x += v * w;
+                    }
+                    for (x, col) in rm.xu[j * u..(j + 1) * u].iter_mut().zip(extra) {
+                        *x += v * col[row];
+                    }
+                }
+            }
+            let half = (rs.rows / 2) as f64;
+            for j in 0..m {
+                for l in 0..m {
+                    rm.xx[j * m + l] -= (0..2).map(|c| sums[j][c] * sums[l][c]).sum::<f64>() / half;
+                }
+                for c in 0..2 {
+                    if zero[c] {
+                        lo[j][c] = lo[j][c].min(0.0);
+                        hi[j][c] = hi[j][c].max(0.0);
+                    }
+                    let raw = lo[j][c].abs().max(hi[j][c].abs());
+                    let dev = hi[j][c] - lo[j][c];
+                    if dev > 1e-9 * raw.max(1e-300) {
+                        peaks[j] = peaks[j].max(raw);
+                    }
+                    varies[j] |= dev > 1e-12;
+                }
+            }
+            runs.push(rm);
+        }
+        Moments {
+            m,
+            u,
+            runs,
+            peaks,
+            varies,
+        }
+    }
+
+    /// Moments of full-length columns (already centred).
+    pub fn of_columns(red: &Reduction, cols: &[&[f64]]) -> Moments {
+        Moments::new(red, cols.len(), &[], |row, out| {
+            for (o, c) in out.iter_mut().zip(cols) {
+                *o = c[row];
+            }
+        })
+    }
+
+    /// The moments of the columns `keep` only.
+    pub fn select(&self, keep: &[usize]) -> Moments {
+        let (m, u) = (keep.len(), self.u);
+        let runs = self
+            .runs
+            .iter()
+            .map(|rm| {
+                let r = rm.z.len() / self.m.max(1);
+                RunMoments {
+                    z: keep
+                        .iter()
+                        .flat_map(|&j| rm.z[j * r..(j + 1) * r].iter().copied())
+                        .collect(),
+                    xx: keep
+                        .iter()
+                        .flat_map(|&j| keep.iter().map(move |&l| rm.xx[j * self.m + l]))
+                        .collect(),
+                    xu: keep
+                        .iter()
+                        .flat_map(|&j| rm.xu[j * u..(j + 1) * u].iter().copied())
+                        .collect(),
+                }
+            })
+            .collect();
+        Moments {
+            m,
+            u,
+            runs,
+            peaks: keep.iter().map(|&j| self.peaks[j]).collect(),
+            varies: keep.iter().map(|&j| self.varies[j]).collect(),
+        }
+    }
+
+    /// Σ over all runs of the centred X_gᵀX_g (m × m).
+    pub fn gram(&self) -> DMatrix<f64> {
+        let mut g = DMatrix::zeros(self.m, self.m);
+        for rm in &self.runs {
+            for j in 0..self.m {
+                for l in 0..self.m {
+                    g[(j, l)] += rm.xx[j * self.m + l];
+                }
+            }
+        }
+        g
+    }
+}
+
+/// The rigid model's projector on a set of runs.
+pub struct RunSet {
+    pub runs: Vec<usize>,
+    proj: Projector,
+}
+
+impl RunSet {
+    fn new(red: &Reduction, runs: Vec<usize>) -> RunSet {
+        let rows: Vec<usize> = runs
+            .iter()
+            .flat_map(|&g| red.runs[g].red0..red.runs[g].red0 + red.runs[g].r)
+            .collect();
+        RunSet {
+            proj: Projector::new(&red.a, Some(&rows)),
+            runs,
+        }
+    }
+
+    /// Rank of the rigid model on these runs.
+    pub fn rank(&self) -> usize {
+        self.proj.rank
+    }
+}
+
+/// All runs, and the K folds of whole runs held out (run index within its file mod K).
+pub struct Sets {
+    pub all: RunSet,
+    /// (training runs, held-out runs) per fold.
+    pub folds: Vec<(RunSet, Vec<usize>)>,
+    /// Rows held out over all folds.
+    pub heldout_n: usize,
+}
+
+impl Sets {
+    pub fn new(d: &Design, red: &Reduction, k: usize) -> Sets {
+        let mut first_run = vec![usize::MAX; d.files.len()];
+        for (i, r) in d.runs.iter().enumerate() {
+            first_run[r.plane_idx] = first_run[r.plane_idx].min(i);
+        }
+        let mut folds = Vec::new();
+        let mut heldout_n = 0;
+        for f in 0..k {
+            let (held, train): (Vec<usize>, Vec<usize>) =
+                (0..d.runs.len()).partition(|&ri| (ri - first_run[d.runs[ri].plane_idx]) % k == f);
+            if held.is_empty() || train.is_empty() {
+                continue;
+            }
+            heldout_n += held.iter().map(|&g| red.runs[g].rows).sum::<usize>();
+            folds.push((RunSet::new(red, train), held));
+        }
+        Sets {
+            all: RunSet::new(red, (0..d.runs.len()).collect()),
+            folds,
+            heldout_n,
+        }
+    }
+}
+
+/// The columns of a joint fit: an effect's B (optional) before the base U = [E | y].
+struct Joint<'a> {
+    b: Option<&'a Moments>,
+    base: &'a Moments,
+}
+
+impl Joint<'_> {
+    fn mb(&self) -> usize {
+        self.b.map_or(0, |b| b.m)
+    }
+    fn q(&self) -> usize {
+        self.mb() + self.base.m
+    }
+    /// Column j of Z_g.
+    fn z(&self, g: usize, j: usize) -> &[f64] {
+        let mb = self.mb();
+        let (mo, j) = match self.b {
+            Some(b) if j < mb => (b, j),
+            _ => (self.base, j - mb),
+        };
+        let rm = &mo.runs[g];
+        let r = rm.z.len() / mo.m.max(1);
+        &rm.z[j * r..(j + 1) * r]
+    }
+    /// G_g (q × q).
+    fn g(&self, g: usize) -> DMatrix<f64> {
+        let (mb, q) = (self.mb(), self.q());
+        let base = &self.base.runs[g];
+        let mu = self.base.m;
+        DMatrix::from_fn(q, q, |i, j| match (i < mb, j < mb) {
+            (true, true) => self.b.map_or(0.0, |b| b.runs[g].xx[i * mb + j]),
+            (true, false) => self.b.map_or(0.0, |b| b.runs[g].xu[i * b.u + (j - mb)]),
+            (false, true) => self.b.map_or(0.0, |b| b.runs[g].xu[j * b.u + (i - mb)]),
+            (false, false) => base.xx[(i - mb) * mu + (j - mb)],
+        })
+    }
+}
+
+/// A joint fit on a set of runs.
+pub struct SetFit {
+    /// Coefficients of the columns before y (B, then E); 0 for a dropped column.
+    pub x: Vec<f64>,
+    /// Unit-variance standard deviations √diag(C⁺) of `x` (∞ for a dropped column).
+    pub sd: Vec<f64>,
+    /// Coefficients of the (scaled) rigid columns.
+    pub a: Vec<f64>,
+    pub ssr: f64,
+    /// Rank of the extra columns after the rigid model.
+    pub rank: usize,
+}
+
+fn solve(red: &Reduction, set: &RunSet, j: &Joint) -> SetFit {
+    let q = j.q();
+    let p = q - 1;
+    let w = &set.proj.w;
+    let rank = w.len();
+    let mut g = DMatrix::<f64>::zeros(q, q);
+    let mut v = DMatrix::<f64>::zeros(rank, q);
+    let mut off = 0;
+    for &run in &set.runs {
+        g += j.g(run);
+        let r = red.runs[run].r;
+        for c in 0..q {
+            let z = j.z(run, c);
+            for (l, wl) in w.iter().enumerate() {
+                v[(l, c)] += dot(&wl[off..off + r], z);
+            }
+        }
+        off += r;
+    }
+    // C = G − VᵀV, the moments of the columns after the rigid model.
+    let c = &g - v.transpose() * &v;
+    let diag: Vec<f64> = (0..p)
+        .map(|i| {
+            if c[(i, i)] > 1e-10 * g[(i, i)].max(1e-300) {
+                c[(i, i)].sqrt()
+            } else {
+                0.0
+            }
+        })
+        .collect();
+    let keep: Vec<usize> = (0..p).filter(|&i| diag[i] > 0.0).collect();
+    let mut x = vec![0.0; p];
+    let mut sd = vec![f64::INFINITY; p];
+    let mut rank_x = 0;
+    if !keep.is_empty() {
+        let cs = DMatrix::from_fn(keep.len(), keep.len(), |a, b| {
+            c[(keep[a], keep[b])] / (diag[keep[a]] * diag[keep[b]])
+        });
+        let eig = SymmetricEigen::new(cs);
+        let lmax = eig.eigenvalues.iter().copied().fold(0.0, f64::max);
+        let mut pinv = DMatrix::<f64>::zeros(keep.len(), keep.len());
+        for (e, &l) in eig.eigenvalues.iter().enumerate() {
+            if l > 1e-12 * lmax && l > 0.0 {
+                let ve = eig.eigenvectors.column(e);
+                pinv += ve * ve.transpose() / l;
+                rank_x += 1;
+            }
+        }
+        let rhs: Vec<f64> = keep.iter().map(|&i| c[(i, p)] / diag[i]).collect();
+        for (a, &i) in keep.iter().enumerate() {
+            let xs: f64 = (0..keep.len()).map(|b| pinv[(a, b)] * rhs[b]).sum();
+            x[i] = xs / diag[i];
+            sd[i] = pinv[(a, a)].max(0.0).sqrt() / diag[i];
+        }
+    }
+    let ssr = (c[(p, p)] - (0..p).map(|i| c[(i, p)] * x[i]).sum::<f64>()).max(0.0);
+    // a = Ã⁺ (z_y − Z_X x) = V_r Σ⁻¹ W ᵀ(…).
+    let mut wz = vec![0.0; rank];
+    for (l, slot) in wz.iter_mut().enumerate() {
+        *slot = v[(l, p)] - (0..p).map(|i| v[(l, i)] * x[i]).sum::<f64>();
+    }
+    let a = (0..set.proj.v_sinv.nrows())
+        .map(|i| (0..rank).map(|l| set.proj.v_sinv[(i, l)] * wz[l]).sum())
+        .collect();
+    SetFit {
+        x,
+        sd,
+        a,
+        ssr,
+        rank: rank_x,
+    }
+}
+
+/// The fit on all runs and the held-out sum of squares over the folds.
+pub struct JointFit {
+    pub all: SetFit,
+    pub heldout_ssr: f64,
+}
+
+/// Fits the rigid model plus `b` (optional) plus the base columns (accepted effects),
+/// with y the base's last column, on all runs and on each fold; `heldout` false skips
+/// the folds (`heldout_ssr` is then NaN).
+pub fn joint_fit(
+    red: &Reduction,
+    sets: &Sets,
+    b: Option<&Moments>,
+    base: &Moments,
+    heldout: bool,
+) -> JointFit {
+    let j = Joint { b, base };
+    let all = solve(red, &sets.all, &j);
+    if !heldout {
+        return JointFit {
+            all,
+            heldout_ssr: f64::NAN,
+        };
+    }
+    let mut total = 0.0;
+    for (train, held) in &sets.folds {
+        let f = solve(red, train, &j);
+        let q = j.q();
+        let mut wv = DMatrix::<f64>::zeros(q, 1);
+        for (i, x) in f.x.iter().enumerate() {
+            wv[i] = -x;
+        }
+        wv[q - 1] = 1.0;
+        for &h in held {
+            let gh = j.g(h);
+            let quad = (wv.transpose() * &gh * &wv)[(0, 0)];
+            let pa = red.predict_reduced(h, &f.a);
+            let r = red.runs[h].r;
+            let mut zw = vec![0.0; r];
+            for (c, &wc) in wv.iter().enumerate() {
+                if wc != 0.0 {
+                    for (o, z) in zw.iter_mut().zip(j.z(h, c)) {
+                        *o += wc * z;
+                    }
+                }
+            }
+            total += (quad - 2.0 * dot(&zw, &pa) + dot(&pa, &pa)).max(0.0);
+        }
+    }
+    JointFit {
+        all,
+        heldout_ssr: total,
+    }
+}
