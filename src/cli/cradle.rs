@@ -18,6 +18,8 @@ pub struct Args {
     /// (machine_id, measured_at) is read when present.
     #[arg(value_name = "POINTS.csv", required_unless_present = "simulate")]
     points: Option<PathBuf>,
+    #[command(flatten)]
+    pub read: super::ReadArgs,
     /// Print the full result document (JSON) instead of the summary.
     #[arg(long)]
     json: bool,
@@ -62,7 +64,7 @@ pub fn run(args: Args) -> anyhow::Result<ExitCode> {
         .points
         .as_ref()
         .expect("clap requires POINTS or --simulate");
-    let limits = mtcal_formats::Limits::default();
+    let limits = args.read.limits();
     let points = mtcal_formats::read_rotary_points_path(path, &limits)?;
     let mut opts = CradleOptions {
         registered_frame: !args.unregistered,
@@ -271,6 +273,9 @@ mod tests {
     fn args(points: Option<PathBuf>, simulate: Option<PathBuf>, compliant: bool) -> Args {
         Args {
             points,
+            read: crate::cli::ReadArgs {
+                csv_dialect: mtcal_formats::CsvDialect::Plain,
+            },
             json: false,
             unregistered: false,
             pivot_mm: None,

@@ -22,7 +22,8 @@ use std::time::Duration;
 
 #[derive(clap::Args)]
 pub struct Args {
-    /// SQLite file to create (deleted first if it exists); default: a fresh temporary file.
+    /// SQLite file to create (deleted first if it exists) and kept; default: a file in a
+    /// fresh temporary folder, deleted when the demo ends (also on Ctrl-C or SIGTERM).
     #[arg(long)]
     pub db: Option<PathBuf>,
     /// Address to listen on.
@@ -141,11 +142,22 @@ pub fn run(args: Args) -> anyhow::Result<ExitCode> {
         return Ok(ExitCode::SUCCESS);
     }
     super::serve::init_logging(super::serve::LogFormat::Text);
-    let db = match &args.db {
-        Some(p) => p.clone(),
-        None => std::env::temp_dir()
-            .join(format!("mtcal-demo-{}", std::process::id()))
-            .join("demo.sqlite"),
+    // Without --db, everything lives in a temporary folder whose guard deletes it when
+    // `run` returns: after Ctrl-C or SIGTERM too, since the service takes those signals
+    // and stops gracefully (an error on the way out returns through here as well).
+    let temp = match &args.db {
+        Some(_) => None,
+        None => Some(
+            tempfile::Builder::new()
+                .prefix("mtcal-demo-")
+                .tempdir()
+                .context("creating the demo's temporary folder")?,
+        ),
+    };
+    let db = match (&args.db, &temp) {
+        (Some(p), _) => p.clone(),
+        (None, Some(t)) => t.path().join("demo.sqlite"),
+        (None, None) => unreachable!("a temporary folder without --db"),
     };
     if let Some(parent) = db.parent() {
         std::fs::create_dir_all(parent)?;
@@ -154,10 +166,15 @@ pub fn run(args: Args) -> anyhow::Result<ExitCode> {
         let _ = std::fs::remove_file(format!("{}{ext}", db.display()));
     }
     let rt = tokio::runtime::Runtime::new()?;
-    rt.block_on(demo(args, db))
+    let temporary = temp.is_some();
+    let out = rt.block_on(demo(args, db, temporary));
+    // The runtime's tasks (the service) end before the folder they use goes.
+    drop(rt);
+    drop(temp);
+    out
 }
 
-async fn demo(args: Args, db: PathBuf) -> anyhow::Result<ExitCode> {
+async fn demo(args: Args, db: PathBuf, temporary: bool) -> anyhow::Result<ExitCode> {
     let db_url = db.display().to_string();
     let store = mtcal_store::open(&db_url).await?;
     let (_, key) = store.create_key(mtcal_store::Scope::Admin, "demo").await?;
@@ -276,7 +293,15 @@ async fn demo(args: Args, db: PathBuf) -> anyhow::Result<ExitCode> {
     // The fragment signs the browser in (the page script reads it; it is never sent).
     let dashboard = format!("{base}/signin#key={key}");
     println!("dashboard:     {dashboard}");
-    println!("database:      {}", db.display());
+    println!(
+        "database:      {}{}",
+        db.display(),
+        if temporary {
+            "   (temporary: deleted when the demo stops; --db PATH keeps one)"
+        } else {
+            ""
+        }
+    );
     println!("API key:       {key}   (export MTCAL_API_KEY={key})");
     println!("Swagger UI:    {base}/docs");
     println!("OpenAPI:       {base}/api-docs/openapi.json");

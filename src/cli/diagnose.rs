@@ -7,7 +7,7 @@
 
 use super::BadInput;
 use anyhow::Context;
-use mtcal_formats::{DatasetKind, Limits};
+use mtcal_formats::DatasetKind;
 use mtcal_solver::diagnosis::series::{self, SeriesOptions};
 use mtcal_solver::diagnosis::{DiagnoseOptions, DiagnosisResult, PlotData, Verdict};
 use std::io::Write as _;
@@ -18,6 +18,8 @@ use std::process::ExitCode;
 pub struct Args {
     /// A session folder, a positioning-run CSV or a drift-log CSV (`.csv.gz` too).
     pub path: PathBuf,
+    #[command(flatten)]
+    pub read: super::ReadArgs,
     /// Print the diagnosis result (JSON) instead of the summary.
     #[arg(long)]
     pub json: bool,
@@ -38,11 +40,9 @@ pub struct Args {
 }
 
 pub fn run(args: Args) -> anyhow::Result<ExitCode> {
-    let limits = Limits::default();
+    let limits = args.read.limits();
     let path = &args.path;
-    if !path.exists() {
-        return Err(BadInput(format!("{}: no such file or folder", path.display())).into());
-    }
+    mtcal_formats::stat_path(path)?;
     let kind = mtcal_formats::sniff_path(path).ok_or_else(|| {
         BadInput(format!(
             "{}: not a session folder (session.json), a positioning-run CSV \

@@ -13,6 +13,8 @@ use std::process::ExitCode;
 pub struct Args {
     /// Session folder (session.json and the plane CSV files).
     pub session: PathBuf,
+    #[command(flatten)]
+    pub read: super::ReadArgs,
     /// Estimator: one joint least-squares problem, or the seed patent's two steps.
     #[arg(long, value_enum, default_value = "joint")]
     pub method: MethodArg,
@@ -43,7 +45,7 @@ pub enum BasisArg {
 }
 
 pub fn run(args: Args) -> anyhow::Result<ExitCode> {
-    let session = mtcal_formats::read_session_dir(&args.session, &Default::default())?;
+    let session = mtcal_formats::read_session_dir(&args.session, &args.read.limits())?;
     let opts = IdentifyOptions {
         method: match args.method {
             MethodArg::Joint => Method::Joint,

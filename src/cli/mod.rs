@@ -16,6 +16,27 @@ pub mod simulate;
 pub mod standards;
 pub mod submit;
 
+/// How the commands that read datasets read their CSV files (flattened into each).
+#[derive(clap::Args, Debug, Clone, Copy)]
+pub struct ReadArgs {
+    /// CSV dialect: `plain` (`,` separators, `.` decimal points: the datasets format) or
+    /// `excel` (`;` separators and decimal commas, as a spreadsheet saves CSV in many
+    /// locales; a UTF-8 byte-order mark is fine in both).
+    #[arg(long, default_value = "plain", value_parser = parse_dialect)]
+    pub csv_dialect: mtcal_formats::CsvDialect,
+}
+
+fn parse_dialect(s: &str) -> Result<mtcal_formats::CsvDialect, String> {
+    mtcal_formats::CsvDialect::parse(s).ok_or_else(|| format!("{s:?}: plain or excel"))
+}
+
+impl ReadArgs {
+    /// The readers' default limits, reading CSV in the chosen dialect.
+    pub fn limits(&self) -> mtcal_formats::Limits {
+        mtcal_formats::Limits::default().with_dialect(self.csv_dialect)
+    }
+}
+
 /// Marks an error as the user's input being wrong (exit code 2).
 #[derive(Debug, thiserror::Error)]
 #[error("{0}")]

@@ -3,14 +3,13 @@
 //! Method and formats: docs/sensitivity.md.
 
 use super::{BadInput, read_json};
-use anyhow::Context;
 use mtcal_solver::SolverError;
 use mtcal_solver::identification::IdentificationResult;
 use mtcal_solver::sensitivity::{
     GlobalOptions, GridAxis, MachineDescription, MachineRef, SensitivityRequest, SensitivityResult,
     Weighting, analyse,
 };
-use std::path::{Path, PathBuf};
+use std::path::PathBuf;
 use std::process::ExitCode;
 
 #[derive(clap::Args)]

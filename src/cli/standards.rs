@@ -5,7 +5,7 @@
 
 use super::BadInput;
 use anyhow::Context;
-use mtcal_formats::{DatasetKind, Limits};
+use mtcal_formats::DatasetKind;
 use mtcal_solver::standards::{self, Standards};
 use std::fmt::Write as _;
 use std::path::PathBuf;
@@ -15,17 +15,17 @@ use std::process::ExitCode;
 pub struct Args {
     /// A session folder or a positioning-run CSV (`.csv.gz` too).
     pub path: PathBuf,
+    #[command(flatten)]
+    pub read: super::ReadArgs,
     /// Print the figures (JSON) instead of the summary.
     #[arg(long)]
     pub json: bool,
 }
 
 pub fn run(args: Args) -> anyhow::Result<ExitCode> {
-    let limits = Limits::default();
+    let limits = args.read.limits();
     let path = &args.path;
-    if !path.exists() {
-        return Err(BadInput(format!("{}: no such file or folder", path.display())).into());
-    }
+    mtcal_formats::stat_path(path)?;
     let st = match mtcal_formats::sniff_path(path) {
         Some(DatasetKind::Session) => {
             standards::from_session(&mtcal_formats::read_session_dir(path, &limits)?)

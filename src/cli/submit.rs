@@ -15,6 +15,8 @@ use std::time::Duration;
 pub struct Args {
     /// Session folder (session.json and its plane files), or a .tar.gz of one.
     pub session_dir: PathBuf,
+    #[command(flatten)]
+    pub read: super::ReadArgs,
     /// Machine id the session belongs to (registered with the service).
     #[arg(long)]
     pub machine: String,
@@ -47,7 +49,7 @@ pub fn run(args: Args) -> anyhow::Result<ExitCode> {
         };
         let c = Client::new(&args.url, &key);
         let ds = c
-            .upload_path(&args.machine, &args.session_dir)
+            .upload_path_in(&args.machine, &args.session_dir, args.read.csv_dialect)
             .await
             .map_err(|e| match e {
                 ClientError::Input(m) => anyhow::Error::from(super::BadInput(m)),

@@ -238,3 +238,62 @@ fn demo_on_a_taken_address_says_so() {
     assert!(err.contains("--listen 127.0.0.1:0"), "{err}");
     assert!(err.contains("already in use"), "the system's reason: {err}");
 }
+
+/// A path that does not exist is named in full with the system's reason, for every
+/// command that reads a dataset.
+#[test]
+fn a_missing_path_is_named_with_the_reason() {
+    for cmd in ["identify", "diagnose", "standards"] {
+        let out = Command::new(BIN)
+            .args([cmd, "/no/such/dir"])
+            .output()
+            .unwrap();
+        assert_eq!(out.status.code(), Some(2), "{cmd}");
+        let err = String::from_utf8_lossy(&out.stderr);
+        assert!(
+            err.contains("/no/such/dir:0::") && err.contains("No such file or directory"),
+            "{cmd}: {err}"
+        );
+    }
+}
+
+/// `mtcal demo` without --db works in a temporary folder and deletes it when it stops on
+/// Ctrl-C (SIGINT), the way a user ends it.
+#[test]
+fn demo_deletes_its_temporary_folder_on_ctrl_c() {
+    use std::io::BufRead;
+    let tmp = tempfile::tempdir().unwrap();
+    let mut child = Command::new(BIN)
+        .args(["demo", "--no-browser", "--listen", "127.0.0.1:0"])
+        .args(["--machines", "1", "--checks", "1"])
+        .env("TMPDIR", tmp.path())
+        .stdout(std::process::Stdio::piped())
+        .stderr(std::process::Stdio::null())
+        .spawn()
+        .unwrap();
+    let mut lines = std::io::BufReader::new(child.stdout.take().unwrap()).lines();
+    let mut database = String::new();
+    for line in lines.by_ref() {
+        let line = line.unwrap();
+        if line.starts_with("database:") {
+            database = line.clone();
+        }
+        if line.starts_with("serving") {
+            break;
+        }
+    }
+    assert!(database.contains("temporary"), "{database}");
+    let folders: Vec<_> = std::fs::read_dir(tmp.path()).unwrap().collect();
+    assert_eq!(folders.len(), 1, "the demo's folder while it runs");
+    let status = Command::new("kill")
+        .args(["-INT", &child.id().to_string()])
+        .status()
+        .unwrap();
+    assert!(status.success());
+    assert!(child.wait().unwrap().success());
+    let left: Vec<_> = std::fs::read_dir(tmp.path())
+        .unwrap()
+        .map(|e| e.unwrap().file_name())
+        .collect();
+    assert!(left.is_empty(), "left behind: {left:?}");
+}

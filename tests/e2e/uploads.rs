@@ -247,3 +247,213 @@ async fn concurrent_uploads_beyond_the_limit_wait_and_all_succeed() {
     }
     assert_eq!(app.counts().await.datasets, n as i64);
 }
+
+/// A `.tar.gz` of a `mtcal simulate` folder made the way a user makes it
+/// (`tar czf sim.tar.gz -C sim .`: entries `./session.json`, …, `./truth.json`) is
+/// accepted on a fresh machine, truth.json ignored and not stored; archive entries that
+/// are links or leave the folder are refused with the entry named, and a gzip body that is
+/// not gzip is refused as the CLI refuses a `.gz` name over plain content; none stores
+/// anything.
+#[tokio::test]
+async fn archives_of_simulate_folders_and_hostile_archives() {
+    let app = spawn_app_with(AppOptions {
+        run_worker: false,
+        ..AppOptions::default()
+    })
+    .await;
+    app.machine("SIM-0001").await;
+    let dir = app.path("sim");
+    mtcal(&[
+        "simulate",
+        "--out",
+        dir.to_str().unwrap(),
+        "--plan",
+        "seed",
+        "--seed",
+        "5",
+    ]);
+    let tar_of = |entries: &mut dyn FnMut(&mut tar::Builder<Vec<u8>>)| {
+        let mut b = tar::Builder::new(Vec::new());
+        entries(&mut b);
+        b.into_inner().unwrap()
+    };
+    let gz = |bytes: &[u8]| {
+        use std::io::Write;
+        let mut e = flate2::write::GzEncoder::new(Vec::new(), flate2::Compression::fast());
+        e.write_all(bytes).unwrap();
+        e.finish().unwrap()
+    };
+    let plain = tar_of(&mut |b| b.append_dir_all(".", &dir).unwrap());
+    let ds = app
+        .client
+        .upload_archive("SIM-0001", gz(&plain), true)
+        .await
+        .unwrap();
+    assert_eq!(ds.kind, "session");
+    assert!(ds.files.iter().any(|f| f.name == "session.json"));
+    assert!(ds.files.iter().all(|f| f.name != "truth.json"), "{ds:?}");
+
+    let before = app.counts().await;
+    // Plain tar content sent as gzip.
+    let msg = refusal_message(
+        app.client
+            .upload_archive("SIM-0001", plain.clone(), true)
+            .await,
+    );
+    assert!(
+        msg.contains("upload.tar.gz") && msg.contains("the content is not gzip"),
+        "{msg}"
+    );
+    // A symbolic link, a hard link and a `..` path beside the session's files.
+    let hostile = |kind: tar::EntryType, path: &str| {
+        tar_of(&mut |b| {
+            b.append_dir_all("sim", &dir).unwrap();
+            let mut h = tar::Header::new_gnu();
+            h.set_entry_type(kind);
+            h.set_size(0);
+            h.set_mode(0o644);
+            h.set_link_name("/etc/passwd").unwrap();
+            h.as_old_mut().name[..path.len()].copy_from_slice(path.as_bytes());
+            h.set_cksum();
+            b.append(&h, std::io::empty()).unwrap();
+        })
+    };
+    for (kind, path, what) in [
+        (
+            tar::EntryType::Symlink,
+            "sim/extra.csv",
+            "is a symbolic link",
+        ),
+        (tar::EntryType::Link, "sim/hard.csv", "is a hard link"),
+        (
+            tar::EntryType::Regular,
+            "sim/../../x.csv",
+            "`..` are not allowed",
+        ),
+    ] {
+        let body = gz(&hostile(kind, path));
+        let msg = refusal_message(app.client.upload_archive("SIM-0001", body, true).await);
+        assert!(
+            msg.contains(&format!("entry `{path}`")) && msg.contains(what),
+            "{msg}"
+        );
+    }
+    assert_eq!(app.counts().await, before);
+}
+
+/// A session saved by a spreadsheet (`;` separators, decimal commas, a byte-order mark):
+/// refused without the dialect with what to change; with the form field
+/// `csv_dialect=excel` (what `mtcal submit --csv-dialect excel` sends) it is stored as
+/// sent and identified, giving the result of the plain folder; an unknown dialect is a
+/// 400.
+#[tokio::test]
+async fn an_excel_session_is_read_in_the_excel_dialect() {
+    let app = spawn_app().await;
+    app.machine("VMC-X").await;
+    let plain = app.path("plain");
+    write_session(&plain, "VMC-X", 11, 0);
+    let excel = app.path("excel");
+    std::fs::create_dir(&excel).unwrap();
+    for (name, bytes) in folder_files(&plain) {
+        let bytes = if name.ends_with(".csv") {
+            let text = String::from_utf8(bytes).unwrap();
+            format!("\u{feff}{}", text.replace(',', ";").replace('.', ",")).into_bytes()
+        } else {
+            bytes
+        };
+        std::fs::write(excel.join(&name), bytes).unwrap();
+    }
+    let files = folder_files(&excel);
+    let before = app.counts().await;
+    let msg = refusal_message(app.client.upload_files("VMC-X", &files).await);
+    assert!(
+        msg.contains(":1::")
+            && msg.contains("separated by `;`")
+            && msg.contains("csv_dialect=excel"),
+        "{msg}"
+    );
+    // An unknown dialect.
+    let form = reqwest::multipart::Form::new()
+        .text("csv_dialect", "lotus")
+        .part(
+            "files",
+            reqwest::multipart::Part::bytes(files[0].1.clone()).file_name(files[0].0.clone()),
+        );
+    let r = app
+        .client
+        .send_raw(
+            app.client
+                .request(Method::POST, "/api/v1/machines/VMC-X/datasets")
+                .multipart(form),
+        )
+        .await;
+    assert_eq!(
+        refused(r),
+        (StatusCode::BAD_REQUEST, "invalid_request".into())
+    );
+    assert_eq!(app.counts().await, before);
+
+    let ds = app
+        .client
+        .upload_path_in("VMC-X", &excel, mtcal_formats::CsvDialect::Excel)
+        .await
+        .unwrap();
+    // Stored as sent.
+    let first = &csv_names(&excel)[0];
+    assert_eq!(
+        app.client.dataset_file(&ds.id, first).await.unwrap(),
+        std::fs::read(excel.join(first)).unwrap()
+    );
+    let job = app.identify(&ds.id).await;
+    app.wait(&job, JobState::Succeeded).await;
+    let doc = app.client.job_result(&job).await.unwrap();
+    let cli: Value =
+        serde_json::from_str(&mtcal(&["identify", plain.to_str().unwrap(), "--json"])).unwrap();
+    assert_eq!(doc, cli);
+    let cli_excel: Value = serde_json::from_str(&mtcal(&[
+        "identify",
+        excel.to_str().unwrap(),
+        "--csv-dialect",
+        "excel",
+        "--json",
+    ]))
+    .unwrap();
+    assert_eq!(cli_excel, cli);
+}
+
+/// Positions written in µm where mm are required, within the plausible bound but 1000×
+/// the machine's registered travel, are refused naming the file and column.
+#[tokio::test]
+async fn positions_in_micrometres_are_refused_against_the_travel() {
+    let app = spawn_app_with(AppOptions {
+        run_worker: false,
+        ..AppOptions::default()
+    })
+    .await;
+    app.machine("VMC-T").await;
+    let json = r#"{"machine_id": "VMC-T", "measured_at": "2026-01-01T00:00:00Z",
+      "planes": [{"file": "xy.csv", "plane": "XY", "head_offset_mm": [0, 0, 0]}]}"#;
+    let mut csv = String::from("run,t_s,x_mm,y_mm,z_mm,du_um,dv_um\n");
+    for i in 0..=100 {
+        let x_um = -50_000.0 + 1000.0 * i as f64;
+        let noise = if i % 2 == 0 { 0.05 } else { -0.05 };
+        csv += &format!(
+            "1,{},{x_um},0,0,{},{}\n",
+            i as f64 * 0.1,
+            1.0 + noise,
+            noise
+        );
+    }
+    let files = vec![
+        ("session.json".to_string(), json.as_bytes().to_vec()),
+        ("xy.csv".to_string(), csv.into_bytes()),
+    ];
+    let (status, _) = refused(app.client.upload_files("VMC-T", &files).await);
+    assert_eq!(status, StatusCode::UNPROCESSABLE_ENTITY);
+    let msg = refusal_message(app.client.upload_files("VMC-T", &files).await);
+    assert!(
+        msg.starts_with("xy.csv:0:x_mm:") && msg.contains("divide the column by 1000"),
+        "{msg}"
+    );
+    assert_eq!(app.counts().await.datasets, 0);
+}

@@ -8,6 +8,7 @@
 //! Every refusal of the service is a [`ClientError::Api`] with its status and the stable
 //! error code of docs/api.md.
 
+use mtcal_formats::CsvDialect;
 use mtcal_server::api::history::ResultDiff;
 use mtcal_server::api::jobs::SubmitJob;
 use mtcal_server::api::keys::{CreatedKey, NewKey};
@@ -206,7 +207,22 @@ impl Client {
         machine: &str,
         files: &[(String, Vec<u8>)],
     ) -> Result<Dataset> {
+        self.upload_files_in(machine, files, CsvDialect::Plain)
+            .await
+    }
+
+    /// Uploads files as multipart parts, their CSV files written in `dialect` (the
+    /// `csv_dialect` form field, sent when not plain).
+    pub async fn upload_files_in(
+        &self,
+        machine: &str,
+        files: &[(String, Vec<u8>)],
+        dialect: CsvDialect,
+    ) -> Result<Dataset> {
         let mut form = reqwest::multipart::Form::new();
+        if dialect != CsvDialect::Plain {
+            form = form.text("csv_dialect", dialect.name());
+        }
         for (name, bytes) in files {
             form = form.part(
                 "files",
@@ -263,8 +279,18 @@ impl Client {
     /// (`mtcal_formats::read_path`), so a bad input is refused here with the message the
     /// service would give; then the files read are sent.
     pub async fn upload_path(&self, machine: &str, path: &Path) -> Result<Dataset> {
-        let files = files_to_upload(path)?;
-        self.upload_files(machine, &files).await
+        self.upload_path_in(machine, path, CsvDialect::Plain).await
+    }
+
+    /// [`Client::upload_path`] with CSV files written in `dialect`.
+    pub async fn upload_path_in(
+        &self,
+        machine: &str,
+        path: &Path,
+        dialect: CsvDialect,
+    ) -> Result<Dataset> {
+        let files = files_to_upload_in(path, dialect)?;
+        self.upload_files_in(machine, &files, dialect).await
     }
 
     pub async fn dataset(&self, id: &str) -> Result<Dataset> {
@@ -452,7 +478,12 @@ impl Client {
 /// The files of a dataset on disk that an upload sends: those the service's reader reads
 /// (files a session ignores are left out), in the order read.
 pub fn files_to_upload(path: &Path) -> Result<Files> {
-    let limits = mtcal_formats::Limits::default();
+    files_to_upload_in(path, CsvDialect::Plain)
+}
+
+/// [`files_to_upload`] with CSV files written in `dialect`.
+pub fn files_to_upload_in(path: &Path, dialect: CsvDialect) -> Result<Files> {
+    let limits = mtcal_formats::Limits::default().with_dialect(dialect);
     let dataset =
         mtcal_formats::read_path(path, &limits).map_err(|e| ClientError::Input(e.to_string()))?;
     let read = |p: &Path| {

@@ -9,11 +9,14 @@
 //! * every row has as many fields as the header;
 //! * numbers are finite decimal numbers (NaN, Inf and empty cells are errors), integers
 //!   are decimal integers;
-//! * at most [`Limits::max_samples_per_file`] rows.
+//! * at most [`Limits::max_samples_per_file`] rows, [`Limits::max_columns`] columns and
+//!   [`Limits::max_line_bytes`] bytes per record; the deadline of [`Limits`], when set,
+//!   is looked at when a file is opened and every [`Limits::DEADLINE_CHECK_ROWS`] rows.
 //!
 //! Line numbers are 1-based physical lines of the file (comments and blank lines count).
 //! Rows are read into a reused [`csv::ByteRecord`]: no allocation per row.
 
+use crate::limits::Quantity;
 use crate::{FormatError, Limits};
 
 /// The UTF-8 encoding of U+FEFF, which some tools write at the start of a file.
@@ -34,7 +37,7 @@ pub(crate) struct CsvTable<'a> {
     header_pos: usize,
     rec_pos: usize,
     rows: usize,
-    max_rows: usize,
+    limits: Limits,
 }
 
 fn count_newlines(bytes: &[u8]) -> u64 {
@@ -45,6 +48,7 @@ impl<'a> CsvTable<'a> {
     /// Checks the encoding and reads the header.
     /// A leading UTF-8 byte-order mark (spreadsheet exports) is skipped.
     pub fn open(file: &'a str, bytes: &'a [u8], limits: &Limits) -> Result<Self, FormatError> {
+        let bom = bytes.starts_with(&UTF8_BOM);
         let bytes = bytes.strip_prefix(UTF8_BOM.as_slice()).unwrap_or(bytes);
         if let Err(e) = std::str::from_utf8(bytes) {
             let at = e.valid_up_to();
@@ -68,6 +72,7 @@ impl<'a> CsvTable<'a> {
         let rdr = csv::ReaderBuilder::new()
             .has_headers(false)
             .comment(Some(b'#'))
+            .delimiter(limits.csv_dialect.delimiter())
             .flexible(true)
             .from_reader(bytes);
         let mut t = CsvTable {
@@ -79,8 +84,9 @@ impl<'a> CsvTable<'a> {
             header_pos: 0,
             rec_pos: 0,
             rows: 0,
-            max_rows: limits.max_samples_per_file,
+            limits: *limits,
         };
+        limits.check_deadline(file, 0)?;
         if !t.read_record()? {
             return Err(FormatError::new(
                 file,
@@ -90,6 +96,7 @@ impl<'a> CsvTable<'a> {
             ));
         }
         t.header_pos = t.rec_pos;
+        t.check_dialect(bom)?;
         let mut header: Vec<String> = Vec::with_capacity(t.rec.len());
         for (i, f) in t.rec.iter().enumerate() {
             // UTF-8 was checked above for the whole file.
@@ -97,13 +104,57 @@ impl<'a> CsvTable<'a> {
             if name.is_empty() {
                 return Err(t.header_error("", format!("empty column name (column {})", i + 1)));
             }
-            if header.contains(&name) {
-                return Err(t.header_error(&name, "duplicate column name"));
-            }
             header.push(name);
         }
+        // The duplicate check through a set: a header of n columns costs O(n), not O(n²).
+        let mut seen = std::collections::HashSet::with_capacity(header.len());
+        if let Some(dup) = header.iter().find(|n| !seen.insert(n.as_str())) {
+            return Err(t.header_error(dup, "duplicate column name"));
+        }
+        drop(seen);
         t.header = header;
         Ok(t)
+    }
+
+    /// Refuses a header written in the other dialect (one column whose name holds the
+    /// other dialect's separator between several names), saying what to change.
+    fn check_dialect(&self, bom: bool) -> Result<(), FormatError> {
+        use crate::CsvDialect::{Excel, Plain};
+        let [only] = self.rec.iter().collect::<Vec<_>>()[..] else {
+            return Ok(());
+        };
+        let other = match self.limits.csv_dialect {
+            Plain => b';',
+            Excel => b',',
+        };
+        let names = only
+            .split(|&b| b == other)
+            .filter(|n| !n.trim_ascii().is_empty())
+            .count();
+        if names < 2 {
+            return Ok(());
+        }
+        let bom = if bom {
+            " (its UTF-8 byte-order mark, also written by spreadsheets, is fine in either \
+             dialect)"
+        } else {
+            ""
+        };
+        Err(self.header_error(
+            "",
+            match self.limits.csv_dialect {
+                Plain => format!(
+                    "the header is separated by `;`, as a spreadsheet saves CSV in a locale \
+                     with decimal commas{bom}: save the file with `,` separators and `.` \
+                     decimal points, or have it read in the Excel dialect ({EXCEL_OPTION})"
+                ),
+                Excel => format!(
+                    "the header is separated by `,` but the file is read in the Excel \
+                     dialect (`;` separators){bom}: read it in the plain dialect (leave out \
+                     `--csv-dialect excel` or the upload field `csv_dialect=excel`)"
+                ),
+            },
+        ))
     }
 
     pub fn header(&self) -> &[String] {
@@ -177,6 +228,39 @@ impl<'a> CsvTable<'a> {
         })?;
         if ok {
             self.rec_pos = self.rec.position().map_or(0, |p| p.byte() as usize);
+            let max_columns = self.limits.max_columns;
+            if self.rec.len() > max_columns {
+                let n = self.rec.len();
+                return Err(self
+                    .row_error(
+                        "",
+                        if self.header.is_empty() {
+                            format!(
+                                "the header has {n} columns, more than the limit of \
+                                 {max_columns} (configurable)"
+                            )
+                        } else {
+                            format!(
+                                "row has {n} fields, more than the limit of {max_columns} \
+                                 columns (configurable)"
+                            )
+                        },
+                    )
+                    .as_limit());
+            }
+            // The record's bytes without quotes, plus one separator per field.
+            let len = self.rec.as_slice().len() + self.rec.len();
+            if len > self.limits.max_line_bytes {
+                return Err(self
+                    .row_error(
+                        "",
+                        format!(
+                            "line is longer than the limit of {} bytes (configurable)",
+                            self.limits.max_line_bytes
+                        ),
+                    )
+                    .as_limit());
+            }
         }
         Ok(ok)
     }
@@ -213,13 +297,20 @@ impl<'a> CsvTable<'a> {
             return Ok(false);
         }
         self.rows += 1;
-        if self.rows > self.max_rows {
+        if self.rows > self.limits.max_samples_per_file {
             return Err(self
                 .row_error(
                     "",
-                    format!("file exceeds the limit of {} samples", self.max_rows),
+                    format!(
+                        "file exceeds the limit of {} samples",
+                        self.limits.max_samples_per_file
+                    ),
                 )
                 .as_limit());
+        }
+        if self.rows.is_multiple_of(Limits::DEADLINE_CHECK_ROWS) {
+            self.limits
+                .check_deadline(self.file, self.line_at(self.rec_pos))?;
         }
         if self.rec.len() != self.header.len() {
             return Err(self.row_error(
@@ -244,7 +335,7 @@ impl<'a> CsvTable<'a> {
     pub fn remaining_rows_hint(&self) -> usize {
         let row_len = self.rec.as_slice().len() + self.rec.len();
         let left = self.bytes.len().saturating_sub(self.rec_pos);
-        (left / row_len.max(1) + 1).min(self.max_rows)
+        (left / row_len.max(1) + 1).min(self.limits.max_samples_per_file)
     }
 
     /// An error on the current row, in column `column` (empty for the whole row).
@@ -262,28 +353,35 @@ impl<'a> CsvTable<'a> {
         std::str::from_utf8(&self.rec[idx]).map_or("", str::trim)
     }
 
-    /// The cell as a finite decimal number.
+    /// The cell as a finite decimal number (in the Excel dialect, a decimal comma reads
+    /// as a decimal point).
     pub fn f64(&self, idx: usize) -> Result<f64, FormatError> {
         if let Some(v) = fast_decimal(&self.rec[idx]) {
             return Ok(v);
         }
         let s = self.text(idx);
-        match s.parse::<f64>() {
+        let parsed = if self.limits.csv_dialect == crate::CsvDialect::Excel && s.contains(',') {
+            s.replacen(',', ".", 1).parse::<f64>()
+        } else {
+            s.parse::<f64>()
+        };
+        match parsed {
             Ok(v) if v.is_finite() => Ok(v),
-            _ => Err(self.err_at(idx, number_rule(s))),
+            _ => Err(self.err_at(idx, number_rule(s, self.limits.csv_dialect))),
         }
     }
 
-    /// The cell as a number within ±`max` (a plausibility bound of [`crate::Limits`],
-    /// `what` names the quantity and unit, e.g. `deviation (µm)`).
-    pub fn f64_within(&self, idx: usize, max: f64, what: &str) -> Result<f64, FormatError> {
+    /// The cell as a number within the plausibility bound of [`Limits`] for quantity `q`.
+    pub fn quantity(&self, idx: usize, q: Quantity) -> Result<f64, FormatError> {
         let v = self.f64(idx)?;
+        let max = q.bound(&self.limits);
         if v.abs() > max {
             return Err(self.err_at(
                 idx,
                 format!(
-                    "{v:e} is beyond the plausible {what} of ±{max} (a unit mistake? the \
-                     limit is configurable)"
+                    "{v:e} is beyond the plausible {} of ±{max} ({}; the limit is configurable)",
+                    q.what(),
+                    q.hint()
                 ),
             ));
         }
@@ -373,9 +471,22 @@ fn fast_int(b: &[u8]) -> Option<i64> {
     Some(if neg { -v } else { v })
 }
 
-fn number_rule(s: &str) -> String {
+/// How to have a file read in the Excel dialect, for messages.
+const EXCEL_OPTION: &str = "`--csv-dialect excel`, or the upload field `csv_dialect=excel`";
+
+fn number_rule(s: &str, dialect: crate::CsvDialect) -> String {
     if s.is_empty() {
         return "empty cell: a finite decimal number is required".to_string();
+    }
+    let dotted = s.replace(',', ".");
+    if dialect == crate::CsvDialect::Plain
+        && s.matches(',').count() == 1
+        && dotted.parse::<f64>().is_ok()
+    {
+        return format!(
+            "`{s}` has a decimal comma: write `{dotted}` (`.` is the decimal point), or have \
+             the file read in the Excel dialect ({EXCEL_OPTION})"
+        );
     }
     let lower = s.to_ascii_lowercase();
     let bare = lower.trim_start_matches(['+', '-']);

@@ -7,6 +7,7 @@
 //! channel and one row. Other columns are rejected unless `x-` prefixed.
 
 use crate::csv_core::{CsvTable, check_increasing, fmt_f64};
+use crate::limits::Quantity;
 use crate::{FormatError, Limits, invalid_input};
 use mtcal_solver::datasets::{Channel, ChannelKind, DriftLog};
 use std::io::Write;
@@ -73,12 +74,11 @@ pub fn read_drift_log(name: &str, bytes: &[u8], limits: &Limits) -> Result<Drift
     }
     let mut t_s: Vec<f64> = Vec::with_capacity(hint);
     while t.next_row()? {
-        let v = t.f64_within(c_t, limits.max_abs_time_s, "time (s)")?;
+        let v = t.quantity(c_t, Quantity::Time)?;
         check_increasing(&t, c_t, t_s.last().copied(), v, "the file")?;
         t_s.push(v);
         for (i, ch) in channels.iter_mut() {
-            ch.values
-                .push(t.f64_within(*i, limits.max_abs_value, "channel value")?);
+            ch.values.push(t.quantity(*i, Quantity::Value)?);
         }
     }
     if t_s.is_empty() {
@@ -87,6 +87,9 @@ pub fn read_drift_log(name: &str, bytes: &[u8], limits: &Limits) -> Result<Drift
     t_s.shrink_to_fit();
     for (_, ch) in channels.iter_mut() {
         ch.values.shrink_to_fit();
+        if ch.kind == ChannelKind::DisplacementUm {
+            crate::units::check_micrometres(name, &ch.name, [ch.values.as_slice()])?;
+        }
     }
     Ok(DriftLog {
         t_s,

@@ -9,6 +9,8 @@
 //! * [`positioning`]: positioning runs (section 3);
 //! * [`drift`]: drift logs (section 4);
 //! * [`sniff`]: which of these a file is, from its header;
+//! * [`units`]: unit mistakes (millimetres in a micrometre column, micrometres in a
+//!   millimetre one, radians in a degree one) refused with what to change;
 //! * [`upload`]: a whole upload (files in memory, an archive, or a path), whatever its
 //!   kind: the one entry point the CLI and the server share, so that both accept and
 //!   refuse the same inputs.
@@ -26,11 +28,12 @@ pub mod positioning;
 pub mod rotary;
 pub mod session;
 pub mod sniff;
+pub mod units;
 pub mod upload;
 
 pub use drift::{read_drift_log, read_drift_log_path, write_drift_log, write_drift_predictions};
 pub use json::is_rfc3339;
-pub use limits::Limits;
+pub use limits::{CsvDialect, Limits};
 pub use positioning::{read_positioning, read_positioning_path, write_positioning};
 pub use rotary::{
     read_rotary_points, read_rotary_points_path, write_rotary_points, write_rotary_sidecar,
@@ -135,6 +138,14 @@ pub(crate) fn read_file_limited(
         .as_limit());
     }
     std::fs::read(path).map_err(|e| FormatError::file(name, format!("cannot read file: {e}")))
+}
+
+/// The metadata of a dataset path given by a user, or an error naming the full path and
+/// the system's reason (`/no/such/dir:0:: cannot read: No such file or directory (os
+/// error 2)`).
+pub fn stat_path(path: &std::path::Path) -> Result<std::fs::Metadata, FormatError> {
+    std::fs::metadata(path)
+        .map_err(|e| FormatError::file(path.display().to_string(), format!("cannot read: {e}")))
 }
 
 /// The file name of a path, for messages.

@@ -5,6 +5,7 @@
 //! increasing within each axis and run) and `temp_c` optional; at least one row.
 
 use crate::csv_core::{CsvTable, check_increasing, fmt_f64};
+use crate::limits::Quantity;
 use crate::{FormatError, Limits, invalid_input};
 use mtcal_solver::Axis;
 use mtcal_solver::datasets::{Direction, PositioningRecord, PositioningRuns};
@@ -52,7 +53,7 @@ pub fn read_positioning(
         };
         let t_s = match c_t {
             Some(ct) => {
-                let v = t.f64_within(ct, limits.max_abs_time_s, "time (s)")?;
+                let v = t.quantity(ct, Quantity::Time)?;
                 let prev = last_t.insert((axis, run), v);
                 check_increasing(&t, ct, prev, v, &format!("axis {axis} run {run}"))?;
                 Some(v)
@@ -63,11 +64,11 @@ pub fn read_positioning(
             axis,
             run,
             direction,
-            target_mm: t.f64_within(c[3], limits.max_abs_position_mm, "position (mm)")?,
-            deviation_um: t.f64_within(c[4], limits.max_abs_deviation_um, "deviation (µm)")?,
+            target_mm: t.quantity(c[3], Quantity::Position)?,
+            deviation_um: t.quantity(c[4], Quantity::Deviation)?,
             t_s,
             temp_c: c_temp
-                .map(|ct| t.f64_within(ct, limits.max_abs_temperature_c, "temperature (°C)"))
+                .map(|ct| t.quantity(ct, Quantity::Temperature))
                 .transpose()?,
         });
     }
@@ -75,6 +76,8 @@ pub fn read_positioning(
         return Err(t.header_error("", "the file has no rows after the header"));
     }
     records.shrink_to_fit();
+    let deviations: Vec<f64> = records.iter().map(|r| r.deviation_um).collect();
+    crate::units::check_micrometres(name, "deviation_um", [deviations.as_slice()])?;
     Ok(PositioningRuns { records })
 }
 

@@ -8,6 +8,7 @@
 
 use crate::csv_core::{CsvTable, check_increasing, fmt_f64};
 use crate::json::JsonDoc;
+use crate::limits::Quantity;
 use crate::{FormatError, Limits, invalid_input};
 use mtcal_solver::datasets::{RotaryPoint, RotaryPointSet};
 use std::io::Write;
@@ -43,7 +44,7 @@ pub fn read_rotary_points(
     while t.next_row()? {
         let t_s = match c_t {
             Some(ct) => {
-                let v = t.f64_within(ct, limits.max_abs_time_s, "time (s)")?;
+                let v = t.quantity(ct, Quantity::Time)?;
                 check_increasing(&t, ct, prev_t, v, "the file")?;
                 prev_t = Some(v);
                 Some(v)
@@ -51,11 +52,11 @@ pub fn read_rotary_points(
             None => None,
         };
         points.push(RotaryPoint {
-            a_deg: t.f64_within(c[0], limits.max_abs_angle_deg, "angle (°)")?,
-            c_deg: t.f64_within(c[1], limits.max_abs_angle_deg, "angle (°)")?,
-            x_mm: t.f64_within(c[2], limits.max_abs_position_mm, "position (mm)")?,
-            y_mm: t.f64_within(c[3], limits.max_abs_position_mm, "position (mm)")?,
-            z_mm: t.f64_within(c[4], limits.max_abs_position_mm, "position (mm)")?,
+            a_deg: t.quantity(c[0], Quantity::Angle)?,
+            c_deg: t.quantity(c[1], Quantity::Angle)?,
+            x_mm: t.quantity(c[2], Quantity::Position)?,
+            y_mm: t.quantity(c[3], Quantity::Position)?,
+            z_mm: t.quantity(c[4], Quantity::Position)?,
             t_s,
         });
     }
@@ -63,6 +64,9 @@ pub fn read_rotary_points(
         return Err(t.header_error("", "the file has no points after the header"));
     }
     points.shrink_to_fit();
+    let a: Vec<f64> = points.iter().map(|p| p.a_deg).collect();
+    let c: Vec<f64> = points.iter().map(|p| p.c_deg).collect();
+    crate::units::check_degrees(name, &a, &c)?;
     Ok(RotaryPointSet {
         machine_id,
         measured_at,

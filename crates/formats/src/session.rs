@@ -17,12 +17,13 @@
 
 use crate::csv_core::{CsvTable, check_increasing, fmt_f64};
 use crate::json::{JsonDoc, Obj};
+use crate::limits::Quantity;
 use crate::{FormatError, Limits, gzip, invalid_input};
 use mtcal_solver::session::{PlaneRecord, Run, Session, TestKind};
 use mtcal_solver::{Axis, Plane, Topology};
 use serde_json::{Value, json};
 use std::borrow::Cow;
-use std::collections::{BTreeMap, HashMap};
+use std::collections::{BTreeMap, HashMap, HashSet};
 use std::io::Write;
 use std::path::Path;
 
@@ -349,10 +350,12 @@ fn parse_session_json(bytes: &[u8]) -> Result<(SessionSpec, JsonDoc<'static>), F
         }
         let mut planes: Vec<PlaneSpec> = Vec::with_capacity(items.len());
         let mut mountings: HashMap<String, Plane> = HashMap::new();
+        // Files named so far: a set, so that a long list costs O(n), not O(n²).
+        let mut files: HashSet<String> = HashSet::with_capacity(items.len());
         for (i, item) in items.iter().enumerate() {
             let p = root.object(&format!("planes[{i}]"), item)?;
             let spec = parse_plane(&p)?;
-            if planes.iter().any(|q| q.file == spec.file) {
+            if !files.insert(spec.file.clone()) {
                 return Err(p.error("file", format!("file `{}` is listed twice", spec.file)));
             }
             if let Some(&other) = mountings.get(&spec.mounting)
@@ -482,7 +485,7 @@ pub fn read_plane_csv(file: &str, bytes: &[u8], limits: &Limits) -> Result<Vec<R
                 k
             }
         };
-        let ts = t.f64_within(c_t, limits.max_abs_time_s, "time (s)")?;
+        let ts = t.quantity(c_t, Quantity::Time)?;
         let run = &mut runs[k];
         check_increasing(
             &t,
@@ -491,13 +494,13 @@ pub fn read_plane_csv(file: &str, bytes: &[u8], limits: &Limits) -> Result<Vec<R
             ts,
             &format!("run {number}"),
         )?;
-        let position = |c| t.f64_within(c, limits.max_abs_position_mm, "position (mm)");
+        let position = |c| t.quantity(c, Quantity::Position);
         let pos = [position(c_x)?, position(c_y)?, position(c_z)?];
-        let deviation = |c| t.f64_within(c, limits.max_abs_deviation_um, "deviation (µm)");
+        let deviation = |c| t.quantity(c, Quantity::Deviation);
         let du = deviation(c_du)?;
         let dv = deviation(c_dv)?;
         let temp = c_temp
-            .map(|c| t.f64_within(c, limits.max_abs_temperature_c, "temperature (°C)"))
+            .map(|c| t.quantity(c, Quantity::Temperature))
             .transpose()?;
         if let Some(c) = c_test {
             let s = t.text(c);
@@ -541,6 +544,8 @@ pub fn read_plane_csv(file: &str, bytes: &[u8], limits: &Limits) -> Result<Vec<R
     if let Some(k) = cur {
         shrink(&mut runs[k]);
     }
+    crate::units::check_micrometres(file, "du_um", runs.iter().map(|r| r.du_um.as_slice()))?;
+    crate::units::check_micrometres(file, "dv_um", runs.iter().map(|r| r.dv_um.as_slice()))?;
     Ok(runs)
 }
 

@@ -2,6 +2,7 @@
 //! CLI (`mtcal diagnose PATH`) and the API can pick the reader. Sniffing only guesses;
 //! the strict reader still decides.
 
+use crate::CsvDialect;
 use crate::drift::channel_kind;
 use crate::gzip;
 use crate::positioning::POSITIONING_COLUMNS;
@@ -31,7 +32,7 @@ const SNIFF_BYTES: usize = 64 * 1024;
 /// The kind of the file `name` with contents `bytes` (gzip accepted), or `None` when it
 /// matches no format. A JSON object with `machine_id` and `planes` is a session; a CSV is
 /// classified by the column names of its header (first line that is neither blank nor a
-/// `#` comment; `x-` columns ignored).
+/// `#` comment; `x-` columns ignored; separated by `,`, or by `;` when it holds no `,`).
 pub fn sniff_kind(name: &str, bytes: &[u8]) -> Option<DatasetKind> {
     let head = gzip::prefix(bytes, SNIFF_BYTES)?;
     let text = String::from_utf8_lossy(&head);
@@ -40,12 +41,12 @@ pub fn sniff_kind(name: &str, bytes: &[u8]) -> Option<DatasetKind> {
         let is_session = text.contains("\"planes\"") && text.contains("\"machine_id\"");
         return is_session.then_some(DatasetKind::Session);
     }
-    let header = trimmed
-        .lines()
-        .map(str::trim)
-        .find(|l| !l.is_empty() && !l.starts_with('#'))?;
+    let header = header_line(trimmed)?;
+    // A spreadsheet's `;` header (the Excel dialect) names its kind too; the reader then
+    // reads it or says what to change.
+    let sep = char::from(dialect_of_header(header).delimiter());
     let cols: Vec<&str> = header
-        .split(',')
+        .split(sep)
         .map(|c| c.trim().trim_matches('"'))
         .filter(|c| !c.starts_with("x-"))
         .collect();
@@ -85,4 +86,40 @@ pub fn sniff_path(path: &Path) -> Option<DatasetKind> {
         .read_to_end(&mut head)
         .ok()?;
     sniff_kind(&crate::display_name(path), &head)
+}
+
+/// The first line that is neither blank nor a `#` comment.
+fn header_line(text: &str) -> Option<&str> {
+    text.lines()
+        .map(str::trim)
+        .find(|l| !l.is_empty() && !l.starts_with('#'))
+}
+
+/// The dialect a header line is written in: Excel when it holds `;` and no `,`.
+fn dialect_of_header(header: &str) -> CsvDialect {
+    if header.contains(';') && !header.contains(',') {
+        CsvDialect::Excel
+    } else {
+        CsvDialect::Plain
+    }
+}
+
+/// The CSV dialect of an upload's files as stored: Excel when a CSV file's header is
+/// separated by `;`. Only for files already accepted (a service's stored datasets): the
+/// plain dialect refuses such a header, so a stored one was uploaded in the Excel dialect
+/// and is read again in it. New uploads name their dialect; it is never guessed.
+pub fn stored_dialect(files: &[(String, Vec<u8>)]) -> CsvDialect {
+    let excel = files.iter().any(|(name, bytes)| {
+        crate::session::is_csv_name(name)
+            && gzip::prefix(bytes, SNIFF_BYTES).is_some_and(|head| {
+                let text = String::from_utf8_lossy(&head);
+                header_line(text.trim_start_matches('\u{feff}'))
+                    .is_some_and(|h| dialect_of_header(h) == CsvDialect::Excel)
+            })
+    });
+    if excel {
+        CsvDialect::Excel
+    } else {
+        CsvDialect::Plain
+    }
 }

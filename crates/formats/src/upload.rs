@@ -103,6 +103,46 @@ impl Dataset {
         }
     }
 
+    /// Positions that are micrometres where millimetres are required: refused when the
+    /// span of a position column exceeds 100× the machine's registered travel of its
+    /// axis (`travel`: `{"X": [min, max], …}`, mm; axes without a travel are not checked).
+    /// A session's `x_mm`, `y_mm`, `z_mm` per plane file, positioning runs' `target_mm`
+    /// per axis; rotary point sets are in the instrument's frame and not checked.
+    pub fn check_travel(
+        &self,
+        travel: &std::collections::BTreeMap<String, [f64; 2]>,
+    ) -> Result<(), FormatError> {
+        use crate::units::check_span;
+        match &self.data {
+            DatasetData::Session(s) => {
+                for p in &s.planes {
+                    for (k, (axis, column)) in [("X", "x_mm"), ("Y", "y_mm"), ("Z", "z_mm")]
+                        .into_iter()
+                        .enumerate()
+                    {
+                        if let Some(&t) = travel.get(axis) {
+                            let values = p.runs.iter().flat_map(|r| r.pos_mm.iter().map(|q| q[k]));
+                            check_span(&p.file, column, axis, values, t)?;
+                        }
+                    }
+                }
+            }
+            DatasetData::Positioning(r) => {
+                let file = self.files.first().map_or("positioning", String::as_str);
+                for (axis, t) in travel {
+                    let values = r
+                        .records
+                        .iter()
+                        .filter(|x| x.axis.to_string() == *axis)
+                        .map(|x| x.target_mm);
+                    check_span(file, "target_mm", axis, values, *t)?;
+                }
+            }
+            DatasetData::RotaryPoints(_) | DatasetData::DriftLog(_) => {}
+        }
+        Ok(())
+    }
+
     /// The measurement time the files declare, as RFC 3339 UTC (`…Z`, so that times
     /// sort as text); `None` when they declare none.
     pub fn measured_at_utc(&self) -> Result<Option<String>, FormatError> {
@@ -163,14 +203,15 @@ pub fn read_upload(files: &[(String, Vec<u8>)], limits: &Limits) -> Result<Datas
 /// `.tar.gz` or `.tgz` archive, or one dataset file (with the sidecar `<stem>.json` of a
 /// rotary point set when it exists beside it).
 pub fn read_path(path: &Path, limits: &Limits) -> Result<Dataset, FormatError> {
-    if path.is_dir() {
+    let meta = crate::stat_path(path)?;
+    if meta.is_dir() {
         let (names, mut load) = folder(path, limits)?;
         return read_named(&names, &mut load, limits);
     }
-    if !path.is_file() {
+    if !meta.is_file() {
         return Err(FormatError::file(
             path.display().to_string(),
-            "no such file or folder",
+            "neither a file nor a folder",
         ));
     }
     let (name, bytes) = crate::read_single(path, limits)?;
@@ -211,16 +252,8 @@ pub(crate) fn folder<'a>(
     limits: &Limits,
 ) -> Result<(Vec<String>, Box<Loader<'a>>), FormatError> {
     let shown = || dir.display().to_string();
-    let entries = std::fs::read_dir(dir).map_err(|e| {
-        FormatError::file(
-            shown(),
-            if e.kind() == std::io::ErrorKind::NotFound {
-                "no such folder".to_string()
-            } else {
-                format!("cannot read the folder: {e}")
-            },
-        )
-    })?;
+    let entries = std::fs::read_dir(dir)
+        .map_err(|e| FormatError::file(shown(), format!("cannot read the folder: {e}")))?;
     let mut names = Vec::new();
     for e in entries {
         let e =
@@ -394,6 +427,7 @@ pub fn read_archive(
         .map_err(|e| bad(format!("not a tar archive: {e}")))?;
     let mut out: Vec<(String, Vec<u8>)> = Vec::new();
     for entry in entries {
+        limits.check_deadline(name, 0)?;
         let mut entry = entry.map_err(|e| bad(format!("unreadable entry: {e}")))?;
         let raw_path = String::from_utf8_lossy(&entry.path_bytes()).into_owned();
         let shown: String = raw_path.chars().take(MAX_NAME_LEN).collect();

@@ -704,7 +704,11 @@ fn sample_session() -> Session {
             du_um: (0..n)
                 .map(|i| (i as f64 * 0.7).sin() * 1.234_567_891)
                 .collect(),
-            dv_um: (0..n).map(|i| (i as f64 * 0.3).cos() * 1e-7).collect(),
+            // Tiny values (written with an exponent) between ordinary ones: a column of
+            // only tiny values would be refused as millimetres in a micrometre column.
+            dv_um: (0..n)
+                .map(|i| (i as f64 * 0.3).cos() * if i % 2 == 0 { 1e-7 } else { 2.5 })
+                .collect(),
             temp_c: temp.then(|| (0..n).map(|i| 20.0 + 1e-3 * i as f64).collect()),
         }
     };
@@ -851,10 +855,11 @@ fn implausible_magnitudes_are_refused_at_their_cell() {
     assert_eq!(runs[0].pos_mm[1][0], 250_000.0);
 }
 
-/// A huge cell gives a bounded message: the quote is cut, its length said.
+/// A huge cell gives a bounded message: the quote is cut, its length said (a cell just
+/// under the line-length limit; a longer line is refused as such).
 #[test]
 fn a_huge_cell_gives_a_bounded_message() {
-    let cell = "z".repeat(1 << 20);
+    let cell = "z".repeat(60_000);
     let e = csv_err(&format!(
         "run,t_s,x_mm,y_mm,z_mm,du_um,dv_um\n1,0.0,0,0,0,{cell},0.2\n"
     ));

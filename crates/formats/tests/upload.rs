@@ -274,10 +274,22 @@ fn a_single_file_path_reads_its_sidecar() {
 #[test]
 fn missing_paths_are_named() {
     let e = read_path(Path::new("/no/such/dir"), &Limits::default()).unwrap_err();
-    check(&e, "/no/such/dir", 0, "", "no such file or folder");
+    check(
+        &e,
+        "/no/such/dir",
+        0,
+        "",
+        "cannot read: No such file or directory (os error 2)",
+    );
     let e =
         mtcal_formats::read_session_dir(Path::new("/no/such/dir"), &Limits::default()).unwrap_err();
-    check(&e, "/no/such/dir", 0, "", "no such folder");
+    check(
+        &e,
+        "/no/such/dir",
+        0,
+        "",
+        "cannot read the folder: No such file or directory (os error 2)",
+    );
 }
 
 #[test]

@@ -291,8 +291,12 @@ fn load_dataset(input: &JobInput) -> Result<(&Dataset, DatasetData), JobError> {
     let (dataset, files) = input.dataset.as_ref().ok_or_else(|| {
         JobError::BadInput(format!("a {} job needs a dataset", input.kind.as_str()))
     })?;
-    let data = ingest::read_dataset(files, &input.limits)
-        .map_err(|e| JobError::BadInput(e.to_string()))?;
+    // Files are stored as uploaded: one accepted in the Excel dialect is read in it.
+    let limits = input
+        .limits
+        .with_dialect(mtcal_formats::sniff::stored_dialect(files));
+    let data =
+        ingest::read_dataset(files, &limits).map_err(|e| JobError::BadInput(e.to_string()))?;
     Ok((dataset, data.data))
 }
 

@@ -10,6 +10,7 @@ use axum::body::Bytes;
 use axum::extract::{FromRequest, Multipart, Path, Request, State};
 use axum::http::{HeaderMap, HeaderValue, StatusCode, header};
 use axum::response::{IntoResponse, Response};
+use mtcal_formats::CsvDialect;
 use mtcal_store::{Dataset, Machine, NewDataset};
 use utoipa::ToSchema;
 
@@ -20,7 +21,14 @@ use utoipa::ToSchema;
 pub struct SessionUpload {
     #[schema(value_type = Vec<String>, format = Binary)]
     pub files: Vec<Vec<u8>>,
+    /// How the CSV files are written: `plain` (default; `,` separators, `.` decimal
+    /// points) or `excel` (`;` separators and decimal commas, as a spreadsheet saves CSV
+    /// in many locales). A form field, not a file.
+    pub csv_dialect: Option<String>,
 }
+
+/// The name of the multipart field that gives the CSV dialect.
+pub const CSV_DIALECT_FIELD: &str = "csv_dialect";
 
 fn media(headers: &HeaderMap) -> String {
     headers
@@ -55,18 +63,36 @@ fn encoding(req: &Request) -> Option<String> {
     req.extensions().get::<SentEncoding>().map(|e| e.0.clone())
 }
 
-async fn read_multipart(req: Request, s: &AppState) -> Result<Vec<(String, Vec<u8>)>, ApiError> {
+/// The files of a multipart upload and the CSV dialect its `csv_dialect` field names.
+async fn read_multipart(
+    req: Request,
+    s: &AppState,
+) -> Result<(Vec<(String, Vec<u8>)>, CsvDialect), ApiError> {
     let enc = encoding(&req);
     let rejected = |status, text| ApiError::from_body_rejection(status, text, enc.as_deref());
     let mut mp = Multipart::from_request(req, s)
         .await
         .map_err(|r| ApiError::from_rejection(r.status(), r.body_text()))?;
     let mut files = Vec::new();
+    let mut dialect = CsvDialect::Plain;
     while let Some(field) = mp
         .next_field()
         .await
         .map_err(|e| rejected(e.status(), e.body_text()))?
     {
+        if field.file_name().is_none() && field.name() == Some(CSV_DIALECT_FIELD) {
+            let text = field
+                .text()
+                .await
+                .map_err(|e| rejected(e.status(), e.body_text()))?;
+            dialect = CsvDialect::parse(&text).ok_or_else(|| {
+                ApiError::InvalidRequest(format!(
+                    "{CSV_DIALECT_FIELD} {:?}: plain or excel",
+                    text.chars().take(64).collect::<String>()
+                ))
+            })?;
+            continue;
+        }
         let name = field
             .file_name()
             .or(field.name())
@@ -78,7 +104,7 @@ async fn read_multipart(req: Request, s: &AppState) -> Result<Vec<(String, Vec<u
             .map_err(|e| rejected(e.status(), e.body_text()))?;
         files.push((name, bytes.to_vec()));
     }
-    Ok(files)
+    Ok((files, dialect))
 }
 
 #[utoipa::path(operation_id = "datasets_upload", summary = "Upload a dataset (session folder as multipart or tar.gz, or one series file)", post, path = "/api/v1/machines/{id}/datasets", tag = "datasets",
@@ -89,8 +115,11 @@ async fn read_multipart(req: Request, s: &AppState) -> Result<Vec<(String, Vec<u
                        CSV, or one drift-log CSV: as multipart parts, or as one .tar.gz with \
                        Content-Type application/gzip (application/x-tar for an uncompressed \
                        archive). Any file may be gzip-compressed. The kind is stored with the \
-                       dataset (session, rotary_points, positioning, drift_log)."),
+                       dataset (session, rotary_points, positioning, drift_log). The form \
+                       field csv_dialect=excel reads CSV files written by a spreadsheet (`;` \
+                       separators, decimal commas)."),
     responses((status = 201, body = Dataset),
+              (status = 400, body = ErrorBody, description = "invalid_request: an unknown csv_dialect"),
               (status = 409, body = ErrorBody, description = "conflict: identical to an earlier dataset of the machine, which the message names"),
               (status = 413, body = ErrorBody, description = "payload_too_large"),
               (status = 415, body = ErrorBody, description = "unsupported_media_type"),
@@ -103,14 +132,19 @@ pub async fn upload(
 ) -> Result<(StatusCode, Json<Dataset>), ApiError> {
     let machine = s.store.get_machine(&machine_id).await?;
     let ct = media(req.headers());
-    let files = if ct.starts_with("multipart/form-data") {
+    let (files, dialect) = if ct.starts_with("multipart/form-data") {
         read_multipart(req, &s).await?
     } else if let Some(name) = archive_name(&ct) {
         let enc = encoding(&req);
         let body = Bytes::from_request(req, &s).await.map_err(|r| {
             ApiError::from_body_rejection(r.status(), r.body_text(), enc.as_deref())
         })?;
-        ingest::untar(name, &body, &s.limits)?
+        // Decompressing and unpacking is blocking work, bounded like the read.
+        let limits = upload_limits(&s);
+        let files = tokio::task::spawn_blocking(move || ingest::untar(name, &body, &limits))
+            .await
+            .map_err(|e| ApiError::Internal(e.to_string()))??;
+        (files, CsvDialect::Plain)
     } else {
         return Err(ApiError::UnsupportedMediaType(format!(
             "Content-Type {ct:?}: send multipart/form-data or application/gzip (a .tar.gz)"
@@ -118,25 +152,33 @@ pub async fn upload(
     };
     Ok((
         StatusCode::CREATED,
-        Json(store_upload(&s, machine, files).await?),
+        Json(store_upload(&s, machine, files, dialect).await?),
     ))
+}
+
+/// The readers' limits for one upload: the service's, with a deadline at the upload time
+/// limit from now, so that a parsing thread stops no later than its request would.
+fn upload_limits(s: &AppState) -> ingest::UploadLimits {
+    s.limits.with_time_limit(crate::UPLOAD_TIMEOUT)
 }
 
 /// Reads the uploaded files as one dataset of `machine` with the strict reader of its
 /// kind and stores it (the upload route; the dashboard's upload form too). Nothing is
-/// stored when a file breaks a rule.
+/// stored when a file breaks a rule. CSV files are read in `dialect` (stored as sent).
 pub async fn store_upload(
     s: &AppState,
     machine: Machine,
     files: Vec<(String, Vec<u8>)>,
+    dialect: CsvDialect,
 ) -> Result<Dataset, ApiError> {
-    let limits = s.limits;
+    let limits = upload_limits(s).with_dialect(dialect);
     let (data, mut files) = tokio::task::spawn_blocking(move || {
         ingest::read_dataset(&files, &limits).map(|d| (d, files))
     })
     .await
     .map_err(|e| ApiError::Internal(e.to_string()))??;
     data.check_machine(&machine.id)?;
+    data.check_travel(&machine.travel_mm)?;
     let measured_at = data
         .measured_at_utc()?
         .unwrap_or_else(mtcal_store::now_rfc3339);

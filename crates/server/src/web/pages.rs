@@ -700,7 +700,9 @@ pub async fn upload(
             "choose the files of one dataset to upload".into(),
         )));
     }
-    let dataset = crate::api::datasets::store_upload(app, machine, files).await?;
+    let dataset =
+        crate::api::datasets::store_upload(app, machine, files, mtcal_formats::CsvDialect::Plain)
+            .await?;
     let kinds: Vec<JobKind> = match dataset.kind.as_str() {
         "session" if diagnose => vec![JobKind::Identify, JobKind::Diagnose],
         "session" => vec![JobKind::Identify],
