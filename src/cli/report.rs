@@ -36,14 +36,14 @@ pub fn run(args: Args) -> anyhow::Result<ExitCode> {
         .as_deref()
         .map(|p| super::read_json(p, "diagnosis"))
         .transpose()?;
-    if let Some(d) = &diagnosis {
-        if d.machine_id != doc.machine_id {
-            return Err(BadInput(format!(
-                "the diagnosis is of machine {}, the result of {}",
-                d.machine_id, doc.machine_id
-            ))
-            .into());
-        }
+    if let Some(d) = &diagnosis
+        && d.machine_id != doc.machine_id
+    {
+        return Err(BadInput(format!(
+            "the diagnosis is of machine {}, the result of {}",
+            d.machine_id, doc.machine_id
+        ))
+        .into());
     }
     let verdict = match &args.tolerances {
         Some(p) => {
