@@ -105,6 +105,41 @@ async fn exports_and_report_of_a_stored_result() {
     }
     assert!(page.text.contains(&id) && page.text.contains("no tolerance"));
     assert!(!page.text.contains("<link") && !page.text.contains("<script"));
+    // With a tolerance profile for the machine the report decides its figures against
+    // it: a limit of 1000 µm on EXX far above this check's errors passes, as the
+    // verdict route says.
+    let created = reqwest::Client::new()
+        .post(format!("{}/api/v1/tolerances", app.url))
+        .bearer_auth(&app.write_key)
+        .json(&serde_json::json!({
+            "scope": "machine", "target": "VMC-E", "limits": {"terms": {"EXX": 1000.0}}
+        }))
+        .send()
+        .await
+        .unwrap();
+    assert_eq!(created.status(), StatusCode::CREATED);
+    let verdict: serde_json::Value = reqwest::Client::new()
+        .get(format!("{}/api/v1/results/{id}/verdict", app.url))
+        .bearer_auth(&app.read_key)
+        .send()
+        .await
+        .unwrap()
+        .json()
+        .await
+        .unwrap();
+    assert_eq!(verdict["verdict"]["decision"], "pass", "{verdict}");
+    // Before the profile the report had no verdict section; now it has one, with EXX.
+    assert!(!page.text.contains("id=\"verdict\""));
+    let decided = reader.report(&id).await.unwrap();
+    let section = &decided.text[decided
+        .text
+        .find("id=\"verdict\"")
+        .expect("a verdict section once a profile applies")..];
+    assert!(
+        section.contains("EXX") && section.contains("pass"),
+        "{}",
+        &section[..section.len().min(2000)]
+    );
     // Without a key: 401.
     let anon = app.with_key("nope");
     assert_eq!(refused(anon.report(&id).await).0, StatusCode::UNAUTHORIZED);

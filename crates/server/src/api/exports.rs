@@ -92,12 +92,17 @@ pub async fn report(
     let r = s.store.get_result(&id).await?;
     let doc = identification(&r)?;
     let diagnosis = diagnosis_of(&s, &r).await?;
+    // The verdict against the tolerance profile that applies to the machine, as
+    // `GET /api/v1/results/{id}/verdict` gives it ("no tolerance" when none applies).
+    let verdict = super::tolerances::result_verdict(&s, &r.meta.id)
+        .await?
+        .verdict;
     let now = mtcal_store::now_rfc3339();
     let page = check_report(&CheckReport {
         doc: &doc,
         result_id: Some(&r.meta.id),
         generated_at: &now,
-        verdict: None,
+        verdict: verdict.as_ref(),
         diagnosis: diagnosis.as_ref(),
     });
     Ok(attachment(
