@@ -1,4 +1,4 @@
-//! Simulator of planar grid-encoder sessions (issue #2, effects of issue #6).
+//! Simulator of planar grid-encoder sessions, with the effects the rigid model leaves out.
 //!
 //! A machine with known errors runs a test plan; the simulator records what a grid encoder
 //! would read. For every sample at commanded position q with declared head offset t:
@@ -6,7 +6,7 @@
 //! (du, dv) = in-plane components of e_exact(q, t_true)   (exact HTM chain, µm)
 //!          + φ·(v, −u)·10⁻³                               (plate rotation φ µrad; (u, v) = in-plane q + t, mm)
 //!          + (o_u, o_v)                                   (per-run zero offsets, µm)
-//!          + Σ effects                                    (issue #6, see [`effects`])
+//!          + Σ effects                                    (see [`effects`])
 //!          + N(0, σ²) per component                       (noise)
 //!
 //! Motion: lines and circles at feed F (default 500 mm/min) with a trapezoidal profile of

@@ -69,7 +69,7 @@ fn predicted(kind: TermKind, k: f64, z: f64) -> f64 {
 }
 
 /// Checks reported − truth against the prediction on every grid point of `name`
-/// (tolerance max(0.1 µm, 3σ), issue #2's accuracy criterion); returns the largest
+/// (tolerance max(0.1 µm, 3σ), the accuracy criterion of the README); returns the largest
 /// |reported − truth| (the size of the bias).
 fn assert_bias(r: &IdentificationResult, truth: &Truth, name: &str, k: f64) -> f64 {
     assert!(r.terms[name].identifiable, "{name}");

@@ -17,7 +17,7 @@ fn machine(plan: Plan, seed: u64) -> (Session, Truth) {
 }
 
 /// Largest |identified − truth| / max(floor, 3σ) over the reported values of every
-/// identifiable term and squareness (floors 0.1 µm, 1 µrad as in issue #2).
+/// identifiable term and squareness (floors 0.1 µm, 1 µrad as in identification_truth.rs).
 fn worst_ratio(r: &IdentificationResult, truth: &Truth) -> (f64, String) {
     pairs(r, truth, None)
         .iter()

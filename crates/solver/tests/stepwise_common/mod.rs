@@ -50,7 +50,7 @@ pub struct Pair {
     pub value: f64,
     pub truth: f64,
     pub std: f64,
-    /// Accuracy floor of issue #2: 0.1 µm or 1 µrad.
+    /// Accuracy floor of the identification tests: 0.1 µm or 1 µrad.
     pub floor: f64,
 }
 
