@@ -399,39 +399,26 @@ async fn a_drift_inside_its_uncertainty_raises_no_alert_one_3_sigma_outside_does
     )
     .await;
     assert_eq!(s, StatusCode::CREATED, "{b}");
-    let base = f
-        .store
-        .import_result(identification("M1", "2026-01-05T08:00:00Z", 0.0, S2))
-        .await
-        .unwrap();
-    assert!(
-        mtcal_server::fleet::result_landed(&f.store, "M1", &base.id)
-            .await
-            .unwrap()
-            .is_none(),
-        "the baseline never alerts"
-    );
-    let inside = f
-        .store
-        .import_result(identification("M1", "2026-04-05T08:00:00Z", 0.12, S2))
-        .await
-        .unwrap();
-    assert!(
-        mtcal_server::fleet::result_landed(&f.store, "M1", &inside.id)
-            .await
-            .unwrap()
-            .is_none(),
-        "T + 1σ is inside the expanded uncertainty"
-    );
-    let outside = f
-        .store
-        .import_result(identification("M1", "2026-07-05T08:00:00Z", 0.16, S2))
-        .await
-        .unwrap();
-    let alert = mtcal_server::fleet::result_landed(&f.store, "M1", &outside.id)
-        .await
-        .unwrap()
-        .expect("T + 3σ alerts");
+    // A check of M1 at `at` with EXX drifted by `rate`, stored and landed: its alert.
+    let land = |at: &'static str, rate: f64| {
+        let store = f.store.clone();
+        async move {
+            let r = store
+                .import_result(identification("M1", at, rate, S2))
+                .await
+                .unwrap();
+            let alert = mtcal_server::fleet::result_landed(&store, "M1", &r.id)
+                .await
+                .unwrap();
+            (r, alert)
+        }
+    };
+    let (base, alert) = land("2026-01-05T08:00:00Z", 0.0).await;
+    assert!(alert.is_none(), "the baseline never alerts");
+    let (_, alert) = land("2026-04-05T08:00:00Z", 0.12).await;
+    assert!(alert.is_none(), "T + 1σ is inside the expanded uncertainty");
+    let (outside, alert) = land("2026-07-05T08:00:00Z", 0.16).await;
+    let alert = alert.expect("T + 3σ alerts");
     assert_eq!(alert.items.len(), 1);
     let item = &alert.items[0];
     assert_eq!(item.item, "EXX");
