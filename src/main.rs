@@ -34,6 +34,9 @@ enum Command {
     /// Compensation table of an identification result for a controller (ISG, Etalon,
     /// Heidenhain, CSV).
     Export(cli::export::Args),
+    /// How a machine changed between two identification results (drift and differences
+    /// with their uncertainty, over the travel both measured).
+    Compare(cli::compare::Args),
     /// The check report: one self-contained HTML page (prints on A4).
     Report(cli::report::Args),
     /// Run the HTTP API and its worker.
@@ -58,6 +61,7 @@ fn main() -> ExitCode {
         Command::Diagnose(a) => cli::diagnose::run(a),
         Command::Standards(a) => cli::standards::run(a),
         Command::Export(a) => cli::export::run(a),
+        Command::Compare(a) => cli::compare::run(a),
         Command::Report(a) => cli::report::run(a),
         Command::Serve(a) => cli::serve::run(a),
         Command::Worker(a) => cli::serve::run_worker(a),

@@ -4,6 +4,7 @@
 use std::process::ExitCode;
 
 pub mod admin;
+pub mod compare;
 pub mod cradle;
 pub mod demo;
 pub mod diagnose;

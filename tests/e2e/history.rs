@@ -65,7 +65,7 @@ async fn history_and_trends_return_what_was_stored() {
     assert_eq!(trend.unit, "um");
     for (p, doc) in trend.points.iter().zip(&docs) {
         for (k, q) in [50.0, -50.0].iter().enumerate() {
-            let want = doc.term_value_at("EXX", *q).unwrap();
+            let want = doc.reported_value_at("EXX", *q).unwrap();
             let got = p.values[k].unwrap();
             assert!(
                 (got - want).abs() <= 1e-12 * (1.0 + want.abs()),
@@ -143,8 +143,8 @@ async fn history_and_trends_return_what_was_stored() {
     assert!((dsq - (ec[2] - ec[0])).abs() < 1e-9);
     let exx = &diff.terms["EXX"];
     let i = exx.positions_mm.iter().position(|&q| q == 50.0).unwrap();
-    let want =
-        docs[2].term_value_at("EXX", 50.0).unwrap() - docs[0].term_value_at("EXX", 50.0).unwrap();
+    let want = docs[2].reported_value_at("EXX", 50.0).unwrap()
+        - docs[0].reported_value_at("EXX", 50.0).unwrap();
     assert!((exx.delta[i] - want).abs() < 1e-9);
     // The grid lies in the travel both checks measured, each difference with u² = u₀² + u₂².
     let [lo, hi] = exx.travel_mm.expect("the checks overlap");

@@ -39,11 +39,7 @@ pub fn sparkline(
     let column = |q: f64| -> Vec<Option<f64>> {
         results
             .iter()
-            .map(|r| {
-                let c = r.scalars.term_coefficients.get(term)?;
-                let [a, b] = trends::measured(&r.scalars, axis)?;
-                (a <= q && q <= b).then(|| trends::eval(c, q))
-            })
+            .map(|r| Some(trends::value(&r.scalars, term, q)?.value))
             .collect()
     };
     let change = |v: &[Option<f64>]| {

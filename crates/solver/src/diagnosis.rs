@@ -1,7 +1,7 @@
 //! Mismatch diagnosis: locate where the model and the recordings differ, name the physics
 //! the model left out, model it, and prove the fit improves on held-out data.
 //!
-//! This module holds the result document (shared/spec/results.md, "Diagnosis result"),
+//! This module holds the result document (docs/results.md, "Diagnosis result"),
 //! common to every kind of recording; the analyses live in submodules.
 
 use serde::{Deserialize, Serialize};

@@ -94,8 +94,11 @@ pub struct TermReport {
     /// Terms this one cannot be separated from (when not identifiable).
     #[serde(default, skip_serializing_if = "Vec::is_empty")]
     pub confounded_with: Vec<String>,
-    /// Monomial coefficients, element i ↔ q^(i+1) (µm/mm^k or µrad/mm^k), as reported
-    /// (straightness: after removing its least-squares line). Empty when not identifiable.
+    /// Monomial coefficients of the model function, element i ↔ q^(i+1) (µm/mm^k or
+    /// µrad/mm^k). For a straightness this is the model function (no linear term), not the
+    /// reported `values`, which are it minus its least-squares line over the measured travel
+    /// ([`crate::comparison::term_value`] evaluates either convention's reported value
+    /// from these). Empty when not identifiable.
     #[serde(default)]
     pub coefficients: Vec<f64>,
     /// Covariance of `coefficients` (row-major, n × n, units² of the coefficients): the
@@ -190,7 +193,7 @@ pub struct ModelInfo {
     pub measured_travel_mm: BTreeMap<String, [f64; 2]>,
 }
 
-/// The identification result document (shared/spec/results.md, "Identification result").
+/// The identification result document (docs/results.md, "Identification result").
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 #[cfg_attr(feature = "openapi", derive(utoipa::ToSchema))]
 pub struct IdentificationResult {
@@ -225,42 +228,14 @@ pub struct IdentificationResult {
 }
 
 impl IdentificationResult {
-    /// Value of an identified term at `q_mm` from its coefficients (µm or µrad);
-    /// `None` when the term is unknown or not identifiable.
-    pub fn term_value_at(&self, name: &str, q_mm: f64) -> Option<f64> {
-        let t = self.terms.get(name)?;
-        if !t.identifiable || t.coefficients.is_empty() {
-            return None;
-        }
-        let mut acc = 0.0;
-        for &c in t.coefficients.iter().rev() {
-            acc = acc * q_mm + c;
-        }
-        Some(acc * q_mm)
-    }
-
     /// Value of an identified term at `q_mm` in the result's reporting convention (µm or
-    /// µrad): [`IdentificationResult::term_value_at`], and for a straightness its
-    /// deviation from its least-squares line over the measured travel of its axis
-    /// ([`ls_line_weights`]), as the document's `values` are. `None` when the term is
-    /// unknown, not identifiable, or its axis has no measured travel.
+    /// µrad), from its stored coefficients ([`crate::comparison::term_value`]: for a
+    /// straightness, its deviation from its least-squares line over the measured travel
+    /// of its axis, as the document's `values` are). `None` when the term is unknown or
+    /// not identifiable, or `q_mm` lies outside the measured travel of its axis.
     pub fn reported_value_at(&self, name: &str, q_mm: f64) -> Option<f64> {
         let term = crate::terms::Term::parse(name)?;
-        let f = self.term_value_at(name, q_mm)?;
-        if term.kind() != crate::terms::TermKind::Straightness {
-            return Some(f);
-        }
-        let [lo, hi] = *self
-            .model
-            .measured_travel_mm
-            .get(&term.axis.letter().to_string())?;
-        let (mut a, mut b) = (0.0, 0.0);
-        for (q, wa, wb) in ls_line_weights(lo, hi) {
-            let v = self.term_value_at(name, q)?;
-            a += wa * v;
-            b += wb * v;
-        }
-        Some(f - a - b * q_mm)
+        Some(crate::comparison::term_value(self, term, q_mm)?.value)
     }
 }
 

@@ -43,6 +43,9 @@ pub mod standards;
 // Tolerances and the decision rule of conformity.
 pub mod tolerance;
 
+// Result arithmetic: term values, differences and drift between checks.
+pub mod comparison;
+
 // Thermal drift model of drift logs (spindle history and structure temperatures).
 pub mod thermal;
 

@@ -328,10 +328,24 @@ fn reported_value_at_reproduces_every_reported_value() {
         {
             straight += 1;
         }
-        for (q, v) in t.positions_mm.iter().zip(&t.values) {
+        let term = mtcal_solver::terms::Term::parse(name).unwrap();
+        for ((q, v), u) in t.positions_mm.iter().zip(&t.values).zip(&t.std) {
             let got = r.reported_value_at(name, *q).unwrap();
             assert!((got - v).abs() < 2e-6, "{name} at {q}: {got} vs {v}");
+            // Its uncertainty from the stored coefficient covariance (the line removal
+            // included for a straightness) against the reported std, which comes from
+            // the fit's covariance of the parameters.
+            let from_cov = mtcal_solver::comparison::term_value(&r, term, *q)
+                .and_then(|v| v.u)
+                .unwrap();
+            assert!(
+                (from_cov - u).abs() <= 2e-6 + 1e-3 * u,
+                "{name} at {q}: {from_cov} vs reported {u}"
+            );
         }
+        // Nothing outside the measured travel.
+        let [_, hi] = r.model.measured_travel_mm[&name[2..3]];
+        assert_eq!(r.reported_value_at(name, hi + 1.0), None, "{name}");
     }
     assert!(straight >= 4, "straightness terms checked: {straight}");
     assert_eq!(r.reported_value_at("EQX", 0.0), None);

@@ -14,7 +14,7 @@ use utoipa::{IntoParams, ToSchema};
 
 /// Most positions per term a difference evaluates (`step_mm` is refused below
 /// travel / this).
-pub const MAX_DIFF_POSITIONS: usize = 10_000;
+pub use mtcal_solver::comparison::MAX_DIFF_POSITIONS;
 
 /// Result kind the history routes read by default (and the only one diff and trends use).
 pub const KIND: &str = "identification";
@@ -228,24 +228,8 @@ pub async fn diff_results(s: &AppState, id: &str, q: &DiffQuery) -> Result<Resul
     let baseline = pick(q.baseline.as_ref(), default_base)?;
     let against = pick(q.against.as_ref(), all.last())?;
     let step = q.step_mm.unwrap_or(5.0);
-    if !(step > 0.0 && step.is_finite()) {
-        return Err(ApiError::InvalidRequest(
-            "step_mm must be a positive number".into(),
-        ));
-    }
-    // At most MAX_DIFF_POSITIONS per term, whatever the step and travel (memory bound).
-    let widest = ['X', 'Y', 'Z']
-        .iter()
-        .filter_map(|&a| trends::common_travel(&baseline.scalars, &against.scalars, a))
-        .map(|[lo, hi]| hi - lo)
-        .fold(0.0, f64::max);
-    if widest / step > MAX_DIFF_POSITIONS as f64 {
-        return Err(ApiError::InvalidRequest(format!(
-            "step_mm {step}: at most {MAX_DIFF_POSITIONS} positions per term over the travel \
-             ({widest} mm); use step_mm >= {}",
-            widest / MAX_DIFF_POSITIONS as f64
-        )));
-    }
+    trends::check_diff_step(&baseline.scalars, &against.scalars, step)
+        .map_err(ApiError::InvalidRequest)?;
     let (terms, squareness) = trends::diff(&baseline.scalars, &against.scalars, step);
     Ok(ResultDiff {
         machine_id: id.to_string(),

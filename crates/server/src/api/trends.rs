@@ -97,9 +97,7 @@ pub async fn term_trend(s: &AppState, id: &str, q: TermQuery) -> Result<TermTren
         .filter(|r| r.scalars.term_coefficients.contains_key(&q.term))
         .collect();
     for &p in &positions {
-        let inside = |r: &&ResultMeta| {
-            trends::measured(&r.scalars, axis).is_some_and(|[lo, hi]| p >= lo && p <= hi)
-        };
+        let inside = |r: &&ResultMeta| trends::measured_at(&r.scalars, axis, p);
         if !with_term.is_empty() && !with_term.iter().any(inside) {
             let latest = with_term.last().expect("not empty");
             return Err(ApiError::OutsideTravel(format!(
@@ -113,24 +111,13 @@ pub async fn term_trend(s: &AppState, id: &str, q: TermQuery) -> Result<TermTren
     let points = results
         .into_iter()
         .map(|r| {
-            let c = r.scalars.term_coefficients.get(&q.term);
-            let travel = trends::measured(&r.scalars, axis);
-            let at = |p: f64| {
-                let [lo, hi] = travel?;
-                (p >= lo && p <= hi).then_some(p)
-            };
+            let at: Vec<_> = positions
+                .iter()
+                .map(|&p| trends::value(&r.scalars, &q.term, p))
+                .collect();
             TermPoint {
-                values: positions
-                    .iter()
-                    .map(|&p| Some(trends::eval(c?, at(p)?)))
-                    .collect(),
-                u: positions
-                    .iter()
-                    .map(|&p| {
-                        c?;
-                        trends::term_std(&r.scalars, &q.term, at(p)?)
-                    })
-                    .collect(),
+                values: at.iter().map(|v| Some(v.as_ref()?.value)).collect(),
+                u: at.iter().map(|v| v.as_ref()?.u).collect(),
                 result_id: r.id,
                 measured_at: r.measured_at,
             }

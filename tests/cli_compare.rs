@@ -1,0 +1,121 @@
+//! `mtcal compare` end to end against truth: two checks of one simulated machine whose
+//! errors changed by known amounts between them (a positioning error grew linearly, a
+//! straightness bowed, a squareness moved). The differences it prints must match the
+//! change of the simulator's truth in the reporting convention (straightness about its
+//! least-squares line) within max(0.1 µm / 1 µrad, 3u) at every compared position, and
+//! the drift must name the term that changed most. Bad input is refused with exit code 2.
+
+use mtcal_solver::identification::{IdentifyOptions, identify};
+use mtcal_solver::simulate::{Plan, SimOptions, SimOutput, random_truth, simulate};
+use mtcal_solver::terms::Term;
+use std::process::{Command, Output};
+
+fn mtcal(args: &[&str]) -> Output {
+    Command::new(env!("CARGO_BIN_EXE_mtcal"))
+        .args(args)
+        .output()
+        .unwrap()
+}
+
+fn check(errors: &mtcal_solver::basis::PolyErrors, seed: u64) -> SimOutput {
+    simulate(
+        errors,
+        &SimOptions {
+            plan: Plan::Full,
+            seed,
+            sample_rate_hz: 20.0,
+            ..Default::default()
+        },
+    )
+    .unwrap()
+}
+
+#[test]
+fn compare_reports_the_change_of_the_truth_with_its_uncertainty() {
+    let before = random_truth(31);
+    let mut after = before.clone();
+    // EXX grows by 0.012 µm/mm (0.6 µm at 50 mm); EYX bows by 1.2 µm at ±50 mm
+    // (c₂ q², reported about its least-squares line: 0.8 µm at the ends, −0.4 µm in the
+    // middle); EC0Y moves by the model constant's 4 µrad.
+    let mut c = before.coefficients["EXX"].clone();
+    c[0] += 0.012;
+    after.set(Term::parse("EXX").unwrap(), c);
+    let mut c = before.coefficients["EYX"].clone();
+    c[1] += 1.2 / 2500.0;
+    after.set(Term::parse("EYX").unwrap(), c);
+    after.squareness.ec0y_urad += 4.0;
+    let (a, b) = (check(&before, 1), check(&after, 2));
+    let dir = tempfile::tempdir().unwrap();
+    let mut paths = Vec::new();
+    for (name, out) in [("a.json", &a), ("b.json", &b)] {
+        let r = identify(&out.session, &IdentifyOptions::default()).unwrap();
+        let p = dir.path().join(name);
+        std::fs::write(&p, serde_json::to_string(&r).unwrap()).unwrap();
+        paths.push(p.to_str().unwrap().to_string());
+    }
+    let out = mtcal(&["compare", &paths[0], &paths[1], "--json", "--step-mm", "10"]);
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    let doc: serde_json::Value = serde_json::from_slice(&out.stdout).unwrap();
+    let mut compared = 0;
+    for (name, d) in doc["terms"].as_object().unwrap() {
+        if !d["identifiable"].as_bool().unwrap() {
+            continue;
+        }
+        let (ta, tb) = (&a.truth.terms[name], &b.truth.terms[name]);
+        let floor: f64 =
+            if name.starts_with("EA") || name.starts_with("EB") || name.starts_with("EC") {
+                1.0
+            } else {
+                0.1
+            };
+        let positions = d["positions_mm"].as_array().unwrap();
+        for (i, q) in positions.iter().enumerate() {
+            let q = q.as_f64().unwrap();
+            let k = ta
+                .positions_mm
+                .iter()
+                .position(|&p| (p - q).abs() < 1e-9)
+                .unwrap();
+            let truth = tb.values[k] - ta.values[k];
+            let got = d["delta"][i].as_f64().unwrap();
+            let u = d["u"][i].as_f64().unwrap();
+            assert!(
+                (got - truth).abs() <= floor.max(3.0 * u),
+                "{name} at {q}: {got} vs truth {truth} (u {u})"
+            );
+            compared += 1;
+        }
+    }
+    assert!(compared > 150, "{compared}");
+    // The bow is compared about its least-squares line: 0.8 µm at the ends, not 1.2.
+    let eyx = &doc["terms"]["EYX"];
+    let end = eyx["delta"]
+        .as_array()
+        .unwrap()
+        .last()
+        .unwrap()
+        .as_f64()
+        .unwrap();
+    assert!((end - 0.8).abs() < 0.15, "EYX change at +50: {end}");
+    let sq = doc["squareness"]["EC0Y"].as_f64().unwrap();
+    let truth_sq = b.truth.squareness_urad["EC0Y"] - a.truth.squareness_urad["EC0Y"];
+    assert!((sq - truth_sq).abs() < 1.0, "{sq} vs {truth_sq}");
+    assert_eq!(doc["drift"]["worst_term_um"], "EYX", "{}", doc["drift"]);
+    // The plain summary names the same worst term.
+    let out = mtcal(&["compare", &paths[0], &paths[1]]);
+    assert!(out.status.success());
+    assert!(String::from_utf8_lossy(&out.stdout).contains("in EYX"));
+    // Bad input: a step giving too many positions, a file that is not a result.
+    let out = mtcal(&["compare", &paths[0], &paths[1], "--step-mm", "0.00001"]);
+    assert_eq!(out.status.code(), Some(2));
+    assert!(String::from_utf8_lossy(&out.stderr).contains("--step-mm"));
+    let junk = dir.path().join("junk.json");
+    std::fs::write(&junk, "{\"kind\": \"cradle\"}").unwrap();
+    let out = mtcal(&["compare", &paths[0], junk.to_str().unwrap()]);
+    assert_eq!(out.status.code(), Some(2));
+    assert!(String::from_utf8_lossy(&out.stderr).contains("junk.json"));
+}
