@@ -9,6 +9,7 @@ mod common;
 
 mod auth;
 mod cli;
+mod exclusion;
 mod exports;
 mod history;
 mod jobs;

@@ -9,7 +9,7 @@
 //! error code of docs/api.md.
 
 use mtcal_formats::CsvDialect;
-use mtcal_server::api::history::ResultDiff;
+use mtcal_server::api::history::{Reason, ResultDiff};
 use mtcal_server::api::jobs::SubmitJob;
 use mtcal_server::api::keys::{CreatedKey, NewKey};
 use mtcal_server::api::machines::NewMachine;
@@ -308,6 +308,35 @@ impl Client {
         Ok(bytes.to_vec())
     }
 
+    /// A machine's datasets in time order; excluded ones (deleted ones included) only
+    /// when `include_excluded`.
+    pub async fn datasets(&self, machine: &str, include_excluded: bool) -> Result<Vec<Dataset>> {
+        let rb = self
+            .request(Method::GET, &format!("/api/v1/machines/{machine}/datasets"))
+            .query(&[("include_excluded", include_excluded)]);
+        self.send(rb).await
+    }
+
+    /// Excludes a dataset and the results computed from it (write key; recorded with
+    /// `reason`).
+    pub async fn exclude_dataset(&self, id: &str, reason: &str) -> Result<Dataset> {
+        self.post(
+            &format!("/api/v1/datasets/{id}/exclude"),
+            &Reason::of(reason),
+        )
+        .await
+    }
+
+    /// Deletes a dataset's raw bytes, keeping a tombstone (admin key; recorded with
+    /// `reason`).
+    pub async fn delete_dataset_files(&self, id: &str, reason: &str) -> Result<Dataset> {
+        self.post(
+            &format!("/api/v1/datasets/{id}/delete-files"),
+            &Reason::of(reason),
+        )
+        .await
+    }
+
     // Jobs.
 
     pub async fn submit(&self, j: &SubmitJob) -> Result<Job> {
@@ -364,6 +393,15 @@ impl Client {
             rb = rb.query(&[("kind", k)]);
         }
         self.send(rb).await
+    }
+
+    /// Excludes a result from the history (write key; recorded with `reason`).
+    pub async fn exclude_result(&self, id: &str, reason: &str) -> Result<ResultMeta> {
+        self.post(
+            &format!("/api/v1/results/{id}/exclude"),
+            &Reason::of(reason),
+        )
+        .await
     }
 
     pub async fn latest(&self, machine: &str, kind: Option<&str>) -> Result<StoredResult> {

@@ -80,7 +80,8 @@ impl utoipa::Modify for SecurityAddon {
     paths(
         api::health,
         api::machines::create, api::machines::get, api::machines::update, api::machines::list,
-        api::datasets::upload, api::datasets::get, api::datasets::file,
+        api::datasets::upload, api::datasets::list, api::datasets::get, api::datasets::file,
+        api::datasets::exclude, api::datasets::delete_files,
         api::jobs::submit, api::jobs::list, api::jobs::get, api::jobs::result, api::jobs::cancel,
         api::history::list, api::history::latest, api::history::get, api::history::diff,
         api::history::figures, api::history::exclude,
@@ -140,7 +141,13 @@ pub fn router(state: AppState) -> Router {
             "/api/v1/machines/{id}",
             get(machines::get).patch(machines::update),
         )
+        .route("/api/v1/machines/{id}/datasets", get(datasets::list))
         .route("/api/v1/datasets/{id}", get(datasets::get))
+        .route("/api/v1/datasets/{id}/exclude", post(datasets::exclude))
+        .route(
+            "/api/v1/datasets/{id}/delete-files",
+            post(datasets::delete_files),
+        )
         .route("/api/v1/datasets/{id}/files/{name}", get(datasets::file))
         .route("/api/v1/jobs", post(jobs::submit).get(jobs::list))
         .route("/api/v1/jobs/{id}", get(jobs::get))

@@ -1,7 +1,8 @@
 //! Readers of stored results tolerate a bad row: a result whose stored row does not
 //! decode (written by an older version, a null where a number belongs) is left out of
 //! lists, trends, differences and the fleet with a warning naming it, instead of failing
-//! every reader of the machine (and the fleet) with a 500.
+//! every reader of the machine (and the fleet) with a 500. Told once, run on SQLite and,
+//! when `MTCAL_TEST_PG` names a server, on PostgreSQL (else that half says it skipped).
 
 mod common;
 
@@ -27,11 +28,38 @@ fn result(measured_at: &str, exx: f64) -> NewResult {
     }
 }
 
+/// Runs one statement on the database `url` names, behind the store's back: how a bad
+/// row gets there.
+async fn raw(url: &str, sql: &str) {
+    let sql = sqlx::raw_sql(sqlx::AssertSqlSafe(sql.to_string()));
+    if url.starts_with("postgres") {
+        let pool = sqlx::PgPool::connect(url).await.unwrap();
+        sql.execute(&pool).await.unwrap();
+    } else {
+        let pool = sqlx::SqlitePool::connect(url).await.unwrap();
+        sql.execute(&pool).await.unwrap();
+    }
+}
+
 #[tokio::test]
-async fn a_bad_stored_row_is_skipped_and_named() {
+async fn a_bad_stored_row_is_skipped_and_named_on_sqlite() {
     let dir = tempfile::tempdir().unwrap();
     let db = dir.path().join("t.sqlite");
-    let (app, keys, store) = app_on(db.to_str().unwrap()).await;
+    a_bad_stored_row_is_skipped_and_named(&format!("sqlite://{}", db.display())).await;
+}
+
+#[tokio::test]
+async fn a_bad_stored_row_is_skipped_and_named_on_postgres() {
+    let name = "a_bad_stored_row_is_skipped_and_named_on_postgres";
+    let Some(pg) = mtcal_store::testing::ScratchPg::create(name).await.unwrap() else {
+        return;
+    };
+    a_bad_stored_row_is_skipped_and_named(&pg.url).await;
+    pg.drop_schema().await.unwrap();
+}
+
+async fn a_bad_stored_row_is_skipped_and_named(url: &str) {
+    let (app, keys, store) = app_on(url).await;
     machine(&app, &keys.write, "M").await;
     let good = store
         .import_result(result("2026-01-01T00:00:00Z", 0.001))
@@ -50,14 +78,14 @@ async fn a_bad_stored_row_is_skipped_and_named() {
         .unwrap();
     // The bad row: a null among a term's coefficients (as NaN was once stored), written
     // directly into the database.
-    let pool = sqlx::SqlitePool::connect(&format!("sqlite://{}", db.display()))
-        .await
-        .unwrap();
-    sqlx::query("UPDATE results SET term_coefficients = '{\"EXX\": [1.0, null]}' WHERE id = ?")
-        .bind(&bad.id)
-        .execute(&pool)
-        .await
-        .unwrap();
+    raw(
+        url,
+        &format!(
+            "UPDATE results SET term_coefficients = '{{\"EXX\": [1.0, null]}}' WHERE id = '{}'",
+            bad.id
+        ),
+    )
+    .await;
     let r = Some(keys.read.as_str());
     let get = |uri: &str| request("GET", uri, "", None, vec![], r);
 
@@ -99,10 +127,11 @@ async fn a_bad_stored_row_is_skipped_and_named() {
     assert_eq!(d["against"]["id"], other.id.as_str());
 
     // A stored fleet entry that does not decode: the fleet is served without it.
-    sqlx::query("UPDATE fleet_drift SET entry = '{\"machine_id\": 5}' WHERE machine_id = 'M'")
-        .execute(&pool)
-        .await
-        .unwrap();
+    raw(
+        url,
+        "UPDATE fleet_drift SET entry = '{\"machine_id\": 5}' WHERE machine_id = 'M'",
+    )
+    .await;
     let (s, b) = send(&app, get("/api/v1/fleet/drift")).await;
     assert_eq!(s, StatusCode::OK, "{b}");
     assert_eq!(b["machines"].as_array().unwrap().len(), 0, "{b}");

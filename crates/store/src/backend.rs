@@ -40,6 +40,103 @@ impl This {
         rows::dataset(&row, files)
     }
 
+    /// Not found, with the record, when dataset `id`'s bytes were deleted (or it is
+    /// unknown).
+    async fn bytes_kept(&self, id: &str) -> Result<()> {
+        let row = row_by_id(
+            &self.pool,
+            "SELECT deleted_at, deleted_by, deleted_reason FROM datasets WHERE id = $1".into(),
+            id,
+            "dataset",
+        )
+        .await?;
+        match rows::record(&row, "deleted")? {
+            Some(d) => Err(StoreError::NotFound(format!(
+                "the bytes of dataset {id} (deleted at {} by {}: {})",
+                d.at, d.by, d.reason
+            ))),
+            None => Ok(()),
+        }
+    }
+
+    /// Sets dataset `id` aside in one transaction: `mark` (`$1` id, `$2` now, `$3` by,
+    /// `$4` reason) records it unless `done_column` is already set; the dataset's results
+    /// not yet excluded are then excluded with the dataset's exclusion record, and a
+    /// deleted dataset's files lose their bytes. Refused, nothing changed, while a job on
+    /// it is queued or running.
+    async fn set_aside(
+        &self,
+        id: &str,
+        mark: &'static str,
+        done_column: &str,
+        by: &str,
+        reason: &str,
+    ) -> Result<Dataset> {
+        let mut tx = self.pool.begin().await.db()?;
+        // Written first (a read before a write in one transaction would deadlock SQLite
+        // writers), guarded in the same statement against jobs that still need the data.
+        let marked = sqlx::query(sqlx::AssertSqlSafe(format!(
+            "{mark} AND NOT EXISTS (SELECT 1 FROM jobs WHERE dataset_id = $1 \
+             AND state IN ('queued', 'running'))"
+        )))
+        .bind(id)
+        .bind(now_rfc3339())
+        .bind(by)
+        .bind(reason)
+        .execute(&mut *tx)
+        .await
+        .db()?;
+        if marked.rows_affected() == 0 {
+            let q = format!("SELECT {done_column} AS done FROM datasets WHERE id = $1");
+            let row = row_by_id(&mut *tx, q, id, "dataset").await?;
+            if row.opt_text("done")?.is_none() {
+                let job: String = sqlx::query_scalar(
+                    "SELECT id FROM jobs WHERE dataset_id = $1 AND state IN ('queued', 'running') \
+                     ORDER BY id LIMIT 1",
+                )
+                .bind(id)
+                .fetch_optional(&mut *tx)
+                .await
+                .db()?
+                .unwrap_or_default();
+                tx.rollback().await.db()?;
+                return Err(StoreError::Conflict(format!(
+                    "job {job} on dataset {id} is queued or running: cancel it \
+                     (POST /api/v1/jobs/{job}/cancel) or wait for it to finish, then try again"
+                )));
+            }
+        }
+        sqlx::query(
+            "UPDATE results SET \
+             excluded_at = (SELECT excluded_at FROM datasets WHERE id = $1), \
+             excluded_by = (SELECT excluded_by FROM datasets WHERE id = $1), \
+             excluded_reason = (SELECT excluded_reason FROM datasets WHERE id = $1) \
+             WHERE dataset_id = $1 AND excluded_at IS NULL",
+        )
+        .bind(id)
+        .execute(&mut *tx)
+        .await
+        .db()?;
+        sqlx::query(
+            "UPDATE dataset_files SET content = $2 WHERE dataset_id = $1 \
+             AND (SELECT deleted_at FROM datasets WHERE id = $1) IS NOT NULL",
+        )
+        .bind(id)
+        .bind(Vec::<u8>::new())
+        .execute(&mut *tx)
+        .await
+        .db()?;
+        tx.commit().await.db()?;
+        let d = self.dataset(id).await?;
+        if d.deleted.is_some() && !dialect::AFTER_BYTES_DELETED.is_empty() {
+            sqlx::query(dialect::AFTER_BYTES_DELETED)
+                .execute(&self.pool)
+                .await
+                .db()?;
+        }
+        Ok(d)
+    }
+
     async fn result_meta(&self, id: &str) -> Result<ResultMeta> {
         let q = format!("SELECT {RESULT_COLUMNS} FROM results WHERE id = $1");
         let row = row_by_id(&self.pool, q, id, "result").await?;
@@ -73,8 +170,12 @@ async fn insert_result(
     sqlx::query(
         "INSERT INTO results (id, job_id, machine_id, dataset_id, kind, measured_at, created_at, \
          document, residual_rms_um, condition_number, rank, ec0y_urad, eb0z_urad, ea0z_urad, \
-         term_coefficients, measured_travel, term_covariance) \
-         VALUES ($1, $2, $3, $4, $5, $6, $7, $8, $9, $10, $11, $12, $13, $14, $15, $16, $17)",
+         term_coefficients, measured_travel, term_covariance, \
+         excluded_at, excluded_by, excluded_reason) \
+         VALUES ($1, $2, $3, $4, $5, $6, $7, $8, $9, $10, $11, $12, $13, $14, $15, $16, $17, \
+         (SELECT excluded_at FROM datasets WHERE id = $4), \
+         (SELECT excluded_by FROM datasets WHERE id = $4), \
+         (SELECT excluded_reason FROM datasets WHERE id = $4))",
     )
     .bind(&m.id)
     .bind(&m.job_id)
@@ -112,7 +213,12 @@ async fn insert_result(
         .await
         .db()?;
     }
-    Ok(row.meta)
+    if m.dataset_id.is_none() {
+        return Ok(row.meta);
+    }
+    // A result of an excluded dataset lands excluded with the dataset's record.
+    let q = format!("SELECT {RESULT_COLUMNS} FROM results WHERE id = $1");
+    rows::result_meta(&row_by_id(&mut **tx, q, &m.id, "result").await?)
 }
 
 /// Inserts a succeeded `import` job and its result inside `tx` (`seq` 0: an import is
@@ -230,7 +336,8 @@ impl Store for This {
             let inserted = sqlx::query(
                 "INSERT INTO datasets (id, machine_id, kind, measured_at, uploaded_at, samples, \
                  total_bytes, sha256) SELECT $1, $2, $3, $4, $5, $6, $7, $8 WHERE NOT EXISTS \
-                 (SELECT 1 FROM datasets WHERE machine_id = $2 AND sha256 = $8)",
+                 (SELECT 1 FROM datasets WHERE machine_id = $2 AND sha256 = $8 \
+                 AND excluded_at IS NULL)",
             )
             .bind(&id)
             .bind(&d.machine_id)
@@ -246,7 +353,8 @@ impl Store for This {
             if inserted.rows_affected() == 0 {
                 tx.rollback().await.db()?;
                 let e: String = sqlx::query_scalar(
-                    "SELECT id FROM datasets WHERE machine_id = $1 AND sha256 = $2 ORDER BY id LIMIT 1",
+                    "SELECT id FROM datasets WHERE machine_id = $1 AND sha256 = $2 \
+                     AND excluded_at IS NULL ORDER BY id LIMIT 1",
                 )
                 .bind(&d.machine_id)
                 .bind(&manifest.sha256)
@@ -289,6 +397,7 @@ impl Store for This {
 
     fn dataset_file<'a>(&'a self, id: &'a str, name: &'a str) -> StoreFuture<'a, Vec<u8>> {
         Box::pin(async move {
+            self.bytes_kept(id).await?;
             let row = sqlx::query(
                 "SELECT content FROM dataset_files WHERE dataset_id = $1 AND name = $2",
             )
@@ -304,6 +413,7 @@ impl Store for This {
 
     fn dataset_files<'a>(&'a self, id: &'a str) -> StoreFuture<'a, Vec<(String, Vec<u8>)>> {
         Box::pin(async move {
+            self.bytes_kept(id).await?;
             let rows = sqlx::query(
                 "SELECT name, content FROM dataset_files WHERE dataset_id = $1 ORDER BY name",
             )
@@ -316,6 +426,85 @@ impl Store for This {
             }
             rows.iter().map(rows::name_and_content).collect()
         })
+    }
+
+    fn list_datasets<'a>(
+        &'a self,
+        machine_id: &'a str,
+        include_excluded: bool,
+    ) -> StoreFuture<'a, Vec<Dataset>> {
+        Box::pin(async move {
+            let shown = if include_excluded {
+                ""
+            } else {
+                " AND excluded_at IS NULL"
+            };
+            let q = format!(
+                "SELECT {DATASET_COLUMNS} FROM datasets WHERE machine_id = $1{shown} \
+                 ORDER BY measured_at, id"
+            );
+            let found = sqlx::query(sqlx::AssertSqlSafe(q))
+                .bind(machine_id)
+                .fetch_all(&self.pool)
+                .await
+                .db()?;
+            let q = format!(
+                "SELECT dataset_id, name, sha256, size FROM dataset_files WHERE dataset_id IN \
+                 (SELECT id FROM datasets WHERE machine_id = $1{shown}) ORDER BY dataset_id, name"
+            );
+            let mut files: std::collections::HashMap<String, Vec<FileMeta>> = Default::default();
+            for r in sqlx::query(sqlx::AssertSqlSafe(q))
+                .bind(machine_id)
+                .fetch_all(&self.pool)
+                .await
+                .db()?
+            {
+                files
+                    .entry(r.text("dataset_id")?)
+                    .or_default()
+                    .push(rows::file_meta(&r)?);
+            }
+            found
+                .iter()
+                .map(|r| rows::dataset(r, files.remove(&r.text("id")?).unwrap_or_default()))
+                .collect()
+        })
+    }
+
+    fn exclude_dataset<'a>(
+        &'a self,
+        id: &'a str,
+        by: &'a str,
+        reason: &'a str,
+    ) -> StoreFuture<'a, Dataset> {
+        Box::pin(self.set_aside(
+            id,
+            "UPDATE datasets SET excluded_at = $2, excluded_by = $3, excluded_reason = $4 \
+             WHERE id = $1 AND excluded_at IS NULL",
+            "excluded_at",
+            by,
+            reason,
+        ))
+    }
+
+    fn delete_dataset_files<'a>(
+        &'a self,
+        id: &'a str,
+        by: &'a str,
+        reason: &'a str,
+    ) -> StoreFuture<'a, Dataset> {
+        // Every right-hand side reads the row as it was: an earlier exclusion is kept.
+        Box::pin(self.set_aside(
+            id,
+            "UPDATE datasets SET deleted_at = $2, deleted_by = $3, deleted_reason = $4, \
+             excluded_at = COALESCE(excluded_at, $2), \
+             excluded_by = CASE WHEN excluded_at IS NULL THEN $3 ELSE excluded_by END, \
+             excluded_reason = CASE WHEN excluded_at IS NULL THEN $4 ELSE excluded_reason END \
+             WHERE id = $1 AND deleted_at IS NULL",
+            "deleted_at",
+            by,
+            reason,
+        ))
     }
 
     fn get_result<'a>(&'a self, id: &'a str) -> StoreFuture<'a, StoredResult> {

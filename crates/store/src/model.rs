@@ -61,6 +61,16 @@ pub struct Dataset {
     /// SHA-256 over the sorted list of `name:sha256` lines of its files.
     pub sha256: String,
     pub files: Vec<FileMeta>,
+    /// Set when the dataset was excluded ([`Exclusion`]): no new job runs on it, default
+    /// listings leave it out, and the results computed from it are excluded with this
+    /// same record.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub excluded: Option<Exclusion>,
+    /// Set when the dataset's raw bytes were deleted (who, when, why: the same record
+    /// shape as an exclusion). The files' names, sizes and checksums stay; their bytes are
+    /// gone. A deleted dataset is always excluded too.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub deleted: Option<Exclusion>,
 }
 
 /// A dataset to insert: metadata plus every file's bytes.
@@ -229,14 +239,16 @@ pub struct ResultMeta {
     pub excluded: Option<Exclusion>,
 }
 
-/// Why and by whom a result was excluded from the history: it stays stored and readable
-/// by id, but no list, trend, difference, drift or figure trend uses it.
+/// Why and by whom a record was set aside: a result excluded from the history (it stays
+/// stored and readable by id, but no list, trend, difference, drift or figure trend uses
+/// it), a dataset excluded (its results with it, same record) or a dataset's bytes
+/// deleted.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 #[cfg_attr(feature = "openapi", derive(utoipa::ToSchema))]
 pub struct Exclusion {
     /// RFC 3339.
     pub at: String,
-    /// The id of the API key (or the operator) that excluded it.
+    /// The API key (or the operator) that did it.
     pub by: String,
     pub reason: String,
 }

@@ -69,8 +69,8 @@ pub(crate) const RESULT_COLUMNS: &str = "id, job_id, machine_id, dataset_id, kin
      term_coefficients, measured_travel, term_covariance, excluded_at, excluded_by, excluded_reason";
 
 /// Columns of a dataset (its files apart).
-pub(crate) const DATASET_COLUMNS: &str =
-    "id, machine_id, kind, measured_at, uploaded_at, samples, total_bytes, sha256";
+pub(crate) const DATASET_COLUMNS: &str = "id, machine_id, kind, measured_at, uploaded_at, samples, total_bytes, sha256, \
+     excluded_at, excluded_by, excluded_reason, deleted_at, deleted_by, deleted_reason";
 
 /// Columns of an API key (never its hash).
 pub(crate) const KEY_COLUMNS: &str = "id, prefix, scope, label, created_at, revoked_at";
@@ -139,14 +139,20 @@ pub(crate) fn result_meta(r: &impl Columns) -> Result<ResultMeta> {
             measured_travel_mm: r.json("measured_travel")?,
             term_covariance: r.json("term_covariance")?,
         },
-        excluded: match r.opt_text("excluded_at")? {
-            Some(at) => Some(Exclusion {
-                at,
-                by: r.opt_text("excluded_by")?.unwrap_or_default(),
-                reason: r.opt_text("excluded_reason")?.unwrap_or_default(),
-            }),
-            None => None,
-        },
+        excluded: record(r, "excluded")?,
+    })
+}
+
+/// The record ([`Exclusion`]) kept in the columns `{prefix}_at`, `{prefix}_by` and
+/// `{prefix}_reason`; `None` when `{prefix}_at` is null.
+pub(crate) fn record(r: &impl Columns, prefix: &str) -> Result<Option<Exclusion>> {
+    Ok(match r.opt_text(&format!("{prefix}_at"))? {
+        Some(at) => Some(Exclusion {
+            at,
+            by: r.opt_text(&format!("{prefix}_by"))?.unwrap_or_default(),
+            reason: r.opt_text(&format!("{prefix}_reason"))?.unwrap_or_default(),
+        }),
+        None => None,
     })
 }
 
@@ -210,6 +216,8 @@ pub(crate) fn dataset(r: &impl Columns, files: Vec<FileMeta>) -> Result<Dataset>
         total_bytes: r.int("total_bytes")?,
         sha256: r.text("sha256")?,
         files,
+        excluded: record(r, "excluded")?,
+        deleted: record(r, "deleted")?,
     })
 }
 

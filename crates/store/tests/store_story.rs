@@ -65,6 +65,7 @@ stories!(
     fleet_drift_is_ranked_and_an_older_computation_never_replaces_a_newer,
     tolerance_profiles_one_per_target_and_alerts_acknowledged_once,
     fleet_page_puts_alerted_machines_first_then_filters_sorts_and_counts,
+    datasets_excluded_with_their_results_then_bytes_deleted_under_a_tombstone,
 );
 
 fn machine(id: &str) -> Machine {
@@ -911,4 +912,244 @@ async fn sqlite_keeps_no_key_secret() {
     let has = |needle: &str| bytes.windows(needle.len()).any(|w| w == needle.as_bytes());
     assert!(has(&hash), "the hash is stored, so the scan reads the data");
     assert!(!has(&secret[4..]));
+}
+
+#[tokio::test]
+async fn sqlite_deleted_dataset_bytes_leave_the_disk() {
+    let (dir, s) = sqlite().await;
+    s.create_machine(&machine("M1")).await.unwrap();
+    // Distinct markers, one in an overflow chain (larger than a page) and one small.
+    let big: Vec<u8> = (0..20_000u32)
+        .flat_map(|i| format!("big-{i:05};").into_bytes())
+        .collect();
+    let d = s
+        .insert_dataset(NewDataset {
+            machine_id: "M1".into(),
+            kind: "session".into(),
+            measured_at: "2026-01-01T00:00:00Z".into(),
+            samples: 1,
+            files: vec![
+                ("session.json".to_string(), b"small-marker-7f3a".to_vec()),
+                ("xy.csv".to_string(), big),
+            ],
+        })
+        .await
+        .unwrap();
+    let on_disk = || {
+        let mut bytes = Vec::new();
+        for e in std::fs::read_dir(dir.path()).unwrap() {
+            bytes.extend(std::fs::read(e.unwrap().path()).unwrap());
+        }
+        let has = |needle: &[u8]| bytes.windows(needle.len()).any(|w| w == needle);
+        (has(b"small-marker-7f3a"), has(b"big-12345;"))
+    };
+    assert_eq!(on_disk(), (true, true), "the scan reads the data");
+    s.delete_dataset_files(&d.id, "key k", "retention")
+        .await
+        .unwrap();
+    assert_eq!(on_disk(), (false, false));
+}
+
+async fn datasets_excluded_with_their_results_then_bytes_deleted_under_a_tombstone(s: &dyn Store) {
+    s.create_machine(&machine("M1")).await.unwrap();
+    let upload = |at: &str, bytes: &[u8]| NewDataset {
+        machine_id: "M1".into(),
+        kind: "session".into(),
+        measured_at: at.into(),
+        samples: 3,
+        files: vec![
+            ("session.json".to_string(), b"{}".to_vec()),
+            ("xy.csv".to_string(), bytes.to_vec()),
+        ],
+    };
+    let d1 = s
+        .insert_dataset(upload("2026-01-01T00:00:00Z", b"bad probe"))
+        .await
+        .unwrap();
+    let d2 = s
+        .insert_dataset(upload("2026-02-01T00:00:00Z", b"good"))
+        .await
+        .unwrap();
+    let from = |d: &Dataset, at: &str, ec0y: f64| NewResult {
+        dataset_id: Some(d.id.clone()),
+        ..result("M1", at, ec0y)
+    };
+    let r1 = s
+        .import_result(from(&d1, "2026-01-01T00:00:00Z", 1.0))
+        .await
+        .unwrap();
+    let r1b = s
+        .import_result(from(&d1, "2026-01-01T00:00:00Z", 1.5))
+        .await
+        .unwrap();
+    let r2 = s
+        .import_result(from(&d2, "2026-02-01T00:00:00Z", 2.0))
+        .await
+        .unwrap();
+    // One of d1's results was excluded on its own before: it keeps its own record.
+    let own = s
+        .exclude_result(&r1b.id, "key k0", "typo")
+        .await
+        .unwrap()
+        .excluded;
+
+    // A job queued on d2: excluding or deleting it is refused naming the job, nothing
+    // changes.
+    let job = s
+        .enqueue(NewJob {
+            dataset_id: Some(d2.id.clone()),
+            ..new_job("M1")
+        })
+        .await
+        .unwrap();
+    for refused in [
+        s.exclude_dataset(&d2.id, "key k1", "r").await,
+        s.delete_dataset_files(&d2.id, "key k1", "r").await,
+    ] {
+        match refused {
+            Err(StoreError::Conflict(m)) => assert!(m.contains(&job.id), "{m}"),
+            other => panic!("expected a conflict, got {other:?}"),
+        }
+    }
+    let kept = s.get_dataset(&d2.id).await.unwrap();
+    assert_eq!((kept.excluded, kept.deleted), (None, None));
+    assert_eq!(s.dataset_file(&d2.id, "xy.csv").await.unwrap(), b"good");
+
+    // Excluding d1: recorded, and its results excluded with the same record.
+    let x = s
+        .exclude_dataset(&d1.id, "key k1", "wrong probe")
+        .await
+        .unwrap();
+    let rec = x.excluded.clone().unwrap();
+    assert_eq!(
+        (rec.by.as_str(), rec.reason.as_str()),
+        ("key k1", "wrong probe")
+    );
+    assert_eq!(x.deleted, None);
+    assert_eq!(
+        s.get_result(&r1.id).await.unwrap().meta.excluded,
+        Some(rec.clone())
+    );
+    assert_eq!(s.get_result(&r1b.id).await.unwrap().meta.excluded, own);
+    let ids = |l: Vec<ResultMeta>| l.into_iter().map(|r| r.id).collect::<Vec<_>>();
+    assert_eq!(
+        ids(s.list_results("M1", "identification").await.unwrap()),
+        std::slice::from_ref(&r2.id)
+    );
+    // Again: the first record is kept.
+    let again = s.exclude_dataset(&d1.id, "key k2", "again").await.unwrap();
+    assert_eq!(again.excluded, Some(rec.clone()));
+    // Listings: the excluded one only when asked for.
+    let listed = |all| async move {
+        s.list_datasets("M1", all)
+            .await
+            .unwrap()
+            .into_iter()
+            .map(|d| d.id)
+            .collect::<Vec<_>>()
+    };
+    assert_eq!(listed(false).await, std::slice::from_ref(&d2.id));
+    assert_eq!(listed(true).await, [d1.id.clone(), d2.id.clone()]);
+    let all = s.list_datasets("M1", true).await.unwrap();
+    assert_eq!(all[0].files.len(), 2);
+    assert_eq!(all[0].excluded, Some(rec.clone()));
+    // A result landing later from d1 (a job that got past the checks) lands excluded.
+    let late = s
+        .enqueue(NewJob {
+            dataset_id: Some(d1.id.clone()),
+            ..new_job("M1")
+        })
+        .await
+        .unwrap();
+    // The earlier job on d2 goes first in the queue: cancel it.
+    s.cancel_job(&job.id).await.unwrap();
+    let claimed = s.claim_job("w", 60_000).await.unwrap().unwrap();
+    assert_eq!(claimed.id, late.id);
+    let done = s
+        .complete_job(&late.id, "w", from(&d1, "2026-03-01T00:00:00Z", 3.0))
+        .await
+        .unwrap();
+    let landed = s.get_result(&done.result_id.unwrap()).await.unwrap();
+    assert_eq!(landed.meta.excluded, Some(rec.clone()));
+    assert_eq!(
+        s.list_results("M1", "identification").await.unwrap().len(),
+        1
+    );
+    // The same bytes as the excluded d1 may be uploaded again (a new dataset); those of
+    // d2 may not.
+    let d1_again = s
+        .insert_dataset(upload("2026-01-01T00:00:00Z", b"bad probe"))
+        .await
+        .unwrap();
+    assert_ne!(d1_again.id, d1.id);
+    assert!(matches!(
+        s.insert_dataset(upload("2026-02-01T00:00:00Z", b"good"))
+            .await,
+        Err(StoreError::Conflict(_))
+    ));
+
+    // Deleting d1's bytes: a tombstone (files named, sized and summed), the first
+    // exclusion kept, the bytes gone.
+    let t = s
+        .delete_dataset_files(&d1.id, "key admin", "retention")
+        .await
+        .unwrap();
+    let del = t.deleted.clone().unwrap();
+    assert_eq!(
+        (del.by.as_str(), del.reason.as_str()),
+        ("key admin", "retention")
+    );
+    assert_eq!(t.excluded, Some(rec.clone()));
+    assert_eq!(t.files, d1.files);
+    assert_eq!(
+        (t.sha256.as_str(), t.total_bytes),
+        (d1.sha256.as_str(), d1.total_bytes)
+    );
+    for gone in [
+        s.dataset_file(&d1.id, "xy.csv").await.map(|_| ()),
+        s.dataset_files(&d1.id).await.map(|_| ()),
+    ] {
+        match gone {
+            Err(StoreError::NotFound(m)) => assert!(m.contains("retention"), "{m}"),
+            other => panic!("expected not found, got {other:?}"),
+        }
+    }
+    let again = s
+        .delete_dataset_files(&d1.id, "key other", "again")
+        .await
+        .unwrap();
+    assert_eq!(again.deleted, Some(del));
+    // The bytes are gone from the database, not only hidden.
+    let counts = s.row_counts().await.unwrap();
+    assert_eq!(counts.datasets, 3);
+
+    // Deleting d2 (not excluded, its job cancelled): excluded and deleted with one
+    // record, its result with it; d2's bytes are kept by the other datasets' files.
+    let t2 = s
+        .delete_dataset_files(&d2.id, "key admin", "wrong machine")
+        .await
+        .unwrap();
+    assert_eq!(t2.excluded, t2.deleted);
+    assert_eq!(
+        s.get_result(&r2.id).await.unwrap().meta.excluded,
+        t2.excluded
+    );
+    assert!(
+        s.list_results("M1", "identification")
+            .await
+            .unwrap()
+            .is_empty()
+    );
+    assert_eq!(
+        s.dataset_file(&d1_again.id, "xy.csv").await.unwrap(),
+        b"bad probe"
+    );
+    assert!(matches!(
+        s.exclude_dataset("ds_nope", "k", "r").await,
+        Err(StoreError::NotFound(_))
+    ));
+    assert!(matches!(
+        s.delete_dataset_files("ds_nope", "k", "r").await,
+        Err(StoreError::NotFound(_))
+    ));
 }

@@ -1,9 +1,10 @@
-//! `/api/v1/machines/{id}/datasets` (upload) and `/api/v1/datasets/{id}` (metadata, raw
-//! files back unchanged).
+//! `/api/v1/machines/{id}/datasets` (upload, list) and `/api/v1/datasets/{id}` (metadata,
+//! raw files back unchanged, exclusion, deletion of the raw bytes).
 
 use crate::AppState;
-use crate::auth::{ReadKey, WriteKey};
-use crate::error::{ApiError, ErrorBody};
+use crate::api::history::Reason;
+use crate::auth::{AdminKey, ReadKey, WriteKey};
+use crate::error::{ApiError, ApiJson, ApiQuery, ErrorBody};
 use crate::ingest;
 use axum::Json;
 use axum::body::Bytes;
@@ -12,7 +13,8 @@ use axum::http::{HeaderMap, HeaderValue, StatusCode, header};
 use axum::response::{IntoResponse, Response};
 use mtcal_formats::CsvDialect;
 use mtcal_store::{Dataset, Machine, NewDataset};
-use utoipa::ToSchema;
+use serde::Deserialize;
+use utoipa::{IntoParams, ToSchema};
 
 /// Multipart form of a session upload: one part per file, the part's file name is the
 /// file's name (`session.json`, `xy_L100.csv`, `xz.csv.gz`, …).
@@ -251,4 +253,72 @@ pub async fn file(
         h.insert("x-checksum-sha256", v);
     }
     Ok(resp)
+}
+
+#[derive(Debug, Deserialize, IntoParams)]
+#[into_params(parameter_in = Query)]
+pub struct ListQuery {
+    /// `true`: excluded datasets (and those whose bytes were deleted) too, each with its
+    /// record; default `false`.
+    pub include_excluded: Option<bool>,
+}
+
+#[utoipa::path(operation_id = "datasets_list", summary = "A machine's datasets in time order (excluded ones on request)", get, path = "/api/v1/machines/{id}/datasets", tag = "datasets",
+    security(("api_key" = [])), params(("id" = String, Path, description = "machine id"), ListQuery),
+    responses((status = 200, body = Vec<Dataset>, description = "in time order (measured_at, then id)"),
+              (status = 400, body = ErrorBody), (status = 404, body = ErrorBody)))]
+pub async fn list(
+    _key: ReadKey,
+    State(s): State<AppState>,
+    Path(machine_id): Path<String>,
+    ApiQuery(q): ApiQuery<ListQuery>,
+) -> Result<Json<Vec<Dataset>>, ApiError> {
+    s.store.get_machine(&machine_id).await?;
+    let all = q.include_excluded.unwrap_or(false);
+    Ok(Json(s.store.list_datasets(&machine_id, all).await?))
+}
+
+/// Excludes a dataset (a wrong setup, the wrong machine, poisoned input): it stays stored
+/// and readable by id with who excluded it, when and why; no new job runs on it (409),
+/// the default listing leaves it out, and every result computed from it is excluded with
+/// the same record, so that no list, trend, difference, drift, fleet row or alert
+/// baseline uses them (the machine's fleet row is recomputed at once). Excluding an
+/// excluded dataset keeps the first record.
+#[utoipa::path(operation_id = "datasets_exclude", summary = "Exclude a dataset and its results (recorded)", post, path = "/api/v1/datasets/{id}/exclude", tag = "datasets",
+    security(("api_key" = ["write"])), params(("id" = String, Path)), request_body = Reason,
+    responses((status = 200, body = Dataset), (status = 400, body = ErrorBody), (status = 401, body = ErrorBody),
+              (status = 403, body = ErrorBody), (status = 404, body = ErrorBody),
+              (status = 409, body = ErrorBody, description = "conflict: a job on the dataset is queued or running (the message names it); nothing changed")))]
+pub async fn exclude(
+    WriteKey(key): WriteKey,
+    State(s): State<AppState>,
+    Path(id): Path<String>,
+    ApiJson(body): ApiJson<Reason>,
+) -> Result<Json<Dataset>, ApiError> {
+    let (by, reason) = body.recorded(&key)?;
+    let d = s.store.exclude_dataset(&id, &by, reason).await?;
+    crate::fleet::refresh_machine(s.store.as_ref(), &d.machine_id).await?;
+    Ok(Json(d))
+}
+
+/// Deletes a dataset's raw bytes (admin: irreversible, unlike an exclusion). The dataset
+/// stays as a tombstone: its metadata, its files' names, sizes and checksums, and the
+/// record of who deleted the bytes, when and why; reading a file is then 404 naming that
+/// record. The dataset is excluded with the same record first when it was not (its
+/// results with it). Deleting again keeps the first record.
+#[utoipa::path(operation_id = "datasets_delete_files", summary = "Delete a dataset's raw bytes, keeping a tombstone (recorded)", post, path = "/api/v1/datasets/{id}/delete-files", tag = "datasets",
+    security(("api_key" = ["admin"])), params(("id" = String, Path)), request_body = Reason,
+    responses((status = 200, body = Dataset), (status = 400, body = ErrorBody), (status = 401, body = ErrorBody),
+              (status = 403, body = ErrorBody), (status = 404, body = ErrorBody),
+              (status = 409, body = ErrorBody, description = "conflict: a job on the dataset is queued or running (the message names it); nothing changed")))]
+pub async fn delete_files(
+    AdminKey(key): AdminKey,
+    State(s): State<AppState>,
+    Path(id): Path<String>,
+    ApiJson(body): ApiJson<Reason>,
+) -> Result<Json<Dataset>, ApiError> {
+    let (by, reason) = body.recorded(&key)?;
+    let d = s.store.delete_dataset_files(&id, &by, reason).await?;
+    crate::fleet::refresh_machine(s.store.as_ref(), &d.machine_id).await?;
+    Ok(Json(d))
 }

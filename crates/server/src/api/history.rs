@@ -242,13 +242,33 @@ pub async fn diff_results(s: &AppState, id: &str, q: &DiffQuery) -> Result<Resul
     })
 }
 
-/// Why a result is excluded.
+/// Why a record is set aside: a result or a dataset excluded, a dataset's bytes deleted.
 #[derive(Debug, Clone, Serialize, Deserialize, ToSchema)]
 #[serde(deny_unknown_fields)]
-pub struct ExcludeResult {
+pub struct Reason {
     /// Why (recorded with the key and the time), 1 to 1000 characters.
     #[schema(min_length = 1, max_length = 1000)]
     pub reason: String,
+}
+
+impl Reason {
+    pub fn of(reason: &str) -> Reason {
+        Reason {
+            reason: reason.into(),
+        }
+    }
+
+    /// The reason trimmed, checked (1 to 1000 characters), with who gives it: `key ID
+    /// (LABEL)`, as every exclusion and deletion records it.
+    pub fn recorded(&self, key: &mtcal_store::ApiKey) -> Result<(String, &str), ApiError> {
+        let reason = self.reason.trim();
+        if reason.is_empty() || reason.chars().count() > 1000 {
+            return Err(ApiError::InvalidRequest(
+                "reason: say why, in 1 to 1000 characters".into(),
+            ));
+        }
+        Ok((format!("key {} ({})", key.id, key.label), reason))
+    }
 }
 
 /// Excludes a result from the machine's history: it stays stored and readable here, with
@@ -256,25 +276,17 @@ pub struct ExcludeResult {
 /// uses it any more (a check with a wrong setup, or one whose figures would mislead).
 /// The fleet's drift of the machine is recomputed at once.
 #[utoipa::path(operation_id = "history_exclude", summary = "Exclude a result from the history (recorded)", post, path = "/api/v1/results/{id}/exclude", tag = "history",
-    security(("api_key" = ["write"])), params(("id" = String, Path)), request_body = ExcludeResult,
+    security(("api_key" = ["write"])), params(("id" = String, Path)), request_body = Reason,
     responses((status = 200, body = ResultMeta), (status = 400, body = ErrorBody), (status = 401, body = ErrorBody),
               (status = 403, body = ErrorBody), (status = 404, body = ErrorBody)))]
 pub async fn exclude(
     WriteKey(key): WriteKey,
     State(s): State<AppState>,
     Path(id): Path<String>,
-    ApiJson(body): ApiJson<ExcludeResult>,
+    ApiJson(body): ApiJson<Reason>,
 ) -> Result<Json<ResultMeta>, ApiError> {
-    let reason = body.reason.trim();
-    if reason.is_empty() || reason.chars().count() > 1000 {
-        return Err(ApiError::InvalidRequest(
-            "reason: say why, in 1 to 1000 characters".into(),
-        ));
-    }
-    let meta = s
-        .store
-        .exclude_result(&id, &format!("key {} ({})", key.id, key.label), reason)
-        .await?;
+    let (by, reason) = body.recorded(&key)?;
+    let meta = s.store.exclude_result(&id, &by, reason).await?;
     crate::fleet::refresh_machine(s.store.as_ref(), &meta.machine_id).await?;
     Ok(Json(meta))
 }

@@ -32,7 +32,8 @@ pub struct SubmitJob {
 #[utoipa::path(operation_id = "jobs_submit", summary = "Submit a job (identify, sensitivity, diagnose, cradle, standards)", post, path = "/api/v1/jobs", tag = "jobs", request_body = SubmitJob,
     security(("api_key" = ["write"])),
     responses((status = 202, body = Job), (status = 400, body = ErrorBody),
-              (status = 404, body = ErrorBody)))]
+              (status = 404, body = ErrorBody),
+              (status = 409, body = ErrorBody, description = "conflict: the dataset is excluded (the message gives its record)")))]
 pub async fn submit(
     _key: WriteKey,
     State(s): State<AppState>,
@@ -52,6 +53,12 @@ pub async fn submit_job(s: &AppState, j: SubmitJob) -> Result<Job, ApiError> {
     let machine_id = match (&j.dataset_id, j.kind.needs_dataset()) {
         (Some(d), true) => {
             let ds = s.store.get_dataset(d).await?;
+            if let Some(x) = &ds.excluded {
+                return Err(ApiError::Conflict(format!(
+                    "dataset {d} was excluded at {} by {} ({}): it is not used for new jobs",
+                    x.at, x.by, x.reason
+                )));
+            }
             if !j.kind.accepts(&ds.kind) {
                 return Err(ApiError::InvalidRequest(format!(
                     "a {} job cannot run on dataset {d} of kind {}",

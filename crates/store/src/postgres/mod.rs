@@ -29,6 +29,9 @@ mod dialect {
     /// Statement that makes a transaction's reads one snapshot (READ COMMITTED, the
     /// default, takes a new snapshot per statement).
     pub const SNAPSHOT: &str = "SET TRANSACTION ISOLATION LEVEL REPEATABLE READ, READ ONLY";
+    /// Run after a dataset's bytes were deleted: nothing; the old row versions are
+    /// removed by (auto)vacuum, as for every update.
+    pub const AFTER_BYTES_DELETED: &str = "";
 }
 
 /// The shared statements, compiled for PostgreSQL.
