@@ -49,7 +49,7 @@ use super::SeriesOptions;
 use crate::axis::Axis;
 use crate::datasets::{PositioningRecord, PositioningRuns};
 use crate::diagnosis::effects;
-use crate::diagnosis::{Baseline, DiagnosisResult, Mismatch};
+use crate::diagnosis::{Baseline, DiagnosisResult, Mismatch, Monotone, NoProgress, Progress};
 use crate::error::SolverError;
 use data::AxisData;
 use report::AxisOutcome;
@@ -59,6 +59,18 @@ pub fn diagnose_positioning(
     runs: &PositioningRuns,
     machine_id: &str,
     opts: &SeriesOptions,
+) -> Result<DiagnosisResult, SolverError> {
+    diagnose_positioning_with_progress(runs, machine_id, opts, &mut NoProgress)
+}
+
+/// [`diagnose_positioning`], reporting its phases (per axis: noise floor and rigid order,
+/// each round of candidates, report) with a monotone fraction of the work that ends at 1
+/// with `done`.
+pub fn diagnose_positioning_with_progress(
+    runs: &PositioningRuns,
+    machine_id: &str,
+    opts: &SeriesOptions,
+    progress: &mut dyn Progress,
 ) -> Result<DiagnosisResult, SolverError> {
     if runs.records.is_empty() {
         return Err(SolverError::InvalidInput("no positioning records".into()));
@@ -72,16 +84,26 @@ pub fn diagnose_positioning(
             "non-finite target or deviation".into(),
         ));
     }
+    let mut progress = Monotone::new(progress);
+    progress.report("validating the records", 0.0);
+    let axes: Vec<Vec<&PositioningRecord>> = Axis::ALL
+        .iter()
+        .map(|&axis| runs.records.iter().filter(|r| r.axis == axis).collect())
+        .filter(|recs: &Vec<&PositioningRecord>| !recs.is_empty())
+        .collect();
     let mut outs = vec![];
-    for axis in Axis::ALL {
-        let recs: Vec<&PositioningRecord> =
-            runs.records.iter().filter(|r| r.axis == axis).collect();
-        if recs.is_empty() {
-            continue;
-        }
-        let a = AxisData::new(axis, &recs)?;
-        outs.push(report::outcome(&a, search::select(&a, opts), opts));
+    for (k, recs) in axes.iter().enumerate() {
+        let a = AxisData::new(recs[0].axis, recs)?;
+        // Each axis is an equal part of the work.
+        let span = (
+            k as f64 / axes.len() as f64,
+            (k + 1) as f64 / axes.len() as f64,
+        );
+        let sel = search::select(&a, opts, &mut progress, span);
+        progress.report_in(span, &format!("axis {}: report", a.axis), 0.95);
+        outs.push(report::outcome(&a, sel, opts));
     }
+    progress.report("done", 1.0);
     let ntot: usize = outs.iter().map(|o| o.n).sum();
     let pooled = |f: &dyn Fn(&AxisOutcome) -> f64| {
         (outs.iter().map(|o| f(o).powi(2) * o.n as f64).sum::<f64>() / ntot as f64).sqrt()

@@ -160,7 +160,6 @@ pub(super) fn outcome(a: &AxisData, sel: Selection, opts: &SeriesOptions) -> Axi
                 sel.noise,
                 fit.cond
             ),
-            decide: None,
             signature: None,
         });
     }

@@ -6,7 +6,7 @@ use super::super::lsq;
 use super::super::{SeriesOptions, bic, grid_then_golden, rms};
 use super::columns::{Effect, Model, Term};
 use super::data::AxisData;
-use crate::diagnosis::BeforeAfter;
+use crate::diagnosis::{BeforeAfter, Monotone};
 
 impl AxisData {
     /// Fits `m + e` on `rows`, searching e's nonlinear parameter; returns the term.
@@ -94,9 +94,20 @@ pub(super) struct Selection {
     pub(super) heldout_sse: f64,
 }
 
-/// Chooses the rigid order by LORO error, then adds effects greedily (parent module docs).
-pub(super) fn select(a: &AxisData, opts: &SeriesOptions) -> Selection {
+/// Chooses the rigid order by LORO error, then adds effects greedily (parent module docs);
+/// reports its phases within the part `span` of the whole work.
+pub(super) fn select(
+    a: &AxisData,
+    opts: &SeriesOptions,
+    progress: &mut Monotone,
+    span: (f64, f64),
+) -> Selection {
     let n = a.n();
+    progress.report_in(
+        span,
+        &format!("axis {}: noise floor and rigid order", a.axis),
+        0.0,
+    );
     let noise = a.noise_floor();
     // Rigid model: order by LORO among 1..=max_base_order.
     let mut model = (1..=opts.max_base_order.max(1))
@@ -123,6 +134,11 @@ pub(super) fn select(a: &AxisData, opts: &SeriesOptions) -> Selection {
         effects.push(Effect::ThermalTemp);
     }
     while steps.len() < opts.max_findings {
+        progress.report_in(
+            span,
+            &format!("axis {}: round {} of candidates", a.axis, steps.len() + 1),
+            0.1 + 0.85 * steps.len() as f64 / opts.max_findings as f64,
+        );
         if (cur_loro / n as f64).sqrt() <= opts.stop_ratio * noise {
             break;
         }
