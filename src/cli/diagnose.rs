@@ -9,7 +9,9 @@ use super::BadInput;
 use anyhow::Context;
 use mtcal_formats::DatasetKind;
 use mtcal_solver::diagnosis::series::{self, SeriesOptions};
-use mtcal_solver::diagnosis::{DiagnoseOptions, DiagnosisResult, PlotData, Verdict};
+use mtcal_solver::diagnosis::{
+    DiagnoseOptions, DiagnosisResult, Finding, PlotData, Progress, Verdict,
+};
 use std::io::Write as _;
 use std::path::{Path, PathBuf};
 use std::process::ExitCode;
@@ -80,14 +82,15 @@ pub fn run(args: Args) -> anyhow::Result<ExitCode> {
         DatasetKind::Positioning => {
             let runs = mtcal_formats::read_positioning_path(path, &limits)?;
             iso = mtcal_solver::standards::from_positioning_runs(&runs);
-            series::diagnose_positioning(&runs, &machine_id, &opts)
+            with_bar(|p| series::diagnose_positioning_with_progress(&runs, &machine_id, &opts, p))
                 .map_err(|e| BadInput(format!("{}: {e}", path.display())))?
         }
         DatasetKind::DriftLog => {
             let log = mtcal_formats::read_drift_log_path(path, &limits)?;
-            let (r, pred) =
-                series::drift::diagnose_drift_log_with_predictions(&log, &machine_id, &opts)
-                    .map_err(|e| BadInput(format!("{}: {e}", path.display())))?;
+            let (r, pred) = with_bar(|p| {
+                series::drift::diagnose_drift_log_with_progress(&log, &machine_id, &opts, p)
+            })
+            .map_err(|e| BadInput(format!("{}: {e}", path.display())))?;
             if let Some(out) = &args.predictions {
                 let f = std::fs::File::create(out)
                     .with_context(|| format!("creating {}", out.display()))?;
@@ -107,23 +110,13 @@ pub fn run(args: Args) -> anyhow::Result<ExitCode> {
         }
         DatasetKind::Session => {
             let session = mtcal_formats::read_session_dir(path, &limits)?;
-            // Progress on stderr (drawn only when it is a terminal).
-            let bar = indicatif::ProgressBar::new(100);
-            bar.set_style(
-                indicatif::ProgressStyle::with_template(
-                    "{spinner} [{elapsed_precise}] {bar:30} {pos}% {msg}",
+            let r = with_bar(|p| {
+                mtcal_solver::diagnosis::diagnose_session_with_progress(
+                    &session,
+                    &DiagnoseOptions::default(),
+                    p,
                 )
-                .expect("valid template"),
-            );
-            let r = mtcal_solver::diagnosis::diagnose_session_with_progress(
-                &session,
-                &DiagnoseOptions::default(),
-                &mut |phase: &str, f: f64| {
-                    bar.set_position((f * 100.0).round() as u64);
-                    bar.set_message(phase.to_string());
-                },
-            );
-            bar.finish_and_clear();
+            });
             let mut r = r.map_err(|e| BadInput(format!("{}: {e}", path.display())))?;
             if let Some(id) = &args.machine_id {
                 r.machine_id = id.clone();
@@ -156,6 +149,24 @@ pub fn run(args: Args) -> anyhow::Result<ExitCode> {
     Ok(ExitCode::SUCCESS)
 }
 
+/// Runs a diagnosis with a progress bar on stderr (drawn only when it is a terminal):
+/// the phase and the fraction of the work done.
+fn with_bar<T>(diagnose: impl FnOnce(&mut dyn Progress) -> T) -> T {
+    let bar = indicatif::ProgressBar::new(100);
+    bar.set_style(
+        indicatif::ProgressStyle::with_template(
+            "{spinner} [{elapsed_precise}] {bar:30} {pos}% {msg}",
+        )
+        .expect("valid template"),
+    );
+    let r = diagnose(&mut |phase: &str, f: f64| {
+        bar.set_position((f * 100.0).round() as u64);
+        bar.set_message(phase.to_string());
+    });
+    bar.finish_and_clear();
+    r
+}
+
 /// Renders every plot into `dir` as `<stem>.svg` ([`mtcal_views::plots::file_stem`]);
 /// returns the paths written. A folder that cannot be written is bad input.
 fn write_svgs(plots: &[PlotData], dir: &Path) -> anyhow::Result<Vec<PathBuf>> {
@@ -168,6 +179,31 @@ fn write_svgs(plots: &[PlotData], dir: &Path) -> anyhow::Result<Vec<PathBuf>> {
         paths.push(path);
     }
     Ok(paths)
+}
+
+/// " (axis)" of a finding that names one.
+fn axis_of(f: &Finding) -> String {
+    f.axis
+        .as_deref()
+        .map(|a| format!(" ({a})"))
+        .unwrap_or_default()
+}
+
+/// A finding's undetermined parameters, one line per sentence of what would decide them
+/// (the same shape for sessions, positioning runs and drift logs).
+fn undetermined_lines(s: &mut String, f: &Finding) {
+    use std::fmt::Write;
+    let mut groups: Vec<(&str, Vec<String>)> = vec![];
+    for u in &f.undetermined {
+        let item = format!("{} = {:.4} ± {:.2}", u.name, u.value, u.std);
+        match groups.iter_mut().find(|(d, _)| *d == u.decide) {
+            Some((_, v)) => v.push(item),
+            None => groups.push((&u.decide, vec![item])),
+        }
+    }
+    for (decide, items) in groups {
+        let _ = writeln!(s, "  undetermined: {} ({decide})", items.join(", "));
+    }
 }
 
 /// The human summary: verdict, baseline, where, findings, what remains.
@@ -197,10 +233,7 @@ pub fn summary(r: &DiagnosisResult) -> String {
             s,
             "finding: {}{}: held-out RMS {:.3} → {:.3} µm",
             f.effect,
-            f.axis
-                .as_deref()
-                .map(|a| format!(" ({a})"))
-                .unwrap_or_default(),
+            axis_of(f),
             f.heldout_rms_um.before,
             f.heldout_rms_um.after
         );
@@ -215,35 +248,12 @@ pub fn summary(r: &DiagnosisResult) -> String {
             })
             .collect();
         let _ = writeln!(s, "  parameters: {}", params.join(", "));
-        // Undetermined parameters, grouped by what would decide them.
-        let mut groups: Vec<(&str, Vec<String>)> = vec![];
-        for u in &f.undetermined {
-            let item = format!("{} = {:.4} ± {:.2}", u.name, u.value, u.std);
-            match groups.iter_mut().find(|(d, _)| *d == u.decide) {
-                Some((_, v)) => v.push(item),
-                None => groups.push((&u.decide, vec![item])),
-            }
-        }
-        for (decide, items) in groups {
-            let _ = writeln!(
-                s,
-                "  possible, undetermined: {} ({decide})",
-                items.join(", ")
-            );
-        }
+        undetermined_lines(&mut s, f);
         let _ = writeln!(s, "  evidence: {}", f.evidence);
     }
     for f in &r.possible {
-        let _ = writeln!(
-            s,
-            "possible, undetermined: {}{}: {}",
-            f.effect,
-            f.axis
-                .as_deref()
-                .map(|a| format!(" ({a})"))
-                .unwrap_or_default(),
-            f.decide.as_deref().unwrap_or("")
-        );
+        let _ = writeln!(s, "possible, undetermined: {}{}", f.effect, axis_of(f));
+        undetermined_lines(&mut s, f);
     }
     for why in &r.rejected {
         let _ = writeln!(s, "rejected: {why}");

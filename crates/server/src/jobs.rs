@@ -215,14 +215,19 @@ fn run(input: &JobInput, progress: &mut dyn FnMut(f64, &str)) -> Result<JobOutpu
                         &mut |phase: &str, f: f64| progress(f, phase),
                     )
                 }
-                DatasetData::Positioning(runs) => series::diagnose_positioning(
+                DatasetData::Positioning(runs) => series::diagnose_positioning_with_progress(
                     runs,
                     &dataset.machine_id,
                     &SeriesOptions::default(),
+                    &mut |phase: &str, f: f64| progress(f, phase),
                 ),
-                DatasetData::DriftLog(log) => {
-                    series::diagnose_drift_log(log, &dataset.machine_id, &params.series_options())
-                }
+                DatasetData::DriftLog(log) => series::drift::diagnose_drift_log_with_progress(
+                    log,
+                    &dataset.machine_id,
+                    &params.series_options(),
+                    &mut |phase: &str, f: f64| progress(f, phase),
+                )
+                .map(|(r, _)| r),
                 DatasetData::RotaryPoints(_) => return Err(wrong_kind(input.kind, &data)),
             }
             .map_err(|e| JobError::BadInput(format!("diagnosis: {e}")))?;

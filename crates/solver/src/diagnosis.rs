@@ -63,14 +63,13 @@ pub struct Finding {
     pub heldout_rms_um: BeforeAfter,
     /// Why this effect was chosen (information criterion, signature counts).
     pub evidence: String,
-    /// Parameters of this effect that the data do not determine (standard uncertainty
-    /// above a third of the magnitude): possible, not established; not in `parameters`.
+    /// Parameters of this effect that the data do not determine, each with its value,
+    /// standard uncertainty and what extra data would decide it; not in `parameters`.
+    /// One shape for every kind of recording: a finding whose principal parameters are
+    /// all here is listed under [`DiagnosisResult::possible`] ("possible, undetermined");
+    /// a finding with a determined principal parameter may still list others here.
     #[serde(default, skip_serializing_if = "Vec::is_empty")]
     pub undetermined: Vec<Undetermined>,
-    /// For a possible but undetermined effect: which parameters the data leave open and
-    /// what extra data would decide it.
-    #[serde(default, skip_serializing_if = "Option::is_none")]
-    pub decide: Option<String>,
 }
 
 /// A parameter the data leave undetermined, and what data would decide it.
@@ -83,6 +82,19 @@ pub struct Undetermined {
     pub std: f64,
     /// What extra data would decide it, in a sentence.
     pub decide: String,
+}
+
+impl Undetermined {
+    /// An undetermined parameter `name` = `value` ± `std`, decided by `data`: the sentence
+    /// is "`data` would decide it".
+    pub fn new(name: impl Into<String>, value: f64, std: f64, data: &str) -> Undetermined {
+        Undetermined {
+            name: name.into(),
+            value,
+            std,
+            decide: format!("{data} would decide it"),
+        }
+    }
 }
 
 /// `consistent` (no finding needed), `explained`, `partly_explained`.
@@ -109,7 +121,8 @@ pub struct DiagnosisResult {
     /// Effects found, modelled and determined by the data (they count for the verdict).
     pub findings: Vec<Finding>,
     /// Effects the evidence points to whose parameters the data do not determine
-    /// ("possible, undetermined"), each with what would decide it; not in the verdict.
+    /// ("possible, undetermined"), each with its `undetermined` parameters and what would
+    /// decide them; not in the verdict.
     #[serde(default, skip_serializing_if = "Vec::is_empty")]
     pub possible: Vec<Finding>,
     /// Candidates rejected as physically implausible, with the reason.
@@ -200,5 +213,10 @@ impl<'a> Monotone<'a> {
         };
         self.last = f;
         self.inner.report(phase, f);
+    }
+
+    /// Reports `phase` at `fraction` of the part `[lo, hi]` of the whole work.
+    pub(crate) fn report_in(&mut self, (lo, hi): (f64, f64), phase: &str, fraction: f64) {
+        self.report(phase, lo + (hi - lo) * fraction);
     }
 }

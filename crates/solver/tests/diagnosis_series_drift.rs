@@ -1,6 +1,8 @@
 //! Drift-log diagnosis against truth: the real FL_THERMAL heat run (fitted on the first
 //! 60 %, against the dataset authors' own reference model on both later windows) and a simulated log with a known first-order response.
 
+mod progress_common;
+
 use mtcal_solver::datasets::{Channel, ChannelKind, DriftLog};
 use mtcal_solver::diagnosis::Verdict;
 use mtcal_solver::diagnosis::series::drift::{
@@ -207,4 +209,45 @@ fn rejects_time_going_backwards_and_missing_outputs() {
         .retain(|c| c.kind != ChannelKind::DisplacementUm);
     let e = diagnose_drift_log(&log, "sim", &SeriesOptions::default()).unwrap_err();
     assert!(e.to_string().contains("no displacement channel"), "{e}");
+}
+
+/// Progress over two displacement channels: fractions start at 0, never decrease and end
+/// at 1 with `done`; each channel's phases come in order, ch1's before ch2's; the result
+/// and predictions are those without a callback.
+#[test]
+fn progress_is_monotone_over_the_channels_and_ends_at_one() {
+    use mtcal_solver::diagnosis::series::drift::diagnose_drift_log_with_progress;
+    use mtcal_solver::diagnosis::series::simulate::{DriftSim, simulate_drift_log};
+    let mut log = simulate_drift_log(&DriftSim {
+        duration_s: 12.0 * 3600.0,
+        ..Default::default()
+    });
+    let ch1 = log.channels.iter().find(|c| c.name == "ch1_um").unwrap();
+    let ch2 = Channel {
+        name: "ch2_um".into(),
+        kind: ChannelKind::DisplacementUm,
+        values: ch1.values.iter().map(|v| -0.5 * v).collect(),
+    };
+    log.channels.push(ch2);
+    let opts = SeriesOptions::default();
+    let mut seen: Vec<(String, f64)> = Vec::new();
+    let r = diagnose_drift_log_with_progress(&log, "sim", &opts, &mut |p: &str, f: f64| {
+        seen.push((p.to_string(), f))
+    })
+    .unwrap();
+    assert_eq!(
+        r,
+        diagnose_drift_log_with_predictions(&log, "sim", &opts).unwrap()
+    );
+    let order = progress_common::check(
+        &seen,
+        &[
+            "ch1_um: spindle-lag candidates",
+            "ch1_um: thermal model",
+            "ch2_um: spindle-lag candidates",
+            "ch2_um: thermal model",
+        ],
+    );
+    // Half of the work is done when the second of two channels starts.
+    assert_eq!(seen[order[2]].1, 0.5, "{seen:?}");
 }

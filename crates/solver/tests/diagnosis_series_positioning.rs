@@ -11,6 +11,8 @@
 //! consistent) cannot be met by a wrong model. The held-out RMS must come within
 //! 1.5 × σ (the true noise, stricter than the estimated floor).
 
+mod progress_common;
+
 use mtcal_solver::diagnosis::series::simulate::{
     PositioningEffect, PositioningSim, simulate_positioning,
 };
@@ -380,4 +382,51 @@ fn rejects_a_single_run() {
         )
         .is_err()
     );
+}
+
+/// Progress over two axes: fractions start at 0, never decrease and end at 1 with
+/// `done`; each axis's phases come in order, X's before Y's; the result is the one
+/// without a callback.
+#[test]
+fn progress_is_monotone_over_the_axes_and_ends_at_one() {
+    use mtcal_solver::axis::Axis;
+    use mtcal_solver::diagnosis::series::diagnose_positioning_with_progress;
+    let sim = |axis, seed| {
+        simulate_positioning(&PositioningSim {
+            axis,
+            seed,
+            noise_um: NOISE,
+            effects: vec![PositioningEffect::Backlash {
+                lost_motion_um: 3.0,
+            }],
+            ..Default::default()
+        })
+    };
+    let mut runs = sim(Axis::X, 3);
+    runs.records.extend(sim(Axis::Y, 4).records);
+    let mut seen: Vec<(String, f64)> = Vec::new();
+    let r = diagnose_positioning_with_progress(
+        &runs,
+        "sim",
+        &SeriesOptions::default(),
+        &mut |phase: &str, f: f64| seen.push((phase.to_string(), f)),
+    )
+    .unwrap();
+    assert_eq!(
+        r,
+        diagnose_positioning(&runs, "sim", &SeriesOptions::default()).unwrap()
+    );
+    let order = progress_common::check(
+        &seen,
+        &[
+            "axis X: noise floor and rigid order",
+            "axis X: round 1 of candidates",
+            "axis X: report",
+            "axis Y: noise floor and rigid order",
+            "axis Y: round 1 of candidates",
+            "axis Y: report",
+        ],
+    );
+    // Half of the work is done when the second of two axes starts.
+    assert_eq!(seen[order[3]].1, 0.5, "{seen:?}");
 }

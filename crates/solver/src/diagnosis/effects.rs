@@ -9,7 +9,7 @@
 //! errors are in the tool-relative-to-workpiece sense (positive: the tool point ends up
 //! further toward + than commanded; for positioning runs, the reading's deviation).
 
-use super::{Finding, Verdict};
+use super::{Finding, Undetermined, Verdict};
 
 /// One parameter: its name (`{axis}` stands for X, Y or Z, `{n}` for 1, 2, …,
 /// `{sensor}` for a temperature channel), unit and sign convention.
@@ -330,12 +330,15 @@ pub fn conforms(f: &Finding) -> Result<(), String> {
     Ok(())
 }
 
-/// Why a finding's parameters are undetermined (`None`: determined): each principal
-/// parameter (or, for `any_of`, one of them) with a reported σ must satisfy σ ≤ value/2
-/// (nonlinear: time constants, lengths, frequencies) or |value| ≥ 2σ (coefficients).
-/// Parameters reported without σ are determined by the fit's joint test (BIC).
-pub fn undetermined(f: &Finding) -> Option<String> {
-    let spec = spec(&f.effect)?;
+/// The principal parameters that leave a finding undetermined (empty: determined): each
+/// principal parameter (or, for `any_of`, one of them) with a reported σ must satisfy
+/// σ ≤ value/2 (nonlinear: time constants, lengths, frequencies) or |value| ≥ 2σ
+/// (coefficients). Parameters reported without σ are determined by the fit's joint test
+/// (BIC). Each is returned with its value, σ and the effect's `decide` sentence.
+pub fn undetermined(f: &Finding) -> Vec<Undetermined> {
+    let Some(spec) = spec(&f.effect) else {
+        return Vec::new();
+    };
     let mut bad = Vec::new();
     let mut good = 0;
     for (name, &v) in &f.parameters {
@@ -346,9 +349,7 @@ pub fn undetermined(f: &Finding) -> Option<String> {
             good += 1;
             continue;
         };
-        let ps = param_spec(spec, name);
-        let unit = ps.map_or("", |p| p.unit);
-        let ok = if ps.is_some_and(|p| p.nonlinear) {
+        let ok = if param_spec(spec, name).is_some_and(|p| p.nonlinear) {
             sd.is_finite() && sd <= 0.5 * v.abs()
         } else {
             sd.is_finite() && v.abs() >= 2.0 * sd
@@ -356,38 +357,38 @@ pub fn undetermined(f: &Finding) -> Option<String> {
         if ok {
             good += 1;
         } else {
-            bad.push(format!("{name} = {v:.4} ± {sd:.4} {unit}"));
+            bad.push(Undetermined::new(name.clone(), v, sd, spec.decide));
         }
     }
-    let fails = if spec.any_of {
-        good == 0 && !bad.is_empty()
-    } else {
-        !bad.is_empty()
-    };
-    fails.then(|| {
-        format!(
-            "parameters not determined by the data: {}; would be decided by {}",
-            bad.join(", "),
-            spec.decide
-        )
-    })
+    let fails = if spec.any_of { good == 0 } else { true };
+    if fails { bad } else { Vec::new() }
 }
 
-/// Splits findings into the determined ones and the possible ones (each with its
-/// `decide` sentence), by [`undetermined`].
+/// Splits findings into the determined ones and the possible ones, by [`undetermined`]: a
+/// possible finding's undetermined parameters move from `parameters` (with their `std_`)
+/// to its `undetermined` list.
 pub fn split_undetermined(findings: Vec<Finding>) -> (Vec<Finding>, Vec<Finding>) {
     let mut determined = Vec::new();
     let mut possible = Vec::new();
     for f in findings {
-        match undetermined(&f) {
-            Some(why) => possible.push(Finding {
-                decide: Some(why),
-                ..f
-            }),
-            None => determined.push(f),
+        let open = undetermined(&f);
+        if open.is_empty() {
+            determined.push(f);
+        } else {
+            possible.push(set_aside(f, open));
         }
     }
     (determined, possible)
+}
+
+/// `f` with the parameters `open` moved from `parameters` to `undetermined`.
+pub fn set_aside(mut f: Finding, open: Vec<Undetermined>) -> Finding {
+    for u in &open {
+        f.parameters.remove(&u.name);
+        f.parameters.remove(&format!("std_{}", u.name));
+    }
+    f.undetermined.extend(open);
+    f
 }
 
 /// Largest ratio allowed between an effect's size as a machine error and the RMS misfit
@@ -445,7 +446,6 @@ mod tests {
                 after: 0.5,
             },
             evidence: String::new(),
-            decide: None,
             signature: None,
             undetermined: vec![],
         }
@@ -466,17 +466,26 @@ mod tests {
                 ("std_time_constant_s", 40569.0),
             ],
         );
-        assert!(undetermined(&f).unwrap().contains("time_constant_s"));
+        let open = undetermined(&f);
+        let names: Vec<&str> = open.iter().map(|u| u.name.as_str()).collect();
+        assert_eq!(names, ["time_constant_s"]);
+        assert_eq!((open[0].value, open[0].std), (8189.0, 40569.0));
+        assert!(open[0].decide.contains("several time constants long"));
         let g = finding(
             "thermal_drift",
             &[("time_constant_s", 1200.0), ("std_time_constant_s", 150.0)],
         );
-        assert_eq!(undetermined(&g), None);
+        assert!(undetermined(&g).is_empty());
         let b = finding(
             "backlash",
             &[("lost_motion_um", 0.3), ("std_lost_motion_um", 0.2)],
         );
-        assert!(undetermined(&b).is_some());
+        assert_eq!(undetermined(&b)[0].name, "lost_motion_um");
+        // Set aside: the parameter leaves `parameters` for `undetermined`.
+        let (det, pos) = split_undetermined(vec![b]);
+        assert!(det.is_empty());
+        assert!(pos[0].parameters.is_empty(), "{:?}", pos[0].parameters);
+        assert_eq!(pos[0].undetermined[0].value, 0.3);
     }
 
     #[test]

@@ -20,7 +20,7 @@ pub mod lsq;
 pub mod positioning;
 pub mod simulate;
 
-pub use positioning::diagnose_positioning;
+pub use positioning::{diagnose_positioning, diagnose_positioning_with_progress};
 
 pub use drift::diagnose_drift_log;
 

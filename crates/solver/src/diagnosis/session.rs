@@ -763,7 +763,6 @@ fn finding_of(
             folds,
             floor
         ),
-        decide: None,
     }
 }
 
@@ -927,11 +926,9 @@ pub fn diagnose_session_with_progress(
                 folds,
                 floor,
             );
-            if let Some(why) = effects::undetermined(&finding) {
-                possible.push(Finding {
-                    decide: Some(why),
-                    ..finding
-                });
+            let open = effects::undetermined(&finding);
+            if !open.is_empty() {
+                possible.push(effects::set_aside(finding, open));
                 set_aside.push(t.cand.label());
                 continue;
             }

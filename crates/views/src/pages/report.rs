@@ -321,7 +321,6 @@ mod tests {
                 },
                 evidence: "BIC".into(),
                 undetermined: vec![],
-                decide: None,
             }],
             possible: vec![],
             rejected: vec![],

@@ -6,7 +6,7 @@ use super::{Nav, Viewer, csrf_field, machine_href, num, page, svg, verdict_badge
 use crate::plots::{self, CircleTrace};
 use maud::{Markup, html};
 use mtcal_solver::cradle::CradleResult;
-use mtcal_solver::diagnosis::DiagnosisResult;
+use mtcal_solver::diagnosis::{DiagnosisResult, Finding};
 use mtcal_solver::identification::IdentificationResult;
 use mtcal_solver::residuals::ResidualSummary;
 use mtcal_solver::sensitivity::SensitivityResult;
@@ -274,8 +274,22 @@ fn circles(all: &[CircleTrace]) -> Markup {
     }
 }
 
+/// A finding's parameters the data leave undetermined: value ± std and what would decide
+/// each (nothing when all are determined).
+fn undetermined(f: &Finding) -> Markup {
+    html! {
+        @if !f.undetermined.is_empty() {
+            h3 { "Undetermined" }
+            table.undetermined {
+                thead { tr { th { "parameter" } th.num { "value" } th.num { "std" } th { "would be decided by" } } }
+                tbody { @for u in &f.undetermined { tr { td { (u.name) } td.num { (num(u.value)) } td.num { (num(u.std)) } td { (u.decide) } } } }
+            }
+        }
+    }
+}
+
 /// Verdict, baseline figures, where the misfit is, the findings with their before/after
-/// plots and held-out figures, the diagnosis plots and what remains unexplained.
+/// plots and held-out figures, the possible (undetermined) effects, the diagnosis plots and what remains unexplained.
 pub fn diagnosis(d: &DiagnosisResult) -> Markup {
     let verdict = match d.verdict {
         mtcal_solver::diagnosis::Verdict::Consistent => "consistent",
@@ -313,10 +327,19 @@ pub fn diagnosis(d: &DiagnosisResult) -> Markup {
                         }
                         h3 { "Parameters" }
                         table { tbody { @for (k, v) in &f.parameters { tr { td { (k) } td.num { (num(*v)) } } } } }
+                        (undetermined(f))
                         p.muted { (f.evidence) }
                     }
                     figure.plot { (svg(plots::finding_bars(f, d.baseline.noise_estimate_um))) }
                 }
+            }
+        }
+        @for f in &d.possible {
+            section.card.possible data-effect=(f.effect) {
+                h2 { "Possible, undetermined: " (f.effect.replace('_', " ")) @if let Some(a) = &f.axis { " (" (a) ")" } }
+                p { (f.physics) }
+                (undetermined(f))
+                p.muted { (f.evidence) }
             }
         }
         @if !d.plots.is_empty() {
@@ -441,6 +464,80 @@ mod tests {
             .unwrap_or_else(|| panic!("figure of {term}"));
         let end = html[start..].find("</figure>").unwrap() + start;
         &html[start..end]
+    }
+
+    /// A possible effect and a finding's undetermined parameter are both shown with
+    /// their value, uncertainty and what would decide them (one shape for every kind of
+    /// recording); the undetermined parameter is not among the finding's parameters.
+    #[test]
+    fn undetermined_parameters_and_possible_effects_are_shown() {
+        use mtcal_solver::diagnosis::{Baseline, BeforeAfter, Finding, Undetermined, Verdict};
+        let ba = BeforeAfter {
+            before: 2.0,
+            after: 0.5,
+        };
+        let finding = |effect: &str, undetermined: Vec<Undetermined>| Finding {
+            effect: effect.into(),
+            axis: Some("ch1".into()),
+            parameters: [("share_predicted".to_string(), 0.8)].into(),
+            physics: "thermal growth".into(),
+            signature: None,
+            residual_rms_um: ba,
+            heldout_rms_um: ba,
+            evidence: "CV".into(),
+            undetermined,
+        };
+        let d = DiagnosisResult {
+            kind: "diagnosis".into(),
+            machine_id: "M".into(),
+            source: "drift_log".into(),
+            baseline: Baseline {
+                residual_rms_um: 2.0,
+                heldout_rms_um: 2.0,
+                noise_estimate_um: 0.1,
+            },
+            mismatch: vec![],
+            findings: vec![finding(
+                "thermal_drift",
+                vec![Undetermined::new(
+                    "t14_um_per_k",
+                    0.37,
+                    0.9,
+                    "a log with t14 alone",
+                )],
+            )],
+            possible: vec![finding(
+                "backlash",
+                vec![Undetermined::new(
+                    "lost_motion_um",
+                    0.3,
+                    0.2,
+                    "more reversals",
+                )],
+            )],
+            rejected: vec![],
+            verdict: Verdict::PartlyExplained,
+            unexplained: vec![],
+            plots: vec![],
+        };
+        let html = diagnosis(&d).into_string();
+        let card = |class: &str| {
+            let start = html.find(&format!("class=\"card {class}\"")).unwrap();
+            let end = html[start..].find("</section>").unwrap() + start;
+            &html[start..end]
+        };
+        let f = card("finding");
+        assert!(
+            f.contains("t14_um_per_k") && f.contains("0.37") && f.contains("0.9"),
+            "{f}"
+        );
+        assert!(f.contains("a log with t14 alone would decide it"), "{f}");
+        let p = card("possible");
+        assert!(p.contains("Possible, undetermined: backlash"), "{p}");
+        assert!(
+            p.contains("lost_motion_um") && p.contains("more reversals would decide it"),
+            "{p}"
+        );
     }
 
     #[test]

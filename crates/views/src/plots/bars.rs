@@ -182,7 +182,6 @@ mod tests {
                 after: 0.35,
             },
             evidence: String::new(),
-            decide: None,
             signature: None,
             undetermined: vec![],
         }

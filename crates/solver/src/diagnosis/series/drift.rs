@@ -41,8 +41,8 @@ use super::lsq::{self, Design};
 use super::{SeriesOptions, decimate, golden_min, log_grid, rms};
 use crate::datasets::{Channel, ChannelKind, DriftLog};
 use crate::diagnosis::{
-    Baseline, BeforeAfter, DiagnosisResult, Finding, Mismatch, PlotData, PlotSeries, Undetermined,
-    Verdict,
+    Baseline, BeforeAfter, DiagnosisResult, Finding, Mismatch, Monotone, NoProgress, PlotData,
+    PlotSeries, Progress, Undetermined, Verdict,
 };
 use crate::error::SolverError;
 use crate::thermal::{self, DETERMINED_Z, Regressor, ThermalFit, ThermalInputs, ThermalOptions};
@@ -267,7 +267,8 @@ enum Chosen {
     Thermal(Box<ThermalFit>),
 }
 
-/// Splits (name, value, std) into determined parameters and undetermined ones.
+/// Splits (name, value, std) into determined parameters and undetermined ones (`decide`:
+/// the data that would decide it).
 fn sort_parameter(
     params: &mut BTreeMap<String, f64>,
     undetermined: &mut Vec<Undetermined>,
@@ -278,16 +279,19 @@ fn sort_parameter(
         params.insert(format!("std_{name}"), std);
         params.insert(name, value);
     } else {
-        undetermined.push(Undetermined {
-            name,
-            value,
-            std,
-            decide: decide.to_string(),
-        });
+        undetermined.push(Undetermined::new(name, value, std, decide));
     }
 }
 
-fn analyse_channel(ch: &Channel, inp: &Inputs, opts: &SeriesOptions) -> ChannelOutcome {
+/// Diagnoses one displacement channel, reporting its phases within the part `span` of the
+/// whole work.
+fn analyse_channel(
+    ch: &Channel,
+    inp: &Inputs,
+    opts: &SeriesOptions,
+    progress: &mut Monotone,
+    span: (f64, f64),
+) -> ChannelOutcome {
     let y = &ch.values;
     let n = y.len();
     let nt = inp.n_train;
@@ -306,6 +310,11 @@ fn analyse_channel(ch: &Channel, inp: &Inputs, opts: &SeriesOptions) -> ChannelO
     if inp.speed.is_some() && inp.rpm_max > 0.0 {
         for p in [1.0, 2.0] {
             for nl in [1, 2] {
+                progress.report_in(
+                    span,
+                    &format!("{}: spindle-lag candidates", ch.name),
+                    0.15 * cands.len() as f64,
+                );
                 let m = Model {
                     p,
                     taus: search_lags(inp, y, p, nl),
@@ -327,6 +336,7 @@ fn analyse_channel(ch: &Channel, inp: &Inputs, opts: &SeriesOptions) -> ChannelO
         (Some(one), Some(two)) if two.2 < PARSIMONY * one.2 => Some(two),
         (one, _) => one,
     };
+    progress.report_in(span, &format!("{}: thermal model", ch.name), 0.6);
     let thermal_fit = if inp.bank.is_empty() {
         None
     } else {
@@ -405,7 +415,7 @@ fn analyse_channel(ch: &Channel, inp: &Inputs, opts: &SeriesOptions) -> ChannelO
                         "spindle_gain_um".to_string(),
                         "the spindle paths and the temperatures move together in this log; a \
                          run held at one speed for longer than the longest lag (2 h), \
-                         temperatures logged, would decide it"
+                         temperatures logged,"
                             .to_string(),
                     )
                 } else {
@@ -414,7 +424,7 @@ fn analyse_channel(ch: &Channel, inp: &Inputs, opts: &SeriesOptions) -> ChannelO
                         format!("{short}_um_per_k"),
                         "the sensor's temperature moves together with other inputs in \
                          this log; a log in which it changes on its own (e.g. an ambient \
-                         change with the spindle at rest) would decide it"
+                         change with the spindle at rest)"
                             .to_string(),
                     )
                 };
@@ -501,7 +511,6 @@ fn analyse_channel(ch: &Channel, inp: &Inputs, opts: &SeriesOptions) -> ChannelO
             after: out.after_test_rms,
         },
         evidence,
-        decide: None,
         signature: None,
     });
     out
@@ -549,7 +558,7 @@ fn parametric_fit(
                 tau * jfit.std[d.len() + j] * inflate,
             ),
             "a longer recording with the spindle held at one speed for several time constants \
-             would decide it",
+            ",
         );
         sort_parameter(
             params,
@@ -560,7 +569,7 @@ fn parametric_fit(
                 jfit.std[1 + j] * inflate,
             ),
             "speed steps that move the channel by many times its noise, each held for several \
-             time constants, would decide it",
+             time constants",
         );
     }
     pred
@@ -655,7 +664,21 @@ pub fn diagnose_drift_log_with_predictions(
     machine_id: &str,
     opts: &SeriesOptions,
 ) -> Result<(DiagnosisResult, DriftPredictions), SolverError> {
+    diagnose_drift_log_with_progress(log, machine_id, opts, &mut NoProgress)
+}
+
+/// [`diagnose_drift_log_with_predictions`], reporting its phases (per channel: the
+/// spindle-lag candidates, the thermal model) with a monotone fraction of the work that
+/// ends at 1 with `done`.
+pub fn diagnose_drift_log_with_progress(
+    log: &DriftLog,
+    machine_id: &str,
+    opts: &SeriesOptions,
+    progress: &mut dyn Progress,
+) -> Result<(DiagnosisResult, DriftPredictions), SolverError> {
     let n_train = validate(log, opts)?;
+    let mut progress = Monotone::new(progress);
+    progress.report("regressors of the thermal model", 0.0);
     let speed = log
         .channels
         .iter()
@@ -684,11 +707,17 @@ pub fn diagnose_drift_log_with_predictions(
         n_train,
         bank,
     };
-    let outs: Vec<ChannelOutcome> = log
+    let displacements: Vec<&Channel> = log
         .channels
         .iter()
         .filter(|c| c.kind == ChannelKind::DisplacementUm)
-        .map(|c| analyse_channel(c, &inp, opts))
+        .collect();
+    // Each channel is an equal part of the work.
+    let part = |k: usize| k as f64 / displacements.len() as f64;
+    let outs: Vec<ChannelOutcome> = displacements
+        .iter()
+        .enumerate()
+        .map(|(k, c)| analyse_channel(c, &inp, opts, &mut progress, (part(k), part(k + 1))))
         .collect();
 
     let quad = |f: &dyn Fn(&ChannelOutcome) -> f64| -> f64 {
@@ -837,5 +866,6 @@ pub fn diagnose_drift_log_with_predictions(
         unexplained,
         plots,
     };
+    progress.report("done", 1.0);
     Ok((result, predictions))
 }

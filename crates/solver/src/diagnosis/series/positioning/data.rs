@@ -1,0 +1,179 @@
+//! One axis's positioning records: validation, the derived coordinates (normalised
+//! position, approach direction, travel since the reversal, time, temperature) and the
+//! model-independent noise floor (the parent module's docs).
+
+use super::super::lsq::{self, Design};
+use crate::axis::Axis;
+use crate::datasets::{Direction, PositioningRecord};
+use crate::error::SolverError;
+
+/// One axis's records in file (measurement) order.
+pub(super) struct AxisData {
+    pub(super) axis: Axis,
+    pub(super) x: Vec<f64>,
+    pub(super) s: Vec<f64>,
+    pub(super) d: Vec<f64>,
+    pub(super) u: Vec<f64>,
+    pub(super) time: Vec<f64>,
+    pub(super) time_in_s: bool,
+    pub(super) temp: Option<Vec<f64>>,
+    pub(super) y: Vec<f64>,
+    pub(super) run: Vec<i64>,
+    pub(super) runs: Vec<i64>,
+    pub(super) lo: f64,
+    pub(super) hi: f64,
+    pub(super) spacing: f64,
+    pub(super) targets: Vec<f64>,
+    /// (target index, direction) group of each record.
+    pub(super) group: Vec<usize>,
+}
+
+impl AxisData {
+    pub(super) fn new(axis: Axis, recs: &[&PositioningRecord]) -> Result<AxisData, SolverError> {
+        let n = recs.len();
+        let x: Vec<f64> = recs.iter().map(|r| r.target_mm).collect();
+        let (lo, hi) = x
+            .iter()
+            .fold((f64::INFINITY, f64::NEG_INFINITY), |(a, b), &v| {
+                (a.min(v), b.max(v))
+            });
+        if hi <= lo || hi.is_nan() {
+            return Err(SolverError::InvalidInput(format!(
+                "axis {axis}: all targets at the same position"
+            )));
+        }
+        let tol = 1e-6 * (hi - lo);
+        let mut targets: Vec<f64> = vec![];
+        let mut sorted = x.clone();
+        sorted.sort_by(f64::total_cmp);
+        for v in sorted {
+            if targets.last().is_none_or(|&l| v - l > tol) {
+                targets.push(v);
+            }
+        }
+        if targets.len() < 5 {
+            return Err(SolverError::InvalidInput(format!(
+                "axis {axis}: {} distinct targets, at least 5 needed",
+                targets.len()
+            )));
+        }
+        let mut runs: Vec<i64> = recs.iter().map(|r| r.run).collect();
+        runs.sort_unstable();
+        runs.dedup();
+        if runs.len() < 2 {
+            return Err(SolverError::InvalidInput(format!(
+                "axis {axis}: {} run(s); at least 2 are needed to hold whole runs out",
+                runs.len()
+            )));
+        }
+        let mut gaps: Vec<f64> = targets.windows(2).map(|w| w[1] - w[0]).collect();
+        gaps.sort_by(f64::total_cmp);
+        let spacing = gaps[gaps.len() / 2];
+        let tidx = |v: f64| {
+            targets
+                .iter()
+                .position(|&t| (t - v).abs() <= tol)
+                .unwrap_or(0)
+        };
+        let d: Vec<f64> = recs
+            .iter()
+            .map(|r| {
+                if r.direction == Direction::Plus {
+                    1.0
+                } else {
+                    -1.0
+                }
+            })
+            .collect();
+        let time_in_s = recs.iter().all(|r| r.t_s.is_some());
+        let time: Vec<f64> = if time_in_s {
+            let t0 = recs
+                .iter()
+                .map(|r| r.t_s.unwrap_or(0.0))
+                .fold(f64::INFINITY, f64::min);
+            recs.iter().map(|r| r.t_s.unwrap_or(0.0) - t0).collect()
+        } else {
+            (0..n).map(|i| i as f64).collect()
+        };
+        let temp = recs.iter().all(|r| r.temp_c.is_some()).then(|| {
+            let t0 = recs[0].temp_c.unwrap_or(0.0);
+            recs.iter().map(|r| r.temp_c.unwrap_or(0.0) - t0).collect()
+        });
+        let (c, h) = (0.5 * (lo + hi), 0.5 * (hi - lo));
+        Ok(AxisData {
+            axis,
+            s: x.iter().map(|v| (v - c) / h).collect(),
+            u: x.iter()
+                .zip(&d)
+                .map(|(v, &dd)| if dd > 0.0 { v - lo } else { hi - v })
+                .collect(),
+            group: x
+                .iter()
+                .zip(&d)
+                .map(|(&v, &dd)| 2 * tidx(v) + usize::from(dd < 0.0))
+                .collect(),
+            y: recs.iter().map(|r| r.deviation_um).collect(),
+            run: recs.iter().map(|r| r.run).collect(),
+            x,
+            d,
+            time,
+            time_in_s,
+            temp,
+            runs,
+            lo,
+            hi,
+            spacing,
+            targets,
+        })
+    }
+}
+
+impl AxisData {
+    pub(super) fn n(&self) -> usize {
+        self.y.len()
+    }
+
+    pub(super) fn time_unit(&self) -> &'static str {
+        if self.time_in_s { "s" } else { "records" }
+    }
+
+    pub(super) fn all_rows(&self) -> Vec<usize> {
+        (0..self.n()).collect()
+    }
+
+    /// Model-independent noise floor (module docs): two-way fit of group means and pass
+    /// offsets.
+    pub(super) fn noise_floor(&self) -> f64 {
+        let n = self.n();
+        let mut d = Design::new();
+        let ng = 2 * self.targets.len();
+        for g in 0..ng {
+            let col: Vec<f64> = self
+                .group
+                .iter()
+                .map(|&k| f64::from(u8::from(k == g)))
+                .collect();
+            if col.iter().any(|&v| v > 0.0) {
+                d.push("g", col);
+            }
+        }
+        let mut passes: Vec<(i64, bool)> = self
+            .run
+            .iter()
+            .zip(&self.d)
+            .map(|(&r, &dd)| (r, dd > 0.0))
+            .collect();
+        passes.sort_unstable();
+        passes.dedup();
+        for p in passes.iter().skip(1) {
+            d.push(
+                "p",
+                (0..n)
+                    .map(|i| f64::from(u8::from(self.run[i] == p.0 && (self.d[i] > 0.0) == p.1)))
+                    .collect(),
+            );
+        }
+        let fit = lsq::solve(&d, &self.y);
+        fit.s2().sqrt()
+    }
+}
