@@ -250,6 +250,13 @@ impl<'a> Columns<'a> {
         self.names.is_empty()
     }
 
+    /// Whether some column can be nonzero at row `row` (its reading axis is one of the
+    /// columns'); the same for every row of a run's reading direction.
+    #[inline]
+    pub fn live(&self, d: &Design, row: usize) -> bool {
+        self.active[d.row_axis(row).index()]
+    }
+
     /// The values of every column at row `row` of the design.
     #[inline]
     pub fn at(&self, d: &Design, row: usize, out: &mut [f64]) {

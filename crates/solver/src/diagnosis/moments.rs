@@ -57,6 +57,20 @@ impl Moments {
         red: &Reduction,
         m: usize,
         extra: &[&[f64]],
+        fill: impl FnMut(usize, &mut [f64]),
+    ) -> Moments {
+        Moments::new_on(red, m, extra, |_| true, fill)
+    }
+
+    /// [`Moments::new`] over the live reading directions only: `live(row)` is asked of
+    /// each run's first two rows (one per reading direction, which is the same for every
+    /// row of the run); a direction that is not live has every column 0 on all its rows,
+    /// which are then not visited (the moments are those of zero rows: nothing to add).
+    pub fn new_on(
+        red: &Reduction,
+        m: usize,
+        extra: &[&[f64]],
+        live: impl Fn(usize) -> bool,
         mut fill: impl FnMut(usize, &mut [f64]),
     ) -> Moments {
         let u = extra.len();
@@ -76,7 +90,17 @@ impl Moments {
             let mut hi = vec![[f64::NEG_INFINITY; 2]; m];
             // Whether a row of the direction had every column 0 (a value for lo/hi).
             let mut zero = [false; 2];
-            for i in 0..rs.rows {
+            let on = [0, 1].map(|c| c < rs.rows && live(rs.row0 + c));
+            for (c, z) in zero.iter_mut().enumerate() {
+                *z = c < rs.rows && !on[c];
+            }
+            let (first, step) = match on {
+                [true, true] => (0, 1),
+                [true, false] => (0, 2),
+                [false, true] => (1, 2),
+                [false, false] => (rs.rows, 1),
+            };
+            for i in (first..rs.rows).step_by(step) {
                 let row = rs.row0 + i;
                 let comp = i & 1;
                 fill(row, &mut vals);

@@ -142,7 +142,13 @@ fn evaluate(
 ) -> Option<(Moments, Vec<usize>, moments::JointFit)> {
     let mut u: Vec<&[f64]> = f.cols.iter().map(Vec::as_slice).collect();
     u.push(&d.y);
-    let mom = Moments::new(red, specs.len(), &u, |row, out| specs.at(d, row, out));
+    let mom = Moments::new_on(
+        red,
+        specs.len(),
+        &u,
+        |row| specs.live(d, row),
+        |row, out| specs.at(d, row, out),
+    );
     let keep: Vec<usize> = (0..specs.len()).filter(|&j| mom.varies[j]).collect();
     if keep.is_empty() {
         return None;
@@ -229,6 +235,7 @@ fn periodic_best(
     // Per row of a group: its residual, the rotation by LANES·Δw·x, and the phasors
     // (sin, cos) of its LANES current frequencies.
     let mut rv = Vec::new();
+    let mut xs = Vec::new();
     let mut step = Vec::new();
     let mut sn = Vec::new();
     let mut cs = Vec::new();
@@ -237,6 +244,7 @@ fn periodic_best(
             continue;
         }
         rv.clear();
+        xs.clear();
         step.clear();
         sn.clear();
         cs.clear();
@@ -246,7 +254,18 @@ fn periodic_best(
                 continue;
             }
             rv.push(r[row]);
-            let x = var(&d.samples[row / 2]);
+            xs.push(var(&d.samples[row / 2]));
+        }
+        if rv.is_empty() {
+            continue;
+        }
+        any = true;
+        // A variable constant over the run gives constant columns, which its centring
+        // removes: the run adds nothing to any frequency's moments.
+        if xs.iter().all(|&x| x == xs[0]) {
+            continue;
+        }
+        for &x in &xs {
             let (s1, c1) = (two_pi * df * x).sin_cos();
             step.push((two_pi * df * LANES as f64 * x).sin_cos());
             let (mut s, mut c) = (two_pi * f0 * x).sin_cos();
@@ -257,10 +276,6 @@ fn periodic_best(
             }
         }
         let n = rv.len() as f64;
-        if rv.is_empty() {
-            continue;
-        }
-        any = true;
         for b in 0..nb {
             // Σsin, Σcos, Σsin², Σcos², Σsin·cos, Σr·sin, Σr·cos of the group, by lane.
             let mut acc = [[0.0; LANES]; 7];
