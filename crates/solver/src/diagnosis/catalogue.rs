@@ -274,6 +274,21 @@ impl<'a> Columns<'a> {
     }
 }
 
+/// The reversal spike's column is 0 past this many decay lengths λ from the last
+/// reversal: exp(−x/λ) is below 5·10⁻¹⁸ there (beyond double precision next to the
+/// transient's height).
+const SPIKE_REACH: f64 = 40.0;
+
+/// For a candidate whose columns vanish away from its axis's reversals (the reversal
+/// spike): the axis and the travel since the last reversal from which its columns are 0
+/// at nonlinear value `theta` (they are 0 on the rows read along other axes too).
+pub fn reach(c: &Candidate, theta: f64) -> Option<(Axis, f64)> {
+    match c.effect {
+        "reversal_spike" => Some((c.axis?, SPIKE_REACH * theta)),
+        _ => None,
+    }
+}
+
 /// The columns of a candidate at nonlinear value `theta` (ignored when it has none).
 /// `eps` is Σ_k ε_k(q_k) (µrad) per sample, for setup_offset.
 pub fn specs<'a>(
@@ -300,9 +315,7 @@ pub fn specs<'a>(
             let (n, ax) = one("height_um", a);
             Columns::new(n, ax, move |_, s, _, o| {
                 let x = s.since_reversal_mm[i];
-                // exp(−x/λ) is below 5·10⁻¹⁸ (beyond double precision next to the
-                // transient's height) past 40 decay lengths.
-                o[0] = if x < 40.0 * theta {
+                o[0] = if x < SPIKE_REACH * theta {
                     -s.dir[i] * (-x / theta).exp()
                 } else {
                     0.0

@@ -23,7 +23,7 @@
 
 use super::design::Design;
 use super::linalg::{Projector, dot};
-use super::reduced::Reduction;
+use super::reduced::{Reduction, RunSpace};
 use nalgebra::{DMatrix, SymmetricEigen};
 
 /// Moments of m columns on one run.
@@ -71,6 +71,34 @@ impl Moments {
         m: usize,
         extra: &[&[f64]],
         live: impl Fn(usize) -> bool,
+        fill: impl FnMut(usize, &mut [f64]),
+    ) -> Moments {
+        Moments::over_rows(
+            red,
+            m,
+            extra,
+            |_, rs, out| {
+                let on = [0, 1].map(|c| c < rs.rows && live(rs.row0 + c));
+                let (first, step) = match on {
+                    [true, true] => (0, 1),
+                    [true, false] => (0, 2),
+                    [false, true] => (1, 2),
+                    [false, false] => (rs.rows, 1),
+                };
+                out.extend((first..rs.rows).step_by(step));
+            },
+            fill,
+        )
+    }
+
+    /// [`Moments::new`] over chosen rows: `rows(g, run, out)` pushes the indices (counted
+    /// from the run's first row, ascending) of run g's rows where some column may be
+    /// nonzero; every other row has all columns 0 and is not visited.
+    pub fn over_rows(
+        red: &Reduction,
+        m: usize,
+        extra: &[&[f64]],
+        mut rows: impl FnMut(usize, &RunSpace, &mut Vec<usize>),
         mut fill: impl FnMut(usize, &mut [f64]),
     ) -> Moments {
         let u = extra.len();
@@ -78,7 +106,8 @@ impl Moments {
         let mut peaks = vec![0.0f64; m];
         let mut varies = vec![false; m];
         let mut runs = Vec::with_capacity(red.runs.len());
-        for rs in &red.runs {
+        let mut visit = Vec::new();
+        for (g, rs) in red.runs.iter().enumerate() {
             let r = rs.r;
             let mut rm = RunMoments {
                 z: vec![0.0; m * r],
@@ -88,19 +117,16 @@ impl Moments {
             let mut sums = vec![[0.0; 2]; m];
             let mut lo = vec![[f64::INFINITY; 2]; m];
             let mut hi = vec![[f64::NEG_INFINITY; 2]; m];
-            // Whether a row of the direction had every column 0 (a value for lo/hi).
-            let mut zero = [false; 2];
-            let on = [0, 1].map(|c| c < rs.rows && live(rs.row0 + c));
-            for (c, z) in zero.iter_mut().enumerate() {
-                *z = c < rs.rows && !on[c];
+            visit.clear();
+            rows(g, rs, &mut visit);
+            // Whether a row of the direction had every column 0 (a value for lo/hi): one
+            // not visited, or visited with all values 0.
+            let mut seen = [0usize; 2];
+            for &i in &visit {
+                seen[i & 1] += 1;
             }
-            let (first, step) = match on {
-                [true, true] => (0, 1),
-                [true, false] => (0, 2),
-                [false, true] => (1, 2),
-                [false, false] => (rs.rows, 1),
-            };
-            for i in (first..rs.rows).step_by(step) {
+            let mut zero = [0, 1].map(|c| seen[c] < (rs.rows + 1 - c) / 2);
+            for &i in &visit {
                 let row = rs.row0 + i;
                 let comp = i & 1;
                 fill(row, &mut vals);

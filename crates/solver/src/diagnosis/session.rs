@@ -83,9 +83,7 @@ struct Fit {
 /// Fits the rigid model plus the effect columns `cols` on all runs and on the training
 /// runs of each fold, and forms the residual on all rows.
 fn fit(d: &Design, red: &Reduction, sets: &Sets, cols: Cols) -> Fit {
-    let mut u: Vec<&[f64]> = cols.iter().map(Vec::as_slice).collect();
-    u.push(&d.y);
-    let base = Moments::of_columns(red, &u);
+    let base = Moments::of_columns(red, &base_columns(d, &cols));
     let jf = moments::joint_fit(red, sets, None, &base, true);
     let mut resid = d.y.clone();
     for (col, e) in cols.iter().zip(&jf.all.x) {
@@ -107,6 +105,14 @@ fn fit(d: &Design, red: &Reduction, sets: &Sets, cols: Cols) -> Fit {
         ssr: jf.all.ssr,
         heldout_ssr: jf.heldout_ssr,
     }
+}
+
+/// The base columns U = [accepted effects `cols` | y] of every joint fit.
+fn base_columns<'a>(d: &'a Design, cols: &'a Cols) -> Vec<&'a [f64]> {
+    cols.iter()
+        .map(Vec::as_slice)
+        .chain([d.y.as_slice()])
+        .collect()
 }
 
 /// A candidate fitted jointly with the current model.
@@ -140,20 +146,30 @@ fn evaluate(
     specs: &Columns,
     heldout: bool,
 ) -> Option<(Moments, Vec<usize>, moments::JointFit)> {
-    let mut u: Vec<&[f64]> = f.cols.iter().map(Vec::as_slice).collect();
-    u.push(&d.y);
     let mom = Moments::new_on(
         red,
         specs.len(),
-        &u,
+        &base_columns(d, &f.cols),
         |row| specs.live(d, row),
         |row, out| specs.at(d, row, out),
     );
-    let keep: Vec<usize> = (0..specs.len()).filter(|&j| mom.varies[j]).collect();
+    fit_moments(red, sets, f, mom, heldout)
+}
+
+/// The joint fit of the current model plus the columns of `mom` that vary (none vary:
+/// `None`), with those columns' indices.
+fn fit_moments(
+    red: &Reduction,
+    sets: &Sets,
+    f: &Fit,
+    mom: Moments,
+    heldout: bool,
+) -> Option<(Moments, Vec<usize>, moments::JointFit)> {
+    let keep: Vec<usize> = (0..mom.m).filter(|&j| mom.varies[j]).collect();
     if keep.is_empty() {
         return None;
     }
-    let mom = if keep.len() == specs.len() {
+    let mom = if keep.len() == mom.m {
         mom
     } else {
         mom.select(&keep)
@@ -174,6 +190,28 @@ fn ssr_at(
 ) -> f64 {
     let specs = catalogue::specs(d, cand, theta, eps);
     evaluate(d, red, sets, f, &specs, false).map_or(f64::INFINITY, |(_, _, jf)| jf.all.ssr)
+}
+
+/// Per run: the rows read along `axis` less than `reach` mm of travel after the axis's
+/// last reversal, as (index counted from the run's first row, travel since reversal).
+fn near_rows(
+    d: &Design,
+    red: &Reduction,
+    axis: crate::axis::Axis,
+    reach: f64,
+) -> Vec<Vec<(usize, f64)>> {
+    red.runs
+        .iter()
+        .map(|rs| {
+            (0..rs.rows)
+                .filter_map(|i| {
+                    let row = rs.row0 + i;
+                    let x = d.samples[row / 2].since_reversal_mm[axis.index()];
+                    (d.row_axis(row) == axis && x < reach).then_some((i, x))
+                })
+                .collect()
+        })
+        .collect()
 }
 
 /// Most frequencies in one scan, and the most (row, frequency) pairs a scan evaluates.
@@ -359,18 +397,34 @@ fn try_candidate(
         Search::Grid(name, values) => {
             // The thermal time constant is searched on the reduced problem
             // ([`ThermalBasis`]); other parameters from their columns.
-            let basis = (cand.effect == "thermal_drift").then(|| {
-                let mut u: Vec<&[f64]> = f.cols.iter().map(Vec::as_slice).collect();
-                u.push(&d.y);
-                ThermalBasis::new(d, red, &u)
-            });
-            let ssr_at = |v: f64| match &basis {
-                Some(b) => {
+            let basis = (cand.effect == "thermal_drift")
+                .then(|| ThermalBasis::new(d, red, &base_columns(d, &f.cols)));
+            // A candidate that vanishes away from its axis's reversals (the spike) is
+            // evaluated on the rows within its reach at the largest value searched (the
+            // golden section stays within a grid ratio of the grid; 1 % margin).
+            let ratio = values.get(1).map_or(2.0, |v1| v1 / values[0]);
+            let top = values.iter().copied().fold(0.0, f64::max) * ratio * 1.01;
+            let near = catalogue::reach(cand, top).map(|(a, x)| near_rows(d, red, a, x));
+            let ssr_at = |v: f64| match (&basis, &near) {
+                (Some(b), _) => {
                     moments::joint_fit(red, sets, Some(&b.at(v)), &f.base, false)
                         .all
                         .ssr
                 }
-                None => ssr_at(d, red, sets, f, cand, v, eps),
+                (None, Some(near)) => {
+                    let reach = catalogue::reach(cand, v).map_or(f64::INFINITY, |r| r.1);
+                    let specs = catalogue::specs(d, cand, v, eps);
+                    let mom = Moments::over_rows(
+                        red,
+                        specs.len(),
+                        &base_columns(d, &f.cols),
+                        |g, _, out| out.extend(near[g].iter().filter(|p| p.1 < reach).map(|p| p.0)),
+                        |row, out| specs.at(d, row, out),
+                    );
+                    fit_moments(red, sets, f, mom, false)
+                        .map_or(f64::INFINITY, |(_, _, jf)| jf.all.ssr)
+                }
+                (None, None) => ssr_at(d, red, sets, f, cand, v, eps),
             };
             let mut best: Option<(f64, f64)> = None;
             for &v in &values {
@@ -384,7 +438,6 @@ fn try_candidate(
             }
             // Golden-section refinement in log θ around the best grid value.
             let (_, v0) = best?;
-            let ratio = values.get(1).map_or(2.0, |v1| v1 / values[0]);
             let eval = |lv: f64| ssr_at(lv.exp());
             let bracket =
                 super::search::golden_section((v0 / ratio).ln(), (v0 * ratio).ln(), 10, eval);
