@@ -15,6 +15,7 @@
 use super::catalogue::{self, Candidate, Columns, Search};
 use super::design::{self, Design};
 use super::effects;
+use super::even_scan;
 use super::linalg::{Cols, dot};
 use super::moments::{self, Moments, Sets};
 use super::reduced::Reduction;
@@ -253,7 +254,6 @@ fn periodic_best(
         .sum();
     let stride = (axis_rows * nf).div_ceil(MAX_SCAN_WORK).max(1);
     let df = if nf > 1 { freqs[1] - f0 } else { 0.0 };
-    let two_pi = 2.0 * std::f64::consts::PI;
     // Explained sum of squares of the centred 2-column fit from its moments
     // (ss, cc, sc, rs, rc).
     let solve = |m: &[f64; 5]| {
@@ -266,26 +266,19 @@ fn periodic_best(
         let b = (ss * rc - sc * rs) / det;
         a * rs + b * rc
     };
-    let nb = nf.div_ceil(LANES);
     let mut score = vec![0.0; nf];
     let mut total = vec![[0.0; 5]; nf];
+    let mut mom = vec![[0.0; 5]; nf];
     let mut any = false;
-    // Per row of a group: its residual, the rotation by LANES·Δw·x, and the phasors
-    // (sin, cos) of its LANES current frequencies.
+    // Per row of a run: its residual and variable.
     let mut rv = Vec::new();
     let mut xs = Vec::new();
-    let mut step = Vec::new();
-    let mut sn = Vec::new();
-    let mut cs = Vec::new();
     for (ri, run) in d.runs.iter().enumerate() {
         if ri % stride != 0 || !reads(run) {
             continue;
         }
         rv.clear();
         xs.clear();
-        step.clear();
-        sn.clear();
-        cs.clear();
         // The run's rows read along `axis` (one component of each sample).
         for row in 2 * run.start..2 * run.end {
             if d.row_axis(row) != axis {
@@ -303,54 +296,20 @@ fn periodic_best(
         if xs.iter().all(|&x| x == xs[0]) {
             continue;
         }
-        for &x in &xs {
-            let (s1, c1) = (two_pi * df * x).sin_cos();
-            step.push((two_pi * df * LANES as f64 * x).sin_cos());
-            let (mut s, mut c) = (two_pi * f0 * x).sin_cos();
-            for _ in 0..LANES {
-                sn.push(s);
-                cs.push(c);
-                (s, c) = (s * c1 + c * s1, c * c1 - s * s1);
-            }
+        // The run's moments [ss, cc, sc, rs, rc] at every frequency: in closed form
+        // with Goertzel's recurrence when the run is evenly sampled in its variable
+        // ([`even_scan`]), else by rotating phasors.
+        if let Some((x0, h)) = even_scan::even_step(&xs) {
+            even_scan::even_moments(x0, h, &rv, f0, df, &mut mom);
+        } else {
+            phasor_moments(&rv, &xs, f0, df, &mut mom);
         }
-        let n = rv.len() as f64;
-        for b in 0..nb {
-            // Σsin, Σcos, Σsin², Σcos², Σsin·cos, Σr·sin, Σr·cos of the group, by lane.
-            let mut acc = [[0.0; LANES]; 7];
-            for (i, (&r, &(s4, c4))) in rv.iter().zip(&step).enumerate() {
-                let ps = &mut sn[i * LANES..(i + 1) * LANES];
-                let pc = &mut cs[i * LANES..(i + 1) * LANES];
-                for l in 0..LANES {
-                    let (s, c) = (ps[l], pc[l]);
-                    acc[0][l] += s;
-                    acc[1][l] += c;
-                    acc[2][l] += s * s;
-                    acc[3][l] += c * c;
-                    acc[4][l] += s * c;
-                    acc[5][l] += r * s;
-                    acc[6][l] += r * c;
-                    ps[l] = s * c4 + c * s4;
-                    pc[l] = c * c4 - s * s4;
-                }
-            }
-            for l in 0..LANES {
-                let k = b * LANES + l;
-                if k >= nf {
-                    break;
-                }
-                let m = [
-                    acc[2][l] - acc[0][l] * acc[0][l] / n,
-                    acc[3][l] - acc[1][l] * acc[1][l] / n,
-                    acc[4][l] - acc[0][l] * acc[1][l] / n,
-                    acc[5][l],
-                    acc[6][l],
-                ];
-                if per_run {
-                    score[k] += solve(&m);
-                } else {
-                    for j in 0..5 {
-                        total[k][j] += m[j];
-                    }
+        for (k, m) in mom.iter().enumerate() {
+            if per_run {
+                score[k] += solve(m);
+            } else {
+                for j in 0..5 {
+                    total[k][j] += m[j];
                 }
             }
         }
@@ -365,6 +324,65 @@ fn periodic_best(
     }
     let kbest = (0..nf).max_by(|&a, &b| score[a].total_cmp(&score[b]))?;
     Some(freqs[kbest])
+}
+
+/// The moments [ss, cc, sc, rs, rc] of s = sin(2πf x), c = cos(2πf x) at the samples `xs`
+/// with residual `rv`, at f = f0 + k·df (k < out.len()): ss, cc, sc centred, rs = Σ r·s,
+/// rc = Σ r·c. sin/cos of w_k·x follow by rotation from w_0·x, [`LANES`] frequencies at
+/// a time.
+fn phasor_moments(rv: &[f64], xs: &[f64], f0: f64, df: f64, out: &mut [[f64; 5]]) {
+    let two_pi = 2.0 * std::f64::consts::PI;
+    let nf = out.len();
+    let nb = nf.div_ceil(LANES);
+    // Per row: the rotation by LANES·Δw·x, and the phasors (sin, cos) of its LANES
+    // current frequencies.
+    let mut step = Vec::with_capacity(xs.len());
+    let mut sn = Vec::with_capacity(xs.len() * LANES);
+    let mut cs = Vec::with_capacity(xs.len() * LANES);
+    for &x in xs {
+        let (s1, c1) = (two_pi * df * x).sin_cos();
+        step.push((two_pi * df * LANES as f64 * x).sin_cos());
+        let (mut s, mut c) = (two_pi * f0 * x).sin_cos();
+        for _ in 0..LANES {
+            sn.push(s);
+            cs.push(c);
+            (s, c) = (s * c1 + c * s1, c * c1 - s * s1);
+        }
+    }
+    let n = rv.len() as f64;
+    for b in 0..nb {
+        // Σsin, Σcos, Σsin², Σcos², Σsin·cos, Σr·sin, Σr·cos of the group, by lane.
+        let mut acc = [[0.0; LANES]; 7];
+        for (i, (&r, &(s4, c4))) in rv.iter().zip(&step).enumerate() {
+            let ps = &mut sn[i * LANES..(i + 1) * LANES];
+            let pc = &mut cs[i * LANES..(i + 1) * LANES];
+            for l in 0..LANES {
+                let (s, c) = (ps[l], pc[l]);
+                acc[0][l] += s;
+                acc[1][l] += c;
+                acc[2][l] += s * s;
+                acc[3][l] += c * c;
+                acc[4][l] += s * c;
+                acc[5][l] += r * s;
+                acc[6][l] += r * c;
+                ps[l] = s * c4 + c * s4;
+                pc[l] = c * c4 - s * s4;
+            }
+        }
+        for l in 0..LANES {
+            let k = b * LANES + l;
+            if k >= nf {
+                break;
+            }
+            out[k] = [
+                acc[2][l] - acc[0][l] * acc[0][l] / n,
+                acc[3][l] - acc[1][l] * acc[1][l] / n,
+                acc[4][l] - acc[0][l] * acc[1][l] / n,
+                acc[5][l],
+                acc[6][l],
+            ];
+        }
+    }
 }
 
 /// Σ_k ε_k(q_k) (µrad) at every sample, from the current fit's error parameters.
