@@ -107,6 +107,8 @@ impl Moments {
         let mut varies = vec![false; m];
         let mut runs = Vec::with_capacity(red.runs.len());
         let mut visit = Vec::new();
+        // The columns nonzero at the current row.
+        let mut nz = Vec::with_capacity(m);
         for (g, rs) in red.runs.iter().enumerate() {
             let r = rs.r;
             let mut rm = RunMoments {
@@ -140,20 +142,26 @@ impl Moments {
                     hi[j][comp] = hi[j][comp].max(v);
                 }
                 let (off, qrow) = rs.row(i);
-                for (j, &v) in vals.iter().enumerate() {
-                    if v == 0.0 {
-                        continue;
-                    }
+                nz.clear();
+                nz.extend((0..m).filter(|&j| vals[j] != 0.0));
+                for (a, &j) in nz.iter().enumerate() {
+                    let v = vals[j];
                     let z = &mut rm.z[j * r + off..j * r + off + qrow.len()];
                     for (zz, q) in z.iter_mut().zip(qrow) {
                         *zz += v * q;
                     }
-                    for (x, w) in rm.xx[j * m..(j + 1) * m].iter_mut().zip(&vals) {
-                        *x += v * w;
+                    // The upper triangle only (the lower is its mirror).
+                    for &l in &nz[a..] {
+                        rm.xx[j * m + l] += v * vals[l];
                     }
                     for (x, col) in rm.xu[j * u..(j + 1) * u].iter_mut().zip(extra) {
                         *x += v * col[row];
                     }
+                }
+            }
+            for j in 0..m {
+                for l in 0..j {
+                    rm.xx[j * m + l] = rm.xx[l * m + j];
                 }
             }
             let half = (rs.rows / 2) as f64;
