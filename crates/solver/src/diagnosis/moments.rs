@@ -119,31 +119,25 @@ impl Moments {
             let mut sums = vec![[0.0; 2]; m];
             let mut lo = vec![[f64::INFINITY; 2]; m];
             let mut hi = vec![[f64::NEG_INFINITY; 2]; m];
+            // Rows of each direction where each column is nonzero: where it is fewer
+            // than the direction's rows, 0 is one of the column's values (for lo/hi).
+            let mut count = vec![[0usize; 2]; m];
             visit.clear();
             rows(g, rs, &mut visit);
-            // Whether a row of the direction had every column 0 (a value for lo/hi): one
-            // not visited, or visited with all values 0.
-            let mut seen = [0usize; 2];
-            for &i in &visit {
-                seen[i & 1] += 1;
-            }
-            let mut zero = [0, 1].map(|c| seen[c] < (rs.rows + 1 - c) / 2);
             for &i in &visit {
                 let row = rs.row0 + i;
                 let comp = i & 1;
                 fill(row, &mut vals);
-                if vals.iter().all(|&v| v == 0.0) {
-                    zero[comp] = true;
-                    continue;
-                }
-                for (j, &v) in vals.iter().enumerate() {
+                nz.clear();
+                nz.extend((0..m).filter(|&j| vals[j] != 0.0));
+                for &j in &nz {
+                    let v = vals[j];
+                    count[j][comp] += 1;
                     sums[j][comp] += v;
                     lo[j][comp] = lo[j][comp].min(v);
                     hi[j][comp] = hi[j][comp].max(v);
                 }
                 let (off, qrow) = rs.row(i);
-                nz.clear();
-                nz.extend((0..m).filter(|&j| vals[j] != 0.0));
                 for (a, &j) in nz.iter().enumerate() {
                     let v = vals[j];
                     let z = &mut rm.z[j * r + off..j * r + off + qrow.len()];
@@ -170,7 +164,7 @@ impl Moments {
                     rm.xx[j * m + l] -= (0..2).map(|c| sums[j][c] * sums[l][c]).sum::<f64>() / half;
                 }
                 for c in 0..2 {
-                    if zero[c] {
+                    if count[j][c] < (rs.rows + 1 - c) / 2 {
                         lo[j][c] = lo[j][c].min(0.0);
                         hi[j][c] = hi[j][c].max(0.0);
                     }
