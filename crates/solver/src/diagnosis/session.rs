@@ -393,8 +393,15 @@ fn eps_per_sample(d: &Design, red: &Reduction, f: &Fit) -> Vec<[f64; 3]> {
         let Component::Rotation(dir) = term.component else {
             continue;
         };
+        // Consecutive samples often share the axis position (a parked axis): the
+        // term's value is evaluated again only when it changes.
+        let mut last = (f64::NAN, 0.0);
         for (s, m) in d.samples.iter().enumerate() {
-            out[s][dir.index()] += d.model.term_value(i, &x, m.q_mm[term.axis.index()]);
+            let q = m.q_mm[term.axis.index()];
+            if q != last.0 {
+                last = (q, d.model.term_value(i, &x, q));
+            }
+            out[s][dir.index()] += last.1;
         }
     }
     out
