@@ -221,6 +221,9 @@ pub struct Columns<'a> {
     fill: Box<dyn Fn(usize, &SampleMeta, Axis, &mut [f64]) + 'a>,
     /// Per reading axis: whether some column can be nonzero on its rows.
     active: [bool; 3],
+    /// An axis whose position and travel alone the columns follow: they are constant
+    /// over a run that does not move it.
+    follows: Option<Axis>,
 }
 
 impl<'a> Columns<'a> {
@@ -235,7 +238,22 @@ impl<'a> Columns<'a> {
             axes,
             fill: Box::new(fill),
             active,
+            follows: None,
         }
+    }
+
+    /// The columns follow axis `a`'s position and travel alone ([`Columns::follows`]).
+    fn following(self, a: Axis) -> Self {
+        Columns {
+            follows: Some(a),
+            ..self
+        }
+    }
+
+    /// The axis whose position and travel alone the columns follow, if any: on a run
+    /// that does not move it they are constant, and the centring per run removes them.
+    pub fn follows(&self) -> Option<Axis> {
+        self.follows
     }
 
     fn none() -> Self {
@@ -302,7 +320,7 @@ pub fn specs<'a>(
         "backlash" => {
             let a = c.axis.expect("axis");
             let (n, ax) = one("lost_motion_um", a);
-            Columns::new(n, ax, move |_, s, _, o| o[0] = -0.5 * s.dir[a.index()])
+            Columns::new(n, ax, move |_, s, _, o| o[0] = -0.5 * s.dir[a.index()]).following(a)
         }
         "servo_lag" => {
             let a = c.axis.expect("axis");
@@ -321,6 +339,7 @@ pub fn specs<'a>(
                     0.0
                 };
             })
+            .following(a)
         }
         "cyclic" | "waviness" => {
             // Along the axis itself (cyclic) or across it (waviness).
@@ -333,6 +352,7 @@ pub fn specs<'a>(
                 vec![Some(dir); 2],
                 move |_, s, _, o| (o[0], o[1]) = (w * s.q_mm[i]).sin_cos(),
             )
+            .following(a)
         }
         "velocity_coupling" => {
             let (a, dir) = (c.axis.expect("axis"), c.direction.expect("direction"));
@@ -398,6 +418,7 @@ pub fn specs<'a>(
                     }
                 },
             )
+            .following(a)
         }
         "setup_offset" => {
             let (Some(g), Some(eps)) = (c.group, eps) else {

@@ -147,14 +147,35 @@ fn evaluate(
     specs: &Columns,
     heldout: bool,
 ) -> Option<(Moments, Vec<usize>, moments::JointFit)> {
+    // Columns that follow one axis are constant on the runs that do not move it: the
+    // centring per run removes them there (their moments are 0).
+    let parked = specs.follows().map(|a| parked_runs(d, a));
     let mom = Moments::new_on(
         red,
         specs.len(),
         &base_columns(d, &f.cols),
-        |row| specs.live(d, row),
+        |row| {
+            specs.live(d, row)
+                && parked
+                    .as_ref()
+                    .is_none_or(|p| !p[d.samples[row / 2].run_idx])
+        },
         |row, out| specs.at(d, row, out),
     );
     fit_moments(red, sets, f, mom, heldout)
+}
+
+/// Per run: whether axis `a` keeps one position over the whole run.
+fn parked_runs(d: &Design, a: crate::axis::Axis) -> Vec<bool> {
+    d.runs
+        .iter()
+        .map(|r| {
+            let q0 = d.samples[r.start].q_mm[a.index()];
+            d.samples[r.start..r.end]
+                .iter()
+                .all(|s| s.q_mm[a.index()] == q0)
+        })
+        .collect()
 }
 
 /// The joint fit of the current model plus the columns of `mom` that vary (none vary:
