@@ -214,18 +214,21 @@ fn ssr_at(
     evaluate(d, red, sets, f, &specs, false).map_or(f64::INFINITY, |(_, _, jf)| jf.all.ssr)
 }
 
-/// Per run: the rows read along `axis` less than `reach` mm of travel after the axis's
-/// last reversal, as (index counted from the run's first row, travel since reversal).
+/// Per run that moves `axis`: the rows read along it less than `reach` mm of travel after
+/// the axis's last reversal, as (index counted from the run's first row, travel since
+/// reversal). A run that does not move the axis has a constant column (none).
 fn near_rows(
     d: &Design,
     red: &Reduction,
     axis: crate::axis::Axis,
     reach: f64,
 ) -> Vec<Vec<(usize, f64)>> {
+    let parked = parked_runs(d, axis);
     red.runs
         .iter()
-        .map(|rs| {
-            (0..rs.rows)
+        .zip(parked)
+        .map(|(rs, parked)| {
+            (0..if parked { 0 } else { rs.rows })
                 .filter_map(|i| {
                     let row = rs.row0 + i;
                     let x = d.samples[row / 2].since_reversal_mm[axis.index()];
