@@ -221,6 +221,9 @@ pub struct Columns<'a> {
     fill: Box<dyn Fn(usize, &SampleMeta, Axis, &mut [f64]) + 'a>,
     /// Per reading axis: whether some column can be nonzero on its rows.
     active: [bool; 3],
+    /// An axis whose position and travel alone the columns follow: they are constant
+    /// over a run that does not move it.
+    follows: Option<Axis>,
 }
 
 impl<'a> Columns<'a> {
@@ -235,7 +238,22 @@ impl<'a> Columns<'a> {
             axes,
             fill: Box::new(fill),
             active,
+            follows: None,
         }
+    }
+
+    /// The columns follow axis `a`'s position and travel alone ([`Columns::follows`]).
+    fn following(self, a: Axis) -> Self {
+        Columns {
+            follows: Some(a),
+            ..self
+        }
+    }
+
+    /// The axis whose position and travel alone the columns follow, if any: on a run
+    /// that does not move it they are constant, and the centring per run removes them.
+    pub fn follows(&self) -> Option<Axis> {
+        self.follows
     }
 
     fn none() -> Self {
@@ -248,6 +266,13 @@ impl<'a> Columns<'a> {
 
     pub fn is_empty(&self) -> bool {
         self.names.is_empty()
+    }
+
+    /// Whether some column can be nonzero at row `row` (its reading axis is one of the
+    /// columns'); the same for every row of a run's reading direction.
+    #[inline]
+    pub fn live(&self, d: &Design, row: usize) -> bool {
+        self.active[d.row_axis(row).index()]
     }
 
     /// The values of every column at row `row` of the design.
@@ -267,6 +292,21 @@ impl<'a> Columns<'a> {
     }
 }
 
+/// The reversal spike's column is 0 past this many decay lengths λ from the last
+/// reversal: exp(−x/λ) is below 5·10⁻¹⁸ there (beyond double precision next to the
+/// transient's height).
+const SPIKE_REACH: f64 = 40.0;
+
+/// For a candidate whose columns vanish away from its axis's reversals (the reversal
+/// spike): the axis and the travel since the last reversal from which its columns are 0
+/// at nonlinear value `theta` (they are 0 on the rows read along other axes too).
+pub fn reach(c: &Candidate, theta: f64) -> Option<(Axis, f64)> {
+    match c.effect {
+        "reversal_spike" => Some((c.axis?, SPIKE_REACH * theta)),
+        _ => None,
+    }
+}
+
 /// The columns of a candidate at nonlinear value `theta` (ignored when it has none).
 /// `eps` is Σ_k ε_k(q_k) (µrad) per sample, for setup_offset.
 pub fn specs<'a>(
@@ -280,7 +320,7 @@ pub fn specs<'a>(
         "backlash" => {
             let a = c.axis.expect("axis");
             let (n, ax) = one("lost_motion_um", a);
-            Columns::new(n, ax, move |_, s, _, o| o[0] = -0.5 * s.dir[a.index()])
+            Columns::new(n, ax, move |_, s, _, o| o[0] = -0.5 * s.dir[a.index()]).following(a)
         }
         "servo_lag" => {
             let a = c.axis.expect("axis");
@@ -293,14 +333,13 @@ pub fn specs<'a>(
             let (n, ax) = one("height_um", a);
             Columns::new(n, ax, move |_, s, _, o| {
                 let x = s.since_reversal_mm[i];
-                // exp(−x/λ) is below 5·10⁻¹⁸ (beyond double precision next to the
-                // transient's height) past 40 decay lengths.
-                o[0] = if x < 40.0 * theta {
+                o[0] = if x < SPIKE_REACH * theta {
                     -s.dir[i] * (-x / theta).exp()
                 } else {
                     0.0
                 };
             })
+            .following(a)
         }
         "cyclic" | "waviness" => {
             // Along the axis itself (cyclic) or across it (waviness).
@@ -313,6 +352,7 @@ pub fn specs<'a>(
                 vec![Some(dir); 2],
                 move |_, s, _, o| (o[0], o[1]) = (w * s.q_mm[i]).sin_cos(),
             )
+            .following(a)
         }
         "velocity_coupling" => {
             let (a, dir) = (c.axis.expect("axis"), c.direction.expect("direction"));
@@ -378,6 +418,7 @@ pub fn specs<'a>(
                     }
                 },
             )
+            .following(a)
         }
         "setup_offset" => {
             let (Some(g), Some(eps)) = (c.group, eps) else {

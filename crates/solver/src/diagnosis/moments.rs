@@ -23,7 +23,7 @@
 
 use super::design::Design;
 use super::linalg::{Projector, dot};
-use super::reduced::Reduction;
+use super::reduced::{Reduction, RunSpace};
 use nalgebra::{DMatrix, SymmetricEigen};
 
 /// Moments of m columns on one run.
@@ -57,6 +57,48 @@ impl Moments {
         red: &Reduction,
         m: usize,
         extra: &[&[f64]],
+        fill: impl FnMut(usize, &mut [f64]),
+    ) -> Moments {
+        Moments::new_on(red, m, extra, |_| true, fill)
+    }
+
+    /// [`Moments::new`] over the live reading directions only: `live(row)` is asked of
+    /// each run's first two rows (one per reading direction, which is the same for every
+    /// row of the run); a direction that is not live has every column 0 on all its rows,
+    /// which are then not visited (the moments are those of zero rows: nothing to add).
+    pub fn new_on(
+        red: &Reduction,
+        m: usize,
+        extra: &[&[f64]],
+        live: impl Fn(usize) -> bool,
+        fill: impl FnMut(usize, &mut [f64]),
+    ) -> Moments {
+        Moments::over_rows(
+            red,
+            m,
+            extra,
+            |_, rs, out| {
+                let on = [0, 1].map(|c| c < rs.rows && live(rs.row0 + c));
+                let (first, step) = match on {
+                    [true, true] => (0, 1),
+                    [true, false] => (0, 2),
+                    [false, true] => (1, 2),
+                    [false, false] => (rs.rows, 1),
+                };
+                out.extend((first..rs.rows).step_by(step));
+            },
+            fill,
+        )
+    }
+
+    /// [`Moments::new`] over chosen rows: `rows(g, run, out)` pushes the indices (counted
+    /// from the run's first row, ascending) of run g's rows where some column may be
+    /// nonzero; every other row has all columns 0 and is not visited.
+    pub fn over_rows(
+        red: &Reduction,
+        m: usize,
+        extra: &[&[f64]],
+        mut rows: impl FnMut(usize, &RunSpace, &mut Vec<usize>),
         mut fill: impl FnMut(usize, &mut [f64]),
     ) -> Moments {
         let u = extra.len();
@@ -64,7 +106,10 @@ impl Moments {
         let mut peaks = vec![0.0f64; m];
         let mut varies = vec![false; m];
         let mut runs = Vec::with_capacity(red.runs.len());
-        for rs in &red.runs {
+        let mut visit = Vec::new();
+        // The columns nonzero at the current row.
+        let mut nz = Vec::with_capacity(m);
+        for (g, rs) in red.runs.iter().enumerate() {
             let r = rs.r;
             let mut rm = RunMoments {
                 z: vec![0.0; m * r],
@@ -74,36 +119,43 @@ impl Moments {
             let mut sums = vec![[0.0; 2]; m];
             let mut lo = vec![[f64::INFINITY; 2]; m];
             let mut hi = vec![[f64::NEG_INFINITY; 2]; m];
-            // Whether a row of the direction had every column 0 (a value for lo/hi).
-            let mut zero = [false; 2];
-            for i in 0..rs.rows {
+            // Rows of each direction where each column is nonzero: where it is fewer
+            // than the direction's rows, 0 is one of the column's values (for lo/hi).
+            let mut count = vec![[0usize; 2]; m];
+            visit.clear();
+            rows(g, rs, &mut visit);
+            for &i in &visit {
                 let row = rs.row0 + i;
                 let comp = i & 1;
                 fill(row, &mut vals);
-                if vals.iter().all(|&v| v == 0.0) {
-                    zero[comp] = true;
-                    continue;
-                }
-                for (j, &v) in vals.iter().enumerate() {
+                nz.clear();
+                nz.extend((0..m).filter(|&j| vals[j] != 0.0));
+                for &j in &nz {
+                    let v = vals[j];
+                    count[j][comp] += 1;
                     sums[j][comp] += v;
                     lo[j][comp] = lo[j][comp].min(v);
                     hi[j][comp] = hi[j][comp].max(v);
                 }
                 let (off, qrow) = rs.row(i);
-                for (j, &v) in vals.iter().enumerate() {
-                    if v == 0.0 {
-                        continue;
-                    }
+                for (a, &j) in nz.iter().enumerate() {
+                    let v = vals[j];
                     let z = &mut rm.z[j * r + off..j * r + off + qrow.len()];
                     for (zz, q) in z.iter_mut().zip(qrow) {
                         *zz += v * q;
                     }
-                    for (x, w) in rm.xx[j * m..(j + 1) * m].iter_mut().zip(&vals) {
-                        *x += v * w;
+                    // The upper triangle only (the lower is its mirror).
+                    for &l in &nz[a..] {
+                        rm.xx[j * m + l] += v * vals[l];
                     }
                     for (x, col) in rm.xu[j * u..(j + 1) * u].iter_mut().zip(extra) {
                         *x += v * col[row];
                     }
+                }
+            }
+            for j in 0..m {
+                for l in 0..j {
+                    rm.xx[j * m + l] = rm.xx[l * m + j];
                 }
             }
             let half = (rs.rows / 2) as f64;
@@ -112,7 +164,7 @@ impl Moments {
                     rm.xx[j * m + l] -= (0..2).map(|c| sums[j][c] * sums[l][c]).sum::<f64>() / half;
                 }
                 for c in 0..2 {
-                    if zero[c] {
+                    if count[j][c] < (rs.rows + 1 - c) / 2 {
                         lo[j][c] = lo[j][c].min(0.0);
                         hi[j][c] = hi[j][c].max(0.0);
                     }

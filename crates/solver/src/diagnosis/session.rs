@@ -15,6 +15,7 @@
 use super::catalogue::{self, Candidate, Columns, Search};
 use super::design::{self, Design};
 use super::effects;
+use super::even_scan;
 use super::linalg::{Cols, dot};
 use super::moments::{self, Moments, Sets};
 use super::reduced::Reduction;
@@ -83,9 +84,7 @@ struct Fit {
 /// Fits the rigid model plus the effect columns `cols` on all runs and on the training
 /// runs of each fold, and forms the residual on all rows.
 fn fit(d: &Design, red: &Reduction, sets: &Sets, cols: Cols) -> Fit {
-    let mut u: Vec<&[f64]> = cols.iter().map(Vec::as_slice).collect();
-    u.push(&d.y);
-    let base = Moments::of_columns(red, &u);
+    let base = Moments::of_columns(red, &base_columns(d, &cols));
     let jf = moments::joint_fit(red, sets, None, &base, true);
     let mut resid = d.y.clone();
     for (col, e) in cols.iter().zip(&jf.all.x) {
@@ -107,6 +106,14 @@ fn fit(d: &Design, red: &Reduction, sets: &Sets, cols: Cols) -> Fit {
         ssr: jf.all.ssr,
         heldout_ssr: jf.heldout_ssr,
     }
+}
+
+/// The base columns U = [accepted effects `cols` | y] of every joint fit.
+fn base_columns<'a>(d: &'a Design, cols: &'a Cols) -> Vec<&'a [f64]> {
+    cols.iter()
+        .map(Vec::as_slice)
+        .chain([d.y.as_slice()])
+        .collect()
 }
 
 /// A candidate fitted jointly with the current model.
@@ -140,14 +147,51 @@ fn evaluate(
     specs: &Columns,
     heldout: bool,
 ) -> Option<(Moments, Vec<usize>, moments::JointFit)> {
-    let mut u: Vec<&[f64]> = f.cols.iter().map(Vec::as_slice).collect();
-    u.push(&d.y);
-    let mom = Moments::new(red, specs.len(), &u, |row, out| specs.at(d, row, out));
-    let keep: Vec<usize> = (0..specs.len()).filter(|&j| mom.varies[j]).collect();
+    // Columns that follow one axis are constant on the runs that do not move it: the
+    // centring per run removes them there (their moments are 0).
+    let parked = specs.follows().map(|a| parked_runs(d, a));
+    let mom = Moments::new_on(
+        red,
+        specs.len(),
+        &base_columns(d, &f.cols),
+        |row| {
+            specs.live(d, row)
+                && parked
+                    .as_ref()
+                    .is_none_or(|p| !p[d.samples[row / 2].run_idx])
+        },
+        |row, out| specs.at(d, row, out),
+    );
+    fit_moments(red, sets, f, mom, heldout)
+}
+
+/// Per run: whether axis `a` keeps one position over the whole run.
+fn parked_runs(d: &Design, a: crate::axis::Axis) -> Vec<bool> {
+    d.runs
+        .iter()
+        .map(|r| {
+            let q0 = d.samples[r.start].q_mm[a.index()];
+            d.samples[r.start..r.end]
+                .iter()
+                .all(|s| s.q_mm[a.index()] == q0)
+        })
+        .collect()
+}
+
+/// The joint fit of the current model plus the columns of `mom` that vary (none vary:
+/// `None`), with those columns' indices.
+fn fit_moments(
+    red: &Reduction,
+    sets: &Sets,
+    f: &Fit,
+    mom: Moments,
+    heldout: bool,
+) -> Option<(Moments, Vec<usize>, moments::JointFit)> {
+    let keep: Vec<usize> = (0..mom.m).filter(|&j| mom.varies[j]).collect();
     if keep.is_empty() {
         return None;
     }
-    let mom = if keep.len() == specs.len() {
+    let mom = if keep.len() == mom.m {
         mom
     } else {
         mom.select(&keep)
@@ -168,6 +212,31 @@ fn ssr_at(
 ) -> f64 {
     let specs = catalogue::specs(d, cand, theta, eps);
     evaluate(d, red, sets, f, &specs, false).map_or(f64::INFINITY, |(_, _, jf)| jf.all.ssr)
+}
+
+/// Per run that moves `axis`: the rows read along it less than `reach` mm of travel after
+/// the axis's last reversal, as (index counted from the run's first row, travel since
+/// reversal). A run that does not move the axis has a constant column (none).
+fn near_rows(
+    d: &Design,
+    red: &Reduction,
+    axis: crate::axis::Axis,
+    reach: f64,
+) -> Vec<Vec<(usize, f64)>> {
+    let parked = parked_runs(d, axis);
+    red.runs
+        .iter()
+        .zip(parked)
+        .map(|(rs, parked)| {
+            (0..if parked { 0 } else { rs.rows })
+                .filter_map(|i| {
+                    let row = rs.row0 + i;
+                    let x = d.samples[row / 2].since_reversal_mm[axis.index()];
+                    (d.row_axis(row) == axis && x < reach).then_some((i, x))
+                })
+                .collect()
+        })
+        .collect()
 }
 
 /// Most frequencies in one scan, and the most (row, frequency) pairs a scan evaluates.
@@ -209,7 +278,6 @@ fn periodic_best(
         .sum();
     let stride = (axis_rows * nf).div_ceil(MAX_SCAN_WORK).max(1);
     let df = if nf > 1 { freqs[1] - f0 } else { 0.0 };
-    let two_pi = 2.0 * std::f64::consts::PI;
     // Explained sum of squares of the centred 2-column fit from its moments
     // (ss, cc, sc, rs, rc).
     let solve = |m: &[f64; 5]| {
@@ -222,82 +290,50 @@ fn periodic_best(
         let b = (ss * rc - sc * rs) / det;
         a * rs + b * rc
     };
-    let nb = nf.div_ceil(LANES);
     let mut score = vec![0.0; nf];
     let mut total = vec![[0.0; 5]; nf];
+    let mut mom = vec![[0.0; 5]; nf];
     let mut any = false;
-    // Per row of a group: its residual, the rotation by LANES·Δw·x, and the phasors
-    // (sin, cos) of its LANES current frequencies.
+    // Per row of a run: its residual and variable.
     let mut rv = Vec::new();
-    let mut step = Vec::new();
-    let mut sn = Vec::new();
-    let mut cs = Vec::new();
+    let mut xs = Vec::new();
     for (ri, run) in d.runs.iter().enumerate() {
         if ri % stride != 0 || !reads(run) {
             continue;
         }
         rv.clear();
-        step.clear();
-        sn.clear();
-        cs.clear();
+        xs.clear();
         // The run's rows read along `axis` (one component of each sample).
         for row in 2 * run.start..2 * run.end {
             if d.row_axis(row) != axis {
                 continue;
             }
             rv.push(r[row]);
-            let x = var(&d.samples[row / 2]);
-            let (s1, c1) = (two_pi * df * x).sin_cos();
-            step.push((two_pi * df * LANES as f64 * x).sin_cos());
-            let (mut s, mut c) = (two_pi * f0 * x).sin_cos();
-            for _ in 0..LANES {
-                sn.push(s);
-                cs.push(c);
-                (s, c) = (s * c1 + c * s1, c * c1 - s * s1);
-            }
+            xs.push(var(&d.samples[row / 2]));
         }
-        let n = rv.len() as f64;
         if rv.is_empty() {
             continue;
         }
         any = true;
-        for b in 0..nb {
-            // Σsin, Σcos, Σsin², Σcos², Σsin·cos, Σr·sin, Σr·cos of the group, by lane.
-            let mut acc = [[0.0; LANES]; 7];
-            for (i, (&r, &(s4, c4))) in rv.iter().zip(&step).enumerate() {
-                let ps = &mut sn[i * LANES..(i + 1) * LANES];
-                let pc = &mut cs[i * LANES..(i + 1) * LANES];
-                for l in 0..LANES {
-                    let (s, c) = (ps[l], pc[l]);
-                    acc[0][l] += s;
-                    acc[1][l] += c;
-                    acc[2][l] += s * s;
-                    acc[3][l] += c * c;
-                    acc[4][l] += s * c;
-                    acc[5][l] += r * s;
-                    acc[6][l] += r * c;
-                    ps[l] = s * c4 + c * s4;
-                    pc[l] = c * c4 - s * s4;
-                }
-            }
-            for l in 0..LANES {
-                let k = b * LANES + l;
-                if k >= nf {
-                    break;
-                }
-                let m = [
-                    acc[2][l] - acc[0][l] * acc[0][l] / n,
-                    acc[3][l] - acc[1][l] * acc[1][l] / n,
-                    acc[4][l] - acc[0][l] * acc[1][l] / n,
-                    acc[5][l],
-                    acc[6][l],
-                ];
-                if per_run {
-                    score[k] += solve(&m);
-                } else {
-                    for j in 0..5 {
-                        total[k][j] += m[j];
-                    }
+        // A variable constant over the run gives constant columns, which its centring
+        // removes: the run adds nothing to any frequency's moments.
+        if xs.iter().all(|&x| x == xs[0]) {
+            continue;
+        }
+        // The run's moments [ss, cc, sc, rs, rc] at every frequency: in closed form
+        // with Goertzel's recurrence when the run is evenly sampled in its variable
+        // ([`even_scan`]), else by rotating phasors.
+        if let Some((x0, h)) = even_scan::even_step(&xs) {
+            even_scan::even_moments(x0, h, &rv, f0, df, &mut mom);
+        } else {
+            phasor_moments(&rv, &xs, f0, df, &mut mom);
+        }
+        for (k, m) in mom.iter().enumerate() {
+            if per_run {
+                score[k] += solve(m);
+            } else {
+                for j in 0..5 {
+                    total[k][j] += m[j];
                 }
             }
         }
@@ -314,6 +350,65 @@ fn periodic_best(
     Some(freqs[kbest])
 }
 
+/// The moments [ss, cc, sc, rs, rc] of s = sin(2πf x), c = cos(2πf x) at the samples `xs`
+/// with residual `rv`, at f = f0 + k·df (k < out.len()): ss, cc, sc centred, rs = Σ r·s,
+/// rc = Σ r·c. sin/cos of w_k·x follow by rotation from w_0·x, [`LANES`] frequencies at
+/// a time.
+fn phasor_moments(rv: &[f64], xs: &[f64], f0: f64, df: f64, out: &mut [[f64; 5]]) {
+    let two_pi = 2.0 * std::f64::consts::PI;
+    let nf = out.len();
+    let nb = nf.div_ceil(LANES);
+    // Per row: the rotation by LANES·Δw·x, and the phasors (sin, cos) of its LANES
+    // current frequencies.
+    let mut step = Vec::with_capacity(xs.len());
+    let mut sn = Vec::with_capacity(xs.len() * LANES);
+    let mut cs = Vec::with_capacity(xs.len() * LANES);
+    for &x in xs {
+        let (s1, c1) = (two_pi * df * x).sin_cos();
+        step.push((two_pi * df * LANES as f64 * x).sin_cos());
+        let (mut s, mut c) = (two_pi * f0 * x).sin_cos();
+        for _ in 0..LANES {
+            sn.push(s);
+            cs.push(c);
+            (s, c) = (s * c1 + c * s1, c * c1 - s * s1);
+        }
+    }
+    let n = rv.len() as f64;
+    for b in 0..nb {
+        // Σsin, Σcos, Σsin², Σcos², Σsin·cos, Σr·sin, Σr·cos of the group, by lane.
+        let mut acc = [[0.0; LANES]; 7];
+        for (i, (&r, &(s4, c4))) in rv.iter().zip(&step).enumerate() {
+            let ps = &mut sn[i * LANES..(i + 1) * LANES];
+            let pc = &mut cs[i * LANES..(i + 1) * LANES];
+            for l in 0..LANES {
+                let (s, c) = (ps[l], pc[l]);
+                acc[0][l] += s;
+                acc[1][l] += c;
+                acc[2][l] += s * s;
+                acc[3][l] += c * c;
+                acc[4][l] += s * c;
+                acc[5][l] += r * s;
+                acc[6][l] += r * c;
+                ps[l] = s * c4 + c * s4;
+                pc[l] = c * c4 - s * s4;
+            }
+        }
+        for l in 0..LANES {
+            let k = b * LANES + l;
+            if k >= nf {
+                break;
+            }
+            out[k] = [
+                acc[2][l] - acc[0][l] * acc[0][l] / n,
+                acc[3][l] - acc[1][l] * acc[1][l] / n,
+                acc[4][l] - acc[0][l] * acc[1][l] / n,
+                acc[5][l],
+                acc[6][l],
+            ];
+        }
+    }
+}
+
 /// Σ_k ε_k(q_k) (µrad) at every sample, from the current fit's error parameters.
 fn eps_per_sample(d: &Design, red: &Reduction, f: &Fit) -> Vec<[f64; 3]> {
     let x: Vec<f64> = (0..d.model.len()).map(|j| f.a[j] / red.scale[j]).collect();
@@ -322,8 +417,15 @@ fn eps_per_sample(d: &Design, red: &Reduction, f: &Fit) -> Vec<[f64; 3]> {
         let Component::Rotation(dir) = term.component else {
             continue;
         };
+        // Consecutive samples often share the axis position (a parked axis): the
+        // term's value is evaluated again only when it changes.
+        let mut last = (f64::NAN, 0.0);
         for (s, m) in d.samples.iter().enumerate() {
-            out[s][dir.index()] += d.model.term_value(i, &x, m.q_mm[term.axis.index()]);
+            let q = m.q_mm[term.axis.index()];
+            if q != last.0 {
+                last = (q, d.model.term_value(i, &x, q));
+            }
+            out[s][dir.index()] += last.1;
         }
     }
     out
@@ -344,18 +446,34 @@ fn try_candidate(
         Search::Grid(name, values) => {
             // The thermal time constant is searched on the reduced problem
             // ([`ThermalBasis`]); other parameters from their columns.
-            let basis = (cand.effect == "thermal_drift").then(|| {
-                let mut u: Vec<&[f64]> = f.cols.iter().map(Vec::as_slice).collect();
-                u.push(&d.y);
-                ThermalBasis::new(d, red, &u)
-            });
-            let ssr_at = |v: f64| match &basis {
-                Some(b) => {
+            let basis = (cand.effect == "thermal_drift")
+                .then(|| ThermalBasis::new(d, red, &base_columns(d, &f.cols)));
+            // A candidate that vanishes away from its axis's reversals (the spike) is
+            // evaluated on the rows within its reach at the largest value searched (the
+            // golden section stays within a grid ratio of the grid; 1 % margin).
+            let ratio = values.get(1).map_or(2.0, |v1| v1 / values[0]);
+            let top = values.iter().copied().fold(0.0, f64::max) * ratio * 1.01;
+            let near = catalogue::reach(cand, top).map(|(a, x)| near_rows(d, red, a, x));
+            let ssr_at = |v: f64| match (&basis, &near) {
+                (Some(b), _) => {
                     moments::joint_fit(red, sets, Some(&b.at(v)), &f.base, false)
                         .all
                         .ssr
                 }
-                None => ssr_at(d, red, sets, f, cand, v, eps),
+                (None, Some(near)) => {
+                    let reach = catalogue::reach(cand, v).map_or(f64::INFINITY, |r| r.1);
+                    let specs = catalogue::specs(d, cand, v, eps);
+                    let mom = Moments::over_rows(
+                        red,
+                        specs.len(),
+                        &base_columns(d, &f.cols),
+                        |g, _, out| out.extend(near[g].iter().filter(|p| p.1 < reach).map(|p| p.0)),
+                        |row, out| specs.at(d, row, out),
+                    );
+                    fit_moments(red, sets, f, mom, false)
+                        .map_or(f64::INFINITY, |(_, _, jf)| jf.all.ssr)
+                }
+                (None, None) => ssr_at(d, red, sets, f, cand, v, eps),
             };
             let mut best: Option<(f64, f64)> = None;
             for &v in &values {
@@ -369,7 +487,6 @@ fn try_candidate(
             }
             // Golden-section refinement in log θ around the best grid value.
             let (_, v0) = best?;
-            let ratio = values.get(1).map_or(2.0, |v1| v1 / values[0]);
             let eval = |lv: f64| ssr_at(lv.exp());
             let bracket =
                 super::search::golden_section((v0 / ratio).ln(), (v0 * ratio).ln(), 10, eval);
