@@ -29,6 +29,9 @@ mod dialect {
     /// Statement that makes a transaction's reads one snapshot (READ COMMITTED, the
     /// default, takes a new snapshot per statement).
     pub const SNAPSHOT: &str = "SET TRANSACTION ISOLATION LEVEL REPEATABLE READ, READ ONLY";
+    /// How the fleet page reads its sort keys: as the planner chooses (the wide entry is
+    /// stored out of line, so the table's rows are narrow).
+    pub const FLEET_KEYS: &str = "fleet_drift f";
 }
 
 /// The shared statements, compiled for PostgreSQL.

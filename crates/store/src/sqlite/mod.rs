@@ -24,6 +24,9 @@ mod dialect {
     /// Statement that makes a transaction's reads one snapshot: none needed (in WAL mode
     /// a transaction reads one snapshot from its first read on).
     pub const SNAPSHOT: &str = "";
+    /// How the fleet page reads its sort keys: from the covering index (without
+    /// statistics the planner takes the primary key's index, which reads every wide row).
+    pub const FLEET_KEYS: &str = "fleet_drift f INDEXED BY fleet_drift_keys";
 }
 
 /// The shared statements, compiled for SQLite.

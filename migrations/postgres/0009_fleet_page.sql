@@ -1,0 +1,11 @@
+-- The fleet page at fleet scale (10 000 machines).
+-- `basis` names what a stored fleet row was computed from (the row format, the baseline
+-- and latest results, how many results, the tolerance profile and its revision): the
+-- refresh at start skips the rows whose basis is still current. NULL: written by an
+-- older version, recomputed once.
+ALTER TABLE fleet_drift ADD COLUMN basis TEXT;
+-- The page sorts every machine by these keys: read from this index, never from the
+-- wide rows (a row's entry, with its sparkline, is kilobytes).
+CREATE INDEX fleet_drift_keys ON fleet_drift(machine_id, drift_um, drift_urad, latest_measured_at);
+-- The machines with active alerts (few) come first on the page.
+CREATE INDEX alerts_active ON alerts(machine_id) WHERE acknowledged_at IS NULL;
