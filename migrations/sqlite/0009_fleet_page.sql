@@ -9,3 +9,7 @@ ALTER TABLE fleet_drift ADD COLUMN basis TEXT;
 CREATE INDEX fleet_drift_keys ON fleet_drift(machine_id, drift_um, drift_urad, latest_measured_at);
 -- The machines with active alerts (few) come first on the page.
 CREATE INDEX alerts_active ON alerts(machine_id) WHERE acknowledged_at IS NULL;
+-- The page's filter choices (every site, every tag list) and its count read these, not
+-- the machines' rows.
+CREATE INDEX machines_site ON machines(site);
+CREATE INDEX machines_tags ON machines(tags);
