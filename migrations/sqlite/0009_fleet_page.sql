@@ -13,3 +13,7 @@ CREATE INDEX alerts_active ON alerts(machine_id) WHERE acknowledged_at IS NULL;
 -- the machines' rows.
 CREATE INDEX machines_site ON machines(site);
 CREATE INDEX machines_tags ON machines(tags);
+-- Each machine's current (not excluded) results in time order, from the index alone:
+-- how many, its first and its latest (the refresh at start asks this of every machine).
+CREATE INDEX results_current ON results(machine_id, kind, measured_at, id)
+    WHERE excluded_at IS NULL;
