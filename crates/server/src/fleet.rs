@@ -178,7 +178,8 @@ pub async fn refresh_machine(store: &dyn Store, id: &str) -> Result<(), StoreErr
 pub struct Refreshed {
     /// Machines with a row (those with an identification).
     pub machines: usize,
-    /// Rows recomputed because their basis was not current (the rest were kept).
+    /// Rows recomputed because their basis was not current or their machine had no
+    /// identification left (the rest were kept).
     pub recomputed: usize,
 }
 
@@ -192,8 +193,7 @@ pub async fn refresh_all(store: &dyn Store) -> Result<Refreshed, StoreError> {
     let profiles = store.list_tolerances().await?;
     let mut stored: HashMap<String, Option<String>> =
         store.fleet_drift_bases().await?.into_iter().collect();
-    let mut batch = Vec::new();
-    let mut recomputed = 0;
+    let mut stale = Vec::new();
     for p in &pairs {
         let profile = crate::tolerances::applicable(&profiles, &p.machine);
         let now = basis(
@@ -202,13 +202,18 @@ pub async fn refresh_all(store: &dyn Store) -> Result<Refreshed, StoreError> {
             usize::try_from(p.results).unwrap_or(0),
             profile,
         );
-        if stored.remove(&p.machine.id).flatten().as_deref() == Some(now.as_str()) {
-            continue;
+        if stored.remove(&p.machine.id).flatten().as_deref() != Some(now.as_str()) {
+            stale.push(p.machine.id.clone());
         }
-        recomputed += 1;
-        match compute(store, &profiles, &p.machine.id).await? {
+    }
+    // Rows left over belong to machines without an identification when the pairs were
+    // read: recomputed too (removed, unless a result landed since).
+    stale.extend(stored.into_keys());
+    let mut batch = Vec::new();
+    for id in &stale {
+        match compute(store, &profiles, id).await? {
             Some(r) => batch.push(r),
-            None => store.delete_fleet_drift(&p.machine.id).await?,
+            None => store.delete_fleet_drift(id).await?,
         }
         if batch.len() >= REFRESH_BATCH {
             store.put_fleet_drifts(&batch).await?;
@@ -216,10 +221,7 @@ pub async fn refresh_all(store: &dyn Store) -> Result<Refreshed, StoreError> {
         }
     }
     store.put_fleet_drifts(&batch).await?;
-    // Rows left over belong to machines without an identification now.
-    for id in stored.keys() {
-        store.delete_fleet_drift(id).await?;
-    }
+    let recomputed = stale.len();
     Ok(Refreshed {
         machines: pairs.len(),
         recomputed,
