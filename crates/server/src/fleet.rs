@@ -12,6 +12,11 @@
 //! Concurrency: each row records when the state it was computed from was read; the store
 //! keeps the row from the latest read, so two workers finishing results of one machine at
 //! once cannot leave the earlier computation in place.
+//!
+//! Each row also names its basis ([`basis`]: the row format, the baseline and latest
+//! results, the number of results, the tolerance profile and its revision). The refresh
+//! at start compares it with the basis the machine has now and recomputes only the rows
+//! that differ, so a restart costs one query over the fleet, not a read of every check.
 
 use crate::api::history::KIND;
 use crate::api::trends::FleetEntry;
@@ -19,7 +24,29 @@ use crate::trends;
 use mtcal_store::{
     FleetDriftRow, Machine, ResultMeta, Store, StoreError, ToleranceProfile, now_ms,
 };
+use std::collections::HashMap;
 use std::sync::Arc;
+
+/// The format of the rows this version computes: raised whenever what a row holds or how
+/// it is computed changes, so that rows of an older computation are recomputed at start.
+pub const ROW_FORMAT: u32 = 1;
+
+/// Rows written per transaction by [`refresh_all`].
+const REFRESH_BATCH: usize = 500;
+
+/// What a machine's row is computed from: the row format ([`ROW_FORMAT`]), its baseline
+/// and latest results, how many results it has (a result added or excluded changes the
+/// sparkline) and the tolerance profile that applies with its revision (`updated_at`),
+/// or none. Two equal bases give equal rows.
+pub fn basis(
+    baseline_id: &str,
+    latest_id: &str,
+    results: usize,
+    profile: Option<&ToleranceProfile>,
+) -> String {
+    let profile = profile.map_or_else(String::new, |p| format!("{}@{}", p.id, p.updated_at));
+    format!("v{ROW_FORMAT} {baseline_id} {latest_id} {results} {profile}")
+}
 
 /// The fleet page's sparkline of a machine: its worst translational term's value in each
 /// check, in time order, at the end of the latest check's measured travel (of the term's
@@ -78,9 +105,11 @@ async fn row(
     let (Some(baseline), Some(latest)) = (baseline(machine, results), results.last()) else {
         return Ok(None);
     };
+    let profile = crate::tolerances::applicable(profiles, machine);
+    let basis = basis(&baseline.id, &latest.id, results.len(), profile);
     // The latest result's document is read only when a profile applies. A document that
     // cannot be judged leaves the verdict out, never the drift.
-    let verdict = match crate::tolerances::applicable(profiles, machine) {
+    let verdict = match profile {
         Some(_) => {
             let r = store.get_result(&latest.id).await?;
             crate::tolerances::verdict(store, profiles, machine, &r)
@@ -113,40 +142,86 @@ async fn row(
         drift_urad: entry.drift.drift_urad,
         entry: serde_json::to_value(&entry).map_err(|e| StoreError::Backend(e.to_string()))?,
         latest_measured_at: Some(latest.measured_at.clone()),
+        basis: Some(basis),
     }))
 }
 
-/// Recomputes and stores one machine's row against `profiles`.
-async fn refresh_with(
+/// Machine `id`'s row from the machine and its identifications as they are now (read
+/// after the row's read time), against `profiles` (None: it has no identification).
+async fn compute(
     store: &dyn Store,
     profiles: &[ToleranceProfile],
     id: &str,
-) -> Result<(), StoreError> {
+) -> Result<Option<FleetDriftRow>, StoreError> {
     let read_at = now_ms();
     let machine = store.get_machine(id).await?;
     let results = store.list_results(id, KIND).await?;
-    match row(store, profiles, read_at, &machine, &results).await? {
-        Some(r) => store.put_fleet_drift(&r).await.map(|_| ()),
-        None => store.delete_fleet_drift(id).await,
-    }
+    row(store, profiles, read_at, &machine, &results).await
 }
 
 /// Recomputes and stores machine `id`'s drift (its baseline: the chosen one, else its
 /// first identification; against its latest).
 pub async fn refresh_machine(store: &dyn Store, id: &str) -> Result<(), StoreError> {
     let profiles = store.list_tolerances().await?;
-    refresh_with(store, &profiles, id).await
+    match compute(store, &profiles, id).await? {
+        Some(r) => store.put_fleet_drift(&r).await.map(|_| ()),
+        None => store.delete_fleet_drift(id).await,
+    }
 }
 
-/// Recomputes every machine's row (each machine's checks read once: the sparkline needs
-/// them all); returns how many machines have one.
-pub async fn refresh_all(store: &dyn Store) -> Result<usize, StoreError> {
+/// How a refresh of the whole fleet went.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct Refreshed {
+    /// Machines with a row (those with an identification).
+    pub machines: usize,
+    /// Rows recomputed because their basis was not current or their machine had no
+    /// identification left (the rest were kept).
+    pub recomputed: usize,
+}
+
+/// Brings every machine's row up to date: one query gives each machine's baseline,
+/// latest result and result count, and only the rows whose stored [`basis`] differs from
+/// the current one are recomputed (each such machine's checks read once: the sparkline
+/// needs them all), written [`REFRESH_BATCH`] to a transaction. Rows of machines left
+/// without an identification are removed.
+pub async fn refresh_all(store: &dyn Store) -> Result<Refreshed, StoreError> {
     let pairs = store.baseline_pairs(KIND).await?;
     let profiles = store.list_tolerances().await?;
+    let mut stored: HashMap<String, Option<String>> =
+        store.fleet_drift_bases().await?.into_iter().collect();
+    let mut stale = Vec::new();
     for p in &pairs {
-        refresh_with(store, &profiles, &p.machine.id).await?;
+        let profile = crate::tolerances::applicable(&profiles, &p.machine);
+        let now = basis(
+            &p.baseline.id,
+            &p.latest.id,
+            usize::try_from(p.results).unwrap_or(0),
+            profile,
+        );
+        if stored.remove(&p.machine.id).flatten().as_deref() != Some(now.as_str()) {
+            stale.push(p.machine.id.clone());
+        }
     }
-    Ok(pairs.len())
+    // Rows left over belong to machines without an identification when the pairs were
+    // read: recomputed too (removed, unless a result landed since).
+    stale.extend(stored.into_keys());
+    let mut batch = Vec::new();
+    for id in &stale {
+        match compute(store, &profiles, id).await? {
+            Some(r) => batch.push(r),
+            None => store.delete_fleet_drift(id).await?,
+        }
+        if batch.len() >= REFRESH_BATCH {
+            store.put_fleet_drifts(&batch).await?;
+            batch.clear();
+        }
+    }
+    store.put_fleet_drifts(&batch).await?;
+    let recomputed = stale.len();
+    Ok(Refreshed {
+        machines: pairs.len(),
+        recomputed,
+    })
 }
 
 /// An identification `result_id` of machine `machine_id` has landed: its drift row is

@@ -397,7 +397,11 @@ pub async fn serve(
     // Drift of results stored before this version or imported in bulk.
     tokio::spawn(async move {
         match fleet::refresh_all(store.as_ref()).await {
-            Ok(n) => tracing::info!(machines = n, "fleet drift refreshed"),
+            Ok(n) => tracing::info!(
+                machines = n.machines,
+                recomputed = n.recomputed,
+                "fleet drift refreshed"
+            ),
             Err(e) => tracing::warn!(%e, "fleet drift not refreshed"),
         }
     });

@@ -11,7 +11,8 @@ use crate::keys::{ApiKey, NewKey, Scope};
 use crate::model::*;
 use crate::queue::{Heartbeat, JobKind, Queue, lease_held};
 use crate::rows::{
-    self, Columns, DATASET_COLUMNS, JOB_COLUMNS, KEY_COLUMNS, MACHINE_COLUMNS, RESULT_COLUMNS,
+    self, Columns, DATASET_COLUMNS, FLEET_DRIFT_COLUMNS, JOB_COLUMNS, KEY_COLUMNS, MACHINE_COLUMNS,
+    RESULT_COLUMNS,
 };
 use crate::rules::{self, MachineJson, Manifest, ResultRow};
 use crate::{Store, StoreFuture, now_ms, now_rfc3339};
@@ -157,6 +158,43 @@ async fn row_by_id<'e>(
         .await
         .db()?
         .ok_or_else(|| StoreError::NotFound(format!("{what} {id}")))
+}
+
+/// Stores a machine's fleet row unless the stored one was computed from a later read;
+/// returns whether it was stored.
+async fn upsert_fleet_drift<'e>(
+    ex: impl Executor<'e, Database = Db>,
+    row: &FleetDriftRow,
+) -> Result<bool> {
+    let done = sqlx::query(
+        "INSERT INTO fleet_drift (machine_id, read_at_ms, drift_um, drift_urad, entry, \
+         latest_measured_at, basis) \
+         VALUES ($1, $2, $3, $4, $5, $6, $7) ON CONFLICT (machine_id) DO UPDATE SET \
+         read_at_ms = EXCLUDED.read_at_ms, drift_um = EXCLUDED.drift_um, \
+         drift_urad = EXCLUDED.drift_urad, entry = EXCLUDED.entry, \
+         latest_measured_at = EXCLUDED.latest_measured_at, basis = EXCLUDED.basis \
+         WHERE fleet_drift.read_at_ms <= EXCLUDED.read_at_ms",
+    )
+    .bind(&row.machine_id)
+    .bind(row.read_at_ms)
+    .bind(row.drift_um)
+    .bind(row.drift_urad)
+    .bind(serde_json::to_string(&row.entry).db()?)
+    .bind(&row.latest_measured_at)
+    .bind(&row.basis)
+    .execute(ex)
+    .await
+    .db()?;
+    Ok(done.rows_affected() == 1)
+}
+
+/// `columns` (comma-separated) each prefixed with table alias `alias`.
+fn qualified(alias: &str, columns: &str) -> String {
+    columns
+        .split(',')
+        .map(|c| format!("{alias}.{}", c.trim()))
+        .collect::<Vec<_>>()
+        .join(", ")
 }
 
 /// Inserts a result row inside `tx`; returns its metadata.
@@ -669,26 +707,30 @@ impl Store for This {
     }
 
     fn put_fleet_drift<'a>(&'a self, row: &'a FleetDriftRow) -> StoreFuture<'a, bool> {
+        Box::pin(async move { upsert_fleet_drift(&self.pool, row).await })
+    }
+
+    fn put_fleet_drifts<'a>(&'a self, rows: &'a [FleetDriftRow]) -> StoreFuture<'a, usize> {
         Box::pin(async move {
-            let done = sqlx::query(
-                "INSERT INTO fleet_drift (machine_id, read_at_ms, drift_um, drift_urad, entry, \
-                 latest_measured_at) \
-                 VALUES ($1, $2, $3, $4, $5, $6) ON CONFLICT (machine_id) DO UPDATE SET \
-                 read_at_ms = EXCLUDED.read_at_ms, drift_um = EXCLUDED.drift_um, \
-                 drift_urad = EXCLUDED.drift_urad, entry = EXCLUDED.entry, \
-                 latest_measured_at = EXCLUDED.latest_measured_at \
-                 WHERE fleet_drift.read_at_ms <= EXCLUDED.read_at_ms",
-            )
-            .bind(&row.machine_id)
-            .bind(row.read_at_ms)
-            .bind(row.drift_um)
-            .bind(row.drift_urad)
-            .bind(serde_json::to_string(&row.entry).db()?)
-            .bind(&row.latest_measured_at)
-            .execute(&self.pool)
-            .await
-            .db()?;
-            Ok(done.rows_affected() == 1)
+            let mut tx = self.pool.begin().await.db()?;
+            let mut stored = 0;
+            for row in rows {
+                stored += usize::from(upsert_fleet_drift(&mut *tx, row).await?);
+            }
+            tx.commit().await.db()?;
+            Ok(stored)
+        })
+    }
+
+    fn fleet_drift_bases(&self) -> StoreFuture<'_, Vec<(String, Option<String>)>> {
+        Box::pin(async move {
+            sqlx::query("SELECT machine_id, basis FROM fleet_drift")
+                .fetch_all(&self.pool)
+                .await
+                .db()?
+                .iter()
+                .map(|r| Ok((r.text("machine_id")?, r.opt_text("basis")?)))
+                .collect()
         })
     }
 
@@ -711,10 +753,10 @@ impl Store for This {
         Box::pin(async move {
             let order = if by_um { "drift_um" } else { "drift_urad" };
             let q = format!(
-                "SELECT f.machine_id, f.read_at_ms, f.drift_um, f.drift_urad, f.entry, \
-                 f.latest_measured_at, m.name, m.site \
+                "SELECT {}, m.name, m.site \
                  FROM fleet_drift f JOIN machines m ON m.id = f.machine_id \
-                 ORDER BY f.{order} DESC, f.machine_id LIMIT $1"
+                 ORDER BY f.{order} DESC, f.machine_id LIMIT $1",
+                qualified("f", FLEET_DRIFT_COLUMNS)
             );
             let rows = sqlx::query(sqlx::AssertSqlSafe(q))
                 .bind(i64::try_from(limit).unwrap_or(i64::MAX))
@@ -749,22 +791,26 @@ impl Store for This {
             };
             let filter =
                 "($1 IS NULL OR m.site = $1) AND ($2 IS NULL OR m.tags LIKE $2 ESCAPE '!')";
-            // The page's ids are chosen on narrow rows (id and sort keys only); only those
-            // rows are then read whole (a machine's entry is kilobytes).
+            // The page's ids are chosen on narrow rows: the machines' ids, site and tags,
+            // the sort keys from the covering index `fleet_drift_keys` and the active alert
+            // counts from the partial index `alerts_active` (grouped once, not probed per
+            // machine); only those rows are then read whole (a machine's entry is
+            // kilobytes) and put in the same order again.
+            const ACTIVE: &str = "(SELECT machine_id, COUNT(*) AS n FROM alerts \
+                 WHERE acknowledged_at IS NULL GROUP BY machine_id)";
             let sql = format!(
                 "SELECT m.id AS mid, m.name, m.topology, m.travel_mm, m.site, m.tags, \
-                 m.baseline_result_id, m.created_at, m.updated_at, \
-                 f.machine_id, f.read_at_ms, f.drift_um, f.drift_urad, f.entry, \
-                 f.latest_measured_at, \
-                 (SELECT COUNT(*) FROM alerts a WHERE a.machine_id = m.id \
-                  AND a.acknowledged_at IS NULL) AS active_alerts \
-                 FROM (SELECT m.id AS pid, ROW_NUMBER() OVER (ORDER BY \
-                   (SELECT COUNT(*) FROM alerts a WHERE a.machine_id = m.id \
-                    AND a.acknowledged_at IS NULL) > 0 DESC, {order}) AS rn \
-                   FROM machines m LEFT JOIN fleet_drift f ON f.machine_id = m.id \
-                   WHERE {filter} ORDER BY rn LIMIT $3 OFFSET $4) p \
+                 m.baseline_result_id, m.created_at, m.updated_at, {}, \
+                 COALESCE(p.n, 0) AS active_alerts \
+                 FROM (SELECT m.id AS pid, a.n FROM machines m \
+                   LEFT JOIN {keys} ON f.machine_id = m.id \
+                   LEFT JOIN {ACTIVE} a ON a.machine_id = m.id \
+                   WHERE {filter} ORDER BY a.n IS NOT NULL DESC, {order} LIMIT $3 OFFSET $4) p \
                  JOIN machines m ON m.id = p.pid \
-                 LEFT JOIN fleet_drift f ON f.machine_id = m.id ORDER BY p.rn"
+                 LEFT JOIN fleet_drift f ON f.machine_id = m.id \
+                 ORDER BY p.n IS NOT NULL DESC, {order}",
+                qualified("f", FLEET_DRIFT_COLUMNS),
+                keys = dialect::FLEET_KEYS,
             );
             let found = sqlx::query(sqlx::AssertSqlSafe(sql))
                 .bind(&q.site)

@@ -142,6 +142,11 @@ pub trait Store: Queue {
     /// Stores a machine's drift unless the stored row was computed from a later read
     /// (`read_at_ms`); returns whether it was stored.
     fn put_fleet_drift<'a>(&'a self, row: &'a FleetDriftRow) -> StoreFuture<'a, bool>;
+    /// Stores many machines' rows in one transaction, each as [`Store::put_fleet_drift`];
+    /// returns how many were stored.
+    fn put_fleet_drifts<'a>(&'a self, rows: &'a [FleetDriftRow]) -> StoreFuture<'a, usize>;
+    /// Every stored row's machine and basis ([`FleetDriftRow::basis`]).
+    fn fleet_drift_bases(&self) -> StoreFuture<'_, Vec<(String, Option<String>)>>;
     /// Removes a machine's drift (it has no result of the kind any more).
     fn delete_fleet_drift<'a>(&'a self, machine_id: &'a str) -> StoreFuture<'a, ()>;
     /// The machines' drift, largest first by `drift_um` (`by_um`) or `drift_urad`, at

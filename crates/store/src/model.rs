@@ -286,6 +286,10 @@ pub struct FleetDriftRow {
     /// When the latest result was measured (the fleet page sorts by it).
     #[serde(default)]
     pub latest_measured_at: Option<String>,
+    /// What the row was computed from, as the service names it (None: written by an
+    /// older version); a refresh skips the rows whose basis is still current.
+    #[serde(default)]
+    pub basis: Option<String>,
 }
 
 /// The orders of the fleet page.

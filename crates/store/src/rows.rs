@@ -234,8 +234,11 @@ pub(crate) fn api_key(r: &impl Columns) -> Result<ApiKey> {
     })
 }
 
-/// A fleet drift row (columns `machine_id`, `read_at_ms`, `drift_um`, `drift_urad`,
-/// `entry`, `latest_measured_at`).
+/// The columns of a fleet drift row, in [`fleet_drift`]'s order.
+pub(crate) const FLEET_DRIFT_COLUMNS: &str =
+    "machine_id, read_at_ms, drift_um, drift_urad, entry, latest_measured_at, basis";
+
+/// A fleet drift row ([`FLEET_DRIFT_COLUMNS`]).
 pub(crate) fn fleet_drift(r: &impl Columns) -> Result<FleetDriftRow> {
     Ok(FleetDriftRow {
         machine_id: r.text("machine_id")?,
@@ -244,6 +247,7 @@ pub(crate) fn fleet_drift(r: &impl Columns) -> Result<FleetDriftRow> {
         drift_urad: r.real("drift_urad")?,
         entry: r.json("entry")?,
         latest_measured_at: r.opt_text("latest_measured_at")?,
+        basis: r.opt_text("basis")?,
     })
 }
 

@@ -554,6 +554,7 @@ async fn fleet_drift_is_ranked_and_an_older_computation_never_replaces_a_newer(s
         drift_urad: urad,
         entry: serde_json::json!({"machine_id": id, "drift_um": um}),
         latest_measured_at: Some(format!("2026-0{}-01T00:00:00Z", 1 + at % 9)),
+        basis: Some(format!("b{at}")),
     };
     assert!(s.put_fleet_drift(&row("M1", 10, 3.0, 1.0)).await.unwrap());
     assert!(s.put_fleet_drift(&row("M2", 10, 5.0, 0.5)).await.unwrap());
@@ -583,6 +584,29 @@ async fn fleet_drift_is_ranked_and_an_older_computation_never_replaces_a_newer(s
     assert_eq!(
         ids(s.fleet_drift_ranked(true, 10).await.unwrap()),
         ["M2", "M3"]
+    );
+    // Many rows in one transaction, each kept only if not older than the stored one.
+    let stored = s
+        .put_fleet_drifts(&[
+            row("M1", 12, 2.0, 2.0),
+            row("M2", 9, 8.0, 8.0),
+            row("M3", 12, 4.0, 4.0),
+        ])
+        .await
+        .unwrap();
+    assert_eq!(stored, 2, "M2's older computation ignored");
+    let ranked = s.fleet_drift_ranked(true, 10).await.unwrap();
+    assert_eq!(ids(ranked.clone()), ["M2", "M3", "M1"]);
+    assert_eq!(ranked[0].0, row("M2", 10, 5.0, 0.5), "read back whole");
+    let mut bases = s.fleet_drift_bases().await.unwrap();
+    bases.sort();
+    assert_eq!(
+        bases,
+        [
+            ("M1".to_string(), Some("b12".to_string())),
+            ("M2".into(), Some("b10".into())),
+            ("M3".into(), Some("b12".into())),
+        ]
     );
 }
 
@@ -770,6 +794,7 @@ async fn fleet_page_puts_alerted_machines_first_then_filters_sorts_and_counts(s:
         drift_urad: urad,
         entry: json!({"machine_id": id}),
         latest_measured_at: Some(at.into()),
+        basis: None,
     };
     s.put_fleet_drift(&row("A", 1.0, 9.0, "2026-03-01T00:00:00Z"))
         .await
@@ -803,7 +828,11 @@ async fn fleet_page_puts_alerted_machines_first_then_filters_sorts_and_counts(s:
     assert_eq!(p.sites, ["north", "south"]);
     assert_eq!(p.tags, ["50%", "5_axis", "5xaxis", "vmc"]);
     assert!(p.rows[3].drift.is_none());
-    assert_eq!(p.rows[0].drift.as_ref().unwrap().drift_um, 5.0);
+    assert_eq!(
+        p.rows[0].drift,
+        Some(row("B", 5.0, 1.0, "2026-01-01T00:00:00Z")),
+        "the page's rows read whole"
+    );
     assert_eq!(
         ids(&s
             .fleet_page(&q(FleetSort::DriftUrad, None, None))

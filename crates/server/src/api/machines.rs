@@ -145,9 +145,12 @@ pub async fn update_machine(
     if let Some(t) = &p.travel_mm {
         check_travel(t)?;
     }
-    let baseline_changes = p.baseline_result_id.is_some();
+    // The fleet row depends on the baseline, the tags (which tolerance profile applies)
+    // and the name and site its entry repeats.
+    let row_changes =
+        p.baseline_result_id.is_some() || p.tags.is_some() || p.name.is_some() || p.site.is_some();
     let m = s.store.update_machine(id, &p).await?;
-    if baseline_changes {
+    if row_changes {
         crate::fleet::refresh_machine(s.store.as_ref(), id).await?;
     }
     Ok(m)

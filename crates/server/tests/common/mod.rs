@@ -6,8 +6,9 @@
 use axum::body::Body;
 use axum::http::{Request, StatusCode, header};
 use mtcal_server::{AppState, UploadLimits, router};
-use mtcal_store::{Scope, Store};
+use mtcal_store::{NewResult, ResultScalars, Scope, Store};
 use serde_json::Value;
+use std::collections::BTreeMap;
 use std::sync::Arc;
 use tower::ServiceExt;
 
@@ -98,4 +99,24 @@ pub async fn machine(app: &axum::Router, write_key: &str, id: &str) {
     );
     let (s, b) = send(app, req).await;
     assert_eq!(s, StatusCode::CREATED, "{b}");
+}
+
+/// An identification of machine `machine` at `at` whose only term is EXX = c1·x (µm, x
+/// in mm) with var(c1) = `var`, measured over x ∈ [−50, 50] mm (its document is not a
+/// whole identification: no verdict reads it).
+pub fn identification(machine: &str, at: &str, c1: f64, var: f64) -> NewResult {
+    NewResult {
+        machine_id: machine.into(),
+        dataset_id: None,
+        kind: "identification".into(),
+        measured_at: at.into(),
+        document: serde_json::json!({"kind": "identification"}),
+        scalars: ResultScalars {
+            term_coefficients: BTreeMap::from([("EXX".into(), vec![c1])]),
+            term_covariance: BTreeMap::from([("EXX".into(), vec![vec![var]])]),
+            measured_travel_mm: BTreeMap::from([("X".into(), [-50.0, 50.0])]),
+            ..ResultScalars::default()
+        },
+        figures: vec![],
+    }
 }

@@ -28,6 +28,9 @@ mod dialect {
     /// database file and empties it, so that (with `secure_delete`, which zeroes freed
     /// content) the deleted bytes leave the disk at once, not at the next checkpoint.
     pub const AFTER_BYTES_DELETED: &str = "PRAGMA wal_checkpoint(TRUNCATE)";
+    /// How the fleet page reads its sort keys: from the covering index (without
+    /// statistics the planner takes the primary key's index, which reads every wide row).
+    pub const FLEET_KEYS: &str = "fleet_drift f INDEXED BY fleet_drift_keys";
 }
 
 /// The shared statements, compiled for SQLite.
