@@ -48,8 +48,11 @@ pub const JSON_BODY_LIMIT: usize = 1 << 20;
 pub const REQUEST_TIMEOUT: Duration = Duration::from_secs(30);
 /// Time limit of uploads.
 pub const UPLOAD_TIMEOUT: Duration = Duration::from_secs(300);
-/// Uploads read at the same time by one process; more wait for a slot (within the
-/// upload time limit) before their body is read. An upload may decompress to the byte
+/// Longest an upload waits for a reading slot ([`MAX_CONCURRENT_UPLOADS`]) before its
+/// own time limit ([`UPLOAD_TIMEOUT`]) starts; past it the upload is refused with 408.
+pub const UPLOAD_SLOT_WAIT: Duration = Duration::from_secs(300);
+/// Uploads read at the same time by one process; more wait for a slot (at most
+/// [`UPLOAD_SLOT_WAIT`]) before their body is read. An upload may decompress to the byte
 /// limit (256 MiB) and its columns take about as much again, so two at a time bound a
 /// process's upload memory near 1 GB whatever the number of clients.
 pub const MAX_CONCURRENT_UPLOADS: usize = 2;
@@ -121,6 +124,12 @@ pub fn router(state: AppState) -> Router {
         .layer(DefaultBodyLimit::max(state.limits.max_bytes))
         .layer(RequestDecompressionLayer::new())
         .layer(axum::middleware::from_fn(api::datasets::note_encoding))
+        // The upload's own time limit starts when it has a reading slot: waiting behind
+        // two large uploads does not use it up. The wait is bounded by the outer limit.
+        .layer(TimeoutLayer::with_status_code(
+            StatusCode::REQUEST_TIMEOUT,
+            UPLOAD_TIMEOUT,
+        ))
         .layer(tower::limit::ConcurrencyLimitLayer::new(
             MAX_CONCURRENT_UPLOADS,
         ))
@@ -130,7 +139,7 @@ pub fn router(state: AppState) -> Router {
         ))
         .layer(TimeoutLayer::with_status_code(
             StatusCode::REQUEST_TIMEOUT,
-            UPLOAD_TIMEOUT,
+            UPLOAD_SLOT_WAIT + UPLOAD_TIMEOUT,
         ));
     let rest = Router::new()
         .route(
