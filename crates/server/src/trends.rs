@@ -52,11 +52,6 @@ pub fn value(s: &ResultScalars, name: &str, q_mm: f64) -> Option<Value> {
     comparison::term_value(&Stored(s), Term::parse(name)?, q_mm)
 }
 
-/// Standard uncertainty of a stored squareness.
-pub fn squareness_std(s: &ResultScalars, name: &str) -> Option<f64> {
-    Stored(s).squareness_std(name)
-}
-
 /// `unit` and axis letter of an ISO 230-1 term name (`None` if not one of the 18).
 pub fn term_info(name: &str) -> Option<(&'static str, char)> {
     let t = Term::parse(name)?;
@@ -141,7 +136,7 @@ mod tests {
         assert!((v.value - 0.5).abs() < 1e-12 && (v.u.unwrap() - 0.05).abs() < 1e-12);
         assert!(value(&s, "EXX", 60.0).is_none());
         assert!(measured_at(&s, 'X', 50.0) && !measured_at(&s, 'Y', 0.0));
-        assert_eq!(squareness_std(&s, "EC0Y"), Some(0.2));
+        assert_eq!(Stored(&s).squareness_std("EC0Y"), Some(0.2));
         let (_, sq) = diff(&s, &l, 10.0);
         assert_eq!(sq["EC0Y"], Some(1.5));
         assert_eq!(sq["EA0Z"], Some(-0.5));

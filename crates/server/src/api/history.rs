@@ -12,10 +12,6 @@ use serde::{Deserialize, Serialize};
 use std::collections::BTreeMap;
 use utoipa::{IntoParams, ToSchema};
 
-/// Most positions per term a difference evaluates (`step_mm` is refused below
-/// travel / this).
-pub use mtcal_solver::comparison::MAX_DIFF_POSITIONS;
-
 /// Result kind the history routes read by default (and the only one diff and trends use).
 pub const KIND: &str = "identification";
 
