@@ -53,7 +53,8 @@ fn start_demo(dir: &Path) -> (Guard, String, String) {
         .args(["--listen", "127.0.0.1:0", "--db"])
         .arg(dir.join("demo.sqlite"))
         .stdout(Stdio::piped())
-        .stderr(Stdio::null())
+        // The service's log, printed when the test fails (see `log_tail`).
+        .stderr(std::fs::File::create(dir.join("demo.log")).expect("demo log"))
         .spawn()
         .expect("mtcal demo starts");
     let out = BufReader::new(child.stdout.take().expect("stdout"));
@@ -80,6 +81,16 @@ fn start_demo(dir: &Path) -> (Guard, String, String) {
     assert!(base.starts_with("http://127.0.0.1:"), "{dashboard}");
     assert!(key.starts_with("mtk_"));
     (guard, base, key)
+}
+
+/// The last lines of the demo service's log (for a failure message).
+fn log_tail(dir: &Path) -> String {
+    let log = std::fs::read_to_string(dir.join("demo.log")).unwrap_or_default();
+    let lines: Vec<&str> = log.lines().collect();
+    format!(
+        "--- service log (last 40 lines) ---\n{}",
+        lines[lines.len().saturating_sub(40)..].join("\n")
+    )
 }
 
 /// The API, as a client of the documented routes.
@@ -436,21 +447,47 @@ async fn run(c: &Client, base: &str, key: &str, shots: &Path, work: &Path) {
         .unwrap();
     wait_for(c, "#jobs .job", Duration::from_secs(20)).await;
     shot(c, shots, "upload").await;
-    // The page reloads when the job ends; the new check is the newest row.
+    // The page reloads when the job ends; the new check is the newest row. The job is
+    // watched through the API as well, so that a failure says what happened to it.
+    let job_id = c
+        .find(Locator::Css("#jobs .job"))
+        .await
+        .unwrap()
+        .attr("data-job")
+        .await
+        .unwrap()
+        .expect("the job block names its job");
     let t0 = Instant::now();
+    let mut ended: Option<Instant> = None;
     loop {
         let n = c
             .find_all(Locator::Css("#checks tbody tr"))
             .await
-            .unwrap()
-            .len();
+            .map(|rows| rows.len())
+            .unwrap_or(0);
         if n == before + 1 {
             break;
         }
-        assert!(
-            t0.elapsed() < Duration::from_secs(60),
-            "the new check did not appear"
-        );
+        let job = api(base, key, &format!("/api/v1/jobs/{job_id}")).await;
+        match job["state"].as_str() {
+            Some("succeeded") => {
+                // The page script reloads within its next poll (a second).
+                let at = *ended.get_or_insert_with(Instant::now);
+                assert!(
+                    at.elapsed() < Duration::from_secs(20),
+                    "job {job_id} succeeded but the page did not show its check                      ({n} rows, {before} before)\n{}",
+                    log_tail(work)
+                );
+            }
+            Some("failed" | "cancelled") => {
+                panic!("the uploaded check's job ended {job}\n{}", log_tail(work))
+            }
+            _ => assert!(
+                t0.elapsed() < Duration::from_secs(240),
+                "the uploaded check's job did not end: {job}\n{}",
+                log_tail(work)
+            ),
+        }
         tokio::time::sleep(Duration::from_millis(500)).await;
     }
     let newest = text(c, "#checks tbody tr:first-child").await;

@@ -266,6 +266,26 @@ pub async fn machine(
 ) -> PageResult {
     let app = &s.app;
     let m = app.store.get_machine(&id).await?;
+    // The jobs are read before the checks: a job already ended has its result in the
+    // list below (a job's result and its end are one commit), and a job still running
+    // is polled by the page script, which reloads the page when it ends. Read after the
+    // checks, a job ending in between would show as ended above a list without its
+    // result, and the page would never reload.
+    let mut jobs = vec![];
+    for j in q
+        .jobs
+        .as_deref()
+        .unwrap_or("")
+        .split(',')
+        .filter(|j| !j.is_empty())
+        .take(10)
+    {
+        if let Ok(job) = app.store.get_job(j).await
+            && job.machine_id.as_deref() == Some(id.as_str())
+        {
+            jobs.push(job_row(&job));
+        }
+    }
     let mut checks = vec![];
     let mut identifications = vec![];
     for kind in KINDS {
@@ -395,21 +415,6 @@ pub async fn machine(
             .collect(),
     })
     .collect();
-    let mut jobs = vec![];
-    for j in q
-        .jobs
-        .as_deref()
-        .unwrap_or("")
-        .split(',')
-        .filter(|j| !j.is_empty())
-        .take(10)
-    {
-        if let Ok(job) = app.store.get_job(j).await
-            && job.machine_id.as_deref() == Some(id.as_str())
-        {
-            jobs.push(job_row(&job));
-        }
-    }
     let page = vmachine::MachinePage {
         machine: vmachine::MachineInfo {
             id: m.id.clone(),
