@@ -1,12 +1,12 @@
 //! The dashboard in a real headless Chromium driven over WebDriver (chromedriver), on the
 //! demo fleet of `mtcal demo`: sign in with a key, see the fleet ranked as the API ranks
-//! it, open a machine and read its trend plot back against the API's values, open
-//! results (an identification's error functions, a diagnosis's polar plot of a circle
-//! test), give a machine a tolerance profile and a drift threshold through the API,
-//! upload a drifted session through the form and see the new check appear with its
-//! verdict and its drift alert on the fleet page, acknowledge the alert on the alerts
-//! page, see the jobs page, compare two checks, sign out. One browser session, a small
-//! fleet.
+//! it, open a machine and read its trend plot (values and ±2σ bars) back against the
+//! API's values and uncertainties, open results (an identification's error functions, a
+//! diagnosis's polar plot of a circle test), give a machine a tolerance profile and a
+//! drift threshold through the API, upload a drifted session through the form and see
+//! the new check appear with its verdict and its drift alert on the fleet page,
+//! acknowledge the alert on the alerts page, see the jobs page, compare two checks, sign
+//! out. One browser session, a small fleet.
 //!
 //! A screenshot of each page is saved under `target/tmp/dashboard/`; with
 //! `UPDATE_SCREENSHOTS=1` those of the README (fleet, machine, result, compare, jobs,
@@ -314,6 +314,7 @@ async fn run(c: &Client, base: &str, key: &str, shots: &Path, work: &Path) {
     let axes = plot.axes().unwrap();
     let points = trend["points"].as_array().unwrap();
     assert_eq!(points.len(), 3, "three quarterly checks");
+    let mut bars_checked = 0;
     for (series, colour) in COLORS
         .iter()
         .take(trend["positions_mm"].as_array().unwrap().len())
@@ -325,6 +326,9 @@ async fn run(c: &Client, base: &str, key: &str, shots: &Path, work: &Path) {
             .filter(|m| m.r == 4.0 && m.fill.is_some())
             .collect();
         assert_eq!(marks.len(), points.len(), "one marker per check");
+        // The ±2σ bars: vertical lines of the series colour through each marker.
+        let bars = plot.marks("line", &inspect::hex(*colour));
+        let px = 1.0 / axes.y.scale.abs();
         for (m, p) in marks.iter().zip(points) {
             let t = mtcal_views::plots::unix_seconds(p["measured_at"].as_str().unwrap()).unwrap();
             let v = p["values"][series].as_f64().unwrap();
@@ -334,8 +338,31 @@ async fn run(c: &Client, base: &str, key: &str, shots: &Path, work: &Path) {
                 (y - v).abs() <= 1.5 / axes.y.scale.abs(),
                 "value {y} vs {v}"
             );
+            let u = p["u"][series]
+                .as_f64()
+                .expect("every trend point has its uncertainty");
+            assert!(u > 0.0, "{p}");
+            let bar = bars.iter().find(|b| {
+                b.points[0].0 == b.points[1].0 && (b.points[0].0 - m.points[0].0).abs() < 0.5
+            });
+            if 2.0 * u < 2.0 * px {
+                continue; // a bar shorter than a pixel or two need not be drawn apart
+            }
+            let b = bar.unwrap_or_else(|| panic!("no ±2σ bar at {p}"));
+            let lo = axes.y.value(b.points[0].1.max(b.points[1].1));
+            let hi = axes.y.value(b.points[0].1.min(b.points[1].1));
+            assert!(
+                (lo - (v - 2.0 * u)).abs() <= 1.5 * px,
+                "{lo} vs {v} - 2·{u}"
+            );
+            assert!(
+                (hi - (v + 2.0 * u)).abs() <= 1.5 * px,
+                "{hi} vs {v} + 2·{u}"
+            );
+            bars_checked += 1;
         }
     }
+    assert!(bars_checked > 0, "no ±2σ bar long enough to check");
     shot(c, shots, "machine-trend").await;
 
     // A result: the identification's 18 error functions; a diagnosis's polar plot.

@@ -101,6 +101,20 @@ async fn history_and_trends_return_what_was_stored() {
     let summary = app.client.summary_trend("VMC-A").await.unwrap();
     for (p, doc) in summary.points.iter().zip(&docs) {
         assert_eq!(p.ec0y_urad, doc.squareness["EC0Y"].value_urad);
+        // Each squareness point carries the check's standard uncertainty (the ±2σ bars of
+        // the machine page's squareness plot).
+        for (name, u) in [
+            ("EC0Y", p.ec0y_u_urad),
+            ("EB0Z", p.eb0z_u_urad),
+            ("EA0Z", p.ea0z_u_urad),
+        ] {
+            let want = doc.squareness[name].std_urad.unwrap();
+            let got = u.unwrap_or_else(|| panic!("{name}: no uncertainty"));
+            assert!(
+                (got - want).abs() <= 1e-9 * want.max(1.0),
+                "{name}: {got} vs {want}"
+            );
+        }
         assert_eq!(p.residual_rms_um, Some(doc.fit.residual_rms_um));
     }
     // The generator drifts EC0Y by 3·rate µrad per quarter (rate ≥ 0.5): the identified

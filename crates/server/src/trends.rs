@@ -52,6 +52,12 @@ pub fn value(s: &ResultScalars, name: &str, q_mm: f64) -> Option<Value> {
     comparison::term_value(&Stored(s), Term::parse(name)?, q_mm)
 }
 
+/// Standard uncertainty of squareness `name` (`EC0Y`, `EB0Z`, `EA0Z`) of a stored
+/// result, µrad (`None`: not stored).
+pub fn squareness_u(s: &ResultScalars, name: &str) -> Option<f64> {
+    Stored(s).squareness_std(name)
+}
+
 /// `unit` and axis letter of an ISO 230-1 term name (`None` if not one of the 18).
 pub fn term_info(name: &str) -> Option<(&'static str, char)> {
     let t = Term::parse(name)?;

@@ -143,6 +143,11 @@ pub struct SummaryPoint {
     pub ec0y_urad: Option<f64>,
     pub eb0z_urad: Option<f64>,
     pub ea0z_urad: Option<f64>,
+    /// Standard uncertainties of the three squareness errors, µrad (from the check's
+    /// stored covariance; null where none is stored).
+    pub ec0y_u_urad: Option<f64>,
+    pub eb0z_u_urad: Option<f64>,
+    pub ea0z_u_urad: Option<f64>,
 }
 
 #[derive(Debug, Clone, Serialize, Deserialize, ToSchema)]
@@ -183,6 +188,9 @@ pub async fn summary_trend(s: &AppState, id: &str) -> Result<SummaryTrend, ApiEr
             ec0y_urad: r.scalars.ec0y_urad,
             eb0z_urad: r.scalars.eb0z_urad,
             ea0z_urad: r.scalars.ea0z_urad,
+            ec0y_u_urad: crate::trends::squareness_u(&r.scalars, "EC0Y"),
+            eb0z_u_urad: crate::trends::squareness_u(&r.scalars, "EB0Z"),
+            ea0z_u_urad: crate::trends::squareness_u(&r.scalars, "EA0Z"),
         })
         .collect();
     Ok(SummaryTrend {

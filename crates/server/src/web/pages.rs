@@ -374,7 +374,7 @@ pub async fn machine(
                             .map(|p| TrendPoint {
                                 measured_at: p.measured_at.clone(),
                                 value: p.values[i],
-                                std: None,
+                                std: p.u[i],
                             })
                             .collect(),
                     })
@@ -393,13 +393,11 @@ pub async fn machine(
         }
     };
     let summary = api_trends::summary_trend(app, &id).await?;
+    type Pick = fn(&api_trends::SummaryPoint) -> (Option<f64>, Option<f64>);
     let squareness = [
-        (
-            "EC0Y",
-            (|p: &api_trends::SummaryPoint| p.ec0y_urad) as fn(&_) -> _,
-        ),
-        ("EB0Z", |p| p.eb0z_urad),
-        ("EA0Z", |p| p.ea0z_urad),
+        ("EC0Y", (|p| (p.ec0y_urad, p.ec0y_u_urad)) as Pick),
+        ("EB0Z", |p| (p.eb0z_urad, p.eb0z_u_urad)),
+        ("EA0Z", |p| (p.ea0z_urad, p.ea0z_u_urad)),
     ]
     .iter()
     .map(|(name, f)| TrendSeries {
@@ -407,10 +405,13 @@ pub async fn machine(
         points: summary
             .points
             .iter()
-            .map(|p| TrendPoint {
-                measured_at: p.measured_at.clone(),
-                value: f(p),
-                std: None,
+            .map(|p| {
+                let (value, std) = f(p);
+                TrendPoint {
+                    measured_at: p.measured_at.clone(),
+                    value,
+                    std,
+                }
             })
             .collect(),
     })
