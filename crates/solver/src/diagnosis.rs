@@ -167,6 +167,7 @@ pub mod effects;
 pub mod even_scan;
 pub mod linalg;
 pub mod moments;
+pub mod periodic_scan;
 pub mod reduced;
 pub(crate) mod search;
 pub mod session;

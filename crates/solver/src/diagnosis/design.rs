@@ -49,6 +49,8 @@ pub struct RunInfo {
     pub end: usize,
     /// Index of the run among the runs of its file with the same test kind.
     pub repeat: usize,
+    /// Per axis: whether it keeps one position over the whole run (is parked).
+    pub parked: [bool; 3],
 }
 
 /// The session as rows and the rigid model's centred columns.
@@ -225,6 +227,9 @@ pub fn build(session: &Session, topology: &Topology, order: usize) -> Result<Des
                 start,
                 end: samples.len(),
                 repeat: *rep,
+                parked: std::array::from_fn(|k| {
+                    run.pos_mm.iter().all(|q| q[k] == run.pos_mm[0][k])
+                }),
             });
             *rep += 1;
         }

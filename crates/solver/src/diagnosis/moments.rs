@@ -364,10 +364,7 @@ fn solve(red: &Reduction, set: &RunSet, j: &Joint) -> SetFit {
         g += j.g(run);
         let r = red.runs[run].r;
         for c in 0..q {
-            let z = j.z(run, c);
-            for (l, wl) in w.iter().enumerate() {
-                v[(l, c)] += dot(&wl[off..off + r], z);
-            }
+            add_products(&mut v, c, w, off, j.z(run, c));
         }
         off += r;
     }
@@ -422,6 +419,29 @@ fn solve(red: &Reduction, set: &RunSet, j: &Joint) -> SetFit {
         a,
         ssr,
         rank: rank_x,
+    }
+}
+
+/// v[(l, c)] += w_l[off..off + len]·z for every basis column w_l, four at a time: four
+/// independent sums over z (each one's terms added in the order of [`dot`]).
+fn add_products(v: &mut DMatrix<f64>, c: usize, w: &[Vec<f64>], off: usize, z: &[f64]) {
+    let r = z.len();
+    let mut groups = w.chunks_exact(4);
+    for (g, ws) in groups.by_ref().enumerate() {
+        let ws: [&[f64]; 4] = std::array::from_fn(|k| &ws[k][off..off + r]);
+        let mut acc = [0.0; 4];
+        for (i, zi) in z.iter().enumerate() {
+            for k in 0..4 {
+                acc[k] += ws[k][i] * zi;
+            }
+        }
+        for (k, a) in acc.into_iter().enumerate() {
+            v[(4 * g + k, c)] += a;
+        }
+    }
+    let done = w.len() - groups.remainder().len();
+    for (l, wl) in groups.remainder().iter().enumerate() {
+        v[(done + l, c)] += dot(&wl[off..off + r], z);
     }
 }
 

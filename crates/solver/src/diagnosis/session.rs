@@ -15,9 +15,9 @@
 use super::catalogue::{self, Candidate, Columns, Search};
 use super::design::{self, Design};
 use super::effects;
-use super::even_scan;
 use super::linalg::{Cols, dot};
 use super::moments::{self, Moments, Sets};
+use super::periodic_scan;
 use super::reduced::Reduction;
 use super::thermal_search::ThermalBasis;
 use super::{
@@ -167,15 +167,7 @@ fn evaluate(
 
 /// Per run: whether axis `a` keeps one position over the whole run.
 fn parked_runs(d: &Design, a: crate::axis::Axis) -> Vec<bool> {
-    d.runs
-        .iter()
-        .map(|r| {
-            let q0 = d.samples[r.start].q_mm[a.index()];
-            d.samples[r.start..r.end]
-                .iter()
-                .all(|s| s.q_mm[a.index()] == q0)
-        })
-        .collect()
+    d.runs.iter().map(|r| r.parked[a.index()]).collect()
 }
 
 /// The joint fit of the current model plus the columns of `mom` that vary (none vary:
@@ -243,9 +235,6 @@ fn near_rows(
 const MAX_SCAN_FREQS: usize = 2000;
 const MAX_SCAN_WORK: usize = 20_000_000;
 
-/// Frequencies evaluated together (independent phasor chains, vectorised).
-const LANES: usize = 4;
-
 /// Frequency (in `freqs`, evenly spaced) whose sine/cosine pair of `var` along `axis`
 /// explains most of the residual `r`, with the columns centred per (run, component) like
 /// the model. With `per_run` each run gets its own phase (incoherent sum, for a coarse
@@ -254,8 +243,8 @@ const LANES: usize = 4;
 /// This is a scan heuristic only: the 2×2 moment system of each candidate frequency is
 /// solved in closed form; the chosen frequency is then fitted jointly. The work is bounded:
 /// whole runs, every `stride`-th, so that at most [`MAX_SCAN_WORK`] (row, frequency) pairs
-/// are evaluated (the runs chosen still span the session). sin/cos of w_k·x follow by
-/// rotation from w_0·x, [`LANES`] frequencies at a time.
+/// are evaluated (the runs chosen still span the session). Each run's moments at every
+/// frequency come from [`periodic_scan::run_moments`].
 fn periodic_best(
     d: &Design,
     r: &[f64],
@@ -293,6 +282,7 @@ fn periodic_best(
     let mut score = vec![0.0; nf];
     let mut total = vec![[0.0; 5]; nf];
     let mut mom = vec![[0.0; 5]; nf];
+    let mut sums = vec![[0.0; 7]; nf];
     let mut any = false;
     // Per row of a run: its residual and variable.
     let mut rv = Vec::new();
@@ -320,14 +310,9 @@ fn periodic_best(
         if xs.iter().all(|&x| x == xs[0]) {
             continue;
         }
-        // The run's moments [ss, cc, sc, rs, rc] at every frequency: in closed form
-        // with Goertzel's recurrence when the run is evenly sampled in its variable
-        // ([`even_scan`]), else by rotating phasors.
-        if let Some((x0, h)) = even_scan::even_step(&xs) {
-            even_scan::even_moments(x0, h, &rv, f0, df, &mut mom);
-        } else {
-            phasor_moments(&rv, &xs, f0, df, &mut mom);
-        }
+        // The run's moments [ss, cc, sc, rs, rc] at every frequency: in closed form on
+        // its evenly spaced stretches, by rotating phasors elsewhere ([`periodic_scan`]).
+        periodic_scan::run_moments(&rv, &xs, f0, df, &mut sums, &mut mom);
         for (k, m) in mom.iter().enumerate() {
             if per_run {
                 score[k] += solve(m);
@@ -348,65 +333,6 @@ fn periodic_best(
     }
     let kbest = (0..nf).max_by(|&a, &b| score[a].total_cmp(&score[b]))?;
     Some(freqs[kbest])
-}
-
-/// The moments [ss, cc, sc, rs, rc] of s = sin(2πf x), c = cos(2πf x) at the samples `xs`
-/// with residual `rv`, at f = f0 + k·df (k < out.len()): ss, cc, sc centred, rs = Σ r·s,
-/// rc = Σ r·c. sin/cos of w_k·x follow by rotation from w_0·x, [`LANES`] frequencies at
-/// a time.
-fn phasor_moments(rv: &[f64], xs: &[f64], f0: f64, df: f64, out: &mut [[f64; 5]]) {
-    let two_pi = 2.0 * std::f64::consts::PI;
-    let nf = out.len();
-    let nb = nf.div_ceil(LANES);
-    // Per row: the rotation by LANES·Δw·x, and the phasors (sin, cos) of its LANES
-    // current frequencies.
-    let mut step = Vec::with_capacity(xs.len());
-    let mut sn = Vec::with_capacity(xs.len() * LANES);
-    let mut cs = Vec::with_capacity(xs.len() * LANES);
-    for &x in xs {
-        let (s1, c1) = (two_pi * df * x).sin_cos();
-        step.push((two_pi * df * LANES as f64 * x).sin_cos());
-        let (mut s, mut c) = (two_pi * f0 * x).sin_cos();
-        for _ in 0..LANES {
-            sn.push(s);
-            cs.push(c);
-            (s, c) = (s * c1 + c * s1, c * c1 - s * s1);
-        }
-    }
-    let n = rv.len() as f64;
-    for b in 0..nb {
-        // Σsin, Σcos, Σsin², Σcos², Σsin·cos, Σr·sin, Σr·cos of the group, by lane.
-        let mut acc = [[0.0; LANES]; 7];
-        for (i, (&r, &(s4, c4))) in rv.iter().zip(&step).enumerate() {
-            let ps = &mut sn[i * LANES..(i + 1) * LANES];
-            let pc = &mut cs[i * LANES..(i + 1) * LANES];
-            for l in 0..LANES {
-                let (s, c) = (ps[l], pc[l]);
-                acc[0][l] += s;
-                acc[1][l] += c;
-                acc[2][l] += s * s;
-                acc[3][l] += c * c;
-                acc[4][l] += s * c;
-                acc[5][l] += r * s;
-                acc[6][l] += r * c;
-                ps[l] = s * c4 + c * s4;
-                pc[l] = c * c4 - s * s4;
-            }
-        }
-        for l in 0..LANES {
-            let k = b * LANES + l;
-            if k >= nf {
-                break;
-            }
-            out[k] = [
-                acc[2][l] - acc[0][l] * acc[0][l] / n,
-                acc[3][l] - acc[1][l] * acc[1][l] / n,
-                acc[4][l] - acc[0][l] * acc[1][l] / n,
-                acc[5][l],
-                acc[6][l],
-            ];
-        }
-    }
 }
 
 /// Σ_k ε_k(q_k) (µrad) at every sample, from the current fit's error parameters.

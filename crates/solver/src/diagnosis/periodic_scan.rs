@@ -1,0 +1,229 @@
+//! The moments of a sine/cosine pair s = sin(2πf x), c = cos(2πf x) on one run, at every
+//! frequency of an evenly spaced grid f_k = f₀ + k·Δf: the inputs of a frequency scan.
+//!
+//! The raw sums [Σs, Σc, Σs², Σc², Σs·c, Σr·s, Σr·c] add over any split of the run's
+//! samples, so the run is cut into maximal stretches evenly spaced in x (a line pass at
+//! constant velocity, sampled at a constant rate, is one; a run in time is one whole):
+//! those are summed in closed form ([`super::even_scan`], one multiply and two adds per
+//! sample and frequency), the rest (acceleration ramps, circles, dwells) by rotating
+//! phasors, sin/cos of ω_k·x following from ω₀·x by rotation through Δω·x. The run's
+//! centred moments are then ss = Σs² − (Σs)²/n, cc = Σc² − (Σc)²/n, sc = Σs·c − Σs·Σc/n
+//! (the model centres every column per run), rs = Σr·s, rc = Σr·c (the residual r is
+//! already centred per run).
+
+use super::even_scan;
+use std::f64::consts::PI;
+
+/// Frequencies evaluated together (independent phasor chains, vectorised).
+const LANES: usize = 4;
+
+/// Shortest stretch summed in closed form: its closing costs a few sine/cosine
+/// evaluations per frequency, which a shorter stretch does not repay.
+const MIN_STRETCH: usize = 64;
+
+/// Consecutive steps belong to one stretch while they differ by at most this fraction of
+/// the first (a loose cut; [`even_scan::even_step`] then checks the stretch exactly).
+const STEP_TOLERANCE: f64 = 1e-6;
+
+/// The centred moments [ss, cc, sc, rs, rc] of a run of `n` samples from its raw sums
+/// [Σs, Σc, Σs², Σc², Σs·c, Σr·s, Σr·c].
+pub fn centred(sums: &[f64; 7], n: usize) -> [f64; 5] {
+    let [s, c, ss, cc, sc, rs, rc] = *sums;
+    let n = n as f64;
+    [ss - s * s / n, cc - c * c / n, sc - s * c / n, rs, rc]
+}
+
+/// The run's centred moments [ss, cc, sc, rs, rc] at f = f0 + k·df (k < out.len()) for the
+/// samples at `xs` with residual `rv`; `sums` is scratch of out.len() entries.
+pub fn run_moments(
+    rv: &[f64],
+    xs: &[f64],
+    f0: f64,
+    df: f64,
+    sums: &mut [[f64; 7]],
+    out: &mut [[f64; 5]],
+) {
+    sums.iter_mut().for_each(|s| *s = [0.0; 7]);
+    // Samples outside the even stretches, gathered for the phasor sums.
+    let (mut rest_r, mut rest_x) = (Vec::new(), Vec::new());
+    let mut i = 0;
+    while i < xs.len() {
+        let j = stretch_end(xs, i);
+        let even = (j - i >= MIN_STRETCH)
+            .then(|| even_scan::even_step(&xs[i..j]))
+            .flatten();
+        match even {
+            Some((x0, h)) => even_scan::even_sums(x0, h, &rv[i..j], f0, df, sums),
+            None => {
+                rest_r.extend_from_slice(&rv[i..j]);
+                rest_x.extend_from_slice(&xs[i..j]);
+            }
+        }
+        i = j;
+    }
+    if !rest_x.is_empty() {
+        phasor_sums(&rest_r, &rest_x, f0, df, sums);
+    }
+    for (o, s) in out.iter_mut().zip(sums.iter()) {
+        *o = centred(s, rv.len());
+    }
+}
+
+/// End (exclusive) of the stretch starting at `i`: the samples after it whose steps
+/// equal its first step within [`STEP_TOLERANCE`] (at least one sample; two when the
+/// first step is nonzero).
+fn stretch_end(xs: &[f64], i: usize) -> usize {
+    if i + 1 >= xs.len() {
+        return xs.len();
+    }
+    let h = xs[i + 1] - xs[i];
+    if h == 0.0 {
+        return i + 1;
+    }
+    let tol = STEP_TOLERANCE * h.abs();
+    let mut j = i + 2;
+    while j < xs.len() && (xs[j] - xs[j - 1] - h).abs() <= tol {
+        j += 1;
+    }
+    j
+}
+
+/// Adds to `out[k]` the raw sums [Σs, Σc, Σs², Σc², Σs·c, Σr·s, Σr·c] at f = f0 + k·df of
+/// the samples `xs` with residual `rv`, by rotating phasors, [`LANES`] frequencies at a
+/// time.
+pub fn phasor_sums(rv: &[f64], xs: &[f64], f0: f64, df: f64, out: &mut [[f64; 7]]) {
+    let two_pi = 2.0 * PI;
+    let nf = out.len();
+    let nb = nf.div_ceil(LANES);
+    // Per sample: the rotation by LANES·Δw·x, and the phasors (sin, cos) of its LANES
+    // current frequencies.
+    let mut step = Vec::with_capacity(xs.len());
+    let mut sn = Vec::with_capacity(xs.len() * LANES);
+    let mut cs = Vec::with_capacity(xs.len() * LANES);
+    for &x in xs {
+        let (s1, c1) = (two_pi * df * x).sin_cos();
+        step.push((two_pi * df * LANES as f64 * x).sin_cos());
+        let (mut s, mut c) = (two_pi * f0 * x).sin_cos();
+        for _ in 0..LANES {
+            sn.push(s);
+            cs.push(c);
+            (s, c) = (s * c1 + c * s1, c * c1 - s * s1);
+        }
+    }
+    for b in 0..nb {
+        // Σsin, Σcos, Σsin², Σcos², Σsin·cos, Σr·sin, Σr·cos of the group, by lane.
+        let mut acc = [[0.0; LANES]; 7];
+        for (i, (&r, &(s4, c4))) in rv.iter().zip(&step).enumerate() {
+            let ps = &mut sn[i * LANES..(i + 1) * LANES];
+            let pc = &mut cs[i * LANES..(i + 1) * LANES];
+            for l in 0..LANES {
+                let (s, c) = (ps[l], pc[l]);
+                acc[0][l] += s;
+                acc[1][l] += c;
+                acc[2][l] += s * s;
+                acc[3][l] += c * c;
+                acc[4][l] += s * c;
+                acc[5][l] += r * s;
+                acc[6][l] += r * c;
+                ps[l] = s * c4 + c * s4;
+                pc[l] = c * c4 - s * s4;
+            }
+        }
+        for l in 0..LANES {
+            let k = b * LANES + l;
+            if k >= nf {
+                break;
+            }
+            for (j, a) in acc.iter().enumerate() {
+                out[k][j] += a[l];
+            }
+        }
+    }
+}
+
+/// The raw sums [Σs, Σc, Σs², Σc², Σs·c, Σr·s, Σr·c] at frequency `f`, term by term (the
+/// reference of the tests).
+#[cfg(test)]
+pub(super) fn direct_sums(xs: &[f64], r: &[f64], f: f64) -> [f64; 7] {
+    let mut out = [0.0; 7];
+    for (&x, &ri) in xs.iter().zip(r) {
+        let (s, c) = (2.0 * PI * f * x).sin_cos();
+        for (o, v) in out
+            .iter_mut()
+            .zip([s, c, s * s, c * c, s * c, ri * s, ri * c])
+        {
+            *o += v;
+        }
+    }
+    out
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// A line pass as the drive makes it: a dwell, an acceleration ramp, a constant
+    /// velocity stretch, a ramp down and a dwell, with a residual holding a tone; the
+    /// moments from the split (closed form on the constant-velocity stretch, phasors on
+    /// the rest) against the sums evaluated term by term over the whole run.
+    #[test]
+    fn split_run_moments_match_the_direct_sums() {
+        let (rate, v, acc) = (100.0, 20.0, 500.0);
+        let mut xs = vec![10.0; 30];
+        let ramp = v / acc;
+        let t_ramp = (ramp * rate) as usize;
+        for i in 1..=t_ramp {
+            let t = i as f64 / rate;
+            xs.push(10.0 + 0.5 * acc * t * t);
+        }
+        let x1 = 10.0 + 0.5 * acc * (t_ramp as f64 / rate).powi(2);
+        for i in 1..=900 {
+            xs.push(x1 + v * i as f64 / rate);
+        }
+        let x2 = *xs.last().unwrap();
+        for i in 1..=t_ramp {
+            let t = i as f64 / rate;
+            xs.push(x2 + v * t - 0.5 * acc * t * t);
+        }
+        let x3 = *xs.last().unwrap();
+        xs.extend(std::iter::repeat_n(x3, 25));
+        // The constant-velocity pass is one stretch, evenly spaced: summed in closed form.
+        let i1 = 30 + t_ramp;
+        assert!(stretch_end(&xs, i1) >= i1 + 900);
+        assert!(even_scan::even_step(&xs[i1..i1 + 900]).is_some());
+        let r: Vec<f64> = xs
+            .iter()
+            .enumerate()
+            .map(|(i, &x)| 0.3 * (2.0 * PI * x / 7.0 + 0.2).sin() + 0.05 * ((i * 31) % 7) as f64)
+            .collect();
+        let (f0, df, nf) = (1.0 / 30.0, 0.0031, 150);
+        let mut sums = vec![[0.0; 7]; nf];
+        let mut got = vec![[0.0; 5]; nf];
+        run_moments(&r, &xs, f0, df, &mut sums, &mut got);
+        let n = xs.len() as f64;
+        for (k, g) in got.iter().enumerate() {
+            let [s, c, ss, cc, sc, rs, rc] = direct_sums(&xs, &r, f0 + k as f64 * df);
+            let want = [ss - s * s / n, cc - c * c / n, sc - s * c / n, rs, rc];
+            for j in 0..5 {
+                assert!(
+                    (g[j] - want[j]).abs() <= 1e-9 * n,
+                    "f {} moment {j}: {} vs {}",
+                    f0 + k as f64 * df,
+                    g[j],
+                    want[j]
+                );
+            }
+        }
+    }
+
+    /// The cut: a dwell gives stretches of one sample, a constant step one stretch, a
+    /// change of step a new stretch.
+    #[test]
+    fn stretches_follow_the_step() {
+        let xs = [1.0, 1.0, 1.0, 2.0, 3.0, 4.0, 5.0, 5.5, 6.0, 6.5];
+        assert_eq!(stretch_end(&xs, 0), 1);
+        assert_eq!(stretch_end(&xs, 2), 7);
+        assert_eq!(stretch_end(&xs, 7), 10);
+        assert_eq!(stretch_end(&xs, 9), 10);
+    }
+}
