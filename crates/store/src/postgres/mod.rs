@@ -32,9 +32,11 @@ mod dialect {
     /// Run after a dataset's bytes were deleted: nothing; the old row versions are
     /// removed by (auto)vacuum, as for every update.
     pub const AFTER_BYTES_DELETED: &str = "";
-    /// How the fleet page reads its sort keys: as the planner chooses (the wide entry is
-    /// stored out of line, so the table's rows are narrow).
-    pub const FLEET_KEYS: &str = "fleet_drift f";
+    /// The table `table` (with its alias) for a walk of `index`: as the planner chooses
+    /// (it walks the index for an `ORDER BY … LIMIT` the index holds in order).
+    pub fn walk(table: &str, _index: &str) -> String {
+        table.to_string()
+    }
 }
 
 /// The shared statements, compiled for PostgreSQL.
