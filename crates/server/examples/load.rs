@@ -472,7 +472,7 @@ async fn fleet_page_bench(base: &str, key: &str, m: usize) {
         .unwrap();
     let session = set_cookie(&signed, "mtcal_session").expect("session cookie");
     let pages = ["/", "/?sort=drift_urad", "/?tag=vmc", "/?page=2"];
-    let mut times = Vec::new();
+    let (mut times, mut phases) = (Vec::new(), BTreeMap::<String, Vec<f64>>::new());
     for i in 0..220 {
         let t = Instant::now();
         let r = http
@@ -482,10 +482,24 @@ async fn fleet_page_bench(base: &str, key: &str, m: usize) {
             .await
             .unwrap();
         assert!(r.status().is_success(), "fleet page: {}", r.status());
+        let timing = r
+            .headers()
+            .get("server-timing")
+            .and_then(|v| v.to_str().ok())
+            .unwrap_or_default()
+            .to_string();
         let body = r.text().await.unwrap();
         assert!(body.contains("data-machine="), "a fleet page");
         if i >= 20 {
             times.push(t.elapsed().as_secs_f64() * 1e3);
+            // `name;dur=ms, …`: the handler's phases.
+            for part in timing.split(", ") {
+                if let Some((name, ms)) = part.split_once(";dur=")
+                    && let Ok(ms) = ms.parse::<f64>()
+                {
+                    phases.entry(name.to_string()).or_default().push(ms);
+                }
+            }
         }
     }
     times.sort_by(f64::total_cmp);
@@ -496,6 +510,15 @@ async fn fleet_page_bench(base: &str, key: &str, m: usize) {
         pct(&times, 0.99),
         times[times.len() - 1]
     );
+    for (name, v) in &mut phases {
+        v.sort_by(f64::total_cmp);
+        println!(
+            "    of which {name:7} p50 {:.2} ms  p99 {:.2} ms  max {:.2} ms (Server-Timing)",
+            pct(v, 0.5),
+            pct(v, 0.99),
+            v[v.len() - 1]
+        );
+    }
 }
 
 #[tokio::main]

@@ -293,6 +293,18 @@ impl FleetWalk {
     }
 }
 
+/// The distinct values of the machines' indexed column `column` (not NULL; column `id`),
+/// by a walk of its index that jumps from one value to the next: one probe per value,
+/// not a read of every machine's entry.
+fn distinct_machines(column: &str) -> String {
+    format!(
+        "WITH RECURSIVE d(v) AS (SELECT MIN({column}) FROM machines UNION ALL \
+         SELECT (SELECT MIN({column}) FROM machines WHERE {column} > d.v) FROM d \
+         WHERE d.v IS NOT NULL) \
+         SELECT v AS id FROM d WHERE v IS NOT NULL ORDER BY v"
+    )
+}
+
 /// Statement `sql` with `values` bound to `$1`, `$2`, … in order.
 fn bound(
     sql: String,
@@ -1007,16 +1019,8 @@ impl Store for This {
             .await
             .db()?
             .int("n")?;
-            let sites: Vec<Option<String>> = sqlx::query_scalar(
-                "SELECT DISTINCT site FROM machines WHERE site IS NOT NULL ORDER BY site",
-            )
-            .fetch_all(&mut *tx)
-            .await
-            .db()?;
-            let tag_lists: Vec<String> = sqlx::query_scalar("SELECT DISTINCT tags FROM machines")
-                .fetch_all(&mut *tx)
-                .await
-                .db()?;
+            let sites = ids(distinct_machines("site"), &[], &mut *tx).await?;
+            let tag_lists = ids(distinct_machines("tags"), &[], &mut *tx).await?;
             tx.commit().await.db()?;
             let mut tags = Vec::new();
             for t in &tag_lists {
@@ -1027,7 +1031,7 @@ impl Store for This {
             Ok(FleetPage {
                 rows,
                 total,
-                sites: sites.into_iter().flatten().collect(),
+                sites,
                 tags,
             })
         })
