@@ -17,6 +17,7 @@ use crate::rows::{
 use crate::rules::{self, MachineJson, Manifest, ResultRow};
 use crate::{Store, StoreFuture, now_ms, now_rfc3339};
 use sqlx::{Executor, Transaction};
+use std::collections::HashMap;
 
 impl This {
     async fn machine(&self, id: &str) -> Result<Machine> {
@@ -976,37 +977,34 @@ impl Store for This {
                     );
                 }
             }
-            // 3. Only the page's rows are read whole (a machine's entry is kilobytes).
-            let mut whole = std::collections::HashMap::new();
+            // 3. Only the page's rows are read whole (a machine's entry is kilobytes), by
+            //    id from each table (a join would let a planner scan the drift rows).
+            let page_ids: Vec<String> = page.iter().map(|(id, _)| id.clone()).collect();
+            let list = (1..=page.len())
+                .map(|i| format!("${i}"))
+                .collect::<Vec<_>>()
+                .join(", ");
+            let (mut machines, mut drifts) = (HashMap::new(), HashMap::new());
             if !page.is_empty() {
-                let list = (1..=page.len())
-                    .map(|i| format!("${i}"))
-                    .collect::<Vec<_>>()
-                    .join(", ");
+                let sql = format!("SELECT {MACHINE_COLUMNS} FROM machines WHERE id IN ({list})");
+                for r in bound(sql, &page_ids).fetch_all(&mut *tx).await.db()? {
+                    let m = rows::machine(&r)?;
+                    machines.insert(m.id.clone(), m);
+                }
                 let sql = format!(
-                    "SELECT m.id AS mid, m.name, m.topology, m.travel_mm, m.site, m.tags, \
-                     m.baseline_result_id, m.created_at, m.updated_at, {} \
-                     FROM machines m LEFT JOIN fleet_drift f ON f.machine_id = m.id \
-                     WHERE m.id IN ({list})",
-                    qualified("f", FLEET_DRIFT_COLUMNS),
+                    "SELECT {FLEET_DRIFT_COLUMNS} FROM fleet_drift WHERE machine_id IN ({list})"
                 );
-                let ids: Vec<String> = page.iter().map(|(id, _)| id.clone()).collect();
-                for r in bound(sql, &ids).fetch_all(&mut *tx).await.db()? {
-                    let drift = match r.opt_text("machine_id")? {
-                        Some(_) => Some(rows::fleet_drift(&r)?),
-                        None => None,
-                    };
-                    let machine = rows::machine_as(&r, "mid")?;
-                    whole.insert(machine.id.clone(), (machine, drift));
+                for r in bound(sql, &page_ids).fetch_all(&mut *tx).await.db()? {
+                    let d = rows::fleet_drift(&r)?;
+                    drifts.insert(d.machine_id.clone(), d);
                 }
             }
             let rows = page
                 .into_iter()
                 .filter_map(|(id, active_alerts)| {
-                    let (machine, drift) = whole.remove(&id)?;
                     Some(FleetPageRow {
-                        machine,
-                        drift,
+                        drift: drifts.remove(&id),
+                        machine: machines.remove(&id)?,
                         active_alerts,
                     })
                 })
