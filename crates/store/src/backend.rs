@@ -139,16 +139,13 @@ impl This {
         Ok(d)
     }
 
-    /// A transaction whose reads are one snapshot ([`dialect::SNAPSHOT`]).
+    /// A transaction whose reads are one snapshot ([`dialect::BEGIN_SNAPSHOT`]).
     async fn read_snapshot(&self) -> Result<Transaction<'static, Db>> {
-        let mut tx = self.pool.begin().await.db()?;
-        if !dialect::SNAPSHOT.is_empty() {
-            sqlx::query(dialect::SNAPSHOT)
-                .execute(&mut *tx)
-                .await
-                .db()?;
+        if dialect::BEGIN_SNAPSHOT.is_empty() {
+            self.pool.begin().await.db()
+        } else {
+            self.pool.begin_with(dialect::BEGIN_SNAPSHOT).await.db()
         }
-        Ok(tx)
     }
 
     async fn result_meta(&self, id: &str) -> Result<ResultMeta> {
@@ -294,15 +291,16 @@ impl FleetWalk {
     }
 }
 
-/// The distinct values of the machines' indexed column `column` (not NULL; column `id`),
-/// by a walk of its index that jumps from one value to the next: one probe per value,
-/// not a read of every machine's entry.
-fn distinct_machines(column: &str) -> String {
+/// The distinct values of the machines' indexed column `column` (not NULL; columns `v`
+/// and `col` = `name`), by a walk of its index that jumps from one value to the next: one
+/// probe per value, not a read of every machine's entry.
+fn distinct_machines(column: &str, name: &str) -> String {
+    let d = format!("d_{name}");
     format!(
-        "WITH RECURSIVE d(v) AS (SELECT MIN({column}) FROM machines UNION ALL \
-         SELECT (SELECT MIN({column}) FROM machines WHERE {column} > d.v) FROM d \
-         WHERE d.v IS NOT NULL) \
-         SELECT v AS id FROM d WHERE v IS NOT NULL ORDER BY v"
+        "SELECT * FROM (WITH RECURSIVE {d}(v) AS (SELECT MIN({column}) FROM machines \
+         UNION ALL SELECT (SELECT MIN({column}) FROM machines WHERE {column} > {d}.v) \
+         FROM {d} WHERE {d}.v IS NOT NULL) \
+         SELECT v, '{name}' AS col FROM {d} WHERE v IS NOT NULL) AS {d}_values"
     )
 }
 
@@ -1017,8 +1015,23 @@ impl Store for This {
             .await
             .db()?
             .int("n")?;
-            let sites = ids(distinct_machines("site"), &[], &mut *tx).await?;
-            let tag_lists = ids(distinct_machines("tags"), &[], &mut *tx).await?;
+            let (mut sites, mut tag_lists) = (Vec::new(), Vec::new());
+            let sql = format!(
+                "{} UNION ALL {}",
+                distinct_machines("site", "site"),
+                distinct_machines("tags", "tags")
+            );
+            for r in sqlx::query(sqlx::AssertSqlSafe(sql))
+                .fetch_all(&mut *tx)
+                .await
+                .db()?
+            {
+                match r.text("col")?.as_str() {
+                    "site" => sites.push(r.text("v")?),
+                    _ => tag_lists.push(r.text("v")?),
+                }
+            }
+            sites.sort();
             tx.commit().await.db()?;
             let mut tags = Vec::new();
             for t in &tag_lists {

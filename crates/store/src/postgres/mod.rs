@@ -26,9 +26,9 @@ mod dialect {
     /// Row locking of the claim's sub-select: concurrent claimers skip a row another
     /// claimer holds instead of waiting for it, so each claims a different job.
     pub const CLAIM_LOCK: &str = "FOR UPDATE SKIP LOCKED";
-    /// Statement that makes a transaction's reads one snapshot (READ COMMITTED, the
+    /// How a transaction whose reads are one snapshot begins (READ COMMITTED, the
     /// default, takes a new snapshot per statement).
-    pub const SNAPSHOT: &str = "SET TRANSACTION ISOLATION LEVEL REPEATABLE READ, READ ONLY";
+    pub const BEGIN_SNAPSHOT: &str = "BEGIN ISOLATION LEVEL REPEATABLE READ, READ ONLY";
     /// Run after a dataset's bytes were deleted: nothing; the old row versions are
     /// removed by (auto)vacuum, as for every update.
     pub const AFTER_BYTES_DELETED: &str = "";

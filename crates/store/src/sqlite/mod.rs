@@ -21,9 +21,9 @@ mod dialect {
     pub const NEXT_SEQ: &str = "(SELECT COALESCE(MAX(seq), 0) + 1 FROM jobs)";
     /// Row locking of the claim's sub-select: none needed.
     pub const CLAIM_LOCK: &str = "";
-    /// Statement that makes a transaction's reads one snapshot: none needed (in WAL mode
-    /// a transaction reads one snapshot from its first read on).
-    pub const SNAPSHOT: &str = "";
+    /// How a transaction whose reads are one snapshot begins: as any (in WAL mode a
+    /// transaction reads one snapshot from its first read on).
+    pub const BEGIN_SNAPSHOT: &str = "";
     /// Run after a dataset's bytes were deleted: copies the write-ahead log into the
     /// database file and empties it, so that (with `secure_delete`, which zeroes freed
     /// content) the deleted bytes leave the disk at once, not at the next checkpoint.
