@@ -424,8 +424,9 @@ async fn trends_bench(m: usize, r: usize, q: usize, pg: bool) {
     }
     fleet.sort_by(f64::total_cmp);
     println!(
-        "  fleet drift (top 50 of {m}, by um/urad)  p50 {:.2} ms  p95 {:.2} ms  p99 {:.2} ms  max {:.2} ms",
+        "  fleet drift (top 50 of {m}, by um/urad)  p50 {:.2} ms  p90 {:.2} ms  p95 {:.2} ms  p99 {:.2} ms  max {:.2} ms",
         pct(&fleet, 0.5),
+        pct(&fleet, 0.9),
         pct(&fleet, 0.95),
         pct(&fleet, 0.99),
         fleet[fleet.len() - 1]
@@ -504,8 +505,9 @@ async fn fleet_page_bench(base: &str, key: &str, m: usize) {
     }
     times.sort_by(f64::total_cmp);
     println!(
-        "  fleet page (HTML, 100 of {m} machines, 4 views)  p50 {:.2} ms  p95 {:.2} ms  p99 {:.2} ms  max {:.2} ms",
+        "  fleet page (HTML, 100 of {m} machines, 4 views)  p50 {:.2} ms  p90 {:.2} ms  p95 {:.2} ms  p99 {:.2} ms  max {:.2} ms",
         pct(&times, 0.5),
+        pct(&times, 0.9),
         pct(&times, 0.95),
         pct(&times, 0.99),
         times[times.len() - 1]
