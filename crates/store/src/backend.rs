@@ -17,6 +17,7 @@ use crate::rows::{
 use crate::rules::{self, MachineJson, Manifest, ResultRow};
 use crate::{Store, StoreFuture, now_ms, now_rfc3339};
 use sqlx::{Executor, Transaction};
+use std::collections::HashMap;
 
 impl This {
     async fn machine(&self, id: &str) -> Result<Machine> {
@@ -138,6 +139,15 @@ impl This {
         Ok(d)
     }
 
+    /// A transaction whose reads are one snapshot ([`dialect::BEGIN_SNAPSHOT`]).
+    async fn read_snapshot(&self) -> Result<Transaction<'static, Db>> {
+        if dialect::BEGIN_SNAPSHOT.is_empty() {
+            self.pool.begin().await.db()
+        } else {
+            self.pool.begin_with(dialect::BEGIN_SNAPSHOT).await.db()
+        }
+    }
+
     async fn result_meta(&self, id: &str) -> Result<ResultMeta> {
         let q = format!("SELECT {RESULT_COLUMNS} FROM results WHERE id = $1");
         let row = row_by_id(&self.pool, q, id, "result").await?;
@@ -186,6 +196,137 @@ async fn upsert_fleet_drift<'e>(
     .await
     .db()?;
     Ok(done.rows_affected() == 1)
+}
+
+/// The fleet page's filter on machines `m`, as SQL conditions with placeholders from `$1`
+/// and their values: the site; the tag matched whole in the machine's JSON tag list
+/// (the quoted tag, LIKE's wildcards escaped).
+fn fleet_filter(q: &FleetPageQuery) -> Result<(String, Vec<String>)> {
+    let (mut conditions, mut values) = (vec!["1 = 1".to_string()], Vec::new());
+    if let Some(site) = &q.site {
+        values.push(site.clone());
+        conditions.push(format!("m.site = ${}", values.len()));
+    }
+    if let Some(tag) = &q.tag {
+        let quoted = serde_json::to_string(tag).db()?;
+        let escaped = quoted
+            .replace('!', "!!")
+            .replace('%', "!%")
+            .replace('_', "!_");
+        values.push(format!("%{escaped}%"));
+        conditions.push(format!("m.tags LIKE ${} ESCAPE '!'", values.len()));
+    }
+    Ok((conditions.join(" AND "), values))
+}
+
+/// The fleet order's key in `fleet_drift` and the index that holds it in the page's
+/// order (largest first, ties by machine id); None for the order by machine id.
+fn fleet_key(sort: FleetSort) -> Option<(&'static str, &'static str)> {
+    match sort {
+        FleetSort::DriftUm => Some(("drift_um", "fleet_drift_um")),
+        FleetSort::DriftUrad => Some(("drift_urad", "fleet_drift_urad")),
+        FleetSort::LastCheck => Some(("latest_measured_at", "fleet_drift_last_check")),
+        FleetSort::Name => None,
+    }
+}
+
+/// The fleet page's machines without an active alert that the filter keeps, in the
+/// page's order, as statements that walk an index and stop after the page: with a key,
+/// the machines that have it (key descending, ties by id), then `unkeyed`, those that
+/// do not (no drift row yet, or an older row without the key), by id; without a key
+/// (the order by id), every machine by id. The order is the one of
+/// `ORDER BY f.key DESC NULLS LAST, m.id` over all of them.
+struct FleetWalk {
+    /// `FROM … WHERE …` of the walk.
+    from: String,
+    /// The walk's order.
+    order: String,
+    /// The machines without the key, ordered (`LIMIT` and `OFFSET` to add).
+    unkeyed: Option<String>,
+}
+
+impl FleetWalk {
+    const NOT_ALERTED: &str = "NOT EXISTS (SELECT 1 FROM alerts al \
+         WHERE al.machine_id = m.id AND al.acknowledged_at IS NULL)";
+
+    fn new(key: Option<(&str, &str)>, filter: &str) -> FleetWalk {
+        let not_alerted = Self::NOT_ALERTED;
+        match key {
+            Some((k, index)) => FleetWalk {
+                from: format!(
+                    "FROM {} JOIN machines m ON m.id = f.machine_id \
+                     WHERE f.{k} IS NOT NULL AND {filter} AND {not_alerted}",
+                    dialect::walk("fleet_drift f", index)
+                ),
+                order: format!("f.{k} DESC, f.machine_id"),
+                unkeyed: Some(format!(
+                    "SELECT m.id AS id FROM machines m WHERE {filter} AND {not_alerted} \
+                     AND NOT EXISTS (SELECT 1 FROM fleet_drift f \
+                       WHERE f.machine_id = m.id AND f.{k} IS NOT NULL) \
+                     ORDER BY m.id"
+                )),
+            },
+            None => FleetWalk {
+                from: format!("FROM machines m WHERE {filter} AND {not_alerted}"),
+                order: "m.id".into(),
+                unkeyed: None,
+            },
+        }
+    }
+
+    /// The ids of `limit` machines of the walk after the first `offset`.
+    fn keyed(&self, limit: usize, offset: usize) -> String {
+        let (from, order) = (&self.from, &self.order);
+        let id = if self.unkeyed.is_some() {
+            "f.machine_id"
+        } else {
+            "m.id"
+        };
+        format!("SELECT {id} AS id {from} ORDER BY {order} LIMIT {limit} OFFSET {offset}")
+    }
+
+    /// How many machines the walk holds (column `n`).
+    fn count_keyed(&self) -> String {
+        format!("SELECT COUNT(*) AS n {}", self.from)
+    }
+}
+
+/// The distinct values of the machines' indexed column `column` (not NULL; columns `v`
+/// and `col` = `name`), by a walk of its index that jumps from one value to the next: one
+/// probe per value, not a read of every machine's entry.
+fn distinct_machines(column: &str, name: &str) -> String {
+    let d = format!("d_{name}");
+    format!(
+        "SELECT * FROM (WITH RECURSIVE {d}(v) AS (SELECT MIN({column}) FROM machines \
+         UNION ALL SELECT (SELECT MIN({column}) FROM machines WHERE {column} > {d}.v) \
+         FROM {d} WHERE {d}.v IS NOT NULL) \
+         SELECT v, '{name}' AS col FROM {d} WHERE v IS NOT NULL) AS {d}_values"
+    )
+}
+
+/// Statement `sql` with `values` bound to `$1`, `$2`, … in order.
+fn bound(
+    sql: String,
+    values: &[String],
+) -> sqlx::query::Query<'_, Db, <Db as sqlx::Database>::Arguments> {
+    values
+        .iter()
+        .fold(sqlx::query(sqlx::AssertSqlSafe(sql)), |q, v| q.bind(v))
+}
+
+/// The `id` column of the rows `sql` selects with `values` bound.
+async fn ids<'e>(
+    sql: String,
+    values: &[String],
+    ex: impl Executor<'e, Database = Db>,
+) -> Result<Vec<String>> {
+    bound(sql, values)
+        .fetch_all(ex)
+        .await
+        .db()?
+        .iter()
+        .map(|r| r.text("id"))
+        .collect()
 }
 
 /// `columns` (comma-separated) each prefixed with table alias `alias`.
@@ -597,13 +738,7 @@ impl Store for This {
                  FROM machines m) ";
             // One read snapshot for the three queries: a result landing between them
             // must not leave a pair whose result or machine is missing.
-            let mut tx = self.pool.begin().await.db()?;
-            if !dialect::SNAPSHOT.is_empty() {
-                sqlx::query(dialect::SNAPSHOT)
-                    .execute(&mut *tx)
-                    .await
-                    .db()?;
-            }
+            let mut tx = self.read_snapshot().await?;
             let pairs = sqlx::query(sqlx::AssertSqlSafe(format!(
                 "{PAIRS} SELECT mid, n, base_id, last_id FROM p WHERE n > 0 ORDER BY mid"
             )))
@@ -771,87 +906,133 @@ impl Store for This {
 
     fn fleet_page<'a>(&'a self, q: &'a FleetPageQuery) -> StoreFuture<'a, FleetPage> {
         Box::pin(async move {
-            let order = match q.sort {
-                FleetSort::DriftUm => "f.drift_um DESC NULLS LAST, m.id",
-                FleetSort::DriftUrad => "f.drift_urad DESC NULLS LAST, m.id",
-                FleetSort::Name => "m.id",
-                FleetSort::LastCheck => "f.latest_measured_at DESC NULLS LAST, m.id",
+            let (filter, binds) = fleet_filter(q)?;
+            let key = fleet_key(q.sort);
+            let offset = usize::try_from(q.offset).unwrap_or(0);
+            let limit = usize::try_from(q.limit).unwrap_or(0);
+            // One read snapshot: an alert raised or acknowledged between the statements
+            // must not show a machine twice or leave it out.
+            let mut tx = self.read_snapshot().await?;
+            // 1. The machines with active alerts (few: alerts are acknowledged), all of
+            //    those the filter keeps, in the page's order: they come first.
+            let order = match key {
+                Some((k, _)) => format!("f.{k} DESC NULLS LAST, m.id"),
+                None => "m.id".into(),
             };
-            // Tags are kept as a JSON array: match the quoted tag, LIKE's wildcards escaped.
-            let tag = match &q.tag {
-                Some(t) => Some(format!(
-                    "%{}%",
-                    serde_json::to_string(t)
-                        .db()?
-                        .replace('!', "!!")
-                        .replace('%', "!%")
-                        .replace('_', "!_")
-                )),
-                None => None,
-            };
-            let filter =
-                "($1 IS NULL OR m.site = $1) AND ($2 IS NULL OR m.tags LIKE $2 ESCAPE '!')";
-            // The page's ids are chosen on narrow rows: the machines' ids, site and tags,
-            // the sort keys from the covering index `fleet_drift_keys` and the active alert
-            // counts from the partial index `alerts_active` (grouped once, not probed per
-            // machine); only those rows are then read whole (a machine's entry is
-            // kilobytes) and put in the same order again.
-            const ACTIVE: &str = "(SELECT machine_id, COUNT(*) AS n FROM alerts \
-                 WHERE acknowledged_at IS NULL GROUP BY machine_id)";
-            let sql = format!(
-                "SELECT m.id AS mid, m.name, m.topology, m.travel_mm, m.site, m.tags, \
-                 m.baseline_result_id, m.created_at, m.updated_at, {}, \
-                 COALESCE(p.n, 0) AS active_alerts \
-                 FROM (SELECT m.id AS pid, a.n FROM machines m \
-                   LEFT JOIN {keys} ON f.machine_id = m.id \
-                   LEFT JOIN {ACTIVE} a ON a.machine_id = m.id \
-                   WHERE {filter} ORDER BY a.n IS NOT NULL DESC, {order} LIMIT $3 OFFSET $4) p \
-                 JOIN machines m ON m.id = p.pid \
-                 LEFT JOIN fleet_drift f ON f.machine_id = m.id \
-                 ORDER BY p.n IS NOT NULL DESC, {order}",
-                qualified("f", FLEET_DRIFT_COLUMNS),
-                keys = dialect::FLEET_KEYS,
-            );
-            let found = sqlx::query(sqlx::AssertSqlSafe(sql))
-                .bind(&q.site)
-                .bind(&tag)
-                .bind(q.limit)
-                .bind(q.offset)
-                .fetch_all(&self.pool)
-                .await
-                .db()?;
-            let total: i64 = sqlx::query_scalar(sqlx::AssertSqlSafe(format!(
-                "SELECT COUNT(*) FROM machines m WHERE {filter}"
-            )))
-            .bind(&q.site)
-            .bind(&tag)
-            .fetch_one(&self.pool)
+            let alerted = bound(
+                format!(
+                    "SELECT m.id AS id, a.n AS n FROM (SELECT machine_id, COUNT(*) AS n \
+                     FROM alerts WHERE acknowledged_at IS NULL GROUP BY machine_id) a \
+                     JOIN machines m ON m.id = a.machine_id \
+                     LEFT JOIN fleet_drift f ON f.machine_id = m.id \
+                     WHERE {filter} ORDER BY {order}"
+                ),
+                &binds,
+            )
+            .fetch_all(&mut *tx)
             .await
-            .db()?;
-            let rows = found
-                .iter()
-                .map(|r| {
-                    let drift = match r.opt_text("machine_id")? {
-                        Some(_) => Some(rows::fleet_drift(r)?),
-                        None => None,
+            .db()?
+            .iter()
+            .map(|r| Ok((r.text("id")?, r.int("n")?)))
+            .collect::<Result<Vec<_>>>()?;
+            let mut page: Vec<(String, i64)> =
+                alerted.iter().skip(offset).take(limit).cloned().collect();
+            // 2. The others, walked in the order of an index and stopped once the page
+            //    is full (no sort of the whole fleet): those with the sort key, then
+            //    (sorts by a key some machines lack) those without it, by id.
+            let skip = offset.saturating_sub(alerted.len());
+            let need = limit - page.len();
+            if need > 0 {
+                let walk = FleetWalk::new(key, &filter);
+                let keyed = ids(walk.keyed(need, skip), &binds, &mut *tx).await?;
+                let got = keyed.len();
+                page.extend(keyed.into_iter().map(|id| (id, 0)));
+                if let Some(unkeyed) = &walk.unkeyed
+                    && got < need
+                {
+                    // The walk ran out: it held `skip + got` machines unless it started
+                    // past its end.
+                    let walked = if got == 0 && skip > 0 {
+                        let n: i64 = bound(walk.count_keyed(), &binds)
+                            .fetch_one(&mut *tx)
+                            .await
+                            .db()?
+                            .int("n")?;
+                        usize::try_from(n).unwrap_or(0)
+                    } else {
+                        skip + got
                     };
-                    Ok(FleetPageRow {
-                        machine: rows::machine_as(r, "mid")?,
-                        drift,
-                        active_alerts: r.int("active_alerts")?,
+                    let sql = format!(
+                        "{unkeyed} LIMIT {} OFFSET {}",
+                        need - got,
+                        skip.saturating_sub(walked)
+                    );
+                    page.extend(
+                        ids(sql, &binds, &mut *tx)
+                            .await?
+                            .into_iter()
+                            .map(|id| (id, 0)),
+                    );
+                }
+            }
+            // 3. Only the page's rows are read whole (a machine's entry is kilobytes), by
+            //    id from each table (a join would let a planner scan the drift rows).
+            let page_ids: Vec<String> = page.iter().map(|(id, _)| id.clone()).collect();
+            let list = (1..=page.len())
+                .map(|i| format!("${i}"))
+                .collect::<Vec<_>>()
+                .join(", ");
+            let (mut machines, mut drifts) = (HashMap::new(), HashMap::new());
+            if !page.is_empty() {
+                let sql = format!("SELECT {MACHINE_COLUMNS} FROM machines WHERE id IN ({list})");
+                for r in bound(sql, &page_ids).fetch_all(&mut *tx).await.db()? {
+                    let m = rows::machine(&r)?;
+                    machines.insert(m.id.clone(), m);
+                }
+                let sql = format!(
+                    "SELECT {FLEET_DRIFT_COLUMNS} FROM fleet_drift WHERE machine_id IN ({list})"
+                );
+                for r in bound(sql, &page_ids).fetch_all(&mut *tx).await.db()? {
+                    let d = rows::fleet_drift(&r)?;
+                    drifts.insert(d.machine_id.clone(), d);
+                }
+            }
+            let rows = page
+                .into_iter()
+                .filter_map(|(id, active_alerts)| {
+                    Some(FleetPageRow {
+                        drift: drifts.remove(&id),
+                        machine: machines.remove(&id)?,
+                        active_alerts,
                     })
                 })
-                .collect::<Result<Vec<_>>>()?;
-            let sites: Vec<Option<String>> = sqlx::query_scalar(
-                "SELECT DISTINCT site FROM machines WHERE site IS NOT NULL ORDER BY site",
+                .collect();
+            let total = bound(
+                format!("SELECT COUNT(*) AS n FROM machines m WHERE {filter}"),
+                &binds,
             )
-            .fetch_all(&self.pool)
+            .fetch_one(&mut *tx)
             .await
-            .db()?;
-            let tag_lists: Vec<String> = sqlx::query_scalar("SELECT DISTINCT tags FROM machines")
-                .fetch_all(&self.pool)
+            .db()?
+            .int("n")?;
+            let (mut sites, mut tag_lists) = (Vec::new(), Vec::new());
+            let sql = format!(
+                "{} UNION ALL {}",
+                distinct_machines("site", "site"),
+                distinct_machines("tags", "tags")
+            );
+            for r in sqlx::query(sqlx::AssertSqlSafe(sql))
+                .fetch_all(&mut *tx)
                 .await
-                .db()?;
+                .db()?
+            {
+                match r.text("col")?.as_str() {
+                    "site" => sites.push(r.text("v")?),
+                    _ => tag_lists.push(r.text("v")?),
+                }
+            }
+            sites.sort();
+            tx.commit().await.db()?;
             let mut tags = Vec::new();
             for t in &tag_lists {
                 tags.extend(serde_json::from_str::<Vec<String>>(t).db()?);
@@ -861,7 +1042,7 @@ impl Store for This {
             Ok(FleetPage {
                 rows,
                 total,
-                sites: sites.into_iter().flatten().collect(),
+                sites,
                 tags,
             })
         })

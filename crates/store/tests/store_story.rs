@@ -65,6 +65,7 @@ stories!(
     fleet_drift_is_ranked_and_an_older_computation_never_replaces_a_newer,
     tolerance_profiles_one_per_target_and_alerts_acknowledged_once,
     fleet_page_puts_alerted_machines_first_then_filters_sorts_and_counts,
+    fleet_pages_equal_a_sort_of_every_machine_from_scratch,
     datasets_excluded_with_their_results_then_bytes_deleted_under_a_tombstone,
 );
 
@@ -922,6 +923,179 @@ async fn fleet_page_puts_alerted_machines_first_then_filters_sorts_and_counts(s:
             .unwrap()),
         ["B", "C", "A", "D"]
     );
+}
+
+/// Every page of every order and filter equals the slice of one sort of all the
+/// machines written here from the page's rule (active alerts first, then the key largest
+/// first with the machines lacking it last, ties by id), over a fleet built to have ties
+/// in every key, machines without a drift row or without a check time, alerted machines
+/// (one with two alerts, one whose only alert is acknowledged) and pages that straddle
+/// each boundary (alerted, keyed, lacking the key).
+async fn fleet_pages_equal_a_sort_of_every_machine_from_scratch(s: &dyn Store) {
+    struct Truth {
+        id: String,
+        site: String,
+        tags: Vec<String>,
+        row: Option<(f64, f64, Option<String>)>,
+        alerts: i64,
+    }
+    let mut fleet = Vec::new();
+    for i in 0..23_usize {
+        let id = format!("M{i:02}");
+        let site = ["north", "south", "east"][i % 3].to_string();
+        let tags: Vec<String> = match i % 4 {
+            0 => vec!["vmc".into()],
+            1 => vec!["hmc".into()],
+            2 => vec!["vmc".into(), "5_axis".into()],
+            _ => vec![],
+        };
+        s.create_machine(&Machine {
+            site: Some(site.clone()),
+            tags: tags.clone(),
+            ..machine(&id)
+        })
+        .await
+        .unwrap();
+        // Few distinct values: ties in every key. Every fifth machine has no drift row,
+        // every seventh row no check time (written by an older version).
+        let row = (i % 5 != 4).then(|| {
+            (
+                [1.5, 0.5, 2.5][i % 3],
+                [3.0, 1.0][i % 2],
+                (i % 7 != 3).then(|| format!("2026-0{}-01T00:00:00Z", 1 + i % 4)),
+            )
+        });
+        if let Some((um, urad, at)) = &row {
+            s.put_fleet_drift(&FleetDriftRow {
+                machine_id: id.clone(),
+                read_at_ms: 1,
+                drift_um: *um,
+                drift_urad: *urad,
+                entry: json!({"machine_id": id}),
+                latest_measured_at: at.clone(),
+                basis: None,
+            })
+            .await
+            .unwrap();
+        }
+        fleet.push(Truth {
+            id,
+            site,
+            tags,
+            row,
+            alerts: 0,
+        });
+    }
+    // Alerts: two active on M05, one on M04 (no drift row), M10 (no check time) and M17,
+    // one acknowledged on M07 (counts as none).
+    for (n, machine_id) in ["M05", "M05", "M04", "M10", "M17", "M07"]
+        .into_iter()
+        .enumerate()
+    {
+        let r = s
+            .import_result(result(
+                machine_id,
+                &format!("2026-05-0{}T00:00:00Z", n + 1),
+                1.0,
+            ))
+            .await
+            .unwrap();
+        let id = format!("al_{n}");
+        s.raise_alert(&Alert {
+            id: id.clone(),
+            machine_id: machine_id.into(),
+            result_id: r.id.clone(),
+            baseline_result_id: r.id,
+            profile_id: "p".into(),
+            raised_at: "2026-05-09T00:00:00Z".into(),
+            message: "m".into(),
+            items: json!([]),
+            acknowledged_at: None,
+            acknowledged_by: None,
+        })
+        .await
+        .unwrap();
+        if machine_id == "M07" {
+            s.acknowledge_alert(&id, "x").await.unwrap();
+        } else {
+            fleet
+                .iter_mut()
+                .find(|m| m.id == machine_id)
+                .unwrap()
+                .alerts += 1;
+        }
+    }
+    type Key = fn(&Truth) -> Option<String>;
+    // Each key as a string that sorts as the key does (the values are small, positive
+    // and written with one decimal; check times are RFC 3339 of one format).
+    let sorts: [(FleetSort, Key); 4] = [
+        (FleetSort::DriftUm, |m| {
+            m.row.as_ref().map(|r| format!("{:05.1}", r.0))
+        }),
+        (FleetSort::DriftUrad, |m| {
+            m.row.as_ref().map(|r| format!("{:05.1}", r.1))
+        }),
+        (FleetSort::LastCheck, |m| {
+            m.row.as_ref().and_then(|r| r.2.clone())
+        }),
+        (FleetSort::Name, |_| Some(String::new())),
+    ];
+    let filters = [
+        (None, None),
+        (Some("north"), None),
+        (None, Some("vmc")),
+        (Some("south"), Some("vmc")),
+        (None, Some("5_axis")),
+        (Some("west"), None),
+    ];
+    for (sort, key) in sorts {
+        for (site, tag) in filters {
+            let mut expected: Vec<&Truth> = fleet
+                .iter()
+                .filter(|m| site.is_none_or(|s| m.site == s))
+                .filter(|m| tag.is_none_or(|t| m.tags.iter().any(|x| x == t)))
+                .collect();
+            expected.sort_by(|a, b| {
+                (b.alerts > 0)
+                    .cmp(&(a.alerts > 0))
+                    .then_with(|| match (key(a), key(b)) {
+                        (Some(x), Some(y)) => y.cmp(&x),
+                        (x, y) => y.is_some().cmp(&x.is_some()),
+                    })
+                    .then_with(|| a.id.cmp(&b.id))
+            });
+            let what = format!("{sort:?} site {site:?} tag {tag:?}");
+            for limit in [1, 4, 7, 100] {
+                let mut seen = Vec::new();
+                for offset in (0..expected.len() + limit).step_by(limit) {
+                    let p = s
+                        .fleet_page(&FleetPageQuery {
+                            site: site.map(Into::into),
+                            tag: tag.map(Into::into),
+                            sort,
+                            offset: offset as i64,
+                            limit: limit as i64,
+                        })
+                        .await
+                        .unwrap();
+                    assert_eq!(p.total, expected.len() as i64, "{what}");
+                    let want: Vec<_> = expected.iter().skip(offset).take(limit).collect();
+                    assert_eq!(
+                        p.rows
+                            .iter()
+                            .map(|r| (r.machine.id.as_str(), r.active_alerts, r.drift.is_some()))
+                            .collect::<Vec<_>>(),
+                        want.iter()
+                            .map(|m| (m.id.as_str(), m.alerts, m.row.is_some()))
+                            .collect::<Vec<_>>(),
+                        "{what}, limit {limit}, offset {offset}"
+                    );
+                    seen.extend(p.rows.into_iter().map(|r| r.machine.id));
+                }
+                assert_eq!(seen.len(), expected.len(), "{what}: every machine once");
+            }
+        }
+    }
 }
 
 async fn migrations_are_all_applied(s: &dyn Store) {

@@ -135,6 +135,7 @@ pub async fn fleet(
         }
     };
     let page_no = q.page.unwrap_or(1).max(1);
+    let started = std::time::Instant::now();
     let found = app
         .store
         .fleet_page(&FleetPageQuery {
@@ -145,6 +146,7 @@ pub async fn fleet(
             limit: FLEET_PAGE_ROWS as i64,
         })
         .await?;
+    let read_page = started.elapsed();
     let alerts = crate::api::alerts::list_alerts(
         app,
         &AlertQuery {
@@ -154,6 +156,7 @@ pub async fn fleet(
         },
     )
     .await?;
+    let read_alerts = started.elapsed();
     let drift = |value: f64, std: Option<f64>, unit: &str, term: &Option<String>| vfleet::Drift {
         value,
         std,
@@ -215,7 +218,20 @@ pub async fn fleet(
         page: page_no,
         pages: total.div_ceil(FLEET_PAGE_ROWS).max(1),
     };
-    Ok(html(vfleet::fleet_page(&session.viewer(), &page)))
+    let mut response = html(vfleet::fleet_page(&session.viewer(), &page));
+    // Where the time went (shown by browsers' developer tools; the load generator
+    // reports it): the page's rows, the alert list, building and rendering the page.
+    let ms = |d: std::time::Duration| d.as_secs_f64() * 1e3;
+    let timing = format!(
+        "page;dur={:.2}, alerts;dur={:.2}, render;dur={:.2}",
+        ms(read_page),
+        ms(read_alerts - read_page),
+        ms(started.elapsed() - read_alerts)
+    );
+    if let Ok(v) = axum::http::HeaderValue::from_str(&timing) {
+        response.headers_mut().insert("server-timing", v);
+    }
+    Ok(response)
 }
 
 #[derive(Debug, Deserialize, Default)]

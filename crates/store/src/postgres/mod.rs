@@ -26,15 +26,17 @@ mod dialect {
     /// Row locking of the claim's sub-select: concurrent claimers skip a row another
     /// claimer holds instead of waiting for it, so each claims a different job.
     pub const CLAIM_LOCK: &str = "FOR UPDATE SKIP LOCKED";
-    /// Statement that makes a transaction's reads one snapshot (READ COMMITTED, the
+    /// How a transaction whose reads are one snapshot begins (READ COMMITTED, the
     /// default, takes a new snapshot per statement).
-    pub const SNAPSHOT: &str = "SET TRANSACTION ISOLATION LEVEL REPEATABLE READ, READ ONLY";
+    pub const BEGIN_SNAPSHOT: &str = "BEGIN ISOLATION LEVEL REPEATABLE READ, READ ONLY";
     /// Run after a dataset's bytes were deleted: nothing; the old row versions are
     /// removed by (auto)vacuum, as for every update.
     pub const AFTER_BYTES_DELETED: &str = "";
-    /// How the fleet page reads its sort keys: as the planner chooses (the wide entry is
-    /// stored out of line, so the table's rows are narrow).
-    pub const FLEET_KEYS: &str = "fleet_drift f";
+    /// The table `table` (with its alias) for a walk of `index`: as the planner chooses
+    /// (it walks the index for an `ORDER BY … LIMIT` the index holds in order).
+    pub fn walk(table: &str, _index: &str) -> String {
+        table.to_string()
+    }
 }
 
 /// The shared statements, compiled for PostgreSQL.

@@ -21,16 +21,19 @@ mod dialect {
     pub const NEXT_SEQ: &str = "(SELECT COALESCE(MAX(seq), 0) + 1 FROM jobs)";
     /// Row locking of the claim's sub-select: none needed.
     pub const CLAIM_LOCK: &str = "";
-    /// Statement that makes a transaction's reads one snapshot: none needed (in WAL mode
-    /// a transaction reads one snapshot from its first read on).
-    pub const SNAPSHOT: &str = "";
+    /// How a transaction whose reads are one snapshot begins: as any (in WAL mode a
+    /// transaction reads one snapshot from its first read on).
+    pub const BEGIN_SNAPSHOT: &str = "";
     /// Run after a dataset's bytes were deleted: copies the write-ahead log into the
     /// database file and empties it, so that (with `secure_delete`, which zeroes freed
     /// content) the deleted bytes leave the disk at once, not at the next checkpoint.
     pub const AFTER_BYTES_DELETED: &str = "PRAGMA wal_checkpoint(TRUNCATE)";
-    /// How the fleet page reads its sort keys: from the covering index (without
-    /// statistics the planner takes the primary key's index, which reads every wide row).
-    pub const FLEET_KEYS: &str = "fleet_drift f INDEXED BY fleet_drift_keys";
+    /// The table `table` (with its alias) read through `index`: the fleet page walks an
+    /// index in order (without statistics the planner may drive the walk from the
+    /// machines and sort every one).
+    pub fn walk(table: &str, index: &str) -> String {
+        format!("{table} INDEXED BY {index}")
+    }
 }
 
 /// The shared statements, compiled for SQLite.
