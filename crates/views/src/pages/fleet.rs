@@ -115,7 +115,7 @@ pub fn fleet_page(viewer: &Viewer, f: &FleetPage) -> Markup {
         Some(viewer),
         html! {
             h1 { "Fleet" }
-            p.lead { (f.total) " machine(s). Drift: " (f.definition) }
+            p.lead { (f.total) " machine(s). Drift: " (f.definition) ", shown as ± U = 2u." }
             @if !active.is_empty() {
                 section.card #alerts {
                     h2 { "Active alerts " span.badge.alert { (active.len()) } }
