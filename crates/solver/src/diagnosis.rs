@@ -164,6 +164,7 @@ pub struct PlotSeries {
 pub mod catalogue;
 pub mod design;
 pub mod effects;
+pub mod engine;
 pub mod even_scan;
 pub mod linalg;
 pub mod moments;

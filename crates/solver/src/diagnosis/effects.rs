@@ -292,6 +292,11 @@ pub fn spec(name: &str) -> Option<&'static EffectSpec> {
     EFFECTS.iter().find(|e| e.name == name)
 }
 
+/// The physics sentence of an effect, the one every finding reports.
+pub fn physics(effect: &str) -> &'static str {
+    spec(effect).map_or("unmodelled effect", |e| e.physics)
+}
+
 /// Whether `name` is an instance of the pattern (`{axis}`, `{n}`, `{sensor}`).
 pub fn matches_pattern(pattern: &str, name: &str) -> bool {
     let Some(i) = pattern.find('{') else {

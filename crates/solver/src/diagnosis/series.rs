@@ -82,9 +82,9 @@ pub(crate) fn rms(v: &[f64]) -> f64 {
 
 /// Bayesian information criterion of a Gaussian least-squares fit:
 /// BIC = n ln(SSE/n) + k ln n (Schwarz 1978).
-pub(crate) fn bic(sse: f64, n: usize, k: usize) -> f64 {
+pub(crate) fn bic(sse: f64, n: usize, k: f64) -> f64 {
     let nf = n as f64;
-    nf * (sse.max(1e-300) / nf).ln() + k as f64 * nf.ln()
+    nf * (sse.max(1e-300) / nf).ln() + k * nf.ln()
 }
 
 /// Golden-section minimisation of `f` on `[a, b]` (unimodal assumed), `iters` steps;

@@ -859,7 +859,7 @@ fn finding_of(
             .map(|a| a.to_string())
             .or(t.cand.direction.map(|a| a.to_string())),
         parameters,
-        physics: catalogue::physics(catalogue::reported_name(t.cand.effect)).into(),
+        physics: effects::physics(catalogue::reported_name(t.cand.effect)).into(),
         signature: catalogue::signature(&t.cand, t.theta.map(|x| x.1)),
         undetermined: vec![],
         residual_rms_um: BeforeAfter {

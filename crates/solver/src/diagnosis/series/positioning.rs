@@ -37,13 +37,14 @@
 //! it; [`crate::standards::iso230_2`] gives those figures).
 //!
 //! Submodules, one concept each: `data` (validation and derived coordinates, noise
-//! floor), `columns` (rigid and effect columns, search grids), `search` (1-D searches,
-//! LORO scores, the greedy selection), `report` (parameters, findings, mismatch, plots).
+//! floor), `columns` (rigid and effect columns, search grids), `problem` (the axis as a
+//! problem of the diagnosis engine, which runs the 1-D searches, held-out scores and the greedy
+//! selection), `report` (parameters, findings, mismatch, plots).
 
 mod columns;
 mod data;
+mod problem;
 mod report;
-mod search;
 
 use super::SeriesOptions;
 use crate::axis::Axis;
@@ -99,7 +100,8 @@ pub fn diagnose_positioning_with_progress(
             k as f64 / axes.len() as f64,
             (k + 1) as f64 / axes.len() as f64,
         );
-        let sel = search::select(&a, opts, &mut progress, span);
+        let p = problem::Positioning::new(&a, opts);
+        let sel = problem::select(&p, opts, &mut progress, span);
         progress.report_in(span, &format!("axis {}: report", a.axis), 0.95);
         outs.push(report::outcome(&a, sel, opts));
     }

@@ -1,0 +1,297 @@
+//! The diagnosis engine: the one greedy loop every kind of recording runs (docs/diagnosis.md,
+//! "Engine").
+//!
+//! A recording is a [`Problem`]: readings y, the rows a model is fitted on, a held-out
+//! split of them into folds, the least-squares columns of a model, and the candidate
+//! effects that may extend the current model, each with at most one nonlinear parameter θ
+//! and its search grid. [`select`] then runs
+//!
+//! 1. **fit** the rigid model on the fitting rows; its held-out sum of squares is
+//!    S_ho = Σ_folds Σ_{i ∈ test} (y_i − ŷ_i)², ŷ fitted on the fold's training rows;
+//! 2. **candidates** of the current model from the problem;
+//! 3. **1-D search** of each candidate's θ: the grid point of least fitted SSE, refined by
+//!    golden section between its neighbours; in every fold θ is searched again on the
+//!    fold's training rows only, so S_ho is an honest held-out figure;
+//! 4. **gate**: a candidate qualifies when ΔBIC = BIC₁ − BIC₀ ≤ −`bic_threshold`, with
+//!    BIC = n ln(SSE/n) + k ln n (Schwarz 1978; n fitted rows, k parameters including
+//!    θ), and S_ho,₁ ≤ (1 − `min_heldout_gain`)·S_ho,₀. Among the qualifying ones, taken
+//!    in order of k (then S_ho), a richer candidate replaces the simpler choice only when
+//!    its S_ho is below (1 − `min_heldout_gain`) times the simpler one's (parsimony: more
+//!    parameters must earn the same held-out gain). The choice is added; the loop repeats
+//!    until none qualifies, `max_findings` are added, or the held-out RMS
+//!    √(S_ho/n_ho) is within `stop_ratio` × the noise floor;
+//! 5. **verdict** by the one rule of [`super::effects::verdict`], after each finding's
+//!    parameters are sorted by the one "determined" rule ([`super::effects::classify`]).
+//!
+//! A problem whose model is not fitted by plain least squares (the ridge thermal model of
+//! drift logs) overrides [`Problem::fit`] and may score itself on the same folds
+//! ([`Problem::own_heldout_sse`], when its penalty is chosen by them).
+
+use super::Monotone;
+use super::series::lsq::{self, Design};
+use super::series::{bic, grid_then_golden};
+
+/// One held-out fold: the model is fitted on `train` and predicts `test`.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Fold {
+    pub train: Vec<usize>,
+    pub test: Vec<usize>,
+}
+
+/// A fitted model: coefficients of its columns, the SSE on the rows it was fitted on and
+/// its prediction at every row of the recording.
+#[derive(Debug, Clone)]
+pub struct Fitted {
+    pub coef: Vec<f64>,
+    pub sse: f64,
+    pub prediction: Vec<f64>,
+}
+
+/// A recording to diagnose (module docs).
+pub trait Problem {
+    /// A model: the rigid model and the effects added to it, with their θ.
+    type Model: Clone;
+    /// A candidate effect that extends a model.
+    type Candidate: Copy;
+
+    /// The readings y, one per row.
+    fn readings(&self) -> &[f64];
+    /// Rows the models are fitted on.
+    fn fit_rows(&self) -> Vec<usize>;
+    /// The held-out split of the fitting rows.
+    fn folds(&self) -> Vec<Fold>;
+    /// The noise floor, estimated independently of any model.
+    fn noise_floor(&self) -> f64;
+    /// Least-squares columns of a model at every row.
+    fn columns(&self, m: &Self::Model) -> Design;
+    /// Number of parameters of a model (linear coefficients and searched θ) for BIC.
+    fn n_params(&self, m: &Self::Model) -> f64;
+    /// The candidates that may extend `m`.
+    fn candidates(&self, m: &Self::Model) -> Vec<Self::Candidate>;
+    /// Search grid of a candidate's nonlinear parameter (empty: it has none).
+    fn grid(&self, c: Self::Candidate) -> Vec<f64>;
+    /// `m` extended by `c` at the searched value `v` (ignored without a grid).
+    fn extend(&self, m: &Self::Model, c: Self::Candidate, v: f64) -> Self::Model;
+
+    /// Fits `m` on `rows`; by default the one dense least-squares kernel on its columns.
+    fn fit(&self, m: &Self::Model, rows: &[usize]) -> Fitted {
+        let d = self.columns(m);
+        let y: Vec<f64> = rows.iter().map(|&i| self.readings()[i]).collect();
+        let fit = lsq::solve(&d.rows(rows), &y);
+        Fitted {
+            prediction: d.predict(&fit.coef),
+            coef: fit.coef,
+            sse: fit.sse,
+        }
+    }
+
+    /// The held-out SSE of a model that scores itself on [`Problem::folds`] (`None`: the
+    /// engine refits it on every fold).
+    fn own_heldout_sse(&self, _m: &Self::Model) -> Option<f64> {
+        None
+    }
+}
+
+/// The choice rules of the loop (module docs).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Rules {
+    pub bic_threshold: f64,
+    pub min_heldout_gain: f64,
+    pub stop_ratio: f64,
+    pub max_findings: usize,
+}
+
+/// A candidate evaluated in one round.
+pub struct Scored<P: Problem> {
+    pub candidate: P::Candidate,
+    /// The current model extended by the candidate at its searched θ.
+    pub model: P::Model,
+    pub fit: Fitted,
+    pub heldout_sse: f64,
+    pub dbic: f64,
+    pub k: f64,
+}
+
+impl<P: Problem> Clone for Scored<P> {
+    fn clone(&self) -> Self {
+        Scored {
+            candidate: self.candidate,
+            model: self.model.clone(),
+            fit: self.fit.clone(),
+            heldout_sse: self.heldout_sse,
+            dbic: self.dbic,
+            k: self.k,
+        }
+    }
+}
+
+/// One accepted step: the model before it and the chosen candidate.
+pub struct Step<P: Problem> {
+    pub before: P::Model,
+    pub chosen: Scored<P>,
+    /// RMS on the fitting rows before and after.
+    pub rms: super::BeforeAfter,
+    /// Held-out RMS √(S_ho/n_ho) before and after.
+    pub heldout: super::BeforeAfter,
+}
+
+/// What the loop found.
+pub struct Selection<P: Problem> {
+    pub noise: f64,
+    /// Fitted and held-out row counts (n of BIC, n_ho of the held-out RMS).
+    pub n_fit: usize,
+    pub n_heldout: usize,
+    pub base: P::Model,
+    pub base_fit: Fitted,
+    pub base_heldout_sse: f64,
+    pub model: P::Model,
+    pub fit: Fitted,
+    pub heldout_sse: f64,
+    pub steps: Vec<Step<P>>,
+    /// Every candidate evaluated, in every round.
+    pub tried: Vec<Scored<P>>,
+}
+
+impl<P: Problem> Selection<P> {
+    pub fn base_heldout_rms(&self) -> f64 {
+        (self.base_heldout_sse / self.n_heldout.max(1) as f64).sqrt()
+    }
+    pub fn heldout_rms(&self) -> f64 {
+        (self.heldout_sse / self.n_heldout.max(1) as f64).sqrt()
+    }
+}
+
+/// `m` extended by `c` with θ searched on `rows` (grid, then golden section).
+pub fn search<P: Problem>(p: &P, m: &P::Model, c: P::Candidate, rows: &[usize]) -> P::Model {
+    let grid = p.grid(c);
+    if grid.is_empty() {
+        return p.extend(m, c, 0.0);
+    }
+    let (v, _) = grid_then_golden(&grid, 20, |v| p.fit(&p.extend(m, c, v), rows).sse);
+    p.extend(m, c, v)
+}
+
+/// Held-out SSE of `m` extended by `c` (θ searched again on every fold's training rows),
+/// or of `m` itself; `full` is the model fitted on all fitting rows.
+pub fn heldout_sse<P: Problem>(
+    p: &P,
+    m: &P::Model,
+    c: Option<P::Candidate>,
+    full: &P::Model,
+) -> f64 {
+    if let Some(s) = p.own_heldout_sse(full) {
+        return s;
+    }
+    let y = p.readings();
+    p.folds()
+        .iter()
+        .map(|f| {
+            let mm = c.map_or_else(|| m.clone(), |c| search(p, m, c, &f.train));
+            let pred = p.fit(&mm, &f.train).prediction;
+            f.test
+                .iter()
+                .map(|&i| (y[i] - pred[i]).powi(2))
+                .sum::<f64>()
+        })
+        .sum()
+}
+
+/// The parsimonious choice among qualifying candidates (module docs, step 4).
+fn choose<P: Problem>(mut q: Vec<Scored<P>>, gain: f64) -> Option<Scored<P>> {
+    q.sort_by(|a, b| {
+        a.k.total_cmp(&b.k)
+            .then(a.heldout_sse.total_cmp(&b.heldout_sse))
+    });
+    let mut it = q.into_iter();
+    let mut pick = it.next()?;
+    for c in it {
+        if c.heldout_sse < (1.0 - gain) * pick.heldout_sse {
+            pick = c;
+        }
+    }
+    Some(pick)
+}
+
+/// Runs the loop (module docs) from the rigid model `base`; `label` names the recording
+/// part in the progress reports (each round of candidates), made within `span` of the
+/// whole work.
+pub(crate) fn select<P: Problem>(
+    p: &P,
+    base: P::Model,
+    rules: &Rules,
+    label: &str,
+    progress: &mut Monotone,
+    span: (f64, f64),
+) -> Selection<P> {
+    let noise = p.noise_floor();
+    let rows = p.fit_rows();
+    let n = rows.len();
+    let n_heldout = p.folds().iter().map(|f| f.test.len()).sum::<usize>();
+    let rms = |sse: f64, k: usize| (sse / k.max(1) as f64).sqrt();
+    let base_fit = p.fit(&base, &rows);
+    let base_heldout_sse = heldout_sse(p, &base, None, &base);
+    let (mut model, mut fit, mut cur_ho) = (base.clone(), base_fit.clone(), base_heldout_sse);
+    let mut steps: Vec<Step<P>> = vec![];
+    let mut tried = vec![];
+    while steps.len() < rules.max_findings {
+        progress.report_in(
+            span,
+            &format!("{label}: round {} of candidates", steps.len() + 1),
+            0.1 + 0.85 * steps.len() as f64 / rules.max_findings as f64,
+        );
+        if rms(cur_ho, n_heldout) <= rules.stop_ratio * noise {
+            break;
+        }
+        let cur_bic = bic(fit.sse, n, p.n_params(&model));
+        let mut qualifying = vec![];
+        for c in p.candidates(&model) {
+            let m = search(p, &model, c, &rows);
+            let f = p.fit(&m, &rows);
+            let k = p.n_params(&m);
+            let s = Scored {
+                candidate: c,
+                heldout_sse: heldout_sse(p, &model, Some(c), &m),
+                dbic: bic(f.sse, n, k) - cur_bic,
+                model: m,
+                fit: f,
+                k,
+            };
+            if s.dbic <= -rules.bic_threshold
+                && s.heldout_sse <= (1.0 - rules.min_heldout_gain) * cur_ho
+            {
+                qualifying.push(s.clone());
+            }
+            tried.push(s);
+        }
+        let Some(chosen): Option<Scored<P>> = choose(qualifying, rules.min_heldout_gain) else {
+            break;
+        };
+        steps.push(Step {
+            rms: super::BeforeAfter {
+                before: rms(fit.sse, n),
+                after: rms(chosen.fit.sse, n),
+            },
+            heldout: super::BeforeAfter {
+                before: rms(cur_ho, n_heldout),
+                after: rms(chosen.heldout_sse, n_heldout),
+            },
+            before: std::mem::replace(&mut model, P::Model::clone(&chosen.model)),
+            chosen: chosen.clone(),
+        });
+        fit = chosen.fit;
+        cur_ho = chosen.heldout_sse;
+    }
+    Selection {
+        noise,
+        n_fit: n,
+        n_heldout,
+        base,
+        base_fit,
+        base_heldout_sse,
+        model,
+        fit,
+        heldout_sse: cur_ho,
+        steps,
+        tried,
+    }
+}
