@@ -167,6 +167,7 @@ pub mod effects;
 pub mod engine;
 pub mod even_scan;
 pub mod linalg;
+pub mod lsq;
 pub mod moments;
 pub mod reduced;
 pub(crate) mod search;

@@ -28,7 +28,7 @@
 //! ([`Problem::own_heldout_sse`], when its penalty is chosen by them).
 
 use super::Monotone;
-use super::series::lsq::{self, Design};
+use super::lsq::{self, Design};
 use super::series::{bic, grid_then_golden};
 
 /// One held-out fold: the model is fitted on `train` and predicts `test`.

@@ -13,10 +13,11 @@
 //! * [`drift`]: constant per channel versus first-order responses to the spindle's
 //!   running history and regressions on structure temperatures.
 //! * [`simulate`]: seedable simulators of both recordings with known effects (truth).
-//! * [`lsq`]: the small least-squares kernel (column-equilibrated SVD) they share.
+//!
+//! Both run the greedy loop of [`crate::diagnosis::engine`] and fit with the one dense
+//! least-squares kernel, [`crate::diagnosis::lsq`].
 
 pub mod drift;
-pub mod lsq;
 pub mod positioning;
 pub mod simulate;
 

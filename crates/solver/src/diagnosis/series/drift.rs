@@ -37,10 +37,10 @@
 //! not white. Parameters are sorted into determined and undetermined ones by the one rule
 //! of every diagnosis ([`crate::diagnosis::effects::classify`]).
 
-use super::lsq::{self, Design};
 use super::{SeriesOptions, decimate, log_grid, rms};
 use crate::datasets::{Channel, ChannelKind, DriftLog};
 use crate::diagnosis::engine::{self, Fitted, Fold, Problem, Rules};
+use crate::diagnosis::lsq::{self, Design};
 use crate::diagnosis::{
     Baseline, BeforeAfter, DiagnosisResult, Finding, Mismatch, Monotone, NoProgress, PlotData,
     PlotSeries, Progress, effects,

@@ -2,9 +2,9 @@
 //! position, approach direction, travel since the reversal, time, temperature) and the
 //! model-independent noise floor (the parent module's docs).
 
-use super::super::lsq::{self, Design};
 use crate::axis::Axis;
 use crate::datasets::{Direction, PositioningRecord};
+use crate::diagnosis::lsq::{self, Design};
 use crate::error::SolverError;
 
 /// One axis's records in file (measurement) order.

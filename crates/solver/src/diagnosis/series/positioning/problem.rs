@@ -5,11 +5,11 @@
 //! same held-out figure among 1..=`max_base_order`.
 
 use super::super::SeriesOptions;
-use super::super::lsq::Design;
 use super::columns::{Effect, Model, Term};
 use super::data::AxisData;
 use crate::diagnosis::Monotone;
 use crate::diagnosis::engine::{self, Fold, Problem, Rules, Selection};
+use crate::diagnosis::lsq::Design;
 
 /// A candidate: an effect of the table, or the polynomial raised to an order.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]

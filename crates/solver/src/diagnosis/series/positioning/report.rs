@@ -2,12 +2,12 @@
 //! uncertainties (Jacobian of the final joint fit with ∂/∂θ columns), where the rigid
 //! model's residuals concentrate, what remains unexplained, and the plots.
 
-use super::super::lsq;
 use super::super::{SeriesOptions, decimate, rms};
 use super::columns::{Effect, Model};
 use super::data::AxisData;
 use super::problem::{Candidate, Positioning};
 use crate::diagnosis::engine::Selection;
+use crate::diagnosis::lsq;
 use crate::diagnosis::{Finding, Mismatch, PlotData, PlotSeries, effects};
 use std::collections::BTreeMap;
 
