@@ -20,8 +20,11 @@
 //!    parameters must earn the same held-out gain). The choice is added; the loop repeats
 //!    until none qualifies, `max_findings` are added, or the held-out RMS
 //!    √(S_ho/n_ho) is within `stop_ratio` × the noise floor;
-//! 5. **verdict** by the one rule of [`super::effects::verdict`], after each finding's
-//!    parameters are sorted by the one "determined" rule ([`super::effects::classify`]).
+//! 5. **verdict**: the findings built from the [`Selection`] are sorted by the one
+//!    "determined" rule ([`super::effects::classify`]) and judged by the one verdict rule
+//!    ([`super::effects::verdict`]); a recording of several parts (the axes of positioning
+//!    runs, the channels of a drift log) runs the loop per part and pools the parts for
+//!    the verdict.
 //!
 //! A problem whose model is not fitted by plain least squares (the ridge thermal model of
 //! drift logs) overrides [`Problem::fit`] and may score itself on the same folds
