@@ -1,6 +1,6 @@
 //! Least squares for the diagnosis of sessions: an orthonormal basis of the rigid model's
 //! column space (faer thin QR, then the SVD of the small R factor for the rank, the one
-//! dense kernel's [`RSvd`]), and projections of candidate effect columns onto its
+//! dense kernel's [`basis`]), and projections of candidate effect columns onto its
 //! complement.
 //!
 //! With A = Q·R and R = U·Σ·Vᵀ (rank r after truncation at `RANK_TOL`·σ₁), W = Q·U_r is an
@@ -8,7 +8,7 @@
 //! fitted jointly with the rigid model by Frisch–Waugh: c = argmin ‖(I − WWᵀ)(y − B c)‖,
 //! x_A = A⁺(y − B c). Normal matrices are never formed.
 
-use super::lsq::RSvd;
+use super::lsq::{Basis, RANK_TOL, basis};
 use nalgebra::{DMatrix, DVector};
 
 /// Column-major dense matrix as a list of columns.
@@ -46,17 +46,8 @@ impl Projector {
                 condition: 1.0,
             };
         }
-        let m = faer::Mat::<f64>::from_fn(n, k, get);
-        let qr = m.qr();
-        let q = qr.compute_thin_Q();
-        let kk = k.min(n);
-        let r = qr.thin_R();
-        let f = RSvd::new(DMatrix::from_fn(kk, k, |i, j| {
-            if j >= i { r[(i, j)] } else { 0.0 }
-        }));
+        let Basis { w: wm, r: f } = basis(&faer::Mat::<f64>::from_fn(n, k, get), RANK_TOL);
         let (keep, rank) = (&f.keep, f.rank());
-        let uf = faer::Mat::<f64>::from_fn(kk, rank, |i, j| f.u[(i, keep[j])]);
-        let wm = &q * &uf;
         let w = (0..rank)
             .map(|j| (0..n).map(|i| wm[(i, j)]).collect())
             .collect();

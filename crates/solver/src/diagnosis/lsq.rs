@@ -1,5 +1,6 @@
 //! The one dense least-squares kernel of the diagnosis (positioning runs, drift logs, the
-//! engine's fits, and the rigid-model basis of sessions, [`super::linalg::Projector`]):
+//! engine's fits, and the orthonormal bases of sessions: [`super::linalg::Projector`] and
+//! the dense per-run reduction of [`super::reduced`], both by [`basis`]):
 //! min ‖y − X b‖₂ for a tall X with few columns, never through the normal matrix.
 //!
 //! Columns are scaled to unit norm (D = diag of the column norms); a thin Householder QR
@@ -69,7 +70,13 @@ pub struct RSvd {
 }
 
 impl RSvd {
+    /// The SVD of `r` with the rank at `RANK_TOL`.
     pub fn new(r: DMatrix<f64>) -> RSvd {
+        RSvd::with_tol(r, RANK_TOL)
+    }
+
+    /// The SVD of `r`, keeping the singular values above `tol`·σ₁.
+    pub fn with_tol(r: DMatrix<f64>, tol: f64) -> RSvd {
         let svd = r.svd(true, true);
         let (u, vt) = (svd.u.expect("u requested"), svd.v_t.expect("v requested"));
         let s = svd.singular_values;
@@ -78,7 +85,7 @@ impl RSvd {
         let s1 = order.first().map_or(0.0, |&i| s[i]);
         let keep = order
             .into_iter()
-            .filter(|&i| s[i] > RANK_TOL * s1 && s[i] > 0.0)
+            .filter(|&i| s[i] > tol * s1 && s[i] > 0.0)
             .collect();
         RSvd { u, s, vt, keep }
     }
@@ -94,6 +101,28 @@ impl RSvd {
             _ => 1.0,
         }
     }
+}
+
+/// An orthonormal basis of the column space of A (n × k): A = Q R (thin QR, faer),
+/// R = U Σ Vᵀ ([`RSvd`], rank r at `tol`), W = Q U_r (n × r), so that A = W Σ_r V_rᵀ.
+pub struct Basis {
+    pub w: faer::Mat<f64>,
+    pub r: RSvd,
+}
+
+/// The [`Basis`] of `a`, singular values above `tol`·σ₁ kept.
+pub fn basis(a: &faer::Mat<f64>, tol: f64) -> Basis {
+    let (n, k) = (a.nrows(), a.ncols());
+    let qr = a.qr();
+    let q = qr.compute_thin_Q();
+    let kk = k.min(n);
+    let rf = qr.thin_R();
+    let r = RSvd::with_tol(
+        DMatrix::from_fn(kk, k, |i, j| if j >= i { rf[(i, j)] } else { 0.0 }),
+        tol,
+    );
+    let uf = faer::Mat::<f64>::from_fn(kk, r.rank(), |i, j| r.u[(i, r.keep[j])]);
+    Basis { w: &q * &uf, r }
 }
 
 /// Result of one least-squares solve.
