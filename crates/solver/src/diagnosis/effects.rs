@@ -21,6 +21,17 @@ pub struct ParamSpec {
     /// A nonlinear parameter (time constant, length, period, frequency), searched in 1-D;
     /// the one rule ([`determined`]) reads σ ≤ value/2 for it.
     pub nonlinear: bool,
+    /// What extra data would decide this parameter when it is undetermined (empty: the
+    /// effect's `decide`).
+    pub decide: &'static str,
+}
+
+impl ParamSpec {
+    /// This parameter with its own `decide` sentence.
+    const fn decided_by(mut self, decide: &'static str) -> ParamSpec {
+        self.decide = decide;
+        self
+    }
 }
 
 /// One mechanism.
@@ -42,6 +53,7 @@ const fn p(name: &'static str, unit: &'static str, convention: &'static str) -> 
         unit,
         convention,
         nonlinear: false,
+        decide: "",
     }
 }
 
@@ -51,6 +63,7 @@ const fn q(name: &'static str, unit: &'static str, convention: &'static str) -> 
         unit,
         convention,
         nonlinear: true,
+        decide: "",
     }
 }
 
@@ -190,21 +203,33 @@ pub const EFFECTS: &[EffectSpec] = &[
                 "tau{n}_s",
                 "s",
                 "drift logs: time constant of lag n, tau x' = u - x",
+            )
+            .decided_by(
+                "a longer recording with the spindle held at one speed for several time constants",
             ),
             p(
                 "gain{n}_um",
                 "um",
                 "drift logs: steady-state growth of lag n at full speed, positive toward +",
+            )
+            .decided_by(
+                "speed steps that move the channel by many times its noise, each held for several time constants,",
             ),
             p(
                 "spindle_gain_um",
                 "um",
                 "drift logs, thermal model: steady-state growth of the spindle path at full speed (sum of its lag gains), positive toward +",
+            )
+            .decided_by(
+                "a run held at one speed for longer than the longest lag (2 h), temperatures logged,",
             ),
             p(
                 "{sensor}_um_per_k",
                 "um/K",
                 "drift logs: growth per kelvin of a structure temperature",
+            )
+            .decided_by(
+                "a log in which this temperature changes on its own (e.g. an ambient change with the spindle at rest)",
             ),
             p(
                 "share_predicted",
@@ -328,6 +353,15 @@ pub fn param_spec(effect: &EffectSpec, name: &str) -> Option<&'static ParamSpec>
     effect.params.iter().find(|p| matches_pattern(p.name, base))
 }
 
+/// What extra data would decide parameter `name` of `effect`: its own sentence, or the
+/// effect's.
+pub fn decide(effect: &EffectSpec, name: &str) -> &'static str {
+    param_spec(effect, name)
+        .map(|p| p.decide)
+        .filter(|d| !d.is_empty())
+        .unwrap_or(effect.decide)
+}
+
 /// Checks that every parameter a finding reports is a parameter of its effect in the
 /// table (names, units and signs are then those of the table).
 pub fn conforms(f: &Finding) -> Result<(), String> {
@@ -368,7 +402,7 @@ pub fn undetermined(f: &Finding) -> Vec<Undetermined> {
         }
         match f.parameters.get(&format!("std_{name}")) {
             Some(&sd) if !determined(v, sd) => {
-                bad.push(Undetermined::new(name.clone(), v, sd, spec.decide))
+                bad.push(Undetermined::new(name.clone(), v, sd, decide(spec, name)))
             }
             _ => good += 1,
         }
@@ -394,14 +428,14 @@ pub fn classify(f: Finding) -> Sorted {
     if !open.is_empty() {
         return Sorted::Possible(set_aside(f, open));
     }
-    let decide = spec(&f.effect).map_or("more data", |e| e.decide);
+    let sentence = |name: &str| spec(&f.effect).map_or("more data", |e| decide(e, name));
     let weak: Vec<Undetermined> = f
         .parameters
         .iter()
         .filter(|(name, _)| !name.starts_with("std_"))
         .filter_map(|(name, &v)| {
             let sd = *f.parameters.get(&format!("std_{name}"))?;
-            (!determined(v, sd)).then(|| Undetermined::new(name.clone(), v, sd, decide))
+            (!determined(v, sd)).then(|| Undetermined::new(name.clone(), v, sd, sentence(name)))
         })
         .collect();
     Sorted::Determined(set_aside(f, weak))
@@ -548,6 +582,11 @@ mod tests {
         };
         let open: Vec<&str> = f.undetermined.iter().map(|u| u.name.as_str()).collect();
         assert_eq!(open, ["gain1_um"]);
+        assert!(
+            f.undetermined[0].decide.starts_with("speed steps"),
+            "{:?}",
+            f.undetermined
+        );
         assert!(!f.parameters.contains_key("gain1_um"));
         assert!(!f.parameters.contains_key("std_gain1_um"));
         assert_eq!(f.parameters["gain2_um"], -5.0);
