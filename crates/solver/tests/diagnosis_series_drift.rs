@@ -97,6 +97,8 @@ fn fl_thermal_beats_the_reference_model_on_every_channel_and_window() {
     assert!(r.baseline.heldout_rms_um > 50.0 * r.baseline.noise_estimate_um);
     for f in &r.findings {
         assert_eq!(f.effect, "thermal_drift");
+        // Names, units and signs are those of the effects table.
+        mtcal_solver::diagnosis::effects::conforms(f).unwrap();
         // Every reported parameter is determined by the one rule of every diagnosis,
         // |value| ≥ 2 std; the rest is listed as undetermined, with what would decide it.
         for (k, v) in &f.parameters {
