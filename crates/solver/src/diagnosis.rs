@@ -164,8 +164,10 @@ pub struct PlotSeries {
 pub mod catalogue;
 pub mod design;
 pub mod effects;
+pub mod engine;
 pub mod even_scan;
 pub mod linalg;
+pub mod lsq;
 pub mod moments;
 pub mod periodic_scan;
 pub mod reduced;

@@ -51,15 +51,11 @@
 //! Reported quantities are steady-state sums, which do not depend on how the bank splits
 //! a response between neighbouring time constants: the spindle path's growth at full
 //! speed G = Σ_{p,τ} g_{p,τ} (µm) and each sensor's sensitivity K_i = Σ_τ k_{i,τ} (µm/K).
-//! A quantity is *determined* when its standard uncertainty is at most a third of its
-//! magnitude ([`DETERMINED_Z`]); otherwise it is listed as possible but undetermined,
-//! with what data would decide it.
+//! Whether a quantity is determined is decided by the one rule of every diagnosis
+//! ([`crate::diagnosis::effects::determined`]).
 
 use crate::error::SolverError;
 use crate::lsq::{QrAccumulator, Reduced};
-
-/// A quantity counts as determined when |value| ≥ `DETERMINED_Z` · std.
-pub const DETERMINED_Z: f64 = 3.0;
 
 /// First-order lag of `u` with time constant `tau` (s) on sample times `t`:
 /// τ ẋ = u − x, sampled exactly with the input held between samples,
@@ -232,13 +228,6 @@ pub struct Gain {
     /// µm at full speed (spindle) or µm/K (temperature).
     pub value: f64,
     pub std: f64,
-}
-
-impl Gain {
-    /// |value| ≥ [`DETERMINED_Z`] · std.
-    pub fn determined(&self) -> bool {
-        self.value.abs() >= DETERMINED_Z * self.std && self.std.is_finite()
-    }
 }
 
 /// The fitted thermal model of one channel.

@@ -1,7 +1,7 @@
 //! The small kernels of the series diagnoses against textbook formulas.
 
+use mtcal_solver::diagnosis::lsq::{Design, solve};
 use mtcal_solver::diagnosis::series::drift::first_order_lag;
-use mtcal_solver::diagnosis::series::lsq::{Design, solve};
 
 /// Straight-line fit y = a + b x: b = Sxy/Sxx, std(b) = s/√Sxx, std(a) = s √(1/n + x̄²/Sxx)
 /// (any regression textbook), with exact data plus a known alternating residual.

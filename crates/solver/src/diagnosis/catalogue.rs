@@ -488,8 +488,3 @@ pub fn reported_name(effect: &'static str) -> &'static str {
         e => e,
     }
 }
-
-/// The physics sentence of an effect (the shared table of [`super::effects`]).
-pub fn physics(effect: &str) -> &'static str {
-    super::effects::spec(effect).map_or("unmodelled effect", |e| e.physics)
-}

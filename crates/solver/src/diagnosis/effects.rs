@@ -18,9 +18,20 @@ pub struct ParamSpec {
     pub name: &'static str,
     pub unit: &'static str,
     pub convention: &'static str,
-    /// A nonlinear parameter (time constant, length, period, frequency): undetermined
-    /// when σ > value/2; a linear coefficient is undetermined when |value| < 2σ.
+    /// A nonlinear parameter (time constant, length, period, frequency), searched in 1-D;
+    /// the one rule ([`determined`]) reads σ ≤ value/2 for it.
     pub nonlinear: bool,
+    /// What extra data would decide this parameter when it is undetermined (empty: the
+    /// effect's `decide`).
+    pub decide: &'static str,
+}
+
+impl ParamSpec {
+    /// This parameter with its own `decide` sentence.
+    const fn decided_by(mut self, decide: &'static str) -> ParamSpec {
+        self.decide = decide;
+        self
+    }
 }
 
 /// One mechanism.
@@ -29,8 +40,7 @@ pub struct EffectSpec {
     pub name: &'static str,
     pub physics: &'static str,
     pub params: &'static [ParamSpec],
-    /// Parameters that must each be determined (|value| ≥ 2σ for a linear parameter,
-    /// σ ≤ value/2 for a nonlinear one); with `any_of`, at least one of them.
+    /// Parameters that must each be [`determined`]; with `any_of`, at least one of them.
     pub principal: &'static [&'static str],
     pub any_of: bool,
     /// What extra data would decide the effect when its parameters are undetermined.
@@ -43,6 +53,7 @@ const fn p(name: &'static str, unit: &'static str, convention: &'static str) -> 
         unit,
         convention,
         nonlinear: false,
+        decide: "",
     }
 }
 
@@ -52,6 +63,7 @@ const fn q(name: &'static str, unit: &'static str, convention: &'static str) -> 
         unit,
         convention,
         nonlinear: true,
+        decide: "",
     }
 }
 
@@ -191,16 +203,33 @@ pub const EFFECTS: &[EffectSpec] = &[
                 "tau{n}_s",
                 "s",
                 "drift logs: time constant of lag n, tau x' = u - x",
+            )
+            .decided_by(
+                "a longer recording with the spindle held at one speed for several time constants",
             ),
             p(
                 "gain{n}_um",
                 "um",
                 "drift logs: steady-state growth of lag n at full speed, positive toward +",
+            )
+            .decided_by(
+                "speed steps that move the channel by many times its noise, each held for several time constants,",
+            ),
+            p(
+                "spindle_gain_um",
+                "um",
+                "drift logs, thermal model: steady-state growth of the spindle path at full speed (sum of its lag gains), positive toward +",
+            )
+            .decided_by(
+                "a run held at one speed for longer than the longest lag (2 h), temperatures logged,",
             ),
             p(
                 "{sensor}_um_per_k",
                 "um/K",
                 "drift logs: growth per kelvin of a structure temperature",
+            )
+            .decided_by(
+                "a log in which this temperature changes on its own (e.g. an ambient change with the spindle at rest)",
             ),
             p(
                 "share_predicted",
@@ -216,6 +245,7 @@ pub const EFFECTS: &[EffectSpec] = &[
             "offset_um_per_k_{axis}",
             "scale_ppm_per_k_{axis}",
             "tau{n}_s",
+            "spindle_gain_um",
             "{sensor}_um_per_k",
         ],
         any_of: true,
@@ -292,6 +322,11 @@ pub fn spec(name: &str) -> Option<&'static EffectSpec> {
     EFFECTS.iter().find(|e| e.name == name)
 }
 
+/// The physics sentence of an effect, the one every finding reports.
+pub fn physics(effect: &str) -> &'static str {
+    spec(effect).map_or("unmodelled effect", |e| e.physics)
+}
+
 /// Whether `name` is an instance of the pattern (`{axis}`, `{n}`, `{sensor}`).
 pub fn matches_pattern(pattern: &str, name: &str) -> bool {
     let Some(i) = pattern.find('{') else {
@@ -318,6 +353,15 @@ pub fn param_spec(effect: &EffectSpec, name: &str) -> Option<&'static ParamSpec>
     effect.params.iter().find(|p| matches_pattern(p.name, base))
 }
 
+/// What extra data would decide parameter `name` of `effect`: its own sentence, or the
+/// effect's.
+pub fn decide(effect: &EffectSpec, name: &str) -> &'static str {
+    param_spec(effect, name)
+        .map(|p| p.decide)
+        .filter(|d| !d.is_empty())
+        .unwrap_or(effect.decide)
+}
+
 /// Checks that every parameter a finding reports is a parameter of its effect in the
 /// table (names, units and signs are then those of the table).
 pub fn conforms(f: &Finding) -> Result<(), String> {
@@ -330,10 +374,21 @@ pub fn conforms(f: &Finding) -> Result<(), String> {
     Ok(())
 }
 
+/// The one "determined" rule of every diagnosis: a parameter reported with its standard
+/// uncertainty σ is determined when |value| ≥ `DETERMINED_Z`·σ (σ finite). For a
+/// nonlinear parameter (time constant, length, period, frequency; positive) this is
+/// σ ≤ value/2. z = 2 is a two-sided test at about 95 % for a Gaussian estimate; the
+/// drift logs' σ are already inflated for the autocorrelation of their residuals.
+pub const DETERMINED_Z: f64 = 2.0;
+
+/// Whether `value` ± `std` is determined ([`DETERMINED_Z`]).
+pub fn determined(value: f64, std: f64) -> bool {
+    std.is_finite() && value.abs() >= DETERMINED_Z * std
+}
+
 /// The principal parameters that leave a finding undetermined (empty: determined): each
-/// principal parameter (or, for `any_of`, one of them) with a reported σ must satisfy
-/// σ ≤ value/2 (nonlinear: time constants, lengths, frequencies) or |value| ≥ 2σ
-/// (coefficients). Parameters reported without σ are determined by the fit's joint test
+/// principal parameter (or, for `any_of`, one of them) with a reported σ must be
+/// [`determined`]. Parameters reported without σ are determined by the fit's joint test
 /// (BIC). Each is returned with its value, σ and the effect's `decide` sentence.
 pub fn undetermined(f: &Finding) -> Vec<Undetermined> {
     let Some(spec) = spec(&f.effect) else {
@@ -345,37 +400,55 @@ pub fn undetermined(f: &Finding) -> Vec<Undetermined> {
         if name.starts_with("std_") || !spec.principal.iter().any(|p| matches_pattern(p, name)) {
             continue;
         }
-        let Some(&sd) = f.parameters.get(&format!("std_{name}")) else {
-            good += 1;
-            continue;
-        };
-        let ok = if param_spec(spec, name).is_some_and(|p| p.nonlinear) {
-            sd.is_finite() && sd <= 0.5 * v.abs()
-        } else {
-            sd.is_finite() && v.abs() >= 2.0 * sd
-        };
-        if ok {
-            good += 1;
-        } else {
-            bad.push(Undetermined::new(name.clone(), v, sd, spec.decide));
+        match f.parameters.get(&format!("std_{name}")) {
+            Some(&sd) if !determined(v, sd) => {
+                bad.push(Undetermined::new(name.clone(), v, sd, decide(spec, name)))
+            }
+            _ => good += 1,
         }
     }
     let fails = if spec.any_of { good == 0 } else { true };
     if fails { bad } else { Vec::new() }
 }
 
-/// Splits findings into the determined ones and the possible ones, by [`undetermined`]: a
-/// possible finding's undetermined parameters move from `parameters` (with their `std_`)
-/// to its `undetermined` list.
+/// A finding sorted by the one rule ([`classify`]).
+pub enum Sorted {
+    /// Counts for the verdict; every parameter it reports with its σ is determined.
+    Determined(Finding),
+    /// "Possible, undetermined": its undetermined principal parameters set aside.
+    Possible(Finding),
+}
+
+/// Sorts a finding by the one rule: possible when [`undetermined`] names a principal
+/// parameter (set aside); otherwise determined, with every other parameter that is not
+/// [`determined`] set aside too, so that every parameter a finding reports with its σ is
+/// determined.
+pub fn classify(f: Finding) -> Sorted {
+    let open = undetermined(&f);
+    if !open.is_empty() {
+        return Sorted::Possible(set_aside(f, open));
+    }
+    let sentence = |name: &str| spec(&f.effect).map_or("more data", |e| decide(e, name));
+    let weak: Vec<Undetermined> = f
+        .parameters
+        .iter()
+        .filter(|(name, _)| !name.starts_with("std_"))
+        .filter_map(|(name, &v)| {
+            let sd = *f.parameters.get(&format!("std_{name}"))?;
+            (!determined(v, sd)).then(|| Undetermined::new(name.clone(), v, sd, sentence(name)))
+        })
+        .collect();
+    Sorted::Determined(set_aside(f, weak))
+}
+
+/// Splits findings into the determined ones and the possible ones, by [`classify`].
 pub fn split_undetermined(findings: Vec<Finding>) -> (Vec<Finding>, Vec<Finding>) {
     let mut determined = Vec::new();
     let mut possible = Vec::new();
     for f in findings {
-        let open = undetermined(&f);
-        if open.is_empty() {
-            determined.push(f);
-        } else {
-            possible.push(set_aside(f, open));
+        match classify(f) {
+            Sorted::Determined(f) => determined.push(f),
+            Sorted::Possible(f) => possible.push(f),
         }
     }
     (determined, possible)
@@ -486,6 +559,38 @@ mod tests {
         assert!(det.is_empty());
         assert!(pos[0].parameters.is_empty(), "{:?}", pos[0].parameters);
         assert_eq!(pos[0].undetermined[0].value, 0.3);
+    }
+
+    /// The one rule on a determined finding: τ = 1200 ± 150 s (8σ) determines a drift
+    /// log's thermal finding; its gain 3 ± 2 µm (1.5σ) is set aside as undetermined, a
+    /// gain of 5 ± 2 µm (2.5σ) is kept. At exactly 2σ a parameter is determined.
+    #[test]
+    fn determined_finding_sets_aside_its_weak_parameters() {
+        let f = finding(
+            "thermal_drift",
+            &[
+                ("tau1_s", 1200.0),
+                ("std_tau1_s", 150.0),
+                ("gain1_um", 3.0),
+                ("std_gain1_um", 2.0),
+                ("gain2_um", -5.0),
+                ("std_gain2_um", 2.0),
+            ],
+        );
+        let Sorted::Determined(f) = classify(f) else {
+            panic!("determined expected")
+        };
+        let open: Vec<&str> = f.undetermined.iter().map(|u| u.name.as_str()).collect();
+        assert_eq!(open, ["gain1_um"]);
+        assert!(
+            f.undetermined[0].decide.starts_with("speed steps"),
+            "{:?}",
+            f.undetermined
+        );
+        assert!(!f.parameters.contains_key("gain1_um"));
+        assert!(!f.parameters.contains_key("std_gain1_um"));
+        assert_eq!(f.parameters["gain2_um"], -5.0);
+        assert!(determined(4.0, 2.0) && !determined(3.999, 2.0) && !determined(1.0, f64::NAN));
     }
 
     #[test]

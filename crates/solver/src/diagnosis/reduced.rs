@@ -21,6 +21,7 @@
 
 use super::design::Design;
 use super::linalg::Cols;
+use super::lsq::{Basis, basis};
 use crate::design::{Layout, RunInterpolant};
 use crate::session::Session;
 use nalgebra::DMatrix;
@@ -239,31 +240,16 @@ fn dense(d: &Design, start: usize, end: usize, rot: usize, k: usize) -> (RunSpac
             }
         }
     }
-    let qr = m.qr();
-    let qm = qr.compute_thin_Q();
-    let kk = rows.min(k);
-    let rf = qr.thin_R();
-    let rn = DMatrix::from_fn(kk, k, |i, j| if j >= i { rf[(i, j)] } else { 0.0 });
-    let svd = rn.svd(true, true);
-    let (uu, vt) = (svd.u.expect("u"), svd.v_t.expect("v_t"));
-    let s = &svd.singular_values;
-    let smax = s.iter().copied().fold(0.0, f64::max);
-    let keep: Vec<usize> = (0..s.len()).filter(|&i| s[i] > 1e-12 * smax).collect();
-    let r = keep.len();
+    let Basis { w: wm, r: f } = basis(&m, 1e-12);
+    let r = f.rank();
     let mut q = vec![0.0; rows * r];
-    for (c, &ki) in keep.iter().enumerate() {
-        for l in 0..kk {
-            let ul = uu[(l, ki)];
-            if ul == 0.0 {
-                continue;
-            }
-            for i in 0..rows {
-                q[i * r + c] += qm[(i, l)] * ul;
-            }
+    for c in 0..r {
+        for i in 0..rows {
+            q[i * r + c] = wm[(i, c)];
         }
     }
     // Ã_g = Σ_keep Vᵀ (r × k).
-    let block = DMatrix::from_fn(r, k, |c, j| s[keep[c]] * vt[(keep[c], j)]);
+    let block = DMatrix::from_fn(r, k, |c, j| f.s[f.keep[c]] * f.vt[(f.keep[c], j)]);
     (
         RunSpace {
             row0: 2 * start,

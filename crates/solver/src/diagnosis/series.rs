@@ -13,10 +13,11 @@
 //! * [`drift`]: constant per channel versus first-order responses to the spindle's
 //!   running history and regressions on structure temperatures.
 //! * [`simulate`]: seedable simulators of both recordings with known effects (truth).
-//! * [`lsq`]: the small least-squares kernel (column-equilibrated SVD) they share.
+//!
+//! Both run the greedy loop of [`crate::diagnosis::engine`] and fit with the one dense
+//! least-squares kernel, [`crate::diagnosis::lsq`].
 
 pub mod drift;
-pub mod lsq;
 pub mod positioning;
 pub mod simulate;
 
@@ -82,9 +83,9 @@ pub(crate) fn rms(v: &[f64]) -> f64 {
 
 /// Bayesian information criterion of a Gaussian least-squares fit:
 /// BIC = n ln(SSE/n) + k ln n (Schwarz 1978).
-pub(crate) fn bic(sse: f64, n: usize, k: usize) -> f64 {
+pub(crate) fn bic(sse: f64, n: usize, k: f64) -> f64 {
     let nf = n as f64;
-    nf * (sse.max(1e-300) / nf).ln() + k as f64 * nf.ln()
+    nf * (sse.max(1e-300) / nf).ln() + k * nf.ln()
 }
 
 /// Golden-section minimisation of `f` on `[a, b]` (unimodal assumed), `iters` steps;

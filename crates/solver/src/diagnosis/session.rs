@@ -785,7 +785,7 @@ fn finding_of(
             .map(|a| a.to_string())
             .or(t.cand.direction.map(|a| a.to_string())),
         parameters,
-        physics: catalogue::physics(catalogue::reported_name(t.cand.effect)).into(),
+        physics: effects::physics(catalogue::reported_name(t.cand.effect)).into(),
         signature: catalogue::signature(&t.cand, t.theta.map(|x| x.1)),
         undetermined: vec![],
         residual_rms_um: BeforeAfter {
@@ -969,14 +969,16 @@ pub fn diagnose_session_with_progress(
                 folds,
                 floor,
             );
-            let open = effects::undetermined(&finding);
-            if !open.is_empty() {
-                possible.push(effects::set_aside(finding, open));
-                set_aside.push(t.cand.label());
-                continue;
+            match effects::classify(finding) {
+                effects::Sorted::Determined(finding) => {
+                    accepted = Some((t, finding));
+                    break;
+                }
+                effects::Sorted::Possible(possible_finding) => {
+                    possible.push(possible_finding);
+                    set_aside.push(t.cand.label());
+                }
             }
-            accepted = Some((t, finding));
-            break;
         }
         let Some((t, finding)) = accepted else { break };
         progress.report(
@@ -992,16 +994,19 @@ pub fn diagnose_session_with_progress(
             cols.push(c.iter().map(|v| v / nrm).collect());
         }
         let nf = fit(&d, &red, &sets, cols);
-        findings.push(finding_of(
-            &t,
-            finding.parameters,
-            &f,
-            Some(&nf),
-            cur_heldout,
-            (n, heldout_n),
-            folds,
-            floor,
-        ));
+        findings.push(Finding {
+            undetermined: finding.undetermined,
+            ..finding_of(
+                &t,
+                finding.parameters,
+                &f,
+                Some(&nf),
+                cur_heldout,
+                (n, heldout_n),
+                folds,
+                floor,
+            )
+        });
         f = nf;
     }
     progress.report("report", 0.95);

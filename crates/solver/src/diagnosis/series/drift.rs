@@ -6,61 +6,76 @@
 //! * **spindle lags** (parametric, interpretable): the heat input u(t) = (n(t)/n_max)^p
 //!   of the spindle speed n (p = 1 or 2) drives one or two first-order lags
 //!   Lτ[u]: τ ẋ = u − x ([`first_order_lag`]). Model y = c + Σ_j g_j Lτ_j[u]; g_j is the
-//!   steady-state growth at full speed (µm); τ_j by a 1-D log-grid search of the fit's
-//!   sum of squares refined by golden section (two lags: grid of pairs, then coordinate
-//!   refinement). Two lags of opposite sign describe a fast (spindle, head) and a slow
-//!   (column, bed) path.
+//!   steady-state growth at full speed (µm). Each lag is a candidate of the diagnosis
+//!   engine ([`crate::diagnosis::engine`]) whose ln τ is searched in 1-D (log grid, then
+//!   golden section); a second lag is a candidate once the first is in. Two lags of
+//!   opposite sign describe a fast (spindle, head) and a slow (column, bed) path.
 //! * **thermal model** ([`crate::thermal`]): ridge regression on a bank of lags of the
 //!   spindle heat input (n and n², 0.1–2 h) and of every structure temperature
-//!   (0.1–2 h), its penalty chosen by rolling-origin cross-validation.
+//!   (0.1–2 h), its penalty chosen by rolling-origin cross-validation; a candidate from
+//!   the constant or any spindle-lag model, which it replaces.
 //!
 //! Protocol: fit on the first `train_fraction` (60 %) of the recording, judge on the rest.
-//! Every candidate, and the rigid constant, is scored by the same rolling-origin
-//! cross-validation inside the fitting part ([`crate::thermal::rolling_origin`]: blocks
-//! 3, 4 and 5 of 5, each predicted by the model fitted on all rows before it), so the
-//! rest of the recording is never used for a choice. (The parametric candidates' time
-//! constants are searched once on the whole fitting part, a mild optimism of their CV
-//! figure.) Parsimony ([`PARSIMONY`]): a second lag, and the thermal model instead of the
-//! parametric one, must each lower the CV sum of squares by more than 10 %; the chosen
-//! model must lower the rigid constant's CV sum of squares by `min_heldout_gain`.
-//! Reported: held-out RMS and MAE of the rigid constant (fitted on the fitting part) and
-//! of the model, and the share of drift predicted, 1 − SSE_after/SSE_rigid on the
-//! held-out part.
+//! The engine's loop chooses on the fitting part alone: its held-out folds are the
+//! rolling-origin folds inside it ([`crate::thermal::rolling_origin`]: blocks 3, 4 and 5
+//! of 5, each predicted by the model fitted on all rows before it, τ searched again on
+//! those rows), so the rest of the recording is never used for a choice. The engine's
+//! gate and parsimony rule (BIC, and a held-out gain of `min_heldout_gain`, 10 %, over
+//! the current model and over any simpler qualifying candidate) decide whether a lag, a
+//! second lag or the thermal model is kept. Reported: held-out RMS and MAE of the rigid
+//! constant (fitted on the fitting part) and of the model, and the share of drift
+//! predicted, 1 − SSE_after/SSE_rigid on the held-out part.
 //!
-//! Noise floor per channel, independent of any model: σ = 1.4826·median|Δy| / √2 (the
-//! sample-to-sample scatter; slow drift contributes nothing to it).
+//! Noise floor per channel, independent of any model: the shared spectral floor
+//! ([`crate::noise::spectral_floor`]); a log too short for it falls back to
+//! σ = 1.4826·median|Δy| / √2 (the sample-to-sample scatter; slow drift contributes
+//! nothing to either).
 //! Uncertainties: parametric model, from the Jacobian including ∂/∂ln τ columns; thermal
 //! model, from the ridge covariance ([`crate::thermal`]); both multiplied by
 //! √((1+ρ)/(1−ρ)) with ρ the lag-1 autocorrelation of the fit residuals (effective sample
 //! size of AR(1) residuals). They remain indicative, the residuals of a drift model are
-//! not white. A parameter whose standard uncertainty exceeds a third of its magnitude is
-//! not reported as a finding's parameter but listed as undetermined, with what data
-//! would decide it.
+//! not white. Parameters are sorted into determined and undetermined ones by the one rule
+//! of every diagnosis ([`crate::diagnosis::effects::classify`]).
 
-use super::lsq::{self, Design};
-use super::{SeriesOptions, decimate, golden_min, log_grid, rms};
+use super::{SeriesOptions, decimate, log_grid, rms};
 use crate::datasets::{Channel, ChannelKind, DriftLog};
+use crate::diagnosis::engine::{self, Fitted, Fold, Problem, Rules};
+use crate::diagnosis::lsq::{self, Design};
 use crate::diagnosis::{
     Baseline, BeforeAfter, DiagnosisResult, Finding, Mismatch, Monotone, NoProgress, PlotData,
-    PlotSeries, Progress, Undetermined, Verdict,
+    PlotSeries, Progress, effects,
 };
 use crate::error::SolverError;
-use crate::thermal::{self, DETERMINED_Z, Regressor, ThermalFit, ThermalInputs, ThermalOptions};
+use crate::thermal::{self, Regressor, ThermalFit, ThermalInputs, ThermalOptions};
 use std::collections::BTreeMap;
 
 pub use crate::thermal::first_order_lag;
 
-/// Parsimony: a richer model (a second lag; the thermal model instead of the parametric
-/// one) is chosen only when its cross-validated sum of squares is below this fraction of
-/// the simpler one's.
-pub const PARSIMONY: f64 = 0.9;
+/// Most first-order lags of the spindle heat input in a parametric model.
+const MAX_LAGS: usize = 2;
 
-/// Parametric spindle model: heat-input exponent p and lag time constants (s); no lags:
-/// the rigid constant.
+/// Parametric spindle model: heat-input exponent p and lag time constants (s), ascending;
+/// no lags: the rigid constant.
 #[derive(Debug, Clone, PartialEq)]
-struct Model {
+struct Lags {
     p: f64,
     taus: Vec<f64>,
+}
+
+/// A drift model of one channel: spindle lags (or the rigid constant), or the ridge
+/// thermal model, which replaces them (its bank holds the spindle's own lags).
+#[derive(Debug, Clone, PartialEq)]
+enum Model {
+    Lags(Lags),
+    Thermal,
+}
+
+/// A candidate: one more spindle lag with exponent p (its ln τ searched in 1-D), or the
+/// thermal model.
+#[derive(Debug, Clone, Copy, PartialEq)]
+enum Candidate {
+    Lag(f64),
+    Thermal,
 }
 
 struct Inputs<'a> {
@@ -82,7 +97,7 @@ impl Inputs<'_> {
             .collect()
     }
 
-    fn design(&self, m: &Model) -> Design {
+    fn design(&self, m: &Lags) -> Design {
         let n = self.t.len();
         let mut d = Design::new();
         d.push("constant", vec![1.0; n]);
@@ -104,123 +119,119 @@ impl Inputs<'_> {
     }
 }
 
-/// Rolling-origin cross-validation sum of squares of a least-squares design on the
-/// fitting rows `0..n_train` (folds of [`thermal::rolling_origin`]).
-fn cv_sse(d: &Design, y: &[f64], n_train: usize) -> f64 {
-    thermal::rolling_origin(n_train)
-        .iter()
-        .map(|f| {
-            let train: Vec<usize> = (0..f.train_end).collect();
-            let fit = lsq::solve(&d.rows(&train), &y[..f.train_end]);
-            let valid: Vec<usize> = f.valid.clone().collect();
-            let pred = d.rows(&valid).predict(&fit.coef);
-            valid
-                .iter()
-                .zip(&pred)
-                .map(|(&i, p)| (y[i] - p).powi(2))
-                .sum::<f64>()
-        })
-        .sum()
+/// One displacement channel as a problem of the diagnosis engine: fitted on the first
+/// `n_train` rows, held out by the rolling-origin folds inside them, the thermal model
+/// fitted once (its penalty chosen by the same folds, so it scores itself).
+struct ChannelProblem<'a> {
+    inp: &'a Inputs<'a>,
+    y: &'a [f64],
+    thermal: Option<ThermalFit>,
 }
 
-/// Number of rows the rolling-origin folds predict.
-fn cv_rows(n_train: usize) -> usize {
-    thermal::rolling_origin(n_train)
-        .iter()
-        .map(|f| f.valid.len())
-        .sum()
+impl Problem for ChannelProblem<'_> {
+    type Model = Model;
+    type Candidate = Candidate;
+
+    fn readings(&self) -> &[f64] {
+        self.y
+    }
+    fn fit_rows(&self) -> Vec<usize> {
+        (0..self.inp.n_train).collect()
+    }
+    /// Blocks 3, 4 and 5 of 5, each predicted from all rows before it.
+    fn folds(&self) -> Vec<Fold> {
+        thermal::rolling_origin(self.inp.n_train)
+            .into_iter()
+            .map(|f| Fold {
+                train: (0..f.train_end).collect(),
+                test: f.valid.collect(),
+            })
+            .collect()
+    }
+    fn noise_floor(&self) -> f64 {
+        noise_floor(self.y)
+    }
+    fn columns(&self, m: &Model) -> Design {
+        match m {
+            Model::Lags(l) => self.inp.design(l),
+            Model::Thermal => self.inp.design(&RIGID),
+        }
+    }
+    /// The constant, and a gain and a τ per lag; the thermal model's effective parameters.
+    fn n_params(&self, m: &Model) -> f64 {
+        match m {
+            Model::Lags(l) => 1.0 + 2.0 * l.taus.len() as f64,
+            Model::Thermal => 1.0 + self.thermal.as_ref().map_or(0.0, |f| f.edf),
+        }
+    }
+    /// From the constant: a lag with p = 1 or 2; then another lag of the same p; the
+    /// thermal model from any parametric model.
+    fn candidates(&self, m: &Model) -> Vec<Candidate> {
+        let Model::Lags(l) = m else { return vec![] };
+        let mut c = vec![];
+        if self.inp.speed.is_some() && self.inp.rpm_max > 0.0 && l.taus.len() < MAX_LAGS {
+            if l.taus.is_empty() {
+                c.extend([Candidate::Lag(1.0), Candidate::Lag(2.0)]);
+            } else {
+                c.push(Candidate::Lag(l.p));
+            }
+        }
+        if self.thermal.is_some() {
+            c.push(Candidate::Thermal);
+        }
+        c
+    }
+    /// ln τ on a log grid from 4 samples (at least 60 s) to twice the fitting part.
+    fn grid(&self, c: Candidate) -> Vec<f64> {
+        let (t, nt) = (self.inp.t, self.inp.n_train);
+        match c {
+            Candidate::Lag(_) => {
+                let dt = (t[nt - 1] - t[0]) / (nt - 1) as f64;
+                log_grid((4.0 * dt).max(60.0), 2.0 * (t[nt - 1] - t[0]), 22)
+                    .into_iter()
+                    .map(f64::ln)
+                    .collect()
+            }
+            Candidate::Thermal => vec![],
+        }
+    }
+    fn extend(&self, m: &Model, c: Candidate, v: f64) -> Model {
+        match (m, c) {
+            (Model::Lags(l), Candidate::Lag(p)) => {
+                let mut taus = l.taus.clone();
+                taus.push(v.exp());
+                taus.sort_by(f64::total_cmp);
+                Model::Lags(Lags { p, taus })
+            }
+            _ => Model::Thermal,
+        }
+    }
+    fn fit(&self, m: &Model, rows: &[usize]) -> Fitted {
+        match (m, &self.thermal) {
+            (Model::Thermal, Some(f)) => Fitted {
+                coef: f.coef.clone(),
+                sse: rows
+                    .iter()
+                    .map(|&i| (self.y[i] - f.prediction[i]).powi(2))
+                    .sum(),
+                prediction: f.prediction.clone(),
+            },
+            _ => engine::lsq_fit(self, m, rows),
+        }
+    }
+    fn own_heldout_sse(&self, m: &Model) -> Option<f64> {
+        match (m, &self.thermal) {
+            (Model::Thermal, Some(f)) => Some(f.cv_rms.powi(2) * f.cv_rows as f64),
+            _ => None,
+        }
+    }
 }
 
-/// Training-part SSE of y on [1, columns...].
-fn train_sse(cols: &[&[f64]], y: &[f64], n_train: usize) -> f64 {
-    let mut d = Design::new();
-    d.push("c", vec![1.0; n_train]);
-    for c in cols {
-        d.push("x", c[..n_train].to_vec());
-    }
-    lsq::sse(&d, &y[..n_train])
-}
-
-/// Best spindle-lag model with `nlags` lags for exponent `p`, by training SSE.
-fn search_lags(inp: &Inputs, y: &[f64], p: f64, nlags: usize) -> Vec<f64> {
-    let t = inp.t;
-    let nt = inp.n_train;
-    let dt = (t[nt - 1] - t[0]) / (nt - 1) as f64;
-    let grid = log_grid((4.0 * dt).max(60.0), 2.0 * (t[nt - 1] - t[0]), 22);
-    let u = inp.heat(p);
-    let bank: Vec<Vec<f64>> = grid
-        .iter()
-        .map(|&tau| first_order_lag(t, &u, tau))
-        .collect();
-    let eval = |taus: &[f64]| -> f64 {
-        let cols: Vec<Vec<f64>> = taus
-            .iter()
-            .map(|&tau| first_order_lag(t, &u, tau))
-            .collect();
-        let refs: Vec<&[f64]> = cols.iter().map(|c| c.as_slice()).collect();
-        train_sse(&refs, y, nt)
-    };
-    let mut best: Vec<usize> = vec![];
-    let mut best_sse = f64::INFINITY;
-    if nlags == 1 {
-        for i in 0..grid.len() {
-            let s = train_sse(&[&bank[i]], y, nt);
-            if s < best_sse {
-                best_sse = s;
-                best = vec![i];
-            }
-        }
-    } else {
-        for i in 0..grid.len() {
-            for j in i + 1..grid.len() {
-                let s = train_sse(&[&bank[i], &bank[j]], y, nt);
-                if s < best_sse {
-                    best_sse = s;
-                    best = vec![i, j];
-                }
-            }
-        }
-    }
-    // Further lags one at a time (the others held at their grid points).
-    while best.len() < nlags {
-        let mut add: Option<(usize, f64)> = None;
-        for k in 0..grid.len() {
-            if best.contains(&k) {
-                continue;
-            }
-            let mut cols: Vec<&[f64]> = best.iter().map(|&i| bank[i].as_slice()).collect();
-            cols.push(&bank[k]);
-            let s = train_sse(&cols, y, nt);
-            if add.is_none_or(|(_, b)| s < b) {
-                add = Some((k, s));
-            }
-        }
-        match add {
-            Some((k, _)) => best.push(k),
-            None => break,
-        }
-    }
-    // Coordinate refinement of each ln τ between the neighbouring grid points.
-    let step = (grid[1] / grid[0]).ln();
-    let mut taus: Vec<f64> = best.iter().map(|&i| grid[i]).collect();
-    for _round in 0..2 {
-        for k in 0..taus.len() {
-            let l0 = taus[k].ln();
-            let (lbest, _) = golden_min(l0 - step, l0 + step, 14, |l| {
-                let mut tt = taus.clone();
-                tt[k] = l.exp();
-                eval(&tt)
-            });
-            let mut tt = taus.clone();
-            tt[k] = lbest.exp();
-            if eval(&tt) <= eval(&taus) {
-                taus = tt;
-            }
-        }
-    }
-    taus.sort_by(f64::total_cmp);
-    taus
-}
+/// The rigid model: a constant.
+const RIGID: Lags = Lags {
+    p: 1.0,
+    taus: vec![],
+};
 
 /// Everything found for one displacement channel.
 struct ChannelOutcome {
@@ -254,37 +265,18 @@ fn noise_floor(y: &[f64]) -> f64 {
 }
 
 fn describe(m: &Model) -> String {
-    let p = if m.p == 1.0 { "n" } else { "n²" };
-    format!(
-        "{} first-order lag(s) of spindle heat input ∝ {p}",
-        m.taus.len()
-    )
-}
-
-/// The model chosen for a channel.
-enum Chosen {
-    Parametric { desc: String, model: Model, cv: f64 },
-    Thermal(Box<ThermalFit>),
-}
-
-/// Splits (name, value, std) into determined parameters and undetermined ones (`decide`:
-/// the data that would decide it).
-fn sort_parameter(
-    params: &mut BTreeMap<String, f64>,
-    undetermined: &mut Vec<Undetermined>,
-    (name, value, std): (String, f64, f64),
-    decide: &str,
-) {
-    if value.abs() >= DETERMINED_Z * std && std.is_finite() {
-        params.insert(format!("std_{name}"), std);
-        params.insert(name, value);
-    } else {
-        undetermined.push(Undetermined::new(name, value, std, decide));
+    match m {
+        Model::Lags(l) => format!(
+            "{} first-order lag(s) of spindle heat input ∝ {}",
+            l.taus.len(),
+            if l.p == 1.0 { "n" } else { "n²" }
+        ),
+        Model::Thermal => "thermal model".into(),
     }
 }
 
-/// Diagnoses one displacement channel, reporting its phases within the part `span` of the
-/// whole work.
+/// Diagnoses one displacement channel by the engine's loop, reporting its phases within
+/// the part `span` of the whole work.
 fn analyse_channel(
     ch: &Channel,
     inp: &Inputs,
@@ -295,68 +287,35 @@ fn analyse_channel(
     let y = &ch.values;
     let n = y.len();
     let nt = inp.n_train;
-    let noise = noise_floor(y);
-    let rigid = Model {
-        p: 1.0,
-        taus: vec![],
-    };
-    let nv = cv_rows(nt).max(1) as f64;
-    let cv_rigid = cv_sse(&inp.design(&rigid), y, nt);
-    let mean_train = y[..nt].iter().sum::<f64>() / nt as f64;
-    let rigid_res: Vec<f64> = y.iter().map(|v| v - mean_train).collect();
-
-    // Candidates, each scored by rolling-origin CV on the fitting part only.
-    let mut cands: Vec<(String, Model, f64)> = vec![];
-    if inp.speed.is_some() && inp.rpm_max > 0.0 {
-        for p in [1.0, 2.0] {
-            for nl in [1, 2] {
-                progress.report_in(
-                    span,
-                    &format!("{}: spindle-lag candidates", ch.name),
-                    0.15 * cands.len() as f64,
-                );
-                let m = Model {
-                    p,
-                    taus: search_lags(inp, y, p, nl),
-                };
-                let s = cv_sse(&inp.design(&m), y, nt);
-                cands.push((describe(&m), m, s));
-            }
-        }
-    }
-    // The best one-lag model; a second lag must earn its place the same way.
-    let best_of = |nl: usize| {
-        cands
-            .iter()
-            .filter(|c| c.1.taus.len() == nl)
-            .min_by(|a, b| a.2.total_cmp(&b.2))
-            .cloned()
-    };
-    let parametric = match (best_of(1), best_of(2)) {
-        (Some(one), Some(two)) if two.2 < PARSIMONY * one.2 => Some(two),
-        (one, _) => one,
-    };
-    progress.report_in(span, &format!("{}: thermal model", ch.name), 0.6);
+    progress.report_in(span, &format!("{}: thermal model", ch.name), 0.0);
     let thermal_fit = if inp.bank.is_empty() {
         None
     } else {
         thermal::fit_thermal(&inp.bank, &inp.thermal(), y, nt, &ThermalOptions::default()).ok()
     };
-    let thermal_cv = thermal_fit
-        .as_ref()
-        .map(|f| f.cv_rms.powi(2) * f.cv_rows as f64);
-    let thermal_wins = |cv: f64| thermal_cv.is_some_and(|s| s < PARSIMONY * cv);
-    let chosen = match (parametric, thermal_fit) {
-        (Some((_, _, cv)), Some(t)) if thermal_wins(cv) => Some(Chosen::Thermal(Box::new(t))),
-        (Some((desc, model, cv)), _) => Some(Chosen::Parametric { desc, model, cv }),
-        (None, Some(t)) => Some(Chosen::Thermal(Box::new(t))),
-        (None, None) => None,
+    let problem = ChannelProblem {
+        inp,
+        y,
+        thermal: thermal_fit,
     };
-    let chosen_cv = |c: &Chosen| match c {
-        Chosen::Parametric { cv, .. } => *cv,
-        Chosen::Thermal(_) => thermal_cv.unwrap_or(f64::INFINITY),
+    let rules = Rules {
+        bic_threshold: opts.bic_threshold,
+        min_heldout_gain: opts.min_heldout_gain,
+        stop_ratio: opts.stop_ratio,
+        max_findings: opts.max_findings,
     };
-    let chosen = chosen.filter(|c| chosen_cv(c) < (1.0 - opts.min_heldout_gain) * cv_rigid);
+    let sel = engine::select(
+        &problem,
+        Model::Lags(RIGID),
+        &rules,
+        &ch.name,
+        progress,
+        span,
+    );
+    let noise = sel.noise;
+    let nv = sel.n_heldout.max(1) as f64;
+    let mean_train = sel.base_fit.prediction[0];
+    let rigid_res: Vec<f64> = y.iter().map(|v| v - mean_train).collect();
 
     let rigid_train_rms = rms(&rigid_res[..nt]);
     let rigid_test_rms = rms(&rigid_res[nt..]);
@@ -391,49 +350,31 @@ fn analyse_channel(
         peak: (rigid_res[ipk], hours(ipk)),
         window_h,
     };
-    let Some(chosen) = chosen else {
+    if sel.steps.is_empty() {
         return out;
-    };
+    }
 
     // The chosen model fitted on the fitting part; judged on the rest.
     let mut params = BTreeMap::new();
-    let mut undetermined = vec![];
-    let (pred, physics, model_txt) = match &chosen {
-        Chosen::Parametric { desc, model, .. } => (
-            parametric_fit(inp, y, model, &mut params, &mut undetermined),
+    let (pred, follows, model_txt) = match (&sel.model, &problem.thermal) {
+        (Model::Lags(l), _) => (
+            parametric_fit(inp, y, l, &mut params),
+            describe(&sel.model),
             format!(
-                "thermal growth of the structure: {} follows {desc}; the rigid-body model \
-                     assumes a constant position",
-                ch.name
+                "{}, CV RMS {:.3} µm",
+                describe(&sel.model),
+                sel.heldout_rms()
             ),
-            format!("{desc}, CV RMS {:.3} µm", (chosen_cv(&chosen) / nv).sqrt()),
         ),
-        Chosen::Thermal(f) => {
+        (Model::Thermal, Some(f)) => {
             for g in &f.gains {
-                let (name, decide) = if g.input == "spindle" {
-                    (
-                        "spindle_gain_um".to_string(),
-                        "the spindle paths and the temperatures move together in this log; a \
-                         run held at one speed for longer than the longest lag (2 h), \
-                         temperatures logged,"
-                            .to_string(),
-                    )
+                let name = if g.input == "spindle" {
+                    "spindle_gain_um".to_string()
                 } else {
-                    let short = g.input.trim_end_matches("_c");
-                    (
-                        format!("{short}_um_per_k"),
-                        "the sensor's temperature moves together with other inputs in \
-                         this log; a log in which it changes on its own (e.g. an ambient \
-                         change with the spindle at rest)"
-                            .to_string(),
-                    )
+                    format!("{}_um_per_k", g.input.trim_end_matches("_c"))
                 };
-                sort_parameter(
-                    &mut params,
-                    &mut undetermined,
-                    (name, g.value, g.std),
-                    &decide,
-                );
+                params.insert(format!("std_{name}"), g.std);
+                params.insert(name, g.value);
             }
             let mut inputs = vec![];
             if inp
@@ -449,9 +390,7 @@ fn analyse_channel(
             (
                 f.prediction.clone(),
                 format!(
-                    "thermal growth of the structure: {} follows {} through first-order lags \
-                     of 0.1–2 h; the rigid-body model assumes a constant position",
-                    ch.name,
+                    "{} through first-order lags of 0.1–2 h",
                     inputs.join(" and ")
                 ),
                 format!(
@@ -464,6 +403,7 @@ fn analyse_channel(
                 ),
             )
         }
+        (Model::Thermal, None) => unreachable!("the thermal candidate needs its fit"),
     };
     let res: Vec<f64> = y.iter().zip(&pred).map(|(a, b)| a - b).collect();
     let sse_after_test: f64 = res[nt..].iter().map(|v| v * v).sum();
@@ -477,21 +417,20 @@ fn analyse_channel(
     params.insert("share_predicted".into(), out.share_predicted);
     let rho = thermal::lag1_autocorr(&res[..nt]);
     out.pred = pred;
-    let others: Vec<String> = cands
+    let others: Vec<String> = sel
+        .tried
         .iter()
-        .map(|(d, _, s)| format!("{d}: {:.3}", (s / nv).sqrt()))
+        .map(|s| format!("{}: {:.3}", describe(&s.model), (s.heldout_sse / nv).sqrt()))
         .collect();
     let evidence = format!(
-        "rolling-origin CV RMS on the first {:.0} % (blocks 3–5 of 5, each predicted from the \
-         rows before it): rigid {:.3} µm, chosen {model_txt}; parametric candidates — {}; \
-         held-out MAE {:.3} µm (rigid {:.3} µm); lag-1 autocorrelation of residuals {:.2}",
+        "{} follows {follows}; rolling-origin CV RMS on the first {:.0} % (blocks 3–5 of 5, \
+         each predicted from the rows before it): rigid {:.3} µm, chosen {model_txt}; \
+         candidates — {}; held-out MAE {:.3} µm (rigid {:.3} µm); lag-1 autocorrelation of \
+         residuals {:.2}",
+        ch.name,
         100.0 * opts.train_fraction,
-        (cv_rigid / nv).sqrt(),
-        if others.is_empty() {
-            "none (no spindle speed)".to_string()
-        } else {
-            others.join("; ")
-        },
+        sel.base_heldout_rms(),
+        others.join("; "),
         thermal::mae(y, &out.pred, nt..n),
         thermal::mae(y, &vec![mean_train; n], nt..n),
         rho
@@ -500,8 +439,8 @@ fn analyse_channel(
         effect: "thermal_drift".into(),
         axis: Some(ch.name.trim_end_matches("_um").to_string()),
         parameters: params,
-        undetermined,
-        physics,
+        undetermined: vec![],
+        physics: effects::physics("thermal_drift").into(),
         residual_rms_um: BeforeAfter {
             before: rigid_train_rms,
             after: out.after_train_rms,
@@ -517,15 +456,13 @@ fn analyse_channel(
 }
 
 /// Least-squares fit of a parametric spindle model on the fitting part: its prediction
-/// at every sample; τ and gains sorted into determined parameters and
-/// undetermined ones (uncertainties from the Jacobian with ∂/∂ln τ columns, AR(1)
-/// inflation).
+/// at every sample; τ and gains with their uncertainties (Jacobian with ∂/∂ln τ columns,
+/// AR(1) inflation) into `params`.
 fn parametric_fit(
     inp: &Inputs,
     y: &[f64],
-    model: &Model,
+    model: &Lags,
     params: &mut BTreeMap<String, f64>,
-    undetermined: &mut Vec<Undetermined>,
 ) -> Vec<f64> {
     let nt = inp.n_train;
     let d = inp.design(model);
@@ -549,28 +486,14 @@ fn parametric_fit(
     let jfit = lsq::solve(&jac, &res[..nt]);
     params.insert("rpm_exponent".into(), model.p);
     for (j, &tau) in model.taus.iter().enumerate() {
-        sort_parameter(
-            params,
-            undetermined,
-            (
-                format!("tau{}_s", j + 1),
-                tau,
-                tau * jfit.std[d.len() + j] * inflate,
-            ),
-            "a longer recording with the spindle held at one speed for several time constants \
-            ",
+        let k = j + 1;
+        params.insert(format!("tau{k}_s"), tau);
+        params.insert(
+            format!("std_tau{k}_s"),
+            tau * jfit.std[d.len() + j] * inflate,
         );
-        sort_parameter(
-            params,
-            undetermined,
-            (
-                format!("gain{}_um", j + 1),
-                fit.coef[1 + j],
-                jfit.std[1 + j] * inflate,
-            ),
-            "speed steps that move the channel by many times its noise, each held for several \
-             time constants",
-        );
+        params.insert(format!("gain{k}_um"), fit.coef[k]);
+        params.insert(format!("std_gain{k}_um"), jfit.std[k] * inflate);
     }
     pred
 }
@@ -772,13 +695,13 @@ pub fn diagnose_drift_log_with_progress(
             ));
         }
     }
-    let verdict = if !outs.iter().any(needs) {
-        Verdict::Consistent
-    } else if unexplained.is_empty() {
-        Verdict::Explained
-    } else {
-        Verdict::PartlyExplained
-    };
+    // Findings whose parameters the data do not determine are listed as possible.
+    let (findings, possible) = effects::split_undetermined(findings);
+    let verdict = effects::verdict(
+        !outs.iter().any(needs),
+        unexplained.is_empty(),
+        findings.len(),
+    );
 
     // Plots: measured, rigid, model against time (h), with the split marked.
     let t_h: Vec<f64> = log.t_s.iter().map(|t| (t - log.t_s[0]) / 3600.0).collect();
@@ -860,7 +783,7 @@ pub fn diagnose_drift_log_with_progress(
         baseline,
         mismatch,
         findings,
-        possible: vec![],
+        possible,
         rejected: vec![],
         verdict,
         unexplained,

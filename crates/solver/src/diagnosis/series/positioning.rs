@@ -23,12 +23,12 @@
 //!
 //! Without `t_s` the record order stands for time (τ is then in records).
 //!
-//! **Selection** (greedy): each candidate is fitted jointly with the current model (its
-//! nonlinear parameter re-searched in every fold) and scored by the LORO held-out sum of
-//! squares (whole runs held out) and by BIC = n ln(SSE/n) + k ln n. The candidate with the
-//! lowest held-out SSE among those that lower BIC by ≥ `bic_threshold` and the held-out SSE
-//! by ≥ `min_heldout_gain` is added; the loop stops when none qualifies or the held-out RMS
-//! is within `stop_ratio` × the noise floor.
+//! **Selection**: the diagnosis engine's loop ([`crate::diagnosis::engine`]): each
+//! candidate (an effect of the table not yet in the model, or a higher polynomial order
+//! up to `max_order`) is fitted jointly with the current model, its nonlinear parameter
+//! searched in 1-D and searched again in every fold, and scored by the leave-one-run-out
+//! held-out sum of squares (whole runs held out) and by BIC = n ln(SSE/n) + k ln n; the
+//! engine's gate, parsimony and stop rules choose.
 //!
 //! **Noise floor**, independent of the model: the pooled scatter of repeated readings of
 //! the same target and direction after removing one offset per pass (run × direction):
@@ -37,13 +37,14 @@
 //! it; [`crate::standards::iso230_2`] gives those figures).
 //!
 //! Submodules, one concept each: `data` (validation and derived coordinates, noise
-//! floor), `columns` (rigid and effect columns, search grids), `search` (1-D searches,
-//! LORO scores, the greedy selection), `report` (parameters, findings, mismatch, plots).
+//! floor), `columns` (rigid and effect columns, search grids), `problem` (the axis as a
+//! problem of the diagnosis engine, which runs the 1-D searches, held-out scores and the greedy
+//! selection), `report` (parameters, findings, mismatch, plots).
 
 mod columns;
 mod data;
+mod problem;
 mod report;
-mod search;
 
 use super::SeriesOptions;
 use crate::axis::Axis;
@@ -99,7 +100,8 @@ pub fn diagnose_positioning_with_progress(
             k as f64 / axes.len() as f64,
             (k + 1) as f64 / axes.len() as f64,
         );
-        let sel = search::select(&a, opts, &mut progress, span);
+        let p = problem::Positioning::new(&a, opts);
+        let sel = problem::select(&p, opts, &mut progress, span);
         progress.report_in(span, &format!("axis {}: report", a.axis), 0.95);
         outs.push(report::outcome(&a, sel, opts));
     }

@@ -3,9 +3,9 @@
 //! columns at its nonlinear parameter, and the search grid of that parameter.
 
 use super::super::log_grid;
-use super::super::lsq::Design;
 use super::data::AxisData;
 use crate::basis::legendre;
+use crate::diagnosis::lsq::Design;
 use std::f64::consts::PI;
 
 /// The candidate effects of the module table.

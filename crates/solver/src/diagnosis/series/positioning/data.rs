@@ -2,9 +2,9 @@
 //! position, approach direction, travel since the reversal, time, temperature) and the
 //! model-independent noise floor (the parent module's docs).
 
-use super::super::lsq::{self, Design};
 use crate::axis::Axis;
 use crate::datasets::{Direction, PositioningRecord};
+use crate::diagnosis::lsq::{self, Design};
 use crate::error::SolverError;
 
 /// One axis's records in file (measurement) order.
@@ -137,13 +137,9 @@ impl AxisData {
         if self.time_in_s { "s" } else { "records" }
     }
 
-    pub(super) fn all_rows(&self) -> Vec<usize> {
-        (0..self.n()).collect()
-    }
-
     /// Model-independent noise floor (module docs): two-way fit of group means and pass
     /// offsets.
-    pub(super) fn noise_floor(&self) -> f64 {
+    pub(super) fn repeat_scatter(&self) -> f64 {
         let n = self.n();
         let mut d = Design::new();
         let ng = 2 * self.targets.len();

@@ -2,13 +2,13 @@
 //! uncertainties (Jacobian of the final joint fit with ∂/∂θ columns), where the rigid
 //! model's residuals concentrate, what remains unexplained, and the plots.
 
-use super::super::lsq;
-use super::super::{SeriesOptions, decimate};
+use super::super::{SeriesOptions, decimate, rms};
 use super::columns::{Effect, Model};
 use super::data::AxisData;
-use super::search::Selection;
-use crate::axis::Axis;
-use crate::diagnosis::{Finding, Mismatch, PlotData, PlotSeries};
+use super::problem::{Candidate, Positioning};
+use crate::diagnosis::engine::Selection;
+use crate::diagnosis::lsq;
+use crate::diagnosis::{Finding, Mismatch, PlotData, PlotSeries, effects};
 use std::collections::BTreeMap;
 
 /// What one axis's diagnosis produced.
@@ -25,33 +25,22 @@ pub(super) struct AxisOutcome {
     pub(super) misfit: f64,
 }
 
-fn physics(e: &str, axis: Axis) -> String {
-    match e {
-        "backlash" => format!(
-            "lost motion at direction reversal of the {axis} drive (play and elastic wind-up of screw, nut and bearings): the position depends on the approach direction, which the rigid-body model ignores"
-        ),
-        "reversal_spike" => format!(
-            "friction transient after a reversal of the {axis} axis: stick-slip and servo recovery make a deviation that decays with the distance travelled since the reversal"
-        ),
-        "cyclic" => format!(
-            "cyclic error of the {axis} drive periodic in position (screw lead, encoder interpolation): finer than the smooth polynomial of the rigid model"
-        ),
-        "thermal_drift" => format!(
-            "thermal growth of the {axis} drive while the runs proceed (offset and scale growing with time or temperature): the rigid model is constant in time"
-        ),
-        _ => format!(
-            "positioning error of the {axis} axis with more waviness than the chosen polynomial order can follow: repeatable in every pass and both directions"
-        ),
-    }
-}
-
 /// The findings, mismatch, unexplained remainder and plots of a selection.
-pub(super) fn outcome(a: &AxisData, sel: Selection, opts: &SeriesOptions) -> AxisOutcome {
+pub(super) fn outcome(
+    a: &AxisData,
+    sel: Selection<Positioning>,
+    opts: &SeriesOptions,
+) -> AxisOutcome {
     let n = a.n();
+    let noise = sel.noise;
+    let residuals =
+        |pred: &[f64]| -> Vec<f64> { a.y.iter().zip(pred).map(|(y, p)| y - p).collect() };
+    let base_res = residuals(&sel.base_fit.prediction);
 
     // Final joint fit; parameters and uncertainties from the Jacobian with ∂/∂θ columns.
     let d = a.design(&sel.model);
-    let (fit, res) = a.fit_all(&sel.model);
+    let fit = lsq::solve(&d, &a.y);
+    let res = residuals(&d.predict(&fit.coef));
     let mut jac = d.clone();
     let mut col = sel.model.order + 1;
     let mut offsets = vec![];
@@ -76,11 +65,16 @@ pub(super) fn outcome(a: &AxisData, sel: Selection, opts: &SeriesOptions) -> Axi
     let mut findings = vec![];
     for st in &sel.steps {
         let mut params = BTreeMap::new();
-        if let Some((from, to)) = st.order {
-            params.insert("order_before".into(), from as f64);
-            params.insert("extra_order".into(), to as f64);
-        }
-        if let Some(e) = st.effect {
+        let effect = match st.chosen.candidate {
+            Candidate::Order(to) => {
+                params.insert("order_before".into(), st.before.order as f64);
+                params.insert("extra_order".into(), to as f64);
+                None
+            }
+            Candidate::Effect(e) => Some(e),
+        };
+        let label = effect.map_or("model_order", Effect::name);
+        if let Some(e) = effect {
             let ti = sel
                 .model
                 .terms
@@ -132,11 +126,11 @@ pub(super) fn outcome(a: &AxisData, sel: Selection, opts: &SeriesOptions) -> Axi
                 }
             }
         }
-        let signature = match st.effect {
+        let signature = match effect {
             Some(Effect::Backlash) => {
                 // Sign agreement of the per-target step with the fitted lost motion.
                 let lm = params.get("lost_motion_um").copied().unwrap_or(0.0);
-                let (agree, total) = step_signs(a, &sel.base_res, lm);
+                let (agree, total) = step_signs(a, &base_res, lm);
                 format!(
                     "; step − minus + approach has the sign of the lost motion at {agree} of {total} targets"
                 )
@@ -144,50 +138,49 @@ pub(super) fn outcome(a: &AxisData, sel: Selection, opts: &SeriesOptions) -> Axi
             _ => String::new(),
         };
         findings.push(Finding {
-            effect: st.label.into(),
+            effect: label.into(),
             axis: Some(a.axis.to_string()),
             parameters: params,
-            physics: physics(st.label, a.axis),
+            physics: effects::physics(label).into(),
             residual_rms_um: st.rms,
             heldout_rms_um: st.heldout,
             undetermined: vec![],
             evidence: format!(
                 "ΔBIC {:.1}; held-out RMS (leave one of {} runs out) {:.3} → {:.3} µm; noise floor {:.3} µm; condition number of the final joint fit {:.2e}{signature}",
-                st.dbic,
+                st.chosen.dbic,
                 a.runs.len(),
                 st.heldout.before,
                 st.heldout.after,
-                sel.noise,
+                noise,
                 fit.cond
             ),
             signature: None,
         });
     }
-    let final_heldout = (sel.heldout_sse / n as f64).sqrt();
-    let needs = sel.base_heldout > opts.explained_ratio * sel.noise;
-    let unexplained = (needs && final_heldout > opts.explained_ratio * sel.noise).then(|| {
+    let final_heldout = sel.heldout_rms();
+    let base_heldout = sel.base_heldout_rms();
+    let needs = base_heldout > opts.explained_ratio * noise;
+    let unexplained = (needs && final_heldout > opts.explained_ratio * noise).then(|| {
         format!(
             "axis {}: held-out RMS {:.3} µm after {} effect(s) against a noise floor of {:.3} µm; the largest remaining residuals: {}",
             a.axis,
             final_heldout,
             sel.steps.len(),
-            sel.noise,
+            noise,
             worst_places(a, &res)
         )
     });
-    let misfit = (sel.base_res.iter().map(|v| v * v).sum::<f64>()
-        - n as f64 * sel.noise * sel.noise)
-        .max(0.0);
+    let misfit = (base_res.iter().map(|v| v * v).sum::<f64>() - n as f64 * noise * noise).max(0.0);
     AxisOutcome {
-        noise: sel.noise,
-        base_rms: sel.base_rms,
-        base_heldout: sel.base_heldout,
+        noise,
+        base_rms: rms(&base_res),
+        base_heldout,
         final_heldout,
         n,
-        mismatch: locate(a, &sel.base_res, sel.noise),
+        mismatch: locate(a, &base_res, noise),
         findings,
         unexplained,
-        plots: plots(a, &sel.model, &fit.coef, &sel.base_res, &res, opts),
+        plots: plots(a, &sel.model, &fit.coef, &base_res, &res, opts),
         misfit,
     }
 }
