@@ -144,6 +144,17 @@ async fn text(c: &Client, css: &str) -> String {
         .expect("text")
 }
 
+/// Attribute `name` of the element `css` matches (which must have it).
+async fn attr(c: &Client, css: &str, name: &str) -> String {
+    c.find(Locator::Css(css))
+        .await
+        .unwrap_or_else(|e| panic!("{css}: {e}"))
+        .attr(name)
+        .await
+        .expect("attribute")
+        .unwrap_or_else(|| panic!("{css} has no {name}"))
+}
+
 /// Waits until `css` matches an element (the page script reloads pages).
 async fn wait_for(c: &Client, css: &str, timeout: Duration) {
     let t0 = Instant::now();
@@ -476,14 +487,7 @@ async fn run(c: &Client, base: &str, key: &str, shots: &Path, work: &Path) {
     shot(c, shots, "upload").await;
     // The page reloads when the job ends; the new check is the newest row. The job is
     // watched through the API as well, so that a failure says what happened to it.
-    let job_id = c
-        .find(Locator::Css("#jobs .job"))
-        .await
-        .unwrap()
-        .attr("data-job")
-        .await
-        .unwrap()
-        .expect("the job block names its job");
+    let job_id = attr(c, "#jobs .job", "data-job").await;
     let t0 = Instant::now();
     let mut ended: Option<Instant> = None;
     loop {
@@ -502,7 +506,7 @@ async fn run(c: &Client, base: &str, key: &str, shots: &Path, work: &Path) {
                 let at = *ended.get_or_insert_with(Instant::now);
                 assert!(
                     at.elapsed() < Duration::from_secs(20),
-                    "job {job_id} succeeded but the page did not show its check                      ({n} rows, {before} before)\n{}",
+                    "job {job_id} succeeded but the page did not show its check ({n} rows, {before} before)\n{}",
                     log_tail(work)
                 );
             }
@@ -519,14 +523,7 @@ async fn run(c: &Client, base: &str, key: &str, shots: &Path, work: &Path) {
     }
     let newest = text(c, "#checks tbody tr:first-child").await;
     assert!(newest.contains("2026-10-05"), "{newest}");
-    let new_id = c
-        .find(Locator::Css("#checks tbody tr:first-child"))
-        .await
-        .unwrap()
-        .attr("data-result")
-        .await
-        .unwrap()
-        .unwrap();
+    let new_id = attr(c, "#checks tbody tr:first-child", "data-result").await;
     let verdict = api(base, key, &format!("/api/v1/results/{new_id}/verdict")).await;
     assert_eq!(verdict["verdict"]["decision"], "pass", "{verdict}");
     assert_eq!(
