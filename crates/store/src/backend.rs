@@ -1323,9 +1323,9 @@ impl Store for This {
                     .fetch_all(&self.pool)
                     .await
                     .db()?;
-            Ok(dialect::MIGRATOR
+            Ok(dialect::MIGRATIONS
                 .iter()
-                .map(|m| m.version)
+                .map(|&(version, _, _)| version)
                 .filter(|v| !applied.contains(v))
                 .collect())
         })

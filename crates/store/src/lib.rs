@@ -21,6 +21,7 @@ use std::pin::Pin;
 
 mod error;
 pub mod keys;
+mod migrations;
 pub mod model;
 mod postgres;
 pub mod queue;

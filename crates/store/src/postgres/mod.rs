@@ -20,7 +20,7 @@ type This = PgStore;
 /// The statements whose SQL differs from SQLite's.
 mod dialect {
     /// The migrations of `migrations/postgres`, embedded at build time.
-    pub static MIGRATOR: sqlx::migrate::Migrator = sqlx::migrate!("../../migrations/postgres");
+    pub const MIGRATIONS: crate::migrations::Embedded = crate::migrations::POSTGRES;
     /// The next submission number: the identity column's sequence.
     pub const NEXT_SEQ: &str = "DEFAULT";
     /// Row locking of the claim's sub-select: concurrent claimers skip a row another
@@ -65,7 +65,11 @@ impl PgStore {
             .connect_with(opts)
             .await
             .db()?;
-        dialect::MIGRATOR.run(&pool).await.db()?;
+        crate::migrations::migrator(dialect::MIGRATIONS)
+            .await?
+            .run(&pool)
+            .await
+            .db()?;
         Ok(PgStore { pool })
     }
 }

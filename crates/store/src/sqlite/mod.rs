@@ -16,7 +16,7 @@ type This = SqliteStore;
 /// The statements whose SQL differs from PostgreSQL's.
 mod dialect {
     /// The migrations of `migrations/sqlite`, embedded at build time.
-    pub static MIGRATOR: sqlx::migrate::Migrator = sqlx::migrate!("../../migrations/sqlite");
+    pub const MIGRATIONS: crate::migrations::Embedded = crate::migrations::SQLITE;
     /// The next submission number of `jobs.seq` (writers are serialised, so no race).
     pub const NEXT_SEQ: &str = "(SELECT COALESCE(MAX(seq), 0) + 1 FROM jobs)";
     /// Row locking of the claim's sub-select: none needed.
@@ -73,7 +73,11 @@ impl SqliteStore {
             .connect_with(opts)
             .await
             .db()?;
-        dialect::MIGRATOR.run(&pool).await.db()?;
+        crate::migrations::migrator(dialect::MIGRATIONS)
+            .await?
+            .run(&pool)
+            .await
+            .db()?;
         Ok(SqliteStore { pool })
     }
 }
