@@ -17,12 +17,16 @@
 //!
 //! One pass over the rows per set of columns (O(n·(r_g + m))) is all that touches the
 //! samples; every fit, on all runs and on each fold of held-out runs, is then of the size
-//! of the reduced problem. The small system is solved by an eigen-decomposition of the
-//! equilibrated (unit-diagonal) C_X'X', eigenvalues below 10⁻¹² of the largest dropped;
-//! a column with less than 10⁻¹⁰ of its sum of squares outside the model is dropped.
+//! of the reduced problem. Within a run the rows of each reading direction are gathered
+//! by column (X, Q_g's values, U), and each moment is a dot product of two such columns
+//! (Z_g[j, t] = Σ_i X_ij Q_it, (X_gᵀX_g)_jl = Σ_i X_ij X_il, (X_gᵀU_g)_jc = Σ_i X_ij U_ic,
+//! summed per direction and added), over the columns nonzero on some row of it. The
+//! small system is solved by an eigen-decomposition of the equilibrated (unit-diagonal)
+//! C_X'X', eigenvalues below 10⁻¹² of the largest dropped; a column with less than
+//! 10⁻¹⁰ of its sum of squares outside the model is dropped.
 
 use super::design::Design;
-use super::linalg::{Projector, dot};
+use super::linalg::{Projector, dot, dot_lanes};
 use super::reduced::{Reduction, RunSpace};
 use nalgebra::{DMatrix, SymmetricEigen};
 
@@ -107,8 +111,9 @@ impl Moments {
         let mut varies = vec![false; m];
         let mut runs = Vec::with_capacity(red.runs.len());
         let mut visit = Vec::new();
-        // The columns nonzero at the current row.
-        let mut nz = Vec::with_capacity(m);
+        // Per reading direction, the visited rows gathered by column: the m columns X,
+        // the basis row Q_g's values and the base columns U.
+        let mut dirs = [Gathered::default(), Gathered::default()];
         for (g, rs) in red.runs.iter().enumerate() {
             let r = rs.r;
             let mut rm = RunMoments {
@@ -124,32 +129,44 @@ impl Moments {
             let mut count = vec![[0usize; 2]; m];
             visit.clear();
             rows(g, rs, &mut visit);
+            let w = if rs.rows == 0 { 0 } else { rs.row(0).1.len() };
+            let odd = visit.iter().filter(|&&i| i & 1 == 1).count();
+            for (d, k) in dirs.iter_mut().zip([visit.len() - odd, odd]) {
+                d.start(k, m, w, u);
+            }
             for &i in &visit {
                 let row = rs.row0 + i;
-                let comp = i & 1;
-                fill(row, &mut vals);
-                nz.clear();
-                nz.extend((0..m).filter(|&j| vals[j] != 0.0));
-                for &j in &nz {
-                    let v = vals[j];
-                    count[j][comp] += 1;
-                    sums[j][comp] += v;
-                    lo[j][comp] = lo[j][comp].min(v);
-                    hi[j][comp] = hi[j][comp].max(v);
-                }
                 let (off, qrow) = rs.row(i);
+                fill(row, &mut vals);
+                dirs[i & 1].push(off, &vals, qrow, extra.iter().map(|col| col[row]));
+            }
+            for (comp, d) in dirs.iter().enumerate() {
+                let Some(off) = d.off else { continue };
+                // The columns nonzero on some row of this direction.
+                let mut nz = Vec::with_capacity(m);
+                let k = d.k;
+                for j in 0..m {
+                    for &v in Gathered::col(&d.x, k, j).iter().filter(|&&v| v != 0.0) {
+                        count[j][comp] += 1;
+                        sums[j][comp] += v;
+                        lo[j][comp] = lo[j][comp].min(v);
+                        hi[j][comp] = hi[j][comp].max(v);
+                    }
+                    if count[j][comp] > 0 {
+                        nz.push(j);
+                    }
+                }
                 for (a, &j) in nz.iter().enumerate() {
-                    let v = vals[j];
-                    let z = &mut rm.z[j * r + off..j * r + off + qrow.len()];
-                    for (zz, q) in z.iter_mut().zip(qrow) {
-                        *zz += v * q;
+                    let xj = Gathered::col(&d.x, k, j);
+                    for t in 0..w {
+                        rm.z[j * r + off + t] += dot_lanes(xj, Gathered::col(&d.q, k, t));
                     }
                     // The upper triangle only (the lower is its mirror).
                     for &l in &nz[a..] {
-                        rm.xx[j * m + l] += v * vals[l];
+                        rm.xx[j * m + l] += dot_lanes(xj, Gathered::col(&d.x, k, l));
                     }
-                    for (x, col) in rm.xu[j * u..(j + 1) * u].iter_mut().zip(extra) {
-                        *x += v * col[row];
+                    for c in 0..u {
+                        rm.xu[j * u + c] += dot_lanes(xj, Gathered::col(&d.u, k, c));
                     }
                 }
             }
@@ -240,6 +257,54 @@ impl Moments {
             }
         }
         g
+    }
+}
+
+/// The visited rows of one reading direction of a run, gathered by column (flat,
+/// column after column of k values), so that every moment is a dot product of two
+/// contiguous vectors ([`dot_lanes`]).
+#[derive(Default)]
+struct Gathered {
+    /// Offset of the direction's basis values in the run's reduced coordinates (the
+    /// same for all its rows); `None` when no row of it is visited.
+    off: Option<usize>,
+    /// Rows gathered, and rows to gather.
+    n: usize,
+    k: usize,
+    /// The m columns X, the w basis values Q_g[·, off..off + w] and the u base columns U.
+    x: Vec<f64>,
+    q: Vec<f64>,
+    u: Vec<f64>,
+}
+
+impl Gathered {
+    /// Makes room for `k` rows of m columns, w basis values and u base columns.
+    fn start(&mut self, k: usize, m: usize, w: usize, u: usize) {
+        (self.off, self.n, self.k) = (None, 0, k);
+        for (buf, c) in [(&mut self.x, m), (&mut self.q, w), (&mut self.u, u)] {
+            buf.clear();
+            buf.resize(c * k, 0.0);
+        }
+    }
+
+    fn push(&mut self, off: usize, x: &[f64], q: &[f64], u: impl Iterator<Item = f64>) {
+        self.off = Some(off);
+        let (i, k) = (self.n, self.k);
+        for (j, &v) in x.iter().enumerate() {
+            self.x[j * k + i] = v;
+        }
+        for (t, &v) in q.iter().enumerate() {
+            self.q[t * k + i] = v;
+        }
+        for (c, v) in u.enumerate() {
+            self.u[c * k + i] = v;
+        }
+        self.n += 1;
+    }
+
+    /// Column `j` of a gathered block.
+    fn col(buf: &[f64], k: usize, j: usize) -> &[f64] {
+        &buf[j * k..(j + 1) * k]
     }
 }
 
