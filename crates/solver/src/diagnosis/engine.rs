@@ -1,44 +1,346 @@
 //! The diagnosis engine: the one greedy loop every kind of recording runs (docs/diagnosis.md,
 //! "Engine").
 //!
-//! A recording is a [`Problem`]: readings y, the rows a model is fitted on, a held-out
-//! split of them into folds, the least-squares columns of a model, and the candidate
-//! effects that may extend the current model, each with at most one nonlinear parameter θ
-//! and its search grid. [`select`] then runs
+//! A recording is a [`Greedy`] problem: the current model fitted (its state), the
+//! candidate effects that may extend it, how a candidate is evaluated jointly with the
+//! current model (its SSE on the fitted rows, its held-out SSE and its parameter count),
+//! whether a qualifying candidate may be added, and how it is added. [`run`] then runs
 //!
-//! 1. **fit** the rigid model on the fitting rows; its held-out sum of squares is
-//!    S_ho = Σ_folds Σ_{i ∈ test} (y_i − ŷ_i)², ŷ fitted on the fold's training rows;
-//! 2. **candidates** of the current model from the problem;
-//! 3. **1-D search** of each candidate's θ: the grid point of least fitted SSE, refined by
-//!    golden section between its neighbours; in every fold θ is searched again on the
-//!    fold's training rows only, so S_ho is an honest held-out figure;
+//! 1. **fit**: the base state, its SSE and held-out SSE S_ho;
+//! 2. **candidates** of the current model, from the problem, less those set aside;
+//! 3. **evaluate** every candidate jointly with the current model, on all cores: its
+//!    nonlinear parameter θ searched (a 1-D search), its fitted SSE, its S_ho and k;
 //! 4. **gate**: a candidate qualifies when ΔBIC = BIC₁ − BIC₀ ≤ −`bic_threshold`, with
 //!    BIC = n ln(SSE/n) + k ln n (Schwarz 1978; n fitted rows, k parameters including
 //!    θ), and S_ho,₁ ≤ (1 − `min_heldout_gain`)·S_ho,₀. Among the qualifying ones, taken
 //!    in order of k (then S_ho), a richer candidate replaces the simpler choice only when
 //!    its S_ho is below (1 − `min_heldout_gain`) times the simpler one's (parsimony: more
-//!    parameters must earn the same held-out gain). The choice is added; the loop repeats
-//!    until none qualifies, `max_findings` are added, or the held-out RMS
+//!    parameters must earn the same held-out gain). The problem then **admits** the
+//!    choice or sets it aside (a degenerate or undetermined effect: never tried again),
+//!    and the next choice among the rest is put to it. The admitted choice is added; the
+//!    loop repeats until none qualifies, `max_findings` are added, or the held-out RMS
 //!    √(S_ho/n_ho) is within `stop_ratio` × the noise floor;
-//! 5. **verdict**: the findings built from the [`Selection`] are sorted by the one
+//! 5. **verdict**: the findings built from the [`Outcome`] are sorted by the one
 //!    "determined" rule ([`super::effects::classify`]) and judged by the one verdict rule
 //!    ([`super::effects::verdict`]); a recording of several parts (the axes of positioning
 //!    runs, the channels of a drift log) runs the loop per part and pools the parts for
 //!    the verdict.
 //!
-//! A problem whose model is not fitted by plain least squares (the ridge thermal model of
+//! Recordings whose models are least-squares columns at every row (positioning runs,
+//! drift logs) are a [`Problem`]: every `Problem` is a `Greedy` problem whose θ is searched
+//! on a grid refined by golden section, fitted by the one dense kernel, and scored on the
+//! problem's folds with θ searched again on every fold's training rows ([`select`]). A
+//! problem whose model is not fitted by plain least squares (the ridge thermal model of
 //! drift logs) overrides [`Problem::fit`] and may score itself on the same folds
-//! ([`Problem::own_heldout_sse`], when its penalty is chosen by them).
+//! ([`Problem::own_heldout_sse`], when its penalty is chosen by them). Grid-encoder
+//! sessions implement `Greedy` directly on per-run moments
+//! ([`super::session`]).
 
 use super::Monotone;
 use super::lsq::{self, Design};
 use super::series::{bic, grid_then_golden};
 
-/// One held-out fold: the model is fitted on `train` and predicts `test`.
-#[derive(Debug, Clone, PartialEq)]
-pub struct Fold {
-    pub train: Vec<usize>,
-    pub test: Vec<usize>,
+/// What the loop needs of a recording (module docs).
+pub trait Greedy: Sync {
+    /// The current model, fitted.
+    type State: Send + Sync;
+    /// A candidate effect that may extend the current model.
+    type Candidate: Clone + PartialEq + Send + Sync;
+    /// A candidate evaluated jointly with the current model.
+    type Trial: Clone + Send;
+    /// What the problem says of an admitted or set-aside candidate (its finding, or why
+    /// it was set aside).
+    type Note: Send;
+
+    /// The noise floor, estimated independently of any model.
+    fn noise_floor(&self) -> f64;
+    /// Number of fitted rows (n of BIC).
+    fn n_fit(&self) -> usize;
+    /// Number of held-out rows over all folds (n_ho of the held-out RMS).
+    fn n_heldout(&self) -> usize;
+    /// SSE, held-out SSE and parameter count of a state.
+    fn score(&self, s: &Self::State) -> Score;
+    /// The candidates that may extend the current model.
+    fn candidates(&self, s: &Self::State) -> Vec<Self::Candidate>;
+    /// The candidate's name in progress reports (empty: none).
+    fn label(&self, _c: &Self::Candidate) -> String {
+        String::new()
+    }
+    /// The candidate evaluated jointly with the current model (`None`: it cannot be
+    /// fitted, e.g. its columns do not vary).
+    fn evaluate(&self, s: &Self::State, c: &Self::Candidate) -> Option<(Score, Self::Trial)>;
+    /// Whether a qualifying candidate, the loop's choice, may be added.
+    fn admit(&self, s: &Self::State, c: &Self::Candidate, t: &Self::Trial)
+    -> Admission<Self::Note>;
+    /// The state with the admitted candidate added, and its note as the final model
+    /// states it.
+    fn add(
+        &self,
+        s: &Self::State,
+        c: &Self::Candidate,
+        t: Self::Trial,
+        note: Self::Note,
+    ) -> (Self::State, Self::Note);
+}
+
+/// The figures of a fitted model that the loop compares.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Score {
+    /// SSE on the fitted rows.
+    pub sse: f64,
+    /// Held-out SSE over the folds.
+    pub heldout_sse: f64,
+    /// Number of parameters (linear coefficients and searched θ) for BIC; only
+    /// differences between states matter.
+    pub k: f64,
+}
+
+/// The problem's answer to the loop's choice.
+pub enum Admission<N> {
+    /// Added, with its note.
+    Add(N),
+    /// Set aside, never tried again, with its note.
+    SetAside(N),
+}
+
+/// The choice rules of the loop (module docs).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Rules {
+    pub bic_threshold: f64,
+    /// Least relative decrease of the held-out SSE.
+    pub min_heldout_gain: f64,
+    pub stop_ratio: f64,
+    pub max_findings: usize,
+}
+
+/// A candidate evaluated in one round.
+pub struct Evaluated<G: Greedy + ?Sized> {
+    pub candidate: G::Candidate,
+    pub score: Score,
+    /// BIC₁ − BIC₀ against the state it extends.
+    pub dbic: f64,
+    pub trial: G::Trial,
+}
+
+impl<G: Greedy + ?Sized> Clone for Evaluated<G> {
+    fn clone(&self) -> Self {
+        Evaluated {
+            candidate: self.candidate.clone(),
+            score: self.score,
+            dbic: self.dbic,
+            trial: self.trial.clone(),
+        }
+    }
+}
+
+/// One added candidate.
+pub struct Added<G: Greedy + ?Sized> {
+    /// The state it extended.
+    pub before: G::State,
+    pub chosen: Evaluated<G>,
+    pub note: G::Note,
+    /// RMS on the fitting rows before and after.
+    pub rms: super::BeforeAfter,
+    /// Held-out RMS √(S_ho/n_ho) before and after.
+    pub heldout: super::BeforeAfter,
+}
+
+/// What the loop found.
+pub struct Outcome<G: Greedy + ?Sized> {
+    pub noise: f64,
+    pub n_fit: usize,
+    pub n_heldout: usize,
+    pub base_score: Score,
+    /// The final state and its score.
+    pub state: G::State,
+    pub score: Score,
+    pub added: Vec<Added<G>>,
+    /// Candidates set aside by the problem, with their notes, in the order met.
+    pub set_aside: Vec<(G::Candidate, G::Note)>,
+    /// Every candidate evaluated, in every round.
+    pub tried: Vec<Evaluated<G>>,
+}
+
+fn rms(sse: f64, n: usize) -> f64 {
+    (sse / n.max(1) as f64).sqrt()
+}
+
+/// The parsimonious choice among qualifying candidates (module docs, step 4): its index.
+fn choose<G: Greedy + ?Sized>(q: &[Evaluated<G>], gain: f64) -> Option<usize> {
+    let mut order: Vec<usize> = (0..q.len()).collect();
+    order.sort_by(|&a, &b| {
+        let (a, b) = (&q[a].score, &q[b].score);
+        a.k.total_cmp(&b.k)
+            .then(a.heldout_sse.total_cmp(&b.heldout_sse))
+    });
+    let mut it = order.into_iter();
+    let mut pick = it.next()?;
+    for c in it {
+        if q[c].score.heldout_sse < (1.0 - gain) * q[pick].score.heldout_sse {
+            pick = c;
+        }
+    }
+    Some(pick)
+}
+
+/// `evaluate` on every candidate, on all cores (candidates taken in turn by each thread),
+/// in the candidates' order; `report(i, c)` is called on this thread with the number of
+/// candidates done so far and the next one this thread takes.
+fn evaluate_all<G: Greedy + ?Sized>(
+    g: &G,
+    s: &G::State,
+    cands: &[G::Candidate],
+    mut report: impl FnMut(usize, &G::Candidate),
+) -> Vec<Option<(Score, G::Trial)>> {
+    use std::sync::atomic::{AtomicUsize, Ordering};
+    let threads = std::thread::available_parallelism()
+        .map_or(1, |n| n.get())
+        .min(cands.len())
+        .max(1);
+    let next = AtomicUsize::new(0);
+    let done = AtomicUsize::new(0);
+    let take = || {
+        let i = next.fetch_add(1, Ordering::Relaxed);
+        cands.get(i).map(|c| (i, c))
+    };
+    let one = |(i, c): (usize, &G::Candidate)| {
+        let r = (i, g.evaluate(s, c));
+        done.fetch_add(1, Ordering::Relaxed);
+        r
+    };
+    let mut all = std::thread::scope(|sc| {
+        let helpers: Vec<_> = (1..threads)
+            .map(|_| sc.spawn(|| std::iter::from_fn(take).map(one).collect::<Vec<_>>()))
+            .collect();
+        let mut mine = Vec::new();
+        while let Some((i, c)) = take() {
+            report(done.load(Ordering::Relaxed), c);
+            mine.push(one((i, c)));
+        }
+        for h in helpers {
+            mine.extend(h.join().expect("candidate thread"));
+        }
+        mine
+    });
+    all.sort_by_key(|(i, _)| *i);
+    all.into_iter().map(|(_, t)| t).collect()
+}
+
+/// Runs the loop (module docs) from the state `base`; `label` names the recording part in
+/// the progress reports (each candidate of each round), made within `span` of the whole
+/// work.
+pub(crate) fn run<G: Greedy + ?Sized>(
+    g: &G,
+    base: G::State,
+    rules: &Rules,
+    label: &str,
+    progress: &mut Monotone,
+    span: (f64, f64),
+) -> Outcome<G> {
+    let noise = g.noise_floor();
+    let (n, n_heldout) = (g.n_fit(), g.n_heldout());
+    let base_score = g.score(&base);
+    let (mut state, mut cur) = (base, base_score);
+    let mut added: Vec<Added<G>> = vec![];
+    let mut set_aside: Vec<(G::Candidate, G::Note)> = vec![];
+    let mut tried = vec![];
+    let rounds = (rules.max_findings + 1) as f64;
+    let prefix = if label.is_empty() {
+        String::new()
+    } else {
+        format!("{label}: ")
+    };
+    while added.len() < rules.max_findings {
+        let round = added.len() as f64;
+        progress.report_in(
+            span,
+            &format!("{prefix}round {} of candidates", round + 1.0),
+            0.1 + 0.85 * round / rounds,
+        );
+        if rms(cur.heldout_sse, n_heldout) <= rules.stop_ratio * noise {
+            break;
+        }
+        let cur_bic = bic(cur.sse, n, cur.k);
+        let cands: Vec<G::Candidate> = g
+            .candidates(&state)
+            .into_iter()
+            .filter(|c| !set_aside.iter().any(|(s, _)| s == c))
+            .collect();
+        let evaluated = evaluate_all(g, &state, &cands, |i, c| {
+            let name = g.label(c);
+            progress.report_in(
+                span,
+                &format!(
+                    "{prefix}round {} of candidates{}{name}",
+                    round + 1.0,
+                    if name.is_empty() { "" } else { ": " }
+                ),
+                0.1 + 0.85 * (round + i as f64 / cands.len().max(1) as f64) / rounds,
+            )
+        });
+        let mut qualifying: Vec<Evaluated<G>> = vec![];
+        for (c, e) in cands.into_iter().zip(evaluated) {
+            let Some((score, trial)) = e else { continue };
+            let ev = Evaluated {
+                dbic: bic(score.sse, n, score.k) - cur_bic,
+                candidate: c,
+                score,
+                trial,
+            };
+            if ev.dbic <= -rules.bic_threshold
+                && ev.score.heldout_sse <= (1.0 - rules.min_heldout_gain) * cur.heldout_sse
+            {
+                qualifying.push(ev.clone());
+            }
+            tried.push(ev);
+        }
+        let mut admitted = None;
+        while let Some(i) = choose(&qualifying, rules.min_heldout_gain) {
+            let ev = qualifying.swap_remove(i);
+            match g.admit(&state, &ev.candidate, &ev.trial) {
+                Admission::Add(note) => {
+                    admitted = Some((ev, note));
+                    break;
+                }
+                Admission::SetAside(note) => set_aside.push((ev.candidate, note)),
+            }
+        }
+        let Some((chosen, note)) = admitted else {
+            break;
+        };
+        progress.report_in(
+            span,
+            &format!("{prefix}refitting with {}", g.label(&chosen.candidate)),
+            0.1 + 0.85 * (round + 0.99) / rounds,
+        );
+        let (next, note) = g.add(&state, &chosen.candidate, chosen.trial.clone(), note);
+        let score = g.score(&next);
+        added.push(Added {
+            rms: super::BeforeAfter {
+                before: rms(cur.sse, n),
+                after: rms(score.sse, n),
+            },
+            heldout: super::BeforeAfter {
+                before: rms(cur.heldout_sse, n_heldout),
+                after: rms(score.heldout_sse, n_heldout),
+            },
+            before: std::mem::replace(&mut state, next),
+            chosen,
+            note,
+        });
+        cur = score;
+    }
+    Outcome {
+        noise,
+        n_fit: n,
+        n_heldout,
+        base_score,
+        state,
+        score: cur,
+        added,
+        set_aside,
+        tried,
+    }
 }
 
 /// A fitted model: coefficients of its columns, the SSE on the rows it was fitted on and
@@ -50,12 +352,12 @@ pub struct Fitted {
     pub prediction: Vec<f64>,
 }
 
-/// A recording to diagnose (module docs).
-pub trait Problem {
+/// A recording whose models are least-squares columns at every row (module docs).
+pub trait Problem: Sync {
     /// A model: the rigid model and the effects added to it, with their θ.
-    type Model: Clone;
+    type Model: Clone + Send + Sync;
     /// A candidate effect that extends a model.
-    type Candidate: Copy;
+    type Candidate: Copy + PartialEq + Send + Sync;
 
     /// The readings y, one per row.
     fn readings(&self) -> &[f64];
@@ -88,6 +390,13 @@ pub trait Problem {
     }
 }
 
+/// One held-out fold: the model is fitted on `train` and predicts `test`.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Fold {
+    pub train: Vec<usize>,
+    pub test: Vec<usize>,
+}
+
 /// The fit of `m` on `rows` by the one dense least-squares kernel on its columns.
 pub fn lsq_fit<P: Problem + ?Sized>(p: &P, m: &P::Model, rows: &[usize]) -> Fitted {
     let d = p.columns(m);
@@ -100,16 +409,75 @@ pub fn lsq_fit<P: Problem + ?Sized>(p: &P, m: &P::Model, rows: &[usize]) -> Fitt
     }
 }
 
-/// The choice rules of the loop (module docs).
-#[derive(Debug, Clone, Copy, PartialEq)]
-pub struct Rules {
-    pub bic_threshold: f64,
-    pub min_heldout_gain: f64,
-    pub stop_ratio: f64,
-    pub max_findings: usize,
+/// A model of a [`Problem`] fitted on its fitting rows, with its held-out SSE.
+pub struct Current<P: Problem + ?Sized> {
+    pub model: P::Model,
+    pub fit: Fitted,
+    pub heldout_sse: f64,
 }
 
-/// A candidate evaluated in one round.
+impl<P: Problem + ?Sized> Clone for Current<P> {
+    fn clone(&self) -> Self {
+        Current {
+            model: self.model.clone(),
+            fit: self.fit.clone(),
+            heldout_sse: self.heldout_sse,
+        }
+    }
+}
+
+impl<P: Problem + ?Sized> Current<P> {
+    /// `m` fitted on the fitting rows and scored on the folds (θ of `c` searched again on
+    /// every fold's training rows, extending `from`).
+    fn new(p: &P, m: P::Model, from: &P::Model, c: Option<P::Candidate>) -> Current<P> {
+        Current {
+            fit: p.fit(&m, &p.fit_rows()),
+            heldout_sse: heldout_sse(p, from, c, &m),
+            model: m,
+        }
+    }
+}
+
+/// Every row problem is a greedy problem (module docs); it admits every choice.
+impl<P: Problem> Greedy for P {
+    type State = Current<P>;
+    type Candidate = P::Candidate;
+    type Trial = Current<P>;
+    type Note = ();
+
+    fn noise_floor(&self) -> f64 {
+        Problem::noise_floor(self)
+    }
+    fn n_fit(&self) -> usize {
+        self.fit_rows().len()
+    }
+    fn n_heldout(&self) -> usize {
+        self.folds().iter().map(|f| f.test.len()).sum()
+    }
+    fn score(&self, s: &Current<P>) -> Score {
+        Score {
+            sse: s.fit.sse,
+            heldout_sse: s.heldout_sse,
+            k: self.n_params(&s.model),
+        }
+    }
+    fn candidates(&self, s: &Current<P>) -> Vec<P::Candidate> {
+        Problem::candidates(self, &s.model)
+    }
+    fn evaluate(&self, s: &Current<P>, &c: &P::Candidate) -> Option<(Score, Current<P>)> {
+        let m = search(self, &s.model, c, &self.fit_rows());
+        let t = Current::new(self, m, &s.model, Some(c));
+        Some((self.score(&t), t))
+    }
+    fn admit(&self, _: &Current<P>, _: &P::Candidate, _: &Current<P>) -> Admission<()> {
+        Admission::Add(())
+    }
+    fn add(&self, _: &Current<P>, _: &P::Candidate, t: Current<P>, note: ()) -> (Current<P>, ()) {
+        (t, note)
+    }
+}
+
+/// A candidate of a row problem evaluated in one round.
 pub struct Scored<P: Problem> {
     pub candidate: P::Candidate,
     /// The current model extended by the candidate at its searched θ.
@@ -120,20 +488,20 @@ pub struct Scored<P: Problem> {
     pub k: f64,
 }
 
-impl<P: Problem> Clone for Scored<P> {
-    fn clone(&self) -> Self {
+impl<P: Problem> Scored<P> {
+    fn of(e: Evaluated<P>) -> Scored<P> {
         Scored {
-            candidate: self.candidate,
-            model: self.model.clone(),
-            fit: self.fit.clone(),
-            heldout_sse: self.heldout_sse,
-            dbic: self.dbic,
-            k: self.k,
+            candidate: e.candidate,
+            model: e.trial.model,
+            fit: e.trial.fit,
+            heldout_sse: e.trial.heldout_sse,
+            dbic: e.dbic,
+            k: e.score.k,
         }
     }
 }
 
-/// One accepted step: the model before it and the chosen candidate.
+/// One accepted step of a row problem: the model before it and the chosen candidate.
 pub struct Step<P: Problem> {
     pub before: P::Model,
     pub chosen: Scored<P>,
@@ -143,7 +511,7 @@ pub struct Step<P: Problem> {
     pub heldout: super::BeforeAfter,
 }
 
-/// What the loop found.
+/// What the loop found for a row problem.
 pub struct Selection<P: Problem> {
     pub noise: f64,
     /// Fitted and held-out row counts (n of BIC, n_ho of the held-out RMS).
@@ -162,15 +530,20 @@ pub struct Selection<P: Problem> {
 
 impl<P: Problem> Selection<P> {
     pub fn base_heldout_rms(&self) -> f64 {
-        (self.base_heldout_sse / self.n_heldout.max(1) as f64).sqrt()
+        rms(self.base_heldout_sse, self.n_heldout)
     }
     pub fn heldout_rms(&self) -> f64 {
-        (self.heldout_sse / self.n_heldout.max(1) as f64).sqrt()
+        rms(self.heldout_sse, self.n_heldout)
     }
 }
 
 /// `m` extended by `c` with θ searched on `rows` (grid, then golden section).
-pub fn search<P: Problem>(p: &P, m: &P::Model, c: P::Candidate, rows: &[usize]) -> P::Model {
+pub fn search<P: Problem + ?Sized>(
+    p: &P,
+    m: &P::Model,
+    c: P::Candidate,
+    rows: &[usize],
+) -> P::Model {
     let grid = p.grid(c);
     if grid.is_empty() {
         return p.extend(m, c, 0.0);
@@ -181,7 +554,7 @@ pub fn search<P: Problem>(p: &P, m: &P::Model, c: P::Candidate, rows: &[usize]) 
 
 /// Held-out SSE of `m` extended by `c` (θ searched again on every fold's training rows),
 /// or of `m` itself; `full` is the model fitted on all fitting rows.
-pub fn heldout_sse<P: Problem>(
+pub fn heldout_sse<P: Problem + ?Sized>(
     p: &P,
     m: &P::Model,
     c: Option<P::Candidate>,
@@ -204,25 +577,7 @@ pub fn heldout_sse<P: Problem>(
         .sum()
 }
 
-/// The parsimonious choice among qualifying candidates (module docs, step 4).
-fn choose<P: Problem>(mut q: Vec<Scored<P>>, gain: f64) -> Option<Scored<P>> {
-    q.sort_by(|a, b| {
-        a.k.total_cmp(&b.k)
-            .then(a.heldout_sse.total_cmp(&b.heldout_sse))
-    });
-    let mut it = q.into_iter();
-    let mut pick = it.next()?;
-    for c in it {
-        if c.heldout_sse < (1.0 - gain) * pick.heldout_sse {
-            pick = c;
-        }
-    }
-    Some(pick)
-}
-
-/// Runs the loop (module docs) from the rigid model `base`; `label` names the recording
-/// part in the progress reports (each round of candidates), made within `span` of the
-/// whole work.
+/// The loop ([`run`]) on a row problem from the model `base`.
 pub(crate) fn select<P: Problem>(
     p: &P,
     base: P::Model,
@@ -231,76 +586,30 @@ pub(crate) fn select<P: Problem>(
     progress: &mut Monotone,
     span: (f64, f64),
 ) -> Selection<P> {
-    let noise = p.noise_floor();
-    let rows = p.fit_rows();
-    let n = rows.len();
-    let n_heldout = p.folds().iter().map(|f| f.test.len()).sum::<usize>();
-    let rms = |sse: f64, k: usize| (sse / k.max(1) as f64).sqrt();
-    let base_fit = p.fit(&base, &rows);
-    let base_heldout_sse = heldout_sse(p, &base, None, &base);
-    let (mut model, mut fit, mut cur_ho) = (base.clone(), base_fit.clone(), base_heldout_sse);
-    let mut steps: Vec<Step<P>> = vec![];
-    let mut tried = vec![];
-    while steps.len() < rules.max_findings {
-        progress.report_in(
-            span,
-            &format!("{label}: round {} of candidates", steps.len() + 1),
-            0.1 + 0.85 * steps.len() as f64 / rules.max_findings as f64,
-        );
-        if rms(cur_ho, n_heldout) <= rules.stop_ratio * noise {
-            break;
-        }
-        let cur_bic = bic(fit.sse, n, p.n_params(&model));
-        let mut qualifying = vec![];
-        for c in p.candidates(&model) {
-            let m = search(p, &model, c, &rows);
-            let f = p.fit(&m, &rows);
-            let k = p.n_params(&m);
-            let s = Scored {
-                candidate: c,
-                heldout_sse: heldout_sse(p, &model, Some(c), &m),
-                dbic: bic(f.sse, n, k) - cur_bic,
-                model: m,
-                fit: f,
-                k,
-            };
-            if s.dbic <= -rules.bic_threshold
-                && s.heldout_sse <= (1.0 - rules.min_heldout_gain) * cur_ho
-            {
-                qualifying.push(s.clone());
-            }
-            tried.push(s);
-        }
-        let Some(chosen): Option<Scored<P>> = choose(qualifying, rules.min_heldout_gain) else {
-            break;
-        };
-        steps.push(Step {
-            rms: super::BeforeAfter {
-                before: rms(fit.sse, n),
-                after: rms(chosen.fit.sse, n),
-            },
-            heldout: super::BeforeAfter {
-                before: rms(cur_ho, n_heldout),
-                after: rms(chosen.heldout_sse, n_heldout),
-            },
-            before: std::mem::replace(&mut model, P::Model::clone(&chosen.model)),
-            chosen: chosen.clone(),
-        });
-        fit = chosen.fit;
-        cur_ho = chosen.heldout_sse;
-    }
+    let b = Current::new(p, base.clone(), &base, None);
+    let base_fit = b.fit.clone();
+    let o = run(p, b, rules, label, progress, span);
     Selection {
-        noise,
-        n_fit: n,
-        n_heldout,
+        noise: o.noise,
+        n_fit: o.n_fit,
+        n_heldout: o.n_heldout,
         base,
         base_fit,
-        base_heldout_sse,
-        model,
-        fit,
-        heldout_sse: cur_ho,
-        steps,
-        tried,
+        base_heldout_sse: o.base_score.heldout_sse,
+        model: o.state.model,
+        fit: o.state.fit,
+        heldout_sse: o.state.heldout_sse,
+        steps: o
+            .added
+            .into_iter()
+            .map(|a| Step {
+                before: a.before.model,
+                chosen: Scored::of(a.chosen),
+                rms: a.rms,
+                heldout: a.heldout,
+            })
+            .collect(),
+        tried: o.tried.into_iter().map(Scored::of).collect(),
     }
 }
 
@@ -471,5 +780,83 @@ mod tests {
         let t = Toy::new(0.0, 37.0, 0.0, 0.0);
         let sel = run(&t);
         assert!(sel.steps.is_empty(), "{:?}", sel.model);
+    }
+
+    /// The toy with a problem that sets the sine aside: the sine is the loop's first
+    /// choice (its held-out SSE is more than 10 % below the simpler trend's); the loop puts
+    /// its next choice, the trend, to the problem, adds it, and never evaluates the sine
+    /// again.
+    struct Picky(Toy);
+
+    impl Greedy for Picky {
+        type State = Current<Toy>;
+        type Candidate = C;
+        type Trial = Current<Toy>;
+        type Note = &'static str;
+        fn noise_floor(&self) -> f64 {
+            Greedy::noise_floor(&self.0)
+        }
+        fn n_fit(&self) -> usize {
+            self.0.n_fit()
+        }
+        fn n_heldout(&self) -> usize {
+            self.0.n_heldout()
+        }
+        fn score(&self, s: &Current<Toy>) -> Score {
+            self.0.score(s)
+        }
+        fn candidates(&self, s: &Current<Toy>) -> Vec<C> {
+            Greedy::candidates(&self.0, s)
+        }
+        fn evaluate(&self, s: &Current<Toy>, c: &C) -> Option<(Score, Current<Toy>)> {
+            self.0.evaluate(s, c)
+        }
+        fn admit(&self, _: &Current<Toy>, c: &C, _: &Current<Toy>) -> Admission<&'static str> {
+            if *c == C::Sine {
+                Admission::SetAside("set aside")
+            } else {
+                Admission::Add("added")
+            }
+        }
+        fn add(
+            &self,
+            _: &Current<Toy>,
+            _: &C,
+            t: Current<Toy>,
+            note: &'static str,
+        ) -> (Current<Toy>, &'static str) {
+            (t, note)
+        }
+    }
+
+    #[test]
+    fn a_choice_set_aside_gives_way_to_the_next_and_is_not_tried_again() {
+        let p = Picky(Toy::new(1.0, 37.0, 0.5, 0.0));
+        let base = M {
+            period: None,
+            trend: false,
+            padded: false,
+        };
+        let b = Current::new(&p.0, base.clone(), &base, None);
+        let rules = Rules {
+            bic_threshold: 10.0,
+            min_heldout_gain: 0.1,
+            stop_ratio: 1.1,
+            max_findings: 4,
+        };
+        let mut np = NoProgress;
+        let o = super::run(&p, b, &rules, "", &mut Monotone::new(&mut np), (0.0, 1.0));
+        let first = &o.tried[..3];
+        let sine = first.iter().find(|e| e.candidate == C::Sine).unwrap();
+        let trend = first.iter().find(|e| e.candidate == C::Trend).unwrap();
+        assert!(sine.score.heldout_sse < 0.9 * trend.score.heldout_sse);
+        let aside: Vec<C> = o.set_aside.iter().map(|(c, _)| *c).collect();
+        assert_eq!(aside, [C::Sine]);
+        assert_eq!(o.added.len(), 1, "only the trend is added");
+        assert_eq!(o.added[0].chosen.candidate, C::Trend);
+        assert_eq!(o.added[0].note, "added");
+        assert!(o.state.model.trend && o.state.model.period.is_none());
+        let sines = o.tried.iter().filter(|e| e.candidate == C::Sine).count();
+        assert_eq!(sines, 1, "the sine is evaluated in the first round only");
     }
 }

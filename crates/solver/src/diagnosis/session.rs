@@ -2,19 +2,24 @@
 //! explain it with the catalogue of effects fitted jointly with the model, and prove the
 //! gain on whole runs held out of the fit.
 //!
-//! Loop (greedy forward selection):
-//! 1. fit the current model (rigid terms, plate rotations, run offsets eliminated, plus
-//!    the effects accepted so far); its residual r, SSR and K-fold held-out SSR (folds of
-//!    whole runs: run index within its file mod K);
-//! 2. for every candidate, search its nonlinear parameter, fit it jointly, compute
-//!    ΔBIC = n·ln(SSR₁/SSR₀) + (m + n_nonlinear)·ln n and the held-out RMS;
-//! 3. accept the candidate with the lowest held-out RMS among those with ΔBIC < −10 and a
-//!    held-out gain ≥ 0.5 %; repeat until none qualifies (reaching the noise floor does
-//!    not stop the search: a small effect near the floor is still found on its evidence).
+//! The loop is the diagnosis engine's ([`super::engine::run`]); a session is its
+//! [`super::engine::Greedy`] problem on per-run moments:
+//! 1. the state is the current model (rigid terms, plate rotations, run offsets
+//!    eliminated, plus the effects accepted so far) fitted on all runs: its residual r,
+//!    SSR and K-fold held-out SSR (folds of whole runs: run index within its file mod K);
+//! 2. every candidate of the catalogue has its nonlinear parameter searched and is fitted
+//!    jointly ([`try_candidate`]), giving ΔBIC = n·ln(SSR₁/SSR₀) + (m + n_nonlinear)·ln n
+//!    and the held-out RMS;
+//! 3. of those with ΔBIC ≤ −10 and a held-out RMS gain ≥ 0.5 %, the engine's parsimonious
+//!    choice is admitted when plausible and determined, otherwise set aside (rejected or
+//!    possible) and never tried again; the loop repeats until none qualifies (reaching
+//!    the noise floor does not stop the search: a small effect near the floor is still
+//!    found on its evidence).
 
 use super::catalogue::{self, Candidate, Columns, Search};
 use super::design::{self, Design};
 use super::effects;
+use super::engine::{self, Admission, Rules, Score};
 use super::linalg::{Cols, dot};
 use super::moments::{self, Moments, Sets};
 use super::periodic_scan;
@@ -117,6 +122,7 @@ fn base_columns<'a>(d: &'a Design, cols: &'a Cols) -> Vec<&'a [f64]> {
 }
 
 /// A candidate fitted jointly with the current model.
+#[derive(Clone)]
 struct Trial {
     cand: Candidate,
     theta: Option<(&'static str, f64)>,
@@ -483,50 +489,6 @@ fn try_candidate(
     })
 }
 
-/// `try_one` on every candidate, on all cores (candidates taken in turn by each thread);
-/// the results in the candidates' order. `report(i, c)` is called on this thread with
-/// the number of candidates done so far and the next one this thread takes.
-fn try_all<'c>(
-    cands: &[&'c Candidate],
-    mut report: impl FnMut(usize, &'c Candidate),
-    try_one: impl Fn(&Candidate) -> Option<Trial> + Sync,
-) -> Vec<Option<Trial>> {
-    use std::sync::atomic::{AtomicUsize, Ordering};
-    let threads = std::thread::available_parallelism()
-        .map_or(1, |n| n.get())
-        .min(cands.len())
-        .max(1);
-    let next = AtomicUsize::new(0);
-    let done = AtomicUsize::new(0);
-    let work = || {
-        let mut out = Vec::new();
-        loop {
-            let i = next.fetch_add(1, Ordering::Relaxed);
-            let Some(c) = cands.get(i) else { break };
-            out.push((i, try_one(c)));
-            done.fetch_add(1, Ordering::Relaxed);
-        }
-        out
-    };
-    let mut all: Vec<(usize, Option<Trial>)> = std::thread::scope(|s| {
-        let helpers: Vec<_> = (1..threads).map(|_| s.spawn(work)).collect();
-        let mut mine = Vec::new();
-        loop {
-            let i = next.fetch_add(1, Ordering::Relaxed);
-            let Some(c) = cands.get(i) else { break };
-            report(done.load(Ordering::Relaxed), c);
-            mine.push((i, try_one(c)));
-            done.fetch_add(1, Ordering::Relaxed);
-        }
-        for h in helpers {
-            mine.extend(h.join().expect("candidate thread"));
-        }
-        mine
-    });
-    all.sort_by_key(|(i, _)| *i);
-    all.into_iter().map(|(_, t)| t).collect()
-}
-
 /// Physical parameters of an accepted trial (with `std_*` uncertainties), scaled by the
 /// residual standard deviation `sigma` of the joint fit.
 fn report_parameters(t: &Trial, sigma: f64, d: &Design) -> BTreeMap<String, f64> {
@@ -858,6 +820,159 @@ pub fn diagnose_session(
     diagnose_session_with_progress(session, opts, &mut NoProgress)
 }
 
+/// A session as a problem of the diagnosis engine ([`super::engine`]): its state is the
+/// current model fitted on per-run moments, its candidates the catalogue's, each evaluated
+/// by [`try_candidate`]; a choice is admitted when its parameters are plausible
+/// ([`effects::implausible`]) and determined ([`effects::classify`]), and set aside (never
+/// tried again) otherwise.
+struct SessionProblem<'a> {
+    d: &'a Design,
+    red: &'a Reduction,
+    sets: &'a Sets,
+    cands: Vec<Candidate>,
+    floor: f64,
+    /// Residual degrees of freedom of the rigid model.
+    dof: usize,
+    folds: usize,
+    /// Whether a candidate needs the per-sample rotation errors (setup offsets).
+    needs_eps: bool,
+}
+
+/// The current model: its fit, the parameters added to the rigid model, and the rigid
+/// model's rotation errors at every sample when a candidate needs them.
+struct State {
+    fit: Fit,
+    k: usize,
+    eps: Option<Vec<[f64; 3]>>,
+}
+
+/// What the session says of a candidate the loop chose.
+enum Note {
+    Finding(Finding),
+    Possible(Finding),
+    Rejected(String),
+}
+
+impl SessionProblem<'_> {
+    fn state(&self, fit: Fit, k: usize) -> State {
+        State {
+            eps: self
+                .needs_eps
+                .then(|| eps_per_sample(self.d, self.red, &fit)),
+            fit,
+            k,
+        }
+    }
+
+    fn heldout_rms(&self, f: &Fit) -> f64 {
+        rms(f.heldout_ssr, self.sets.heldout_n)
+    }
+}
+
+impl super::engine::Greedy for SessionProblem<'_> {
+    type State = State;
+    type Candidate = Candidate;
+    type Trial = Trial;
+    type Note = Note;
+
+    fn noise_floor(&self) -> f64 {
+        self.floor
+    }
+    fn n_fit(&self) -> usize {
+        self.d.rows()
+    }
+    fn n_heldout(&self) -> usize {
+        self.sets.heldout_n
+    }
+    fn score(&self, s: &State) -> Score {
+        Score {
+            sse: s.fit.ssr,
+            heldout_sse: s.fit.heldout_ssr,
+            k: s.k as f64,
+        }
+    }
+    fn candidates(&self, _: &State) -> Vec<Candidate> {
+        self.cands.clone()
+    }
+    fn label(&self, c: &Candidate) -> String {
+        c.label()
+    }
+    fn evaluate(&self, s: &State, c: &Candidate) -> Option<(Score, Trial)> {
+        let t = try_candidate(self.d, self.red, self.sets, &s.fit, c, s.eps.as_deref())?;
+        let score = Score {
+            sse: t.ssr,
+            heldout_sse: t.heldout_ssr,
+            k: (s.k + t.ncols + t.extra_params) as f64,
+        };
+        Some((score, t))
+    }
+    fn admit(&self, s: &State, c: &Candidate, t: &Trial) -> Admission<Note> {
+        let (d, f) = (self.d, &s.fit);
+        let n = d.rows();
+        let sigma = (t.ssr
+            / (self.dof.saturating_sub(s.k + t.ncols + t.extra_params)).max(1) as f64)
+            .sqrt();
+        let mut params = report_parameters(t, sigma, d);
+        if let Some((name, sd)) = theta_std(d, self.red, self.sets, f, t, s.eps.as_deref(), sigma) {
+            params.insert(format!("std_{name}"), sd);
+        }
+        let explained = ((f.ssr - t.ssr).max(0.0) / n as f64).sqrt();
+        let size: f64 = t
+            .coef
+            .iter()
+            .zip(&t.peaks)
+            .map(|(c, p)| (c * p).abs())
+            .sum();
+        if let Some(why) = effects::implausible(&c.label(), size, explained, self.floor) {
+            return Admission::SetAside(Note::Rejected(why));
+        }
+        let finding = finding_of(
+            t,
+            params,
+            f,
+            None,
+            self.heldout_rms(f),
+            (n, self.sets.heldout_n),
+            self.folds,
+            self.floor,
+        );
+        match effects::classify(finding) {
+            effects::Sorted::Determined(f) => Admission::Add(Note::Finding(f)),
+            effects::Sorted::Possible(f) => Admission::SetAside(Note::Possible(f)),
+        }
+    }
+    /// The model refitted with the trial's columns (centred, unit norm); its finding with
+    /// the refitted figures.
+    fn add(&self, s: &State, c: &Candidate, t: Trial, note: Note) -> (State, Note) {
+        let d = self.d;
+        let mut cols = s.fit.cols.clone();
+        let th = t.theta.map_or(0.0, |x| x.1);
+        let (new_cols, _, _) = catalogue::columns(d, c, th, s.eps.as_deref());
+        for c in &new_cols {
+            let nrm = dot(c, c).sqrt().max(1e-300);
+            cols.push(c.iter().map(|v| v / nrm).collect());
+        }
+        let nf = fit(d, self.red, self.sets, cols);
+        let note = match note {
+            Note::Finding(finding) => Note::Finding(Finding {
+                undetermined: finding.undetermined,
+                ..finding_of(
+                    &t,
+                    finding.parameters,
+                    &s.fit,
+                    Some(&nf),
+                    self.heldout_rms(&s.fit),
+                    (d.rows(), self.sets.heldout_n),
+                    self.folds,
+                    self.floor,
+                )
+            }),
+            other => other,
+        };
+        (self.state(nf, s.k + t.ncols + t.extra_params), note)
+    }
+}
+
 /// [`diagnose_session`], reporting its phases and the fraction of the work done to
 /// `progress` (fractions in [0, 1], never decreasing, ending at 1).
 pub fn diagnose_session_with_progress(
@@ -879,7 +994,7 @@ pub fn diagnose_session_with_progress(
     let sets = Sets::new(&d, &red, folds);
     let heldout_n = sets.heldout_n;
     progress.report("fitting the rigid model", 0.05);
-    let mut f = fit(&d, &red, &sets, Vec::new());
+    let f = fit(&d, &red, &sets, Vec::new());
     let dof = n.saturating_sub(2 * d.runs.len() + f.rank).max(1);
     let base_rms = (f.ssr / dof as f64).sqrt();
     let base_heldout = rms(f.heldout_ssr, heldout_n);
@@ -898,117 +1013,45 @@ pub fn diagnose_session_with_progress(
         Vec::new()
     };
     let cands = catalogue::candidates(&d);
-    let mut findings = Vec::new();
+    let problem = SessionProblem {
+        d: &d,
+        red: &red,
+        sets: &sets,
+        needs_eps: cands.iter().any(|c| c.effect == "setup_offset"),
+        cands,
+        floor,
+        dof,
+        folds,
+    };
+    // No stop at the floor: an effect is accepted on its evidence (BIC and held-out gain),
+    // so a small misfit near the floor is still looked for. The options' held-out gain is
+    // on the RMS; the engine's on the sum of squares.
+    let rules = Rules {
+        bic_threshold: opts.min_bic_gain,
+        min_heldout_gain: 1.0 - (1.0 - opts.min_heldout_gain).powi(2),
+        stop_ratio: 0.0,
+        max_findings: opts.max_findings,
+    };
+    let base = problem.state(f, 0);
+    let o = engine::run(&problem, base, &rules, "", &mut progress, (0.0, 1.0));
+    let findings: Vec<Finding> = o
+        .added
+        .into_iter()
+        .filter_map(|a| match a.note {
+            Note::Finding(f) => Some(f),
+            _ => None,
+        })
+        .collect();
     let mut possible = Vec::new();
     let mut rejected = Vec::new();
-    // Candidates set aside (undetermined or implausible) are not tried again.
-    let mut set_aside: Vec<String> = Vec::new();
-    let mut dof_used = 0usize;
-    // Each round of candidates takes an equal share of the fraction between 0.1 and 0.95.
-    let rounds = (opts.max_findings + 1) as f64;
-    while findings.len() < opts.max_findings {
-        // No stop at the floor: an effect is accepted on its evidence (BIC and held-out
-        // gain), so a small misfit near the floor is still looked for.
-        let round = findings.len() as f64;
-        let cur_heldout = rms(f.heldout_ssr, heldout_n);
-        let eps = cands
-            .iter()
-            .any(|c| c.effect == "setup_offset")
-            .then(|| eps_per_sample(&d, &red, &f));
-        let tried: Vec<&Candidate> = cands
-            .iter()
-            .filter(|c| !set_aside.contains(&c.label()))
-            .collect();
-        let trials = try_all(
-            &tried,
-            |i, c| {
-                progress.report(
-                    &format!("round {} of candidates: {}", round + 1.0, c.label()),
-                    0.1 + 0.85 * (round + i as f64 / tried.len() as f64) / rounds,
-                )
-            },
-            |c| try_candidate(&d, &red, &sets, &f, c, eps.as_deref()),
-        );
-        let mut qualifying: Vec<Trial> = trials
-            .into_iter()
-            .flatten()
-            .filter(|t| {
-                t.dbic < -opts.min_bic_gain
-                    && rms(t.heldout_ssr, heldout_n) < cur_heldout * (1.0 - opts.min_heldout_gain)
-            })
-            .collect();
-        qualifying.sort_by(|a, b| a.heldout_ssr.total_cmp(&b.heldout_ssr));
-        let mut accepted = None;
-        for t in qualifying {
-            let sigma = (t.ssr
-                / (dof.saturating_sub(dof_used + t.ncols + t.extra_params)).max(1) as f64)
-                .sqrt();
-            let mut params = report_parameters(&t, sigma, &d);
-            if let Some((name, sd)) = theta_std(&d, &red, &sets, &f, &t, eps.as_deref(), sigma) {
-                params.insert(format!("std_{name}"), sd);
-            }
-            let explained = ((f.ssr - t.ssr).max(0.0) / n as f64).sqrt();
-            let size: f64 = t
-                .coef
-                .iter()
-                .zip(&t.peaks)
-                .map(|(c, p)| (c * p).abs())
-                .sum();
-            if let Some(why) = effects::implausible(&t.cand.label(), size, explained, floor) {
-                rejected.push(why);
-                set_aside.push(t.cand.label());
-                continue;
-            }
-            let finding = finding_of(
-                &t,
-                params,
-                &f,
-                None,
-                cur_heldout,
-                (n, heldout_n),
-                folds,
-                floor,
-            );
-            match effects::classify(finding) {
-                effects::Sorted::Determined(finding) => {
-                    accepted = Some((t, finding));
-                    break;
-                }
-                effects::Sorted::Possible(possible_finding) => {
-                    possible.push(possible_finding);
-                    set_aside.push(t.cand.label());
-                }
-            }
+    for (_, note) in o.set_aside {
+        match note {
+            Note::Possible(f) => possible.push(f),
+            Note::Rejected(why) => rejected.push(why),
+            Note::Finding(_) => {}
         }
-        let Some((t, finding)) = accepted else { break };
-        progress.report(
-            &format!("refitting with {}", t.cand.label()),
-            0.1 + 0.85 * (round + 0.99) / rounds,
-        );
-        dof_used += t.ncols + t.extra_params;
-        let mut cols = f.cols.clone();
-        let th = t.theta.map_or(0.0, |x| x.1);
-        let (new_cols, _, _) = catalogue::columns(&d, &t.cand, th, eps.as_deref());
-        for c in &new_cols {
-            let nrm = dot(c, c).sqrt().max(1e-300);
-            cols.push(c.iter().map(|v| v / nrm).collect());
-        }
-        let nf = fit(&d, &red, &sets, cols);
-        findings.push(Finding {
-            undetermined: finding.undetermined,
-            ..finding_of(
-                &t,
-                finding.parameters,
-                &f,
-                Some(&nf),
-                cur_heldout,
-                (n, heldout_n),
-                folds,
-                floor,
-            )
-        });
-        f = nf;
     }
+    let f = o.state.fit;
     progress.report("report", 0.95);
     let final_heldout = rms(f.heldout_ssr, heldout_n);
     let at_noise = final_heldout <= opts.noise_level_ratio * floor;
