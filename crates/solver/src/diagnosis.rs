@@ -146,9 +146,19 @@ pub struct PlotData {
     pub title: String,
     pub x_label: String,
     pub y_label: String,
-    /// `cartesian` or `polar` (x is an angle in degrees, y a radial deviation).
-    pub kind: String,
+    pub kind: PlotKind,
     pub series: Vec<PlotSeries>,
+}
+
+/// How a figure's axes are drawn.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
+#[cfg_attr(feature = "openapi", derive(utoipa::ToSchema))]
+#[serde(rename_all = "lowercase")]
+pub enum PlotKind {
+    /// x and y on straight axes.
+    Cartesian,
+    /// x is an angle in degrees, y a radial deviation drawn about a base circle.
+    Polar,
 }
 
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]

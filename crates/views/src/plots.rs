@@ -25,7 +25,7 @@
 //! through [`inspect`] (feature `inspect`) — can recover the data coordinates of every
 //! mark from the SVG alone.
 
-use mtcal_solver::diagnosis::{PlotData, PlotSeries};
+use mtcal_solver::diagnosis::{PlotData, PlotKind, PlotSeries};
 use plotters::prelude::*;
 
 mod band;
@@ -111,7 +111,7 @@ pub fn unit_label(unit: &str) -> &str {
 
 /// Renders one diagnosis figure to an SVG document (module docs).
 pub fn render_svg(plot: &PlotData) -> String {
-    if plot.kind == "polar" {
+    if plot.kind == PlotKind::Polar {
         polar::render(plot)
     } else {
         svg(SIZE, &plot.title, |root| cartesian(root, plot))
@@ -234,14 +234,14 @@ fn cartesian(root: &Area, plot: &PlotData) -> DrawResult {
 pub(crate) mod tests {
     use super::*;
 
-    pub(crate) fn plot(kind: &str) -> PlotData {
+    pub(crate) fn plot(kind: PlotKind) -> PlotData {
         let x: Vec<f64> = (0..=72).map(|i| f64::from(i) * 5.0).collect();
         PlotData {
             id: "t".into(),
             title: "title <&>".into(),
             x_label: "angle (deg)".into(),
             y_label: "deviation (µm)".into(),
-            kind: kind.into(),
+            kind,
             series: vec![
                 PlotSeries {
                     name: "measured".into(),
@@ -261,7 +261,7 @@ pub(crate) mod tests {
 
     #[test]
     fn cartesian_svg_has_series_and_labels() {
-        let svg = render_svg(&plot("cartesian"));
+        let svg = render_svg(&plot(PlotKind::Cartesian));
         assert!(svg.starts_with("<svg"), "{}", &svg[..80.min(svg.len())]);
         assert!(svg.contains("viewBox=\"0 0 900 560\""));
         assert!(svg.contains("polyline") || svg.contains("<path"));
@@ -280,14 +280,14 @@ pub(crate) mod tests {
 
     #[test]
     fn file_stem_keeps_ids_inside_the_folder() {
-        let mut p = plot("cartesian");
+        let mut p = plot(PlotKind::Cartesian);
         p.id = "../x y/ch5".into();
         assert_eq!(file_stem(&p), "___x_y_ch5");
     }
 
     #[test]
     fn empty_plot_still_renders() {
-        let mut p = plot("cartesian");
+        let mut p = plot(PlotKind::Cartesian);
         p.series.clear();
         let svg = render_svg(&p);
         assert!(svg.contains("nothing to draw"));

@@ -27,7 +27,7 @@ use super::reduced::Reduction;
 use super::thermal_search::ThermalBasis;
 use super::{
     Baseline, BeforeAfter, DiagnosisResult, Finding, Mismatch, Monotone, NoProgress, PlotData,
-    PlotSeries, Progress,
+    PlotKind, PlotSeries, Progress,
 };
 use crate::axis::Topology;
 use crate::error::SolverError;
@@ -693,7 +693,7 @@ fn plots(d: &Design, before: &[f64], after: &[f64]) -> Vec<PlotData> {
             ),
             x_label: "angle (deg)".into(),
             y_label: "radial residual (um)".into(),
-            kind: "polar".into(),
+            kind: PlotKind::Polar,
             series: vec![series(before, "before"), series(after, "after")],
         });
     }
@@ -717,7 +717,7 @@ fn plots(d: &Design, before: &[f64], after: &[f64]) -> Vec<PlotData> {
         title: "residual RMS of each run against session time".into(),
         x_label: "time (s)".into(),
         y_label: "RMS (um)".into(),
-        kind: "cartesian".into(),
+        kind: PlotKind::Cartesian,
         series: vec![per_run(before, "before"), per_run(after, "after")],
     });
     out

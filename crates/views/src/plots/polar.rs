@@ -328,7 +328,9 @@ mod tests {
 
     #[test]
     fn diagnosis_polar_keeps_its_rings() {
-        let svg = render_svg(&crate::plots::tests::plot("polar"));
+        let svg = render_svg(&crate::plots::tests::plot(
+            mtcal_solver::diagnosis::PlotKind::Polar,
+        ));
         assert!(svg.starts_with("<svg"));
         // max|d| = 3 → step 2 µm.
         assert!(svg.contains("90°") && svg.contains("+2 µm") && svg.contains("−4 µm"));

@@ -43,7 +43,7 @@ use crate::diagnosis::engine::{self, Fitted, Fold, Problem, Rules};
 use crate::diagnosis::lsq::{self, Design};
 use crate::diagnosis::{
     Baseline, BeforeAfter, DiagnosisResult, Finding, Mismatch, Monotone, NoProgress, PlotData,
-    PlotSeries, Progress, effects,
+    PlotKind, PlotSeries, Progress, effects,
 };
 use crate::error::SolverError;
 use crate::thermal::{self, Regressor, ThermalFit, ThermalInputs, ThermalOptions};
@@ -731,7 +731,7 @@ pub fn diagnose_drift_log_with_progress(
             ),
             x_label: "time (h)".into(),
             y_label: format!("{} (µm)", o.name),
-            kind: "cartesian".into(),
+            kind: PlotKind::Cartesian,
             series: vec![
                 PlotSeries {
                     name: "measured".into(),

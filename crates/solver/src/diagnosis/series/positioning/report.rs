@@ -8,7 +8,7 @@ use super::data::AxisData;
 use super::problem::{Candidate, Positioning};
 use crate::diagnosis::engine::Selection;
 use crate::diagnosis::lsq;
-use crate::diagnosis::{Finding, Mismatch, PlotData, PlotSeries, effects};
+use crate::diagnosis::{Finding, Mismatch, PlotData, PlotKind, PlotSeries, effects};
 use std::collections::BTreeMap;
 
 /// What one axis's diagnosis produced.
@@ -401,7 +401,7 @@ fn plots(
             ),
             x_label: "target (mm)".into(),
             y_label: "deviation (µm)".into(),
-            kind: "cartesian".into(),
+            kind: PlotKind::Cartesian,
             series: dev,
         },
         PlotData {
@@ -413,7 +413,7 @@ fn plots(
                 "record".into()
             },
             y_label: "residual (µm)".into(),
-            kind: "cartesian".into(),
+            kind: PlotKind::Cartesian,
             series: vec![
                 PlotSeries {
                     name: "rigid model".into(),
