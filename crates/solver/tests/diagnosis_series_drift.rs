@@ -1,8 +1,6 @@
 //! Drift-log diagnosis against truth: the real FL_THERMAL heat run (fitted on the first
 //! 60 %, against the dataset authors' own reference model on both later windows) and a simulated log with a known first-order response.
 
-mod progress_common;
-
 use mtcal_solver::datasets::{Channel, ChannelKind, DriftLog};
 use mtcal_solver::diagnosis::Verdict;
 use mtcal_solver::diagnosis::series::drift::{
@@ -241,7 +239,7 @@ fn progress_is_monotone_over_the_channels_and_ends_at_one() {
         r,
         diagnose_drift_log_with_predictions(&log, "sim", &opts).unwrap()
     );
-    let order = progress_common::check(
+    let order = crate::progress_common::check(
         &seen,
         &[
             "ch1_um: thermal model",

@@ -11,8 +11,6 @@
 //! consistent) cannot be met by a wrong model. The held-out RMS must come within
 //! 1.5 × σ (the true noise, stricter than the estimated floor).
 
-mod progress_common;
-
 use mtcal_solver::diagnosis::series::simulate::{
     PositioningEffect, PositioningSim, simulate_positioning,
 };
@@ -416,7 +414,7 @@ fn progress_is_monotone_over_the_axes_and_ends_at_one() {
         r,
         diagnose_positioning(&runs, "sim", &SeriesOptions::default()).unwrap()
     );
-    let order = progress_common::check(
+    let order = crate::progress_common::check(
         &seen,
         &[
             "axis X: noise floor and rigid order",

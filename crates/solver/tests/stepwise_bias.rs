@@ -16,13 +16,11 @@
 //! of ε_A t_y − ε_B t_x over those that read Z (straightness then minus its least-squares
 //! line, as reported). Step 2 then sees the circles minus the absorbed part.
 
-mod stepwise_common;
-
+use crate::stepwise_common::{pairs, record, run, without_angles};
 use mtcal_solver::identification::{IdentificationResult, Method};
 use mtcal_solver::session::{Session, TestKind};
 use mtcal_solver::simulate::{Plan, Truth};
 use mtcal_solver::terms::{Term, TermKind};
-use stepwise_common::{pairs, record, run, without_angles};
 
 /// Curvature of the two pitch errors of Z, µrad/mm².
 const C: f64 = 0.008;

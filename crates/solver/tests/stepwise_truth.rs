@@ -4,13 +4,11 @@
 //! propagated into step 2) must be honest. Where the assumption fails, see
 //! `stepwise_bias.rs`.
 
-mod stepwise_common;
-
+use crate::stepwise_common::{pairs, record, run, without_angles};
 use mtcal_solver::identification::{IdentificationResult, Method};
 use mtcal_solver::session::{Session, TestKind};
 use mtcal_solver::simulate::{Plan, Truth};
 use mtcal_solver::terms::Term;
-use stepwise_common::{pairs, record, run, without_angles};
 
 fn machine(plan: Plan, seed: u64) -> (Session, Truth) {
     record(&without_angles(seed), plan, seed)

@@ -1,0 +1,23 @@
+//! The solver's tests, one binary: a module per file beside this one (one link, not one
+//! per file), and the helpers two of them share.
+
+mod progress_common;
+mod stepwise_common;
+
+mod cradle_simulated;
+mod diagnosis_series_drift;
+mod diagnosis_series_kernel;
+mod diagnosis_series_positioning;
+mod diagnosis_sessions;
+mod fits_simulated;
+mod fits_sscanss2;
+mod identification_truth;
+mod noise_floor;
+mod sensitivity_chain;
+mod sensitivity_measures;
+mod simulate_session;
+mod standards_iso230_2;
+mod standards_iso230_4;
+mod stepwise_bias;
+mod stepwise_truth;
+mod tolerance_truth;
