@@ -2,8 +2,7 @@
 //! columns, columns per header and bytes per line are capped, and a deadline stops a read
 //! (the service sets one per upload). Figures: BENCHMARKS.md, "Rejecting hostile input".
 
-mod common;
-use common::check;
+use crate::common::check;
 use mtcal_formats::{Limits, read_archive, read_positioning, read_upload};
 use std::time::{Duration, Instant};
 

@@ -2,8 +2,7 @@
 //! dialect each Excel feature is recognised and the message says what to change; in the
 //! Excel dialect the file reads equal to its plain form.
 
-mod common;
-use common::check;
+use crate::common::check;
 use mtcal_formats::{
     CsvDialect, Limits, read_drift_log, read_positioning, read_rotary_points, read_upload,
 };

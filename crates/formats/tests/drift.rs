@@ -1,9 +1,7 @@
 //! Drift-log reader (datasets contract, section 4): the real heat run, one test per rule,
 //! round trip.
 
-mod common;
-
-use common::{check, gzip};
+use crate::common::{check, gzip};
 use mtcal_formats::drift::channel_kind;
 use mtcal_formats::{Limits, read_drift_log, read_drift_log_path, write_drift_log};
 use mtcal_solver::datasets::{Channel, ChannelKind, DriftLog};

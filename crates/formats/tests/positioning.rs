@@ -1,8 +1,6 @@
 //! Positioning-run reader (datasets contract, section 3): one test per rule, round trip.
 
-mod common;
-
-use common::check;
+use crate::common::check;
 use mtcal_formats::{
     FormatError, Limits, read_positioning, read_positioning_path, write_positioning,
 };

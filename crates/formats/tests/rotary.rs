@@ -1,9 +1,7 @@
 //! Rotary point-set reader (datasets contract, section 2): one test per rule (CSV and
 //! sidecar), round trip.
 
-mod common;
-
-use common::{check, gzip};
+use crate::common::{check, gzip};
 use mtcal_formats::rotary::sidecar_name;
 use mtcal_formats::{
     FormatError, Limits, read_rotary_points, read_rotary_points_path, write_rotary_points,

@@ -1,9 +1,7 @@
 //! Session reader (datasets contract, section 1): one test per rule with a bad file,
 //! asserting file, line, column and rule; plus gzip, limits and the writer round trip.
 
-mod common;
-
-use common::{check, gzip};
+use crate::common::{check, gzip};
 use mtcal_formats::session::{read_plane_csv, write_plane_csv};
 use mtcal_formats::{FormatError, Limits, read_session_dir, read_session_files, write_session_dir};
 use mtcal_solver::session::{PlaneRecord, Run, Session, TestKind};

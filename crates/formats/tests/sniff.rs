@@ -1,8 +1,6 @@
 //! Dataset-kind sniffing from names and headers.
 
-mod common;
-
-use common::gzip;
+use crate::common::gzip;
 use mtcal_formats::{DatasetKind, sniff_kind, sniff_path};
 
 #[test]

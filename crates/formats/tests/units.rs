@@ -2,8 +2,7 @@
 //! realistic file written with the wrong unit and asserting the message (file, column and
 //! what to change); the same data in the right unit is read.
 
-mod common;
-use common::check;
+use crate::common::check;
 use mtcal_formats::session::read_plane_csv;
 use mtcal_formats::{Limits, read_drift_log, read_positioning, read_rotary_points, read_upload};
 use std::collections::BTreeMap;

@@ -2,9 +2,7 @@
 //! server (files in memory, archives) must accept and refuse the same inputs, and an
 //! archive may hold only plain files and folders.
 
-mod common;
-
-use common::{check, gzip};
+use crate::common::{check, gzip};
 use mtcal_formats::{DatasetData, FormatError, Limits, read_archive, read_path, read_upload};
 use std::path::Path;
 
