@@ -11,6 +11,7 @@ mod auth;
 mod cli;
 mod exclusion;
 mod exports;
+mod fleet;
 mod history;
 mod jobs;
 mod restart;
