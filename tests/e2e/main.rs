@@ -18,3 +18,4 @@ mod restart;
 mod schemathesis;
 mod series;
 mod uploads;
+mod web;

@@ -12,7 +12,6 @@ use crate::api::jobs::{self as api_jobs, SubmitJob};
 use crate::api::trends::{self as api_trends, TermQuery};
 use crate::error::ApiError;
 use crate::jobs::JobKind;
-use axum::Json;
 use axum::extract::{Form, FromRequest, Multipart, Path, Query, Request, State};
 use axum::response::{IntoResponse, Redirect};
 use mtcal_solver::identification::IdentificationResult;
@@ -430,6 +429,8 @@ pub async fn machine(
 
 #[derive(Debug, Deserialize)]
 pub struct BaselineForm {
+    /// Missing reads as empty: refused by the token check (403), like a wrong one.
+    #[serde(default)]
     csrf: String,
     result_id: String,
 }
@@ -635,19 +636,6 @@ pub async fn compare(
     Ok(html(compare::compare_page(&session.viewer(), &page)))
 }
 
-/// `/jobs/{id}.json`: the job as the API's `GET /api/v1/jobs/{id}` (polled by the page
-/// script with the session cookie).
-pub async fn job_json(
-    _session: Session,
-    State(s): State<WebState>,
-    Path(file): Path<String>,
-) -> Result<Json<Job>, WebError> {
-    let id = file
-        .strip_suffix(".json")
-        .ok_or_else(|| WebError(ApiError::NotFound(format!("no such page /jobs/{file}"))))?;
-    Ok(Json(s.app.store.get_job(id).await?))
-}
-
 /// `POST /machines/{id}/upload` (multipart: `csrf` first, then `files`, optionally
 /// `diagnose`): the dataset upload of the API, then the job its kind calls for
 /// (`identify` for a session, and `diagnose` too when asked; `cradle` for a rotary point
@@ -770,6 +758,8 @@ pub async fn alerts(
 
 #[derive(Debug, Deserialize)]
 pub struct AckForm {
+    /// Missing reads as empty: refused by the token check (403), like a wrong one.
+    #[serde(default)]
     csrf: String,
     next: Option<String>,
 }
