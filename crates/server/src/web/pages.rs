@@ -21,7 +21,7 @@ use mtcal_views::pages::alerts::{self as valerts, AlertRow};
 use mtcal_views::pages::{
     self as views, compare, fleet as vfleet, jobs as vjobs, machine as vmachine, result as vresult,
 };
-use mtcal_views::plots::{CircleTrace, TrendPoint, TrendSeries};
+use mtcal_views::plots::{TrendPoint, TrendSeries};
 use serde::Deserialize;
 
 /// Result kinds shown on a machine page, in this order.
@@ -469,13 +469,6 @@ pub async fn set_baseline(
     .into_response())
 }
 
-/// The document's array `field` read as `T`s (empty when absent or of another shape).
-fn array<T: serde::de::DeserializeOwned>(doc: &serde_json::Value, field: &str) -> Vec<T> {
-    doc.get(field)
-        .and_then(|v| serde_json::from_value(v.clone()).ok())
-        .unwrap_or_default()
-}
-
 fn bad_document(r: &StoredResult, e: serde_json::Error) -> WebError {
     WebError(ApiError::Internal(format!(
         "result {} of kind {} does not read as its document: {e}",
@@ -517,17 +510,9 @@ pub async fn result(
     let viewer = session.viewer();
     let page = match r.meta.kind.as_str() {
         "identification" => {
-            let d: IdentificationResult =
-                serde_json::from_value(doc.clone()).map_err(|e| bad_document(&r, e))?;
-            let circles: Vec<CircleTrace> = array(doc, "circles");
-            let residuals: Vec<mtcal_solver::residuals::ResidualSummary> = array(doc, "residuals");
-            let travel = |_: &str| None;
-            let body = vresult::ResultBody::Identification(vresult::IdentificationView {
-                doc: &d,
-                circles: &circles,
-                residuals: &residuals,
-                travel: &travel,
-            });
+            let stored = vresult::StoredIdentification::read(doc.clone())
+                .map_err(|e| bad_document(&r, e))?;
+            let body = vresult::ResultBody::Identification(stored.view());
             vresult::result_page(&viewer, &header, &verdict_table, &body)
         }
         "diagnosis" => {
