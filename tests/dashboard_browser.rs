@@ -1,18 +1,21 @@
 //! The dashboard in a real headless Chromium driven over WebDriver (chromedriver), on the
-//! demo fleet of `mtcal demo`: sign in with a key, see the fleet ranked as the API ranks
-//! it, open a machine and read its trend plot (values and ±2σ bars) back against the
-//! API's values and uncertainties, open results (an identification's error functions, a
-//! diagnosis's polar plot of a circle test), give a machine a tolerance profile and a
-//! drift threshold through the API, upload a drifted session through the form and see
-//! the new check appear with its verdict and its drift alert on the fleet page,
-//! acknowledge the alert on the alerts page, see the jobs page, compare two checks, sign
-//! out. One browser session, a small fleet.
+//! demo fleet of `mtcal demo`: sign in by typing a key, see the fleet as the API's fleet
+//! route lists it (ranked as the drift ranking ranks it; the 5-axis machine with its
+//! cradle check and why it has no drift), open a machine and read its trend plot (values
+//! and ±2σ bars) back against the API's values and uncertainties, open results (an
+//! identification's error functions and its circle tests' polar plots, a diagnosis's
+//! polar plot), give a machine a tolerance profile and a drift threshold through the
+//! API, upload a drifted session through the form and see the new check appear with its
+//! verdict and its drift alert on the fleet page, acknowledge the alert on the alerts
+//! page, see the jobs page, compare two checks, sign out; then sign in again with one
+//! click on the link `mtcal demo` prints (the key in the URL's fragment), and sign out.
+//! One browser, a small fleet.
 //!
 //! A screenshot of each page is saved under `target/tmp/dashboard/`; with
-//! `UPDATE_SCREENSHOTS=1` those of the README (fleet, machine, result, compare, jobs,
-//! alerts) are copied to `docs/screenshots/` too. The test skips, with
-//! a printed reason, only when chromedriver is absent (`CHROMEDRIVER` names another path
-//! than `/usr/bin/chromedriver`).
+//! `UPDATE_SCREENSHOTS=1` those of the README (fleet, machine, result scrolled to its
+//! error functions and to its circle tests, compare, jobs, alerts) are copied to
+//! `docs/screenshots/` too. The test skips, with a printed reason, only when chromedriver
+//! is absent (`CHROMEDRIVER` names another path than `/usr/bin/chromedriver`).
 
 use fantoccini::{Client, ClientBuilder, Locator};
 use mtcal_views::plots::{COLORS, inspect};
@@ -46,8 +49,9 @@ fn free_port() -> u16 {
         .expect("a free port")
 }
 
-/// `mtcal demo` serving a small fleet on a free port: (guard, base URL, API key).
-fn start_demo(dir: &Path) -> (Guard, String, String) {
+/// `mtcal demo` serving a small fleet on a free port: (guard, the dashboard URL it
+/// prints first, base URL, API key).
+fn start_demo(dir: &Path) -> (Guard, String, String, String) {
     let mut child = Command::new(env!("CARGO_BIN_EXE_mtcal"))
         .args(["demo", "--no-browser", "--machines", "3", "--checks", "3"])
         .args(["--listen", "127.0.0.1:0", "--db"])
@@ -80,7 +84,12 @@ fn start_demo(dir: &Path) -> (Guard, String, String) {
         .to_string();
     assert!(base.starts_with("http://127.0.0.1:"), "{dashboard}");
     assert!(key.starts_with("mtk_"));
-    (guard, base, key)
+    assert_eq!(
+        dashboard,
+        format!("{base}/signin#key={key}"),
+        "the one-click sign-in"
+    );
+    (guard, dashboard, base, key)
 }
 
 /// The last lines of the demo service's log (for a failure message).
@@ -106,7 +115,15 @@ async fn api(base: &str, key: &str, path: &str) -> Value {
 }
 
 /// The pages whose screenshots the README shows (docs/screenshots/).
-const DOCUMENTED: [&str; 6] = ["fleet", "machine", "result", "compare", "jobs", "alerts"];
+const DOCUMENTED: [&str; 7] = [
+    "fleet",
+    "machine",
+    "result",
+    "result-circles",
+    "compare",
+    "jobs",
+    "alerts",
+];
 
 async fn shot(c: &Client, dir: &Path, name: &str) {
     let png = c.screenshot().await.expect("screenshot");
@@ -155,6 +172,18 @@ async fn attr(c: &Client, css: &str, name: &str) -> String {
         .unwrap_or_else(|| panic!("{css} has no {name}"))
 }
 
+/// Scrolls the page so that the element `css` matches starts at the top of the window.
+async fn scroll_to(c: &Client, css: &str) {
+    let e = c
+        .find(Locator::Css(css))
+        .await
+        .unwrap_or_else(|e| panic!("{css}: {e}"));
+    let arg = serde_json::to_value(&e).unwrap();
+    c.execute("arguments[0].scrollIntoView({block: 'start'});", vec![arg])
+        .await
+        .expect("scrolled");
+}
+
 /// Waits until `css` matches an element (the page script reloads pages).
 async fn wait_for(c: &Client, css: &str, timeout: Duration) {
     let t0 = Instant::now();
@@ -184,7 +213,7 @@ async fn dashboard_in_headless_chromium() {
     let shots = Path::new(env!("CARGO_TARGET_TMPDIR")).join("dashboard");
     std::fs::create_dir_all(&shots).unwrap();
     let work = tempfile::tempdir().unwrap();
-    let (_demo, base, key) = start_demo(work.path());
+    let (_demo, dashboard, base, key) = start_demo(work.path());
 
     let port = free_port();
     let _driver = Guard(
@@ -224,7 +253,7 @@ async fn dashboard_in_headless_chromium() {
     // Run in a task so that the browser is closed even when an assertion fails.
     let task = {
         let (c, work) = (c.clone(), work.path().to_path_buf());
-        tokio::spawn(async move { run(&c, &base, &key, &shots, &work).await })
+        tokio::spawn(async move { run(&c, &dashboard, &base, &key, &shots, &work).await })
     };
     let outcome = task.await;
     let _ = c.close().await;
@@ -233,7 +262,7 @@ async fn dashboard_in_headless_chromium() {
     }
 }
 
-async fn run(c: &Client, base: &str, key: &str, shots: &Path, work: &Path) {
+async fn run(c: &Client, dashboard: &str, base: &str, key: &str, shots: &Path, work: &Path) {
     // Without a session, a page sends the browser to the sign-in form.
     c.goto(&format!("{base}/machines/VMC-0001")).await.unwrap();
     assert!(c.current_url().await.unwrap().path().starts_with("/signin"));
@@ -272,23 +301,42 @@ async fn run(c: &Client, base: &str, key: &str, shots: &Path, work: &Path) {
     wait_for(c, "#term-trend", Duration::from_secs(10)).await;
     assert_eq!(c.current_url().await.unwrap().path(), "/machines/VMC-0001");
 
-    // The fleet, ranked as the API ranks it (drift in µm, largest first).
+    // The fleet: the machines of the API's fleet route in its order, those with drift
+    // ranked as the drift ranking ranks them (µm, largest first).
     c.goto(&format!("{base}/")).await.unwrap();
-    let ranked = api(base, key, "/api/v1/fleet/drift?by=um").await;
-    let want: Vec<String> = ranked["machines"]
-        .as_array()
-        .unwrap()
-        .iter()
-        .map(|m| m["machine_id"].as_str().unwrap().to_string())
-        .collect();
+    let ids = |v: &Value| -> Vec<String> {
+        v["machines"]
+            .as_array()
+            .unwrap()
+            .iter()
+            .map(|m| m["machine_id"].as_str().unwrap().to_string())
+            .collect()
+    };
+    let fleet = api(base, key, "/api/v1/fleet").await;
+    let ranked = ids(&api(base, key, "/api/v1/fleet/drift?by=um").await);
     let mut rows = vec![];
     for r in c.find_all(Locator::Css("#fleet tbody tr")).await.unwrap() {
         rows.push(r.attr("data-machine").await.unwrap().unwrap());
     }
-    assert_eq!(&rows[..want.len()], &want[..], "fleet order");
+    assert_eq!(
+        rows,
+        ids(&fleet),
+        "the page lists the fleet route's machines"
+    );
+    assert_eq!(&rows[..ranked.len()], &ranked[..], "fleet order");
+    // The 5-axis machine has only a cradle check: shown, with why it has no drift.
+    let cradle = r#"#fleet tr[data-machine="5AX-0001"]"#;
     assert!(
-        rows.contains(&"5AX-0001".to_string()),
-        "machines without drift listed too"
+        text(c, &format!("{cradle} .last-check"))
+            .await
+            .contains("(cradle)"),
+        "its last check"
+    );
+    assert!(
+        text(c, &format!("{cradle} .drift-note"))
+            .await
+            .contains("not applicable"),
+        "why it has no drift"
     );
     shot(c, shots, "fleet-before").await;
 
@@ -386,6 +434,37 @@ async fn run(c: &Client, base: &str, key: &str, shots: &Path, work: &Path) {
             .unwrap()
             .len(),
         18
+    );
+    // Its own circle tests: one polar plot per file, plane and radius of the stored
+    // document's circles, each with the measured and the model's traces.
+    let stored = api(base, key, &format!("/api/v1/results/{rid}")).await;
+    let mut groups: Vec<String> = stored["document"]["circles"]
+        .as_array()
+        .expect("the identification stores its circle tests")
+        .iter()
+        .map(|c| format!("{} {} {}", c["file"], c["plane"], c["radius_mm"]))
+        .collect();
+    groups.sort();
+    groups.dedup();
+    assert!(!groups.is_empty());
+    let polar = c
+        .find_all(Locator::Css("#circles figure.polar svg"))
+        .await
+        .unwrap();
+    assert_eq!(polar.len(), groups.len(), "one polar plot per circle test");
+    let plot = inspect::parse(&polar[0].html(false).await.unwrap()).unwrap();
+    assert!(plot.has_text("0°") || plot.has_text("90°"), "angle labels");
+    assert!(
+        plot.marks
+            .iter()
+            .filter(|m| m.tag == "polyline" && m.points.len() > 20)
+            .count()
+            >= 2,
+        "measured and model traces"
+    );
+    assert!(
+        c.find(Locator::Css(".circles-error")).await.is_err(),
+        "the stored circles read"
     );
     shot(c, shots, "result-without-tolerance").await;
     let diag = api(
@@ -630,7 +709,13 @@ async fn run(c: &Client, base: &str, key: &str, shots: &Path, work: &Path) {
             .len(),
         items.len()
     );
+    shot(c, shots, "result-top").await;
+    // The README's views of it: its error functions, and its circle tests' polar plots
+    // (further down the page, past the residuals).
+    scroll_to(c, "#terms").await;
     shot(c, shots, "result").await;
+    scroll_to(c, "#circles").await;
+    shot(c, shots, "result-circles").await;
     c.goto(&format!("{base}/machines/VMC-0002")).await.unwrap();
     wait_for(c, "#checks", Duration::from_secs(10)).await;
 
@@ -653,12 +738,31 @@ async fn run(c: &Client, base: &str, key: &str, shots: &Path, work: &Path) {
     shot(c, shots, "compare").await;
 
     // Sign out: the session is gone.
+    sign_out(c, base).await;
+
+    // The link `mtcal demo` prints signs in with one click: the page script reads the
+    // key from the fragment (never sent to the server), removes it from the address bar
+    // and posts the sign-in form; the fleet follows.
+    c.goto(dashboard).await.unwrap();
+    wait_for(c, "#fleet", Duration::from_secs(10)).await;
+    let at = c.current_url().await.unwrap();
+    assert_eq!(at.path(), "/", "{at}");
+    assert!(
+        at.fragment().is_none() && !at.as_str().contains(key),
+        "{at}"
+    );
+    sign_out(c, base).await;
+}
+
+/// Signs out with the page header's button; then a page asks to sign in again.
+async fn sign_out(c: &Client, base: &str) {
     c.find(Locator::Css("header form button"))
         .await
         .unwrap()
         .click()
         .await
         .unwrap();
+    wait_for(c, "#key", Duration::from_secs(10)).await;
     c.goto(&format!("{base}/")).await.unwrap();
     assert!(c.current_url().await.unwrap().path().starts_with("/signin"));
 }

@@ -272,3 +272,147 @@ pub fn write_cradle_set(
     std::fs::write(dir.join("cradle.json"), &side).unwrap();
     (set, csv, side)
 }
+
+/// A browser of the dashboard without a script: its session cookie and the CSRF token of
+/// its pages, over plain HTTP (redirects are not followed, so that each answer is seen).
+pub struct Browser {
+    pub http: reqwest::Client,
+    pub base: String,
+    /// `mtcal_session=…`, as the browser sends it back.
+    pub cookie: String,
+    /// The `Set-Cookie` header that started the session, as the service sent it.
+    pub set_cookie: String,
+    /// The session's CSRF token, read from a page's form.
+    pub csrf: String,
+}
+
+/// The value of the first `name="csrf"` field of a page.
+pub fn csrf_of(html: &str) -> String {
+    let at = html
+        .find(r#"name="csrf" value=""#)
+        .expect("a form with a CSRF token")
+        + 19;
+    html[at..at + html[at..].find('"').unwrap()].to_string()
+}
+
+/// The `name=value` pair of the `Set-Cookie` header of `r` that sets cookie `name`, and
+/// the whole header.
+pub fn set_cookie(r: &reqwest::Response, name: &str) -> (String, String) {
+    let header = r
+        .headers()
+        .get_all(reqwest::header::SET_COOKIE)
+        .iter()
+        .map(|v| v.to_str().unwrap().to_string())
+        .find(|v| v.starts_with(&format!("{name}=")))
+        .unwrap_or_else(|| panic!("no cookie {name} set"));
+    (header.split(';').next().unwrap().to_string(), header)
+}
+
+impl App {
+    /// Signs a browser in with `key` through the sign-in form.
+    pub async fn sign_in(&self, key: &str) -> Browser {
+        let http = reqwest::Client::builder()
+            .redirect(reqwest::redirect::Policy::none())
+            .build()
+            .unwrap();
+        let r = http
+            .get(format!("{}/signin", self.url))
+            .send()
+            .await
+            .unwrap();
+        let (pre, _) = set_cookie(&r, "mtcal_signin");
+        let token = csrf_of(&r.text().await.unwrap());
+        let r = http
+            .post(format!("{}/signin", self.url))
+            .header(reqwest::header::COOKIE, pre)
+            .form(&[("csrf", token.as_str()), ("key", key), ("next", "/")])
+            .send()
+            .await
+            .unwrap();
+        assert_eq!(r.status(), StatusCode::SEE_OTHER, "signed in");
+        let (cookie, set_cookie) = set_cookie(&r, "mtcal_session");
+        let mut b = Browser {
+            http,
+            base: self.url.clone(),
+            cookie,
+            set_cookie,
+            csrf: String::new(),
+        };
+        let page = b.get("/alerts").await;
+        assert_eq!(page.status(), StatusCode::OK);
+        b.csrf = csrf_of(&page.text().await.unwrap());
+        b
+    }
+}
+
+impl Browser {
+    pub async fn get(&self, path: &str) -> reqwest::Response {
+        self.http
+            .get(format!("{}{path}", self.base))
+            .header(reqwest::header::COOKIE, &self.cookie)
+            .send()
+            .await
+            .unwrap()
+    }
+
+    /// Posts a form (`application/x-www-form-urlencoded`).
+    pub async fn post(&self, path: &str, fields: &[(&str, &str)]) -> reqwest::Response {
+        self.http
+            .post(format!("{}{path}", self.base))
+            .header(reqwest::header::COOKIE, &self.cookie)
+            .form(fields)
+            .send()
+            .await
+            .unwrap()
+    }
+
+    /// Posts a multipart form.
+    pub async fn post_multipart(
+        &self,
+        path: &str,
+        form: reqwest::multipart::Form,
+    ) -> reqwest::Response {
+        self.http
+            .post(format!("{}{path}", self.base))
+            .header(reqwest::header::COOKIE, &self.cookie)
+            .multipart(form)
+            .send()
+            .await
+            .unwrap()
+    }
+}
+
+/// A check of `machine` at `at` of kind `kind`; an identification's only term is
+/// EXX = c1·x (µm, x in mm, var(c1) = 1e-6) measured over x ∈ [−50, 50] mm.
+pub fn check(machine: &str, kind: &str, at: &str, c1: f64) -> mtcal_store::NewResult {
+    mtcal_store::NewResult {
+        machine_id: machine.into(),
+        dataset_id: None,
+        kind: kind.into(),
+        measured_at: at.into(),
+        document: serde_json::json!({ "kind": kind }),
+        scalars: mtcal_store::ResultScalars {
+            term_coefficients: std::collections::BTreeMap::from([("EXX".into(), vec![c1])]),
+            term_covariance: std::collections::BTreeMap::from([("EXX".into(), vec![vec![1e-6]])]),
+            measured_travel_mm: std::collections::BTreeMap::from([("X".into(), [-50.0, 50.0])]),
+            ..mtcal_store::ResultScalars::default()
+        },
+        figures: vec![],
+    }
+}
+
+/// An active drift alert of `machine` raised by its result `result_id`.
+pub fn alert(id: &str, machine: &str, result_id: &str) -> mtcal_store::Alert {
+    mtcal_store::Alert {
+        id: id.into(),
+        machine_id: machine.into(),
+        result_id: result_id.into(),
+        baseline_result_id: result_id.into(),
+        profile_id: "p".into(),
+        raised_at: "2026-04-06T09:00:00Z".into(),
+        message: format!("{machine} drifted"),
+        items: serde_json::json!([]),
+        acknowledged_at: None,
+        acknowledged_by: None,
+    }
+}

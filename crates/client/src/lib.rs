@@ -9,6 +9,7 @@
 //! error code of docs/api.md.
 
 use mtcal_formats::CsvDialect;
+use mtcal_server::api::fleet::{FleetList, FleetParams};
 use mtcal_server::api::history::{Reason, ResultDiff};
 use mtcal_server::api::jobs::SubmitJob;
 use mtcal_server::api::keys::{CreatedKey, NewKey};
@@ -497,6 +498,12 @@ impl Client {
             rb = rb.query(&[("limit", l)]);
         }
         self.send(rb).await
+    }
+
+    /// A page of the fleet as the dashboard's fleet page shows it (`GET /api/v1/fleet`).
+    pub async fn fleet(&self, q: &FleetParams) -> Result<FleetList> {
+        self.send(self.request(Method::GET, "/api/v1/fleet").query(q))
+            .await
     }
 
     // Keys.

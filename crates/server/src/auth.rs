@@ -1,5 +1,6 @@
 //! API-key authentication: `Authorization: Bearer <key>` (or `X-Api-Key: <key>`), scopes
-//! read ⊂ write ⊂ admin. Health and the documentation are the only open routes.
+//! read ⊂ write ⊂ admin; a GET or HEAD without a key may instead carry the dashboard's
+//! session cookie. Health and the documentation are the only open routes.
 //!
 //! Two pieces:
 //! * [`authenticate`], a middleware in front of every `/api/v1` route, outside the body
@@ -12,9 +13,10 @@
 
 use crate::AppState;
 use crate::error::ApiError;
+use crate::web::session::Session;
 use axum::extract::{FromRequestParts, Request, State};
-use axum::http::HeaderMap;
 use axum::http::request::Parts;
+use axum::http::{HeaderMap, Method};
 use axum::middleware::Next;
 use axum::response::{IntoResponse, Response};
 use mtcal_store::{ApiKey, Scope};
@@ -41,10 +43,29 @@ pub async fn key_of(state: &AppState, headers: &HeaderMap) -> Result<ApiKey, Api
         .ok_or_else(|| ApiError::Unauthorized("unknown or revoked API key".into()))
 }
 
+/// The key of a request: the one it presents; a GET or HEAD that presents none may
+/// come from the dashboard's page script, and is read as the key of its browser's
+/// session cookie (`crate::web::session`). Reads only: a session cannot change anything
+/// through the API (forms post to the dashboard's own routes, which check a CSRF token).
+async fn request_key(
+    state: &AppState,
+    method: &Method,
+    headers: &HeaderMap,
+) -> Result<ApiKey, ApiError> {
+    let safe = matches!(*method, Method::GET | Method::HEAD);
+    if safe && presented(headers).is_none() {
+        let key = crate::web::session::cookie_key();
+        if let Some(s) = Session::from_headers(state, &key, headers).await? {
+            return Ok(s.key);
+        }
+    }
+    key_of(state, headers).await
+}
+
 /// Middleware: authenticates every request (401 first), leaving the key in the
 /// request's extensions for the scope extractors.
 pub async fn authenticate(State(state): State<AppState>, mut req: Request, next: Next) -> Response {
-    match key_of(&state, req.headers()).await {
+    match request_key(&state, req.method(), req.headers()).await {
         Ok(key) => {
             req.extensions_mut().insert(key);
             next.run(req).await

@@ -1,8 +1,9 @@
 //! The fleet's drift since each machine's baseline, maintained instead of recomputed per
 //! request: when an identification result lands (the worker), when a machine's baseline
 //! changes (`PATCH`), and once for every machine when `mtcal serve` starts (results
-//! stored by an older version or imported in bulk). `GET /api/v1/fleet/drift` and the
-//! fleet page read the stored rows, ranked by the database.
+//! stored by an older version or imported in bulk). `GET /api/v1/fleet/drift` and
+//! `GET /api/v1/fleet` (the fleet page's route, `crate::api::fleet`) read the stored
+//! rows, ranked by the database.
 //!
 //! Each row also carries the latest result's verdict against the machine's tolerance
 //! profile ([`crate::tolerances`]); a profile's change refreshes the machines it applies

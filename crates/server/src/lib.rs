@@ -90,6 +90,7 @@ impl utoipa::Modify for SecurityAddon {
         api::history::figures, api::history::exclude,
         api::exports::export, api::exports::report,
         api::trends::term, api::trends::summary, api::trends::figure, api::trends::fleet,
+        api::fleet::list,
         api::keys::create, api::keys::list, api::keys::revoke,
         api::ready,
         api::tolerances::create, api::tolerances::list, api::tolerances::get,
@@ -173,6 +174,7 @@ pub fn router(state: AppState) -> Router {
         .route("/api/v1/machines/{id}/trends/term", get(trends::term))
         .route("/api/v1/machines/{id}/trends/summary", get(trends::summary))
         .route("/api/v1/machines/{id}/trends/figure", get(trends::figure))
+        .route("/api/v1/fleet", get(api::fleet::list))
         .route("/api/v1/fleet/drift", get(trends::fleet))
         .route(
             "/api/v1/tolerances",

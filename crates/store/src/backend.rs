@@ -997,11 +997,42 @@ impl Store for This {
                     drifts.insert(d.machine_id.clone(), d);
                 }
             }
+            // 4. The machines without a drift row (no identification): each one's latest
+            //    result of another kind, one index seek each, in one statement.
+            let lacking: Vec<String> = page_ids
+                .iter()
+                .filter(|id| !drifts.contains_key(*id))
+                .cloned()
+                .collect();
+            let mut others = HashMap::new();
+            if !lacking.is_empty() {
+                let sql = (1..=lacking.len())
+                    .map(|i| {
+                        format!(
+                            "SELECT * FROM (SELECT id, machine_id, kind, measured_at FROM results \
+                             WHERE machine_id = ${i} AND excluded_at IS NULL \
+                             ORDER BY measured_at DESC, id DESC LIMIT 1) AS r{i}"
+                        )
+                    })
+                    .collect::<Vec<_>>()
+                    .join(" UNION ALL ");
+                for r in bound(sql, &lacking).fetch_all(&mut *tx).await.db()? {
+                    others.insert(
+                        r.text("machine_id")?,
+                        CheckRef {
+                            result_id: r.text("id")?,
+                            kind: r.text("kind")?,
+                            measured_at: r.text("measured_at")?,
+                        },
+                    );
+                }
+            }
             let rows = page
                 .into_iter()
                 .filter_map(|(id, active_alerts)| {
                     Some(FleetPageRow {
                         drift: drifts.remove(&id),
+                        other_check: others.remove(&id),
                         machine: machines.remove(&id)?,
                         active_alerts,
                     })

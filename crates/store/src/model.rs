@@ -316,6 +316,14 @@ pub struct FleetPageQuery {
     pub limit: i64,
 }
 
+/// A stored result named by id, kind and time (a fleet row's last check).
+#[derive(Debug, Clone, PartialEq, Eq)]
+pub struct CheckRef {
+    pub result_id: String,
+    pub kind: String,
+    pub measured_at: String,
+}
+
 /// A machine on the fleet page: its drift row (None before its first identification)
 /// and how many active alerts it has.
 #[derive(Debug, Clone, PartialEq)]
@@ -323,6 +331,10 @@ pub struct FleetPageRow {
     pub machine: Machine,
     pub drift: Option<FleetDriftRow>,
     pub active_alerts: i64,
+    /// For a machine without a drift row (no identification): its latest result of any
+    /// other kind that is not excluded (None: it has no result, or it has a drift row,
+    /// whose entry names its latest identification).
+    pub other_check: Option<CheckRef>,
 }
 
 /// A fleet page and how many machines match the filter in all.

@@ -806,7 +806,23 @@ async fn fleet_page_puts_alerted_machines_first_then_filters_sorts_and_counts(s:
     s.put_fleet_drift(&row("C", 3.0, 2.0, "2026-02-01T00:00:00Z"))
         .await
         .unwrap();
-    // D has no check yet: no drift row, listed last by drift.
+    // D has no identification: no drift row, listed last by drift, with its latest
+    // check of another kind that is not excluded.
+    let cradle = |at: &str| NewResult {
+        kind: "cradle".into(),
+        ..result("D", at, 0.0)
+    };
+    let kept = s
+        .import_result(cradle("2026-02-01T00:00:00Z"))
+        .await
+        .unwrap();
+    let later = s
+        .import_result(cradle("2026-03-01T00:00:00Z"))
+        .await
+        .unwrap();
+    s.exclude_result(&later.id, "key k1 (ops)", "probe dropped")
+        .await
+        .unwrap();
     let q = |sort, site: Option<&str>, tag: Option<&str>| FleetPageQuery {
         site: site.map(Into::into),
         tag: tag.map(Into::into),
@@ -829,6 +845,19 @@ async fn fleet_page_puts_alerted_machines_first_then_filters_sorts_and_counts(s:
     assert_eq!(p.sites, ["north", "south"]);
     assert_eq!(p.tags, ["50%", "5_axis", "5xaxis", "vmc"]);
     assert!(p.rows[3].drift.is_none());
+    assert_eq!(
+        p.rows[3].other_check,
+        Some(CheckRef {
+            result_id: kept.id.clone(),
+            kind: "cradle".into(),
+            measured_at: kept.measured_at.clone(),
+        }),
+        "the latest check that is not excluded"
+    );
+    assert!(
+        p.rows[..3].iter().all(|r| r.other_check.is_none()),
+        "a machine with a drift row names its latest identification there"
+    );
     assert_eq!(
         p.rows[0].drift,
         Some(row("B", 5.0, 1.0, "2026-01-01T00:00:00Z")),

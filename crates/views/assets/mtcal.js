@@ -1,8 +1,8 @@
 // mtcal dashboard: the only script. Progress of running jobs, and the upload form.
-// Elements with data-job="ID" data-poll="URL" are polled once a second; the URL answers
-// the job as JSON (state, progress, progress_message, error_message, result_id), the
-// same document as GET /api/v1/jobs/{id}. When a job ends, the page reloads so that the
-// new check, its verdict and its plots appear.
+// Elements with data-job="ID" data-poll="URL" are polled once a second; the URL is the
+// API's GET /api/v1/jobs/{id} (state, progress, progress_message, error_message,
+// result_id), which reads the session cookie as its key. When a job ends, the page
+// reloads so that the new check, its verdict and its plots appear.
 (function () {
   "use strict";
   var TERMINAL = { succeeded: 1, failed: 1, cancelled: 1 };

@@ -3,6 +3,7 @@
 pub mod alerts;
 pub mod datasets;
 pub mod exports;
+pub mod fleet;
 pub mod history;
 pub mod jobs;
 pub mod keys;

@@ -5,7 +5,9 @@
 //! Every page is rendered from the same functions that back the documented API routes
 //! (everything a page shows is also served by a route of docs/api.md), and every form
 //! posts to a web route that checks the session cookie and its CSRF token and then calls
-//! those same functions: there is no private data path. Sessions: [`session`].
+//! those same functions: there is no private data path. The page script reads the API
+//! itself (a job's progress from `GET /api/v1/jobs/{id}`) with the session cookie as its
+//! key. Sessions: [`session`].
 
 pub mod pages;
 pub mod session;
@@ -91,7 +93,6 @@ pub fn router(app: AppState) -> Router {
         .route("/alerts", get(pages::alerts))
         .route("/alerts/{id}/ack", post(pages::ack_alert))
         .route("/jobs", get(pages::jobs))
-        .route("/jobs/{file}", get(pages::job_json))
         .route("/signin", get(signin_form).post(signin))
         .route("/signout", post(signout))
         .route("/static/{file}", get(asset))
@@ -144,6 +145,8 @@ async fn signin_form(jar: PrivateCookieJar, Query(q): Query<NextQuery>) -> Respo
 
 #[derive(Debug, Deserialize)]
 struct SigninForm {
+    /// Missing reads as empty: refused by the token check (403), like a wrong one.
+    #[serde(default)]
     csrf: String,
     key: String,
     next: Option<String>,
@@ -188,6 +191,8 @@ async fn signin(
 
 #[derive(Debug, Deserialize)]
 pub struct CsrfForm {
+    /// Missing reads as empty: refused by the token check (403), like a wrong one.
+    #[serde(default)]
     pub csrf: String,
 }
 

@@ -6,31 +6,29 @@ use super::{PageResult, WebError, html};
 use crate::AppState;
 use crate::alerts::AlertView;
 use crate::api::alerts::AlertQuery;
+use crate::api::fleet as api_fleet;
 use crate::api::history::{self, DiffQuery, KIND};
 use crate::api::jobs::{self as api_jobs, SubmitJob};
 use crate::api::trends::{self as api_trends, TermQuery};
 use crate::error::ApiError;
 use crate::jobs::JobKind;
-use axum::Json;
 use axum::extract::{Form, FromRequest, Multipart, Path, Query, Request, State};
 use axum::response::{IntoResponse, Redirect};
 use mtcal_solver::identification::IdentificationResult;
 use mtcal_solver::tolerance::Verdict;
-use mtcal_store::{
-    FleetPageQuery, FleetSort, Job, Machine, MachinePatch, ResultMeta, StoredResult,
-};
+use mtcal_store::{Job, Machine, MachinePatch, ResultMeta, StoredResult};
 use mtcal_views::pages::alerts::{self as valerts, AlertRow};
 use mtcal_views::pages::{
     self as views, compare, fleet as vfleet, jobs as vjobs, machine as vmachine, result as vresult,
 };
-use mtcal_views::plots::{CircleTrace, TrendPoint, TrendSeries};
+use mtcal_views::plots::{TrendPoint, TrendSeries};
 use serde::Deserialize;
 
 /// Result kinds shown on a machine page, in this order.
 const KINDS: [&str; 4] = ["identification", "diagnosis", "cradle", "sensitivity"];
 
 /// Machines per fleet page.
-pub const FLEET_PAGE_ROWS: usize = 100;
+pub const FLEET_PAGE_ROWS: usize = api_fleet::DEFAULT_LIMIT;
 
 fn job_row(j: &Job) -> vjobs::JobRow {
     vjobs::JobRow {
@@ -102,7 +100,7 @@ fn baseline_of(m: &Machine, ids: &[ResultMeta]) -> Option<String> {
 }
 
 #[derive(Debug, Deserialize, Default)]
-pub struct FleetParams {
+pub struct FleetPageParams {
     site: Option<String>,
     tag: Option<String>,
     sort: Option<String>,
@@ -110,42 +108,30 @@ pub struct FleetParams {
     page: Option<usize>,
 }
 
-/// `/`: the fleet, one page of [`FLEET_PAGE_ROWS`] machines: those with active alerts
-/// first, then in the order chosen; filtered, sorted and counted by the database from the
-/// maintained rows (drift, verdict, sparkline: `crate::fleet`), so that a page costs the
-/// same at 10 000 machines as at 10.
+/// `/`: the fleet, one page of [`FLEET_PAGE_ROWS`] machines, from the fleet route of the
+/// API (`GET /api/v1/fleet`, [`api_fleet::fleet_page`]: machines with active alerts
+/// first, then in the order chosen; filtered, sorted and counted by the database from
+/// the maintained rows, so that a page costs the same at 10 000 machines as at 10), and
+/// the active alerts from the alert list route.
 pub async fn fleet(
     session: Session,
     State(s): State<WebState>,
-    Query(q): Query<FleetParams>,
+    Query(q): Query<FleetPageParams>,
 ) -> PageResult {
     let app = &s.app;
-    let site = q.site.filter(|v| !v.is_empty());
-    let tag = q.tag.filter(|v| !v.is_empty());
-    let sort = q.sort.unwrap_or_else(|| "drift".into());
-    let order = match sort.as_str() {
-        "drift" => FleetSort::DriftUm,
-        "drift_urad" => FleetSort::DriftUrad,
-        "name" => FleetSort::Name,
-        "last_check" => FleetSort::LastCheck,
-        other => {
-            return Err(WebError(ApiError::InvalidRequest(format!(
-                "sort: drift, drift_urad, name or last_check, got {other:?}"
-            ))));
-        }
-    };
     let page_no = q.page.unwrap_or(1).max(1);
     let started = std::time::Instant::now();
-    let found = app
-        .store
-        .fleet_page(&FleetPageQuery {
-            site: site.clone(),
-            tag: tag.clone(),
-            sort: order,
-            offset: ((page_no - 1) * FLEET_PAGE_ROWS) as i64,
-            limit: FLEET_PAGE_ROWS as i64,
-        })
-        .await?;
+    let found = api_fleet::fleet_page(
+        app,
+        &api_fleet::FleetParams {
+            site: q.site,
+            tag: q.tag,
+            sort: q.sort,
+            offset: Some((page_no - 1) * FLEET_PAGE_ROWS),
+            limit: Some(FLEET_PAGE_ROWS),
+        },
+    )
+    .await?;
     let read_page = started.elapsed();
     let alerts = crate::api::alerts::list_alerts(
         app,
@@ -165,58 +151,44 @@ pub async fn fleet(
         at_mm: None,
     };
     let rows = found
-        .rows
-        .iter()
-        .map(|r| {
-            let m = &r.machine;
-            // A row written by an older version reads without the newer fields.
-            let entry = r.drift.as_ref().and_then(|d| {
-                serde_json::from_value::<api_trends::FleetEntry>(d.entry.clone()).ok()
-            });
-            let e = entry.as_ref();
-            vfleet::FleetRow {
-                machine_id: m.id.clone(),
-                name: m.name.clone(),
-                site: m.site.clone(),
-                tags: m.tags.clone(),
-                last_check: e.map(|e| (e.latest_result_id.clone(), e.latest_measured_at.clone())),
-                verdict: e.and_then(|e| e.verdict).map(|d| d.as_str().to_string()),
-                drift_um: e.map(|e| {
-                    drift(
-                        e.drift.drift_um,
-                        e.drift.drift_um_u,
-                        "um",
-                        &e.drift.worst_term_um,
-                    )
-                }),
-                drift_urad: e.map(|e| {
-                    drift(
-                        e.drift.drift_urad,
-                        e.drift.drift_urad_u,
-                        "urad",
-                        &e.drift.worst_term_urad,
-                    )
-                }),
-                worst_trend: e
-                    .map(|e| e.sparkline.iter().map(|v| v.unwrap_or(f64::NAN)).collect())
-                    .unwrap_or_default(),
-                active_alerts: r.active_alerts.max(0) as usize,
-            }
+        .machines
+        .into_iter()
+        .map(|m| vfleet::FleetRow {
+            last_check: m.last_check.map(|c| vfleet::Check {
+                result_id: c.result_id,
+                kind: c.kind,
+                measured_at: c.measured_at,
+            }),
+            verdict: m.verdict.map(|d| d.as_str().to_string()),
+            drift_um: m
+                .drift
+                .as_ref()
+                .map(|d| drift(d.drift_um, d.drift_um_u, "um", &d.worst_term_um)),
+            drift_urad: m
+                .drift
+                .as_ref()
+                .map(|d| drift(d.drift_urad, d.drift_urad_u, "urad", &d.worst_term_urad)),
+            drift_note: m.drift_note,
+            worst_trend: m.sparkline.iter().map(|v| v.unwrap_or(f64::NAN)).collect(),
+            active_alerts: usize::try_from(m.active_alerts).unwrap_or(0),
+            machine_id: m.machine_id,
+            name: m.name,
+            site: m.site,
+            tags: m.tags,
         })
         .collect();
-    let total = found.total.max(0) as usize;
     let page = vfleet::FleetPage {
         rows,
         alerts: alerts.iter().map(alert_row).collect(),
         sites: found.sites,
         tags: found.tags,
-        site,
-        tag,
-        sort,
-        definition: api_trends::DRIFT_DEFINITION.into(),
-        total,
+        site: found.site,
+        tag: found.tag,
+        sort: found.sort,
+        definition: found.definition,
+        total: found.total,
         page: page_no,
-        pages: total.div_ceil(FLEET_PAGE_ROWS).max(1),
+        pages: found.total.div_ceil(FLEET_PAGE_ROWS).max(1),
     };
     let mut response = html(vfleet::fleet_page(&session.viewer(), &page));
     // Where the time went (shown by browsers' developer tools; the load generator
@@ -457,6 +429,8 @@ pub async fn machine(
 
 #[derive(Debug, Deserialize)]
 pub struct BaselineForm {
+    /// Missing reads as empty: refused by the token check (403), like a wrong one.
+    #[serde(default)]
     csrf: String,
     result_id: String,
 }
@@ -493,13 +467,6 @@ pub async fn set_baseline(
         views::encode("baseline set")
     ))
     .into_response())
-}
-
-/// The document's array `field` read as `T`s (empty when absent or of another shape).
-fn array<T: serde::de::DeserializeOwned>(doc: &serde_json::Value, field: &str) -> Vec<T> {
-    doc.get(field)
-        .and_then(|v| serde_json::from_value(v.clone()).ok())
-        .unwrap_or_default()
 }
 
 fn bad_document(r: &StoredResult, e: serde_json::Error) -> WebError {
@@ -543,17 +510,9 @@ pub async fn result(
     let viewer = session.viewer();
     let page = match r.meta.kind.as_str() {
         "identification" => {
-            let d: IdentificationResult =
-                serde_json::from_value(doc.clone()).map_err(|e| bad_document(&r, e))?;
-            let circles: Vec<CircleTrace> = array(doc, "circles");
-            let residuals: Vec<mtcal_solver::residuals::ResidualSummary> = array(doc, "residuals");
-            let travel = |_: &str| None;
-            let body = vresult::ResultBody::Identification(vresult::IdentificationView {
-                doc: &d,
-                circles: &circles,
-                residuals: &residuals,
-                travel: &travel,
-            });
+            let stored = vresult::StoredIdentification::read(doc.clone())
+                .map_err(|e| bad_document(&r, e))?;
+            let body = vresult::ResultBody::Identification(stored.view());
             vresult::result_page(&viewer, &header, &verdict_table, &body)
         }
         "diagnosis" => {
@@ -660,19 +619,6 @@ pub async fn compare(
             .collect(),
     };
     Ok(html(compare::compare_page(&session.viewer(), &page)))
-}
-
-/// `/jobs/{id}.json`: the job as the API's `GET /api/v1/jobs/{id}` (polled by the page
-/// script with the session cookie).
-pub async fn job_json(
-    _session: Session,
-    State(s): State<WebState>,
-    Path(file): Path<String>,
-) -> Result<Json<Job>, WebError> {
-    let id = file
-        .strip_suffix(".json")
-        .ok_or_else(|| WebError(ApiError::NotFound(format!("no such page /jobs/{file}"))))?;
-    Ok(Json(s.app.store.get_job(id).await?))
 }
 
 /// `POST /machines/{id}/upload` (multipart: `csrf` first, then `files`, optionally
@@ -797,6 +743,8 @@ pub async fn alerts(
 
 #[derive(Debug, Deserialize)]
 pub struct AckForm {
+    /// Missing reads as empty: refused by the token check (403), like a wrong one.
+    #[serde(default)]
     csrf: String,
     next: Option<String>,
 }

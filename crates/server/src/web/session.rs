@@ -8,6 +8,10 @@
 //! sessions at once, and the key's scope applies as in the API (read sees; write also
 //! uploads, sets baselines, acknowledges alerts).
 //!
+//! The API's GET routes accept the session cookie too ([`crate::auth`]), so that the page
+//! script reads them as the signed-in key (the progress of a job from
+//! `GET /api/v1/jobs/{id}`); every other method of the API needs the key itself.
+//!
 //! CSRF: every form carries the session's token in the field `csrf`; a POST whose token
 //! does not match is refused (403) before anything else is read. The sign-in form has its
 //! own token in a short-lived pre-session cookie (`mtcal_signin`), so that another site
@@ -20,6 +24,7 @@
 use crate::AppState;
 use crate::error::ApiError;
 use axum::extract::{FromRef, FromRequestParts, OriginalUri};
+use axum::http::HeaderMap;
 use axum::http::request::Parts;
 use axum::response::{IntoResponse, Redirect, Response};
 use axum_extra::extract::PrivateCookieJar;
@@ -200,6 +205,33 @@ impl IntoResponse for NoSession {
     }
 }
 
+impl Session {
+    /// The session the request's cookie holds, decrypted with `key`: None when there is
+    /// no cookie, when it does not decrypt or is too old, or when its API key is unknown
+    /// or revoked (looked up again on every request).
+    pub async fn from_headers(
+        app: &AppState,
+        key: &Key,
+        headers: &HeaderMap,
+    ) -> Result<Option<Session>, ApiError> {
+        let jar = PrivateCookieJar::from_headers(headers, key.clone());
+        let Some(data) = jar
+            .get(SESSION_COOKIE)
+            .and_then(|c| serde_json::from_str::<SessionData>(c.value()).ok())
+        else {
+            return Ok(None);
+        };
+        if now() - data.t > SESSION_TTL.as_secs() as i64 || data.t > now() + 60 {
+            return Ok(None);
+        }
+        Ok(app
+            .store
+            .key_by_secret(&data.k)
+            .await?
+            .map(|key| Session { key, csrf: data.c }))
+    }
+}
+
 impl FromRequestParts<WebState> for Session {
     type Rejection = NoSession;
 
@@ -208,22 +240,10 @@ impl FromRequestParts<WebState> for Session {
             .await
             .map(|u| u.0.to_string())
             .unwrap_or_else(|_| "/".into());
-        let jar = PrivateCookieJar::<Key>::from_request_parts(parts, state)
-            .await
-            .map_err(|_| NoSession::SignIn(next.clone()))?;
-        let Some(data) = jar
-            .get(SESSION_COOKIE)
-            .and_then(|c| serde_json::from_str::<SessionData>(c.value()).ok())
-        else {
-            return Err(NoSession::SignIn(next));
-        };
-        if now() - data.t > SESSION_TTL.as_secs() as i64 || data.t > now() + 60 {
-            return Err(NoSession::SignIn(next));
-        }
-        match state.app.store.key_by_secret(&data.k).await {
-            Ok(Some(key)) => Ok(Session { key, csrf: data.c }),
+        match Session::from_headers(&state.app, &state.key, &parts.headers).await {
+            Ok(Some(session)) => Ok(session),
             Ok(None) => Err(NoSession::SignIn(next)),
-            Err(e) => Err(NoSession::Failed(super::WebError(ApiError::from(e)))),
+            Err(e) => Err(NoSession::Failed(super::WebError(e))),
         }
     }
 }

@@ -19,17 +19,28 @@ pub struct Drift {
     pub at_mm: Option<f64>,
 }
 
+/// A check: the stored result, its kind and when it was measured.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Check {
+    pub result_id: String,
+    /// `identification`, `diagnosis`, `cradle` or `sensitivity`.
+    pub kind: String,
+    pub measured_at: String,
+}
+
 #[derive(Debug, Clone, PartialEq)]
 pub struct FleetRow {
     pub machine_id: String,
     pub name: String,
     pub site: Option<String>,
     pub tags: Vec<String>,
-    /// The latest identification: result id and time.
-    pub last_check: Option<(String, String)>,
+    /// The latest identification, else the latest check of another kind.
+    pub last_check: Option<Check>,
     pub verdict: Option<String>,
     pub drift_um: Option<Drift>,
     pub drift_urad: Option<Drift>,
+    /// Why there is no drift (shown across the drift columns instead).
+    pub drift_note: Option<String>,
     /// The term of the largest drift and its value at the drift position over the
     /// machine's checks, in time order (the sparkline).
     pub worst_trend: Vec<f64>,
@@ -147,15 +158,22 @@ pub fn fleet_page(viewer: &Viewer, f: &FleetPage) -> Markup {
                             }
                             td { (r.site.as_deref().unwrap_or("")) }
                             td { @for t in &r.tags { span.tag { (t) } } }
-                            td { @match &r.last_check {
-                                Some((id, at)) => { a href=(result_href(id)) { (when(at)) } }
+                            td.last-check { @match &r.last_check {
+                                Some(c) => {
+                                    a href=(result_href(&c.result_id)) { (when(&c.measured_at)) }
+                                    @if c.kind != "identification" { " " span.muted.kind { "(" (c.kind) ")" } }
+                                }
                                 None => { span.muted { "no check yet" } }
                             } }
                             td { (verdict_badge(r.verdict.as_deref())) }
-                            td.num { (drift(&r.drift_um)) }
-                            td.num { (drift(&r.drift_urad)) }
-                            td.spark title=[r.drift_um.as_ref().and_then(|d| d.term.clone())] {
-                                @if r.worst_trend.len() > 1 { (svg(plots::sparkline(&r.worst_trend))) }
+                            @if let (None, Some(note)) = (&r.drift_um, &r.drift_note) {
+                                td.muted.drift-note colspan="3" { (note) }
+                            } @else {
+                                td.num { (drift(&r.drift_um)) }
+                                td.num { (drift(&r.drift_urad)) }
+                                td.spark title=[r.drift_um.as_ref().and_then(|d| d.term.clone())] {
+                                    @if r.worst_trend.len() > 1 { (svg(plots::sparkline(&r.worst_trend))) }
+                                }
                             }
                         }
                     }
@@ -183,7 +201,11 @@ mod tests {
             name: format!("{id} name"),
             site: Some("north".into()),
             tags: vec!["5-axis".into()],
-            last_check: Some(("r1".into(), "2026-04-06T08:00:00Z".into())),
+            last_check: Some(Check {
+                result_id: "r1".into(),
+                kind: "identification".into(),
+                measured_at: "2026-04-06T08:00:00Z".into(),
+            }),
             verdict: Some("fail".into()),
             drift_um: Some(Drift {
                 value: 4.2,
@@ -193,6 +215,7 @@ mod tests {
                 at_mm: Some(50.0),
             }),
             drift_urad: None,
+            drift_note: None,
             worst_trend: vec![0.0, 1.0, 4.2],
             active_alerts: alerts,
         }
@@ -243,5 +266,51 @@ mod tests {
         let read = fleet_page(&viewer("read"), &page).into_string();
         assert!(!read.contains("/ack"), "a read key cannot acknowledge");
         assert!(read.contains("EXX drift 4.2 µm"), "but sees the alert");
+    }
+
+    /// A machine whose only check is not an identification (a 5-axis machine's cradle
+    /// check) shows that check, and says why it has no drift, instead of "no check yet".
+    #[test]
+    fn a_check_of_another_kind_is_shown_with_why_there_is_no_drift() {
+        let cradle = FleetRow {
+            last_check: Some(Check {
+                result_id: "r9".into(),
+                kind: "cradle".into(),
+                measured_at: "2026-04-07T08:00:00Z".into(),
+            }),
+            verdict: None,
+            drift_um: None,
+            drift_note: Some("not applicable to cradle checks".into()),
+            worst_trend: vec![],
+            ..row("5AX-1", 0)
+        };
+        let none = FleetRow {
+            last_check: None,
+            drift_um: None,
+            drift_note: None,
+            ..row("VMC-9", 0)
+        };
+        let page = FleetPage {
+            rows: vec![cradle, none],
+            sort: "drift".into(),
+            total: 2,
+            page: 1,
+            pages: 1,
+            ..FleetPage::default()
+        };
+        let html = fleet_page(&viewer("read"), &page).into_string();
+        let row_of = |id: &str| {
+            let start = html.find(&format!(r#"data-machine="{id}""#)).unwrap();
+            html[start..start + html[start..].find("</tr>").unwrap()].to_string()
+        };
+        let cradle = row_of("5AX-1");
+        assert!(cradle.contains(r#"href="/results/r9""#), "{cradle}");
+        assert!(cradle.contains("(cradle)"), "{cradle}");
+        assert!(
+            cradle.contains("not applicable to cradle checks"),
+            "{cradle}"
+        );
+        assert!(!cradle.contains("no check yet"), "{cradle}");
+        assert!(row_of("VMC-9").contains("no check yet"));
     }
 }

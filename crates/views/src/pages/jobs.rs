@@ -21,10 +21,10 @@ pub struct JobRow {
     pub created_at: String,
 }
 
-/// URL the script polls for a job's state (the job as JSON, the document of
-/// `GET /api/v1/jobs/{id}`).
+/// URL the script polls for a job's state: the API's `GET /api/v1/jobs/{id}`, which
+/// reads the browser's session cookie as its key.
 pub fn poll_href(id: &str) -> String {
-    format!("/jobs/{}.json", super::encode(id))
+    format!("/api/v1/jobs/{}", super::encode(id))
 }
 
 /// A job with its state, progress bar and message; polled by the script while it runs
@@ -116,7 +116,7 @@ mod tests {
         let html = jobs_page(&viewer("read"), &jobs, "").into_string();
         assert!(html.contains("<code>bad_input</code>: xy.csv:3:dv_um: not a number"));
         assert!(html.contains(r#"<progress max="1" value="0.4">"#));
-        assert!(html.contains(r#"data-poll="/jobs/j2.json""#));
+        assert!(html.contains(r#"data-poll="/api/v1/jobs/j2""#));
         let block = job_progress(&jobs[1], true).into_string();
         assert!(block.contains("data-reload") && block.contains(r#"data-state="running""#));
     }

@@ -8,7 +8,7 @@
 
 use super::result::{self, IdentificationView, VerdictRow};
 use super::{num, print_page, verdict_badge, when};
-use crate::plots::{CircleTrace, unit_label};
+use crate::plots::unit_label;
 use maud::{Markup, html};
 use mtcal_formats::compensation::{Compensation, DEFAULT_STEP_MM, ExportError, Format};
 use mtcal_solver::diagnosis::DiagnosisResult;
@@ -38,20 +38,7 @@ pub const INSTRUMENT: &str = "planar grid encoder (cross-grid plate and scanning
 pub fn check_report(r: &CheckReport) -> Markup {
     let d = r.doc;
     let title = format!("Check report {} {}", d.machine_id, when(&d.measured_at));
-    let circles: Vec<CircleTrace> = d.circles.iter().map(CircleTrace::from).collect();
-    let travel = |name: &str| {
-        let t = Term::parse(name)?;
-        d.model
-            .measured_travel_mm
-            .get(&t.axis.letter().to_string())
-            .copied()
-    };
-    let view = IdentificationView {
-        doc: d,
-        circles: &circles,
-        residuals: &d.residuals,
-        travel: &travel,
-    };
+    let view = IdentificationView::of(d);
     let compensation = Compensation::from_result(d, DEFAULT_STEP_MM);
     let rows: Vec<VerdictRow> = r.verdict.map(verdict_rows).unwrap_or_default();
     print_page(

@@ -29,14 +29,72 @@ pub struct VerdictRow {
     pub outcome: String,
 }
 
-/// Everything an identification section shows. `circles` and `residuals` are the
-/// document's arrays of those names (empty when the document has none); `travel` gives
-/// the measured travel of a term (None: the reported positions are drawn as they are).
+/// Everything an identification section shows: the document, and its circle tests as
+/// polar-plot traces, or why the stored ones could not be read.
 pub struct IdentificationView<'a> {
     pub doc: &'a IdentificationResult,
-    pub circles: &'a [CircleTrace],
-    pub residuals: &'a [ResidualSummary],
-    pub travel: &'a dyn Fn(&str) -> Option<[f64; 2]>,
+    pub circles: Result<Vec<CircleTrace>, String>,
+}
+
+impl<'a> IdentificationView<'a> {
+    /// The view of a document, its circle tests from its `circles`.
+    pub fn of(doc: &'a IdentificationResult) -> Self {
+        IdentificationView {
+            doc,
+            circles: Ok(doc.circles.iter().map(CircleTrace::from).collect()),
+        }
+    }
+
+    /// The travel of term `name`'s axis that the check measured (None: the document
+    /// names none, and the reported positions are drawn as they are).
+    fn travel(&self, name: &str) -> Option<[f64; 2]> {
+        let t = mtcal_solver::terms::Term::parse(name)?;
+        self.doc
+            .model
+            .measured_travel_mm
+            .get(&t.axis.letter().to_string())
+            .copied()
+    }
+}
+
+/// An identification document as the service stores it (JSON), read for its page. Its
+/// circle tests are read on their own: a stored shape this version does not read leaves
+/// a note where their polar plots would be, instead of failing the whole page or
+/// leaving the section out without a word.
+pub struct StoredIdentification {
+    pub doc: IdentificationResult,
+    /// Why the stored circle tests could not be read (None: read, or none stored).
+    pub circles_error: Option<String>,
+}
+
+impl StoredIdentification {
+    /// Reads a stored document; an error when the document itself (without its circle
+    /// tests) is not an identification result.
+    pub fn read(mut document: serde_json::Value) -> Result<Self, serde_json::Error> {
+        let circles = document.as_object_mut().and_then(|o| o.remove("circles"));
+        let mut doc: IdentificationResult = serde_json::from_value(document)?;
+        let circles_error = match circles.map(serde_json::from_value) {
+            None => None,
+            Some(Ok(c)) => {
+                doc.circles = c;
+                None
+            }
+            Some(Err(e)) => Some(format!(
+                "The circle tests stored with this result could not be read ({e}); their \
+                 polar plots cannot be drawn."
+            )),
+        };
+        Ok(StoredIdentification { doc, circles_error })
+    }
+
+    /// The page's view of it.
+    pub fn view(&self) -> IdentificationView<'_> {
+        let mut v = IdentificationView::of(&self.doc);
+        if let Some(e) = &self.circles_error {
+            v.circles = Err(e.clone());
+        }
+        v
+    }
 }
 
 /// The header facts of a stored result.
@@ -163,14 +221,22 @@ pub fn identification(v: &IdentificationView) -> Markup {
                 @for name in TERM_ORDER {
                     @if let Some(t) = d.terms.get(name) {
                         figure.plot data-term=(name) data-identifiable=(t.identifiable) {
-                            (svg(plots::error_function(name, t, (v.travel)(name))))
+                            (svg(plots::error_function(name, t, v.travel(name))))
                         }
                     }
                 }
             }
         }
-        @if !v.residuals.is_empty() { (residuals(v.residuals)) }
-        @if !v.circles.is_empty() { (circles(v.circles)) }
+        @if !d.residuals.is_empty() { (residuals(&d.residuals)) }
+        @match &v.circles {
+            Ok(c) => { @if !c.is_empty() { (circles(c)) } }
+            Err(e) => {
+                section.card #circles {
+                    h2 { "Circle tests" }
+                    div.notice.error.circles-error { (e) }
+                }
+            }
+        }
         section.card #identifiability {
             h2 { "Identifiability" }
             @if o.not_identifiable.is_empty() {
@@ -265,8 +331,8 @@ fn circles(all: &[CircleTrace]) -> Markup {
                 @for g in &groups {
                     figure.plot.polar data-file=(g[0].file) {
                         (svg(plots::circle_polar(g)))
-                        figcaption { (g[0].file) ", " (g[0].plane) " plane, R " (g[0].radius_mm) " mm, F "
-                            (g[0].feed_mm_min) " mm/min, centre (" (num(g[0].centre_mm[0])) ", " (num(g[0].centre_mm[1])) ") mm" }
+                        figcaption { (g[0].file) ", " (g[0].plane) " plane, R " (plots::tick_label(g[0].radius_mm)) " mm, F "
+                            (num(g[0].feed_mm_min)) " mm/min, centre (" (num(g[0].centre_mm[0])) ", " (num(g[0].centre_mm[1])) ") mm" }
                     }
                 }
             }
@@ -457,6 +523,22 @@ mod tests {
         }
     }
 
+    /// An identification of a simulated machine (seed `seed`) measured with the seed
+    /// plan (one head offset: most terms confounded; circle tests in every plane).
+    fn seed_plan_check(seed: u64) -> IdentificationResult {
+        let out = simulate(
+            &random_truth(seed),
+            &SimOptions {
+                plan: Plan::Seed,
+                seed,
+                sample_rate_hz: 10.0,
+                ..Default::default()
+            },
+        )
+        .unwrap();
+        identify(&out.session, &IdentifyOptions::default()).unwrap()
+    }
+
     /// The `<figure …>…</figure>` of a term.
     fn figure<'a>(html: &'a str, term: &str) -> &'a str {
         let start = html
@@ -542,18 +624,7 @@ mod tests {
 
     #[test]
     fn identification_page_draws_identified_terms_and_only_labels_the_others() {
-        // The seed plan (one head offset) leaves most terms confounded.
-        let out = simulate(
-            &random_truth(3),
-            &SimOptions {
-                plan: Plan::Seed,
-                seed: 3,
-                sample_rate_hz: 10.0,
-                ..Default::default()
-            },
-        )
-        .unwrap();
-        let doc = identify(&out.session, &IdentifyOptions::default()).unwrap();
+        let doc = seed_plan_check(3);
         let verdict = [VerdictRow {
             quantity: "EXX".into(),
             at: "max over the travel".into(),
@@ -563,13 +634,7 @@ mod tests {
             unit: "um".into(),
             outcome: "undecided".into(),
         }];
-        let travel = |_: &str| None;
-        let body = ResultBody::Identification(IdentificationView {
-            doc: &doc,
-            circles: &[],
-            residuals: &[],
-            travel: &travel,
-        });
+        let body = ResultBody::Identification(IdentificationView::of(&doc));
         let html =
             result_page(&viewer("write"), &header("identification"), &verdict, &body).into_string();
         assert!(html.contains("Set as baseline"));
@@ -599,6 +664,65 @@ mod tests {
         assert!(doc.terms.values().any(|t| t.identifiable));
         assert!(doc.terms.values().any(|t| !t.identifiable));
         assert!(html.contains("Advice"), "the seed plan gets advice");
+    }
+
+    /// The `<section …>…</section>` whose id is `id`.
+    fn section<'a>(html: &'a str, id: &str) -> &'a str {
+        let start = html
+            .find(&format!(r#"id="{id}""#))
+            .unwrap_or_else(|| panic!("section {id}"));
+        let end = html[start..].find("</section>").unwrap() + start;
+        &html[start..end]
+    }
+
+    /// An identification document as the service stores it (its JSON, read back as the
+    /// result page reads it) draws its circle tests: one polar plot per file, plane and
+    /// radius, with the measured and the model's traces. A stored shape this version
+    /// does not read leaves a note where they would be, and the rest of the page.
+    #[test]
+    fn a_stored_identification_draws_its_circle_tests() {
+        let doc = seed_plan_check(5);
+        assert!(!doc.circles.is_empty(), "the plan has circle tests");
+        let stored = serde_json::to_value(&doc).unwrap();
+        let read = StoredIdentification::read(stored.clone()).unwrap();
+        assert_eq!(read.circles_error, None);
+        assert_eq!(read.doc.circles.len(), doc.circles.len());
+        let page = |read: &StoredIdentification| {
+            let body = ResultBody::Identification(read.view());
+            result_page(&viewer("read"), &header("identification"), &[], &body).into_string()
+        };
+        let html = page(&read);
+        let circles = section(&html, "circles");
+        let mut groups: Vec<(&str, String, u64)> = doc
+            .circles
+            .iter()
+            .map(|c| (c.file.as_str(), c.plane.to_string(), c.radius_mm.to_bits()))
+            .collect();
+        groups.sort();
+        groups.dedup();
+        assert_eq!(circles.matches("<svg").count(), groups.len(), "{circles}");
+        for c in &doc.circles {
+            assert!(circles.contains(&format!("measured {}", c.direction)));
+            assert!(circles.contains(&format!("model {}", c.direction)));
+        }
+        // A shape this version does not read: a note, and the rest of the page.
+        let mut changed = stored;
+        changed["circles"][0]["angle_deg"] = serde_json::json!("every degree");
+        let read = StoredIdentification::read(changed).unwrap();
+        assert!(read.circles_error.is_some());
+        let html = page(&read);
+        let circles = section(&html, "circles");
+        assert!(
+            circles.contains("circles-error") && circles.contains("could not be read"),
+            "{circles}"
+        );
+        assert!(!circles.contains("<svg"));
+        assert_eq!(section(&html, "terms").matches("<svg").count(), 18);
+        // A document without circle tests (an older one) has no such section.
+        let mut older = serde_json::to_value(&doc).unwrap();
+        older.as_object_mut().unwrap().remove("circles");
+        let html = page(&StoredIdentification::read(older).unwrap());
+        assert!(!html.contains(r#"id="circles""#));
     }
 
     #[test]

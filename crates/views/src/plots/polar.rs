@@ -107,7 +107,10 @@ pub fn circle_polar(circles: &[CircleTrace]) -> String {
     let (u, v) = (axes.next().unwrap_or('u'), axes.next().unwrap_or('v'));
     let title = format!(
         "{} run {}: {} circle R{} mm, radial deviation (µm)",
-        first.file, first.run, first.plane, first.radius_mm
+        first.file,
+        first.run,
+        first.plane,
+        super::tick(&first.radius_mm)
     );
     let angle = move |a: i32| match a {
         0 => format!("0° +{u}"),
