@@ -9,6 +9,7 @@ use mtcal_solver::axis::Axis;
 use mtcal_solver::diagnosis::{
     DiagnoseOptions, DiagnosisResult, Finding, Verdict, diagnose_session, effects,
 };
+use mtcal_solver::session::{Run, Session};
 use mtcal_solver::simulate::{Effect, Plan, SimOptions, random_truth, simulate};
 use rand::SeedableRng;
 use rand::rngs::StdRng;
@@ -425,6 +426,9 @@ fn two_effects_are_separated() {
     for (pair, seed) in [
         (["backlash", "cyclic"], 21),
         (["vibration", "servo_lag"], 22),
+        // Backlash and thermal growth together: the growth is not left unreported once
+        // the backlash is found (one noise floor, independent of the model).
+        (["backlash", "thermal_drift"], 23),
     ] {
         let (effects, r) = run(&pair, seed);
         for e in &effects {
@@ -541,4 +545,182 @@ fn progress_is_reported_through_the_phases() {
     assert!(order.windows(2).all(|w| w[0] < w[1]), "{order:?}");
     // Intermediate fractions, not only the ends.
     assert!(seen.iter().filter(|(_, f)| *f > 0.1 && *f < 0.95).count() > 20);
+}
+
+/// A clean simulated session at `rate` Hz with the seed plan.
+fn clean_session(seed: u64, rate: f64) -> Session {
+    let o = SimOptions {
+        seed,
+        sample_rate_hz: rate,
+        ..SimOptions::default()
+    };
+    simulate(&random_truth(seed), &o).unwrap().session
+}
+
+/// Adds `e(run, i)` µm to the reading along `dir` of every sample: an effect made in the
+/// test, outside the simulator and its catalogue of effects.
+fn add_error(session: &mut Session, dir: Axis, e: impl Fn(&Run, usize) -> f64) {
+    for p in &mut session.planes {
+        let (u, v) = p.plane.axes();
+        for run in &mut p.runs {
+            let add: Vec<f64> = (0..run.t_s.len()).map(|i| e(run, i)).collect();
+            let reading = if u == dir {
+                &mut run.du_um
+            } else if v == dir {
+                &mut run.dv_um
+            } else {
+                continue;
+            };
+            reading.iter_mut().zip(&add).for_each(|(r, x)| *r += x);
+        }
+    }
+}
+
+/// Per sample of `run`: the sign of axis `a`'s last travel and the travel since it last
+/// reversed (mm), from the set-points alone (before the first move: the first move's
+/// sign, travel counted from the start).
+fn direction_and_travel(run: &Run, a: usize) -> Vec<(f64, f64)> {
+    let q: Vec<f64> = run.pos_mm.iter().map(|p| p[a]).collect();
+    let first = q
+        .windows(2)
+        .map(|w| w[1] - w[0])
+        .find(|d| d.abs() > 1e-9)
+        .map_or(1.0, f64::signum);
+    let (mut d, mut s) = (first, 0.0);
+    let mut out = vec![(d, s)];
+    for w in q.windows(2) {
+        let step = w[1] - w[0];
+        if step.abs() > 1e-9 {
+            if step.signum() != d {
+                (d, s) = (step.signum(), 0.0);
+            }
+            s += step.abs();
+        }
+        out.push((d, s));
+    }
+    out
+}
+
+/// A sideways shift at each X reversal (a carriage that shifts across its guideway when
+/// its drive reverses), made in the test and not by the simulator: the Y error is
+/// c·d·(1 − 2·e^(−s/w)), continuous through each reversal and settling to ±c over
+/// w = 0.5 mm of travel (the candidate's model is an ideal step ±s/2). It is found by its
+/// signature, its shift 2c within 20 %, and proven on held-out runs.
+#[test]
+fn a_sideways_shift_at_reversal_made_outside_the_simulator_is_found_by_signature() {
+    let c = 0.5;
+    let mut session = clean_session(51, RATE);
+    add_error(&mut session, Axis::Y, |run, i| {
+        let (d, s) = direction_and_travel(run, 0)[i];
+        c * d * (1.0 - 2.0 * (-s / 0.5).exp())
+    });
+    let r = diagnose_session(&session, &DiagnoseOptions::default()).unwrap();
+    let f = r
+        .findings
+        .iter()
+        .find(|f| f.effect == "direction_coupling")
+        .unwrap_or_else(|| panic!("{r:#?}"));
+    assert_eq!(f.axis.as_deref(), Some("X"), "{r:#?}");
+    assert_eq!(
+        f.signature.as_deref(),
+        Some("a Y error that flips with the X direction of travel"),
+        "{r:#?}"
+    );
+    assert!(
+        close(param(f, "shift_um").abs(), 2.0 * c, 0.2, 0.0),
+        "{r:#?}"
+    );
+    assert!(
+        f.heldout_rms_um.after < 0.8 * f.heldout_rms_um.before,
+        "{r:#?}"
+    );
+    assert_eq!(r.verdict, Verdict::Explained, "{r:#?}");
+    effects::conforms(f).unwrap();
+}
+
+/// Physics outside the signature space: a Y error proportional to the X acceleration (an
+/// inertial deflection at the feed ramps; no source of the space is an acceleration),
+/// 0.5 µm RMS, made in the test. Whatever the diagnosis says, it
+/// does not absorb the effect into parameters that make no physical sense (the failure of
+/// a 216 µm thermal offset and a 0.02 Hz "vibration" explaining a sub-micrometre misfit):
+/// no time-bound effect is reported, no reported length exceeds 10 µm, the misfit is
+/// located, and what is not explained is said, with where.
+#[test]
+fn an_effect_outside_the_signature_space_is_not_absorbed_into_absurd_parameters() {
+    let accel = |run: &Run, i: usize| {
+        let n = run.t_s.len();
+        let v = |j: usize| {
+            let (a, b) = (j.saturating_sub(1), (j + 1).min(n - 1));
+            (run.pos_mm[b][0] - run.pos_mm[a][0]) / (run.t_s[b] - run.t_s[a]).max(1e-9)
+        };
+        let (a, b) = (i.saturating_sub(1), (i + 1).min(n - 1));
+        (v(b) - v(a)) / (run.t_s[b] - run.t_s[a]).max(1e-9)
+    };
+    let mut session = clean_session(52, RATE);
+    // Scaled to 0.5 µm RMS over the samples that read Y (it is nonzero on the ramps only).
+    let (ss, n) = session
+        .planes
+        .iter()
+        .filter(|p| [p.plane.axes().0, p.plane.axes().1].contains(&Axis::Y))
+        .flat_map(|p| &p.runs)
+        .flat_map(|run| (0..run.t_s.len()).map(move |i| accel(run, i)))
+        .fold((0.0, 0usize), |(ss, n), a| (ss + a * a, n + 1));
+    let k = 0.5 / (ss / n as f64).sqrt();
+    add_error(&mut session, Axis::Y, |run, i| k * accel(run, i));
+    let r = diagnose_session(&session, &DiagnoseOptions::default()).unwrap();
+    assert_ne!(r.verdict, Verdict::Consistent, "{r:#?}");
+    assert!(!r.mismatch.is_empty(), "the misfit is located: {r:#?}");
+    for f in &r.findings {
+        assert!(
+            !matches!(f.effect.as_str(), "thermal_drift" | "vibration"),
+            "a time-bound effect absorbed a position-bound one: {f:#?}"
+        );
+        for (name, v) in &f.parameters {
+            if name.ends_with("_um") && !name.starts_with("std_") {
+                assert!(v.abs() < 10.0, "{name} = {v} in {f:#?}");
+            }
+        }
+    }
+    if r.verdict != Verdict::Explained {
+        assert!(
+            r.unexplained
+                .iter()
+                .any(|u| u.contains("misfit concentrates in")),
+            "{r:#?}"
+        );
+    }
+}
+
+/// The 0.8 µm vibration at 7 Hz (sampled at 20 Hz) that once raised the floor and was
+/// called "consistent": the floor stays at the noise (0.15 µm within 10 %), the vibration
+/// is found at 7 Hz along X with its amplitude, and the session is explained.
+#[test]
+fn a_7_hz_vibration_is_found_not_taken_for_noise() {
+    let o = SimOptions {
+        seed: 53,
+        sample_rate_hz: 20.0,
+        effects: vec![Effect::Vibration {
+            direction: Axis::X,
+            amplitude_um: 0.8,
+            frequency_hz: 7.0,
+            phase_rad: 0.0,
+        }],
+        ..SimOptions::default()
+    };
+    let out = simulate(&random_truth(53), &o).unwrap();
+    let r = diagnose_session(&out.session, &DiagnoseOptions::default()).unwrap();
+    assert!(
+        close(r.baseline.noise_estimate_um, 0.15, 0.1, 0.0),
+        "{:?}",
+        r.baseline
+    );
+    let f = r
+        .findings
+        .iter()
+        .find(|f| f.effect == "vibration")
+        .unwrap_or_else(|| panic!("{r:#?}"));
+    assert_eq!(f.axis.as_deref(), Some("X"));
+    assert!(close(param(f, "frequency_hz"), 7.0, 0.002, 0.0), "{f:#?}");
+    assert!(close(param(f, "amplitude_um"), 0.8, 0.05, 0.02), "{f:#?}");
+    assert_eq!(r.verdict, Verdict::Explained, "{r:#?}");
 }

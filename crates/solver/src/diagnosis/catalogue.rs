@@ -15,6 +15,14 @@
 //! | vibration | sin, cos(2π f t) → amplitude, phase | frequency f, Hz |
 //! | waviness (signature) | sin, cos(2π q_a/P) along a direction j ≠ a → amplitude, phase | period P, mm |
 //! | velocity_coupling (signature) | v_a along a direction j ≠ a → coefficient, µm per mm/s | — |
+//! | direction_coupling (signature) | d_a/2 along a direction j ≠ a → shift, µm | — |
+//!
+//! The signature space: for each moving axis a, its direction of travel d_a, position
+//! (smooth and periodic), velocity v_a and travel since its last reversal, and the session
+//! time and logged temperature, each acting along X, Y or Z. Along a itself these are the
+//! named mechanisms (backlash, model order, cyclic error, servo lag, reversal spike);
+//! across it they are model order, waviness, velocity coupling and direction coupling; in
+//! time, vibration and thermal drift (docs/diagnosis.md, "Beyond the catalogue").
 
 use super::design::{Design, SampleMeta};
 use super::linalg::Cols;
@@ -58,6 +66,9 @@ pub fn signature(c: &Candidate, theta: Option<f64>) -> Option<String> {
             theta.map_or(f64::NAN, |f| 1.0 / f)
         )),
         "velocity_coupling" => Some(format!("a {j} error that follows the {a} velocity")),
+        "direction_coupling" => Some(format!(
+            "a {j} error that flips with the {a} direction of travel"
+        )),
         _ => None,
     }
 }
@@ -112,6 +123,7 @@ pub fn candidates(d: &Design) -> Vec<Candidate> {
         for dir in Axis::ALL.into_iter().filter(|&j| j != a) {
             out.push(c("waviness", Some(a), Some(dir), None));
             out.push(c("velocity_coupling", Some(a), Some(dir), None));
+            out.push(c("direction_coupling", Some(a), Some(dir), None));
         }
     }
     out.push(c("thermal_drift", None, None, None));
@@ -358,6 +370,12 @@ pub fn specs<'a>(
             let (a, dir) = (c.axis.expect("axis"), c.direction.expect("direction"));
             let (n, ax) = one("coefficient_um_per_mm_s", dir);
             Columns::new(n, ax, move |_, s, _, o| o[0] = s.vel_mm_s[a.index()])
+        }
+        "direction_coupling" => {
+            // Across a, +s/2 while a last travelled toward + and −s/2 toward −.
+            let (a, dir) = (c.axis.expect("axis"), c.direction.expect("direction"));
+            let (n, ax) = one("shift_um", dir);
+            Columns::new(n, ax, move |_, s, _, o| o[0] = 0.5 * s.dir[a.index()]).following(a)
         }
         "vibration" => {
             let dir = c.direction.expect("direction");

@@ -280,6 +280,18 @@ pub const EFFECTS: &[EffectSpec] = &[
         decide: "runs of the axis at two different feeds",
     },
     EffectSpec {
+        name: "direction_coupling",
+        physics: "an error across one axis that flips with that axis's direction of travel (clearance of a guideway or gib: the carriage shifts or tilts sideways when its drive reverses); a static geometric model has no direction (found by its signature, outside the named catalogue)",
+        params: &[p(
+            "shift_um",
+            "um",
+            "s: error along the named direction = +s/2 while the moving axis last travelled toward +, -s/2 toward -",
+        )],
+        principal: &["shift_um"],
+        any_of: false,
+        decide: "more reversals of the axis, on circles (line passes show a constant shift as a run offset)",
+    },
+    EffectSpec {
         name: "setup_offset",
         physics: "the declared head offset of these files differs from the true one, so the Abbe arms of the angular errors are wrong",
         params: &[p(
@@ -420,25 +432,29 @@ pub enum Sorted {
 }
 
 /// Sorts a finding by the one rule: possible when [`undetermined`] names a principal
-/// parameter (set aside); otherwise determined, with every other parameter that is not
-/// [`determined`] set aside too, so that every parameter a finding reports with its σ is
+/// parameter, otherwise determined; either way every parameter reported with a σ that is
+/// not [`determined`] is set aside (moved to `undetermined` with what would decide it),
+/// so that every parameter a finding or a possible finding reports with its σ is
 /// determined.
 pub fn classify(f: Finding) -> Sorted {
     let open = undetermined(&f);
-    if !open.is_empty() {
-        return Sorted::Possible(set_aside(f, open));
-    }
     let sentence = |name: &str| spec(&f.effect).map_or("more data", |e| decide(e, name));
     let weak: Vec<Undetermined> = f
         .parameters
         .iter()
         .filter(|(name, _)| !name.starts_with("std_"))
+        .filter(|(name, _)| !open.iter().any(|u| &u.name == *name))
         .filter_map(|(name, &v)| {
             let sd = *f.parameters.get(&format!("std_{name}"))?;
             (!determined(v, sd)).then(|| Undetermined::new(name.clone(), v, sd, sentence(name)))
         })
         .collect();
-    Sorted::Determined(set_aside(f, weak))
+    if open.is_empty() {
+        Sorted::Determined(set_aside(f, weak))
+    } else {
+        let all = open.into_iter().chain(weak).collect();
+        Sorted::Possible(set_aside(f, all))
+    }
 }
 
 /// Splits findings into the determined ones and the possible ones, by [`classify`].
@@ -554,6 +570,19 @@ mod tests {
             &[("lost_motion_um", 0.3), ("std_lost_motion_um", 0.2)],
         );
         assert_eq!(undetermined(&b)[0].name, "lost_motion_um");
+        // The real case: the principal τ leaves the finding undetermined, and its
+        // offset −28.7 ± 122 µm and scale 107 ± 609 ppm are set aside with it: a possible
+        // finding reports no undetermined figure either.
+        let (det, pos) = split_undetermined(vec![f]);
+        assert!(det.is_empty());
+        assert!(pos[0].parameters.is_empty(), "{:?}", pos[0].parameters);
+        let mut set: Vec<&str> = pos[0]
+            .undetermined
+            .iter()
+            .map(|u| u.name.as_str())
+            .collect();
+        set.sort();
+        assert_eq!(set, ["offset_um", "scale_ppm", "time_constant_s"]);
         // Set aside: the parameter leaves `parameters` for `undetermined`.
         let (det, pos) = split_undetermined(vec![b]);
         assert!(det.is_empty());
