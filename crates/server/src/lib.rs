@@ -12,6 +12,7 @@
 pub mod alerts;
 pub mod api;
 pub mod auth;
+pub mod blocking;
 pub mod contract;
 pub mod error;
 pub mod fleet;
