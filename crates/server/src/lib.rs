@@ -131,6 +131,7 @@ pub fn router(state: AppState) -> Router {
             StatusCode::REQUEST_TIMEOUT,
             UPLOAD_TIMEOUT,
         ))
+        .layer(axum::middleware::from_fn(metrics::reading_upload))
         .layer(tower::limit::ConcurrencyLimitLayer::new(
             MAX_CONCURRENT_UPLOADS,
         ))
