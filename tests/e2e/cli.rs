@@ -210,21 +210,27 @@ fn identify_survives_a_closed_pipe_and_refuses_absurd_magnitudes() {
     );
 }
 
-/// `mtcal demo` on an address already in use says so and how to pick a free port.
+/// `mtcal demo` on an address already in use says so and how to pick a free port, and
+/// leaves no temporary folder behind.
 #[test]
 fn demo_on_a_taken_address_says_so() {
     let taken = std::net::TcpListener::bind("127.0.0.1:0").unwrap();
     let addr = taken.local_addr().unwrap().to_string();
-    let dir = tempfile::tempdir().unwrap();
+    let tmp = tempfile::tempdir().unwrap();
     let out = Command::new(BIN)
-        .args(["demo", "--no-browser", "--exit", "--listen", &addr, "--db"])
-        .arg(dir.path().join("demo.sqlite"))
+        .args(["demo", "--no-browser", "--exit", "--listen", &addr])
+        .env("TMPDIR", tmp.path())
         .output()
         .unwrap();
     assert!(!out.status.success());
     let err = String::from_utf8_lossy(&out.stderr);
     assert!(err.contains("--listen 127.0.0.1:0"), "{err}");
     assert!(err.contains("already in use"), "the system's reason: {err}");
+    let left: Vec<_> = std::fs::read_dir(tmp.path())
+        .unwrap()
+        .map(|e| e.unwrap().file_name())
+        .collect();
+    assert!(left.is_empty(), "left behind: {left:?}");
 }
 
 /// A path that does not exist is named in full with the system's reason, for every
