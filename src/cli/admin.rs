@@ -115,15 +115,15 @@ pub fn run(args: Args) -> anyhow::Result<ExitCode> {
                 key.label,
                 key.scope.as_str()
             );
-            println!("{secret}");
+            super::out::outln!("{secret}")?;
         }
         Command::ListKeys { db, json } => {
             let keys =
                 rt.block_on(async { anyhow::Ok(open(&db.db, false).await?.list_keys().await?) })?;
             if json {
-                super::emit(&(serde_json::to_string_pretty(&keys)? + "\n"))?;
+                super::out::write(&(serde_json::to_string_pretty(&keys)? + "\n"))?;
             } else {
-                super::emit(&table(&keys))?;
+                super::out::write(&table(&keys))?;
             }
         }
         Command::RevokeKey { db, id } => {

@@ -54,7 +54,7 @@ pub fn run(args: Args) -> anyhow::Result<ExitCode> {
     } else {
         summary(&doc)
     };
-    super::emit(&text)?;
+    super::out::write(&text)?;
     Ok(ExitCode::SUCCESS)
 }
 

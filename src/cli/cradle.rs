@@ -87,7 +87,7 @@ pub fn run(args: Args) -> anyhow::Result<ExitCode> {
     } else {
         summary(&result)
     };
-    super::emit(&text)?;
+    super::out::write(&text)?;
     Ok(ExitCode::SUCCESS)
 }
 

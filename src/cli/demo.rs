@@ -282,39 +282,36 @@ async fn demo(args: Args, db: PathBuf, temporary: bool) -> anyhow::Result<ExitCo
             ));
         }
     }
-    println!(
+    let mut lines = vec![format!(
         "mtcal demo: {} machines, {ok}/{} jobs succeeded",
         args.machines + 1,
         jobs.len()
-    );
-    for f in failed.iter().take(3) {
-        println!("  failed {f}");
-    }
+    )];
+    lines.extend(failed.iter().take(3).map(|f| format!("  failed {f}")));
     // The fragment signs the browser in (the page script reads it; it is never sent).
     let dashboard = format!("{base}/signin#key={key}");
-    println!("dashboard:     {dashboard}");
-    println!(
-        "database:      {}{}",
-        db.display(),
-        if temporary {
-            "   (temporary: deleted when the demo stops; --db PATH keeps one)"
-        } else {
-            ""
-        }
-    );
-    println!("API key:       {key}   (export MTCAL_API_KEY={key})");
-    println!("Swagger UI:    {base}/docs");
-    println!("OpenAPI:       {base}/api-docs/openapi.json");
-    println!("fleet drift:   curl -H 'Authorization: Bearer {key}' {base}/api/v1/fleet/drift");
-    println!(
-        "history:       curl -H 'Authorization: Bearer {key}' {base}/api/v1/machines/VMC-0001/results"
-    );
-    println!(
-        "EXX at ±50 mm: curl -H 'Authorization: Bearer {key}' '{base}/api/v1/machines/VMC-0001/trends/term?term=EXX&at=-50,50'"
-    );
-    println!(
-        "vs baseline:   curl -H 'Authorization: Bearer {key}' {base}/api/v1/machines/VMC-0001/results/diff"
-    );
+    let curl = format!("curl -H 'Authorization: Bearer {key}'");
+    let machine = format!("{base}/api/v1/machines/VMC-0001");
+    lines.extend([
+        format!("dashboard:     {dashboard}"),
+        format!(
+            "database:      {}{}",
+            db.display(),
+            if temporary {
+                "   (temporary: deleted when the demo stops; --db PATH keeps one)"
+            } else {
+                ""
+            }
+        ),
+        format!("API key:       {key}   (export MTCAL_API_KEY={key})"),
+        format!("Swagger UI:    {base}/docs"),
+        format!("OpenAPI:       {base}/api-docs/openapi.json"),
+        format!("fleet drift:   {curl} {base}/api/v1/fleet/drift"),
+        format!("history:       {curl} {machine}/results"),
+        format!("EXX at ±50 mm: {curl} '{machine}/trends/term?term=EXX&at=-50,50'"),
+        format!("vs baseline:   {curl} {machine}/results/diff"),
+    ]);
+    super::out::announce(&lines.join("\n"));
     if args.exit {
         server.abort();
         return Ok(if failed.is_empty() {
@@ -326,7 +323,7 @@ async fn demo(args: Args, db: PathBuf, temporary: bool) -> anyhow::Result<ExitCo
     if !args.no_browser {
         open_browser(&dashboard);
     }
-    println!("serving; Ctrl-C to stop");
+    super::out::announce("serving; Ctrl-C to stop");
     server.await??;
     Ok(ExitCode::SUCCESS)
 }

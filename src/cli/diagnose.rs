@@ -145,7 +145,7 @@ pub fn run(args: Args) -> anyhow::Result<ExitCode> {
         s.push_str(&super::standards::summary(&iso));
         s
     };
-    super::emit(&text)?;
+    super::out::write(&text)?;
     Ok(ExitCode::SUCCESS)
 }
 

@@ -40,7 +40,7 @@ pub fn run(args: Args) -> anyhow::Result<ExitCode> {
     let text = format.write(&table);
     match &args.out {
         Some(p) => std::fs::write(p, text).with_context(|| format!("writing {}", p.display()))?,
-        None => super::emit(&text)?,
+        None => super::out::write(&text)?,
     }
     Ok(ExitCode::SUCCESS)
 }

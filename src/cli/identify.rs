@@ -62,11 +62,11 @@ pub fn run(args: Args) -> anyhow::Result<ExitCode> {
     let result = identify(&session, &opts)
         .map_err(|e| BadInput(format!("{}: {e}", args.session.display())))?;
     if args.json {
-        super::emit(
+        super::out::write(
             &(serde_json::to_string_pretty(&result).context("serialising the result")? + "\n"),
         )?;
     } else {
-        super::emit(&summary(&result))?;
+        super::out::write(&summary(&result))?;
     }
     Ok(ExitCode::SUCCESS)
 }

@@ -1,5 +1,6 @@
 //! Subcommands. Each returns `Ok(code)` or an error; [`finish`] maps errors to exit codes:
-//! 2 for bad input (a [`BadInput`] anywhere in the chain), 1 for everything else.
+//! 2 for bad input (a [`BadInput`] anywhere in the chain), 0 without a word for a stdout
+//! closed by its reader ([`out`]), 1 for everything else.
 
 use std::process::ExitCode;
 
@@ -10,6 +11,7 @@ pub mod demo;
 pub mod diagnose;
 pub mod export;
 pub mod identify;
+pub mod out;
 pub mod report;
 pub mod sensitivity;
 pub mod serve;
@@ -62,24 +64,11 @@ pub fn read_json<T: serde::de::DeserializeOwned>(
     })
 }
 
-/// Writes a command's output to stdout. A closed pipe (`mtcal identify … --json | head`)
-/// is not an error: the reader has what it wanted, so the command ends quietly instead of
-/// panicking as `println!` does.
-pub fn emit(text: &str) -> anyhow::Result<()> {
-    use std::io::Write;
-    let mut out = std::io::stdout().lock();
-    match out.write_all(text.as_bytes()).and_then(|()| out.flush()) {
-        Err(e) if e.kind() != std::io::ErrorKind::BrokenPipe => {
-            Err(anyhow::Error::new(e).context("writing to stdout"))
-        }
-        _ => Ok(()),
-    }
-}
-
 /// Prints the error chain to stderr and picks the exit code.
 pub fn finish(result: anyhow::Result<ExitCode>) -> ExitCode {
     match result {
         Ok(code) => code,
+        Err(e) if out::is_closed_pipe(&e) => ExitCode::SUCCESS,
         Err(e) => {
             eprintln!("error: {e:#}");
             if e.chain()

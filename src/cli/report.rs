@@ -69,7 +69,7 @@ pub fn run(args: Args) -> anyhow::Result<ExitCode> {
     .into_string();
     match &args.out {
         Some(p) => std::fs::write(p, page).with_context(|| format!("writing {}", p.display()))?,
-        None => super::emit(&page)?,
+        None => super::out::write(&page)?,
     }
     Ok(ExitCode::SUCCESS)
 }

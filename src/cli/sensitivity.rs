@@ -148,9 +148,9 @@ pub fn run(args: Args) -> anyhow::Result<ExitCode> {
         other => anyhow::Error::new(other),
     })?;
     if args.json {
-        super::emit(&(serde_json::to_string_pretty(&res)? + "\n"))?;
+        super::out::write(&(serde_json::to_string_pretty(&res)? + "\n"))?;
     } else {
-        super::emit(&render(&res, args.extra_rows))?;
+        super::out::write(&render(&res, args.extra_rows))?;
     }
     Ok(ExitCode::SUCCESS)
 }

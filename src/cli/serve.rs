@@ -4,7 +4,6 @@
 use anyhow::Context;
 use mtcal_server::{ServeConfig, UploadLimits, WorkerConfig};
 use mtcal_store::QueueConfig;
-use std::io::Write;
 use std::net::SocketAddr;
 use std::process::ExitCode;
 
@@ -121,8 +120,9 @@ pub fn run(args: Args) -> anyhow::Result<ExitCode> {
     rt.block_on(mtcal_server::serve(
         cfg,
         |addr| {
-            println!("mtcal: listening on http://{addr} (docs: http://{addr}/docs)");
-            let _ = std::io::stdout().flush();
+            super::out::announce(&format!(
+                "mtcal: listening on http://{addr} (docs: http://{addr}/docs)"
+            ));
         },
         mtcal_server::shutdown_signal(),
     ))
@@ -155,10 +155,10 @@ pub fn run_worker(cmd: WorkerCmd) -> anyhow::Result<ExitCode> {
                 let listener = tokio::net::TcpListener::bind(addr)
                     .await
                     .with_context(|| format!("--metrics-listen {addr}"))?;
-                println!(
+                super::out::announce(&format!(
                     "mtcal: metrics on http://{}/metrics",
                     listener.local_addr()?
-                );
+                ));
                 Some(tokio::spawn(mtcal_server::serve_probes(
                     store,
                     listener,
@@ -169,8 +169,11 @@ pub fn run_worker(cmd: WorkerCmd) -> anyhow::Result<ExitCode> {
             }
             None => None,
         };
-        println!("mtcal: {} worker(s) on {}", workers.len(), args.db);
-        let _ = std::io::stdout().flush();
+        super::out::announce(&format!(
+            "mtcal: {} worker(s) on {}",
+            workers.len(),
+            args.db
+        ));
         mtcal_server::shutdown_signal().await;
         tracing::info!("stopping: finishing or handing back running jobs");
         workers.shutdown().await;

@@ -77,12 +77,12 @@ pub fn run(args: Args) -> anyhow::Result<ExitCode> {
     let truth_path = args.out.join("truth.json");
     std::fs::write(&truth_path, truth + "\n")
         .with_context(|| format!("writing {}", truth_path.display()))?;
-    println!(
+    super::out::outln!(
         "wrote {} ({} files, {} samples) and truth.json",
         args.out.display(),
         out.session.planes.len(),
         out.session.sample_count()
-    );
+    )?;
     Ok(ExitCode::SUCCESS)
 }
 

@@ -43,11 +43,11 @@ pub fn run(args: Args) -> anyhow::Result<ExitCode> {
         }
     };
     if args.json {
-        super::emit(
+        super::out::write(
             &(serde_json::to_string_pretty(&st).context("serialising the figures")? + "\n"),
         )?;
     } else {
-        super::emit(&summary(&st))?;
+        super::out::write(&summary(&st))?;
     }
     Ok(ExitCode::SUCCESS)
 }

@@ -96,9 +96,9 @@ pub fn run(args: Args) -> anyhow::Result<ExitCode> {
         }
         let doc = c.job_result(&id).await?;
         if args.json {
-            super::emit(&(serde_json::to_string_pretty(&doc)? + "\n"))?;
+            super::out::write(&(serde_json::to_string_pretty(&doc)? + "\n"))?;
         } else {
-            println!(
+            super::out::outln!(
                 "job {id}: result {} — residual {} µm, rank {}/{} (condition {}), EC0Y {} µrad",
                 job.result_id.as_deref().unwrap_or(""),
                 doc["fit"]["residual_rms_um"],
@@ -106,7 +106,7 @@ pub fn run(args: Args) -> anyhow::Result<ExitCode> {
                 doc["observability"]["parameters"],
                 doc["observability"]["condition_number"],
                 doc["squareness"]["EC0Y"]["value_urad"]
-            );
+            )?;
         }
         Ok(ExitCode::SUCCESS)
     })

@@ -169,45 +169,133 @@ fn deployment_examples_use_flags_mtcal_accepts() {
     }
 }
 
-/// `mtcal identify … --json | head` ends quietly (exit 0, no panic) when the reader closes
-/// the pipe early; a plane file with a finite but absurd deviation (1e308 µm) is refused
-/// at its cell instead of giving NaN figures.
-#[test]
-fn identify_survives_a_closed_pipe_and_refuses_absurd_magnitudes() {
-    let dir = tempfile::tempdir().unwrap();
-    let session = dir.path().join("s");
-    write_session(&session, "VMC-P", 1, 0);
+/// Runs `mtcal ARGS` with its stdout a pipe whose reading end is closed before the
+/// program writes anything (as `mtcal … | head` once head has what it wants, or a
+/// reader that never reads); its exit status and stderr.
+fn with_stdout_closed(args: &[&std::ffi::OsStr]) -> (std::process::ExitStatus, String) {
     let mut child = Command::new(BIN)
-        .args(["identify", "--json"])
-        .arg(&session)
+        .args(args)
         .stdout(std::process::Stdio::piped())
         .stderr(std::process::Stdio::piped())
         .spawn()
         .unwrap();
-    let mut first = [0u8; 1];
-    std::io::Read::read_exact(child.stdout.as_mut().unwrap(), &mut first).unwrap();
     drop(child.stdout.take());
     let out = child.wait_with_output().unwrap();
+    (
+        out.status,
+        String::from_utf8_lossy(&out.stderr).into_owned(),
+    )
+}
+
+/// Every command that prints ends quietly when its stdout is closed (exit 0, no panic,
+/// no error): results as JSON and as summaries, a simulation's summary, the keys of
+/// `admin` (`src/cli/out.rs`).
+#[test]
+fn commands_end_quietly_when_stdout_is_closed() {
+    let dir = tempfile::tempdir().unwrap();
+    let p = |name: &str| dir.path().join(name).into_os_string();
+    let session = p("s");
+    write_session(std::path::Path::new(&session), "VMC-P", 1, 0);
+    let db = p("k.sqlite");
+    let runs: Vec<Vec<std::ffi::OsString>> = vec![
+        vec!["identify".into(), "--json".into(), session.clone()],
+        vec!["identify".into(), session.clone()],
+        vec!["standards".into(), session.clone()],
+        vec![
+            "simulate".into(),
+            "--out".into(),
+            p("sim"),
+            "--plan".into(),
+            "seed".into(),
+        ],
+        vec![
+            "admin".into(),
+            "create-key".into(),
+            "--db".into(),
+            db.clone(),
+            "--create".into(),
+        ],
+        vec![
+            "admin".into(),
+            "list-keys".into(),
+            "--db".into(),
+            db.clone(),
+        ],
+    ];
+    for args in runs {
+        let args: Vec<&std::ffi::OsStr> = args.iter().map(|a| a.as_os_str()).collect();
+        let (status, err) = with_stdout_closed(&args);
+        assert!(
+            status.success() && !err.contains("panicked") && !err.contains("error:"),
+            "mtcal {args:?}: {status:?}: {err}"
+        );
+    }
+    // The work before the output was done: the simulation's files, the key.
+    assert!(dir.path().join("sim/session.json").exists());
+    let listed = mtcal(&["admin", "list-keys", "--db", db.to_str().unwrap(), "--json"]);
+    assert_eq!(
+        serde_json::from_str::<Value>(&listed)
+            .unwrap()
+            .as_array()
+            .unwrap()
+            .len(),
+        1
+    );
+}
+
+/// `mtcal serve` with its stdout closed keeps serving (its announcement is dropped; its
+/// work is answering requests), and stops cleanly on SIGTERM.
+#[tokio::test]
+async fn serve_keeps_serving_when_stdout_is_closed() {
+    let dir = tempfile::tempdir().unwrap();
+    let addr = std::net::TcpListener::bind("127.0.0.1:0")
+        .unwrap()
+        .local_addr()
+        .unwrap();
+    let mut child = Command::new(BIN)
+        .args([
+            "serve",
+            "--no-worker",
+            "--listen",
+            &addr.to_string(),
+            "--db",
+        ])
+        .arg(dir.path().join("svc.sqlite"))
+        .stdout(std::process::Stdio::piped())
+        .stderr(std::process::Stdio::piped())
+        .spawn()
+        .unwrap();
+    drop(child.stdout.take());
+    let client = mtcal_client::Client::new(&format!("http://{addr}"), "");
+    let mut healthy = false;
+    for _ in 0..200 {
+        if client.health().await.is_ok() {
+            healthy = true;
+            break;
+        }
+        tokio::time::sleep(std::time::Duration::from_millis(50)).await;
+    }
+    let _ = Command::new("kill")
+        .args(["-TERM", &child.id().to_string()])
+        .status();
+    let out = child.wait_with_output().unwrap();
     let err = String::from_utf8_lossy(&out.stderr);
+    assert!(healthy, "the service did not answer: {err}");
     assert!(
         out.status.success() && !err.contains("panicked"),
         "{:?}: {err}",
         out.status
     );
+}
 
-    let csv = std::fs::read_dir(&session)
-        .unwrap()
-        .map(|e| e.unwrap().path())
-        .find(|p| p.extension().is_some_and(|x| x == "csv"))
-        .unwrap();
-    let text = std::fs::read_to_string(&csv).unwrap();
-    let mut lines: Vec<String> = text.lines().map(str::to_string).collect();
-    let header: Vec<&str> = lines[0].split(',').collect();
-    let col = header.iter().position(|c| *c == "du_um").unwrap();
-    let mut cells: Vec<String> = lines[3].split(',').map(str::to_string).collect();
-    cells[col] = "1e308".into();
-    lines[3] = cells.join(",");
-    std::fs::write(&csv, lines.join("\n") + "\n").unwrap();
+/// A plane file with a finite but absurd deviation (1e308 µm) is refused at its cell
+/// instead of giving NaN figures.
+#[test]
+fn identify_refuses_absurd_magnitudes() {
+    let dir = tempfile::tempdir().unwrap();
+    let session = dir.path().join("s");
+    write_session(&session, "VMC-P", 1, 0);
+    let csv = set_plane_cell(&session, "du_um", 4, "1e308");
     let out = Command::new(BIN)
         .arg("identify")
         .arg(&session)
@@ -222,21 +310,27 @@ fn identify_survives_a_closed_pipe_and_refuses_absurd_magnitudes() {
     );
 }
 
-/// `mtcal demo` on an address already in use says so and how to pick a free port.
+/// `mtcal demo` on an address already in use says so and how to pick a free port, and
+/// leaves no temporary folder behind.
 #[test]
 fn demo_on_a_taken_address_says_so() {
     let taken = std::net::TcpListener::bind("127.0.0.1:0").unwrap();
     let addr = taken.local_addr().unwrap().to_string();
-    let dir = tempfile::tempdir().unwrap();
+    let tmp = tempfile::tempdir().unwrap();
     let out = Command::new(BIN)
-        .args(["demo", "--no-browser", "--exit", "--listen", &addr, "--db"])
-        .arg(dir.path().join("demo.sqlite"))
+        .args(["demo", "--no-browser", "--exit", "--listen", &addr])
+        .env("TMPDIR", tmp.path())
         .output()
         .unwrap();
     assert!(!out.status.success());
     let err = String::from_utf8_lossy(&out.stderr);
     assert!(err.contains("--listen 127.0.0.1:0"), "{err}");
     assert!(err.contains("already in use"), "the system's reason: {err}");
+    let left: Vec<_> = std::fs::read_dir(tmp.path())
+        .unwrap()
+        .map(|e| e.unwrap().file_name())
+        .collect();
+    assert!(left.is_empty(), "left behind: {left:?}");
 }
 
 /// A path that does not exist is named in full with the system's reason, for every

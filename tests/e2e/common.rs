@@ -37,7 +37,9 @@ pub struct App {
 pub struct AppOptions {
     pub run_worker: bool,
     pub concurrency: usize,
-    pub max_upload_bytes: usize,
+    /// The readers' limits, of uploads and of the worker's reads (the service's
+    /// configuration: `WorkerConfig::limits`).
+    pub limits: UploadLimits,
 }
 
 impl Default for AppOptions {
@@ -45,7 +47,7 @@ impl Default for AppOptions {
         AppOptions {
             run_worker: true,
             concurrency: 2,
-            max_upload_bytes: UploadLimits::default().max_bytes,
+            limits: UploadLimits::default(),
         }
     }
 }
@@ -73,10 +75,7 @@ pub async fn spawn_app_with(o: AppOptions) -> App {
             concurrency: o.concurrency,
             ..QueueConfig::default()
         },
-        limits: UploadLimits {
-            max_bytes: o.max_upload_bytes,
-            ..UploadLimits::default()
-        },
+        limits: o.limits,
         ..WorkerConfig::default()
     };
     let addr = mtcal_server::spawn_local(store.clone(), &worker, o.run_worker)
@@ -220,6 +219,21 @@ pub fn write_session(dir: &Path, machine: &str, seed: u64, quarter: usize) {
         "--quarter",
         &quarter.to_string(),
     ]);
+}
+
+/// Sets the cell of column `column` on line `line` (the header is line 1) of a plane file
+/// of session folder `dir` to `value`; returns the file's path.
+pub fn set_plane_cell(dir: &Path, column: &str, line: usize, value: &str) -> PathBuf {
+    let csv = dir.join(&csv_names(dir)[0]);
+    let text = std::fs::read_to_string(&csv).unwrap();
+    let mut lines: Vec<String> = text.lines().map(str::to_string).collect();
+    let header: Vec<&str> = lines[0].split(',').collect();
+    let col = header.iter().position(|c| *c == column).unwrap();
+    let mut cells: Vec<String> = lines[line - 1].split(',').map(str::to_string).collect();
+    cells[col] = value.into();
+    lines[line - 1] = cells.join(",");
+    std::fs::write(&csv, lines.join("\n") + "\n").unwrap();
+    csv
 }
 
 /// Every file of a folder (name, bytes), sorted by name.

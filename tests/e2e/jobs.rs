@@ -1,4 +1,5 @@
-//! Jobs of every kind give the library's result on the same input; cancellation.
+//! Jobs of every kind give the library's result on the same input; cancellation; a result
+//! that is not finite is refused and the history stays readable.
 
 use crate::common::*;
 use mtcal_server::jobs::JobKind;
@@ -246,4 +247,80 @@ async fn cradle_job_on_an_uploaded_point_set_gives_the_library_result() {
     let stored = app.client.result(&done.result_id.unwrap()).await.unwrap();
     assert_eq!(stored.meta.kind, "cradle");
     assert_eq!(stored.meta.machine_id, "VMC-C");
+}
+
+/// A job whose result holds a number that is not finite ends `bad_input` with nothing
+/// stored, and the machine's results, latest, trends, difference and the fleet's drift
+/// still answer from the checks before it. The service is configured with the readers'
+/// bound on deviations lifted (`WorkerConfig::limits`), so that a plane file with one
+/// deviation of 1e308 µm (finite) is accepted and its identification's residual
+/// overflows (refused by the store's rule for a result's scalars,
+/// `crates/store/src/rules.rs`).
+#[tokio::test]
+async fn a_result_that_is_not_finite_is_refused_and_the_history_stays_readable() {
+    let app = spawn_app_with(AppOptions {
+        limits: mtcal_server::UploadLimits {
+            max_abs_deviation_um: f64::MAX,
+            ..Default::default()
+        },
+        ..AppOptions::default()
+    })
+    .await;
+    let m = "VMC-N";
+    app.machine(m).await;
+    for quarter in 0..2 {
+        let dir = app.path(&format!("q{quarter}"));
+        write_session(&dir, m, 6, quarter);
+        let ds = app.client.upload_path(m, &dir).await.unwrap();
+        let job = app.identify(&ds.id).await;
+        app.wait(&job, JobState::Succeeded).await;
+    }
+    let before = app.counts().await;
+    let dir = app.path("absurd");
+    write_session(&dir, m, 6, 2);
+    // A cross deviation (dv) of the first plane: the standards' figures stay finite,
+    // the fit's residual does not.
+    set_plane_cell(&dir, "dv_um", 4, "1e308");
+    // Sent as files: the client's own read of a folder keeps the default limits.
+    let ds = app
+        .client
+        .upload_files(m, &folder_files(&dir))
+        .await
+        .unwrap();
+    let job = app.identify(&ds.id).await;
+    let failed = app.wait(&job, JobState::Failed).await;
+    let message = failed.error_message.unwrap_or_default();
+    assert_eq!(failed.error_code.as_deref(), Some("bad_input"), "{message}");
+    assert!(
+        message.contains("residual_rms_um is not finite"),
+        "{message}"
+    );
+    assert!(failed.result_id.is_none());
+    let after = app.counts().await;
+    assert_eq!(
+        (after.results, after.result_figures),
+        (before.results, before.result_figures),
+        "nothing stored"
+    );
+
+    let read = app.with_key(&app.read_key);
+    let results = read.results(m, None).await.unwrap();
+    assert_eq!(results.len(), 2);
+    let latest = read.latest(m, None).await.unwrap();
+    assert_eq!(latest.meta.id, results[1].id);
+    let trend = read.term_trend(m, "EXX", &[-50.0, 50.0]).await.unwrap();
+    assert_eq!(trend.points.len(), 2);
+    assert!(
+        trend
+            .points
+            .iter()
+            .all(|p| p.values.iter().all(Option::is_some))
+    );
+    assert_eq!(read.summary_trend(m).await.unwrap().points.len(), 2);
+    let diff = read.diff(m, &[]).await.unwrap();
+    assert_eq!(diff.against.id, results[1].id);
+    let fleet = read.fleet_drift(None, None).await.unwrap();
+    let entry = fleet.machines.iter().find(|e| e.machine_id == m).unwrap();
+    assert_eq!(entry.latest_result_id, results[1].id);
+    assert!(entry.drift.drift_um.is_finite() && fleet.warnings.is_empty());
 }

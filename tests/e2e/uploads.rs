@@ -160,7 +160,10 @@ async fn refused_uploads_get_documented_errors_and_store_nothing() {
     let size: usize = folder_files(&dir).iter().map(|(_, b)| b.len()).sum();
     let app = spawn_app_with(AppOptions {
         run_worker: false,
-        max_upload_bytes: size + 100_000,
+        limits: mtcal_server::UploadLimits {
+            max_bytes: size + 100_000,
+            ..Default::default()
+        },
         ..AppOptions::default()
     })
     .await;
@@ -251,9 +254,9 @@ async fn concurrent_uploads_beyond_the_limit_wait_and_all_succeed() {
 /// A `.tar.gz` of a `mtcal simulate` folder made the way a user makes it
 /// (`tar czf sim.tar.gz -C sim .`: entries `./session.json`, …, `./truth.json`) is
 /// accepted on a fresh machine, truth.json ignored and not stored; archive entries that
-/// are links or leave the folder are refused with the entry named, and a gzip body that is
-/// not gzip is refused as the CLI refuses a `.gz` name over plain content; none stores
-/// anything.
+/// are links or devices, or that leave the folder (`..`, an absolute path), are refused
+/// with the entry named, and a gzip body that is not gzip is refused as the CLI refuses
+/// a `.gz` name over plain content; none stores anything.
 #[tokio::test]
 async fn archives_of_simulate_folders_and_hostile_archives() {
     let app = spawn_app_with(AppOptions {
@@ -304,7 +307,8 @@ async fn archives_of_simulate_folders_and_hostile_archives() {
         msg.contains("upload.tar.gz") && msg.contains("the content is not gzip"),
         "{msg}"
     );
-    // A symbolic link, a hard link and a `..` path beside the session's files.
+    // A symbolic link, a hard link, a `..` path, an absolute path and devices beside the
+    // session's files.
     let hostile = |kind: tar::EntryType, path: &str| {
         tar_of(&mut |b| {
             b.append_dir_all("sim", &dir).unwrap();
@@ -330,6 +334,13 @@ async fn archives_of_simulate_folders_and_hostile_archives() {
             "sim/../../x.csv",
             "`..` are not allowed",
         ),
+        (
+            tar::EntryType::Regular,
+            "/etc/session.json",
+            "absolute paths",
+        ),
+        (tar::EntryType::Char, "sim/tty", "is a device"),
+        (tar::EntryType::Block, "sim/disk", "is a device"),
     ] {
         let body = gz(&hostile(kind, path));
         let msg = refusal_message(app.client.upload_archive("SIM-0001", body, true).await);

@@ -18,9 +18,13 @@
 //!   `Limits` (no absurd value can reach the solver).
 //!
 //! `MTCAL_FUZZ_ITERS` sets the cases per target (default 2000: the whole campaign takes a
-//! few seconds in the debug profile), `MTCAL_FUZZ_SEED` the seed (default fixed, so a
-//! failure reproduces); a failure prints the seed, the target and the mutated file.
-//! Longer campaigns: `MTCAL_FUZZ_ITERS=200000 cargo test -p mtcal-formats --test fuzz`.
+//! few seconds in the debug profile), `MTCAL_FUZZ_SECONDS` the time a campaign may take
+//! (default 20: on a slow or busy machine it stops there, after a whole round of every
+//! target and entry point, having run at least one), `MTCAL_FUZZ_SEED` the seed (default
+//! fixed, so a failure reproduces: the cases run in the same order whatever the time
+//! allows); a failure prints the seed, the target and the mutated file. Longer
+//! campaigns: `MTCAL_FUZZ_ITERS=200000 MTCAL_FUZZ_SECONDS=3600 cargo test -p
+//! mtcal-formats --test fuzz`.
 
 use mtcal_formats::upload::DatasetData;
 use mtcal_formats::{CsvDialect, Dataset, FormatError, Limits, read_archive, read_upload};
@@ -39,6 +43,11 @@ fn env_or(name: &str, default: u64) -> u64 {
         .ok()
         .and_then(|v| v.parse().ok())
         .unwrap_or(default)
+}
+
+/// When a campaign stops, even with iterations left (`MTCAL_FUZZ_SECONDS`, default 20).
+fn deadline() -> std::time::Instant {
+    std::time::Instant::now() + std::time::Duration::from_secs(env_or("MTCAL_FUZZ_SECONDS", 20))
 }
 
 fn gzip(bytes: &[u8]) -> Vec<u8> {
@@ -390,12 +399,16 @@ fn mutated_uploads_never_panic_and_every_rejection_is_located() {
     let hook = std::panic::take_hook();
     std::panic::set_hook(Box::new(|_| {}));
     let mut failures = Vec::new();
-    for (name, base) in targets() {
-        for via in [Via::Files, Via::Gzip, Via::TarGz, Via::Tar] {
-            for k in 0..iters {
+    // Round k mutates every target through every entry point, so that a campaign cut
+    // short by time has covered them all alike.
+    let (targets, stop) = (targets(), deadline());
+    let mut done = 0;
+    for k in 0..iters {
+        for (name, base) in &targets {
+            for via in [Via::Files, Via::Gzip, Via::TarGz, Via::Tar] {
                 let (limits, mut files) = match k % 4 {
                     0 => (&tight, base.clone()),
-                    1 => (&excel, to_excel(&base)),
+                    1 => (&excel, to_excel(base)),
                     _ => (&Limits::default(), base.clone()),
                 };
                 if matches!(via, Via::Gzip) {
@@ -433,11 +446,12 @@ fn mutated_uploads_never_panic_and_every_rejection_is_located() {
                             .collect::<Vec<_>>(),
                         archive.as_ref().map(|a| a.len())
                     ));
-                    if failures.len() >= 5 {
-                        break;
-                    }
                 }
             }
+        }
+        done += 1;
+        if failures.len() >= 5 || std::time::Instant::now() >= stop {
+            break;
         }
     }
     std::panic::set_hook(hook);
@@ -448,7 +462,7 @@ fn mutated_uploads_never_panic_and_every_rejection_is_located() {
         accepted > 0 && accepted < cases,
         "{accepted} of {cases} accepted"
     );
-    eprintln!("{cases} cases, {accepted} accepted, seed {seed}");
+    eprintln!("{cases} cases ({done} of {iters} rounds), {accepted} accepted, seed {seed}");
 }
 
 /// The path-based readers (a session folder on disk, one file with its sidecar) see the
@@ -459,8 +473,12 @@ fn folders_on_disk_read_like_uploads() {
     let seed = env_or("MTCAL_FUZZ_SEED", 0x006d_7463_616c) ^ 1;
     let mut rng = StdRng::seed_from_u64(seed);
     let l = Limits::default();
-    for (name, base) in targets() {
-        for k in 0..iters {
+    let (targets, stop) = (targets(), deadline());
+    for k in 0..iters {
+        if k > 0 && std::time::Instant::now() >= stop {
+            break;
+        }
+        for (name, base) in &targets {
             let mut files = base.clone();
             let i = rng.random_range(0..files.len());
             mutate(&mut rng, &mut files[i].1);

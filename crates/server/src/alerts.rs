@@ -132,8 +132,11 @@ pub async fn check_landed(
     if landed.id == baseline.id {
         return Ok(None);
     }
-    let changes = crate::trends::changes(&baseline.scalars, &landed.scalars);
-    let items = tolerance::drift_alerts(&limits, &changes);
+    let (base, now) = (baseline.scalars.clone(), landed.scalars.clone());
+    let items = crate::blocking::run::<_, StoreError>(move || {
+        tolerance::drift_alerts(&limits, &crate::trends::changes(&base, &now))
+    })
+    .await?;
     if items.is_empty() {
         return Ok(None);
     }

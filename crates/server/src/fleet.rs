@@ -122,11 +122,19 @@ async fn row(
         }
         None => None,
     };
-    let drift = trends::drift(&baseline.scalars, &latest.scalars);
+    // The arithmetic off the async threads (a machine's every check for the sparkline).
+    let (base, checks) = (baseline.scalars.clone(), results.to_vec());
+    let (drift, sparkline) = crate::blocking::run::<_, StoreError>(move || {
+        let latest = checks.last().expect("not empty");
+        let drift = trends::drift(&base, &latest.scalars);
+        let line = sparkline(&checks, latest, drift.worst_term_um.as_deref());
+        (drift, line)
+    })
+    .await?;
     let entry = FleetEntry {
         verdict: verdict.as_ref().and_then(|(_, v)| v.decision),
         tolerance_profile_id: verdict.map(|(p, _)| p.id),
-        sparkline: sparkline(results, latest, drift.worst_term_um.as_deref()),
+        sparkline,
         drift,
         machine_id: machine.id.clone(),
         name: machine.name.clone(),

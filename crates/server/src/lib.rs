@@ -12,6 +12,7 @@
 pub mod alerts;
 pub mod api;
 pub mod auth;
+pub mod blocking;
 pub mod contract;
 pub mod error;
 pub mod fleet;
@@ -131,6 +132,7 @@ pub fn router(state: AppState) -> Router {
             StatusCode::REQUEST_TIMEOUT,
             UPLOAD_TIMEOUT,
         ))
+        .layer(axum::middleware::from_fn(metrics::reading_upload))
         .layer(tower::limit::ConcurrencyLimitLayer::new(
             MAX_CONCURRENT_UPLOADS,
         ))

@@ -11,6 +11,8 @@
 //! - `mtcal_job_duration_seconds{kind, outcome}` (claim to outcome) and
 //!   `mtcal_job_queue_wait_seconds{kind}` (submission to claim): recorded by this
 //!   process's workers.
+//! - `mtcal_uploads_reading`: uploads this process is reading now (each holds one of the
+//!   `MAX_CONCURRENT_UPLOADS` slots of `crate::router`; the others wait for one).
 
 use axum::extract::{MatchedPath, Request, State};
 use axum::http::header;
@@ -63,6 +65,7 @@ pub struct Metrics {
     jobs: Family<JobLabels, Gauge>,
     job_duration: Family<OutcomeLabels, Histogram>,
     queue_wait: Family<KindLabels, Histogram>,
+    uploads_reading: Gauge,
 }
 
 /// The metrics of this process.
@@ -111,6 +114,12 @@ impl Metrics {
             "Time a job waited in the queue, from submission to claim, by kind",
             queue_wait.clone(),
         );
+        let uploads_reading = Gauge::default();
+        registry.register(
+            "uploads_reading",
+            "Uploads being read now (each holds one of the process's upload slots)",
+            uploads_reading.clone(),
+        );
         Metrics {
             registry,
             requests,
@@ -118,6 +127,7 @@ impl Metrics {
             jobs,
             job_duration,
             queue_wait,
+            uploads_reading,
         }
     }
 
@@ -185,6 +195,22 @@ pub async fn track(req: Request, next: Next) -> Response {
         })
         .inc();
     resp
+}
+
+/// Middleware inside the upload route's concurrency limit: counts the upload as being
+/// read ([`Metrics`], `mtcal_uploads_reading`) from the moment it has a slot until its
+/// answer, or until it is dropped (a client gone, a time limit).
+pub async fn reading_upload(req: Request, next: Next) -> Response {
+    struct Reading(&'static Gauge);
+    impl Drop for Reading {
+        fn drop(&mut self) {
+            self.0.dec();
+        }
+    }
+    let gauge = &metrics().uploads_reading;
+    gauge.inc();
+    let _reading = Reading(gauge);
+    next.run(req).await
 }
 
 /// `GET /metrics`: the job gauges refreshed from the store, then every metric. When the

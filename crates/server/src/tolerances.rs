@@ -47,8 +47,10 @@ pub fn limits(p: &ToleranceProfile) -> Result<Limits, StoreError> {
     })
 }
 
-/// The figures of a stored result that limits are decided against.
-pub async fn figures(store: &dyn Store, r: &StoredResult) -> Result<Figures, StoreError> {
+/// The figures of a stored result that limits are decided against, given the figures of
+/// the standards stored with it (blocking: the identification's functions are evaluated
+/// on their reporting grid).
+fn figures(r: &StoredResult, standards: &[mtcal_store::Figure]) -> Result<Figures, StoreError> {
     let mut f = if r.meta.kind == crate::api::history::KIND {
         match serde_json::from_value::<IdentificationResult>(r.document.clone()) {
             Ok(doc) => tolerance::identification_figures(&doc),
@@ -62,13 +64,13 @@ pub async fn figures(store: &dyn Store, r: &StoredResult) -> Result<Figures, Sto
     } else {
         Figures::default()
     };
-    let standards = store.result_figures(&r.meta.id).await?;
     f.add_standards(standards.iter().map(|s| (s.name.as_str(), s.value, s.u)));
     Ok(f)
 }
 
 /// The verdict of result `r` of machine `m` against the profile that applies among
-/// `profiles` (`None`: no profile applies).
+/// `profiles` (`None`: no profile applies). The decision is worked out off the async
+/// threads ([`crate::blocking`]).
 pub async fn verdict(
     store: &dyn Store,
     profiles: &[ToleranceProfile],
@@ -79,8 +81,13 @@ pub async fn verdict(
         return Ok(None);
     };
     let limits = limits(p)?;
-    let figures = figures(store, r).await?;
-    Ok(Some((p.clone(), tolerance::evaluate(&limits, &figures))))
+    let standards = store.result_figures(&r.meta.id).await?;
+    let r = r.clone();
+    let v = crate::blocking::run::<_, StoreError>(move || {
+        figures(&r, &standards).map(|f| tolerance::evaluate(&limits, &f))
+    })
+    .await??;
+    Ok(Some((p.clone(), v)))
 }
 
 #[cfg(test)]

@@ -2,14 +2,17 @@
 //! a computation from scratch after every change they follow: results landing, the
 //! baseline chosen, a machine's tags, tolerance profiles created and replaced; and the
 //! start-up refresh recomputes exactly the rows whose basis changed behind the service's
-//! back. On SQLite, and on PostgreSQL when `MTCAL_TEST_PG` names a server
+//! back. While results land and baselines change concurrently, every read of the fleet
+//! (the drift route, the baseline pairs, the fleet page) is whole and consistent. On
+//! SQLite, and on PostgreSQL when `MTCAL_TEST_PG` names a server
 //! (`scripts/with-postgres`).
 
 mod common;
 
 use common::identification;
+use mtcal_server::api::trends::FleetDrift;
 use mtcal_server::fleet::{Refreshed, refresh_all, result_landed};
-use mtcal_store::{FleetDriftRow, Store};
+use mtcal_store::{FleetDriftRow, FleetPageQuery, FleetSort, Store};
 use serde_json::{Value, json};
 use std::time::Duration;
 
@@ -230,5 +233,220 @@ async fn maintained_fleet_rows_equal_a_recomputation_on_postgres() {
         return;
     };
     story(&pg.url).await;
+    pg.drop_schema().await.unwrap();
+}
+
+/// Machines of [`concurrent_story`], and the checks each lands while the fleet is read.
+const CONCURRENT_MACHINES: usize = 3;
+const CONCURRENT_ROUNDS: usize = 20;
+
+/// What a reader of [`concurrent_story`] saw wrong in one answer (empty: whole and
+/// consistent).
+type Faults = Vec<String>;
+
+/// `GET /api/v1/fleet/drift`: 200, ranked, one entry per machine, each naming a
+/// baseline and a latest result of its own machine.
+async fn read_route(app: &axum::Router, store: &dyn Store, key: &str) -> Faults {
+    let req = common::request(
+        "GET",
+        "/api/v1/fleet/drift?limit=100",
+        "",
+        None,
+        vec![],
+        Some(key),
+    );
+    let (status, v) = common::send(app, req).await;
+    if status != axum::http::StatusCode::OK {
+        return vec![format!("GET /api/v1/fleet/drift: {status} {v}")];
+    }
+    let fleet: FleetDrift = serde_json::from_value(v).unwrap();
+    let mut faults = Vec::new();
+    if fleet.machines.len() != CONCURRENT_MACHINES || !fleet.warnings.is_empty() {
+        faults.push(format!(
+            "{} entries, warnings {:?}",
+            fleet.machines.len(),
+            fleet.warnings
+        ));
+    }
+    if fleet
+        .machines
+        .windows(2)
+        .any(|w| w[0].drift.drift_um < w[1].drift.drift_um)
+    {
+        faults.push("not ranked by drift".into());
+    }
+    for e in &fleet.machines {
+        let base = store.get_result(&e.baseline_result_id).await.unwrap();
+        let latest = store.get_result(&e.latest_result_id).await.unwrap();
+        if base.meta.machine_id != e.machine_id
+            || latest.meta.machine_id != e.machine_id
+            || latest.meta.measured_at != e.latest_measured_at
+            || (e.results == 1) != (e.baseline_result_id == e.latest_result_id)
+            || (!e.sparkline.is_empty() && e.sparkline.len() != usize::try_from(e.results).unwrap())
+        {
+            faults.push(format!(
+                "entry of {} does not hold together: {e:?}",
+                e.machine_id
+            ));
+        }
+    }
+    faults
+}
+
+/// The store's baseline pairs (what the start-up refresh reads): every machine once,
+/// each pair's results its machine's and current.
+async fn read_pairs(store: &dyn Store) -> Faults {
+    let pairs = match store.baseline_pairs("identification").await {
+        Ok(p) => p,
+        Err(e) => return vec![format!("baseline_pairs: {e}")],
+    };
+    let mut faults = Vec::new();
+    if pairs.len() != CONCURRENT_MACHINES {
+        faults.push(format!("{} pairs", pairs.len()));
+    }
+    for p in &pairs {
+        let m = &p.machine.id;
+        if &p.baseline.machine_id != m
+            || &p.latest.machine_id != m
+            || p.baseline.excluded.is_some()
+            || p.latest.excluded.is_some()
+            || p.results < 1
+            || (p.results == 1) != (p.baseline.id == p.latest.id)
+        {
+            faults.push(format!("pair of {m} does not hold together: {p:?}"));
+        }
+    }
+    faults
+}
+
+/// The fleet page's store read: every machine, each with its drift row, counted once.
+async fn read_page(store: &dyn Store) -> Faults {
+    let q = FleetPageQuery {
+        site: None,
+        tag: None,
+        sort: FleetSort::DriftUm,
+        offset: 0,
+        limit: 100,
+    };
+    let page = match store.fleet_page(&q).await {
+        Ok(p) => p,
+        Err(e) => return vec![format!("fleet_page: {e}")],
+    };
+    let ids: std::collections::BTreeSet<_> = page.rows.iter().map(|r| &r.machine.id).collect();
+    if page.total != CONCURRENT_MACHINES as i64
+        || ids.len() != CONCURRENT_MACHINES
+        || page.rows.iter().any(|r| r.drift.is_none())
+    {
+        vec![format!("fleet page: total {}, rows {ids:?}", page.total)]
+    } else {
+        vec![]
+    }
+}
+
+/// While identifications land, baselines are chosen and results excluded on every
+/// machine at once, the fleet is read again and again through the route and the store
+/// functions behind the fleet's drift: every answer is whole (200, every machine) and
+/// holds together (each entry's results are its machine's). A read made of several
+/// statements outside one snapshot fails here (a baseline chosen or excluded between
+/// them leaves a pair without its result: the fleet drift's old 404). The rows then
+/// equal a computation from scratch.
+async fn concurrent_story(url: &str) {
+    let (app, keys, store) = common::app_on(url).await;
+    let stop = std::sync::Arc::new(std::sync::atomic::AtomicBool::new(false));
+    let mut writers = tokio::task::JoinSet::new();
+    for m in 0..CONCURRENT_MACHINES {
+        let id = format!("M{m}");
+        common::machine(&app, &keys.write, &id).await;
+        let first = store
+            .import_result(identification(&id, "2026-01-01T00:00:00Z", 0.01, 1e-6))
+            .await
+            .unwrap();
+        result_landed(&store, &id, &first.id).await.unwrap();
+        let (app, store, key) = (app.clone(), store.clone(), keys.write.clone());
+        writers.spawn(async move {
+            let mut ids = vec![first.id];
+            for r in 1..=CONCURRENT_ROUNDS {
+                let at = format!("2026-01-01T{:02}:{:02}:00Z", r / 60, r % 60);
+                let c1 = 0.01 * (1 + (r * (m + 2)) % 7) as f64;
+                let landed = store
+                    .import_result(identification(&id, &at, c1, 1e-6))
+                    .await
+                    .unwrap();
+                result_landed(&store, &id, &landed.id).await.unwrap();
+                ids.push(landed.id);
+                // Any result but the latest.
+                let chosen = &ids[(r * 7 + m) % (ids.len() - 1)];
+                let patch = json!({ "baseline_result_id": chosen });
+                call(
+                    &app,
+                    "PATCH",
+                    &format!("/api/v1/machines/{id}"),
+                    &key,
+                    patch,
+                )
+                .await;
+                if r % 3 == 0 {
+                    // The chosen baseline itself at times (the first result takes over).
+                    let gone = ids.remove(ids.len() - 2);
+                    let uri = format!("/api/v1/results/{gone}/exclude");
+                    call(&app, "POST", &uri, &key, json!({"reason": "test"})).await;
+                }
+            }
+        });
+    }
+    let mut readers = tokio::task::JoinSet::new();
+    for reader in 0..2 {
+        let (app, store, key, stop) = (app.clone(), store.clone(), keys.read.clone(), stop.clone());
+        readers.spawn(async move {
+            let (mut reads, mut faults) = (0, Faults::new());
+            while !stop.load(std::sync::atomic::Ordering::Relaxed) || reads == 0 {
+                let s = store.as_ref();
+                faults.extend(match (reader + reads) % 3 {
+                    0 => read_route(&app, s, &key).await,
+                    1 => read_pairs(s).await,
+                    _ => read_page(s).await,
+                });
+                reads += 1;
+            }
+            (reads, faults)
+        });
+    }
+    while let Some(w) = writers.join_next().await {
+        w.unwrap();
+    }
+    stop.store(true, std::sync::atomic::Ordering::Relaxed);
+    let mut reads = 0;
+    let mut faults = Faults::new();
+    while let Some(r) = readers.join_next().await {
+        let (n, f) = r.unwrap();
+        reads += n;
+        faults.extend(f);
+    }
+    assert!(
+        faults.is_empty(),
+        "{} of {reads} reads went wrong, e.g.:\n{}",
+        faults.len(),
+        faults[..faults.len().min(5)].join("\n")
+    );
+    assert!(reads >= 30, "only {reads} reads while the results landed");
+    eprintln!("{reads} reads, all whole");
+    assert_maintained(store.as_ref(), "after the concurrent changes").await;
+}
+
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn fleet_reads_are_whole_while_results_land_and_baselines_change_on_sqlite() {
+    let dir = tempfile::tempdir().unwrap();
+    concurrent_story(dir.path().join("t.sqlite").to_str().unwrap()).await;
+}
+
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn fleet_reads_are_whole_while_results_land_and_baselines_change_on_postgres() {
+    let Some(pg) = mtcal_store::testing::ScratchPg::create("fleet_rows_concurrent")
+        .await
+        .unwrap()
+    else {
+        return;
+    };
+    concurrent_story(&pg.url).await;
     pg.drop_schema().await.unwrap();
 }

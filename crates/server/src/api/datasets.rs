@@ -143,9 +143,9 @@ pub async fn upload(
         })?;
         // Decompressing and unpacking is blocking work, bounded like the read.
         let limits = upload_limits(&s);
-        let files = tokio::task::spawn_blocking(move || ingest::untar(name, &body, &limits))
-            .await
-            .map_err(|e| ApiError::Internal(e.to_string()))??;
+        let files =
+            crate::blocking::run::<_, ApiError>(move || ingest::untar(name, &body, &limits))
+                .await??;
         (files, CsvDialect::Plain)
     } else {
         return Err(ApiError::UnsupportedMediaType(format!(
@@ -174,11 +174,10 @@ pub async fn store_upload(
     dialect: CsvDialect,
 ) -> Result<Dataset, ApiError> {
     let limits = upload_limits(s).with_dialect(dialect);
-    let (data, mut files) = tokio::task::spawn_blocking(move || {
+    let (data, mut files) = crate::blocking::run::<_, ApiError>(move || {
         ingest::read_dataset(&files, &limits).map(|d| (d, files))
     })
-    .await
-    .map_err(|e| ApiError::Internal(e.to_string()))??;
+    .await??;
     data.check_machine(&machine.id)?;
     data.check_travel(&machine.travel_mm)?;
     let measured_at = data

@@ -53,13 +53,6 @@ pub async fn export(
         ))
     })?;
     let r = s.store.get_result(&id).await?;
-    let doc = identification(&r)?;
-    let table = Compensation::from_result(&doc, q.step_mm.unwrap_or(DEFAULT_STEP_MM)).map_err(
-        |e| match e {
-            ExportError::BadStep(m) => ApiError::InvalidRequest(format!("step_mm: {m}")),
-            e @ ExportError::NothingIdentifiable(_) => ApiError::NotIdentifiable(e.to_string()),
-        },
-    )?;
     let name = format!(
         "{}-{}.{}.{}",
         file_safe(&r.meta.machine_id),
@@ -67,11 +60,17 @@ pub async fn export(
         format.name(),
         format.extension()
     );
-    Ok(attachment(
-        format.write(&table),
-        format.content_type(),
-        Some(&name),
-    ))
+    let step = q.step_mm.unwrap_or(DEFAULT_STEP_MM);
+    let text = crate::blocking::run::<_, ApiError>(move || {
+        let doc = identification(&r)?;
+        let table = Compensation::from_result(&doc, step).map_err(|e| match e {
+            ExportError::BadStep(m) => ApiError::InvalidRequest(format!("step_mm: {m}")),
+            e @ ExportError::NothingIdentifiable(_) => ApiError::NotIdentifiable(e.to_string()),
+        })?;
+        Ok::<_, ApiError>(format.write(&table))
+    })
+    .await??;
+    Ok(attachment(text, format.content_type(), Some(&name)))
 }
 
 #[utoipa::path(operation_id = "results_report", summary = "Check report of an identification result (self-contained HTML, prints on A4)", get,
@@ -90,7 +89,7 @@ pub async fn report(
     Path(id): Path<String>,
 ) -> Result<Response, ApiError> {
     let r = s.store.get_result(&id).await?;
-    let doc = identification(&r)?;
+    identification_kind(&r)?;
     let diagnosis = diagnosis_of(&s, &r).await?;
     // The verdict against the tolerance profile that applies to the machine, as
     // `GET /api/v1/results/{id}/verdict` gives it ("no tolerance" when none applies).
@@ -98,28 +97,35 @@ pub async fn report(
         .await?
         .verdict;
     let now = mtcal_store::now_rfc3339();
-    let page = check_report(&CheckReport {
-        doc: &doc,
-        result_id: Some(&r.meta.id),
-        generated_at: &now,
-        verdict: verdict.as_ref(),
-        diagnosis: diagnosis.as_ref(),
-    });
-    Ok(attachment(
-        page.into_string(),
-        "text/html; charset=utf-8",
-        None,
-    ))
+    let page = crate::blocking::run::<_, ApiError>(move || {
+        let doc = identification(&r)?;
+        let page = check_report(&CheckReport {
+            doc: &doc,
+            result_id: Some(&r.meta.id),
+            generated_at: &now,
+            verdict: verdict.as_ref(),
+            diagnosis: diagnosis.as_ref(),
+        });
+        Ok::<_, ApiError>(page.into_string())
+    })
+    .await??;
+    Ok(attachment(page, "text/html; charset=utf-8", None))
 }
 
-/// The identification document of a stored result (400 for another kind).
-fn identification(r: &StoredResult) -> Result<IdentificationResult, ApiError> {
+/// 400 unless `r` is an identification result.
+fn identification_kind(r: &StoredResult) -> Result<(), ApiError> {
     if r.meta.kind != "identification" {
         return Err(ApiError::InvalidRequest(format!(
             "result {} is a {} result; exports and reports are made from identification results",
             r.meta.id, r.meta.kind
         )));
     }
+    Ok(())
+}
+
+/// The identification document of a stored result (400 for another kind).
+fn identification(r: &StoredResult) -> Result<IdentificationResult, ApiError> {
+    identification_kind(r)?;
     serde_json::from_value(r.document.clone()).map_err(|e| {
         ApiError::Internal(format!(
             "result {} does not read as an identification: {e}",

@@ -224,18 +224,25 @@ pub async fn diff_results(s: &AppState, id: &str, q: &DiffQuery) -> Result<Resul
     let baseline = pick(q.baseline.as_ref(), default_base)?;
     let against = pick(q.against.as_ref(), all.last())?;
     let step = q.step_mm.unwrap_or(5.0);
-    trends::check_diff_step(&baseline.scalars, &against.scalars, step)
-        .map_err(ApiError::InvalidRequest)?;
-    let (terms, squareness) = trends::diff(&baseline.scalars, &against.scalars, step);
-    Ok(ResultDiff {
-        machine_id: id.to_string(),
-        drift: trends::drift(&baseline.scalars, &against.scalars),
-        baseline,
-        against,
-        terms,
-        squareness,
-        warnings: skipped.iter().map(SkippedRow::warning).collect(),
+    let (machine_id, warnings) = (
+        id.to_string(),
+        skipped.iter().map(SkippedRow::warning).collect(),
+    );
+    crate::blocking::run::<_, ApiError>(move || {
+        trends::check_diff_step(&baseline.scalars, &against.scalars, step)
+            .map_err(ApiError::InvalidRequest)?;
+        let (terms, squareness) = trends::diff(&baseline.scalars, &against.scalars, step);
+        Ok(ResultDiff {
+            machine_id,
+            drift: trends::drift(&baseline.scalars, &against.scalars),
+            baseline,
+            against,
+            terms,
+            squareness,
+            warnings,
+        })
     })
+    .await?
 }
 
 /// Why a record is set aside: a result or a dataset excluded, a dataset's bytes deleted.

@@ -90,11 +90,31 @@ pub async fn term_trend(s: &AppState, id: &str, q: TermQuery) -> Result<TermTren
             })?;
     s.store.get_machine(id).await?;
     let (results, skipped) = s.store.list_results_checked(id, KIND).await?;
+    let (id, warnings) = (
+        id.to_string(),
+        skipped.iter().map(SkippedRow::warning).collect(),
+    );
+    crate::blocking::run::<_, ApiError>(move || {
+        evaluate_term(id, q.term, unit, positions, results, warnings)
+    })
+    .await?
+}
+
+/// The term trend's arithmetic (blocking): term `term` (in `unit`) of each of the
+/// machine's `results` at `positions`, refused where no check with the term measured.
+fn evaluate_term(
+    id: String,
+    term: String,
+    unit: &str,
+    positions: Vec<f64>,
+    results: Vec<ResultMeta>,
+    warnings: Vec<String>,
+) -> Result<TermTrend, ApiError> {
     // A position no check with this term measured is refused, saying where they measured.
-    let axis = trends::term_info(&q.term).map_or('X', |(_, a)| a);
+    let axis = trends::term_info(&term).map_or('X', |(_, a)| a);
     let with_term: Vec<_> = results
         .iter()
-        .filter(|r| r.scalars.term_coefficients.contains_key(&q.term))
+        .filter(|r| r.scalars.term_coefficients.contains_key(&term))
         .collect();
     for &p in &positions {
         let inside = |r: &&ResultMeta| trends::measured_at(&r.scalars, axis, p);
@@ -103,7 +123,7 @@ pub async fn term_trend(s: &AppState, id: &str, q: TermQuery) -> Result<TermTren
             return Err(ApiError::OutsideTravel(format!(
                 "{} at {p} mm: outside the travel every check of machine {id} measured (in the \
                  latest, {}); terms are not evaluated where they were not measured",
-                q.term,
+                term,
                 trends::travel_sentence(&latest.scalars, axis)
             )));
         }
@@ -113,7 +133,7 @@ pub async fn term_trend(s: &AppState, id: &str, q: TermQuery) -> Result<TermTren
         .map(|r| {
             let at: Vec<_> = positions
                 .iter()
-                .map(|&p| trends::value(&r.scalars, &q.term, p))
+                .map(|&p| trends::value(&r.scalars, &term, p))
                 .collect();
             TermPoint {
                 values: at.iter().map(|v| Some(v.as_ref()?.value)).collect(),
@@ -124,12 +144,12 @@ pub async fn term_trend(s: &AppState, id: &str, q: TermQuery) -> Result<TermTren
         })
         .collect();
     Ok(TermTrend {
-        machine_id: id.to_string(),
-        term: q.term,
+        machine_id: id,
+        term,
         unit: unit.into(),
         positions_mm: positions,
         points,
-        warnings: skipped.iter().map(SkippedRow::warning).collect(),
+        warnings,
     })
 }
 
