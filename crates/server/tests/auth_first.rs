@@ -2,14 +2,12 @@
 //! is wrong with its body, query, content type or encoding; a key of too low a scope is
 //! 403 before the body is read; only then do 400/413/415 apply.
 
-mod common;
-
+use crate::common::{request, send};
 use axum::body::Body;
 use axum::http::{Request, StatusCode};
-use common::{request, send};
 
 async fn app() -> (axum::Router, String, String) {
-    let (app, keys, _) = common::app().await;
+    let (app, keys, _) = crate::common::app().await;
     (app, keys.read, keys.write)
 }
 
@@ -129,7 +127,7 @@ impl Broken {
 async fn no_key_is_401_before_any_other_rejection() {
     let (app, _, write) = app().await;
     // The machine the upload routes name exists, so the write key sees the real rejection.
-    common::machine(&app, &write, "M").await;
+    crate::common::machine(&app, &write, "M").await;
     for r in broken() {
         let (m, uri, ct) = (r.method, r.uri, r.content_type);
         for key in [None, Some("mtk_00000000000000000000000000000000")] {

@@ -4,10 +4,8 @@
 //! of the wrong type or too large, bad query values, unknown ids) and each answer's
 //! status must be one the operation declares, with the JSON error body of a stable code.
 
-mod common;
-
+use crate::common::{Keys, app, request, send};
 use axum::http::StatusCode;
-use common::{Keys, app, request, send};
 use mtcal_server::contract::required_scope;
 use serde_json::Value;
 
@@ -151,7 +149,7 @@ fn cases(path: &str, method: &str, op: &Value, keys: &Keys, subject: &str) -> Ve
 async fn every_status_answered_is_declared() {
     let (app, keys, _) = app().await;
     // A machine to name, so that handlers get past the lookup.
-    common::machine(&app, &keys.write, "M").await;
+    crate::common::machine(&app, &keys.write, "M").await;
     let doc: Value = serde_json::from_str(&mtcal_server::openapi_json()).unwrap();
     let mut sent = 0;
     for (path, ops) in doc["paths"].as_object().unwrap() {

@@ -7,9 +7,7 @@
 //! SQLite, and on PostgreSQL when `MTCAL_TEST_PG` names a server
 //! (`scripts/with-postgres`).
 
-mod common;
-
-use common::identification;
+use crate::common::identification;
 use mtcal_server::api::trends::FleetDrift;
 use mtcal_server::fleet::{Refreshed, refresh_all, result_landed};
 use mtcal_store::{FleetDriftRow, FleetPageQuery, FleetSort, Store};
@@ -18,7 +16,7 @@ use std::time::Duration;
 
 /// Sends `body` as JSON with `key`; the response's body (a success asserted).
 async fn call(app: &axum::Router, method: &str, uri: &str, key: &str, body: Value) -> Value {
-    let req = common::request(
+    let req = crate::common::request(
         method,
         uri,
         "application/json",
@@ -26,7 +24,7 @@ async fn call(app: &axum::Router, method: &str, uri: &str, key: &str, body: Valu
         body.to_string().into_bytes(),
         Some(key),
     );
-    let (status, v) = common::send(app, req).await;
+    let (status, v) = crate::common::send(app, req).await;
     assert!(status.is_success(), "{method} {uri}: {status} {v}");
     v
 }
@@ -78,10 +76,10 @@ async fn until_against(store: &dyn Store, id: &str, profile: &Value) {
 }
 
 async fn story(url: &str) {
-    let (app, keys, store) = common::app_on(url).await;
+    let (app, keys, store) = crate::common::app_on(url).await;
     let write = keys.write;
-    common::machine(&app, &write, "M1").await;
-    common::machine(&app, &write, "M2").await;
+    crate::common::machine(&app, &write, "M1").await;
+    crate::common::machine(&app, &write, "M2").await;
     let tags = json!({"tags": ["vmc"]});
     call(&app, "PATCH", "/api/v1/machines/M1", &write, tags).await;
     let land = |m: &'static str, at: &'static str, c1: f64| {
@@ -247,7 +245,7 @@ type Faults = Vec<String>;
 /// `GET /api/v1/fleet/drift`: 200, ranked, one entry per machine, each naming a
 /// baseline and a latest result of its own machine.
 async fn read_route(app: &axum::Router, store: &dyn Store, key: &str) -> Faults {
-    let req = common::request(
+    let req = crate::common::request(
         "GET",
         "/api/v1/fleet/drift?limit=100",
         "",
@@ -255,7 +253,7 @@ async fn read_route(app: &axum::Router, store: &dyn Store, key: &str) -> Faults 
         vec![],
         Some(key),
     );
-    let (status, v) = common::send(app, req).await;
+    let (status, v) = crate::common::send(app, req).await;
     if status != axum::http::StatusCode::OK {
         return vec![format!("GET /api/v1/fleet/drift: {status} {v}")];
     }
@@ -351,12 +349,12 @@ async fn read_page(store: &dyn Store) -> Faults {
 /// them leaves a pair without its result: the fleet drift's old 404). The rows then
 /// equal a computation from scratch.
 async fn concurrent_story(url: &str) {
-    let (app, keys, store) = common::app_on(url).await;
+    let (app, keys, store) = crate::common::app_on(url).await;
     let stop = std::sync::Arc::new(std::sync::atomic::AtomicBool::new(false));
     let mut writers = tokio::task::JoinSet::new();
     for m in 0..CONCURRENT_MACHINES {
         let id = format!("M{m}");
-        common::machine(&app, &keys.write, &id).await;
+        crate::common::machine(&app, &keys.write, &id).await;
         let first = store
             .import_result(identification(&id, "2026-01-01T00:00:00Z", 0.01, 1e-6))
             .await

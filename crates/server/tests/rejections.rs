@@ -2,10 +2,8 @@
 //! body limit, request decompression, routing), comes back as the JSON error body with
 //! the stable code of its kind; none is empty or plain text.
 
-mod common;
-
+use crate::common::{MAX_UPLOAD, app, machine, request, send};
 use axum::http::StatusCode;
-use common::{MAX_UPLOAD, app, machine, request, send};
 
 /// A gzip stream cut short: its header is right, its deflate data is not.
 fn broken_gzip() -> Vec<u8> {

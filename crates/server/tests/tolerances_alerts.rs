@@ -2,8 +2,6 @@
 //! drift alerts raised when a result lands: against hand-worked changes with known
 //! uncertainties, listed, acknowledged, and POSTed to a webhook on 127.0.0.1.
 
-mod common;
-
 use axum::body::Body;
 use axum::http::{Request, StatusCode};
 use mtcal_server::{AppState, UploadLimits, router};
@@ -362,7 +360,7 @@ async fn verdict_at_the_limit_with_the_machines_own_profile_winning_over_its_tag
 
 /// An identification's scalars: EXX = c1·q over the measured travel X ∈ [−50, 50] mm,
 /// its coefficient's variance `var` (so u(q) = √var·|q|).
-use common::identification;
+use crate::common::identification;
 
 // Hand-worked: both checks have var(c1) = s² with s = 1/(50·√2), so the change
 // Δ(q) = c1·q has u(q) = √2·s·|q| = 1 µm at q = ±50 mm, where |Δ| − U is largest.

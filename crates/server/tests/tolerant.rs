@@ -4,10 +4,8 @@
 //! every reader of the machine (and the fleet) with a 500. Told once, run on SQLite and,
 //! when `MTCAL_TEST_PG` names a server, on PostgreSQL (else that half says it skipped).
 
-mod common;
-
+use crate::common::{app_on, machine, request, send};
 use axum::http::StatusCode;
-use common::{app_on, machine, request, send};
 use mtcal_store::{NewResult, ResultScalars};
 use serde_json::json;
 

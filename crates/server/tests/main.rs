@@ -1,0 +1,14 @@
+//! The server's tests, one binary: a module per file beside this one (one link, not one
+//! per file), and the in-process app they share. `upload_slots` is a binary of its own:
+//! it reads a gauge that counts the whole process.
+
+mod common;
+
+mod auth_first;
+mod contract;
+mod fleet_rows;
+mod openapi;
+mod operations;
+mod rejections;
+mod tolerances_alerts;
+mod tolerant;
