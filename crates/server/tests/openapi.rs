@@ -1,5 +1,5 @@
 //! The committed `openapi/openapi.json` must be what the code generates. After changing
-//! the API, regenerate it with `UPDATE_OPENAPI=1 cargo test -p mtcal-server --test openapi`.
+//! the API, regenerate it with `UPDATE_OPENAPI=1 cargo test -p mtcal-server --test server openapi::`.
 
 #[test]
 fn committed_openapi_matches_the_code() {
@@ -12,7 +12,7 @@ fn committed_openapi_matches_the_code() {
     assert!(
         committed == generated,
         "openapi/openapi.json differs from the code; run \
-         UPDATE_OPENAPI=1 cargo test -p mtcal-server --test openapi and commit it"
+         UPDATE_OPENAPI=1 cargo test -p mtcal-server --test server openapi:: and commit it"
     );
 }
 
