@@ -8,9 +8,10 @@
 //!    documents; the scalar columns and term coefficients trend queries read are
 //!    realistic: 10 identifiable cubic terms), then Q random trend queries over HTTP
 //!    (keep-alive), alternating `trends/term?term=EXX&at=-50,50` and `trends/summary`;
-//!    latency percentiles; then the fleet ranking (`fleet/drift`) and the dashboard's
-//!    fleet page (HTML, signed in with a session cookie). The seeded database is kept
-//!    and reused (MTCAL_LOAD_DB).
+//!    latency percentiles; then the fleet ranking (`fleet/drift`), the fleet list
+//!    (`GET /api/v1/fleet`: a page of 100, and filtered by tag and by site) and the
+//!    dashboard's fleet page (HTML, signed in with a session cookie). The seeded database
+//!    is kept and reused (MTCAL_LOAD_DB).
 //!    With `MTCAL_TEST_PG` set, the same on PostgreSQL (a fresh schema, seeded each run).
 //! 3. **Throughput**: N identify jobs of one small session queued at once, drained by
 //!    1 worker on SQLite and by 1, 2 and 4 workers on PostgreSQL (`MTCAL_TEST_PG`):
@@ -22,9 +23,12 @@
 //! the temp dir), MTCAL_LOAD_THROUGHPUT (jobs per throughput run, 100; 0 skips),
 //! MTCAL_LOAD_SQLITE (1; 0 skips the SQLite part of 2.), MTCAL_LOAD_PG_URL (the
 //! PostgreSQL part of 2. in the schema this URL opens, seeded only if it is not yet:
-//! a seeded schema is reused across runs instead of seeding a fresh one each time).
+//! a seeded schema is reused across runs instead of seeding a fresh one each time),
+//! MTCAL_LOAD_SEED_ONLY (0; 1 seeds the stores of 2. and refreshes their fleet rows,
+//! then stops before any query: seeding can run apart from the timed runs).
 
 use mtcal_client::Client;
+use mtcal_server::api::fleet::FleetParams;
 use mtcal_server::api::jobs::SubmitJob;
 use mtcal_server::jobs::JobKind;
 use mtcal_server::{UploadLimits, WorkerConfig};
@@ -372,6 +376,9 @@ async fn trends_bench(m: usize, r: usize, q: usize, pg: bool) {
         n.recomputed,
         t.elapsed().as_secs_f64()
     );
+    if env("MTCAL_LOAD_SEED_ONLY", 0) > 0 {
+        return;
+    }
     let (_, key) = store.create_key(Scope::Read, "load").await.unwrap();
     let base = start(store.clone(), false).await;
     let client = Client::new(&base, &key);
@@ -422,16 +429,65 @@ async fn trends_bench(m: usize, r: usize, q: usize, pg: bool) {
             fleet.push(t.elapsed().as_secs_f64() * 1e3);
         }
     }
-    fleet.sort_by(f64::total_cmp);
-    println!(
-        "  fleet drift (top 50 of {m}, by um/urad)  p50 {:.2} ms  p90 {:.2} ms  p95 {:.2} ms  p99 {:.2} ms  max {:.2} ms",
-        pct(&fleet, 0.5),
-        pct(&fleet, 0.9),
-        pct(&fleet, 0.95),
-        pct(&fleet, 0.99),
-        fleet[fleet.len() - 1]
+    latencies(
+        &format!("fleet drift (top 50 of {m}, by um/urad)"),
+        &mut fleet,
     );
+    fleet_list_bench(&client, m).await;
     fleet_page_bench(&base, &key, m).await;
+}
+
+/// One latency line: `label  p50 … p90 … p95 … p99 … max …` (milliseconds, sorted here).
+fn latencies(label: &str, v: &mut [f64]) {
+    v.sort_by(f64::total_cmp);
+    println!(
+        "  {label}  p50 {:.2} ms  p90 {:.2} ms  p95 {:.2} ms  p99 {:.2} ms  max {:.2} ms",
+        pct(v, 0.5),
+        pct(v, 0.9),
+        pct(v, 0.95),
+        pct(v, 0.99),
+        v[v.len() - 1]
+    );
+}
+
+/// `GET /api/v1/fleet` (JSON, the fleet page's function): 3 × 220 requests, the first
+/// 20 of each view discarded, round robin over a page of 100 in the default order
+/// (drift, alerts first), the same filtered by tag (`tag=vmc`, half the fleet) and by
+/// site (`site=north`, 3 in 10).
+async fn fleet_list_bench(client: &Client, m: usize) {
+    let views = [
+        ("", None, None),
+        (", tag=vmc", Some("vmc"), None),
+        (", site=north", None, Some("north")),
+    ];
+    // Each view's machines in all, from the seeded machines' sites and tags.
+    let totals = views.map(|(_, tag, site)| {
+        (0..m)
+            .map(|i| machine(&format!("M{i:05}")))
+            .filter(|x| tag.is_none_or(|t: &str| x.tags.iter().any(|g| g == t)))
+            .filter(|x| site.is_none_or(|s| x.site.as_deref() == Some(s)))
+            .count()
+    });
+    let mut times = vec![Vec::new(); views.len()];
+    for i in 0..220 * views.len() {
+        let ((_, tag, site), total) = (views[i % views.len()], totals[i % views.len()]);
+        let q = FleetParams {
+            tag: tag.map(Into::into),
+            site: site.map(Into::into),
+            limit: Some(100),
+            ..FleetParams::default()
+        };
+        let t = Instant::now();
+        let page = client.fleet(&q).await.unwrap();
+        let dt = t.elapsed().as_secs_f64() * 1e3;
+        assert_eq!((page.total, page.machines.len()), (total, total.min(100)));
+        if i >= 20 * views.len() {
+            times[i % views.len()].push(dt);
+        }
+    }
+    for ((filter, ..), v) in views.iter().zip(&mut times) {
+        latencies(&format!("fleet list (JSON, 100 of {m}{filter})"), v);
+    }
 }
 
 /// The value of cookie `name` in a response's `Set-Cookie` headers.
@@ -503,14 +559,9 @@ async fn fleet_page_bench(base: &str, key: &str, m: usize) {
             }
         }
     }
-    times.sort_by(f64::total_cmp);
-    println!(
-        "  fleet page (HTML, 100 of {m} machines, 4 views)  p50 {:.2} ms  p90 {:.2} ms  p95 {:.2} ms  p99 {:.2} ms  max {:.2} ms",
-        pct(&times, 0.5),
-        pct(&times, 0.9),
-        pct(&times, 0.95),
-        pct(&times, 0.99),
-        times[times.len() - 1]
+    latencies(
+        &format!("fleet page (HTML, 100 of {m} machines, 4 views)"),
+        &mut times,
     );
     for (name, v) in &mut phases {
         v.sort_by(f64::total_cmp);
