@@ -125,7 +125,8 @@ impl Moments {
             let mut lo = vec![[f64::INFINITY; 2]; m];
             let mut hi = vec![[f64::NEG_INFINITY; 2]; m];
             // Rows of each direction where each column is nonzero: where it is fewer
-            // than the direction's rows, 0 is one of the column's values (for lo/hi).
+            // than the direction's rows, 0 is one of the column's values (for lo/hi;
+            // `column_stats` counts the visited zeros in already).
             let mut count = vec![[0usize; 2]; m];
             visit.clear();
             rows(g, rs, &mut visit);
@@ -146,13 +147,9 @@ impl Moments {
                 let mut nz = Vec::with_capacity(m);
                 let k = d.k;
                 for j in 0..m {
-                    for &v in Gathered::col(&d.x, k, j).iter().filter(|&&v| v != 0.0) {
-                        count[j][comp] += 1;
-                        sums[j][comp] += v;
-                        lo[j][comp] = lo[j][comp].min(v);
-                        hi[j][comp] = hi[j][comp].max(v);
-                    }
-                    if count[j][comp] > 0 {
+                    let (n, sum, l, h) = column_stats(Gathered::col(&d.x, k, j));
+                    (count[j][comp], sums[j][comp], lo[j][comp], hi[j][comp]) = (n, sum, l, h);
+                    if n > 0 {
                         nz.push(j);
                     }
                 }
@@ -260,6 +257,41 @@ impl Moments {
     }
 }
 
+/// Of a gathered column: the number of its nonzero values, their sum Σv (added in row
+/// order: a zero adds nothing, so this is the sum of every value in order) and its least
+/// and largest values (zeros included). The count and the extremes do not depend on the
+/// order: they are taken in [`STAT_LANES`] interleaved lanes, without branches.
+fn column_stats(col: &[f64]) -> (usize, f64, f64, f64) {
+    let sum = col.iter().fold(0.0, |a, &v| a + v);
+    let mut n = [0usize; STAT_LANES];
+    let mut lo = [f64::INFINITY; STAT_LANES];
+    let mut hi = [f64::NEG_INFINITY; STAT_LANES];
+    let chunks = col.chunks_exact(STAT_LANES);
+    let rest = chunks.remainder();
+    for c in chunks {
+        for l in 0..STAT_LANES {
+            let v = c[l];
+            n[l] += usize::from(v != 0.0);
+            lo[l] = if v < lo[l] { v } else { lo[l] };
+            hi[l] = if v > hi[l] { v } else { hi[l] };
+        }
+    }
+    for (l, &v) in rest.iter().enumerate() {
+        n[l] += usize::from(v != 0.0);
+        lo[l] = if v < lo[l] { v } else { lo[l] };
+        hi[l] = if v > hi[l] { v } else { hi[l] };
+    }
+    (
+        n.iter().sum(),
+        sum,
+        lo.into_iter().fold(f64::INFINITY, f64::min),
+        hi.into_iter().fold(f64::NEG_INFINITY, f64::max),
+    )
+}
+
+/// Lanes of [`column_stats`].
+const STAT_LANES: usize = 4;
+
 /// The visited rows of one reading direction of a run, gathered by column (flat,
 /// column after column of k values), so that every moment is a dot product of two
 /// contiguous vectors ([`dot_lanes`]).
@@ -278,11 +310,11 @@ struct Gathered {
 }
 
 impl Gathered {
-    /// Makes room for `k` rows of m columns, w basis values and u base columns.
+    /// Makes room for `k` rows of m columns, w basis values and u base columns (not
+    /// cleared: the k rows pushed then write every value).
     fn start(&mut self, k: usize, m: usize, w: usize, u: usize) {
         (self.off, self.n, self.k) = (None, 0, k);
         for (buf, c) in [(&mut self.x, m), (&mut self.q, w), (&mut self.u, u)] {
-            buf.clear();
             buf.resize(c * k, 0.0);
         }
     }
