@@ -94,50 +94,84 @@ impl Basis {
 
     /// As [`Basis::eval`], appending to `out`.
     pub fn eval_into(&self, q_mm: f64, out: &mut Vec<f64>) {
+        out.extend(self.values(q_mm));
+    }
+
+    /// The values of [`Basis::eval`], lowest power first, without a vector: monomials
+    /// (q/h)^k, or g_k(q) = P_k(s) − P_k(s₀) [− P_k'(s₀)(s − s₀)] from one pass of the
+    /// Legendre recurrences at s and at s₀ ([`Legendre`]).
+    pub fn values(&self, q_mm: f64) -> impl Iterator<Item = f64> + use<> {
         let h = self.half_width_mm;
-        match self.kind {
-            BasisKind::Polynomial => {
-                let s = q_mm / h;
-                for k in self.first_power()..=self.order {
-                    out.push(s.powi(k as i32));
-                }
-            }
-            BasisKind::Legendre => {
-                let s = (q_mm - self.centre_mm) / h;
-                let s0 = -self.centre_mm / h;
-                for k in self.first_power()..=self.order {
-                    let (p, _) = legendre(k, s);
-                    let (p0, dp0) = legendre(k, s0);
-                    let mut v = p - p0;
-                    if self.straightness {
-                        v -= dp0 * (s - s0);
-                    }
-                    out.push(v);
-                }
-            }
+        let (first, order, n) = (self.first_power(), self.order, self.len());
+        let poly = (self.kind == BasisKind::Polynomial).then(|| {
+            let s = q_mm / h;
+            (first..=order).map(move |k| s.powi(k as i32))
+        });
+        let straightness = self.straightness;
+        let leg = (self.kind == BasisKind::Legendre).then(|| {
+            let s = (q_mm - self.centre_mm) / h;
+            let s0 = -self.centre_mm / h;
+            Legendre::new(s)
+                .zip(Legendre::new(s0))
+                .skip(first)
+                .take(n)
+                .map(move |((p, _), (p0, dp0))| {
+                    let v = p - p0;
+                    if straightness { v - dp0 * (s - s0) } else { v }
+                })
+        });
+        poly.into_iter().flatten().chain(leg.into_iter().flatten())
+    }
+}
+
+/// Legendre polynomial P_k(s) and its derivative ([`Legendre`]'s k-th term).
+pub fn legendre(k: usize, s: f64) -> (f64, f64) {
+    Legendre::new(s).nth(k).unwrap_or((0.0, 0.0))
+}
+
+/// P_k(s) and P_k'(s) for k = 0, 1, 2, …, by the three-term recurrence
+/// (k+1) P_{k+1} = (2k+1) s P_k − k P_{k−1} and the derivative recurrence
+/// P'_{k+1} = P'_{k−1} + (2k+1) P_k (P_k' = k (s P_k − P_{k−1}) / (s² − 1)).
+pub struct Legendre {
+    s: f64,
+    /// Index of the next term.
+    k: usize,
+    p_prev: f64,
+    p: f64,
+    d_prev: f64,
+    d: f64,
+}
+
+impl Legendre {
+    pub fn new(s: f64) -> Legendre {
+        Legendre {
+            s,
+            k: 0,
+            p_prev: 1.0,
+            p: s,
+            d_prev: 0.0,
+            d: 1.0,
         }
     }
 }
 
-/// Legendre polynomial P_k(s) and its derivative, by the three-term recurrence
-/// (k+1) P_{k+1} = (2k+1) s P_k − k P_{k−1}; P_k' = k (s P_k − P_{k−1}) / (s² − 1),
-/// computed here by the derivative recurrence P'_{k+1} = P'_{k−1} + (2k+1) P_k.
-pub fn legendre(k: usize, s: f64) -> (f64, f64) {
-    let (mut p_prev, mut p) = (1.0, s);
-    let (mut d_prev, mut d) = (0.0, 1.0);
-    if k == 0 {
-        return (1.0, 0.0);
+impl Iterator for Legendre {
+    type Item = (f64, f64);
+
+    fn next(&mut self) -> Option<(f64, f64)> {
+        let k = self.k;
+        self.k += 1;
+        if k == 0 {
+            return Some((1.0, 0.0));
+        }
+        let out = (self.p, self.d);
+        let nf = k as f64;
+        let p_next = ((2.0 * nf + 1.0) * self.s * self.p - nf * self.p_prev) / (nf + 1.0);
+        let d_next = self.d_prev + (2.0 * nf + 1.0) * self.p;
+        (self.p_prev, self.p) = (self.p, p_next);
+        (self.d_prev, self.d) = (self.d, d_next);
+        Some(out)
     }
-    for n in 1..k {
-        let nf = n as f64;
-        let p_next = ((2.0 * nf + 1.0) * s * p - nf * p_prev) / (nf + 1.0);
-        let d_next = d_prev + (2.0 * nf + 1.0) * p;
-        p_prev = p;
-        p = p_next;
-        d_prev = d;
-        d = d_next;
-    }
-    (p, d)
 }
 
 /// A machine whose 18 error functions are plain polynomials in the commanded position,

@@ -236,7 +236,7 @@ impl ErrorModel {
             None => 0.0,
             Some(b) => {
                 let r = self.term_range(i);
-                b.eval(q).iter().zip(&x[r]).map(|(v, c)| v * c).sum()
+                b.values(q).zip(&x[r]).map(|(v, c)| v * c).sum()
             }
         }
     }

@@ -344,20 +344,27 @@ fn periodic_best(
 /// Σ_k ε_k(q_k) (µrad) at every sample, from the current fit's error parameters.
 fn eps_per_sample(d: &Design, red: &Reduction, f: &Fit) -> Vec<[f64; 3]> {
     let x: Vec<f64> = (0..d.model.len()).map(|j| f.a[j] / red.scale[j]).collect();
+    // The rotation terms: (term index, its axis, the rotation's direction).
+    let rot: Vec<(usize, usize, usize)> = Term::all()
+        .into_iter()
+        .enumerate()
+        .filter_map(|(i, term)| match term.component {
+            Component::Rotation(dir) => Some((i, term.axis.index(), dir.index())),
+            _ => None,
+        })
+        .collect();
+    // Consecutive samples often share an axis position (a parked axis): a term's value
+    // is evaluated again only when its axis's position changes. One pass over the
+    // samples, each sample's terms added in term order.
+    let mut last = vec![(f64::NAN, 0.0); rot.len()];
     let mut out = vec![[0.0; 3]; d.samples.len()];
-    for (i, term) in Term::all().into_iter().enumerate() {
-        let Component::Rotation(dir) = term.component else {
-            continue;
-        };
-        // Consecutive samples often share the axis position (a parked axis): the
-        // term's value is evaluated again only when it changes.
-        let mut last = (f64::NAN, 0.0);
-        for (s, m) in d.samples.iter().enumerate() {
-            let q = m.q_mm[term.axis.index()];
+    for (o, m) in out.iter_mut().zip(&d.samples) {
+        for (&(i, a, dir), last) in rot.iter().zip(last.iter_mut()) {
+            let q = m.q_mm[a];
             if q != last.0 {
-                last = (q, d.model.term_value(i, &x, q));
+                *last = (q, d.model.term_value(i, &x, q));
             }
-            out[s][dir.index()] += last.1;
+            o[dir] += last.1;
         }
     }
     out
