@@ -268,25 +268,41 @@ impl NoiseFloor {
 /// run's two reading directions, checked against the differences of repeated passes;
 /// `None` when neither can be computed.
 pub fn session_floor(session: &Session) -> Option<NoiseFloor> {
-    let seqs = session
-        .planes
-        .iter()
-        .flat_map(|p| &p.runs)
-        .flat_map(|r| [r.du_um.as_slice(), r.dv_um.as_slice()]);
-    let pass = pass_differences(session);
-    match spectral_floor(seqs) {
-        Some((s, n)) => Some(NoiseFloor {
-            sigma_um: s,
-            spectral: true,
-            count: n,
-            pass_differences_um: pass,
-        }),
-        None => pass.map(|p| NoiseFloor {
-            sigma_um: p,
-            spectral: false,
-            count: 0,
-            pass_differences_um: Some(p),
-        }),
+    NoiseFloor::of(session_spectral_floor(session), pass_differences(session))
+}
+
+/// The spectral floor ([`spectral_floor`]) over every run's two reading directions: σ̂
+/// and the number of ordinates.
+pub fn session_spectral_floor(session: &Session) -> Option<(f64, usize)> {
+    spectral_floor(
+        session
+            .planes
+            .iter()
+            .flat_map(|p| &p.runs)
+            .flat_map(|r| [r.du_um.as_slice(), r.dv_um.as_slice()]),
+    )
+}
+
+impl NoiseFloor {
+    /// The floor from a session's spectral floor (σ̂, ordinates) and its pass-difference
+    /// figure: the spectral one checked against the pass differences, or the pass
+    /// differences alone when no run is long enough for the spectrum; `None` when
+    /// neither is known.
+    pub fn of(spectral: Option<(f64, usize)>, pass: Option<f64>) -> Option<NoiseFloor> {
+        match spectral {
+            Some((s, n)) => Some(NoiseFloor {
+                sigma_um: s,
+                spectral: true,
+                count: n,
+                pass_differences_um: pass,
+            }),
+            None => pass.map(|p| NoiseFloor {
+                sigma_um: p,
+                spectral: false,
+                count: 0,
+                pass_differences_um: Some(p),
+            }),
+        }
     }
 }
 

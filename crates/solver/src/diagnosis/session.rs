@@ -1006,12 +1006,19 @@ pub fn diagnose_session_with_progress(
     let base_rms = (f.ssr / dof as f64).sqrt();
     let base_heldout = rms(f.heldout_ssr, heldout_n);
     progress.report("noise floor", 0.08);
-    let (floor, floor_note) = match crate::noise::session_floor(session) {
-        Some(nf) => (nf.sigma_um, nf.note()),
-        None => (
-            base_rms,
-            "no run long enough for the spectrum and no repeated passes: the rigid model's residual stands in for the noise floor".into(),
-        ),
+    // The floor is the spectral one when a run is long enough for the spectrum; the
+    // differences of repeated passes (`noise::session_floor`'s check) otherwise, and for
+    // the note, which only a misfit left above the floor needs: computed then.
+    let spectral = crate::noise::session_spectral_floor(session);
+    let checked = std::cell::OnceCell::new();
+    let noise_floor = || {
+        *checked.get_or_init(|| {
+            crate::noise::NoiseFloor::of(spectral, crate::noise::pass_differences(session))
+        })
+    };
+    let floor = match spectral {
+        Some((s, _)) => s,
+        None => noise_floor().map_or(base_rms, |nf| nf.sigma_um),
     };
     let before_resid = f.resid.clone();
     let mismatch = if base_heldout > opts.noise_level_ratio * floor {
@@ -1069,6 +1076,10 @@ pub fn diagnose_session_with_progress(
     );
     let mut unexplained = Vec::new();
     if !at_noise {
+        let floor_note = match noise_floor() {
+            Some(nf) => nf.note(),
+            None => "no run long enough for the spectrum and no repeated passes: the rigid model's residual stands in for the noise floor".into(),
+        };
         let rest = locate(&d, &f.resid, floor);
         let places: Vec<String> = rest
             .iter()
