@@ -398,6 +398,62 @@ impl Sets {
     }
 }
 
+/// The base columns U = [E | y] of the joint fits (the accepted effects and the data),
+/// with their products with the rigid basis on each set of runs, formed once per base
+/// for every joint fit that extends it: V_S,U = W_Sᵀ Z_S,U = Σ_{g∈S} W_S,gᵀ Z_g,U (the
+/// columns of V in [`solve`] that do not depend on the candidate).
+pub struct Base {
+    pub mom: Moments,
+    /// V_S,U (rank × u) on all runs.
+    v_all: DMatrix<f64>,
+    /// V_S,U on each fold's training runs, in the order of [`Sets::folds`].
+    v_folds: Vec<DMatrix<f64>>,
+}
+
+impl Base {
+    pub fn new(red: &Reduction, sets: &Sets, mom: Moments) -> Base {
+        let z = |g: usize, c: usize| mom.z_col(g, c);
+        Base {
+            v_all: rigid_products(red, &sets.all, mom.m, z),
+            v_folds: sets
+                .folds
+                .iter()
+                .map(|(train, _)| rigid_products(red, train, mom.m, z))
+                .collect(),
+            mom,
+        }
+    }
+}
+
+impl Moments {
+    /// Column c of Z_g = Q_gᵀ X on run g.
+    fn z_col(&self, g: usize, c: usize) -> &[f64] {
+        let rm = &self.runs[g];
+        let r = rm.z.len() / self.m.max(1);
+        &rm.z[c * r..(c + 1) * r]
+    }
+}
+
+/// V = W_Sᵀ Z_S (rank × n) of n columns whose run-g blocks are `z(g, c)`: the runs' terms
+/// added in the set's order ([`add_products`]).
+fn rigid_products<'a>(
+    red: &Reduction,
+    set: &RunSet,
+    n: usize,
+    z: impl Fn(usize, usize) -> &'a [f64],
+) -> DMatrix<f64> {
+    let w = &set.proj.w;
+    let mut v = DMatrix::<f64>::zeros(w.len(), n);
+    let mut off = 0;
+    for &run in &set.runs {
+        for c in 0..n {
+            add_products(&mut v, c, w, off, z(run, c));
+        }
+        off += red.runs[run].r;
+    }
+    v
+}
+
 /// The columns of a joint fit: an effect's B (optional) before the base U = [E | y].
 struct Joint<'a> {
     b: Option<&'a Moments>,
@@ -414,25 +470,25 @@ impl Joint<'_> {
     /// Column j of Z_g.
     fn z(&self, g: usize, j: usize) -> &[f64] {
         let mb = self.mb();
-        let (mo, j) = match self.b {
-            Some(b) if j < mb => (b, j),
-            _ => (self.base, j - mb),
-        };
-        let rm = &mo.runs[g];
-        let r = rm.z.len() / mo.m.max(1);
-        &rm.z[j * r..(j + 1) * r]
+        match self.b {
+            Some(b) if j < mb => b.z_col(g, j),
+            _ => self.base.z_col(g, j - mb),
+        }
     }
-    /// G_g (q × q).
-    fn g(&self, g: usize) -> DMatrix<f64> {
-        let (mb, q) = (self.mb(), self.q());
-        let base = &self.base.runs[g];
-        let mu = self.base.m;
-        DMatrix::from_fn(q, q, |i, j| match (i < mb, j < mb) {
+    /// Element (i, j) of G_g.
+    fn g_at(&self, g: usize, i: usize, j: usize) -> f64 {
+        let mb = self.mb();
+        match (i < mb, j < mb) {
             (true, true) => self.b.map_or(0.0, |b| b.runs[g].xx[i * mb + j]),
             (true, false) => self.b.map_or(0.0, |b| b.runs[g].xu[i * b.u + (j - mb)]),
             (false, true) => self.b.map_or(0.0, |b| b.runs[g].xu[j * b.u + (i - mb)]),
-            (false, false) => base.xx[(i - mb) * mu + (j - mb)],
-        })
+            (false, false) => self.base.runs[g].xx[(i - mb) * self.base.m + (j - mb)],
+        }
+    }
+    /// G_g (q × q).
+    fn g(&self, g: usize) -> DMatrix<f64> {
+        let q = self.q();
+        DMatrix::from_fn(q, q, |i, j| self.g_at(g, i, j))
     }
 }
 
@@ -449,22 +505,28 @@ pub struct SetFit {
     pub rank: usize,
 }
 
-fn solve(red: &Reduction, set: &RunSet, j: &Joint) -> SetFit {
-    let q = j.q();
+/// The joint fit on the runs of `set`; `v_base` is the base's V_S,U on them ([`Base`]).
+fn solve(red: &Reduction, set: &RunSet, j: &Joint, v_base: &DMatrix<f64>) -> SetFit {
+    let (q, mb) = (j.q(), j.mb());
     let p = q - 1;
-    let w = &set.proj.w;
-    let rank = w.len();
+    let rank = set.proj.w.len();
     let mut g = DMatrix::<f64>::zeros(q, q);
-    let mut v = DMatrix::<f64>::zeros(rank, q);
-    let mut off = 0;
     for &run in &set.runs {
-        g += j.g(run);
-        let r = red.runs[run].r;
-        for c in 0..q {
-            add_products(&mut v, c, w, off, j.z(run, c));
+        for b in 0..q {
+            for a in 0..q {
+                g[(a, b)] += j.g_at(run, a, b);
+            }
         }
-        off += r;
     }
+    // V = W_Sᵀ [Z_B | Z_U]: the candidate's columns here, the base's formed once.
+    let vb = rigid_products(red, set, mb, |g, c| j.z(g, c));
+    let v = DMatrix::from_fn(rank, q, |l, c| {
+        if c < mb {
+            vb[(l, c)]
+        } else {
+            v_base[(l, c - mb)]
+        }
+    });
     // C = G − VᵀV, the moments of the columns after the rigid model.
     let c = &g - v.transpose() * &v;
     let diag: Vec<f64> = (0..p)
@@ -555,11 +617,11 @@ pub fn joint_fit(
     red: &Reduction,
     sets: &Sets,
     b: Option<&Moments>,
-    base: &Moments,
+    base: &Base,
     heldout: bool,
 ) -> JointFit {
-    let j = Joint { b, base };
-    let all = solve(red, &sets.all, &j);
+    let j = Joint { b, base: &base.mom };
+    let all = solve(red, &sets.all, &j, &base.v_all);
     if !heldout {
         return JointFit {
             all,
@@ -567,8 +629,8 @@ pub fn joint_fit(
         };
     }
     let mut total = 0.0;
-    for (train, held) in &sets.folds {
-        let f = solve(red, train, &j);
+    for ((train, held), v_base) in sets.folds.iter().zip(&base.v_folds) {
+        let f = solve(red, train, &j, v_base);
         let q = j.q();
         let mut wv = DMatrix::<f64>::zeros(q, 1);
         for (i, x) in f.x.iter().enumerate() {

@@ -76,7 +76,7 @@ struct Fit {
     /// Accepted effect columns (centred, unit norm).
     cols: Cols,
     /// Moments of [accepted effects | y] (the base of every joint fit).
-    base: Moments,
+    base: moments::Base,
     /// Coefficients of the rigid columns (scaled) on all runs.
     a: Vec<f64>,
     resid: Vec<f64>,
@@ -89,7 +89,7 @@ struct Fit {
 /// Fits the rigid model plus the effect columns `cols` on all runs and on the training
 /// runs of each fold, and forms the residual on all rows.
 fn fit(d: &Design, red: &Reduction, sets: &Sets, cols: Cols) -> Fit {
-    let base = Moments::of_columns(red, &base_columns(d, &cols));
+    let base = moments::Base::new(red, sets, Moments::of_columns(red, &base_columns(d, &cols)));
     let jf = moments::joint_fit(red, sets, None, &base, true);
     let mut resid = d.y.clone();
     for (col, e) in cols.iter().zip(&jf.all.x) {
