@@ -140,8 +140,13 @@ pub fn candidates(d: &Design) -> Vec<Candidate> {
     out
 }
 
-/// Session duration and the rate-limited frequency band (Hz).
+/// Session duration, the Nyquist frequency of its shortest sample interval (Hz) and the
+/// longest run's duration; computed once per design (a pass over the samples).
 fn time_band(d: &Design) -> (f64, f64, f64) {
+    *d.time_band.get_or_init(|| time_band_of(d))
+}
+
+fn time_band_of(d: &Design) -> (f64, f64, f64) {
     let t0 = d.samples.first().map_or(0.0, |s| s.t_s);
     let t1 = d.samples.last().map_or(1.0, |s| s.t_s);
     let mut dt = f64::INFINITY;

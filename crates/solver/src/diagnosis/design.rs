@@ -70,6 +70,9 @@ pub struct Design {
     /// (the columns themselves are only formed reduced, run by run:
     /// [`super::reduced::Reduction`]).
     pub model: ErrorModel,
+    /// The catalogue's time band of the session (duration, Nyquist frequency, longest
+    /// run), formed on first use.
+    pub time_band: std::sync::OnceLock<(f64, f64, f64)>,
 }
 
 impl Design {
@@ -254,6 +257,7 @@ pub fn build(session: &Session, topology: &Topology, order: usize) -> Result<Des
             order,
             travel.map(|t| t.map(|[lo, hi]| (lo, hi))),
         ),
+        time_band: std::sync::OnceLock::new(),
     };
     let mut y = std::mem::take(&mut d.y);
     d.centre(&mut y);
