@@ -26,7 +26,7 @@
 //! 10⁻¹⁰ of its sum of squares outside the model is dropped.
 
 use super::design::Design;
-use super::linalg::{Projector, dot, dot_lanes};
+use super::linalg::{Projector, dot, dot_lanes, wide};
 use super::reduced::{Reduction, RunSpace};
 use nalgebra::{DMatrix, SymmetricEigen};
 
@@ -143,28 +143,14 @@ impl Moments {
             }
             for (comp, d) in dirs.iter().enumerate() {
                 let Some(off) = d.off else { continue };
-                // The columns nonzero on some row of this direction.
-                let mut nz = Vec::with_capacity(m);
-                let k = d.k;
-                for j in 0..m {
-                    let (n, sum, l, h) = column_stats(Gathered::col(&d.x, k, j));
+                let stats = wide(DirectionMoments {
+                    d,
+                    off,
+                    dims: (m, w, u, r),
+                    rm: &mut rm,
+                });
+                for (j, (n, sum, l, h)) in stats.into_iter().enumerate() {
                     (count[j][comp], sums[j][comp], lo[j][comp], hi[j][comp]) = (n, sum, l, h);
-                    if n > 0 {
-                        nz.push(j);
-                    }
-                }
-                for (a, &j) in nz.iter().enumerate() {
-                    let xj = Gathered::col(&d.x, k, j);
-                    for t in 0..w {
-                        rm.z[j * r + off + t] += dot_lanes(xj, Gathered::col(&d.q, k, t));
-                    }
-                    // The upper triangle only (the lower is its mirror).
-                    for &l in &nz[a..] {
-                        rm.xx[j * m + l] += dot_lanes(xj, Gathered::col(&d.x, k, l));
-                    }
-                    for c in 0..u {
-                        rm.xu[j * u + c] += dot_lanes(xj, Gathered::col(&d.u, k, c));
-                    }
                 }
             }
             for j in 0..m {
@@ -261,6 +247,7 @@ impl Moments {
 /// order: a zero adds nothing, so this is the sum of every value in order) and its least
 /// and largest values (zeros included). The count and the extremes do not depend on the
 /// order: they are taken in [`STAT_LANES`] interleaved lanes, without branches.
+#[inline(always)]
 fn column_stats(col: &[f64]) -> (usize, f64, f64, f64) {
     let sum = col.iter().fold(0.0, |a, &v| a + v);
     let mut n = [0usize; STAT_LANES];
@@ -287,6 +274,48 @@ fn column_stats(col: &[f64]) -> (usize, f64, f64, f64) {
         lo.into_iter().fold(f64::INFINITY, f64::min),
         hi.into_iter().fold(f64::NEG_INFINITY, f64::max),
     )
+}
+
+/// The moments of one reading direction of a run from its gathered rows, added to the
+/// run's (Z_g at the direction's offset `off`, the upper triangle of X_gᵀX_g, X_gᵀU_g)
+/// over the columns nonzero on some row of it; [`wide`] runs it, and it returns each
+/// column's [`column_stats`].
+struct DirectionMoments<'a> {
+    d: &'a Gathered,
+    off: usize,
+    /// m columns, w basis values per row, u base columns, r reduced coordinates.
+    dims: (usize, usize, usize, usize),
+    rm: &'a mut RunMoments,
+}
+
+impl pulp::WithSimd for DirectionMoments<'_> {
+    type Output = Vec<(usize, f64, f64, f64)>;
+
+    #[inline(always)]
+    fn with_simd<S: pulp::Simd>(self, _: S) -> Self::Output {
+        let DirectionMoments { d, off, rm, .. } = self;
+        let (m, w, u, r) = self.dims;
+        let k = d.k;
+        let stats: Vec<_> = (0..m)
+            .map(|j| column_stats(Gathered::col(&d.x, k, j)))
+            .collect();
+        // The columns nonzero on some row of this direction.
+        let nz: Vec<usize> = (0..m).filter(|&j| stats[j].0 > 0).collect();
+        for (a, &j) in nz.iter().enumerate() {
+            let xj = Gathered::col(&d.x, k, j);
+            for t in 0..w {
+                rm.z[j * r + off + t] += dot_lanes(xj, Gathered::col(&d.q, k, t));
+            }
+            // The upper triangle only (the lower is its mirror).
+            for &l in &nz[a..] {
+                rm.xx[j * m + l] += dot_lanes(xj, Gathered::col(&d.x, k, l));
+            }
+            for c in 0..u {
+                rm.xu[j * u + c] += dot_lanes(xj, Gathered::col(&d.u, k, c));
+            }
+        }
+        stats
+    }
 }
 
 /// Lanes of [`column_stats`].
@@ -436,22 +465,39 @@ impl Moments {
 
 /// V = W_Sᵀ Z_S (rank × n) of n columns whose run-g blocks are `z(g, c)`: the runs' terms
 /// added in the set's order ([`add_products`]).
-fn rigid_products<'a>(
+fn rigid_products<'a, Z: Fn(usize, usize) -> &'a [f64]>(
     red: &Reduction,
     set: &RunSet,
     n: usize,
-    z: impl Fn(usize, usize) -> &'a [f64],
+    z: Z,
 ) -> DMatrix<f64> {
-    let w = &set.proj.w;
-    let mut v = DMatrix::<f64>::zeros(w.len(), n);
-    let mut off = 0;
-    for &run in &set.runs {
-        for c in 0..n {
-            add_products(&mut v, c, w, off, z(run, c));
+    wide(RigidProducts { red, set, n, z })
+}
+
+/// [`rigid_products`]' arguments, as the kernel [`wide`] runs.
+struct RigidProducts<'a, Z> {
+    red: &'a Reduction,
+    set: &'a RunSet,
+    n: usize,
+    z: Z,
+}
+
+impl<'a, Z: Fn(usize, usize) -> &'a [f64]> pulp::WithSimd for RigidProducts<'_, Z> {
+    type Output = DMatrix<f64>;
+
+    #[inline(always)]
+    fn with_simd<S: pulp::Simd>(self, _: S) -> DMatrix<f64> {
+        let w = &self.set.proj.w;
+        let mut v = DMatrix::<f64>::zeros(w.len(), self.n);
+        let mut off = 0;
+        for &run in &self.set.runs {
+            for c in 0..self.n {
+                add_products(&mut v, c, w, off, (self.z)(run, c));
+            }
+            off += self.red.runs[run].r;
         }
-        off += red.runs[run].r;
+        v
     }
-    v
 }
 
 /// The columns of a joint fit: an effect's B (optional) before the base U = [E | y].
@@ -583,6 +629,7 @@ fn solve(red: &Reduction, set: &RunSet, j: &Joint, v_base: &DMatrix<f64>) -> Set
 
 /// v[(l, c)] += w_l[off..off + len]·z for every basis column w_l, four at a time: four
 /// independent sums over z (each one's terms added in the order of [`dot`]).
+#[inline(always)]
 fn add_products(v: &mut DMatrix<f64>, c: usize, w: &[Vec<f64>], off: usize, z: &[f64]) {
     let r = z.len();
     let mut groups = w.chunks_exact(4);
