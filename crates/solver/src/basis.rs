@@ -134,7 +134,7 @@ pub fn legendre(k: usize, s: f64) -> (f64, f64) {
 /// P'_{k+1} = P'_{k−1} + (2k+1) P_k (P_k' = k (s P_k − P_{k−1}) / (s² − 1)).
 pub struct Legendre {
     s: f64,
-    /// Index of the next term.
+    /// Index of the next term (the state holds the last two terms yielded).
     k: usize,
     p_prev: f64,
     p: f64,
@@ -161,16 +161,19 @@ impl Iterator for Legendre {
     fn next(&mut self) -> Option<(f64, f64)> {
         let k = self.k;
         self.k += 1;
-        if k == 0 {
-            return Some((1.0, 0.0));
+        match k {
+            0 => return Some((1.0, 0.0)),
+            1 => {}
+            // P_k from P_{k−1} and P_{k−2}: n = k − 1.
+            _ => {
+                let nf = (k - 1) as f64;
+                let p_next = ((2.0 * nf + 1.0) * self.s * self.p - nf * self.p_prev) / (nf + 1.0);
+                let d_next = self.d_prev + (2.0 * nf + 1.0) * self.p;
+                (self.p_prev, self.p) = (self.p, p_next);
+                (self.d_prev, self.d) = (self.d, d_next);
+            }
         }
-        let out = (self.p, self.d);
-        let nf = k as f64;
-        let p_next = ((2.0 * nf + 1.0) * self.s * self.p - nf * self.p_prev) / (nf + 1.0);
-        let d_next = self.d_prev + (2.0 * nf + 1.0) * self.p;
-        (self.p_prev, self.p) = (self.p, p_next);
-        (self.d_prev, self.d) = (self.d, d_next);
-        Some(out)
+        Some((self.p, self.d))
     }
 }
 

@@ -243,38 +243,40 @@ impl Moments {
     }
 }
 
-/// Of a gathered column: the number of its nonzero values, their sum Σv (added in row
-/// order: a zero adds nothing, so this is the sum of every value in order) and its least
-/// and largest values (zeros included). The count and the extremes do not depend on the
-/// order: they are taken in [`STAT_LANES`] interleaved lanes, without branches.
+/// Of each of the m gathered columns of k values (column after column in `x`): the number
+/// of its nonzero values, their sum Σv (added in row order: a zero adds nothing, so this
+/// is the sum of every value in order) and its least and largest values (zeros
+/// included). [`STAT_COLUMNS`] columns are taken side by side, each in row order: their
+/// sums' chains of dependent additions overlap, and the extremes take no branches.
 #[inline(always)]
-fn column_stats(col: &[f64]) -> (usize, f64, f64, f64) {
-    let sum = col.iter().fold(0.0, |a, &v| a + v);
-    let mut n = [0usize; STAT_LANES];
-    let mut lo = [f64::INFINITY; STAT_LANES];
-    let mut hi = [f64::NEG_INFINITY; STAT_LANES];
-    let chunks = col.chunks_exact(STAT_LANES);
-    let rest = chunks.remainder();
-    for c in chunks {
-        for l in 0..STAT_LANES {
-            let v = c[l];
-            n[l] += usize::from(v != 0.0);
-            lo[l] = if v < lo[l] { v } else { lo[l] };
-            hi[l] = if v > hi[l] { v } else { hi[l] };
+fn column_stats(x: &[f64], k: usize, m: usize) -> Vec<(usize, f64, f64, f64)> {
+    let mut out = Vec::with_capacity(m);
+    for j0 in (0..m).step_by(STAT_COLUMNS) {
+        // A last group short of columns repeats its first (the repeats are dropped).
+        let cols: [&[f64]; STAT_COLUMNS] = std::array::from_fn(|c| {
+            let j = if j0 + c < m { j0 + c } else { j0 };
+            &x[j * k..(j + 1) * k]
+        });
+        let mut n = [0usize; STAT_COLUMNS];
+        let mut sum = [0.0; STAT_COLUMNS];
+        let mut lo = [f64::INFINITY; STAT_COLUMNS];
+        let mut hi = [f64::NEG_INFINITY; STAT_COLUMNS];
+        for i in 0..k {
+            for c in 0..STAT_COLUMNS {
+                let v = cols[c][i];
+                n[c] += usize::from(v != 0.0);
+                sum[c] += v;
+                lo[c] = if v < lo[c] { v } else { lo[c] };
+                hi[c] = if v > hi[c] { v } else { hi[c] };
+            }
         }
+        out.extend((0..STAT_COLUMNS.min(m - j0)).map(|c| (n[c], sum[c], lo[c], hi[c])));
     }
-    for (l, &v) in rest.iter().enumerate() {
-        n[l] += usize::from(v != 0.0);
-        lo[l] = if v < lo[l] { v } else { lo[l] };
-        hi[l] = if v > hi[l] { v } else { hi[l] };
-    }
-    (
-        n.iter().sum(),
-        sum,
-        lo.into_iter().fold(f64::INFINITY, f64::min),
-        hi.into_iter().fold(f64::NEG_INFINITY, f64::max),
-    )
+    out
 }
+
+/// Columns of [`column_stats`] taken together.
+const STAT_COLUMNS: usize = 4;
 
 /// The moments of one reading direction of a run from its gathered rows, added to the
 /// run's (Z_g at the direction's offset `off`, the upper triangle of X_gᵀX_g, X_gᵀU_g)
@@ -296,9 +298,7 @@ impl pulp::WithSimd for DirectionMoments<'_> {
         let DirectionMoments { d, off, rm, .. } = self;
         let (m, w, u, r) = self.dims;
         let k = d.k;
-        let stats: Vec<_> = (0..m)
-            .map(|j| column_stats(Gathered::col(&d.x, k, j)))
-            .collect();
+        let stats = column_stats(&d.x, k, m);
         // The columns nonzero on some row of this direction.
         let nz: Vec<usize> = (0..m).filter(|&j| stats[j].0 > 0).collect();
         for (a, &j) in nz.iter().enumerate() {
@@ -317,9 +317,6 @@ impl pulp::WithSimd for DirectionMoments<'_> {
         stats
     }
 }
-
-/// Lanes of [`column_stats`].
-const STAT_LANES: usize = 4;
 
 /// The visited rows of one reading direction of a run, gathered by column (flat,
 /// column after column of k values), so that every moment is a dot product of two
