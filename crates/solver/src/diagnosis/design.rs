@@ -38,6 +38,36 @@ pub struct SampleMeta {
     pub temp_k: Option<f64>,
 }
 
+/// Fields of every sample, one array per field and axis, indexed by sample: a pass over
+/// the rows that reads one field streams 8 bytes per sample instead of a whole
+/// [`SampleMeta`] (the candidates' columns and the frequency scans read them row by row,
+/// once per candidate).
+#[derive(Debug, Clone, Default)]
+pub struct SampleFields {
+    pub run_idx: Vec<usize>,
+    pub t_s: Vec<f64>,
+    pub q_mm: [Vec<f64>; 3],
+    pub vel_mm_s: [Vec<f64>; 3],
+    pub dir: [Vec<f64>; 3],
+    pub since_reversal_mm: [Vec<f64>; 3],
+}
+
+impl SampleFields {
+    fn of(samples: &[SampleMeta]) -> SampleFields {
+        let per_axis = |f: &dyn Fn(&SampleMeta) -> [f64; 3]| {
+            std::array::from_fn(|a| samples.iter().map(|s| f(s)[a]).collect())
+        };
+        SampleFields {
+            run_idx: samples.iter().map(|s| s.run_idx).collect(),
+            t_s: samples.iter().map(|s| s.t_s).collect(),
+            q_mm: per_axis(&|s| s.q_mm),
+            vel_mm_s: per_axis(&|s| s.vel_mm_s),
+            dir: per_axis(&|s| s.dir),
+            since_reversal_mm: per_axis(&|s| s.since_reversal_mm),
+        }
+    }
+}
+
 /// One run's place in the session.
 #[derive(Debug, Clone)]
 pub struct RunInfo {
@@ -70,6 +100,11 @@ pub struct Design {
     /// (the columns themselves are only formed reduced, run by run:
     /// [`super::reduced::Reduction`]).
     pub model: ErrorModel,
+    /// The fields of the samples that the candidates' columns and the scans read, one
+    /// array per field.
+    pub fields: SampleFields,
+    /// The reading axis of every row.
+    pub row_axes: Vec<Axis>,
     /// The catalogue's time band of the session (duration, Nyquist frequency, longest
     /// run), formed on first use.
     pub time_band: std::sync::OnceLock<(f64, f64, f64)>,
@@ -81,9 +116,9 @@ impl Design {
     }
 
     /// The reading axis of row `r`.
+    #[inline]
     pub fn row_axis(&self, r: usize) -> Axis {
-        let (u, v) = self.plane_axes[self.samples[r / 2].plane_idx];
-        if r.is_multiple_of(2) { u } else { v }
+        self.row_axes[r]
     }
 
     /// Centres `c` per (run, component) and returns the largest |value| before centring
@@ -242,7 +277,16 @@ pub fn build(session: &Session, topology: &Topology, order: usize) -> Result<Des
             "the session has no samples".into(),
         ));
     }
+    let row_axes = samples
+        .iter()
+        .flat_map(|s| {
+            let (u, v) = plane_axes[s.plane_idx];
+            [u, v]
+        })
+        .collect();
     let mut d = Design {
+        fields: SampleFields::of(&samples),
+        row_axes,
         samples,
         runs,
         plane_axes,

@@ -229,7 +229,7 @@ fn near_rows(
             (0..if parked { 0 } else { rs.rows })
                 .filter_map(|i| {
                     let row = rs.row0 + i;
-                    let x = d.samples[row / 2].since_reversal_mm[axis.index()];
+                    let x = d.fields.since_reversal_mm[axis.index()][row / 2];
                     (d.row_axis(row) == axis && x < reach).then_some((i, x))
                 })
                 .collect()
@@ -255,7 +255,7 @@ fn periodic_best(
     d: &Design,
     r: &[f64],
     axis: crate::axis::Axis,
-    var: &dyn Fn(&design::SampleMeta) -> f64,
+    var: &[f64],
     freqs: &[f64],
     per_run: bool,
 ) -> Option<f64> {
@@ -305,7 +305,7 @@ fn periodic_best(
                 continue;
             }
             rv.push(r[row]);
-            xs.push(var(&d.samples[row / 2]));
+            xs.push(var[row / 2]);
         }
         if rv.is_empty() {
             continue;
@@ -358,9 +358,9 @@ fn eps_per_sample(d: &Design, red: &Reduction, f: &Fit) -> Vec<[f64; 3]> {
     // samples, each sample's terms added in term order.
     let mut last = vec![(f64::NAN, 0.0); rot.len()];
     let mut out = vec![[0.0; 3]; d.samples.len()];
-    for (o, m) in out.iter_mut().zip(&d.samples) {
+    for (s, o) in out.iter_mut().enumerate() {
         for (&(i, a, dir), last) in rot.iter().zip(last.iter_mut()) {
-            let q = m.q_mm[a];
+            let q = d.fields.q_mm[a][s];
             if q != last.0 {
                 *last = (q, d.model.term_value(i, &x, q));
             }
@@ -443,16 +443,13 @@ fn try_candidate(
             if f_hi <= f_lo {
                 return None;
             }
-            type Var = Box<dyn Fn(&design::SampleMeta) -> f64>;
-            let (axis, in_var): (crate::axis::Axis, Var) = if in_time {
-                (cand.direction?, Box::new(|m| m.t_s))
+            // The variable per sample: time, or the axis's position.
+            let (axis, in_var) = if in_time {
+                (cand.direction?, &d.fields.t_s)
             } else {
                 // Rows read along the effect's direction (its own axis for `cyclic`).
                 let a = cand.axis?;
-                (
-                    cand.direction.unwrap_or(a),
-                    Box::new(move |m| m.q_mm[a.index()]),
-                )
+                (cand.direction.unwrap_or(a), &d.fields.q_mm[a.index()])
             };
             // Scan sizes are bounded (a heuristic: the exact joint fit follows): at most
             // MAX_SCAN_FREQS coarse and fine frequencies.
@@ -462,12 +459,12 @@ fn try_candidate(
                 .map(|i| f_lo + i as f64 * coarse_step)
                 .take_while(|&x| x <= f_hi)
                 .collect();
-            let c0 = periodic_best(d, &f.resid, axis, &*in_var, &coarse, in_time)?;
+            let c0 = periodic_best(d, &f.resid, axis, in_var, &coarse, in_time)?;
             let fine: Vec<f64> = (0..)
                 .map(|i| (c0 - coarse_step).max(0.5 * f_lo) + i as f64 * fine_step)
                 .take_while(|&x| x <= c0 + coarse_step)
                 .collect();
-            let best = periodic_best(d, &f.resid, axis, &*in_var, &fine, false)?;
+            let best = periodic_best(d, &f.resid, axis, in_var, &fine, false)?;
             // Columns take a frequency; `report_parameters` turns it into a period.
             let _ = as_period;
             (Some((name, best)), 1)

@@ -39,17 +39,17 @@ impl ThermalBasis {
         let mut tk = [0.0; K];
         let mom = Moments::new(red, 6 * K, extra, |row, out| {
             out.iter_mut().for_each(|v| *v = 0.0);
-            let s = &d.samples[row / 2];
+            let (s, f) = (row / 2, &d.fields);
             let j = d.row_axis(row).index();
-            let (tm, h) = span[s.run_idx];
-            let tau = (s.t_s - tm) / h;
+            let (tm, h) = span[f.run_idx[s]];
+            let tau = (f.t_s[s] - tm) / h;
             tk[0] = 1.0;
             tk[1] = tau;
             for k in 2..K {
                 tk[k] = 2.0 * tau * tk[k - 1] - tk[k - 2];
             }
             for k in 0..K {
-                out[j * K + k] = tk[k] * s.q_mm[j] * 1e-3;
+                out[j * K + k] = tk[k] * f.q_mm[j][s] * 1e-3;
                 out[(3 + j) * K + k] = tk[k];
             }
         });
