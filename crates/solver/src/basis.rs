@@ -101,6 +101,29 @@ impl Basis {
     /// (q/h)^k, or g_k(q) = P_k(s) − P_k(s₀) [− P_k'(s₀)(s − s₀)] from one pass of the
     /// Legendre recurrences at s and at s₀ ([`Legendre`]).
     pub fn values(&self, q_mm: f64) -> impl Iterator<Item = f64> + use<> {
+        self.values_from(q_mm, Legendre::new(self.reference_s()))
+    }
+
+    /// The Legendre terms at the reference position s₀ = −c/h, (P_k(s₀), P_k'(s₀)) for
+    /// k = 0..=N: the constant part of [`Basis::values`], formed once for
+    /// [`Basis::values_from`] at many positions.
+    pub fn at_reference(&self) -> Vec<(f64, f64)> {
+        Legendre::new(self.reference_s())
+            .take(self.order + 1)
+            .collect()
+    }
+
+    fn reference_s(&self) -> f64 {
+        -self.centre_mm / self.half_width_mm
+    }
+
+    /// [`Basis::values`] with the Legendre terms at s₀ given, from k = 0 (a pass of
+    /// [`Legendre`] or [`Basis::at_reference`]; unused by monomials).
+    pub fn values_from<R: Iterator<Item = (f64, f64)>>(
+        &self,
+        q_mm: f64,
+        reference: R,
+    ) -> impl Iterator<Item = f64> + use<R> {
         let h = self.half_width_mm;
         let (first, order, n) = (self.first_power(), self.order, self.len());
         let poly = (self.kind == BasisKind::Polynomial).then(|| {
@@ -108,18 +131,17 @@ impl Basis {
             (first..=order).map(move |k| s.powi(k as i32))
         });
         let straightness = self.straightness;
-        let leg = (self.kind == BasisKind::Legendre).then(|| {
-            let s = (q_mm - self.centre_mm) / h;
-            let s0 = -self.centre_mm / h;
-            Legendre::new(s)
-                .zip(Legendre::new(s0))
-                .skip(first)
-                .take(n)
-                .map(move |((p, _), (p0, dp0))| {
-                    let v = p - p0;
-                    if straightness { v - dp0 * (s - s0) } else { v }
-                })
-        });
+        let s0 = self.reference_s();
+        let leg =
+            (self.kind == BasisKind::Legendre).then(|| {
+                let s = (q_mm - self.centre_mm) / h;
+                Legendre::new(s).zip(reference).skip(first).take(n).map(
+                    move |((p, _), (p0, dp0))| {
+                        let v = p - p0;
+                        if straightness { v - dp0 * (s - s0) } else { v }
+                    },
+                )
+            });
         poly.into_iter().flatten().chain(leg.into_iter().flatten())
     }
 }

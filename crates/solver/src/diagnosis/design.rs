@@ -54,17 +54,27 @@ pub struct SampleFields {
 
 impl SampleFields {
     fn of(samples: &[SampleMeta]) -> SampleFields {
-        let per_axis = |f: &dyn Fn(&SampleMeta) -> [f64; 3]| {
-            std::array::from_fn(|a| samples.iter().map(|s| f(s)[a]).collect())
+        let n = samples.len();
+        let axes = || std::array::from_fn(|_| Vec::with_capacity(n));
+        let mut f = SampleFields {
+            run_idx: Vec::with_capacity(n),
+            t_s: Vec::with_capacity(n),
+            q_mm: axes(),
+            vel_mm_s: axes(),
+            dir: axes(),
+            since_reversal_mm: axes(),
         };
-        SampleFields {
-            run_idx: samples.iter().map(|s| s.run_idx).collect(),
-            t_s: samples.iter().map(|s| s.t_s).collect(),
-            q_mm: per_axis(&|s| s.q_mm),
-            vel_mm_s: per_axis(&|s| s.vel_mm_s),
-            dir: per_axis(&|s| s.dir),
-            since_reversal_mm: per_axis(&|s| s.since_reversal_mm),
+        for s in samples {
+            f.run_idx.push(s.run_idx);
+            f.t_s.push(s.t_s);
+            for a in 0..3 {
+                f.q_mm[a].push(s.q_mm[a]);
+                f.vel_mm_s[a].push(s.vel_mm_s[a]);
+                f.dir[a].push(s.dir[a]);
+                f.since_reversal_mm[a].push(s.since_reversal_mm[a]);
+            }
         }
+        f
     }
 }
 

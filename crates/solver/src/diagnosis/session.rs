@@ -341,15 +341,20 @@ fn periodic_best(
     Some(freqs[kbest])
 }
 
-/// Σ_k ε_k(q_k) (µrad) at every sample, from the current fit's error parameters.
-fn eps_per_sample(d: &Design, red: &Reduction, f: &Fit) -> Vec<[f64; 3]> {
+/// Σ_k ε_k(q_k) (µrad) at every sample of the runs whose head offset is one of `groups`,
+/// from the current fit's error parameters; 0 on the other runs (the setup-offset
+/// columns, which alone read it, are 0 there).
+fn eps_per_sample(d: &Design, red: &Reduction, f: &Fit, groups: &[[f64; 3]]) -> Vec<[f64; 3]> {
     let x: Vec<f64> = (0..d.model.len()).map(|j| f.a[j] / red.scale[j]).collect();
-    // The rotation terms: (term index, its axis, the rotation's direction).
-    let rot: Vec<(usize, usize, usize)> = Term::all()
+    // The rotation terms: (its value as a function of q, its axis, the rotation's
+    // direction).
+    let rot: Vec<_> = Term::all()
         .into_iter()
         .enumerate()
         .filter_map(|(i, term)| match term.component {
-            Component::Rotation(dir) => Some((i, term.axis.index(), dir.index())),
+            Component::Rotation(dir) => {
+                Some((d.model.term_fn(i, &x), term.axis.index(), dir.index()))
+            }
             _ => None,
         })
         .collect();
@@ -358,11 +363,17 @@ fn eps_per_sample(d: &Design, red: &Reduction, f: &Fit) -> Vec<[f64; 3]> {
     // samples, each sample's terms added in term order.
     let mut last = vec![(f64::NAN, 0.0); rot.len()];
     let mut out = vec![[0.0; 3]; d.samples.len()];
-    for (s, o) in out.iter_mut().enumerate() {
-        for (&(i, a, dir), last) in rot.iter().zip(last.iter_mut()) {
+    let runs = d
+        .runs
+        .iter()
+        .filter(|r| groups.contains(&d.samples[r.start].head_mm));
+    for s in runs.flat_map(|r| r.start..r.end) {
+        let o = &mut out[s];
+        for ((value, a, dir), last) in rot.iter().zip(last.iter_mut()) {
+            let (a, dir) = (*a, *dir);
             let q = d.fields.q_mm[a][s];
             if q != last.0 {
-                *last = (q, d.model.term_value(i, &x, q));
+                *last = (q, value(q));
             }
             o[dir] += last.1;
         }
@@ -838,8 +849,9 @@ struct SessionProblem<'a> {
     /// Residual degrees of freedom of the rigid model.
     dof: usize,
     folds: usize,
-    /// Whether a candidate needs the per-sample rotation errors (setup offsets).
-    needs_eps: bool,
+    /// The head offsets of the setup-offset candidates, whose columns need the
+    /// per-sample rotation errors on the runs of those groups (none: not needed).
+    eps_groups: Vec<[f64; 3]>,
 }
 
 /// The current model: its fit, the parameters added to the rigid model, and the rigid
@@ -860,9 +872,8 @@ enum Note {
 impl SessionProblem<'_> {
     fn state(&self, fit: Fit, k: usize) -> State {
         State {
-            eps: self
-                .needs_eps
-                .then(|| eps_per_sample(self.d, self.red, &fit)),
+            eps: (!self.eps_groups.is_empty())
+                .then(|| eps_per_sample(self.d, self.red, &fit, &self.eps_groups)),
             fit,
             k,
         }
@@ -1028,7 +1039,11 @@ pub fn diagnose_session_with_progress(
         d: &d,
         red: &red,
         sets: &sets,
-        needs_eps: cands.iter().any(|c| c.effect == "setup_offset"),
+        eps_groups: cands
+            .iter()
+            .filter(|c| c.effect == "setup_offset")
+            .filter_map(|c| c.group)
+            .collect(),
         cands,
         floor,
         dof,
