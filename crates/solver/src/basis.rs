@@ -92,20 +92,42 @@ impl Basis {
         out
     }
 
-    /// As [`Basis::eval`], appending to `out`.
+    /// As [`Basis::eval`], appending to `out`: monomials (q/h)^k, or
+    /// g_k(q) = P_k(s) − P_k(s₀) [− P_k'(s₀)(s − s₀)] ([`Basis::shifted`]).
     pub fn eval_into(&self, q_mm: f64, out: &mut Vec<f64>) {
-        out.extend(self.values(q_mm));
+        let h = self.half_width_mm;
+        match self.kind {
+            BasisKind::Polynomial => {
+                let s = q_mm / h;
+                for k in self.first_power()..=self.order {
+                    out.push(s.powi(k as i32));
+                }
+            }
+            BasisKind::Legendre => {
+                let s = (q_mm - self.centre_mm) / h;
+                let s0 = self.reference_s();
+                for k in self.first_power()..=self.order {
+                    let (p, _) = legendre(k, s);
+                    out.push(self.shifted(s, p, legendre(k, s0)));
+                }
+            }
+        }
     }
 
-    /// The values of [`Basis::eval`], lowest power first, without a vector: monomials
-    /// (q/h)^k, or g_k(q) = P_k(s) − P_k(s₀) [− P_k'(s₀)(s − s₀)] from one pass of the
-    /// Legendre recurrences at s and at s₀ ([`Legendre`]).
-    pub fn values(&self, q_mm: f64) -> impl Iterator<Item = f64> + use<> {
-        self.values_from(q_mm, Legendre::new(self.reference_s()))
+    /// g_k = P_k(s) − P_k(s₀) [− P_k'(s₀)(s − s₀) for a straightness] from p = P_k(s) and
+    /// the terms at the reference position (P_k(s₀), P_k'(s₀)).
+    #[inline]
+    fn shifted(&self, s: f64, p: f64, (p0, dp0): (f64, f64)) -> f64 {
+        let v = p - p0;
+        if self.straightness {
+            v - dp0 * (s - self.reference_s())
+        } else {
+            v
+        }
     }
 
     /// The Legendre terms at the reference position s₀ = −c/h, (P_k(s₀), P_k'(s₀)) for
-    /// k = 0..=N: the constant part of [`Basis::values`], formed once for
+    /// k = 0..=N: the constant part of [`Basis::eval`], formed once for
     /// [`Basis::values_from`] at many positions.
     pub fn at_reference(&self) -> Vec<(f64, f64)> {
         Legendre::new(self.reference_s())
@@ -117,32 +139,27 @@ impl Basis {
         -self.centre_mm / self.half_width_mm
     }
 
-    /// [`Basis::values`] with the Legendre terms at s₀ given, from k = 0 (a pass of
-    /// [`Legendre`] or [`Basis::at_reference`]; unused by monomials).
-    pub fn values_from<R: Iterator<Item = (f64, f64)>>(
-        &self,
+    /// The values of [`Basis::eval`] (lowest power first, without a vector) for
+    /// evaluating at many positions: the Legendre terms at s₀ given, from k = 0
+    /// ([`Basis::at_reference`]), those at s from one pass of [`Legendre`].
+    pub fn values_from<'a>(
+        &'a self,
         q_mm: f64,
-        reference: R,
-    ) -> impl Iterator<Item = f64> + use<R> {
+        reference: &'a [(f64, f64)],
+    ) -> impl Iterator<Item = f64> + 'a {
         let h = self.half_width_mm;
-        let (first, order, n) = (self.first_power(), self.order, self.len());
-        let poly = (self.kind == BasisKind::Polynomial).then(|| {
-            let s = q_mm / h;
-            (first..=order).map(move |k| s.powi(k as i32))
-        });
-        let straightness = self.straightness;
-        let s0 = self.reference_s();
-        let leg =
-            (self.kind == BasisKind::Legendre).then(|| {
-                let s = (q_mm - self.centre_mm) / h;
-                Legendre::new(s).zip(reference).skip(first).take(n).map(
-                    move |((p, _), (p0, dp0))| {
-                        let v = p - p0;
-                        if straightness { v - dp0 * (s - s0) } else { v }
-                    },
-                )
-            });
-        poly.into_iter().flatten().chain(leg.into_iter().flatten())
+        let s = match self.kind {
+            BasisKind::Polynomial => q_mm / h,
+            BasisKind::Legendre => (q_mm - self.centre_mm) / h,
+        };
+        let mut terms = Legendre::new(s).zip(reference).skip(self.first_power());
+        (self.first_power()..=self.order).map(move |k| match self.kind {
+            BasisKind::Polynomial => s.powi(k as i32),
+            BasisKind::Legendre => {
+                let ((p, _), &r) = terms.next().expect("reference terms up to the order");
+                self.shifted(s, p, r)
+            }
+        })
     }
 }
 

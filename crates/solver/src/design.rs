@@ -234,7 +234,7 @@ impl ErrorModel {
     pub fn term_value(&self, i: usize, x: &[f64], q: f64) -> f64 {
         match &self.bases[i] {
             None => 0.0,
-            Some(b) => combine(b.values(q), &x[self.term_range(i)]),
+            Some(b) => combine(b.eval(q).into_iter(), &x[self.term_range(i)]),
         }
     }
 
@@ -242,14 +242,10 @@ impl ErrorModel {
     /// positions: its basis's terms at the reference position formed once
     /// ([`crate::basis::Basis::at_reference`]).
     pub fn term_fn<'a>(&'a self, i: usize, x: &'a [f64]) -> impl Fn(f64) -> f64 + 'a {
-        let b = self.bases[i];
+        let b = self.bases[i].as_ref();
         let reference = b.map(|b| b.at_reference()).unwrap_or_default();
         let c = &x[self.term_range(i)];
-        move |q| {
-            b.map_or(0.0, |b| {
-                combine(b.values_from(q, reference.iter().copied()), c)
-            })
-        }
+        move |q| b.map_or(0.0, |b| combine(b.values_from(q, &reference), c))
     }
 
     /// Gradient of term `i`'s value at `q` with respect to the error parameters.
