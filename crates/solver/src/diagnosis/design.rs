@@ -55,23 +55,23 @@ pub struct SampleFields {
 impl SampleFields {
     fn of(samples: &[SampleMeta]) -> SampleFields {
         let n = samples.len();
-        let axes = || std::array::from_fn(|_| Vec::with_capacity(n));
+        let axes = || std::array::from_fn(|_| vec![0.0; n]);
         let mut f = SampleFields {
-            run_idx: Vec::with_capacity(n),
-            t_s: Vec::with_capacity(n),
+            run_idx: vec![0; n],
+            t_s: vec![0.0; n],
             q_mm: axes(),
             vel_mm_s: axes(),
             dir: axes(),
             since_reversal_mm: axes(),
         };
-        for s in samples {
-            f.run_idx.push(s.run_idx);
-            f.t_s.push(s.t_s);
+        for (i, s) in samples.iter().enumerate() {
+            f.run_idx[i] = s.run_idx;
+            f.t_s[i] = s.t_s;
             for a in 0..3 {
-                f.q_mm[a].push(s.q_mm[a]);
-                f.vel_mm_s[a].push(s.vel_mm_s[a]);
-                f.dir[a].push(s.dir[a]);
-                f.since_reversal_mm[a].push(s.since_reversal_mm[a]);
+                f.q_mm[a][i] = s.q_mm[a];
+                f.vel_mm_s[a][i] = s.vel_mm_s[a];
+                f.dir[a][i] = s.dir[a];
+                f.since_reversal_mm[a][i] = s.since_reversal_mm[a];
             }
         }
         f
