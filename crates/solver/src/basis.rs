@@ -93,7 +93,7 @@ impl Basis {
     }
 
     /// As [`Basis::eval`], appending to `out`: monomials (q/h)^k, or
-    /// g_k(q) = P_k(s) − P_k(s₀) [− P_k'(s₀)(s − s₀)] ([`Basis::shifted`]).
+    /// g_k(q) = P_k(s) − P_k(s₀) [− P_k'(s₀)(s − s₀)] (`Basis::shifted`).
     pub fn eval_into(&self, q_mm: f64, out: &mut Vec<f64>) {
         let h = self.half_width_mm;
         match self.kind {

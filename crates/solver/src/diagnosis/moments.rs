@@ -427,7 +427,7 @@ impl Sets {
 /// The base columns U = [E | y] of the joint fits (the accepted effects and the data),
 /// with their products with the rigid basis on each set of runs, formed once per base
 /// for every joint fit that extends it: V_S,U = W_Sᵀ Z_S,U = Σ_{g∈S} W_S,gᵀ Z_g,U (the
-/// columns of V in [`solve`] that do not depend on the candidate).
+/// columns of V in the joint fits' `solve` that do not depend on the candidate).
 pub struct Base {
     pub mom: Moments,
     /// V_S,U (rank × u) on all runs.
