@@ -92,7 +92,8 @@ impl Basis {
         out
     }
 
-    /// As [`Basis::eval`], appending to `out`.
+    /// As [`Basis::eval`], appending to `out`: monomials (q/h)^k, or
+    /// g_k(q) = P_k(s) − P_k(s₀) [− P_k'(s₀)(s − s₀)] (`Basis::shifted`).
     pub fn eval_into(&self, q_mm: f64, out: &mut Vec<f64>) {
         let h = self.half_width_mm;
         match self.kind {
@@ -104,40 +105,115 @@ impl Basis {
             }
             BasisKind::Legendre => {
                 let s = (q_mm - self.centre_mm) / h;
-                let s0 = -self.centre_mm / h;
+                let s0 = self.reference_s();
                 for k in self.first_power()..=self.order {
                     let (p, _) = legendre(k, s);
-                    let (p0, dp0) = legendre(k, s0);
-                    let mut v = p - p0;
-                    if self.straightness {
-                        v -= dp0 * (s - s0);
-                    }
-                    out.push(v);
+                    out.push(self.shifted(s, p, legendre(k, s0)));
                 }
             }
         }
     }
+
+    /// g_k = P_k(s) − P_k(s₀) [− P_k'(s₀)(s − s₀) for a straightness] from p = P_k(s) and
+    /// the terms at the reference position (P_k(s₀), P_k'(s₀)).
+    #[inline]
+    fn shifted(&self, s: f64, p: f64, (p0, dp0): (f64, f64)) -> f64 {
+        let v = p - p0;
+        if self.straightness {
+            v - dp0 * (s - self.reference_s())
+        } else {
+            v
+        }
+    }
+
+    /// The Legendre terms at the reference position s₀ = −c/h, (P_k(s₀), P_k'(s₀)) for
+    /// k = 0..=N: the constant part of [`Basis::eval`], formed once for
+    /// [`Basis::values_from`] at many positions.
+    pub fn at_reference(&self) -> Vec<(f64, f64)> {
+        Legendre::new(self.reference_s())
+            .take(self.order + 1)
+            .collect()
+    }
+
+    fn reference_s(&self) -> f64 {
+        -self.centre_mm / self.half_width_mm
+    }
+
+    /// The values of [`Basis::eval`] (lowest power first, without a vector) for
+    /// evaluating at many positions: the Legendre terms at s₀ given, from k = 0
+    /// ([`Basis::at_reference`]), those at s from one pass of [`Legendre`].
+    pub fn values_from<'a>(
+        &'a self,
+        q_mm: f64,
+        reference: &'a [(f64, f64)],
+    ) -> impl Iterator<Item = f64> + 'a {
+        let h = self.half_width_mm;
+        let s = match self.kind {
+            BasisKind::Polynomial => q_mm / h,
+            BasisKind::Legendre => (q_mm - self.centre_mm) / h,
+        };
+        let mut terms = Legendre::new(s).zip(reference).skip(self.first_power());
+        (self.first_power()..=self.order).map(move |k| match self.kind {
+            BasisKind::Polynomial => s.powi(k as i32),
+            BasisKind::Legendre => {
+                let ((p, _), &r) = terms.next().expect("reference terms up to the order");
+                self.shifted(s, p, r)
+            }
+        })
+    }
 }
 
-/// Legendre polynomial P_k(s) and its derivative, by the three-term recurrence
-/// (k+1) P_{k+1} = (2k+1) s P_k − k P_{k−1}; P_k' = k (s P_k − P_{k−1}) / (s² − 1),
-/// computed here by the derivative recurrence P'_{k+1} = P'_{k−1} + (2k+1) P_k.
+/// Legendre polynomial P_k(s) and its derivative ([`Legendre`]'s k-th term).
 pub fn legendre(k: usize, s: f64) -> (f64, f64) {
-    let (mut p_prev, mut p) = (1.0, s);
-    let (mut d_prev, mut d) = (0.0, 1.0);
-    if k == 0 {
-        return (1.0, 0.0);
+    Legendre::new(s).nth(k).unwrap_or((0.0, 0.0))
+}
+
+/// P_k(s) and P_k'(s) for k = 0, 1, 2, …, by the three-term recurrence
+/// (k+1) P_{k+1} = (2k+1) s P_k − k P_{k−1} and the derivative recurrence
+/// P'_{k+1} = P'_{k−1} + (2k+1) P_k (P_k' = k (s P_k − P_{k−1}) / (s² − 1)).
+pub struct Legendre {
+    s: f64,
+    /// Index of the next term (the state holds the last two terms yielded).
+    k: usize,
+    p_prev: f64,
+    p: f64,
+    d_prev: f64,
+    d: f64,
+}
+
+impl Legendre {
+    pub fn new(s: f64) -> Legendre {
+        Legendre {
+            s,
+            k: 0,
+            p_prev: 1.0,
+            p: s,
+            d_prev: 0.0,
+            d: 1.0,
+        }
     }
-    for n in 1..k {
-        let nf = n as f64;
-        let p_next = ((2.0 * nf + 1.0) * s * p - nf * p_prev) / (nf + 1.0);
-        let d_next = d_prev + (2.0 * nf + 1.0) * p;
-        p_prev = p;
-        p = p_next;
-        d_prev = d;
-        d = d_next;
+}
+
+impl Iterator for Legendre {
+    type Item = (f64, f64);
+
+    fn next(&mut self) -> Option<(f64, f64)> {
+        let k = self.k;
+        self.k += 1;
+        match k {
+            0 => return Some((1.0, 0.0)),
+            1 => {}
+            // P_k from P_{k−1} and P_{k−2}: n = k − 1.
+            _ => {
+                let nf = (k - 1) as f64;
+                let p_next = ((2.0 * nf + 1.0) * self.s * self.p - nf * self.p_prev) / (nf + 1.0);
+                let d_next = self.d_prev + (2.0 * nf + 1.0) * self.p;
+                (self.p_prev, self.p) = (self.p, p_next);
+                (self.d_prev, self.d) = (self.d, d_next);
+            }
+        }
+        Some((self.p, self.d))
     }
-    (p, d)
 }
 
 /// A machine whose 18 error functions are plain polynomials in the commanded position,

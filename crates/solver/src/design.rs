@@ -234,11 +234,18 @@ impl ErrorModel {
     pub fn term_value(&self, i: usize, x: &[f64], q: f64) -> f64 {
         match &self.bases[i] {
             None => 0.0,
-            Some(b) => {
-                let r = self.term_range(i);
-                b.eval(q).iter().zip(&x[r]).map(|(v, c)| v * c).sum()
-            }
+            Some(b) => combine(b.eval(q).into_iter(), &x[self.term_range(i)]),
         }
+    }
+
+    /// [`ErrorModel::term_value`] of term `i` as a function of q, for evaluating at many
+    /// positions: its basis's terms at the reference position formed once
+    /// ([`crate::basis::Basis::at_reference`]).
+    pub fn term_fn<'a>(&'a self, i: usize, x: &'a [f64]) -> impl Fn(f64) -> f64 + 'a {
+        let b = self.bases[i].as_ref();
+        let reference = b.map(|b| b.at_reference()).unwrap_or_default();
+        let c = &x[self.term_range(i)];
+        move |q| b.map_or(0.0, |b| combine(b.values_from(q, &reference), c))
     }
 
     /// Gradient of term `i`'s value at `q` with respect to the error parameters.
@@ -252,6 +259,11 @@ impl ErrorModel {
         }
         g
     }
+}
+
+/// Σ_k v_k c_k of basis values and their coefficients, in order.
+fn combine(values: impl Iterator<Item = f64>, c: &[f64]) -> f64 {
+    values.zip(c).map(|(v, c)| v * c).sum()
 }
 
 /// Measured travel of each axis: the range of commanded positions over the runs in which

@@ -163,13 +163,14 @@ pub fn spectral_floor<'a>(sequences: impl IntoIterator<Item = &'a [f64]>) -> Opt
     let w11: f64 = w.windows(2).map(|p| p[0] * p[1]).sum();
     let nb = BIN_HI - BIN_LO + 1;
     // Window × twiddle table (cos, sin) per bin, and the gain G_k of white noise.
+    // (w_t cos, w_t sin) of bin b at t, t-major: table[t·nb + b].
     let mut table = vec![(0.0, 0.0); nb * SEG];
     let mut gain = vec![0.0; nb];
     for (b, k) in (BIN_LO..=BIN_HI).enumerate() {
         let om = 2.0 * std::f64::consts::PI * k as f64 / SEG as f64;
         for t in 0..SEG {
             let (s, c) = (om * t as f64).sin_cos();
-            table[b * SEG + t] = (w[t] * c, w[t] * s);
+            table[t * nb + b] = (w[t] * c, w[t] * s);
         }
         gain[b] = (2.0 - 2.0 * om.cos() * w11 / w2) * w2;
     }
@@ -190,15 +191,17 @@ pub fn spectral_floor<'a>(sequences: impl IntoIterator<Item = &'a [f64]>) -> Opt
         }
         let mut start = 0;
         while start + SEG <= d.len() {
-            let seg = &d[start..start + SEG];
-            for b in 0..nb {
-                let row = &table[b * SEG..(b + 1) * SEG];
-                let (mut re, mut im) = (0.0, 0.0);
-                for (v, (c, s)) in seg.iter().zip(row) {
-                    re += v * c;
-                    im += v * s;
+            // Every bin's sums at once, each in the order of t (their chains of
+            // additions overlap).
+            let (mut re, mut im) = ([0.0; BIN_HI - BIN_LO + 1], [0.0; BIN_HI - BIN_LO + 1]);
+            for (v, row) in d[start..start + SEG].iter().zip(table.chunks_exact(nb)) {
+                for (b, (c, s)) in row.iter().enumerate() {
+                    re[b] += v * c;
+                    im[b] += v * s;
                 }
-                ordinates[b].push((re * re + im * im) / gain[b]);
+            }
+            for b in 0..nb {
+                ordinates[b].push((re[b] * re[b] + im[b] * im[b]) / gain[b]);
             }
             start += HOP;
         }
@@ -268,25 +271,41 @@ impl NoiseFloor {
 /// run's two reading directions, checked against the differences of repeated passes;
 /// `None` when neither can be computed.
 pub fn session_floor(session: &Session) -> Option<NoiseFloor> {
-    let seqs = session
-        .planes
-        .iter()
-        .flat_map(|p| &p.runs)
-        .flat_map(|r| [r.du_um.as_slice(), r.dv_um.as_slice()]);
-    let pass = pass_differences(session);
-    match spectral_floor(seqs) {
-        Some((s, n)) => Some(NoiseFloor {
-            sigma_um: s,
-            spectral: true,
-            count: n,
-            pass_differences_um: pass,
-        }),
-        None => pass.map(|p| NoiseFloor {
-            sigma_um: p,
-            spectral: false,
-            count: 0,
-            pass_differences_um: Some(p),
-        }),
+    NoiseFloor::of(session_spectral_floor(session), pass_differences(session))
+}
+
+/// The spectral floor ([`spectral_floor`]) over every run's two reading directions: σ̂
+/// and the number of ordinates.
+pub fn session_spectral_floor(session: &Session) -> Option<(f64, usize)> {
+    spectral_floor(
+        session
+            .planes
+            .iter()
+            .flat_map(|p| &p.runs)
+            .flat_map(|r| [r.du_um.as_slice(), r.dv_um.as_slice()]),
+    )
+}
+
+impl NoiseFloor {
+    /// The floor from a session's spectral floor (σ̂, ordinates) and its pass-difference
+    /// figure: the spectral one checked against the pass differences, or the pass
+    /// differences alone when no run is long enough for the spectrum; `None` when
+    /// neither is known.
+    pub fn of(spectral: Option<(f64, usize)>, pass: Option<f64>) -> Option<NoiseFloor> {
+        match spectral {
+            Some((s, n)) => Some(NoiseFloor {
+                sigma_um: s,
+                spectral: true,
+                count: n,
+                pass_differences_um: pass,
+            }),
+            None => pass.map(|p| NoiseFloor {
+                sigma_um: p,
+                spectral: false,
+                count: 0,
+                pass_differences_um: Some(p),
+            }),
+        }
     }
 }
 

@@ -24,7 +24,7 @@
 //! across it they are model order, waviness, velocity coupling and direction coupling; in
 //! time, vibration and thermal drift (docs/diagnosis.md, "Beyond the catalogue").
 
-use super::design::{Design, SampleMeta};
+use super::design::Design;
 use super::linalg::Cols;
 use crate::axis::Axis;
 use std::f64::consts::PI;
@@ -152,8 +152,13 @@ pub fn candidates(d: &Design) -> Vec<Candidate> {
     out
 }
 
-/// Session duration and the rate-limited frequency band (Hz).
+/// Session duration, the Nyquist frequency of its shortest sample interval (Hz) and the
+/// longest run's duration; computed once per design (a pass over the samples).
 fn time_band(d: &Design) -> (f64, f64, f64) {
+    *d.time_band.get_or_init(|| time_band_of(d))
+}
+
+fn time_band_of(d: &Design) -> (f64, f64, f64) {
     let t0 = d.samples.first().map_or(0.0, |s| s.t_s);
     let t1 = d.samples.last().map_or(1.0, |s| s.t_s);
     let mut dt = f64::INFINITY;
@@ -223,14 +228,14 @@ pub fn search(d: &Design, c: &Candidate) -> Search {
 
 /// The columns of a candidate: their coefficients' names (with units), the reading axis
 /// of each (its values are nonzero only on rows read along it; `None`: every row), and
-/// `fill(sample, meta, reading axis, out)` writing every column's value at a row (entries
-/// of columns along another axis are then set to 0). The design centres them per (run,
+/// `fill(sample, reading axis, out)` writing every column's value at a row from the
+/// design's per-sample fields (entries of columns along another axis are then set to 0). The design centres them per (run,
 /// direction) like the rigid columns.
 pub struct Columns<'a> {
     pub names: Vec<String>,
     pub axes: Vec<Option<Axis>>,
     #[allow(clippy::type_complexity)]
-    fill: Box<dyn Fn(usize, &SampleMeta, Axis, &mut [f64]) + 'a>,
+    fill: Box<dyn Fn(usize, Axis, &mut [f64]) + 'a>,
     /// Per reading axis: whether some column can be nonzero on its rows.
     active: [bool; 3],
     /// An axis whose position and travel alone the columns follow: they are constant
@@ -242,7 +247,7 @@ impl<'a> Columns<'a> {
     fn new(
         names: Vec<String>,
         axes: Vec<Option<Axis>>,
-        fill: impl Fn(usize, &SampleMeta, Axis, &mut [f64]) + 'a,
+        fill: impl Fn(usize, Axis, &mut [f64]) + 'a,
     ) -> Self {
         let active = [0, 1, 2].map(|i| axes.iter().any(|a| a.is_none_or(|a| a.index() == i)));
         Columns {
@@ -269,7 +274,7 @@ impl<'a> Columns<'a> {
     }
 
     fn none() -> Self {
-        Columns::new(Vec::new(), Vec::new(), |_, _, _, _| {})
+        Columns::new(Vec::new(), Vec::new(), |_, _, _| {})
     }
 
     pub fn len(&self) -> usize {
@@ -295,7 +300,7 @@ impl<'a> Columns<'a> {
             out.iter_mut().for_each(|v| *v = 0.0);
             return;
         }
-        (self.fill)(row / 2, &d.samples[row / 2], read, out);
+        (self.fill)(row / 2, read, out);
         for (o, a) in out.iter_mut().zip(&self.axes) {
             if a.is_some_and(|a| a != read) {
                 *o = 0.0;
@@ -332,21 +337,24 @@ pub fn specs<'a>(
         "backlash" => {
             let a = c.axis.expect("axis");
             let (n, ax) = one("lost_motion_um", a);
-            Columns::new(n, ax, move |_, s, _, o| o[0] = -0.5 * s.dir[a.index()]).following(a)
+            let dir = &d.fields.dir[a.index()];
+            Columns::new(n, ax, move |s, _, o| o[0] = -0.5 * dir[s]).following(a)
         }
         "servo_lag" => {
             let a = c.axis.expect("axis");
             let (n, ax) = one("lag_s", a);
-            Columns::new(n, ax, move |_, s, _, o| o[0] = -s.vel_mm_s[a.index()] * 1e3)
+            let vel = &d.fields.vel_mm_s[a.index()];
+            Columns::new(n, ax, move |s, _, o| o[0] = -vel[s] * 1e3)
         }
         "reversal_spike" => {
             let a = c.axis.expect("axis");
             let i = a.index();
             let (n, ax) = one("height_um", a);
-            Columns::new(n, ax, move |_, s, _, o| {
-                let x = s.since_reversal_mm[i];
+            let (since, dir) = (&d.fields.since_reversal_mm[i], &d.fields.dir[i]);
+            Columns::new(n, ax, move |s, _, o| {
+                let x = since[s];
                 o[0] = if x < SPIKE_REACH * theta {
-                    -s.dir[i] * (-x / theta).exp()
+                    -dir[s] * (-x / theta).exp()
                 } else {
                     0.0
                 };
@@ -359,17 +367,19 @@ pub fn specs<'a>(
             let dir = c.direction.unwrap_or(a);
             let i = a.index();
             let w = 2.0 * PI * theta;
+            let q = &d.fields.q_mm[i];
             Columns::new(
                 vec!["sin".into(), "cos".into()],
                 vec![Some(dir); 2],
-                move |_, s, _, o| (o[0], o[1]) = (w * s.q_mm[i]).sin_cos(),
+                move |s, _, o| (o[0], o[1]) = (w * q[s]).sin_cos(),
             )
             .following(a)
         }
         "velocity_coupling" => {
             let (a, dir) = (c.axis.expect("axis"), c.direction.expect("direction"));
             let (n, ax) = one("coefficient_um_per_mm_s", dir);
-            Columns::new(n, ax, move |_, s, _, o| o[0] = s.vel_mm_s[a.index()])
+            let vel = &d.fields.vel_mm_s[a.index()];
+            Columns::new(n, ax, move |s, _, o| o[0] = vel[s])
         }
         "direction_coupling" => {
             // Across a, +s/2 while a last travelled toward + and −s/2 toward −.
@@ -383,7 +393,7 @@ pub fn specs<'a>(
             Columns::new(
                 vec!["sin".into(), "cos".into()],
                 vec![Some(dir); 2],
-                move |_, s, _, o| (o[0], o[1]) = (w * s.t_s).sin_cos(),
+                move |s, _, o| (o[0], o[1]) = (w * d.fields.t_s[s]).sin_cos(),
             )
         }
         "thermal_drift" | "thermal_temperature" => {
@@ -400,14 +410,14 @@ pub fn specs<'a>(
                 .chain(Axis::ALL.map(|j| format!("{offset}_{j}")))
                 .collect();
             let axes = Axis::ALL.into_iter().chain(Axis::ALL).map(Some).collect();
-            Columns::new(names, axes, move |_, s, read, o| {
+            Columns::new(names, axes, move |s, read, o| {
                 let g = if temp {
-                    s.temp_k.unwrap_or(0.0)
+                    d.samples[s].temp_k.unwrap_or(0.0)
                 } else {
-                    1.0 - (-s.t_s / theta).exp()
+                    1.0 - (-d.fields.t_s[s] / theta).exp()
                 };
                 let i = read.index();
-                o[i] = g * s.q_mm[i] * 1e-3;
+                o[i] = g * d.fields.q_mm[i][s] * 1e-3;
                 o[3 + i] = g;
             })
         }
@@ -418,13 +428,13 @@ pub fn specs<'a>(
                 return Columns::none();
             };
             let (cen, h) = (0.5 * (lo + hi), (0.5 * (hi - lo)).max(1.0));
-            let i = a.index();
+            let q = &d.fields.q_mm[a.index()];
             Columns::new(
                 (4..=10).map(|k| format!("P{k}")).collect(),
                 vec![Some(dir); 7],
-                move |_, s, _, o| {
+                move |s, _, o| {
                     // Bonnet's recurrence: (k+1) P_{k+1} = (2k+1) x P_k − k P_{k−1}.
-                    let x = (s.q_mm[i] - cen) / h;
+                    let x = (q[s] - cen) / h;
                     let (mut p0, mut p1) = (1.0, x);
                     for k in 1..10 {
                         let p2 = ((2 * k + 1) as f64 * x * p1 - k as f64 * p0) / (k + 1) as f64;
@@ -445,11 +455,11 @@ pub fn specs<'a>(
             Columns::new(
                 Axis::ALL.map(|j| format!("delta_mm_{j}")).to_vec(),
                 vec![None; 3],
-                move |si, s, read, o| {
+                move |si, read, o| {
                     // (ε × e_j)[read axis] · 10⁻³ on the group's samples.
                     let e = nalgebra::Vector3::from(eps[si]);
                     for (j, slot) in o.iter_mut().enumerate() {
-                        *slot = if s.head_mm == g {
+                        *slot = if d.samples[si].head_mm == g {
                             let mut ej = nalgebra::Vector3::zeros();
                             ej[j] = 1.0;
                             e.cross(&ej)[read.index()] * 1e-3

@@ -38,6 +38,46 @@ pub struct SampleMeta {
     pub temp_k: Option<f64>,
 }
 
+/// Fields of every sample, one array per field and axis, indexed by sample: a pass over
+/// the rows that reads one field streams 8 bytes per sample instead of a whole
+/// [`SampleMeta`] (the candidates' columns and the frequency scans read them row by row,
+/// once per candidate).
+#[derive(Debug, Clone, Default)]
+pub struct SampleFields {
+    pub run_idx: Vec<usize>,
+    pub t_s: Vec<f64>,
+    pub q_mm: [Vec<f64>; 3],
+    pub vel_mm_s: [Vec<f64>; 3],
+    pub dir: [Vec<f64>; 3],
+    pub since_reversal_mm: [Vec<f64>; 3],
+}
+
+impl SampleFields {
+    fn of(samples: &[SampleMeta]) -> SampleFields {
+        let n = samples.len();
+        let axes = || std::array::from_fn(|_| vec![0.0; n]);
+        let mut f = SampleFields {
+            run_idx: vec![0; n],
+            t_s: vec![0.0; n],
+            q_mm: axes(),
+            vel_mm_s: axes(),
+            dir: axes(),
+            since_reversal_mm: axes(),
+        };
+        for (i, s) in samples.iter().enumerate() {
+            f.run_idx[i] = s.run_idx;
+            f.t_s[i] = s.t_s;
+            for a in 0..3 {
+                f.q_mm[a][i] = s.q_mm[a];
+                f.vel_mm_s[a][i] = s.vel_mm_s[a];
+                f.dir[a][i] = s.dir[a];
+                f.since_reversal_mm[a][i] = s.since_reversal_mm[a];
+            }
+        }
+        f
+    }
+}
+
 /// One run's place in the session.
 #[derive(Debug, Clone)]
 pub struct RunInfo {
@@ -70,6 +110,14 @@ pub struct Design {
     /// (the columns themselves are only formed reduced, run by run:
     /// [`super::reduced::Reduction`]).
     pub model: ErrorModel,
+    /// The fields of the samples that the candidates' columns and the scans read, one
+    /// array per field.
+    pub fields: SampleFields,
+    /// The reading axis of every row.
+    pub row_axes: Vec<Axis>,
+    /// The catalogue's time band of the session (duration, Nyquist frequency, longest
+    /// run), formed on first use.
+    pub time_band: std::sync::OnceLock<(f64, f64, f64)>,
 }
 
 impl Design {
@@ -78,9 +126,9 @@ impl Design {
     }
 
     /// The reading axis of row `r`.
+    #[inline]
     pub fn row_axis(&self, r: usize) -> Axis {
-        let (u, v) = self.plane_axes[self.samples[r / 2].plane_idx];
-        if r.is_multiple_of(2) { u } else { v }
+        self.row_axes[r]
     }
 
     /// Centres `c` per (run, component) and returns the largest |value| before centring
@@ -239,7 +287,16 @@ pub fn build(session: &Session, topology: &Topology, order: usize) -> Result<Des
             "the session has no samples".into(),
         ));
     }
+    let row_axes = samples
+        .iter()
+        .flat_map(|s| {
+            let (u, v) = plane_axes[s.plane_idx];
+            [u, v]
+        })
+        .collect();
     let mut d = Design {
+        fields: SampleFields::of(&samples),
+        row_axes,
         samples,
         runs,
         plane_axes,
@@ -254,6 +311,7 @@ pub fn build(session: &Session, topology: &Topology, order: usize) -> Result<Des
             order,
             travel.map(|t| t.map(|[lo, hi]| (lo, hi))),
         ),
+        time_band: std::sync::OnceLock::new(),
     };
     let mut y = std::mem::take(&mut d.y);
     d.centre(&mut y);

@@ -16,6 +16,7 @@
 //! 1958). Its rounding error grows like n²·ε near θ = 0 (about 10⁻⁹ relative for a run
 //! of 3 000 samples): well below what a scan's choice of frequency can notice.
 
+use super::linalg::wide;
 use std::f64::consts::PI;
 
 /// Frequencies evaluated together: independent recurrences, enough of them to hide the
@@ -74,14 +75,7 @@ pub fn even_sums(x0: f64, h: f64, r: &[f64], f0: f64, df: f64, out: &mut [[f64; 
         let w: [f64; LANES] =
             std::array::from_fn(|l| 2.0 * PI * (f0 + (b * LANES + l) as f64 * df));
         let coef = w.map(|w| 2.0 * (w * h).cos());
-        let (mut s1, mut s2) = ([0.0; LANES], [0.0; LANES]);
-        for &rk in r {
-            for l in 0..LANES {
-                let s0 = rk + coef[l] * s1[l] - s2[l];
-                s2[l] = s1[l];
-                s1[l] = s0;
-            }
-        }
+        let (s1, s2) = wide(|| goertzel(r, &coef));
         for (l, m) in block.iter_mut().enumerate() {
             let theta = w[l] * h;
             let start = (w[l] * x0).sin_cos();
@@ -109,6 +103,21 @@ pub fn even_sums(x0: f64, h: f64, r: &[f64], f0: f64, df: f64, out: &mut [[f64; 
             }
         }
     }
+}
+
+/// Goertzel's recurrence s_k = r_k + coef·s_{k−1} − s_{k−2} over `r` on every lane:
+/// (s_{n−1}, s_{n−2}).
+#[inline(always)]
+fn goertzel(r: &[f64], coef: &[f64; LANES]) -> ([f64; LANES], [f64; LANES]) {
+    let (mut s1, mut s2) = ([0.0; LANES], [0.0; LANES]);
+    for &rk in r {
+        for l in 0..LANES {
+            let s0 = rk + coef[l] * s1[l] - s2[l];
+            s2[l] = s1[l];
+            s1[l] = s0;
+        }
+    }
+    (s1, s2)
 }
 
 #[cfg(test)]

@@ -14,6 +14,19 @@ use nalgebra::{DMatrix, DVector};
 /// Column-major dense matrix as a list of columns.
 pub type Cols = Vec<Vec<f64>>;
 
+/// Runs the kernel `op` compiled for the widest vector instructions the CPU has (AVX2 on
+/// x86-64, chosen at run time by pulp's dispatch, without unsafe code; the plain build
+/// elsewhere). A kernel is built wide where it is inlined: `op.with_simd` and what it
+/// calls are `#[inline(always)]` (a closure, pulp's `NullaryFnOnce`, may stay a call of
+/// its own when large). The kernels run this way do the same operations in the same
+/// order on each lane whatever the vector width (Rust never fuses a multiply and an
+/// add), so their values do not depend on the machine.
+#[inline(always)]
+pub fn wide<Op: pulp::WithSimd>(op: Op) -> Op::Output {
+    pulp::Arch::new().dispatch(op)
+}
+
+#[inline]
 pub fn dot(a: &[f64], b: &[f64]) -> f64 {
     a.iter().zip(b).map(|(x, y)| x * y).sum()
 }
@@ -21,6 +34,7 @@ pub fn dot(a: &[f64], b: &[f64]) -> f64 {
 /// a·b summed in eight interleaved lanes (element i into lane i mod 8), the lanes then
 /// added pairwise: the same value as [`dot`] to rounding, without its chain of
 /// dependent additions (the lanes vectorise).
+#[inline(always)]
 pub fn dot_lanes(a: &[f64], b: &[f64]) -> f64 {
     let n = a.len().min(b.len());
     let (a, b) = (&a[..n], &b[..n]);

@@ -26,7 +26,7 @@
 //! 10⁻¹⁰ of its sum of squares outside the model is dropped.
 
 use super::design::Design;
-use super::linalg::{Projector, dot, dot_lanes};
+use super::linalg::{Projector, dot, dot_lanes, wide};
 use super::reduced::{Reduction, RunSpace};
 use nalgebra::{DMatrix, SymmetricEigen};
 
@@ -125,7 +125,8 @@ impl Moments {
             let mut lo = vec![[f64::INFINITY; 2]; m];
             let mut hi = vec![[f64::NEG_INFINITY; 2]; m];
             // Rows of each direction where each column is nonzero: where it is fewer
-            // than the direction's rows, 0 is one of the column's values (for lo/hi).
+            // than the direction's rows, 0 is one of the column's values (for lo/hi;
+            // `column_stats` counts the visited zeros in already).
             let mut count = vec![[0usize; 2]; m];
             visit.clear();
             rows(g, rs, &mut visit);
@@ -142,32 +143,14 @@ impl Moments {
             }
             for (comp, d) in dirs.iter().enumerate() {
                 let Some(off) = d.off else { continue };
-                // The columns nonzero on some row of this direction.
-                let mut nz = Vec::with_capacity(m);
-                let k = d.k;
-                for j in 0..m {
-                    for &v in Gathered::col(&d.x, k, j).iter().filter(|&&v| v != 0.0) {
-                        count[j][comp] += 1;
-                        sums[j][comp] += v;
-                        lo[j][comp] = lo[j][comp].min(v);
-                        hi[j][comp] = hi[j][comp].max(v);
-                    }
-                    if count[j][comp] > 0 {
-                        nz.push(j);
-                    }
-                }
-                for (a, &j) in nz.iter().enumerate() {
-                    let xj = Gathered::col(&d.x, k, j);
-                    for t in 0..w {
-                        rm.z[j * r + off + t] += dot_lanes(xj, Gathered::col(&d.q, k, t));
-                    }
-                    // The upper triangle only (the lower is its mirror).
-                    for &l in &nz[a..] {
-                        rm.xx[j * m + l] += dot_lanes(xj, Gathered::col(&d.x, k, l));
-                    }
-                    for c in 0..u {
-                        rm.xu[j * u + c] += dot_lanes(xj, Gathered::col(&d.u, k, c));
-                    }
+                let stats = wide(DirectionMoments {
+                    d,
+                    off,
+                    dims: (m, w, u, r),
+                    rm: &mut rm,
+                });
+                for (j, (n, sum, l, h)) in stats.into_iter().enumerate() {
+                    (count[j][comp], sums[j][comp], lo[j][comp], hi[j][comp]) = (n, sum, l, h);
                 }
             }
             for j in 0..m {
@@ -260,6 +243,81 @@ impl Moments {
     }
 }
 
+/// Of each of the m gathered columns of k values (column after column in `x`): the number
+/// of its nonzero values, their sum Σv (added in row order: a zero adds nothing, so this
+/// is the sum of every value in order) and its least and largest values (zeros
+/// included). [`STAT_COLUMNS`] columns are taken side by side, each in row order: their
+/// sums' chains of dependent additions overlap, and the extremes take no branches.
+#[inline(always)]
+fn column_stats(x: &[f64], k: usize, m: usize) -> Vec<(usize, f64, f64, f64)> {
+    let mut out = Vec::with_capacity(m);
+    for j0 in (0..m).step_by(STAT_COLUMNS) {
+        // A last group short of columns repeats its first (the repeats are dropped).
+        let cols: [&[f64]; STAT_COLUMNS] = std::array::from_fn(|c| {
+            let j = if j0 + c < m { j0 + c } else { j0 };
+            &x[j * k..(j + 1) * k]
+        });
+        let mut n = [0usize; STAT_COLUMNS];
+        let mut sum = [0.0; STAT_COLUMNS];
+        let mut lo = [f64::INFINITY; STAT_COLUMNS];
+        let mut hi = [f64::NEG_INFINITY; STAT_COLUMNS];
+        for i in 0..k {
+            for c in 0..STAT_COLUMNS {
+                let v = cols[c][i];
+                n[c] += usize::from(v != 0.0);
+                sum[c] += v;
+                lo[c] = if v < lo[c] { v } else { lo[c] };
+                hi[c] = if v > hi[c] { v } else { hi[c] };
+            }
+        }
+        out.extend((0..STAT_COLUMNS.min(m - j0)).map(|c| (n[c], sum[c], lo[c], hi[c])));
+    }
+    out
+}
+
+/// Columns of [`column_stats`] taken together.
+const STAT_COLUMNS: usize = 4;
+
+/// The moments of one reading direction of a run from its gathered rows, added to the
+/// run's (Z_g at the direction's offset `off`, the upper triangle of X_gᵀX_g, X_gᵀU_g)
+/// over the columns nonzero on some row of it; [`wide`] runs it, and it returns each
+/// column's [`column_stats`].
+struct DirectionMoments<'a> {
+    d: &'a Gathered,
+    off: usize,
+    /// m columns, w basis values per row, u base columns, r reduced coordinates.
+    dims: (usize, usize, usize, usize),
+    rm: &'a mut RunMoments,
+}
+
+impl pulp::WithSimd for DirectionMoments<'_> {
+    type Output = Vec<(usize, f64, f64, f64)>;
+
+    #[inline(always)]
+    fn with_simd<S: pulp::Simd>(self, _: S) -> Self::Output {
+        let DirectionMoments { d, off, rm, .. } = self;
+        let (m, w, u, r) = self.dims;
+        let k = d.k;
+        let stats = column_stats(&d.x, k, m);
+        // The columns nonzero on some row of this direction.
+        let nz: Vec<usize> = (0..m).filter(|&j| stats[j].0 > 0).collect();
+        for (a, &j) in nz.iter().enumerate() {
+            let xj = Gathered::col(&d.x, k, j);
+            for t in 0..w {
+                rm.z[j * r + off + t] += dot_lanes(xj, Gathered::col(&d.q, k, t));
+            }
+            // The upper triangle only (the lower is its mirror).
+            for &l in &nz[a..] {
+                rm.xx[j * m + l] += dot_lanes(xj, Gathered::col(&d.x, k, l));
+            }
+            for c in 0..u {
+                rm.xu[j * u + c] += dot_lanes(xj, Gathered::col(&d.u, k, c));
+            }
+        }
+        stats
+    }
+}
+
 /// The visited rows of one reading direction of a run, gathered by column (flat,
 /// column after column of k values), so that every moment is a dot product of two
 /// contiguous vectors ([`dot_lanes`]).
@@ -278,11 +336,11 @@ struct Gathered {
 }
 
 impl Gathered {
-    /// Makes room for `k` rows of m columns, w basis values and u base columns.
+    /// Makes room for `k` rows of m columns, w basis values and u base columns (not
+    /// cleared: the k rows pushed then write every value).
     fn start(&mut self, k: usize, m: usize, w: usize, u: usize) {
         (self.off, self.n, self.k) = (None, 0, k);
         for (buf, c) in [(&mut self.x, m), (&mut self.q, w), (&mut self.u, u)] {
-            buf.clear();
             buf.resize(c * k, 0.0);
         }
     }
@@ -366,6 +424,79 @@ impl Sets {
     }
 }
 
+/// The base columns U = [E | y] of the joint fits (the accepted effects and the data),
+/// with their products with the rigid basis on each set of runs, formed once per base
+/// for every joint fit that extends it: V_S,U = W_Sᵀ Z_S,U = Σ_{g∈S} W_S,gᵀ Z_g,U (the
+/// columns of V in the joint fits' `solve` that do not depend on the candidate).
+pub struct Base {
+    pub mom: Moments,
+    /// V_S,U (rank × u) on all runs.
+    v_all: DMatrix<f64>,
+    /// V_S,U on each fold's training runs, in the order of [`Sets::folds`].
+    v_folds: Vec<DMatrix<f64>>,
+}
+
+impl Base {
+    pub fn new(red: &Reduction, sets: &Sets, mom: Moments) -> Base {
+        let z = |g: usize, c: usize| mom.z_col(g, c);
+        Base {
+            v_all: rigid_products(red, &sets.all, mom.m, z),
+            v_folds: sets
+                .folds
+                .iter()
+                .map(|(train, _)| rigid_products(red, train, mom.m, z))
+                .collect(),
+            mom,
+        }
+    }
+}
+
+impl Moments {
+    /// Column c of Z_g = Q_gᵀ X on run g.
+    fn z_col(&self, g: usize, c: usize) -> &[f64] {
+        let rm = &self.runs[g];
+        let r = rm.z.len() / self.m.max(1);
+        &rm.z[c * r..(c + 1) * r]
+    }
+}
+
+/// V = W_Sᵀ Z_S (rank × n) of n columns whose run-g blocks are `z(g, c)`: the runs' terms
+/// added in the set's order ([`add_products`]).
+fn rigid_products<'a, Z: Fn(usize, usize) -> &'a [f64]>(
+    red: &Reduction,
+    set: &RunSet,
+    n: usize,
+    z: Z,
+) -> DMatrix<f64> {
+    wide(RigidProducts { red, set, n, z })
+}
+
+/// [`rigid_products`]' arguments, as the kernel [`wide`] runs.
+struct RigidProducts<'a, Z> {
+    red: &'a Reduction,
+    set: &'a RunSet,
+    n: usize,
+    z: Z,
+}
+
+impl<'a, Z: Fn(usize, usize) -> &'a [f64]> pulp::WithSimd for RigidProducts<'_, Z> {
+    type Output = DMatrix<f64>;
+
+    #[inline(always)]
+    fn with_simd<S: pulp::Simd>(self, _: S) -> DMatrix<f64> {
+        let w = &self.set.proj.w;
+        let mut v = DMatrix::<f64>::zeros(w.len(), self.n);
+        let mut off = 0;
+        for &run in &self.set.runs {
+            for c in 0..self.n {
+                add_products(&mut v, c, w, off, (self.z)(run, c));
+            }
+            off += self.red.runs[run].r;
+        }
+        v
+    }
+}
+
 /// The columns of a joint fit: an effect's B (optional) before the base U = [E | y].
 struct Joint<'a> {
     b: Option<&'a Moments>,
@@ -382,25 +513,25 @@ impl Joint<'_> {
     /// Column j of Z_g.
     fn z(&self, g: usize, j: usize) -> &[f64] {
         let mb = self.mb();
-        let (mo, j) = match self.b {
-            Some(b) if j < mb => (b, j),
-            _ => (self.base, j - mb),
-        };
-        let rm = &mo.runs[g];
-        let r = rm.z.len() / mo.m.max(1);
-        &rm.z[j * r..(j + 1) * r]
+        match self.b {
+            Some(b) if j < mb => b.z_col(g, j),
+            _ => self.base.z_col(g, j - mb),
+        }
     }
-    /// G_g (q × q).
-    fn g(&self, g: usize) -> DMatrix<f64> {
-        let (mb, q) = (self.mb(), self.q());
-        let base = &self.base.runs[g];
-        let mu = self.base.m;
-        DMatrix::from_fn(q, q, |i, j| match (i < mb, j < mb) {
+    /// Element (i, j) of G_g.
+    fn g_at(&self, g: usize, i: usize, j: usize) -> f64 {
+        let mb = self.mb();
+        match (i < mb, j < mb) {
             (true, true) => self.b.map_or(0.0, |b| b.runs[g].xx[i * mb + j]),
             (true, false) => self.b.map_or(0.0, |b| b.runs[g].xu[i * b.u + (j - mb)]),
             (false, true) => self.b.map_or(0.0, |b| b.runs[g].xu[j * b.u + (i - mb)]),
-            (false, false) => base.xx[(i - mb) * mu + (j - mb)],
-        })
+            (false, false) => self.base.runs[g].xx[(i - mb) * self.base.m + (j - mb)],
+        }
+    }
+    /// G_g (q × q).
+    fn g(&self, g: usize) -> DMatrix<f64> {
+        let q = self.q();
+        DMatrix::from_fn(q, q, |i, j| self.g_at(g, i, j))
     }
 }
 
@@ -417,22 +548,28 @@ pub struct SetFit {
     pub rank: usize,
 }
 
-fn solve(red: &Reduction, set: &RunSet, j: &Joint) -> SetFit {
-    let q = j.q();
+/// The joint fit on the runs of `set`; `v_base` is the base's V_S,U on them ([`Base`]).
+fn solve(red: &Reduction, set: &RunSet, j: &Joint, v_base: &DMatrix<f64>) -> SetFit {
+    let (q, mb) = (j.q(), j.mb());
     let p = q - 1;
-    let w = &set.proj.w;
-    let rank = w.len();
+    let rank = set.proj.w.len();
     let mut g = DMatrix::<f64>::zeros(q, q);
-    let mut v = DMatrix::<f64>::zeros(rank, q);
-    let mut off = 0;
     for &run in &set.runs {
-        g += j.g(run);
-        let r = red.runs[run].r;
-        for c in 0..q {
-            add_products(&mut v, c, w, off, j.z(run, c));
+        for b in 0..q {
+            for a in 0..q {
+                g[(a, b)] += j.g_at(run, a, b);
+            }
         }
-        off += r;
     }
+    // V = W_Sᵀ [Z_B | Z_U]: the candidate's columns here, the base's formed once.
+    let vb = rigid_products(red, set, mb, |g, c| j.z(g, c));
+    let v = DMatrix::from_fn(rank, q, |l, c| {
+        if c < mb {
+            vb[(l, c)]
+        } else {
+            v_base[(l, c - mb)]
+        }
+    });
     // C = G − VᵀV, the moments of the columns after the rigid model.
     let c = &g - v.transpose() * &v;
     let diag: Vec<f64> = (0..p)
@@ -489,6 +626,7 @@ fn solve(red: &Reduction, set: &RunSet, j: &Joint) -> SetFit {
 
 /// v[(l, c)] += w_l[off..off + len]·z for every basis column w_l, four at a time: four
 /// independent sums over z (each one's terms added in the order of [`dot`]).
+#[inline(always)]
 fn add_products(v: &mut DMatrix<f64>, c: usize, w: &[Vec<f64>], off: usize, z: &[f64]) {
     let r = z.len();
     let mut groups = w.chunks_exact(4);
@@ -523,11 +661,11 @@ pub fn joint_fit(
     red: &Reduction,
     sets: &Sets,
     b: Option<&Moments>,
-    base: &Moments,
+    base: &Base,
     heldout: bool,
 ) -> JointFit {
-    let j = Joint { b, base };
-    let all = solve(red, &sets.all, &j);
+    let j = Joint { b, base: &base.mom };
+    let all = solve(red, &sets.all, &j, &base.v_all);
     if !heldout {
         return JointFit {
             all,
@@ -535,8 +673,8 @@ pub fn joint_fit(
         };
     }
     let mut total = 0.0;
-    for (train, held) in &sets.folds {
-        let f = solve(red, train, &j);
+    for ((train, held), v_base) in sets.folds.iter().zip(&base.v_folds) {
+        let f = solve(red, train, &j, v_base);
         let q = j.q();
         let mut wv = DMatrix::<f64>::zeros(q, 1);
         for (i, x) in f.x.iter().enumerate() {

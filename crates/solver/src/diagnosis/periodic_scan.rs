@@ -12,6 +12,7 @@
 //! already centred per run).
 
 use super::even_scan;
+use super::linalg::wide;
 use std::f64::consts::PI;
 
 /// Frequencies evaluated together (independent phasor chains, vectorised).
@@ -92,6 +93,36 @@ fn stretch_end(xs: &[f64], i: usize) -> usize {
 /// the samples `xs` with residual `rv`, by rotating phasors, [`LANES`] frequencies at a
 /// time.
 pub fn phasor_sums(rv: &[f64], xs: &[f64], f0: f64, df: f64, out: &mut [[f64; 7]]) {
+    wide(Phasors {
+        rv,
+        xs,
+        f0,
+        df,
+        out,
+    });
+}
+
+/// [`phasor_sums`]' arguments, as the kernel [`wide`] runs.
+struct Phasors<'a> {
+    rv: &'a [f64],
+    xs: &'a [f64],
+    f0: f64,
+    df: f64,
+    out: &'a mut [[f64; 7]],
+}
+
+impl pulp::WithSimd for Phasors<'_> {
+    type Output = ();
+
+    #[inline(always)]
+    fn with_simd<S: pulp::Simd>(self, _: S) {
+        phasors(self.rv, self.xs, self.f0, self.df, self.out)
+    }
+}
+
+/// [`phasor_sums`]' work, inlined into its wide build.
+#[inline(always)]
+fn phasors(rv: &[f64], xs: &[f64], f0: f64, df: f64, out: &mut [[f64; 7]]) {
     let two_pi = 2.0 * PI;
     let nf = out.len();
     let nb = nf.div_ceil(LANES);

@@ -76,7 +76,7 @@ struct Fit {
     /// Accepted effect columns (centred, unit norm).
     cols: Cols,
     /// Moments of [accepted effects | y] (the base of every joint fit).
-    base: Moments,
+    base: moments::Base,
     /// Coefficients of the rigid columns (scaled) on all runs.
     a: Vec<f64>,
     resid: Vec<f64>,
@@ -89,7 +89,7 @@ struct Fit {
 /// Fits the rigid model plus the effect columns `cols` on all runs and on the training
 /// runs of each fold, and forms the residual on all rows.
 fn fit(d: &Design, red: &Reduction, sets: &Sets, cols: Cols) -> Fit {
-    let base = Moments::of_columns(red, &base_columns(d, &cols));
+    let base = moments::Base::new(red, sets, Moments::of_columns(red, &base_columns(d, &cols)));
     let jf = moments::joint_fit(red, sets, None, &base, true);
     let mut resid = d.y.clone();
     for (col, e) in cols.iter().zip(&jf.all.x) {
@@ -229,7 +229,7 @@ fn near_rows(
             (0..if parked { 0 } else { rs.rows })
                 .filter_map(|i| {
                     let row = rs.row0 + i;
-                    let x = d.samples[row / 2].since_reversal_mm[axis.index()];
+                    let x = d.fields.since_reversal_mm[axis.index()][row / 2];
                     (d.row_axis(row) == axis && x < reach).then_some((i, x))
                 })
                 .collect()
@@ -255,7 +255,7 @@ fn periodic_best(
     d: &Design,
     r: &[f64],
     axis: crate::axis::Axis,
-    var: &dyn Fn(&design::SampleMeta) -> f64,
+    var: &[f64],
     freqs: &[f64],
     per_run: bool,
 ) -> Option<f64> {
@@ -305,7 +305,7 @@ fn periodic_best(
                 continue;
             }
             rv.push(r[row]);
-            xs.push(var(&d.samples[row / 2]));
+            xs.push(var[row / 2]);
         }
         if rv.is_empty() {
             continue;
@@ -341,23 +341,41 @@ fn periodic_best(
     Some(freqs[kbest])
 }
 
-/// Σ_k ε_k(q_k) (µrad) at every sample, from the current fit's error parameters.
-fn eps_per_sample(d: &Design, red: &Reduction, f: &Fit) -> Vec<[f64; 3]> {
+/// Σ_k ε_k(q_k) (µrad) at every sample of the runs whose head offset is one of `groups`,
+/// from the current fit's error parameters; 0 on the other runs (the setup-offset
+/// columns, which alone read it, are 0 there).
+fn eps_per_sample(d: &Design, red: &Reduction, f: &Fit, groups: &[[f64; 3]]) -> Vec<[f64; 3]> {
     let x: Vec<f64> = (0..d.model.len()).map(|j| f.a[j] / red.scale[j]).collect();
-    let mut out = vec![[0.0; 3]; d.samples.len()];
-    for (i, term) in Term::all().into_iter().enumerate() {
-        let Component::Rotation(dir) = term.component else {
-            continue;
-        };
-        // Consecutive samples often share the axis position (a parked axis): the
-        // term's value is evaluated again only when it changes.
-        let mut last = (f64::NAN, 0.0);
-        for (s, m) in d.samples.iter().enumerate() {
-            let q = m.q_mm[term.axis.index()];
-            if q != last.0 {
-                last = (q, d.model.term_value(i, &x, q));
+    // The rotation terms: (its value as a function of q, its axis, the rotation's
+    // direction).
+    let rot: Vec<_> = Term::all()
+        .into_iter()
+        .enumerate()
+        .filter_map(|(i, term)| match term.component {
+            Component::Rotation(dir) => {
+                Some((d.model.term_fn(i, &x), term.axis.index(), dir.index()))
             }
-            out[s][dir.index()] += last.1;
+            _ => None,
+        })
+        .collect();
+    // Consecutive samples often share an axis position (a parked axis): a term's value
+    // is evaluated again only when its axis's position changes. One pass over the
+    // samples, each sample's terms added in term order.
+    let mut last = vec![(f64::NAN, 0.0); rot.len()];
+    let mut out = vec![[0.0; 3]; d.samples.len()];
+    let runs = d
+        .runs
+        .iter()
+        .filter(|r| groups.contains(&d.samples[r.start].head_mm));
+    for s in runs.flat_map(|r| r.start..r.end) {
+        let o = &mut out[s];
+        for ((value, a, dir), last) in rot.iter().zip(last.iter_mut()) {
+            let (a, dir) = (*a, *dir);
+            let q = d.fields.q_mm[a][s];
+            if q != last.0 {
+                *last = (q, value(q));
+            }
+            o[dir] += last.1;
         }
     }
     out
@@ -436,16 +454,13 @@ fn try_candidate(
             if f_hi <= f_lo {
                 return None;
             }
-            type Var = Box<dyn Fn(&design::SampleMeta) -> f64>;
-            let (axis, in_var): (crate::axis::Axis, Var) = if in_time {
-                (cand.direction?, Box::new(|m| m.t_s))
+            // The variable per sample: time, or the axis's position.
+            let (axis, in_var) = if in_time {
+                (cand.direction?, &d.fields.t_s)
             } else {
                 // Rows read along the effect's direction (its own axis for `cyclic`).
                 let a = cand.axis?;
-                (
-                    cand.direction.unwrap_or(a),
-                    Box::new(move |m| m.q_mm[a.index()]),
-                )
+                (cand.direction.unwrap_or(a), &d.fields.q_mm[a.index()])
             };
             // Scan sizes are bounded (a heuristic: the exact joint fit follows): at most
             // MAX_SCAN_FREQS coarse and fine frequencies.
@@ -455,12 +470,12 @@ fn try_candidate(
                 .map(|i| f_lo + i as f64 * coarse_step)
                 .take_while(|&x| x <= f_hi)
                 .collect();
-            let c0 = periodic_best(d, &f.resid, axis, &*in_var, &coarse, in_time)?;
+            let c0 = periodic_best(d, &f.resid, axis, in_var, &coarse, in_time)?;
             let fine: Vec<f64> = (0..)
                 .map(|i| (c0 - coarse_step).max(0.5 * f_lo) + i as f64 * fine_step)
                 .take_while(|&x| x <= c0 + coarse_step)
                 .collect();
-            let best = periodic_best(d, &f.resid, axis, &*in_var, &fine, false)?;
+            let best = periodic_best(d, &f.resid, axis, in_var, &fine, false)?;
             // Columns take a frequency; `report_parameters` turns it into a period.
             let _ = as_period;
             (Some((name, best)), 1)
@@ -834,8 +849,9 @@ struct SessionProblem<'a> {
     /// Residual degrees of freedom of the rigid model.
     dof: usize,
     folds: usize,
-    /// Whether a candidate needs the per-sample rotation errors (setup offsets).
-    needs_eps: bool,
+    /// The head offsets of the setup-offset candidates, whose columns need the
+    /// per-sample rotation errors on the runs of those groups (none: not needed).
+    eps_groups: Vec<[f64; 3]>,
 }
 
 /// The current model: its fit, the parameters added to the rigid model, and the rigid
@@ -856,9 +872,8 @@ enum Note {
 impl SessionProblem<'_> {
     fn state(&self, fit: Fit, k: usize) -> State {
         State {
-            eps: self
-                .needs_eps
-                .then(|| eps_per_sample(self.d, self.red, &fit)),
+            eps: (!self.eps_groups.is_empty())
+                .then(|| eps_per_sample(self.d, self.red, &fit, &self.eps_groups)),
             fit,
             k,
         }
@@ -999,12 +1014,19 @@ pub fn diagnose_session_with_progress(
     let base_rms = (f.ssr / dof as f64).sqrt();
     let base_heldout = rms(f.heldout_ssr, heldout_n);
     progress.report("noise floor", 0.08);
-    let (floor, floor_note) = match crate::noise::session_floor(session) {
-        Some(nf) => (nf.sigma_um, nf.note()),
-        None => (
-            base_rms,
-            "no run long enough for the spectrum and no repeated passes: the rigid model's residual stands in for the noise floor".into(),
-        ),
+    // The floor is the spectral one when a run is long enough for the spectrum; the
+    // differences of repeated passes (`noise::session_floor`'s check) otherwise, and for
+    // the note, which only a misfit left above the floor needs: computed then.
+    let spectral = crate::noise::session_spectral_floor(session);
+    let checked = std::cell::OnceCell::new();
+    let noise_floor = || {
+        *checked.get_or_init(|| {
+            crate::noise::NoiseFloor::of(spectral, crate::noise::pass_differences(session))
+        })
+    };
+    let floor = match spectral {
+        Some((s, _)) => s,
+        None => noise_floor().map_or(base_rms, |nf| nf.sigma_um),
     };
     let before_resid = f.resid.clone();
     let mismatch = if base_heldout > opts.noise_level_ratio * floor {
@@ -1017,7 +1039,11 @@ pub fn diagnose_session_with_progress(
         d: &d,
         red: &red,
         sets: &sets,
-        needs_eps: cands.iter().any(|c| c.effect == "setup_offset"),
+        eps_groups: cands
+            .iter()
+            .filter(|c| c.effect == "setup_offset")
+            .filter_map(|c| c.group)
+            .collect(),
         cands,
         floor,
         dof,
@@ -1062,6 +1088,10 @@ pub fn diagnose_session_with_progress(
     );
     let mut unexplained = Vec::new();
     if !at_noise {
+        let floor_note = match noise_floor() {
+            Some(nf) => nf.note(),
+            None => "no run long enough for the spectrum and no repeated passes: the rigid model's residual stands in for the noise floor".into(),
+        };
         let rest = locate(&d, &f.resid, floor);
         let places: Vec<String> = rest
             .iter()

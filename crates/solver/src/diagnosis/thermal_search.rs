@@ -13,6 +13,7 @@
 use super::design::Design;
 use super::moments::{Moments, RunMoments};
 use super::reduced::Reduction;
+use crate::axis::Axis;
 use std::f64::consts::PI;
 
 /// Chebyshev terms per run.
@@ -36,23 +37,34 @@ impl ThermalBasis {
                 (0.5 * (a + b), (0.5 * (b - a)).max(1e-9))
             })
             .collect();
-        let mut tk = [0.0; K];
-        let mom = Moments::new(red, 6 * K, extra, |row, out| {
-            out.iter_mut().for_each(|v| *v = 0.0);
-            let s = &d.samples[row / 2];
-            let j = d.row_axis(row).index();
-            let (tm, h) = span[s.run_idx];
-            let tau = (s.t_s - tm) / h;
-            tk[0] = 1.0;
-            tk[1] = tau;
-            for k in 2..K {
-                tk[k] = 2.0 * tau * tk[k - 1] - tk[k - 2];
-            }
-            for k in 0..K {
-                out[j * K + k] = tk[k] * s.q_mm[j] * 1e-3;
-                out[(3 + j) * K + k] = tk[k];
-            }
+        // A row read along axis j has only j's 2K columns nonzero (ψ_{j,k} with q_j and
+        // without): one pass per reading axis over its rows with those columns, placed
+        // into the 6K columns' moments ([`place`]).
+        let per_axis = Axis::ALL.map(|a| {
+            let j = a.index();
+            let mut tk = [0.0; K];
+            Moments::new_on(
+                red,
+                2 * K,
+                extra,
+                |row| d.row_axis(row) == a,
+                |row, out| {
+                    let (s, f) = (row / 2, &d.fields);
+                    let (tm, h) = span[f.run_idx[s]];
+                    let tau = (f.t_s[s] - tm) / h;
+                    tk[0] = 1.0;
+                    tk[1] = tau;
+                    for k in 2..K {
+                        tk[k] = 2.0 * tau * tk[k - 1] - tk[k - 2];
+                    }
+                    for k in 0..K {
+                        out[k] = tk[k] * f.q_mm[j][s] * 1e-3;
+                        out[K + k] = tk[k];
+                    }
+                },
+            )
         });
+        let mom = place(&per_axis);
         ThermalBasis { mom, span }
     }
 
@@ -106,6 +118,59 @@ impl ThermalBasis {
             peaks: vec![0.0; m],
             varies: vec![true; m],
         }
+    }
+}
+
+/// The moments of the 6K basis columns (scale X, Y, Z, then offset X, Y, Z; K each) from
+/// those of each reading axis j's 2K columns on its own rows (`per_axis[j]`: scale j,
+/// offset j): the same values where a pass over all rows and columns puts them (no row
+/// has two axes' columns nonzero, so the blocks across axes are 0, and so are a column's
+/// sums on the other axes' rows).
+fn place(per_axis: &[Moments; 3]) -> Moments {
+    let m = 6 * K;
+    let u = per_axis[0].u;
+    // The column of the 6K of axis j's column l.
+    let col = |j: usize, l: usize| {
+        if l < K {
+            j * K + l
+        } else {
+            (3 + j) * K + l - K
+        }
+    };
+    let runs = (0..per_axis[0].runs.len())
+        .map(|g| {
+            let r = per_axis[0].runs[g].z.len() / (2 * K);
+            let mut rm = RunMoments {
+                z: vec![0.0; m * r],
+                xx: vec![0.0; m * m],
+                xu: vec![0.0; m * u],
+            };
+            for (j, part) in per_axis.iter().enumerate() {
+                let p = &part.runs[g];
+                for l in 0..2 * K {
+                    let c = col(j, l);
+                    rm.z[c * r..(c + 1) * r].copy_from_slice(&p.z[l * r..(l + 1) * r]);
+                    rm.xu[c * u..(c + 1) * u].copy_from_slice(&p.xu[l * u..(l + 1) * u]);
+                    for l2 in 0..2 * K {
+                        rm.xx[c * m + col(j, l2)] = p.xx[l * 2 * K + l2];
+                    }
+                }
+            }
+            rm
+        })
+        .collect();
+    let (mut peaks, mut varies) = (vec![0.0; m], vec![false; m]);
+    for (j, part) in per_axis.iter().enumerate() {
+        for l in 0..2 * K {
+            (peaks[col(j, l)], varies[col(j, l)]) = (part.peaks[l], part.varies[l]);
+        }
+    }
+    Moments {
+        m,
+        u,
+        runs,
+        peaks,
+        varies,
     }
 }
 
