@@ -385,7 +385,8 @@ pub fn specs<'a>(
             // Across a, +s/2 while a last travelled toward + and −s/2 toward −.
             let (a, dir) = (c.axis.expect("axis"), c.direction.expect("direction"));
             let (n, ax) = one("shift_um", dir);
-            Columns::new(n, ax, move |_, s, _, o| o[0] = 0.5 * s.dir[a.index()]).following(a)
+            let travel = &d.fields.dir[a.index()];
+            Columns::new(n, ax, move |s, _, o| o[0] = 0.5 * travel[s]).following(a)
         }
         "vibration" => {
             let dir = c.direction.expect("direction");
