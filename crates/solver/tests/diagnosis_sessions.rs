@@ -355,15 +355,17 @@ fn wavy_straightness_found_and_named() {
         42,
     );
     assert_ne!(r.verdict, Verdict::Consistent, "{r:#?}");
-    let f = r
-        .findings
-        .iter()
-        .find(|f| matches!(f.effect.as_str(), "waviness" | "model_order"))
-        .unwrap_or_else(|| panic!("{r:#?}"));
+    assert_eq!(r.findings.len(), 1, "{r:#?}");
+    let f = &r.findings[0];
+    assert_eq!(f.effect, "waviness", "{r:#?}");
     assert_eq!(f.axis.as_deref(), Some("X"));
-    if f.effect == "waviness" {
-        assert!(close(param(f, "period_mm"), 35.0, 0.03, 0.0), "{r:#?}");
-    }
+    assert_eq!(
+        f.signature.as_deref(),
+        Some("a Y error periodic in the X position (period 35.0 mm)"),
+        "{r:#?}"
+    );
+    assert!(close(param(f, "period_mm"), 35.0, 0.01, 0.0), "{r:#?}");
+    assert!(close(param(f, "amplitude_um"), 0.8, 0.05, 0.02), "{r:#?}");
     assert!(
         f.heldout_rms_um.after <= 1.2 * r.baseline.noise_estimate_um,
         "{r:#?}"
