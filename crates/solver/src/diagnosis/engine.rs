@@ -151,9 +151,8 @@ pub struct Outcome<G: Greedy + ?Sized> {
     pub n_fit: usize,
     pub n_heldout: usize,
     pub base_score: Score,
-    /// The final state and its score.
+    /// The final state.
     pub state: G::State,
-    pub score: Score,
     pub added: Vec<Added<G>>,
     /// Candidates set aside by the problem, with their notes, in the order met.
     pub set_aside: Vec<(G::Candidate, G::Note)>,
@@ -336,7 +335,6 @@ pub(crate) fn run<G: Greedy + ?Sized>(
         n_heldout,
         base_score,
         state,
-        score: cur,
         added,
         set_aside,
         tried,
@@ -427,11 +425,17 @@ impl<P: Problem + ?Sized> Clone for Current<P> {
 }
 
 impl<P: Problem + ?Sized> Current<P> {
-    /// `m` fitted on the fitting rows and scored on the folds (θ of `c` searched again on
-    /// every fold's training rows, extending `from`).
-    fn new(p: &P, m: P::Model, from: &P::Model, c: Option<P::Candidate>) -> Current<P> {
+    /// `m` fitted on the fitting `rows` and scored on the folds (θ of `c` searched again
+    /// on every fold's training rows, extending `from`).
+    fn new(
+        p: &P,
+        rows: &[usize],
+        m: P::Model,
+        from: &P::Model,
+        c: Option<P::Candidate>,
+    ) -> Current<P> {
         Current {
-            fit: p.fit(&m, &p.fit_rows()),
+            fit: p.fit(&m, rows),
             heldout_sse: heldout_sse(p, from, c, &m),
             model: m,
         }
@@ -465,8 +469,9 @@ impl<P: Problem> Greedy for P {
         Problem::candidates(self, &s.model)
     }
     fn evaluate(&self, s: &Current<P>, &c: &P::Candidate) -> Option<(Score, Current<P>)> {
-        let m = search(self, &s.model, c, &self.fit_rows());
-        let t = Current::new(self, m, &s.model, Some(c));
+        let rows = self.fit_rows();
+        let m = search(self, &s.model, c, &rows);
+        let t = Current::new(self, &rows, m, &s.model, Some(c));
         Some((self.score(&t), t))
     }
     fn admit(&self, _: &Current<P>, _: &P::Candidate, _: &Current<P>) -> Admission<()> {
@@ -586,7 +591,7 @@ pub(crate) fn select<P: Problem>(
     progress: &mut Monotone,
     span: (f64, f64),
 ) -> Selection<P> {
-    let b = Current::new(p, base.clone(), &base, None);
+    let b = Current::new(p, &p.fit_rows(), base.clone(), &base, None);
     let base_fit = b.fit.clone();
     let o = run(p, b, rules, label, progress, span);
     Selection {
@@ -837,7 +842,7 @@ mod tests {
             trend: false,
             padded: false,
         };
-        let b = Current::new(&p.0, base.clone(), &base, None);
+        let b = Current::new(&p.0, &p.0.fit_rows(), base.clone(), &base, None);
         let rules = Rules {
             bic_threshold: 10.0,
             min_heldout_gain: 0.1,
