@@ -280,6 +280,7 @@ pub mod effects;
 pub mod engine;
 pub mod even_scan;
 pub mod linalg;
+pub(crate) mod locate;
 pub mod lsq;
 pub mod moments;
 pub mod periodic_scan;
