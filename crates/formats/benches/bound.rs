@@ -19,18 +19,12 @@
 //!
 //! Run: `cargo bench -p mtcal-formats --bench bound` (figures in BENCHMARKS.md).
 
-use mtcal_formats::session::read_plane_csv;
-use mtcal_formats::{Limits, write_session_dir};
-use mtcal_solver::simulate::{Plan, SimOptions, random_truth, simulate};
-use std::hint::black_box;
+mod common;
 
-/// CPU time (user + system) of this process, s (clock ticks of 1/100 s on Linux).
-fn cpu_s() -> f64 {
-    let stat = std::fs::read_to_string("/proc/self/stat").expect("/proc/self/stat");
-    let after = &stat[stat.rfind(')').expect("comm") + 2..];
-    let f: Vec<&str> = after.split_whitespace().collect();
-    (f[11].parse::<f64>().expect("utime") + f[12].parse::<f64>().expect("stime")) / 100.0
-}
+use common::{cpu_s, session_on_disk};
+use mtcal_formats::Limits;
+use mtcal_formats::session::read_plane_csv;
+use std::hint::black_box;
 
 /// The byte ranges of every field of every record after the header, by csv-core, for
 /// files without quotes, comments or blank lines (checked): a field's input range
@@ -65,27 +59,16 @@ fn split<'t>(text: &'t str, mut field: impl FnMut(usize, &'t str)) {
 
 /// Runs `f` `passes` times; CPU seconds per pass.
 fn cpu_per_pass(passes: usize, mut f: impl FnMut()) -> f64 {
-    let c0 = cpu_s();
+    let c0 = cpu_s().expect("/proc/self/stat");
     for _ in 0..passes {
         f();
     }
-    (cpu_s() - c0) / passes as f64
+    (cpu_s().expect("/proc/self/stat") - c0) / passes as f64
 }
 
 fn main() {
-    let out = simulate(
-        &random_truth(1),
-        &SimOptions {
-            plan: Plan::Full,
-            sample_rate_hz: 340.0,
-            ..Default::default()
-        },
-    )
-    .expect("simulation");
-    let dir = tempfile::tempdir().expect("temporary folder");
-    write_session_dir(dir.path(), &out.session).expect("session written");
-    let files: Vec<(String, String)> = out
-        .session
+    let (session, dir) = session_on_disk();
+    let files: Vec<(String, String)> = session
         .planes
         .iter()
         .map(|p| {
@@ -93,7 +76,7 @@ fn main() {
             (p.file.clone(), text)
         })
         .collect();
-    drop(out);
+    drop(session);
     let mb = files.iter().map(|(_, t)| t.len()).sum::<usize>() as f64 / 1e6;
     let numeric = |i: usize| i < 7; // run, t_s, x, y, z, du, dv (not the test label)
     // The split agrees with the reader's cells (no quotes, comments or blank lines).

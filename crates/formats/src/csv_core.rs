@@ -524,7 +524,6 @@ impl<'a> CsvTable<'a> {
     }
 }
 
-
 /// The part of a record buffer csv-core writes next: from `used` on, grown (by doubling)
 /// up to `cap` elements; once `cap` is reached, a window at the start, overwritten (the
 /// record is then refused, only the counts matter).
@@ -688,7 +687,9 @@ mod tests {
     /// loose and tight limits.
     #[test]
     fn split_equals_csv_core() {
-        let tokens = ["a", "1", ",", ",", ";", "\"", "\"", "\n", "\n", "\r", "#", " ", "é"];
+        let tokens = [
+            "a", "1", ",", ",", ";", "\"", "\"", "\n", "\n", "\r", "#", " ", "é",
+        ];
         let mut x: u64 = 0x9e37_79b9_7f4a_7c15;
         let mut next = |n: u64| {
             x = x

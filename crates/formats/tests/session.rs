@@ -867,7 +867,13 @@ fn a_comment_may_end_the_file_without_a_line_break() {
         let s = read(JSON, &format!("{CSV}{ending}")).unwrap();
         assert_eq!(s, read(JSON, CSV).unwrap(), "{ending:?}");
     }
-    check(&csv_err("# only a comment"), "xy.csv", 1, "", "header required");
+    check(
+        &csv_err("# only a comment"),
+        "xy.csv",
+        1,
+        "",
+        "header required",
+    );
 }
 
 /// A finite but absurd magnitude (1e308 µm, a position in µm where mm are required) is
