@@ -148,7 +148,7 @@ async fn a_real_positioning_run_shows_its_figures_and_findings() {
         for needle in [
             "ISO 230-2, axis X",
             "standard (every reading)",
-            "without the outlying readings (not the standard&#39;s)",
+            "without the outlying readings (not the standard",
             "data-figure=\"R_um\"",
             "R = 204.759 µm",
             "R = 58.278 µm",

@@ -212,7 +212,7 @@ fn lost_motion_varying_along_the_travel() {
                 Some(&v) => (v, f.parameters[&format!("std_{name_k}")]),
                 None => {
                     let u = f.undetermined.iter().find(|u| u.name == name_k).unwrap();
-                    (u.value, u.std)
+                    (u.value, u.std.unwrap_or(f64::INFINITY))
                 }
             };
             assert!(
