@@ -7,7 +7,7 @@
 use mtcal_solver::axis::Axis;
 use mtcal_solver::datasets::{Direction, PositioningRecord, PositioningRuns};
 use mtcal_solver::diagnosis::series::{SeriesOptions, diagnose_positioning};
-use mtcal_solver::diagnosis::{DiagnosisResult, Verdict, effects};
+use mtcal_solver::diagnosis::{DiagnosisResult, Verdict};
 
 /// Minimal reader of the positioning-run CSV (the strict reader lives in mtcal-formats,
 /// which depends on this crate).
@@ -61,9 +61,6 @@ fn ess_stage_transient_and_reversal_profile() {
     shown.plots.clear();
     eprintln!("{shown:#?}");
     assert_ne!(r.verdict, Verdict::Consistent, "{r:#?}");
-    for f in r.findings.iter().chain(&r.possible) {
-        effects::conforms(f).unwrap();
-    }
     // The noise floor: the repeatability of cycles 2–5 and of cycle 1 elsewhere (the
     // two-way layout's σ without the two transient readings is 2.52 µm, worked
     // independently), not the 16.5 µm the transient made of it.
@@ -110,14 +107,7 @@ fn ess_stage_transient_and_reversal_profile() {
     }
     // Held-out gain for every finding: the held-out sum of squares lowered by at least
     // the engine's 10 %.
-    for f in &r.findings {
-        assert!(
-            f.heldout_rms_um.after.powi(2) <= 0.9 * f.heldout_rms_um.before.powi(2),
-            "{}: {:?}",
-            f.effect,
-            f.heldout_rms_um
-        );
-    }
+    crate::diagnosis_positioning_transient::check_findings(&r);
 }
 
 /// The PSI stage, read by its own encoder: repeatable to 0.01 µm, nothing to explain.

@@ -41,7 +41,7 @@ fn finding<'a>(r: &'a DiagnosisResult, effect: &str) -> &'a Finding {
 
 /// Every finding conforms to the effects table and lowers the held-out sum of squares by
 /// the engine's 10 % at least.
-fn check_findings(r: &DiagnosisResult) {
+pub fn check_findings(r: &DiagnosisResult) {
     for f in r.findings.iter().chain(&r.possible) {
         effects::conforms(f).unwrap();
     }
