@@ -99,9 +99,9 @@ pub fn drift(base: &ResultScalars, latest: &ResultScalars) -> Drift {
 }
 
 /// Each change since the baseline as a figure of the decision rule
-/// ([`comparison::changes`]).
+/// ([`mtcal_solver::tolerance::changes`]).
 pub fn changes(base: &ResultScalars, latest: &ResultScalars) -> BTreeMap<String, Figure> {
-    comparison::changes(&Stored(base), &Stored(latest))
+    mtcal_solver::tolerance::changes(&Stored(base), &Stored(latest))
 }
 
 /// Checks a diff's step ([`comparison::check_diff_step`]).

@@ -97,8 +97,8 @@ pub struct TermReport {
     /// Monomial coefficients of the model function, element i ↔ q^(i+1) (µm/mm^k or
     /// µrad/mm^k). For a straightness this is the model function (no linear term), not the
     /// reported `values`, which are it minus its least-squares line over the measured travel
-    /// ([`crate::comparison::term_value`] evaluates either convention's reported value
-    /// from these). Empty when not identifiable.
+    /// (the comparison module's `term_value` evaluates the reported value from these).
+    /// Empty when not identifiable.
     #[serde(default)]
     pub coefficients: Vec<f64>,
     /// Covariance of `coefficients` (row-major, n × n, units² of the coefficients): the
@@ -225,18 +225,6 @@ pub struct IdentificationResult {
     /// Residual RMS of the fit by file and test.
     #[serde(default)]
     pub residuals: Vec<crate::residuals::ResidualSummary>,
-}
-
-impl IdentificationResult {
-    /// Value of an identified term at `q_mm` in the result's reporting convention (µm or
-    /// µrad), from its stored coefficients ([`crate::comparison::term_value`]: for a
-    /// straightness, its deviation from its least-squares line over the measured travel
-    /// of its axis, as the document's `values` are). `None` when the term is unknown or
-    /// not identifiable, or `q_mm` lies outside the measured travel of its axis.
-    pub fn reported_value_at(&self, name: &str, q_mm: f64) -> Option<f64> {
-        let term = crate::terms::Term::parse(name)?;
-        Some(crate::comparison::term_value(self, term, q_mm)?.value)
-    }
 }
 
 /// Identifies the 21 terms of the machine measured in `session`.
