@@ -144,9 +144,19 @@ fn quadratic_form_sqrt(cov: &[Vec<f64>], g: &[f64]) -> Option<f64> {
     Some(v.max(0.0).sqrt())
 }
 
-/// Value of `term` at `q` in the reporting convention, with its standard uncertainty.
-/// `None` when the term is not identifiable in the check, its axis has no measured
-/// travel, or `q` lies outside that travel (nothing is extrapolated).
+/// Value of `term` at `q` in the reporting convention, with its standard uncertainty:
+/// the one evaluation of a stored term (result pages' trends, differences, the fleet's
+/// drift, drift alerts, compensation tables and the CLI all call it).
+///
+/// With c the term's monomial coefficients ([`CheckFunctions::coefficients`], the model
+/// function f(q) = Σ_{k≥1} c_k q^k) and Σ their covariance: value = gᵀc and
+/// u = √(gᵀ Σ g), where g_k = q^k for a positioning or an angular term, and for a
+/// straightness g_k = q^k − (a_k + b_k q), (a_k, b_k) the least-squares line of q^k over
+/// the measured travel of the term's axis (continuous, uniform weight), so that the
+/// value is f's deviation from its least-squares line, as the result document's
+/// `values` are. `u` is `None` when no covariance is stored. `None` when the term is not
+/// identifiable in the check, its axis has no measured travel, or `q` lies outside that
+/// travel (nothing is extrapolated).
 pub fn term_value(c: &impl CheckFunctions, term: Term, q: f64) -> Option<Value> {
     let name = term.name();
     let coeffs = c.coefficients(&name)?;
