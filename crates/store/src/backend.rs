@@ -1020,7 +1020,7 @@ impl Store for This {
                 for r in bound(sql, &lacking).fetch_all(&mut *tx).await.db()? {
                     others.insert(
                         r.text("machine_id")?,
-                        CheckRef {
+                        LastCheck {
                             result_id: r.text("id")?,
                             kind: r.text("kind")?,
                             measured_at: r.text("measured_at")?,

@@ -315,10 +315,14 @@ pub struct FleetPageQuery {
     pub limit: i64,
 }
 
-/// A stored result named by id, kind and time (a fleet row's last check).
-#[derive(Debug, Clone, PartialEq, Eq)]
-pub struct CheckRef {
+/// A stored result named by id, kind and time.
+// A machine's last check: the one struct the store reads, the fleet routes answer and
+// the fleet page is given (converted to the view's own type in crates/server/src/web).
+#[derive(Debug, Clone, PartialEq, Eq, Serialize, Deserialize)]
+#[cfg_attr(feature = "openapi", derive(utoipa::ToSchema))]
+pub struct LastCheck {
     pub result_id: String,
+    /// `identification`, `diagnosis`, `cradle` or `sensitivity`.
     pub kind: String,
     pub measured_at: String,
 }
@@ -333,7 +337,7 @@ pub struct FleetPageRow {
     /// For a machine without a drift row (no identification): its latest result of any
     /// other kind that is not excluded (None: it has no result, or it has a drift row,
     /// whose entry names its latest identification).
-    pub other_check: Option<CheckRef>,
+    pub other_check: Option<LastCheck>,
 }
 
 /// A fleet page and how many machines match the filter in all.

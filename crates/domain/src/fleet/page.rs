@@ -12,6 +12,7 @@ use crate::fleet::entry::FleetEntry;
 use crate::kinds::IDENTIFICATION;
 use crate::trends::{DRIFT_DEFINITION, Drift};
 use mtcal_solver::tolerance::Decision;
+pub use mtcal_store::LastCheck;
 use mtcal_store::{FleetPageQuery, FleetPageRow, FleetSort, Store};
 use serde::{Deserialize, Serialize};
 
@@ -41,16 +42,6 @@ pub struct FleetParams {
     /// At most this many machines (default 100, at most 1000).
     #[cfg_attr(feature = "openapi", param(minimum = 1, maximum = 1000))]
     pub limit: Option<usize>,
-}
-
-/// A stored result named by id, kind and time.
-#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
-#[cfg_attr(feature = "openapi", derive(utoipa::ToSchema))]
-pub struct LastCheck {
-    pub result_id: String,
-    /// `identification`, `diagnosis`, `cradle` or `sensitivity`.
-    pub kind: String,
-    pub measured_at: String,
 }
 
 /// One machine of the fleet.
@@ -145,11 +136,7 @@ fn machine(r: FleetPageRow, warnings: &mut Vec<String>) -> FleetMachine {
                 None
             }
         });
-    let other = r.other_check.map(|c| LastCheck {
-        result_id: c.result_id,
-        kind: c.kind,
-        measured_at: c.measured_at,
-    });
+    let other = r.other_check;
     let drift_note = match (&entry, &other) {
         (Some(_), _) => None,
         (None, Some(c)) => Some(format!(
