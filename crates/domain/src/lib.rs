@@ -16,6 +16,7 @@
 //! Module order (each imports only those before it): [`kinds`], [`error`], [`blocking`],
 //! [`trends`], [`history`], [`webhooks`], [`profiles`], [`verdicts`], [`alerts`],
 //! [`fleet`], [`landing`].
+#![deny(clippy::print_stdout, clippy::print_stderr)]
 
 pub mod alerts;
 pub mod blocking;

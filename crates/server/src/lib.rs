@@ -8,6 +8,7 @@
 //! 256 MiB by default) and a time limit (30 s; uploads 300 s). Every route but `/health`,
 //! `/ready`, `/metrics` ([`metrics`]) and the documentation needs an API key (see
 //! [`auth`]).
+#![deny(clippy::print_stdout, clippy::print_stderr)]
 
 pub mod api;
 pub mod auth;
