@@ -195,7 +195,10 @@ fn undetermined_lines(s: &mut String, f: &Finding) {
     use std::fmt::Write;
     let mut groups: Vec<(&str, Vec<String>)> = vec![];
     for u in &f.undetermined {
-        let item = format!("{} = {:.4} ± {:.2}", u.name, u.value, u.std);
+        let item = match u.std {
+            Some(sd) => format!("{} = {:.4} ± {:.2}", u.name, u.value, sd),
+            None => format!("{} = {:.4} (no finite bound)", u.name, u.value),
+        };
         match groups.iter_mut().find(|(d, _)| *d == u.decide) {
             Some((_, v)) => v.push(item),
             None => groups.push((&u.decide, vec![item])),

@@ -16,6 +16,7 @@ mod fleet;
 mod history;
 mod jobs;
 mod restart;
+mod roundtrip;
 mod schemathesis;
 mod series;
 mod uploads;

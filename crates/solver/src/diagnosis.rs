@@ -42,8 +42,14 @@ pub struct BeforeAfter {
 }
 
 /// One physical effect found, modelled and checked on held-out data.
+///
+/// Every value in `parameters` is a finite number with its `std_*` (when reported)
+/// finite too: a parameter whose σ the data do not bound is in `undetermined`
+/// ([`effects::classify`]). A stored document of an earlier version that wrote such a σ as
+/// `null` reads back with that parameter moved to `undetermined`.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 #[cfg_attr(feature = "openapi", derive(utoipa::ToSchema))]
+#[serde(from = "FindingDoc")]
 pub struct Finding {
     /// `backlash`, `servo_lag`, `reversal_spike`, `cyclic`, `thermal_drift`,
     /// `setup_offset`, `model_order`, `vibration`, or another name (then `physics` says
@@ -72,27 +78,124 @@ pub struct Finding {
     pub undetermined: Vec<Undetermined>,
 }
 
+/// The stored shape of a [`Finding`], whose parameters may hold `null` (an earlier
+/// version's unbounded σ).
+#[derive(Deserialize)]
+struct FindingDoc {
+    effect: String,
+    #[serde(default)]
+    axis: Option<String>,
+    parameters: BTreeMap<String, Option<f64>>,
+    physics: String,
+    #[serde(default)]
+    signature: Option<String>,
+    residual_rms_um: BeforeAfter,
+    heldout_rms_um: BeforeAfter,
+    evidence: String,
+    #[serde(default)]
+    undetermined: Vec<Undetermined>,
+}
+
+impl From<FindingDoc> for Finding {
+    fn from(d: FindingDoc) -> Finding {
+        let mut parameters = BTreeMap::new();
+        let mut unbounded = Vec::new();
+        for (name, v) in &d.parameters {
+            match (v, name.strip_prefix("std_")) {
+                (Some(v), _) => {
+                    parameters.insert(name.clone(), *v);
+                }
+                (None, Some(base)) => unbounded.push(base.to_string()),
+                (None, None) => {}
+            }
+        }
+        let mut undetermined = d.undetermined;
+        for base in unbounded {
+            if let Some(v) = parameters.remove(&base) {
+                undetermined.push(Undetermined::with_sentence(
+                    base,
+                    v,
+                    f64::INFINITY,
+                    "more data would decide it".into(),
+                ));
+            }
+        }
+        Finding {
+            effect: d.effect,
+            axis: d.axis,
+            parameters,
+            physics: d.physics,
+            signature: d.signature,
+            residual_rms_um: d.residual_rms_um,
+            heldout_rms_um: d.heldout_rms_um,
+            evidence: d.evidence,
+            undetermined,
+        }
+    }
+}
+
 /// A parameter the data leave undetermined, and what data would decide it.
+///
+/// Every number of the document is finite: a standard uncertainty the data do not bound
+/// (the profiled sum of squares is flat or not convex there) is stated by `bounded: false`
+/// with no `std`, never as `null`, NaN or infinity (docs/results.md, "Every document
+/// round-trips").
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 #[cfg_attr(feature = "openapi", derive(utoipa::ToSchema))]
+#[serde(from = "UndeterminedDoc")]
 pub struct Undetermined {
     /// Parameter name with its unit, as it would appear in `parameters`.
     pub name: String,
     pub value: f64,
-    pub std: f64,
+    /// Standard uncertainty (k = 1) when the data bound it; absent when they do not.
+    /// A stored document of an earlier version with `"std": null` reads as absent.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub std: Option<f64>,
+    /// Whether the data put a finite bound on the parameter (`std` present).
+    pub bounded: bool,
     /// What extra data would decide it, in a sentence.
     pub decide: String,
 }
 
+/// The stored shape of an [`Undetermined`] as every version wrote it (`bounded` absent
+/// before it was added; `std` null where an unbounded σ was written as infinity).
+#[derive(Deserialize)]
+struct UndeterminedDoc {
+    name: String,
+    value: f64,
+    #[serde(default)]
+    std: Option<f64>,
+    decide: String,
+}
+
+impl From<UndeterminedDoc> for Undetermined {
+    fn from(d: UndeterminedDoc) -> Undetermined {
+        Undetermined::with_sentence(d.name, d.value, d.std.unwrap_or(f64::INFINITY), d.decide)
+    }
+}
+
 impl Undetermined {
     /// An undetermined parameter `name` = `value` ± `std`, decided by `data`: the sentence
-    /// is "`data` would decide it".
+    /// is "`data` would decide it". A `std` that is not finite means the data put no bound
+    /// on the parameter.
     pub fn new(name: impl Into<String>, value: f64, std: f64, data: &str) -> Undetermined {
+        Undetermined::with_sentence(name, value, std, format!("{data} would decide it"))
+    }
+
+    /// As [`Undetermined::new`], with the whole sentence of what would decide it.
+    pub fn with_sentence(
+        name: impl Into<String>,
+        value: f64,
+        std: f64,
+        decide: String,
+    ) -> Undetermined {
+        let std = std.is_finite().then_some(std);
         Undetermined {
             name: name.into(),
             value,
             std,
-            decide: format!("{data} would decide it"),
+            bounded: std.is_some(),
+            decide,
         }
     }
 }
@@ -177,6 +280,7 @@ pub mod effects;
 pub mod engine;
 pub mod even_scan;
 pub mod linalg;
+pub(crate) mod locate;
 pub mod lsq;
 pub mod moments;
 pub mod periodic_scan;

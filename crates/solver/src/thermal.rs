@@ -52,7 +52,7 @@
 //! a response between neighbouring time constants: the spindle path's growth at full
 //! speed G = Σ_{p,τ} g_{p,τ} (µm) and each sensor's sensitivity K_i = Σ_τ k_{i,τ} (µm/K).
 //! Whether a quantity is determined is decided by the one rule of every diagnosis
-//! ([`crate::diagnosis::effects::determined`]).
+//! (`diagnosis::effects::determined`, docs/diagnosis.md).
 
 use crate::error::SolverError;
 use crate::lsq::{QrAccumulator, Reduced};

@@ -128,13 +128,13 @@ pub fn candidates(d: &Design) -> Vec<Candidate> {
     }
     out.push(c("thermal_drift", None, None, None));
     // Logged temperatures: growth that follows the temperature, whatever its course.
-    if d.samples.iter().all(|s| s.temp_k.is_some()) {
+    if d.fields.temp_k.is_some() {
         out.push(c("thermal_temperature", None, None, None));
     }
     for dir in Axis::ALL {
         out.push(c("vibration", None, Some(dir), None));
     }
-    let mut groups: Vec<[f64; 3]> = d.samples.iter().map(|s| s.head_mm).collect();
+    let mut groups: Vec<[f64; 3]> = d.runs.iter().map(|r| r.head_mm).collect();
     groups.dedup();
     let mut uniq: Vec<[f64; 3]> = Vec::new();
     for g in groups {
@@ -159,19 +159,20 @@ fn time_band(d: &Design) -> (f64, f64, f64) {
 }
 
 fn time_band_of(d: &Design) -> (f64, f64, f64) {
-    let t0 = d.samples.first().map_or(0.0, |s| s.t_s);
-    let t1 = d.samples.last().map_or(1.0, |s| s.t_s);
+    let t = &d.fields.t_s;
+    let t0 = t.first().copied().unwrap_or(0.0);
+    let t1 = t.last().copied().unwrap_or(1.0);
     let mut dt = f64::INFINITY;
-    for w in d.samples.windows(2) {
-        if w[0].run_idx == w[1].run_idx {
-            dt = dt.min(w[1].t_s - w[0].t_s);
+    for r in &d.runs {
+        for w in t[r.start..r.end].windows(2) {
+            dt = dt.min(w[1] - w[0]);
         }
     }
     let nyq = 0.5 / dt;
     let run_len = d
         .runs
         .iter()
-        .map(|r| d.samples[r.end - 1].t_s - d.samples[r.start].t_s)
+        .map(|r| t[r.end - 1] - t[r.start])
         .fold(0.0, f64::max);
     (t1 - t0, nyq, run_len.max(1.0))
 }
@@ -411,9 +412,10 @@ pub fn specs<'a>(
                 .chain(Axis::ALL.map(|j| format!("{offset}_{j}")))
                 .collect();
             let axes = Axis::ALL.into_iter().chain(Axis::ALL).map(Some).collect();
+            let temp_k = d.fields.temp_k.as_deref();
             Columns::new(names, axes, move |s, read, o| {
                 let g = if temp {
-                    d.samples[s].temp_k.unwrap_or(0.0)
+                    temp_k.map_or(0.0, |t| t[s])
                 } else {
                     1.0 - (-d.fields.t_s[s] / theta).exp()
                 };
@@ -460,7 +462,7 @@ pub fn specs<'a>(
                     // (ε × e_j)[read axis] · 10⁻³ on the group's samples.
                     let e = nalgebra::Vector3::from(eps[si]);
                     for (j, slot) in o.iter_mut().enumerate() {
-                        *slot = if d.samples[si].head_mm == g {
+                        *slot = if d.runs[d.fields.run(si)].head_mm == g {
                             let mut ej = nalgebra::Vector3::zeros();
                             ej[j] = 1.0;
                             e.cross(&ej)[read.index()] * 1e-3

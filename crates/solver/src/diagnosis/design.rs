@@ -1,5 +1,5 @@
 //! The rigid-body (21-term) model of a session as a design matrix for diagnosis, with the
-//! per-sample metadata that effect columns and the residual split need.
+//! samples' fields that effect columns and the residual split need.
 //!
 //! Rows: two per sample (du, dv). Columns: the error parameters of identification's
 //! [`ErrorModel`] (Legendre basis on the measured travel, order N, straightness from 2,
@@ -16,65 +16,62 @@ use crate::session::{Session, TestKind};
 use crate::simulate::motion::DriveState;
 use crate::simulate::truth::measured_travel;
 
-/// Metadata of one sample.
-#[derive(Debug, Clone, Copy)]
-pub struct SampleMeta {
-    pub plane_idx: usize,
-    /// Global run index (over all files).
-    pub run_idx: usize,
-    pub t_s: f64,
-    pub q_mm: [f64; 3],
-    /// Commanded velocity by central differences (mm/s).
-    pub vel_mm_s: [f64; 3],
-    /// Sign of each axis's last travel (0 before it first moves).
-    pub dir: [f64; 3],
-    /// Travel since the last reversal of each axis (mm; infinite before one).
-    pub since_reversal_mm: [f64; 3],
-    pub head_mm: [f64; 3],
-    /// Whether the sample is part of a line pass or a circle, for the residual split.
-    pub test: TestKind,
-    /// Logged temperature minus the session's first logged temperature (K), when every
-    /// run logs `temp_c`.
-    pub temp_k: Option<f64>,
-}
-
-/// Fields of every sample, one array per field and axis, indexed by sample: a pass over
-/// the rows that reads one field streams 8 bytes per sample instead of a whole
-/// [`SampleMeta`] (the candidates' columns and the frequency scans read them row by row,
-/// once per candidate).
+/// The samples of a session, one array per field and axis, indexed by sample: a pass
+/// over the rows that reads one field streams 8 bytes per sample (the candidates'
+/// columns and the frequency scans read them row by row, once per candidate). The
+/// samples are held here only; what is constant over a run (its plane, test kind and
+/// head offset) is in its [`RunInfo`].
 #[derive(Debug, Clone, Default)]
 pub struct SampleFields {
-    pub run_idx: Vec<usize>,
+    /// Global run index (over all files) of every sample.
+    pub run_idx: Vec<u32>,
     pub t_s: Vec<f64>,
+    /// Commanded position per axis (mm).
     pub q_mm: [Vec<f64>; 3],
+    /// Commanded velocity per axis from the set-points ([`velocity`], mm/s).
     pub vel_mm_s: [Vec<f64>; 3],
+    /// Sign of each axis's last travel (0 before it first moves).
     pub dir: [Vec<f64>; 3],
+    /// Travel since the last reversal of each axis (mm; infinite before one).
     pub since_reversal_mm: [Vec<f64>; 3],
+    /// Logged temperature minus the session's first logged temperature (K), when every
+    /// run logs `temp_c`.
+    pub temp_k: Option<Vec<f64>>,
 }
 
 impl SampleFields {
-    fn of(samples: &[SampleMeta]) -> SampleFields {
-        let n = samples.len();
-        let axes = || std::array::from_fn(|_| vec![0.0; n]);
-        let mut f = SampleFields {
-            run_idx: vec![0; n],
-            t_s: vec![0.0; n],
+    fn with_capacity(n: usize, temperature: bool) -> SampleFields {
+        let axes = || std::array::from_fn(|_| Vec::with_capacity(n));
+        SampleFields {
+            run_idx: Vec::with_capacity(n),
+            t_s: Vec::with_capacity(n),
             q_mm: axes(),
             vel_mm_s: axes(),
             dir: axes(),
             since_reversal_mm: axes(),
-        };
-        for (i, s) in samples.iter().enumerate() {
-            f.run_idx[i] = s.run_idx;
-            f.t_s[i] = s.t_s;
-            for a in 0..3 {
-                f.q_mm[a][i] = s.q_mm[a];
-                f.vel_mm_s[a][i] = s.vel_mm_s[a];
-                f.dir[a][i] = s.dir[a];
-                f.since_reversal_mm[a][i] = s.since_reversal_mm[a];
-            }
+            temp_k: temperature.then(|| Vec::with_capacity(n)),
         }
-        f
+    }
+
+    /// Number of samples.
+    pub fn len(&self) -> usize {
+        self.t_s.len()
+    }
+
+    pub fn is_empty(&self) -> bool {
+        self.t_s.is_empty()
+    }
+
+    /// The commanded position of sample `s` (mm).
+    #[inline]
+    pub fn q(&self, s: usize) -> [f64; 3] {
+        [self.q_mm[0][s], self.q_mm[1][s], self.q_mm[2][s]]
+    }
+
+    /// The run of sample `s`.
+    #[inline]
+    pub fn run(&self, s: usize) -> usize {
+        self.run_idx[s] as usize
     }
 }
 
@@ -91,11 +88,12 @@ pub struct RunInfo {
     pub repeat: usize,
     /// Per axis: whether it keeps one position over the whole run (is parked).
     pub parked: [bool; 3],
+    /// Declared head offset of the run's file (mm).
+    pub head_mm: [f64; 3],
 }
 
 /// The session as rows and the rigid model's centred columns.
 pub struct Design {
-    pub samples: Vec<SampleMeta>,
     pub runs: Vec<RunInfo>,
     /// Reading axes (u, v) of each plane file.
     pub plane_axes: Vec<(Axis, Axis)>,
@@ -107,11 +105,10 @@ pub struct Design {
     pub topology: Topology,
     /// The rigid model (identification's [`ErrorModel`], Legendre basis): its parameters
     /// are the first rigid columns, in its order; one plate rotation per mounting follows
-    /// (the columns themselves are only formed reduced, run by run:
-    /// [`super::reduced::Reduction`]).
+    /// (the columns themselves are only formed reduced, run by run, by the diagnosis's
+    /// per-run reduction).
     pub model: ErrorModel,
-    /// The fields of the samples that the candidates' columns and the scans read, one
-    /// array per field.
+    /// The samples, one array per field.
     pub fields: SampleFields,
     /// The reading axis of every row.
     pub row_axes: Vec<Axis>,
@@ -223,17 +220,20 @@ pub fn velocity(t: &[f64], q: &[[f64; 3]], i: usize) -> [f64; 3] {
 pub fn build(session: &Session, topology: &Topology, order: usize) -> Result<Design, SolverError> {
     topology.validate().map_err(SolverError::InvalidInput)?;
     let travel = measured_travel(session);
-    let mut samples = Vec::with_capacity(session.sample_count());
+    let n = session.sample_count();
     let mut runs = Vec::new();
     let mut plane_axes = Vec::new();
-    let mut y = Vec::with_capacity(2 * session.sample_count());
+    let mut y = Vec::with_capacity(2 * n);
+    let mut row_axes = Vec::with_capacity(2 * n);
     let all_runs = || session.planes.iter().flat_map(|p| &p.runs);
     let temp0 = all_runs()
         .all(|r| r.temp_c.as_ref().is_some_and(|t| t.len() == r.len()))
         .then(|| all_runs().find_map(|r| r.temp_c.as_ref()?.first().copied()))
         .flatten();
+    let mut f = SampleFields::with_capacity(n, temp0.is_some());
     for (pi, p) in session.planes.iter().enumerate() {
-        plane_axes.push(p.plane.axes());
+        let (u, v) = p.plane.axes();
+        plane_axes.push((u, v));
         // Travel state through the file, approach moves between runs included.
         let mut state: Option<DriveState> = None;
         let mut counts: std::collections::HashMap<TestKind, usize> = Default::default();
@@ -246,58 +246,55 @@ pub fn build(session: &Session, topology: &Topology, order: usize) -> Result<Des
             }
             let test = run.test.unwrap_or_else(|| infer_test(&run.pos_mm));
             let rep = counts.entry(test).or_insert(0);
-            let start = samples.len();
+            let start = f.len();
+            let run_idx = u32::try_from(runs.len())
+                .map_err(|_| SolverError::InvalidInput("diagnosis: more than 2^32 runs".into()))?;
             for i in 0..run.len() {
                 let q = run.pos_mm[i];
                 let st = state.get_or_insert_with(|| DriveState::at(q));
                 st.move_to(q);
-                let (dir, since) = (st.dir, st.since_reversal_mm);
                 let vel = velocity(&run.t_s, &run.pos_mm, i);
-                samples.push(SampleMeta {
-                    plane_idx: pi,
-                    run_idx: runs.len(),
-                    t_s: run.t_s[i],
-                    q_mm: q,
-                    vel_mm_s: vel,
-                    dir,
-                    since_reversal_mm: since,
-                    head_mm: p.head_offset_mm,
-                    test,
-                    temp_k: temp0.and_then(|t0| Some(run.temp_c.as_ref()?[i] - t0)),
-                });
+                f.run_idx.push(run_idx);
+                f.t_s.push(run.t_s[i]);
+                for a in 0..3 {
+                    f.q_mm[a].push(q[a]);
+                    f.vel_mm_s[a].push(vel[a]);
+                    f.dir[a].push(st.dir[a]);
+                    f.since_reversal_mm[a].push(st.since_reversal_mm[a]);
+                }
+                if let (Some(t), Some(t0), Some(temp)) =
+                    (f.temp_k.as_mut(), temp0, run.temp_c.as_ref())
+                {
+                    t.push(temp[i] - t0);
+                }
                 y.push(run.du_um[i]);
                 y.push(run.dv_um[i]);
+                row_axes.push(u);
+                row_axes.push(v);
             }
             runs.push(RunInfo {
                 plane_idx: pi,
                 number: run.number,
                 test,
                 start,
-                end: samples.len(),
+                end: f.len(),
                 repeat: *rep,
                 parked: std::array::from_fn(|k| {
                     run.pos_mm.iter().all(|q| q[k] == run.pos_mm[0][k])
                 }),
+                head_mm: p.head_offset_mm,
             });
             *rep += 1;
         }
     }
-    if samples.is_empty() {
+    if f.is_empty() {
         return Err(SolverError::InvalidInput(
             "the session has no samples".into(),
         ));
     }
-    let row_axes = samples
-        .iter()
-        .flat_map(|s| {
-            let (u, v) = plane_axes[s.plane_idx];
-            [u, v]
-        })
-        .collect();
     let mut d = Design {
-        fields: SampleFields::of(&samples),
+        fields: f,
         row_axes,
-        samples,
         runs,
         plane_axes,
         files: session.planes.iter().map(|p| p.file.clone()).collect(),

@@ -436,7 +436,18 @@ pub enum Sorted {
 /// not [`determined`] is set aside (moved to `undetermined` with what would decide it),
 /// so that every parameter a finding or a possible finding reports with its σ is
 /// determined.
-pub fn classify(f: Finding) -> Sorted {
+pub fn classify(mut f: Finding) -> Sorted {
+    // A parameter the fit gave no finite value is not a figure of the finding.
+    let lost: Vec<String> = f
+        .parameters
+        .iter()
+        .filter(|(name, v)| !name.starts_with("std_") && !v.is_finite())
+        .map(|(name, _)| name.clone())
+        .collect();
+    for name in lost {
+        f.parameters.remove(&format!("std_{name}"));
+        f.parameters.remove(&name);
+    }
     let open = undetermined(&f);
     let sentence = |name: &str| spec(&f.effect).map_or("more data", |e| decide(e, name));
     let weak: Vec<Undetermined> = f
@@ -558,7 +569,7 @@ mod tests {
         let open = undetermined(&f);
         let names: Vec<&str> = open.iter().map(|u| u.name.as_str()).collect();
         assert_eq!(names, ["time_constant_s"]);
-        assert_eq!((open[0].value, open[0].std), (8189.0, 40569.0));
+        assert_eq!((open[0].value, open[0].std), (8189.0, Some(40569.0)));
         assert!(open[0].decide.contains("several time constants long"));
         let g = finding(
             "thermal_drift",
@@ -620,6 +631,57 @@ mod tests {
         assert!(!f.parameters.contains_key("std_gain1_um"));
         assert_eq!(f.parameters["gain2_um"], -5.0);
         assert!(determined(4.0, 2.0) && !determined(3.999, 2.0) && !determined(1.0, f64::NAN));
+    }
+
+    /// A σ the data do not bound (a flat or non-convex profile: infinite) and a value the
+    /// fit did not give (NaN) never reach the document as numbers: the first is an
+    /// undetermined parameter stated as unbounded, the second is dropped; the document has
+    /// no `null` and reads back equal. A stored document of an earlier version that wrote
+    /// the unbounded σ as `null` reads with that parameter undetermined.
+    #[test]
+    fn unbounded_and_lost_parameters_stay_out_of_the_numbers() {
+        let f = finding(
+            "thermal_drift",
+            &[
+                ("offset_um_Z", 4.1),
+                ("std_offset_um_Z", 0.6),
+                ("scale_ppm_X", 10.0),
+                ("std_scale_ppm_X", 0.1),
+                ("time_constant_s", 1161.0),
+                ("std_time_constant_s", f64::INFINITY),
+                ("offset_um_X", f64::NAN),
+                ("std_offset_um_X", 0.4),
+            ],
+        );
+        let Sorted::Possible(f) = classify(f) else {
+            panic!("an unbounded time constant leaves the drift undetermined")
+        };
+        assert!(!f.parameters.contains_key("offset_um_X"));
+        assert!(!f.parameters.contains_key("std_offset_um_X"));
+        let tau = f
+            .undetermined
+            .iter()
+            .find(|u| u.name == "time_constant_s")
+            .unwrap();
+        assert_eq!((tau.value, tau.std, tau.bounded), (1161.0, None, false));
+        let json = serde_json::to_string(&f).unwrap();
+        assert!(!json.contains("null"), "{json}");
+        assert!(json.contains(r#""bounded":false"#), "{json}");
+        assert_eq!(serde_json::from_str::<Finding>(&json).unwrap(), f);
+
+        let mut old: serde_json::Value = serde_json::to_value(finding(
+            "backlash",
+            &[("lost_motion_um", 6.0), ("std_lost_motion_um", 0.1)],
+        ))
+        .unwrap();
+        old["parameters"]["std_lost_motion_um"] = serde_json::Value::Null;
+        let back: Finding = serde_json::from_value(old).unwrap();
+        assert!(back.parameters.is_empty(), "{back:?}");
+        assert_eq!(back.undetermined[0].name, "lost_motion_um");
+        assert_eq!(back.undetermined[0].std, None);
+        let older = serde_json::json!({"name": "lag_s", "value": 0.01, "std": null, "decide": "x"});
+        let u: Undetermined = serde_json::from_value(older).unwrap();
+        assert!(!u.bounded && u.std.is_none());
     }
 
     #[test]

@@ -33,12 +33,12 @@
 //! problem whose model is not fitted by plain least squares (the ridge thermal model of
 //! drift logs) overrides [`Problem::fit`] and may score itself on the same folds
 //! ([`Problem::own_heldout_sse`], when its penalty is chosen by them). Grid-encoder
-//! sessions implement `Greedy` directly on per-run moments
-//! ([`super::session`]).
+//! sessions implement `Greedy` directly on per-run moments (the session module,
+//! `diagnosis::session`).
 
 use super::Monotone;
 use super::lsq::{self, Design};
-use super::series::{bic, grid_then_golden};
+use super::search::{bic, grid_then_golden};
 
 /// What the loop needs of a recording (module docs).
 pub trait Greedy: Sync {

@@ -66,8 +66,8 @@ fn mul((a, b): (f64, f64), (c, d): (f64, f64)) -> (f64, f64) {
 
 /// For the stretch x_i = x0 + i·h with residual `r` (one value per sample), adds to
 /// `out[k]` the raw sums [Σs, Σc, Σs², Σc², Σs·c, Σr·s, Σr·c] of s = sin(2πf x),
-/// c = cos(2πf x) at f = f0 + k·df (k < out.len()) ([`super::periodic_scan::centred`]
-/// turns a run's total into its centred moments).
+/// c = cos(2πf x) at f = f0 + k·df (k < out.len()) (the periodic scan's
+/// `centred` turns a run's total into its centred moments).
 pub fn even_sums(x0: f64, h: f64, r: &[f64], f0: f64, df: f64, out: &mut [[f64; 7]]) {
     let n = r.len();
     let nf = n as f64;

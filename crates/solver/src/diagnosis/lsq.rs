@@ -1,6 +1,6 @@
 //! The one dense least-squares kernel of the diagnosis (positioning runs, drift logs, the
-//! engine's fits, and the orthonormal bases of sessions: [`super::linalg::Projector`] and
-//! the dense per-run reduction of [`super::reduced`], both by [`basis`]):
+//! engine's fits, and the orthonormal bases of sessions: `linalg::Projector` and the
+//! dense per-run reduction of `diagnosis::reduced`, both by [`basis`]):
 //! min ‖y − X b‖₂ for a tall X with few columns, never through the normal matrix.
 //!
 //! Columns are scaled to unit norm (D = diag of the column norms); a thin Householder QR

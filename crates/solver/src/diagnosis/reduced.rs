@@ -17,7 +17,7 @@
 //! Since col(A) ⊂ V = ⊕ V_g, the projection of any column b onto the rigid model is
 //! P_A b = Q P_Ã (Qᵀ b): the large problem (2 rows per sample, ≈ 55 columns) becomes one
 //! of Σ r_g reduced rows, and every fit of the diagnosis is assembled from per-run
-//! moments ([`super::moments`]).
+//! moments (`diagnosis::moments`).
 
 use super::design::Design;
 use super::linalg::Cols;
@@ -168,7 +168,7 @@ fn interpolated(
     let mut fm = faer::Mat::<f64>::zeros(n, w);
     let mut mean = vec![0.0; w];
     for i in 0..n {
-        it.basis_at_q(&d.samples[start + i].q_mm, &mut phi);
+        it.basis_at_q(&d.fields.q(start + i), &mut phi);
         for j in 0..w {
             fm[(i, j)] = phi[j + 1];
             mean[j] += phi[j + 1];
@@ -218,14 +218,16 @@ fn dense(d: &Design, start: usize, end: usize, rot: usize, k: usize) -> (RunSpac
     let rows = 2 * (end - start);
     let mut m = faer::Mat::<f64>::zeros(rows, k);
     let mut buf = vec![0.0; n_err];
+    let run = &d.runs[d.fields.run(start)];
+    let (u, v) = d.plane_axes[run.plane_idx];
+    let head = run.head_mm;
     for s in start..end {
-        let meta = &d.samples[s];
-        let (u, v) = d.plane_axes[meta.plane_idx];
-        let pu = meta.q_mm[u.index()] + meta.head_mm[u.index()];
-        let pv = meta.q_mm[v.index()] + meta.head_mm[v.index()];
+        let q = d.fields.q(s);
+        let pu = q[u.index()] + head[u.index()];
+        let pv = q[v.index()] + head[v.index()];
         for (comp, (dir, rv)) in [(u, pv * 1e-3), (v, -pu * 1e-3)].into_iter().enumerate() {
             let i = 2 * (s - start) + comp;
-            d.model.error_row(meta.q_mm, meta.head_mm, dir, &mut buf);
+            d.model.error_row(q, head, dir, &mut buf);
             for (j, b) in buf.iter().enumerate() {
                 m[(i, j)] = *b;
             }

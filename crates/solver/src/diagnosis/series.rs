@@ -81,41 +81,6 @@ pub(crate) fn rms(v: &[f64]) -> f64 {
     (v.iter().map(|x| x * x).sum::<f64>() / v.len() as f64).sqrt()
 }
 
-/// Bayesian information criterion of a Gaussian least-squares fit:
-/// BIC = n ln(SSE/n) + k ln n (Schwarz 1978).
-pub(crate) fn bic(sse: f64, n: usize, k: f64) -> f64 {
-    let nf = n as f64;
-    nf * (sse.max(1e-300) / nf).ln() + k * nf.ln()
-}
-
-/// Golden-section minimisation of `f` on `[a, b]` (unimodal assumed), `iters` steps;
-/// returns the best point found and its value.
-pub(crate) fn golden_min(a: f64, b: f64, iters: usize, f: impl FnMut(f64) -> f64) -> (f64, f64) {
-    super::search::golden_section(a, b, iters, f).best()
-}
-
-/// 1-D search: best point of `grid` by `f`, then golden-section refinement between its
-/// neighbours. Returns (argmin, min).
-pub(crate) fn grid_then_golden(
-    grid: &[f64],
-    iters: usize,
-    mut f: impl FnMut(f64) -> f64,
-) -> (f64, f64) {
-    let vals: Vec<f64> = grid.iter().map(|&x| f(x)).collect();
-    let (ib, &vb) = vals
-        .iter()
-        .enumerate()
-        .min_by(|a, b| a.1.total_cmp(b.1))
-        .expect("non-empty grid");
-    let lo = grid[ib.saturating_sub(1)];
-    let hi = grid[(ib + 1).min(grid.len() - 1)];
-    if iters == 0 || hi <= lo {
-        return (grid[ib], vb);
-    }
-    let (x, v) = golden_min(lo, hi, iters, &mut f);
-    if v < vb { (x, v) } else { (grid[ib], vb) }
-}
-
 /// `n` points log-spaced from `a` to `b` (both > 0).
 pub(crate) fn log_grid(a: f64, b: f64, n: usize) -> Vec<f64> {
     let (la, lb) = (a.ln(), b.ln());

@@ -33,7 +33,7 @@ impl ThermalBasis {
             .runs
             .iter()
             .map(|r| {
-                let (a, b) = (d.samples[r.start].t_s, d.samples[r.end - 1].t_s);
+                let (a, b) = (d.fields.t_s[r.start], d.fields.t_s[r.end - 1]);
                 (0.5 * (a + b), (0.5 * (b - a)).max(1e-9))
             })
             .collect();
@@ -50,7 +50,7 @@ impl ThermalBasis {
                 |row| d.row_axis(row) == a,
                 |row, out| {
                     let (s, f) = (row / 2, &d.fields);
-                    let (tm, h) = span[f.run_idx[s]];
+                    let (tm, h) = span[f.run(s)];
                     let tau = (f.t_s[s] - tm) / h;
                     tk[0] = 1.0;
                     tk[1] = tau;

@@ -348,7 +348,7 @@ fn undetermined(f: &Finding) -> Markup {
             h3 { "Undetermined" }
             table.undetermined {
                 thead { tr { th { "parameter" } th.num { "value" } th.num { "std" } th { "would be decided by" } } }
-                tbody { @for u in &f.undetermined { tr { td { (u.name) } td.num { (num(u.value)) } td.num { (num(u.std)) } td { (u.decide) } } } }
+                tbody { @for u in &f.undetermined { tr { td { (u.name) } td.num { (num(u.value)) } td.num { @match u.std { Some(sd) => (num(sd)), None => "no finite bound" } } td { (u.decide) } } } }
             }
         }
     }

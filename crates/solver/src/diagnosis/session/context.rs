@@ -1,0 +1,213 @@
+//! What every step of a session's diagnosis shares: the design, its per-run reduction
+//! and the run sets of the folds ([`Ctx`]), and the current model fitted on them
+//! ([`State`]: its [`Fit`] and the rigid model's rotation errors per sample when a
+//! candidate reads them). Each helper of the session's diagnosis is a method of the
+//! context taking the state it extends, instead of the six arguments it would need.
+
+use super::super::catalogue::{self, Candidate, Columns};
+use super::super::design::Design;
+use super::super::linalg::{Cols, dot};
+use super::super::moments::{self, Moments, Sets};
+use super::super::reduced::Reduction;
+use crate::axis::Axis;
+use crate::terms::{Component, Term};
+
+/// The design, its reduction and the folds' run sets.
+#[derive(Clone, Copy)]
+pub(crate) struct Ctx<'a> {
+    pub d: &'a Design,
+    pub red: &'a Reduction,
+    pub sets: &'a Sets,
+}
+
+/// The current model (rigid terms and the accepted effects) fitted on all runs and on
+/// each fold's training runs.
+pub(crate) struct Fit {
+    /// Accepted effect columns (centred, unit norm).
+    pub cols: Cols,
+    /// Moments of [accepted effects | y] (the base of every joint fit).
+    pub base: moments::Base,
+    /// Coefficients of the rigid columns (scaled) on all runs.
+    pub a: Vec<f64>,
+    pub resid: Vec<f64>,
+    pub ssr: f64,
+    pub heldout_ssr: f64,
+    /// Numerical rank of [rigid | effects] on all runs.
+    pub rank: usize,
+}
+
+/// The current model: its fit, the number of parameters added to the rigid model, and
+/// the rigid model's rotation errors at every sample when a candidate needs them.
+pub(crate) struct State {
+    pub fit: Fit,
+    pub k: usize,
+    pub eps: Option<Vec<[f64; 3]>>,
+}
+
+impl State {
+    /// Σ_k ε_k(q_k) (µrad) per sample, for the setup-offset candidates.
+    pub fn eps(&self) -> Option<&[[f64; 3]]> {
+        self.eps.as_deref()
+    }
+}
+
+impl<'a> Ctx<'a> {
+    /// Fits the rigid model plus the effect columns `cols` on all runs and on the
+    /// training runs of each fold, and forms the residual on all rows.
+    pub fn fit(&self, cols: Cols) -> Fit {
+        let Ctx { d, red, sets } = *self;
+        let base = moments::Base::new(
+            red,
+            sets,
+            Moments::of_columns(red, &self.base_columns(&cols)),
+        );
+        let jf = moments::joint_fit(red, sets, None, &base, true);
+        let mut resid = d.y.clone();
+        for (col, e) in cols.iter().zip(&jf.all.x) {
+            resid.iter_mut().zip(col).for_each(|(r, v)| *r -= e * v);
+        }
+        for (g, rs) in red.runs.iter().enumerate() {
+            let pa = red.predict_reduced(g, &jf.all.a);
+            for i in 0..rs.rows {
+                let (off, q) = rs.row(i);
+                resid[rs.row0 + i] -= dot(&pa[off..off + q.len()], q);
+            }
+        }
+        Fit {
+            rank: sets.all.rank() + jf.all.rank,
+            cols,
+            base,
+            a: jf.all.a,
+            resid,
+            ssr: jf.all.ssr,
+            heldout_ssr: jf.heldout_ssr,
+        }
+    }
+
+    /// The base columns U = [accepted effects `cols` | y] of every joint fit.
+    pub fn base_columns<'c>(&self, cols: &'c Cols) -> Vec<&'c [f64]>
+    where
+        'a: 'c,
+    {
+        cols.iter()
+            .map(Vec::as_slice)
+            .chain([self.d.y.as_slice()])
+            .collect()
+    }
+
+    /// The joint fit of the current model `f` plus a candidate's columns: its moments
+    /// (one pass over the rows), the columns that vary, and the fit on all runs (and the
+    /// folds, with `heldout`).
+    pub fn evaluate(
+        &self,
+        f: &Fit,
+        specs: &Columns,
+        heldout: bool,
+    ) -> Option<(Moments, Vec<usize>, moments::JointFit)> {
+        let d = self.d;
+        // Columns that follow one axis are constant on the runs that do not move it: the
+        // centring per run removes them there (their moments are 0).
+        let parked = specs.follows().map(|a| self.parked_runs(a));
+        let mom = Moments::new_on(
+            self.red,
+            specs.len(),
+            &self.base_columns(&f.cols),
+            |row| specs.live(d, row) && parked.as_ref().is_none_or(|p| !p[d.fields.run(row / 2)]),
+            |row, out| specs.at(d, row, out),
+        );
+        self.fit_moments(f, mom, heldout)
+    }
+
+    /// Per run: whether axis `a` keeps one position over the whole run.
+    pub fn parked_runs(&self, a: Axis) -> Vec<bool> {
+        self.d.runs.iter().map(|r| r.parked[a.index()]).collect()
+    }
+
+    /// The joint fit of the current model plus the columns of `mom` that vary (none vary:
+    /// `None`), with those columns' indices.
+    pub fn fit_moments(
+        &self,
+        f: &Fit,
+        mom: Moments,
+        heldout: bool,
+    ) -> Option<(Moments, Vec<usize>, moments::JointFit)> {
+        let keep: Vec<usize> = (0..mom.m).filter(|&j| mom.varies[j]).collect();
+        if keep.is_empty() {
+            return None;
+        }
+        let mom = if keep.len() == mom.m {
+            mom
+        } else {
+            mom.select(&keep)
+        };
+        let jf = moments::joint_fit(self.red, self.sets, Some(&mom), &f.base, heldout);
+        Some((mom, keep, jf))
+    }
+
+    /// SSR of the current model plus the candidate's columns at θ (∞ when it has none).
+    pub fn ssr_at(&self, s: &State, cand: &Candidate, theta: f64) -> f64 {
+        let specs = catalogue::specs(self.d, cand, theta, s.eps());
+        self.evaluate(&s.fit, &specs, false)
+            .map_or(f64::INFINITY, |(_, _, jf)| jf.all.ssr)
+    }
+
+    /// Per run that moves `axis`: the rows read along it less than `reach` mm of travel
+    /// after the axis's last reversal, as (index counted from the run's first row, travel
+    /// since reversal). A run that does not move the axis has a constant column (none).
+    pub fn near_rows(&self, axis: Axis, reach: f64) -> Vec<Vec<(usize, f64)>> {
+        let d = self.d;
+        let parked = self.parked_runs(axis);
+        self.red
+            .runs
+            .iter()
+            .zip(parked)
+            .map(|(rs, parked)| {
+                (0..if parked { 0 } else { rs.rows })
+                    .filter_map(|i| {
+                        let row = rs.row0 + i;
+                        let x = d.fields.since_reversal_mm[axis.index()][row / 2];
+                        (d.row_axis(row) == axis && x < reach).then_some((i, x))
+                    })
+                    .collect()
+            })
+            .collect()
+    }
+
+    /// Σ_k ε_k(q_k) (µrad) at every sample of the runs whose head offset is one of
+    /// `groups`, from the fit's error parameters; 0 on the other runs (the setup-offset
+    /// columns, which alone read it, are 0 there).
+    pub fn eps_per_sample(&self, f: &Fit, groups: &[[f64; 3]]) -> Vec<[f64; 3]> {
+        let (d, red) = (self.d, self.red);
+        let x: Vec<f64> = (0..d.model.len()).map(|j| f.a[j] / red.scale[j]).collect();
+        // The rotation terms: (its value as a function of q, its axis, the rotation's
+        // direction).
+        let rot: Vec<_> = Term::all()
+            .into_iter()
+            .enumerate()
+            .filter_map(|(i, term)| match term.component {
+                Component::Rotation(dir) => {
+                    Some((d.model.term_fn(i, &x), term.axis.index(), dir.index()))
+                }
+                _ => None,
+            })
+            .collect();
+        // Consecutive samples often share an axis position (a parked axis): a term's value
+        // is evaluated again only when its axis's position changes. One pass over the
+        // samples, each sample's terms added in term order.
+        let mut last = vec![(f64::NAN, 0.0); rot.len()];
+        let mut out = vec![[0.0; 3]; d.fields.len()];
+        let runs = d.runs.iter().filter(|r| groups.contains(&r.head_mm));
+        for s in runs.flat_map(|r| r.start..r.end) {
+            let o = &mut out[s];
+            for ((value, a, dir), last) in rot.iter().zip(last.iter_mut()) {
+                let (a, dir) = (*a, *dir);
+                let q = d.fields.q_mm[a][s];
+                if q != last.0 {
+                    *last = (q, value(q));
+                }
+                o[dir] += last.1;
+            }
+        }
+        out
+    }
+}

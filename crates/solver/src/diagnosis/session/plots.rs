@@ -1,0 +1,68 @@
+//! The figures of a session's diagnosis, before and after its findings.
+
+use super::super::design::Design;
+use super::super::{PlotData, PlotKind, PlotSeries};
+use crate::session::TestKind;
+
+/// Polar plot of the first circle's radial residual and per-run RMS against time, before
+/// and after the findings.
+pub(crate) fn plots(d: &Design, before: &[f64], after: &[f64]) -> Vec<PlotData> {
+    let mut out = Vec::new();
+    if let Some(run) = d
+        .runs
+        .iter()
+        .find(|r| matches!(r.test, TestKind::CircleCcw | TestKind::CircleCw))
+    {
+        let (u, v) = d.plane_axes[run.plane_idx];
+        let series = |r: &[f64], name: &str| {
+            let mut x = Vec::new();
+            let mut y = Vec::new();
+            for s in run.start..run.end {
+                let q = d.fields.q(s);
+                let th = q[v.index()].atan2(q[u.index()]);
+                x.push(th.to_degrees().rem_euclid(360.0));
+                y.push(r[2 * s] * th.cos() + r[2 * s + 1] * th.sin());
+            }
+            PlotSeries {
+                name: name.into(),
+                x,
+                y,
+            }
+        };
+        out.push(PlotData {
+            id: "circle_polar".into(),
+            title: format!(
+                "{} run {}: radial residual",
+                d.files[run.plane_idx], run.number
+            ),
+            x_label: "angle (deg)".into(),
+            y_label: "radial residual (um)".into(),
+            kind: PlotKind::Polar,
+            series: vec![series(before, "before"), series(after, "after")],
+        });
+    }
+    let per_run = |r: &[f64], name: &str| {
+        let mut x = Vec::new();
+        let mut y = Vec::new();
+        for run in &d.runs {
+            let rows = 2 * run.start..2 * run.end;
+            let n = rows.len();
+            x.push(0.5 * (d.fields.t_s[run.start] + d.fields.t_s[run.end - 1]));
+            y.push((rows.map(|i| r[i] * r[i]).sum::<f64>() / n as f64).sqrt());
+        }
+        PlotSeries {
+            name: name.into(),
+            x,
+            y,
+        }
+    };
+    out.push(PlotData {
+        id: "rms_vs_time".into(),
+        title: "residual RMS of each run against session time".into(),
+        x_label: "time (s)".into(),
+        y_label: "RMS (um)".into(),
+        kind: PlotKind::Cartesian,
+        series: vec![per_run(before, "before"), per_run(after, "after")],
+    });
+    out
+}

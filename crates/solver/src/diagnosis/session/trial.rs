@@ -1,0 +1,381 @@
+//! A candidate of the catalogue fitted jointly with the current model: its nonlinear
+//! parameter searched (a grid refined by golden section, or a frequency scan), its joint
+//! fit on all runs and on the folds, its ΔBIC, and its parameters in physical units.
+
+use super::super::catalogue::{self, Candidate, Search};
+use super::super::design::{Design, RunInfo};
+use super::super::moments::Moments;
+use super::super::periodic_scan;
+use super::super::search::golden_section;
+use super::super::thermal_search::ThermalBasis;
+use super::context::{Ctx, State};
+use crate::axis::Axis;
+use std::collections::BTreeMap;
+
+/// A candidate fitted jointly with the current model.
+#[derive(Clone)]
+pub(crate) struct Trial {
+    pub cand: Candidate,
+    pub theta: Option<(&'static str, f64)>,
+    /// Number of columns.
+    pub ncols: usize,
+    pub names: Vec<String>,
+    /// Largest |value| of each column before centring (its size as a machine error per
+    /// unit coefficient).
+    pub peaks: Vec<f64>,
+    pub coef: Vec<f64>,
+    pub coef_sd: Vec<f64>,
+    /// Σ over the rows of the centred columns' cross-products (for the fitted RMS).
+    pub gram: nalgebra::DMatrix<f64>,
+    pub ssr: f64,
+    pub heldout_ssr: f64,
+    pub dbic: f64,
+    pub extra_params: usize,
+}
+
+/// Most frequencies in one scan, and the most (row, frequency) pairs a scan evaluates.
+const MAX_SCAN_FREQS: usize = 2000;
+const MAX_SCAN_WORK: usize = 20_000_000;
+
+/// A frequency scan's variable: the rows read along `axis`, the variable per sample
+/// (time, or an axis's position), with each run's own phase (`per_run`: an incoherent
+/// sum, for a coarse scan in time) or one phase for the session.
+struct ScanVar<'v> {
+    axis: Axis,
+    var: &'v [f64],
+    per_run: bool,
+}
+
+/// Frequency (in `freqs`, evenly spaced) whose sine/cosine pair of the scan's variable
+/// explains most of the residual `r`, with the columns centred per (run, component) like
+/// the model.
+///
+/// This is a scan heuristic only: the 2×2 moment system of each candidate frequency is
+/// solved in closed form; the chosen frequency is then fitted jointly. The work is bounded:
+/// whole runs, every `stride`-th, so that at most [`MAX_SCAN_WORK`] (row, frequency) pairs
+/// are evaluated (the runs chosen still span the session). Each run's moments at every
+/// frequency come from [`periodic_scan::run_moments`].
+fn periodic_best(d: &Design, r: &[f64], v: &ScanVar, freqs: &[f64]) -> Option<f64> {
+    let ScanVar { axis, var, per_run } = *v;
+    let nf = freqs.len();
+    let f0 = *freqs.first()?;
+    let reads = |run: &RunInfo| {
+        let (u, v) = d.plane_axes[run.plane_idx];
+        u == axis || v == axis
+    };
+    let axis_rows: usize = d
+        .runs
+        .iter()
+        .filter(|r| reads(r))
+        .map(|r| r.end - r.start)
+        .sum();
+    let stride = (axis_rows * nf).div_ceil(MAX_SCAN_WORK).max(1);
+    let df = if nf > 1 { freqs[1] - f0 } else { 0.0 };
+    // Explained sum of squares of the centred 2-column fit from its moments
+    // (ss, cc, sc, rs, rc).
+    let solve = |m: &[f64; 5]| {
+        let [ss, cc, sc, rs, rc] = *m;
+        let det = ss * cc - sc * sc;
+        if det <= 1e-12 * (ss * cc).max(1e-300) {
+            return 0.0;
+        }
+        let a = (cc * rs - sc * rc) / det;
+        let b = (ss * rc - sc * rs) / det;
+        a * rs + b * rc
+    };
+    let mut score = vec![0.0; nf];
+    let mut total = vec![[0.0; 5]; nf];
+    let mut mom = vec![[0.0; 5]; nf];
+    let mut sums = vec![[0.0; 7]; nf];
+    let mut any = false;
+    // Per row of a run: its residual and variable.
+    let mut rv = Vec::new();
+    let mut xs = Vec::new();
+    for (ri, run) in d.runs.iter().enumerate() {
+        if ri % stride != 0 || !reads(run) {
+            continue;
+        }
+        rv.clear();
+        xs.clear();
+        // The run's rows read along `axis` (one component of each sample).
+        for row in 2 * run.start..2 * run.end {
+            if d.row_axis(row) != axis {
+                continue;
+            }
+            rv.push(r[row]);
+            xs.push(var[row / 2]);
+        }
+        if rv.is_empty() {
+            continue;
+        }
+        any = true;
+        // A variable constant over the run gives constant columns, which its centring
+        // removes: the run adds nothing to any frequency's moments.
+        if xs.iter().all(|&x| x == xs[0]) {
+            continue;
+        }
+        // The run's moments [ss, cc, sc, rs, rc] at every frequency: in closed form on
+        // its evenly spaced stretches, by rotating phasors elsewhere ([`periodic_scan`]).
+        periodic_scan::run_moments(&rv, &xs, f0, df, &mut sums, &mut mom);
+        for (k, m) in mom.iter().enumerate() {
+            if per_run {
+                score[k] += solve(m);
+            } else {
+                for j in 0..5 {
+                    total[k][j] += m[j];
+                }
+            }
+        }
+    }
+    if !any {
+        return None;
+    }
+    if !per_run {
+        for k in 0..nf {
+            score[k] = solve(&total[k]);
+        }
+    }
+    let kbest = (0..nf).max_by(|&a, &b| score[a].total_cmp(&score[b]))?;
+    Some(freqs[kbest])
+}
+
+/// A frequency band of a refinement: the scanned frequency, a coarse step and the lowest
+/// frequency of the scan.
+struct Band {
+    f0: f64,
+    step: f64,
+    f_lo: f64,
+}
+
+impl Ctx<'_> {
+    /// The scan fits each frequency to the current model's residual alone; fitted jointly
+    /// with the rigid terms, whose polynomials absorb part of a long period, the best
+    /// frequency can lie elsewhere within a coarse step (a 35 mm waviness over 100 mm of
+    /// travel scans at 33 mm). A position-periodic candidate with evidence at the scanned
+    /// frequency f0 (ΔBIC = n·ln(SSR₁/SSR₀) + 3·ln n < 0) has its frequency refined by
+    /// golden section on the exact joint SSR within f0 ± step (at least f_lo/2); the
+    /// scanned one is kept unless the refined one fits better. Candidates without
+    /// evidence (nearly all, on a clean session) cost nothing more.
+    fn refine_on_joint_fit(&self, s: &State, cand: &Candidate, b: Band) -> f64 {
+        let Band { f0, step, f_lo } = b;
+        let ssr = |v: f64| self.ssr_at(s, cand, v);
+        let s0 = ssr(f0);
+        let n = self.d.rows() as f64;
+        if !s0.is_finite() || n * (s0 / s.fit.ssr).ln() + 3.0 * n.ln() >= 0.0 {
+            return f0;
+        }
+        let br = golden_section((f0 - step).max(0.5 * f_lo), f0 + step, 12, ssr);
+        let (v, s) = br.best();
+        if s < s0 { v } else { f0 }
+    }
+
+    /// The candidate's nonlinear parameter searched on the state `s`, with the number of
+    /// parameters the search adds (`None`: it cannot be searched).
+    fn search_theta(
+        &self,
+        s: &State,
+        cand: &Candidate,
+    ) -> Option<(Option<(&'static str, f64)>, usize)> {
+        let (d, red, sets, f) = (self.d, self.red, self.sets, &s.fit);
+        Some(match catalogue::search(d, cand) {
+            Search::None => (None, 0),
+            Search::Grid(name, values) => {
+                // The thermal time constant is searched on the reduced problem
+                // ([`ThermalBasis`]); other parameters from their columns.
+                let basis = (cand.effect == "thermal_drift")
+                    .then(|| ThermalBasis::new(d, red, &self.base_columns(&f.cols)));
+                // A candidate that vanishes away from its axis's reversals (the spike) is
+                // evaluated on the rows within its reach at the largest value searched
+                // (the golden section stays within a grid ratio of the grid; 1 % margin).
+                let ratio = values.get(1).map_or(2.0, |v1| v1 / values[0]);
+                let top = values.iter().copied().fold(0.0, f64::max) * ratio * 1.01;
+                let near = catalogue::reach(cand, top).map(|(a, x)| self.near_rows(a, x));
+                let ssr_at = |v: f64| match (&basis, &near) {
+                    (Some(b), _) => {
+                        super::super::moments::joint_fit(red, sets, Some(&b.at(v)), &f.base, false)
+                            .all
+                            .ssr
+                    }
+                    (None, Some(near)) => {
+                        let reach = catalogue::reach(cand, v).map_or(f64::INFINITY, |r| r.1);
+                        let specs = catalogue::specs(d, cand, v, s.eps());
+                        let mom = Moments::over_rows(
+                            red,
+                            specs.len(),
+                            &self.base_columns(&f.cols),
+                            |g, _, out| {
+                                out.extend(near[g].iter().filter(|p| p.1 < reach).map(|p| p.0))
+                            },
+                            |row, out| specs.at(d, row, out),
+                        );
+                        self.fit_moments(f, mom, false)
+                            .map_or(f64::INFINITY, |(_, _, jf)| jf.all.ssr)
+                    }
+                    (None, None) => self.ssr_at(s, cand, v),
+                };
+                let mut best: Option<(f64, f64)> = None;
+                for &v in &values {
+                    let ssr = ssr_at(v);
+                    if !ssr.is_finite() {
+                        return None;
+                    }
+                    if best.is_none_or(|(s, _)| ssr < s) {
+                        best = Some((ssr, v));
+                    }
+                }
+                // Golden-section refinement in log θ around the best grid value.
+                let (_, v0) = best?;
+                let eval = |lv: f64| ssr_at(lv.exp());
+                let bracket = golden_section((v0 / ratio).ln(), (v0 * ratio).ln(), 10, eval);
+                (Some((name, bracket.centre().exp())), 1)
+            }
+            Search::Periodic {
+                name,
+                f_lo,
+                f_hi,
+                coarse_step,
+                fine_step,
+                in_time,
+                as_period,
+            } => {
+                if f_hi <= f_lo {
+                    return None;
+                }
+                // The variable per sample: time, or the axis's position.
+                let (axis, var) = if in_time {
+                    (cand.direction?, &d.fields.t_s)
+                } else {
+                    // Rows read along the effect's direction (its own axis for `cyclic`).
+                    let a = cand.axis?;
+                    (cand.direction.unwrap_or(a), &d.fields.q_mm[a.index()])
+                };
+                // Scan sizes are bounded (a heuristic: the exact joint fit follows): at
+                // most MAX_SCAN_FREQS coarse and fine frequencies.
+                let coarse_step = coarse_step.max((f_hi - f_lo) / MAX_SCAN_FREQS as f64);
+                let fine_step = fine_step.max(2.0 * coarse_step / MAX_SCAN_FREQS as f64);
+                let coarse: Vec<f64> = (0..)
+                    .map(|i| f_lo + i as f64 * coarse_step)
+                    .take_while(|&x| x <= f_hi)
+                    .collect();
+                let scan = |per_run| ScanVar { axis, var, per_run };
+                let c0 = periodic_best(d, &f.resid, &scan(in_time), &coarse)?;
+                let fine: Vec<f64> = (0..)
+                    .map(|i| (c0 - coarse_step).max(0.5 * f_lo) + i as f64 * fine_step)
+                    .take_while(|&x| x <= c0 + coarse_step)
+                    .collect();
+                let best = periodic_best(d, &f.resid, &scan(false), &fine)?;
+                let best = if in_time {
+                    best
+                } else {
+                    let band = Band {
+                        f0: best,
+                        step: coarse_step,
+                        f_lo,
+                    };
+                    self.refine_on_joint_fit(s, cand, band)
+                };
+                // Columns take a frequency; `report_parameters` turns it into a period.
+                let _ = as_period;
+                (Some((name, best)), 1)
+            }
+        })
+    }
+
+    /// The candidate evaluated jointly with the current model `s`: its nonlinear
+    /// parameter searched, its joint fit on all runs and the folds, its ΔBIC.
+    pub fn try_candidate(&self, s: &State, cand: &Candidate) -> Option<Trial> {
+        let (d, f) = (self.d, &s.fit);
+        let n = d.rows() as f64;
+        let (theta, extra) = self.search_theta(s, cand)?;
+        let th = theta.map_or(0.0, |t| t.1);
+        let specs = catalogue::specs(d, cand, th, s.eps());
+        let (mom, keep, jf) = self.evaluate(f, &specs, true)?;
+        let m = keep.len();
+        let ssr = jf.all.ssr;
+        let k = m + extra;
+        let dbic = n * (ssr / f.ssr).ln() + k as f64 * n.ln();
+        Some(Trial {
+            cand: cand.clone(),
+            theta,
+            ncols: m,
+            names: keep.iter().map(|&j| specs.names[j].clone()).collect(),
+            peaks: mom.peaks.clone(),
+            coef: jf.all.x[..m].to_vec(),
+            coef_sd: jf.all.sd[..m].to_vec(),
+            gram: mom.gram(),
+            ssr,
+            heldout_ssr: jf.heldout_ssr,
+            dbic,
+            extra_params: extra,
+        })
+    }
+
+    /// Standard uncertainty of a trial's nonlinear parameter from the curvature of the
+    /// profiled sum of squares S(θ) (the linear parameters re-fitted at every θ):
+    /// var(θ̂) = 2σ²/S''(θ̂), by central differences (in ln θ for time constants and decay
+    /// lengths, in frequency for periods and frequencies). Returns the reported name and
+    /// σ; infinite when S is not convex there (θ not determined).
+    pub fn theta_std(&self, s: &State, t: &Trial, sigma: f64) -> Option<(&'static str, f64)> {
+        let (name, th) = t.theta?;
+        let ssr_at = |v: f64| {
+            let x = self.ssr_at(s, &t.cand, v);
+            if x.is_finite() { x } else { f64::NAN }
+        };
+        let (log, h) = match catalogue::search(self.d, &t.cand) {
+            Search::Periodic { fine_step, .. } => (false, fine_step),
+            _ => (true, 0.02),
+        };
+        let (lo, hi) = if log {
+            (th * (-h).exp(), th * h.exp())
+        } else {
+            (th - h, th + h)
+        };
+        let curv = (ssr_at(lo) + ssr_at(hi) - 2.0 * t.ssr) / (h * h);
+        let sd_lin = if curv > 0.0 {
+            (2.0 * sigma * sigma / curv).sqrt()
+        } else {
+            f64::INFINITY
+        };
+        Some(match (name, log) {
+            (_, true) => (name, th * sd_lin),
+            ("period_mm", false) => ("period_mm", sd_lin / (th * th)),
+            _ => (name, sd_lin),
+        })
+    }
+}
+
+/// Physical parameters of an accepted trial (with `std_*` uncertainties), scaled by the
+/// residual standard deviation `sigma` of the joint fit.
+pub(crate) fn report_parameters(t: &Trial, sigma: f64, d: &Design) -> BTreeMap<String, f64> {
+    let mut p = BTreeMap::new();
+    let sd = |i: usize| t.coef_sd[i] * sigma;
+    if let Some((name, v)) = t.theta {
+        if name == "period_mm" {
+            p.insert("period_mm".into(), 1.0 / v);
+        } else {
+            p.insert(name.into(), v);
+        }
+    }
+    let idx = |n: &str| t.names.iter().position(|x| x == n);
+    if let (Some(i), Some(j)) = (idx("sin"), idx("cos")) {
+        let (a, b) = (t.coef[i], t.coef[j]);
+        p.insert("amplitude_um".into(), a.hypot(b));
+        p.insert("std_amplitude_um".into(), sd(i).max(sd(j)));
+        p.insert("phase_rad".into(), b.atan2(a));
+        return p;
+    }
+    if t.cand.effect == "model_order" {
+        // Size of the extra (higher-order) function as seen in the data: RMS of its fit.
+        let n = d.rows() as f64;
+        let c = nalgebra::DVector::from_column_slice(&t.coef);
+        let rms = ((c.transpose() * &t.gram * &c)[(0, 0)].max(0.0) / n).sqrt();
+        p.insert("rms_um".into(), rms);
+        p.insert("extra_order".into(), 10.0);
+        return p;
+    }
+    for (i, name) in t.names.iter().enumerate() {
+        p.insert(name.clone(), t.coef[i]);
+        p.insert(format!("std_{name}"), sd(i));
+    }
+    p
+}
