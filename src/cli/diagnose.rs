@@ -99,7 +99,7 @@ pub fn run(args: Args) -> anyhow::Result<ExitCode> {
                     .and_then(|()| w.flush())
                     .with_context(|| format!("writing {}", out.display()))?;
                 if !args.json {
-                    eprintln!(
+                    super::out::noteln!(
                         "wrote the predictions ({} samples) to {}",
                         pred.t_s.len(),
                         out.display()
@@ -136,7 +136,7 @@ pub fn run(args: Args) -> anyhow::Result<ExitCode> {
     if let Some(dir) = &args.plots {
         let written = write_svgs(&result.plots, dir)?;
         if !args.json {
-            eprintln!("wrote {} plot(s) to {}", written.len(), dir.display());
+            super::out::noteln!("wrote {} plot(s) to {}", written.len(), dir.display());
         }
     }
     let text = if args.json {

@@ -5,6 +5,9 @@
 //! Run: `cargo bench -p mtcal-formats --bench read` (see BENCHMARKS.md for the figures
 //! and the exact command used).
 
+mod common;
+
+use common::cpu_s;
 use criterion::{Criterion, Throughput, criterion_group};
 use mtcal_formats::session::read_plane_csv;
 use mtcal_formats::{Limits, read_drift_log};
@@ -70,15 +73,6 @@ fn peak_extra_kib(f: impl FnOnce()) -> Option<u64> {
     let base = status_kib("VmRSS:")?;
     f();
     Some(status_kib("VmHWM:")?.saturating_sub(base))
-}
-
-/// CPU time (user + system) of this process, s, from /proc/self/stat (clock ticks of
-/// 1/100 s on Linux).
-fn cpu_s() -> Option<f64> {
-    let stat = std::fs::read_to_string("/proc/self/stat").ok()?;
-    let after = &stat[stat.rfind(')')? + 2..];
-    let f: Vec<&str> = after.split_whitespace().collect();
-    Some((f[11].parse::<f64>().ok()? + f[12].parse::<f64>().ok()?) / 100.0)
 }
 
 fn memory_report() {

@@ -11,27 +11,18 @@
 //!
 //! Run: `cargo bench -p mtcal-formats --bench session` (figures in BENCHMARKS.md).
 
+mod common;
+
+use common::session_on_disk;
 use criterion::{Criterion, criterion_group, criterion_main};
 use mtcal_formats::session::read_plane_csv;
-use mtcal_formats::{Limits, read_session_dir, write_session_dir};
+use mtcal_formats::{Limits, read_session_dir};
 use mtcal_solver::identification::{IdentifyOptions, identify};
-use mtcal_solver::simulate::{Plan, SimOptions, random_truth, simulate};
 use std::hint::black_box;
 
 fn bench(c: &mut Criterion) {
-    let out = simulate(
-        &random_truth(1),
-        &SimOptions {
-            plan: Plan::Full,
-            sample_rate_hz: 340.0,
-            ..Default::default()
-        },
-    )
-    .expect("simulation");
-    let dir = tempfile::tempdir().expect("temporary folder");
-    write_session_dir(dir.path(), &out.session).expect("session written");
-    let files: Vec<(String, Vec<u8>)> = out
-        .session
+    let (session, dir) = session_on_disk();
+    let files: Vec<(String, Vec<u8>)> = session
         .planes
         .iter()
         .map(|p| {
@@ -42,7 +33,7 @@ fn bench(c: &mut Criterion) {
     let mb = files.iter().map(|(_, b)| b.len()).sum::<usize>() as f64 / 1e6;
     eprintln!(
         "session: {} samples in {} plane files, {mb:.1} MB",
-        out.session.sample_count(),
+        session.sample_count(),
         files.len()
     );
     let limits = Limits::default();
@@ -60,7 +51,7 @@ fn bench(c: &mut Criterion) {
     });
     let read = read_session_dir(dir.path(), &limits).unwrap();
     g.bench_function("identify_simulated", |b| {
-        b.iter(|| black_box(identify(&out.session, &IdentifyOptions::default()).unwrap()))
+        b.iter(|| black_box(identify(&session, &IdentifyOptions::default()).unwrap()))
     });
     g.bench_function("identify_read", |b| {
         b.iter(|| black_box(identify(&read, &IdentifyOptions::default()).unwrap()))

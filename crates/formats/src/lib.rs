@@ -16,11 +16,12 @@
 //!   refuse the same inputs.
 //!
 //! The rules shared by every CSV format live once in `csv_core`, limits in [`limits`],
-//! gzip handling in `gzip`.
+//! gzip handling in `gzip`, the files of one read (in memory or in a folder) in `files`.
 
 pub mod compensation;
 mod csv_core;
 pub mod drift;
+mod files;
 mod gzip;
 mod json;
 pub mod limits;

@@ -122,10 +122,21 @@ impl Limits {
 
     /// A limit error about `file` (at `line`, 0 when none) once the deadline has passed.
     pub fn check_deadline(&self, file: &str, line: u64) -> Result<(), FormatError> {
+        self.check_deadline_at(file, || line)
+    }
+
+    /// [`Limits::check_deadline`] with the line computed only when the deadline has
+    /// passed (a CSV line number is a count of the newlines before it: paid once, for
+    /// the error, not at every look at the clock).
+    pub(crate) fn check_deadline_at(
+        &self,
+        file: &str,
+        line: impl FnOnce() -> u64,
+    ) -> Result<(), FormatError> {
         match self.deadline {
             Some(d) if Instant::now() >= d => Err(FormatError::new(
                 file,
-                line,
+                line(),
                 "",
                 "reading stopped: the time allowed to read this upload ran out (the \
                  service's upload time limit)",

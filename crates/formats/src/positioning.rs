@@ -55,7 +55,7 @@ pub fn read_positioning(
             Some(ct) => {
                 let v = t.quantity(ct, Quantity::Time)?;
                 let prev = last_t.insert((axis, run), v);
-                check_increasing(&t, ct, prev, v, &format!("axis {axis} run {run}"))?;
+                check_increasing(&t, ct, prev, v, format_args!("axis {axis} run {run}"))?;
                 Some(v)
             }
             None => None,

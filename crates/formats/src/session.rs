@@ -56,11 +56,12 @@ struct SessionSpec {
 }
 
 /// Reads a session folder: `dir/session.json` (or `session.json.gz`) and the plane files
-/// it names, with the rules of an upload ([`crate::upload`]): a plane file named `f` may
-/// be present as `f.gz`; a CSV the description does not name is refused; other files
-/// (`truth.json`, notes) are ignored. Error messages name files relative to `dir`.
+/// it names, with the rules of an upload (`docs/datasets.md`, "Uploads"): a plane file
+/// named `f` may be present as `f.gz`; a CSV the description does not name is refused;
+/// other files (`truth.json`, notes) are ignored. Error messages name files relative to
+/// `dir`.
 pub fn read_session_dir(dir: &Path, limits: &Limits) -> Result<Session, FormatError> {
-    let (names, mut load) = crate::upload::folder(dir, limits)?;
+    let (names, mut load) = crate::files::folder(dir, limits)?;
     if !names
         .iter()
         .any(|n| n == SESSION_JSON || n == SESSION_JSON_GZ)
@@ -74,7 +75,7 @@ pub fn read_session_dir(dir: &Path, limits: &Limits) -> Result<Session, FormatEr
 }
 
 /// Reads a session from memory (an HTTP upload): `session_json` and the other files keyed
-/// by name, with the rules of an upload ([`crate::upload`]; an entry named
+/// by name, with the rules of an upload (`docs/datasets.md`, "Uploads"; an entry named
 /// `session.json` in `files` is ignored: `session_json` is the description).
 pub fn read_session_files(
     session_json: &[u8],
@@ -124,7 +125,7 @@ pub(crate) fn is_csv_name(name: &str) -> bool {
 /// of their decompressed sizes.
 pub(crate) fn read_session_named<'a>(
     names: &[String],
-    load: &mut crate::upload::Loader<'a>,
+    load: &mut crate::files::Loader<'a>,
     limits: &Limits,
 ) -> Result<SessionRead, FormatError> {
     let has = |n: &str| names.iter().any(|m| m == n);
@@ -204,24 +205,21 @@ pub(crate) fn read_session_named<'a>(
         ignored.push(n.clone());
     }
     ignored.sort();
-    // Load and decompress in order (the byte budgets are shared and charged in file
-    // order), then parse the plane files on all cores: parsing is the cost of a read.
-    let raws = stored
-        .iter()
-        .map(|name| read(name, &mut raw_budget))
-        .collect::<Result<Vec<_>, _>>()?;
-    let data = stored
-        .iter()
-        .zip(&raws)
-        .map(|(name, raw)| gzip::decode(name, raw, &mut budget))
-        .collect::<Result<Vec<_>, _>>()?;
-    let mut parsed = parse_planes_in_parallel(&stored, &data, limits).into_iter();
-    drop(data);
-    drop(raws);
+    // Each plane file is loaded and decompressed in file order (the byte budgets are
+    // shared and charged in that order) and parsed on all cores as soon as it is loaded.
+    let mut load_plane = |i: usize| -> Result<Cow<'a, [u8]>, FormatError> {
+        let raw = read(&stored[i], &mut raw_budget)?;
+        let decompressed = match gzip::decode(&stored[i], &raw, &mut budget)? {
+            Cow::Owned(plain) => Some(plain),
+            Cow::Borrowed(_) => None,
+        };
+        Ok(decompressed.map_or(raw, Cow::Owned))
+    };
+    let mut parsed = parse_planes(&stored, &mut load_plane, limits)?.into_iter();
     let session = assemble(spec, |_, _| {
-        parsed
+        Ok(parsed
             .next()
-            .expect("one parsed plane file per plane of the description")
+            .expect("one parsed plane file per plane of the description"))
     })?;
     let files = std::iter::once(description.to_string())
         .chain(stored)
@@ -234,52 +232,88 @@ pub(crate) fn read_session_named<'a>(
     })
 }
 
-/// Parses the plane files with [`read_plane_csv`] on up to
-/// [`std::thread::available_parallelism`] threads; results in the order of `names` (so the
-/// first error reported is the first in file order, as in a sequential read).
-fn parse_planes_in_parallel(
+/// Reads the plane files `names` with [`read_plane_csv`] on up to
+/// [`std::thread::available_parallelism`] threads: the files are loaded one after the
+/// other by `load` (here, in file order) and each is parsed by the next free worker, so at
+/// most one file per worker and one being handed over are in memory besides the columns
+/// read. The result is a sequential read's: the runs of every file in order, or the first
+/// error in file order (a file that cannot be loaded counts after the files before it;
+/// files after an error are not loaded).
+fn parse_planes<'a>(
     names: &[String],
-    data: &[Cow<'_, [u8]>],
+    load: &mut dyn FnMut(usize) -> Result<Cow<'a, [u8]>, FormatError>,
     limits: &Limits,
-) -> Vec<Result<Vec<Run>, FormatError>> {
+) -> Result<Vec<Vec<Run>>, FormatError> {
+    use std::sync::atomic::{AtomicUsize, Ordering::Relaxed};
+    use std::sync::{Arc, Mutex, PoisonError, mpsc};
     let threads = std::thread::available_parallelism()
         .map_or(1, |n| n.get())
-        .min(data.len());
+        .min(names.len());
     if threads <= 1 {
-        return names
-            .iter()
-            .zip(data)
-            .map(|(name, bytes)| read_plane_csv(name, bytes, limits))
+        return (0..names.len())
+            .map(|i| read_plane_csv(&names[i], &load(i)?, limits))
             .collect();
     }
-    let next = std::sync::atomic::AtomicUsize::new(0);
-    let mut out: Vec<Option<Result<Vec<Run>, FormatError>>> = Vec::new();
-    out.resize_with(data.len(), || None);
-    let done = std::thread::scope(|s| {
+    // The lowest index of a file that failed: later files need not be read.
+    let failed = AtomicUsize::new(usize::MAX);
+    let mut results: Vec<Option<Result<Vec<Run>, FormatError>>> = Vec::new();
+    results.resize_with(names.len(), || None);
+    std::thread::scope(|s| {
+        // A rendezvous channel: a loaded file waits until a worker takes it. The workers
+        // share the receiver; when they are all gone, a send fails instead of blocking.
+        let (tx, rx) = mpsc::sync_channel::<(usize, Cow<'a, [u8]>)>(0);
+        let rx = Arc::new(Mutex::new(rx));
         let workers: Vec<_> = (0..threads)
             .map(|_| {
-                s.spawn(|| {
+                let rx = Arc::clone(&rx);
+                let failed = &failed;
+                s.spawn(move || {
                     let mut mine = Vec::new();
                     loop {
-                        let i = next.fetch_add(1, std::sync::atomic::Ordering::Relaxed);
-                        if i >= data.len() {
+                        let next = rx.lock().unwrap_or_else(PoisonError::into_inner).recv();
+                        let Ok((i, data)) = next else {
                             break mine;
+                        };
+                        if i > failed.load(Relaxed) {
+                            continue;
                         }
-                        mine.push((i, read_plane_csv(&names[i], &data[i], limits)));
+                        let r = read_plane_csv(&names[i], &data, limits);
+                        drop(data);
+                        if r.is_err() {
+                            failed.fetch_min(i, Relaxed);
+                        }
+                        mine.push((i, r));
                     }
                 })
             })
             .collect();
-        workers
-            .into_iter()
-            .flat_map(|w| w.join().unwrap_or_else(|p| std::panic::resume_unwind(p)))
-            .collect::<Vec<_>>()
+        drop(rx);
+        for i in 0..names.len() {
+            if failed.load(Relaxed) < i {
+                break;
+            }
+            match load(i) {
+                Ok(data) => {
+                    if tx.send((i, data)).is_err() {
+                        break;
+                    }
+                }
+                Err(e) => {
+                    results[i] = Some(Err(e));
+                    break;
+                }
+            }
+        }
+        drop(tx);
+        for w in workers {
+            for (i, r) in w.join().unwrap_or_else(|p| std::panic::resume_unwind(p)) {
+                results[i] = Some(r);
+            }
+        }
     });
-    for (i, r) in done {
-        out[i] = Some(r);
-    }
-    out.into_iter()
-        .map(|r| r.expect("every plane file parsed by one worker"))
+    results
+        .into_iter()
+        .map(|r| r.expect("a file is left unread only after an earlier file's error"))
         .collect()
 }
 
@@ -492,7 +526,7 @@ pub fn read_plane_csv(file: &str, bytes: &[u8], limits: &Limits) -> Result<Vec<R
             c_t,
             run.t_s.last().copied(),
             ts,
-            &format!("run {number}"),
+            format_args!("run {number}"),
         )?;
         let position = |c| t.quantity(c, Quantity::Position);
         let pos = [position(c_x)?, position(c_y)?, position(c_z)?];

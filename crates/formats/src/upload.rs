@@ -205,7 +205,7 @@ pub fn read_upload(files: &[(String, Vec<u8>)], limits: &Limits) -> Result<Datas
 pub fn read_path(path: &Path, limits: &Limits) -> Result<Dataset, FormatError> {
     let meta = crate::stat_path(path)?;
     if meta.is_dir() {
-        let (names, mut load) = folder(path, limits)?;
+        let (names, mut load) = crate::files::folder(path, limits)?;
         return read_named(&names, &mut load, limits);
     }
     if !meta.is_file() {
@@ -242,48 +242,10 @@ pub fn is_archive_name(name: &str) -> bool {
     n.ends_with(".tar") || n.ends_with(".tar.gz") || n.ends_with(".tgz")
 }
 
-/// A loader of files by name, as stored.
-pub(crate) type Loader<'a> = dyn FnMut(&str) -> Result<Cow<'a, [u8]>, FormatError> + 'a;
-
-/// The regular files of a folder (sorted names) and a loader reading each under what
-/// remains of the byte limit.
-pub(crate) fn folder<'a>(
-    dir: &'a Path,
-    limits: &Limits,
-) -> Result<(Vec<String>, Box<Loader<'a>>), FormatError> {
-    let shown = || dir.display().to_string();
-    let entries = std::fs::read_dir(dir)
-        .map_err(|e| FormatError::file(shown(), format!("cannot read the folder: {e}")))?;
-    let mut names = Vec::new();
-    for e in entries {
-        let e =
-            e.map_err(|e| FormatError::file(shown(), format!("cannot read the folder: {e}")))?;
-        if e.path().is_file() {
-            names.push(e.file_name().to_string_lossy().into_owned());
-        }
-    }
-    names.sort();
-    let mut remaining = limits.max_bytes;
-    let limits = *limits;
-    let load = move |name: &str| -> Result<Cow<'a, [u8]>, FormatError> {
-        let bytes = crate::read_file_limited(
-            &dir.join(name),
-            name,
-            &Limits {
-                max_bytes: remaining,
-                ..limits
-            },
-        )?;
-        remaining -= bytes.len();
-        Ok(Cow::Owned(bytes))
-    };
-    Ok((names, Box::new(load)))
-}
-
 /// The one reader of uploads, over names and a loader (see the module documentation).
 fn read_named<'a>(
     names: &[String],
-    load: &mut Loader<'a>,
+    load: &mut crate::files::Loader<'a>,
     limits: &Limits,
 ) -> Result<Dataset, FormatError> {
     if names.len() > limits.max_files {

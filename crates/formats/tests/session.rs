@@ -820,6 +820,62 @@ fn parallel_parse_reports_the_first_bad_file_in_description_order() {
     }
 }
 
+/// Errors are reported as a read file by file would report them: a plane file that
+/// cannot be loaded (corrupt gzip, over the byte limit) counts after the files before it,
+/// so a parse error in an earlier file comes first, and a load error before a file that
+/// does not parse comes first.
+#[test]
+fn load_and_parse_errors_come_in_file_order() {
+    let bad = "run,t_s,x_mm,y_mm,z_mm,du_um,dv_um\n1,0.0,0,0,0,0.1,zz\n";
+    let mut corrupt = gzip(CSV.as_bytes());
+    corrupt.truncate(corrupt.len() / 2);
+    for _ in 0..10 {
+        let e = read_session_files(
+            JSON.as_bytes(),
+            &files(&[("xy.csv", bad.as_bytes()), ("xz.csv", &corrupt)]),
+            &Limits::default(),
+        )
+        .unwrap_err();
+        check(&e, "xy.csv", 2, "dv_um", "`zz` is not a decimal number");
+        let e = read_session_files(
+            JSON.as_bytes(),
+            &files(&[("xy.csv", &corrupt), ("xz.csv", bad.as_bytes())]),
+            &Limits::default(),
+        )
+        .unwrap_err();
+        check(&e, "xy.csv", 0, "", "invalid gzip data");
+        // Over the byte limit at the second file, after a first file that does not parse.
+        let tight = Limits {
+            max_bytes: JSON.len() + bad.len() + 10,
+            ..Limits::default()
+        };
+        let e = read_session_files(
+            JSON.as_bytes(),
+            &files(&[("xy.csv", bad.as_bytes()), ("xz.csv", CSV.as_bytes())]),
+            &tight,
+        )
+        .unwrap_err();
+        check(&e, "xy.csv", 2, "dv_um", "`zz` is not a decimal number");
+    }
+}
+
+/// A comment line may end the file without a line break (csv-core's fast reader makes
+/// an empty record of it, which the earlier reader refused as a row of 1 field).
+#[test]
+fn a_comment_may_end_the_file_without_a_line_break() {
+    for ending in ["# end", "#", "\r\n# end\r", "\n\n#"] {
+        let s = read(JSON, &format!("{CSV}{ending}")).unwrap();
+        assert_eq!(s, read(JSON, CSV).unwrap(), "{ending:?}");
+    }
+    check(
+        &csv_err("# only a comment"),
+        "xy.csv",
+        1,
+        "",
+        "header required",
+    );
+}
+
 /// A finite but absurd magnitude (1e308 µm, a position in µm where mm are required) is
 /// refused at its cell instead of reaching the solver (where it made every figure NaN);
 /// the bounds are the configurable `Limits`.

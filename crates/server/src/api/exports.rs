@@ -121,7 +121,7 @@ pub async fn report(
     let diagnosis = diagnosis_of(&s, &r).await?;
     // The verdict against the tolerance profile that applies to the machine, as
     // `GET /api/v1/results/{id}/verdict` gives it ("no tolerance" when none applies).
-    let verdict = super::tolerances::result_verdict(&s, &r.meta.id)
+    let verdict = mtcal_domain::verdicts::result_verdict(s.store.as_ref(), &r.meta.id)
         .await?
         .verdict;
     let page = crate::blocking::run::<_, ApiError>(move || {
