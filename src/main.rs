@@ -1,5 +1,9 @@
 //! `mtcal`: the command-line program. Every subcommand is a thin layer over the solver,
 //! the formats crate, or the service; one module per subcommand in `src/cli/`.
+//!
+//! Nothing prints with `print!`/`eprint!` (they panic on a closed stream): stdout goes
+//! through `cli::out::write`, notes to stderr through `cli::out::note`.
+#![deny(clippy::print_stdout, clippy::print_stderr)]
 
 use clap::{Parser, Subcommand};
 use std::process::ExitCode;

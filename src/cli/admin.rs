@@ -109,7 +109,7 @@ pub fn run(args: Args) -> anyhow::Result<ExitCode> {
                 let store = open(&db.db, create).await?;
                 anyhow::Ok(store.create_key(scope, &label).await?)
             })?;
-            eprintln!(
+            super::out::noteln!(
                 "created key {} ({}, scope {}); the secret below is shown once:",
                 key.id,
                 key.label,
@@ -138,7 +138,7 @@ pub fn run(args: Args) -> anyhow::Result<ExitCode> {
                     other => anyhow::Ok(other?),
                 }
             })?;
-            eprintln!(
+            super::out::noteln!(
                 "key {} ({}, scope {}) revoked at {}",
                 key.id,
                 key.label,

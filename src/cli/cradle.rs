@@ -120,7 +120,7 @@ fn simulate(out: &Path, args: &Args) -> anyhow::Result<ExitCode> {
     std::fs::write(&tmp_json, &json).with_context(|| format!("writing {}", tmp_json.display()))?;
     std::fs::rename(&tmp_csv, out)?;
     std::fs::rename(&tmp_json, &sidecar)?;
-    eprintln!(
+    super::out::noteln!(
         "wrote {} ({} points, {} A poses) and {}; truth: {}",
         out.display(),
         set.points.len(),

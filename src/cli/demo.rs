@@ -262,7 +262,7 @@ async fn demo(args: Args, db: PathBuf, temporary: bool) -> anyhow::Result<ExitCo
     }
     jobs.extend(more_checks(&c, &work, args.machines, args.checks).await?);
     let _ = std::fs::remove_dir_all(&work);
-    eprintln!("running {} jobs …", jobs.len());
+    super::out::noteln!("running {} jobs …", jobs.len());
     let (mut ok, mut failed) = (0, Vec::new());
     for j in &jobs {
         let job = c

@@ -70,7 +70,7 @@ pub fn finish(result: anyhow::Result<ExitCode>) -> ExitCode {
         Ok(code) => code,
         Err(e) if out::is_closed_pipe(&e) => ExitCode::SUCCESS,
         Err(e) => {
-            eprintln!("error: {e:#}");
+            out::noteln!("error: {e:#}");
             if e.chain()
                 .any(|c| c.is::<BadInput>() || c.is::<mtcal_formats::FormatError>())
             {

@@ -14,6 +14,11 @@
 //! not stop them, since their work is answering requests and running jobs and their logs
 //! go to stderr; the line is dropped. SIGPIPE is deliberately not reset to its default
 //! action: that would end a service without a word whenever a pipe it writes to closed.
+//!
+//! Notes for a person (what was written where, progress, an error's message) go to
+//! stderr through [`note`] (or [`noteln!`]): a closed stderr loses the note and changes
+//! nothing else, the command keeps its work and its exit code. `eprintln!` is not used:
+//! it panics on a closed stderr (the crate denies clippy's `print_stderr`).
 
 use std::io::Write;
 
@@ -46,6 +51,24 @@ pub fn announce(line: &str) {
         tracing::warn!("{e:#}");
     }
 }
+
+/// Writes `text` and a line end to stderr; a failure (a closed stderr) is ignored: the
+/// note is lost, the command carries on.
+pub fn note(text: &str) {
+    let mut err = std::io::stderr().lock();
+    let _ = err
+        .write_all(text.as_bytes())
+        .and_then(|()| err.write_all(b"\n"))
+        .and_then(|()| err.flush());
+}
+
+/// `eprintln!` through [`note`]: `noteln!("…", args)`.
+macro_rules! noteln {
+    ($($arg:tt)*) => {
+        $crate::cli::out::note(&format!($($arg)*))
+    };
+}
+pub(crate) use noteln;
 
 /// `println!` through [`write`]: `outln!("…", args)?`.
 macro_rules! outln {

@@ -55,7 +55,7 @@ pub fn run(args: Args) -> anyhow::Result<ExitCode> {
                 ClientError::Input(m) => anyhow::Error::from(super::BadInput(m)),
                 other => other.into(),
             })?;
-        eprintln!("uploaded dataset {} ({} samples)", ds.id, ds.samples);
+        super::out::noteln!("uploaded dataset {} ({} samples)", ds.id, ds.samples);
         let job = c
             .submit(&SubmitJob {
                 kind: JobKind::Identify,

@@ -243,6 +243,84 @@ fn commands_end_quietly_when_stdout_is_closed() {
     );
 }
 
+/// Runs `mtcal ARGS` with its stderr a pipe whose reading end is closed before the
+/// program writes anything (a log reader that went away); its exit status and stdout.
+fn with_stderr_closed(args: &[&std::ffi::OsStr]) -> (std::process::ExitStatus, String) {
+    let mut child = Command::new(BIN)
+        .args(args)
+        .stdout(std::process::Stdio::piped())
+        .stderr(std::process::Stdio::piped())
+        .spawn()
+        .unwrap();
+    drop(child.stderr.take());
+    let out = child.wait_with_output().unwrap();
+    (
+        out.status,
+        String::from_utf8_lossy(&out.stdout).into_owned(),
+    )
+}
+
+/// No output to a closed stderr can panic (`src/cli/out.rs`): a command's notes and its
+/// error message are lost, its work, its stdout and its exit code stay (0; 2 for bad
+/// input; 1 otherwise), never a panic's 101.
+#[test]
+fn commands_keep_their_exit_code_when_stderr_is_closed() {
+    let dir = tempfile::tempdir().unwrap();
+    let p = |name: &str| dir.path().join(name).into_os_string();
+    let session = p("s");
+    write_session(std::path::Path::new(&session), "VMC-P", 1, 0);
+    let db = p("k.sqlite");
+    let runs: Vec<(Vec<std::ffi::OsString>, i32)> = vec![
+        // Success, a note on stderr (the key's line) and the secret on stdout.
+        (
+            vec![
+                "admin".into(),
+                "create-key".into(),
+                "--db".into(),
+                db.clone(),
+                "--create".into(),
+            ],
+            0,
+        ),
+        (vec!["identify".into(), "--json".into(), session.clone()], 0),
+        // Failures: the error message is a note on stderr. Bad input (2): an unknown key.
+        (
+            vec![
+                "admin".into(),
+                "revoke-key".into(),
+                "--db".into(),
+                db.clone(),
+                "no-such-key".into(),
+            ],
+            2,
+        ),
+        // Any other failure (1): a database in a folder that does not exist.
+        (
+            vec![
+                "admin".into(),
+                "create-key".into(),
+                "--db".into(),
+                p("no-such-folder/k.sqlite"),
+                "--create".into(),
+            ],
+            1,
+        ),
+    ];
+    for (args, code) in runs {
+        let args: Vec<&std::ffi::OsStr> = args.iter().map(|a| a.as_os_str()).collect();
+        // The same command with stderr open gives the code this test expects.
+        let open = Command::new(BIN).args(&args).output().unwrap();
+        assert_eq!(
+            open.status.code(),
+            Some(code),
+            "mtcal {args:?} (stderr open)"
+        );
+        let (status, stdout) = with_stderr_closed(&args);
+        assert_eq!(status.code(), Some(code), "mtcal {args:?}: {status:?}");
+        assert_eq!(stdout.is_empty(), open.stdout.is_empty(), "mtcal {args:?}");
+    }
+}
+
 /// `mtcal serve` with its stdout closed keeps serving (its announcement is dropped; its
 /// work is answering requests), and stops cleanly on SIGTERM.
 #[tokio::test]

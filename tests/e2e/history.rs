@@ -197,7 +197,7 @@ async fn history_and_trends_return_what_was_stored() {
     app.client.update_machine("VMC-A", &patch).await.unwrap();
     let a = fleet_entry(&app, "VMC-A").await;
     assert_eq!(a.baseline_result_id, hist[1].id);
-    let want = mtcal_server::trends::drift(&hist[1].scalars, &hist[2].scalars);
+    let want = mtcal_domain::trends::drift(&hist[1].scalars, &hist[2].scalars);
     assert_eq!(a.drift, want);
 
     // Excluding a check (write key, with a reason): it stays readable by id with who,

@@ -9,6 +9,7 @@ mod common;
 
 mod auth;
 mod cli;
+mod evaluation;
 mod exclusion;
 mod exports;
 mod fleet;

@@ -367,7 +367,7 @@ async fn trends_bench(m: usize, r: usize, q: usize, pg: bool) {
         eprintln!(" in {:.0} s", t.elapsed().as_secs_f64());
     }
     let t = Instant::now();
-    let n = mtcal_server::fleet::refresh_all(store.as_ref())
+    let n = mtcal_domain::fleet::refresh_all(store.as_ref())
         .await
         .unwrap();
     println!(

@@ -142,6 +142,21 @@ impl From<StoreError> for ApiError {
     }
 }
 
+/// The one place the domain's refusals become API errors.
+impl From<mtcal_domain::DomainError> for ApiError {
+    fn from(e: mtcal_domain::DomainError) -> Self {
+        use mtcal_domain::DomainError as D;
+        match e {
+            D::Store(e) => e.into(),
+            D::Invalid(m) => ApiError::InvalidRequest(m),
+            D::NotFound(m) => ApiError::NotFound(m),
+            D::Conflict(m) => ApiError::Conflict(m),
+            D::OutsideTravel(m) => ApiError::OutsideTravel(m),
+            D::Internal(m) => ApiError::Internal(m),
+        }
+    }
+}
+
 impl IntoResponse for ApiError {
     fn into_response(self) -> Response {
         let message = match &self {

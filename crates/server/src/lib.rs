@@ -8,20 +8,17 @@
 //! 256 MiB by default) and a time limit (30 s; uploads 300 s). Every route but `/health`,
 //! `/ready`, `/metrics` ([`metrics`]) and the documentation needs an API key (see
 //! [`auth`]).
+#![deny(clippy::print_stdout, clippy::print_stderr)]
 
-pub mod alerts;
 pub mod api;
 pub mod auth;
 pub mod blocking;
 pub mod contract;
 pub mod error;
-pub mod fleet;
 pub mod ingest;
 pub mod jobs;
 pub mod metrics;
 pub mod state;
-pub mod tolerances;
-pub mod trends;
 pub mod web;
 pub mod worker;
 
@@ -409,7 +406,7 @@ pub async fn serve(
     let (app, workers) = app(store.clone(), &cfg.worker, cfg.run_worker);
     // Drift of results stored before this version or imported in bulk.
     tokio::spawn(async move {
-        match fleet::refresh_all(store.as_ref()).await {
+        match mtcal_domain::fleet::refresh_all(store.as_ref()).await {
             Ok(n) => tracing::info!(
                 machines = n.machines,
                 recomputed = n.recomputed,

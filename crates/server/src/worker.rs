@@ -291,10 +291,10 @@ async fn run_job(
     };
     if let Ok(j) = &recorded
         && j.state == mtcal_store::JobState::Succeeded
-        && job.kind.result_kind() == crate::api::history::KIND
+        && job.kind.result_kind() == mtcal_domain::kinds::IDENTIFICATION
         && let Some(m) = &job.machine_id
         && let Some(r) = &j.result_id
-        && let Err(e) = crate::fleet::result_landed(store, m, r).await
+        && let Err(e) = mtcal_domain::landing::result_landed(store, m, r).await
     {
         tracing::warn!(machine = %m, %e, "fleet drift or drift alerts not refreshed");
     }

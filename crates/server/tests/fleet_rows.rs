@@ -8,8 +8,9 @@
 //! (`scripts/with-postgres`).
 
 use crate::common::identification;
+use mtcal_domain::fleet::{Refreshed, refresh_all};
+use mtcal_domain::landing::result_landed;
 use mtcal_server::api::trends::FleetDrift;
-use mtcal_server::fleet::{Refreshed, refresh_all, result_landed};
 use mtcal_store::{FleetDriftRow, FleetPageQuery, FleetSort, Store};
 use serde_json::{Value, json};
 use std::time::Duration;

@@ -392,7 +392,7 @@ async fn a_drift_inside_its_uncertainty_raises_no_alert_one_3_sigma_outside_does
                 .import_result(identification("M1", at, rate, S2))
                 .await
                 .unwrap();
-            let alert = mtcal_server::fleet::result_landed(&store, "M1", &r.id)
+            let alert = mtcal_domain::landing::result_landed(&store, "M1", &r.id)
                 .await
                 .unwrap();
             (r, alert)
@@ -415,7 +415,7 @@ async fn a_drift_inside_its_uncertainty_raises_no_alert_one_3_sigma_outside_does
     assert!(alert.message.contains("EXX"), "{}", alert.message);
     // Landing twice (a job run again) raises no second alert.
     assert!(
-        mtcal_server::fleet::result_landed(&f.store, "M1", &outside.id)
+        mtcal_domain::landing::result_landed(&f.store, "M1", &outside.id)
             .await
             .unwrap()
             .is_none()
@@ -475,7 +475,7 @@ async fn a_drift_inside_its_uncertainty_raises_no_alert_one_3_sigma_outside_does
         .unwrap();
     let _ = b2;
     assert!(
-        mtcal_server::fleet::result_landed(&f.store, "M2", &r2.id)
+        mtcal_domain::landing::result_landed(&f.store, "M2", &r2.id)
             .await
             .unwrap()
             .is_none()
@@ -530,7 +530,7 @@ async fn an_alert_is_posted_to_the_webhook_of_the_machines_tag_and_a_dead_one_fa
         .import_result(identification("M1", "2026-01-05T08:00:00Z", 0.0, S2))
         .await
         .unwrap();
-    mtcal_server::fleet::result_landed(&f.store, "M1", &base.id)
+    mtcal_domain::landing::result_landed(&f.store, "M1", &base.id)
         .await
         .unwrap();
     let r = f
@@ -539,7 +539,7 @@ async fn an_alert_is_posted_to_the_webhook_of_the_machines_tag_and_a_dead_one_fa
         .await
         .unwrap();
     // The first tag's profile applies (5 µm); both tags' webhooks are told.
-    let alert = mtcal_server::fleet::result_landed(&f.store, "M1", &r.id)
+    let alert = mtcal_domain::landing::result_landed(&f.store, "M1", &r.id)
         .await
         .unwrap()
         .expect("alert");

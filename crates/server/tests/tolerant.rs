@@ -71,7 +71,7 @@ async fn a_bad_stored_row_is_skipped_and_named(url: &str) {
         .import_result(result("2026-03-01T00:00:00Z", 0.003))
         .await
         .unwrap();
-    mtcal_server::fleet::refresh_machine(store.as_ref(), "M")
+    mtcal_domain::fleet::refresh_machine(store.as_ref(), "M")
         .await
         .unwrap();
     // The bad row: a null among a term's coefficients (as NaN was once stored), written

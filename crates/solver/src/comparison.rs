@@ -29,7 +29,6 @@
 use crate::identification::IdentificationResult;
 use crate::identification::report::ls_line_weights;
 use crate::terms::{SquarenessTerm, Term, TermKind};
-use crate::tolerance::Figure;
 use serde::{Deserialize, Serialize};
 use std::collections::BTreeMap;
 
@@ -77,6 +76,18 @@ impl CheckFunctions for IdentificationResult {
     fn squareness_std(&self, name: &str) -> Option<f64> {
         let s = self.squareness.get(name)?;
         s.identifiable.then_some(s.std_urad).flatten()
+    }
+}
+
+impl IdentificationResult {
+    /// Value of an identified term at `q_mm` in the result's reporting convention (µm or
+    /// µrad), from its stored coefficients ([`term_value`]: for a
+    /// straightness, its deviation from its least-squares line over the measured travel
+    /// of its axis, as the document's `values` are). `None` when the term is unknown or
+    /// not identifiable, or `q_mm` lies outside the measured travel of its axis.
+    pub fn reported_value_at(&self, name: &str, q_mm: f64) -> Option<f64> {
+        let term = Term::parse(name)?;
+        Some(term_value(self, term, q_mm)?.value)
     }
 }
 
@@ -133,9 +144,19 @@ fn quadratic_form_sqrt(cov: &[Vec<f64>], g: &[f64]) -> Option<f64> {
     Some(v.max(0.0).sqrt())
 }
 
-/// Value of `term` at `q` in the reporting convention, with its standard uncertainty.
-/// `None` when the term is not identifiable in the check, its axis has no measured
-/// travel, or `q` lies outside that travel (nothing is extrapolated).
+/// Value of `term` at `q` in the reporting convention, with its standard uncertainty:
+/// the one evaluation of a stored term (result pages' trends, differences, the fleet's
+/// drift, drift alerts, compensation tables and the CLI all call it).
+///
+/// With c the term's monomial coefficients ([`CheckFunctions::coefficients`], the model
+/// function f(q) = Σ_{k≥1} c_k q^k) and Σ their covariance: value = gᵀc and
+/// u = √(gᵀ Σ g), where g_k = q^k for a positioning or an angular term, and for a
+/// straightness g_k = q^k − (a_k + b_k q), (a_k, b_k) the least-squares line of q^k over
+/// the measured travel of the term's axis (continuous, uniform weight), so that the
+/// value is f's deviation from its least-squares line, as the result document's
+/// `values` are. `u` is `None` when no covariance is stored. `None` when the term is not
+/// identifiable in the check, its axis has no measured travel, or `q` lies outside that
+/// travel (nothing is extrapolated).
 pub fn term_value(c: &impl CheckFunctions, term: Term, q: f64) -> Option<Value> {
     let name = term.name();
     let coeffs = c.coefficients(&name)?;
@@ -165,7 +186,8 @@ pub fn term_difference(
     })
 }
 
-fn drift_grid([lo, hi]: [f64; 2]) -> impl Iterator<Item = f64> {
+/// The [`DRIFT_GRID_POINTS`] evenly spaced positions of `[lo, hi]`, ends included.
+pub fn drift_grid([lo, hi]: [f64; 2]) -> impl Iterator<Item = f64> {
     (0..DRIFT_GRID_POINTS).map(move |i| lo + (hi - lo) * i as f64 / (DRIFT_GRID_POINTS - 1) as f64)
 }
 
@@ -193,7 +215,7 @@ pub struct Drift {
 /// The terms two checks can be compared on, with the travel both measured, and the names
 /// of those they cannot (not identifiable in either, or measured travels that do not
 /// overlap).
-fn comparable(
+pub fn comparable(
     a: &impl CheckFunctions,
     b: &impl CheckFunctions,
 ) -> (Vec<(Term, [f64; 2])>, Vec<String>) {
@@ -214,7 +236,7 @@ fn comparable(
 
 /// Each squareness in two checks: name and the change `b − a` with its uncertainty
 /// (`None` when either check did not identify it).
-fn squareness_changes(
+pub fn squareness_changes(
     a: &impl CheckFunctions,
     b: &impl CheckFunctions,
 ) -> [(&'static str, Option<Value>); 3] {
@@ -289,36 +311,6 @@ pub fn drift(base: &impl CheckFunctions, latest: &impl CheckFunctions) -> Drift 
         }
     }
     d
-}
-
-/// Each change since the baseline as a figure of the decision rule ([`Figure`]): a
-/// term's `latest − base` with its standard uncertainty on the drift grid of the travel
-/// both checks measured; a squareness's difference with its uncertainty. Left out
-/// (nothing to decide on): a term not identifiable in either check, without overlapping
-/// measured travels, or without a stored covariance in either (a change is only judged
-/// with its uncertainty).
-pub fn changes(
-    base: &impl CheckFunctions,
-    latest: &impl CheckFunctions,
-) -> BTreeMap<String, Figure> {
-    let mut out = BTreeMap::new();
-    for (t, travel) in comparable(base, latest).0 {
-        let points: Option<Vec<(f64, f64, f64)>> = drift_grid(travel)
-            .map(|q| {
-                let d = term_difference(base, latest, t, q)?;
-                Some((q, d.value, d.u?))
-            })
-            .collect();
-        if let Some(fig) = points.and_then(|p| Figure::over_travel(t.unit(), p)) {
-            out.insert(t.name(), fig);
-        }
-    }
-    for (name, change) in squareness_changes(base, latest) {
-        if let Some(Value { value, u: Some(u) }) = change {
-            out.insert(name.to_string(), Figure::constant("urad", value, Some(u)));
-        }
-    }
-    out
 }
 
 /// Change of one term between two results on a grid of the travel both measured.
@@ -560,7 +552,7 @@ mod tests {
         assert!(d.not_compared.contains(&"EYY".to_string()));
         assert!(!d.not_compared.contains(&"EAX".to_string()));
         // The same change as a figure of the decision rule, largest at the end.
-        let ch = changes(&b, &l);
+        let ch = crate::tolerance::changes(&b, &l);
         assert!(
             (ch["EXX"].upper.value.abs() - 0.5).abs() < 1e-12,
             "{:?}",
@@ -577,7 +569,7 @@ mod tests {
         assert_eq!(d.drift_um, 0.0);
         assert!(d.worst_term_um.is_none());
         assert!(d.not_compared.contains(&"EXX".to_string()), "{d:?}");
-        assert!(!changes(&b, &l).contains_key("EXX"));
+        assert!(!crate::tolerance::changes(&b, &l).contains_key("EXX"));
         let (terms, _) = diff(&b, &l, 10.0);
         assert!(terms["EXX"].travel_mm.is_none());
         assert!(terms["EXX"].positions_mm.is_empty());

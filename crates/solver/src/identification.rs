@@ -94,16 +94,20 @@ pub struct TermReport {
     /// Terms this one cannot be separated from (when not identifiable).
     #[serde(default, skip_serializing_if = "Vec::is_empty")]
     pub confounded_with: Vec<String>,
-    /// Monomial coefficients of the model function, element i ↔ q^(i+1) (µm/mm^k or
-    /// µrad/mm^k). For a straightness this is the model function (no linear term), not the
-    /// reported `values`, which are it minus its least-squares line over the measured travel
-    /// ([`crate::comparison::term_value`] evaluates either convention's reported value
-    /// from these). Empty when not identifiable.
+    /// Monomial coefficients c of the **model function** f(q) = Σ_{k≥1} c_k q^k (element
+    /// k−1 ↔ q^k; µm/mm^k or µrad/mm^k), q the position on the term's axis in mm. f has
+    /// no constant term (0 at q = 0). These are not the reported `values` for a
+    /// straightness: those are f minus its least-squares line over the measured travel
+    /// of its axis (the line belongs to the squareness). The one evaluation of the
+    /// reported value from c, with its uncertainty from `coefficient_covariance`, is the
+    /// comparison module's `term_value`, used by every consumer of a stored result.
+    /// Empty when not identifiable.
     #[serde(default)]
     pub coefficients: Vec<f64>,
-    /// Covariance of `coefficients` (row-major, n × n, units² of the coefficients): the
-    /// standard uncertainty of the term at q is √(gᵀ Σ g) with g = (q, q², …). Empty when
-    /// not identifiable.
+    /// Covariance Σ of `coefficients` (row-major, n × n, units² of the coefficients). A
+    /// reported value is linear in c, v(q) = gᵀc with g_k = q^k, less the least-squares
+    /// line of q^k over the measured travel for a straightness; its standard uncertainty
+    /// is √(gᵀ Σ g). Empty when not identifiable.
     #[serde(default, skip_serializing_if = "Vec::is_empty")]
     pub coefficient_covariance: Vec<Vec<f64>>,
 }
@@ -225,18 +229,6 @@ pub struct IdentificationResult {
     /// Residual RMS of the fit by file and test.
     #[serde(default)]
     pub residuals: Vec<crate::residuals::ResidualSummary>,
-}
-
-impl IdentificationResult {
-    /// Value of an identified term at `q_mm` in the result's reporting convention (µm or
-    /// µrad), from its stored coefficients ([`crate::comparison::term_value`]: for a
-    /// straightness, its deviation from its least-squares line over the measured travel
-    /// of its axis, as the document's `values` are). `None` when the term is unknown or
-    /// not identifiable, or `q_mm` lies outside the measured travel of its axis.
-    pub fn reported_value_at(&self, name: &str, q_mm: f64) -> Option<f64> {
-        let term = crate::terms::Term::parse(name)?;
-        Some(crate::comparison::term_value(self, term, q_mm)?.value)
-    }
 }
 
 /// Identifies the 21 terms of the machine measured in `session`.

@@ -9,7 +9,7 @@
 //! [`solve`] then scales the columns of R to unit norm (column norms of A equal those of
 //! R), takes its SVD, decides the numerical rank, and returns the minimum-norm solution
 //! in the scaled coordinates, the covariance σ̂²·V Σ⁻² Vᵀ, and the null space — from
-//! which [`crate::observability`] reads which parameters the data determine.
+//! which the observability module reads which parameters the data determine.
 
 use faer::Mat;
 

@@ -20,6 +20,7 @@
 //! drift thresholds that raise alerts. [`evaluate`] decides every limit that a result's
 //! [`Figures`] carry and combines them into one [`Verdict`].
 
+use crate::comparison;
 use crate::identification::IdentificationResult;
 use crate::terms::{SquarenessTerm, Term};
 use serde::{Deserialize, Serialize};
@@ -554,6 +555,36 @@ pub fn drift_alerts(limits: &Limits, changes: &BTreeMap<String, Figure>) -> Vec<
             (item.decision == Decision::Fail).then_some(item)
         })
         .collect()
+}
+
+/// Each change since the baseline as a figure of the decision rule ([`Figure`]): a
+/// term's `latest − base` with its standard uncertainty on the drift grid of the travel
+/// both checks measured ([`comparison::term_difference`]); a squareness's difference with its uncertainty. Left out
+/// (nothing to decide on): a term not identifiable in either check, without overlapping
+/// measured travels, or without a stored covariance in either (a change is only judged
+/// with its uncertainty).
+pub fn changes(
+    base: &impl comparison::CheckFunctions,
+    latest: &impl comparison::CheckFunctions,
+) -> BTreeMap<String, Figure> {
+    let mut out = BTreeMap::new();
+    for (t, travel) in comparison::comparable(base, latest).0 {
+        let points: Option<Vec<(f64, f64, f64)>> = comparison::drift_grid(travel)
+            .map(|q| {
+                let d = comparison::term_difference(base, latest, t, q)?;
+                Some((q, d.value, d.u?))
+            })
+            .collect();
+        if let Some(fig) = points.and_then(|p| Figure::over_travel(t.unit(), p)) {
+            out.insert(t.name(), fig);
+        }
+    }
+    for (name, change) in comparison::squareness_changes(base, latest) {
+        if let Some(comparison::Value { value, u: Some(u) }) = change {
+            out.insert(name.to_string(), Figure::constant("urad", value, Some(u)));
+        }
+    }
+    out
 }
 
 #[cfg(test)]

@@ -8,8 +8,9 @@
 use super::{Db, This, dialect};
 use crate::error::{Db as _, Result, StoreError, unique_conflict};
 use crate::keys::{ApiKey, NewKey, Scope};
+use crate::model::JobKind;
 use crate::model::*;
-use crate::queue::{Heartbeat, JobKind, Queue, lease_held};
+use crate::queue::{Heartbeat, Queue, lease_held};
 use crate::rows::{
     self, Columns, DATASET_COLUMNS, FLEET_DRIFT_COLUMNS, JOB_COLUMNS, KEY_COLUMNS, MACHINE_COLUMNS,
     RESULT_COLUMNS,
@@ -1019,7 +1020,7 @@ impl Store for This {
                 for r in bound(sql, &lacking).fetch_all(&mut *tx).await.db()? {
                     others.insert(
                         r.text("machine_id")?,
-                        CheckRef {
+                        LastCheck {
                             result_id: r.text("id")?,
                             kind: r.text("kind")?,
                             measured_at: r.text("measured_at")?,

@@ -1,6 +1,5 @@
 //! Plain records the store reads and writes. Times are RFC 3339 UTC strings.
 
-use crate::queue::JobKind;
 use serde::{Deserialize, Serialize};
 use serde_json::Value;
 use std::collections::BTreeMap;
@@ -316,10 +315,14 @@ pub struct FleetPageQuery {
     pub limit: i64,
 }
 
-/// A stored result named by id, kind and time (a fleet row's last check).
-#[derive(Debug, Clone, PartialEq, Eq)]
-pub struct CheckRef {
+/// A stored result named by id, kind and time.
+// A machine's last check: the one struct the store reads, the fleet routes answer and
+// the fleet page is given (converted to the view's own type in crates/server/src/web).
+#[derive(Debug, Clone, PartialEq, Eq, Serialize, Deserialize)]
+#[cfg_attr(feature = "openapi", derive(utoipa::ToSchema))]
+pub struct LastCheck {
     pub result_id: String,
+    /// `identification`, `diagnosis`, `cradle` or `sensitivity`.
     pub kind: String,
     pub measured_at: String,
 }
@@ -334,7 +337,7 @@ pub struct FleetPageRow {
     /// For a machine without a drift row (no identification): its latest result of any
     /// other kind that is not excluded (None: it has no result, or it has a drift row,
     /// whose entry names its latest identification).
-    pub other_check: Option<CheckRef>,
+    pub other_check: Option<LastCheck>,
 }
 
 /// A fleet page and how many machines match the filter in all.
@@ -413,4 +416,110 @@ pub struct RowCounts {
     pub results: i64,
     pub result_figures: i64,
     pub api_keys: i64,
+}
+
+/// What a job computes. `import` marks a result stored without a run; it cannot be
+/// submitted.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, Serialize, Deserialize)]
+#[cfg_attr(feature = "openapi", derive(utoipa::ToSchema))]
+#[serde(rename_all = "lowercase")]
+pub enum JobKind {
+    /// 21-term identification of a session dataset; result kind `identification`.
+    Identify,
+    /// Error-source ranking (Cheng et al. 2012) from parameters only; result kind
+    /// `sensitivity`.
+    Sensitivity,
+    /// Diagnosis (default options) of a session, positioning-run or drift-log dataset;
+    /// result kind `diagnosis`.
+    Diagnose,
+    /// Cradle (A/C) check of a rotary point set (default options); result kind `cradle`.
+    Cradle,
+    /// Figures of ISO 230-2 (positioning runs, or the line passes of a session) and ISO
+    /// 230-4 (the circles of a session); result kind `standards`.
+    Standards,
+    /// A result stored without a run ([`crate::Store::import_result`]): born succeeded,
+    /// never claimed, never submitted through the API.
+    Import,
+}
+
+impl JobKind {
+    /// Every kind a worker runs (all but [`JobKind::Import`]).
+    pub const RUNNABLE: [JobKind; 5] = [
+        JobKind::Identify,
+        JobKind::Sensitivity,
+        JobKind::Diagnose,
+        JobKind::Cradle,
+        JobKind::Standards,
+    ];
+
+    pub fn as_str(self) -> &'static str {
+        match self {
+            JobKind::Identify => "identify",
+            JobKind::Sensitivity => "sensitivity",
+            JobKind::Diagnose => "diagnose",
+            JobKind::Cradle => "cradle",
+            JobKind::Standards => "standards",
+            JobKind::Import => "import",
+        }
+    }
+
+    pub fn parse(s: &str) -> Option<JobKind> {
+        match s {
+            "identify" => Some(JobKind::Identify),
+            "sensitivity" => Some(JobKind::Sensitivity),
+            "diagnose" => Some(JobKind::Diagnose),
+            "cradle" => Some(JobKind::Cradle),
+            "standards" => Some(JobKind::Standards),
+            "import" => Some(JobKind::Import),
+            _ => None,
+        }
+    }
+
+    /// The `kind` of the result document it produces (an import keeps the kind it was
+    /// given).
+    pub fn result_kind(self) -> &'static str {
+        match self {
+            JobKind::Identify => "identification",
+            JobKind::Sensitivity => "sensitivity",
+            JobKind::Diagnose => "diagnosis",
+            JobKind::Cradle => "cradle",
+            JobKind::Standards => "standards",
+            JobKind::Import => "import",
+        }
+    }
+
+    /// Whether it runs on a dataset of this stored kind (`session`, `rotary_points`,
+    /// `positioning`, `drift_log`).
+    pub fn accepts(self, dataset_kind: &str) -> bool {
+        match self {
+            JobKind::Identify => dataset_kind == "session",
+            JobKind::Diagnose => matches!(dataset_kind, "session" | "positioning" | "drift_log"),
+            JobKind::Cradle => dataset_kind == "rotary_points",
+            JobKind::Standards => matches!(dataset_kind, "session" | "positioning"),
+            JobKind::Sensitivity | JobKind::Import => false,
+        }
+    }
+
+    /// Whether the kind reads a dataset (else only its parameters).
+    pub fn needs_dataset(self) -> bool {
+        match self {
+            JobKind::Identify | JobKind::Diagnose | JobKind::Cradle | JobKind::Standards => true,
+            JobKind::Sensitivity | JobKind::Import => false,
+        }
+    }
+
+    /// Whether clients may submit it (every kind but [`JobKind::Import`]).
+    pub fn is_runnable(self) -> bool {
+        self != JobKind::Import
+    }
+
+    /// `'identify', 'sensitivity', …`: the runnable kinds as an SQL list (constants only,
+    /// never user input), for the claim query of every backend.
+    pub fn runnable_sql_list() -> String {
+        JobKind::RUNNABLE
+            .iter()
+            .map(|k| format!("'{}'", k.as_str()))
+            .collect::<Vec<_>>()
+            .join(", ")
+    }
 }

@@ -23,112 +23,6 @@ use crate::StoreFuture;
 use crate::model::{Job, NewJob, NewResult};
 use serde::{Deserialize, Serialize};
 
-/// What a job computes. `import` marks a result stored without a run; it cannot be
-/// submitted.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, Serialize, Deserialize)]
-#[cfg_attr(feature = "openapi", derive(utoipa::ToSchema))]
-#[serde(rename_all = "lowercase")]
-pub enum JobKind {
-    /// 21-term identification of a session dataset; result kind `identification`.
-    Identify,
-    /// Error-source ranking (Cheng et al. 2012) from parameters only; result kind
-    /// `sensitivity`.
-    Sensitivity,
-    /// Diagnosis (default options) of a session, positioning-run or drift-log dataset;
-    /// result kind `diagnosis`.
-    Diagnose,
-    /// Cradle (A/C) check of a rotary point set (default options); result kind `cradle`.
-    Cradle,
-    /// Figures of ISO 230-2 (positioning runs, or the line passes of a session) and ISO
-    /// 230-4 (the circles of a session); result kind `standards`.
-    Standards,
-    /// A result stored without a run ([`crate::Store::import_result`]): born succeeded,
-    /// never claimed, never submitted through the API.
-    Import,
-}
-
-impl JobKind {
-    /// Every kind a worker runs (all but [`JobKind::Import`]).
-    pub const RUNNABLE: [JobKind; 5] = [
-        JobKind::Identify,
-        JobKind::Sensitivity,
-        JobKind::Diagnose,
-        JobKind::Cradle,
-        JobKind::Standards,
-    ];
-
-    pub fn as_str(self) -> &'static str {
-        match self {
-            JobKind::Identify => "identify",
-            JobKind::Sensitivity => "sensitivity",
-            JobKind::Diagnose => "diagnose",
-            JobKind::Cradle => "cradle",
-            JobKind::Standards => "standards",
-            JobKind::Import => "import",
-        }
-    }
-
-    pub fn parse(s: &str) -> Option<JobKind> {
-        match s {
-            "identify" => Some(JobKind::Identify),
-            "sensitivity" => Some(JobKind::Sensitivity),
-            "diagnose" => Some(JobKind::Diagnose),
-            "cradle" => Some(JobKind::Cradle),
-            "standards" => Some(JobKind::Standards),
-            "import" => Some(JobKind::Import),
-            _ => None,
-        }
-    }
-
-    /// The `kind` of the result document it produces (an import keeps the kind it was
-    /// given).
-    pub fn result_kind(self) -> &'static str {
-        match self {
-            JobKind::Identify => "identification",
-            JobKind::Sensitivity => "sensitivity",
-            JobKind::Diagnose => "diagnosis",
-            JobKind::Cradle => "cradle",
-            JobKind::Standards => "standards",
-            JobKind::Import => "import",
-        }
-    }
-
-    /// Whether it runs on a dataset of this stored kind (`session`, `rotary_points`,
-    /// `positioning`, `drift_log`).
-    pub fn accepts(self, dataset_kind: &str) -> bool {
-        match self {
-            JobKind::Identify => dataset_kind == "session",
-            JobKind::Diagnose => matches!(dataset_kind, "session" | "positioning" | "drift_log"),
-            JobKind::Cradle => dataset_kind == "rotary_points",
-            JobKind::Standards => matches!(dataset_kind, "session" | "positioning"),
-            JobKind::Sensitivity | JobKind::Import => false,
-        }
-    }
-
-    /// Whether the kind reads a dataset (else only its parameters).
-    pub fn needs_dataset(self) -> bool {
-        match self {
-            JobKind::Identify | JobKind::Diagnose | JobKind::Cradle | JobKind::Standards => true,
-            JobKind::Sensitivity | JobKind::Import => false,
-        }
-    }
-
-    /// Whether clients may submit it (every kind but [`JobKind::Import`]).
-    pub fn is_runnable(self) -> bool {
-        self != JobKind::Import
-    }
-
-    /// `'identify', 'sensitivity', …`: the runnable kinds as an SQL list (constants only,
-    /// never user input), for the claim query of every backend.
-    pub fn runnable_sql_list() -> String {
-        JobKind::RUNNABLE
-            .iter()
-            .map(|k| format!("'{}'", k.as_str()))
-            .collect::<Vec<_>>()
-            .join(", ")
-    }
-}
-
 /// A write guarded by `state = 'running' AND lease_owner = worker` changed `rows` rows:
 /// exactly one while the worker holds the lease of job `id`, else the lease is lost.
 pub(crate) fn lease_held(rows: u64, id: &str) -> crate::Result<()> {
@@ -252,6 +146,7 @@ impl QueueConfig {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::model::JobKind;
 
     #[test]
     fn backoff_doubles_and_caps() {

@@ -3,8 +3,8 @@
 
 use crate::error::{Db, Result, StoreError};
 use crate::keys::{ApiKey, Scope};
+use crate::model::JobKind;
 use crate::model::*;
-use crate::queue::JobKind;
 use sqlx::{ColumnIndex, Decode, Row, Type};
 
 /// Typed access to a row's columns by name.

@@ -847,7 +847,7 @@ async fn fleet_page_puts_alerted_machines_first_then_filters_sorts_and_counts(s:
     assert!(p.rows[3].drift.is_none());
     assert_eq!(
         p.rows[3].other_check,
-        Some(CheckRef {
+        Some(LastCheck {
             result_id: kept.id.clone(),
             kind: "cradle".into(),
             measured_at: kept.measured_at.clone(),

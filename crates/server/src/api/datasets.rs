@@ -296,7 +296,7 @@ pub async fn exclude(
 ) -> Result<Json<Dataset>, ApiError> {
     let (by, reason) = body.recorded(&key)?;
     let d = s.store.exclude_dataset(&id, &by, reason).await?;
-    crate::fleet::refresh_machine(s.store.as_ref(), &d.machine_id).await?;
+    mtcal_domain::fleet::refresh_machine(s.store.as_ref(), &d.machine_id).await?;
     Ok(Json(d))
 }
 
@@ -318,6 +318,6 @@ pub async fn delete_files(
 ) -> Result<Json<Dataset>, ApiError> {
     let (by, reason) = body.recorded(&key)?;
     let d = s.store.delete_dataset_files(&id, &by, reason).await?;
-    crate::fleet::refresh_machine(s.store.as_ref(), &d.machine_id).await?;
+    mtcal_domain::fleet::refresh_machine(s.store.as_ref(), &d.machine_id).await?;
     Ok(Json(d))
 }

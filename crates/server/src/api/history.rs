@@ -4,16 +4,13 @@
 use crate::AppState;
 use crate::auth::{ReadKey, WriteKey};
 use crate::error::{ApiError, ApiJson, ApiQuery, ErrorBody};
-use crate::trends::{self, TermDiff};
 use axum::Json;
 use axum::extract::{Path, State};
-use mtcal_store::{Figure, JobKind, ResultMeta, SkippedRow, StoredResult};
+use mtcal_domain::history;
+pub use mtcal_domain::history::{DiffQuery, ResultDiff};
+use mtcal_store::{Figure, ResultMeta, SkippedRow, StoredResult};
 use serde::{Deserialize, Serialize};
-use std::collections::BTreeMap;
 use utoipa::{IntoParams, ToSchema};
-
-/// Result kind the history routes read by default (and the only one diff and trends use).
-pub const KIND: &str = "identification";
 
 #[derive(Debug, Deserialize, IntoParams)]
 #[into_params(parameter_in = Query)]
@@ -35,7 +32,8 @@ pub async fn list(
     Path(id): Path<String>,
     ApiQuery(q): ApiQuery<KindQuery>,
 ) -> Result<(axum::http::HeaderMap, Json<Vec<ResultMeta>>), ApiError> {
-    let (list, skipped) = results_checked(&s, &id, q.kind.as_deref()).await?;
+    let (list, skipped) =
+        history::results_checked(s.store.as_ref(), &id, q.kind.as_deref()).await?;
     let mut headers = axum::http::HeaderMap::new();
     if !skipped.is_empty() {
         let text: Vec<String> = skipped.iter().map(SkippedRow::warning).collect();
@@ -59,42 +57,6 @@ pub async fn list(
     Ok((headers, Json(list)))
 }
 
-/// The results of kind `kind` (default identification) of machine `id` in time order
-/// (`GET …/results`; the dashboard's machine page too).
-pub async fn results(
-    s: &AppState,
-    id: &str,
-    kind: Option<&str>,
-) -> Result<Vec<ResultMeta>, ApiError> {
-    Ok(results_checked(s, id, kind).await?.0)
-}
-
-/// [`results`] with the stored rows left out because they do not decode.
-pub async fn results_checked(
-    s: &AppState,
-    id: &str,
-    kind: Option<&str>,
-) -> Result<(Vec<ResultMeta>, Vec<SkippedRow>), ApiError> {
-    let kind = result_kind(kind)?;
-    s.store.get_machine(id).await?;
-    Ok(s.store.list_results_checked(id, kind).await?)
-}
-
-/// The result kind a query names (default identification); an unknown kind is a 400
-/// that lists the kinds, not an empty list.
-fn result_kind(kind: Option<&str>) -> Result<&str, ApiError> {
-    let Some(kind) = kind else { return Ok(KIND) };
-    let kinds = JobKind::RUNNABLE.map(JobKind::result_kind);
-    if kinds.contains(&kind) {
-        Ok(kind)
-    } else {
-        Err(ApiError::InvalidRequest(format!(
-            "kind {kind:?}: one of {}",
-            kinds.join(", ")
-        )))
-    }
-}
-
 #[utoipa::path(operation_id = "history_latest", summary = "A machine's latest result", get, path = "/api/v1/machines/{id}/results/latest", tag = "history",
     security(("api_key" = [])), params(("id" = String, Path), KindQuery),
     responses((status = 200, body = crate::contract::StoredResultSchema), (status = 400, body = ErrorBody),
@@ -108,7 +70,7 @@ pub async fn latest(
     s.store.get_machine(&id).await?;
     let last = s
         .store
-        .list_results(&id, result_kind(q.kind.as_deref())?)
+        .list_results(&id, mtcal_domain::kinds::result_kind(q.kind.as_deref())?)
         .await?
         .pop()
         .ok_or_else(|| ApiError::NotFound(format!("no result for machine {id}")))?;
@@ -138,34 +100,6 @@ pub async fn figures(
     Ok(Json(s.store.result_figures(&id).await?))
 }
 
-#[derive(Debug, Deserialize, IntoParams)]
-#[into_params(parameter_in = Query)]
-pub struct DiffQuery {
-    /// Baseline result (default: the machine's baseline, else its first result).
-    pub baseline: Option<String>,
-    /// Result compared with it (default: the latest).
-    pub against: Option<String>,
-    /// Grid step, mm (default 5); at most 10 000 positions per term over the travel.
-    #[param(exclusive_minimum = 0)]
-    pub step_mm: Option<f64>,
-}
-
-/// Difference between two results of one machine (against − baseline).
-#[derive(Debug, Clone, Serialize, Deserialize, ToSchema)]
-pub struct ResultDiff {
-    pub machine_id: String,
-    pub baseline: ResultMeta,
-    pub against: ResultMeta,
-    pub terms: BTreeMap<String, TermDiff>,
-    /// µrad; null when not identifiable in one of them.
-    pub squareness: BTreeMap<String, Option<f64>>,
-    pub drift: trends::Drift,
-    /// Stored results left out because their rows do not decode, one sentence each
-    /// naming the result (absent when none).
-    #[serde(default, skip_serializing_if = "Vec::is_empty")]
-    pub warnings: Vec<String>,
-}
-
 #[utoipa::path(operation_id = "history_diff", summary = "Difference of a result from the baseline, term by term", get, path = "/api/v1/machines/{id}/results/diff", tag = "history",
     security(("api_key" = [])), params(("id" = String, Path), DiffQuery),
     responses((status = 200, body = ResultDiff), (status = 400, body = ErrorBody), (status = 404, body = ErrorBody), (status = 409, body = ErrorBody, description = "a named result belongs to another machine")))]
@@ -175,74 +109,7 @@ pub async fn diff(
     Path(id): Path<String>,
     ApiQuery(q): ApiQuery<DiffQuery>,
 ) -> Result<Json<ResultDiff>, ApiError> {
-    Ok(Json(diff_results(&s, &id, &q).await?))
-}
-
-/// The difference of two results of machine `id` (`GET …/results/diff`; the
-/// dashboard's compare page too).
-pub async fn diff_results(s: &AppState, id: &str, q: &DiffQuery) -> Result<ResultDiff, ApiError> {
-    let machine = s.store.get_machine(id).await?;
-    let (all, skipped) = s.store.list_results_checked(id, KIND).await?;
-    // A named result that is not one of this machine's identifications: the same answer
-    // as a baseline PATCH gives (409 when it belongs to another machine).
-    for rid in [q.baseline.as_ref(), q.against.as_ref()]
-        .into_iter()
-        .flatten()
-    {
-        if all.iter().any(|m| &m.id == rid) {
-            continue;
-        }
-        let other = s.store.get_result(rid).await?;
-        return Err(if other.meta.machine_id != id {
-            ApiError::Conflict(format!(
-                "result {rid} belongs to machine {}, not {id}",
-                other.meta.machine_id
-            ))
-        } else {
-            ApiError::InvalidRequest(format!(
-                "result {rid} is a {} result; the difference compares {KIND} results",
-                other.meta.kind
-            ))
-        });
-    }
-    let pick =
-        |rid: Option<&String>, default: Option<&ResultMeta>| -> Result<ResultMeta, ApiError> {
-            match rid {
-                Some(r) => all.iter().find(|m| &m.id == r).cloned().ok_or_else(|| {
-                    ApiError::NotFound(format!("result {r} of machine {id} not found"))
-                }),
-                None => default
-                    .cloned()
-                    .ok_or_else(|| ApiError::NotFound(format!("no result for machine {id}"))),
-            }
-        };
-    let default_base = machine
-        .baseline_result_id
-        .as_ref()
-        .and_then(|b| all.iter().find(|m| &m.id == b))
-        .or(all.first());
-    let baseline = pick(q.baseline.as_ref(), default_base)?;
-    let against = pick(q.against.as_ref(), all.last())?;
-    let step = q.step_mm.unwrap_or(5.0);
-    let (machine_id, warnings) = (
-        id.to_string(),
-        skipped.iter().map(SkippedRow::warning).collect(),
-    );
-    crate::blocking::run::<_, ApiError>(move || {
-        trends::check_diff_step(&baseline.scalars, &against.scalars, step)
-            .map_err(ApiError::InvalidRequest)?;
-        let (terms, squareness) = trends::diff(&baseline.scalars, &against.scalars, step);
-        Ok(ResultDiff {
-            machine_id,
-            drift: trends::drift(&baseline.scalars, &against.scalars),
-            baseline,
-            against,
-            terms,
-            squareness,
-            warnings,
-        })
-    })
-    .await?
+    Ok(Json(history::diff(s.store.as_ref(), &id, &q).await?))
 }
 
 /// Why a record is set aside: a result or a dataset excluded, a dataset's bytes deleted.
@@ -290,6 +157,6 @@ pub async fn exclude(
 ) -> Result<Json<ResultMeta>, ApiError> {
     let (by, reason) = body.recorded(&key)?;
     let meta = s.store.exclude_result(&id, &by, reason).await?;
-    crate::fleet::refresh_machine(s.store.as_ref(), &meta.machine_id).await?;
+    mtcal_domain::fleet::refresh_machine(s.store.as_ref(), &meta.machine_id).await?;
     Ok(Json(meta))
 }

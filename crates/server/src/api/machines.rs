@@ -151,7 +151,7 @@ pub async fn update_machine(
         p.baseline_result_id.is_some() || p.tags.is_some() || p.name.is_some() || p.site.is_some();
     let m = s.store.update_machine(id, &p).await?;
     if row_changes {
-        crate::fleet::refresh_machine(s.store.as_ref(), id).await?;
+        mtcal_domain::fleet::refresh_machine(s.store.as_ref(), id).await?;
     }
     Ok(m)
 }

@@ -1,5 +1,6 @@
 //! Tolerance profiles (create, list, read, replace, delete) and the verdict of a result
-//! against the profile that applies to its machine (rules: [`crate::tolerances`]).
+//! against the profile that applies to its machine (rules: [`mtcal_domain::profiles`],
+//! [`mtcal_domain::verdicts`]).
 
 use crate::AppState;
 use crate::auth::{ReadKey, WriteKey};
@@ -7,99 +8,18 @@ use crate::error::{ApiError, ApiJson, ErrorBody};
 use axum::Json;
 use axum::extract::{Path, State};
 use axum::http::StatusCode;
-use mtcal_solver::tolerance::{Limits, Verdict};
+use mtcal_domain::profiles::{self, limits_json, validate};
+pub use mtcal_domain::profiles::{NewProfile, Profile, ProfileUpdate, TARGET_MAX};
+pub use mtcal_domain::verdicts::{ProfileRef, ResultVerdict};
 use mtcal_store::ToleranceProfile;
-use serde::{Deserialize, Serialize};
-use utoipa::ToSchema;
-
-/// Longest profile target (machine id or tag), bytes.
-pub const TARGET_MAX: usize = 200;
-
-/// A tolerance profile.
-#[derive(Debug, Clone, PartialEq, Serialize, Deserialize, ToSchema)]
-pub struct Profile {
-    pub id: String,
-    /// `machine` (the profile of one machine) or `tag` (of every machine with the tag).
-    pub scope: String,
-    /// The machine id or the tag.
-    pub target: String,
-    pub limits: Limits,
-    /// Tag profiles only: drift alerts of the tag's machines are POSTed here.
-    pub webhook_url: Option<String>,
-    pub created_at: String,
-    pub updated_at: String,
-}
-
-impl Profile {
-    pub fn of(p: &ToleranceProfile) -> Result<Profile, ApiError> {
-        Ok(Profile {
-            id: p.id.clone(),
-            scope: p.scope.clone(),
-            target: p.target.clone(),
-            limits: crate::tolerances::limits(p)?,
-            webhook_url: p.webhook_url.clone(),
-            created_at: p.created_at.clone(),
-            updated_at: p.updated_at.clone(),
-        })
-    }
-}
-
-/// A new tolerance profile.
-#[derive(Debug, Clone, Deserialize, ToSchema)]
-#[serde(deny_unknown_fields)]
-pub struct NewProfile {
-    /// `machine` or `tag`.
-    pub scope: String,
-    /// The machine id (it must exist) or the tag.
-    pub target: String,
-    /// At least one limit; each positive and finite, names as in docs/api.md.
-    pub limits: Limits,
-    /// Tag profiles only: an `http` or `https` URL receiving the drift alerts.
-    #[serde(default)]
-    pub webhook_url: Option<String>,
-}
-
-/// A profile's new content (replaces limits and webhook).
-#[derive(Debug, Clone, Deserialize, ToSchema)]
-#[serde(deny_unknown_fields)]
-pub struct ProfileUpdate {
-    pub limits: Limits,
-    #[serde(default)]
-    pub webhook_url: Option<String>,
-}
-
-/// Checks a profile's content; the message names the field.
-fn validate(scope: &str, limits: &Limits, webhook_url: Option<&str>) -> Result<(), ApiError> {
-    let bad = |m: String| ApiError::InvalidRequest(m);
-    if limits.is_empty() {
-        return Err(bad(
-            "limits: give at least one limit (terms, squareness, standards, drift_um or drift_urad)"
-                .into(),
-        ));
-    }
-    limits.validate().map_err(|m| bad(format!("limits.{m}")))?;
-    if let Some(url) = webhook_url {
-        if scope != "tag" {
-            return Err(bad(
-                "webhook_url: only a tag profile has a webhook (alerts go to the tags of a machine)"
-                    .into(),
-            ));
-        }
-        crate::alerts::validate_webhook_url(url).map_err(bad)?;
-    }
-    Ok(())
-}
-
-fn limits_json(l: &Limits) -> Result<serde_json::Value, ApiError> {
-    serde_json::to_value(l).map_err(|e| ApiError::Internal(e.to_string()))
-}
 
 /// Refreshes the fleet rows of the machines a profile applies to, in a task of its own
 /// (a tag may cover many machines; the fleet page follows within moments).
 fn refresh_targets(s: &AppState, scope: &str, target: &str) {
     let (store, scope, target) = (s.store.clone(), scope.to_string(), target.to_string());
     tokio::spawn(async move {
-        if let Err(e) = crate::fleet::refresh_profile_targets(store.as_ref(), &scope, &target).await
+        if let Err(e) =
+            mtcal_domain::fleet::refresh_profile_targets(store.as_ref(), &scope, &target).await
         {
             tracing::warn!(%scope, %target, %e, "fleet verdicts not refreshed");
         }
@@ -117,18 +37,7 @@ pub async fn create(
     State(s): State<AppState>,
     ApiJson(p): ApiJson<NewProfile>,
 ) -> Result<(StatusCode, Json<Profile>), ApiError> {
-    if !crate::tolerances::SCOPES.contains(&p.scope.as_str()) {
-        return Err(ApiError::InvalidRequest(format!(
-            "scope: `machine` or `tag`, got {:?}",
-            p.scope
-        )));
-    }
-    let target = p.target.trim();
-    if target.is_empty() || target.len() > TARGET_MAX {
-        return Err(ApiError::InvalidRequest(format!(
-            "target: a machine id or a tag of 1 to {TARGET_MAX} bytes"
-        )));
-    }
+    let target = profiles::check_target(&p.scope, &p.target)?;
     validate(&p.scope, &p.limits, p.webhook_url.as_deref())?;
     if p.scope == "machine" {
         s.store.get_machine(target).await?;
@@ -206,44 +115,6 @@ pub async fn delete(
     Ok(StatusCode::NO_CONTENT)
 }
 
-/// The profile a verdict is against.
-#[derive(Debug, Clone, PartialEq, Serialize, Deserialize, ToSchema)]
-pub struct ProfileRef {
-    pub id: String,
-    pub scope: String,
-    pub target: String,
-}
-
-/// A result's verdict.
-#[derive(Debug, Clone, PartialEq, Serialize, Deserialize, ToSchema)]
-pub struct ResultVerdict {
-    pub result_id: String,
-    pub machine_id: String,
-    /// The profile that applies to the machine (its own, else its first tag's that has
-    /// one); null when none applies.
-    pub profile: Option<ProfileRef>,
-    /// The decision per limit and overall; null when no profile applies.
-    pub verdict: Option<Verdict>,
-}
-
-/// The verdict of result `id` (`GET /api/v1/results/{id}/verdict`; the dashboard too).
-pub async fn result_verdict(s: &AppState, id: &str) -> Result<ResultVerdict, ApiError> {
-    let r = s.store.get_result(id).await?;
-    let m = s.store.get_machine(&r.meta.machine_id).await?;
-    let profiles = s.store.list_tolerances().await?;
-    let v = crate::tolerances::verdict(s.store.as_ref(), &profiles, &m, &r).await?;
-    Ok(ResultVerdict {
-        result_id: r.meta.id.clone(),
-        machine_id: m.id.clone(),
-        profile: v.as_ref().map(|(p, _)| ProfileRef {
-            id: p.id.clone(),
-            scope: p.scope.clone(),
-            target: p.target.clone(),
-        }),
-        verdict: v.map(|(_, v)| v),
-    })
-}
-
 #[utoipa::path(operation_id = "tolerances_verdict", summary = "A result's verdict against its machine's tolerance profile", get, path = "/api/v1/results/{id}/verdict", tag = "tolerances",
     security(("api_key" = [])), params(("id" = String, Path)),
     responses((status = 200, body = ResultVerdict), (status = 401, body = ErrorBody), (status = 404, body = ErrorBody)))]
@@ -252,5 +123,7 @@ pub async fn verdict(
     State(s): State<AppState>,
     Path(id): Path<String>,
 ) -> Result<Json<ResultVerdict>, ApiError> {
-    Ok(Json(result_verdict(&s, &id).await?))
+    Ok(Json(
+        mtcal_domain::verdicts::result_verdict(s.store.as_ref(), &id).await?,
+    ))
 }

@@ -41,6 +41,12 @@ impl From<mtcal_store::StoreError> for WebError {
     }
 }
 
+impl From<mtcal_domain::DomainError> for WebError {
+    fn from(e: mtcal_domain::DomainError) -> Self {
+        WebError(e.into())
+    }
+}
+
 impl IntoResponse for WebError {
     fn into_response(self) -> Response {
         let status = self.0.status();

@@ -1,19 +1,21 @@
-//! Page handlers: each reads through the service functions of the API routes
-//! (`crate::api::*`) and hands plain view data to crates/views.
+//! Page handlers: each reads through the domain's functions (crates/domain), as the API
+//! routes do, or the service functions of the API routes for jobs, uploads and machine
+//! updates (`crate::api::*`), and hands plain view data to crates/views.
 
 use super::session::{Session, WebState};
 use super::{PageResult, WebError, html};
 use crate::AppState;
-use crate::alerts::AlertView;
-use crate::api::alerts::AlertQuery;
-use crate::api::fleet as api_fleet;
-use crate::api::history::{self, DiffQuery, KIND};
 use crate::api::jobs::{self as api_jobs, SubmitJob};
-use crate::api::trends::{self as api_trends, TermQuery};
 use crate::error::ApiError;
 use crate::jobs::JobKind;
 use axum::extract::{Form, FromRequest, Multipart, Path, Query, Request, State};
 use axum::response::{IntoResponse, Redirect};
+use mtcal_domain::alerts::{self, AlertQuery, AlertView, MAX_ALERTS};
+use mtcal_domain::fleet::page as domain_fleet;
+use mtcal_domain::history::{self, DiffQuery};
+use mtcal_domain::kinds::IDENTIFICATION as KIND;
+use mtcal_domain::trends::{self as domain_trends, TermQuery};
+use mtcal_domain::verdicts;
 use mtcal_solver::identification::IdentificationResult;
 use mtcal_solver::tolerance::Verdict;
 use mtcal_store::{Job, Machine, MachinePatch, ResultMeta, StoredResult};
@@ -28,7 +30,7 @@ use serde::Deserialize;
 const KINDS: [&str; 4] = ["identification", "diagnosis", "cradle", "sensitivity"];
 
 /// Machines per fleet page.
-pub const FLEET_PAGE_ROWS: usize = api_fleet::DEFAULT_LIMIT;
+pub const FLEET_PAGE_ROWS: usize = domain_fleet::DEFAULT_LIMIT;
 
 fn job_row(j: &Job) -> vjobs::JobRow {
     vjobs::JobRow {
@@ -86,7 +88,7 @@ fn verdict_rows(v: &Verdict) -> Vec<vresult::VerdictRow> {
 /// The overall verdict of result `id` as a badge word (None: no profile or no limit
 /// applies).
 async fn verdict_word(app: &AppState, id: &str) -> Result<Option<String>, ApiError> {
-    let v = crate::api::tolerances::result_verdict(app, id).await?;
+    let v = verdicts::result_verdict(app.store.as_ref(), id).await?;
     Ok(v.verdict
         .and_then(|v| v.decision)
         .map(|d| d.as_str().to_string()))
@@ -109,7 +111,7 @@ pub struct FleetPageParams {
 }
 
 /// `/`: the fleet, one page of [`FLEET_PAGE_ROWS`] machines, from the fleet route of the
-/// API (`GET /api/v1/fleet`, [`api_fleet::fleet_page`]: machines with active alerts
+/// API (`GET /api/v1/fleet`, [`domain_fleet::page`]: machines with active alerts
 /// first, then in the order chosen; filtered, sorted and counted by the database from
 /// the maintained rows, so that a page costs the same at 10 000 machines as at 10), and
 /// the active alerts from the alert list route.
@@ -121,9 +123,9 @@ pub async fn fleet(
     let app = &s.app;
     let page_no = q.page.unwrap_or(1).max(1);
     let started = std::time::Instant::now();
-    let found = api_fleet::fleet_page(
-        app,
-        &api_fleet::FleetParams {
+    let found = domain_fleet::page(
+        app.store.as_ref(),
+        &domain_fleet::FleetParams {
             site: q.site,
             tag: q.tag,
             sort: q.sort,
@@ -133,11 +135,11 @@ pub async fn fleet(
     )
     .await?;
     let read_page = started.elapsed();
-    let alerts = crate::api::alerts::list_alerts(
-        app,
+    let alerts = alerts::list(
+        app.store.as_ref(),
         &AlertQuery {
             active: Some(true),
-            limit: Some(crate::api::alerts::MAX_ALERTS),
+            limit: Some(MAX_ALERTS),
             ..AlertQuery::default()
         },
     )
@@ -277,7 +279,7 @@ pub async fn machine(
     let mut checks = vec![];
     let mut identifications = vec![];
     for kind in KINDS {
-        let list = history::results(app, &id, Some(kind)).await?;
+        let list = history::results(app.store.as_ref(), &id, Some(kind)).await?;
         if kind == KIND {
             identifications = list.clone();
         }
@@ -290,14 +292,14 @@ pub async fn machine(
             .then(b.created_at.cmp(&a.created_at))
     });
     let profiles = app.store.list_tolerances().await?;
-    let tolerance = crate::tolerances::applicable(&profiles, &m)
+    let tolerance = mtcal_domain::profiles::applicable(&profiles, &m)
         .map(|p| format!("{} {} ({})", p.scope, p.target, p.id));
     let mut rows = Vec::with_capacity(checks.len());
     for r in &checks {
         // Each identification's document is read only when a profile applies.
         let verdict = if tolerance.is_some() && r.kind == KIND {
             let stored = app.store.get_result(&r.id).await?;
-            crate::tolerances::verdict(app.store.as_ref(), &profiles, &m, &stored)
+            verdicts::verdict(app.store.as_ref(), &profiles, &m, &stored)
                 .await?
                 .and_then(|(_, v)| v.decision)
                 .map(|d| d.as_str().to_string())
@@ -314,8 +316,8 @@ pub async fn machine(
         });
     }
     let checks = rows;
-    let alerts = crate::api::alerts::list_alerts(
-        app,
+    let alerts = alerts::list(
+        app.store.as_ref(),
         &AlertQuery {
             machine: Some(id.clone()),
             ..AlertQuery::default()
@@ -331,7 +333,7 @@ pub async fn machine(
     };
     let term = q
         .term
-        .filter(|t| crate::trends::term_info(t).is_some())
+        .filter(|t| domain_trends::term_info(t).is_some())
         .unwrap_or_else(|| "EXX".into());
     let at =
         q.at.filter(|a| !a.trim().is_empty())
@@ -339,8 +341,8 @@ pub async fn machine(
     let (term_trend, trend_error) = if identifications.is_empty() {
         (None, None)
     } else {
-        match api_trends::term_trend(
-            app,
+        match domain_trends::term_trend(
+            app.store.as_ref(),
             &id,
             TermQuery {
                 term: term.clone(),
@@ -376,12 +378,12 @@ pub async fn machine(
                     None,
                 )
             }
-            Err(ApiError::InvalidRequest(msg)) => (None, Some(msg)),
+            Err(mtcal_domain::DomainError::Invalid(msg)) => (None, Some(msg)),
             Err(e) => return Err(e.into()),
         }
     };
-    let summary = api_trends::summary_trend(app, &id).await?;
-    type Pick = fn(&api_trends::SummaryPoint) -> (Option<f64>, Option<f64>);
+    let summary = domain_trends::summary_trend(app.store.as_ref(), &id).await?;
+    type Pick = fn(&domain_trends::SummaryPoint) -> (Option<f64>, Option<f64>);
     let squareness = [
         ("EC0Y", (|p| (p.ec0y_urad, p.ec0y_u_urad)) as Pick),
         ("EB0Z", |p| (p.eb0z_urad, p.eb0z_u_urad)),
@@ -485,8 +487,8 @@ pub async fn result(
     let app = &s.app;
     let r = app.store.get_result(&id).await?;
     let m = app.store.get_machine(&r.meta.machine_id).await?;
-    let ids = history::results(app, &m.id, None).await?;
-    let verdict = crate::api::tolerances::result_verdict(app, &id).await?;
+    let ids = history::results(app.store.as_ref(), &m.id, None).await?;
+    let verdict = verdicts::result_verdict(app.store.as_ref(), &id).await?;
     let verdict_table = verdict
         .verdict
         .as_ref()
@@ -516,7 +518,9 @@ pub async fn result(
             vresult::result_page(&viewer, &header, &verdict_table, &body)
         }
         "diagnosis" => {
-            let d = serde_json::from_value(doc.clone()).map_err(|e| bad_document(&r, e))?;
+            // A positioning-run diagnosis carries its ISO 230-2 figures beside it.
+            let d: mtcal_solver::positioning_check::DiagnosisDocument =
+                serde_json::from_value(doc.clone()).map_err(|e| bad_document(&r, e))?;
             vresult::result_page(
                 &viewer,
                 &header,
@@ -565,8 +569,8 @@ pub async fn compare(
 ) -> PageResult {
     let app = &s.app;
     let a = app.store.get_result(&q.a).await?.meta;
-    let d = history::diff_results(
-        app,
+    let d = history::diff(
+        app.store.as_ref(),
         &a.machine_id,
         &DiffQuery {
             baseline: Some(q.a.clone()),
@@ -724,12 +728,12 @@ pub async fn alerts(
             ))));
         }
     };
-    let list = crate::api::alerts::list_alerts(
-        &s.app,
+    let list = alerts::list(
+        s.app.store.as_ref(),
         &AlertQuery {
             machine: machine.clone(),
             active,
-            limit: Some(crate::api::alerts::MAX_ALERTS),
+            limit: Some(MAX_ALERTS),
         },
     )
     .await?;
@@ -759,7 +763,7 @@ pub async fn ack_alert(
     session.check_csrf(&f.csrf)?;
     session.require_write()?;
     let by = format!("key {} ({})", session.key.id, session.key.label);
-    crate::api::alerts::acknowledge(&s.app, &id, &by).await?;
+    alerts::acknowledge(s.app.store.as_ref(), &id, &by).await?;
     Ok(Redirect::to(&super::local_path(f.next.as_deref())).into_response())
 }
 

@@ -2,13 +2,13 @@
 //! request: when an identification result lands (the worker), when a machine's baseline
 //! changes (`PATCH`), and once for every machine when `mtcal serve` starts (results
 //! stored by an older version or imported in bulk). `GET /api/v1/fleet/drift` and
-//! `GET /api/v1/fleet` (the fleet page's route, `crate::api::fleet`) read the stored
+//! `GET /api/v1/fleet` (the fleet page's route, the module `page`) read the stored
 //! rows, ranked by the database.
 //!
 //! Each row also carries the latest result's verdict against the machine's tolerance
-//! profile ([`crate::tolerances`]); a profile's change refreshes the machines it applies
-//! to ([`refresh_profile_targets`]). When an identification lands the drift alert check
-//! runs here too ([`result_landed`], [`crate::alerts`]).
+//! profile ([`crate::verdicts`]); a profile's change refreshes the machines it applies
+//! to ([`refresh_profile_targets`]). When an identification lands its row is refreshed
+//! before the drift alert check runs (the module `landing`).
 //!
 //! Concurrency: each row records when the state it was computed from was read; the store
 //! keeps the row from the latest read, so two workers finishing results of one machine at
@@ -19,14 +19,14 @@
 //! at start compares it with the basis the machine has now and recomputes only the rows
 //! that differ, so a restart costs one query over the fleet, not a read of every check.
 
-use crate::api::history::KIND;
-use crate::api::trends::FleetEntry;
+use crate::fleet::entry::FleetEntry;
+use crate::history::baseline;
+use crate::kinds::IDENTIFICATION;
 use crate::trends;
 use mtcal_store::{
     FleetDriftRow, Machine, ResultMeta, Store, StoreError, ToleranceProfile, now_ms,
 };
 use std::collections::HashMap;
-use std::sync::Arc;
 
 /// The format of the rows this version computes: raised whenever what a row holds or how
 /// it is computed changes, so that rows of an older computation are recomputed at start.
@@ -85,16 +85,6 @@ pub fn sparkline(
     }
 }
 
-/// The baseline among a machine's identifications `results` (time order): its chosen
-/// one, else its first.
-pub fn baseline<'a>(machine: &Machine, results: &'a [ResultMeta]) -> Option<&'a ResultMeta> {
-    machine
-        .baseline_result_id
-        .as_ref()
-        .and_then(|b| results.iter().find(|r| &r.id == b))
-        .or(results.first())
-}
-
 /// Machine `machine`'s row from its identifications `results` (time order, not empty).
 async fn row(
     store: &dyn Store,
@@ -106,14 +96,14 @@ async fn row(
     let (Some(baseline), Some(latest)) = (baseline(machine, results), results.last()) else {
         return Ok(None);
     };
-    let profile = crate::tolerances::applicable(profiles, machine);
+    let profile = crate::profiles::applicable(profiles, machine);
     let basis = basis(&baseline.id, &latest.id, results.len(), profile);
     // The latest result's document is read only when a profile applies. A document that
     // cannot be judged leaves the verdict out, never the drift.
     let verdict = match profile {
         Some(_) => {
             let r = store.get_result(&latest.id).await?;
-            crate::tolerances::verdict(store, profiles, machine, &r)
+            crate::verdicts::verdict(store, profiles, machine, &r)
                 .await
                 .unwrap_or_else(|e| {
                     tracing::warn!(result = %latest.id, %e, "no verdict for the fleet row");
@@ -164,7 +154,7 @@ async fn compute(
 ) -> Result<Option<FleetDriftRow>, StoreError> {
     let read_at = now_ms();
     let machine = store.get_machine(id).await?;
-    let results = store.list_results(id, KIND).await?;
+    let results = store.list_results(id, IDENTIFICATION).await?;
     row(store, profiles, read_at, &machine, &results).await
 }
 
@@ -194,13 +184,13 @@ pub struct Refreshed {
 /// needs them all), written [`REFRESH_BATCH`] to a transaction. Rows of machines left
 /// without an identification are removed.
 pub async fn refresh_all(store: &dyn Store) -> Result<Refreshed, StoreError> {
-    let pairs = store.baseline_pairs(KIND).await?;
+    let pairs = store.baseline_pairs(IDENTIFICATION).await?;
     let profiles = store.list_tolerances().await?;
     let mut stored: HashMap<String, Option<String>> =
         store.fleet_drift_bases().await?.into_iter().collect();
     let mut stale = Vec::new();
     for p in &pairs {
-        let profile = crate::tolerances::applicable(&profiles, &p.machine);
+        let profile = crate::profiles::applicable(&profiles, &p.machine);
         let now = basis(
             &p.baseline.id,
             &p.latest.id,
@@ -231,17 +221,6 @@ pub async fn refresh_all(store: &dyn Store) -> Result<Refreshed, StoreError> {
         machines: pairs.len(),
         recomputed,
     })
-}
-
-/// An identification `result_id` of machine `machine_id` has landed: its drift row is
-/// refreshed, then the drift alert check runs ([`crate::alerts::check_landed`]).
-pub async fn result_landed(
-    store: &Arc<dyn Store>,
-    machine_id: &str,
-    result_id: &str,
-) -> Result<Option<crate::alerts::AlertView>, StoreError> {
-    refresh_machine(store.as_ref(), machine_id).await?;
-    crate::alerts::check_landed(store, machine_id, result_id).await
 }
 
 /// Refreshes the rows of the machines a profile of `scope` on `target` applies to (after

@@ -10,10 +10,13 @@
 //! * the extractors [`ReadKey`], [`WriteKey`] and [`AdminKey`]: a handler names the scope
 //!   it needs by taking one of them as its first argument (403 when the key's scope is
 //!   lower), before any extractor that reads the request.
+//!
+//! The dashboard's sign-in cookie is read here too ([`session`]).
+
+pub mod session;
 
 use crate::AppState;
 use crate::error::ApiError;
-use crate::web::session::Session;
 use axum::extract::{FromRequestParts, Request, State};
 use axum::http::request::Parts;
 use axum::http::{HeaderMap, Method};
@@ -45,7 +48,7 @@ pub async fn key_of(state: &AppState, headers: &HeaderMap) -> Result<ApiKey, Api
 
 /// The key of a request: the one it presents; a GET or HEAD that presents none may
 /// come from the dashboard's page script, and is read as the key of its browser's
-/// session cookie (`crate::web::session`). Reads only: a session cannot change anything
+/// session cookie ([`session`]). Reads only: a session cannot change anything
 /// through the API (forms post to the dashboard's own routes, which check a CSRF token).
 async fn request_key(
     state: &AppState,
@@ -54,8 +57,8 @@ async fn request_key(
 ) -> Result<ApiKey, ApiError> {
     let safe = matches!(*method, Method::GET | Method::HEAD);
     if safe && presented(headers).is_none() {
-        let key = crate::web::session::cookie_key();
-        if let Some(s) = Session::from_headers(state, &key, headers).await? {
+        let key = session::cookie_key();
+        if let Some(s) = session::Session::from_headers(state, &key, headers).await? {
             return Ok(s.key);
         }
     }

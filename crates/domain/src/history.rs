@@ -1,0 +1,133 @@
+//! A machine's history: its results of a kind in time order, its baseline, and the
+//! difference between two of its identifications.
+
+use crate::error::DomainError;
+use crate::kinds::{IDENTIFICATION, result_kind};
+use crate::trends::{self, Drift, TermDiff};
+use mtcal_store::{Machine, ResultMeta, SkippedRow, Store};
+use serde::{Deserialize, Serialize};
+use std::collections::BTreeMap;
+
+/// The baseline among a machine's identifications `results` (time order): its chosen
+/// one, else its first.
+pub fn baseline<'a>(machine: &Machine, results: &'a [ResultMeta]) -> Option<&'a ResultMeta> {
+    machine
+        .baseline_result_id
+        .as_ref()
+        .and_then(|b| results.iter().find(|r| &r.id == b))
+        .or(results.first())
+}
+
+/// The results of kind `kind` (default identification) of machine `id` in time order,
+/// with the stored rows left out because they do not decode.
+pub async fn results_checked(
+    store: &dyn Store,
+    id: &str,
+    kind: Option<&str>,
+) -> Result<(Vec<ResultMeta>, Vec<SkippedRow>), DomainError> {
+    let kind = result_kind(kind)?;
+    store.get_machine(id).await?;
+    Ok(store.list_results_checked(id, kind).await?)
+}
+
+/// [`results_checked`] without the rows left out.
+pub async fn results(
+    store: &dyn Store,
+    id: &str,
+    kind: Option<&str>,
+) -> Result<Vec<ResultMeta>, DomainError> {
+    Ok(results_checked(store, id, kind).await?.0)
+}
+
+/// Which two results a difference compares, and on what grid.
+#[derive(Debug, Clone, Default, Deserialize)]
+#[cfg_attr(feature = "openapi", derive(utoipa::IntoParams))]
+#[cfg_attr(feature = "openapi", into_params(parameter_in = Query))]
+pub struct DiffQuery {
+    /// Baseline result (default: the machine's baseline, else its first result).
+    pub baseline: Option<String>,
+    /// Result compared with it (default: the latest).
+    pub against: Option<String>,
+    /// Grid step, mm (default 5); at most 10 000 positions per term over the travel.
+    #[cfg_attr(feature = "openapi", param(exclusive_minimum = 0))]
+    pub step_mm: Option<f64>,
+}
+
+/// Difference between two results of one machine (against − baseline).
+#[derive(Debug, Clone, Serialize, Deserialize)]
+#[cfg_attr(feature = "openapi", derive(utoipa::ToSchema))]
+pub struct ResultDiff {
+    pub machine_id: String,
+    pub baseline: ResultMeta,
+    pub against: ResultMeta,
+    pub terms: BTreeMap<String, TermDiff>,
+    /// µrad; null when not identifiable in one of them.
+    pub squareness: BTreeMap<String, Option<f64>>,
+    pub drift: Drift,
+    /// Stored results left out because their rows do not decode, one sentence each
+    /// naming the result (absent when none).
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    pub warnings: Vec<String>,
+}
+
+/// The difference of two identifications of machine `id` (`GET …/results/diff`; the
+/// dashboard's compare page too). A named result that is not one of this machine's
+/// identifications is refused as a baseline change would be (a conflict when it belongs
+/// to another machine).
+pub async fn diff(store: &dyn Store, id: &str, q: &DiffQuery) -> Result<ResultDiff, DomainError> {
+    let machine = store.get_machine(id).await?;
+    let (all, skipped) = store.list_results_checked(id, IDENTIFICATION).await?;
+    for rid in [q.baseline.as_ref(), q.against.as_ref()]
+        .into_iter()
+        .flatten()
+    {
+        if all.iter().any(|m| &m.id == rid) {
+            continue;
+        }
+        let other = store.get_result(rid).await?;
+        return Err(if other.meta.machine_id != id {
+            DomainError::Conflict(format!(
+                "result {rid} belongs to machine {}, not {id}",
+                other.meta.machine_id
+            ))
+        } else {
+            DomainError::Invalid(format!(
+                "result {rid} is a {} result; the difference compares {IDENTIFICATION} results",
+                other.meta.kind
+            ))
+        });
+    }
+    let pick =
+        |rid: Option<&String>, default: Option<&ResultMeta>| -> Result<ResultMeta, DomainError> {
+            match rid {
+                Some(r) => all.iter().find(|m| &m.id == r).cloned().ok_or_else(|| {
+                    DomainError::NotFound(format!("result {r} of machine {id} not found"))
+                }),
+                None => default
+                    .cloned()
+                    .ok_or_else(|| DomainError::NotFound(format!("no result for machine {id}"))),
+            }
+        };
+    let baseline = pick(q.baseline.as_ref(), baseline(&machine, &all))?;
+    let against = pick(q.against.as_ref(), all.last())?;
+    let step = q.step_mm.unwrap_or(5.0);
+    let (machine_id, warnings) = (
+        id.to_string(),
+        skipped.iter().map(SkippedRow::warning).collect(),
+    );
+    crate::blocking::run::<_, DomainError>(move || {
+        trends::check_diff_step(&baseline.scalars, &against.scalars, step)
+            .map_err(DomainError::Invalid)?;
+        let (terms, squareness) = trends::diff(&baseline.scalars, &against.scalars, step);
+        Ok(ResultDiff {
+            machine_id,
+            drift: trends::drift(&baseline.scalars, &against.scalars),
+            baseline,
+            against,
+            terms,
+            squareness,
+            warnings,
+        })
+    })
+    .await?
+}

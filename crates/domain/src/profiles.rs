@@ -1,0 +1,199 @@
+//! Tolerance profiles: what they hold, which one applies to a machine, and the rules of
+//! their content. The verdict of a result against them is the module `verdicts`.
+//!
+//! A profile holds the solver's [`Limits`] (per error function over the measured travel,
+//! per squareness, per figure of the standards, and the drift thresholds) for one
+//! machine (`scope` `machine`) or for every machine with a tag (`scope` `tag`).
+//!
+//! **Which profile applies** to a machine: its own profile when it has one; otherwise
+//! the profile of the first of the machine's tags, in the order the machine lists them,
+//! that has one; otherwise none (the result has no verdict). Profiles are not merged.
+//!
+
+use crate::error::DomainError;
+use mtcal_solver::tolerance::Limits;
+use mtcal_store::{Machine, StoreError, ToleranceProfile};
+use serde::{Deserialize, Serialize};
+
+/// The two scopes of a profile.
+pub const SCOPES: [&str; 2] = ["machine", "tag"];
+
+/// The profile that applies to `m` (see the module documentation for the rule).
+pub fn applicable<'a>(
+    profiles: &'a [ToleranceProfile],
+    m: &Machine,
+) -> Option<&'a ToleranceProfile> {
+    profiles
+        .iter()
+        .find(|p| p.scope == "machine" && p.target == m.id)
+        .or_else(|| {
+            m.tags
+                .iter()
+                .find_map(|t| profiles.iter().find(|p| p.scope == "tag" && &p.target == t))
+        })
+}
+
+/// The limits a stored profile holds (validated when it was written).
+pub fn limits(p: &ToleranceProfile) -> Result<Limits, StoreError> {
+    serde_json::from_value(p.limits.clone()).map_err(|e| {
+        StoreError::Backend(format!(
+            "tolerance profile {} does not read as limits: {e}",
+            p.id
+        ))
+    })
+}
+
+/// Longest profile target (machine id or tag), bytes.
+pub const TARGET_MAX: usize = 200;
+
+/// A tolerance profile.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[cfg_attr(feature = "openapi", derive(utoipa::ToSchema))]
+pub struct Profile {
+    pub id: String,
+    /// `machine` (the profile of one machine) or `tag` (of every machine with the tag).
+    pub scope: String,
+    /// The machine id or the tag.
+    pub target: String,
+    pub limits: Limits,
+    /// Tag profiles only: drift alerts of the tag's machines are POSTed here.
+    pub webhook_url: Option<String>,
+    pub created_at: String,
+    pub updated_at: String,
+}
+
+impl Profile {
+    pub fn of(p: &ToleranceProfile) -> Result<Profile, StoreError> {
+        Ok(Profile {
+            id: p.id.clone(),
+            scope: p.scope.clone(),
+            target: p.target.clone(),
+            limits: limits(p)?,
+            webhook_url: p.webhook_url.clone(),
+            created_at: p.created_at.clone(),
+            updated_at: p.updated_at.clone(),
+        })
+    }
+}
+
+/// A new tolerance profile.
+#[derive(Debug, Clone, Deserialize)]
+#[cfg_attr(feature = "openapi", derive(utoipa::ToSchema))]
+#[serde(deny_unknown_fields)]
+pub struct NewProfile {
+    /// `machine` or `tag`.
+    pub scope: String,
+    /// The machine id (it must exist) or the tag.
+    pub target: String,
+    /// At least one limit; each positive and finite, names as in docs/api.md.
+    pub limits: Limits,
+    /// Tag profiles only: an `http` or `https` URL receiving the drift alerts.
+    #[serde(default)]
+    pub webhook_url: Option<String>,
+}
+
+/// A profile's new content (replaces limits and webhook).
+#[derive(Debug, Clone, Deserialize)]
+#[cfg_attr(feature = "openapi", derive(utoipa::ToSchema))]
+#[serde(deny_unknown_fields)]
+pub struct ProfileUpdate {
+    pub limits: Limits,
+    #[serde(default)]
+    pub webhook_url: Option<String>,
+}
+
+/// Checks a new profile's scope and target (trimmed, returned).
+pub fn check_target<'a>(scope: &str, target: &'a str) -> Result<&'a str, DomainError> {
+    if !SCOPES.contains(&scope) {
+        return Err(DomainError::Invalid(format!(
+            "scope: `machine` or `tag`, got {scope:?}"
+        )));
+    }
+    let target = target.trim();
+    if target.is_empty() || target.len() > TARGET_MAX {
+        return Err(DomainError::Invalid(format!(
+            "target: a machine id or a tag of 1 to {TARGET_MAX} bytes"
+        )));
+    }
+    Ok(target)
+}
+
+/// Checks a profile's content; the message names the field.
+pub fn validate(
+    scope: &str,
+    limits: &Limits,
+    webhook_url: Option<&str>,
+) -> Result<(), DomainError> {
+    let bad = |m: String| DomainError::Invalid(m);
+    if limits.is_empty() {
+        return Err(bad(
+            "limits: give at least one limit (terms, squareness, standards, drift_um or drift_urad)"
+                .into(),
+        ));
+    }
+    limits.validate().map_err(|m| bad(format!("limits.{m}")))?;
+    if let Some(url) = webhook_url {
+        if scope != "tag" {
+            return Err(bad(
+                "webhook_url: only a tag profile has a webhook (alerts go to the tags of a machine)"
+                    .into(),
+            ));
+        }
+        crate::webhooks::validate_webhook_url(url).map_err(bad)?;
+    }
+    Ok(())
+}
+
+/// Limits as the store holds them.
+pub fn limits_json(l: &Limits) -> Result<serde_json::Value, DomainError> {
+    serde_json::to_value(l).map_err(|e| DomainError::Internal(e.to_string()))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use serde_json::json;
+
+    fn profile(id: &str, scope: &str, target: &str) -> ToleranceProfile {
+        ToleranceProfile {
+            id: id.into(),
+            scope: scope.into(),
+            target: target.into(),
+            limits: json!({}),
+            webhook_url: None,
+            created_at: String::new(),
+            updated_at: String::new(),
+        }
+    }
+
+    fn machine(id: &str, tags: &[&str]) -> Machine {
+        Machine {
+            id: id.into(),
+            name: id.into(),
+            topology: json!({}),
+            travel_mm: Default::default(),
+            site: None,
+            tags: tags.iter().map(|t| t.to_string()).collect(),
+            baseline_result_id: None,
+            created_at: String::new(),
+            updated_at: String::new(),
+        }
+    }
+
+    #[test]
+    fn own_profile_wins_then_first_tag_in_the_machines_order() {
+        let ps = [
+            profile("t_b", "tag", "b"),
+            profile("t_a", "tag", "a"),
+            profile("m_1", "machine", "M1"),
+        ];
+        let id = |m: &Machine| applicable(&ps, m).map(|p| p.id.clone());
+        assert_eq!(id(&machine("M1", &["a", "b"])).as_deref(), Some("m_1"));
+        assert_eq!(id(&machine("M2", &["b", "a"])).as_deref(), Some("t_b"));
+        assert_eq!(id(&machine("M2", &["x", "a"])).as_deref(), Some("t_a"));
+        assert_eq!(id(&machine("M2", &["x"])), None);
+        // A tag named like a machine is not that machine's profile.
+        let ps = [profile("t_m", "tag", "M3")];
+        assert_eq!(applicable(&ps, &machine("M3", &[])), None);
+    }
+}

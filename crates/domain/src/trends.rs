@@ -1,0 +1,361 @@
+//! Trends over a machine's history, and the service's side of result arithmetic: the
+//! stored scalars of a result ([`ResultScalars`]) seen as a check of
+//! [`mtcal_solver::comparison`], which evaluates terms (in the reporting convention,
+//! with their standard uncertainty), differences and drift, only inside the travel a
+//! check measured. This module adapts the stored row, words the travel for messages and
+//! builds the term and summary trends (`GET …/trends/term`, `…/trends/summary`, the
+//! machine page).
+
+use crate::error::DomainError;
+use crate::kinds::IDENTIFICATION;
+use mtcal_solver::comparison::{self, CheckFunctions, Value};
+pub use mtcal_solver::comparison::{Drift, TermDiff};
+use mtcal_solver::terms::Term;
+use mtcal_solver::tolerance::Figure;
+use mtcal_store::{ResultMeta, ResultScalars, SkippedRow, Store};
+use serde::{Deserialize, Serialize};
+use std::collections::BTreeMap;
+
+/// A stored result's scalars as a check of the solver's result arithmetic.
+struct Stored<'a>(&'a ResultScalars);
+
+impl CheckFunctions for Stored<'_> {
+    fn coefficients(&self, term: &str) -> Option<&[f64]> {
+        self.0.term_coefficients.get(term).map(Vec::as_slice)
+    }
+    fn coefficient_covariance(&self, term: &str) -> Option<&[Vec<f64>]> {
+        self.0.term_covariance.get(term).map(Vec::as_slice)
+    }
+    fn measured_travel(&self, axis: char) -> Option<[f64; 2]> {
+        measured(self.0, axis)
+    }
+    fn squareness(&self, name: &str) -> Option<f64> {
+        match name {
+            "EC0Y" => self.0.ec0y_urad,
+            "EB0Z" => self.0.eb0z_urad,
+            "EA0Z" => self.0.ea0z_urad,
+            _ => None,
+        }
+    }
+    /// Stored as a 1 × 1 covariance under the squareness's name.
+    fn squareness_std(&self, name: &str) -> Option<f64> {
+        Some(
+            self.0
+                .term_covariance
+                .get(name)?
+                .first()?
+                .first()?
+                .max(0.0)
+                .sqrt(),
+        )
+    }
+}
+
+/// Value of term `name` of a stored result at `q_mm`, with its standard uncertainty
+/// (`None`: not one of the 18 terms, not identifiable, or outside the measured travel).
+pub fn value(s: &ResultScalars, name: &str, q_mm: f64) -> Option<Value> {
+    comparison::term_value(&Stored(s), Term::parse(name)?, q_mm)
+}
+
+/// Standard uncertainty of squareness `name` (`EC0Y`, `EB0Z`, `EA0Z`) of a stored
+/// result, µrad (`None`: not stored).
+pub fn squareness_u(s: &ResultScalars, name: &str) -> Option<f64> {
+    Stored(s).squareness_std(name)
+}
+
+/// `unit` and axis letter of an ISO 230-1 term name (`None` if not one of the 18).
+pub fn term_info(name: &str) -> Option<(&'static str, char)> {
+    let t = Term::parse(name)?;
+    Some((t.unit(), t.axis.letter()))
+}
+
+/// Travel the check measured on `axis`, [min, max] mm (`None`: the axis did not move,
+/// or the result predates the record).
+pub fn measured(s: &ResultScalars, axis: char) -> Option<[f64; 2]> {
+    s.measured_travel_mm.get(&axis.to_string()).copied()
+}
+
+/// Whether the check measured position `q_mm` of `axis`.
+pub fn measured_at(s: &ResultScalars, axis: char, q_mm: f64) -> bool {
+    measured(s, axis).is_some_and(|t| comparison::inside(t, q_mm))
+}
+
+/// The travel both checks measured on `axis` (`None`: unknown or no overlap).
+pub fn common_travel(a: &ResultScalars, b: &ResultScalars, axis: char) -> Option<[f64; 2]> {
+    comparison::common_travel(&Stored(a), &Stored(b), axis)
+}
+
+/// A sentence stating the measured travel of `axis` in `s`.
+pub fn travel_sentence(s: &ResultScalars, axis: char) -> String {
+    match measured(s, axis) {
+        Some([lo, hi]) => format!("{axis} was measured over [{lo}, {hi}] mm"),
+        None => format!("{axis} has no measured travel in this check"),
+    }
+}
+
+/// Drift between two stored results ([`comparison::drift`]).
+pub fn drift(base: &ResultScalars, latest: &ResultScalars) -> Drift {
+    comparison::drift(&Stored(base), &Stored(latest))
+}
+
+/// Each change since the baseline as a figure of the decision rule
+/// ([`mtcal_solver::tolerance::changes`]).
+pub fn changes(base: &ResultScalars, latest: &ResultScalars) -> BTreeMap<String, Figure> {
+    mtcal_solver::tolerance::changes(&Stored(base), &Stored(latest))
+}
+
+/// Checks a diff's step ([`comparison::check_diff_step`]).
+pub fn check_diff_step(
+    base: &ResultScalars,
+    other: &ResultScalars,
+    step_mm: f64,
+) -> Result<(), String> {
+    comparison::check_diff_step(&Stored(base), &Stored(other), step_mm)
+}
+
+/// Term-by-term and squareness differences ([`comparison::diff`]).
+pub fn diff(
+    base: &ResultScalars,
+    other: &ResultScalars,
+    step_mm: f64,
+) -> (BTreeMap<String, TermDiff>, BTreeMap<String, Option<f64>>) {
+    comparison::diff(&Stored(base), &Stored(other), step_mm)
+}
+
+/// How drift is measured, in words (the fleet routes and page say it).
+pub const DRIFT_DEFINITION: &str = "largest change since the baseline result (the machine's \
+     chosen baseline, else its first) of any term over 41 points of the travel both checks \
+     measured, with its standard uncertainty there";
+
+/// A term trend asked for: the term and the positions.
+#[derive(Debug, Clone, Deserialize)]
+#[cfg_attr(feature = "openapi", derive(utoipa::IntoParams))]
+#[cfg_attr(feature = "openapi", into_params(parameter_in = Query))]
+pub struct TermQuery {
+    /// ISO 230-1 name of one of the 18 functions, e.g. `EXX`.
+    #[cfg_attr(feature = "openapi", param(pattern = "^E[XYZABC][XYZ]$"))]
+    pub term: String,
+    /// Positions, mm, comma-separated, e.g. `50,-50`.
+    pub at: String,
+}
+
+#[derive(Debug, Clone, Serialize, Deserialize)]
+#[cfg_attr(feature = "openapi", derive(utoipa::ToSchema))]
+pub struct TermPoint {
+    pub result_id: String,
+    pub measured_at: String,
+    /// Value at each position (`um` or `urad`); null when the term was not identifiable
+    /// in this check or the position lies outside the travel it measured.
+    pub values: Vec<Option<f64>>,
+    /// Standard uncertainty of each value (from the check's stored covariance); null
+    /// where the value is null or no covariance is stored.
+    pub u: Vec<Option<f64>>,
+}
+
+#[derive(Debug, Clone, Serialize, Deserialize)]
+#[cfg_attr(feature = "openapi", derive(utoipa::ToSchema))]
+pub struct TermTrend {
+    pub machine_id: String,
+    pub term: String,
+    pub unit: String,
+    pub positions_mm: Vec<f64>,
+    /// In time order.
+    pub points: Vec<TermPoint>,
+    /// Stored results left out because their rows do not decode, one sentence each
+    /// naming the result (absent when none).
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    pub warnings: Vec<String>,
+}
+
+/// A term at positions over time, machine `id`'s identifications in time order.
+pub async fn term_trend(
+    store: &dyn Store,
+    id: &str,
+    q: TermQuery,
+) -> Result<TermTrend, DomainError> {
+    let (unit, _) = term_info(&q.term).ok_or_else(|| {
+        let hint = if matches!(q.term.as_str(), "EC0Y" | "EB0Z" | "EA0Z") {
+            " (a squareness error, a constant: its trend is in \
+             GET /api/v1/machines/{id}/trends/summary)"
+        } else {
+            ""
+        };
+        DomainError::Invalid(format!(
+            "term {:?} is not one of the 18 ISO 230-1 functions{hint}",
+            q.term
+        ))
+    })?;
+    let positions =
+        q.at.split(',')
+            .map(|p| p.trim().parse::<f64>().ok().filter(|x| x.is_finite()))
+            .collect::<Option<Vec<_>>>()
+            .filter(|v| !v.is_empty() && v.len() <= 1000)
+            .ok_or_else(|| {
+                DomainError::Invalid(format!(
+                    "at {:?}: give 1-1000 comma-separated positions in mm",
+                    q.at
+                ))
+            })?;
+    store.get_machine(id).await?;
+    let (results, skipped) = store.list_results_checked(id, IDENTIFICATION).await?;
+    let (id, warnings) = (
+        id.to_string(),
+        skipped.iter().map(SkippedRow::warning).collect(),
+    );
+    crate::blocking::run::<_, DomainError>(move || {
+        evaluate_term(id, q.term, unit, positions, results, warnings)
+    })
+    .await?
+}
+
+/// The term trend's arithmetic (blocking): term `term` (in `unit`) of each of the
+/// machine's `results` at `positions`, refused where no check with the term measured.
+fn evaluate_term(
+    id: String,
+    term: String,
+    unit: &str,
+    positions: Vec<f64>,
+    results: Vec<ResultMeta>,
+    warnings: Vec<String>,
+) -> Result<TermTrend, DomainError> {
+    // A position no check with this term measured is refused, saying where they measured.
+    let axis = term_info(&term).map_or('X', |(_, a)| a);
+    let with_term: Vec<_> = results
+        .iter()
+        .filter(|r| r.scalars.term_coefficients.contains_key(&term))
+        .collect();
+    for &p in &positions {
+        let inside = |r: &&ResultMeta| measured_at(&r.scalars, axis, p);
+        if !with_term.is_empty() && !with_term.iter().any(inside) {
+            let latest = with_term.last().expect("not empty");
+            return Err(DomainError::OutsideTravel(format!(
+                "{} at {p} mm: outside the travel every check of machine {id} measured (in the \
+                 latest, {}); terms are not evaluated where they were not measured",
+                term,
+                travel_sentence(&latest.scalars, axis)
+            )));
+        }
+    }
+    let points = results
+        .into_iter()
+        .map(|r| {
+            let at: Vec<_> = positions
+                .iter()
+                .map(|&p| value(&r.scalars, &term, p))
+                .collect();
+            TermPoint {
+                values: at.iter().map(|v| Some(v.as_ref()?.value)).collect(),
+                u: at.iter().map(|v| v.as_ref()?.u).collect(),
+                result_id: r.id,
+                measured_at: r.measured_at,
+            }
+        })
+        .collect();
+    Ok(TermTrend {
+        machine_id: id,
+        term,
+        unit: unit.into(),
+        positions_mm: positions,
+        points,
+        warnings,
+    })
+}
+
+#[derive(Debug, Clone, Serialize, Deserialize)]
+#[cfg_attr(feature = "openapi", derive(utoipa::ToSchema))]
+pub struct SummaryPoint {
+    pub result_id: String,
+    pub measured_at: String,
+    pub residual_rms_um: Option<f64>,
+    pub condition_number: Option<f64>,
+    pub rank: Option<i64>,
+    pub ec0y_urad: Option<f64>,
+    pub eb0z_urad: Option<f64>,
+    pub ea0z_urad: Option<f64>,
+    /// Standard uncertainties of the three squareness errors, µrad (from the check's
+    /// stored covariance; null where none is stored).
+    pub ec0y_u_urad: Option<f64>,
+    pub eb0z_u_urad: Option<f64>,
+    pub ea0z_u_urad: Option<f64>,
+}
+
+#[derive(Debug, Clone, Serialize, Deserialize)]
+#[cfg_attr(feature = "openapi", derive(utoipa::ToSchema))]
+pub struct SummaryTrend {
+    pub machine_id: String,
+    /// In time order.
+    pub points: Vec<SummaryPoint>,
+    /// Stored results left out because their rows do not decode, one sentence each
+    /// naming the result (absent when none).
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    pub warnings: Vec<String>,
+}
+
+/// Residual, conditioning, rank and squareness of machine `id`'s identifications over
+/// time.
+pub async fn summary_trend(store: &dyn Store, id: &str) -> Result<SummaryTrend, DomainError> {
+    store.get_machine(id).await?;
+    let (results, skipped) = store.list_results_checked(id, IDENTIFICATION).await?;
+    let points = results
+        .into_iter()
+        .map(|r| SummaryPoint {
+            ec0y_u_urad: squareness_u(&r.scalars, "EC0Y"),
+            eb0z_u_urad: squareness_u(&r.scalars, "EB0Z"),
+            ea0z_u_urad: squareness_u(&r.scalars, "EA0Z"),
+            result_id: r.id,
+            measured_at: r.measured_at,
+            residual_rms_um: r.scalars.residual_rms_um,
+            condition_number: r.scalars.condition_number,
+            rank: r.scalars.rank,
+            ec0y_urad: r.scalars.ec0y_urad,
+            eb0z_urad: r.scalars.eb0z_urad,
+            ea0z_urad: r.scalars.ea0z_urad,
+        })
+        .collect();
+    Ok(SummaryTrend {
+        machine_id: id.to_string(),
+        points,
+        warnings: skipped.iter().map(SkippedRow::warning).collect(),
+    })
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// The stored row's squareness and its 1 × 1 variance reach the solver's arithmetic
+    /// under the right names (the arithmetic itself is tested in the solver).
+    #[test]
+    fn stored_scalars_are_read_under_their_names() {
+        let mut s = ResultScalars {
+            ec0y_urad: Some(5.0),
+            ea0z_urad: Some(-2.0),
+            ..Default::default()
+        };
+        s.measured_travel_mm.insert("X".into(), [-50.0, 50.0]);
+        s.term_coefficients.insert("EXX".into(), vec![0.01]);
+        s.term_covariance.insert("EXX".into(), vec![vec![1e-6]]);
+        s.term_covariance.insert("EC0Y".into(), vec![vec![0.04]]);
+        let mut l = s.clone();
+        l.ec0y_urad = Some(6.5);
+        l.ea0z_urad = Some(-2.5);
+        l.term_covariance.insert("EA0Z".into(), vec![vec![0.09]]);
+        let v = value(&s, "EXX", 50.0).unwrap();
+        assert!((v.value - 0.5).abs() < 1e-12 && (v.u.unwrap() - 0.05).abs() < 1e-12);
+        assert!(value(&s, "EXX", 60.0).is_none());
+        assert!(measured_at(&s, 'X', 50.0) && !measured_at(&s, 'Y', 0.0));
+        assert_eq!(Stored(&s).squareness_std("EC0Y"), Some(0.2));
+        let (_, sq) = diff(&s, &l, 10.0);
+        assert_eq!(sq["EC0Y"], Some(1.5));
+        assert_eq!(sq["EA0Z"], Some(-0.5));
+        assert_eq!(sq["EB0Z"], None);
+        let d = drift(&s, &l);
+        assert_eq!(d.worst_term_urad.as_deref(), Some("EC0Y"));
+        // EA0Z has no variance in the baseline: its change is not judged.
+        let ch = changes(&s, &l);
+        assert!(
+            ch.contains_key("EC0Y") && !ch.contains_key("EA0Z"),
+            "{ch:?}"
+        );
+    }
+}

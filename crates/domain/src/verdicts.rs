@@ -1,0 +1,101 @@
+//! The verdict of a result against the tolerance profile that applies to its machine
+//! ([`crate::profiles`]).
+//!
+//! **The verdict** is the solver's decision rule ([`mtcal_solver::tolerance::evaluate`],
+//! ISO 14253-1 style with U = 2u) applied to the result's figures: for an identification
+//! its identifiable error functions on their reporting grid over the measured travel and
+//! its squareness errors ([`mtcal_solver::tolerance::identification_figures`]); for every
+//! kind the figures of the standards stored with it (ISO 230-2 per axis, ISO 230-4 per
+//! plane).
+
+use crate::error::DomainError;
+use crate::kinds::IDENTIFICATION;
+use crate::profiles::{applicable, limits};
+use mtcal_solver::identification::IdentificationResult;
+use mtcal_solver::tolerance::{self, Figures, Verdict};
+use mtcal_store::{Machine, Store, StoreError, StoredResult, ToleranceProfile};
+use serde::{Deserialize, Serialize};
+
+/// The figures of a stored result that limits are decided against, given the figures of
+/// the standards stored with it (blocking: the identification's functions are evaluated
+/// on their reporting grid).
+fn figures(r: &StoredResult, standards: &[mtcal_store::Figure]) -> Result<Figures, StoreError> {
+    let mut f = if r.meta.kind == IDENTIFICATION {
+        match serde_json::from_value::<IdentificationResult>(r.document.clone()) {
+            Ok(doc) => tolerance::identification_figures(&doc),
+            Err(e) => {
+                return Err(StoreError::Backend(format!(
+                    "result {} does not read as an identification: {e}",
+                    r.meta.id
+                )));
+            }
+        }
+    } else {
+        Figures::default()
+    };
+    f.add_standards(standards.iter().map(|s| (s.name.as_str(), s.value, s.u)));
+    Ok(f)
+}
+
+/// The verdict of result `r` of machine `m` against the profile that applies among
+/// `profiles` (`None`: no profile applies). The decision is worked out off the async
+/// threads ([`crate::blocking`]).
+pub async fn verdict(
+    store: &dyn Store,
+    profiles: &[ToleranceProfile],
+    m: &Machine,
+    r: &StoredResult,
+) -> Result<Option<(ToleranceProfile, Verdict)>, StoreError> {
+    let Some(p) = applicable(profiles, m) else {
+        return Ok(None);
+    };
+    let limits = limits(p)?;
+    let standards = store.result_figures(&r.meta.id).await?;
+    let r = r.clone();
+    let v = crate::blocking::run::<_, StoreError>(move || {
+        figures(&r, &standards).map(|f| tolerance::evaluate(&limits, &f))
+    })
+    .await??;
+    Ok(Some((p.clone(), v)))
+}
+
+/// The profile a verdict is against.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[cfg_attr(feature = "openapi", derive(utoipa::ToSchema))]
+pub struct ProfileRef {
+    pub id: String,
+    pub scope: String,
+    pub target: String,
+}
+
+/// A result's verdict.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[cfg_attr(feature = "openapi", derive(utoipa::ToSchema))]
+pub struct ResultVerdict {
+    pub result_id: String,
+    pub machine_id: String,
+    /// The profile that applies to the machine (its own, else its first tag's that has
+    /// one); null when none applies.
+    pub profile: Option<ProfileRef>,
+    /// The decision per limit and overall; null when no profile applies.
+    pub verdict: Option<Verdict>,
+}
+
+/// The verdict of result `id` (`GET /api/v1/results/{id}/verdict`; reports and the
+/// dashboard too).
+pub async fn result_verdict(store: &dyn Store, id: &str) -> Result<ResultVerdict, DomainError> {
+    let r = store.get_result(id).await?;
+    let m = store.get_machine(&r.meta.machine_id).await?;
+    let profiles = store.list_tolerances().await?;
+    let v = verdict(store, &profiles, &m, &r).await?;
+    Ok(ResultVerdict {
+        result_id: r.meta.id.clone(),
+        machine_id: m.id.clone(),
+        profile: v.as_ref().map(|(p, _)| ProfileRef {
+            id: p.id.clone(),
+            scope: p.scope.clone(),
+            target: p.target.clone(),
+        }),
+        verdict: v.map(|(_, v)| v),
+    })
+}
