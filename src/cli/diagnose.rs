@@ -12,6 +12,7 @@ use mtcal_solver::diagnosis::series::{self, SeriesOptions};
 use mtcal_solver::diagnosis::{
     DiagnoseOptions, DiagnosisResult, Finding, PlotData, Progress, Verdict,
 };
+use mtcal_solver::positioning_check::{DiagnosisDocument, check_positioning};
 use std::io::Write as _;
 use std::path::{Path, PathBuf};
 use std::process::ExitCode;
@@ -76,13 +77,12 @@ pub fn run(args: Args) -> anyhow::Result<ExitCode> {
         }
         opts.train_fraction = f;
     }
-    // ISO 230-2 figures accompany the summary of positioning runs.
-    let mut iso = mtcal_solver::standards::Standards::default();
-    let result: DiagnosisResult = match kind {
+    // ISO 230-2 figures accompany the diagnosis of positioning runs (in the summary, and
+    // as the document's `iso230_2`).
+    let doc: DiagnosisDocument = match kind {
         DatasetKind::Positioning => {
             let runs = mtcal_formats::read_positioning_path(path, &limits)?;
-            iso = mtcal_solver::standards::from_positioning_runs(&runs);
-            with_bar(|p| series::diagnose_positioning_with_progress(&runs, &machine_id, &opts, p))
+            with_bar(|p| check_positioning(&runs, &machine_id, &opts, p))
                 .map_err(|e| BadInput(format!("{}: {e}", path.display())))?
         }
         DatasetKind::DriftLog => {
@@ -106,7 +106,7 @@ pub fn run(args: Args) -> anyhow::Result<ExitCode> {
                     );
                 }
             }
-            r
+            r.into()
         }
         DatasetKind::Session => {
             let session = mtcal_formats::read_session_dir(path, &limits)?;
@@ -121,7 +121,7 @@ pub fn run(args: Args) -> anyhow::Result<ExitCode> {
             if let Some(id) = &args.machine_id {
                 r.machine_id = id.clone();
             }
-            r
+            r.into()
         }
         other => {
             return Err(BadInput(format!(
@@ -132,6 +132,7 @@ pub fn run(args: Args) -> anyhow::Result<ExitCode> {
             .into());
         }
     };
+    let result = &doc.diagnosis;
     if let Some(dir) = &args.plots {
         let written = write_svgs(&result.plots, dir)?;
         if !args.json {
@@ -139,10 +140,16 @@ pub fn run(args: Args) -> anyhow::Result<ExitCode> {
         }
     }
     let text = if args.json {
-        serde_json::to_string_pretty(&result).context("serialising the result")? + "\n"
+        serde_json::to_string_pretty(&doc).context("serialising the result")? + "\n"
     } else {
-        let mut s = summary(&result);
-        s.push_str(&super::standards::summary(&iso));
+        let mut s = summary(result);
+        s.push_str(&super::standards::summary(
+            &mtcal_solver::standards::Standards {
+                iso230_2: doc.iso230_2.clone(),
+                not_evaluated: doc.not_evaluated.clone(),
+                ..Default::default()
+            },
+        ));
         s
     };
     super::out::write(&text)?;

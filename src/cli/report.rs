@@ -6,14 +6,18 @@ use super::BadInput;
 use super::export::read_identification;
 use anyhow::Context;
 use mtcal_solver::diagnosis::DiagnosisResult;
+use mtcal_solver::positioning_check::DiagnosisDocument;
 use mtcal_solver::tolerance::{Limits, evaluate, identification_figures};
-use mtcal_views::pages::report::{CheckReport, check_report};
+use mtcal_views::pages::report::{
+    CheckReport, PositioningReport, check_report, positioning_report,
+};
 use std::path::PathBuf;
 use std::process::ExitCode;
 
 #[derive(clap::Args, Debug)]
 pub struct Args {
-    /// An identification result (`mtcal identify --json`, or a stored result).
+    /// An identification result (`mtcal identify --json`, or a stored result), or a
+    /// positioning-run diagnosis (`mtcal diagnose RUNS.csv --json`).
     pub result: PathBuf,
     /// Where to write the page (stdout without it).
     #[arg(long)]
@@ -30,6 +34,9 @@ pub struct Args {
 }
 
 pub fn run(args: Args) -> anyhow::Result<ExitCode> {
+    if let Some(page) = positioning(&args)? {
+        return write(&args, page);
+    }
     let doc = read_identification(&args.result)?;
     let diagnosis: Option<DiagnosisResult> = args
         .diagnosis
@@ -67,9 +74,52 @@ pub fn run(args: Args) -> anyhow::Result<ExitCode> {
         diagnosis: diagnosis.as_ref(),
     })
     .into_string();
+    write(&args, page)
+}
+
+fn write(args: &Args, page: String) -> anyhow::Result<ExitCode> {
     match &args.out {
         Some(p) => std::fs::write(p, page).with_context(|| format!("writing {}", p.display()))?,
         None => super::out::write(&page)?,
     }
     Ok(ExitCode::SUCCESS)
+}
+
+/// The report of a positioning-run diagnosis (`mtcal diagnose RUNS.csv --json`, or a
+/// stored one): its ISO 230-2 figures and its findings. `None` for another result.
+fn positioning(args: &Args) -> anyhow::Result<Option<String>> {
+    let v: serde_json::Value = super::read_json(&args.result, "result")?;
+    let doc = match v.get("document") {
+        Some(d) if v.get("meta").is_some() => d.clone(),
+        _ => v.clone(),
+    };
+    if doc.get("kind").and_then(|k| k.as_str()) != Some("diagnosis")
+        || doc.get("source").and_then(|k| k.as_str()) != Some("positioning")
+    {
+        return Ok(None);
+    }
+    if args.diagnosis.is_some() || args.tolerances.is_some() {
+        return Err(BadInput(format!(
+            "{}: a positioning-run diagnosis is its own report; --diagnosis and --tolerances apply to identification results",
+            args.result.display()
+        ))
+        .into());
+    }
+    let d: DiagnosisDocument = serde_json::from_value(doc).map_err(|e| {
+        BadInput(format!(
+            "{}: not a positioning-run diagnosis: {e}",
+            args.result.display()
+        ))
+    })?;
+    let measured = v["meta"]["measured_at"].as_str().unwrap_or("").to_string();
+    let now = mtcal_store::now_rfc3339();
+    Ok(Some(
+        positioning_report(&PositioningReport {
+            doc: &d,
+            result_id: v["meta"]["id"].as_str(),
+            measured_at: &measured,
+            generated_at: &now,
+        })
+        .into_string(),
+    ))
 }

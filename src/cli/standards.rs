@@ -82,6 +82,17 @@ pub fn summary(st: &Standards) -> String {
             for n in &f.notes {
                 let _ = writeln!(s, "  note: {n}");
             }
+            if let Some(w) = &f.without_outlying {
+                let _ = write!(
+                    s,
+                    "  without the {} outlying reading(s), not the standard's figures:\n                ",
+                    w.readings.len()
+                );
+                for name in mtcal_solver::standards::iso230_2::FIGURES {
+                    let _ = write!(s, " {:>7.3}", w.figures[name]);
+                }
+                let _ = writeln!(s);
+            }
         }
     }
     if !st.iso230_4.is_empty() {

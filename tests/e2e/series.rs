@@ -39,13 +39,16 @@ async fn series_datasets_upload_and_diagnose_bad_ones_store_nothing() {
         &mtcal_formats::Limits::default(),
     )
     .unwrap();
-    let local = mtcal_solver::diagnosis::series::diagnose_positioning(
+    // The diagnosis with the ISO 230-2 figures of the same runs beside it.
+    let local = mtcal_solver::positioning_check::check_positioning(
         &runs,
         "VMC-P",
         &mtcal_solver::diagnosis::series::SeriesOptions::default(),
+        &mut mtcal_solver::diagnosis::NoProgress,
     )
     .unwrap();
     assert_eq!(doc, serde_json::to_value(&local).unwrap());
+    assert_eq!(doc["iso230_2"][0]["axis"], "X");
 
     // Drift log: two channels over an hour.
     let mut log = String::from("t_s,x_um,t1_c\n");
@@ -98,4 +101,64 @@ async fn series_datasets_upload_and_diagnose_bad_ones_store_nothing() {
     let msg = refusal_message(r);
     assert!(msg.starts_with("bad.csv:3:deviation_um:"), "{msg}");
     assert_eq!(app.counts().await, before);
+}
+
+/// A real positioning-run file (the ESS stage of `data/ecmccfg_iso230`) uploaded and
+/// diagnosed: the result page and the check report show the ISO 230-2 figures, the
+/// standard's and those without cycle 1's two outlying readings, each labelled, and the
+/// findings (the first-cycle transient, the lost motion along the travel) with their
+/// held-out figures.
+#[tokio::test]
+async fn a_real_positioning_run_shows_its_figures_and_findings() {
+    let app = spawn_app().await;
+    app.machine("ESS-1025").await;
+    let path = concat!(
+        env!("CARGO_MANIFEST_DIR"),
+        "/data/ecmccfg_iso230/ess_mcu1025_axis1.csv"
+    );
+    let bytes = std::fs::read(path).unwrap();
+    let ds = app
+        .client
+        .upload_files("ESS-1025", &[("ess_mcu1025_axis1.csv".to_string(), bytes)])
+        .await
+        .unwrap();
+    assert_eq!(ds.kind.as_str(), "positioning");
+    let id = submit(&app.client, JobKind::Diagnose, Some(&ds.id), None)
+        .await
+        .id;
+    let job = app.wait(&id, JobState::Succeeded).await;
+    let result_id = job.result_id.expect("a result");
+    let doc = app.client.job_result(&id).await.unwrap();
+    assert_ne!(doc["verdict"], "consistent");
+    assert!(
+        doc["iso230_2"][0]["without_outlying"]["dominated"]
+            .as_array()
+            .unwrap()
+            .iter()
+            .any(|d| d == "R_um")
+    );
+
+    let b = app.sign_in(&app.read_key).await;
+    let page = b.get(&format!("/results/{result_id}")).await;
+    assert_eq!(page.status(), reqwest::StatusCode::OK);
+    let html = page.text().await.unwrap();
+    let report = app.client.report(&result_id).await.unwrap();
+    assert_eq!(report.content_type, "text/html; charset=utf-8");
+    for (what, text) in [("page", &html), ("report", &report.text)] {
+        for needle in [
+            "ISO 230-2, axis X",
+            "standard (every reading)",
+            "without the outlying readings (not the standard",
+            "data-figure=\"R_um\"",
+            "R = 204.759 µm",
+            "R = 58.278 µm",
+            "data-effect=\"first_cycle_transient\"",
+            "data-effect=\"lost_motion_profile\"",
+            "held-out RMS",
+            "positioning_X_reversal",
+        ] {
+            assert!(text.contains(needle), "{what}: no {needle}");
+        }
+    }
+    assert!(!report.text.contains("<script"));
 }

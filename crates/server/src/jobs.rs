@@ -15,6 +15,7 @@ use mtcal_solver::cradle::{self, CradleOptions};
 use mtcal_solver::diagnosis::series::{self, SeriesOptions};
 use mtcal_solver::diagnosis::{self, DiagnoseOptions, DiagnosisResult};
 use mtcal_solver::identification::{self, IdentificationResult, IdentifyOptions, Method};
+use mtcal_solver::positioning_check::{DiagnosisDocument, check_positioning};
 use mtcal_solver::sensitivity::{self, SensitivityRequest};
 use mtcal_solver::standards::{self, Standards, StandardsResult};
 use mtcal_store::{Dataset, Figure, Machine, ResultScalars};
@@ -203,7 +204,9 @@ fn run(input: &JobInput, progress: &mut dyn FnMut(f64, &str)) -> Result<JobOutpu
                     "params: fit_fraction applies to drift logs only".into(),
                 ));
             }
-            let result = match &data {
+            // A positioning-run diagnosis is stored with the ISO 230-2 figures of the same
+            // runs beside it (`mtcal_solver::positioning_check`).
+            let document: DiagnosisDocument = match &data {
                 DatasetData::Session(session) => {
                     let opts = DiagnoseOptions {
                         topology: machine_topology(input.machine.as_ref())?,
@@ -214,8 +217,9 @@ fn run(input: &JobInput, progress: &mut dyn FnMut(f64, &str)) -> Result<JobOutpu
                         &opts,
                         &mut |phase: &str, f: f64| progress(f, phase),
                     )
+                    .map(DiagnosisDocument::from)
                 }
-                DatasetData::Positioning(runs) => series::diagnose_positioning_with_progress(
+                DatasetData::Positioning(runs) => check_positioning(
                     runs,
                     &dataset.machine_id,
                     &SeriesOptions::default(),
@@ -227,14 +231,14 @@ fn run(input: &JobInput, progress: &mut dyn FnMut(f64, &str)) -> Result<JobOutpu
                     &params.series_options(),
                     &mut |phase: &str, f: f64| progress(f, phase),
                 )
-                .map(|(r, _)| r),
+                .map(|(r, _)| r.into()),
                 DatasetData::RotaryPoints(_) => return Err(wrong_kind(input.kind, &data)),
             }
             .map_err(|e| JobError::BadInput(format!("diagnosis: {e}")))?;
             Ok(JobOutput {
-                document: serde_json::to_value(&result)
+                document: serde_json::to_value(&document)
                     .map_err(|e| JobError::Transient(e.to_string()))?,
-                scalars: diagnosis_scalars(&result),
+                scalars: diagnosis_scalars(&document.diagnosis),
                 figures: vec![],
                 measured_at: dataset.measured_at.clone(),
             })

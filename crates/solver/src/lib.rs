@@ -39,6 +39,8 @@ pub mod diagnosis;
 // of a fit by file and test.
 pub mod residuals;
 pub mod standards;
+// The check of a positioning-run file: its diagnosis and its ISO 230-2 figures together.
+pub mod positioning_check;
 
 // Tolerances and the decision rule of conformity.
 pub mod tolerance;

@@ -5,6 +5,8 @@ mod progress_common;
 mod stepwise_common;
 
 mod cradle_simulated;
+mod diagnosis_positioning_real;
+mod diagnosis_positioning_transient;
 mod diagnosis_series_drift;
 mod diagnosis_series_kernel;
 mod diagnosis_series_positioning;

@@ -12,8 +12,11 @@ use axum::response::{IntoResponse, Response};
 use mtcal_formats::compensation::{Compensation, DEFAULT_STEP_MM, ExportError, Format};
 use mtcal_solver::diagnosis::DiagnosisResult;
 use mtcal_solver::identification::IdentificationResult;
+use mtcal_solver::positioning_check::DiagnosisDocument;
 use mtcal_store::StoredResult;
-use mtcal_views::pages::report::{CheckReport, check_report};
+use mtcal_views::pages::report::{
+    CheckReport, PositioningReport, check_report, positioning_report,
+};
 use serde::Deserialize;
 use utoipa::IntoParams;
 
@@ -73,15 +76,17 @@ pub async fn export(
     Ok(attachment(text, format.content_type(), Some(&name)))
 }
 
-#[utoipa::path(operation_id = "results_report", summary = "Check report of an identification result (self-contained HTML, prints on A4)", get,
+#[utoipa::path(operation_id = "results_report", summary = "Check report of an identification result or of a positioning-run diagnosis (self-contained HTML, prints on A4)", get,
     path = "/api/v1/results/{id}/report", tag = "history",
     security(("api_key" = [])), params(("id" = String, Path)),
     responses((status = 200, description = "one self-contained HTML page: machine, date, instrument and plan, the standards' figures \
                                             (verdicts when a tolerance profile applies, else \"no tolerance\"), the 21 terms with ±2σ bands \
                                             and identifiability, circle polar plots, the findings of a diagnosis of the same dataset, \
-                                            the compensation table's summary and what the data could not determine",
+                                            the compensation table's summary and what the data could not determine; of a positioning-run \
+                                            diagnosis: the ISO 230-2 figures (the standard's, and without the readings its outlier test set aside), \
+                                            the findings with their held-out figures",
                content_type = "text/html", body = String),
-              (status = 400, body = ErrorBody, description = "not an identification result"),
+              (status = 400, body = ErrorBody, description = "neither an identification result nor a positioning-run diagnosis"),
               (status = 404, body = ErrorBody)))]
 pub async fn report(
     _key: ReadKey,
@@ -89,6 +94,29 @@ pub async fn report(
     Path(id): Path<String>,
 ) -> Result<Response, ApiError> {
     let r = s.store.get_result(&id).await?;
+    let now = mtcal_store::now_rfc3339();
+    if r.meta.kind == "diagnosis" {
+        // A positioning-run check: its diagnosis and its ISO 230-2 figures.
+        let page = crate::blocking::run::<_, ApiError>(move || {
+            let doc: DiagnosisDocument = serde_json::from_value(r.document.clone())
+                .map_err(|e| ApiError::Internal(format!("result {}: {e}", r.meta.id)))?;
+            if doc.diagnosis.source != "positioning" {
+                return Err(ApiError::InvalidRequest(format!(
+                    "result {} is a diagnosis of a {}; reports are made from identification results and positioning-run diagnoses",
+                    r.meta.id, doc.diagnosis.source
+                )));
+            }
+            Ok(positioning_report(&PositioningReport {
+                doc: &doc,
+                result_id: Some(&r.meta.id),
+                measured_at: &r.meta.measured_at,
+                generated_at: &now,
+            })
+            .into_string())
+        })
+        .await??;
+        return Ok(attachment(page, "text/html; charset=utf-8", None));
+    }
     identification_kind(&r)?;
     let diagnosis = diagnosis_of(&s, &r).await?;
     // The verdict against the tolerance profile that applies to the machine, as
@@ -96,7 +124,6 @@ pub async fn report(
     let verdict = mtcal_domain::verdicts::result_verdict(s.store.as_ref(), &r.meta.id)
         .await?
         .verdict;
-    let now = mtcal_store::now_rfc3339();
     let page = crate::blocking::run::<_, ApiError>(move || {
         let doc = identification(&r)?;
         let page = check_report(&CheckReport {

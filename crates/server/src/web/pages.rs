@@ -518,7 +518,9 @@ pub async fn result(
             vresult::result_page(&viewer, &header, &verdict_table, &body)
         }
         "diagnosis" => {
-            let d = serde_json::from_value(doc.clone()).map_err(|e| bad_document(&r, e))?;
+            // A positioning-run diagnosis carries its ISO 230-2 figures beside it.
+            let d: mtcal_solver::positioning_check::DiagnosisDocument =
+                serde_json::from_value(doc.clone()).map_err(|e| bad_document(&r, e))?;
             vresult::result_page(
                 &viewer,
                 &header,

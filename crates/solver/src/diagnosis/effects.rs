@@ -82,6 +82,56 @@ pub const EFFECTS: &[EffectSpec] = &[
         decide: "more reversals of the axis (circles, or bidirectional runs)",
     },
     EffectSpec {
+        name: "lost_motion_profile",
+        physics: "lost motion at direction reversal that varies along the travel (a screw worn where the axis works most, the lead error of a preloaded double nut, a coupling or bearing whose stiffness varies with the load): ISO 230-2's reversal value B_i changes from target to target, a constant backlash cannot follow it",
+        params: &[
+            p(
+                "lost_motion_um_{n}",
+                "um",
+                "b(q) at target n (targets numbered from 1 in increasing position): error = -d*b(q)/2, b(q) = sum_k b_k*P_k(s) on the measured travel, b > 0 when the axis stops short in the direction of travel; b = -B_i of ISO 230-2",
+            ),
+            p("target_mm_{n}", "mm", "position of target n"),
+            p(
+                "mean_lost_motion_um",
+                "um",
+                "mean of b over the targets (the constant backlash's part)",
+            ),
+            p(
+                "variation_um",
+                "um",
+                "RMS over the targets of b - its mean: the part that varies along the travel",
+            ),
+            p(
+                "order",
+                "1",
+                "Legendre order K of b(q) over the measured travel",
+            ),
+        ],
+        principal: &["variation_um"],
+        any_of: false,
+        decide: "more cycles of a bidirectional test at the same targets",
+    },
+    EffectSpec {
+        name: "first_cycle_transient",
+        physics: "a transient in the first cycle of the test (settling after the long move to the first target, homing, warm-up of the drive) decaying within the cycle; a time-invariant model repeats every cycle alike",
+        params: &[
+            p(
+                "size_um",
+                "um",
+                "h: error = h*exp(-(t - t0)/T) at the readings of the first cycle, t0 its first reading; zero in later cycles (a transient lasting several cycles is thermal_drift)",
+            ),
+            q(
+                "time_constant_records",
+                "records",
+                "T > 0 counted in records (positioning runs without t_s)",
+            ),
+            q("time_constant_s", "s", "T > 0 in seconds"),
+        ],
+        principal: &["size_um"],
+        any_of: false,
+        decide: "a repeat of the test with a pause or a long move before its first cycle",
+    },
+    EffectSpec {
         name: "servo_lag",
         physics: "servo following error: the axis lags its set-point in proportion to velocity; the rigid-body model is static, position-only",
         params: &[p(

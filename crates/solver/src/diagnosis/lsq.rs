@@ -136,6 +136,8 @@ pub struct LsqFit {
     pub rank: usize,
     /// 2-norm condition number of the equilibrated design.
     pub cond: f64,
+    /// Covariance of the coefficients, s² D⁻¹ V_r Σ_r⁻² V_rᵀ D⁻¹ (p × p).
+    pub cov: DMatrix<f64>,
 }
 
 impl LsqFit {
@@ -157,6 +159,7 @@ pub fn solve(x: &Design, y: &[f64]) -> LsqFit {
             n,
             rank: 0,
             cond: if p == 0 { 1.0 } else { f64::INFINITY },
+            cov: DMatrix::from_element(p, p, f64::INFINITY),
         };
     }
     let norms: Vec<f64> = x
@@ -194,16 +197,15 @@ pub fn solve(x: &Design, y: &[f64]) -> LsqFit {
         .sum();
     let rank = f.rank();
     let s2 = sse / (n.saturating_sub(rank)).max(1) as f64;
-    let std = (0..p)
-        .map(|j| {
-            let v: f64 = f
-                .keep
-                .iter()
-                .map(|&k| (f.vt[(k, j)] / f.s[k]).powi(2))
-                .sum();
-            (s2 * v).sqrt() / norms[j]
-        })
-        .collect();
+    let cov = DMatrix::from_fn(p, p, |i, j| {
+        let v: f64 = f
+            .keep
+            .iter()
+            .map(|&k| f.vt[(k, i)] * f.vt[(k, j)] / (f.s[k] * f.s[k]))
+            .sum();
+        s2 * v / (norms[i] * norms[j])
+    });
+    let std = (0..p).map(|j| cov[(j, j)].sqrt()).collect();
     LsqFit {
         coef,
         std,
@@ -215,6 +217,7 @@ pub fn solve(x: &Design, y: &[f64]) -> LsqFit {
         } else {
             f.condition()
         },
+        cov,
     }
 }
 

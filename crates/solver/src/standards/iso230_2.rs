@@ -157,7 +157,51 @@ pub struct Iso2302 {
     pub accuracy_a_um: f64,
     /// Standard uncertainty of each axis figure, keyed by its name (`E_um`, ...), µm.
     pub u: BTreeMap<String, f64>,
+    /// When the outlier test of the repeated readings sets readings aside: the readings
+    /// and the axis figures without them (the figures above are the standard's, with every
+    /// reading).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub without_outlying: Option<WithoutOutlying>,
 }
+
+/// A reading the outlier test of the repeated readings set aside
+/// ([`crate::diagnosis::repeatability`]).
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[cfg_attr(feature = "openapi", derive(utoipa::ToSchema))]
+pub struct OutlyingReading {
+    pub run: i64,
+    pub target_mm: f64,
+    /// Approach with increasing command (↑).
+    pub up: bool,
+    /// The reading x = measured − target, µm.
+    pub deviation_um: f64,
+    /// Its distance from the other runs' readings at the same target and direction (the
+    /// two-way layout of target means and pass offsets fitted without it), µm.
+    pub off_um: f64,
+    /// Its studentised residual, against the critical value `critical_t`.
+    pub t: f64,
+}
+
+/// The axis figures without the outlying readings (the standard's own figures keep them).
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[cfg_attr(feature = "openapi", derive(utoipa::ToSchema))]
+pub struct WithoutOutlying {
+    /// The readings set aside, largest |t| first.
+    pub readings: Vec<OutlyingReading>,
+    /// Bonferroni critical value of the outlier test (familywise rate 1 % per axis).
+    pub critical_t: f64,
+    /// The axis figures ([`FIGURES`] names) without those readings, µm.
+    pub figures: BTreeMap<String, f64>,
+    /// Their standard uncertainties, µm.
+    pub u: BTreeMap<String, f64>,
+    /// The figures those readings dominate: changed by more than [`DOMINATES`] of their
+    /// value when the readings are left out.
+    pub dominated: Vec<String>,
+}
+
+/// A figure changed by more than this fraction when the outlying readings are left out
+/// is dominated by them.
+pub const DOMINATES: f64 = 0.10;
 
 /// Names of the axis figures, in the order of [`Iso2302::values`].
 pub const FIGURES: [&str; 12] = [
@@ -261,8 +305,124 @@ fn distinct_targets(x: &[f64]) -> Vec<f64> {
 }
 
 /// ISO 230-2 figures of one axis from its readings (module docs). Every target needs at
-/// least two readings in each direction; at least two targets.
+/// least two readings in each direction; at least two targets. When the outlier test of
+/// the repeated readings ([`crate::diagnosis::repeatability`]) sets readings aside, the
+/// figures without them are added (`without_outlying`) with a note naming the figures
+/// they dominate; the figures themselves are the standard's, with every reading.
 pub fn evaluate(axis: Axis, source: Source, readings: &[Reading]) -> Result<Iso2302, SolverError> {
+    let mut f = evaluate_all(axis, source, readings)?;
+    if let Some(w) = without_outlying(axis, source, readings, &f) {
+        if !w.dominated.is_empty() {
+            let list = |fig: &BTreeMap<String, f64>| {
+                w.dominated
+                    .iter()
+                    .map(|n| format!("{} = {:.3} µm", n.trim_end_matches("_um"), fig[n]))
+                    .collect::<Vec<_>>()
+                    .join(", ")
+            };
+            let with: BTreeMap<String, f64> = FIGURES
+                .iter()
+                .zip(f.values())
+                .map(|(n, v)| (n.to_string(), v))
+                .collect();
+            f.notes.push(format!(
+                "{} set by {} reading(s) far from the other runs ({}): without them {} (`without_outlying`); the figures above are the standard's, with every reading",
+                list(&with),
+                w.readings.len(),
+                w.readings
+                    .iter()
+                    .map(|r| format!(
+                        "run {} {} at {} mm, {:+.3} µm, {:+.3} µm off the others",
+                        r.run,
+                        if r.up { "+" } else { "−" },
+                        r.target_mm,
+                        r.deviation_um,
+                        r.off_um
+                    ))
+                    .collect::<Vec<_>>()
+                    .join("; "),
+                list(&w.figures)
+            ));
+        }
+        f.without_outlying = Some(w);
+    }
+    Ok(f)
+}
+
+/// The figures without the readings the outlier test sets aside (`None`: none set aside,
+/// or too few repeated readings for the test).
+fn without_outlying(
+    axis: Axis,
+    source: Source,
+    readings: &[Reading],
+    with: &Iso2302,
+) -> Option<WithoutOutlying> {
+    let targets: Vec<f64> = with.per_target.iter().map(|t| t.target_mm).collect();
+    let tol = 1e-6 * (targets[targets.len() - 1] - targets[0]);
+    let group: Vec<usize> = readings
+        .iter()
+        .map(|r| {
+            let t = targets
+                .iter()
+                .position(|&t| (t - r.target_mm).abs() <= tol)
+                .unwrap_or(0);
+            2 * t + usize::from(!r.up)
+        })
+        .collect();
+    let mut passes: Vec<(i64, bool)> = readings.iter().map(|r| (r.run, r.up)).collect();
+    passes.sort_unstable();
+    passes.dedup();
+    let pass: Vec<usize> = readings
+        .iter()
+        .map(|r| passes.binary_search(&(r.run, r.up)).unwrap_or(0))
+        .collect();
+    let y: Vec<f64> = readings.iter().map(|r| r.deviation_um).collect();
+    let rep = crate::diagnosis::repeatability::repeatability(&group, &pass, &y).ok()?;
+    if rep.set_aside.is_empty() {
+        return None;
+    }
+    let kept: Vec<Reading> = readings
+        .iter()
+        .enumerate()
+        .filter(|(i, _)| !rep.set_aside.iter().any(|o| o.index == *i))
+        .map(|(_, r)| *r)
+        .collect();
+    let g = evaluate_all(axis, source, &kept).ok()?;
+    let dominated = FIGURES
+        .iter()
+        .zip(with.values().iter().zip(g.values()))
+        .filter(|(_, (a, b))| (*a - b).abs() > DOMINATES * a.abs().max(b.abs()))
+        .map(|(n, _)| n.to_string())
+        .collect();
+    Some(WithoutOutlying {
+        readings: rep
+            .set_aside
+            .iter()
+            .map(|o| {
+                let r = readings[o.index];
+                OutlyingReading {
+                    run: r.run,
+                    target_mm: r.target_mm,
+                    up: r.up,
+                    deviation_um: r.deviation_um,
+                    off_um: o.residual_um,
+                    t: o.t,
+                }
+            })
+            .collect(),
+        critical_t: rep.critical_t,
+        figures: FIGURES
+            .iter()
+            .zip(g.values())
+            .map(|(n, v)| (n.to_string(), v))
+            .collect(),
+        u: g.u,
+        dominated,
+    })
+}
+
+/// The standard's figures of every reading (module docs).
+fn evaluate_all(axis: Axis, source: Source, readings: &[Reading]) -> Result<Iso2302, SolverError> {
     if readings
         .iter()
         .any(|r| !r.target_mm.is_finite() || !r.deviation_um.is_finite())
@@ -428,6 +588,7 @@ pub fn evaluate(axis: Axis, source: Source, readings: &[Reading]) -> Result<Iso2
         accuracy_a_down_um: a_down.0,
         accuracy_a_um: a.0,
         u,
+        without_outlying: None,
     })
 }
 

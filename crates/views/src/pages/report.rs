@@ -13,6 +13,7 @@ use maud::{Markup, html};
 use mtcal_formats::compensation::{Compensation, DEFAULT_STEP_MM, ExportError, Format};
 use mtcal_solver::diagnosis::DiagnosisResult;
 use mtcal_solver::identification::IdentificationResult;
+use mtcal_solver::positioning_check::DiagnosisDocument;
 use mtcal_solver::terms::Term;
 use mtcal_solver::tolerance::Verdict;
 
@@ -55,6 +56,56 @@ pub fn check_report(r: &CheckReport) -> Markup {
                 p.muted.signature {
                     "Figures are value ± U, U = 2u (k = 2); plots show ±2σ. Nothing is evaluated \
                      outside the travel the check measured. Report made by mtcal "
+                    (env!("CARGO_PKG_VERSION")) " on " (when(r.generated_at)) "."
+                }
+            }
+        },
+    )
+}
+
+/// The report of a positioning-run check (a diagnosis of positioning runs stored with
+/// their ISO 230-2 figures): the facts, the figures of ISO 230-2 (the standard's, and
+/// without the readings the outlier test set aside, each labelled), the diagnosis with its
+/// findings and held-out figures. `measured_at` is the dataset's date.
+pub struct PositioningReport<'a> {
+    pub doc: &'a DiagnosisDocument,
+    pub result_id: Option<&'a str>,
+    pub measured_at: &'a str,
+    pub generated_at: &'a str,
+}
+
+/// The positioning-run report page.
+pub fn positioning_report(r: &PositioningReport) -> Markup {
+    let d = &r.doc.diagnosis;
+    let title = format!(
+        "Positioning check report {} {}",
+        d.machine_id,
+        when(r.measured_at)
+    );
+    print_page(
+        &title,
+        html! {
+            article.report {
+                section.card #check {
+                    h1 { "Positioning check report: " (d.machine_id) }
+                    dl.facts {
+                        dt { "machine" } dd { (d.machine_id) }
+                        dt { "measured" } dd { (when(r.measured_at)) }
+                        @if let Some(id) = r.result_id { dt { "result" } dd { code { (id) } } }
+                        dt { "recording" } dd { "bidirectional positioning runs (ISO 230-2 test cycle)" }
+                        dt { "axes" } dd { @for (i, f) in r.doc.iso230_2.iter().enumerate() {
+                            @if i > 0 { "; " } (f.axis) ": " (f.targets) " targets, " (f.runs) " runs"
+                        } }
+                    }
+                }
+                @if r.doc.iso230_2.is_empty() {
+                    section.card #standards { h2 { "ISO 230-2" } p { "No axis could be evaluated." } }
+                }
+                (result::iso230_2(&r.doc.iso230_2))
+                @for n in &r.doc.not_evaluated { p.muted { "not evaluated: " (n.what) ": " (n.reason) } }
+                div #findings { (result::diagnosis(d)) }
+                p.muted.signature {
+                    "Figures are value ± U, U = 2u (k = 2). Nothing is evaluated outside the travel                      the runs measured. Report made by mtcal "
                     (env!("CARGO_PKG_VERSION")) " on " (when(r.generated_at)) "."
                 }
             }

@@ -8,8 +8,10 @@ use maud::{Markup, html};
 use mtcal_solver::cradle::CradleResult;
 use mtcal_solver::diagnosis::{DiagnosisResult, Finding};
 use mtcal_solver::identification::IdentificationResult;
+use mtcal_solver::positioning_check::DiagnosisDocument;
 use mtcal_solver::residuals::ResidualSummary;
 use mtcal_solver::sensitivity::SensitivityResult;
+use mtcal_solver::standards::iso230_2::{FIGURES, Iso2302};
 use serde::{Deserialize, Serialize};
 
 /// One line of a verdict: a quantity checked against its limit by the decision rule
@@ -115,7 +117,8 @@ pub struct ResultHeader {
 /// The body of a result page, by kind.
 pub enum ResultBody<'a> {
     Identification(IdentificationView<'a>),
-    Diagnosis(&'a DiagnosisResult),
+    /// A diagnosis, with the ISO 230-2 figures of a positioning-run recording.
+    Diagnosis(&'a DiagnosisDocument),
     Cradle(&'a CradleResult),
     Sensitivity(&'a SensitivityResult),
 }
@@ -166,7 +169,7 @@ pub fn result_page(
 pub fn sections(body: &ResultBody) -> Markup {
     match body {
         ResultBody::Identification(v) => identification(v),
-        ResultBody::Diagnosis(d) => diagnosis(d),
+        ResultBody::Diagnosis(d) => html! { (diagnosis(&d.diagnosis)) (iso230_2(&d.iso230_2)) },
         ResultBody::Cradle(c) => cradle(c),
         ResultBody::Sensitivity(s) => sensitivity(s),
     }
@@ -416,6 +419,52 @@ pub fn diagnosis(d: &DiagnosisResult) -> Markup {
         }
         @if !d.unexplained.is_empty() {
             section.card { h2 { "Unexplained" } ul.compact { @for u in &d.unexplained { li { (u) } } } }
+        }
+    }
+}
+
+/// ISO 230-2 figures per axis (value ± U): the standard's, with every reading, and, when
+/// the outlier test of the repeated readings set readings aside, the same figures without
+/// them in a column of their own, labelled as not the standard's; the notes and the
+/// readings set aside.
+pub fn iso230_2(figs: &[Iso2302]) -> Markup {
+    html! {
+        @for f in figs {
+            section.card.iso230-2 data-axis=(f.axis.to_string()) {
+                h2 { "ISO 230-2, axis " (f.axis) }
+                p.muted { (f.targets) " targets, " (f.runs) " runs (" (f.n_up) " + and " (f.n_down) " − readings per target at least); µm, U = 2u." }
+                table {
+                    thead { tr {
+                        th { "figure" } th.num { "standard (every reading)" }
+                        @if f.without_outlying.is_some() { th.num { "without the outlying readings (not the standard's)" } }
+                    } }
+                    tbody {
+                        @for (name, v) in FIGURES.iter().zip(f.values()) {
+                            tr data-figure=(name) {
+                                td { (name.trim_end_matches("_um")) }
+                                td.num { (with_u(Some(v), f.u.get(*name).copied(), "um")) }
+                                @if let Some(w) = &f.without_outlying {
+                                    td.num {
+                                        (with_u(w.figures.get(*name).copied(), w.u.get(*name).copied(), "um"))
+                                        @if w.dominated.iter().any(|d| d == name) { " " span.badge { "dominated" } }
+                                    }
+                                }
+                            }
+                        }
+                    }
+                }
+                @if let Some(w) = &f.without_outlying {
+                    h3 { "Readings set aside (outlier test, 1 % per axis, |t| > " (num(w.critical_t)) ")" }
+                    table.outlying {
+                        thead { tr { th.num { "run" } th { "direction" } th.num { "target (mm)" } th.num { "reading (µm)" } th.num { "off the other runs (µm)" } th.num { "t" } } }
+                        tbody { @for r in &w.readings { tr {
+                            td.num { (r.run) } td { @if r.up { "+" } @else { "−" } } td.num { (num(r.target_mm)) }
+                            td.num { (num(r.deviation_um)) } td.num { (num(r.off_um)) } td.num { (num(r.t)) }
+                        } } }
+                    }
+                }
+                @for n in &f.notes { p.muted { (n) } }
+            }
         }
     }
 }

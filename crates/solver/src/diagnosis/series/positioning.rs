@@ -100,10 +100,10 @@ pub fn diagnose_positioning_with_progress(
             k as f64 / axes.len() as f64,
             (k + 1) as f64 / axes.len() as f64,
         );
-        let p = problem::Positioning::new(&a, opts);
+        let p = problem::Positioning::new(&a, opts)?;
         let sel = problem::select(&p, opts, &mut progress, span);
         progress.report_in(span, &format!("axis {}: report", a.axis), 0.95);
-        outs.push(report::outcome(&a, sel, opts));
+        outs.push(report::outcome(&a, sel, &p.rep, opts));
     }
     progress.report("done", 1.0);
     let ntot: usize = outs.iter().map(|o| o.n).sum();
@@ -122,7 +122,7 @@ pub fn diagnose_positioning_with_progress(
     let mut plots = vec![];
     let mut any_needs = false;
     for o in outs {
-        let needs = o.base_heldout > opts.explained_ratio * o.noise || !o.findings.is_empty();
+        let needs = o.needs || !o.findings.is_empty();
         any_needs |= needs;
         if needs {
             for mut m in o.mismatch {

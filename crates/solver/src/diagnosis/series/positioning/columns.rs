@@ -5,6 +5,7 @@
 use super::super::log_grid;
 use super::data::AxisData;
 use crate::basis::legendre;
+use crate::diagnosis::lost_motion::Profile;
 use crate::diagnosis::lsq::Design;
 use std::f64::consts::PI;
 
@@ -16,11 +17,18 @@ pub(super) enum Effect {
     Cyclic,
     Thermal,
     ThermalTemp,
+    /// A transient of the first cycle (warm-up, homing or settling after a long move).
+    Transient,
 }
+
+/// Effect name of the lost motion that varies along the travel
+/// ([`crate::diagnosis::lost_motion`]).
+pub(super) const LOST_MOTION_PROFILE: &str = "lost_motion_profile";
 
 impl Effect {
     pub(super) fn name(self) -> &'static str {
         match self {
+            Effect::Transient => "first_cycle_transient",
             Effect::Backlash => "backlash",
             Effect::Spike => "reversal_spike",
             Effect::Cyclic => "cyclic",
@@ -28,11 +36,14 @@ impl Effect {
         }
     }
     pub(super) fn nonlinear(self) -> bool {
-        matches!(self, Effect::Spike | Effect::Cyclic | Effect::Thermal)
+        matches!(
+            self,
+            Effect::Spike | Effect::Cyclic | Effect::Thermal | Effect::Transient
+        )
     }
     pub(super) fn n_linear(self) -> usize {
         match self {
-            Effect::Backlash | Effect::Spike => 1,
+            Effect::Backlash | Effect::Spike | Effect::Transient => 1,
             _ => 2,
         }
     }
@@ -49,12 +60,25 @@ pub(super) struct Term {
 pub(super) struct Model {
     pub(super) order: usize,
     pub(super) terms: Vec<Term>,
+    /// Order K of the lost motion that varies along the travel (its columns k = 0..=K
+    /// replace a constant `backlash`); `None` without it.
+    pub(super) lost_motion: Option<usize>,
 }
 
 impl Model {
+    /// The rigid model of polynomial order `order`.
+    pub(super) fn rigid(order: usize) -> Model {
+        Model {
+            order,
+            terms: vec![],
+            lost_motion: None,
+        }
+    }
+
     pub(super) fn n_params(&self) -> usize {
         self.order
             + 1
+            + self.lost_motion.map_or(0, |k| k + 1)
             + self
                 .terms
                 .iter()
@@ -106,6 +130,20 @@ impl AxisData {
                     ),
                 ]
             }
+            Effect::Transient => vec![(
+                "size_um".into(),
+                self.time
+                    .iter()
+                    .zip(&self.first)
+                    .map(|(t, &f)| {
+                        if f {
+                            (-(t - self.t_first) / theta).exp()
+                        } else {
+                            0.0
+                        }
+                    })
+                    .collect(),
+            )],
             Effect::ThermalTemp => {
                 let dt = self.temp.clone().unwrap_or_else(|| vec![0.0; self.n()]);
                 vec![
@@ -132,7 +170,21 @@ impl AxisData {
                 d.push(format!("{}:{name}", t.effect.name()), col);
             }
         }
+        if let Some(order) = m.lost_motion {
+            for (name, col) in self.profile(order).columns(&self.d, &self.x) {
+                d.push(format!("{LOST_MOTION_PROFILE}:{name}"), col);
+            }
+        }
         d
+    }
+
+    /// The lost-motion profile of order `order` on the measured travel.
+    pub(super) fn profile(&self, order: usize) -> Profile {
+        Profile {
+            lo: self.lo,
+            hi: self.hi,
+            order,
+        }
     }
 
     /// Search grid of an effect's nonlinear parameter.
@@ -149,10 +201,15 @@ impl AxisData {
                     .map(|i| f0 + (f1 - f0) * i as f64 / n as f64)
                     .collect()
             }
+            // From one cycle (a shorter one is the first-cycle transient's) to five times
+            // the recording.
             Effect::Thermal => {
                 let dur = self.time.iter().fold(0.0f64, |a, &b| a.max(b)).max(1.0);
-                log_grid(dur / 30.0, 5.0 * dur, 24)
+                log_grid((dur / 30.0).max(self.first_duration), 5.0 * dur, 24)
             }
+            // From a quarter of a record's step (a transient at the first reading only) to
+            // five times the first cycle (an offset of the whole cycle).
+            Effect::Transient => log_grid(0.25 * self.first_step, 5.0 * self.first_duration, 24),
             _ => vec![0.0],
         }
     }

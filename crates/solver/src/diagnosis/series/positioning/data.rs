@@ -4,7 +4,7 @@
 
 use crate::axis::Axis;
 use crate::datasets::{Direction, PositioningRecord};
-use crate::diagnosis::lsq::{self, Design};
+use crate::diagnosis::repeatability::{self, Repeatability};
 use crate::error::SolverError;
 
 /// One axis's records in file (measurement) order.
@@ -26,6 +26,13 @@ pub(super) struct AxisData {
     pub(super) targets: Vec<f64>,
     /// (target index, direction) group of each record.
     pub(super) group: Vec<usize>,
+    /// Whether each record belongs to the first cycle (the run of the first record).
+    pub(super) first: Vec<bool>,
+    /// Time of the first cycle's first record (the time unit of `time`).
+    pub(super) t_first: f64,
+    /// Median time step between successive records of the first cycle, and its duration.
+    pub(super) first_step: f64,
+    pub(super) first_duration: f64,
 }
 
 impl AxisData {
@@ -100,7 +107,22 @@ impl AxisData {
             recs.iter().map(|r| r.temp_c.unwrap_or(0.0) - t0).collect()
         });
         let (c, h) = (0.5 * (lo + hi), 0.5 * (hi - lo));
+        let first: Vec<bool> = recs.iter().map(|r| r.run == recs[0].run).collect();
+        let t1: Vec<f64> = (0..n).filter(|&i| first[i]).map(|i| time[i]).collect();
+        let t_first = t1.iter().copied().fold(f64::INFINITY, f64::min);
+        let first_duration = t1.iter().copied().fold(f64::NEG_INFINITY, f64::max) - t_first;
+        let mut steps: Vec<f64> = t1
+            .windows(2)
+            .map(|w| (w[1] - w[0]).abs())
+            .filter(|v| *v > 0.0)
+            .collect();
+        steps.sort_by(f64::total_cmp);
+        let first_step = steps.get(steps.len() / 2).copied().unwrap_or(1.0);
         Ok(AxisData {
+            first,
+            t_first,
+            first_step,
+            first_duration: first_duration.max(first_step),
             axis,
             s: x.iter().map(|v| (v - c) / h).collect(),
             u: x.iter()
@@ -137,39 +159,32 @@ impl AxisData {
         if self.time_in_s { "s" } else { "records" }
     }
 
-    /// Model-independent noise floor (module docs): two-way fit of group means and pass
-    /// offsets.
-    pub(super) fn repeat_scatter(&self) -> f64 {
-        let n = self.n();
-        let mut d = Design::new();
-        let ng = 2 * self.targets.len();
-        for g in 0..ng {
-            let col: Vec<f64> = self
-                .group
-                .iter()
-                .map(|&k| f64::from(u8::from(k == g)))
-                .collect();
-            if col.iter().any(|&v| v > 0.0) {
-                d.push("g", col);
-            }
-        }
-        let mut passes: Vec<(i64, bool)> = self
-            .run
-            .iter()
-            .zip(&self.d)
-            .map(|(&r, &dd)| (r, dd > 0.0))
-            .collect();
+    /// Pass (run × direction) of each record, as dense indices from 0.
+    pub(super) fn pass_index(&self) -> Vec<usize> {
+        let key = |i: usize| (self.run[i], self.d[i] > 0.0);
+        let mut passes: Vec<(i64, bool)> = (0..self.n()).map(key).collect();
         passes.sort_unstable();
         passes.dedup();
-        for p in passes.iter().skip(1) {
-            d.push(
-                "p",
-                (0..n)
-                    .map(|i| f64::from(u8::from(self.run[i] == p.0 && (self.d[i] > 0.0) == p.1)))
-                    .collect(),
-            );
-        }
-        let fit = lsq::solve(&d, &self.y);
-        fit.s2().sqrt()
+        (0..self.n())
+            .map(|i| passes.binary_search(&key(i)).unwrap_or(0))
+            .collect()
+    }
+
+    /// Model-independent noise floor (module docs): the robust repeatability of the
+    /// two-way layout of group means and pass offsets, outlying approaches set aside
+    /// ([`crate::diagnosis::repeatability`]).
+    pub(super) fn repeatability(&self) -> Result<Repeatability, SolverError> {
+        repeatability::repeatability(&self.group, &self.pass_index(), &self.y)
+            .map_err(|e| SolverError::InvalidInput(format!("axis {}: {e}", self.axis)))
+    }
+
+    /// "run R + at 15.0 mm" for record `i`.
+    pub(super) fn place(&self, i: usize) -> String {
+        format!(
+            "run {} {} at {:.1} mm",
+            self.run[i],
+            if self.d[i] > 0.0 { "+" } else { "−" },
+            self.x[i]
+        )
     }
 }

@@ -3,11 +3,12 @@
 //! model's residuals concentrate, what remains unexplained, and the plots.
 
 use super::super::{SeriesOptions, decimate, rms};
-use super::columns::{Effect, Model};
+use super::columns::{Effect, LOST_MOTION_PROFILE, Model};
 use super::data::AxisData;
 use super::problem::{Candidate, Positioning};
 use crate::diagnosis::engine::Selection;
 use crate::diagnosis::lsq;
+use crate::diagnosis::repeatability::Repeatability;
 use crate::diagnosis::{Finding, Mismatch, PlotData, PlotKind, PlotSeries, effects};
 use std::collections::BTreeMap;
 
@@ -23,12 +24,16 @@ pub(super) struct AxisOutcome {
     pub(super) unexplained: Option<String>,
     pub(super) plots: Vec<PlotData>,
     pub(super) misfit: f64,
+    /// Whether the axis needs an explanation: rigid held-out RMS above the floor, or
+    /// outlying approaches set aside.
+    pub(super) needs: bool,
 }
 
 /// The findings, mismatch, unexplained remainder and plots of a selection.
 pub(super) fn outcome(
     a: &AxisData,
     sel: Selection<Positioning>,
+    rep: &Repeatability,
     opts: &SeriesOptions,
 ) -> AxisOutcome {
     let n = a.n();
@@ -62,18 +67,116 @@ pub(super) fn outcome(
     }
     let jfit = lsq::solve(&jac, &res);
     let theta_idx = d.len();
+    // The lost-motion profile's columns come after every term's.
+    let lm_off = col;
     let mut findings = vec![];
-    for st in &sel.steps {
+    // Steps that change the lost motion (a constant backlash, then a profile, or a profile
+    // raised in order) make one finding when the final model has a profile: the first
+    // such step's "before", the last one's "after".
+    let lm_steps: Vec<usize> = sel
+        .steps
+        .iter()
+        .enumerate()
+        .filter(|(_, st)| {
+            sel.model.lost_motion.is_some()
+                && matches!(
+                    st.chosen.candidate,
+                    Candidate::LostMotion(_) | Candidate::Effect(Effect::Backlash)
+                )
+        })
+        .map(|(i, _)| i)
+        .collect();
+    for (si, st) in sel.steps.iter().enumerate() {
+        if lm_steps.contains(&si) && Some(&si) != lm_steps.last() {
+            continue;
+        }
         let mut params = BTreeMap::new();
+        let mut extra = String::new();
+        let (mut rms_ba, mut heldout_ba) = (st.rms, st.heldout);
         let effect = match st.chosen.candidate {
             Candidate::Order(to) => {
                 params.insert("order_before".into(), st.before.order as f64);
                 params.insert("extra_order".into(), to as f64);
                 None
             }
-            Candidate::Effect(e) => Some(e),
+            Candidate::LostMotion(_) | Candidate::Effect(Effect::Backlash)
+                if lm_steps.contains(&si) =>
+            {
+                let first = &sel.steps[lm_steps[0]];
+                rms_ba.before = first.rms.before;
+                heldout_ba.before = first.heldout.before;
+                let order = sel.model.lost_motion.unwrap_or(0);
+                let prof = a.profile(order);
+                let coef = &fit.coef[lm_off..lm_off + order + 1];
+                let cov = jfit
+                    .cov
+                    .view((lm_off, lm_off), (order + 1, order + 1))
+                    .into_owned();
+                let at = prof.at(coef, &cov, &a.targets);
+                for (k, ((b, sb), t)) in at.iter().zip(&a.targets).enumerate() {
+                    params.insert(format!("lost_motion_um_{}", k + 1), *b);
+                    params.insert(format!("std_lost_motion_um_{}", k + 1), *sb);
+                    params.insert(format!("target_mm_{}", k + 1), *t);
+                }
+                let m = a.targets.len() as f64;
+                let mean = at.iter().map(|v| v.0).sum::<f64>() / m;
+                let p_mean: Vec<f64> = (0..=order)
+                    .map(|k| a.targets.iter().map(|&t| prof.basis_at(t)[k]).sum::<f64>() / m)
+                    .collect();
+                let var_mean: f64 = (0..=order)
+                    .flat_map(|i| (0..=order).map(move |j| (i, j)))
+                    .map(|(i, j)| p_mean[i] * cov[(i, j)] * p_mean[j])
+                    .sum();
+                params.insert("mean_lost_motion_um".into(), mean);
+                params.insert("std_mean_lost_motion_um".into(), var_mean.max(0.0).sqrt());
+                let (v, sv) = prof.variation(coef, &cov, &a.targets);
+                params.insert("variation_um".into(), v);
+                params.insert("std_variation_um".into(), sv);
+                params.insert("order".into(), order as f64);
+                let share = mean * mean / (mean * mean + v * v).max(1e-300);
+                let steps: Vec<String> = lm_steps
+                    .iter()
+                    .map(|&i| {
+                        let s = &sel.steps[i];
+                        format!(
+                            "{} (ΔBIC {:.1}, held-out {:.3} → {:.3} µm)",
+                            match s.chosen.candidate {
+                                Candidate::LostMotion(k) => format!("profile of order {k}"),
+                                _ => "constant backlash".into(),
+                            },
+                            s.chosen.dbic,
+                            s.heldout.before,
+                            s.heldout.after
+                        )
+                    })
+                    .collect();
+                extra = format!(
+                    "; {}; the constant part (mean lost motion {mean:+.3} µm) carries {:.0} % of the reversal's squares at the targets, the part varying along the travel ({v:.3} µm RMS) {:.0} %{}; profile b (= −B_i of ISO 230-2) at the targets: {}",
+                    steps.join(", then "),
+                    100.0 * share,
+                    100.0 * (1.0 - share),
+                    if share >= 0.5 {
+                        ": a constant backlash explains most of it and a position-dependent part remains"
+                    } else {
+                        ": the lost motion is mostly position-dependent"
+                    },
+                    at.iter()
+                        .zip(&a.targets)
+                        .map(|((b, sb), t)| format!("{t:.1} mm {b:+.2} ± {sb:.2}"))
+                        .collect::<Vec<_>>()
+                        .join(", ")
+                );
+                Some(None)
+            }
+            Candidate::LostMotion(_) => unreachable!("a profile step is in lm_steps"),
+            Candidate::Effect(e) => Some(Some(e)),
         };
-        let label = effect.map_or("model_order", Effect::name);
+        let label = match effect {
+            None => "model_order",
+            Some(None) => LOST_MOTION_PROFILE,
+            Some(Some(e)) => e.name(),
+        };
+        let effect = effect.flatten();
         if let Some(e) = effect {
             let ti = sel
                 .model
@@ -124,6 +227,13 @@ pub(super) fn outcome(
                     params.insert("scale_ppm_per_k".into(), b[1]);
                     params.insert("std_scale_ppm_per_k".into(), sb[1]);
                 }
+                Effect::Transient => {
+                    params.insert("size_um".into(), b[0]);
+                    params.insert("std_size_um".into(), sb[0]);
+                    params.insert(format!("time_constant_{unit}"), t.theta);
+                    params.insert(format!("std_time_constant_{unit}"), jfit.std[th]);
+                    extra = transient_evidence(a, b[0], t.theta, noise, rep.critical_t, &res);
+                }
             }
         }
         let signature = match effect {
@@ -135,22 +245,22 @@ pub(super) fn outcome(
                     "; step − minus + approach has the sign of the lost motion at {agree} of {total} targets"
                 )
             }
-            _ => String::new(),
+            _ => extra,
         };
         findings.push(Finding {
             effect: label.into(),
             axis: Some(a.axis.to_string()),
             parameters: params,
             physics: effects::physics(label).into(),
-            residual_rms_um: st.rms,
-            heldout_rms_um: st.heldout,
+            residual_rms_um: rms_ba,
+            heldout_rms_um: heldout_ba,
             undetermined: vec![],
             evidence: format!(
                 "ΔBIC {:.1}; held-out RMS (leave one of {} runs out) {:.3} → {:.3} µm; noise floor {:.3} µm; condition number of the final joint fit {:.2e}{signature}",
                 st.chosen.dbic,
                 a.runs.len(),
-                st.heldout.before,
-                st.heldout.after,
+                heldout_ba.before,
+                heldout_ba.after,
                 noise,
                 fit.cond
             ),
@@ -159,30 +269,155 @@ pub(super) fn outcome(
     }
     let final_heldout = sel.heldout_rms();
     let base_heldout = sel.base_heldout_rms();
-    let needs = base_heldout > opts.explained_ratio * noise;
-    let unexplained = (needs && final_heldout > opts.explained_ratio * noise).then(|| {
-        format!(
-            "axis {}: held-out RMS {:.3} µm after {} effect(s) against a noise floor of {:.3} µm; the largest remaining residuals: {}",
-            a.axis,
+    // Outlying approaches the final model does not bring within the outlier test's
+    // critical value are local anomalies left unexplained.
+    let anomalies: Vec<String> = rep
+        .set_aside
+        .iter()
+        .filter(|o| res[o.index].abs() > rep.critical_t * noise)
+        .map(|o| {
+            format!(
+                "{} ({:+.2} µm from the model)",
+                a.place(o.index),
+                res[o.index]
+            )
+        })
+        .collect();
+    let needs = base_heldout > opts.explained_ratio * noise || !rep.set_aside.is_empty();
+    let mut left = vec![];
+    if needs && final_heldout > opts.explained_ratio * noise {
+        left.push(format!(
+            "held-out RMS {:.3} µm after {} effect(s) against a noise floor of {:.3} µm; the largest remaining residuals: {}",
             final_heldout,
             sel.steps.len(),
             noise,
             worst_places(a, &res)
-        )
-    });
+        ));
+    }
+    if !anomalies.is_empty() {
+        left.push(format!(
+            "outlying approaches no effect explains: {}",
+            anomalies.join(", ")
+        ));
+    }
+    let unexplained = (!left.is_empty()).then(|| format!("axis {}: {}", a.axis, left.join("; ")));
     let misfit = (base_res.iter().map(|v| v * v).sum::<f64>() - n as f64 * noise * noise).max(0.0);
+    let mut mismatch = locate(a, &base_res, noise);
+    if !rep.set_aside.is_empty() {
+        let excess = misfit.max(1e-300);
+        let ss: f64 = rep
+            .set_aside
+            .iter()
+            .map(|o| base_res[o.index].powi(2))
+            .sum();
+        mismatch.push(Mismatch {
+            where_: format!(
+                "axis {}: outlying approaches, set aside from the noise floor (outlier test at {:.0} % per axis, |t| > {:.2}): {}",
+                a.axis,
+                100.0 * crate::diagnosis::repeatability::ALPHA,
+                rep.critical_t,
+                rep.set_aside
+                    .iter()
+                    .map(|o| format!("{} {:+.2} µm off the other runs (t = {:.1})", a.place(o.index), o.residual_um, o.t))
+                    .collect::<Vec<_>>()
+                    .join(", ")
+            ),
+            tests: rep
+                .set_aside
+                .iter()
+                .map(|o| format!("{}#run {}", a.axis, a.run[o.index]))
+                .collect(),
+            share_of_misfit: (ss / excess).min(1.0),
+        });
+        mismatch.sort_by(|x, y| y.share_of_misfit.total_cmp(&x.share_of_misfit));
+    }
     AxisOutcome {
         noise,
         base_rms: rms(&base_res),
         base_heldout,
         final_heldout,
         n,
-        mismatch: locate(a, &base_res, noise),
+        mismatch,
         findings,
         unexplained,
         plots: plots(a, &sel.model, &fit.coef, &base_res, &res, opts),
         misfit,
+        needs,
     }
+}
+
+/// Where the first-cycle transient of size `h` and time constant `tau` lies and how it
+/// decays over the cycles. Located: the readings of the first cycle whose deviation from
+/// the rest of the model (the residual plus the transient) has the transient's sign and
+/// exceeds `crit` noise floors (the critical value of the noise floor's outlier test). Decay: that deviation at the same (target, direction) in every
+/// cycle (later cycles: the residual).
+fn transient_evidence(
+    a: &AxisData,
+    h: f64,
+    tau: f64,
+    noise: f64,
+    crit: f64,
+    res: &[f64],
+) -> String {
+    let value = |i: usize| {
+        if a.first[i] {
+            h * (-(a.time[i] - a.t_first) / tau).exp()
+        } else {
+            0.0
+        }
+    };
+    let dev = |i: usize| res[i] + value(i);
+    let located: Vec<usize> = (0..a.n())
+        .filter(|&i| a.first[i] && dev(i).abs() > crit * noise && dev(i) * h > 0.0)
+        .collect();
+    if located.is_empty() {
+        return format!(
+            "; no reading of the first cycle deviates from the rest of the model by more than {crit:.2} noise floors ({:.3} µm)",
+            crit * noise
+        );
+    }
+    let tnum = |i: usize| {
+        a.targets
+            .iter()
+            .position(|&t| (t - a.x[i]).abs() <= 1e-6 * (a.hi - a.lo))
+            .unwrap_or(0)
+            + 1
+    };
+    let places: Vec<String> = located
+        .iter()
+        .map(|&i| {
+            format!(
+                "{} at {:.1} mm (target {} of {})",
+                if a.d[i] > 0.0 { "+" } else { "−" },
+                a.x[i],
+                tnum(i),
+                a.targets.len(),
+            )
+        })
+        .collect();
+    let per_run: Vec<String> = a
+        .runs
+        .iter()
+        .map(|&r| {
+            let v: Vec<String> = located
+                .iter()
+                .map(|&l| {
+                    (0..a.n())
+                        .filter(|&i| a.run[i] == r && a.group[i] == a.group[l])
+                        .map(|i| format!("{:+.1}", dev(i)))
+                        .collect::<Vec<_>>()
+                        .join("/")
+                })
+                .collect();
+            format!("run {r} {}", v.join(", "))
+        })
+        .collect();
+    format!(
+        "; located in the first cycle: run {}, {}; decay over the cycles, deviation from the rest of the model at those readings (µm): {} (noise floor {noise:.3} µm)",
+        a.run[located[0]],
+        places.join(", "),
+        per_run.join("; ")
+    )
 }
 
 /// Targets where (mean − approach − mean + approach) of the rigid residuals has the sign of
@@ -367,13 +602,14 @@ fn plots(
             spacing: a.spacing,
             targets: vec![],
             group: vec![0; grid.len()],
+            first: vec![false; grid.len()],
+            t_first: a.t_first,
+            first_step: a.first_step,
+            first_duration: a.first_duration,
         };
         gd.design(model).predict(coef)
     };
-    let rigid = Model {
-        order: m.order.min(opts.max_base_order),
-        terms: vec![],
-    };
+    let rigid = Model::rigid(m.order.min(opts.max_base_order));
     let rfit = lsq::solve(&a.design(&rigid), &a.y);
     dev.push(PlotSeries {
         name: "rigid model".into(),
@@ -392,40 +628,98 @@ fn plots(
         .iter()
         .map(|&i| a.time[i] / if a.time_in_s { 3600.0 } else { 1.0 })
         .collect();
-    vec![
-        PlotData {
-            id: format!("positioning_{}", a.axis),
+    let mut out = vec![];
+    if let Some(order) = m.lost_motion {
+        // ISO 230-2's reversal B = x̄↑ − x̄↓ per target, of the readings less every other
+        // part of the model, and the model's −b(x).
+        let prof = a.profile(order);
+        let off = m.order + 1 + m.terms.iter().map(|t| t.effect.n_linear()).sum::<usize>();
+        let b = &coef[off..off + order + 1];
+        let lm = |i: usize| {
+            let p = prof.basis_at(a.x[i]);
+            -0.5 * a.d[i] * p.iter().zip(b).map(|(u, v)| u * v).sum::<f64>()
+        };
+        let mean = |g: usize| {
+            let v: Vec<f64> = (0..a.n())
+                .filter(|&i| a.group[i] == g)
+                .map(|i| res[i] + lm(i))
+                .collect();
+            (!v.is_empty()).then(|| v.iter().sum::<f64>() / v.len() as f64)
+        };
+        let (xs, ys): (Vec<f64>, Vec<f64>) = (0..a.targets.len())
+            .filter_map(|t| Some((a.targets[t], mean(2 * t)? - mean(2 * t + 1)?)))
+            .unzip();
+        out.push(PlotData {
+            id: format!("positioning_{}_reversal", a.axis),
             title: format!(
-                "axis {}: positioning deviation per approach direction",
+                "axis {}: reversal value along the travel (+ minus − approach)",
                 a.axis
             ),
             x_label: "target (mm)".into(),
-            y_label: "deviation (µm)".into(),
-            kind: PlotKind::Cartesian,
-            series: dev,
-        },
-        PlotData {
-            id: format!("positioning_{}_residuals", a.axis),
-            title: format!("axis {}: residuals before and after the effects", a.axis),
-            x_label: if a.time_in_s {
-                "time (h)".into()
-            } else {
-                "record".into()
-            },
-            y_label: "residual (µm)".into(),
+            y_label: "B (µm)".into(),
             kind: PlotKind::Cartesian,
             series: vec![
                 PlotSeries {
-                    name: "rigid model".into(),
-                    x: tx.clone(),
-                    y: idx.iter().map(|&i| base_res[i]).collect(),
+                    name: "measured B_i, other effects removed".into(),
+                    x: xs,
+                    y: ys,
                 },
                 PlotSeries {
-                    name: "with effects".into(),
-                    x: tx,
-                    y: idx.iter().map(|&i| res[i]).collect(),
+                    name: "lost motion profile −b(x)".into(),
+                    x: grid.clone(),
+                    y: grid
+                        .iter()
+                        .map(|&q| {
+                            -prof
+                                .basis_at(q)
+                                .iter()
+                                .zip(b)
+                                .map(|(u, v)| u * v)
+                                .sum::<f64>()
+                        })
+                        .collect(),
                 },
             ],
-        },
-    ]
+        });
+    }
+    out.splice(
+        0..0,
+        [
+            PlotData {
+                id: format!("positioning_{}", a.axis),
+                title: format!(
+                    "axis {}: positioning deviation per approach direction",
+                    a.axis
+                ),
+                x_label: "target (mm)".into(),
+                y_label: "deviation (µm)".into(),
+                kind: PlotKind::Cartesian,
+                series: dev,
+            },
+            PlotData {
+                id: format!("positioning_{}_residuals", a.axis),
+                title: format!("axis {}: residuals before and after the effects", a.axis),
+                x_label: if a.time_in_s {
+                    "time (h)".into()
+                } else {
+                    "record".into()
+                },
+                y_label: "residual (µm)".into(),
+                kind: PlotKind::Cartesian,
+                series: vec![
+                    PlotSeries {
+                        name: "rigid model".into(),
+                        x: tx.clone(),
+                        y: idx.iter().map(|&i| base_res[i]).collect(),
+                    },
+                    PlotSeries {
+                        name: "with effects".into(),
+                        x: tx,
+                        y: idx.iter().map(|&i| res[i]).collect(),
+                    },
+                ],
+            },
+        ],
+    );
+    out
 }
