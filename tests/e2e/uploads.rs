@@ -378,8 +378,7 @@ async fn an_excel_session_is_read_in_the_excel_dialect() {
     let before = app.counts().await;
     let msg = refusal_message(app.client.upload_files("VMC-X", &files).await);
     assert!(
-        msg.contains(".csv:1: the header is separated by `;`")
-            && msg.contains("csv_dialect=excel"),
+        msg.contains(".csv:1: the header is separated by `;`") && msg.contains("csv_dialect=excel"),
         "{msg}"
     );
     // An unknown dialect.
