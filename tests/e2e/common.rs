@@ -426,7 +426,9 @@ pub fn alert(id: &str, machine: &str, result_id: &str) -> mtcal_store::Alert {
         raised_at: "2026-04-06T09:00:00Z".into(),
         message: format!("{machine} drifted"),
         items: serde_json::json!([]),
+        details: None,
         acknowledged_at: None,
         acknowledged_by: None,
+        acknowledgement_comment: None,
     }
 }

@@ -10,6 +10,15 @@
 //! expanded uncertainty. A change inside its uncertainty never alerts. One alert per
 //! landed result at most (a job run twice raises one); the baseline itself never alerts.
 //!
+//! **What it says**: each alerting change with the two values it is the difference of
+//! (the baseline's and the landed check's, at the position that shows it, each with its
+//! expanded uncertainty) and the dates the two checks were measured ([`AlertChange`]),
+//! in the message in words (no stored id: the machine, the dates and the figures) and
+//! as data for the pages, which link the alert to the comparison of the two checks.
+//!
+//! **Acknowledgement**: who, when, and a comment (why, what was done), at most
+//! [`MAX_COMMENT`] characters; the first acknowledgement is kept.
+//!
 //! **Webhooks**: every tag profile of the machine's tags with a `webhook_url` receives the
 //! alert's JSON ([`AlertView`]) by `POST`, off the request path (a task of its own), with
 //! the tries and limits of [`crate::webhooks`]. A failing webhook is logged; it never
@@ -18,13 +27,60 @@
 use crate::error::DomainError;
 use crate::kinds::IDENTIFICATION;
 use crate::webhooks;
+use mtcal_solver::text::{num, unit_label, with_u};
 use mtcal_solver::tolerance::{self, VerdictItem};
-use mtcal_store::{Alert, Store, StoreError, now_rfc3339};
+use mtcal_store::{Alert, ResultMeta, Store, StoreError, now_rfc3339};
 use serde::{Deserialize, Serialize};
 use std::sync::Arc;
 
 /// Items named in an alert's message (all are in `items`).
 const MESSAGE_ITEMS: usize = 3;
+
+/// Longest acknowledgement comment, characters.
+pub const MAX_COMMENT: usize = 1000;
+
+/// A change that raised an alert, with the two values it is the difference of.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[cfg_attr(feature = "openapi", derive(utoipa::ToSchema))]
+pub struct AlertChange {
+    /// `EXX`, `EC0Y`, …
+    pub item: String,
+    /// `um` or `urad`.
+    pub unit: String,
+    /// Where along the travel the change was taken (absent for a squareness).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub position_mm: Option<f64>,
+    /// The baseline's value there and its standard uncertainty.
+    pub before: Option<f64>,
+    pub before_u: Option<f64>,
+    /// The landed check's value there and its standard uncertainty.
+    pub after: Option<f64>,
+    pub after_u: Option<f64>,
+    /// `after − before` and its standard uncertainty.
+    pub change: Option<f64>,
+    pub change_u: Option<f64>,
+    /// The drift threshold it exceeded by more than U = 2u.
+    pub threshold: f64,
+}
+
+/// What an alert's changes are the differences of: the two checks' dates and each
+/// change's values (stored with the alert).
+#[derive(Debug, Clone, PartialEq, Default, Serialize, Deserialize)]
+pub struct AlertDetails {
+    /// When the baseline and the landed check were measured (RFC 3339).
+    pub baseline_measured_at: String,
+    pub measured_at: String,
+    pub changes: Vec<AlertChange>,
+}
+
+/// An acknowledgement's body (`POST /api/v1/alerts/{id}/ack`; optional).
+#[derive(Debug, Clone, Default, Deserialize)]
+#[cfg_attr(feature = "openapi", derive(utoipa::ToSchema))]
+#[serde(deny_unknown_fields)]
+pub struct Acknowledgement {
+    /// Why it is acknowledged, what was done (at most 1000 characters; blank: none).
+    pub comment: Option<String>,
+}
 
 /// An alert as the API, the dashboard and the webhooks show it.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
@@ -45,15 +101,31 @@ pub struct AlertView {
     /// at the point that shows it (`value`, `u`, `expanded_u`, `position_mm`), the
     /// threshold (`limit`) and the comparison (`reason`).
     pub items: Vec<VerdictItem>,
+    /// When the baseline and the landed check were measured (absent for alerts raised by
+    /// an older version).
+    pub baseline_measured_at: Option<String>,
+    pub measured_at: Option<String>,
+    /// Each alerting change with the values before and after (empty for alerts raised
+    /// by an older version).
+    pub changes: Vec<AlertChange>,
     /// Not acknowledged yet.
     pub active: bool,
     pub acknowledged_at: Option<String>,
     /// The key that acknowledged it.
     pub acknowledged_by: Option<String>,
+    /// What was written when it was acknowledged.
+    pub acknowledgement_comment: Option<String>,
 }
 
 impl AlertView {
     pub fn of(a: &Alert) -> Result<AlertView, StoreError> {
+        let details: AlertDetails = match &a.details {
+            Some(d) => serde_json::from_value(d.clone()).map_err(|e| {
+                StoreError::Backend(format!("alert {} details do not read: {e}", a.id))
+            })?,
+            None => AlertDetails::default(),
+        };
+        let date = |s: String| (!s.is_empty()).then_some(s);
         Ok(AlertView {
             id: a.id.clone(),
             machine_id: a.machine_id.clone(),
@@ -65,9 +137,13 @@ impl AlertView {
             items: serde_json::from_value(a.items.clone()).map_err(|e| {
                 StoreError::Backend(format!("alert {} items do not read: {e}", a.id))
             })?,
+            baseline_measured_at: date(details.baseline_measured_at),
+            measured_at: date(details.measured_at),
+            changes: details.changes,
             active: a.acknowledged_at.is_none(),
             acknowledged_at: a.acknowledged_at.clone(),
             acknowledged_by: a.acknowledged_by.clone(),
+            acknowledgement_comment: a.acknowledgement_comment.clone(),
         })
     }
 }
@@ -108,16 +184,12 @@ pub async fn check_landed(
     if items.is_empty() {
         return Ok(None);
     }
-    let mut message = format!("{} drifted since baseline {}: ", machine.id, baseline.id);
-    let parts: Vec<String> = items
-        .iter()
-        .take(MESSAGE_ITEMS)
-        .map(|i| format!("{} {}", i.item, i.reason))
-        .collect();
-    message.push_str(&parts.join("; "));
-    if items.len() > MESSAGE_ITEMS {
-        message.push_str(&format!(" (and {} more)", items.len() - MESSAGE_ITEMS));
-    }
+    let details = AlertDetails {
+        baseline_measured_at: baseline.measured_at.clone(),
+        measured_at: landed.measured_at.clone(),
+        changes: items.iter().map(|i| change(baseline, landed, i)).collect(),
+    };
+    let message = message(&machine.id, &details);
     let alert = Alert {
         id: mtcal_store::rules::new_id("alert"),
         machine_id: machine.id.clone(),
@@ -127,8 +199,12 @@ pub async fn check_landed(
         raised_at: now_rfc3339(),
         message,
         items: serde_json::to_value(&items).map_err(|e| StoreError::Backend(e.to_string()))?,
+        details: Some(
+            serde_json::to_value(&details).map_err(|e| StoreError::Backend(e.to_string()))?,
+        ),
         acknowledged_at: None,
         acknowledged_by: None,
+        acknowledgement_comment: None,
     };
     let Some(stored) = store.raise_alert(&alert).await? else {
         return Ok(None);
@@ -139,6 +215,68 @@ pub async fn check_landed(
         tokio::spawn(webhooks::deliver(url, view.id.clone(), view.clone()));
     }
     Ok(Some(view))
+}
+
+/// The change of alerting item `i` with the values of `before` and `after` it is the
+/// difference of, at the item's position (a term) or as a whole (a squareness).
+fn change(before: &ResultMeta, after: &ResultMeta, i: &VerdictItem) -> AlertChange {
+    let value = |r: &ResultMeta| match i.position_mm {
+        Some(q) => crate::trends::value(&r.scalars, &i.item, q),
+        None => crate::trends::squareness(&r.scalars, &i.item),
+    };
+    let (b, a) = (value(before), value(after));
+    AlertChange {
+        item: i.item.clone(),
+        unit: i.unit.clone(),
+        position_mm: i.position_mm,
+        before: b.as_ref().map(|v| v.value),
+        before_u: b.and_then(|v| v.u),
+        after: a.as_ref().map(|v| v.value),
+        after_u: a.and_then(|v| v.u),
+        change: i.value,
+        change_u: i.u,
+        threshold: i.limit,
+    }
+}
+
+/// The date of an RFC 3339 time as it was stated (`2026-01-05`).
+fn date(rfc3339: &str) -> &str {
+    rfc3339.get(..10).unwrap_or(rfc3339)
+}
+
+/// An alert's message: the machine, the two checks' dates and, for the first
+/// [`MESSAGE_ITEMS`] changes, the values before and after with their expanded
+/// uncertainties, the change and the threshold (no stored id).
+pub fn message(machine: &str, d: &AlertDetails) -> String {
+    let (from, to) = (date(&d.baseline_measured_at), date(&d.measured_at));
+    let parts: Vec<String> = d
+        .changes
+        .iter()
+        .take(MESSAGE_ITEMS)
+        .map(|c| {
+            let at = c
+                .position_mm
+                .map_or_else(String::new, |q| format!(" at {} mm", num(q)));
+            format!(
+                "{}{at} from {} ({from}) to {} ({to}), a change of {}, beyond the threshold \
+                 of {} {} by more than U",
+                c.item,
+                with_u(c.before, c.before_u, &c.unit),
+                with_u(c.after, c.after_u, &c.unit),
+                with_u(c.change, c.change_u, &c.unit),
+                num(c.threshold),
+                unit_label(&c.unit),
+            )
+        })
+        .collect();
+    let mut m = format!(
+        "{machine} drifted between its baseline check of {from} and the check of {to}: {}",
+        parts.join("; ")
+    );
+    if d.changes.len() > MESSAGE_ITEMS {
+        m.push_str(&format!(" (and {} more)", d.changes.len() - MESSAGE_ITEMS));
+    }
+    m
 }
 
 /// Most alerts one list returns.
@@ -171,7 +309,32 @@ pub async fn list(store: &dyn Store, q: &AlertQuery) -> Result<Vec<AlertView>, D
     Ok(rows.iter().map(AlertView::of).collect::<Result<_, _>>()?)
 }
 
-/// Acknowledges alert `id` as `by` (the first acknowledgement is kept).
-pub async fn acknowledge(store: &dyn Store, id: &str, by: &str) -> Result<AlertView, DomainError> {
-    Ok(AlertView::of(&store.acknowledge_alert(id, by).await?)?)
+/// Acknowledges alert `id` as `by` with an optional comment (blank: none; at most
+/// [`MAX_COMMENT`] characters, no control characters but line breaks and tabs); the
+/// first acknowledgement is kept.
+pub async fn acknowledge(
+    store: &dyn Store,
+    id: &str,
+    by: &str,
+    comment: Option<&str>,
+) -> Result<AlertView, DomainError> {
+    let comment = comment.map(str::trim).filter(|c| !c.is_empty());
+    if let Some(c) = comment {
+        let n = c.chars().count();
+        if n > MAX_COMMENT {
+            return Err(DomainError::Invalid(format!(
+                "comment: at most {MAX_COMMENT} characters, got {n}"
+            )));
+        }
+        if c.chars()
+            .any(|ch| ch.is_control() && ch != '\n' && ch != '\t' && ch != '\r')
+        {
+            return Err(DomainError::Invalid(
+                "comment: no control characters but line breaks and tabs".into(),
+            ));
+        }
+    }
+    Ok(AlertView::of(
+        &store.acknowledge_alert(id, by, comment).await?,
+    )?)
 }

@@ -57,6 +57,16 @@ pub fn value(s: &ResultScalars, name: &str, q_mm: f64) -> Option<Value> {
     comparison::term_value(&Stored(s), Term::parse(name)?, q_mm)
 }
 
+/// Squareness `name` (`EC0Y`, `EB0Z`, `EA0Z`) of a stored result with its standard
+/// uncertainty, µrad (`None`: not identified).
+pub fn squareness(s: &ResultScalars, name: &str) -> Option<Value> {
+    let stored = Stored(s);
+    Some(Value {
+        value: stored.squareness(name)?,
+        u: stored.squareness_std(name),
+    })
+}
+
 /// Standard uncertainty of squareness `name` (`EC0Y`, `EB0Z`, `EA0Z`) of a stored
 /// result, µrad (`None`: not stored).
 pub fn squareness_u(s: &ResultScalars, name: &str) -> Option<f64> {

@@ -449,3 +449,78 @@ async fn fleet_reads_are_whole_while_results_land_and_baselines_change_on_postgr
     concurrent_story(&pg.url).await;
     pg.drop_schema().await.unwrap();
 }
+
+/// A failing machine's fleet entry says why: how many limits failed of how many, and the
+/// failing item with its value, uncertainty, position and limit; a machine of the same
+/// tag with no check yet shows the tag's profile (not "no tolerance"), without a verdict.
+#[tokio::test]
+async fn the_fleet_says_why_a_machine_fails_and_which_profile_an_unchecked_one_has() {
+    let dir = tempfile::tempdir().unwrap();
+    let (app, keys, store) =
+        crate::common::app_on(dir.path().join("t.sqlite").to_str().unwrap()).await;
+    let write = keys.write;
+    for m in ["M1", "M3"] {
+        crate::common::machine(&app, &write, m).await;
+        let tags = json!({"tags": ["vmc"]});
+        call(
+            &app,
+            "PATCH",
+            &format!("/api/v1/machines/{m}"),
+            &write,
+            tags,
+        )
+        .await;
+    }
+    // EXX = 0.1·q over X ∈ [−50, 50]: 5 µm at the ends, u = 0.05 µm there (var 1e-6);
+    // against 3 µm: |5| − 0.1 > 3 fails. EC0Y is not limited.
+    let p = call(
+        &app,
+        "POST",
+        "/api/v1/tolerances",
+        &write,
+        json!({"scope": "tag", "target": "vmc", "limits": {"terms": {"EXX": 3.0}}}),
+    )
+    .await;
+    let r = store
+        .import_result(identification("M1", "2026-01-01T00:00:00Z", 0.10, 1e-6))
+        .await
+        .unwrap();
+    result_landed(&store, "M1", &r.id).await.unwrap();
+    let fleet = call(
+        &app,
+        "GET",
+        "/api/v1/fleet?sort=name",
+        &keys.read,
+        Value::Null,
+    )
+    .await;
+    let of = |id: &str| {
+        fleet["machines"]
+            .as_array()
+            .unwrap()
+            .iter()
+            .find(|m| m["machine_id"] == id)
+            .unwrap()
+            .clone()
+    };
+    let m1 = of("M1");
+    assert_eq!(m1["verdict"], "fail", "{m1}");
+    let s = &m1["verdict_summary"];
+    assert_eq!(
+        (&s["items"], &s["failed"], &s["undecided"]),
+        (&json!(1), &json!(1), &json!(0))
+    );
+    let reason = s["reasons"][0].as_str().unwrap();
+    assert!(
+        reason.starts_with("EXX ")
+            && reason.contains(" µm at ")
+            && reason.ends_with("(limit 3.000 µm)"),
+        "{reason}"
+    );
+    let m3 = of("M3");
+    assert_eq!(m3["last_check"], Value::Null, "{m3}");
+    assert_eq!(m3["verdict"], Value::Null);
+    assert_eq!(m3["tolerance_profile_id"], p["id"]);
+    assert_eq!(m3["tolerance_profile"]["scope"], "tag");
+    assert_eq!(m3["tolerance_profile"]["target"], "vmc");
+}

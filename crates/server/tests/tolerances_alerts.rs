@@ -412,7 +412,36 @@ async fn a_drift_inside_its_uncertainty_raises_no_alert_one_3_sigma_outside_does
     assert_eq!(item.position_mm.map(f64::abs), Some(50.0));
     assert_eq!(item.limit, 5.0);
     assert_eq!(alert.baseline_result_id, base.id);
-    assert!(alert.message.contains("EXX"), "{}", alert.message);
+    // The message says it in words: the machine, both checks' dates, the values before
+    // and after with U, the change and the threshold; no stored id.
+    let m = &alert.message;
+    assert!(
+        m.starts_with(
+            "M1 drifted between its baseline check of 2026-01-05 and the check of 2026-07-05: EXX at "
+        ) && m.contains(" mm from 0.000 ± 1.414 µm (2026-01-05) to ")
+            && m.contains("8.000 ± 1.414 µm (2026-07-05), a change of ")
+            && m.contains("8.000 ± 2.000 µm, beyond the threshold of 5.000 µm by more than U"),
+        "{m}"
+    );
+    assert!(!m.contains(&base.id) && !m.contains(&outside.id), "{m}");
+    assert_eq!(
+        (
+            alert.baseline_measured_at.as_deref(),
+            alert.measured_at.as_deref()
+        ),
+        (Some("2026-01-05T08:00:00Z"), Some("2026-07-05T08:00:00Z"))
+    );
+    let c = &alert.changes[0];
+    // Before: c1 = 0 with u = s·50 = 0.7071 µm; after: ±8 µm; the change their difference.
+    assert_eq!(c.item, "EXX");
+    assert!(c.before.unwrap().abs() < 1e-12, "{c:?}");
+    assert!(
+        (c.before_u.unwrap() - 50.0 * S2.sqrt()).abs() < 1e-9,
+        "{c:?}"
+    );
+    assert!((c.after.unwrap().abs() - 8.0).abs() < 1e-9, "{c:?}");
+    assert!((c.after.unwrap() - c.before.unwrap() - c.change.unwrap()).abs() < 1e-9);
+    assert_eq!(c.threshold, 5.0);
     // Landing twice (a job run again) raises no second alert.
     assert!(
         mtcal_domain::landing::result_landed(&f.store, "M1", &outside.id)
@@ -441,9 +470,29 @@ async fn a_drift_inside_its_uncertainty_raises_no_alert_one_3_sigma_outside_does
     let ack = format!("/api/v1/alerts/{}/ack", alert.id);
     let (s, _) = send(&f.app, "POST", &ack, &f.read, None).await;
     assert_eq!(s, StatusCode::FORBIDDEN);
-    let (s, a) = send(&f.app, "POST", &ack, &f.write, None).await;
+    // A comment longer than 1000 characters is refused and acknowledges nothing.
+    let long = json!({"comment": "x".repeat(1001)});
+    let (s, b) = send(&f.app, "POST", &ack, &f.write, Some(long)).await;
+    assert_eq!(s, StatusCode::BAD_REQUEST, "{b}");
+    let (s, b) = send(&f.app, "POST", &ack, &f.write, Some(json!({"note": "x"}))).await;
+    assert_eq!(s, StatusCode::BAD_REQUEST, "{b}");
+    let (_, list) = send(&f.app, "GET", "/api/v1/alerts?active=true", &f.read, None).await;
+    assert_eq!(list.as_array().unwrap().len(), 1, "{list}");
+    let comment = json!({"comment": "  ballscrew re-tensioned, check repeated  "});
+    let (s, a) = send(&f.app, "POST", &ack, &f.write, Some(comment)).await;
     assert_eq!(s, StatusCode::OK, "{a}");
     assert_eq!(a["active"], false);
+    assert_eq!(
+        a["acknowledgement_comment"],
+        "ballscrew re-tensioned, check repeated"
+    );
+    // Acknowledged again (no body): the first acknowledgement stays, with its comment.
+    let (s, again) = send(&f.app, "POST", &ack, &f.write, None).await;
+    assert_eq!(s, StatusCode::OK, "{again}");
+    assert_eq!(
+        again["acknowledgement_comment"],
+        a["acknowledgement_comment"]
+    );
     assert!(
         a["acknowledged_by"].as_str().unwrap().contains("(ops)"),
         "{a}"

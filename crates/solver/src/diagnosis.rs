@@ -262,6 +262,9 @@ pub enum PlotKind {
     Cartesian,
     /// x is an angle in degrees, y a radial deviation drawn about a base circle.
     Polar,
+    /// x and y on straight axes, each point on its own (one value per run: points of
+    /// separate runs are not joined by lines).
+    Points,
 }
 
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]

@@ -15,6 +15,7 @@ pub mod error;
 pub mod kinematics;
 pub mod session;
 pub mod terms;
+pub mod text;
 
 // identification core.
 pub mod basis;

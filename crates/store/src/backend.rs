@@ -1274,8 +1274,9 @@ impl Store for This {
         Box::pin(async move {
             let done = sqlx::query(
                 "INSERT INTO alerts (id, machine_id, result_id, baseline_result_id, profile_id, \
-                 raised_at, message, items, acknowledged_at, acknowledged_by) \
-                 VALUES ($1, $2, $3, $4, $5, $6, $7, $8, NULL, NULL) \
+                 raised_at, message, items, details, acknowledged_at, acknowledged_by, \
+                 acknowledgement_comment) \
+                 VALUES ($1, $2, $3, $4, $5, $6, $7, $8, $9, NULL, NULL, NULL) \
                  ON CONFLICT (result_id) DO NOTHING",
             )
             .bind(&a.id)
@@ -1286,6 +1287,10 @@ impl Store for This {
             .bind(&a.raised_at)
             .bind(&a.message)
             .bind(serde_json::to_string(&a.items).db()?)
+            .bind(match &a.details {
+                Some(d) => Some(serde_json::to_string(d).db()?),
+                None => None,
+            })
             .execute(&self.pool)
             .await
             .db()?;
@@ -1332,15 +1337,21 @@ impl Store for This {
         })
     }
 
-    fn acknowledge_alert<'a>(&'a self, id: &'a str, by: &'a str) -> StoreFuture<'a, Alert> {
+    fn acknowledge_alert<'a>(
+        &'a self,
+        id: &'a str,
+        by: &'a str,
+        comment: Option<&'a str>,
+    ) -> StoreFuture<'a, Alert> {
         Box::pin(async move {
             sqlx::query(
-                "UPDATE alerts SET acknowledged_at = $2, acknowledged_by = $3 \
-                 WHERE id = $1 AND acknowledged_at IS NULL",
+                "UPDATE alerts SET acknowledged_at = $2, acknowledged_by = $3, \
+                 acknowledgement_comment = $4 WHERE id = $1 AND acknowledged_at IS NULL",
             )
             .bind(id)
             .bind(now_rfc3339())
             .bind(by)
+            .bind(comment)
             .execute(&self.pool)
             .await
             .db()?;

@@ -200,9 +200,14 @@ pub trait Store: Queue {
         active: Option<bool>,
         limit: i64,
     ) -> StoreFuture<'a, Vec<Alert>>;
-    /// Acknowledges an alert (recorded with `by` and the time); acknowledging an
-    /// acknowledged alert keeps the first record.
-    fn acknowledge_alert<'a>(&'a self, id: &'a str, by: &'a str) -> StoreFuture<'a, Alert>;
+    /// Acknowledges an alert (recorded with `by`, the time and the comment given);
+    /// acknowledging an acknowledged alert keeps the first record.
+    fn acknowledge_alert<'a>(
+        &'a self,
+        id: &'a str,
+        by: &'a str,
+        comment: Option<&'a str>,
+    ) -> StoreFuture<'a, Alert>;
 
     // Keys.
     /// Creates a key; returns it with the secret, which is not stored.

@@ -381,9 +381,16 @@ pub struct Alert {
     /// One line saying what changed, by how much, against which threshold.
     pub message: String,
     pub items: Value,
+    /// What each change is the difference of, with the dates (JSON; `None` for alerts
+    /// raised by an older version).
+    #[serde(default)]
+    pub details: Option<Value>,
     pub acknowledged_at: Option<String>,
     /// The key that acknowledged it (`key <id> (<label>)`).
     pub acknowledged_by: Option<String>,
+    /// What the person who acknowledged it wrote (why, what was done).
+    #[serde(default)]
+    pub acknowledgement_comment: Option<String>,
 }
 
 /// A stored row a list left out because it does not decode, and why: the rest of the

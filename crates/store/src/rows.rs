@@ -269,7 +269,8 @@ pub(crate) fn tolerance(r: &impl Columns) -> Result<ToleranceProfile> {
 
 /// The columns of an alert.
 pub(crate) const ALERT_COLUMNS: &str = "id, machine_id, result_id, baseline_result_id, \
-     profile_id, raised_at, message, items, acknowledged_at, acknowledged_by";
+     profile_id, raised_at, message, items, details, acknowledged_at, acknowledged_by, \
+     acknowledgement_comment";
 
 pub(crate) fn alert(r: &impl Columns) -> Result<Alert> {
     Ok(Alert {
@@ -281,8 +282,13 @@ pub(crate) fn alert(r: &impl Columns) -> Result<Alert> {
         raised_at: r.text("raised_at")?,
         message: r.text("message")?,
         items: r.json("items")?,
+        details: match r.opt_text("details")? {
+            Some(t) => Some(serde_json::from_str(&t).db()?),
+            None => None,
+        },
         acknowledged_at: r.opt_text("acknowledged_at")?,
         acknowledged_by: r.opt_text("acknowledged_by")?,
+        acknowledgement_comment: r.opt_text("acknowledgement_comment")?,
     })
 }
 

@@ -717,8 +717,10 @@ async fn tolerance_profiles_one_per_target_and_alerts_acknowledged_once(s: &dyn 
         raised_at: at.into(),
         message: "EXX changed".into(),
         items: json!([{"item": "EXX"}]),
+        details: Some(json!({"measured_at": at})),
         acknowledged_at: None,
         acknowledged_by: None,
+        acknowledgement_comment: None,
     };
     let a1 = s
         .raise_alert(&alert("al_1", &r1.id, "2026-03-01T00:00:00Z"))
@@ -726,6 +728,11 @@ async fn tolerance_profiles_one_per_target_and_alerts_acknowledged_once(s: &dyn 
         .unwrap()
         .unwrap();
     assert_eq!(a1.items[0]["item"], "EXX");
+    assert_eq!(
+        a1.details,
+        Some(json!({"measured_at": "2026-03-01T00:00:00Z"}))
+    );
+    assert_eq!(a1.acknowledgement_comment, None);
     // The same result again (a job run twice) raises nothing more.
     assert!(
         s.raise_alert(&alert("al_x", &r1.id, "2026-03-02T00:00:00Z"))
@@ -752,12 +759,27 @@ async fn tolerance_profiles_one_per_target_and_alerts_acknowledged_once(s: &dyn 
             .unwrap()
             .is_empty()
     );
-    let acked = s.acknowledge_alert("al_1", "key k1 (ops)").await.unwrap();
+    let acked = s
+        .acknowledge_alert("al_1", "key k1 (ops)", Some("spindle replaced — «ok»"))
+        .await
+        .unwrap();
     assert_eq!(acked.acknowledged_by.as_deref(), Some("key k1 (ops)"));
+    assert_eq!(
+        acked.acknowledgement_comment.as_deref(),
+        Some("spindle replaced — «ok»")
+    );
     let first = acked.acknowledged_at.clone().unwrap();
-    let again = s.acknowledge_alert("al_1", "key k2 (other)").await.unwrap();
+    let again = s
+        .acknowledge_alert("al_1", "key k2 (other)", Some("again"))
+        .await
+        .unwrap();
     assert_eq!(again.acknowledged_at.as_deref(), Some(first.as_str()));
     assert_eq!(again.acknowledged_by.as_deref(), Some("key k1 (ops)"));
+    assert_eq!(
+        again.acknowledgement_comment.as_deref(),
+        Some("spindle replaced — «ok»"),
+        "the first acknowledgement is kept, with its comment"
+    );
     assert_eq!(
         ids(s.list_alerts(None, Some(true), 10).await.unwrap()),
         ["al_2"]
@@ -767,7 +789,7 @@ async fn tolerance_profiles_one_per_target_and_alerts_acknowledged_once(s: &dyn 
         ["al_1"]
     );
     assert!(matches!(
-        s.acknowledge_alert("nope", "x").await,
+        s.acknowledge_alert("nope", "x", None).await,
         Err(StoreError::NotFound(_))
     ));
 }
@@ -929,8 +951,10 @@ async fn fleet_page_puts_alerted_machines_first_then_filters_sorts_and_counts(s:
         raised_at: "2026-03-02T00:00:00Z".into(),
         message: "m".into(),
         items: json!([]),
+        details: None,
         acknowledged_at: None,
         acknowledged_by: None,
+        acknowledgement_comment: None,
     };
     s.raise_alert(&alert("al_1")).await.unwrap();
     let p = s
@@ -944,7 +968,7 @@ async fn fleet_page_puts_alerted_machines_first_then_filters_sorts_and_counts(s:
     (page2.offset, page2.limit) = (1, 2);
     let p = s.fleet_page(&page2).await.unwrap();
     assert_eq!((ids(&p), p.total), (vec!["B".to_string(), "C".into()], 4));
-    s.acknowledge_alert("al_1", "x").await.unwrap();
+    s.acknowledge_alert("al_1", "x", None).await.unwrap();
     assert_eq!(
         ids(&s
             .fleet_page(&q(FleetSort::DriftUm, None, None))
@@ -1039,13 +1063,15 @@ async fn fleet_pages_equal_a_sort_of_every_machine_from_scratch(s: &dyn Store) {
             raised_at: "2026-05-09T00:00:00Z".into(),
             message: "m".into(),
             items: json!([]),
+            details: None,
             acknowledged_at: None,
             acknowledged_by: None,
+            acknowledgement_comment: None,
         })
         .await
         .unwrap();
         if machine_id == "M07" {
-            s.acknowledge_alert(&id, "x").await.unwrap();
+            s.acknowledge_alert(&id, "x", None).await.unwrap();
         } else {
             fleet
                 .iter_mut()

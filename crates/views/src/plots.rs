@@ -36,7 +36,7 @@ pub mod inspect;
 mod polar;
 mod spark;
 
-pub use band::{empty_panel, error_function, function_band};
+pub use band::{empty_panel, error_function, function_band, function_band_on};
 pub use bars::{finding_bars, ranking_bars};
 pub use errorbars::{
     BarPoint, ErrorBarChart, PointSeries, TrendPoint, TrendSeries, XScale, error_bar_chart,
@@ -100,21 +100,21 @@ pub fn tick_label(v: f64) -> String {
     tick(&v)
 }
 
-/// `um` → `µm`, `urad` → `µrad`, anything else unchanged.
-pub fn unit_label(unit: &str) -> &str {
-    match unit {
-        "um" => "µm",
-        "urad" => "µrad",
-        other => other,
-    }
-}
+pub use mtcal_solver::text::unit_label;
 
-/// Renders one diagnosis figure to an SVG document (module docs).
+/// Renders one diagnosis figure to an SVG document (module docs); its title and axis
+/// labels with units as a person writes them (`µm`, not `um`).
 pub fn render_svg(plot: &PlotData) -> String {
+    let plot = PlotData {
+        title: mtcal_solver::text::person_units(&plot.title),
+        x_label: mtcal_solver::text::person_units(&plot.x_label),
+        y_label: mtcal_solver::text::person_units(&plot.y_label),
+        ..plot.clone()
+    };
     if plot.kind == PlotKind::Polar {
-        polar::render(plot)
+        polar::render(&plot)
     } else {
-        svg(SIZE, &plot.title, |root| cartesian(root, plot))
+        svg(SIZE, &plot.title, |root| cartesian(root, &plot))
     }
 }
 
@@ -204,6 +204,17 @@ fn cartesian(root: &Area, plot: &PlotData) -> DrawResult {
         .draw()?;
     for (k, (s, p)) in plot.series.iter().zip(&pts).enumerate() {
         let color = COLORS[k % COLORS.len()];
+        if plot.kind == PlotKind::Points {
+            // One value per run: marks, not a line through separate runs.
+            chart
+                .draw_series(
+                    p.iter()
+                        .map(|&(x, y)| Circle::new((x, y), 4, color.filled())),
+                )?
+                .label(mtcal_solver::text::person_units(&s.name))
+                .legend(move |(x, y)| Circle::new((x + 9, y), 4, color.filled()));
+            continue;
+        }
         let style = ShapeStyle::from(&color).stroke_width(if s.name.starts_with("measured") {
             1
         } else {
@@ -276,6 +287,28 @@ pub(crate) mod tests {
                 || svg.matches("<line").count() > 2
                 || svg.contains("polyline")
         );
+    }
+
+    /// One value per run is drawn as separate marks, never a line joining runs; units in
+    /// the labels as a person writes them.
+    #[test]
+    fn points_of_separate_runs_are_not_joined() {
+        let mut p = plot(PlotKind::Points);
+        p.y_label = "RMS (um)".into();
+        p.series = vec![PlotSeries {
+            name: "before".into(),
+            x: vec![10.0, 200.0, 30.0, 400.0],
+            y: vec![1.0, 2.0, 1.5, 0.5],
+        }];
+        let svg = render_svg(&p);
+        assert!(svg.contains("RMS (µm)") && !svg.contains("(um)"), "{svg}");
+        let plot = crate::plots::inspect::parse(&svg).unwrap();
+        let color = crate::plots::inspect::hex(COLORS[0]);
+        assert!(
+            plot.marks("polyline", &color).is_empty(),
+            "no line through the runs"
+        );
+        assert!(svg.matches("<circle").count() >= 4, "{svg}");
     }
 
     #[test]

@@ -3,8 +3,71 @@
 
 use crate::error::DomainError;
 use crate::trends::{DRIFT_DEFINITION, Drift};
+use mtcal_solver::text::{num, unit_label, with_u};
+use mtcal_solver::tolerance::{Decision, Verdict, VerdictItem};
 use mtcal_store::Store;
 use serde::{Deserialize, Serialize};
+
+/// Items a [`VerdictSummary`] names.
+pub const SUMMARY_ITEMS: usize = 3;
+
+/// Why a verdict is what it is, for a fleet row: how many limits were decided, failed
+/// and undecided, and the items behind the verdict in words, furthest beyond (or
+/// closest to) their limit first.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[cfg_attr(feature = "openapi", derive(utoipa::ToSchema))]
+pub struct VerdictSummary {
+    /// Limits decided.
+    pub items: usize,
+    pub failed: usize,
+    pub undecided: usize,
+    /// The failing items (the undecided ones when none fails), at most
+    /// [`SUMMARY_ITEMS`], as `EXX 12.30 ± 0.40 µm at 50.00 mm (limit 10.00 µm)`.
+    pub reasons: Vec<String>,
+}
+
+impl VerdictSummary {
+    pub fn of(v: &Verdict) -> VerdictSummary {
+        let count = |d: Decision| v.items.iter().filter(|i| i.decision == d).count();
+        let (failed, undecided) = (count(Decision::Fail), count(Decision::Undecided));
+        let shown = if failed > 0 {
+            Decision::Fail
+        } else {
+            Decision::Undecided
+        };
+        // How far beyond its limit: |value| / limit (an item without a value last).
+        let ratio = |i: &VerdictItem| match i.value {
+            Some(v) if i.limit > 0.0 => v.abs() / i.limit,
+            _ => f64::NEG_INFINITY,
+        };
+        let mut items: Vec<&VerdictItem> = v.items.iter().filter(|i| i.decision == shown).collect();
+        items.sort_by(|a, b| ratio(b).total_cmp(&ratio(a)));
+        VerdictSummary {
+            items: v.items.len(),
+            failed,
+            undecided,
+            reasons: items
+                .iter()
+                .take(SUMMARY_ITEMS)
+                .map(|i| reason(i))
+                .collect(),
+        }
+    }
+}
+
+/// One verdict item in words: its value with U at its position, and its limit.
+fn reason(i: &VerdictItem) -> String {
+    let limit = format!("limit {} {}", num(i.limit), unit_label(&i.unit));
+    match i.value {
+        Some(_) => {
+            let at = i
+                .position_mm
+                .map_or_else(String::new, |q| format!(" at {} mm", num(q)));
+            format!("{} {}{at} ({limit})", i.item, with_u(i.value, i.u, &i.unit))
+        }
+        None => format!("{} not determined ({limit})", i.item),
+    }
+}
 
 #[derive(Debug, Clone, Serialize, Deserialize)]
 #[cfg_attr(feature = "openapi", derive(utoipa::ToSchema))]
@@ -25,6 +88,9 @@ pub struct FleetEntry {
     /// The tolerance profile the verdict is against.
     #[serde(default)]
     pub tolerance_profile_id: Option<String>,
+    /// Why the verdict is what it is (null: no verdict).
+    #[serde(default)]
+    pub verdict_summary: Option<VerdictSummary>,
     /// The worst µm term's value in each check, in time order, at the end of the latest
     /// check's measured travel where it changed more (null: not identified or not
     /// measured there); the fleet page's sparkline.

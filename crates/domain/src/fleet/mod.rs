@@ -7,7 +7,7 @@ pub mod entry;
 pub mod page;
 pub mod rows;
 
-pub use entry::{FleetDrift, FleetEntry, FleetQuery};
+pub use entry::{FleetDrift, FleetEntry, FleetQuery, VerdictSummary};
 pub use page::{FleetList, FleetMachine, FleetParams, LastCheck};
 pub use rows::{
     ROW_FORMAT, Refreshed, basis, refresh_all, refresh_machine, refresh_profile_targets, sparkline,

@@ -8,7 +8,7 @@
 //! ([`mtcal_store::Store::fleet_page`]: an index walk that stops once the page is full).
 
 use crate::error::DomainError;
-use crate::fleet::entry::FleetEntry;
+use crate::fleet::entry::{FleetEntry, VerdictSummary};
 use crate::kinds::IDENTIFICATION;
 use crate::trends::{DRIFT_DEFINITION, Drift};
 use mtcal_solver::tolerance::Decision;
@@ -60,8 +60,13 @@ pub struct FleetMachine {
     /// The latest identification's verdict against the machine's tolerance profile
     /// (null: no identification, no profile applies, or none of its limits applies).
     pub verdict: Option<Decision>,
-    /// The tolerance profile the verdict is against.
+    /// The tolerance profile that applies to the machine (its own, else its first tag's
+    /// that has one), whether or not it has a check to decide.
     pub tolerance_profile_id: Option<String>,
+    /// That profile's scope and target (`tag` `vmc`).
+    pub tolerance_profile: Option<crate::verdicts::ProfileRef>,
+    /// Why the verdict is what it is: counts and the items behind it (null: no verdict).
+    pub verdict_summary: Option<VerdictSummary>,
     /// The baseline the drift is measured from (its chosen one, else its first
     /// identification).
     pub baseline_result_id: Option<String>,
@@ -122,8 +127,17 @@ fn order(sort: &str) -> Result<FleetSort, DomainError> {
 
 /// A machine's entry from its page row; a stored drift that does not decode adds a
 /// warning and leaves the drift out.
-fn machine(r: FleetPageRow, warnings: &mut Vec<String>) -> FleetMachine {
+fn machine(
+    r: FleetPageRow,
+    profiles: &[mtcal_store::ToleranceProfile],
+    warnings: &mut Vec<String>,
+) -> FleetMachine {
     let m = r.machine;
+    let applies = crate::profiles::applicable(profiles, &m).map(|p| crate::verdicts::ProfileRef {
+        id: p.id.clone(),
+        scope: p.scope.clone(),
+        target: p.target.clone(),
+    });
     let entry = r
         .drift
         .and_then(|d| match serde_json::from_value::<FleetEntry>(d.entry) {
@@ -146,7 +160,7 @@ fn machine(r: FleetPageRow, warnings: &mut Vec<String>) -> FleetMachine {
         )),
         (None, None) => None,
     };
-    let (last_check, verdict, profile, baseline, results, drift, sparkline) = match entry {
+    let (last_check, verdict, summary, baseline, results, drift, sparkline) = match entry {
         Some(e) => (
             Some(LastCheck {
                 result_id: e.latest_result_id,
@@ -154,7 +168,7 @@ fn machine(r: FleetPageRow, warnings: &mut Vec<String>) -> FleetMachine {
                 measured_at: e.latest_measured_at,
             }),
             e.verdict,
-            e.tolerance_profile_id,
+            e.verdict_summary,
             Some(e.baseline_result_id),
             e.results,
             Some(e.drift),
@@ -170,7 +184,9 @@ fn machine(r: FleetPageRow, warnings: &mut Vec<String>) -> FleetMachine {
         active_alerts: r.active_alerts.max(0),
         last_check,
         verdict,
-        tolerance_profile_id: profile,
+        tolerance_profile_id: applies.as_ref().map(|p| p.id.clone()),
+        tolerance_profile: applies,
+        verdict_summary: summary,
         baseline_result_id: baseline,
         results,
         drift,
@@ -200,11 +216,12 @@ pub async fn page(store: &dyn Store, q: &FleetParams) -> Result<FleetList, Domai
             limit: limit as i64,
         })
         .await?;
+    let profiles = store.list_tolerances().await?;
     let mut warnings = vec![];
     let machines = found
         .rows
         .into_iter()
-        .map(|r| machine(r, &mut warnings))
+        .map(|r| machine(r, &profiles, &mut warnings))
         .collect();
     Ok(FleetList {
         definition: DRIFT_DEFINITION.into(),

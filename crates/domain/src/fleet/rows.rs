@@ -30,7 +30,7 @@ use std::collections::HashMap;
 
 /// The format of the rows this version computes: raised whenever what a row holds or how
 /// it is computed changes, so that rows of an older computation are recomputed at start.
-pub const ROW_FORMAT: u32 = 1;
+pub const ROW_FORMAT: u32 = 2;
 
 /// Rows written per transaction by [`refresh_all`].
 const REFRESH_BATCH: usize = 500;
@@ -123,6 +123,10 @@ async fn row(
     .await?;
     let entry = FleetEntry {
         verdict: verdict.as_ref().and_then(|(_, v)| v.decision),
+        verdict_summary: verdict
+            .as_ref()
+            .filter(|(_, v)| v.decision.is_some())
+            .map(|(_, v)| crate::fleet::entry::VerdictSummary::of(v)),
         tolerance_profile_id: verdict.map(|(p, _)| p.id),
         sparkline,
         drift,

@@ -7,7 +7,7 @@ use crate::error::{ApiError, ApiQuery, ErrorBody};
 use axum::Json;
 use axum::extract::{Path, State};
 use mtcal_domain::alerts;
-pub use mtcal_domain::alerts::{AlertQuery, AlertView, MAX_ALERTS};
+pub use mtcal_domain::alerts::{Acknowledgement, AlertQuery, AlertView, MAX_ALERTS};
 
 #[utoipa::path(operation_id = "alerts_list", summary = "Drift alerts, newest first", get, path = "/api/v1/alerts", tag = "alerts",
     security(("api_key" = [])), params(AlertQuery),
@@ -20,15 +20,24 @@ pub async fn list(
     Ok(Json(alerts::list(s.store.as_ref(), &q).await?))
 }
 
-#[utoipa::path(operation_id = "alerts_ack", summary = "Acknowledge a drift alert (who and when recorded)", post, path = "/api/v1/alerts/{id}/ack", tag = "alerts",
+#[utoipa::path(operation_id = "alerts_ack", summary = "Acknowledge a drift alert (who, when and a comment recorded)", post, path = "/api/v1/alerts/{id}/ack", tag = "alerts",
     security(("api_key" = ["write"])), params(("id" = String, Path)),
+    request_body(content = Acknowledgement, content_type = "application/json", description = "optional: the comment (an empty body acknowledges without one)"),
     responses((status = 200, body = AlertView, description = "acknowledged (an acknowledged alert keeps its first acknowledgement)"),
-              (status = 401, body = ErrorBody), (status = 403, body = ErrorBody), (status = 404, body = ErrorBody)))]
+              (status = 400, body = ErrorBody), (status = 401, body = ErrorBody), (status = 403, body = ErrorBody), (status = 404, body = ErrorBody)))]
 pub async fn ack(
     WriteKey(key): WriteKey,
     State(s): State<AppState>,
     Path(id): Path<String>,
+    body: axum::body::Bytes,
 ) -> Result<Json<AlertView>, ApiError> {
     let by = format!("key {} ({})", key.id, key.label);
-    Ok(Json(alerts::acknowledge(s.store.as_ref(), &id, &by).await?))
+    let ack: Acknowledgement = if body.iter().all(u8::is_ascii_whitespace) {
+        Acknowledgement::default()
+    } else {
+        serde_json::from_slice(&body).map_err(|e| ApiError::InvalidRequest(format!("body: {e}")))?
+    };
+    Ok(Json(
+        alerts::acknowledge(s.store.as_ref(), &id, &by, ack.comment.as_deref()).await?,
+    ))
 }

@@ -54,9 +54,15 @@ fn alert_row(a: &AlertView) -> AlertRow {
         result_id: a.result_id.clone(),
         raised_at: a.raised_at.clone(),
         message: a.message.clone(),
+        compare_href: Some(format!(
+            "/compare?a={}&b={}",
+            views::encode(&a.baseline_result_id),
+            views::encode(&a.result_id)
+        )),
         acknowledged: !a.active,
         acknowledged_at: a.acknowledged_at.clone(),
         acknowledged_by: a.acknowledged_by.clone(),
+        comment: a.acknowledgement_comment.clone(),
     }
 }
 
@@ -162,6 +168,16 @@ pub async fn fleet(
                 measured_at: c.measured_at,
             }),
             verdict: m.verdict.map(|d| d.as_str().to_string()),
+            verdict_counts: m
+                .verdict_summary
+                .as_ref()
+                .map(|v| (v.items, v.failed, v.undecided)),
+            verdict_reasons: m.verdict_summary.map(|v| v.reasons).unwrap_or_default(),
+            profile: m.tolerance_profile.map(|p| match p.scope.as_str() {
+                "tag" => format!("tag {}", p.target),
+                _ => "the machine's own".to_string(),
+            }),
+            results: usize::try_from(m.results).unwrap_or(0),
             drift_um: m
                 .drift
                 .as_ref()
@@ -607,18 +623,31 @@ pub async fn compare(
                 unit: t.unit.clone(),
                 positions_mm: t.positions_mm.clone(),
                 diff: t.delta.clone(),
-                std: vec![f64::NAN; t.delta.len()],
+                std: if t.u.len() == t.delta.len() {
+                    t.u.clone()
+                } else {
+                    vec![f64::NAN; t.delta.len()]
+                },
                 not_compared: (!t.identifiable)
                     .then(|| "not identifiable in one of the two checks".to_string()),
             })
             .collect(),
         squareness: ["EC0Y", "EB0Z", "EA0Z"]
             .iter()
-            .map(|n| compare::SquarenessDiff {
-                name: n.to_string(),
-                a: (sq(&d.baseline, n), None),
-                b: (sq(&d.against, n), None),
-                diff: (d.squareness.get(*n).copied().flatten(), None),
+            .map(|n| {
+                let (ua, ub) = (
+                    domain_trends::squareness_u(&d.baseline.scalars, n),
+                    domain_trends::squareness_u(&d.against.scalars, n),
+                );
+                compare::SquarenessDiff {
+                    name: n.to_string(),
+                    a: (sq(&d.baseline, n), ua),
+                    b: (sq(&d.against, n), ub),
+                    diff: (
+                        d.squareness.get(*n).copied().flatten(),
+                        ua.zip(ub).map(|(a, b)| a.hypot(b)),
+                    ),
+                }
             })
             .collect(),
     };
@@ -751,6 +780,8 @@ pub struct AckForm {
     #[serde(default)]
     csrf: String,
     next: Option<String>,
+    /// Why, what was done (optional).
+    comment: Option<String>,
 }
 
 /// `POST /alerts/{id}/ack`: the acknowledge route of the API, then back to `next`.
@@ -763,7 +794,7 @@ pub async fn ack_alert(
     session.check_csrf(&f.csrf)?;
     session.require_write()?;
     let by = format!("key {} ({})", session.key.id, session.key.label);
-    alerts::acknowledge(s.app.store.as_ref(), &id, &by).await?;
+    alerts::acknowledge(s.app.store.as_ref(), &id, &by, f.comment.as_deref()).await?;
     Ok(Redirect::to(&super::local_path(f.next.as_deref())).into_response())
 }
 

@@ -14,10 +14,13 @@ pub struct AlertRow {
     pub result_id: String,
     pub raised_at: String,
     pub message: String,
+    /// The comparison of the baseline with the check that raised it.
+    pub compare_href: Option<String>,
     pub acknowledged: bool,
-    /// When and by which key, once acknowledged.
+    /// When and by which key, once acknowledged, and what was written.
     pub acknowledged_at: Option<String>,
     pub acknowledged_by: Option<String>,
+    pub comment: Option<String>,
 }
 
 /// The alerts page's content.
@@ -29,8 +32,9 @@ pub struct AlertsPage {
     pub state: String,
 }
 
-/// A table of alerts; a write key gets an acknowledge button on each active one, which
-/// comes back to `back` (a path of this site).
+/// A table of alerts, each linked to the comparison of its two checks; a write key gets
+/// an acknowledge button with a comment field on each active one, which comes back to
+/// `back` (a path of this site).
 pub fn alert_table(viewer: &Viewer, alerts: &[AlertRow], back: &str) -> Markup {
     html! {
         table.alerts {
@@ -40,7 +44,12 @@ pub fn alert_table(viewer: &Viewer, alerts: &[AlertRow], back: &str) -> Markup {
                     tr.alert[!a.acknowledged] data-alert=(a.id) {
                         td { a href=(machine_href(&a.machine_id)) { (a.machine_id) } }
                         td { a href=(result_href(&a.result_id)) { (when(&a.raised_at)) } }
-                        td { (a.message) }
+                        td {
+                            (a.message)
+                            @if let Some(href) = &a.compare_href {
+                                " " a.compare href=(href) { "compare the two checks" }
+                            }
+                        }
                         td {
                             @if a.acknowledged {
                                 span.muted {
@@ -48,10 +57,13 @@ pub fn alert_table(viewer: &Viewer, alerts: &[AlertRow], back: &str) -> Markup {
                                     @if let Some(t) = &a.acknowledged_at { " " (when(t)) }
                                     @if let Some(b) = &a.acknowledged_by { " by " (b) }
                                 }
+                                @if let Some(c) = &a.comment { p.ack-comment { "“" (c) "”" } }
                             } @else if viewer.can_write() {
                                 form.inline method="post" action={ "/alerts/" (encode(&a.id)) "/ack" } {
                                     (csrf_field(&viewer.csrf))
                                     input type="hidden" name="next" value=(back);
+                                    input type="text" name="comment" maxlength="1000" size="18"
+                                        placeholder="comment (optional)" aria-label="comment";
                                     button.secondary type="submit" { "Acknowledge" }
                                 }
                             } @else {
@@ -114,9 +126,11 @@ mod tests {
             result_id: "r9".into(),
             raised_at: "2026-04-06T09:00:00Z".into(),
             message: "EXX |change| - U = 6.1 - 0.4 > 5 um".into(),
+            compare_href: Some("/compare?a=r1&b=r9".into()),
             acknowledged: acked,
             acknowledged_at: acked.then(|| "2026-04-07T10:00:00Z".into()),
             acknowledged_by: acked.then(|| "key k1 (ops)".into()),
+            comment: acked.then(|| "ballscrew re-tensioned".into()),
         }
     }
 
@@ -134,6 +148,12 @@ mod tests {
             "acknowledged once"
         );
         assert!(html.contains("by key k1 (ops)"));
+        assert!(html.contains("“ballscrew re-tensioned”"), "{html}");
+        assert!(
+            html.contains(r#"name="comment""#),
+            "a comment with the acknowledgement"
+        );
+        assert!(html.contains(r#"href="/compare?a=r1&amp;b=r9""#), "{html}");
         assert!(html.contains(r#"value="/alerts?state=all&amp;machine=VMC-1""#));
         let read = alerts_page(&viewer("read"), &p).into_string();
         assert!(!read.contains("/ack"));

@@ -37,6 +37,14 @@ pub struct FleetRow {
     /// The latest identification, else the latest check of another kind.
     pub last_check: Option<Check>,
     pub verdict: Option<String>,
+    /// Limits decided, failed and undecided (with a verdict).
+    pub verdict_counts: Option<(usize, usize, usize)>,
+    /// The items behind the verdict in words, worst first.
+    pub verdict_reasons: Vec<String>,
+    /// The tolerance profile that applies (`tag vmc`, `machine`), verdict or not.
+    pub profile: Option<String>,
+    /// Its identifications (one: the baseline alone, no drift yet).
+    pub results: usize,
     pub drift_um: Option<Drift>,
     pub drift_urad: Option<Drift>,
     /// Why there is no drift (shown across the drift columns instead).
@@ -93,6 +101,60 @@ fn drift(d: &Option<Drift>) -> Markup {
                 (super::with_u(Some(d.value), d.std, &d.unit))
             }
         },
+    }
+}
+
+/// The verdict cell: the badge with how many limits failed (or are undecided) and the
+/// items behind it; without a verdict, whether a profile applies and why nothing was
+/// decided.
+fn verdict_cell(r: &FleetRow) -> Markup {
+    html! {
+        @match (&r.verdict, &r.profile) {
+            (Some(v), _) => {
+                (verdict_badge(Some(v)))
+                @if let Some((n, failed, undecided)) = r.verdict_counts {
+                    " " span.verdict-count { @if failed > 0 { (failed) " of " (n) " limits fail" }
+                        @else if undecided > 0 { (undecided) " of " (n) " limits undecided" }
+                        @else { "all " (n) " limits pass" } }
+                }
+                @for reason in &r.verdict_reasons { div.reason.muted { (reason) } }
+            }
+            (None, Some(p)) => {
+                @if r.last_check.is_none() {
+                    span.badge.none title={ "the " (p) " tolerance profile applies" } { "not checked yet" }
+                } @else {
+                    span.badge.none title="none of the profile's limits applies to this check" { "no limit applies" }
+                }
+                div.reason.muted { "profile: " (p) }
+            }
+            (None, None) => { (verdict_badge(None)) }
+        }
+    }
+}
+
+/// The sparkline of the worst term with its name and the range of its values, so that
+/// the line can be read (it is scaled to fill its box).
+fn sparkline_cell(r: &FleetRow) -> Markup {
+    let known: Vec<f64> = r
+        .worst_trend
+        .iter()
+        .copied()
+        .filter(|v| v.is_finite())
+        .collect();
+    let (lo, hi) = known
+        .iter()
+        .fold((f64::INFINITY, f64::NEG_INFINITY), |(a, b), &v| {
+            (a.min(v), b.max(v))
+        });
+    let term = r.drift_um.as_ref().and_then(|d| d.term.clone());
+    html! {
+        @if r.worst_trend.len() > 1 && !known.is_empty() {
+            (svg(plots::sparkline(&r.worst_trend)))
+            div.spark-scale {
+                @if let Some(t) = &term { (t) " " }
+                (super::num(lo)) " to " (super::num(hi)) " µm"
+            }
+        }
     }
 }
 
@@ -165,14 +227,16 @@ pub fn fleet_page(viewer: &Viewer, f: &FleetPage) -> Markup {
                                 }
                                 None => { span.muted { "no check yet" } }
                             } }
-                            td { (verdict_badge(r.verdict.as_deref())) }
+                            td.verdict { (verdict_cell(r)) }
                             @if let (None, Some(note)) = (&r.drift_um, &r.drift_note) {
                                 td.muted.drift-note colspan="3" { (note) }
+                            } @else if r.results == 1 {
+                                td.muted.drift-note colspan="3" { "no drift yet: one check, the baseline" }
                             } @else {
                                 td.num { (drift(&r.drift_um)) }
                                 td.num { (drift(&r.drift_urad)) }
                                 td.spark title=[r.drift_um.as_ref().and_then(|d| d.term.clone())] {
-                                    @if r.worst_trend.len() > 1 { (svg(plots::sparkline(&r.worst_trend))) }
+                                    (sparkline_cell(r))
                                 }
                             }
                         }
@@ -195,6 +259,12 @@ mod tests {
     use super::*;
     use crate::pages::tests::viewer;
 
+    /// The `<tr>` of machine `id` in a fleet page's HTML.
+    fn row_html(html: &str, id: &str) -> String {
+        let start = html.find(&format!(r#"data-machine="{id}""#)).unwrap();
+        html[start..start + html[start..].find("</tr>").unwrap()].to_string()
+    }
+
     fn row(id: &str, alerts: usize) -> FleetRow {
         FleetRow {
             machine_id: id.into(),
@@ -207,6 +277,13 @@ mod tests {
                 measured_at: "2026-04-06T08:00:00Z".into(),
             }),
             verdict: Some("fail".into()),
+            verdict_counts: Some((24, 2, 1)),
+            verdict_reasons: vec![
+                "EXX 12.30 ± 0.400 µm at 50.00 mm (limit 10.00 µm)".into(),
+                "EC0Y 31.00 ± 0.200 µrad (limit 30.00 µrad)".into(),
+            ],
+            profile: Some("tag 5-axis".into()),
+            results: 3,
             drift_um: Some(Drift {
                 value: 4.2,
                 std: Some(0.3),
@@ -257,6 +334,12 @@ mod tests {
         assert!(html.contains(r#"<option value="north" selected>north</option>"#));
         assert!(html.contains(r#"action="/alerts/a1/ack""#));
         assert!(html.contains("<svg"), "sparkline");
+        assert!(
+            html.contains("EXX 0.000 to 4.200 µm"),
+            "the sparkline's scale"
+        );
+        assert!(html.contains("2 of 24 limits fail"), "{html}");
+        assert!(html.contains("EXX 12.30 ± 0.400 µm at 50.00 mm (limit 10.00 µm)"));
         assert!(html.contains("250 machine(s)"));
         assert!(
             html.contains(r#"href="/?sort=drift&amp;site=north&amp;page=3""#),
@@ -286,8 +369,10 @@ mod tests {
         };
         let none = FleetRow {
             last_check: None,
+            verdict: None,
             drift_um: None,
             drift_note: None,
+            results: 0,
             ..row("VMC-9", 0)
         };
         let page = FleetPage {
@@ -299,10 +384,7 @@ mod tests {
             ..FleetPage::default()
         };
         let html = fleet_page(&viewer("read"), &page).into_string();
-        let row_of = |id: &str| {
-            let start = html.find(&format!(r#"data-machine="{id}""#)).unwrap();
-            html[start..start + html[start..].find("</tr>").unwrap()].to_string()
-        };
+        let row_of = |id: &str| row_html(&html, id);
         let cradle = row_of("5AX-1");
         assert!(cradle.contains(r#"href="/results/r9""#), "{cradle}");
         assert!(cradle.contains("(cradle)"), "{cradle}");
@@ -312,5 +394,59 @@ mod tests {
         );
         assert!(!cradle.contains("no check yet"), "{cradle}");
         assert!(row_of("VMC-9").contains("no check yet"));
+    }
+
+    /// A machine with no check under a tag's profile says the profile applies and that it
+    /// is not checked yet (not "no tolerance"); a machine with one check has no drift yet
+    /// (not a drift of 0 ± U); a machine without a profile has no tolerance.
+    #[test]
+    fn unchecked_one_check_and_unprofiled_machines_say_so() {
+        let unchecked = FleetRow {
+            last_check: None,
+            verdict: None,
+            verdict_counts: None,
+            verdict_reasons: vec![],
+            drift_um: None,
+            results: 0,
+            worst_trend: vec![],
+            ..row("VMC-7", 0)
+        };
+        let one = FleetRow {
+            results: 1,
+            worst_trend: vec![0.0],
+            drift_um: Some(Drift {
+                value: 0.0,
+                std: Some(0.007),
+                unit: "um".into(),
+                term: Some("EXX".into()),
+                at_mm: Some(50.0),
+            }),
+            ..row("VMC-8", 0)
+        };
+        let none = FleetRow {
+            verdict: None,
+            profile: None,
+            ..row("VMC-6", 0)
+        };
+        let page = FleetPage {
+            rows: vec![unchecked, one, none],
+            sort: "drift".into(),
+            total: 3,
+            page: 1,
+            pages: 1,
+            ..FleetPage::default()
+        };
+        let html = fleet_page(&viewer("read"), &page).into_string();
+        let row_of = |id: &str| row_html(&html, id);
+        let unchecked = row_of("VMC-7");
+        assert!(
+            unchecked.contains("not checked yet") && unchecked.contains("profile: tag 5-axis"),
+            "{unchecked}"
+        );
+        assert!(!unchecked.contains("no tolerance"), "{unchecked}");
+        let one = row_of("VMC-8");
+        assert!(one.contains("no drift yet"), "{one}");
+        assert!(!one.contains("0.000 ± 0.014"), "{one}");
+        assert!(row_of("VMC-6").contains("no tolerance"));
     }
 }

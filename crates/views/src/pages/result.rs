@@ -152,6 +152,16 @@ pub fn result_page(
                 @if header.is_baseline { " · " span.badge { "baseline" } }
                 " · " a href={ "/api/v1/results/" (super::encode(&header.id)) } { "JSON" }
             }
+            @if header.kind == "identification" {
+                p.links #result-links {
+                    a.report href={ "/api/v1/results/" (super::encode(&header.id)) "/report" } { "Check report" }
+                    " · compensation tables: "
+                    @for (k, f) in mtcal_formats::compensation::Format::ALL.iter().enumerate() {
+                        @if k > 0 { ", " }
+                        a.export href={ "/api/v1/results/" (super::encode(&header.id)) "/export?format=" (f.name()) } { (f.name()) }
+                    }
+                }
+            }
             @if header.kind == "identification" && viewer.can_write() && !header.is_baseline {
                 form.inline method="post" action={ (machine_href(&header.machine_id)) "/baseline" } {
                     (csrf_field(&viewer.csrf))
@@ -386,7 +396,7 @@ pub fn diagnosis(d: &DiagnosisResult) -> Markup {
                 h2 { "Finding: " (f.effect.replace('_', " ")) @if let Some(a) = &f.axis { " (" (a) ")" } }
                 div.pair {
                     div {
-                        p { (f.physics) }
+                        p { (mtcal_solver::text::person_units(&f.physics)) }
                         table {
                             thead { tr { th { "" } th.num { "before (µm)" } th.num { "after (µm)" } } }
                             tbody {
@@ -397,7 +407,7 @@ pub fn diagnosis(d: &DiagnosisResult) -> Markup {
                         h3 { "Parameters" }
                         table { tbody { @for (k, v) in &f.parameters { tr { td { (k) } td.num { (num(*v)) } } } } }
                         (undetermined(f))
-                        p.muted { (f.evidence) }
+                        p.muted { (mtcal_solver::text::person_units(&f.evidence)) }
                     }
                     figure.plot { (svg(plots::finding_bars(f, d.baseline.noise_estimate_um))) }
                 }
@@ -406,9 +416,9 @@ pub fn diagnosis(d: &DiagnosisResult) -> Markup {
         @for f in &d.possible {
             section.card.possible data-effect=(f.effect) {
                 h2 { "Possible, undetermined: " (f.effect.replace('_', " ")) @if let Some(a) = &f.axis { " (" (a) ")" } }
-                p { (f.physics) }
+                p { (mtcal_solver::text::person_units(&f.physics)) }
                 (undetermined(f))
-                p.muted { (f.evidence) }
+                p.muted { (mtcal_solver::text::person_units(&f.evidence)) }
             }
         }
         @if !d.plots.is_empty() {
@@ -688,6 +698,18 @@ mod tests {
             result_page(&viewer("write"), &header("identification"), &verdict, &body).into_string();
         assert!(html.contains("Set as baseline"));
         assert!(html.contains("2.000 ± 0.200 µm") && html.contains("2.100 µm"));
+        // The result links to its check report and its compensation tables.
+        let id = super::super::encode(&header("identification").id);
+        assert!(
+            html.contains(&format!(r#"href="/api/v1/results/{id}/report""#)),
+            "{html}"
+        );
+        for f in ["isg", "etalon", "heidenhain", "csv"] {
+            assert!(
+                html.contains(&format!(r#"href="/api/v1/results/{id}/export?format={f}""#)),
+                "{f}"
+            );
+        }
         for name in TERM_ORDER {
             let t = &doc.terms[name];
             let fig = figure(&html, name);

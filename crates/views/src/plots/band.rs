@@ -87,6 +87,17 @@ pub fn error_function(name: &str, term: &TermReport, travel_mm: Option<[f64; 2]>
 /// finite are left out; the band is drawn only when every uncertainty is known (finite);
 /// fewer than two points make an [`empty_panel`].
 pub fn function_band(name: &str, title: &str, points: &[(f64, f64, f64)]) -> String {
+    function_band_on(name, title, points, None)
+}
+
+/// [`function_band`] with the value axis spanning at least `y_range` (a scale shared by
+/// several panels, so that a small change is drawn small); points beyond it widen it.
+pub fn function_band_on(
+    name: &str,
+    title: &str,
+    points: &[(f64, f64, f64)],
+    y_range: Option<(f64, f64)>,
+) -> String {
     let pts: Vec<(f64, f64, f64)> = points
         .iter()
         .copied()
@@ -95,10 +106,16 @@ pub fn function_band(name: &str, title: &str, points: &[(f64, f64, f64)]) -> Str
     if pts.len() < 2 {
         return empty_panel(title, "no values inside the measured travel");
     }
-    svg(PANEL, title, |root| band(root, name, title, &pts))
+    svg(PANEL, title, |root| band(root, name, title, &pts, y_range))
 }
 
-fn band(root: &Area, name: &str, title: &str, pts: &[(f64, f64, f64)]) -> DrawResult {
+fn band(
+    root: &Area,
+    name: &str,
+    title: &str,
+    pts: &[(f64, f64, f64)],
+    y_range: Option<(f64, f64)>,
+) -> DrawResult {
     let x0 = pts[0].0;
     let x1 = pts[pts.len() - 1].0;
     let with_band = pts.iter().all(|p| p.2.is_finite());
@@ -106,6 +123,10 @@ fn band(root: &Area, name: &str, title: &str, pts: &[(f64, f64, f64)]) -> DrawRe
     let lo = pts.iter().map(|p| p.1 - u(p));
     let hi = pts.iter().map(|p| p.1 + u(p));
     let (y0, y1) = super::range(lo.chain(hi)).ok_or("no points")?;
+    let (y0, y1) = match y_range {
+        Some((a, b)) => (y0.min(a), y1.max(b)),
+        None => (y0, y1),
+    };
     let mut chart = ChartBuilder::on(root)
         .caption(title, ("sans-serif", 16))
         .margin(8)

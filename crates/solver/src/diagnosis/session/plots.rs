@@ -36,7 +36,7 @@ pub(crate) fn plots(d: &Design, before: &[f64], after: &[f64]) -> Vec<PlotData> 
                 d.files[run.plane_idx], run.number
             ),
             x_label: "angle (deg)".into(),
-            y_label: "radial residual (um)".into(),
+            y_label: "radial residual (µm)".into(),
             kind: PlotKind::Polar,
             series: vec![series(before, "before"), series(after, "after")],
         });
@@ -60,8 +60,8 @@ pub(crate) fn plots(d: &Design, before: &[f64], after: &[f64]) -> Vec<PlotData> 
         id: "rms_vs_time".into(),
         title: "residual RMS of each run against session time".into(),
         x_label: "time (s)".into(),
-        y_label: "RMS (um)".into(),
-        kind: PlotKind::Cartesian,
+        y_label: "RMS (µm)".into(),
+        kind: PlotKind::Points,
         series: vec![per_run(before, "before"), per_run(after, "after")],
     });
     out

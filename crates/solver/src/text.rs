@@ -1,0 +1,97 @@
+//! How quantities are written for a person, in every output of mtcal (pages, reports,
+//! the CLI's summaries, alert messages): a number with digits that suit its size
+//! ([`num`]), a value with its expanded uncertainty U = 2u ([`with_u`]) and units as a
+//! person writes them ([`unit_label`]: `µm`, `µrad`, never `um`).
+
+/// `um` → `µm`, `urad` → `µrad`, anything else unchanged.
+pub fn unit_label(unit: &str) -> &str {
+    match unit {
+        "um" => "µm",
+        "urad" => "µrad",
+        other => other,
+    }
+}
+
+/// A number with a precision that suits its size: 3 decimals below 10, 2 below 100,
+/// 1 below 100 000, then 4 significant digits in scientific form (`1.712e7`).
+pub fn num(v: f64) -> String {
+    if !v.is_finite() {
+        return "—".into();
+    }
+    let a = v.abs();
+    if a >= 1e5 {
+        format!("{v:.3e}")
+    } else if a < 10.0 {
+        format!("{v:.3}")
+    } else if a < 100.0 {
+        format!("{v:.2}")
+    } else {
+        format!("{v:.1}")
+    }
+}
+
+/// `value ± U unit` with U = 2u; `value unit` when u is unknown; `—` without a value.
+pub fn with_u(value: Option<f64>, u: Option<f64>, unit: &str) -> String {
+    let unit = unit_label(unit);
+    match (value, u) {
+        (Some(v), Some(u)) if u.is_finite() => format!("{} ± {} {unit}", num(v), num(2.0 * u)),
+        (Some(v), _) => format!("{} {unit}", num(v)),
+        (None, _) => "—".into(),
+    }
+}
+
+/// `text` with the unit words `um` and `urad` written as a person writes them (`µm`,
+/// `µrad`): for messages and labels written in ASCII (`RMS (um)` → `RMS (µm)`, `um/K`
+/// → `µm/K`). Only whole words change: `sum`, `du_um` and `umbrella` stay as they are.
+pub fn person_units(text: &str) -> String {
+    let word = |c: char| c.is_alphanumeric() || c == '_';
+    let mut out = String::with_capacity(text.len() + 8);
+    let mut rest = text;
+    let mut prev: Option<char> = None;
+    while let Some(c) = rest.chars().next() {
+        let starts_word = prev.is_none_or(|p| !word(p));
+        let unit = ["urad", "um"]
+            .into_iter()
+            .find(|u| starts_word && rest.starts_with(u) && !rest[u.len()..].starts_with(word));
+        match unit {
+            Some(u) => {
+                out.push_str(unit_label(u));
+                rest = &rest[u.len()..];
+                prev = u.chars().last();
+            }
+            None => {
+                out.push(c);
+                rest = &rest[c.len_utf8()..];
+                prev = Some(c);
+            }
+        }
+    }
+    out
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn unit_words_in_text_are_written_as_a_person_writes_them() {
+        assert_eq!(person_units("RMS (um)"), "RMS (µm)");
+        assert_eq!(person_units("um/K and urad, 3 um"), "µm/K and µrad, 3 µm");
+        assert_eq!(person_units("um"), "µm");
+        for same in ["sum", "du_um", "umbrella", "drum kit", "µm", "forum: um2"] {
+            assert_eq!(person_units(same), same);
+        }
+    }
+
+    #[test]
+    fn numbers_and_units_as_a_person_writes_them() {
+        assert_eq!(with_u(Some(3.2104), Some(0.05), "um"), "3.210 ± 0.100 µm");
+        assert_eq!(with_u(Some(-123.45), None, "urad"), "-123.5 µrad");
+        assert_eq!(with_u(None, Some(1.0), "um"), "—");
+        assert_eq!(num(214.21033695945158), "214.2");
+        assert_eq!(num(17_123_456.0), "1.712e7");
+        assert_eq!(num(-0.0004), "-0.000");
+        assert_eq!(num(f64::NAN), "—");
+        assert_eq!(unit_label("mm"), "mm");
+    }
+}
