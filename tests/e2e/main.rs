@@ -18,6 +18,7 @@ mod jobs;
 mod restart;
 mod roundtrip;
 mod schemathesis;
+mod security;
 mod series;
 mod uploads;
 mod web;
