@@ -126,9 +126,23 @@ pub(crate) fn read_file_limited(
     name: &str,
     limits: &Limits,
 ) -> Result<Vec<u8>, FormatError> {
-    let meta = std::fs::metadata(path)
-        .map_err(|e| FormatError::file(name, format!("cannot read file: {e}")))?;
-    if meta.len() > limits.max_bytes as u64 {
+    read_file_into(path, name, limits, Vec::new())
+}
+
+/// [`read_file_limited`] into `buf`, emptied first: its memory is reused (a session's
+/// plane files are read one after the other into the buffers of the files already
+/// parsed, so their pages are not faulted in anew for every file).
+pub(crate) fn read_file_into(
+    path: &std::path::Path,
+    name: &str,
+    limits: &Limits,
+    mut buf: Vec<u8>,
+) -> Result<Vec<u8>, FormatError> {
+    use std::io::Read;
+    let cannot = |e: std::io::Error| FormatError::file(name, format!("cannot read file: {e}"));
+    let mut file = std::fs::File::open(path).map_err(cannot)?;
+    let len = file.metadata().map_err(cannot)?.len();
+    if len > limits.max_bytes as u64 {
         return Err(FormatError::file(
             name,
             format!(
@@ -138,7 +152,10 @@ pub(crate) fn read_file_limited(
         )
         .as_limit());
     }
-    std::fs::read(path).map_err(|e| FormatError::file(name, format!("cannot read file: {e}")))
+    buf.clear();
+    buf.reserve_exact(len as usize);
+    file.read_to_end(&mut buf).map_err(cannot)?;
+    Ok(buf)
 }
 
 /// The metadata of a dataset path given by a user, or an error naming the full path and
