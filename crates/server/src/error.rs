@@ -12,6 +12,14 @@ use mtcal_store::StoreError;
 use serde::{Deserialize, Serialize};
 use utoipa::ToSchema;
 
+/// What a client is told to wait before trying again after a 503.
+pub const RETRY_AFTER: std::time::Duration = std::time::Duration::from_secs(5);
+
+/// Marks a response made of an [`ApiError::Unavailable`]: the database was unreachable
+/// (the outage guard marks the database down when it sees one).
+#[derive(Debug, Clone, Copy)]
+pub struct Unreachable;
+
 /// Error body.
 #[derive(Debug, Clone, Serialize, Deserialize, ToSchema)]
 pub struct ErrorBody {
@@ -66,7 +74,7 @@ pub enum ApiError {
     /// The service cannot serve yet (database unreachable, migrations missing).
     #[error("{0}")]
     NotReady(String),
-    /// The database cannot be reached now (crate::outage): 503 with Retry-After.
+    /// The database cannot be reached now: 503 with Retry-After.
     #[error("{0}; try again in a few seconds")]
     Unavailable(String),
     #[error("internal error: {0}")]
@@ -115,16 +123,17 @@ impl ApiError {
     }
 
     /// Marks a response made of this error: a 503 says when to try again
-    /// (`Retry-After`), and an unreachable database is noted for [`crate::outage`].
+    /// (`Retry-After`), and an unreachable database is noted ([`Unreachable`], read by
+    /// the outage guard).
     pub fn mark(&self, resp: &mut Response) {
         if matches!(self, ApiError::NotReady(_) | ApiError::Unavailable(_)) {
             resp.headers_mut().insert(
                 axum::http::header::RETRY_AFTER,
-                axum::http::HeaderValue::from(crate::outage::RETRY_AFTER.as_secs()),
+                axum::http::HeaderValue::from(RETRY_AFTER.as_secs()),
             );
         }
         if matches!(self, ApiError::Unavailable(_)) {
-            resp.extensions_mut().insert(crate::outage::Unreachable);
+            resp.extensions_mut().insert(Unreachable);
         }
     }
 

@@ -14,7 +14,7 @@
 //! - `mtcal_uploads_reading`: uploads this process is reading now (each holds one of the
 //!   `MAX_CONCURRENT_UPLOADS` slots of `crate::router`; the others wait for one).
 //! - `mtcal_database_up` (1 or 0) and `mtcal_database_unavailable_total` (requests
-//!   answered 503 because the database could not be reached): `crate::outage`.
+//!   answered 503 because the database could not be reached), kept by the outage guard.
 
 use axum::extract::{MatchedPath, Request, State};
 use axum::http::header;

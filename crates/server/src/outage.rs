@@ -19,14 +19,9 @@ use axum::response::{IntoResponse, Response};
 use std::sync::atomic::{AtomicBool, AtomicI64, Ordering};
 use std::time::Duration;
 
-/// What a client is told to wait before trying again.
-pub const RETRY_AFTER: Duration = Duration::from_secs(5);
+pub use crate::error::{RETRY_AFTER, Unreachable};
 /// While the database is down, one request per this interval probes it.
 pub const PROBE_INTERVAL: Duration = Duration::from_secs(1);
-
-/// Marks a response made of a [`ApiError::Unavailable`]: the database was unreachable.
-#[derive(Debug, Clone, Copy)]
-pub struct Unreachable;
 
 /// The reachability of the process's database.
 #[derive(Debug, Default)]
