@@ -606,6 +606,10 @@ pub fn read_plane_csv(file: &str, bytes: &[u8], limits: &Limits) -> Result<Vec<R
     }
     crate::units::check_micrometres(file, "du_um", runs.iter().map(|r| r.du_um.as_slice()))?;
     crate::units::check_micrometres(file, "dv_um", runs.iter().map(|r| r.dv_um.as_slice()))?;
+    crate::units::check_speed(
+        file,
+        runs.iter().map(|r| (r.t_s.as_slice(), r.pos_mm.as_slice())),
+    )?;
     Ok(runs)
 }
 

@@ -320,7 +320,7 @@ pub fn simulate(truth: &PolyErrors, opts: &SimOptions) -> Result<SimOutput, Solv
         topology: Some(opts.topology.clone()),
         temperature_c: Some(20.0),
         notes: Some(format!(
-            "simulated by mtcal (seed {}, noise {} um{})",
+            "simulated by mtcal (seed {}, noise {} µm{})",
             opts.seed,
             opts.noise_um,
             if opts.effects.is_empty() {
