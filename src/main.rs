@@ -5,7 +5,7 @@
 //! through `cli::out::write`, notes to stderr through `cli::out::note`.
 #![deny(clippy::print_stdout, clippy::print_stderr)]
 
-use clap::{Parser, Subcommand};
+use clap::{CommandFactory, FromArgMatches, Parser, Subcommand};
 use std::process::ExitCode;
 
 mod cli;
@@ -55,8 +55,28 @@ enum Command {
     Admin(cli::admin::Args),
 }
 
+/// The command line with every option that takes a value accepting a negative number
+/// (`--noise-um -1`), so that the command's own check says what is wrong with it instead
+/// of clap calling it an unexpected argument.
+fn command() -> clap::Command {
+    fn negatives(c: clap::Command) -> clap::Command {
+        c.mut_args(|a| {
+            if a.get_action().takes_values() {
+                a.allow_negative_numbers(true)
+            } else {
+                a
+            }
+        })
+        .mut_subcommands(negatives)
+    }
+    negatives(Cli::command())
+}
+
 fn main() -> ExitCode {
-    let cli = Cli::parse();
+    let cli = match Cli::from_arg_matches(&command().get_matches()) {
+        Ok(cli) => cli,
+        Err(e) => e.exit(),
+    };
     let result = match cli.command {
         Command::Simulate(a) => cli::simulate::run(a),
         Command::Identify(a) => cli::identify::run(a),

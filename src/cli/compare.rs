@@ -58,10 +58,12 @@ pub fn run(args: Args) -> anyhow::Result<ExitCode> {
     Ok(ExitCode::SUCCESS)
 }
 
+use mtcal_views::plots::unit_label;
+
 fn summary(c: &Comparison) -> String {
     let u = |u: Option<f64>| u.map_or("u not stored".into(), |u| format!("u = {u:.3}"));
     let mut s = format!(
-        "drift (largest change over the travel both checks measured):\n  {:.3} um ({}) in {}\n  {:.3} urad ({}) in {}\n",
+        "drift (largest change over the travel both checks measured):\n  {:.3} µm ({}) in {}\n  {:.3} µrad ({}) in {}\n",
         c.drift.drift_um,
         u(c.drift.drift_um_u),
         c.drift.worst_term_um.as_deref().unwrap_or("-"),
@@ -80,22 +82,30 @@ fn summary(c: &Comparison) -> String {
             (Some([lo, hi]), Some((i, v))) => {
                 s += &format!(
                     "{name:<6} {:<5} [{lo:>8.1}, {hi:>8.1}]  {:>14.3}  {:>8.1}  {}\n",
-                    d.unit,
+                    unit_label(&d.unit),
                     v,
                     d.positions_mm[i],
                     d.u.get(i).map_or("-".into(), |u| format!("{u:.3}"))
                 )
             }
             _ if !d.identifiable => {
-                s += &format!("{name:<6} {:<5} not identifiable in both\n", d.unit)
+                s += &format!(
+                    "{name:<6} {:<5} not identifiable in both\n",
+                    unit_label(&d.unit)
+                )
             }
-            _ => s += &format!("{name:<6} {:<5} no common measured travel\n", d.unit),
+            _ => {
+                s += &format!(
+                    "{name:<6} {:<5} no common measured travel\n",
+                    unit_label(&d.unit)
+                )
+            }
         }
     }
     for (name, v) in &c.squareness {
         match v {
-            Some(v) => s += &format!("{name:<6} urad  {v:.3}\n"),
-            None => s += &format!("{name:<6} urad  not identifiable in both\n"),
+            Some(v) => s += &format!("{name:<6} µrad  {v:.3}\n"),
+            None => s += &format!("{name:<6} µrad  not identifiable in both\n"),
         }
     }
     if !c.drift.not_compared.is_empty() {

@@ -65,6 +65,7 @@ pub fn run(args: Args) -> anyhow::Result<ExitCode> {
         .as_ref()
         .expect("clap requires POINTS or --simulate");
     let limits = args.read.limits();
+    mtcal_formats::stat_path(path)?;
     let points = mtcal_formats::read_rotary_points_path(path, &limits)?;
     let mut opts = CradleOptions {
         registered_frame: !args.unregistered,

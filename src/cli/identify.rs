@@ -6,6 +6,7 @@ use super::BadInput;
 use anyhow::Context;
 use mtcal_solver::basis::BasisKind;
 use mtcal_solver::identification::{IdentificationResult, IdentifyOptions, Method, identify};
+use mtcal_views::plots::unit_label;
 use std::path::PathBuf;
 use std::process::ExitCode;
 
@@ -96,8 +97,10 @@ pub fn summary(r: &IdentificationResult) -> String {
     );
     let _ = writeln!(
         s,
-        "identifiability: rank {} of {} parameters, condition number {:.3e}",
-        o.rank, o.parameters, o.condition_number
+        "identifiability: rank {} of {} parameters, condition number {}",
+        o.rank,
+        o.parameters,
+        mtcal_views::pages::num(o.condition_number)
     );
     let _ = writeln!(
         s,
@@ -112,13 +115,13 @@ pub fn summary(r: &IdentificationResult) -> String {
             let _ = writeln!(
                 s,
                 "{name:<6} {:>5} {min:>12.3} {max:>12.3} {sd:>10.3}",
-                t.unit
+                unit_label(&t.unit)
             );
         } else {
             let _ = writeln!(
                 s,
                 "{name:<6} {:>5} {:>36}",
-                t.unit,
+                unit_label(&t.unit),
                 if t.confounded_with.is_empty() {
                     "not identifiable (no effect in this plan)".to_string()
                 } else {
@@ -130,10 +133,10 @@ pub fn summary(r: &IdentificationResult) -> String {
     for (name, q) in &r.squareness {
         match (q.value_urad, q.std_urad) {
             (Some(v), Some(sd)) => {
-                let _ = writeln!(s, "{name:<6} {:>5} {v:>12.3} ± {sd:.3}", "urad");
+                let _ = writeln!(s, "{name:<6} {:>5} {v:>12.3} ± {sd:.3}", "µrad");
             }
             _ => {
-                let _ = writeln!(s, "{name:<6} {:>5} {:>36}", "urad", "not identifiable");
+                let _ = writeln!(s, "{name:<6} {:>5} {:>36}", "µrad", "not identifiable");
             }
         }
     }

@@ -45,15 +45,19 @@ impl ReadArgs {
 #[error("{0}")]
 pub struct BadInput(pub String);
 
-/// Reads a JSON document, reporting the file, line and column of a syntax or schema error
-/// (a bad input, exit code 2).
+/// Reads a JSON document, reporting the file, line and column of a syntax or schema error;
+/// a file that cannot be read (missing, not readable, not UTF-8) is named with the
+/// system's reason. Both are bad input, exit code 2.
 pub fn read_json<T: serde::de::DeserializeOwned>(
     path: &std::path::Path,
     what: &str,
 ) -> anyhow::Result<T> {
-    use anyhow::Context;
-    let text = std::fs::read_to_string(path)
-        .with_context(|| format!("reading {what} {}", path.display()))?;
+    let text = std::fs::read_to_string(path).map_err(|e| {
+        BadInput(format!(
+            "{}: cannot read the {what} file: {e}",
+            path.display()
+        ))
+    })?;
     serde_json::from_str(&text).map_err(|e| {
         anyhow::Error::new(BadInput(format!(
             "{}: line {} column {}: {e}",

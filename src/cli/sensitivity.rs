@@ -220,7 +220,7 @@ pub fn render(res: &SensitivityResult, extra_rows: usize) -> String {
         let _ = writeln!(
             o,
             "{:>4}  {:<6} {:>12} {:>12} {:>9}  {:>12} {:>9} {:>9}",
-            "rank", "error", "sens mean", "sens max", "unit", "contrib um", "coef", "cum"
+            "rank", "error", "sens mean", "sens max", "unit", "contrib µm", "coef", "cum"
         );
         let mut cum = 0.0;
         let rows = (r.key_errors.len() + extra_rows).min(r.ranking.len());

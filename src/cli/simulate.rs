@@ -5,6 +5,7 @@
 
 use super::BadInput;
 use anyhow::Context;
+use mtcal_solver::simulate::effects::EFFECT_NAMES;
 use mtcal_solver::simulate::{Effect, Plan, SimOptions, random_truth, simulate};
 use std::path::PathBuf;
 use std::process::ExitCode;
@@ -27,14 +28,23 @@ pub struct Args {
     /// Sample rate, Hz.
     #[arg(long, default_value_t = 100.0)]
     pub rate_hz: f64,
-    /// An effect the rigid model lacks, with optional parameters, e.g.
-    /// `backlash:axis=X,lost_motion_um=4` (repeatable). Names: backlash, servo_lag,
-    /// reversal_spike, cyclic, thermal_drift, setup_offset, waviness, vibration.
-    #[arg(long = "effect", value_name = "NAME[:k=v,...]")]
+    /// An effect the rigid model lacks, with optional parameters (repeatable); the help
+    /// lists the names the simulator accepts ([`effect_help`]).
+    #[arg(long = "effect", value_name = "NAME[:k=v,...]", help = effect_help())]
     pub effects: Vec<String>,
     /// Machine id written into session.json.
     #[arg(long, default_value = "SIM-0001")]
     pub machine_id: String,
+}
+
+/// The help of `--effect`: the names of [`EFFECT_NAMES`], the list the simulator's own
+/// refusal of an unknown name gives.
+fn effect_help() -> String {
+    format!(
+        "An effect the rigid model lacks, with optional parameters, e.g. \
+         `backlash:axis=X,lost_motion_um=4` (repeatable). Names: {}",
+        EFFECT_NAMES.join(", ")
+    )
 }
 
 #[derive(clap::ValueEnum, Clone, Copy)]
@@ -44,6 +54,20 @@ pub enum PlanArg {
 }
 
 pub fn run(args: Args) -> anyhow::Result<ExitCode> {
+    if !(args.noise_um >= 0.0 && args.noise_um.is_finite()) {
+        return Err(BadInput(format!(
+            "--noise-um {}: the noise is a standard deviation, a finite number ≥ 0 µm",
+            args.noise_um
+        ))
+        .into());
+    }
+    if !(args.rate_hz > 0.0 && args.rate_hz.is_finite()) {
+        return Err(BadInput(format!(
+            "--rate-hz {}: the sample rate is a finite number > 0 Hz",
+            args.rate_hz
+        ))
+        .into());
+    }
     let effects = args
         .effects
         .iter()

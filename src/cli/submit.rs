@@ -98,16 +98,50 @@ pub fn run(args: Args) -> anyhow::Result<ExitCode> {
         if args.json {
             super::out::write(&(serde_json::to_string_pretty(&doc)? + "\n"))?;
         } else {
-            super::out::outln!(
-                "job {id}: result {} — residual {} µm, rank {}/{} (condition {}), EC0Y {} µrad",
-                job.result_id.as_deref().unwrap_or(""),
-                doc["fit"]["residual_rms_um"],
-                doc["observability"]["rank"],
-                doc["observability"]["parameters"],
-                doc["observability"]["condition_number"],
-                doc["squareness"]["EC0Y"]["value_urad"]
-            )?;
+            super::out::outln!("job {id}: {}", summary(&doc, job.result_id.as_deref()))?;
         }
         Ok(ExitCode::SUCCESS)
     })
+}
+
+/// One line about an identification result document: its figures with the digits the
+/// pages print (`mtcal_views::pages::num`), a figure it does not hold as `—`.
+pub fn summary(doc: &serde_json::Value, result_id: Option<&str>) -> String {
+    use mtcal_views::pages::num;
+    let f = |v: &serde_json::Value| v.as_f64().map_or_else(|| "—".to_string(), num);
+    let ec0y = match doc["squareness"]["EC0Y"]["value_urad"].as_f64() {
+        Some(v) => {
+            let u = doc["squareness"]["EC0Y"]["std_urad"].as_f64();
+            mtcal_views::pages::with_u(Some(v), u, "urad")
+        }
+        None => "not identifiable".to_string(),
+    };
+    format!(
+        "result {} — residual {} µm, rank {}/{} (condition {}), EC0Y {ec0y}",
+        result_id.unwrap_or("—"),
+        f(&doc["fit"]["residual_rms_um"]),
+        doc["observability"]["rank"],
+        doc["observability"]["parameters"],
+        f(&doc["observability"]["condition_number"]),
+    )
+}
+
+#[cfg(test)]
+mod tests {
+    #[test]
+    fn the_summary_prints_numbers_with_sensible_digits() {
+        let doc = serde_json::json!({
+            "fit": {"residual_rms_um": 0.150_123_456},
+            "observability": {"rank": 51, "parameters": 51, "condition_number": 214.210_336_959_451_58},
+            "squareness": {"EC0Y": {"value_urad": -16.840_123, "std_urad": 0.058_1}},
+        });
+        assert_eq!(
+            super::summary(&doc, Some("r1")),
+            "result r1 — residual 0.150 µm, rank 51/51 (condition 214.2), EC0Y -16.84 ± 0.116 µrad"
+        );
+        let doc = serde_json::json!({"fit": {}, "observability": {"rank": 3, "parameters": 51,
+            "condition_number": 1.7e7}, "squareness": {"EC0Y": {"value_urad": null}}});
+        assert!(super::summary(&doc, None).contains("condition 1.700e7"));
+        assert!(super::summary(&doc, None).contains("EC0Y not identifiable"));
+    }
 }

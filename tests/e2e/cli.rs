@@ -1,6 +1,7 @@
 //! `mtcal submit` (the CLI's client of the service) against a running service.
 
 use crate::common::*;
+use mtcal_client::ClientError;
 use serde_json::Value;
 use std::process::{Command, Output};
 
@@ -51,7 +52,7 @@ async fn submit_uploads_identifies_and_prints_the_result() {
     assert_eq!(out.status.code(), Some(2));
     let err = String::from_utf8_lossy(&out.stderr);
     assert!(
-        err.contains("stray.csv:0:: uploaded file is not referenced"),
+        err.contains("stray.csv: uploaded file is not referenced"),
         "{err}"
     );
     assert_eq!(app.counts().await, before);
@@ -411,21 +412,245 @@ fn demo_on_a_taken_address_says_so() {
     assert!(left.is_empty(), "left behind: {left:?}");
 }
 
-/// A path that does not exist is named in full with the system's reason, for every
-/// command that reads a dataset.
+/// A path that does not exist is named in full with the system's reason, with exit code
+/// 2 (bad input), for every command that reads an input: a dataset (session folder or
+/// file) or a result document; no message carries a `:0:` place it is not tied to.
 #[test]
 fn a_missing_path_is_named_with_the_reason() {
-    for cmd in ["identify", "diagnose", "standards"] {
-        let out = Command::new(BIN)
-            .args([cmd, "/no/such/dir"])
-            .output()
-            .unwrap();
-        assert_eq!(out.status.code(), Some(2), "{cmd}");
+    let missing = "/no/such/dir";
+    let commands: [&[&str]; 9] = [
+        &["identify", missing],
+        &["diagnose", missing],
+        &["standards", missing],
+        &["cradle", missing],
+        &["export", missing, "--format", "csv"],
+        &["report", missing],
+        &["compare", missing, missing],
+        &["sensitivity", missing],
+        &[
+            "sensitivity",
+            "--template",
+            "vmc3",
+            "--identification",
+            missing,
+        ],
+    ];
+    for args in commands {
+        let out = Command::new(BIN).args(args).output().unwrap();
+        assert_eq!(out.status.code(), Some(2), "{args:?}");
         let err = String::from_utf8_lossy(&out.stderr);
         assert!(
-            err.contains("/no/such/dir:0::") && err.contains("No such file or directory"),
-            "{cmd}: {err}"
+            err.contains(&format!("{missing}: cannot read"))
+                && err.contains("No such file or directory"),
+            "{args:?}: {err}"
         );
+        assert!(!err.contains(":0:"), "{args:?}: {err}");
+    }
+}
+
+/// A session whose plane file has its positions written in micrometres (a line pass at
+/// 480 mm/min moving 1000× faster) is refused by `mtcal identify` with the message the
+/// service gives for the same files (one reader): the file, the columns and what to
+/// change; exit code 2, nothing identified.
+#[tokio::test]
+async fn positions_in_micrometres_are_refused_by_the_cli_as_by_the_service() {
+    let app = spawn_app().await;
+    app.machine("VMC-U").await;
+    let session = app.path("s");
+    write_session(&session, "VMC-U", 1, 0);
+    let name = csv_names(&session)[0].clone();
+    let csv = session.join(&name);
+    let text = std::fs::read_to_string(&csv).unwrap();
+    let mut lines = text.lines();
+    let header: Vec<&str> = lines.next().unwrap().split(',').collect();
+    let scaled: Vec<usize> = ["x_mm", "y_mm", "z_mm"]
+        .iter()
+        .map(|c| header.iter().position(|h| h == c).unwrap())
+        .collect();
+    let mut out = header.join(",") + "\n";
+    for line in lines {
+        let cells: Vec<String> = line
+            .split(',')
+            .enumerate()
+            .map(|(k, c)| match scaled.contains(&k) {
+                true => format!("{}", c.parse::<f64>().unwrap() * 1000.0),
+                false => c.to_string(),
+            })
+            .collect();
+        out += &(cells.join(",") + "\n");
+    }
+    std::fs::write(&csv, out).unwrap();
+    let ran = {
+        let session = session.clone();
+        tokio::task::spawn_blocking(move || {
+            Command::new(BIN)
+                .arg("identify")
+                .arg(&session)
+                .output()
+                .unwrap()
+        })
+        .await
+        .unwrap()
+    };
+    assert_eq!(ran.status.code(), Some(2));
+    assert!(ran.stdout.is_empty(), "nothing identified");
+    let err = String::from_utf8_lossy(&ran.stderr);
+    // The file, the position column that moves most, the rule.
+    let line = err
+        .lines()
+        .find(|l| l.contains("positions move at"))
+        .unwrap_or_else(|| panic!("{err}"));
+    let expected = line
+        .split(" the positions")
+        .next()
+        .unwrap()
+        .trim_start_matches("error: ");
+    assert!(
+        [
+            format!("{name}: x_mm:"),
+            format!("{name}: y_mm:"),
+            format!("{name}: z_mm:")
+        ]
+        .contains(&expected.to_string())
+            && line.contains("divide x_mm, y_mm and z_mm by 1000"),
+        "{err}"
+    );
+    // The service, sent the same files as they are, refuses them with the same words.
+    let e = app
+        .client
+        .upload_files("VMC-U", &folder_files(&session))
+        .await
+        .unwrap_err();
+    assert_eq!(e.code(), Some("invalid_dataset"), "{e}");
+    let ClientError::Api { message, .. } = &e else {
+        panic!("{e}")
+    };
+    assert!(
+        message.contains(expected) && message.contains("divide x_mm, y_mm and z_mm by 1000"),
+        "{message}"
+    );
+}
+
+/// `mtcal submit` with a key that may only read gets the service's refusal (403, the
+/// scope needed), not the broken pipe of the upload the service cut short; exit code 1
+/// (the input is fine, the service refused it).
+#[tokio::test]
+async fn submit_with_a_read_key_reports_the_refusal() {
+    let app = spawn_app().await;
+    app.machine("VMC-1").await;
+    let dir = app.path("s");
+    write_session(&dir, "VMC-1", 2, 1);
+    let args: Vec<String> = vec![
+        "submit".into(),
+        dir.display().to_string(),
+        "--machine".into(),
+        "VMC-1".into(),
+        "--url".into(),
+        app.url.clone(),
+        "--key".into(),
+        app.read_key.clone(),
+    ];
+    let before = app.counts().await;
+    let out = tokio::task::spawn_blocking(move || Command::new(BIN).args(args).output().unwrap())
+        .await
+        .unwrap();
+    assert_eq!(out.status.code(), Some(1));
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert!(
+        err.contains("403") && err.contains("needs a key with scope write"),
+        "{err}"
+    );
+    assert!(!err.to_lowercase().contains("broken pipe"), "{err}");
+    assert_eq!(app.counts().await, before, "nothing stored");
+}
+
+/// Option values out of their range get the command's own message, exit code 2: a
+/// negative number is a value (`--noise-um -1`), not an unexpected argument.
+#[test]
+fn option_values_out_of_range_say_what_is_wrong() {
+    let dir = tempfile::tempdir().unwrap();
+    let out_dir = dir.path().join("s");
+    let run = |extra: &[&str]| {
+        Command::new(BIN)
+            .args(["simulate", "--out", out_dir.to_str().unwrap()])
+            .args(extra)
+            .output()
+            .unwrap()
+    };
+    let out = run(&["--noise-um", "-1"]);
+    assert_eq!(out.status.code(), Some(2));
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert!(
+        err.contains("--noise-um -1: the noise is a standard deviation"),
+        "{err}"
+    );
+    assert!(!err.contains("unexpected argument"), "{err}");
+    assert!(!out_dir.exists(), "nothing written");
+    // A flag is still a flag: an unknown one is refused by the parser.
+    let out = run(&["--no-such-flag"]);
+    assert_eq!(out.status.code(), Some(2));
+}
+
+/// The effects `--effect` refuses a wrong name with are the names its help lists, and
+/// the other way round: every name the simulator accepts.
+#[test]
+fn the_effect_error_lists_the_names_the_help_lists() {
+    let help = Command::new(BIN)
+        .args(["simulate", "--help"])
+        .output()
+        .unwrap();
+    let help = String::from_utf8_lossy(&help.stdout).replace('\n', " ");
+    let dir = tempfile::tempdir().unwrap();
+    let out = Command::new(BIN)
+        .args(["simulate", "--out"])
+        .arg(dir.path().join("s"))
+        .args(["--effect", "wobble"])
+        .output()
+        .unwrap();
+    assert_eq!(out.status.code(), Some(2));
+    let err = String::from_utf8_lossy(&out.stderr);
+    let listed = err
+        .split("expected one of ")
+        .nth(1)
+        .and_then(|r| r.split(')').next())
+        .unwrap_or_else(|| panic!("{err}"));
+    let names: Vec<&str> = listed.split(", ").collect();
+    assert_eq!(names, mtcal_solver::simulate::effects::EFFECT_NAMES);
+    let in_help = help
+        .split("Names: ")
+        .nth(1)
+        .unwrap_or_else(|| panic!("{help}"));
+    let in_help: Vec<String> = in_help
+        .split(", ")
+        .take(names.len())
+        .map(|n| n.split_whitespace().next().unwrap_or("").to_string())
+        .collect();
+    assert_eq!(in_help, names, "{help}");
+}
+
+/// The summaries print figures with digits that suit them (`condition number 214.2`), and
+/// units as a person writes them (µm, µrad; never `um`).
+#[test]
+fn identify_prints_sensible_digits_and_units() {
+    let dir = tempfile::tempdir().unwrap();
+    let session = dir.path().join("s");
+    write_session(&session, "VMC-D", 1, 0);
+    let text = mtcal(&["identify", session.to_str().unwrap()]);
+    let condition = text
+        .split("condition number ")
+        .nth(1)
+        .and_then(|r| r.split_whitespace().next())
+        .unwrap_or_else(|| panic!("{text}"));
+    let value: f64 = condition.parse().unwrap_or_else(|_| panic!("{condition}"));
+    assert!(value > 1.0, "{condition}");
+    assert!(
+        condition == mtcal_views::pages::num(value) && condition.len() <= 8,
+        "{condition}"
+    );
+    assert!(text.contains(" µm ") && text.contains(" µrad "), "{text}");
+    for line in text.lines() {
+        let words: Vec<&str> = line.split_whitespace().collect();
+        assert!(!words.contains(&"um") && !words.contains(&"urad"), "{line}");
     }
 }
 

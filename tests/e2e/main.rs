@@ -9,6 +9,7 @@ mod common;
 
 mod auth;
 mod cli;
+mod diagnose;
 mod evaluation;
 mod exclusion;
 mod exports;

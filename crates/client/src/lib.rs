@@ -261,16 +261,30 @@ impl Client {
         self.upload(machine, rb).await
     }
 
-    /// Sends an upload. The service refuses an upload (unknown machine, key, size) before
-    /// it reads the body and closes the connection, so the client may see a broken pipe
-    /// instead of the answer; then it asks for the machine, and a refusal of that is the
-    /// reason given, else the connection error.
+    /// Sends an upload. The service refuses an upload (a key without write scope, an
+    /// unknown machine, a size) before it reads the body and closes the connection, so
+    /// the client may see a broken pipe instead of the answer. Then it sends the same
+    /// upload route an empty request, which the service refuses at once for the same key
+    /// or machine: a refusal of the key (401, 403) or of the machine (404) is the reason
+    /// given, else the connection error.
     async fn upload(&self, machine: &str, rb: RequestBuilder) -> Result<Dataset> {
         match self.send(rb).await {
-            Err(e @ ClientError::Http { .. }) => match self.machine(machine).await {
-                Err(refusal @ ClientError::Api { .. }) => Err(refusal),
-                _ => Err(e),
-            },
+            Err(e @ ClientError::Http { .. }) => {
+                let probe = self.request(
+                    Method::POST,
+                    &format!("/api/v1/machines/{machine}/datasets"),
+                );
+                match self.send_raw(probe).await {
+                    Err(
+                        refusal @ ClientError::Api {
+                            status:
+                                StatusCode::UNAUTHORIZED | StatusCode::FORBIDDEN | StatusCode::NOT_FOUND,
+                            ..
+                        },
+                    ) => Err(refusal),
+                    _ => Err(e),
+                }
+            }
             other => other,
         }
     }

@@ -72,6 +72,9 @@ pub fn read_drift_log(name: &str, bytes: &[u8], limits: &Limits) -> Result<Drift
     if channels.is_empty() {
         return Err(t.header_error("", "a drift log needs at least one channel besides t_s"));
     }
+    let numbers = std::iter::once((c_t, Quantity::Time))
+        .chain(channels.iter().map(|(i, _)| (*i, Quantity::Value)));
+    t.scan(&numbers.collect::<Vec<_>>());
     let mut t_s: Vec<f64> = Vec::with_capacity(hint);
     while t.next_row()? {
         let v = t.quantity(c_t, Quantity::Time)?;

@@ -8,8 +8,10 @@ use crate::{FormatError, Limits};
 use std::borrow::Cow;
 use std::path::Path;
 
-/// A loader of files by name, as stored.
-pub(crate) type Loader<'a> = dyn FnMut(&str) -> Result<Cow<'a, [u8]>, FormatError> + 'a;
+/// A loader of files by name, as stored. The second argument is an emptied buffer the
+/// loader may read the file into (a folder's loader does; files in memory are returned
+/// as they are): a reader hands back the buffers of files it has parsed.
+pub(crate) type Loader<'a> = dyn FnMut(&str, Vec<u8>) -> Result<Cow<'a, [u8]>, FormatError> + 'a;
 
 /// The regular files of a folder (sorted names) and a loader reading each under what
 /// remains of the byte limit.
@@ -31,14 +33,15 @@ pub(crate) fn folder<'a>(
     names.sort();
     let mut remaining = limits.max_bytes;
     let limits = *limits;
-    let load = move |name: &str| -> Result<Cow<'a, [u8]>, FormatError> {
-        let bytes = crate::read_file_limited(
+    let load = move |name: &str, spare: Vec<u8>| -> Result<Cow<'a, [u8]>, FormatError> {
+        let bytes = crate::read_file_into(
             &dir.join(name),
             name,
             &Limits {
                 max_bytes: remaining,
                 ..limits
             },
+            spare,
         )?;
         remaining -= bytes.len();
         Ok(Cow::Owned(bytes))

@@ -43,9 +43,10 @@ pub use session::{read_session_dir, read_session_files, write_session_dir};
 pub use sniff::{DatasetKind, sniff_kind, sniff_path};
 pub use upload::{Dataset, DatasetData, read_archive, read_path, read_upload};
 
-/// A rejected input: which file, where, and which rule it broke.
-#[derive(Debug, Clone, PartialEq, thiserror::Error)]
-#[error("{file}:{line}:{column}: {rule}")]
+/// A rejected input: which file, where, and which rule it broke. Shown as
+/// `file:line:column: rule`, leaving out what it is not tied to: `file:line: rule`
+/// without a column, `file: column: rule` without a line, `file: rule` for a whole file.
+#[derive(Debug, Clone, PartialEq)]
 pub struct FormatError {
     pub file: String,
     /// 1-based line number; 0 when the problem is not tied to a line (e.g. a missing file).
@@ -72,6 +73,21 @@ pub enum ErrorKind {
 /// header a message quotes comes from the input, and a 10 MB cell must not make a 10 MB
 /// message (in a log line or an HTTP answer).
 pub const MAX_MESSAGE_PART: usize = 512;
+
+impl std::fmt::Display for FormatError {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.write_str(&self.file)?;
+        match (self.line, self.column.is_empty()) {
+            (0, true) => {}
+            (0, false) => write!(f, ": {}", self.column)?,
+            (line, true) => write!(f, ":{line}")?,
+            (line, false) => write!(f, ":{line}:{}", self.column)?,
+        }
+        write!(f, ": {}", self.rule)
+    }
+}
+
+impl std::error::Error for FormatError {}
 
 /// `s`, cut to [`MAX_MESSAGE_PART`] bytes (at a character boundary) with its full length
 /// said when longer.
@@ -126,9 +142,23 @@ pub(crate) fn read_file_limited(
     name: &str,
     limits: &Limits,
 ) -> Result<Vec<u8>, FormatError> {
-    let meta = std::fs::metadata(path)
-        .map_err(|e| FormatError::file(name, format!("cannot read file: {e}")))?;
-    if meta.len() > limits.max_bytes as u64 {
+    read_file_into(path, name, limits, Vec::new())
+}
+
+/// [`read_file_limited`] into `buf`, emptied first: its memory is reused (a session's
+/// plane files are read one after the other into the buffers of the files already
+/// parsed, so their pages are not faulted in anew for every file).
+pub(crate) fn read_file_into(
+    path: &std::path::Path,
+    name: &str,
+    limits: &Limits,
+    mut buf: Vec<u8>,
+) -> Result<Vec<u8>, FormatError> {
+    use std::io::Read;
+    let cannot = |e: std::io::Error| FormatError::file(name, format!("cannot read file: {e}"));
+    let mut file = std::fs::File::open(path).map_err(cannot)?;
+    let len = file.metadata().map_err(cannot)?.len();
+    if len > limits.max_bytes as u64 {
         return Err(FormatError::file(
             name,
             format!(
@@ -138,11 +168,14 @@ pub(crate) fn read_file_limited(
         )
         .as_limit());
     }
-    std::fs::read(path).map_err(|e| FormatError::file(name, format!("cannot read file: {e}")))
+    buf.clear();
+    buf.reserve_exact(len as usize);
+    file.read_to_end(&mut buf).map_err(cannot)?;
+    Ok(buf)
 }
 
 /// The metadata of a dataset path given by a user, or an error naming the full path and
-/// the system's reason (`/no/such/dir:0:: cannot read: No such file or directory (os
+/// the system's reason (`/no/such/dir: cannot read: No such file or directory (os
 /// error 2)`).
 pub fn stat_path(path: &std::path::Path) -> Result<std::fs::Metadata, FormatError> {
     std::fs::metadata(path)

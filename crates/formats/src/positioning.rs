@@ -34,6 +34,10 @@ pub fn read_positioning(
     let mut t = CsvTable::open(name, &data, limits)?;
     let c = t.check_schema(&POSITIONING_COLUMNS, 5)?;
     let (c_t, c_temp) = (t.col("t_s"), t.col("temp_c"));
+    let numbers = [(c[3], Quantity::Position), (c[4], Quantity::Deviation)];
+    let optional = [(c_t, Quantity::Time), (c_temp, Quantity::Temperature)];
+    let optional = optional.iter().filter_map(|&(c, q)| Some((c?, q)));
+    t.scan(&numbers.into_iter().chain(optional).collect::<Vec<_>>());
     let mut records = Vec::with_capacity(t.remaining_rows_hint());
     let mut last_t: HashMap<(Axis, i64), f64> = HashMap::new();
     while t.next_row()? {

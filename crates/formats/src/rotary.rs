@@ -39,6 +39,10 @@ pub fn read_rotary_points(
     let mut t = CsvTable::open(name, &data, limits)?;
     let c = t.check_schema(&ROTARY_COLUMNS, 5)?;
     let c_t = t.col("t_s");
+    let mut numbers = vec![(c[0], Quantity::Angle), (c[1], Quantity::Angle)];
+    numbers.extend(c[2..5].iter().map(|&i| (i, Quantity::Position)));
+    numbers.extend(c_t.map(|i| (i, Quantity::Time)));
+    t.scan(&numbers);
     let mut points = Vec::with_capacity(t.remaining_rows_hint());
     let mut prev_t = None;
     while t.next_row()? {

@@ -89,7 +89,7 @@ pub fn read_session_files(
     let names: Vec<String> = std::iter::once(SESSION_JSON.to_string())
         .chain(files.keys().filter(|k| k.as_str() != SESSION_JSON).cloned())
         .collect();
-    let mut load = |name: &str| -> Result<Cow<'_, [u8]>, FormatError> {
+    let mut load = |name: &str, _: Vec<u8>| -> Result<Cow<'_, [u8]>, FormatError> {
         Ok(Cow::Borrowed(if name == SESSION_JSON {
             session_json
         } else {
@@ -151,8 +151,11 @@ pub(crate) fn read_session_named<'a>(
     };
     let mut raw_budget = limits.max_bytes;
     let mut budget = limits.max_bytes;
-    let mut read = |name: &str, raw_budget: &mut usize| -> Result<Cow<'a, [u8]>, FormatError> {
-        let raw = load(name)?;
+    let mut read = |name: &str,
+                    raw_budget: &mut usize,
+                    spare: Vec<u8>|
+     -> Result<Cow<'a, [u8]>, FormatError> {
+        let raw = load(name, spare)?;
         *raw_budget = raw_budget.checked_sub(raw.len()).ok_or_else(|| {
             FormatError::file(
                 name,
@@ -165,7 +168,7 @@ pub(crate) fn read_session_named<'a>(
         })?;
         Ok(raw)
     };
-    let raw = read(description, &mut raw_budget)?;
+    let raw = read(description, &mut raw_budget, Vec::new())?;
     let json = gzip::decode(description, &raw, &mut budget)?;
     let (spec, doc) = parse_session_json(&json)?;
     drop(json);
@@ -211,8 +214,8 @@ pub(crate) fn read_session_named<'a>(
     ignored.sort();
     // Each plane file is loaded and decompressed in file order (the byte budgets are
     // shared and charged in that order) and parsed on all cores as soon as it is loaded.
-    let mut load_plane = |i: usize| -> Result<Cow<'a, [u8]>, FormatError> {
-        let raw = read(&stored[i], &mut raw_budget)?;
+    let mut load_plane = |i: usize, spare: Vec<u8>| -> Result<Cow<'a, [u8]>, FormatError> {
+        let raw = read(&stored[i], &mut raw_budget, spare)?;
         let decompressed = match gzip::decode(&stored[i], &raw, &mut budget)? {
             Cow::Owned(plain) => Some(plain),
             Cow::Borrowed(_) => None,
@@ -242,10 +245,11 @@ pub(crate) fn read_session_named<'a>(
 /// most one file per worker and one being handed over are in memory besides the columns
 /// read. The result is a sequential read's: the runs of every file in order, or the first
 /// error in file order (a file that cannot be loaded counts after the files before it;
-/// files after an error are not loaded).
+/// files after an error are not loaded). The buffers of parsed files go back to `load`
+/// as its spare buffer (see [`crate::files::Loader`]).
 fn parse_planes<'a>(
     names: &[String],
-    load: &mut dyn FnMut(usize) -> Result<Cow<'a, [u8]>, FormatError>,
+    load: &mut dyn FnMut(usize, Vec<u8>) -> Result<Cow<'a, [u8]>, FormatError>,
     limits: &Limits,
 ) -> Result<Vec<Vec<Run>>, FormatError> {
     use std::sync::atomic::{AtomicUsize, Ordering::Relaxed};
@@ -253,9 +257,19 @@ fn parse_planes<'a>(
     let threads = std::thread::available_parallelism()
         .map_or(1, |n| n.get())
         .min(names.len());
+    let spare_of = |data: Cow<'a, [u8]>| match data {
+        Cow::Owned(buf) => buf,
+        Cow::Borrowed(_) => Vec::new(),
+    };
     if threads <= 1 {
+        let mut spare = Vec::new();
         return (0..names.len())
-            .map(|i| read_plane_csv(&names[i], &load(i)?, limits))
+            .map(|i| {
+                let data = load(i, std::mem::take(&mut spare))?;
+                let runs = read_plane_csv(&names[i], &data, limits);
+                spare = spare_of(data);
+                runs
+            })
             .collect();
     }
     // The lowest index of a file that failed: later files need not be read.
@@ -267,9 +281,11 @@ fn parse_planes<'a>(
         // share the receiver; when they are all gone, a send fails instead of blocking.
         let (tx, rx) = mpsc::sync_channel::<(usize, Cow<'a, [u8]>)>(0);
         let rx = Arc::new(Mutex::new(rx));
+        let (spare_tx, spare_rx) = mpsc::channel::<Vec<u8>>();
         let workers: Vec<_> = (0..threads)
             .map(|_| {
                 let rx = Arc::clone(&rx);
+                let spare_tx = spare_tx.clone();
                 let failed = &failed;
                 s.spawn(move || {
                     let mut mine = Vec::new();
@@ -282,7 +298,8 @@ fn parse_planes<'a>(
                             continue;
                         }
                         let r = read_plane_csv(&names[i], &data, limits);
-                        drop(data);
+                        // The loader may be gone (after an error): then it is dropped.
+                        let _ = spare_tx.send(spare_of(data));
                         if r.is_err() {
                             failed.fetch_min(i, Relaxed);
                         }
@@ -291,12 +308,12 @@ fn parse_planes<'a>(
                 })
             })
             .collect();
-        drop(rx);
+        drop((rx, spare_tx));
         for i in 0..names.len() {
             if failed.load(Relaxed) < i {
                 break;
             }
-            match load(i) {
+            match load(i, spare_rx.try_recv().unwrap_or_default()) {
                 Ok(data) => {
                     if tx.send((i, data)).is_err() {
                         break;
@@ -578,6 +595,11 @@ pub fn read_plane_csv(file: &str, bytes: &[u8], limits: &Limits) -> Result<Vec<R
     let (c_run, c_t, c_x, c_y, c_z, c_du, c_dv) = (c[0], c[1], c[2], c[3], c[4], c[5], c[6]);
     let c_temp = t.col("temp_c");
     let c_test = t.col("test");
+    let mut numbers = vec![(c_t, Quantity::Time)];
+    numbers.extend([c_x, c_y, c_z].map(|c| (c, Quantity::Position)));
+    numbers.extend([c_du, c_dv].map(|c| (c, Quantity::Deviation)));
+    numbers.extend(c_temp.map(|c| (c, Quantity::Temperature)));
+    t.scan(&numbers);
 
     let mut runs: Vec<Run> = Vec::new();
     let mut by_number: HashMap<i64, usize> = HashMap::new();
@@ -618,30 +640,34 @@ pub fn read_plane_csv(file: &str, bytes: &[u8], limits: &Limits) -> Result<Vec<R
             .transpose()?;
         if let Some(c) = c_test {
             let s = t.text(c);
-            let label = if s.is_empty() {
-                None
-            } else {
-                Some(TestKind::parse(s).ok_or_else(|| {
-                    t.cell_error(
+            // Most rows repeat their run's label: compared with it, not parsed again.
+            let same = !run.t_s.is_empty() && s == run.test.map_or("", TestKind::name);
+            if !same {
+                let label = if s.is_empty() {
+                    None
+                } else {
+                    Some(TestKind::parse(s).ok_or_else(|| {
+                        t.cell_error(
+                            c,
+                            format!(
+                                "`{s}` is not a test kind (expected one of {TEST_NAMES}, or empty)"
+                            ),
+                        )
+                    })?)
+                };
+                if run.t_s.is_empty() {
+                    run.test = label;
+                } else if run.test != label {
+                    let name = |l: Option<TestKind>| l.map_or("(empty)", TestKind::name);
+                    return Err(t.cell_error(
                         c,
                         format!(
-                            "`{s}` is not a test kind (expected one of {TEST_NAMES}, or empty)"
+                            "test label changes within run {number}: `{}` after `{}`",
+                            name(label),
+                            name(run.test)
                         ),
-                    )
-                })?)
-            };
-            if run.t_s.is_empty() {
-                run.test = label;
-            } else if run.test != label {
-                let name = |l: Option<TestKind>| l.map_or("(empty)", TestKind::name);
-                return Err(t.cell_error(
-                    c,
-                    format!(
-                        "test label changes within run {number}: `{}` after `{}`",
-                        name(label),
-                        name(run.test)
-                    ),
-                ));
+                    ));
+                }
             }
         }
         run.t_s.push(ts);
@@ -660,6 +686,10 @@ pub fn read_plane_csv(file: &str, bytes: &[u8], limits: &Limits) -> Result<Vec<R
     }
     crate::units::check_micrometres(file, "du_um", runs.iter().map(|r| r.du_um.as_slice()))?;
     crate::units::check_micrometres(file, "dv_um", runs.iter().map(|r| r.dv_um.as_slice()))?;
+    crate::units::check_speed(
+        file,
+        runs.iter().map(|r| (r.t_s.as_slice(), r.pos_mm.as_slice())),
+    )?;
     Ok(runs)
 }
 

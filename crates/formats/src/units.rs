@@ -12,8 +12,10 @@
 //!   linear trend; for white noise of σ their variance is 6σ²);
 //! * **micrometres in a millimetre column**: a position beyond the plausible bound of
 //!   [`crate::Limits`] is refused at its cell with the hint to divide by 1000
-//!   (`Quantity::hint`); below the bound, [`crate::Dataset::check_travel`] compares the
-//!   positions' span with the machine's registered travel;
+//!   (`Quantity::hint`); below the bound, a plane file's positions moving faster than any
+//!   machine axis traverses are refused by its reader (`check_speed`, in the CLI and the
+//!   service alike), and at upload to the service [`crate::Dataset::check_travel`]
+//!   compares the positions' span with the machine's registered travel;
 //! * **radians in a degree column** (`a_deg`, `c_deg` of a rotary point set): every
 //!   angle lies within ±2π while C turns through at least π/2 in those units. A cradle
 //!   check turns C through tens of degrees at least, so a C span between 1.6 and 6.3
@@ -28,6 +30,65 @@ pub const MM_IN_UM_MAX: f64 = 1e-3;
 pub const MIN_NOISE_FLOOR_UM: f64 = 1e-3;
 /// Factor above the machine's travel span from which positions are micrometres.
 pub const TRAVEL_SPAN_FACTOR: f64 = 100.0;
+
+/// Fastest feed a machine tool axis traverses at, mm/s (200 m/min: the rapid traverse
+/// of fast linear-motor machines; a grid encoder's head reads far slower).
+pub const MAX_AXIS_SPEED_MM_S: f64 = 200_000.0 / 60.0;
+
+/// Refuses the positions of a plane file (`x_mm`, `y_mm`, `z_mm`, its runs' times `t_s`
+/// and positions) that move faster than any machine tool axis traverses: the median speed
+/// of the steps between consecutive samples of a run that move, |Δp|/Δt, above
+/// [`MAX_AXIS_SPEED_MM_S`]. The error names the column that moves most. Positions written in micrometres move 1000× faster than the
+/// machine did: a test at 200 mm/min or faster is caught whatever the machine's travel.
+/// The median ignores a few glitches; a slower test in micrometres is caught against the
+/// registered travel when uploaded to the service ([`check_span`]).
+pub(crate) fn check_speed<'a>(
+    file: &str,
+    runs: impl IntoIterator<Item = (&'a [f64], &'a [[f64; 3]])>,
+) -> Result<(), FormatError> {
+    let mut speeds: Vec<f64> = vec![];
+    // How far each position column moves in all, to name the one that moves most.
+    let mut moved = [0.0f64; 3];
+    for (t, p) in runs {
+        for (tw, pw) in t.windows(2).zip(p.windows(2)) {
+            let dt = tw[1] - tw[0];
+            let dp = (0..3)
+                .map(|k| (pw[1][k] - pw[0][k]).powi(2))
+                .sum::<f64>()
+                .sqrt();
+            if dt > 0.0 && dp > 0.0 {
+                speeds.push(dp / dt);
+            }
+            for (k, m) in moved.iter_mut().enumerate() {
+                *m += (pw[1][k] - pw[0][k]).abs();
+            }
+        }
+    }
+    if speeds.is_empty() {
+        return Ok(());
+    }
+    let mid = speeds.len() / 2;
+    let median = *speeds.select_nth_unstable_by(mid, f64::total_cmp).1;
+    if median <= MAX_AXIS_SPEED_MM_S {
+        return Ok(());
+    }
+    let column = ["x_mm", "y_mm", "z_mm"][(0..3)
+        .max_by(|&a, &b| moved[a].total_cmp(&moved[b]))
+        .unwrap_or(0)];
+    Err(FormatError::new(
+        file,
+        0,
+        column,
+        format!(
+            "the positions move at {:.0} mm/s ({:.0} m/min) between samples (median over the \
+             runs), faster than any machine tool axis traverses ({:.0} m/min): micrometres \
+             where millimetres are required? divide x_mm, y_mm and z_mm by 1000",
+            median,
+            median * 0.06,
+            MAX_AXIS_SPEED_MM_S * 0.06
+        ),
+    ))
+}
 
 /// White-noise level of the second differences over the series (see the module
 /// documentation); 0 when no series has three values.

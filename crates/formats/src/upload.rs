@@ -192,7 +192,7 @@ pub fn check_file_name(name: &str) -> Result<(), FormatError> {
 /// Reads the files of an upload (name, bytes as stored).
 pub fn read_upload(files: &[(String, Vec<u8>)], limits: &Limits) -> Result<Dataset, FormatError> {
     let names: Vec<String> = files.iter().map(|(n, _)| n.clone()).collect();
-    let mut load = |name: &str| -> Result<Cow<'_, [u8]>, FormatError> {
+    let mut load = |name: &str, _: Vec<u8>| -> Result<Cow<'_, [u8]>, FormatError> {
         let (_, bytes) = files
             .iter()
             .find(|(n, _)| n == name)
@@ -268,9 +268,9 @@ fn read_named<'a>(
         }
     }
     // Only files that are read must have plain names (they are the ones stored).
-    let mut load = |name: &str| {
+    let mut load = |name: &str, spare: Vec<u8>| {
         check_file_name(name)?;
-        load(name)
+        load(name, spare)
     };
     if names
         .iter()
@@ -298,7 +298,7 @@ fn read_named<'a>(
     };
     let name = name.as_str();
     let jsons: Vec<&String> = names.iter().filter(|n| is_json(n)).collect();
-    let bytes = load(name)?;
+    let bytes = load(name, Vec::new())?;
     let kind = sniff_kind(name, &bytes).ok_or_else(|| {
         FormatError::new(
             name,
@@ -321,7 +321,7 @@ fn read_named<'a>(
             let side = match jsons.as_slice() {
                 [] => None,
                 [j] if **j == sidecar || **j == format!("{sidecar}.gz") => {
-                    let raw = load(j)?;
+                    let raw = load(j, Vec::new())?;
                     let mut budget = rest.max_bytes;
                     let plain = gzip::decode(j, &raw, &mut budget)?.into_owned();
                     files.push(j.to_string());

@@ -195,7 +195,13 @@ fn check_error(e: &FormatError, files: &Files, archive: Option<&str>) -> Result<
     if e.rule.is_empty() {
         return Err("empty rule".into());
     }
-    if e.to_string() != format!("{}:{}:{}: {}", e.file, e.line, e.column, e.rule) {
+    let place = match (e.line, e.column.is_empty()) {
+        (0, true) => String::new(),
+        (0, false) => format!(": {}", e.column),
+        (l, true) => format!(":{l}"),
+        (l, false) => format!(":{l}:{}", e.column),
+    };
+    if e.to_string() != format!("{}{place}: {}", e.file, e.rule) {
         return Err("display form".into());
     }
     if e.file == "upload" || Some(e.file.as_str()) == archive {

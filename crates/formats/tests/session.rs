@@ -905,9 +905,10 @@ fn implausible_magnitudes_are_refused_at_their_cell() {
         max_abs_position_mm: 1e6,
         ..Limits::default()
     };
+    // (100 s after the first sample: 2.5 m/s, a speed a machine reaches.)
     let runs = read_plane_csv(
         "xy.csv",
-        bad("1,0.1,250000,0,0,0.2,0.3").as_bytes(),
+        bad("1,100,250000,0,0,0.2,0.3").as_bytes(),
         &limits,
     )
     .unwrap();

@@ -8,10 +8,15 @@ use mtcal_formats::{Limits, read_drift_log, read_positioning, read_rotary_points
 use std::collections::BTreeMap;
 use std::fmt::Write;
 
-/// A line pass as a grid encoder records it: deviations under 1 µm (a slow error curve)
-/// plus noise of ~50 nm, positions in mm; `scale` multiplies the deviations (1e-3: the
-/// same data written in mm), `pos_scale` the positions (1000: written in µm).
+/// A line pass as a grid encoder records it at 3 m/min: deviations under 1 µm (a slow
+/// error curve) plus noise of ~50 nm, positions in mm; `scale` multiplies the deviations
+/// (1e-3: the same data written in mm), `pos_scale` the positions (1000: written in µm).
 fn plane(scale: f64, pos_scale: f64) -> String {
+    plane_at(scale, pos_scale, 0.01)
+}
+
+/// [`plane`] with samples `dt_s` apart (0.5 mm a sample: 0.01 s is 3 m/min).
+fn plane_at(scale: f64, pos_scale: f64, dt_s: f64) -> String {
     let mut s = String::from("run,t_s,x_mm,y_mm,z_mm,du_um,dv_um\n");
     let mut noise = 0x2545_f491_4f6c_dd1d_u64;
     let mut gauss = || {
@@ -27,7 +32,7 @@ fn plane(scale: f64, pos_scale: f64) -> String {
         writeln!(
             s,
             "1,{},{},0,0,{},{}",
-            i as f64 * 0.01,
+            i as f64 * dt_s,
             x * pos_scale,
             du * scale,
             dv * scale
@@ -127,15 +132,31 @@ fn positions_in_um_where_mm_are_required() {
         "target_mm",
         "micrometres where millimetres are required? divide the column by 1000",
     );
-    // Within the bound, the machine's travel tells: ±100 mm of X written in µm spans
-    // 200 000 "mm", 1000× the travel of a machine registered with X [-100, 100].
+    // Within the bound, a test at 3 m/min written in µm moves at 3000 m/min: faster than
+    // any machine traverses, refused by the reader (the CLI's and the service's).
+    let e = read_plane_csv("xy.csv", plane(1.0, 1000.0).as_bytes(), &lim).unwrap_err();
+    check(
+        &e,
+        "xy.csv",
+        0,
+        "x_mm",
+        "the positions move at 50000 mm/s (3000 m/min) between samples (median over the runs), \
+         faster than any machine tool axis traverses (200 m/min): micrometres where \
+         millimetres are required? divide x_mm, y_mm and z_mm by 1000",
+    );
+    // The same test at 3 mm/min written in µm moves at a plausible 3 m/min: the machine's
+    // travel tells: ±100 mm of X written in µm spans 200 000 "mm", 1000× the travel of a
+    // machine registered with X [-100, 100].
     let json = r#"{"machine_id": "M", "measured_at": "2026-01-01T00:00:00Z",
       "planes": [{"file": "xy.csv", "plane": "XY", "head_offset_mm": [0, 0, 0]}]}"#;
     let upload = |pos_scale: f64| {
         read_upload(
             &[
                 ("session.json".to_string(), json.as_bytes().to_vec()),
-                ("xy.csv".to_string(), plane(1.0, pos_scale).into_bytes()),
+                (
+                    "xy.csv".to_string(),
+                    plane_at(1.0, pos_scale, 10.0).into_bytes(),
+                ),
             ],
             &lim,
         )

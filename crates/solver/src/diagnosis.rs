@@ -280,6 +280,7 @@ pub mod effects;
 pub mod engine;
 pub mod even_scan;
 pub mod linalg;
+pub mod local_scan;
 pub(crate) mod locate;
 pub mod lost_motion;
 pub mod lsq;

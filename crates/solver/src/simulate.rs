@@ -324,7 +324,7 @@ pub fn simulate(truth: &PolyErrors, opts: &SimOptions) -> Result<SimOutput, Solv
             ..Default::default()
         },
         notes: Some(format!(
-            "simulated by mtcal (seed {}, noise {} um{})",
+            "simulated by mtcal (seed {}, noise {} µm{})",
             opts.seed,
             opts.noise_um,
             if opts.effects.is_empty() {

@@ -428,3 +428,34 @@ fn progress_is_monotone_over_the_axes_and_ends_at_one() {
     // Half of the work is done when the second of two axes starts.
     assert_eq!(seen[order[3]].1, 0.5, "{seen:?}");
 }
+
+/// A slip made outside the simulator: clean runs whose readings from the middle of run 3
+/// on are shifted by 10 or 20 times the noise (an encoder losing counts, a knock that
+/// moved the sensor). The axis is never consistent and the place named is where the
+/// step starts (the local scan of the final residual in time order, or a drift term the
+/// selection chose for it, which must then start within a few readings of the slip).
+#[test]
+fn slip_inside_a_run_is_never_consistent() {
+    for (seed, factor) in [(2001, 10.0), (2002, 20.0), (2003, 10.0), (2004, 20.0)] {
+        let mut runs = simulate_positioning(&PositioningSim {
+            seed,
+            noise_um: NOISE,
+            ..Default::default()
+        });
+        // Records are in measurement order: run 3's middle is record 2·42 + 21.
+        let at = 2 * 42 + 21;
+        for r in &mut runs.records[at..] {
+            r.deviation_um += factor * NOISE;
+        }
+        let r = diagnose_positioning(&runs, "slip", &SeriesOptions::default()).unwrap();
+        assert_ne!(r.verdict, Verdict::Consistent, "seed {seed}: {r:#?}");
+        let text = format!("{:?} {:?}", r.unexplained, r.mismatch);
+        let located = text.contains("a step of") && text.contains("run 3");
+        let drift = r.findings.iter().any(|f| f.effect == "thermal_drift");
+        assert!(located || drift, "seed {seed} ×{factor}: {r:#?}");
+        println!(
+            "seed {seed} ×{factor}: located {located}, drift {drift}: {:?}",
+            r.unexplained
+        );
+    }
+}

@@ -479,23 +479,33 @@ fn par_map<T: Send>(seeds: &[u64], f: impl Fn(u64) -> T + Sync) -> Vec<T> {
     })
 }
 
-/// ≥ 95 % of 40 clean seeds give `consistent` with no finding (about 30 s of CPU in the
-/// dev profile, spread over the cores).
+/// ≥ 95 % of 40 clean seeds with twice the default noise (σ = 0.3 µm) give `consistent`
+/// with no finding: neither the global ratio nor the local scan (its family-wise
+/// false-alarm rate 0.1 %) raises a false alarm.
 #[test]
-fn clean_sessions_are_consistent_in_95_percent_of_40_seeds() {
+fn clean_sessions_at_twice_the_noise_are_consistent_in_95_percent_of_40_seeds() {
     let seeds: Vec<u64> = (200..240).collect();
-    let results = par_map(&seeds, |s| {
-        let r = clean(s);
-        (
-            s,
-            r.verdict == Verdict::Consistent && r.findings.is_empty(),
-            r,
-        )
+    let results = par_map(&seeds, |seed| {
+        let o = SimOptions {
+            seed,
+            sample_rate_hz: RATE,
+            noise_um: 0.3,
+            ..SimOptions::default()
+        };
+        let out = simulate(&random_truth(seed), &o).unwrap();
+        let r = diagnose_session(&out.session, &DiagnoseOptions::default()).unwrap();
+        let ok = r.verdict == Verdict::Consistent && r.findings.is_empty();
+        (seed, ok, r)
     });
     let bad: Vec<String> = results
         .iter()
         .filter(|(_, ok, _)| !ok)
-        .map(|(s, _, r)| format!("seed {s}: {:?} {:?}", r.verdict, r.findings))
+        .map(|(s, _, r)| {
+            format!(
+                "seed {s}: {:?} {:?} {:?}",
+                r.verdict, r.findings, r.unexplained
+            )
+        })
         .collect();
     assert!(
         bad.len() <= 2,
@@ -636,7 +646,27 @@ fn a_sideways_shift_at_reversal_made_outside_the_simulator_is_found_by_signature
         f.heldout_rms_um.after < 0.8 * f.heldout_rms_um.before,
         "{r:#?}"
     );
-    assert_eq!(r.verdict, Verdict::Explained, "{r:#?}");
+    // The candidate is an ideal step: the transient it leaves at each X reversal (the
+    // shift settles over 0.5 mm of X travel, about a second on a circle near its X
+    // extreme) is a local misfit, which the local scan locates at the X reversals.
+    match r.verdict {
+        Verdict::Explained => {}
+        Verdict::PartlyExplained => {
+            for u in &r.unexplained {
+                let x: f64 = u
+                    .split("X = ")
+                    .nth(1)
+                    .and_then(|s| s.split(' ').next())
+                    .and_then(|s| s.parse().ok())
+                    .unwrap_or_else(|| panic!("{u}"));
+                assert!(
+                    u.starts_with("local anomaly") && x.abs() > 48.0 && u.contains("circle"),
+                    "{u}"
+                );
+            }
+        }
+        Verdict::Consistent => panic!("{r:#?}"),
+    }
     effects::conforms(f).unwrap();
 }
 

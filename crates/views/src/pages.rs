@@ -135,13 +135,15 @@ pub fn svg(doc: String) -> Markup {
 }
 
 /// A number with a precision that suits its size: 3 decimals below 10, 2 below 100,
-/// 1 above.
+/// 1 below 100 000, then 4 significant digits in scientific form (`1.712e7`).
 pub fn num(v: f64) -> String {
     if !v.is_finite() {
         return "—".into();
     }
     let a = v.abs();
-    if a < 10.0 {
+    if a >= 1e5 {
+        format!("{v:.3e}")
+    } else if a < 10.0 {
         format!("{v:.3}")
     } else if a < 100.0 {
         format!("{v:.2}")
@@ -250,6 +252,9 @@ pub(crate) mod tests {
         assert_eq!(with_u(Some(3.2104), Some(0.05), "um"), "3.210 ± 0.100 µm");
         assert_eq!(with_u(Some(-123.45), None, "urad"), "-123.5 µrad");
         assert_eq!(with_u(None, Some(1.0), "um"), "—");
+        assert_eq!(num(214.21033695945158), "214.2");
+        assert_eq!(num(17_123_456.0), "1.712e7");
+        assert_eq!(num(-0.0004), "-0.000");
         assert_eq!(when("2026-01-05T08:00:00Z"), "2026-01-05 08:00 UTC");
         assert_eq!(when("2026-01-05T10:00:00+02:00"), "2026-01-05 08:00 UTC");
         assert_eq!(encode("VMC 42/a"), "VMC%2042%2Fa");

@@ -16,6 +16,7 @@
 //! | waviness (signature) | sin, cos(2π q_a/P) along a direction j ≠ a → amplitude, phase | period P, mm |
 //! | velocity_coupling (signature) | v_a along a direction j ≠ a → coefficient, µm per mm/s | — |
 //! | direction_coupling (signature) | d_a/2 along a direction j ≠ a → shift, µm | — |
+//! | step (signature) | 1 from time t₀ on along direction j → size, µm (local to the run holding t₀) | t₀, s |
 //!
 //! The signature space: for each moving axis a, its direction of travel d_a, position
 //! (smooth and periodic), velocity v_a and travel since its last reversal, and the session
@@ -78,6 +79,10 @@ pub enum Search {
     None,
     /// Evaluate the joint fit on each value (few values).
     Grid(&'static str, Vec<f64>),
+    /// A step's time: the most significant step of the current residual along the
+    /// candidate's direction (the local scan's rule, `diagnosis::local_scan`), refined on
+    /// the exact joint fit.
+    Step,
     /// Periodic: scan a coarse frequency grid on the residual, refine finely around the
     /// best; the value reported is 1/frequency for periods.
     Periodic {
@@ -125,6 +130,15 @@ pub fn candidates(d: &Design) -> Vec<Candidate> {
             out.push(c("velocity_coupling", Some(a), Some(dir), None));
             out.push(c("direction_coupling", Some(a), Some(dir), None));
         }
+    }
+    // A lasting offset of one direction's readings from a time on (a slip): one-off, in
+    // the run where it happens (later runs carry it as a constant their zero offsets
+    // take).
+    for dir in Axis::ALL
+        .into_iter()
+        .filter(|j| d.plane_axes.iter().any(|(u, v)| u == j || v == j))
+    {
+        out.push(c("step", None, Some(dir), None));
     }
     out.push(c("thermal_drift", None, None, None));
     // Logged temperatures: growth that follows the temperature, whatever its course.
@@ -211,6 +225,7 @@ pub fn search(d: &Design, c: &Candidate) -> Search {
                 as_period: true,
             }
         }
+        "step" => Search::Step,
         "vibration" => {
             let (span, nyq, run_len) = time_band(d);
             Search::Periodic {
@@ -242,6 +257,10 @@ pub struct Columns<'a> {
     /// An axis whose position and travel alone the columns follow: they are constant
     /// over a run that does not move it.
     follows: Option<Axis>,
+    /// The one run where the columns vary (a step inside it: constant on every other
+    /// run, which its zero offsets take); the columns are then local
+    /// ([`super::moments::Moments::local`]).
+    run: Option<usize>,
 }
 
 impl<'a> Columns<'a> {
@@ -257,7 +276,18 @@ impl<'a> Columns<'a> {
             fill: Box::new(fill),
             active,
             follows: None,
+            run: None,
         }
+    }
+
+    /// The columns vary on run `g` alone ([`Columns::run`]).
+    fn on_run(self, g: Option<usize>) -> Self {
+        Columns { run: g, ..self }
+    }
+
+    /// The one run where the columns vary, for a local effect.
+    pub fn run(&self) -> Option<usize> {
+        self.run
     }
 
     /// The columns follow axis `a`'s position and travel alone ([`Columns::follows`]).
@@ -388,6 +418,16 @@ pub fn specs<'a>(
             let (n, ax) = one("shift_um", dir);
             let travel = &d.fields.dir[a.index()];
             Columns::new(n, ax, move |s, _, o| o[0] = 0.5 * travel[s]).following(a)
+        }
+        "step" => {
+            // +1 from time θ on along the direction: the reading's offset after − before.
+            let dir = c.direction.expect("direction");
+            let (n, ax) = one("size_um", dir);
+            let t = &d.fields.t_s;
+            Columns::new(n, ax, move |s, _, o| {
+                o[0] = f64::from(u8::from(t[s] >= theta))
+            })
+            .on_run(d.run_at_time(theta))
         }
         "vibration" => {
             let dir = c.direction.expect("direction");

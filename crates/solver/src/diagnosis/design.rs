@@ -30,7 +30,9 @@ pub struct SampleFields {
     pub q_mm: [Vec<f64>; 3],
     /// Commanded velocity per axis from the set-points ([`velocity`], mm/s).
     pub vel_mm_s: [Vec<f64>; 3],
-    /// Sign of each axis's last travel (0 before it first moves).
+    /// Sign of each axis's last travel (before its first recorded move in a file: the
+    /// opposite of that move, an approach from the other side; 0 for an axis that does
+    /// not move in the file).
     pub dir: [Vec<f64>; 3],
     /// Travel since the last reversal of each axis (mm; infinite before one).
     pub since_reversal_mm: [Vec<f64>; 3],
@@ -152,6 +154,15 @@ impl Design {
         peak
     }
 
+    /// The run inside which time `t` falls (after its first sample, at or before its
+    /// last), if any.
+    pub fn run_at_time(&self, t: f64) -> Option<usize> {
+        let ts = &self.fields.t_s;
+        let g = self.runs.partition_point(|r| ts[r.start] < t);
+        let g = g.checked_sub(1)?;
+        (t <= ts[self.runs[g].end - 1]).then_some(g)
+    }
+
     /// Removes the mean of each (run, component).
     pub fn centre(&self, c: &mut [f64]) {
         self.centre_with_peak(c);
@@ -165,6 +176,27 @@ impl Design {
             .flat_map(|r| 2 * r.start..2 * r.end)
             .collect()
     }
+}
+
+/// The sign of each axis's first move along the positions `q` (0: it never moves).
+fn first_moves<'a>(q: impl Iterator<Item = &'a [f64; 3]>) -> [f64; 3] {
+    let mut first = [0.0; 3];
+    let mut last: Option<[f64; 3]> = None;
+    for q in q {
+        if let Some(l) = last {
+            for a in 0..3 {
+                let dq = q[a] - l[a];
+                if first[a] == 0.0 && dq.abs() > 1e-12 {
+                    first[a] = dq.signum();
+                }
+            }
+            if first.iter().all(|&f| f != 0.0) {
+                break;
+            }
+        }
+        last = Some(*q);
+    }
+    first
 }
 
 fn infer_test(pos: &[[f64; 3]]) -> TestKind {
@@ -234,8 +266,21 @@ pub fn build(session: &Session, topology: &Topology, order: usize) -> Result<Des
     for (pi, p) in session.planes.iter().enumerate() {
         let (u, v) = p.plane.axes();
         plane_axes.push((u, v));
-        // Travel state through the file, approach moves between runs included.
-        let mut state: Option<DriveState> = None;
+        // Travel state through the file, approach moves between runs included. The
+        // approach to the file's first sample is not recorded: each axis is taken to
+        // have reached it travelling against its first recorded move (an approach from
+        // the other side, a reversal at its first move), as a test plan approaches its
+        // start from the centre of the travel.
+        let mut state: Option<DriveState> = Some(DriveState {
+            q_mm: p
+                .runs
+                .first()
+                .and_then(|r| r.pos_mm.first())
+                .copied()
+                .unwrap_or_default(),
+            dir: first_moves(p.runs.iter().flat_map(|r| &r.pos_mm)).map(|s| -s),
+            since_reversal_mm: [f64::INFINITY; 3],
+        });
         let mut counts: std::collections::HashMap<TestKind, usize> = Default::default();
         for run in &p.runs {
             if run.len() < 3 {

@@ -342,6 +342,25 @@ pub const EFFECTS: &[EffectSpec] = &[
         decide: "more reversals of the axis, on circles (line passes show a constant shift as a run offset)",
     },
     EffectSpec {
+        name: "step",
+        physics: "a lasting offset of one direction's readings from a time on, inside one run (an encoder slip or lost count, a knock that moved the workpiece, the plate or the reading head): a one-off event, not a property of the machine's geometry; later runs carry it as a constant their zero offsets take (found by its signature, outside the named catalogue)",
+        params: &[
+            p(
+                "size_um",
+                "um",
+                "s: the reading along the named direction is offset by +s from time t0 on (after - before)",
+            ),
+            q(
+                "time_s",
+                "s",
+                "t0: session time of the step, halfway between the last reading before it and the first after",
+            ),
+        ],
+        principal: &["size_um", "time_s"],
+        any_of: false,
+        decide: "a repeat of the run (a one-off event does not repeat)",
+    },
+    EffectSpec {
         name: "setup_offset",
         physics: "the declared head offset of these files differs from the true one, so the Abbe arms of the angular errors are wrong",
         params: &[p(

@@ -52,6 +52,10 @@ pub struct Moments {
     pub peaks: Vec<f64>,
     /// Per column: whether it varies in some group (is not absorbed by the run offsets).
     pub varies: Vec<bool>,
+    /// Per column: whether it is local, i.e. describes a one-off event of the runs where
+    /// it is nonzero (a step): a held-out run refits it on its own rows, like its zero
+    /// offsets, in the held-out residual of [`joint_fit`].
+    pub local: Vec<bool>,
 }
 
 impl Moments {
@@ -184,6 +188,7 @@ impl Moments {
             runs,
             peaks,
             varies,
+            local: vec![false; m],
         }
     }
 
@@ -226,6 +231,7 @@ impl Moments {
             runs,
             peaks: keep.iter().map(|&j| self.peaks[j]).collect(),
             varies: keep.iter().map(|&j| self.varies[j]).collect(),
+            local: keep.iter().map(|&j| self.local[j]).collect(),
         }
     }
 
@@ -518,6 +524,14 @@ impl Joint<'_> {
             _ => self.base.z_col(g, j - mb),
         }
     }
+    /// Whether column j is local ([`Moments::local`]).
+    fn local(&self, j: usize) -> bool {
+        let mb = self.mb();
+        match self.b {
+            Some(b) if j < mb => b.local[j],
+            _ => self.base.local[j - mb],
+        }
+    }
     /// Element (i, j) of G_g.
     fn g_at(&self, g: usize, i: usize, j: usize) -> f64 {
         let mb = self.mb();
@@ -648,6 +662,36 @@ fn add_products(v: &mut DMatrix<f64>, c: usize, w: &[Vec<f64>], off: usize, z: &
     }
 }
 
+/// The part of a held-out run h's squared residual e_h that its local columns S (a step
+/// in it: [`Moments::local`]) take when refitted on its own rows: with
+/// Sᵀe_h = G_h[S, ·]·w − Z_h[S]·(Ã_h a) and M = G_h[S, S] (centred per run, like every
+/// column), ‖e_h‖² − min_c ‖e_h − S c‖² = (Sᵀe_h)ᵀ M⁺ (Sᵀe_h). 0 without local columns.
+fn local_refit(j: &Joint, h: usize, gh: &DMatrix<f64>, wv: &DMatrix<f64>, pa: &[f64]) -> f64 {
+    let q = j.q();
+    let loc: Vec<usize> = (0..q - 1)
+        .filter(|&c| j.local(c) && gh[(c, c)] > 0.0)
+        .collect();
+    if loc.is_empty() {
+        return 0.0;
+    }
+    let gw = gh * wv;
+    let s = nalgebra::DVector::from_iterator(
+        loc.len(),
+        loc.iter().map(|&c| gw[c] - dot(j.z(h, c), pa)),
+    );
+    let m = DMatrix::from_fn(loc.len(), loc.len(), |a, b| gh[(loc[a], loc[b])]);
+    let eig = SymmetricEigen::new(m);
+    let lmax = eig.eigenvalues.iter().copied().fold(0.0, f64::max);
+    let mut taken = 0.0;
+    for (e, &l) in eig.eigenvalues.iter().enumerate() {
+        if l > 1e-12 * lmax && l > 0.0 {
+            let c = eig.eigenvectors.column(e).dot(&s);
+            taken += c * c / l;
+        }
+    }
+    taken
+}
+
 /// The fit on all runs and the held-out sum of squares over the folds.
 pub struct JointFit {
     pub all: SetFit,
@@ -694,7 +738,8 @@ pub fn joint_fit(
                     }
                 }
             }
-            total += (quad - 2.0 * dot(&zw, &pa) + dot(&pa, &pa)).max(0.0);
+            let ee = quad - 2.0 * dot(&zw, &pa) + dot(&pa, &pa);
+            total += (ee - local_refit(&j, h, &gh, &wv, &pa)).max(0.0);
         }
     }
     JointFit {

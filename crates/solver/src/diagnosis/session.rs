@@ -24,7 +24,9 @@ use super::linalg::dot;
 use super::locate::locate;
 use super::moments::Sets;
 use super::reduced::Reduction;
-use super::{Baseline, BeforeAfter, DiagnosisResult, Finding, Monotone, NoProgress, Progress};
+use super::{
+    Baseline, BeforeAfter, DiagnosisResult, Finding, Mismatch, Monotone, NoProgress, Progress,
+};
 use crate::axis::Topology;
 use crate::error::SolverError;
 use crate::session::Session;
@@ -33,6 +35,7 @@ use serde::{Deserialize, Serialize};
 use std::collections::BTreeMap;
 use trial::{Trial, report_parameters};
 
+mod anomalies;
 mod context;
 mod plots;
 mod trial;
@@ -113,6 +116,19 @@ impl SessionProblem<'_> {
         }
     }
 
+    /// A step's signature in words with its place: direction, time, file, run, test and
+    /// commanded position.
+    fn step_place(&self, t0: f64, dir: crate::axis::Axis) -> String {
+        let d = self.ctx.d;
+        let s = d.fields.t_s.partition_point(|&t| t < t0);
+        let s = s.min(d.fields.len() - 1);
+        format!(
+            "a lasting offset of the {dir} reading from t = {t0:.2} s on: {}, at {}",
+            anomalies::run_name(d, d.fields.run(s)),
+            anomalies::position(d, s)
+        )
+    }
+
     fn heldout_rms(&self, f: &Fit) -> f64 {
         rms(f.heldout_ssr, self.ctx.sets.heldout_n)
     }
@@ -141,7 +157,10 @@ impl SessionProblem<'_> {
                 .or(t.cand.direction.map(|a| a.to_string())),
             parameters,
             physics: effects::physics(catalogue::reported_name(t.cand.effect)).into(),
-            signature: catalogue::signature(&t.cand, t.theta.map(|x| x.1)),
+            signature: match (t.cand.effect, t.theta, t.cand.direction) {
+                ("step", Some((_, th)), Some(dir)) => Some(self.step_place(th, dir)),
+                _ => catalogue::signature(&t.cand, t.theta.map(|x| x.1)),
+            },
             undetermined: vec![],
             residual_rms_um: BeforeAfter {
                 before: rms(f.ssr, n),
@@ -232,14 +251,16 @@ impl super::engine::Greedy for SessionProblem<'_> {
     /// the refitted figures.
     fn add(&self, s: &State, c: &Candidate, t: Trial, note: Note) -> (State, Note) {
         let d = self.ctx.d;
-        let mut cols = s.fit.cols.clone();
+        let (mut cols, mut local) = (s.fit.cols.clone(), s.fit.local.clone());
         let th = t.theta.map_or(0.0, |x| x.1);
         let (new_cols, _, _) = catalogue::columns(d, c, th, s.eps());
+        let is_local = catalogue::specs(d, c, th, s.eps()).run().is_some();
         for c in &new_cols {
             let nrm = dot(c, c).sqrt().max(1e-300);
             cols.push(c.iter().map(|v| v / nrm).collect());
+            local.push(is_local);
         }
-        let nf = self.ctx.fit(cols);
+        let nf = self.ctx.fit(cols, local);
         let note = match note {
             Note::Finding(finding) => Note::Finding(Finding {
                 undetermined: finding.undetermined,
@@ -275,9 +296,10 @@ pub fn diagnose_session_with_progress(
         d: &d,
         red: &red,
         sets: &sets,
+        floor: f64::NAN,
     };
     progress.report("fitting the rigid model", 0.05);
-    let f = ctx.fit(Vec::new());
+    let f = ctx.fit(Vec::new(), Vec::new());
     let dof = n.saturating_sub(2 * d.runs.len() + f.rank).max(1);
     let base_rms = (f.ssr / dof as f64).sqrt();
     let base_heldout = rms(f.heldout_ssr, heldout_n);
@@ -296,12 +318,32 @@ pub fn diagnose_session_with_progress(
         Some((s, _)) => s,
         None => noise_floor().map_or(base_rms, |nf| nf.sigma_um),
     };
+    let ctx = Ctx { floor, ..ctx };
     let before_resid = f.resid.clone();
-    let mismatch = if base_heldout > opts.noise_level_ratio * floor {
+    // Local anomalies of the rigid model's residual: a session with one is never
+    // consistent, whatever its global ratio.
+    let rigid_anomalies = anomalies::scan(&d, &f.resid, floor);
+    let mut mismatch = if base_heldout > opts.noise_level_ratio * floor {
         locate(&d, &f.resid, floor)
     } else {
         Vec::new()
     };
+    let total_excess: f64 = f.resid.iter().map(|r| r * r - floor * floor).sum();
+    // Listed as places when they are one-off events (in a few runs); anomalies in many
+    // runs are the recurring misfit the other places describe.
+    let one_off = rigid_anomalies.len() <= anomalies::MAX_ONE_OFF;
+    mismatch.extend(
+        rigid_anomalies
+            .iter()
+            .filter(|_| one_off)
+            .take(6)
+            .map(|a| Mismatch {
+                where_: a.describe(&d),
+                tests: vec![a.test_id(&d)],
+                share_of_misfit: (a.excess / total_excess.max(1e-300)).clamp(0.0, 1.0),
+            }),
+    );
+    mismatch.sort_by(|a, b| b.share_of_misfit.total_cmp(&a.share_of_misfit));
     let cands = catalogue::candidates(&d);
     let problem = SessionProblem {
         ctx,
@@ -347,12 +389,25 @@ pub fn diagnose_session_with_progress(
     progress.report("report", 0.95);
     let final_heldout = rms(f.heldout_ssr, heldout_n);
     let at_noise = final_heldout <= opts.noise_level_ratio * floor;
+    let final_anomalies = anomalies::scan(&d, &f.resid, floor);
     let verdict = effects::verdict(
-        base_heldout <= opts.noise_level_ratio * floor,
-        at_noise,
+        base_heldout <= opts.noise_level_ratio * floor && rigid_anomalies.is_empty(),
+        at_noise && final_anomalies.is_empty(),
         findings.len(),
     );
-    let mut unexplained = Vec::new();
+    let found = final_anomalies.len();
+    let mut unexplained: Vec<String> = final_anomalies
+        .iter()
+        .take(6)
+        .map(|a| {
+            let how = if found > anomalies::MAX_ONE_OFF {
+                format!("; {found} such anomalies: a misfit that recurs")
+            } else {
+                String::new()
+            };
+            format!("{} (not explained by the findings{how})", a.describe(&d))
+        })
+        .collect();
     if !at_noise {
         let floor_note = match noise_floor() {
             Some(nf) => nf.note(),

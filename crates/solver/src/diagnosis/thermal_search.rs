@@ -117,6 +117,7 @@ impl ThermalBasis {
             runs,
             peaks: vec![0.0; m],
             varies: vec![true; m],
+            local: vec![false; m],
         }
     }
 }
@@ -170,6 +171,7 @@ fn place(per_axis: &[Moments; 3]) -> Moments {
         u,
         runs,
         peaks,
+        local: vec![false; m],
         varies,
     }
 }

@@ -36,6 +36,10 @@
 //! between passes is thus not counted as noise (ISO 230-2's repeatability would include
 //! it; [`crate::standards::iso230_2`] gives those figures).
 //!
+//! **Local scan**: the final residual of each axis in time order is scanned for a step, a
+//! burst or an isolated excursion ([`crate::diagnosis::local_scan`], 0.1 % family-wise);
+//! an axis with such an anomaly is never consistent.
+//!
 //! Submodules, one concept each: `data` (validation and derived coordinates, noise
 //! floor), `columns` (rigid and effect columns, search grids), `problem` (the axis as a
 //! problem of the diagnosis engine, which runs the 1-D searches, held-out scores and the greedy

@@ -12,12 +12,14 @@ use super::super::reduced::Reduction;
 use crate::axis::Axis;
 use crate::terms::{Component, Term};
 
-/// The design, its reduction and the folds' run sets.
+/// The design, its reduction, the folds' run sets and the noise floor.
 #[derive(Clone, Copy)]
 pub(crate) struct Ctx<'a> {
     pub d: &'a Design,
     pub red: &'a Reduction,
     pub sets: &'a Sets,
+    /// The noise floor (µm), estimated without a model (NaN until it is).
+    pub floor: f64,
 }
 
 /// The current model (rigid terms and the accepted effects) fitted on all runs and on
@@ -25,6 +27,8 @@ pub(crate) struct Ctx<'a> {
 pub(crate) struct Fit {
     /// Accepted effect columns (centred, unit norm).
     pub cols: Cols,
+    /// Per accepted column: whether it is local (a step: refitted on a held-out run).
+    pub local: Vec<bool>,
     /// Moments of [accepted effects | y] (the base of every joint fit).
     pub base: moments::Base,
     /// Coefficients of the rigid columns (scaled) on all runs.
@@ -52,15 +56,14 @@ impl State {
 }
 
 impl<'a> Ctx<'a> {
-    /// Fits the rigid model plus the effect columns `cols` on all runs and on the
-    /// training runs of each fold, and forms the residual on all rows.
-    pub fn fit(&self, cols: Cols) -> Fit {
-        let Ctx { d, red, sets } = *self;
-        let base = moments::Base::new(
-            red,
-            sets,
-            Moments::of_columns(red, &self.base_columns(&cols)),
-        );
+    /// Fits the rigid model plus the effect columns `cols` (`local`: which are local) on
+    /// all runs and on the training runs of each fold, and forms the residual on all
+    /// rows.
+    pub fn fit(&self, cols: Cols, local: Vec<bool>) -> Fit {
+        let Ctx { d, red, sets, .. } = *self;
+        let mut mom = Moments::of_columns(red, &self.base_columns(&cols));
+        mom.local = local.iter().copied().chain([false]).collect();
+        let base = moments::Base::new(red, sets, mom);
         let jf = moments::joint_fit(red, sets, None, &base, true);
         let mut resid = d.y.clone();
         for (col, e) in cols.iter().zip(&jf.all.x) {
@@ -76,6 +79,7 @@ impl<'a> Ctx<'a> {
         Fit {
             rank: sets.all.rank() + jf.all.rank,
             cols,
+            local,
             base,
             a: jf.all.a,
             resid,
@@ -108,13 +112,29 @@ impl<'a> Ctx<'a> {
         // Columns that follow one axis are constant on the runs that do not move it: the
         // centring per run removes them there (their moments are 0).
         let parked = specs.follows().map(|a| self.parked_runs(a));
-        let mom = Moments::new_on(
-            self.red,
-            specs.len(),
-            &self.base_columns(&f.cols),
-            |row| specs.live(d, row) && parked.as_ref().is_none_or(|p| !p[d.fields.run(row / 2)]),
-            |row, out| specs.at(d, row, out),
-        );
+        let live =
+            |row| specs.live(d, row) && parked.as_ref().is_none_or(|p| !p[d.fields.run(row / 2)]);
+        let base = self.base_columns(&f.cols);
+        let fill = |row, out: &mut [f64]| specs.at(d, row, out);
+        let mom = match specs.run() {
+            // A local effect varies on its run alone: only that run's live rows.
+            Some(g) => {
+                let mut mom = Moments::over_rows(
+                    self.red,
+                    specs.len(),
+                    &base,
+                    |h, rs, out| {
+                        if h == g {
+                            out.extend((0..rs.rows).filter(|&i| live(rs.row0 + i)));
+                        }
+                    },
+                    fill,
+                );
+                mom.local = vec![true; mom.m];
+                mom
+            }
+            None => Moments::new_on(self.red, specs.len(), &base, live, fill),
+        };
         self.fit_moments(f, mom, heldout)
     }
 

@@ -4,10 +4,12 @@
 
 use super::super::catalogue::{self, Candidate, Search};
 use super::super::design::{Design, RunInfo};
+use super::super::local_scan;
 use super::super::moments::Moments;
 use super::super::periodic_scan;
 use super::super::search::golden_section;
 use super::super::thermal_search::ThermalBasis;
+use super::anomalies::{self, sequences, step_time};
 use super::context::{Ctx, State};
 use crate::axis::Axis;
 use std::collections::BTreeMap;
@@ -229,6 +231,16 @@ impl Ctx<'_> {
                 let bracket = golden_section((v0 / ratio).ln(), (v0 * ratio).ln(), 10, eval);
                 (Some((name, bracket.centre().exp())), 1)
             }
+            Search::Step => {
+                let (g, k) = self.most_significant_step(&f.resid, cand.direction?)?;
+                // The exact joint fit at the scanned place and three samples either side.
+                let start = d.runs[g].start;
+                let n = d.runs[g].end - start;
+                let (_, k) = (k.saturating_sub(3).max(1)..(k + 4).min(n))
+                    .map(|k| (self.ssr_at(s, cand, step_time(d, start + k)), k))
+                    .min_by(|a, b| a.0.total_cmp(&b.0))?;
+                (Some(("time_s", step_time(d, start + k))), 1)
+            }
             Search::Periodic {
                 name,
                 f_lo,
@@ -281,6 +293,21 @@ impl Ctx<'_> {
         })
     }
 
+    /// The most significant step of the residual `r` along direction `dir` over every
+    /// run, as (run, index of the first sample after it within the run), when it is an
+    /// anomaly by the local scan's rule ([`local_scan`]: its p-value below the
+    /// family-wise threshold of a scan of the whole session).
+    fn most_significant_step(&self, r: &[f64], dir: Axis) -> Option<(usize, usize)> {
+        let thr = anomalies::thresholds(self.d)[0];
+        sequences(self.d, r)
+            .into_iter()
+            .filter(|s| s.axis == dir)
+            .filter_map(|s| Some((s.run, local_scan::best_step(&s.r, self.floor)?)))
+            .filter(|(_, a)| a.ln_p < thr)
+            .min_by(|a, b| a.1.ln_p.total_cmp(&b.1.ln_p))
+            .map(|(g, a)| (g, a.at))
+    }
+
     /// The candidate evaluated jointly with the current model `s`: its nonlinear
     /// parameter searched, its joint fit on all runs and the folds, its ΔBIC.
     pub fn try_candidate(&self, s: &State, cand: &Candidate) -> Option<Trial> {
@@ -317,6 +344,9 @@ impl Ctx<'_> {
     /// σ; infinite when S is not convex there (θ not determined).
     pub fn theta_std(&self, s: &State, t: &Trial, sigma: f64) -> Option<(&'static str, f64)> {
         let (name, th) = t.theta?;
+        if name == "time_s" {
+            return Some((name, self.step_time_std(s, t, sigma)));
+        }
         let ssr_at = |v: f64| {
             let x = self.ssr_at(s, &t.cand, v);
             if x.is_finite() { x } else { f64::NAN }
@@ -341,6 +371,35 @@ impl Ctx<'_> {
             ("period_mm", false) => ("period_mm", sd_lin / (th * th)),
             _ => (name, sd_lin),
         })
+    }
+}
+
+impl Ctx<'_> {
+    /// Standard uncertainty of a step's time t̂ (between two samples): the 2σ interval
+    /// of the profiled sum of squares, the step times whose SSR exceeds the least by at
+    /// most 4σ² (χ²₁ at 2σ), over ±10 samples, is ±2 standard uncertainties; at least the
+    /// uncertainty of a time known to one sample interval Δt, Δt/√12.
+    fn step_time_std(&self, s: &State, t: &Trial, sigma: f64) -> f64 {
+        let d = self.d;
+        let Some((_, th)) = t.theta else {
+            return f64::INFINITY;
+        };
+        let Some(g) = d.run_at_time(th) else {
+            return f64::INFINITY;
+        };
+        let (start, end) = (d.runs[g].start, d.runs[g].end);
+        let ts = &d.fields.t_s;
+        let k = start + ts[start..end].partition_point(|&x| x < th);
+        let dt = ts[k.min(end - 1)] - ts[k.saturating_sub(1).max(start)];
+        let (mut lo, mut hi) = (th, th);
+        for j in k.saturating_sub(10).max(start + 1)..(k + 11).min(end) {
+            let tj = step_time(d, j);
+            if self.ssr_at(s, &t.cand, tj) - t.ssr <= 4.0 * sigma * sigma {
+                lo = lo.min(tj);
+                hi = hi.max(tj);
+            }
+        }
+        (0.25 * (hi - lo)).max(dt / 12f64.sqrt())
     }
 }
 

@@ -7,6 +7,7 @@ use super::columns::{Effect, LOST_MOTION_PROFILE, Model};
 use super::data::AxisData;
 use super::problem::{Candidate, Positioning};
 use crate::diagnosis::engine::Selection;
+use crate::diagnosis::local_scan::{self, Kind};
 use crate::diagnosis::lsq;
 use crate::diagnosis::repeatability::Repeatability;
 use crate::diagnosis::{Finding, Mismatch, PlotData, PlotKind, PlotSeries, effects};
@@ -283,7 +284,10 @@ pub(super) fn outcome(
             )
         })
         .collect();
-    let needs = base_heldout > opts.explained_ratio * noise || !rep.set_aside.is_empty();
+    let local = local_anomalies(a, &res, noise, rep);
+    let needs = base_heldout > opts.explained_ratio * noise
+        || !rep.set_aside.is_empty()
+        || !local.is_empty();
     let mut left = vec![];
     if needs && final_heldout > opts.explained_ratio * noise {
         left.push(format!(
@@ -298,6 +302,13 @@ pub(super) fn outcome(
         left.push(format!(
             "outlying approaches no effect explains: {}",
             anomalies.join(", ")
+        ));
+    }
+    if !local.is_empty() {
+        left.push(format!(
+            "local anomalies in the final model's residual, in time order (local scan at {:.1} % family-wise over the axis): {}",
+            100.0 * local_scan::FAMILY_WISE_ALPHA,
+            local.iter().map(|l| l.text.as_str()).collect::<Vec<_>>().join(", ")
         ));
     }
     let unexplained = (!left.is_empty()).then(|| format!("axis {}: {}", a.axis, left.join("; ")));
@@ -331,6 +342,37 @@ pub(super) fn outcome(
         });
         mismatch.sort_by(|x, y| y.share_of_misfit.total_cmp(&x.share_of_misfit));
     }
+    if !local.is_empty() {
+        let excess = misfit.max(1e-300);
+        let ss: f64 = local
+            .iter()
+            .flat_map(|l| &l.indices)
+            .map(|&i| res[i].powi(2))
+            .sum();
+        mismatch.push(Mismatch {
+            where_: format!(
+                "axis {}: local anomalies no effect explains: {}",
+                a.axis,
+                local
+                    .iter()
+                    .map(|l| l.text.as_str())
+                    .collect::<Vec<_>>()
+                    .join(", ")
+            ),
+            tests: local
+                .iter()
+                .flat_map(|l| &l.indices)
+                .map(|&i| format!("{}#run {}", a.axis, a.run[i]))
+                .fold(vec![], |mut v: Vec<String>, t| {
+                    if !v.contains(&t) {
+                        v.push(t);
+                    }
+                    v
+                }),
+            share_of_misfit: (ss / excess).min(1.0),
+        });
+        mismatch.sort_by(|x, y| y.share_of_misfit.total_cmp(&x.share_of_misfit));
+    }
     AxisOutcome {
         noise,
         base_rms: rms(&base_res),
@@ -344,6 +386,67 @@ pub(super) fn outcome(
         misfit,
         needs,
     }
+}
+
+/// A local anomaly of an axis's final residual.
+struct LocalAnomaly {
+    /// Where it is and how large, for a person.
+    text: String,
+    /// The readings it covers (indices of the records).
+    indices: Vec<usize>,
+}
+
+/// The local scan ([`local_scan`]: a step that persists, a burst, an isolated excursion,
+/// family-wise false-alarm rate [`local_scan::FAMILY_WISE_ALPHA`]) of the final model's
+/// residual `res` read as one sequence in time order (a slip carried into later runs is
+/// one step), against the noise floor. The approaches the outlier test set aside are
+/// left out of the sequence (read as 0, the residual's mean): they are reported as
+/// outlying approaches already.
+fn local_anomalies(
+    a: &AxisData,
+    res: &[f64],
+    noise: f64,
+    rep: &Repeatability,
+) -> Vec<LocalAnomaly> {
+    let mut order: Vec<usize> = (0..res.len()).collect();
+    order.sort_by(|&i, &j| a.time[i].total_cmp(&a.time[j]));
+    let aside: Vec<usize> = rep.set_aside.iter().map(|o| o.index).collect();
+    let seq: Vec<f64> = order
+        .iter()
+        .map(|&i| if aside.contains(&i) { 0.0 } else { res[i] })
+        .collect();
+    local_scan::scan(&[&seq], noise)
+        .into_iter()
+        .map(|an| {
+            let (from, to) = match an.kind {
+                // A step covers the readings from its place to the end of the axis.
+                Kind::Step => (an.at, seq.len()),
+                _ => an.span,
+            };
+            let indices: Vec<usize> = order[from.min(seq.len())..to.min(seq.len())].to_vec();
+            let first = order[an.at.min(seq.len() - 1)];
+            let what = match an.kind {
+                Kind::Step => format!("a step of {:+.2} µm from", an.size),
+                Kind::Burst => format!(
+                    "a burst of {:.2} µm RMS over {} readings from",
+                    an.size,
+                    to - from
+                ),
+                Kind::Excursion => format!("a reading {:+.2} µm off at", an.size),
+            };
+            LocalAnomaly {
+                text: format!(
+                    "{what} {} ({} {:.1} {}, z = {:.1})",
+                    a.place(first),
+                    "time",
+                    a.time[first],
+                    a.time_unit(),
+                    an.z()
+                ),
+                indices,
+            }
+        })
+        .collect()
 }
 
 /// Where the first-cycle transient of size `h` and time constant `tau` lies and how it
