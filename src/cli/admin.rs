@@ -71,7 +71,7 @@ async fn open(db: &str, create: bool) -> anyhow::Result<Arc<dyn Store>> {
     }
     mtcal_store::open(db)
         .await
-        .with_context(|| format!("opening {db}"))
+        .with_context(|| format!("opening {}", mtcal_store::redacted(db)))
 }
 
 fn table(keys: &[ApiKey]) -> String {

@@ -182,6 +182,8 @@ async fn demo(args: Args, db: PathBuf, temporary: bool) -> anyhow::Result<ExitCo
     let serve = super::serve::Args {
         worker: super::serve::WorkerArgs {
             db: db_url.clone(),
+            db_pool: None,
+            db_timeout_ms: 3000,
             concurrency: 2,
             lease_ms: 30_000,
             max_attempts: 3,
@@ -193,6 +195,7 @@ async fn demo(args: Args, db: PathBuf, temporary: bool) -> anyhow::Result<ExitCo
         },
         listen: args.listen,
         no_worker: false,
+        cookie_secure: false,
         header_timeout_seconds: 10,
     };
     let (tx, rx) = tokio::sync::oneshot::channel();

@@ -14,6 +14,16 @@ pub struct WorkerArgs {
     /// `postgres://user@host/db` (any number of API and worker processes on any hosts).
     #[arg(long, env = "MTCAL_DB", default_value = "mtcal.sqlite")]
     pub db: String,
+    /// Database connections of this process (default 10 on PostgreSQL, 8 on SQLite).
+    /// Every process sharing a PostgreSQL server counts: keep their sum below its
+    /// `max_connections` less a few for administration (docs/api.md, "Operations").
+    #[arg(long, env = "MTCAL_DB_POOL", value_parser = clap::value_parser!(u32).range(1..=500))]
+    pub db_pool: Option<u32>,
+    /// Longest wait for a database connection, ms: past it a request answers 503 with
+    /// Retry-After instead of waiting (a database outage fails fast).
+    #[arg(long, env = "MTCAL_DB_TIMEOUT_MS", default_value_t = 3000,
+          value_parser = clap::value_parser!(u64).range(100..=60_000))]
+    pub db_timeout_ms: u64,
     /// Jobs run at the same time.
     #[arg(long, default_value_t = 2)]
     pub concurrency: usize,
@@ -50,6 +60,19 @@ pub enum LogFormat {
 }
 
 impl WorkerArgs {
+    /// The database connections of this process.
+    pub fn store_options(&self) -> mtcal_store::StoreOptions {
+        mtcal_store::StoreOptions {
+            pool_size: self.db_pool,
+            acquire_timeout: std::time::Duration::from_millis(self.db_timeout_ms),
+        }
+    }
+
+    /// The database URL fit to print (no password).
+    pub fn db_shown(&self) -> String {
+        mtcal_store::redacted(&self.db)
+    }
+
     pub fn config(&self) -> WorkerConfig {
         WorkerConfig {
             queue: QueueConfig {
@@ -80,6 +103,10 @@ pub struct Args {
     /// Serve the API only; run no worker (workers run as `mtcal worker` elsewhere).
     #[arg(long)]
     pub no_worker: bool,
+    /// Mark the sign-in cookies `Secure` on every answer (they are anyway when a
+    /// TLS-terminating proxy sends `X-Forwarded-Proto: https`).
+    #[arg(long, env = "MTCAL_COOKIE_SECURE")]
+    pub cookie_secure: bool,
     /// Seconds a client has to send a request's head (slow clients are disconnected).
     #[arg(long, env = "MTCAL_HEADER_TIMEOUT_SECONDS", default_value_t = 10)]
     pub header_timeout_seconds: u64,
@@ -89,12 +116,18 @@ impl Args {
     pub fn config(&self) -> ServeConfig {
         ServeConfig {
             db_url: self.worker.db.clone(),
+            store: self.worker.store_options(),
             listen: self.listen,
             run_worker: !self.no_worker,
             header_timeout: std::time::Duration::from_secs(
                 self.header_timeout_seconds.clamp(1, 600),
             ),
-            worker: self.worker.config(),
+            worker: WorkerConfig {
+                settings: mtcal_server::Settings {
+                    cookie_secure: self.cookie_secure,
+                },
+                ..self.worker.config()
+            },
         }
     }
 }
@@ -126,7 +159,7 @@ pub fn run(args: Args) -> anyhow::Result<ExitCode> {
         },
         mtcal_server::shutdown_signal(),
     ))
-    .with_context(|| format!("serving {}", args.worker.db))?;
+    .with_context(|| format!("serving {}", args.worker.db_shown()))?;
     Ok(ExitCode::SUCCESS)
 }
 
@@ -148,7 +181,8 @@ pub fn run_worker(cmd: WorkerCmd) -> anyhow::Result<ExitCode> {
     init_logging(args.log_format);
     let rt = tokio::runtime::Runtime::new()?;
     rt.block_on(async {
-        let (store, workers) = mtcal_server::run_workers(&args.db, args.config()).await?;
+        let (store, workers) =
+            mtcal_server::run_workers(&args.db, args.store_options(), args.config()).await?;
         let (stop_probes, probes_stopped) = tokio::sync::oneshot::channel::<()>();
         let probes = match cmd.metrics_listen {
             Some(addr) => {
@@ -172,7 +206,7 @@ pub fn run_worker(cmd: WorkerCmd) -> anyhow::Result<ExitCode> {
         super::out::announce(&format!(
             "mtcal: {} worker(s) on {}",
             workers.len(),
-            args.db
+            args.db_shown()
         ));
         mtcal_server::shutdown_signal().await;
         tracing::info!("stopping: finishing or handing back running jobs");
@@ -183,6 +217,6 @@ pub fn run_worker(cmd: WorkerCmd) -> anyhow::Result<ExitCode> {
         }
         anyhow::Ok(())
     })
-    .with_context(|| format!("working on {}", args.db))?;
+    .with_context(|| format!("working on {}", args.db_shown()))?;
     Ok(ExitCode::SUCCESS)
 }

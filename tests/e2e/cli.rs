@@ -156,6 +156,14 @@ fn deployment_examples_use_flags_mtcal_accepts() {
         }
     }
     assert!(lines.len() >= 5, "{lines:?}");
+    // Both set the sign-in cookies' key (docs/api.md, "Operations").
+    for (name, text) in [("mtcal.service", &unit), ("Containerfile", &image)] {
+        assert!(
+            text.contains("MTCAL_SESSION_KEY"),
+            "{name} sets no MTCAL_SESSION_KEY"
+        );
+        assert!(text.contains("MTCAL_DB_POOL"), "{name} sizes no pool");
+    }
     for args in lines {
         let out = Command::new(BIN)
             .args(&args)
@@ -166,6 +174,46 @@ fn deployment_examples_use_flags_mtcal_accepts() {
             out.status.success(),
             "mtcal {args:?}: {}",
             String::from_utf8_lossy(&out.stderr)
+        );
+    }
+}
+
+/// A database URL is never printed with its password: not when a worker or the service
+/// starts, not in the error when the database cannot be reached or the URL is refused.
+#[test]
+fn database_passwords_are_never_printed() {
+    let secret = "S3cretPw";
+    let pg = format!("postgres://mtcal:{secret}@127.0.0.1:1/mtcal?password={secret}");
+    let other = format!("mysql://root:{secret}@127.0.0.1:1/db");
+    let runs: Vec<Vec<&str>> = vec![
+        vec!["worker", "--db", &pg, "--db-timeout-ms", "300"],
+        vec![
+            "serve",
+            "--db",
+            &pg,
+            "--db-timeout-ms",
+            "300",
+            "--listen",
+            "127.0.0.1:0",
+        ],
+        vec!["admin", "list-keys", "--db", &pg],
+        vec!["worker", "--db", &other],
+    ];
+    for args in runs {
+        let out = Command::new(BIN).args(&args).output().unwrap();
+        let text = format!(
+            "{}{}",
+            String::from_utf8_lossy(&out.stdout),
+            String::from_utf8_lossy(&out.stderr)
+        );
+        assert!(!out.status.success(), "{args:?}: {text}");
+        assert!(
+            !text.contains(secret),
+            "{args:?} printed the password:\n{text}"
+        );
+        assert!(
+            text.contains(":***@127.0.0.1"),
+            "{args:?} names no database:\n{text}"
         );
     }
 }

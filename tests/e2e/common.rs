@@ -40,6 +40,8 @@ pub struct AppOptions {
     /// The readers' limits, of uploads and of the worker's reads (the service's
     /// configuration: `WorkerConfig::limits`).
     pub limits: UploadLimits,
+    /// The service's settings (cookies, webhooks).
+    pub settings: mtcal_server::Settings,
 }
 
 impl Default for AppOptions {
@@ -48,6 +50,7 @@ impl Default for AppOptions {
             run_worker: true,
             concurrency: 2,
             limits: UploadLimits::default(),
+            settings: mtcal_server::Settings::default(),
         }
     }
 }
@@ -76,6 +79,7 @@ pub async fn spawn_app_with(o: AppOptions) -> App {
             ..QueueConfig::default()
         },
         limits: o.limits,
+        settings: o.settings,
         ..WorkerConfig::default()
     };
     let addr = mtcal_server::spawn_local(store.clone(), &worker, o.run_worker)

@@ -19,6 +19,7 @@ mod jobs;
 mod restart;
 mod roundtrip;
 mod schemathesis;
+mod security;
 mod series;
 mod uploads;
 mod web;

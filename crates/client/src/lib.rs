@@ -15,7 +15,7 @@ use mtcal_server::api::jobs::SubmitJob;
 use mtcal_server::api::keys::{CreatedKey, NewKey};
 use mtcal_server::api::machines::NewMachine;
 use mtcal_server::api::trends::{FleetDrift, SummaryTrend, TermTrend};
-use mtcal_store::{Dataset, Job, Machine, MachinePatch, ResultMeta, Scope, StoredResult};
+use mtcal_store::{ApiKey, Dataset, Job, Machine, MachinePatch, ResultMeta, Scope, StoredResult};
 use reqwest::{Method, RequestBuilder, StatusCode};
 use serde::de::DeserializeOwned;
 use serde_json::Value;
@@ -531,6 +531,17 @@ impl Client {
             },
         )
         .await
+    }
+
+    /// Every key, revoked ones included (admin).
+    pub async fn keys(&self) -> Result<Vec<ApiKey>> {
+        self.send(self.request(Method::GET, "/api/v1/keys")).await
+    }
+
+    /// Revokes key `id` (admin).
+    pub async fn revoke_key(&self, id: &str) -> Result<ApiKey> {
+        self.send(self.request(Method::DELETE, &format!("/api/v1/keys/{id}")))
+            .await
     }
 }
 

@@ -154,17 +154,13 @@ pub struct AlertQuery {
     /// `true`: only alerts not acknowledged; `false`: only acknowledged ones.
     pub active: Option<bool>,
     /// At most this many, newest first (default 100, at most 1000).
+    #[cfg_attr(feature = "openapi", param(minimum = 1, maximum = 1000))]
     pub limit: Option<usize>,
 }
 
 /// Alerts newest first (`GET /api/v1/alerts`; the dashboard's pages too).
 pub async fn list(store: &dyn Store, q: &AlertQuery) -> Result<Vec<AlertView>, DomainError> {
-    let limit = q.limit.unwrap_or(100);
-    if limit == 0 || limit > MAX_ALERTS {
-        return Err(DomainError::Invalid(format!(
-            "limit: 1 to {MAX_ALERTS}, got {limit}"
-        )));
-    }
+    let limit = crate::paging::limit(q.limit, 100, MAX_ALERTS)?;
     let rows = store
         .list_alerts(q.machine.as_deref(), q.active, limit as i64)
         .await?;

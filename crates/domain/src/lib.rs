@@ -13,7 +13,7 @@
 //! of these functions and their answers into JSON or pages. Its answers derive their
 //! OpenAPI schema behind the feature `openapi` (derive only).
 //!
-//! Module order (each imports only those before it): [`kinds`], [`error`], [`blocking`],
+//! Module order (each imports only those before it): [`kinds`], [`error`], [`paging`], [`blocking`],
 //! [`trends`], [`history`], [`webhooks`], [`profiles`], [`verdicts`], [`alerts`],
 //! [`fleet`], [`landing`].
 #![deny(clippy::print_stdout, clippy::print_stderr)]
@@ -25,6 +25,7 @@ pub mod fleet;
 pub mod history;
 pub mod kinds;
 pub mod landing;
+pub mod paging;
 pub mod profiles;
 pub mod trends;
 pub mod verdicts;

@@ -43,8 +43,8 @@ pub fn limits(p: &ToleranceProfile) -> Result<Limits, StoreError> {
     })
 }
 
-/// Longest profile target (machine id or tag), bytes.
-pub const TARGET_MAX: usize = 200;
+/// Longest profile target (machine id or tag), characters.
+pub use mtcal_store::text::TARGET_MAX;
 
 /// A tolerance profile.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
@@ -110,11 +110,13 @@ pub fn check_target<'a>(scope: &str, target: &'a str) -> Result<&'a str, DomainE
         )));
     }
     let target = target.trim();
-    if target.is_empty() || target.len() > TARGET_MAX {
-        return Err(DomainError::Invalid(format!(
-            "target: a machine id or a tag of 1 to {TARGET_MAX} bytes"
-        )));
-    }
+    // The target must be able to name what it applies to: a machine id, or a tag.
+    let checked = if scope == "machine" {
+        mtcal_store::text::check_id("target", target)
+    } else {
+        mtcal_store::text::check_line("target", target, mtcal_store::text::TAG_MAX)
+    };
+    checked?;
     Ok(target)
 }
 

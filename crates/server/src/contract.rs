@@ -5,13 +5,15 @@
 //! Statuses added to each operation ([`Statuses`]), each with the JSON error body
 //! ([`crate::error::ErrorBody`]) unless the operation declares it already:
 //! * secured (`security` present): 401 `unauthorized` (no, unknown or revoked key) and
-//!   408 `timeout` (the route's time limit); 403 `forbidden` when the requirement names
+//!   408 `timeout` (the route's time limit), 503 `unavailable` (the database cannot be
+//!   reached: crate::outage); 403 `forbidden` when the requirement names
 //!   a scope above `read` (`security(("api_key" = ["write"]))`): the scope is declared
 //!   once, in the requirement, and a key of a lower scope gets 403;
 //! * a request body: 400 `invalid_request` (not valid for its schema), 413
 //!   `payload_too_large`, 415 `unsupported_media_type`;
 //! * a query parameter: 400 `invalid_request`;
-//! * a path parameter: 404 `not_found` (no such resource).
+//! * a path parameter: 400 `invalid_request` (a control character, refused by
+//!   crate::edge before any route) and 404 `not_found` (no such resource).
 //!
 //! `crates/server/tests/contract.rs` sends each operation the requests that provoke
 //! these and checks that every status answered is declared.
@@ -124,6 +126,10 @@ fn complete_statuses(doc: &mut Value) {
                     "408",
                     "timeout: the request took longer than the route's limit",
                 ));
+                add.push((
+                    "503",
+                    "unavailable: the database cannot be reached now (with Retry-After)",
+                ));
             }
             if op.get("requestBody").is_some() {
                 add.push(("400", "invalid_request: the body does not match its schema"));
@@ -141,6 +147,10 @@ fn complete_statuses(doc: &mut Value) {
                 add.push(("400", "invalid_request: a query parameter is not valid"));
             }
             if params.iter().any(|p| p["in"] == "path") {
+                add.push((
+                    "400",
+                    "invalid_request: a path parameter holds a control character",
+                ));
                 add.push(("404", "not_found: no such resource"));
             }
             let responses = op

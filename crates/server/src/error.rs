@@ -12,6 +12,14 @@ use mtcal_store::StoreError;
 use serde::{Deserialize, Serialize};
 use utoipa::ToSchema;
 
+/// What a client is told to wait before trying again after a 503.
+pub const RETRY_AFTER: std::time::Duration = std::time::Duration::from_secs(5);
+
+/// Marks a response made of an [`ApiError::Unavailable`]: the database was unreachable
+/// (the outage guard marks the database down when it sees one).
+#[derive(Debug, Clone, Copy)]
+pub struct Unreachable;
+
 /// Error body.
 #[derive(Debug, Clone, Serialize, Deserialize, ToSchema)]
 pub struct ErrorBody {
@@ -23,7 +31,8 @@ pub struct ErrorDetail {
     /// Stable code: unauthorized, forbidden, not_found, conflict, invalid_request,
     /// invalid_encoding, invalid_dataset, payload_too_large, unsupported_media_type,
     /// job_not_finished, method_not_allowed, timeout, outside_measured_travel,
-    /// not_identifiable, not_ready, internal.
+    /// not_identifiable, not_ready, unavailable, uri_too_long, headers_too_large,
+    /// internal.
     pub code: String,
     pub message: String,
 }
@@ -63,9 +72,15 @@ pub enum ApiError {
     /// made of it (a compensation table) is refused unless forced.
     #[error("{0}")]
     ModelMisfit(String),
+    /// The request took too long (an upload below the minimum rate: the message says).
+    #[error("{0}")]
+    Timeout(String),
     /// The service cannot serve yet (database unreachable, migrations missing).
     #[error("{0}")]
     NotReady(String),
+    /// The database cannot be reached now: 503 with Retry-After.
+    #[error("{0}; try again in a few seconds")]
+    Unavailable(String),
     #[error("internal error: {0}")]
     Internal(String),
 }
@@ -83,7 +98,8 @@ impl ApiError {
             ApiError::InvalidDataset(_) => StatusCode::UNPROCESSABLE_ENTITY,
             ApiError::PayloadTooLarge(_) => StatusCode::PAYLOAD_TOO_LARGE,
             ApiError::UnsupportedMediaType(_) => StatusCode::UNSUPPORTED_MEDIA_TYPE,
-            ApiError::NotReady(_) => StatusCode::SERVICE_UNAVAILABLE,
+            ApiError::NotReady(_) | ApiError::Unavailable(_) => StatusCode::SERVICE_UNAVAILABLE,
+            ApiError::Timeout(_) => StatusCode::REQUEST_TIMEOUT,
             ApiError::OutsideTravel(_) | ApiError::NotIdentifiable(_) => {
                 StatusCode::UNPROCESSABLE_ENTITY
             }
@@ -104,10 +120,27 @@ impl ApiError {
             ApiError::UnsupportedMediaType(_) => "unsupported_media_type",
             ApiError::JobNotFinished(_) => "job_not_finished",
             ApiError::NotReady(_) => "not_ready",
+            ApiError::Unavailable(_) => "unavailable",
+            ApiError::Timeout(_) => "timeout",
             ApiError::OutsideTravel(_) => "outside_measured_travel",
             ApiError::NotIdentifiable(_) => "not_identifiable",
             ApiError::ModelMisfit(_) => "model_misfit",
             ApiError::Internal(_) => "internal",
+        }
+    }
+
+    /// Marks a response made of this error: a 503 says when to try again
+    /// (`Retry-After`), and an unreachable database is noted ([`Unreachable`], read by
+    /// the outage guard).
+    pub fn mark(&self, resp: &mut Response) {
+        if matches!(self, ApiError::NotReady(_) | ApiError::Unavailable(_)) {
+            resp.headers_mut().insert(
+                axum::http::header::RETRY_AFTER,
+                axum::http::HeaderValue::from(RETRY_AFTER.as_secs()),
+            );
+        }
+        if matches!(self, ApiError::Unavailable(_)) {
+            resp.extensions_mut().insert(Unreachable);
         }
     }
 
@@ -144,6 +177,11 @@ impl From<StoreError> for ApiError {
         match e {
             StoreError::NotFound(w) => ApiError::NotFound(format!("{w} not found")),
             StoreError::Conflict(m) => ApiError::Conflict(m),
+            // A field the store's rules refuse (mtcal_store::text), named in the message.
+            StoreError::Invalid(m) => ApiError::InvalidRequest(m),
+            StoreError::Unavailable(m) => {
+                ApiError::Unavailable(format!("the database cannot be reached ({m})"))
+            }
             other => ApiError::Internal(other.to_string()),
         }
     }
@@ -179,7 +217,9 @@ impl IntoResponse for ApiError {
                 message,
             },
         };
-        (self.status(), Json(body)).into_response()
+        let mut resp = (self.status(), Json(body)).into_response();
+        self.mark(&mut resp);
+        resp
     }
 }
 
@@ -253,6 +293,11 @@ where
     type Rejection = ApiError;
 
     async fn from_request(req: axum::extract::Request, state: &S) -> Result<Self, ApiError> {
+        let content_type = req
+            .headers()
+            .get(axum::http::header::CONTENT_TYPE)
+            .cloned()
+            .unwrap_or(axum::http::HeaderValue::from_static(""));
         if let Some(enc) = req
             .headers()
             .get(axum::http::header::CONTENT_ENCODING)
@@ -263,11 +308,62 @@ where
                 String::from_utf8_lossy(enc.as_bytes())
             )));
         }
-        match Json::<T>::from_request(req, state).await {
-            Ok(Json(v)) => Ok(ApiJson(v)),
-            Err(r) => Err(ApiError::from_rejection(r.status(), r.body_text())),
+        let bytes = axum::body::Bytes::from_request(req, state)
+            .await
+            .map_err(|r| ApiError::from_rejection(r.status(), r.body_text()))?;
+        let req = axum::extract::Request::builder()
+            .header(axum::http::header::CONTENT_TYPE, content_type)
+            .body(axum::body::Body::from(bytes.clone()))
+            .map_err(|e| ApiError::Internal(e.to_string()))?;
+        let v = match Json::<T>::from_request(req, state).await {
+            Ok(Json(v)) => v,
+            Err(r) => return Err(ApiError::from_rejection(r.status(), r.body_text())),
+        };
+        if let Some(at) = nul_in_json(&bytes) {
+            return Err(ApiError::InvalidRequest(format!(
+                "{at}: a string holds the control character U+0000"
+            )));
         }
+        Ok(ApiJson(v))
     }
+}
+
+/// Where a JSON document (valid) holds a string or key with a NUL character (`\u0000`),
+/// as a JSON pointer: no stored text may hold one (PostgreSQL refuses it), whatever the
+/// field. Only a body whose text has the escape is read a second time.
+fn nul_in_json(bytes: &[u8]) -> Option<String> {
+    fn walk(v: &serde_json::Value, at: &mut String) -> bool {
+        use serde_json::Value;
+        let len = at.len();
+        let found = match v {
+            Value::String(s) => s.contains('\0'),
+            Value::Array(a) => a.iter().enumerate().any(|(i, x)| {
+                at.truncate(len);
+                at.push_str(&format!("/{i}"));
+                walk(x, at)
+            }),
+            Value::Object(o) => o.iter().any(|(k, x)| {
+                at.truncate(len);
+                at.push('/');
+                at.push_str(&k.replace('\0', "\\u0000"));
+                k.contains('\0') || walk(x, at)
+            }),
+            _ => false,
+        };
+        if !found {
+            at.truncate(len);
+        }
+        found
+    }
+    let escaped = bytes
+        .windows(6)
+        .any(|w| w[0] == b'\\' && w[1] == b'u' && w[2..6].iter().all(|&b| b == b'0'));
+    if !escaped {
+        return None;
+    }
+    let v: serde_json::Value = serde_json::from_slice(bytes).ok()?;
+    let mut at = String::new();
+    walk(&v, &mut at).then(|| if at.is_empty() { "/".into() } else { at })
 }
 
 /// Query-string extractor whose rejections are [`ApiError`]s.

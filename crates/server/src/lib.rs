@@ -14,10 +14,12 @@ pub mod api;
 pub mod auth;
 pub mod blocking;
 pub mod contract;
+pub mod edge;
 pub mod error;
 pub mod ingest;
 pub mod jobs;
 pub mod metrics;
+pub mod outage;
 pub mod state;
 pub mod web;
 pub mod worker;
@@ -37,7 +39,7 @@ use utoipa::openapi::security::{HttpAuthScheme, HttpBuilder, SecurityScheme};
 use contract::Statuses;
 pub use error::ApiError;
 pub use ingest::UploadLimits;
-pub use state::AppState;
+pub use state::{AppState, Settings};
 pub use worker::{WorkerConfig, Workers};
 
 /// Body limit of every route but uploads, bytes.
@@ -203,6 +205,10 @@ pub fn router(state: AppState) -> Router {
         .route_layer(axum::middleware::from_fn_with_state(
             state.clone(),
             auth::authenticate,
+        ))
+        .route_layer(axum::middleware::from_fn_with_state(
+            state.clone(),
+            outage::guard,
         ));
     let open = probes().merge(
         utoipa_swagger_ui::SwaggerUi::new("/docs").url("/api-docs/openapi.json", ApiDoc::openapi()),
@@ -215,6 +221,7 @@ pub fn router(state: AppState) -> Router {
     // The dashboard's pages answer their errors as pages, not JSON.
     app.merge(web::router(state))
         .route_layer(axum::middleware::from_fn(metrics::track))
+        .layer(axum::middleware::from_fn(edge::guard))
 }
 
 /// The routes without a key for load balancers, orchestrators and Prometheus:
@@ -240,6 +247,8 @@ pub async fn serve_probes(
             limits: UploadLimits::default(),
             max_attempts: 1,
             wake: Arc::new(tokio::sync::Notify::new()),
+            settings: Arc::default(),
+            database: Arc::default(),
         });
     serve_http(listener, app, HEADER_READ_TIMEOUT, stop).await
 }
@@ -248,6 +257,8 @@ pub async fn serve_probes(
 #[derive(Debug, Clone)]
 pub struct ServeConfig {
     pub db_url: String,
+    /// The database connections of this process ([`mtcal_store::StoreOptions`]).
+    pub store: mtcal_store::StoreOptions,
     pub listen: SocketAddr,
     pub worker: WorkerConfig,
     /// Run the worker in this process (API only when false).
@@ -275,6 +286,8 @@ pub fn app(
         limits: worker.limits,
         max_attempts: worker.queue.max_attempts,
         wake,
+        settings: Arc::new(worker.settings.clone()),
+        database: Arc::default(),
     });
     (router, workers)
 }
@@ -318,6 +331,7 @@ pub async fn serve_http(
     builder
         .http1()
         .timer(TokioTimer::new())
+        .max_headers(edge::HYPER_MAX_HEADERS)
         .header_read_timeout(header_timeout);
     let graceful = hyper_util::server::graceful::GracefulShutdown::new();
     tokio::pin!(stop);
@@ -361,9 +375,10 @@ pub async fn serve_http(
 /// signal from the API process that queued the job.
 pub async fn run_workers(
     db_url: &str,
+    options: mtcal_store::StoreOptions,
     worker: WorkerConfig,
 ) -> anyhow::Result<(Arc<dyn mtcal_store::Store>, Workers)> {
-    let store = mtcal_store::open(db_url).await?;
+    let store = mtcal_store::open_with(db_url, options).await?;
     let workers =
         worker::spawn_workers(store.clone(), worker, Arc::new(tokio::sync::Notify::new()));
     Ok((store, workers))
@@ -401,7 +416,7 @@ pub async fn serve(
     ready: impl FnOnce(SocketAddr),
     stop: impl std::future::Future<Output = ()> + Send + 'static,
 ) -> anyhow::Result<()> {
-    let store = mtcal_store::open(&cfg.db_url).await?;
+    let store = mtcal_store::open_with(&cfg.db_url, cfg.store).await?;
     let listener = tokio::net::TcpListener::bind(cfg.listen).await?;
     let (app, workers) = app(store.clone(), &cfg.worker, cfg.run_worker);
     // Drift of results stored before this version or imported in bulk.

@@ -13,6 +13,8 @@
 //!   process's workers.
 //! - `mtcal_uploads_reading`: uploads this process is reading now (each holds one of the
 //!   `MAX_CONCURRENT_UPLOADS` slots of `crate::router`; the others wait for one).
+//! - `mtcal_database_up` (1 or 0) and `mtcal_database_unavailable_total` (requests
+//!   answered 503 because the database could not be reached), kept by the outage guard.
 
 use axum::extract::{MatchedPath, Request, State};
 use axum::http::header;
@@ -66,6 +68,8 @@ pub struct Metrics {
     job_duration: Family<OutcomeLabels, Histogram>,
     queue_wait: Family<KindLabels, Histogram>,
     uploads_reading: Gauge,
+    database_up: Gauge,
+    database_unavailable: Counter,
 }
 
 /// The metrics of this process.
@@ -120,7 +124,22 @@ impl Metrics {
             "Uploads being read now (each holds one of the process's upload slots)",
             uploads_reading.clone(),
         );
+        let database_up = Gauge::default();
+        database_up.set(1);
+        registry.register(
+            "database_up",
+            "1 while the database answers, 0 while it cannot be reached (requests get 503)",
+            database_up.clone(),
+        );
+        let database_unavailable = Counter::default();
+        registry.register(
+            "database_unavailable",
+            "Requests answered 503 because the database could not be reached",
+            database_unavailable.clone(),
+        );
         Metrics {
+            database_up,
+            database_unavailable,
             registry,
             requests,
             latency,
@@ -147,6 +166,16 @@ impl Metrics {
         self.queue_wait
             .get_or_create(&KindLabels { kind: kind.into() })
             .observe(waited_seconds.max(0.0));
+    }
+
+    /// Sets `mtcal_database_up`.
+    pub fn set_database_up(&self, up: bool) {
+        self.database_up.set(i64::from(up));
+    }
+
+    /// Counts a request refused because the database could not be reached.
+    pub fn database_unavailable(&self) {
+        self.database_unavailable.inc();
     }
 
     /// Sets the job gauges to `counts` (kinds and states not listed are dropped).
@@ -218,10 +247,13 @@ pub async fn reading_upload(req: Request, next: Next) -> Response {
 /// are this process's own and still valid).
 pub async fn serve_metrics(State(s): State<crate::AppState>) -> Response {
     let m = metrics();
-    if let Ok(Ok(counts)) =
-        tokio::time::timeout(std::time::Duration::from_secs(3), s.store.job_counts()).await
-    {
-        m.set_job_counts(&counts);
+    match tokio::time::timeout(std::time::Duration::from_secs(3), s.store.job_counts()).await {
+        Ok(Ok(counts)) => {
+            m.set_job_counts(&counts);
+            s.database.mark_up();
+        }
+        Ok(Err(mtcal_store::StoreError::Unavailable(_))) | Err(_) => s.database.mark_down(),
+        Ok(Err(_)) => {}
     }
     (
         [(

@@ -36,6 +36,8 @@ pub struct WorkerConfig {
     /// Longest run of one job (from its claim): a job still running then fails with
     /// code `timeout` and is not retried (heartbeats alone would renew its lease forever).
     pub max_run: Duration,
+    /// The service's settings (the API's and the worker's).
+    pub settings: crate::state::Settings,
 }
 
 impl Default for WorkerConfig {
@@ -47,6 +49,7 @@ impl Default for WorkerConfig {
             pause_before_solve_ms: 0,
             grace: Duration::from_secs(20),
             max_run: Duration::from_secs(3600),
+            settings: crate::state::Settings::default(),
         }
     }
 }

@@ -9,6 +9,8 @@ mod contract;
 mod fleet_rows;
 mod openapi;
 mod operations;
+mod outage;
+mod parity;
 mod rejections;
 mod tolerances_alerts;
 mod tolerant;

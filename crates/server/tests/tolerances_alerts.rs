@@ -4,7 +4,7 @@
 
 use axum::body::Body;
 use axum::http::{Request, StatusCode};
-use mtcal_server::{AppState, UploadLimits, router};
+use mtcal_server::router;
 use mtcal_store::{Figure, Machine, NewResult, ResultScalars, Scope, Store};
 use serde_json::{Value, json};
 use std::collections::BTreeMap;
@@ -12,12 +12,7 @@ use std::sync::Arc;
 use tower::ServiceExt;
 
 fn app(store: Arc<dyn Store>) -> axum::Router {
-    router(AppState {
-        store,
-        limits: UploadLimits::default(),
-        max_attempts: 3,
-        wake: Arc::new(tokio::sync::Notify::new()),
-    })
+    router(crate::common::state(store))
 }
 
 async fn send(

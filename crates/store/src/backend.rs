@@ -16,7 +16,7 @@ use crate::rows::{
     RESULT_COLUMNS,
 };
 use crate::rules::{self, MachineJson, Manifest, ResultRow};
-use crate::{Store, StoreFuture, now_ms, now_rfc3339};
+use crate::{Store, StoreFuture, now_rfc3339};
 use sqlx::{Executor, Transaction};
 use std::collections::HashMap;
 
@@ -75,6 +75,7 @@ impl This {
         by: &str,
         reason: &str,
     ) -> Result<Dataset> {
+        crate::text::check_record(by, reason)?;
         let mut tx = self.pool.begin().await.db()?;
         // Written first (a read before a write in one transaction would deadlock SQLite
         // writers), guarded in the same statement against jobs that still need the data.
@@ -156,13 +157,21 @@ impl This {
     }
 }
 
-/// The row `sql` selects with `$1` = `id`, or not found (`what id`).
+/// The row `sql` selects with `$1` = `id`, or not found (`what id`). An id with a NUL
+/// character names nothing (no stored text holds one; PostgreSQL would refuse the value),
+/// so both backends answer it as not found without asking.
 async fn row_by_id<'e>(
     ex: impl Executor<'e, Database = Db>,
     sql: String,
     id: &str,
     what: &str,
 ) -> Result<<Db as sqlx::Database>::Row> {
+    if id.contains('\0') {
+        return Err(StoreError::NotFound(format!(
+            "{what} {}",
+            id.escape_debug()
+        )));
+    }
     sqlx::query(sqlx::AssertSqlSafe(sql))
         .bind(id)
         .fetch_optional(ex)
@@ -432,6 +441,7 @@ async fn insert_import(tx: &mut Transaction<'_, Db>, r: &NewResult) -> Result<Re
 impl Store for This {
     fn create_machine<'a>(&'a self, m: &'a Machine) -> StoreFuture<'a, Machine> {
         Box::pin(async move {
+            crate::text::check_machine(m)?;
             let now = now_rfc3339();
             let json = MachineJson::of(m)?;
             sqlx::query(
@@ -464,6 +474,7 @@ impl Store for This {
                 None => None,
             };
             rules::apply_patch(&mut m, p, baseline.as_ref())?;
+            crate::text::check_machine(&m)?;
             let json = MachineJson::of(&m)?;
             sqlx::query(
                 "UPDATE machines SET name = $2, topology = $3, travel_mm = $4, site = $5, tags = $6, \
@@ -827,6 +838,7 @@ impl Store for This {
         reason: &'a str,
     ) -> StoreFuture<'a, ResultMeta> {
         Box::pin(async move {
+            crate::text::check_record(by, reason)?;
             sqlx::query(
                 "UPDATE results SET excluded_at = $2, excluded_by = $3, excluded_reason = $4 \
                  WHERE id = $1 AND excluded_at IS NULL",
@@ -1101,6 +1113,7 @@ impl Store for This {
 
     fn create_key<'a>(&'a self, scope: Scope, label: &'a str) -> StoreFuture<'a, (ApiKey, String)> {
         Box::pin(async move {
+            crate::text::check_line("label", label, crate::text::LABEL_MAX)?;
             let k = NewKey::generate(scope, label);
             sqlx::query(
                 "INSERT INTO api_keys (id, hash, prefix, scope, label, created_at) \
@@ -1148,15 +1161,41 @@ impl Store for This {
 
     fn revoke_key<'a>(&'a self, id: &'a str) -> StoreFuture<'a, ApiKey> {
         Box::pin(async move {
-            sqlx::query("UPDATE api_keys SET revoked_at = $2 WHERE id = $1 AND revoked_at IS NULL")
+            let mut tx = self.pool.begin().await.db()?;
+            if !dialect::LOCK_KEYS.is_empty() {
+                sqlx::query(dialect::LOCK_KEYS)
+                    .execute(&mut *tx)
+                    .await
+                    .db()?;
+            }
+            // One statement: the last admin key that is not revoked stays.
+            let done = sqlx::query(
+                "UPDATE api_keys SET revoked_at = $2 WHERE id = $1 AND revoked_at IS NULL \
+                 AND (scope <> 'admin' OR (SELECT COUNT(*) FROM api_keys \
+                      WHERE scope = 'admin' AND revoked_at IS NULL) > 1)",
+            )
+            .bind(id)
+            .bind(now_rfc3339())
+            .execute(&mut *tx)
+            .await
+            .db()?;
+            let q = format!("SELECT {KEY_COLUMNS} FROM api_keys WHERE id = $1");
+            let key = rows::api_key(&row_by_id(&mut *tx, q, id, "key").await?)?;
+            // Its sign-in sessions end with it.
+            sqlx::query("DELETE FROM sessions WHERE key_id = $1 AND $2 = 1")
                 .bind(id)
-                .bind(now_rfc3339())
-                .execute(&self.pool)
+                .bind(i64::from(key.revoked_at.is_some()))
+                .execute(&mut *tx)
                 .await
                 .db()?;
-            let q = format!("SELECT {KEY_COLUMNS} FROM api_keys WHERE id = $1");
-            let row = row_by_id(&self.pool, q, id, "key").await?;
-            rows::api_key(&row)
+            if done.rows_affected() == 0 && key.revoked_at.is_none() {
+                tx.rollback().await.db()?;
+                return Err(StoreError::Conflict(format!(
+                    "key {id} is the last admin key: create another admin key before revoking it"
+                )));
+            }
+            tx.commit().await.db()?;
+            Ok(key)
         })
     }
 
@@ -1183,6 +1222,7 @@ impl Store for This {
         p: &'a ToleranceProfile,
     ) -> StoreFuture<'a, ToleranceProfile> {
         Box::pin(async move {
+            crate::text::check_line("target", &p.target, crate::text::TARGET_MAX)?;
             let now = now_rfc3339();
             sqlx::query(
                 "INSERT INTO tolerance_profiles (id, scope, target, limits, webhook_url, \
@@ -1334,6 +1374,7 @@ impl Store for This {
 
     fn acknowledge_alert<'a>(&'a self, id: &'a str, by: &'a str) -> StoreFuture<'a, Alert> {
         Box::pin(async move {
+            crate::text::check_line("by", by, crate::text::BY_MAX)?;
             sqlx::query(
                 "UPDATE alerts SET acknowledged_at = $2, acknowledged_by = $3 \
                  WHERE id = $1 AND acknowledged_at IS NULL",
@@ -1345,6 +1386,75 @@ impl Store for This {
             .await
             .db()?;
             self.get_alert(id).await
+        })
+    }
+
+    fn create_session<'a>(&'a self, key_id: &'a str, ttl_ms: i64) -> StoreFuture<'a, NewSession> {
+        Box::pin(async move {
+            let now = dialect::NOW_MS;
+            let s = NewSession {
+                token: crate::keys::generate_token(),
+                csrf: crate::keys::generate_token(),
+            };
+            // Expired sessions go as new ones come (an index range at the table's start).
+            let q = format!("DELETE FROM sessions WHERE expires_ms < {now}");
+            sqlx::query(sqlx::AssertSqlSafe(q))
+                .execute(&self.pool)
+                .await
+                .db()?;
+            let q = format!(
+                "INSERT INTO sessions (token_hash, key_id, csrf, created_ms, expires_ms) \
+                 SELECT $1, id, $3, {now}, {now} + $4 FROM api_keys \
+                 WHERE id = $2 AND revoked_at IS NULL"
+            );
+            let done = sqlx::query(sqlx::AssertSqlSafe(q))
+                .bind(crate::keys::hash_secret(&s.token))
+                .bind(key_id)
+                .bind(&s.csrf)
+                .bind(ttl_ms)
+                .execute(&self.pool)
+                .await
+                .db()?;
+            if done.rows_affected() == 0 {
+                return Err(StoreError::NotFound(format!(
+                    "key {key_id} (or it is revoked)"
+                )));
+            }
+            Ok(s)
+        })
+    }
+
+    fn session<'a>(&'a self, token: &'a str) -> StoreFuture<'a, Option<SessionRecord>> {
+        Box::pin(async move {
+            let q = format!(
+                "SELECT {}, s.csrf AS csrf FROM sessions s JOIN api_keys k ON k.id = s.key_id \
+                 WHERE s.token_hash = $1 AND s.expires_ms > {} AND k.revoked_at IS NULL",
+                qualified("k", KEY_COLUMNS),
+                dialect::NOW_MS
+            );
+            let row = sqlx::query(sqlx::AssertSqlSafe(q))
+                .bind(crate::keys::hash_secret(token))
+                .fetch_optional(&self.pool)
+                .await
+                .db()?;
+            row.map(|r| {
+                Ok(SessionRecord {
+                    key: rows::api_key(&r)?,
+                    csrf: r.text("csrf")?,
+                })
+            })
+            .transpose()
+        })
+    }
+
+    fn end_session<'a>(&'a self, token: &'a str) -> StoreFuture<'a, ()> {
+        Box::pin(async move {
+            sqlx::query("DELETE FROM sessions WHERE token_hash = $1")
+                .bind(crate::keys::hash_secret(token))
+                .execute(&self.pool)
+                .await
+                .db()?;
+            Ok(())
         })
     }
 
@@ -1399,8 +1509,9 @@ impl Queue for This {
             let id = rules::new_id("job");
             let q = format!(
                 "INSERT INTO jobs (id, seq, kind, machine_id, dataset_id, params, state, max_attempts, \
-                 run_after_ms, created_at) VALUES ($1, {seq}, $2, $3, $4, $5, 'queued', $6, $7, $8)",
-                seq = dialect::NEXT_SEQ
+                 run_after_ms, created_at) VALUES ($1, {seq}, $2, $3, $4, $5, 'queued', $6, {now}, $7)",
+                seq = dialect::NEXT_SEQ,
+                now = dialect::NOW_MS
             );
             sqlx::query(sqlx::AssertSqlSafe(q))
                 .bind(&id)
@@ -1409,7 +1520,6 @@ impl Queue for This {
                 .bind(&j.dataset_id)
                 .bind(serde_json::to_string(&j.params).db()?)
                 .bind(j.max_attempts.max(1))
-                .bind(now_ms())
                 .bind(now_rfc3339())
                 .execute(&self.pool)
                 .await
@@ -1451,22 +1561,22 @@ impl Queue for This {
 
     fn claim_job<'a>(&'a self, worker: &'a str, lease_ms: i64) -> StoreFuture<'a, Option<Job>> {
         Box::pin(async move {
-            let now = now_ms();
             let q = format!(
-                "UPDATE jobs SET state = 'running', lease_owner = $1, lease_expires_ms = $2, \
+                "UPDATE jobs SET state = 'running', lease_owner = $1, \
+                 lease_expires_ms = {now} + $2, \
                  attempts = attempts + 1, started_at = COALESCE(started_at, $3), \
                  progress = 0, progress_message = 'claimed' \
-                 WHERE id = (SELECT id FROM jobs WHERE state = 'queued' AND run_after_ms <= $4 \
+                 WHERE id = (SELECT id FROM jobs WHERE state = 'queued' AND run_after_ms <= {now} \
                              AND kind IN ({kinds}) ORDER BY run_after_ms, seq LIMIT 1 {lock}) \
                  RETURNING {JOB_COLUMNS}",
+                now = dialect::NOW_MS,
                 kinds = JobKind::runnable_sql_list(),
                 lock = dialect::CLAIM_LOCK
             );
             let row = sqlx::query(sqlx::AssertSqlSafe(q))
                 .bind(worker)
-                .bind(now + lease_ms)
+                .bind(lease_ms)
                 .bind(now_rfc3339())
-                .bind(now)
                 .fetch_optional(&self.pool)
                 .await
                 .db()?;
@@ -1483,19 +1593,21 @@ impl Queue for This {
         message: &'a str,
     ) -> StoreFuture<'a, Heartbeat> {
         Box::pin(async move {
-            let row = sqlx::query(
-                "UPDATE jobs SET lease_expires_ms = $3, progress = $4, progress_message = $5 \
+            let q = format!(
+                "UPDATE jobs SET lease_expires_ms = {} + $3, progress = $4, progress_message = $5 \
                  WHERE id = $1 AND state = 'running' AND lease_owner = $2 \
                  RETURNING cancel_requested",
-            )
-            .bind(id)
-            .bind(worker)
-            .bind(now_ms() + lease_ms)
-            .bind(progress.clamp(0.0, 1.0))
-            .bind(message)
-            .fetch_optional(&self.pool)
-            .await
-            .db()?;
+                dialect::NOW_MS
+            );
+            let row = sqlx::query(sqlx::AssertSqlSafe(q))
+                .bind(id)
+                .bind(worker)
+                .bind(lease_ms)
+                .bind(progress.clamp(0.0, 1.0))
+                .bind(message)
+                .fetch_optional(&self.pool)
+                .await
+                .db()?;
             Ok(match row {
                 None => Heartbeat::LeaseLost,
                 Some(r) if r.int("cancel_requested")? != 0 => Heartbeat::CancelRequested,
@@ -1550,22 +1662,24 @@ impl Queue for This {
     ) -> StoreFuture<'a, Job> {
         Box::pin(async move {
             // Retry: back to the queue after the delay; else failed for good.
-            let done = sqlx::query(
+            let q = format!(
                 "UPDATE jobs SET state = CASE WHEN $5 IS NULL THEN 'failed' ELSE 'queued' END, \
-                 run_after_ms = COALESCE($5, run_after_ms), \
+                 run_after_ms = COALESCE({} + $5, run_after_ms), \
                  finished_at = CASE WHEN $5 IS NULL THEN $6 ELSE NULL END, \
                  lease_owner = NULL, lease_expires_ms = NULL, error_code = $3, error_message = $4 \
                  WHERE id = $1 AND state = 'running' AND lease_owner = $2",
-            )
-            .bind(id)
-            .bind(worker)
-            .bind(code)
-            .bind(message)
-            .bind(retry_after_ms.map(|delay| now_ms() + delay))
-            .bind(now_rfc3339())
-            .execute(&self.pool)
-            .await
-            .db()?;
+                dialect::NOW_MS
+            );
+            let done = sqlx::query(sqlx::AssertSqlSafe(q))
+                .bind(id)
+                .bind(worker)
+                .bind(code)
+                .bind(message)
+                .bind(retry_after_ms)
+                .bind(now_rfc3339())
+                .execute(&self.pool)
+                .await
+                .db()?;
             lease_held(done.rows_affected(), id)?;
             self.job(id).await
         })
@@ -1593,22 +1707,23 @@ impl Queue for This {
 
     fn release_job<'a>(&'a self, id: &'a str, worker: &'a str) -> StoreFuture<'a, Job> {
         Box::pin(async move {
-            let done = sqlx::query(
+            let q = format!(
                 "UPDATE jobs SET \
                    state = CASE WHEN cancel_requested = 1 THEN 'cancelled' ELSE 'queued' END, \
                    finished_at = CASE WHEN cancel_requested = 1 THEN $3 ELSE NULL END, \
                    attempts = CASE WHEN attempts > 0 THEN attempts - 1 ELSE 0 END, \
-                   run_after_ms = $4, lease_owner = NULL, lease_expires_ms = NULL, \
+                   run_after_ms = {}, lease_owner = NULL, lease_expires_ms = NULL, \
                    progress = 0, progress_message = 'handed back by a stopping worker' \
                  WHERE id = $1 AND state = 'running' AND lease_owner = $2",
-            )
-            .bind(id)
-            .bind(worker)
-            .bind(now_rfc3339())
-            .bind(now_ms())
-            .execute(&self.pool)
-            .await
-            .db()?;
+                dialect::NOW_MS
+            );
+            let done = sqlx::query(sqlx::AssertSqlSafe(q))
+                .bind(id)
+                .bind(worker)
+                .bind(now_rfc3339())
+                .execute(&self.pool)
+                .await
+                .db()?;
             lease_held(done.rows_affected(), id)?;
             self.job(id).await
         })
@@ -1633,23 +1748,23 @@ impl Queue for This {
 
     fn reap_expired<'a>(&'a self) -> StoreFuture<'a, u64> {
         Box::pin(async move {
-            let now = now_ms();
-            let done = sqlx::query(
+            let q = format!(
                 "UPDATE jobs SET \
                    state = CASE WHEN cancel_requested = 1 THEN 'cancelled' \
                                 WHEN attempts >= max_attempts THEN 'failed' ELSE 'queued' END, \
                    finished_at = CASE WHEN cancel_requested = 1 OR attempts >= max_attempts \
-                                      THEN $2 ELSE NULL END, \
+                                      THEN $1 ELSE NULL END, \
                    error_code = 'lease_expired', \
                    error_message = 'the worker running this job stopped renewing its lease', \
-                   lease_owner = NULL, lease_expires_ms = NULL, run_after_ms = $1 \
-                 WHERE state = 'running' AND lease_expires_ms < $1",
-            )
-            .bind(now)
-            .bind(now_rfc3339())
-            .execute(&self.pool)
-            .await
-            .db()?;
+                   lease_owner = NULL, lease_expires_ms = NULL, run_after_ms = {now} \
+                 WHERE state = 'running' AND lease_expires_ms < {now}",
+                now = dialect::NOW_MS
+            );
+            let done = sqlx::query(sqlx::AssertSqlSafe(q))
+                .bind(now_rfc3339())
+                .execute(&self.pool)
+                .await
+                .db()?;
             Ok(done.rows_affected())
         })
     }

@@ -17,6 +17,7 @@ pub enum StoreError {
     #[error("lease on job {0} lost")]
     LeaseLost(String),
     /// The database URL names a backend this build does not have.
+    /// (The URL is held as [`crate::redacted`] gives it: no password.)
     #[error("unsupported database URL {0:?} (use postgres://…, sqlite://PATH or a file path)")]
     UnsupportedUrl(String),
     /// The database cannot be reached now (connection refused or lost, pool exhausted or
@@ -40,6 +41,14 @@ pub(crate) fn db_error(e: sqlx::Error) -> StoreError {
         | sqlx::Error::WorkerCrashed
         | sqlx::Error::Io(_)
         | sqlx::Error::Tls(_) => StoreError::Unavailable(e.to_string()),
+        // PostgreSQL's connection exceptions (class 08) and a server shutting down or
+        // starting (57P01–57P03): the database is away, not the statement wrong.
+        sqlx::Error::Database(ref d)
+            if d.code()
+                .is_some_and(|c| c.starts_with("08") || c.starts_with("57P")) =>
+        {
+            StoreError::Unavailable(e.to_string())
+        }
         sqlx::Error::RowNotFound => StoreError::NotFound("row".into()),
         e => StoreError::Backend(e.to_string()),
     }

@@ -90,6 +90,13 @@ pub fn generate_secret() -> String {
     format!("mtk_{}", hex::encode(bytes))
 }
 
+/// A random token (128 bits, 32 hex digits): sessions and their CSRF tokens.
+pub fn generate_token() -> String {
+    let mut bytes = [0u8; 16];
+    rand::rng().fill_bytes(&mut bytes);
+    hex::encode(bytes)
+}
+
 /// SHA-256 of a key, hex.
 pub fn hash_secret(secret: &str) -> String {
     hex::encode(Sha256::digest(secret.as_bytes()))

@@ -29,6 +29,7 @@ mod rows;
 pub mod rules;
 mod sqlite;
 pub mod testing;
+pub mod text;
 
 pub use error::{Result, StoreError};
 pub use keys::{ApiKey, Scope};
@@ -210,9 +211,21 @@ pub trait Store: Queue {
     fn key_by_secret<'a>(&'a self, secret: &'a str) -> StoreFuture<'a, Option<ApiKey>>;
     /// Every key, revoked ones included, oldest first (never a secret or a hash).
     fn list_keys(&self) -> StoreFuture<'_, Vec<ApiKey>>;
-    /// Revokes key `id` (from now on it authenticates nothing); revoking a revoked key
-    /// keeps its first revocation time. Not found: [`StoreError::NotFound`].
+    /// Revokes key `id` (from now on it authenticates nothing, and its sign-in sessions
+    /// end); revoking a revoked key keeps its first revocation time. Not found:
+    /// [`StoreError::NotFound`]; the last admin key that is not revoked:
+    /// [`StoreError::Conflict`] (nothing changed).
     fn revoke_key<'a>(&'a self, id: &'a str) -> StoreFuture<'a, ApiKey>;
+
+    // Sign-in sessions (the dashboard's), kept by the database.
+    /// Starts a session of key `key_id` ending `ttl_ms` from now by the database's clock;
+    /// returns its token (stored as its SHA-256 only) and its CSRF token.
+    fn create_session<'a>(&'a self, key_id: &'a str, ttl_ms: i64) -> StoreFuture<'a, NewSession>;
+    /// The session `token` opens: None when it was ended, has expired (by the database's
+    /// clock) or its key is revoked.
+    fn session<'a>(&'a self, token: &'a str) -> StoreFuture<'a, Option<SessionRecord>>;
+    /// Ends session `token` (signing out); ending an ended session does nothing.
+    fn end_session<'a>(&'a self, token: &'a str) -> StoreFuture<'a, ()>;
 
     /// Migrations this build embeds that the database has not applied (empty: ready).
     /// Fails when the database cannot be reached.
@@ -221,14 +234,84 @@ pub trait Store: Queue {
     fn row_counts(&self) -> StoreFuture<'_, RowCounts>;
 }
 
+/// How a store connects: the size of its connection pool and how long a statement
+/// waits for a connection before the database counts as unavailable
+/// ([`StoreError::Unavailable`]).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct StoreOptions {
+    /// Connections of this process (`None`: [`StoreOptions::DEFAULT_PG_POOL`] on
+    /// PostgreSQL, [`StoreOptions::DEFAULT_SQLITE_POOL`] on SQLite; an in-memory SQLite
+    /// database has one). Sizing rule (docs/api.md, "Operations"): the sum over every
+    /// process sharing a PostgreSQL server stays below its `max_connections` less the
+    /// connections reserved for administration.
+    pub pool_size: Option<u32>,
+    /// Longest wait for a connection, including connecting: past it the operation fails
+    /// as unavailable (the service answers 503 at once instead of hanging).
+    pub acquire_timeout: std::time::Duration,
+}
+
+impl StoreOptions {
+    pub const DEFAULT_PG_POOL: u32 = 10;
+    pub const DEFAULT_SQLITE_POOL: u32 = 8;
+    /// Most connections a process may ask for.
+    pub const MAX_POOL: u32 = 500;
+}
+
+impl Default for StoreOptions {
+    fn default() -> Self {
+        StoreOptions {
+            pool_size: None,
+            acquire_timeout: std::time::Duration::from_secs(3),
+        }
+    }
+}
+
 /// Opens the store a URL names, migrating it when needed: `postgres://…` or
 /// `postgresql://…` (PostgreSQL), else SQLite (`sqlite://PATH`, `sqlite::memory:` or a
 /// plain file path, created when missing).
 pub async fn open(url: &str) -> Result<std::sync::Arc<dyn Store>> {
+    open_with(url, StoreOptions::default()).await
+}
+
+/// [`open`] with a pool of the given size and wait ([`StoreOptions`]).
+pub async fn open_with(url: &str, o: StoreOptions) -> Result<std::sync::Arc<dyn Store>> {
     if url.starts_with("postgres://") || url.starts_with("postgresql://") {
-        return Ok(std::sync::Arc::new(PgStore::open(url).await?));
+        return Ok(std::sync::Arc::new(PgStore::open_with(url, o).await?));
     }
-    Ok(std::sync::Arc::new(SqliteStore::open(url).await?))
+    Ok(std::sync::Arc::new(SqliteStore::open_with(url, o).await?))
+}
+
+/// A database URL fit to print or log: the password of its user (`user:PASSWORD@`) and
+/// the value of every query parameter whose name holds `password` are replaced by `***`.
+/// A URL without them (a SQLite path) is returned as it is.
+pub fn redacted(url: &str) -> String {
+    let Some((scheme, rest)) = url.split_once("://") else {
+        return url.to_string();
+    };
+    let (authority, tail) = rest.split_at(rest.find(['/', '?', '#']).unwrap_or(rest.len()));
+    let authority = match authority.rsplit_once('@') {
+        Some((userinfo, host)) => match userinfo.split_once(':') {
+            Some((user, _)) => format!("{user}:***@{host}"),
+            None => authority.to_string(),
+        },
+        None => authority.to_string(),
+    };
+    let tail = match tail.split_once('?') {
+        Some((path, query)) => {
+            let params: Vec<String> = query
+                .split('&')
+                .map(|p| match p.split_once('=') {
+                    Some((k, _)) if k.to_ascii_lowercase().contains("password") => {
+                        format!("{k}=***")
+                    }
+                    _ => p.to_string(),
+                })
+                .collect();
+            format!("{path}?{}", params.join("&"))
+        }
+        None => tail.to_string(),
+    };
+    format!("{scheme}://{authority}{tail}")
 }
 
 /// Current time as a stored time ([`rfc3339_millis`]).
@@ -250,9 +333,35 @@ pub fn rfc3339_millis(t: time::OffsetDateTime) -> String {
         .unwrap_or_default()
 }
 
-/// Current time in milliseconds since the Unix epoch.
+/// This host's time in milliseconds since the Unix epoch (plus the skew a test may set,
+/// [`testing::skew_host_clock`]). The queue's leases and the sessions' expiry do not use
+/// it: they are kept by the database's clock, the one clock every host shares.
 pub fn now_ms() -> i64 {
     (time::OffsetDateTime::now_utc().unix_timestamp_nanos() / 1_000_000) as i64
+        + testing::HOST_CLOCK_SKEW_MS.load(std::sync::atomic::Ordering::Relaxed)
+}
+
+#[cfg(test)]
+mod url_tests {
+    #[test]
+    fn passwords_never_print() {
+        for (url, shown) in [
+            (
+                "postgres://mtcal:S3cr:et@db.example:5432/mtcal",
+                "postgres://mtcal:***@db.example:5432/mtcal",
+            ),
+            (
+                "postgresql://u:p%40ss@[::1]/db?sslmode=require&password=x&sslpassword=y",
+                "postgresql://u:***@[::1]/db?sslmode=require&password=***&sslpassword=***",
+            ),
+            ("postgres://mtcal@db/mtcal", "postgres://mtcal@db/mtcal"),
+            ("mysql://root:hunter2@h", "mysql://root:***@h"),
+            ("/var/lib/mtcal/mtcal.sqlite", "/var/lib/mtcal/mtcal.sqlite"),
+            ("sqlite://data/m.sqlite", "sqlite://data/m.sqlite"),
+        ] {
+            assert_eq!(super::redacted(url), shown);
+        }
+    }
 }
 
 #[cfg(test)]

@@ -406,6 +406,21 @@ impl SkippedRow {
     }
 }
 
+/// A new sign-in session: its token (for the cookie; shown once, stored as its SHA-256)
+/// and the CSRF token of its forms.
+#[derive(Debug, Clone, PartialEq, Eq)]
+pub struct NewSession {
+    pub token: String,
+    pub csrf: String,
+}
+
+/// A live sign-in session: its key (not revoked) and its forms' CSRF token.
+#[derive(Debug, Clone, PartialEq)]
+pub struct SessionRecord {
+    pub key: crate::ApiKey,
+    pub csrf: String,
+}
+
 /// Row counts of every table (for tests and the admin view).
 #[derive(Debug, Clone, Copy, Default, PartialEq, Eq, Serialize, Deserialize)]
 pub struct RowCounts {

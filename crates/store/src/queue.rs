@@ -13,6 +13,10 @@
 //!   lease was lost.
 //! * **Reaper**: a running job whose lease expired (its worker died) goes back to the
 //!   queue, or fails with `lease_expired` when it has used all its attempts.
+//! * **One clock**: every time of the queue (`run_after_ms`, `lease_expires_ms`) is the
+//!   database's clock (milliseconds since the Unix epoch, computed in the statement), never
+//!   a host's: workers on hosts whose clocks differ share one queue without reaping a live
+//!   worker's job or keeping a dead one's.
 //! * **Exactly once**: the result is written, and the job marked succeeded, in one
 //!   transaction that only succeeds while the worker still holds the lease; `results.job_id`
 //!   is unique.

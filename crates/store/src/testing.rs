@@ -5,6 +5,16 @@
 use crate::error::{Db as _, Result};
 use sqlx::Connection;
 
+/// The skew of this process's [`crate::now_ms`] (tests only: a host whose clock is wrong).
+pub(crate) static HOST_CLOCK_SKEW_MS: std::sync::atomic::AtomicI64 =
+    std::sync::atomic::AtomicI64::new(0);
+
+/// Makes this process's clock ([`crate::now_ms`]) run `ms` ahead (behind when negative):
+/// for a test binary of its own that plays a host with a wrong clock.
+pub fn skew_host_clock(ms: i64) {
+    HOST_CLOCK_SKEW_MS.store(ms, std::sync::atomic::Ordering::Relaxed);
+}
+
 /// The variable naming the PostgreSQL server of the tests.
 pub const TEST_PG_VAR: &str = "MTCAL_TEST_PG";
 

@@ -40,7 +40,8 @@ pub struct FleetQuery {
     /// `um` (translational drift, default) or `urad` (angular and squareness).
     #[cfg_attr(feature = "openapi", param(pattern = "^(um|urad)$"))]
     pub by: Option<String>,
-    /// At most this many machines (default 50).
+    /// At most this many machines (default 50, at most 100 000).
+    #[cfg_attr(feature = "openapi", param(minimum = 1, maximum = 100000))]
     pub limit: Option<usize>,
 }
 
@@ -67,7 +68,7 @@ pub async fn ranked(store: &dyn Store, q: FleetQuery) -> Result<FleetDrift, Doma
     }
     let (mut machines, mut warnings) = (Vec::new(), Vec::new());
     for (row, name, site) in store
-        .fleet_drift_ranked(by == "um", q.limit.unwrap_or(50).clamp(1, 100_000))
+        .fleet_drift_ranked(by == "um", crate::paging::limit(q.limit, 50, 100_000)?)
         .await?
     {
         match serde_json::from_value::<FleetEntry>(row.entry) {

@@ -183,12 +183,7 @@ fn machine(r: FleetPageRow, warnings: &mut Vec<String>) -> FleetMachine {
 pub async fn page(store: &dyn Store, q: &FleetParams) -> Result<FleetList, DomainError> {
     let sort = q.sort.clone().unwrap_or_else(|| "drift".into());
     let by = order(&sort)?;
-    let limit = q.limit.unwrap_or(DEFAULT_LIMIT);
-    if limit == 0 || limit > MAX_LIMIT {
-        return Err(DomainError::Invalid(format!(
-            "limit: 1 to {MAX_LIMIT}, got {limit}"
-        )));
-    }
+    let limit = crate::paging::limit(q.limit, DEFAULT_LIMIT, MAX_LIMIT)?;
     let offset = q.offset.unwrap_or(0);
     let (site, tag) = (given(&q.site), given(&q.tag));
     let found = store

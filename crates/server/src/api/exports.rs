@@ -145,7 +145,12 @@ pub async fn report(
         Ok::<_, ApiError>(page.into_string())
     })
     .await??;
-    Ok(attachment(page, "text/html; charset=utf-8", None))
+    let mut resp = attachment(page, "text/html; charset=utf-8", None);
+    resp.headers_mut().insert(
+        axum::http::header::CONTENT_SECURITY_POLICY,
+        axum::http::HeaderValue::from_static(crate::edge::PRINT_CSP),
+    );
+    Ok(resp)
 }
 
 /// 400 unless `r` is an identification result.

@@ -158,6 +158,7 @@ pub struct JobListQuery {
     /// Only jobs in this state: `queued`, `running`, `succeeded`, `failed`, `cancelled`.
     pub state: Option<String>,
     /// At most this many, newest first (default 100, at most 1000).
+    #[param(minimum = 1, maximum = 1000)]
     pub limit: Option<usize>,
 }
 
@@ -171,12 +172,7 @@ pub async fn list_jobs(s: &AppState, q: &JobListQuery) -> Result<Vec<Job>, ApiEr
             ))
         })?),
     };
-    let limit = q.limit.unwrap_or(100);
-    if limit == 0 || limit > MAX_JOBS {
-        return Err(ApiError::InvalidRequest(format!(
-            "limit: 1 to {MAX_JOBS}, got {limit}"
-        )));
-    }
+    let limit = mtcal_domain::paging::limit(q.limit, 100, MAX_JOBS)?;
     Ok(s.store.list_jobs(state, limit as i64).await?)
 }
 

@@ -47,16 +47,23 @@ pub async fn list(
     Ok(Json(s.store.list_keys().await?))
 }
 
-/// Revokes a key: from the next request on it authenticates nothing (401). Revoking a
-/// revoked key changes nothing and answers the key as it is.
+/// Revokes a key: from the next request on it authenticates nothing (401) and its
+/// sign-in sessions end. Revoking a revoked key changes nothing and answers the key as it
+/// is. A key cannot revoke itself, and the last admin key cannot be revoked (409).
 #[utoipa::path(operation_id = "keys_revoke", summary = "Revoke an API key (admin)", delete, path = "/api/v1/keys/{id}", tag = "keys",
     params(("id" = String, Path, description = "Key id (`key_…`)")),
     security(("api_key" = ["admin"])),
-    responses((status = 200, body = ApiKey), (status = 401, body = ErrorBody), (status = 403, body = ErrorBody), (status = 404, body = ErrorBody)))]
+    responses((status = 200, body = ApiKey), (status = 401, body = ErrorBody), (status = 403, body = ErrorBody), (status = 404, body = ErrorBody),
+              (status = 409, body = ErrorBody, description = "the key is the one making the request, or the last admin key")))]
 pub async fn revoke(
-    _key: AdminKey,
+    AdminKey(me): AdminKey,
     State(s): State<AppState>,
     Path(id): Path<String>,
 ) -> Result<Json<ApiKey>, ApiError> {
+    if id == me.id {
+        return Err(ApiError::Conflict(format!(
+            "key {id} is the key of this request: revoke it with another admin key"
+        )));
+    }
     Ok(Json(s.store.revoke_key(&id).await?))
 }

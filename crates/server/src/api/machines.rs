@@ -65,21 +65,6 @@ fn check_travel(travel: &BTreeMap<String, [f64; 2]>) -> Result<(), ApiError> {
     Ok(())
 }
 
-/// Checks an identifier given by a client (machine ids).
-pub fn check_id(id: &str) -> Result<(), ApiError> {
-    let ok = (1..=64).contains(&id.len())
-        && id
-            .chars()
-            .all(|c| c.is_ascii_alphanumeric() || matches!(c, '.' | '_' | '-'));
-    if ok {
-        Ok(())
-    } else {
-        Err(ApiError::InvalidRequest(format!(
-            "id {id:?}: 1-64 characters, letters, digits, '.', '_' or '-'"
-        )))
-    }
-}
-
 #[utoipa::path(operation_id = "machines_create", summary = "Register a machine", post, path = "/api/v1/machines", tag = "machines", request_body = NewMachine,
     security(("api_key" = ["write"])),
     responses((status = 201, body = Machine), (status = 400, body = ErrorBody),
@@ -89,7 +74,7 @@ pub async fn create(
     State(s): State<AppState>,
     ApiJson(m): ApiJson<NewMachine>,
 ) -> Result<(StatusCode, Json<Machine>), ApiError> {
-    check_id(&m.id)?;
+    mtcal_store::text::check_id("id", &m.id)?;
     check_travel(&m.travel_mm)?;
     let machine = Machine {
         id: m.id,
@@ -156,13 +141,17 @@ pub async fn update_machine(
     Ok(m)
 }
 
+/// Most machines one list returns.
+pub const MAX_MACHINES: usize = 1000;
+
 #[derive(Debug, Deserialize, IntoParams)]
 #[into_params(parameter_in = Query)]
 pub struct ListQuery {
     /// Return machines whose id sorts after this one (pagination).
     pub after: Option<String>,
-    /// At most this many (default 100, max 1000).
-    pub limit: Option<i64>,
+    /// At most this many (default 100, at most 1000).
+    #[param(minimum = 1, maximum = 1000)]
+    pub limit: Option<usize>,
 }
 
 #[utoipa::path(operation_id = "machines_list", summary = "List machines (keyset pagination)", get, path = "/api/v1/machines", tag = "machines", params(ListQuery),
@@ -173,8 +162,10 @@ pub async fn list(
     State(s): State<AppState>,
     ApiQuery(q): ApiQuery<ListQuery>,
 ) -> Result<Json<Vec<Machine>>, ApiError> {
-    let limit = q.limit.unwrap_or(100).clamp(1, 1000);
+    let limit = mtcal_domain::paging::limit(q.limit, 100, MAX_MACHINES)?;
     Ok(Json(
-        s.store.list_machines(q.after.as_deref(), limit).await?,
+        s.store
+            .list_machines(q.after.as_deref(), limit as i64)
+            .await?,
     ))
 }

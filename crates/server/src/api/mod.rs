@@ -40,26 +40,31 @@ pub struct Ready {
     /// `ready`.
     pub status: String,
     pub version: String,
+    /// `up`: the database answered this probe.
+    pub database: String,
 }
 
 /// How long `/ready` waits for the database before it answers 503.
 pub const READY_TIMEOUT: Duration = Duration::from_secs(3);
 
 /// Readiness (no key needed): the database answers within 3 s and has every migration
-/// this build embeds. 503 with the reason otherwise, so a load balancer or an
+/// this build embeds. 503 with the reason and `Retry-After` otherwise (the database
+/// marked down for the other routes, crate::outage), so a load balancer or an
 /// orchestrator sends no traffic to a process that cannot serve it.
 #[utoipa::path(operation_id = "ready", summary = "Readiness: database reachable, migrations applied", get, path = "/ready", tag = "service",
-    responses((status = 200, body = Ready), (status = 503, body = ErrorBody)))]
+    responses((status = 200, body = Ready),
+              (status = 503, body = ErrorBody, description = "database down (`database: down` in the message) or migrations missing; with Retry-After")))]
 pub async fn ready(State(s): State<AppState>) -> Result<Json<Ready>, ApiError> {
-    let pending = tokio::time::timeout(READY_TIMEOUT, s.store.pending_migrations())
+    let pending = tokio::time::timeout(READY_TIMEOUT, crate::outage::probe(&s))
         .await
         .map_err(|_| {
+            s.database.mark_down();
             ApiError::NotReady(format!(
-                "the database did not answer within {} s",
+                "database: down (it did not answer within {} s)",
                 READY_TIMEOUT.as_secs()
             ))
         })?
-        .map_err(|e| ApiError::NotReady(format!("the database cannot be reached: {e}")))?;
+        .map_err(|e| ApiError::NotReady(format!("database: down ({e})")))?;
     if !pending.is_empty() {
         return Err(ApiError::NotReady(format!(
             "migrations not applied: {pending:?}"
@@ -68,5 +73,6 @@ pub async fn ready(State(s): State<AppState>) -> Result<Json<Ready>, ApiError> {
     Ok(Json(Ready {
         status: "ready".into(),
         version: env!("CARGO_PKG_VERSION").into(),
+        database: "up".into(),
     }))
 }

@@ -24,12 +24,17 @@ use axum::middleware::Next;
 use axum::response::{IntoResponse, Response};
 use mtcal_store::{ApiKey, Scope};
 
-/// The secret a request presents, if any.
+/// The secret a request presents, if any: `Authorization: Bearer <key>` (the scheme's
+/// name in any case, RFC 9110 section 11.1), else `X-Api-Key: <key>`.
 fn presented(headers: &HeaderMap) -> Option<&str> {
+    fn bearer(v: &str) -> Option<&str> {
+        let (scheme, rest) = v.split_once(' ')?;
+        scheme.eq_ignore_ascii_case("bearer").then_some(rest)
+    }
     headers
         .get(axum::http::header::AUTHORIZATION)
         .and_then(|v| v.to_str().ok())
-        .and_then(|v| v.strip_prefix("Bearer "))
+        .and_then(bearer)
         .or_else(|| headers.get("x-api-key").and_then(|v| v.to_str().ok()))
         .map(str::trim)
 }

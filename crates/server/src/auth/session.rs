@@ -1,13 +1,17 @@
 //! Sign-in sessions: the dashboard's cookie, read by the dashboard's pages
 //! (crates/server/src/web/session.rs) and by the API's GET routes ([`super`]).
 //!
-//! Signing in with an API key sets one cookie, `mtcal_session`: HttpOnly, SameSite=Strict,
-//! Path=/, no expiry (it ends with the browser session), and at most [`SESSION_TTL`] old.
-//! Its value is encrypted and authenticated (AES-256-GCM, the `cookie` crate's private
-//! jar, through axum-extra) and holds the key's secret, a random CSRF token and the time
-//! of sign-in. Every request looks the secret up again, so a revoked key ends its
-//! sessions at once, and the key's scope applies as in the API (read sees; write also
-//! uploads, sets baselines, acknowledges alerts).
+//! Signing in with an API key starts a session kept by the database
+//! ([`mtcal_store::Store::create_session`]) and sets one cookie, `mtcal_session`:
+//! HttpOnly, SameSite=Strict, Path=/, no expiry (it ends with the browser session),
+//! `Secure` when the request came over TLS or the service is configured so
+//! ([`crate::Settings::cookie_secure`]). It holds only the session's random token
+//! (the database keeps its SHA-256), encrypted and authenticated (AES-256-GCM, the
+//! `cookie` crate's private jar, through axum-extra). Every request reads the session
+//! from the database: signing out deletes it, revoking the key deletes its sessions,
+//! and a session ends [`SESSION_TTL`] after sign-in by the database's clock, all at
+//! once for every process of the service. The key's scope applies as in the API (read
+//! sees; write also uploads, sets baselines, acknowledges alerts).
 //!
 //! The API's GET routes accept the session cookie too ([`super::authenticate`]), so that the page
 //! script reads them as the signed-in key (the progress of a job from
@@ -18,9 +22,10 @@
 //! own token in a short-lived pre-session cookie (`mtcal_signin`), so that another site
 //! cannot sign a browser in with a key of its choosing.
 //!
-//! The encryption key comes from `MTCAL_SESSION_KEY` (any secret of at least 32
-//! characters, shared by every instance behind one address), else it is drawn at random
-//! when the process starts (sessions then end when it restarts).
+//! The cookies' encryption key comes from `MTCAL_SESSION_KEY` (any secret of at least 32
+//! characters, the same for every process behind one address), else it is drawn at
+//! random when the process starts: then a restart signs every browser out, and behind a
+//! load balancer one process refuses the cookies of another (docs/api.md, "Operations").
 
 use crate::AppState;
 use crate::error::ApiError;
@@ -28,7 +33,6 @@ use axum::http::HeaderMap;
 use axum_extra::extract::PrivateCookieJar;
 use axum_extra::extract::cookie::{Cookie, Key, SameSite};
 use mtcal_store::ApiKey;
-use serde::{Deserialize, Serialize};
 use std::sync::OnceLock;
 use std::time::Duration;
 
@@ -45,10 +49,19 @@ pub fn cookie_key() -> Key {
     KEY.get_or_init(|| match std::env::var("MTCAL_SESSION_KEY") {
         Ok(s) if s.len() >= 32 => Key::derive_from(s.as_bytes()),
         Ok(_) => {
-            tracing::warn!("MTCAL_SESSION_KEY is shorter than 32 characters: using a random key");
+            tracing::warn!(
+                "MTCAL_SESSION_KEY is shorter than 32 characters: using a random key \
+                 (sign-ins end when this process restarts)"
+            );
             Key::generate()
         }
-        Err(_) => Key::generate(),
+        Err(_) => {
+            tracing::info!(
+                "MTCAL_SESSION_KEY is not set: using a random key (sign-ins end when this \
+                 process restarts; set it on every process behind one address)"
+            );
+            Key::generate()
+        }
     })
     .clone()
 }
@@ -58,50 +71,54 @@ pub fn token() -> String {
     uuid::Uuid::new_v4().simple().to_string()
 }
 
-/// What the session cookie holds.
-#[derive(Debug, Clone, Serialize, Deserialize)]
-struct SessionData {
-    /// The API key's secret.
-    k: String,
-    /// The CSRF token of the session's forms.
-    c: String,
-    /// Unix seconds of sign-in.
-    t: i64,
+/// Whether the cookies of an answer to a request with `headers` are `Secure`: always when
+/// configured so, else when the request came over TLS (a TLS-terminating proxy says so
+/// with `X-Forwarded-Proto: https`; the service itself speaks plain HTTP).
+pub fn secure(app: &AppState, headers: &HeaderMap) -> bool {
+    app.settings.cookie_secure
+        || headers
+            .get("x-forwarded-proto")
+            .and_then(|v| v.to_str().ok())
+            .and_then(|v| v.split(',').next())
+            .is_some_and(|p| p.trim().eq_ignore_ascii_case("https"))
 }
 
-fn now() -> i64 {
-    time::OffsetDateTime::now_utc().unix_timestamp()
-}
-
-fn cookie(name: &'static str, value: String) -> Cookie<'static> {
+fn cookie(name: &'static str, value: String, secure: bool) -> Cookie<'static> {
     Cookie::build((name, value))
         .http_only(true)
         .same_site(SameSite::Strict)
+        .secure(secure)
         .path("/")
         .build()
 }
 
-/// The jar with a new session for `secret` (the caller has checked the key).
-pub fn start(jar: PrivateCookieJar, secret: &str) -> PrivateCookieJar {
-    let data = SessionData {
-        k: secret.to_string(),
-        c: token(),
-        t: now(),
-    };
-    let value = serde_json::to_string(&data).unwrap_or_default();
-    jar.remove(Cookie::build(SIGNIN_COOKIE).path("/"))
-        .add(cookie(SESSION_COOKIE, value))
+/// Starts a session of `key` (the caller has checked it): stored by the database, its
+/// token in the cookie of the returned jar.
+pub async fn start(
+    app: &AppState,
+    jar: PrivateCookieJar,
+    key: &ApiKey,
+    secure: bool,
+) -> Result<PrivateCookieJar, ApiError> {
+    let ttl = i64::try_from(SESSION_TTL.as_millis()).unwrap_or(i64::MAX);
+    let s = app.store.create_session(&key.id, ttl).await?;
+    Ok(jar
+        .remove(Cookie::build(SIGNIN_COOKIE).path("/"))
+        .add(cookie(SESSION_COOKIE, s.token, secure)))
 }
 
-/// The jar without the session.
-pub fn end(jar: PrivateCookieJar) -> PrivateCookieJar {
-    jar.remove(Cookie::build(SESSION_COOKIE).path("/"))
+/// Ends the session of the request (deleted from the database) and removes its cookie.
+pub async fn end(app: &AppState, jar: PrivateCookieJar) -> Result<PrivateCookieJar, ApiError> {
+    if let Some(c) = jar.get(SESSION_COOKIE) {
+        app.store.end_session(c.value()).await?;
+    }
+    Ok(jar.remove(Cookie::build(SESSION_COOKIE).path("/")))
 }
 
 /// The jar with a fresh sign-in token, and the token.
-pub fn signin_token(jar: PrivateCookieJar) -> (PrivateCookieJar, String) {
+pub fn signin_token(jar: PrivateCookieJar, secure: bool) -> (PrivateCookieJar, String) {
     let t = token();
-    (jar.add(cookie(SIGNIN_COOKIE, t.clone())), t)
+    (jar.add(cookie(SIGNIN_COOKIE, t.clone(), secure)), t)
 }
 
 /// Whether `given` is the sign-in token of this browser.
@@ -129,29 +146,22 @@ pub struct Session {
 }
 
 impl Session {
-    /// The session the request's cookie holds, decrypted with `key`: None when there is
-    /// no cookie, when it does not decrypt or is too old, or when its API key is unknown
-    /// or revoked (looked up again on every request).
+    /// The session the request's cookie names, decrypted with `key`: None when there is
+    /// no cookie, when it does not decrypt, or when the database has no live session for
+    /// it (ended, expired, or its key revoked).
     pub async fn from_headers(
         app: &AppState,
         key: &Key,
         headers: &HeaderMap,
     ) -> Result<Option<Session>, ApiError> {
         let jar = PrivateCookieJar::from_headers(headers, key.clone());
-        let Some(data) = jar
-            .get(SESSION_COOKIE)
-            .and_then(|c| serde_json::from_str::<SessionData>(c.value()).ok())
-        else {
+        let Some(c) = jar.get(SESSION_COOKIE) else {
             return Ok(None);
         };
-        if now() - data.t > SESSION_TTL.as_secs() as i64 || data.t > now() + 60 {
-            return Ok(None);
-        }
-        Ok(app
-            .store
-            .key_by_secret(&data.k)
-            .await?
-            .map(|key| Session { key, csrf: data.c }))
+        Ok(app.store.session(c.value()).await?.map(|s| Session {
+            key: s.key,
+            csrf: s.csrf,
+        }))
     }
 }
 

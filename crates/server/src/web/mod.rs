@@ -16,7 +16,7 @@ use crate::error::ApiError;
 use crate::{AppState, JSON_BODY_LIMIT, REQUEST_TIMEOUT, UPLOAD_TIMEOUT};
 use axum::Router;
 use axum::extract::{DefaultBodyLimit, Form, Path, Query, State};
-use axum::http::{StatusCode, header};
+use axum::http::{HeaderMap, StatusCode, header};
 use axum::response::{Html, IntoResponse, Redirect, Response};
 use axum::routing::{get, post};
 use axum_extra::extract::PrivateCookieJar;
@@ -63,7 +63,9 @@ impl IntoResponse for WebError {
             status.canonical_reason().unwrap_or("error"),
             &message,
         );
-        (status, Html(page.into_string())).into_response()
+        let mut resp = (status, Html(page.into_string())).into_response();
+        self.0.mark(&mut resp);
+        resp
     }
 }
 
@@ -101,13 +103,18 @@ pub fn router(app: AppState) -> Router {
         .route("/jobs", get(pages::jobs))
         .route("/signin", get(signin_form).post(signin))
         .route("/signout", post(signout))
-        .route("/static/{file}", get(asset))
         .layer(DefaultBodyLimit::max(JSON_BODY_LIMIT))
         .layer(TimeoutLayer::with_status_code(
             StatusCode::REQUEST_TIMEOUT,
             REQUEST_TIMEOUT,
         ));
-    uploads.merge(rest).with_state(state)
+    let guard = axum::middleware::from_fn_with_state(state.app.clone(), crate::outage::guard);
+    let assets = Router::new().route("/static/{file}", get(asset));
+    uploads
+        .merge(rest)
+        .route_layer(guard)
+        .merge(assets)
+        .with_state(state)
 }
 
 /// `/static/{file}`: the vendored stylesheet and script (pages link them with a content
@@ -131,16 +138,33 @@ struct NextQuery {
     next: Option<String>,
 }
 
-/// Where to go after signing in: a path of this site only (no `//host`, no scheme).
+/// Where to go after signing in or a form: a path of this site only, else `/`. Only a
+/// path that starts with one `/`, holds no backslash, no white space and no control
+/// character (browsers drop tabs and line feeds from a URL, so `/\t/evil.example` would
+/// lead to `//evil.example`), and reads as a path and query without scheme or host.
 pub(crate) fn local_path(next: Option<&str>) -> String {
+    let local = |n: &str| {
+        n.starts_with('/')
+            && !n.starts_with("//")
+            && !n
+                .chars()
+                .any(|c| c == '\\' || c.is_whitespace() || c.is_control())
+            && n.parse::<axum::http::Uri>()
+                .is_ok_and(|u| u.scheme().is_none() && u.authority().is_none())
+    };
     match next {
-        Some(n) if n.starts_with('/') && !n.starts_with("//") && !n.contains('\\') => n.into(),
+        Some(n) if local(n) => n.into(),
         _ => "/".into(),
     }
 }
 
-async fn signin_form(jar: PrivateCookieJar, Query(q): Query<NextQuery>) -> Response {
-    let (jar, token) = session::signin_token(jar);
+async fn signin_form(
+    State(s): State<WebState>,
+    headers: HeaderMap,
+    jar: PrivateCookieJar,
+    Query(q): Query<NextQuery>,
+) -> Response {
+    let (jar, token) = session::signin_token(jar, session::secure(&s.app, &headers));
     let next = local_path(q.next.as_deref());
     (
         jar,
@@ -161,12 +185,14 @@ struct SigninForm {
 /// Checks the key; on success starts a session and goes on to `next`.
 async fn signin(
     State(s): State<WebState>,
+    headers: HeaderMap,
     jar: PrivateCookieJar,
     Form(f): Form<SigninForm>,
 ) -> PageResult {
     let next = local_path(f.next.as_deref());
+    let secure = session::secure(&s.app, &headers);
     if !session::signin_token_ok(&jar, &f.csrf) {
-        let (jar, token) = session::signin_token(jar);
+        let (jar, token) = session::signin_token(jar, secure);
         let page = mtcal_views::pages::signin::signin_page(
             &token,
             &next,
@@ -182,9 +208,12 @@ async fn signin(
         .await
         .map_err(ApiError::from)?
     {
-        Some(_) => Ok((session::start(jar, secret), Redirect::to(&next)).into_response()),
+        Some(key) => {
+            let jar = session::start(&s.app, jar, &key, secure).await?;
+            Ok((jar, Redirect::to(&next)).into_response())
+        }
         None => {
-            let (jar, token) = session::signin_token(jar);
+            let (jar, token) = session::signin_token(jar, secure);
             let page = mtcal_views::pages::signin::signin_page(
                 &token,
                 &next,
@@ -202,9 +231,16 @@ pub struct CsrfForm {
     pub csrf: String,
 }
 
-async fn signout(session: Session, jar: PrivateCookieJar, Form(f): Form<CsrfForm>) -> PageResult {
+/// Ends the session in the database (the cookie, if kept, opens nothing any more).
+async fn signout(
+    session: Session,
+    State(s): State<WebState>,
+    jar: PrivateCookieJar,
+    Form(f): Form<CsrfForm>,
+) -> PageResult {
     session.check_csrf(&f.csrf)?;
-    Ok((session::end(jar), Redirect::to("/signin")).into_response())
+    let jar = session::end(&s.app, jar).await?;
+    Ok((jar, Redirect::to("/signin")).into_response())
 }
 
 #[cfg(test)]
@@ -221,5 +257,15 @@ mod tests {
         assert_eq!(local_path(Some("https://evil.example/")), "/");
         assert_eq!(local_path(Some("/\\evil.example")), "/");
         assert_eq!(local_path(None), "/");
+        for bad in [
+            "/\t/evil.example/",
+            "/\n/evil.example/",
+            "/ /evil.example/",
+            "/\u{0}x",
+            "/\r\nSet-Cookie: a=b",
+            "/\u{85}/evil.example",
+        ] {
+            assert_eq!(local_path(Some(bad)), "/", "{bad:?}");
+        }
     }
 }

@@ -4,8 +4,8 @@
 
 use crate::AppState;
 pub use crate::auth::session::{
-    SESSION_COOKIE, SESSION_TTL, SIGNIN_COOKIE, Session, cookie_key, end, same, signin_token,
-    signin_token_ok, start, token,
+    SESSION_COOKIE, SESSION_TTL, SIGNIN_COOKIE, Session, cookie_key, end, same, secure,
+    signin_token, signin_token_ok, start, token,
 };
 use crate::error::ApiError;
 use axum::extract::{FromRef, FromRequestParts, OriginalUri};

@@ -34,15 +34,25 @@ pub async fn app_on(url: &str) -> (axum::Router, Keys, Arc<dyn Store>) {
     let (_, write) = store.create_key(Scope::Write, "w").await.unwrap();
     let (_, admin) = store.create_key(Scope::Admin, "a").await.unwrap();
     let state = AppState {
-        store: store.clone(),
         limits: UploadLimits {
             max_bytes: MAX_UPLOAD,
             ..UploadLimits::default()
         },
-        max_attempts: 3,
-        wake: Arc::new(tokio::sync::Notify::new()),
+        ..state(store.clone())
     };
     (router(state), Keys { read, write, admin }, store)
+}
+
+/// The handlers' state on `store` with the default limits and settings.
+pub fn state(store: Arc<dyn Store>) -> AppState {
+    AppState {
+        store,
+        limits: UploadLimits::default(),
+        max_attempts: 3,
+        wake: Arc::new(tokio::sync::Notify::new()),
+        settings: Arc::default(),
+        database: Arc::default(),
+    }
 }
 
 /// A request; empty `ct` sends no Content-Type.

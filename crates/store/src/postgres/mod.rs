@@ -12,7 +12,6 @@
 use crate::error::{Db as _, Result};
 use sqlx::postgres::{PgConnectOptions, PgPoolOptions};
 use std::str::FromStr;
-use std::time::Duration;
 
 type Db = sqlx::Postgres;
 type This = PgStore;
@@ -31,6 +30,12 @@ mod dialect {
     pub const BEGIN_SNAPSHOT: &str = "BEGIN ISOLATION LEVEL REPEATABLE READ, READ ONLY";
     /// Run after a dataset's bytes were deleted: nothing; the old row versions are
     /// removed by (auto)vacuum, as for every update.
+    /// The database's clock, milliseconds since the Unix epoch (the time of the statement,
+    /// not of its transaction's start).
+    pub const NOW_MS: &str = "CAST(EXTRACT(EPOCH FROM clock_timestamp()) * 1000 AS BIGINT)";
+    /// Taken before a key is revoked, so that two revocations of the last two admin keys
+    /// cannot both see the other still active.
+    pub const LOCK_KEYS: &str = "LOCK TABLE api_keys IN SHARE ROW EXCLUSIVE MODE";
     pub const AFTER_BYTES_DELETED: &str = "";
     /// The table `table` (with its alias) for a walk of `index`: as the planner chooses
     /// (it walks the index for an `ORDER BY … LIMIT` the index holds in order).
@@ -50,18 +55,25 @@ pub struct PgStore {
     pool: sqlx::PgPool,
 }
 
-/// Connections per process: enough for the API's handlers and a worker's jobs and
-/// heartbeats; a server's `max_connections` (100 by default) bounds processes × this.
-const MAX_CONNECTIONS: u32 = 16;
-
 impl PgStore {
     /// Connects to `url` (`postgres://user:password@host:port/database`, with the usual
     /// parameters: `sslmode`, `options=-c search_path=…`, …) and applies the migrations.
     pub async fn open(url: &str) -> Result<PgStore> {
+        Self::open_with(url, crate::StoreOptions::default()).await
+    }
+
+    /// [`PgStore::open`] with a pool of the given size and wait ([`crate::StoreOptions`]:
+    /// by default [`crate::StoreOptions::DEFAULT_PG_POOL`] connections, a server's
+    /// `max_connections` (100 by default) bounds processes × this).
+    pub async fn open_with(url: &str, o: crate::StoreOptions) -> Result<PgStore> {
         let opts = PgConnectOptions::from_str(url).db()?;
+        let size = o
+            .pool_size
+            .unwrap_or(crate::StoreOptions::DEFAULT_PG_POOL)
+            .clamp(1, crate::StoreOptions::MAX_POOL);
         let pool = PgPoolOptions::new()
-            .max_connections(MAX_CONNECTIONS)
-            .acquire_timeout(Duration::from_secs(10))
+            .max_connections(size)
+            .acquire_timeout(o.acquire_timeout)
             .connect_with(opts)
             .await
             .db()?;

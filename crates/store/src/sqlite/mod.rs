@@ -27,6 +27,11 @@ mod dialect {
     /// Run after a dataset's bytes were deleted: copies the write-ahead log into the
     /// database file and empties it, so that (with `secure_delete`, which zeroes freed
     /// content) the deleted bytes leave the disk at once, not at the next checkpoint.
+    /// The database's clock, milliseconds since the Unix epoch (SQLite's `now` has
+    /// millisecond resolution).
+    pub const NOW_MS: &str = "CAST(ROUND((julianday('now') - 2440587.5) * 86400000.0) AS INTEGER)";
+    /// Taken before a key is revoked: nothing (writers are serialised).
+    pub const LOCK_KEYS: &str = "";
     pub const AFTER_BYTES_DELETED: &str = "PRAGMA wal_checkpoint(TRUNCATE)";
     /// The table `table` (with its alias) read through `index`: the fleet page walks an
     /// index in order (without statistics the planner may drive the walk from the
@@ -51,10 +56,15 @@ impl SqliteStore {
     /// Opens (creating if needed) and migrates the database at `url` (`sqlite://PATH`,
     /// `sqlite::memory:` or a plain file path).
     pub async fn open(url: &str) -> Result<SqliteStore> {
+        Self::open_with(url, crate::StoreOptions::default()).await
+    }
+
+    /// [`SqliteStore::open`] with a pool of the given size and wait.
+    pub async fn open_with(url: &str, o: crate::StoreOptions) -> Result<SqliteStore> {
         let opts = if url.starts_with("sqlite:") {
             SqliteConnectOptions::from_str(url).db()?
         } else if url.contains("://") {
-            return Err(StoreError::UnsupportedUrl(url.to_string()));
+            return Err(StoreError::UnsupportedUrl(crate::redacted(url)));
         } else {
             SqliteConnectOptions::new().filename(url)
         };
@@ -68,8 +78,13 @@ impl SqliteStore {
             .pragma("secure_delete", "ON")
             .busy_timeout(Duration::from_secs(10));
         let memory = url.contains(":memory:");
+        let size = o
+            .pool_size
+            .unwrap_or(crate::StoreOptions::DEFAULT_SQLITE_POOL)
+            .clamp(1, crate::StoreOptions::MAX_POOL);
         let pool = SqlitePoolOptions::new()
-            .max_connections(if memory { 1 } else { 8 })
+            .max_connections(if memory { 1 } else { size })
+            .acquire_timeout(o.acquire_timeout)
             .connect_with(opts)
             .await
             .db()?;
