@@ -413,7 +413,7 @@ async fn a_drift_inside_its_uncertainty_raises_no_alert_one_3_sigma_outside_does
     assert!(
         m.starts_with(
             "M1 drifted between its baseline check of 2026-01-05 and the check of 2026-07-05: EXX at "
-        ) && m.contains(" mm from 0.000 ± 1.414 µm (2026-01-05) to ")
+        ) && m.contains(" mm from ") && m.contains("0.000 ± 1.414 µm (2026-01-05) to ")
             && m.contains("8.000 ± 1.414 µm (2026-07-05), a change of ")
             && m.contains("8.000 ± 2.000 µm, beyond the threshold of 5.000 µm by more than U"),
         "{m}"

@@ -29,9 +29,17 @@ pub async fn ack(
     WriteKey(key): WriteKey,
     State(s): State<AppState>,
     Path(id): Path<String>,
+    headers: axum::http::HeaderMap,
     body: axum::body::Bytes,
 ) -> Result<Json<AlertView>, ApiError> {
     let by = format!("key {} ({})", key.id, key.label);
+    if let Some(t) = headers.get(axum::http::header::CONTENT_TYPE)
+        && !t.as_bytes().starts_with(b"application/json")
+    {
+        return Err(ApiError::UnsupportedMediaType(
+            "the acknowledgement's body is JSON (`{\"comment\": \"…\"}`) or empty".into(),
+        ));
+    }
     let ack: Acknowledgement = if body.iter().all(u8::is_ascii_whitespace) {
         Acknowledgement::default()
     } else {
