@@ -196,6 +196,8 @@ async fn demo(args: Args, db: PathBuf, temporary: bool) -> anyhow::Result<ExitCo
         listen: args.listen,
         no_worker: false,
         cookie_secure: false,
+        min_upload_rate: mtcal_server::Settings::MIN_UPLOAD_RATE,
+        upload_grace_seconds: 10,
         header_timeout_seconds: 10,
     };
     let (tx, rx) = tokio::sync::oneshot::channel();

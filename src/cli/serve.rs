@@ -107,6 +107,14 @@ pub struct Args {
     /// TLS-terminating proxy sends `X-Forwarded-Proto: https`).
     #[arg(long, env = "MTCAL_COOKIE_SECURE")]
     pub cookie_secure: bool,
+    /// Slowest average rate of an upload's body once its grace period is over, bytes per
+    /// second (0: none); a slower upload is answered 408 and its slot freed.
+    #[arg(long, env = "MTCAL_MIN_UPLOAD_RATE", default_value_t = mtcal_server::Settings::MIN_UPLOAD_RATE)]
+    pub min_upload_rate: u64,
+    /// Seconds an upload has before the minimum rate applies.
+    #[arg(long, env = "MTCAL_UPLOAD_GRACE_SECONDS", default_value_t = 10,
+          value_parser = clap::value_parser!(u64).range(1..=3600))]
+    pub upload_grace_seconds: u64,
     /// Seconds a client has to send a request's head (slow clients are disconnected).
     #[arg(long, env = "MTCAL_HEADER_TIMEOUT_SECONDS", default_value_t = 10)]
     pub header_timeout_seconds: u64,
@@ -125,6 +133,8 @@ impl Args {
             worker: WorkerConfig {
                 settings: mtcal_server::Settings {
                     cookie_secure: self.cookie_secure,
+                    min_upload_rate: self.min_upload_rate,
+                    upload_grace: std::time::Duration::from_secs(self.upload_grace_seconds),
                 },
                 ..self.worker.config()
             },

@@ -21,6 +21,7 @@ pub mod jobs;
 pub mod metrics;
 pub mod outage;
 pub mod state;
+pub mod upload_gate;
 pub mod web;
 pub mod worker;
 
@@ -124,17 +125,8 @@ pub fn router(state: AppState) -> Router {
         .route("/api/v1/machines/{id}/datasets", post(datasets::upload))
         .layer(DefaultBodyLimit::max(state.limits.max_bytes))
         .layer(RequestDecompressionLayer::new())
-        .layer(axum::middleware::from_fn(api::datasets::note_encoding))
-        // The upload's own time limit starts when it has a reading slot: waiting behind
-        // two large uploads does not use it up. The wait is bounded by the outer limit.
-        .layer(TimeoutLayer::with_status_code(
-            StatusCode::REQUEST_TIMEOUT,
-            UPLOAD_TIMEOUT,
-        ))
-        .layer(axum::middleware::from_fn(metrics::reading_upload))
-        .layer(tower::limit::ConcurrencyLimitLayer::new(
-            MAX_CONCURRENT_UPLOADS,
-        ))
+        .layer(axum::middleware::from_fn(api::datasets::note_encoding));
+    let uploads = upload_gate::guard(uploads, &state)
         .layer(axum::middleware::from_fn_with_state(
             state.clone(),
             auth::require_write,
@@ -249,6 +241,7 @@ pub async fn serve_probes(
             wake: Arc::new(tokio::sync::Notify::new()),
             settings: Arc::default(),
             database: Arc::default(),
+            uploads: Default::default(),
         });
     serve_http(listener, app, HEADER_READ_TIMEOUT, stop).await
 }
@@ -288,6 +281,7 @@ pub fn app(
         wake,
         settings: Arc::new(worker.settings.clone()),
         database: Arc::default(),
+        uploads: Default::default(),
     });
     (router, workers)
 }
