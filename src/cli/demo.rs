@@ -184,6 +184,7 @@ async fn demo(args: Args, db: PathBuf, temporary: bool) -> anyhow::Result<ExitCo
             db: db_url.clone(),
             db_pool: None,
             db_timeout_ms: 3000,
+            webhook_allow: Default::default(),
             concurrency: 2,
             lease_ms: 30_000,
             max_attempts: 3,

@@ -24,6 +24,12 @@ pub struct WorkerArgs {
     #[arg(long, env = "MTCAL_DB_TIMEOUT_MS", default_value_t = 3000,
           value_parser = clap::value_parser!(u64).range(100..=60_000))]
     pub db_timeout_ms: u64,
+    /// Hosts, addresses and networks drift alert webhooks may reach although they are
+    /// not public (loopback, private, link-local, …), comma-separated:
+    /// `hooks.plant.local,10.20.0.0/16` (docs/api.md, "Webhooks").
+    #[arg(long, env = "MTCAL_WEBHOOK_ALLOW", default_value = "",
+          value_parser = mtcal_server::WebhookPolicy::with_allow_list)]
+    pub webhook_allow: mtcal_server::WebhookPolicy,
     /// Jobs run at the same time.
     #[arg(long, default_value_t = 2)]
     pub concurrency: usize,
@@ -88,6 +94,10 @@ impl WorkerArgs {
             pause_before_solve_ms: self.pause_before_solve_ms,
             grace: std::time::Duration::from_secs(self.grace_seconds.min(3600)),
             max_run: std::time::Duration::from_secs(self.job_timeout_seconds.clamp(1, 7 * 86_400)),
+            settings: mtcal_server::Settings {
+                webhooks: self.webhook_allow.clone(),
+                ..mtcal_server::Settings::default()
+            },
             ..WorkerConfig::default()
         }
     }
@@ -135,6 +145,7 @@ impl Args {
                     cookie_secure: self.cookie_secure,
                     min_upload_rate: self.min_upload_rate,
                     upload_grace: std::time::Duration::from_secs(self.upload_grace_seconds),
+                    ..self.worker.config().settings
                 },
                 ..self.worker.config()
             },

@@ -40,6 +40,7 @@ use utoipa::openapi::security::{HttpAuthScheme, HttpBuilder, SecurityScheme};
 use contract::Statuses;
 pub use error::ApiError;
 pub use ingest::UploadLimits;
+pub use mtcal_domain::webhooks::TargetPolicy as WebhookPolicy;
 pub use state::{AppState, Settings};
 pub use worker::{WorkerConfig, Workers};
 
@@ -295,7 +296,9 @@ pub async fn spawn_local(
 ) -> std::io::Result<SocketAddr> {
     let listener = tokio::net::TcpListener::bind("127.0.0.1:0").await?;
     let addr = listener.local_addr()?;
-    let (app, _workers) = app(store, worker, run_worker);
+    let mut worker = worker.clone();
+    worker.settings.webhooks.own.push(addr);
+    let (app, _workers) = app(store, &worker, run_worker);
     tokio::spawn(async move {
         let _keep = _workers;
         serve_http(listener, app, HEADER_READ_TIMEOUT, std::future::pending()).await
@@ -412,7 +415,9 @@ pub async fn serve(
 ) -> anyhow::Result<()> {
     let store = mtcal_store::open_with(&cfg.db_url, cfg.store).await?;
     let listener = tokio::net::TcpListener::bind(cfg.listen).await?;
-    let (app, workers) = app(store.clone(), &cfg.worker, cfg.run_worker);
+    let mut worker = cfg.worker.clone();
+    worker.settings.webhooks.own.push(listener.local_addr()?);
+    let (app, workers) = app(store.clone(), &worker, cfg.run_worker);
     // Drift of results stored before this version or imported in bulk.
     tokio::spawn(async move {
         match mtcal_domain::fleet::refresh_all(store.as_ref()).await {

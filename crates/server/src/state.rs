@@ -18,6 +18,9 @@ pub struct Settings {
     pub min_upload_rate: u64,
     /// Time an upload has before its minimum rate applies.
     pub upload_grace: std::time::Duration,
+    /// Where drift alert webhooks may go (`MTCAL_WEBHOOK_ALLOW`, the service's own
+    /// address; mtcal_domain::webhooks).
+    pub webhooks: mtcal_domain::webhooks::TargetPolicy,
 }
 
 impl Settings {
@@ -34,6 +37,7 @@ impl Default for Settings {
             cookie_secure: false,
             min_upload_rate: Self::MIN_UPLOAD_RATE,
             upload_grace: Self::UPLOAD_GRACE,
+            webhooks: Default::default(),
         }
     }
 }
