@@ -44,7 +44,7 @@ fn export_writes_each_format_and_refuses_bad_input() {
             "{}",
             String::from_utf8_lossy(&out.stderr)
         );
-        let want = f.write(&Compensation::from_result(&r, 10.0).unwrap());
+        let want = f.write(&Compensation::from_result(&r, 10.0, false).unwrap());
         assert_eq!(String::from_utf8(out.stdout).unwrap(), want, "{}", f.name());
     }
     let file = dir.path().join("x.com");
@@ -130,4 +130,55 @@ fn report_writes_a_self_contained_page_with_verdicts_from_tolerances() {
     let out = mtcal(&["report", &path, "--tolerances", limits.to_str().unwrap()]);
     assert_eq!(out.status.code(), Some(2));
     assert!(String::from_utf8_lossy(&out.stderr).contains("limits.json"));
+}
+
+/// A backlash machine's result (the model does not explain its recording): `export`
+/// refuses it with exit code 2 and the reason; `--force` writes the table with the
+/// reason in its first header line.
+#[test]
+fn export_of_a_misfit_needs_force() {
+    use mtcal_solver::Axis;
+    use mtcal_solver::simulate::Effect;
+    let out = simulate(
+        &random_truth(5),
+        &SimOptions {
+            plan: Plan::Seed,
+            seed: 5,
+            sample_rate_hz: 10.0,
+            effects: vec![Effect::Backlash {
+                axis: Axis::X,
+                lost_motion_um: 6.0,
+            }],
+            ..Default::default()
+        },
+    )
+    .unwrap();
+    let r = identify(&out.session, &IdentifyOptions::default()).unwrap();
+    assert!(r.model_check().is_misfit(), "{}", r.model_check().statement);
+    let dir = tempfile::tempdir().unwrap();
+    let path = dir.path().join("result.json");
+    std::fs::write(&path, serde_json::to_string(&r).unwrap()).unwrap();
+    let path = path.to_str().unwrap();
+    let out = mtcal(&["export", path, "--format", "csv"]);
+    assert_eq!(out.status.code(), Some(2));
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert!(
+        err.contains("the model does not explain this recording"),
+        "{err}"
+    );
+    assert!(err.contains("--force"), "{err}");
+    let out = mtcal(&["export", path, "--format", "csv", "--force"]);
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    let text = String::from_utf8(out.stdout).unwrap();
+    assert!(
+        text.lines()
+            .next()
+            .unwrap()
+            .starts_with("# FORCED, NOT FOR USE WITHOUT REVIEW: the model does not explain"),
+        "{text}"
+    );
 }

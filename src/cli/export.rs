@@ -23,6 +23,11 @@ pub struct Args {
     /// end is always included).
     #[arg(long, default_value_t = DEFAULT_STEP_MM)]
     pub step_mm: f64,
+    /// Make the table although the result's model does not explain its recording (the
+    /// misfit gate); the table's first header line then says why it is not for use
+    /// without review.
+    #[arg(long)]
+    pub force: bool,
     /// Write the file here instead of to stdout.
     #[arg(long)]
     pub out: Option<PathBuf>,
@@ -31,9 +36,9 @@ pub struct Args {
 pub fn run(args: Args) -> anyhow::Result<ExitCode> {
     let format = Format::parse(&args.format).map_err(BadInput)?;
     let doc = read_identification(&args.result)?;
-    let table = Compensation::from_result(&doc, args.step_mm).map_err(|e| match e {
+    let table = Compensation::from_result(&doc, args.step_mm, args.force).map_err(|e| match e {
         ExportError::BadStep(m) => BadInput(format!("--step-mm: {m}")),
-        e @ ExportError::NothingIdentifiable(_) => {
+        e @ (ExportError::NothingIdentifiable(_) | ExportError::ModelMisfit(_)) => {
             BadInput(format!("{}: {e}", args.result.display()))
         }
     })?;

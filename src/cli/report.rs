@@ -7,7 +7,7 @@ use super::export::read_identification;
 use anyhow::Context;
 use mtcal_solver::diagnosis::DiagnosisResult;
 use mtcal_solver::positioning_check::DiagnosisDocument;
-use mtcal_solver::tolerance::{Limits, evaluate, identification_figures};
+use mtcal_solver::tolerance::{Assessment, Limits, evaluate, identification_figures};
 use mtcal_views::pages::report::{
     CheckReport, PositioningReport, check_report, positioning_report,
 };
@@ -58,10 +58,8 @@ pub fn run(args: Args) -> anyhow::Result<ExitCode> {
             limits
                 .validate()
                 .map_err(|m| BadInput(format!("{}: {m}", p.display())))?;
-            let mut figures = identification_figures(&doc);
-            let standards = doc.standards.scalar_figures();
-            figures.add_standards(standards.iter().map(|f| (f.name.as_str(), f.value, f.u)));
-            Some(evaluate(&limits, &figures))
+            let how = Assessment::of_identification(&doc, Default::default());
+            Some(evaluate(&limits, &identification_figures(&doc), &how))
         }
         None => None,
     };

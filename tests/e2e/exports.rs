@@ -24,7 +24,7 @@ async fn exports_and_report_of_a_stored_result() {
     // document (the route adds nothing), its media type and an attachment name.
     for f in Format::ALL {
         let d = reader.export(&id, &[("format", f.name())]).await.unwrap();
-        let want = f.write(&Compensation::from_result(&doc, DEFAULT_STEP_MM).unwrap());
+        let want = f.write(&Compensation::from_result(&doc, DEFAULT_STEP_MM, false).unwrap());
         assert_eq!(d.text, want, "{}", f.name());
         assert_eq!(d.content_type, f.content_type());
         let disp = d.disposition.unwrap();

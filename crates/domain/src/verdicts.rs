@@ -12,29 +12,59 @@ use crate::error::DomainError;
 use crate::kinds::IDENTIFICATION;
 use crate::profiles::{applicable, limits};
 use mtcal_solver::identification::IdentificationResult;
-use mtcal_solver::tolerance::{self, Figures, Verdict};
+use mtcal_solver::positioning_check::DiagnosisDocument;
+use mtcal_solver::standards::{Standards, StandardsResult};
+use mtcal_solver::tolerance::{self, Assessment, Figures, Verdict};
 use mtcal_store::{Machine, Store, StoreError, StoredResult, ToleranceProfile};
 use serde::{Deserialize, Serialize};
 
-/// The figures of a stored result that limits are decided against, given the figures of
-/// the standards stored with it (blocking: the identification's functions are evaluated
-/// on their reporting grid).
-fn figures(r: &StoredResult, standards: &[mtcal_store::Figure]) -> Result<Figures, StoreError> {
-    let mut f = if r.meta.kind == IDENTIFICATION {
-        match serde_json::from_value::<IdentificationResult>(r.document.clone()) {
-            Ok(doc) => tolerance::identification_figures(&doc),
-            Err(e) => {
-                return Err(StoreError::Backend(format!(
-                    "result {} does not read as an identification: {e}",
-                    r.meta.id
-                )));
-            }
-        }
-    } else {
-        Figures::default()
+/// What a stored result offers to be judged and how (its figures; the misfit gate of its
+/// model, its uncertainty budget and the machine's registered travel), given the figures
+/// of the standards stored with it (blocking: the identification's functions are
+/// evaluated over their measured travel).
+fn assess(
+    r: &StoredResult,
+    stored: &[mtcal_store::Figure],
+    m: &Machine,
+) -> Result<(Figures, Assessment), StoreError> {
+    let unreadable = |what: &str, e: serde_json::Error| {
+        StoreError::Backend(format!("result {} does not read as {what}: {e}", r.meta.id))
     };
-    f.add_standards(standards.iter().map(|s| (s.name.as_str(), s.value, s.u)));
-    Ok(f)
+    let mut how = Assessment {
+        registered_travel_mm: m.travel_mm.clone(),
+        ..Assessment::default()
+    };
+    let mut f = match r.meta.kind.as_str() {
+        IDENTIFICATION => {
+            let doc = serde_json::from_value::<IdentificationResult>(r.document.clone())
+                .map_err(|e| unreadable("an identification", e))?;
+            how = Assessment::of_identification(&doc, how.registered_travel_mm);
+            tolerance::identification_figures(&doc)
+        }
+        // The figures of the standards with what they span, from the document; a
+        // document that does not give them (an import) is judged on the stored figures.
+        "standards" => {
+            let mut f = Figures::default();
+            if let Ok(doc) = serde_json::from_value::<StandardsResult>(r.document.clone()) {
+                f.add_standards(&doc.standards);
+            }
+            f
+        }
+        "diagnosis" => {
+            // A positioning-run diagnosis carries the ISO 230-2 figures of its runs.
+            let mut f = Figures::default();
+            if let Ok(doc) = serde_json::from_value::<DiagnosisDocument>(r.document.clone()) {
+                f.add_standards(&Standards {
+                    iso230_2: doc.iso230_2,
+                    ..Standards::default()
+                });
+            }
+            f
+        }
+        _ => Figures::default(),
+    };
+    f.add_stored(stored.iter().map(|s| (s.name.as_str(), s.value, s.u)));
+    Ok((f, how))
 }
 
 /// The verdict of result `r` of machine `m` against the profile that applies among
@@ -51,9 +81,9 @@ pub async fn verdict(
     };
     let limits = limits(p)?;
     let standards = store.result_figures(&r.meta.id).await?;
-    let r = r.clone();
+    let (r, m) = (r.clone(), m.clone());
     let v = crate::blocking::run::<_, StoreError>(move || {
-        figures(&r, &standards).map(|f| tolerance::evaluate(&limits, &f))
+        assess(&r, &standards, &m).map(|(f, how)| tolerance::evaluate(&limits, &f, &how))
     })
     .await??;
     Ok(Some((p.clone(), v)))

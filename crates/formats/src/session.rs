@@ -3,7 +3,10 @@
 //!
 //! `session.json` rules: `machine_id` (non-empty string) and `measured_at` (RFC 3339)
 //! required; `topology` optional (`{"workpiece": [..], "tool": [..]}` listing X, Y and Z
-//! exactly once); `temperature_c` optional finite number; `notes` optional string;
+//! exactly once); `temperature_c` optional finite number; `notes` optional string; the
+//! test's conditions optional (`operator`, `instrument` with its calibration,
+//! `temperature_u_k`, `machine_expansion_ppm_per_k`, `machine_expansion_u_ppm_per_k`,
+//! `alignment_urad`: [`mtcal_solver::uncertainty::Conditions`], numbers checked there);
 //! `planes` a non-empty array of `{file, plane, head_offset_mm, mounting?}` with `plane`
 //! one of XY, XZ, YZ, `head_offset_mm` three finite numbers, `file` a plain file name
 //! (no directory part) named once; `mounting` defaults to the file's own name (one
@@ -20,6 +23,7 @@ use crate::json::{JsonDoc, Obj};
 use crate::limits::Quantity;
 use crate::{FormatError, Limits, gzip, invalid_input};
 use mtcal_solver::session::{PlaneRecord, Run, Session, TestKind};
+use mtcal_solver::uncertainty::{Conditions, Instrument};
 use mtcal_solver::{Axis, Plane, Topology};
 use serde_json::{Value, json};
 use std::borrow::Cow;
@@ -50,8 +54,8 @@ struct SessionSpec {
     machine_id: String,
     measured_at: String,
     topology: Option<Topology>,
-    temperature_c: Option<f64>,
     notes: Option<String>,
+    conditions: Conditions,
     planes: Vec<PlaneSpec>,
 }
 
@@ -353,8 +357,8 @@ fn assemble(
         machine_id: spec.machine_id,
         measured_at: spec.measured_at,
         topology: spec.topology,
-        temperature_c: spec.temperature_c,
         notes: spec.notes,
+        conditions: spec.conditions,
         planes,
     })
 }
@@ -379,6 +383,12 @@ fn parse_session_json(bytes: &[u8]) -> Result<(SessionSpec, JsonDoc<'static>), F
             "temperature_c",
             "notes",
             "planes",
+            "operator",
+            "instrument",
+            "temperature_u_k",
+            "machine_expansion_ppm_per_k",
+            "machine_expansion_u_ppm_per_k",
+            "alignment_urad",
         ])?;
         let machine_id = root.req_str("machine_id")?.to_string();
         root.req_str("measured_at")?;
@@ -390,8 +400,8 @@ fn parse_session_json(bytes: &[u8]) -> Result<(SessionSpec, JsonDoc<'static>), F
             None => None,
             Some(v) => Some(parse_topology(&root.object("topology", v)?)?),
         };
-        let temperature_c = root.opt_f64("temperature_c")?;
         let notes = root.opt_str("notes")?.map(str::to_string);
+        let conditions = parse_conditions(&root)?;
         let planes_v = root.required("planes")?;
         let Value::Array(items) = planes_v else {
             return Err(root.error("planes", "must be an array of plane objects"));
@@ -427,13 +437,83 @@ fn parse_session_json(bytes: &[u8]) -> Result<(SessionSpec, JsonDoc<'static>), F
             machine_id,
             measured_at,
             topology,
-            temperature_c,
             notes,
+            conditions,
             planes,
         }
     };
     Ok((spec, doc))
 }
+
+/// The test's conditions stated in session.json (docs/datasets.md, "session.json"): the
+/// operator, the instrument with its calibration, the temperature and the budget's other
+/// inputs, each checked with the field named.
+fn parse_conditions(root: &Obj<'_>) -> Result<Conditions, FormatError> {
+    let text = |o: &Obj<'_>, field: &str| -> Result<Option<String>, FormatError> {
+        match o.opt_str(field)? {
+            Some(s) if s.trim().is_empty() => Err(o.error(field, "must not be empty")),
+            Some(s) if s.len() > TEXT_MAX || s.chars().any(char::is_control) => Err(o.error(
+                field,
+                format!("at most {TEXT_MAX} bytes, no control characters"),
+            )),
+            other => Ok(other.map(str::to_string)),
+        }
+    };
+    let instrument = match root.get("instrument") {
+        None => None,
+        Some(v) => {
+            let o = root.object("instrument", v)?;
+            o.check_fields(&[
+                "model",
+                "serial",
+                "calibration_date",
+                "certificate",
+                "calibration_u_um",
+                "calibration_u_um_per_m",
+                "calibration_k",
+                "squareness_u_urad",
+                "expansion_ppm_per_k",
+                "expansion_u_ppm_per_k",
+            ])?;
+            let i = Instrument {
+                model: text(&o, "model")?,
+                serial: text(&o, "serial")?,
+                calibration_date: text(&o, "calibration_date")?,
+                certificate: text(&o, "certificate")?,
+                calibration_u_um: o.opt_f64("calibration_u_um")?,
+                calibration_u_um_per_m: o.opt_f64("calibration_u_um_per_m")?,
+                calibration_k: o.opt_f64("calibration_k")?,
+                squareness_u_urad: o.opt_f64("squareness_u_urad")?,
+                expansion_ppm_per_k: o.opt_f64("expansion_ppm_per_k")?,
+                expansion_u_ppm_per_k: o.opt_f64("expansion_u_ppm_per_k")?,
+            };
+            if let Err(m) = i.validate("") {
+                let field = m.split(':').next().unwrap_or("").to_string();
+                return Err(o.error(&field, m[field.len() + 1..].trim().to_string()));
+            }
+            Some(i)
+        }
+    };
+    let temperature_c = root.opt_f64("temperature_c")?;
+    let c = Conditions {
+        operator: text(root, "operator")?,
+        instrument,
+        temperature_c,
+        temperature_source: temperature_c.map(|_| "stated".to_string()),
+        temperature_u_k: root.opt_f64("temperature_u_k")?,
+        machine_expansion_ppm_per_k: root.opt_f64("machine_expansion_ppm_per_k")?,
+        machine_expansion_u_ppm_per_k: root.opt_f64("machine_expansion_u_ppm_per_k")?,
+        alignment_urad: root.opt_f64("alignment_urad")?,
+    };
+    if let Err(m) = c.validate() {
+        let field = m.split(':').next().unwrap_or("").to_string();
+        return Err(root.error(&field, m[field.len() + 1..].trim().to_string()));
+    }
+    Ok(c)
+}
+
+/// Longest text field of session.json's conditions (operator, instrument names), bytes.
+pub const TEXT_MAX: usize = 200;
 
 fn parse_topology(o: &Obj<'_>) -> Result<Topology, FormatError> {
     o.check_fields(&["workpiece", "tool"])?;
@@ -736,11 +816,17 @@ pub fn session_json(session: &Session) -> Value {
             json!({"workpiece": names(&t.workpiece), "tool": names(&t.tool)}),
         );
     }
-    if let Some(t) = session.temperature_c {
-        root.insert("temperature_c".into(), json!(t));
-    }
     if let Some(n) = &session.notes {
         root.insert("notes".into(), json!(n));
+    }
+    // The stated conditions (a temperature taken from the temp_c column is not stated).
+    let mut c = session.conditions.clone();
+    if c.temperature_source.as_deref() != Some("stated") {
+        c.temperature_c = None;
+    }
+    c.temperature_source = None;
+    if let Ok(Value::Object(fields)) = serde_json::to_value(&c) {
+        root.extend(fields);
     }
     let planes: Vec<Value> = session
         .planes

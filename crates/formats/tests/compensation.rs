@@ -104,6 +104,8 @@ fn hand_result() -> IdentificationResult {
         standards: Default::default(),
         circles: vec![],
         residuals: vec![],
+        model_check: None,
+        conditions: Default::default(),
     }
 }
 
@@ -126,7 +128,7 @@ fn file_name(f: Format) -> String {
 /// Values worked by hand from the hand-made result, step 10 mm.
 #[test]
 fn hand_worked_values() {
-    let c = Compensation::from_result(&hand_result(), 10.0).unwrap();
+    let c = Compensation::from_result(&hand_result(), 10.0, false).unwrap();
     let x = &c.axes[0];
     assert_eq!(x.positions_mm, [-20.0, -10.0, 0.0, 10.0, 20.0]);
     let names: Vec<&str> = x.columns.iter().map(|c| c.term.as_str()).collect();
@@ -155,14 +157,14 @@ fn hand_worked_values() {
         );
     }
     // A step that lands past the end still ends on it: [0, 30] at 7 mm.
-    let c7 = Compensation::from_result(&hand_result(), 7.0).unwrap();
+    let c7 = Compensation::from_result(&hand_result(), 7.0, false).unwrap();
     assert_eq!(c7.axes[1].positions_mm, [0.0, 7.0, 14.0, 21.0, 28.0, 30.0]);
 }
 
 /// Each format against its golden file, and the published layout's shape.
 #[test]
 fn golden_files_and_published_shapes() {
-    let c = Compensation::from_result(&hand_result(), 10.0).unwrap();
+    let c = Compensation::from_result(&hand_result(), 10.0, false).unwrap();
     for f in Format::ALL {
         golden(&file_name(f), &f.write(&c));
     }
@@ -218,10 +220,13 @@ fn every_format_round_trips() {
     .unwrap();
     let r = identify(&out.session, &IdentifyOptions::default()).unwrap();
     for (what, c) in [
-        ("simulated", Compensation::from_result(&r, 5.0).unwrap()),
+        (
+            "simulated",
+            Compensation::from_result(&r, 5.0, false).unwrap(),
+        ),
         (
             "hand-made",
-            Compensation::from_result(&hand_result(), 10.0).unwrap(),
+            Compensation::from_result(&hand_result(), 10.0, false).unwrap(),
         ),
     ] {
         if what == "simulated" {
@@ -312,7 +317,7 @@ fn terms_the_data_could_not_determine_are_left_out_and_named() {
     let r = identify(&out.session, &IdentifyOptions::default()).unwrap();
     let missing: Vec<String> = r.observability.not_identifiable.clone();
     assert!(!missing.is_empty());
-    let c = Compensation::from_result(&r, 5.0).unwrap();
+    let c = Compensation::from_result(&r, 5.0, false).unwrap();
     let mut want = missing.clone();
     want.sort();
     let mut got = c.not_identifiable.clone();
@@ -352,16 +357,54 @@ fn nothing_identifiable_and_bad_steps_are_refused() {
         t.identifiable = false;
     }
     r.squareness.get_mut("EC0Y").unwrap().identifiable = false;
-    match Compensation::from_result(&r, 5.0) {
+    match Compensation::from_result(&r, 5.0, false) {
         Err(ExportError::NothingIdentifiable(m)) => assert!(m.contains("EXX"), "{m}"),
         other => panic!("{other:?}"),
     }
     for step in [0.0, -1.0, f64::NAN, 1e-6] {
         assert!(matches!(
-            Compensation::from_result(&hand_result(), step),
+            Compensation::from_result(&hand_result(), step, false),
             Err(ExportError::BadStep(_))
         ));
     }
+}
+
+/// A result whose model does not explain its recording (residual 6.5 × the noise floor)
+/// gives no table unless forced; a forced table says why in its first header line, and
+/// every reader reads the reason back.
+#[test]
+fn a_misfit_gives_no_table_unless_forced() {
+    let mut r = hand_result();
+    r.fit.residual_rms_um = 0.976;
+    r.fit.noise_estimate_um = Some(0.149);
+    match Compensation::from_result(&r, 10.0, false) {
+        Err(e @ ExportError::ModelMisfit(_)) => {
+            let m = e.to_string();
+            assert!(
+                m.starts_with("the model does not explain this recording"),
+                "{m}"
+            );
+            assert!(m.contains("unless forced"), "{m}");
+        }
+        other => panic!("{other:?}"),
+    }
+    let c = Compensation::from_result(&r, 10.0, true).unwrap();
+    let why = c.forced.clone().unwrap();
+    assert!(why.contains("6.6 × the noise floor"), "{why}");
+    for f in Format::ALL {
+        let text = f.write(&c);
+        let first = text.lines().next().unwrap();
+        assert!(
+            first.contains("FORCED, NOT FOR USE WITHOUT REVIEW: the model does not explain"),
+            "{}: {first}",
+            f.name()
+        );
+        let back = f.read("t", &text).unwrap();
+        assert_eq!(back.forced.as_deref(), Some(why.as_str()), "{}", f.name());
+    }
+    // A result at noise level is not forced, forced or not.
+    let ok = Compensation::from_result(&hand_result(), 10.0, true).unwrap();
+    assert_eq!(ok.forced, None);
 }
 
 /// Readers refuse broken files naming file, line, column and rule.

@@ -52,7 +52,8 @@ fn reads_a_valid_session() {
     assert_eq!(s.machine_id, "VMC-0042");
     assert_eq!(s.measured_at, "2026-11-02T08:30:00Z");
     assert_eq!(s.topology, Some(Topology::default()));
-    assert_eq!(s.temperature_c, Some(20.4));
+    assert_eq!(s.conditions.temperature_c, Some(20.4));
+    assert_eq!(s.conditions.temperature_source.as_deref(), Some("stated"));
     assert_eq!(s.notes.as_deref(), Some("free text"));
     assert_eq!(s.planes.len(), 2);
     let xy = &s.planes[0];
@@ -717,7 +718,11 @@ fn sample_session() -> Session {
             workpiece: vec![Axis::Y],
             tool: vec![Axis::X, Axis::Z],
         }),
-        temperature_c: Some(19.75),
+        conditions: mtcal_solver::uncertainty::Conditions {
+            temperature_c: Some(19.75),
+            temperature_source: Some("stated".into()),
+            ..Default::default()
+        },
         notes: Some("simulated \"quoted\" notes".into()),
         planes: vec![
             PlaneRecord {

@@ -68,6 +68,10 @@ pub enum ApiError {
     /// Nothing of a result can be exported: no term is identifiable.
     #[error("{0}")]
     NotIdentifiable(String),
+    /// The result's model does not explain its recording (the misfit gate): what would be
+    /// made of it (a compensation table) is refused unless forced.
+    #[error("{0}")]
+    ModelMisfit(String),
     /// The request took too long (an upload below the minimum rate: the message says).
     #[error("{0}")]
     Timeout(String),
@@ -87,7 +91,9 @@ impl ApiError {
             ApiError::Unauthorized(_) => StatusCode::UNAUTHORIZED,
             ApiError::Forbidden(_) => StatusCode::FORBIDDEN,
             ApiError::NotFound(_) => StatusCode::NOT_FOUND,
-            ApiError::Conflict(_) | ApiError::JobNotFinished(_) => StatusCode::CONFLICT,
+            ApiError::Conflict(_) | ApiError::JobNotFinished(_) | ApiError::ModelMisfit(_) => {
+                StatusCode::CONFLICT
+            }
             ApiError::InvalidRequest(_) | ApiError::InvalidEncoding(_) => StatusCode::BAD_REQUEST,
             ApiError::InvalidDataset(_) => StatusCode::UNPROCESSABLE_ENTITY,
             ApiError::PayloadTooLarge(_) => StatusCode::PAYLOAD_TOO_LARGE,
@@ -118,6 +124,7 @@ impl ApiError {
             ApiError::Timeout(_) => "timeout",
             ApiError::OutsideTravel(_) => "outside_measured_travel",
             ApiError::NotIdentifiable(_) => "not_identifiable",
+            ApiError::ModelMisfit(_) => "model_misfit",
             ApiError::Internal(_) => "internal",
         }
     }

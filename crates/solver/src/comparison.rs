@@ -186,6 +186,77 @@ pub fn term_difference(
     })
 }
 
+/// Positions a range is evaluated on: this many evenly spaced over the travel, ends
+/// included (0.5 mm apart over 100 mm).
+pub const RANGE_GRID_POINTS: usize = 201;
+
+/// The range of a term's reported values over a travel (ISO 230-1: max − min of the
+/// deviations), where its maximum and minimum are, and the standard uncertainty of their
+/// difference.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Range {
+    /// max − min, ≥ 0 (µm or µrad).
+    pub range: f64,
+    pub at_max_mm: f64,
+    pub at_min_mm: f64,
+    /// u = √((g_max − g_min)ᵀ Σ (g_max − g_min)): the covariance of the two values is
+    /// taken into account (`None` without a stored covariance).
+    pub u: Option<f64>,
+    /// The travel it was evaluated over.
+    pub travel_mm: [f64; 2],
+}
+
+/// The range of `term` over `[lo, hi]` (default: the whole measured travel of its axis;
+/// clipped to it, `None` outside), from the same evaluation as [`term_value`] on
+/// [`RANGE_GRID_POINTS`] evenly spaced positions: a straightness about its
+/// least-squares line over the whole measured travel, as reported.
+pub fn term_range(c: &impl CheckFunctions, term: Term, over: Option<[f64; 2]>) -> Option<Range> {
+    let name = term.name();
+    let coeffs = c.coefficients(&name)?;
+    let travel = c.measured_travel(term.axis.letter())?;
+    let [lo, hi] = match over {
+        Some([a, b]) => [a.max(travel[0]), b.min(travel[1])],
+        None => travel,
+    };
+    if !(lo.is_finite() && hi.is_finite() && hi >= lo) {
+        return None;
+    }
+    let n = RANGE_GRID_POINTS;
+    let value = |q: f64| -> f64 {
+        let g = gradient(term, coeffs.len(), q, travel);
+        g.iter().zip(coeffs).map(|(g, c)| g * c).sum()
+    };
+    // (value, position) of the largest and of the smallest value.
+    let (mut max, mut min) = ((f64::NEG_INFINITY, lo), (f64::INFINITY, lo));
+    for i in 0..n {
+        let q = lo + (hi - lo) * i as f64 / (n - 1) as f64;
+        let v = value(q);
+        if v > max.0 {
+            max = (v, q);
+        }
+        if v < min.0 {
+            min = (v, q);
+        }
+    }
+    let ((vmax, qmax), (vmin, qmin)) = (max, min);
+    if !(vmax.is_finite() && vmin.is_finite()) {
+        return None;
+    }
+    let gmax = gradient(term, coeffs.len(), qmax, travel);
+    let gmin = gradient(term, coeffs.len(), qmin, travel);
+    let d: Vec<f64> = gmax.iter().zip(&gmin).map(|(a, b)| a - b).collect();
+    let u = c
+        .coefficient_covariance(&name)
+        .and_then(|cov| quadratic_form_sqrt(cov, &d));
+    Some(Range {
+        range: vmax - vmin,
+        at_max_mm: qmax,
+        at_min_mm: qmin,
+        u,
+        travel_mm: [lo, hi],
+    })
+}
+
 /// The [`DRIFT_GRID_POINTS`] evenly spaced positions of `[lo, hi]`, ends included.
 pub fn drift_grid([lo, hi]: [f64; 2]) -> impl Iterator<Item = f64> {
     (0..DRIFT_GRID_POINTS).map(move |i| lo + (hi - lo) * i as f64 / (DRIFT_GRID_POINTS - 1) as f64)
@@ -443,6 +514,39 @@ mod tests {
         fn squareness_std(&self, name: &str) -> Option<f64> {
             self.squareness.get(name).map(|s| s.1)
         }
+    }
+
+    #[test]
+    fn a_range_by_hand() {
+        let mut c = Check::default();
+        c.travel.insert('X', [-50.0, 50.0]);
+        // EXX = 0.3 q − 1e-4 q³: extremes where f' = 0.3 − 3e-4 q² = 0, q = ±√1000 =
+        // ±31.623 mm, f = ±2·0.3·31.623/3 = ±6.3246 µm: range 12.649 µm (the ends give
+        // only ±2.5 µm).
+        c.coefficients.insert("EXX".into(), vec![0.3, 0.0, -1e-4]);
+        // u of c1 = 0.001, others 0: u(f(q1) − f(q2)) = |q1 − q2|·0.001.
+        c.covariance.insert(
+            "EXX".into(),
+            vec![vec![1e-6, 0.0, 0.0], vec![0.0; 3], vec![0.0; 3]],
+        );
+        let r = term_range(&c, Term::parse("EXX").unwrap(), None).unwrap();
+        assert!((r.range - 12.649_111).abs() < 1e-3, "{r:?}");
+        assert!((r.at_max_mm - 31.623).abs() < 0.5 && (r.at_min_mm + 31.623).abs() < 0.5);
+        assert!((r.u.unwrap() - (r.at_max_mm - r.at_min_mm) * 1e-3).abs() < 1e-12);
+        // Over [0, 50] only: max 6.3246 at 31.6, min 0 at 0.
+        let r = term_range(&c, Term::parse("EXX").unwrap(), Some([0.0, 80.0])).unwrap();
+        assert_eq!(r.travel_mm, [0.0, 50.0]);
+        assert!((r.range - 6.324_555).abs() < 1e-3 && r.at_min_mm == 0.0);
+        // A straightness is judged about its least-squares line: EYX = 0.001 q² over
+        // [−50, 50] deviates by 0.001·(q² − 2500/3): +1.6667 at the ends, −0.8333 at 0,
+        // range 0.001 × 2500 = 2.5 µm.
+        c.coefficients.insert("EYX".into(), vec![0.0, 0.001]);
+        let r = term_range(&c, Term::parse("EYX").unwrap(), None).unwrap();
+        assert!((r.range - 2.5).abs() < 1e-9, "{r:?}");
+        assert_eq!((r.at_max_mm.abs(), r.at_min_mm), (50.0, 0.0));
+        assert_eq!(r.u, None, "no covariance stored");
+        // Not identifiable, or no travel: no range.
+        assert!(term_range(&c, Term::parse("EZZ").unwrap(), None).is_none());
     }
 
     fn diag(n: usize, u: f64) -> Vec<Vec<f64>> {

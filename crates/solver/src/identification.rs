@@ -25,9 +25,11 @@
 use crate::basis::BasisKind;
 use crate::design::{ErrorModel, Fit, measured_travel};
 use crate::error::SolverError;
+use crate::misfit::ModelCheck;
 use crate::noise::session_floor;
 use crate::observability::Identifiability;
 use crate::session::Session;
+use crate::uncertainty::Conditions;
 use serde::{Deserialize, Serialize};
 use std::collections::BTreeMap;
 
@@ -229,6 +231,23 @@ pub struct IdentificationResult {
     /// Residual RMS of the fit by file and test.
     #[serde(default)]
     pub residuals: Vec<crate::residuals::ResidualSummary>,
+    /// The misfit gate ([`crate::misfit`]): whether the model explains this recording to
+    /// noise level. A document of an earlier version has none; read it with
+    /// [`IdentificationResult::model_check`], which works it out from `fit`.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub model_check: Option<ModelCheck>,
+    /// What the session states about how the test was made (operator, instrument,
+    /// temperature, …): the report's facts and the uncertainty budget's inputs.
+    #[serde(default)]
+    pub conditions: Conditions,
+}
+
+impl IdentificationResult {
+    /// The misfit gate of this result, from its fit (the same as the stored
+    /// `model_check` of a document of this version; an earlier one is gated too).
+    pub fn model_check(&self) -> ModelCheck {
+        ModelCheck::of(self.fit.residual_rms_um, self.fit.noise_estimate_um)
+    }
 }
 
 /// Identifies the 21 terms of the machine measured in `session`.
@@ -264,6 +283,7 @@ pub fn identify(
     let mut result = report::report(session, &model, opts, opts.method, noise, &estimate);
     result.fit.noise_pass_differences_um =
         floor.and_then(|f| f.pass_differences_um.map(report::round));
+    result.model_check = Some(result.model_check());
     Ok(result)
 }
 

@@ -15,12 +15,15 @@ pub mod error;
 pub mod kinematics;
 pub mod session;
 pub mod terms;
+// The inputs and the contributions of an uncertainty budget (ISO/TR 230-9).
+pub mod uncertainty;
 
 // identification core.
 pub mod basis;
 pub mod design;
 pub mod identification;
 pub mod lsq;
+pub mod misfit;
 pub mod noise;
 pub mod observability;
 pub mod simulate;

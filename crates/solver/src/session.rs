@@ -3,6 +3,7 @@
 //! and diagnosis read it.
 
 use crate::axis::{Axis, Plane, Topology};
+use crate::uncertainty::Conditions;
 use nalgebra::{DMatrix, DVector};
 use serde::{Deserialize, Serialize};
 
@@ -15,8 +16,12 @@ pub struct Session {
     pub measured_at: String,
     /// Machine topology; `None` when the session relies on the registered machine's.
     pub topology: Option<Topology>,
-    pub temperature_c: Option<f64>,
     pub notes: Option<String>,
+    /// What session.json states about how the test was made (operator, instrument,
+    /// temperature, expansion coefficients, alignment): the facts of a signed report
+    /// and the inputs of the uncertainty budget ([`crate::uncertainty`]).
+    #[serde(default)]
+    pub conditions: Conditions,
     pub planes: Vec<PlaneRecord>,
 }
 
@@ -106,6 +111,31 @@ impl Run {
 }
 
 impl Session {
+    /// The conditions of the test as the budget and the report read them: the stated
+    /// ones, with the temperature taken from the plane files' `temp_c` column (the mean
+    /// of every logged sample, `temperature_source: logged`) when session.json states
+    /// none and every run logs one.
+    pub fn test_conditions(&self) -> Conditions {
+        let mut c = self.conditions.clone();
+        if c.temperature_c.is_none() {
+            let runs = || self.planes.iter().flat_map(|p| &p.runs);
+            let logged: Option<Vec<&Vec<f64>>> = runs().map(|r| r.temp_c.as_ref()).collect();
+            if let Some(cols) = logged {
+                let n: usize = cols.iter().map(|c| c.len()).sum();
+                if n > 0 {
+                    let mean = cols.iter().flat_map(|c| c.iter()).sum::<f64>() / n as f64;
+                    if mean.is_finite() {
+                        c.temperature_c = Some(mean);
+                        c.temperature_source = Some("logged".into());
+                    }
+                }
+            }
+        } else if c.temperature_source.is_none() {
+            c.temperature_source = Some("stated".into());
+        }
+        c
+    }
+
     /// Total number of samples over all planes and runs.
     pub fn sample_count(&self) -> usize {
         self.planes

@@ -318,7 +318,11 @@ pub fn simulate(truth: &PolyErrors, opts: &SimOptions) -> Result<SimOutput, Solv
         machine_id: opts.machine_id.clone(),
         measured_at: opts.measured_at.clone(),
         topology: Some(opts.topology.clone()),
-        temperature_c: Some(20.0),
+        conditions: crate::uncertainty::Conditions {
+            temperature_c: Some(20.0),
+            temperature_source: Some("stated".into()),
+            ..Default::default()
+        },
         notes: Some(format!(
             "simulated by mtcal (seed {}, noise {} µm{})",
             opts.seed,

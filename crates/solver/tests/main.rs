@@ -14,6 +14,7 @@ mod diagnosis_sessions;
 mod fits_simulated;
 mod fits_sscanss2;
 mod identification_truth;
+mod misfit_gate;
 mod noise_floor;
 mod sensitivity_chain;
 mod sensitivity_measures;

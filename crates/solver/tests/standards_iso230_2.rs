@@ -4,7 +4,7 @@
 use mtcal_solver::axis::Axis;
 use mtcal_solver::basis::PolyErrors;
 use mtcal_solver::datasets::{Direction, PositioningRecord, PositioningRuns};
-use mtcal_solver::simulate::{Effect, Plan, SimOptions, simulate};
+use mtcal_solver::simulate::{Effect, Plan, SimOptions, random_truth, simulate};
 use mtcal_solver::standards::iso230_2::{
     FIGURES, Reading, Source, evaluate, from_positioning_runs, iso230_2,
 };
@@ -312,6 +312,78 @@ fn line_passes_of_a_simulated_session() {
     // Y has passes as well (no error): small figures.
     let y = st.iso230_2.iter().find(|f| f.axis == Axis::Y).unwrap();
     assert!(y.systematic_e_um < 0.2, "{}", y.systematic_e_um);
+}
+
+/// A machine with 6 µm of X backlash: line passes zeroed per pass show a reversal of a
+/// few hundredths of a µm, which would pass any limit on B. The figures that depend on
+/// each pass's zero are therefore not available from this plan: named with the reason,
+/// never stored, trended or judged; E↑, E↓ and M are.
+#[test]
+fn line_passes_do_not_give_what_depends_on_each_pass_zero() {
+    let out = simulate(
+        &random_truth(5),
+        &SimOptions {
+            plan: Plan::Seed,
+            seed: 5,
+            sample_rate_hz: 20.0,
+            effects: vec![Effect::Backlash {
+                axis: Axis::X,
+                lost_motion_um: 6.0,
+            }],
+            ..Default::default()
+        },
+    )
+    .unwrap();
+    let st = standards::from_session(&out.session);
+    let f = st.iso230_2.iter().find(|f| f.axis == Axis::X).unwrap();
+    assert!(
+        f.reversal_b_um < 1.0,
+        "the zeroed passes hide the lost motion: {}",
+        f.reversal_b_um
+    );
+    for name in [
+        "B_um",
+        "B_mean_um",
+        "R_up_um",
+        "R_down_um",
+        "R_um",
+        "E_um",
+        "A_up_um",
+        "A_down_um",
+        "A_um",
+    ] {
+        let why = f
+            .not_available(name)
+            .unwrap_or_else(|| panic!("{name} available"));
+        assert!(why.starts_with("not available from this plan"), "{why}");
+    }
+    for name in ["E_up_um", "E_down_um", "M_um"] {
+        assert_eq!(f.not_available(name), None, "{name}");
+    }
+    let names: Vec<String> = st.scalar_figures().into_iter().map(|s| s.name).collect();
+    assert!(
+        names.contains(&"iso230_2.X.E_up_um".to_string()),
+        "{names:?}"
+    );
+    assert!(
+        !names
+            .iter()
+            .any(|n| n.ends_with(".B_um") || n.ends_with(".E_um")),
+        "{names:?}"
+    );
+    // The document says so, and an earlier document without the list reads the same.
+    let mut json = serde_json::to_value(f).unwrap();
+    assert_eq!(json["not_available"].as_object().unwrap().len(), 9);
+    json.as_object_mut().unwrap().remove("not_available");
+    let old: Iso2302 = serde_json::from_value(json).unwrap();
+    assert_eq!(old.not_available("B_um"), f.not_available("B_um"));
+    // A limit on B is undecided with that reason.
+    let mut figures = mtcal_solver::tolerance::Figures::default();
+    figures.add_standards(&st);
+    assert!(figures.undetermined["iso230_2.X.B_um"].starts_with("not available from this plan"));
+    // Positioning runs give every figure.
+    let p = mtcal_solver::standards::iso230_2::Source::PositioningRuns;
+    assert_ne!(p, f.source);
 }
 
 /// The two real runs of `data/ecmccfg_iso230` against an independent calculation of the

@@ -48,7 +48,7 @@ fn session_of(runs: Vec<Run>) -> Session {
         machine_id: "T".into(),
         measured_at: "2026-01-01T00:00:00Z".into(),
         topology: None,
-        temperature_c: None,
+        conditions: Default::default(),
         notes: None,
         planes: vec![PlaneRecord {
             file: "xy.csv".into(),

@@ -103,6 +103,8 @@ pub fn read(name: &str, text: &str) -> Result<Compensation, FormatError> {
             let comment = comment.trim();
             if let Some(list) = parse_not_identifiable(comment) {
                 c.not_identifiable = list;
+            } else if let Some(why) = comment.strip_prefix(super::FORCED) {
+                c.forced = Some(why.to_string());
             } else if let Some((k, v)) = comment.split_once(" = ")
                 && let Some(sq) = squareness_from(k.trim())
             {

@@ -155,6 +155,9 @@ pub struct Compensation {
     pub squareness: Vec<(String, f64)>,
     /// Terms left out because the data could not determine them (ISO 230-1 names).
     pub not_identifiable: Vec<String>,
+    /// Set when the table was made although the model does not explain its recording
+    /// (forced): the reason, written in the header's [`FORCED`] line.
+    pub forced: Option<String>,
 }
 
 /// Why a result gives no table.
@@ -165,22 +168,39 @@ pub enum ExportError {
     /// Not one term of the result is identifiable over a measured travel.
     #[error("nothing to export: no term of this result is identifiable ({0})")]
     NothingIdentifiable(String),
+    /// The model does not explain its recording (the misfit gate): a table of it would
+    /// compensate errors the machine may not have; refused unless forced.
+    #[error(
+        "{0}: no compensation table is made from it unless forced (--force, or force=true); the diagnosis of the recording says which physics the model leaves out"
+    )]
+    ModelMisfit(String),
 }
 
 impl Compensation {
     /// The table of `r` on every `step_mm` of each axis's measured travel (and its end).
+    /// A result whose model does not explain its recording ([`mtcal_solver::misfit`]) is
+    /// refused ([`ExportError::ModelMisfit`]) unless `force`; a forced table says why in
+    /// its header ([`FORCED`]).
     pub fn from_result(
         r: &IdentificationResult,
         step_mm: f64,
+        force: bool,
     ) -> Result<Compensation, ExportError> {
         if !step_mm.is_finite() || step_mm <= 0.0 {
             return Err(ExportError::BadStep(format!(
                 "step must be a positive number of mm, got {step_mm}"
             )));
         }
+        let check = r.model_check();
+        let forced = match (check.is_misfit(), force) {
+            (true, false) => return Err(ExportError::ModelMisfit(check.statement)),
+            (true, true) => Some(check.statement),
+            (false, _) => None,
+        };
         let mut c = Compensation {
             machine_id: r.machine_id.clone(),
             measured_at: r.measured_at.clone(),
+            forced,
             ..Default::default()
         };
         for axis in Axis::ALL {
@@ -247,10 +267,16 @@ impl Compensation {
 
     /// The sentences every file's header comment carries (each format adds its prefix).
     pub fn header(&self, format: &str, units: &str) -> Vec<String> {
-        let mut h =
-            vec![
+        let mut h = vec![];
+        if let Some(why) = &self.forced {
+            h.push(format!("{FORCED}{why}"));
+        }
+        h.extend([
             format!("mtcal compensation table: {format}"),
-            format!("machine: {}; measured at: {}", self.machine_id, self.measured_at),
+            format!(
+                "machine: {}; measured at: {}",
+                self.machine_id, self.measured_at
+            ),
             "sign: the values are the machine's errors (ISO 230-1, tool relative to workpiece); \
              compensation = -error"
                 .into(),
@@ -259,7 +285,7 @@ impl Compensation {
              squareness: angle between the least-squares axis lines \
              (X-Y = 90 deg + EC0Y, X-Z = 90 deg - EB0Z, Y-Z = 90 deg + EA0Z)"
                 .into(),
-        ];
+        ]);
         let travel: Vec<String> = self
             .axes
             .iter()
@@ -291,6 +317,10 @@ impl Compensation {
 /// Start of the header line that lists the terms left out (readers look for it).
 pub const NOT_IDENTIFIABLE: &str = "not identifiable, left out: ";
 
+/// Start of the first header line of a table made although its model does not explain
+/// the recording (readers look for it).
+pub const FORCED: &str = "FORCED, NOT FOR USE WITHOUT REVIEW: ";
+
 /// From the result's units (µm, µrad) to the table's (mm, rad).
 fn unit_scale(t: Term) -> f64 {
     if t.is_angular() { 1e-6 } else { 1e-3 }
@@ -318,6 +348,9 @@ fn comment(c: &mut Compensation, line: &str, prefix: &str) -> bool {
     };
     if let Some(list) = parse_not_identifiable(text) {
         c.not_identifiable = list;
+    }
+    if let Some(why) = text.trim().strip_prefix(FORCED) {
+        c.forced = Some(why.to_string());
     }
     true
 }

@@ -30,6 +30,10 @@ pub struct ExportQuery {
     /// Spacing of the table's positions, mm (default 5; from the start of each measured
     /// travel, its end always included).
     pub step_mm: Option<f64>,
+    /// Make the table although the result's model does not explain its recording (the
+    /// misfit gate): the table's first header line then says why it is not for use
+    /// without review. Without it such a result is refused (409, `model_misfit`).
+    pub force: Option<bool>,
 }
 
 #[utoipa::path(operation_id = "results_export", summary = "Compensation table of an identification result for a controller", get,
@@ -41,6 +45,9 @@ pub struct ExportQuery {
                content_type = "text/plain", body = String),
               (status = 400, body = ErrorBody, description = "unknown or missing format (the message names the formats), bad step, or not an identification result"),
               (status = 404, body = ErrorBody),
+              (status = 409, body = ErrorBody, description = "model_misfit: the result's model does not explain its recording \
+                                                                (residual above the noise floor by more than the gate's factor); \
+                                                                force=true makes the table with the reason in its header"),
               (status = 422, body = ErrorBody, description = "not_identifiable: no term of the result is identifiable")))]
 pub async fn export(
     _key: ReadKey,
@@ -64,11 +71,13 @@ pub async fn export(
         format.extension()
     );
     let step = q.step_mm.unwrap_or(DEFAULT_STEP_MM);
+    let force = q.force.unwrap_or(false);
     let text = crate::blocking::run::<_, ApiError>(move || {
         let doc = identification(&r)?;
-        let table = Compensation::from_result(&doc, step).map_err(|e| match e {
+        let table = Compensation::from_result(&doc, step, force).map_err(|e| match e {
             ExportError::BadStep(m) => ApiError::InvalidRequest(format!("step_mm: {m}")),
             e @ ExportError::NothingIdentifiable(_) => ApiError::NotIdentifiable(e.to_string()),
+            e @ ExportError::ModelMisfit(_) => ApiError::ModelMisfit(e.to_string()),
         })?;
         Ok::<_, ApiError>(format.write(&table))
     })

@@ -68,7 +68,7 @@ impl Default for DiagnoseOptions {
             max_findings: 4,
             min_bic_gain: 10.0,
             min_heldout_gain: 0.005,
-            noise_level_ratio: 1.2,
+            noise_level_ratio: crate::misfit::AT_NOISE_LEVEL,
             topology: None,
         }
     }

@@ -231,6 +231,8 @@ pub fn report(
         standards: crate::standards::from_session(session),
         circles: crate::standards::iso230_4::circle_plots(session, Some(&residuals)),
         residuals: crate::residuals::by_file_and_test(session, &residuals),
+        model_check: None,
+        conditions: session.test_conditions(),
     }
 }
 

@@ -197,7 +197,7 @@ fn circle_residual_session(session: &Session, m1: &ErrorModel, x1: &[f64]) -> Se
         machine_id: session.machine_id.clone(),
         measured_at: session.measured_at.clone(),
         topology: session.topology.clone(),
-        temperature_c: session.temperature_c,
+        conditions: session.conditions.clone(),
         notes: session.notes.clone(),
         planes: Vec::with_capacity(session.planes.len()),
     };

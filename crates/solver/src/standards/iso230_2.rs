@@ -162,6 +162,12 @@ pub struct Iso2302 {
     /// reading).
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub without_outlying: Option<WithoutOutlying>,
+    /// Figures this recording cannot give, by name ([`FIGURES`]), with the reason: for
+    /// grid-encoder line passes, every figure that depends on each pass's zero
+    /// ([`depends_on_zero`]). Their numbers above are not to be read; they are not stored,
+    /// trended or judged ([`Iso2302::scalar_figures`], [`Iso2302::not_available`]).
+    #[serde(default, skip_serializing_if = "BTreeMap::is_empty")]
+    pub not_available: BTreeMap<String, String>,
 }
 
 /// A reading the outlier test of the repeated readings set aside
@@ -238,11 +244,26 @@ impl Iso2302 {
         ]
     }
 
-    /// The axis figures as stored scalars, named `iso230_2.<axis>.<figure>`.
+    /// Why figure `name` ([`FIGURES`]) is not available from this recording (None: it
+    /// is). A document of an earlier version, which did not say it, gets the same answer
+    /// for line passes.
+    pub fn not_available(&self, name: &str) -> Option<&str> {
+        self.not_available
+            .get(name)
+            .map(String::as_str)
+            .or_else(|| {
+                (self.source == Source::LinePasses && depends_on_zero(name))
+                    .then_some(NOT_FROM_LINE_PASSES)
+            })
+    }
+
+    /// The available axis figures as stored scalars, named `iso230_2.<axis>.<figure>`
+    /// (the ones [`Iso2302::not_available`] names are left out).
     pub fn scalar_figures(&self) -> Vec<ScalarFigure> {
         FIGURES
             .iter()
             .zip(self.values())
+            .filter(|(name, _)| self.not_available(name).is_none())
             .map(|(name, value)| ScalarFigure {
                 name: format!("iso230_2.{}.{name}", self.axis),
                 value,
@@ -589,6 +610,15 @@ fn evaluate_all(axis: Axis, source: Source, readings: &[Reading]) -> Result<Iso2
         accuracy_a_um: a.0,
         u,
         without_outlying: None,
+        not_available: if source == Source::LinePasses {
+            FIGURES
+                .iter()
+                .filter(|f| depends_on_zero(f))
+                .map(|f| (f.to_string(), NOT_FROM_LINE_PASSES.to_string()))
+                .collect()
+        } else {
+            BTreeMap::new()
+        },
     })
 }
 
@@ -866,7 +896,51 @@ fn evaluate_passes(axis: Axis, passes: &[Pass]) -> Result<Iso2302, SolverError> 
     );
     f.notes.insert(
         1,
-        "the encoder's zero is set per pass, so each pass is referred to its mean over the targets: a constant reversal (lost motion) is not observed and B_mean is 0 by construction".into(),
+        "the encoder's zero is set per pass, so each pass is referred to its mean over the targets: a constant reversal (lost motion) is not observed; B, B̄, R↑, R↓, R, E, A↑, A↓ and A are not available from this plan (E↑, E↓ and M are)".into(),
     );
     Ok(f)
+}
+
+/// Why the zero-dependent figures of grid-encoder line passes are not given.
+pub const NOT_FROM_LINE_PASSES: &str = "not available from this plan: a grid encoder's zero \
+     is set per pass, so each pass is referred to its own mean and what compares passes \
+     (the reversal, the repeatability, E and A over both directions) is not observed; the \
+     diagnosis of the session estimates the lost motion";
+
+/// Whether an axis figure ([`FIGURES`] name) of line passes depends on each pass's zero:
+/// the reversal values B and B̄ (the constant lost motion is removed with the pass's
+/// mean), the repeatabilities R↑, R↓, R (a shift between passes, which a standstill test
+/// counts, is removed) and the figures that set one direction's means against the
+/// other's or add the repeatability (E, A↑, A↓, A). E↑, E↓ and M are ranges of means that
+/// a common shift of the passes does not change.
+pub fn depends_on_zero(figure: &str) -> bool {
+    !matches!(figure, "E_up_um" | "E_down_um" | "M_um")
+}
+
+/// Whether an axis figure is a difference at one target (B, B̄, R↑, R↓, R), not a range
+/// over the travel.
+pub fn is_local(figure: &str) -> bool {
+    matches!(
+        figure,
+        "B_um" | "B_mean_um" | "R_up_um" | "R_down_um" | "R_um"
+    )
+}
+
+/// The standard's symbol and name of an axis figure ([`FIGURES`] name).
+pub fn figure_name(figure: &str) -> Option<(&'static str, &'static str)> {
+    Some(match figure {
+        "B_um" => ("B", "reversal value of the axis"),
+        "B_mean_um" => ("B̄", "mean reversal value of the axis"),
+        "R_up_um" => ("R↑", "unidirectional repeatability of positioning"),
+        "R_down_um" => ("R↓", "unidirectional repeatability of positioning"),
+        "R_um" => ("R", "bidirectional repeatability of positioning"),
+        "E_up_um" => ("E↑", "unidirectional systematic positional deviation"),
+        "E_down_um" => ("E↓", "unidirectional systematic positional deviation"),
+        "E_um" => ("E", "bidirectional systematic positional deviation"),
+        "M_um" => ("M", "range of the mean bidirectional positional deviation"),
+        "A_up_um" => ("A↑", "unidirectional accuracy of positioning"),
+        "A_down_um" => ("A↓", "unidirectional accuracy of positioning"),
+        "A_um" => ("A", "bidirectional accuracy of positioning"),
+        _ => return None,
+    })
 }

@@ -343,6 +343,22 @@ pub fn bidirectional(cw: &CirclePath, ccw: &CirclePath) -> Option<Bidirectional>
     })
 }
 
+/// The standard's symbol and name of a figure ([`DIRECTION_FIGURES`],
+/// [`BIDIRECTIONAL_FIGURES`] names).
+pub fn figure_name(figure: &str) -> Option<(&'static str, &'static str)> {
+    Some(match figure {
+        "G_um" => ("G", "circular deviation"),
+        "H_um" => ("H", "circular hysteresis"),
+        "mean_radial_um" => (
+            "mean radial deviation",
+            "least-squares radius − nominal radius",
+        ),
+        "F_max_um" => ("F max", "radial deviation, largest"),
+        "F_min_um" => ("F min", "radial deviation, smallest"),
+        _ => return None,
+    })
+}
+
 /// Names of the figures per direction and bidirectionally.
 pub const DIRECTION_FIGURES: [&str; 4] = ["G_um", "mean_radial_um", "F_max_um", "F_min_um"];
 pub const BIDIRECTIONAL_FIGURES: [&str; 5] =

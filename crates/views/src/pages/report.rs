@@ -40,7 +40,7 @@ pub fn check_report(r: &CheckReport) -> Markup {
     let d = r.doc;
     let title = format!("Check report {} {}", d.machine_id, when(&d.measured_at));
     let view = IdentificationView::of(d);
-    let compensation = Compensation::from_result(d, DEFAULT_STEP_MM);
+    let compensation = Compensation::from_result(d, DEFAULT_STEP_MM, false);
     let rows: Vec<VerdictRow> = r.verdict.map(verdict_rows).unwrap_or_default();
     print_page(
         &title,
@@ -443,7 +443,7 @@ mod tests {
         assert!(section(&html, "findings").contains("No diagnosis was run"));
         // Compensation: a row per exported term, and the terms left out named.
         let comp = section(&html, "compensation");
-        let c = Compensation::from_result(&doc, DEFAULT_STEP_MM).unwrap();
+        let c = Compensation::from_result(&doc, DEFAULT_STEP_MM, false).unwrap();
         for a in &c.axes {
             for col in &a.columns {
                 assert!(
@@ -467,14 +467,21 @@ mod tests {
     #[test]
     fn verdicts_and_findings_are_shown_when_given() {
         let doc = simulated_check();
-        let figure = doc.standards.scalar_figures()[0].clone();
-        let mut figures = mtcal_solver::tolerance::identification_figures(&doc);
-        figures.add_standards([(figure.name.as_str(), figure.value, figure.u)]);
+        let figures = mtcal_solver::tolerance::identification_figures(&doc);
+        // A figure of the standards that line passes give (not one depending on the
+        // passes' zeros, which is undetermined).
+        let figure = doc
+            .standards
+            .scalar_figures()
+            .into_iter()
+            .find(|f| figures.figures.contains_key(&f.name))
+            .unwrap();
         let limits = mtcal_solver::tolerance::Limits {
             standards: [(figure.name.clone(), figure.value.abs() + 100.0)].into(),
             ..Default::default()
         };
-        let verdict = mtcal_solver::tolerance::evaluate(&limits, &figures);
+        let how = mtcal_solver::tolerance::Assessment::of_identification(&doc, Default::default());
+        let verdict = mtcal_solver::tolerance::evaluate(&limits, &figures, &how);
         let diag = finding();
         let html = check_report(&CheckReport {
             doc: &doc,
