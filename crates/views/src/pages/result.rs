@@ -204,7 +204,19 @@ pub fn verdict_table(rows: &[VerdictRow]) -> Markup {
 pub fn identification(v: &IdentificationView) -> Markup {
     let d = v.doc;
     let o = &d.observability;
+    let check = d.model_check();
     html! {
+        @if check.is_misfit() {
+            // The misfit gate: no value of this model is judged, no table made unforced.
+            section.card.misfit #misfit {
+                h2 { "Not decided: model misfit" }
+                p { (check.statement) "." }
+                p { "No value of this model is judged against a tolerance and its compensation \
+                     table is refused unless forced. The diagnosis of this recording says which \
+                     physics the model leaves out: see the diagnoses on "
+                    a href=(machine_href(&d.machine_id)) { "the machine's page" } "." }
+            }
+        }
         section.card #fit {
             h2 { "Fit" }
             dl.facts {
@@ -668,6 +680,37 @@ mod tests {
         assert!(
             p.contains("lost_motion_um") && p.contains("more reversals would decide it"),
             "{p}"
+        );
+    }
+
+    #[test]
+    fn a_misfit_result_says_so_above_everything_else() {
+        let mut doc = seed_plan_check(3);
+        let body = ResultBody::Identification(IdentificationView::of(&doc));
+        let html =
+            result_page(&viewer("read"), &header("identification"), &[], &body).into_string();
+        assert!(
+            !html.contains("id=\"misfit\""),
+            "a model at noise level has no banner"
+        );
+        // The issue's backlash machine: 0.976 µm against a floor of 0.149 µm.
+        doc.fit.residual_rms_um = 0.976;
+        doc.fit.noise_estimate_um = Some(0.149);
+        doc.model_check = None;
+        let body = ResultBody::Identification(IdentificationView::of(&doc));
+        let mut h = header("identification");
+        h.verdict = Some("misfit".into());
+        let html = result_page(&viewer("read"), &h, &[], &body).into_string();
+        let at = html.find("id=\"misfit\"").expect("the misfit banner");
+        assert!(
+            at < html.find("id=\"fit\"").unwrap(),
+            "the banner comes first"
+        );
+        assert!(html.contains("the model does not explain this recording"));
+        assert!(html.contains("6.6 × the noise floor"));
+        assert!(
+            html.contains(">not decided: model misfit<"),
+            "the badge's words"
         );
     }
 
