@@ -184,6 +184,7 @@ async fn demo(args: Args, db: PathBuf, temporary: bool) -> anyhow::Result<ExitCo
             db: db_url.clone(),
             db_pool: None,
             db_timeout_ms: 3000,
+            webhook_allow: Default::default(),
             concurrency: 2,
             lease_ms: 30_000,
             max_attempts: 3,
@@ -196,6 +197,8 @@ async fn demo(args: Args, db: PathBuf, temporary: bool) -> anyhow::Result<ExitCo
         listen: args.listen,
         no_worker: false,
         cookie_secure: false,
+        min_upload_rate: mtcal_server::Settings::MIN_UPLOAD_RATE,
+        upload_grace_seconds: 10,
         header_timeout_seconds: 10,
     };
     let (tx, rx) = tokio::sync::oneshot::channel();

@@ -11,8 +11,18 @@ use std::collections::BTreeMap;
 use std::sync::Arc;
 use tower::ServiceExt;
 
+/// Webhooks may reach this test's receivers on 127.0.0.1 (and nothing else private).
+fn local_hooks() -> mtcal_domain::webhooks::TargetPolicy {
+    mtcal_domain::webhooks::TargetPolicy::with_allow_list("127.0.0.1").unwrap()
+}
+
 fn app(store: Arc<dyn Store>) -> axum::Router {
-    router(crate::common::state(store))
+    let mut state = crate::common::state(store);
+    state.settings = Arc::new(mtcal_server::Settings {
+        webhooks: local_hooks(),
+        ..mtcal_server::Settings::default()
+    });
+    router(state)
 }
 
 async fn send(
@@ -151,6 +161,22 @@ async fn profiles_are_written_with_a_write_key_and_bad_ones_refused_naming_the_f
         (
             json!({"scope": "tag", "target": "vmc", "limits": {"drift_um": 1.0},
                 "webhook_url": "ftp://127.0.0.1/x"}),
+            "webhook_url",
+        ),
+        // Private, link-local and the service's neighbours: not on the allow-list.
+        (
+            json!({"scope": "tag", "target": "vmc", "limits": {"drift_um": 1.0},
+                "webhook_url": "http://169.254.169.254/latest/meta-data/"}),
+            "webhook_url",
+        ),
+        (
+            json!({"scope": "tag", "target": "vmc", "limits": {"drift_um": 1.0},
+                "webhook_url": "http://0x7f.2:5432/"}),
+            "webhook_url",
+        ),
+        (
+            json!({"scope": "tag", "target": "vmc", "limits": {"drift_um": 1.0},
+                "webhook_url": "http://user:pw@127.0.0.1/x"}),
             "webhook_url",
         ),
     ] {
@@ -387,9 +413,10 @@ async fn a_drift_inside_its_uncertainty_raises_no_alert_one_3_sigma_outside_does
                 .import_result(identification("M1", at, rate, S2))
                 .await
                 .unwrap();
-            let alert = mtcal_domain::landing::result_landed(&store, "M1", &r.id)
-                .await
-                .unwrap();
+            let alert =
+                mtcal_domain::landing::result_landed(&store, "M1", &r.id, &Default::default())
+                    .await
+                    .unwrap();
             (r, alert)
         }
     };
@@ -410,7 +437,7 @@ async fn a_drift_inside_its_uncertainty_raises_no_alert_one_3_sigma_outside_does
     assert!(alert.message.contains("EXX"), "{}", alert.message);
     // Landing twice (a job run again) raises no second alert.
     assert!(
-        mtcal_domain::landing::result_landed(&f.store, "M1", &outside.id)
+        mtcal_domain::landing::result_landed(&f.store, "M1", &outside.id, &Default::default())
             .await
             .unwrap()
             .is_none()
@@ -470,7 +497,7 @@ async fn a_drift_inside_its_uncertainty_raises_no_alert_one_3_sigma_outside_does
         .unwrap();
     let _ = b2;
     assert!(
-        mtcal_domain::landing::result_landed(&f.store, "M2", &r2.id)
+        mtcal_domain::landing::result_landed(&f.store, "M2", &r2.id, &Default::default())
             .await
             .unwrap()
             .is_none()
@@ -525,7 +552,7 @@ async fn an_alert_is_posted_to_the_webhook_of_the_machines_tag_and_a_dead_one_fa
         .import_result(identification("M1", "2026-01-05T08:00:00Z", 0.0, S2))
         .await
         .unwrap();
-    mtcal_domain::landing::result_landed(&f.store, "M1", &base.id)
+    mtcal_domain::landing::result_landed(&f.store, "M1", &base.id, &local_hooks())
         .await
         .unwrap();
     let r = f
@@ -534,7 +561,7 @@ async fn an_alert_is_posted_to_the_webhook_of_the_machines_tag_and_a_dead_one_fa
         .await
         .unwrap();
     // The first tag's profile applies (5 µm); both tags' webhooks are told.
-    let alert = mtcal_domain::landing::result_landed(&f.store, "M1", &r.id)
+    let alert = mtcal_domain::landing::result_landed(&f.store, "M1", &r.id, &local_hooks())
         .await
         .unwrap()
         .expect("alert");
