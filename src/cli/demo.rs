@@ -401,8 +401,12 @@ async fn more_checks(
         tags: vec!["5-axis".into(), "demo".into()],
     })
     .await?;
+    // Its C table tilts about its own mount with A (docs/cradle.md).
     let mut set = mtcal_solver::cradle::simulate::simulate_cradle(
-        &mtcal_solver::cradle::simulate::CradleSimulation::example(true, 7),
+        &mtcal_solver::cradle::simulate::CradleSimulation::example_with(
+            mtcal_solver::cradle::Deflection::Mount,
+            7,
+        ),
     );
     set.machine_id = Some(CRADLE_MACHINE.into());
     set.measured_at = Some(check_time(checks.saturating_sub(1)));

@@ -481,8 +481,9 @@ pub fn iso230_2(figs: &[Iso2302]) -> Markup {
     }
 }
 
-/// The A axis, the per-pose table, the rotation vectors per A pose, the location errors,
-/// the model chosen and the held-out compensation.
+/// The A axis, the per-pose table, the rotation vectors per A pose, the model chosen with
+/// its parameters, the compliance against A with ±2σ bands, what the ball data can
+/// separate, the location errors and the held-out compensation.
 pub fn cradle(c: &CradleResult) -> Markup {
     let k = &c.kinematics;
     html! {
@@ -512,6 +513,56 @@ pub fn cradle(c: &CradleResult) -> Markup {
                 }
             }
         }
+        section.card #cradle-model {
+            h2 { "Model of the deflection with A" }
+            p { (k.description) " — chosen among the model family on A poses left out of the fit." }
+            @if let Some(f) = &c.floor { p.muted { (f.statement) } }
+            @if !k.parameters.is_empty() {
+                table {
+                    thead { tr { th { "parameter" } th.num { "value ± U" } th { "" } } }
+                    tbody {
+                        @for p in &k.parameters {
+                            tr { td { (p.name) } td.num { (with_u(Some(p.value), Some(p.std), &p.unit)) }
+                                 td { @if !p.determined { "undetermined (|value| < 3u)" } } }
+                        }
+                    }
+                }
+            }
+        }
+        section.card #compliance {
+            h2 { "Compliance against A (±2σ)" }
+            @if k.curves.is_empty() {
+                p.muted { "Rigid: nothing in the chosen model depends on A." }
+            } @else {
+                p.muted { "The chosen model's terms over the measured A range; the mount's tilts in the A body frame, the pivot's in the machine frame." }
+                div.grid {
+                    @for cv in &k.curves {
+                        figure.plot data-term=(format!("{:?}", cv.term)) { (svg(plots::compliance_curve(cv))) }
+                    }
+                }
+            }
+        }
+        @if let Some(sep) = &k.separability {
+            section.card #separability {
+                h2 { "What the ball data can separate" }
+                p.muted { "First-order Jacobian of the chosen model: rank " (sep.rank) " of " (sep.n_params)
+                          ". Method: " (sep.method) "." }
+                table {
+                    thead { tr { th { "term" } th { "in the model" } th { "separable" } th { "not separable with" } th { "why" } } }
+                    tbody {
+                        @for t in &sep.terms {
+                            tr {
+                                td { (t.description) }
+                                td { @if t.in_model { "yes" } @else { "no" } }
+                                td { @if t.separable { "yes" } @else { "no" } }
+                                td { (confounders(&t.confounded_with)) }
+                                td { (t.why) }
+                            }
+                        }
+                    }
+                }
+            }
+        }
         section.card #location-errors {
             h2 { "Location errors (ISO 230-7)" }
             table {
@@ -526,6 +577,19 @@ pub fn cradle(c: &CradleResult) -> Markup {
         }
         @if !c.notes.is_empty() { section.card { h2 { "Notes" } ul.compact { @for n in &c.notes { li { (n) } } } } }
     }
+}
+
+/// Sets of terms, `a + b; c`.
+fn confounders(sets: &[Vec<mtcal_solver::cradle::Term>]) -> String {
+    sets.iter()
+        .map(|set| {
+            set.iter()
+                .map(|t| t.describe())
+                .collect::<Vec<_>>()
+                .join(" + ")
+        })
+        .collect::<Vec<_>>()
+        .join("; ")
 }
 
 fn observable(o: &mtcal_solver::cradle::Observability) -> &'static str {
@@ -856,6 +920,20 @@ mod tests {
             .filter(|m| m.points[0].0 == m.points[1].0 && m.points[0].1 != m.points[1].1)
             .count();
         assert_eq!(bars, c.poses.len(), "one ±2σ bar per A pose");
+        // The chosen model's compliance against A (one plot per curve) and what the ball
+        // data can separate.
+        assert_eq!(
+            c.kinematics.curves.len(),
+            html.matches("data-term=").count()
+        );
+        assert!(!c.kinematics.curves.is_empty());
+        assert!(
+            html.contains("Compliance against A")
+                && html.contains("What the ball data can separate")
+        );
+        for p in &c.kinematics.parameters {
+            assert!(html.contains(&format!("<td>{}</td>", p.name)), "{}", p.name);
+        }
 
         let req: mtcal_solver::sensitivity::SensitivityRequest =
             serde_json::from_str(r#"{"machine": {"template": "vmc3"}}"#).unwrap();
