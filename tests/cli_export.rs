@@ -132,6 +132,50 @@ fn report_writes_a_self_contained_page_with_verdicts_from_tolerances() {
     assert!(String::from_utf8_lossy(&out.stderr).contains("limits.json"));
 }
 
+/// `mtcal report` on a cradle result (`mtcal cradle --json`): the cradle check's page,
+/// with one compliance plot per A-dependent term of the chosen model; the options that
+/// only an identification takes are refused with exit code 2.
+#[test]
+fn report_of_a_cradle_result_draws_its_compliance() {
+    let dir = tempfile::tempdir().unwrap();
+    let points = dir.path().join("mount.csv");
+    let p = points.to_str().unwrap();
+    let out = mtcal(&["cradle", "--simulate", p, "--deflection", "mount"]);
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    let out = mtcal(&["cradle", p, "--json"]);
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    let doc: mtcal_solver::cradle::CradleResult = serde_json::from_slice(&out.stdout).unwrap();
+    let result = dir.path().join("cradle-result.json");
+    std::fs::write(&result, &out.stdout).unwrap();
+    let r = result.to_str().unwrap();
+    let out = mtcal(&["report", r]);
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    let page = String::from_utf8(out.stdout).unwrap();
+    assert!(page.contains("Cradle check report: SIM-CRADLE"));
+    assert!(doc.kinematics.curves.len() >= 2);
+    assert_eq!(
+        page.matches("data-term=").count(),
+        doc.kinematics.curves.len()
+    );
+    let limits = dir.path().join("limits.json");
+    std::fs::write(&limits, r#"{"terms": {"EXX": 5}}"#).unwrap();
+    let out = mtcal(&["report", r, "--tolerances", limits.to_str().unwrap()]);
+    assert_eq!(out.status.code(), Some(2));
+    assert!(String::from_utf8_lossy(&out.stderr).contains("a cradle result"));
+}
+
 /// A backlash machine's result (the model does not explain its recording): `export`
 /// refuses it with exit code 2 and the reason; `--force` writes the table with the
 /// reason in its first header line.

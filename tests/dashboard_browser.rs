@@ -4,7 +4,7 @@
 //! cradle check and why it has no drift), open a machine and read its trend plot (values
 //! and ±2σ bars) back against the API's values and uncertainties, open results (an
 //! identification's error functions and its circle tests' polar plots, a diagnosis's
-//! polar plot), give a machine a tolerance profile and a drift threshold through the
+//! polar plot, a cradle check's compliance against A with its ±2σ bands), give a machine a tolerance profile and a drift threshold through the
 //! API, upload a drifted session through the form and see the new check appear with its
 //! verdict and its drift alert on the fleet page, acknowledge the alert on the alerts
 //! page, see the jobs page, compare two checks, sign out; then sign in again with one
@@ -13,12 +13,13 @@
 //!
 //! A screenshot of each page is saved under `target/tmp/dashboard/`; with
 //! `UPDATE_SCREENSHOTS=1` those of the README (fleet, machine, result scrolled to its
-//! error functions and to its circle tests, compare, jobs, alerts) are copied to
+//! error functions and to its circle tests, a cradle result's compliance, compare, jobs,
+//! alerts) are copied to
 //! `docs/screenshots/` too. The test skips, with a printed reason, only when chromedriver
 //! is absent (`CHROMEDRIVER` names another path than `/usr/bin/chromedriver`).
 
 use fantoccini::{Client, ClientBuilder, Locator};
-use mtcal_views::plots::{COLORS, inspect};
+use mtcal_views::plots::{BAND, COLORS, inspect};
 use serde_json::{Value, json};
 use std::io::{BufRead, BufReader};
 use std::path::{Path, PathBuf};
@@ -115,11 +116,12 @@ async fn api(base: &str, key: &str, path: &str) -> Value {
 }
 
 /// The pages whose screenshots the README shows (docs/screenshots/).
-const DOCUMENTED: [&str; 7] = [
+const DOCUMENTED: [&str; 8] = [
     "fleet",
     "machine",
     "result",
     "result-circles",
+    "result-cradle",
     "compare",
     "jobs",
     "alerts",
@@ -505,6 +507,63 @@ async fn run(c: &Client, dashboard: &str, base: &str, key: &str, shots: &Path, w
             .is_empty()
     );
     shot(c, shots, "diagnosis").await;
+
+    // The cradle check of the 5-axis machine: the chosen model's compliance against A,
+    // one plot per term of the stored document, each curve and its ±2σ band where the
+    // document's values put them, and what the ball data can separate.
+    let cradle = api(
+        base,
+        key,
+        "/api/v1/machines/5AX-0001/results/latest?kind=cradle",
+    )
+    .await;
+    c.goto(&format!(
+        "{base}/results/{}",
+        cradle["meta"]["id"].as_str().unwrap()
+    ))
+    .await
+    .unwrap();
+    let curves = cradle["document"]["kinematics"]["curves"]
+        .as_array()
+        .expect("the cradle check stores its compliance curves");
+    assert!(!curves.is_empty(), "the demo cradle's table tilts with A");
+    let plots = c
+        .find_all(Locator::Css("#compliance figure svg"))
+        .await
+        .unwrap();
+    assert_eq!(plots.len(), curves.len(), "one plot per compliance term");
+    for (svg, curve) in plots.iter().zip(curves) {
+        let plot = inspect::parse(&svg.html(false).await.unwrap()).unwrap();
+        assert!(plot.has_text("A (°)"));
+        let axes = plot.axes().unwrap();
+        let line = &plot.marks("polyline", &inspect::hex(COLORS[0]))[0];
+        let value = curve["value"].as_array().unwrap();
+        let std = curve["std"].as_array().unwrap();
+        let a = curve["a_deg"].as_array().unwrap();
+        assert_eq!(line.points.len(), value.len());
+        let band = &plot.marks("polygon", &inspect::hex(BAND))[0].points;
+        let n = value.len();
+        for i in [0, n / 4, n - 1] {
+            let (a, v, u) = (
+                a[i].as_f64().unwrap(),
+                value[i].as_f64().unwrap(),
+                std[i].as_f64().unwrap(),
+            );
+            assert!((axes.x.px(a) - line.points[i].0).abs() <= 1.0, "A {a}");
+            assert!(
+                (axes.y.px(v) - line.points[i].1).abs() <= 1.0,
+                "value at A {a}"
+            );
+            assert!(
+                (axes.y.px(v + 2.0 * u) - band[i].1).abs() <= 1.0,
+                "band at A {a}"
+            );
+        }
+    }
+    let sep = text(c, "#separability").await;
+    assert!(sep.contains("tilt of the C table about its mount"), "{sep}");
+    scroll_to(c, "#compliance").await;
+    shot(c, shots, "result-cradle").await;
 
     // A tolerance profile of VMC-0002 (its own, so it wins over any tag's): a term
     // limit far above the demo's errors, and a drift threshold of 0.1 µm that the demo's

@@ -48,7 +48,7 @@ pub struct Args {
     compliant: bool,
     /// How the simulated table deflects with A: `rigid`, `pivot` (tilts about the
     /// pivot) or `mount` (the C table tilts about its own mount 150 mm below the pivot,
-    /// and A has a positioning error varying with A).
+    /// about X and about its Y, both growing with sin A).
     #[arg(long, value_name = "KIND", requires = "simulate", value_parser = parse_deflection)]
     deflection: Option<Deflection>,
     /// Tracker noise of the simulation, µm per coordinate.
@@ -231,6 +231,41 @@ pub fn summary(r: &CradleResult) -> String {
                 "  possible, undetermined (|value| < 3 std)"
             }
         );
+    }
+    if let Some(sep) = &k.separability {
+        let _ = writeln!(
+            s,
+            "\nwhat the ball data can separate (first-order Jacobian of the chosen model: rank {} of {}):",
+            sep.rank, sep.n_params
+        );
+        for t in &sep.terms {
+            let sets: Vec<String> = t
+                .confounded_with
+                .iter()
+                .map(|set| {
+                    set.iter()
+                        .map(|t| t.describe())
+                        .collect::<Vec<_>>()
+                        .join(" + ")
+                })
+                .collect();
+            let verdict = match (t.in_model, t.separable, sets.is_empty()) {
+                (true, true, true) => "in the model, separable".to_string(),
+                (true, true, false) => format!(
+                    "in the model, separable; not with {}",
+                    sets.join(", nor with ")
+                ),
+                (false, true, _) => "separable if added".to_string(),
+                (_, false, true) => "not separable".to_string(),
+                (_, false, false) => format!("not separable from {}", sets.join(", ")),
+            };
+            let why = if t.why.is_empty() {
+                String::new()
+            } else {
+                format!(" ({})", t.why)
+            };
+            let _ = writeln!(s, "  {}: {verdict}{why}", t.description);
+        }
     }
     let _ = writeln!(s, "\nlocation errors (ISO 230-7):");
     for e in &r.location_errors {

@@ -184,6 +184,7 @@ async fn demo(args: Args, db: PathBuf, temporary: bool) -> anyhow::Result<ExitCo
             db: db_url.clone(),
             db_pool: None,
             db_timeout_ms: 3000,
+            webhook_allow: Default::default(),
             concurrency: 2,
             lease_ms: 30_000,
             max_attempts: 3,
@@ -196,6 +197,8 @@ async fn demo(args: Args, db: PathBuf, temporary: bool) -> anyhow::Result<ExitCo
         listen: args.listen,
         no_worker: false,
         cookie_secure: false,
+        min_upload_rate: mtcal_server::Settings::MIN_UPLOAD_RATE,
+        upload_grace_seconds: 10,
         header_timeout_seconds: 10,
     };
     let (tx, rx) = tokio::sync::oneshot::channel();
@@ -398,8 +401,12 @@ async fn more_checks(
         tags: vec!["5-axis".into(), "demo".into()],
     })
     .await?;
+    // Its C table tilts about its own mount with A (docs/cradle.md).
     let mut set = mtcal_solver::cradle::simulate::simulate_cradle(
-        &mtcal_solver::cradle::simulate::CradleSimulation::example(true, 7),
+        &mtcal_solver::cradle::simulate::CradleSimulation::example_with(
+            mtcal_solver::cradle::Deflection::Mount,
+            7,
+        ),
     );
     set.machine_id = Some(CRADLE_MACHINE.into());
     set.measured_at = Some(check_time(checks.saturating_sub(1)));

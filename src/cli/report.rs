@@ -1,15 +1,17 @@
 //! `mtcal report RESULT.json --out check.html [--diagnosis DIAGNOSIS.json] [--tolerances
 //! LIMITS.json]`: the check report, one self-contained HTML page that prints on A4
-//! (docs/report.md).
+//! (docs/report.md); of an identification, a positioning-run diagnosis or a cradle check.
 
 use super::BadInput;
 use super::export::read_identification;
 use anyhow::Context;
+use mtcal_solver::cradle::CradleResult;
 use mtcal_solver::diagnosis::DiagnosisResult;
 use mtcal_solver::positioning_check::DiagnosisDocument;
 use mtcal_solver::tolerance::{Assessment, Limits, evaluate, identification_figures};
 use mtcal_views::pages::report::{
-    CheckReport, PositioningReport, check_report, positioning_report,
+    CheckReport, CradleCheckReport, PositioningReport, check_report, cradle_report,
+    positioning_report,
 };
 use std::path::PathBuf;
 use std::process::ExitCode;
@@ -17,7 +19,8 @@ use std::process::ExitCode;
 #[derive(clap::Args, Debug)]
 pub struct Args {
     /// An identification result (`mtcal identify --json`, or a stored result), or a
-    /// positioning-run diagnosis (`mtcal diagnose RUNS.csv --json`).
+    /// positioning-run diagnosis (`mtcal diagnose RUNS.csv --json`), or a cradle result
+    /// (`mtcal cradle --json`).
     pub result: PathBuf,
     /// Where to write the page (stdout without it).
     #[arg(long)]
@@ -34,7 +37,11 @@ pub struct Args {
 }
 
 pub fn run(args: Args) -> anyhow::Result<ExitCode> {
-    if let Some(page) = positioning(&args)? {
+    let (v, doc) = read_document(&args)?;
+    if let Some(page) = positioning(&args, &v, &doc)? {
+        return write(&args, page);
+    }
+    if let Some(page) = cradle(&args, doc)? {
         return write(&args, page);
     }
     let doc = read_identification(&args.result)?;
@@ -83,27 +90,44 @@ fn write(args: &Args, page: String) -> anyhow::Result<ExitCode> {
     Ok(ExitCode::SUCCESS)
 }
 
-/// The report of a positioning-run diagnosis (`mtcal diagnose RUNS.csv --json`, or a
-/// stored one): its ISO 230-2 figures and its findings. `None` for another result.
-fn positioning(args: &Args) -> anyhow::Result<Option<String>> {
+/// The result document in `args.result` and, for a stored result, the whole stored
+/// value (its `meta` beside the `document`).
+fn read_document(args: &Args) -> anyhow::Result<(serde_json::Value, serde_json::Value)> {
     let v: serde_json::Value = super::read_json(&args.result, "result")?;
     let doc = match v.get("document") {
         Some(d) if v.get("meta").is_some() => d.clone(),
         _ => v.clone(),
     };
+    Ok((v, doc))
+}
+
+/// An error unless the report is of an identification: `--diagnosis` and
+/// `--tolerances` apply to identification results only.
+fn identification_options_only(args: &Args, what: &str) -> anyhow::Result<()> {
+    if args.diagnosis.is_some() || args.tolerances.is_some() {
+        return Err(BadInput(format!(
+            "{}: {what} is its own report; --diagnosis and --tolerances apply to identification results",
+            args.result.display()
+        ))
+        .into());
+    }
+    Ok(())
+}
+
+/// The report of a positioning-run diagnosis (`mtcal diagnose RUNS.csv --json`, or a
+/// stored one): its ISO 230-2 figures and its findings. `None` for another result.
+fn positioning(
+    args: &Args,
+    v: &serde_json::Value,
+    doc: &serde_json::Value,
+) -> anyhow::Result<Option<String>> {
     if doc.get("kind").and_then(|k| k.as_str()) != Some("diagnosis")
         || doc.get("source").and_then(|k| k.as_str()) != Some("positioning")
     {
         return Ok(None);
     }
-    if args.diagnosis.is_some() || args.tolerances.is_some() {
-        return Err(BadInput(format!(
-            "{}: a positioning-run diagnosis is its own report; --diagnosis and --tolerances apply to identification results",
-            args.result.display()
-        ))
-        .into());
-    }
-    let d: DiagnosisDocument = serde_json::from_value(doc).map_err(|e| {
+    identification_options_only(args, "a positioning-run diagnosis")?;
+    let d: DiagnosisDocument = serde_json::from_value(doc.clone()).map_err(|e| {
         BadInput(format!(
             "{}: not a positioning-run diagnosis: {e}",
             args.result.display()
@@ -116,6 +140,30 @@ fn positioning(args: &Args) -> anyhow::Result<Option<String>> {
             doc: &d,
             result_id: v["meta"]["id"].as_str(),
             measured_at: &measured,
+            generated_at: &now,
+        })
+        .into_string(),
+    ))
+}
+
+/// The report of a cradle check (`mtcal cradle --json`, or a stored one). `None` for
+/// another result.
+fn cradle(args: &Args, doc: serde_json::Value) -> anyhow::Result<Option<String>> {
+    if doc.get("kind").and_then(|k| k.as_str()) != Some("cradle") {
+        return Ok(None);
+    }
+    identification_options_only(args, "a cradle result")?;
+    let c: CradleResult = serde_json::from_value(doc).map_err(|e| {
+        BadInput(format!(
+            "{}: not a cradle result: {e}",
+            args.result.display()
+        ))
+    })?;
+    let now = mtcal_store::now_rfc3339();
+    Ok(Some(
+        cradle_report(&CradleCheckReport {
+            doc: &c,
+            result_id: None,
             generated_at: &now,
         })
         .into_string(),

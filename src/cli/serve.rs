@@ -24,6 +24,12 @@ pub struct WorkerArgs {
     #[arg(long, env = "MTCAL_DB_TIMEOUT_MS", default_value_t = 3000,
           value_parser = clap::value_parser!(u64).range(100..=60_000))]
     pub db_timeout_ms: u64,
+    /// Hosts, addresses and networks drift alert webhooks may reach although they are
+    /// not public (loopback, private, link-local, …), comma-separated:
+    /// `hooks.plant.local,10.20.0.0/16` (docs/api.md, "Webhooks").
+    #[arg(long, env = "MTCAL_WEBHOOK_ALLOW", default_value = "",
+          value_parser = mtcal_server::WebhookPolicy::with_allow_list)]
+    pub webhook_allow: mtcal_server::WebhookPolicy,
     /// Jobs run at the same time.
     #[arg(long, default_value_t = 2)]
     pub concurrency: usize,
@@ -88,6 +94,10 @@ impl WorkerArgs {
             pause_before_solve_ms: self.pause_before_solve_ms,
             grace: std::time::Duration::from_secs(self.grace_seconds.min(3600)),
             max_run: std::time::Duration::from_secs(self.job_timeout_seconds.clamp(1, 7 * 86_400)),
+            settings: mtcal_server::Settings {
+                webhooks: self.webhook_allow.clone(),
+                ..mtcal_server::Settings::default()
+            },
             ..WorkerConfig::default()
         }
     }
@@ -107,6 +117,14 @@ pub struct Args {
     /// TLS-terminating proxy sends `X-Forwarded-Proto: https`).
     #[arg(long, env = "MTCAL_COOKIE_SECURE")]
     pub cookie_secure: bool,
+    /// Slowest average rate of an upload's body once its grace period is over, bytes per
+    /// second (0: none); a slower upload is answered 408 and its slot freed.
+    #[arg(long, env = "MTCAL_MIN_UPLOAD_RATE", default_value_t = mtcal_server::Settings::MIN_UPLOAD_RATE)]
+    pub min_upload_rate: u64,
+    /// Seconds an upload has before the minimum rate applies.
+    #[arg(long, env = "MTCAL_UPLOAD_GRACE_SECONDS", default_value_t = 10,
+          value_parser = clap::value_parser!(u64).range(1..=3600))]
+    pub upload_grace_seconds: u64,
     /// Seconds a client has to send a request's head (slow clients are disconnected).
     #[arg(long, env = "MTCAL_HEADER_TIMEOUT_SECONDS", default_value_t = 10)]
     pub header_timeout_seconds: u64,
@@ -125,6 +143,9 @@ impl Args {
             worker: WorkerConfig {
                 settings: mtcal_server::Settings {
                     cookie_secure: self.cookie_secure,
+                    min_upload_rate: self.min_upload_rate,
+                    upload_grace: std::time::Duration::from_secs(self.upload_grace_seconds),
+                    ..self.worker.config().settings
                 },
                 ..self.worker.config()
             },

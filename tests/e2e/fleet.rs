@@ -46,7 +46,7 @@ async fn fleet() -> App {
             let m = r.machine_id.clone();
             let stored = store.import_result(r).await.unwrap();
             if kind == "identification" {
-                mtcal_domain::landing::result_landed(&store, &m, &stored.id)
+                mtcal_domain::landing::result_landed(&store, &m, &stored.id, &Default::default())
                     .await
                     .unwrap();
             }

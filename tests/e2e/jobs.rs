@@ -247,6 +247,21 @@ async fn cradle_job_on_an_uploaded_point_set_gives_the_library_result() {
     let stored = app.client.result(&done.result_id.unwrap()).await.unwrap();
     assert_eq!(stored.meta.kind, "cradle");
     assert_eq!(stored.meta.machine_id, "VMC-C");
+    // Its report: the cradle check's own page, with what the ball data can separate and
+    // one compliance plot per A-dependent term of the chosen model (none: rigid here).
+    let page = app.client.report(&stored.meta.id).await.unwrap();
+    assert_eq!(page.content_type, "text/html; charset=utf-8");
+    let page = page.text;
+    assert!(
+        page.contains("Cradle check report: VMC-C"),
+        "{}",
+        &page[..page.len().min(500)]
+    );
+    assert!(page.contains("id=\"separability\"") && page.contains("id=\"undetermined\""));
+    assert_eq!(
+        page.matches("data-term=").count(),
+        local.kinematics.curves.len()
+    );
 }
 
 /// A job whose result holds a number that is not finite ends `bad_input` with nothing

@@ -21,5 +21,6 @@ mod roundtrip;
 mod schemathesis;
 mod security;
 mod series;
+mod slow_uploads;
 mod uploads;
 mod web;

@@ -224,6 +224,7 @@ async fn the_session_cookie_is_secure_over_tls_or_when_configured() {
         run_worker: false,
         settings: mtcal_server::Settings {
             cookie_secure: true,
+            ..Default::default()
         },
         ..AppOptions::default()
     })

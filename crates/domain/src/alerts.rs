@@ -151,11 +151,13 @@ impl AlertView {
 /// Decides the change of result `result_id` of machine `machine_id` since its baseline
 /// against the applicable drift threshold; stores and announces an alert when one is
 /// raised (returned; `None`: no profile, no threshold, the result is the baseline, is
-/// excluded, or no change exceeds its threshold beyond its uncertainty).
+/// excluded, or no change exceeds its threshold beyond its uncertainty). Its webhooks
+/// are delivered where `hooks` allows.
 pub async fn check_landed(
     store: &Arc<dyn Store>,
     machine_id: &str,
     result_id: &str,
+    hooks: &webhooks::TargetPolicy,
 ) -> Result<Option<AlertView>, StoreError> {
     let machine = store.get_machine(machine_id).await?;
     let profiles = store.list_tolerances().await?;
@@ -212,7 +214,13 @@ pub async fn check_landed(
     let view = AlertView::of(&stored)?;
     tracing::warn!(alert = %view.id, machine = %view.machine_id, "drift alert raised");
     for url in webhooks::targets(&profiles, &machine.tags) {
-        tokio::spawn(webhooks::deliver(url, view.id.clone(), view.clone()));
+        let policy = hooks.clone();
+        tokio::spawn(webhooks::deliver(
+            url,
+            policy,
+            view.id.clone(),
+            view.clone(),
+        ));
     }
     Ok(Some(view))
 }

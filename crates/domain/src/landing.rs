@@ -8,12 +8,14 @@ use std::sync::Arc;
 
 /// An identification `result_id` of machine `machine_id` has landed: its drift row is
 /// refreshed ([`fleet::refresh_machine`]), then the drift alert check runs
-/// ([`alerts::check_landed`]); the alert raised, if any.
+/// ([`alerts::check_landed`], its webhooks delivered where `webhooks` allows); the alert
+/// raised, if any.
 pub async fn result_landed(
     store: &Arc<dyn Store>,
     machine_id: &str,
     result_id: &str,
+    webhooks: &crate::webhooks::TargetPolicy,
 ) -> Result<Option<AlertView>, StoreError> {
     fleet::refresh_machine(store.as_ref(), machine_id).await?;
-    alerts::check_landed(store, machine_id, result_id).await
+    alerts::check_landed(store, machine_id, result_id, webhooks).await
 }

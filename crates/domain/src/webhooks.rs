@@ -1,34 +1,175 @@
-//! Webhook delivery: the URL rules of a webhook target, the targets of a machine (the
-//! webhooks of its tags' profiles), and the POST with its tries and limits.
+//! Webhook delivery: the URL rules of a webhook target, where a target may lead
+//! ([`TargetPolicy`]), the targets of a machine (the webhooks of its tags' profiles),
+//! and the POST with its tries and limits.
+//!
+//! **Where a webhook may go.** A target's host is resolved and refused when any of its
+//! addresses is loopback, private, link-local, shared (carrier-grade NAT), multicast,
+//! broadcast, unspecified, reserved or documentation space ([`reserved`], IPv4-mapped
+//! IPv6 addresses as their IPv4 address), or one of the service's own listening
+//! addresses, unless the operator's allow-list ([`TargetPolicy::allow`],
+//! `MTCAL_WEBHOOK_ALLOW`) names the host or a network holding the address. Numeric
+//! host forms (`2130706433`, `0x7f.1`) are read as the addresses they are (WHATWG URL
+//! parsing). No credentials in the URL (`user:password@`). The check runs when a
+//! profile is saved and again at every delivery, whose connection goes to the very
+//! addresses just checked (no second DNS answer can point it elsewhere).
 //!
 //! A body is POSTed off the request path (the caller spawns the task): at most
 //! [`WEBHOOK_ATTEMPTS`] tries, each within [`WEBHOOK_TIMEOUT`], [`WEBHOOK_BACKOFF`]
-//! doubling between them, redirects not followed. A failing webhook is logged; it never
-//! fails what raised it.
+//! doubling between them, redirects not followed, no proxy. A failing webhook is logged
+//! (its URL without query: [`shown`]); it never fails what raised it.
 
+use ipnet::IpNet;
 use serde::Serialize;
-use std::sync::OnceLock;
+use std::net::{IpAddr, Ipv4Addr, Ipv6Addr, SocketAddr};
 use std::time::Duration;
 
 /// Tries per webhook delivery.
 pub const WEBHOOK_ATTEMPTS: u32 = 3;
-/// Time limit of one try (connect, send, answer).
+/// Time limit of one try (connect, send, answer), and of resolving a target's host.
 pub const WEBHOOK_TIMEOUT: Duration = Duration::from_secs(5);
 /// Wait before the second try; doubled before each further one.
 pub const WEBHOOK_BACKOFF: Duration = Duration::from_millis(500);
 /// Longest webhook URL accepted, bytes.
 pub const WEBHOOK_URL_MAX: usize = 2000;
-/// Checks a webhook target: an absolute `http` or `https` URL with a host, at most
-/// [`WEBHOOK_URL_MAX`] bytes; the message says what is wrong.
+
+/// One entry of the operator's allow-list: a host name as the URL writes it, or a
+/// network (an address alone is a network of one).
+#[derive(Debug, Clone, PartialEq, Eq)]
+pub enum Allowed {
+    Host(String),
+    Net(IpNet),
+}
+
+impl std::str::FromStr for Allowed {
+    type Err = String;
+
+    /// `hooks.plant.local`, `10.1.2.3`, `10.0.0.0/8`, `fd00::/8`, `[::1]`.
+    fn from_str(s: &str) -> Result<Allowed, String> {
+        let s = s.trim();
+        let bare = s.trim_start_matches('[').trim_end_matches(']');
+        if let Ok(net) = bare.parse::<IpNet>() {
+            return Ok(Allowed::Net(net));
+        }
+        if let Ok(ip) = bare.parse::<IpAddr>() {
+            return Ok(Allowed::Net(IpNet::from(ip)));
+        }
+        let host = s.trim_end_matches('.').to_ascii_lowercase();
+        let name_char = |c: char| c.is_ascii_alphanumeric() || c == '-' || c == '.' || c == '_';
+        if host.is_empty() || !host.chars().all(name_char) {
+            return Err(format!(
+                "webhook allow-list: {s:?} is neither a host name, an address nor a network"
+            ));
+        }
+        Ok(Allowed::Host(host))
+    }
+}
+
+/// Where webhooks may go (see the module documentation).
+#[derive(Debug, Clone, Default)]
+pub struct TargetPolicy {
+    /// Hosts and networks an operator allows although they are not public
+    /// (`MTCAL_WEBHOOK_ALLOW`, comma-separated).
+    pub allow: Vec<Allowed>,
+    /// The service's own listening addresses (refused unless allowed).
+    pub own: Vec<SocketAddr>,
+}
+
+impl TargetPolicy {
+    /// The policy of a comma-separated allow-list (empty: public addresses only).
+    pub fn with_allow_list(list: &str) -> Result<TargetPolicy, String> {
+        let allow = list
+            .split(',')
+            .filter(|s| !s.trim().is_empty())
+            .map(str::parse)
+            .collect::<Result<_, _>>()?;
+        Ok(TargetPolicy { allow, own: vec![] })
+    }
+
+    fn allows_host(&self, host: &str) -> bool {
+        self.allow
+            .iter()
+            .any(|a| matches!(a, Allowed::Host(h) if h == host))
+    }
+
+    fn allows_ip(&self, ip: IpAddr) -> bool {
+        self.allow
+            .iter()
+            .any(|a| matches!(a, Allowed::Net(n) if n.contains(&ip)))
+    }
+}
+
+/// Why `ip` is no webhook target unless an operator allows it (`None`: a public address).
+pub fn reserved(ip: IpAddr) -> Option<&'static str> {
+    fn v4(ip: Ipv4Addr) -> Option<&'static str> {
+        let [a, b, ..] = ip.octets();
+        Some(if ip.is_unspecified() || a == 0 {
+            "unspecified"
+        } else if ip.is_loopback() {
+            "loopback"
+        } else if ip.is_private() {
+            "private"
+        } else if ip.is_link_local() {
+            "link-local"
+        } else if a == 100 && (64..128).contains(&b) {
+            "shared (carrier-grade NAT)"
+        } else if ip.is_multicast() {
+            "multicast"
+        } else if ip.is_broadcast() {
+            "broadcast"
+        } else if ip.is_documentation() || (a == 192 && b == 0 && ip.octets()[2] == 0) {
+            "documentation or protocol"
+        } else if a >= 240 || (a == 198 && (b == 18 || b == 19)) {
+            "reserved"
+        } else {
+            return None;
+        })
+    }
+    fn v6(ip: Ipv6Addr) -> Option<&'static str> {
+        if let Some(v) = ip.to_ipv4_mapped() {
+            return v4(v);
+        }
+        let s = ip.segments();
+        // NAT64 (64:ff9b::/96): the IPv4 address it leads to.
+        if s[..6] == [0x64, 0xff9b, 0, 0, 0, 0] {
+            return v4(Ipv4Addr::from(((s[6] as u32) << 16) | s[7] as u32));
+        }
+        Some(if ip.is_unspecified() {
+            "unspecified"
+        } else if ip.is_loopback() {
+            "loopback"
+        } else if ip.is_multicast() {
+            "multicast"
+        } else if s[0] & 0xfe00 == 0xfc00 {
+            "private (unique local)"
+        } else if s[0] & 0xffc0 == 0xfe80 {
+            "link-local"
+        } else if s[0] == 0x2001 && s[1] == 0x0db8 {
+            "documentation or protocol"
+        } else {
+            return None;
+        })
+    }
+    match ip {
+        IpAddr::V4(ip) => v4(ip),
+        IpAddr::V6(ip) => v6(ip),
+    }
+}
+
+/// Checks a webhook target's form: an absolute `http` or `https` URL with a host and no
+/// credentials, at most [`WEBHOOK_URL_MAX`] bytes; the message says what is wrong.
 pub fn validate_webhook_url(url: &str) -> Result<(), String> {
+    parse(url).map(|_| ())
+}
+
+fn parse(url: &str) -> Result<reqwest::Url, String> {
     if url.len() > WEBHOOK_URL_MAX {
         return Err(format!(
             "webhook_url: at most {WEBHOOK_URL_MAX} bytes, got {}",
             url.len()
         ));
     }
-    let u = reqwest::Url::parse(url)
-        .map_err(|e| format!("webhook_url: not an absolute URL ({e}): {url:?}"))?;
+    let u =
+        reqwest::Url::parse(url).map_err(|e| format!("webhook_url: not an absolute URL ({e})"))?;
     if !matches!(u.scheme(), "http" | "https") {
         return Err(format!(
             "webhook_url: the scheme must be http or https, got {:?}",
@@ -38,7 +179,78 @@ pub fn validate_webhook_url(url: &str) -> Result<(), String> {
     if u.host_str().is_none_or(str::is_empty) {
         return Err("webhook_url: the URL names no host".into());
     }
-    Ok(())
+    if !u.username().is_empty() || u.password().is_some() {
+        return Err(
+            "webhook_url: no credentials in the URL (user:password@); the receiver checks \
+             the delivery's signature instead"
+                .into(),
+        );
+    }
+    Ok(u)
+}
+
+/// A webhook URL as logs show it: scheme, host, port and path (no query, no fragment).
+pub fn shown(url: &str) -> String {
+    match reqwest::Url::parse(url) {
+        Ok(mut u) => {
+            u.set_query(None);
+            u.set_fragment(None);
+            let _ = u.set_password(None);
+            let _ = u.set_username("");
+            u.to_string()
+        }
+        Err(_) => "(not a URL)".into(),
+    }
+}
+
+/// The addresses `url` may be delivered to under `policy`, resolved now; refused, with
+/// the address and the rule named, when one of them is not allowed (see the module
+/// documentation).
+pub async fn resolve(
+    url: &str,
+    policy: &TargetPolicy,
+) -> Result<(reqwest::Url, Vec<SocketAddr>), String> {
+    let u = parse(url)?;
+    let port = u.port_or_known_default().unwrap_or(80);
+    let (name, addrs): (String, Vec<SocketAddr>) = match u.host() {
+        Some(url::Host::Ipv4(ip)) => (ip.to_string(), vec![SocketAddr::new(ip.into(), port)]),
+        Some(url::Host::Ipv6(ip)) => (ip.to_string(), vec![SocketAddr::new(ip.into(), port)]),
+        Some(url::Host::Domain(d)) => {
+            let d = d.trim_end_matches('.').to_ascii_lowercase();
+            let found: Vec<SocketAddr> =
+                tokio::time::timeout(WEBHOOK_TIMEOUT, tokio::net::lookup_host((d.as_str(), port)))
+                    .await
+                    .map_err(|_| {
+                        format!("webhook_url: resolving {d} took over {WEBHOOK_TIMEOUT:?}")
+                    })?
+                    .map_err(|e| format!("webhook_url: {d} cannot be resolved ({e})"))?
+                    .collect();
+            (d, found)
+        }
+        None => return Err("webhook_url: the URL names no host".into()),
+    };
+    if addrs.is_empty() {
+        return Err(format!("webhook_url: {name} resolves to no address"));
+    }
+    let by_name = policy.allows_host(&name);
+    for a in &addrs {
+        if by_name || policy.allows_ip(a.ip()) {
+            continue;
+        }
+        if policy.own.contains(a) {
+            return Err(format!(
+                "webhook_url: {name} is {a}, this service itself; webhooks go elsewhere"
+            ));
+        }
+        if let Some(kind) = reserved(a.ip()) {
+            return Err(format!(
+                "webhook_url: {name} is {}, a {kind} address: webhooks go to public \
+                 addresses unless the operator allows this one (MTCAL_WEBHOOK_ALLOW)",
+                a.ip()
+            ));
+        }
+    }
+    Ok((u, addrs))
 }
 
 /// The webhook URLs of the tag profiles of `tags` (each once).
@@ -53,40 +265,61 @@ pub fn targets(profiles: &[mtcal_store::ToleranceProfile], tags: &[String]) -> V
     urls
 }
 
-fn client() -> &'static reqwest::Client {
-    static CLIENT: OnceLock<reqwest::Client> = OnceLock::new();
-    CLIENT.get_or_init(|| {
-        reqwest::Client::builder()
-            .timeout(WEBHOOK_TIMEOUT)
-            .connect_timeout(WEBHOOK_TIMEOUT)
-            .redirect(reqwest::redirect::Policy::none())
-            .user_agent(concat!("mtcal/", env!("CARGO_PKG_VERSION")))
-            .build()
-            .expect("the webhook client builds")
-    })
+/// A client that connects `u`'s host to `addrs` only (the addresses just checked).
+fn client(u: &reqwest::Url, addrs: &[SocketAddr]) -> reqwest::Result<reqwest::Client> {
+    let mut b = reqwest::Client::builder()
+        .timeout(WEBHOOK_TIMEOUT)
+        .connect_timeout(WEBHOOK_TIMEOUT)
+        .redirect(reqwest::redirect::Policy::none())
+        .no_proxy()
+        .user_agent(concat!("mtcal/", env!("CARGO_PKG_VERSION")));
+    if let Some(url::Host::Domain(d)) = u.host() {
+        b = b.resolve_to_addrs(d, addrs);
+    }
+    b.build()
 }
 
-/// POSTs `body` (alert `alert_id`) to `url` (see the module documentation for tries and limits); returns
+/// POSTs `body` (alert `alert_id`) to `url` when `policy` allows it, checked again
+/// before every try (see the module documentation for tries and limits); returns
 /// whether a try was answered with a 2xx status.
-pub async fn deliver<T: Serialize>(url: String, alert_id: String, body: T) -> bool {
+pub async fn deliver<T: Serialize>(
+    url: String,
+    policy: TargetPolicy,
+    alert_id: String,
+    body: T,
+) -> bool {
+    let target = shown(&url);
     let mut wait = WEBHOOK_BACKOFF;
     for attempt in 1..=WEBHOOK_ATTEMPTS {
-        match client().post(&url).json(&body).send().await {
+        let sent = match resolve(&url, &policy).await {
+            Err(e) => {
+                tracing::warn!(alert = %alert_id, %target, %e, "webhook target refused");
+                return false;
+            }
+            Ok((u, addrs)) => match client(&u, &addrs) {
+                Ok(c) => c.post(u).json(&body).send().await,
+                Err(e) => Err(e),
+            },
+        };
+        match sent {
             Ok(r) if r.status().is_success() => {
-                tracing::info!(alert = %alert_id, %url, attempt, "webhook delivered");
+                tracing::info!(alert = %alert_id, %target, attempt, "webhook delivered");
                 return true;
             }
             Ok(r) => {
-                tracing::warn!(alert = %alert_id, %url, attempt, status = %r.status(), "webhook refused")
+                tracing::warn!(alert = %alert_id, %target, attempt, status = %r.status(), "webhook refused")
             }
-            Err(e) => tracing::warn!(alert = %alert_id, %url, attempt, %e, "webhook failed"),
+            Err(e) => {
+                let e = e.without_url();
+                tracing::warn!(alert = %alert_id, %target, attempt, %e, "webhook failed")
+            }
         }
         if attempt < WEBHOOK_ATTEMPTS {
             tokio::time::sleep(wait).await;
             wait *= 2;
         }
     }
-    tracing::warn!(alert = %alert_id, %url, "webhook given up after {WEBHOOK_ATTEMPTS} tries");
+    tracing::warn!(alert = %alert_id, %target, "webhook given up after {WEBHOOK_ATTEMPTS} tries");
     false
 }
 
@@ -95,7 +328,7 @@ mod tests {
     use super::*;
 
     #[test]
-    fn webhook_targets_are_http_urls() {
+    fn webhook_targets_are_http_urls_without_credentials() {
         for ok in [
             "http://127.0.0.1:8080/hook",
             "https://alerts.example.com/mtcal?x=1",
@@ -108,6 +341,8 @@ mod tests {
             ("/relative/path", "absolute"),
             ("http://", "absolute"),
             ("not a url", "absolute"),
+            ("https://user:pw@alerts.example.com/x", "credentials"),
+            ("https://token@alerts.example.com/x", "credentials"),
         ] {
             let e = validate_webhook_url(bad).unwrap_err();
             assert!(
@@ -117,5 +352,104 @@ mod tests {
         }
         let long = format!("http://127.0.0.1/{}", "a".repeat(WEBHOOK_URL_MAX));
         assert!(validate_webhook_url(&long).unwrap_err().contains("at most"));
+        assert_eq!(
+            shown("https://u:p@hooks.example.com:8443/a/b?token=s3cret#f"),
+            "https://hooks.example.com:8443/a/b"
+        );
+    }
+
+    /// The audit's targets (and their relatives) are refused without an allow-list,
+    /// whatever form the address takes; public addresses pass; no DNS is needed but
+    /// for `localhost`, which every resolver answers locally.
+    #[tokio::test]
+    async fn private_and_local_targets_are_refused_unless_allowed() {
+        let none = TargetPolicy::default();
+        for (url, kind) in [
+            ("http://169.254.169.254/latest/meta-data/", "link-local"),
+            ("http://10.0.0.1/", "private"),
+            ("http://172.16.5.4/", "private"),
+            ("http://192.168.1.1/", "private"),
+            ("http://[::1]:5432/", "loopback"),
+            ("http://localhost:5432/", "loopback"),
+            ("http://2130706433/", "loopback"),
+            ("http://0x7f.1/", "loopback"),
+            ("http://0177.0.0.1/", "loopback"),
+            ("http://127.1/", "loopback"),
+            ("http://0.0.0.0:8080/", "unspecified"),
+            ("http://[::]/", "unspecified"),
+            ("http://[::ffff:127.0.0.1]/", "loopback"),
+            ("http://[::ffff:a9fe:a9fe]/", "link-local"),
+            ("http://[64:ff9b::a9fe:a9fe]/", "link-local"),
+            ("http://[fe80::1]/", "link-local"),
+            ("http://[fd00::1]/", "private"),
+            ("http://224.0.0.1/", "multicast"),
+            ("http://[ff02::1]/", "multicast"),
+            ("http://255.255.255.255/", "broadcast"),
+            ("http://100.64.0.1/", "carrier-grade NAT"),
+        ] {
+            let e = resolve(url, &none).await.unwrap_err();
+            assert!(
+                e.contains(kind) && e.contains("MTCAL_WEBHOOK_ALLOW"),
+                "{url}: {e}"
+            );
+        }
+        for url in ["http://93.184.215.14/hook", "https://[2606:4700::1111]/x"] {
+            let (_, addrs) = resolve(url, &none).await.unwrap();
+            assert_eq!(addrs.len(), 1, "{url}");
+        }
+        // The service's own address, even a public one.
+        let own: SocketAddr = "93.184.215.14:8080".parse().unwrap();
+        let me = TargetPolicy {
+            own: vec![own],
+            ..TargetPolicy::default()
+        };
+        let e = resolve("http://93.184.215.14:8080/api/v1/keys", &me)
+            .await
+            .unwrap_err();
+        assert!(e.contains("this service itself"), "{e}");
+        resolve("http://93.184.215.14:9090/", &me).await.unwrap();
+    }
+
+    #[tokio::test]
+    async fn the_allow_list_names_hosts_addresses_and_networks() {
+        let p = TargetPolicy::with_allow_list(" 127.0.0.1, 10.0.0.0/8 ,Localhost., [::1]").unwrap();
+        for url in [
+            "http://127.0.0.1:9000/x",
+            "http://10.200.3.4/",
+            "http://localhost:5432/",
+            "http://[::1]/",
+        ] {
+            resolve(url, &p)
+                .await
+                .unwrap_or_else(|e| panic!("{url}: {e}"));
+        }
+        for url in [
+            "http://127.0.0.2/",
+            "http://192.168.0.1/",
+            "http://[fd00::1]/",
+        ] {
+            assert!(resolve(url, &p).await.is_err(), "{url}");
+        }
+        for bad in ["a b", "http://x/", "10.0.0.0/99"] {
+            assert!(TargetPolicy::with_allow_list(bad).is_err(), "{bad}");
+        }
+    }
+
+    /// A delivery checks the target again: a profile saved when a host was allowed
+    /// is not delivered once the allow-list no longer names it (as when a name is
+    /// repointed at a private address), and nothing connects.
+    #[tokio::test]
+    async fn a_delivery_checks_its_target_again() {
+        let listener = tokio::net::TcpListener::bind("127.0.0.1:0").await.unwrap();
+        let url = format!("http://{}/hook", listener.local_addr().unwrap());
+        let seen = tokio::spawn(async move {
+            tokio::time::timeout(Duration::from_secs(2), listener.accept())
+                .await
+                .is_ok()
+        });
+        let body = serde_json::json!({"x": 1});
+        let delivered = deliver(url, TargetPolicy::default(), "al_1".into(), body).await;
+        assert!(!delivered);
+        assert!(!seen.await.unwrap(), "a refused target was connected to");
     }
 }

@@ -21,6 +21,7 @@ pub mod jobs;
 pub mod metrics;
 pub mod outage;
 pub mod state;
+pub mod upload_gate;
 pub mod web;
 pub mod worker;
 
@@ -39,6 +40,7 @@ use utoipa::openapi::security::{HttpAuthScheme, HttpBuilder, SecurityScheme};
 use contract::Statuses;
 pub use error::ApiError;
 pub use ingest::UploadLimits;
+pub use mtcal_domain::webhooks::TargetPolicy as WebhookPolicy;
 pub use state::{AppState, Settings};
 pub use worker::{WorkerConfig, Workers};
 
@@ -124,17 +126,8 @@ pub fn router(state: AppState) -> Router {
         .route("/api/v1/machines/{id}/datasets", post(datasets::upload))
         .layer(DefaultBodyLimit::max(state.limits.max_bytes))
         .layer(RequestDecompressionLayer::new())
-        .layer(axum::middleware::from_fn(api::datasets::note_encoding))
-        // The upload's own time limit starts when it has a reading slot: waiting behind
-        // two large uploads does not use it up. The wait is bounded by the outer limit.
-        .layer(TimeoutLayer::with_status_code(
-            StatusCode::REQUEST_TIMEOUT,
-            UPLOAD_TIMEOUT,
-        ))
-        .layer(axum::middleware::from_fn(metrics::reading_upload))
-        .layer(tower::limit::ConcurrencyLimitLayer::new(
-            MAX_CONCURRENT_UPLOADS,
-        ))
+        .layer(axum::middleware::from_fn(api::datasets::note_encoding));
+    let uploads = upload_gate::guard(uploads, &state)
         .layer(axum::middleware::from_fn_with_state(
             state.clone(),
             auth::require_write,
@@ -249,6 +242,7 @@ pub async fn serve_probes(
             wake: Arc::new(tokio::sync::Notify::new()),
             settings: Arc::default(),
             database: Arc::default(),
+            uploads: Default::default(),
         });
     serve_http(listener, app, HEADER_READ_TIMEOUT, stop).await
 }
@@ -288,6 +282,7 @@ pub fn app(
         wake,
         settings: Arc::new(worker.settings.clone()),
         database: Arc::default(),
+        uploads: Default::default(),
     });
     (router, workers)
 }
@@ -301,7 +296,9 @@ pub async fn spawn_local(
 ) -> std::io::Result<SocketAddr> {
     let listener = tokio::net::TcpListener::bind("127.0.0.1:0").await?;
     let addr = listener.local_addr()?;
-    let (app, _workers) = app(store, worker, run_worker);
+    let mut worker = worker.clone();
+    worker.settings.webhooks.own.push(addr);
+    let (app, _workers) = app(store, &worker, run_worker);
     tokio::spawn(async move {
         let _keep = _workers;
         serve_http(listener, app, HEADER_READ_TIMEOUT, std::future::pending()).await
@@ -418,7 +415,9 @@ pub async fn serve(
 ) -> anyhow::Result<()> {
     let store = mtcal_store::open_with(&cfg.db_url, cfg.store).await?;
     let listener = tokio::net::TcpListener::bind(cfg.listen).await?;
-    let (app, workers) = app(store.clone(), &cfg.worker, cfg.run_worker);
+    let mut worker = cfg.worker.clone();
+    worker.settings.webhooks.own.push(listener.local_addr()?);
+    let (app, workers) = app(store.clone(), &worker, cfg.run_worker);
     // Drift of results stored before this version or imported in bulk.
     tokio::spawn(async move {
         match mtcal_domain::fleet::refresh_all(store.as_ref()).await {

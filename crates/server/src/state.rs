@@ -7,12 +7,39 @@ use std::sync::Arc;
 
 /// Settings of the service an operator chooses (`mtcal serve` flags and environment;
 /// docs/api.md, "Operations").
-#[derive(Debug, Clone, Default)]
+#[derive(Debug, Clone)]
 pub struct Settings {
     /// Mark the sign-in cookies `Secure` on every answer (`MTCAL_COOKIE_SECURE`). They
     /// are anyway when the request came over TLS, as a TLS-terminating proxy says with
     /// `X-Forwarded-Proto: https`.
     pub cookie_secure: bool,
+    /// Slowest average an upload's body may arrive at once past `upload_grace`, bytes
+    /// per second (0: no minimum; crate::upload_gate).
+    pub min_upload_rate: u64,
+    /// Time an upload has before its minimum rate applies.
+    pub upload_grace: std::time::Duration,
+    /// Where drift alert webhooks may go (`MTCAL_WEBHOOK_ALLOW`, the service's own
+    /// address; mtcal_domain::webhooks).
+    pub webhooks: mtcal_domain::webhooks::TargetPolicy,
+}
+
+impl Settings {
+    /// Default minimum upload rate, bytes per second (16 KiB/s: a 100 MB upload in under
+    /// two hours; any plant network is far faster).
+    pub const MIN_UPLOAD_RATE: u64 = 16 * 1024;
+    /// Default grace period of an upload.
+    pub const UPLOAD_GRACE: std::time::Duration = std::time::Duration::from_secs(10);
+}
+
+impl Default for Settings {
+    fn default() -> Self {
+        Settings {
+            cookie_secure: false,
+            min_upload_rate: Self::MIN_UPLOAD_RATE,
+            upload_grace: Self::UPLOAD_GRACE,
+            webhooks: Default::default(),
+        }
+    }
 }
 
 /// Shared state of the handlers (cheap to clone: everything is behind `Arc`s or `Copy`).
@@ -27,4 +54,6 @@ pub struct AppState {
     pub settings: Arc<Settings>,
     /// Whether the database answers (crate::outage).
     pub database: Arc<crate::outage::Database>,
+    /// The upload slots every upload route shares (crate::upload_gate).
+    pub uploads: crate::upload_gate::Gate,
 }

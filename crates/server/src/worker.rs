@@ -297,7 +297,8 @@ async fn run_job(
         && job.kind.result_kind() == mtcal_domain::kinds::IDENTIFICATION
         && let Some(m) = &job.machine_id
         && let Some(r) = &j.result_id
-        && let Err(e) = mtcal_domain::landing::result_landed(store, m, r).await
+        && let Err(e) =
+            mtcal_domain::landing::result_landed(store, m, r, &cfg.settings.webhooks).await
     {
         tracing::warn!(machine = %m, %e, "fleet drift or drift alerts not refreshed");
     }

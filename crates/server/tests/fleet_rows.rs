@@ -90,7 +90,9 @@ async fn story(url: &str) {
                 .import_result(identification(m, at, c1, 1e-6))
                 .await
                 .unwrap();
-            result_landed(&store, m, &r.id).await.unwrap();
+            result_landed(&store, m, &r.id, &Default::default())
+                .await
+                .unwrap();
             r.id
         }
     };
@@ -360,7 +362,9 @@ async fn concurrent_story(url: &str) {
             .import_result(identification(&id, "2026-01-01T00:00:00Z", 0.01, 1e-6))
             .await
             .unwrap();
-        result_landed(&store, &id, &first.id).await.unwrap();
+        result_landed(&store, &id, &first.id, &Default::default())
+            .await
+            .unwrap();
         let (app, store, key) = (app.clone(), store.clone(), keys.write.clone());
         writers.spawn(async move {
             let mut ids = vec![first.id];
@@ -371,7 +375,9 @@ async fn concurrent_story(url: &str) {
                     .import_result(identification(&id, &at, c1, 1e-6))
                     .await
                     .unwrap();
-                result_landed(&store, &id, &landed.id).await.unwrap();
+                result_landed(&store, &id, &landed.id, &Default::default())
+                    .await
+                    .unwrap();
                 ids.push(landed.id);
                 // Any result but the latest.
                 let chosen = &ids[(r * 7 + m) % (ids.len() - 1)];

@@ -11,8 +11,18 @@ use std::collections::BTreeMap;
 use std::sync::Arc;
 use tower::ServiceExt;
 
+/// Webhooks may reach this test's receivers on 127.0.0.1 (and nothing else private).
+fn local_hooks() -> mtcal_domain::webhooks::TargetPolicy {
+    mtcal_domain::webhooks::TargetPolicy::with_allow_list("127.0.0.1").unwrap()
+}
+
 fn app(store: Arc<dyn Store>) -> axum::Router {
-    router(crate::common::state(store))
+    let mut state = crate::common::state(store);
+    state.settings = Arc::new(mtcal_server::Settings {
+        webhooks: local_hooks(),
+        ..mtcal_server::Settings::default()
+    });
+    router(state)
 }
 
 async fn send(
@@ -151,6 +161,22 @@ async fn profiles_are_written_with_a_write_key_and_bad_ones_refused_naming_the_f
         (
             json!({"scope": "tag", "target": "vmc", "limits": {"drift_um": 1.0},
                 "webhook_url": "ftp://127.0.0.1/x"}),
+            "webhook_url",
+        ),
+        // Private, link-local and the service's neighbours: not on the allow-list.
+        (
+            json!({"scope": "tag", "target": "vmc", "limits": {"drift_um": 1.0},
+                "webhook_url": "http://169.254.169.254/latest/meta-data/"}),
+            "webhook_url",
+        ),
+        (
+            json!({"scope": "tag", "target": "vmc", "limits": {"drift_um": 1.0},
+                "webhook_url": "http://0x7f.2:5432/"}),
+            "webhook_url",
+        ),
+        (
+            json!({"scope": "tag", "target": "vmc", "limits": {"drift_um": 1.0},
+                "webhook_url": "http://user:pw@127.0.0.1/x"}),
             "webhook_url",
         ),
     ] {
@@ -387,9 +413,10 @@ async fn a_drift_inside_its_uncertainty_raises_no_alert_one_3_sigma_outside_does
                 .import_result(identification("M1", at, rate, S2))
                 .await
                 .unwrap();
-            let alert = mtcal_domain::landing::result_landed(&store, "M1", &r.id)
-                .await
-                .unwrap();
+            let alert =
+                mtcal_domain::landing::result_landed(&store, "M1", &r.id, &Default::default())
+                    .await
+                    .unwrap();
             (r, alert)
         }
     };
@@ -439,7 +466,7 @@ async fn a_drift_inside_its_uncertainty_raises_no_alert_one_3_sigma_outside_does
     assert_eq!(c.threshold, 5.0);
     // Landing twice (a job run again) raises no second alert.
     assert!(
-        mtcal_domain::landing::result_landed(&f.store, "M1", &outside.id)
+        mtcal_domain::landing::result_landed(&f.store, "M1", &outside.id, &Default::default())
             .await
             .unwrap()
             .is_none()
@@ -519,7 +546,7 @@ async fn a_drift_inside_its_uncertainty_raises_no_alert_one_3_sigma_outside_does
         .unwrap();
     let _ = b2;
     assert!(
-        mtcal_domain::landing::result_landed(&f.store, "M2", &r2.id)
+        mtcal_domain::landing::result_landed(&f.store, "M2", &r2.id, &Default::default())
             .await
             .unwrap()
             .is_none()
@@ -574,7 +601,7 @@ async fn an_alert_is_posted_to_the_webhook_of_the_machines_tag_and_a_dead_one_fa
         .import_result(identification("M1", "2026-01-05T08:00:00Z", 0.0, S2))
         .await
         .unwrap();
-    mtcal_domain::landing::result_landed(&f.store, "M1", &base.id)
+    mtcal_domain::landing::result_landed(&f.store, "M1", &base.id, &local_hooks())
         .await
         .unwrap();
     let r = f
@@ -583,7 +610,7 @@ async fn an_alert_is_posted_to_the_webhook_of_the_machines_tag_and_a_dead_one_fa
         .await
         .unwrap();
     // The first tag's profile applies (5 µm); both tags' webhooks are told.
-    let alert = mtcal_domain::landing::result_landed(&f.store, "M1", &r.id)
+    let alert = mtcal_domain::landing::result_landed(&f.store, "M1", &r.id, &local_hooks())
         .await
         .unwrap()
         .expect("alert");
@@ -595,4 +622,80 @@ async fn an_alert_is_posted_to_the_webhook_of_the_machines_tag_and_a_dead_one_fa
     assert_eq!(got["machine_id"], "M1");
     assert_eq!(got["items"][0]["item"], "EXX");
     assert_eq!(got["active"], true);
+}
+
+/// A backlash machine's identification (the model does not explain its recording): its
+/// compensation export answers 409 `model_misfit` unless `force=true`, whose table says
+/// why in its first line; its verdict on a term is "misfit" with the gate's statement.
+#[tokio::test]
+async fn a_misfit_result_is_not_decided_and_its_table_needs_force() {
+    use mtcal_solver::identification::{IdentifyOptions, identify};
+    use mtcal_solver::simulate::{Effect, Plan, SimOptions, random_truth, simulate};
+    let sim = simulate(
+        &random_truth(5),
+        &SimOptions {
+            plan: Plan::Seed,
+            seed: 5,
+            sample_rate_hz: 10.0,
+            machine_id: "M1".into(),
+            effects: vec![Effect::Backlash {
+                axis: mtcal_solver::Axis::X,
+                lost_motion_um: 6.0,
+            }],
+            ..Default::default()
+        },
+    )
+    .unwrap();
+    let doc = identify(&sim.session, &IdentifyOptions::default()).unwrap();
+    assert!(doc.model_check().is_misfit());
+    let f = fixture().await;
+    f.store.create_machine(&machine("M1", &[])).await.unwrap();
+    let r = f
+        .store
+        .import_result(NewResult {
+            machine_id: "M1".into(),
+            dataset_id: None,
+            kind: "identification".into(),
+            measured_at: "2026-01-05T08:00:00Z".into(),
+            document: serde_json::to_value(&doc).unwrap(),
+            scalars: ResultScalars::default(),
+            figures: vec![],
+        })
+        .await
+        .unwrap();
+    let uri = format!("/api/v1/results/{}/export?format=csv", r.id);
+    let (s, b) = send(&f.app, "GET", &uri, &f.read, None).await;
+    assert_eq!(s, StatusCode::CONFLICT, "{b}");
+    assert_eq!(b["error"]["code"], "model_misfit", "{b}");
+    let req = Request::builder()
+        .uri(format!("{uri}&force=true"))
+        .header("authorization", format!("Bearer {}", f.read))
+        .body(Body::empty())
+        .unwrap();
+    let resp = f.app.clone().oneshot(req).await.unwrap();
+    assert_eq!(resp.status(), StatusCode::OK);
+    let text = axum::body::to_bytes(resp.into_body(), 1 << 24)
+        .await
+        .unwrap();
+    let text = String::from_utf8(text.to_vec()).unwrap();
+    assert!(
+        text.starts_with("# FORCED, NOT FOR USE WITHOUT REVIEW: the model does not explain"),
+        "{}",
+        &text[..200.min(text.len())]
+    );
+    let own = json!({"scope": "machine", "target": "M1", "limits": {"terms": {"EXX": 1000.0}}});
+    let (s, b) = send(&f.app, "POST", "/api/v1/tolerances", &f.write, Some(own)).await;
+    assert_eq!(s, StatusCode::CREATED, "{b}");
+    let (_, v) = send(
+        &f.app,
+        "GET",
+        &format!("/api/v1/results/{}/verdict", r.id),
+        &f.read,
+        None,
+    )
+    .await;
+    assert_eq!(v["verdict"]["decision"], "misfit", "{v}");
+    assert_eq!(v["verdict"]["model_check"]["state"], "misfit", "{v}");
+    let reason = v["verdict"]["items"][0]["reason"].as_str().unwrap();
+    assert!(reason.starts_with("not decided: model misfit"), "{reason}");
 }

@@ -17,10 +17,14 @@
 //! 4. the full kinematic model ([`model`]) fitted to all points ([`identify`]), chosen by
 //!    leave-one-pose-out RMS prediction error of the ball among A-dependent terms added
 //!    one at a time (forward selection, each step must lower it by more than
-//!    `compliance_margin`, relative): a tilt of the table with A about the pivot or about
-//!    the C table's mount, the A positioning error (s_A·sin A + k_A·(cos A − 1), or a
-//!    polynomial EAA(A) of order 1–3), a shift along A; then location errors with
-//!    standard uncertainties, the ball, the A-dependent terms;
+//!    `compliance_margin`, relative): a tilt of the table with A about the pivot, a tilt
+//!    of the C table about its mount about X (parallel to A) or about its Y, the A
+//!    positioning error (s_A·sin A + k_A·(cos A − 1), or a polynomial EAA(A) of order
+//!    1–3), a shift along A or sideways; a candidate whose terms the data cannot
+//!    separate ([`separability`]) is not one. Then location errors with standard
+//!    uncertainties, the ball, the A-dependent terms, what the data can separate among
+//!    the whole family against the chosen model ([`separability::separability`]), and
+//!    each A-dependent term as a function of A with its standard uncertainty;
 //! 5. held-out compensation figures: each A pose left out in turn, the model fitted on the
 //!    others; before = RMS distance of the pose's measured points from where the nominal
 //!    kinematics put the ball (in the registered frame), after = RMS distance from where
@@ -49,6 +53,7 @@ pub mod frames;
 pub mod identify;
 pub mod model;
 pub mod register;
+pub mod separability;
 pub mod simulate;
 
 pub use compensate::{Command, Compensated, compensate};
@@ -56,6 +61,7 @@ pub use compliance::{Dependence, RotationDependence, fit_dependence};
 pub use frames::{PatentAnalysis, PoseRow, patent_frames};
 pub use model::{Ball, Compliance, CradleModel, LocationErrors, ModelSpec, Tilt};
 pub use register::RegistrationReport;
+pub use separability::{SeparabilityReport, Term, TermSeparability};
 pub use simulate::{CradleSimulation, Deflection, simulate_cradle};
 
 use crate::datasets::RotaryPointSet;
@@ -63,7 +69,7 @@ use crate::error::SolverError;
 use crate::identification::CONVENTION;
 use frames::{AAxisFit, PosePoints};
 use identify::{Obs, fit_kinematics, leave_one_pose_out, start};
-use model::params_from_model;
+use model::{params_from_model, unit_of, unit_scale};
 use nalgebra::{Rotation3, Unit, Vector3};
 use serde::{Deserialize, Serialize};
 use std::collections::BTreeMap;
@@ -180,13 +186,31 @@ pub struct ComplianceReport {
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 #[cfg_attr(feature = "openapi", derive(utoipa::ToSchema))]
 pub struct ModelParameter {
-    /// s_A, k_A, m_B, m_C (µrad), z_M (mm), e_s, e_c (µm), e_1 … e_3 (µrad).
+    /// s_A, k_A, m_B, m_C, tX_s, tX_c, tY_s, tY_c (µrad), z_M (mm), e_s, e_c, y_s, y_c (µm),
+    /// e_1 … e_3 (µrad).
     pub name: String,
     pub unit: String,
     pub value: f64,
     pub std: f64,
     /// |value| ≥ 3·std; otherwise the term is possible but undetermined.
     pub determined: bool,
+}
+
+/// One A-dependent term of the chosen model as a function of A, evaluated over the
+/// measured A range only.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[cfg_attr(feature = "openapi", derive(utoipa::ToSchema))]
+pub struct ComplianceCurve {
+    pub term: Term,
+    /// What is drawn, short (e.g. "tilt about the mount, X: τ_X(A)"; the pivot tilt's
+    /// components are in the machine frame, the mount's in the A body frame).
+    pub name: String,
+    /// `urad` or `um`.
+    pub unit: String,
+    pub a_deg: Vec<f64>,
+    pub value: Vec<f64>,
+    /// Standard uncertainty of each value, from the parameters' covariance (gᵀ·Σ·g).
+    pub std: Vec<f64>,
 }
 
 /// The held-out residual against the tracker noise floor.
@@ -231,6 +255,14 @@ pub struct KinematicReport {
     /// The chosen model's A-dependent parameters.
     #[serde(default)]
     pub parameters: Vec<ModelParameter>,
+    /// What the ball data can separate among the A-dependent terms of the family, against
+    /// the chosen model ([`separability`]).
+    #[serde(default)]
+    pub separability: Option<SeparabilityReport>,
+    /// The chosen model's A-dependent terms as functions of A over the measured A range,
+    /// with standard uncertainties.
+    #[serde(default)]
+    pub curves: Vec<ComplianceCurve>,
     pub ball: BallReport,
     pub compliance: Option<ComplianceReport>,
     /// The model itself (for compensation). Its `location.ea0a_urad` holds the sum
@@ -598,28 +630,27 @@ fn bic(fit: &identify::KinematicFit, n_obs: usize) -> f64 {
 /// held-out validation is the expensive part).
 const VALIDATED_PER_STEP: usize = 2;
 
-/// The models one step richer than `spec` (module docs, step 4).
+/// The models one step richer than `spec` (module docs, step 4): one more term of the
+/// family, and the classic compliant pair from the rigid model. (Each tilt about the
+/// mount pays off alone, its lever giving z_M, so they are not offered as a pair: a
+/// pair would win over its better half by chance as often as not.)
 fn successors(spec: &ModelSpec) -> Vec<ModelSpec> {
     let mut v = vec![];
     if spec.is_rigid() {
         v.push(ModelSpec::COMPLIANT);
     }
-    match spec.tilt {
-        Tilt::None => {
-            v.push(ModelSpec {
-                tilt: Tilt::Pivot,
-                ..*spec
-            });
-            v.push(ModelSpec {
-                tilt: Tilt::Mount,
-                ..*spec
-            });
+    for t in [
+        Term::PivotTilt,
+        Term::MountX,
+        Term::MountY,
+        Term::Axial,
+        Term::Lateral,
+    ] {
+        if !t.in_spec(spec)
+            && let Some(s) = t.add_to(spec)
+        {
+            v.push(s);
         }
-        Tilt::Pivot => v.push(ModelSpec {
-            tilt: Tilt::Mount,
-            ..*spec
-        }),
-        Tilt::Mount => {}
     }
     if !spec.a_harmonic && spec.eaa_order == 0 {
         v.push(ModelSpec {
@@ -633,12 +664,7 @@ fn successors(spec: &ModelSpec) -> Vec<ModelSpec> {
             ..*spec
         });
     }
-    if !spec.axial {
-        v.push(ModelSpec {
-            axial: true,
-            ..*spec
-        });
-    }
+    v.dedup();
     v
 }
 
@@ -650,11 +676,7 @@ fn model_parameters(fit: &identify::KinematicFit) -> Vec<ModelParameter> {
         .enumerate()
         .skip(model::N_RIGID)
         .map(|(k, name)| {
-            let (scale, unit) = match *name {
-                "z_M" => (1.0, "mm"),
-                "e_s" | "e_c" => (1e3, "um"),
-                _ => (1e6, "urad"),
-            };
+            let (scale, unit) = (unit_scale(name), unit_of(name));
             let (value, std) = (fit.q[k] * scale, fit.cov[(k, k)].sqrt() * scale);
             ModelParameter {
                 name: name.to_string(),
@@ -663,6 +685,134 @@ fn model_parameters(fit: &identify::KinematicFit) -> Vec<ModelParameter> {
                 std,
                 determined: value.abs() >= 3.0 * std && std.is_finite(),
             }
+        })
+        .collect()
+}
+
+/// Points per curve of [`compliance_curves`].
+const CURVE_POINTS: usize = 61;
+
+/// The chosen model's A-dependent terms as functions of A over the measured A range, each
+/// linear in its parameters q: value(A) = g(A)ᵀ·q, variance g(A)ᵀ·Σ·g(A).
+fn compliance_curves(fit: &identify::KinematicFit, poses: &[PoseRow]) -> Vec<ComplianceCurve> {
+    let spec = &fit.spec;
+    let (lo, hi) = poses
+        .iter()
+        .fold((f64::INFINITY, f64::NEG_INFINITY), |(lo, hi), p| {
+            (lo.min(p.a_deg), hi.max(p.a_deg))
+        });
+    if hi.partial_cmp(&lo) != Some(std::cmp::Ordering::Greater) {
+        return vec![];
+    }
+    let a_deg: Vec<f64> = (0..CURVE_POINTS)
+        .map(|i| lo + (hi - lo) * i as f64 / (CURVE_POINTS - 1) as f64)
+        .collect();
+    let harmonic = |a: f64| {
+        let (s, c) = a.sin_cos();
+        vec![s, c - 1.0]
+    };
+    // (term, name, parameters, g(A) over them)
+    type Basis = Box<dyn Fn(f64) -> Vec<f64>>;
+    let mut rows: Vec<(Term, &str, Vec<&str>, Basis)> = vec![];
+    if spec.a_harmonic {
+        rows.push((
+            Term::APositioning,
+            "A positioning error: s_A·sin A + k_A·(cos A − 1)",
+            vec!["s_A", "k_A"],
+            Box::new(harmonic),
+        ));
+    }
+    if spec.eaa_order > 0 {
+        let order = spec.eaa_order.min(3);
+        rows.push((
+            Term::AEncoder,
+            "A positioning error: EAA(A)",
+            ["e_1", "e_2", "e_3"][..order].to_vec(),
+            Box::new(move |a: f64| {
+                let x = a / std::f64::consts::FRAC_PI_2;
+                (1..=order as i32).map(|j| x.powi(j)).collect()
+            }),
+        ));
+    }
+    if spec.tilt != model::Tilt::None {
+        // ρ_y = m_B·sin A − m_C·(cos A − 1), ρ_z = m_C·sin A + m_B·(cos A − 1).
+        rows.push((
+            Term::PivotTilt,
+            "tilt about the pivot, Y: ρ_y(A)",
+            vec!["m_B", "m_C"],
+            Box::new(|a: f64| {
+                let (s, c) = a.sin_cos();
+                vec![s, 1.0 - c]
+            }),
+        ));
+        rows.push((
+            Term::PivotTilt,
+            "tilt about the pivot, Z: ρ_z(A)",
+            vec!["m_B", "m_C"],
+            Box::new(|a: f64| {
+                let (s, c) = a.sin_cos();
+                vec![c - 1.0, s]
+            }),
+        ));
+    }
+    for (on, term, name, params) in [
+        (
+            spec.mount_x,
+            Term::MountX,
+            "tilt about the mount, X: τ_X(A)",
+            ["tX_s", "tX_c"],
+        ),
+        (
+            spec.mount_y,
+            Term::MountY,
+            "tilt about the mount, Y: τ_Y(A)",
+            ["tY_s", "tY_c"],
+        ),
+        (
+            spec.axial,
+            Term::Axial,
+            "shift along A: t_X(A)",
+            ["e_s", "e_c"],
+        ),
+        (
+            spec.lateral,
+            Term::Lateral,
+            "sideways shift: t_Y(A)",
+            ["y_s", "y_c"],
+        ),
+    ] {
+        if on {
+            rows.push((term, name, params.to_vec(), Box::new(harmonic)));
+        }
+    }
+    rows.into_iter()
+        .filter_map(|(term, name, params, g)| {
+            let idx: Vec<usize> = params
+                .iter()
+                .map(|p| spec.index(p))
+                .collect::<Option<Vec<usize>>>()?;
+            let scale = unit_scale(params[0]);
+            let (mut value, mut std) = (vec![], vec![]);
+            for &a in &a_deg {
+                let gv = g(a.to_radians());
+                let v: f64 = idx.iter().zip(&gv).map(|(&k, g)| g * fit.q[k]).sum();
+                let mut var = 0.0;
+                for (i, &ki) in idx.iter().enumerate() {
+                    for (j, &kj) in idx.iter().enumerate() {
+                        var += gv[i] * fit.cov[(ki, kj)] * gv[j];
+                    }
+                }
+                value.push(v * scale);
+                std.push(var.max(0.0).sqrt() * scale);
+            }
+            Some(ComplianceCurve {
+                term,
+                name: name.into(),
+                unit: unit_of(params[0]).into(),
+                a_deg: a_deg.clone(),
+                value,
+                std,
+            })
         })
         .collect()
 }
@@ -788,8 +938,10 @@ pub fn check_cradle(
                 .iter()
                 .filter_map(|spec| {
                     // A degenerate richer model is simply not a candidate.
+                    // … nor is one whose terms the data cannot separate.
                     fit_kinematics(&obs, pivot, spec, &params_from_model(&best.fit.model, spec))
                         .ok()
+                        .filter(|f| separability::separable(&obs, &f.model, &f.spec))
                 })
                 .collect();
             fits.sort_by(|a, b| bic(a, obs.len()).total_cmp(&bic(b, obs.len())));
@@ -874,7 +1026,7 @@ pub fn check_cradle(
     let mut notes = vec![
         "Cradle: A about X carries C about Z; tool fixed; linear axes taken as exact.".to_string(),
         "Rotation vectors: matR = [e1 e2 e3]·[et1 et2 et3]^-1 in the instrument frame, log(matR) = axis × angle, µrad; e1 from the point at C = 0 (patent) and from the phase of all points (phase).".to_string(),
-        "Model of the kinematics: location errors, ball, and the A-dependent terms kept by forward selection on held-out A poses: a tilt ρ(A) = s·sin A + k·(cos A − 1) about the pivot or the C table's mount, an A positioning error, a shift along A.".to_string(),
+        "Model of the kinematics: location errors, ball, and the A-dependent terms kept by forward selection on held-out A poses: a tilt ρ(A) = s·sin A + k·(cos A − 1) about the pivot, tilts of the C table about its mount about X and about its Y (each a·sin A + b·(cos A − 1)), an A positioning error, a shift along A or sideways.".to_string(),
     ];
     if machine_frame {
         notes.push(format!(
@@ -933,6 +1085,8 @@ pub fn check_cradle(
             compliant,
             candidates,
             parameters: model_parameters(fit),
+            separability: Some(separability::separability(&obs, &fit.model, &fit.spec)),
+            curves: compliance_curves(fit, &pa.poses),
             ball: BallReport {
                 radius_mm: fit.q[8],
                 radius_std_um: std(8) * 1e3,

@@ -1,9 +1,11 @@
 //! The solver's tests, one binary: a module per file beside this one (one link, not one
 //! per file), and the helpers two of them share.
 
+mod cradle_matrix_common;
 mod progress_common;
 mod stepwise_common;
 
+mod cradle_matrix;
 mod cradle_simulated;
 mod diagnosis_positioning_real;
 mod diagnosis_positioning_transient;

@@ -150,7 +150,12 @@ pub fn when(rfc3339: &str) -> String {
 /// A verdict badge: `pass`, `fail`, `undecided`, or `no tolerance` when none applies.
 pub fn verdict_badge(verdict: Option<&str>) -> Markup {
     match verdict {
-        Some(v) => html! { span class={ "badge verdict " (v) } { (v) } },
+        // The decision's words ("not decided: model misfit"), its id as the class.
+        Some(v) => html! {
+            span class={ "badge verdict " (v) } {
+                (mtcal_solver::tolerance::Decision::parse(v).map_or(v, |d| d.label()))
+            }
+        },
         None => html! { span.badge.none title="no tolerance profile applies" { "no tolerance" } },
     }
 }

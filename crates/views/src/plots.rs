@@ -17,6 +17,7 @@
 //!   directions.
 //! * [`trend`], [`error_bar_chart`]: values over time (or any x) with ±2σ error bars;
 //!   [`rotation_vectors`]: a cradle's rotation vector per A pose.
+//! * [`compliance_curve`]: a cradle's compliance term against A with its ±2σ band.
 //! * [`sparkline`]: a tiny line without axes.
 //! * [`finding_bars`]: a diagnosis finding's RMS before/after, fit and held out.
 //! * [`ranking_bars`]: a sensitivity ranking.
@@ -36,7 +37,7 @@ pub mod inspect;
 mod polar;
 mod spark;
 
-pub use band::{empty_panel, error_function, function_band, function_band_on};
+pub use band::{compliance_curve, empty_panel, error_function, function_band, function_band_on};
 pub use bars::{finding_bars, ranking_bars};
 pub use errorbars::{
     BarPoint, ErrorBarChart, PointSeries, TrendPoint, TrendSeries, XScale, error_bar_chart,

@@ -1,7 +1,8 @@
 //! What a plant acts on, from a stored identification result: its compensation table for
 //! a controller (`GET /api/v1/results/{id}/export?format=…`) and its check report (`GET
-//! /api/v1/results/{id}/report`, one self-contained HTML page). Both are thin: the table
-//! is [`mtcal_formats::compensation`], the page [`mtcal_views::pages::report`].
+//! /api/v1/results/{id}/report`, one self-contained HTML page; a cradle result has its
+//! own report). Both are thin: the table is [`mtcal_formats::compensation`], the page
+//! [`mtcal_views::pages::report`].
 
 use crate::AppState;
 use crate::auth::ReadKey;
@@ -10,12 +11,14 @@ use axum::extract::{Path, State};
 use axum::http::{HeaderValue, header};
 use axum::response::{IntoResponse, Response};
 use mtcal_formats::compensation::{Compensation, DEFAULT_STEP_MM, ExportError, Format};
+use mtcal_solver::cradle::CradleResult;
 use mtcal_solver::diagnosis::DiagnosisResult;
 use mtcal_solver::identification::IdentificationResult;
 use mtcal_solver::positioning_check::DiagnosisDocument;
 use mtcal_store::StoredResult;
 use mtcal_views::pages::report::{
-    CheckReport, PositioningReport, check_report, positioning_report,
+    CheckReport, CradleCheckReport, PositioningReport, check_report, cradle_report,
+    positioning_report,
 };
 use serde::Deserialize;
 use utoipa::IntoParams;
@@ -85,7 +88,7 @@ pub async fn export(
     Ok(attachment(text, format.content_type(), Some(&name)))
 }
 
-#[utoipa::path(operation_id = "results_report", summary = "Check report of an identification result or of a positioning-run diagnosis (self-contained HTML, prints on A4)", get,
+#[utoipa::path(operation_id = "results_report", summary = "Check report of an identification result, a positioning-run diagnosis or a cradle result (self-contained HTML, prints on A4)", get,
     path = "/api/v1/results/{id}/report", tag = "history",
     security(("api_key" = [])), params(("id" = String, Path)),
     responses((status = 200, description = "one self-contained HTML page: machine, date, instrument and plan, the standards' figures \
@@ -93,9 +96,11 @@ pub async fn export(
                                             and identifiability, circle polar plots, the findings of a diagnosis of the same dataset, \
                                             the compensation table's summary and what the data could not determine; of a positioning-run \
                                             diagnosis: the ISO 230-2 figures (the standard's, and without the readings its outlier test set aside), \
-                                            the findings with their held-out figures",
+                                            the findings with their held-out figures; of a cradle result: \
+                                            its facts, the chosen model, the compliance against A with ±2σ bands, what the ball data can \
+                                            separate, the location errors and what the data could not determine",
                content_type = "text/html", body = String),
-              (status = 400, body = ErrorBody, description = "neither an identification result nor a positioning-run diagnosis"),
+              (status = 400, body = ErrorBody, description = "neither an identification result, a positioning-run diagnosis nor a cradle result"),
               (status = 404, body = ErrorBody)))]
 pub async fn report(
     _key: ReadKey,
@@ -104,6 +109,26 @@ pub async fn report(
 ) -> Result<Response, ApiError> {
     let r = s.store.get_result(&id).await?;
     let now = mtcal_store::now_rfc3339();
+    if r.meta.kind == "cradle" {
+        let page = crate::blocking::run::<_, ApiError>(move || {
+            let doc: CradleResult = serde_json::from_value(r.document.clone()).map_err(|e| {
+                ApiError::Internal(format!(
+                    "result {} does not read as a cradle result: {e}",
+                    r.meta.id
+                ))
+            })?;
+            Ok::<_, ApiError>(
+                cradle_report(&CradleCheckReport {
+                    doc: &doc,
+                    result_id: Some(&r.meta.id),
+                    generated_at: &now,
+                })
+                .into_string(),
+            )
+        })
+        .await??;
+        return Ok(attachment(page, "text/html; charset=utf-8", None));
+    }
     if r.meta.kind == "diagnosis" {
         // A positioning-run check: its diagnosis and its ISO 230-2 figures.
         let page = crate::blocking::run::<_, ApiError>(move || {
@@ -111,7 +136,7 @@ pub async fn report(
                 .map_err(|e| ApiError::Internal(format!("result {}: {e}", r.meta.id)))?;
             if doc.diagnosis.source != "positioning" {
                 return Err(ApiError::InvalidRequest(format!(
-                    "result {} is a diagnosis of a {}; reports are made from identification results and positioning-run diagnoses",
+                    "result {} is a diagnosis of a {}; reports are made from identification results, positioning-run diagnoses and cradle results",
                     r.meta.id, doc.diagnosis.source
                 )));
             }
@@ -157,7 +182,7 @@ pub async fn report(
 fn identification_kind(r: &StoredResult) -> Result<(), ApiError> {
     if r.meta.kind != "identification" {
         return Err(ApiError::InvalidRequest(format!(
-            "result {} is a {} result; exports and reports are made from identification results",
+            "result {} is a {} result; exports and reports are made from identification results (and reports from positioning-run diagnoses and cradle results)",
             r.meta.id, r.meta.kind
         )));
     }

@@ -39,6 +39,11 @@ pub async fn create(
 ) -> Result<(StatusCode, Json<Profile>), ApiError> {
     let target = profiles::check_target(&p.scope, &p.target)?;
     validate(&p.scope, &p.limits, p.webhook_url.as_deref())?;
+    if let Some(url) = &p.webhook_url {
+        mtcal_domain::webhooks::resolve(url, &s.settings.webhooks)
+            .await
+            .map_err(ApiError::InvalidRequest)?;
+    }
     if p.scope == "machine" {
         s.store.get_machine(target).await?;
     }
@@ -92,6 +97,11 @@ pub async fn replace(
 ) -> Result<Json<Profile>, ApiError> {
     let old = s.store.get_tolerance(&id).await?;
     validate(&old.scope, &u.limits, u.webhook_url.as_deref())?;
+    if let Some(url) = &u.webhook_url {
+        mtcal_domain::webhooks::resolve(url, &s.settings.webhooks)
+            .await
+            .map_err(ApiError::InvalidRequest)?;
+    }
     let stored = s
         .store
         .update_tolerance(&id, &limits_json(&u.limits)?, u.webhook_url.as_deref())

@@ -13,7 +13,7 @@ pub mod pages;
 pub mod session;
 
 use crate::error::ApiError;
-use crate::{AppState, JSON_BODY_LIMIT, REQUEST_TIMEOUT, UPLOAD_TIMEOUT};
+use crate::{AppState, JSON_BODY_LIMIT, REQUEST_TIMEOUT, UPLOAD_SLOT_WAIT, UPLOAD_TIMEOUT};
 use axum::Router;
 use axum::extract::{DefaultBodyLimit, Form, Path, Query, State};
 use axum::http::{HeaderMap, StatusCode, header};
@@ -85,12 +85,14 @@ pub fn router(app: AppState) -> Router {
         app,
         key: session::cookie_key(),
     };
+    // The same gate as the API's upload route: one set of slots, rate and time limits.
     let uploads = Router::new()
         .route("/machines/{id}/upload", post(pages::upload))
-        .layer(DefaultBodyLimit::max(upload_limit))
-        .layer(TimeoutLayer::with_status_code(
+        .layer(DefaultBodyLimit::max(upload_limit));
+    let uploads =
+        crate::upload_gate::guard(uploads, &state.app).layer(TimeoutLayer::with_status_code(
             StatusCode::REQUEST_TIMEOUT,
-            UPLOAD_TIMEOUT,
+            UPLOAD_SLOT_WAIT + UPLOAD_TIMEOUT,
         ));
     let rest = Router::new()
         .route("/", get(pages::fleet))

@@ -52,6 +52,7 @@ pub fn state(store: Arc<dyn Store>) -> AppState {
         wake: Arc::new(tokio::sync::Notify::new()),
         settings: Arc::default(),
         database: Arc::default(),
+        uploads: Default::default(),
     }
 }
 

@@ -44,7 +44,7 @@ pub struct KinematicFit {
 
 const MAX_ITER: usize = 50;
 
-fn residuals(obs: &[Obs], pivot: [f64; 3], spec: &ModelSpec, q: &[f64]) -> DVector<f64> {
+pub(crate) fn residuals(obs: &[Obs], pivot: [f64; 3], spec: &ModelSpec, q: &[f64]) -> DVector<f64> {
     let m = model_from_params(pivot, spec, q);
     let b = m.ball_in_table();
     let mut r = DVector::zeros(3 * obs.len());
@@ -65,18 +65,24 @@ fn residuals(obs: &[Obs], pivot: [f64; 3], spec: &ModelSpec, q: &[f64]) -> DVect
     r
 }
 
-/// Central-difference Jacobian of `f` at `q` (step 1e-6 in the parameter's unit).
-pub fn jacobian(f: &impl Fn(&[f64]) -> DVector<f64>, q: &[f64], rows: usize) -> DMatrix<f64> {
-    const H: f64 = 1e-6;
+/// Central-difference Jacobian of `f` at `q`, parameter k stepped by `steps[k]` (in its
+/// own unit: [`ModelSpec::steps`]).
+pub fn jacobian(
+    f: &impl Fn(&[f64]) -> DVector<f64>,
+    q: &[f64],
+    rows: usize,
+    steps: &[f64],
+) -> DMatrix<f64> {
     let mut j = DMatrix::zeros(rows, q.len());
     let mut qq = q.to_vec();
     for k in 0..q.len() {
-        qq[k] = q[k] + H;
+        let h = steps[k];
+        qq[k] = q[k] + h;
         let rp = f(&qq);
-        qq[k] = q[k] - H;
+        qq[k] = q[k] - h;
         let rm = f(&qq);
         qq[k] = q[k];
-        j.set_column(k, &((rp - rm) / (2.0 * H)));
+        j.set_column(k, &((rp - rm) / (2.0 * h)));
     }
     j
 }
@@ -95,6 +101,7 @@ pub struct GnSolution {
 pub fn gauss_newton(
     f: impl Fn(&[f64]) -> DVector<f64>,
     q0: &[f64],
+    steps: &[f64],
     what: &str,
 ) -> Result<GnSolution, SolverError> {
     let np = q0.len();
@@ -111,8 +118,16 @@ pub fn gauss_newton(
     let mut converged = false;
     while iterations < MAX_ITER {
         iterations += 1;
-        let j = jacobian(&f, &q, rows);
-        let scale: Vec<f64> = j.column_iter().map(|c| c.norm().max(1e-300)).collect();
+        let j = jacobian(&f, &q, rows, steps);
+        // A column of no effect (z_M while nothing tilts) keeps scale 1: its step stays at
+        // rounding level instead of being divided by nothing.
+        let scale: Vec<f64> = j
+            .column_iter()
+            .map(|c| {
+                let n = c.norm();
+                if n > 0.0 { n } else { 1.0 }
+            })
+            .collect();
         let mut js = j.clone();
         for (k, mut col) in js.column_iter_mut().enumerate() {
             col /= scale[k];
@@ -181,9 +196,10 @@ pub fn fit_kinematics(
 ) -> Result<KinematicFit, SolverError> {
     let np = q0.len();
     let f = |q: &[f64]| residuals(obs, pivot, spec, q);
-    let sol = gauss_newton(f, q0, "cradle model")?;
+    let steps = spec.steps();
+    let sol = gauss_newton(f, q0, &steps, "cradle model")?;
     let ss = sol.residual.norm_squared();
-    let j = &jacobian(&f, &sol.q, sol.residual.len());
+    let j = &jacobian(&f, &sol.q, sol.residual.len(), &steps);
     let dof = 3 * obs.len() - np;
     let sigma = (ss / dof as f64).sqrt();
     let cov = covariance(j, sigma);
@@ -241,6 +257,7 @@ pub fn leave_one_pose_out(
         let sol = gauss_newton(
             |q: &[f64]| residuals(&train, pivot, spec, q),
             q,
+            &spec.steps(),
             "cradle model",
         )?;
         let fit = FoldFit {

@@ -16,15 +16,24 @@
 //!   through P + (0, EY0A, EZ0A);
 //! * T_C(C) = Trans(EX0C, EY0C, 0) · Rx(EA0C) · Ry(EB0C) · Rz(C + EC0C): the C axis, in the
 //!   A body frame, has direction ≈ (EB0C, −EA0C, 1) and passes through (EX0C, EY0C, 0);
-//! * ρ(A) = s·sin A + k·(cos A − 1): compliance, a spatial rotation vector of the table
-//!   that vanishes at A = 0 (a rigid cradle has s = k = 0; constant deflections are
-//!   location errors). Gravity loading of a tilting cradle has this form: the load's
-//!   components across and along the table go as sin A and cos A. It acts about the
-//!   pivot, or about the C table's mount: the point M(A) = P + Rx(A)·(0, 0, z_M) at
-//!   height z_M on the C axis, turning with A (a table that tilts on its own bearing).
-//!   The full expression with the mount is
-//!   p(A, C) = t_X(A)·x̂ + M(A) + Rot(ρ(A))·(T_A(A)·T_C(C)·b − M(A)),
-//!   with t_X(A) = e_s·sin A + e_c·(cos A − 1) a shift of the table along the A axis.
+//! * ρ(A) = s·sin A + k·(cos A − 1): a spatial rotation vector of the table about the
+//!   pivot that vanishes at A = 0 (a rigid cradle has s = k = 0; constant deflections are
+//!   location errors): the classic compliance of a tilting cradle, whose whole A body
+//!   tilts in the machine frame as the load turns with A (its x component is the A
+//!   positioning error s_A·sin A + k_A·(cos A − 1)).
+//! * The **C table tilts about its mount**: in the A body frame (x along A, z along C),
+//!   a small rotation ω(A) = (τ_X(A), τ_Y(A), 0) about the point M = (0, 0, z_M) on the C
+//!   axis, τ_X(A) = tX_s·sin A + tX_c·(cos A − 1) about the axis through M parallel to A,
+//!   τ_Y(A) = tY_s·sin A + tY_c·(cos A − 1) about the table's Y through M (perpendicular
+//!   to A and C). About M rather than about the A axis, τ_X also moves the table
+//!   sideways by z_M·τ_X (along the table's Y) and τ_Y moves it along A by −z_M·τ_Y.
+//! * Pure shifts of the table with A: along the A axis, t_X(A) = e_s·sin A +
+//!   e_c·(cos A − 1) (the trunnions' axial compliance), and sideways in the A body frame
+//!   (along the table's Y), t_Y(A) = y_s·sin A + y_c·(cos A − 1).
+//!
+//!   The full expression is
+//!   p(A, C) = t_X(A)·x̂ + P + Rot(ρ(A))·(T_A(A)·Trans(0, t_Y(A), 0)·Mount(A)·T_C(C)·b − P),
+//!   Mount(A) = Trans(M)·Rot(ω(A))·Trans(−M).
 //! * EAA(A) = Σ_{j=1..3} e_j·(A/90°)^j: the angular positioning error of A beyond its
 //!   zero EA0A (a scale error, and a curvature of the A encoder or drive), added to the
 //!   commanded A in T_A: Rx(A + EA0A + EAA(A)).
@@ -64,27 +73,45 @@ pub struct Ball {
     pub height_mm: f64,
 }
 
-/// ρ(A) = s·sin A + k·(cos A − 1), µrad (spatial rotation vector about the pivot).
+/// The A-dependent deflections of the table (module docs), all zero at A = 0.
 ///
-/// Not all of it is observable: with δ = (0, δ_y, δ_z) ⊥ x, the family s = δ,
-/// k = x × δ... precisely s = (0, δ_y, δ_z), k = (0, δ_z, −δ_y), is to first order a
-/// rotation about the tilted axis x + δ, i.e. the same as the A axis tilts EB0A, EC0A
-/// (with constant tilts of C). The observable part is s = (s_A, m_B, m_C),
-/// k = (k_A, −m_C, m_B) ([`Compliance::observable`]); s_A, k_A are the A axis's angular
-/// positioning deviation about the pivot.
+/// The spatial tilt ρ(A) = s·sin A + k·(cos A − 1) (µrad, about the pivot) is not all
+/// observable: with δ = (0, δ_y, δ_z) ⊥ x, the family s = (0, δ_y, δ_z),
+/// k = (0, δ_z, −δ_y), is to first order a rotation about the tilted axis x + δ, i.e. the
+/// same as the A axis tilts EB0A, EC0A (with constant tilts of C). The observable part is
+/// s = (s_A, m_B, m_C), k = (k_A, −m_C, m_B) ([`Compliance::observable`]); s_A, k_A are
+/// the A axis's angular positioning deviation about the pivot.
 #[derive(Debug, Clone, Copy, Default, PartialEq, Serialize, Deserialize)]
 #[cfg_attr(feature = "openapi", derive(utoipa::ToSchema))]
 pub struct Compliance {
     pub sin_urad: [f64; 3],
     pub cos_urad: [f64; 3],
-    /// Height z_M on the C axis (mm from the pivot, turning with A) of the point ρ(A)
-    /// acts about: 0 is the pivot; otherwise the C table's mount.
+    /// z_M: height of the C table's mount on the C axis (mm from the pivot, in the A body
+    /// frame), the point the table tilts about (`mount_x_urad`, `mount_y_urad`).
     #[serde(default)]
     pub centre_height_mm: f64,
     /// Shift of the table along the A axis, t_X(A) = e_s·sin A + e_c·(cos A − 1):
     /// (e_s, e_c), µm.
     #[serde(default)]
     pub axial_um: [f64; 2],
+    /// Tilt of the C table about its mount, about the axis parallel to A:
+    /// τ_X(A) = tX_s·sin A + tX_c·(cos A − 1): (tX_s, tX_c), µrad.
+    #[serde(default)]
+    pub mount_x_urad: [f64; 2],
+    /// Tilt of the C table about its mount, about the table's Y (perpendicular to A and
+    /// C): τ_Y(A) = tY_s·sin A + tY_c·(cos A − 1): (tY_s, tY_c), µrad.
+    #[serde(default)]
+    pub mount_y_urad: [f64; 2],
+    /// Sideways shift of the table along its Y in the A body frame,
+    /// t_Y(A) = y_s·sin A + y_c·(cos A − 1): (y_s, y_c), µm.
+    #[serde(default)]
+    pub lateral_um: [f64; 2],
+}
+
+/// a·sin A + b·(cos A − 1) for a pair (a, b).
+pub fn harmonic(ab: [f64; 2], a_rad: f64) -> f64 {
+    let (s, c) = a_rad.sin_cos();
+    ab[0] * s + ab[1] * (c - 1.0)
 }
 
 impl Compliance {
@@ -113,8 +140,22 @@ impl Compliance {
 
     /// t_X(A) in mm.
     pub fn axial_mm(&self, a_rad: f64) -> f64 {
-        let (s, c) = a_rad.sin_cos();
-        (self.axial_um[0] * s + self.axial_um[1] * (c - 1.0)) * 1e-3
+        harmonic(self.axial_um, a_rad) * 1e-3
+    }
+
+    /// t_Y(A) in mm.
+    pub fn lateral_mm(&self, a_rad: f64) -> f64 {
+        harmonic(self.lateral_um, a_rad) * 1e-3
+    }
+
+    /// ω(A) = (τ_X(A), τ_Y(A), 0) in rad, the tilt of the C table about its mount (A body
+    /// frame).
+    pub fn mount_rotation(&self, a_rad: f64) -> Vector3<f64> {
+        Vector3::new(
+            harmonic(self.mount_x_urad, a_rad),
+            harmonic(self.mount_y_urad, a_rad),
+            0.0,
+        ) * 1e-6
     }
 }
 
@@ -158,8 +199,8 @@ impl CradleModel {
         self.a_part(a) * self.c_part(c)
     }
 
-    /// The part of [`Self::table_pose`] that depends on A only: compliance, shift and
-    /// T_A(A).
+    /// The part of [`Self::table_pose`] that depends on A only: the spatial tilt and the
+    /// shift along A, T_A(A), the sideways shift and the tilt about the C table's mount.
     pub fn a_part(&self, a: f64) -> Isometry3<f64> {
         let l = &self.location;
         let p = Vector3::from(self.pivot_mm);
@@ -171,10 +212,19 @@ impl CradleModel {
         );
         let k = &self.compliance;
         let rho = UnitQuaternion::from_scaled_axis(k.rotation_vector(a));
-        let centre = p + rx(a) * Vector3::new(0.0, 0.0, k.centre_height_mm);
         let shift = Vector3::x() * k.axial_mm(a);
-        let about_centre = iso(shift + centre - rho * centre, rho);
-        about_centre * ta
+        let about_pivot = iso(shift + p - rho * p, rho);
+        let omega = k.mount_rotation(a);
+        if omega == Vector3::zeros() && k.lateral_um == [0.0; 2] {
+            return about_pivot * ta;
+        }
+        let tau = UnitQuaternion::from_scaled_axis(omega);
+        let mount = Vector3::new(0.0, 0.0, k.centre_height_mm);
+        let body = iso(
+            Vector3::new(0.0, k.lateral_mm(a), 0.0) + mount - tau * mount,
+            tau,
+        );
+        about_pivot * ta * body
     }
 
     /// T_C(C), the part of [`Self::table_pose`] that depends on C only.
@@ -213,23 +263,26 @@ impl CradleModel {
     }
 }
 
-/// How the tilts of ρ(A) act.
+/// The spatial tilt ρ(A) of the table about the pivot (m_B, m_C).
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
 #[cfg_attr(feature = "openapi", derive(utoipa::ToSchema))]
 #[serde(rename_all = "snake_case")]
 pub enum Tilt {
-    /// No tilt with A (m_B = m_C = 0).
+    /// No spatial tilt with A (m_B = m_C = 0).
     None,
     /// About the pivot.
     Pivot,
-    /// About the C table's mount at a fitted height z_M on the C axis.
+    /// Written by earlier versions: the spatial tilt about the C table's mount (now
+    /// modelled per axis in the A body frame: [`ModelSpec::mount_x`],
+    /// [`ModelSpec::mount_y`]). Kept so that their documents still read; never fitted.
     Mount,
 }
 
 /// Which A-dependent terms a kinematic model carries beyond the rigid one (the location
 /// errors and the ball). Parameter vector (mm, rad): the 11 rigid ones ([`RIGID_NAMES`]),
-/// then, when present and in this order, s_A, k_A (`a_harmonic`); m_B, m_C (a tilt);
-/// z_M (mount); e_s, e_c (`axial`); e₁ … e_order (`eaa_order`).
+/// then, when present and in this order, s_A, k_A (`a_harmonic`); m_B, m_C (`tilt`);
+/// z_M (a tilt about the mount); tX_s, tX_c (`mount_x`); tY_s, tY_c (`mount_y`); e_s, e_c
+/// (`axial`); y_s, y_c (`lateral`); e₁ … e_order (`eaa_order`).
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
 #[cfg_attr(feature = "openapi", derive(utoipa::ToSchema))]
 pub struct ModelSpec {
@@ -241,6 +294,15 @@ pub struct ModelSpec {
     pub eaa_order: usize,
     /// Shift along the A axis with A.
     pub axial: bool,
+    /// The C table tilts about its mount about the axis parallel to A.
+    #[serde(default)]
+    pub mount_x: bool,
+    /// The C table tilts about its mount about its Y (perpendicular to A and C).
+    #[serde(default)]
+    pub mount_y: bool,
+    /// The table shifts sideways (along its Y) with A.
+    #[serde(default)]
+    pub lateral: bool,
 }
 
 impl Default for ModelSpec {
@@ -256,19 +318,26 @@ impl ModelSpec {
         a_harmonic: false,
         eaa_order: 0,
         axial: false,
+        mount_x: false,
+        mount_y: false,
+        lateral: false,
     };
     /// The classic compliant model: ρ(A) about the pivot, observable form (s_A, k_A, m_B,
     /// m_C).
     pub const COMPLIANT: ModelSpec = ModelSpec {
         tilt: Tilt::Pivot,
         a_harmonic: true,
-        eaa_order: 0,
-        axial: false,
+        ..ModelSpec::RIGID
     };
 
     /// Whether anything depends on A beyond the rigid model.
     pub fn is_rigid(&self) -> bool {
         *self == ModelSpec::RIGID
+    }
+
+    /// Whether the table tilts about its mount (z_M is a parameter).
+    pub fn has_mount(&self) -> bool {
+        self.mount_x || self.mount_y || self.tilt == Tilt::Mount
     }
 
     /// Parameter names in order (module docs).
@@ -280,11 +349,20 @@ impl ModelSpec {
         if self.tilt != Tilt::None {
             v.extend(["m_B", "m_C"]);
         }
-        if self.tilt == Tilt::Mount {
+        if self.has_mount() {
             v.push("z_M");
+        }
+        if self.mount_x {
+            v.extend(["tX_s", "tX_c"]);
+        }
+        if self.mount_y {
+            v.extend(["tY_s", "tY_c"]);
         }
         if self.axial {
             v.extend(["e_s", "e_c"]);
+        }
+        if self.lateral {
+            v.extend(["y_s", "y_c"]);
         }
         v.extend(["e_1", "e_2", "e_3"].iter().take(self.eaa_order.min(3)));
         v
@@ -299,6 +377,16 @@ impl ModelSpec {
         self.names().iter().position(|n| *n == name)
     }
 
+    /// Central-difference steps of the parameters (mm or rad): every length enters the
+    /// ball position linearly (a translation, the ball's radius and height, the mount's
+    /// lever), so a step of 1 µm is exact and far above rounding; angles take 1 µrad.
+    pub fn steps(&self) -> Vec<f64> {
+        self.names()
+            .iter()
+            .map(|n| if unit_of(n) == "urad" { 1e-6 } else { 1e-3 })
+            .collect()
+    }
+
     /// A sentence naming the model.
     pub fn describe(&self) -> String {
         if self.is_rigid() {
@@ -308,7 +396,20 @@ impl ModelSpec {
         match self.tilt {
             Tilt::None => {}
             Tilt::Pivot => parts.push("table tilts with A about the pivot".to_string()),
-            Tilt::Mount => parts.push("table tilts with A about the C table's mount".to_string()),
+            Tilt::Mount => parts.push(
+                "table tilts with A about the C table's mount (spatial form of earlier versions)"
+                    .to_string(),
+            ),
+        }
+        match (self.mount_x, self.mount_y) {
+            (true, true) => parts.push(
+                "C table tilts about its mount about X (parallel to A) and about its Y".to_string(),
+            ),
+            (true, false) => {
+                parts.push("C table tilts about its mount about X (parallel to A)".to_string())
+            }
+            (false, true) => parts.push("C table tilts about its mount about its Y".to_string()),
+            (false, false) => {}
         }
         if self.a_harmonic {
             parts.push("A positioning error s_A·sin A + k_A·(cos A − 1)".to_string());
@@ -322,7 +423,29 @@ impl ModelSpec {
         if self.axial {
             parts.push("table shifts along A with A".to_string());
         }
+        if self.lateral {
+            parts.push("table shifts sideways with A".to_string());
+        }
         parts.join(" + ")
+    }
+}
+
+/// The reporting unit of a parameter: `mm` (the ball's radius and height, z_M), `um`
+/// (offsets and shifts) or `urad` (angles).
+pub fn unit_of(name: &str) -> &'static str {
+    match name {
+        "ball_radius" | "ball_height" | "z_M" => "mm",
+        "EY0A" | "EZ0A" | "EX0C" | "EY0C" | "e_s" | "e_c" | "y_s" | "y_c" => "um",
+        _ => "urad",
+    }
+}
+
+/// The factor from internal units (mm, rad) to [`unit_of`].
+pub fn unit_scale(name: &str) -> f64 {
+    match unit_of(name) {
+        "mm" => 1.0,
+        "um" => 1e3,
+        _ => 1e6,
     }
 }
 
@@ -355,6 +478,9 @@ pub fn model_from_params(pivot_mm: [f64; 3], spec: &ModelSpec, q: &[f64]) -> Cra
         Compliance::from_observable(["s_A", "k_A", "m_B", "m_C"].map(|n| get(n) * 1e6));
     compliance.centre_height_mm = get("z_M");
     compliance.axial_um = [get("e_s") * 1e3, get("e_c") * 1e3];
+    compliance.mount_x_urad = [get("tX_s") * 1e6, get("tX_c") * 1e6];
+    compliance.mount_y_urad = [get("tY_s") * 1e6, get("tY_c") * 1e6];
+    compliance.lateral_um = [get("y_s") * 1e3, get("y_c") * 1e3];
     CradleModel {
         pivot_mm,
         location: LocationErrors {
@@ -405,6 +531,12 @@ pub fn params_from_model(m: &CradleModel, spec: &ModelSpec) -> Vec<f64> {
             "z_M" => m.compliance.centre_height_mm,
             "e_s" => m.compliance.axial_um[0] * 1e-3,
             "e_c" => m.compliance.axial_um[1] * 1e-3,
+            "tX_s" => m.compliance.mount_x_urad[0] * 1e-6,
+            "tX_c" => m.compliance.mount_x_urad[1] * 1e-6,
+            "tY_s" => m.compliance.mount_y_urad[0] * 1e-6,
+            "tY_c" => m.compliance.mount_y_urad[1] * 1e-6,
+            "y_s" => m.compliance.lateral_um[0] * 1e-3,
+            "y_c" => m.compliance.lateral_um[1] * 1e-3,
             "e_1" => m.eaa_urad[0] * 1e-6,
             "e_2" => m.eaa_urad[1] * 1e-6,
             "e_3" => m.eaa_urad[2] * 1e-6,

@@ -96,7 +96,10 @@ pub fn register(
         r
     };
     let q0 = [0.0, 0.0, 0.0, 0.0, 0.0, 0.0, ball0[0], ball0[1], ball0[2]];
-    let sol = gauss_newton(f, &q0, "frame registration")?;
+    // Steps: 1 µrad for the rotation and the ball's azimuth, 1 µm for lengths (which
+    // enter linearly).
+    let steps = [1e-6, 1e-6, 1e-6, 1e-3, 1e-3, 1e-3, 1e-3, 1e-6, 1e-3];
+    let sol = gauss_newton(f, &q0, &steps, "frame registration")?;
     let (rot, t) = map(&sol.q);
     Ok(Registration {
         rotation: rot * r0.inverse(),

@@ -29,8 +29,8 @@ pub enum Deflection {
     Rigid,
     /// The table tilts with A about the pivot (up to ~90 µrad, observable form).
     Pivot,
-    /// The C table tilts with A about its own mount 150 mm below the pivot, and the A
-    /// axis has a positioning error EAA(A) = 20·(A/90°) − 12·(A/90°)² µrad.
+    /// The C table tilts with A about its own mount 150 mm below the pivot, about X
+    /// (parallel to A) by 60·sin A µrad and about its Y by −25·sin A µrad.
     Mount,
 }
 
@@ -76,13 +76,12 @@ impl CradleSimulation {
                 Deflection::Pivot => Compliance::from_observable([8.0, -5.0, 60.0, -25.0]),
                 Deflection::Mount => Compliance {
                     centre_height_mm: -150.0,
-                    ..Compliance::from_observable([0.0, 0.0, 60.0, -25.0])
+                    mount_x_urad: [60.0, 0.0],
+                    mount_y_urad: [-25.0, 0.0],
+                    ..Compliance::default()
                 },
             },
-            eaa_urad: match deflection {
-                Deflection::Mount => [20.0, -12.0, 0.0],
-                _ => [0.0; 3],
-            },
+            eaa_urad: [0.0; 3],
         };
         CradleSimulation {
             truth,

@@ -4,13 +4,16 @@
 //! and adds what a signed report needs: the check's facts (machine, date, instrument,
 //! plan), the figures of the standards with their verdicts (or "no tolerance"), the
 //! diagnosis findings when a diagnosis of the check exists, the compensation table's
-//! summary, and what the data could not determine.
+//! summary, and what the data could not determine. A cradle (A/C) check has its own
+//! report ([`cradle_report`]): facts, the result page's cradle sections (the compliance
+//! against A with its bands among them) and what the ball data could not determine.
 
 use super::result::{self, IdentificationView, VerdictRow};
 use super::{num, print_page, verdict_badge, when};
-use crate::plots::unit_label;
+use crate::plots::{tick_label, unit_label};
 use maud::{Markup, html};
 use mtcal_formats::compensation::{Compensation, DEFAULT_STEP_MM, ExportError, Format};
+use mtcal_solver::cradle::{CradleResult, LocationErrorReport, TermSeparability};
 use mtcal_solver::diagnosis::DiagnosisResult;
 use mtcal_solver::identification::IdentificationResult;
 use mtcal_solver::positioning_check::DiagnosisDocument;
@@ -106,6 +109,92 @@ pub fn positioning_report(r: &PositioningReport) -> Markup {
                 div #findings { (result::diagnosis(d)) }
                 p.muted.signature {
                     "Figures are value ± U, U = 2u (k = 2). Nothing is evaluated outside the travel                      the runs measured. Report made by mtcal "
+                    (env!("CARGO_PKG_VERSION")) " on " (when(r.generated_at)) "."
+                }
+            }
+        },
+    )
+}
+
+/// What recorded the data of a cradle check: a ball on the C table measured by a 3-D
+/// instrument (docs/cradle.md).
+pub const CRADLE_INSTRUMENT: &str =
+    "3-D instrument (laser tracker) on a ball on the C table, C turned at each A pose";
+
+/// Everything a cradle check's report shows.
+pub struct CradleCheckReport<'a> {
+    pub doc: &'a CradleResult,
+    /// The stored result's id (`None` for a result read from a file).
+    pub result_id: Option<&'a str>,
+    /// When the report was made (RFC 3339).
+    pub generated_at: &'a str,
+}
+
+/// The report page of a cradle (A/C) check: its facts, the result page's cradle sections
+/// (the model, the compliance against A with ±2σ bands, what the ball data can separate,
+/// the location errors) and what the data could not determine.
+pub fn cradle_report(r: &CradleCheckReport) -> Markup {
+    let d = r.doc;
+    let machine = d.machine_id.as_deref().unwrap_or("—");
+    let measured = d.measured_at.as_deref().map(when).unwrap_or("—".into());
+    let title = format!("Cradle check report {machine} {measured}");
+    let (lo, hi) = d
+        .poses
+        .iter()
+        .fold((f64::INFINITY, f64::NEG_INFINITY), |(lo, hi), p| {
+            (lo.min(p.a_deg), hi.max(p.a_deg))
+        });
+    let not_observable: Vec<&LocationErrorReport> = d
+        .location_errors
+        .iter()
+        .filter(|e| e.value.is_none())
+        .collect();
+    let sep = d.kinematics.separability.as_ref();
+    let inseparable: Vec<&TermSeparability> = sep
+        .map(|s| {
+            s.terms
+                .iter()
+                .filter(|t| !t.separable || !t.confounded_with.is_empty())
+                .collect()
+        })
+        .unwrap_or_default();
+    print_page(
+        &title,
+        html! {
+            article.report {
+                section.card #check {
+                    h1 { "Cradle check report: " (machine) }
+                    dl.facts {
+                        dt { "machine" } dd { (machine) }
+                        dt { "measured" } dd { (measured) }
+                        @if let Some(id) = r.result_id { dt { "result" } dd { code { (id) } } }
+                        dt { "instrument" } dd { (CRADLE_INSTRUMENT) }
+                        dt { "plan" } dd { (d.n_points) " points at " (d.n_poses) " A poses, A from "
+                                           (tick_label(lo)) "° to " (tick_label(hi)) "°" }
+                        dt { "model" } dd { (d.kinematics.description) }
+                        dt { "convention" } dd { (d.convention) }
+                    }
+                }
+                (result::cradle(d))
+                section.card #undetermined {
+                    h2 { "What the data could not determine" }
+                    ul.compact {
+                        li { "Nothing is evaluated outside the measured A range [" (tick_label(lo)) "°, " (tick_label(hi)) "°]." }
+                        @for e in &not_observable {
+                            li { (e.name) ": no value — " (e.note.as_deref().unwrap_or("not observable from a ball on the table")) }
+                        }
+                        @for t in &inseparable {
+                            li { (t.description) ": "
+                                 @if !t.separable { "not separable" } @else { "separable only while these terms are absent" }
+                                 @if !t.why.is_empty() { " — " (t.why) } }
+                        }
+                        @for p in d.kinematics.parameters.iter().filter(|p| !p.determined) {
+                            li { (p.name) ": possible, undetermined (|value| < 3u)" }
+                        }
+                    }
+                }
+                p.muted.signature {
+                    "Figures are value ± U, U = 2u (k = 2); plots show ±2σ. Report made by mtcal "
                     (env!("CARGO_PKG_VERSION")) " on " (when(r.generated_at)) "."
                 }
             }
@@ -501,5 +590,53 @@ mod tests {
         section(&html, "verdict");
         assert!(html.contains("Finding: backlash (X)"));
         assert!(section(&html, "check").contains("badge verdict pass"));
+    }
+
+    /// The report of a cradle check whose C table tilts about its mount: facts, the
+    /// compliance against A (one plot per term of the chosen model, each with its band),
+    /// what the ball data can separate, and the undetermined: the location errors with
+    /// no value and the terms the data cannot tell apart, named.
+    #[test]
+    fn cradle_report_draws_the_compliance_and_names_what_is_undetermined() {
+        use mtcal_solver::cradle::{
+            CradleOptions, CradleSimulation, Deflection, check_cradle, simulate_cradle,
+        };
+        let points = simulate_cradle(&CradleSimulation::example_with(Deflection::Mount, 1));
+        let doc = check_cradle(&points, &CradleOptions::default()).unwrap();
+        let html = cradle_report(&CradleCheckReport {
+            doc: &doc,
+            result_id: Some("r-7"),
+            generated_at: "2026-11-25T09:00:00Z",
+        })
+        .into_string();
+        for bad in ["<link", "<script", "src=\"http", "href=\"http"] {
+            assert!(!html.contains(bad), "external asset: {bad}");
+        }
+        let facts = section(&html, "check");
+        for want in [
+            "SIM-CRADLE",
+            "r-7",
+            CRADLE_INSTRUMENT,
+            "234 points at 13 A poses",
+        ] {
+            assert!(facts.contains(want), "facts lack {want}");
+        }
+        let compliance = section(&html, "compliance");
+        let curves = &doc.kinematics.curves;
+        assert!(curves.len() >= 2, "{:?}", doc.kinematics.description);
+        assert_eq!(compliance.matches("<svg").count(), curves.len());
+        assert!(compliance.contains("tilt about the mount, X") && compliance.contains("A (°)"));
+        assert!(
+            compliance.matches("<polygon").count() >= curves.len(),
+            "a band per curve"
+        );
+        let sep = section(&html, "separability");
+        assert!(sep.contains("sideways shift"));
+        let und = section(&html, "undetermined");
+        for e in doc.location_errors.iter().filter(|e| e.value.is_none()) {
+            assert!(und.contains(e.name.as_str()), "{}", e.name);
+        }
+        assert!(und.contains("-90°, 90°"), "the measured A range");
+        assert!(und.contains("tilt of the C table about its mount, about X"));
     }
 }

@@ -214,7 +214,19 @@ pub fn verdict_table(rows: &[VerdictRow]) -> Markup {
 pub fn identification(v: &IdentificationView) -> Markup {
     let d = v.doc;
     let o = &d.observability;
+    let check = d.model_check();
     html! {
+        @if check.is_misfit() {
+            // The misfit gate: no value of this model is judged, no table made unforced.
+            section.card.misfit #misfit {
+                h2 { "Not decided: model misfit" }
+                p { (check.statement) "." }
+                p { "No value of this model is judged against a tolerance and its compensation \
+                     table is refused unless forced. The diagnosis of this recording says which \
+                     physics the model leaves out: see the diagnoses on "
+                    a href=(machine_href(&d.machine_id)) { "the machine's page" } "." }
+            }
+        }
         section.card #fit {
             h2 { "Fit" }
             dl.facts {
@@ -479,8 +491,9 @@ pub fn iso230_2(figs: &[Iso2302]) -> Markup {
     }
 }
 
-/// The A axis, the per-pose table, the rotation vectors per A pose, the location errors,
-/// the model chosen and the held-out compensation.
+/// The A axis, the per-pose table, the rotation vectors per A pose, the model chosen with
+/// its parameters, the compliance against A with ±2σ bands, what the ball data can
+/// separate, the location errors and the held-out compensation.
 pub fn cradle(c: &CradleResult) -> Markup {
     let k = &c.kinematics;
     html! {
@@ -510,6 +523,56 @@ pub fn cradle(c: &CradleResult) -> Markup {
                 }
             }
         }
+        section.card #cradle-model {
+            h2 { "Model of the deflection with A" }
+            p { (k.description) " — chosen among the model family on A poses left out of the fit." }
+            @if let Some(f) = &c.floor { p.muted { (f.statement) } }
+            @if !k.parameters.is_empty() {
+                table {
+                    thead { tr { th { "parameter" } th.num { "value ± U" } th { "" } } }
+                    tbody {
+                        @for p in &k.parameters {
+                            tr { td { (p.name) } td.num { (with_u(Some(p.value), Some(p.std), &p.unit)) }
+                                 td { @if !p.determined { "undetermined (|value| < 3u)" } } }
+                        }
+                    }
+                }
+            }
+        }
+        section.card #compliance {
+            h2 { "Compliance against A (±2σ)" }
+            @if k.curves.is_empty() {
+                p.muted { "Rigid: nothing in the chosen model depends on A." }
+            } @else {
+                p.muted { "The chosen model's terms over the measured A range; the mount's tilts in the A body frame, the pivot's in the machine frame." }
+                div.grid {
+                    @for cv in &k.curves {
+                        figure.plot data-term=(format!("{:?}", cv.term)) { (svg(plots::compliance_curve(cv))) }
+                    }
+                }
+            }
+        }
+        @if let Some(sep) = &k.separability {
+            section.card #separability {
+                h2 { "What the ball data can separate" }
+                p.muted { "First-order Jacobian of the chosen model: rank " (sep.rank) " of " (sep.n_params)
+                          ". Method: " (sep.method) "." }
+                table {
+                    thead { tr { th { "term" } th { "in the model" } th { "separable" } th { "not separable with" } th { "why" } } }
+                    tbody {
+                        @for t in &sep.terms {
+                            tr {
+                                td { (t.description) }
+                                td { @if t.in_model { "yes" } @else { "no" } }
+                                td { @if t.separable { "yes" } @else { "no" } }
+                                td { (confounders(&t.confounded_with)) }
+                                td { (t.why) }
+                            }
+                        }
+                    }
+                }
+            }
+        }
         section.card #location-errors {
             h2 { "Location errors (ISO 230-7)" }
             table {
@@ -524,6 +587,19 @@ pub fn cradle(c: &CradleResult) -> Markup {
         }
         @if !c.notes.is_empty() { section.card { h2 { "Notes" } ul.compact { @for n in &c.notes { li { (n) } } } } }
     }
+}
+
+/// Sets of terms, `a + b; c`.
+fn confounders(sets: &[Vec<mtcal_solver::cradle::Term>]) -> String {
+    sets.iter()
+        .map(|set| {
+            set.iter()
+                .map(|t| t.describe())
+                .collect::<Vec<_>>()
+                .join(" + ")
+        })
+        .collect::<Vec<_>>()
+        .join("; ")
 }
 
 fn observable(o: &mtcal_solver::cradle::Observability) -> &'static str {
@@ -682,6 +758,37 @@ mod tests {
     }
 
     #[test]
+    fn a_misfit_result_says_so_above_everything_else() {
+        let mut doc = seed_plan_check(3);
+        let body = ResultBody::Identification(IdentificationView::of(&doc));
+        let html =
+            result_page(&viewer("read"), &header("identification"), &[], &body).into_string();
+        assert!(
+            !html.contains("id=\"misfit\""),
+            "a model at noise level has no banner"
+        );
+        // The issue's backlash machine: 0.976 µm against a floor of 0.149 µm.
+        doc.fit.residual_rms_um = 0.976;
+        doc.fit.noise_estimate_um = Some(0.149);
+        doc.model_check = None;
+        let body = ResultBody::Identification(IdentificationView::of(&doc));
+        let mut h = header("identification");
+        h.verdict = Some("misfit".into());
+        let html = result_page(&viewer("read"), &h, &[], &body).into_string();
+        let at = html.find("id=\"misfit\"").expect("the misfit banner");
+        assert!(
+            at < html.find("id=\"fit\"").unwrap(),
+            "the banner comes first"
+        );
+        assert!(html.contains("the model does not explain this recording"));
+        assert!(html.contains("6.6 × the noise floor"));
+        assert!(
+            html.contains(">not decided: model misfit<"),
+            "the badge's words"
+        );
+    }
+
+    #[test]
     fn identification_page_draws_identified_terms_and_only_labels_the_others() {
         let doc = seed_plan_check(3);
         let verdict = [VerdictRow {
@@ -835,6 +942,20 @@ mod tests {
             .filter(|m| m.points[0].0 == m.points[1].0 && m.points[0].1 != m.points[1].1)
             .count();
         assert_eq!(bars, c.poses.len(), "one ±2σ bar per A pose");
+        // The chosen model's compliance against A (one plot per curve) and what the ball
+        // data can separate.
+        assert_eq!(
+            c.kinematics.curves.len(),
+            html.matches("data-term=").count()
+        );
+        assert!(!c.kinematics.curves.is_empty());
+        assert!(
+            html.contains("Compliance against A")
+                && html.contains("What the ball data can separate")
+        );
+        for p in &c.kinematics.parameters {
+            assert!(html.contains(&format!("<td>{}</td>", p.name)), "{}", p.name);
+        }
 
         let req: mtcal_solver::sensitivity::SensitivityRequest =
             serde_json::from_str(r#"{"machine": {"template": "vmc3"}}"#).unwrap();

@@ -1,7 +1,9 @@
-//! One error function over the measured travel with its ±2σ band, and the labelled
-//! empty panel that stands in for a term the data cannot determine.
+//! One error function over the measured travel with its ±2σ band, a cradle's compliance
+//! term against A with its band, and the labelled empty panel that stands in for a term
+//! the data cannot determine.
 
 use super::{Area, BAND, BAND_OPACITY, COLORS, DrawResult, PANEL, svg, tick, unit_label};
+use mtcal_solver::cradle::ComplianceCurve;
 use mtcal_solver::identification::TermReport;
 use plotters::prelude::*;
 
@@ -106,12 +108,36 @@ pub fn function_band_on(
     if pts.len() < 2 {
         return empty_panel(title, "no values inside the measured travel");
     }
-    svg(PANEL, title, |root| band(root, name, title, &pts, y_range))
+    let x_desc = format!("{} (mm)", moving_axis(name));
+    svg(PANEL, title, |root| {
+        band(root, &x_desc, title, &pts, y_range)
+    })
+}
+
+/// A cradle's compliance term against A (the chosen model's, over the measured A range
+/// only) with the band value ± 2·std; fewer than two finite values make an
+/// [`empty_panel`].
+pub fn compliance_curve(c: &ComplianceCurve) -> String {
+    let title = format!("{} ({})", c.name, unit_label(&c.unit));
+    let pts: Vec<(f64, f64, f64)> = c
+        .a_deg
+        .iter()
+        .zip(&c.value)
+        .zip(&c.std)
+        .map(|((&a, &v), &s)| (a, v, s))
+        .filter(|&(a, v, _)| a.is_finite() && v.is_finite())
+        .collect();
+    if pts.len() < 2 {
+        return empty_panel(&title, "no values over the measured A range");
+    }
+    svg(PANEL, &title, |root| {
+        band(root, "A (°)", &title, &pts, None)
+    })
 }
 
 fn band(
     root: &Area,
-    name: &str,
+    x_desc: &str,
     title: &str,
     pts: &[(f64, f64, f64)],
     y_range: Option<(f64, f64)>,
@@ -135,7 +161,7 @@ fn band(
         .build_cartesian_2d(x0..x1, y0..y1)?;
     chart
         .configure_mesh()
-        .x_desc(format!("{} (mm)", moving_axis(name)))
+        .x_desc(x_desc)
         .x_label_formatter(&tick)
         .y_label_formatter(&tick)
         .label_style(("sans-serif", 14))
@@ -277,5 +303,51 @@ mod tests {
         let svg = error_function("EXX", &term(true), Some([200.0, 300.0]));
         assert!(svg.contains("no values inside the measured travel"));
         assert!(!svg.contains("<polyline"));
+    }
+
+    /// A compliance curve against A: the line through the values, the band ± 2σ, the x
+    /// axis in degrees over the curve's A range only.
+    #[test]
+    fn compliance_curve_is_drawn_against_a_with_its_band() {
+        let a_deg: Vec<f64> = (0..=12).map(|k| -90.0 + 15.0 * f64::from(k)).collect();
+        let c = ComplianceCurve {
+            term: mtcal_solver::cradle::Term::MountX,
+            name: "tilt about the mount, X: τ_X(A)".into(),
+            unit: "urad".into(),
+            value: a_deg.iter().map(|a| 60.0 * a.to_radians().sin()).collect(),
+            std: a_deg
+                .iter()
+                .map(|a| 2.0 * a.to_radians().sin().abs())
+                .collect(),
+            a_deg: a_deg.clone(),
+        };
+        let plot = inspect::parse(&compliance_curve(&c)).unwrap();
+        assert!(plot.has_text("tilt about the mount, X: τ_X(A) (µrad)"));
+        assert!(plot.has_text("A (°)"));
+        let axes = plot.axes().unwrap();
+        let line = &plot.marks("polyline", &hex(COLORS[0]))[0];
+        assert_eq!(line.points.len(), 13);
+        for (p, (a, v)) in line.points.iter().zip(a_deg.iter().zip(&c.value)) {
+            assert!((axes.x.px(*a) - p.0).abs() <= 1.0 && (axes.y.px(*v) - p.1).abs() <= 1.0);
+        }
+        let band = &plot.marks("polygon", &hex(BAND))[0].points;
+        assert_eq!(band.len(), 26);
+        let up = c.value[12] + 2.0 * c.std[12];
+        assert!(
+            (axes.y.px(up) - band[12].1).abs() <= 1.0,
+            "upper edge at A = 90"
+        );
+        for t in plot.texts.iter().filter(|t| t.anchor == "middle") {
+            if let Some(v) = inspect::label_value(&t.content) {
+                assert!((-90.0..=90.0).contains(&v), "tick {v}");
+            }
+        }
+        let empty = ComplianceCurve {
+            a_deg: vec![0.0],
+            value: vec![1.0],
+            std: vec![0.1],
+            ..c
+        };
+        assert!(compliance_curve(&empty).contains("no values over the measured A range"));
     }
 }
