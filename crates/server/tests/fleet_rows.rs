@@ -490,7 +490,9 @@ async fn the_fleet_says_why_a_machine_fails_and_which_profile_an_unchecked_one_h
         .import_result(identification("M1", "2026-01-01T00:00:00Z", 0.10, 1e-6))
         .await
         .unwrap();
-    result_landed(&store, "M1", &r.id).await.unwrap();
+    result_landed(&store, "M1", &r.id, &Default::default())
+        .await
+        .unwrap();
     let fleet = call(
         &app,
         "GET",
