@@ -269,3 +269,56 @@ async fn unbounded_and_legacy_null_uncertainties_are_read_everywhere() {
         );
     }
 }
+
+/// An identification whose model does not explain its recording (a 6 µm X backlash) gets
+/// a diagnosis of its dataset queued by the service on its own, once; its findings reach
+/// the check report with nobody asking. A clean session's identification gets none.
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn a_misfit_identification_is_diagnosed_on_its_own() {
+    let app = spawn_app().await;
+    let reader = app.with_key(&app.read_key);
+    let diagnoses = |ds: String| {
+        let store = app.store.clone();
+        async move {
+            store
+                .list_jobs(None, 1000)
+                .await
+                .unwrap()
+                .into_iter()
+                .filter(|j| j.kind == JobKind::Diagnose && j.dataset_id.as_deref() == Some(&ds))
+                .collect::<Vec<_>>()
+        }
+    };
+    let (ds, ident) = identified(&app, "AUTO-MISFIT", 5, &["backlash:lost_motion_um=6"]).await;
+    assert_eq!(
+        ident["document"]["model_check"]["state"], "misfit",
+        "{ident}"
+    );
+    let queued = diagnoses(ds.clone()).await;
+    assert_eq!(queued.len(), 1, "one diagnosis queued: {queued:?}");
+    app.wait(&queued[0].id, JobState::Succeeded).await;
+    let report = reader
+        .report(ident["meta"]["id"].as_str().unwrap())
+        .await
+        .unwrap()
+        .text;
+    assert!(
+        !report.contains("No diagnosis was run"),
+        "the report lacks the diagnosis"
+    );
+    assert!(
+        report.contains("backlash"),
+        "the report lacks the backlash finding"
+    );
+    // Identifying the same recording again queues no second diagnosis.
+    let again = app.identify(&ds).await;
+    app.wait(&again, JobState::Succeeded).await;
+    assert_eq!(diagnoses(ds).await.len(), 1);
+
+    let (clean, ident) = identified(&app, "AUTO-CLEAN", 5, &[]).await;
+    assert_ne!(
+        ident["document"]["model_check"]["state"], "misfit",
+        "{ident}"
+    );
+    assert!(diagnoses(clean).await.is_empty());
+}

@@ -302,6 +302,24 @@ async fn run_job(
     {
         tracing::warn!(machine = %m, %e, "fleet drift or drift alerts not refreshed");
     }
+    // A result whose model does not explain its recording: its dataset's diagnosis is
+    // queued (once), so that its findings reach the pages and the report.
+    if let Ok(j) = &recorded
+        && j.state == mtcal_store::JobState::Succeeded
+        && job.kind.result_kind() == mtcal_domain::kinds::IDENTIFICATION
+        && let Some(r) = &j.result_id
+    {
+        match mtcal_domain::landing::queue_diagnosis(store.as_ref(), r, cfg.queue.max_attempts)
+            .await
+        {
+            // This worker claims it next (or another one, at its next poll).
+            Ok(Some(d)) => {
+                tracing::info!(result = %r, job = %d.id, "model misfit: diagnosis queued")
+            }
+            Ok(None) => {}
+            Err(e) => tracing::warn!(result = %r, %e, "the misfit's diagnosis was not queued"),
+        }
+    }
     let outcome = match &recorded {
         Ok(j) if j.state == mtcal_store::JobState::Queued => "requeued",
         Ok(j) => j.state.as_str(),
