@@ -148,11 +148,19 @@ fn band(
     let u = |p: &(f64, f64, f64)| if with_band { 2.0 * p.2 } else { 0.0 };
     let lo = pts.iter().map(|p| p.1 - u(p));
     let hi = pts.iter().map(|p| p.1 + u(p));
-    let (y0, y1) = super::range(lo.chain(hi)).ok_or("no points")?;
+    // With a shared scale the panel's own extremes widen the shared range before the one
+    // padding, so that panels within it get exactly the same axis.
     let (y0, y1) = match y_range {
-        Some((a, b)) => (y0.min(a), y1.max(b)),
-        None => (y0, y1),
-    };
+        Some((a, b)) => {
+            let (raw_lo, raw_hi) = lo
+                .chain(hi)
+                .filter(|v| v.is_finite())
+                .fold((a, b), |(l, h), v| (l.min(v), h.max(v)));
+            super::range([raw_lo, raw_hi].into_iter())
+        }
+        None => super::range(lo.chain(hi)),
+    }
+    .ok_or("no points")?;
     let mut chart = ChartBuilder::on(root)
         .caption(title, ("sans-serif", 16))
         .margin(8)
