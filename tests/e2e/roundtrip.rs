@@ -310,6 +310,19 @@ async fn a_misfit_identification_is_diagnosed_on_its_own() {
         report.contains("backlash"),
         "the report lacks the backlash finding"
     );
+    // The machine page shows the latest diagnosis' findings.
+    let browser = app.sign_in(&app.read_key).await;
+    let page = browser
+        .get("/machines/AUTO-MISFIT")
+        .await
+        .text()
+        .await
+        .unwrap();
+    let card = &page[page.find(r#"id="findings""#).expect("no findings card")..];
+    assert!(
+        card.contains(r#"data-effect="backlash""#) && card.contains("lost_motion_um = "),
+        "{card}"
+    );
     // Identifying the same recording again queues no second diagnosis.
     let again = app.identify(&ds).await;
     app.wait(&again, JobState::Succeeded).await;

@@ -8,6 +8,29 @@ use mtcal_store::{Machine, ResultMeta, SkippedRow, Store};
 use serde::{Deserialize, Serialize};
 use std::collections::BTreeMap;
 
+/// A machine's latest diagnosis (the last of its diagnosis results in time order): its
+/// stored row and its document, or why the document does not read (said on the page,
+/// never taken for "no diagnosis").
+pub type LatestDiagnosis = (
+    ResultMeta,
+    Result<mtcal_solver::diagnosis::DiagnosisResult, String>,
+);
+
+/// Machine `id`'s latest diagnosis ([`LatestDiagnosis`]), None when it has none: its
+/// findings are what the machine page shows of what the diagnosis knows.
+pub async fn latest_diagnosis(
+    store: &dyn Store,
+    id: &str,
+) -> Result<Option<LatestDiagnosis>, DomainError> {
+    let list = store.list_results(id, crate::kinds::DIAGNOSIS).await?;
+    let Some(meta) = list.last().cloned() else {
+        return Ok(None);
+    };
+    let doc = store.get_result(&meta.id).await?.document;
+    let doc = serde_json::from_value(doc).map_err(|e| format!("its document does not read: {e}"));
+    Ok(Some((meta, doc)))
+}
+
 /// The baseline among a machine's identifications `results` (time order): its chosen
 /// one, else its first.
 pub fn baseline<'a>(machine: &Machine, results: &'a [ResultMeta]) -> Option<&'a ResultMeta> {

@@ -6,6 +6,8 @@ use mtcal_store::JobKind;
 /// The kind of identification results: the only kind history differences, trends,
 /// drift, verdicts of terms and alerts are computed on.
 pub const IDENTIFICATION: &str = "identification";
+/// The result kind of a diagnosis.
+pub const DIAGNOSIS: &str = "diagnosis";
 
 /// The result kind a query names (default [`IDENTIFICATION`]); an unknown kind is
 /// refused with a message that lists the kinds.

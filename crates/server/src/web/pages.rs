@@ -441,6 +441,13 @@ pub async fn machine(
         notice: q.notice,
         alerts: alerts.iter().map(alert_row).collect(),
         tolerance,
+        diagnosis: mtcal_domain::history::latest_diagnosis(app.store.as_ref(), &id)
+            .await?
+            .map(|(meta, doc)| vmachine::LatestDiagnosis {
+                result_id: meta.id,
+                measured_at: meta.measured_at,
+                doc,
+            }),
     };
     Ok(html(vmachine::machine_page(&session.viewer(), &page)))
 }

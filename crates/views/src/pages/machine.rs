@@ -64,6 +64,76 @@ pub struct MachinePage {
     pub alerts: Vec<super::alerts::AlertRow>,
     /// The tolerance profile that applies (`scope target`), if any.
     pub tolerance: Option<String>,
+    /// The machine's latest diagnosis, if any: its result id, when it was measured, and
+    /// its document or why that does not read.
+    pub diagnosis: Option<LatestDiagnosis>,
+}
+
+/// A machine's latest diagnosis as the machine page shows it.
+#[derive(Debug, Clone, PartialEq)]
+pub struct LatestDiagnosis {
+    pub result_id: String,
+    pub measured_at: String,
+    pub doc: Result<mtcal_solver::diagnosis::DiagnosisResult, String>,
+}
+
+/// The findings of the latest diagnosis: each effect with its axis and its parameters
+/// with their standard uncertainties, the possible ones, and what is left unexplained;
+/// the full diagnosis is on its result page.
+fn latest_findings(d: &LatestDiagnosis) -> Markup {
+    use mtcal_solver::diagnosis::{Finding, Verdict};
+    use mtcal_solver::text::num;
+    let params = |f: &Finding| -> String {
+        f.parameters
+            .iter()
+            .filter(|(k, _)| !k.starts_with("std_"))
+            .map(|(k, v)| match f.parameters.get(&format!("std_{k}")) {
+                Some(u) => format!("{k} = {} (u = {})", num(*v), num(*u)),
+                None => format!("{k} = {}", num(*v)),
+            })
+            .collect::<Vec<_>>()
+            .join(", ")
+    };
+    html! {
+        section.card #findings {
+            h2 { "Findings of the latest diagnosis" }
+            p.muted { "u: standard uncertainty (k = 1)." }
+            p.muted {
+                a href=(result_href(&d.result_id)) { "diagnosis of " (when(&d.measured_at)) }
+            }
+            @match &d.doc {
+                Err(e) => { div.notice.error { "The latest diagnosis (" (d.result_id) ") cannot be shown: " (e) } }
+                Ok(doc) => {
+                    p {
+                        (match doc.verdict {
+                            Verdict::Consistent => "consistent: the rigid model explains the recording to noise level",
+                            Verdict::Explained => "explained by the findings below",
+                            Verdict::PartlyExplained => "partly explained: a misfit remains (see the diagnosis)",
+                        })
+                    }
+                    @if !doc.findings.is_empty() || !doc.possible.is_empty() {
+                        ul {
+                            @for f in &doc.findings {
+                                li data-effect=(f.effect) {
+                                    strong { (f.effect.replace('_', " ")) }
+                                    @if let Some(a) = &f.axis { " (" (a) ")" }
+                                    ": " (mtcal_solver::text::person_units(&params(f)))
+                                }
+                            }
+                            @for f in &doc.possible {
+                                li data-effect=(f.effect) {
+                                    (f.effect.replace('_', " "))
+                                    @if let Some(a) = &f.axis { " (" (a) ")" }
+                                    " — possible, undetermined"
+                                }
+                            }
+                        }
+                    }
+                    @for u in &doc.unexplained { p.muted { "Unexplained: " (mtcal_solver::text::person_units(u)) } }
+                }
+            }
+        }
+    }
 }
 
 pub fn machine_page(viewer: &Viewer, p: &MachinePage) -> Markup {
@@ -83,6 +153,7 @@ pub fn machine_page(viewer: &Viewer, p: &MachinePage) -> Markup {
                 " · " a href={ "/api/v1/machines/" (super::encode(&m.id)) } { "JSON" }
             }
             @if let Some(n) = &p.notice { div.notice { (n) } }
+            @if let Some(d) = &p.diagnosis { (latest_findings(d)) }
             @if !p.alerts.is_empty() {
                 section.card #alerts {
                     h2 { "Drift alerts " span.badge.alert { (p.alerts.iter().filter(|a| !a.acknowledged).count()) " active" } }
@@ -121,7 +192,7 @@ pub fn machine_page(viewer: &Viewer, p: &MachinePage) -> Markup {
                 h2 { "Checks" }
                 p.muted #tolerance {
                     @match &p.tolerance {
-                        Some(t) => { "Verdicts against the tolerance profile of " (t) " (pass when |value| + U ≤ limit, fail when |value| − U > limit, U = 2u)." }
+                        Some(t) => { "Verdicts against the tolerance profile of " (t) " (error functions by their range over the measured travel, squareness and ISO figures by magnitude; pass when value + U ≤ limit, fail when value − U > limit, U = 2u; a misfit model is not decided)." }
                         None => { "No tolerance profile applies to this machine (docs/api.md: tolerances)." }
                     }
                 }

@@ -15,7 +15,8 @@ use mtcal_solver::standards::iso230_2::{FIGURES, Iso2302};
 use serde::{Deserialize, Serialize};
 
 /// One line of a verdict: a quantity checked against its limit by the decision rule
-/// (pass when |value| + U ≤ limit, fail when |value| − U > limit, else undecided).
+/// (pass when value + U ≤ limit, fail when value − U > limit, else undecided; an error
+/// function's value is its range over the measured travel).
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 pub struct VerdictRow {
     /// e.g. `EXX`, `EC0Y`, `iso230_2.X.E_um`.
@@ -190,8 +191,10 @@ pub fn verdict_table(rows: &[VerdictRow]) -> Markup {
     html! {
         section.card #verdict {
             h2 { "Verdict" }
-            p.muted { "Decision rule (ISO 14253-1): pass when |value| + U ≤ limit, fail when \
-                       |value| − U > limit, undecided otherwise; U = 2u." }
+            p.muted { "Decision rule (ISO 14253-1): an error function is judged by its range over \
+                       the measured travel, a squareness or an ISO figure by its magnitude; pass when \
+                       value + U ≤ limit, fail when value − U > limit, undecided otherwise; U = 2u \
+                       (docs/conventions.md, Decisions)." }
             table {
                 thead { tr { th { "quantity" } th { "where" } th.num { "value ± U" } th.num { "limit" } th { "outcome" } } }
                 tbody {
