@@ -4,7 +4,7 @@
 
 use crate::alerts::{self, AlertView};
 use crate::fleet;
-use mtcal_solver::misfit::ModelCheck;
+use mtcal_solver::identification::IdentificationResult;
 use mtcal_store::{Job, JobKind, JobState, NewJob, Store, StoreError};
 use std::sync::Arc;
 
@@ -27,21 +27,9 @@ pub async fn result_landed(
 /// diagnosis of the same recording is then queued: harmless, only work).
 const JOBS_SEEN: i64 = 1000;
 
-/// The misfit gate's outcome of a stored identification document: its `model_check`, or
-/// for a document of an earlier version the gate worked out from its fit's residual and
-/// noise floor (`mtcal_solver::misfit`).
-pub fn model_check(document: &serde_json::Value) -> Option<ModelCheck> {
-    if let Some(m) = document.get("model_check") {
-        return serde_json::from_value(m.clone()).ok();
-    }
-    let fit = document.get("fit")?;
-    let residual = fit.get("residual_rms_um")?.as_f64()?;
-    let floor = fit.get("noise_estimate_um").and_then(|v| v.as_f64());
-    Some(ModelCheck::of(residual, floor))
-}
-
 /// When identification `result_id` is a misfit (its model does not explain its
-/// recording, [`model_check`]) and came from a session dataset that is not excluded, a
+/// recording, [`IdentificationResult::model_check`], which gates a document of an earlier
+/// version too) and came from a session dataset that is not excluded, a
 /// diagnosis of that dataset is queued (`max_attempts` tries), unless one is already
 /// stored, queued or running: its findings (a backlash of 6 µm on X, …) then reach the
 /// result page, the check report and the machine page without anyone asking. The job
@@ -55,8 +43,13 @@ pub async fn queue_diagnosis(
     let Some(dataset_id) = r.meta.dataset_id.clone() else {
         return Ok(None);
     };
-    if !model_check(&r.document).is_some_and(|m| m.is_misfit()) {
-        return Ok(None);
+    match serde_json::from_value::<IdentificationResult>(r.document) {
+        Ok(doc) if doc.model_check().is_misfit() => {}
+        Ok(_) => return Ok(None),
+        Err(e) => {
+            tracing::warn!(result = %result_id, %e, "not an identification document: no misfit diagnosis");
+            return Ok(None);
+        }
     }
     let ds = store.get_dataset(&dataset_id).await?;
     if ds.excluded.is_some() || !JobKind::Diagnose.accepts(&ds.kind) {

@@ -362,13 +362,11 @@ pub(super) fn outcome(
             tests: local
                 .iter()
                 .flat_map(|l| &l.indices)
-                .map(|&i| format!("{}#run {}", a.axis, a.run[i]))
-                .fold(vec![], |mut v: Vec<String>, t| {
-                    if !v.contains(&t) {
-                        v.push(t);
-                    }
-                    v
-                }),
+                .map(|&i| a.run[i])
+                .collect::<std::collections::BTreeSet<_>>()
+                .into_iter()
+                .map(|run| format!("{}#run {run}", a.axis))
+                .collect(),
             share_of_misfit: (ss / excess).min(1.0),
         });
         mismatch.sort_by(|x, y| y.share_of_misfit.total_cmp(&x.share_of_misfit));
@@ -436,9 +434,8 @@ fn local_anomalies(
             };
             LocalAnomaly {
                 text: format!(
-                    "{what} {} ({} {:.1} {}, z = {:.1})",
+                    "{what} {} (time {:.1} {}, z = {:.1})",
                     a.place(first),
-                    "time",
                     a.time[first],
                     a.time_unit(),
                     an.z()
