@@ -636,6 +636,28 @@ fn verify(secret: &str, d: &Delivered) -> Result<(), String> {
         .map_err(|_| "signature does not match".to_string())
 }
 
+/// Lands a baseline of machine M1, then a check whose EXX drifted beyond a 5 µm
+/// threshold (0.16 µm/mm), and returns the alert it raised.
+async fn drift_alert(f: &Fixture) -> mtcal_domain::alerts::AlertView {
+    for (at, slope) in [
+        ("2026-01-05T08:00:00Z", 0.0),
+        ("2026-04-05T08:00:00Z", 0.16),
+    ] {
+        let r = f
+            .store
+            .import_result(identification("M1", at, slope, S2))
+            .await
+            .unwrap();
+        let raised = mtcal_domain::landing::result_landed(&f.store, "M1", &r.id, &local_hooks())
+            .await
+            .unwrap();
+        if slope > 0.0 {
+            return raised.expect("alert");
+        }
+    }
+    unreachable!()
+}
+
 #[tokio::test]
 async fn an_alert_is_posted_to_the_webhook_of_the_machines_tag_and_a_dead_one_fails_nothing() {
     let f = fixture().await;
@@ -657,24 +679,8 @@ async fn an_alert_is_posted_to_the_webhook_of_the_machines_tag_and_a_dead_one_fa
         assert_eq!(b["webhook_url"], hook.as_str());
         secrets.push(b["webhook_secret"].as_str().unwrap().to_string());
     }
-    let base = f
-        .store
-        .import_result(identification("M1", "2026-01-05T08:00:00Z", 0.0, S2))
-        .await
-        .unwrap();
-    mtcal_domain::landing::result_landed(&f.store, "M1", &base.id, &local_hooks())
-        .await
-        .unwrap();
-    let r = f
-        .store
-        .import_result(identification("M1", "2026-04-05T08:00:00Z", 0.16, S2))
-        .await
-        .unwrap();
     // The first tag's profile applies (5 µm); both tags' webhooks are told.
-    let alert = mtcal_domain::landing::result_landed(&f.store, "M1", &r.id, &local_hooks())
-        .await
-        .unwrap()
-        .expect("alert");
+    let alert = drift_alert(&f).await;
     let got = tokio::time::timeout(std::time::Duration::from_secs(20), rx.recv())
         .await
         .expect("the webhook is called within its tries")
@@ -761,23 +767,7 @@ async fn webhook_secrets_are_shown_once_and_sign_the_deliveries() {
     .await;
     assert_eq!(s, StatusCode::OK, "{b}");
     assert!(!b.to_string().contains(chosen), "{b}");
-    let base = f
-        .store
-        .import_result(identification("M1", "2026-01-05T08:00:00Z", 0.0, S2))
-        .await
-        .unwrap();
-    mtcal_domain::landing::result_landed(&f.store, "M1", &base.id, &local_hooks())
-        .await
-        .unwrap();
-    let r = f
-        .store
-        .import_result(identification("M1", "2026-04-05T08:00:00Z", 0.16, S2))
-        .await
-        .unwrap();
-    mtcal_domain::landing::result_landed(&f.store, "M1", &r.id, &local_hooks())
-        .await
-        .unwrap()
-        .expect("alert");
+    drift_alert(&f).await;
     let got = tokio::time::timeout(std::time::Duration::from_secs(20), rx.recv())
         .await
         .expect("delivered")
