@@ -338,7 +338,11 @@ async fn run(c: &Client, dashboard: &str, base: &str, key: &str, shots: &Path, w
     assert_eq!(&rows[..alerted.len()], &alerted[..], "alerted first");
     let quiet: Vec<&String> = rows.iter().filter(|r| !alerted.contains(r)).collect();
     let ranked_quiet: Vec<&String> = ranked.iter().filter(|r| !alerted.contains(r)).collect();
-    assert_eq!(&quiet[..ranked_quiet.len()], &ranked_quiet[..], "fleet order");
+    assert_eq!(
+        &quiet[..ranked_quiet.len()],
+        &ranked_quiet[..],
+        "fleet order"
+    );
     // The 5-axis machine has only a cradle check: shown, with why it has no drift.
     let cradle = r#"#fleet tr[data-machine="5AX-0001"]"#;
     assert!(
@@ -765,7 +769,11 @@ async fn run(c: &Client, dashboard: &str, base: &str, key: &str, shots: &Path, w
         alerted.push(r.attr("data-machine").await.unwrap().unwrap());
     }
     alerted.sort();
-    assert_eq!(alerted, ["VMC-0002", "VMC-0003"], "machines with active alerts first");
+    assert_eq!(
+        alerted,
+        ["VMC-0002", "VMC-0003"],
+        "machines with active alerts first"
+    );
     assert!(
         text(c, &format!(r#"#alerts tr[data-alert="{alert_id}"]"#))
             .await
@@ -808,11 +816,16 @@ async fn run(c: &Client, dashboard: &str, base: &str, key: &str, shots: &Path, w
     // Acknowledged: the page lists the active alerts left (the demo's VMC-0003 one).
     let t0 = Instant::now();
     while c
-        .find(Locator::Css(&format!(r#"tr[data-alert="{alert_id}"] button"#)))
+        .find(Locator::Css(&format!(
+            r#"tr[data-alert="{alert_id}"] button"#
+        )))
         .await
         .is_ok()
     {
-        assert!(t0.elapsed() < Duration::from_secs(10), "the alert is still active");
+        assert!(
+            t0.elapsed() < Duration::from_secs(10),
+            "the alert is still active"
+        );
         tokio::time::sleep(Duration::from_millis(200)).await;
     }
     let acked = api(base, key, "/api/v1/alerts?machine=VMC-0002").await;

@@ -368,11 +368,8 @@ async fn next_job(
                 return Ok(Some(j.id));
             }
         }
-        let diagnosed = !expect_diagnosis
-            || !c
-                .results(WORN_MACHINE, Some("diagnosis"))
-                .await?
-                .is_empty();
+        let diagnosed =
+            !expect_diagnosis || !c.results(WORN_MACHINE, Some("diagnosis")).await?.is_empty();
         if diagnosed || std::time::Instant::now() > deadline {
             return Ok(None);
         }
@@ -485,13 +482,18 @@ async fn more_checks(
             id: WORN_MACHINE.into(),
             name: "Vertical machining centre, worn X screw".into(),
             topology: None,
-            travel_mm: ["X", "Y", "Z"].map(|a| (a.to_string(), [-TRAVEL_MM, TRAVEL_MM])).into(),
+            travel_mm: ["X", "Y", "Z"]
+                .map(|a| (a.to_string(), [-TRAVEL_MM, TRAVEL_MM]))
+                .into(),
             site: Some("plant-south".into()),
             tags: vec!["vmc".into(), "demo".into()],
         })
         .await?;
         let last = checks.max(2) - 1;
-        for (q, effects) in [(last - 1, vec![]), (last, vec!["backlash:lost_motion_um=6"])] {
+        for (q, effects) in [
+            (last - 1, vec![]),
+            (last, vec!["backlash:lost_motion_um=6"]),
+        ] {
             let sim = simulate(
                 &machine_errors(900, q),
                 &SimOptions {

@@ -368,7 +368,10 @@ impl Client {
     /// Jobs newest first, only those in `state` when given (at most 1000).
     pub async fn jobs(&self, state: Option<&str>) -> Result<Vec<Job>> {
         match state {
-            Some(st) => self.get(&format!("/api/v1/jobs?limit=1000&state={st}")).await,
+            Some(st) => {
+                self.get(&format!("/api/v1/jobs?limit=1000&state={st}"))
+                    .await
+            }
             None => self.get("/api/v1/jobs?limit=1000").await,
         }
     }

@@ -24,9 +24,9 @@
 
 use crate::fleet::entry::{DiagnosisSummary, FleetEntry};
 use crate::history::baseline;
-use crate::kinds::{DIAGNOSIS, IDENTIFICATION};
-use mtcal_solver::identification::IdentificationResult;
+use crate::kinds::IDENTIFICATION;
 use crate::trends;
+use mtcal_solver::identification::IdentificationResult;
 use mtcal_store::{
     FleetDriftRow, Machine, ResultMeta, Store, StoreError, ToleranceProfile, now_ms,
 };
@@ -99,12 +99,7 @@ async fn latest_check_diagnosis(
     let Some(dataset) = &latest.dataset_id else {
         return Ok(None);
     };
-    let diagnoses = store.list_results(&machine.id, DIAGNOSIS).await?;
-    let Some(d) = diagnoses
-        .iter()
-        .rev()
-        .find(|d| d.dataset_id.as_ref() == Some(dataset))
-    else {
+    let Some(d) = crate::history::diagnosis_of_dataset(store, &machine.id, dataset).await? else {
         return Ok(None);
     };
     let doc = store.get_result(&d.id).await?.document;

@@ -168,15 +168,12 @@ pub async fn fleet(
                 measured_at: c.measured_at,
             }),
             verdict: m.verdict.map(|d| d.as_str().to_string()),
-            verdict_counts: m
-                .verdict_summary
-                .as_ref()
-                .map(|v| vfleet::VerdictCounts {
-                    items: v.items,
-                    failed: v.failed,
-                    undecided: v.undecided,
-                    misfit: v.misfit,
-                }),
+            verdict_counts: m.verdict_summary.as_ref().map(|v| vfleet::VerdictCounts {
+                items: v.items,
+                failed: v.failed,
+                undecided: v.undecided,
+                misfit: v.misfit,
+            }),
             verdict_reasons: m.verdict_summary.map(|v| v.reasons).unwrap_or_default(),
             profile: m.tolerance_profile.map(|p| match p.scope.as_str() {
                 "tag" => format!("tag {}", p.target),

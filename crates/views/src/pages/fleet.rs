@@ -404,7 +404,9 @@ mod tests {
         assert!(found.contains("model misfit") && found.contains("6.5 × the noise floor"));
         assert!(found.contains("for 10 of 12 limits"), "{found}");
         assert!(found.contains("href=\"/results/res_d1\""), "{found}");
-        assert!(found.contains("explained by") && found.contains("backlash (X): backlash_µm = 6.01"));
+        assert!(
+            found.contains("explained by") && found.contains("backlash (X): backlash_µm = 6.01")
+        );
         assert!(found.contains("and 2 more"));
         let waiting = row_html(&html, "VMC-9");
         assert!(
