@@ -81,19 +81,7 @@ pub struct LatestDiagnosis {
 /// with their standard uncertainties, the possible ones, and what is left unexplained;
 /// the full diagnosis is on its result page.
 fn latest_findings(d: &LatestDiagnosis) -> Markup {
-    use mtcal_solver::diagnosis::{Finding, Verdict};
-    use mtcal_solver::text::num;
-    let params = |f: &Finding| -> String {
-        f.parameters
-            .iter()
-            .filter(|(k, _)| !k.starts_with("std_"))
-            .map(|(k, v)| match f.parameters.get(&format!("std_{k}")) {
-                Some(u) => format!("{k} = {} (u = {})", num(*v), num(*u)),
-                None => format!("{k} = {}", num(*v)),
-            })
-            .collect::<Vec<_>>()
-            .join(", ")
-    };
+    use mtcal_solver::diagnosis::Verdict;
     html! {
         section.card #findings {
             h2 { "Findings of the latest diagnosis" }
@@ -115,16 +103,13 @@ fn latest_findings(d: &LatestDiagnosis) -> Markup {
                         ul {
                             @for f in &doc.findings {
                                 li data-effect=(f.effect) {
-                                    strong { (f.effect.replace('_', " ")) }
-                                    @if let Some(a) = &f.axis { " (" (a) ")" }
-                                    ": " (mtcal_solver::text::person_units(&params(f)))
+                                    strong { (f.name_in_words()) }
+                                    ": " (f.parameters_in_words())
                                 }
                             }
                             @for f in &doc.possible {
                                 li data-effect=(f.effect) {
-                                    (f.effect.replace('_', " "))
-                                    @if let Some(a) = &f.axis { " (" (a) ")" }
-                                    " — possible, undetermined"
+                                    (f.name_in_words()) " — possible, undetermined"
                                 }
                             }
                         }

@@ -49,6 +49,7 @@ pub fn check_report(r: &CheckReport) -> Markup {
         &title,
         html! {
             article.report {
+                (result::misfit_banner(d))
                 (facts(r))
                 (standards(r))
                 @if !rows.is_empty() { (result::verdict_table(&rows)) }

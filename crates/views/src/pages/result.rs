@@ -170,6 +170,7 @@ pub fn result_page(
                     button.secondary type="submit" { "Set as baseline" }
                 }
             }
+            @if let ResultBody::Identification(v) = body { (misfit_banner(v.doc)) }
             @if !verdict.is_empty() { (verdict_table(verdict)) }
             (sections(body))
         },
@@ -212,11 +213,9 @@ pub fn verdict_table(rows: &[VerdictRow]) -> Markup {
     }
 }
 
-/// Fit figures, squareness, the 18 error functions, residuals, circle tests,
-/// identifiability and reporting notes of an identification.
-pub fn identification(v: &IdentificationView) -> Markup {
-    let d = v.doc;
-    let o = &d.observability;
+/// The misfit gate's banner of an identification whose model does not explain its
+/// recording (nothing otherwise): first on its page, above the verdict.
+pub fn misfit_banner(d: &IdentificationResult) -> Markup {
     let check = d.model_check();
     html! {
         @if check.is_misfit() {
@@ -230,6 +229,15 @@ pub fn identification(v: &IdentificationView) -> Markup {
                     a href=(machine_href(&d.machine_id)) { "the machine's page" } "." }
             }
         }
+    }
+}
+
+/// Fit figures, squareness, the 18 error functions, residuals, circle tests,
+/// identifiability and reporting notes of an identification.
+pub fn identification(v: &IdentificationView) -> Markup {
+    let d = v.doc;
+    let o = &d.observability;
+    html! {
         section.card #fit {
             h2 { "Fit" }
             dl.facts {
@@ -777,11 +785,20 @@ mod tests {
         let body = ResultBody::Identification(IdentificationView::of(&doc));
         let mut h = header("identification");
         h.verdict = Some("misfit".into());
-        let html = result_page(&viewer("read"), &h, &[], &body).into_string();
+        let verdict = [VerdictRow {
+            quantity: "EXX".into(),
+            at: String::new(),
+            value: 3.747,
+            std: Some(0.01),
+            unit: "um".into(),
+            limit: 4.0,
+            outcome: "misfit".into(),
+        }];
+        let html = result_page(&viewer("read"), &h, &verdict, &body).into_string();
         let at = html.find("id=\"misfit\"").expect("the misfit banner");
         assert!(
-            at < html.find("id=\"fit\"").unwrap(),
-            "the banner comes first"
+            at < html.find("id=\"verdict\"").unwrap() && at < html.find("id=\"fit\"").unwrap(),
+            "the banner comes first, above the verdict"
         );
         assert!(html.contains("the model does not explain this recording"));
         assert!(html.contains("6.6 × the noise floor"));
