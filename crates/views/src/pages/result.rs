@@ -8,6 +8,7 @@ use maud::{Markup, html};
 use mtcal_solver::cradle::CradleResult;
 use mtcal_solver::diagnosis::{DiagnosisResult, Finding};
 use mtcal_solver::identification::IdentificationResult;
+use mtcal_solver::misfit::ModelCheck;
 use mtcal_solver::positioning_check::DiagnosisDocument;
 use mtcal_solver::residuals::ResidualSummary;
 use mtcal_solver::sensitivity::SensitivityResult;
@@ -212,24 +213,42 @@ pub fn verdict_table(rows: &[VerdictRow]) -> Markup {
     }
 }
 
-/// Fit figures, squareness, the 18 error functions, residuals, circle tests,
-/// identifiability and reporting notes of an identification.
+/// The misfit gate's banner and the identification's sections (the result page).
 pub fn identification(v: &IdentificationView) -> Markup {
     let d = v.doc;
-    let o = &d.observability;
     let check = d.model_check();
     html! {
         @if check.is_misfit() {
-            // The misfit gate: no value of this model is judged, no table made unforced.
-            section.card.misfit #misfit {
-                h2 { "Not decided: model misfit" }
-                p { (check.statement) "." }
-                p { "No value of this model is judged against a tolerance and its compensation \
-                     table is refused unless forced. The diagnosis of this recording says which \
-                     physics the model leaves out: see the diagnoses on "
-                    a href=(machine_href(&d.machine_id)) { "the machine's page" } "." }
-            }
+            (misfit_banner(&check, html! {
+                "The diagnosis of this recording says which physics the model leaves out: \
+                 see the diagnoses on " a href=(machine_href(&d.machine_id)) { "the machine's page" } "."
+            }))
         }
+        (identification_detail(v))
+    }
+}
+
+/// The misfit gate's banner: the model does not explain its recording (the gate's
+/// statement: residual RMS against the noise floor and the factor), so no value of it is
+/// judged and its compensation table is refused unless forced; `diagnosis` says where
+/// the diagnosis of the recording is.
+pub fn misfit_banner(check: &ModelCheck, diagnosis: Markup) -> Markup {
+    html! {
+        section.card.misfit #misfit {
+            h2 { "Not decided: model misfit" }
+            p { (check.statement) "." }
+            p { "No value of this model is judged against a tolerance and its compensation \
+                 table is refused unless forced. " (diagnosis) }
+        }
+    }
+}
+
+/// Fit figures, squareness, the 18 error functions, residuals, circle tests,
+/// identifiability and reporting notes of an identification (without the misfit banner).
+pub fn identification_detail(v: &IdentificationView) -> Markup {
+    let d = v.doc;
+    let o = &d.observability;
+    html! {
         section.card #fit {
             h2 { "Fit" }
             dl.facts {
@@ -379,6 +398,53 @@ fn undetermined(f: &Finding) -> Markup {
                 tbody { @for u in &f.undetermined { tr { td { (u.name) } td.num { (num(u.value)) } td.num { @match u.std { Some(sd) => (num(sd)), None => "no finite bound" } } td { (u.decide) } } } }
             }
         }
+    }
+}
+
+/// A diagnosis in short: its verdict in words, each finding with its axis and its
+/// parameters with their standard uncertainties (`std_*`), the possible (undetermined)
+/// effects, and what is left unexplained (the machine page and the check report; the
+/// whole diagnosis is [`diagnosis`]).
+pub fn findings_summary(doc: &DiagnosisResult) -> Markup {
+    use mtcal_solver::diagnosis::Verdict;
+    let params = |f: &Finding| -> String {
+        f.parameters
+            .iter()
+            .filter(|(k, _)| !k.starts_with("std_"))
+            .map(|(k, v)| match f.parameters.get(&format!("std_{k}")) {
+                Some(u) => format!("{k} = {} (u = {})", num(*v), num(*u)),
+                None => format!("{k} = {}", num(*v)),
+            })
+            .collect::<Vec<_>>()
+            .join(", ")
+    };
+    html! {
+        p {
+            (match doc.verdict {
+                Verdict::Consistent => "consistent: the rigid model explains the recording to noise level",
+                Verdict::Explained => "explained by the findings below",
+                Verdict::PartlyExplained => "partly explained: a misfit remains (see the diagnosis)",
+            })
+        }
+        @if !doc.findings.is_empty() || !doc.possible.is_empty() {
+            ul {
+                @for f in &doc.findings {
+                    li data-effect=(f.effect) {
+                        strong { (f.effect.replace('_', " ")) }
+                        @if let Some(a) = &f.axis { " (" (a) ")" }
+                        ": " (mtcal_solver::text::person_units(&params(f)))
+                    }
+                }
+                @for f in &doc.possible {
+                    li data-effect=(f.effect) {
+                        (f.effect.replace('_', " "))
+                        @if let Some(a) = &f.axis { " (" (a) ")" }
+                        " — possible, undetermined"
+                    }
+                }
+            }
+        }
+        @for u in &doc.unexplained { p.muted { "Unexplained: " (mtcal_solver::text::person_units(u)) } }
     }
 }
 
