@@ -816,35 +816,6 @@ mod tests {
         assert!(section(&html, "check").contains("badge verdict pass"));
     }
 
-    /// The conditions of docs/conventions.md's worked example ("Uncertainty budget"): a
-    /// certificate U_cal = 0.5 µm + 1.0 µm/m (k = 2), T = 22.0 ± 0.2 °C, α_machine =
-    /// 11.5 ± 1.0, α_instrument = 8.0 ± 0.5 µm/(m·K), ϑ = 500 µrad; with the facts a
-    /// signed report names.
-    fn worked_example_conditions() -> mtcal_solver::uncertainty::Conditions {
-        use mtcal_solver::uncertainty::{Conditions, Instrument};
-        Conditions {
-            operator: Some("A. Keller".into()),
-            instrument: Some(Instrument {
-                model: Some("KGM 282".into()),
-                serial: Some("SN-1234".into()),
-                calibration_date: Some("2026-03-01".into()),
-                certificate: Some("C-77".into()),
-                calibration_u_um: Some(0.5),
-                calibration_u_um_per_m: Some(1.0),
-                calibration_k: Some(2.0),
-                squareness_u_urad: None,
-                expansion_ppm_per_k: Some(8.0),
-                expansion_u_ppm_per_k: Some(0.5),
-            }),
-            temperature_c: Some(22.0),
-            temperature_source: Some("stated".into()),
-            temperature_u_k: Some(0.2),
-            machine_expansion_ppm_per_k: Some(11.5),
-            machine_expansion_u_ppm_per_k: Some(1.0),
-            alignment_urad: Some(500.0),
-        }
-    }
-
     /// The `<tr data-item="…">` row of the budget table.
     fn budget_row<'a>(html: &'a str, item: &str) -> &'a str {
         let b = section(html, "budget");
@@ -965,7 +936,7 @@ mod tests {
     #[test]
     fn the_budget_table_and_the_conditions_are_the_verdicts() {
         let mut doc = simulated_check();
-        doc.conditions = worked_example_conditions();
+        doc.conditions = mtcal_solver::uncertainty::Conditions::worked_example();
         let html = check_report(&CheckReport {
             doc: &doc,
             result_id: None,
@@ -1014,7 +985,7 @@ mod tests {
         let facts = section(&html, "check");
         for want in [
             "A. Keller",
-            "KGM 282 s/n SN-1234, calibrated 2026-03-01",
+            "grid encoder s/n 1234, calibrated 2026-03-01",
             "C-77",
             "22.0 °C",
             "0.200 K",
