@@ -21,7 +21,7 @@
 //!
 //! **Webhooks**: every tag profile of the machine's tags with a `webhook_url` receives the
 //! alert's JSON ([`AlertView`]) by `POST`, off the request path (a task of its own), with
-//! the tries and limits of [`crate::webhooks`]. A failing webhook is logged; it never
+//! the tries, limits and signature of [`crate::webhooks`]. A failing webhook is logged; it never
 //! fails the job or the alert.
 
 use crate::error::DomainError;
@@ -213,14 +213,10 @@ pub async fn check_landed(
     };
     let view = AlertView::of(&stored)?;
     tracing::warn!(alert = %view.id, machine = %view.machine_id, "drift alert raised");
-    for url in webhooks::targets(&profiles, &machine.tags) {
+    let body = serde_json::to_string(&view).map_err(|e| StoreError::Backend(e.to_string()))?;
+    for to in webhooks::targets(&profiles, &machine.tags) {
         let policy = hooks.clone();
-        tokio::spawn(webhooks::deliver(
-            url,
-            policy,
-            view.id.clone(),
-            view.clone(),
-        ));
+        tokio::spawn(webhooks::deliver(to, policy, view.id.clone(), body.clone()));
     }
     Ok(Some(view))
 }

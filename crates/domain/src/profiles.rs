@@ -58,6 +58,13 @@ pub struct Profile {
     pub limits: Limits,
     /// Tag profiles only: drift alerts of the tag's machines are POSTed here.
     pub webhook_url: Option<String>,
+    /// Whether the webhook's deliveries are signed (the profile has a secret; the
+    /// secret itself is never shown again).
+    pub webhook_signed: bool,
+    /// The webhook's signing secret, in the answer that generated it only (create or
+    /// replace without `webhook_secret`): keep it, it is not shown again.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub webhook_secret: Option<String>,
     pub created_at: String,
     pub updated_at: String,
 }
@@ -70,6 +77,8 @@ impl Profile {
             target: p.target.clone(),
             limits: limits(p)?,
             webhook_url: p.webhook_url.clone(),
+            webhook_signed: p.webhook_url.is_some() && p.webhook_secret.is_some(),
+            webhook_secret: None,
             created_at: p.created_at.clone(),
             updated_at: p.updated_at.clone(),
         })
@@ -90,6 +99,10 @@ pub struct NewProfile {
     /// Tag profiles only: an `http` or `https` URL receiving the drift alerts.
     #[serde(default)]
     pub webhook_url: Option<String>,
+    /// The key of the webhook's signatures (16 to 256 visible ASCII characters);
+    /// absent: one is generated and shown once in the answer. Never shown again.
+    #[serde(default)]
+    pub webhook_secret: Option<String>,
 }
 
 /// A profile's new content (replaces limits and webhook).
@@ -100,6 +113,28 @@ pub struct ProfileUpdate {
     pub limits: Limits,
     #[serde(default)]
     pub webhook_url: Option<String>,
+    /// A new key for the webhook's signatures; absent: the profile's secret is kept
+    /// (one is generated, and shown once, when it has none).
+    #[serde(default)]
+    pub webhook_secret: Option<String>,
+}
+
+/// The webhook secret a profile stores after a write, and the one its answer shows
+/// (only a generated one): `given` when the request gives one, else the profile's
+/// `kept` secret, else a new one; none without a webhook.
+pub fn webhook_secret(
+    webhook_url: Option<&str>,
+    given: Option<&str>,
+    kept: Option<&str>,
+) -> (Option<String>, Option<String>) {
+    match (webhook_url, given, kept) {
+        (None, ..) => (None, None),
+        (Some(_), Some(s), _) | (Some(_), None, Some(s)) => (Some(s.to_string()), None),
+        (Some(_), None, None) => {
+            let s = mtcal_store::keys::generate_webhook_secret();
+            (Some(s.clone()), Some(s))
+        }
+    }
 }
 
 /// Checks a new profile's scope and target (trimmed, returned).
@@ -125,6 +160,7 @@ pub fn validate(
     scope: &str,
     limits: &Limits,
     webhook_url: Option<&str>,
+    webhook_secret: Option<&str>,
 ) -> Result<(), DomainError> {
     let bad = |m: String| DomainError::Invalid(m);
     if limits.is_empty() {
@@ -142,6 +178,12 @@ pub fn validate(
             ));
         }
         crate::webhooks::validate_webhook_url(url).map_err(bad)?;
+    }
+    if let Some(secret) = webhook_secret {
+        if webhook_url.is_none() {
+            return Err(bad("webhook_secret: only with a webhook_url".into()));
+        }
+        crate::webhooks::validate_secret(secret).map_err(bad)?;
     }
     Ok(())
 }
@@ -163,6 +205,7 @@ mod tests {
             target: target.into(),
             limits: json!({}),
             webhook_url: None,
+            webhook_secret: None,
             created_at: String::new(),
             updated_at: String::new(),
         }

@@ -13,13 +13,22 @@
 //! profile is saved and again at every delivery, whose connection goes to the very
 //! addresses just checked (no second DNS answer can point it elsewhere).
 //!
+//! **Signature.** Every delivery of a webhook with a secret carries the header
+//! [`SIGNATURE_HEADER`] `t=<unix seconds>,v1=<hex>`: HMAC-SHA256, keyed with the
+//! webhook's secret, of the timestamp, a full stop and the body's bytes
+//! (`<t>.<body>`, the scheme of Stripe's webhooks; [`signature`]). The receiver
+//! recomputes it, compares in constant time and refuses old timestamps (replays);
+//! docs/api.md shows how. The secret is set or generated when the profile is written
+//! and never shown again, logged or put in a URL.
+//!
 //! A body is POSTed off the request path (the caller spawns the task): at most
 //! [`WEBHOOK_ATTEMPTS`] tries, each within [`WEBHOOK_TIMEOUT`], [`WEBHOOK_BACKOFF`]
 //! doubling between them, redirects not followed, no proxy. A failing webhook is logged
 //! (its URL without query: [`shown`]); it never fails what raised it.
 
+use hmac::{Hmac, Mac};
 use ipnet::IpNet;
-use serde::Serialize;
+use sha2::Sha256;
 use std::net::{IpAddr, Ipv4Addr, Ipv6Addr, SocketAddr};
 use std::time::Duration;
 
@@ -31,6 +40,44 @@ pub const WEBHOOK_TIMEOUT: Duration = Duration::from_secs(5);
 pub const WEBHOOK_BACKOFF: Duration = Duration::from_millis(500);
 /// Longest webhook URL accepted, bytes.
 pub const WEBHOOK_URL_MAX: usize = 2000;
+/// Shortest and longest webhook secret accepted, characters (visible ASCII).
+pub const WEBHOOK_SECRET_MIN: usize = 16;
+pub const WEBHOOK_SECRET_MAX: usize = 256;
+/// The header of a delivery's signature (see the module documentation).
+pub const SIGNATURE_HEADER: &str = "Mtcal-Signature";
+
+/// The signature header's value of `body` sent at `timestamp` (Unix seconds) with
+/// `secret`: `t=<timestamp>,v1=<hex of HMAC-SHA256(secret, "<timestamp>.<body>")>`.
+pub fn signature(secret: &str, timestamp: i64, body: &[u8]) -> String {
+    let mut mac =
+        Hmac::<Sha256>::new_from_slice(secret.as_bytes()).expect("HMAC takes a key of any size");
+    mac.update(timestamp.to_string().as_bytes());
+    mac.update(b".");
+    mac.update(body);
+    format!(
+        "t={timestamp},v1={}",
+        hex::encode(mac.finalize().into_bytes())
+    )
+}
+
+/// Checks a webhook secret given by a client: [`WEBHOOK_SECRET_MIN`] to
+/// [`WEBHOOK_SECRET_MAX`] visible ASCII characters (no spaces); the message never
+/// repeats the secret.
+pub fn validate_secret(secret: &str) -> Result<(), String> {
+    let n = secret.chars().count();
+    if !(WEBHOOK_SECRET_MIN..=WEBHOOK_SECRET_MAX).contains(&n) {
+        return Err(format!(
+            "webhook_secret: {WEBHOOK_SECRET_MIN} to {WEBHOOK_SECRET_MAX} characters, got {n}"
+        ));
+    }
+    if !secret.chars().all(|c| c.is_ascii_graphic()) {
+        return Err(
+            "webhook_secret: visible ASCII characters only (no spaces or control characters)"
+                .into(),
+        );
+    }
+    Ok(())
+}
 
 /// One entry of the operator's allow-list: a host name as the URL writes it, or a
 /// network (an address alone is a network of one).
@@ -253,16 +300,43 @@ pub async fn resolve(
     Ok((u, addrs))
 }
 
-/// The webhook URLs of the tag profiles of `tags` (each once).
-pub fn targets(profiles: &[mtcal_store::ToleranceProfile], tags: &[String]) -> Vec<String> {
-    let mut urls: Vec<String> = profiles
+/// A webhook to tell: its profile, URL and signing secret (`None`: a profile written
+/// before webhooks had secrets; its deliveries go unsigned).
+#[derive(Clone, PartialEq)]
+pub struct Target {
+    pub profile_id: String,
+    pub url: String,
+    pub secret: Option<String>,
+}
+
+impl std::fmt::Debug for Target {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.debug_struct("Target")
+            .field("profile_id", &self.profile_id)
+            .field("url", &shown(&self.url))
+            .finish_non_exhaustive()
+    }
+}
+
+/// The webhooks of the tag profiles of `tags` (each URL once, from the first profile
+/// naming it).
+pub fn targets(profiles: &[mtcal_store::ToleranceProfile], tags: &[String]) -> Vec<Target> {
+    let mut found: Vec<Target> = vec![];
+    for p in profiles
         .iter()
         .filter(|p| p.scope == "tag" && tags.contains(&p.target))
-        .filter_map(|p| p.webhook_url.clone())
-        .collect();
-    urls.sort();
-    urls.dedup();
-    urls
+    {
+        if let Some(url) = &p.webhook_url
+            && !found.iter().any(|t| &t.url == url)
+        {
+            found.push(Target {
+                profile_id: p.id.clone(),
+                url: url.clone(),
+                secret: p.webhook_secret.clone(),
+            });
+        }
+    }
+    found
 }
 
 /// A client that connects `u`'s host to `addrs` only (the addresses just checked).
@@ -279,25 +353,30 @@ fn client(u: &reqwest::Url, addrs: &[SocketAddr]) -> reqwest::Result<reqwest::Cl
     b.build()
 }
 
-/// POSTs `body` (alert `alert_id`) to `url` when `policy` allows it, checked again
-/// before every try (see the module documentation for tries and limits); returns
-/// whether a try was answered with a 2xx status.
-pub async fn deliver<T: Serialize>(
-    url: String,
-    policy: TargetPolicy,
-    alert_id: String,
-    body: T,
-) -> bool {
-    let target = shown(&url);
+/// POSTs the JSON `body` (alert `alert_id`) to `to`, signed with its secret, when
+/// `policy` allows it, checked again before every try (see the module documentation
+/// for tries and limits); returns whether a try was answered with a 2xx status.
+pub async fn deliver(to: Target, policy: TargetPolicy, alert_id: String, body: String) -> bool {
+    let url = &to.url;
+    let target = shown(url);
     let mut wait = WEBHOOK_BACKOFF;
     for attempt in 1..=WEBHOOK_ATTEMPTS {
-        let sent = match resolve(&url, &policy).await {
+        let sent = match resolve(url, &policy).await {
             Err(e) => {
                 tracing::warn!(alert = %alert_id, %target, %e, "webhook target refused");
                 return false;
             }
             Ok((u, addrs)) => match client(&u, &addrs) {
-                Ok(c) => c.post(u).json(&body).send().await,
+                Ok(c) => {
+                    let mut post = c
+                        .post(u)
+                        .header(reqwest::header::CONTENT_TYPE, "application/json");
+                    if let Some(secret) = &to.secret {
+                        let t = mtcal_store::now_ms().div_euclid(1000);
+                        post = post.header(SIGNATURE_HEADER, signature(secret, t, body.as_bytes()));
+                    }
+                    post.body(body.clone()).send().await
+                }
                 Err(e) => Err(e),
             },
         };
@@ -356,6 +435,35 @@ mod tests {
             shown("https://u:p@hooks.example.com:8443/a/b?token=s3cret#f"),
             "https://hooks.example.com:8443/a/b"
         );
+    }
+
+    /// The signature is HMAC-SHA256 of `<t>.<body>`: the expected value was computed
+    /// outside this code, by `printf '%s' '1700000000.{"id":"alert_1"}' | openssl dgst
+    /// -sha256 -hmac whsec_test_0123456789`.
+    #[test]
+    fn a_signature_is_the_hmac_of_timestamp_and_body() {
+        assert_eq!(
+            signature(
+                "whsec_test_0123456789",
+                1_700_000_000,
+                br#"{"id":"alert_1"}"#
+            ),
+            "t=1700000000,v1=50b8ec900a0a77cb589535490a94993b5ce3688f520a79898e4fdc6936ed2941"
+        );
+        validate_secret("whsec_test_0123456789").unwrap();
+        for (bad, says) in [
+            ("short", "16 to 256"),
+            (&"x".repeat(257)[..], "16 to 256"),
+            ("sixteen chars with spaces", "visible ASCII"),
+            ("sixteen-chars\u{7f}-del", "visible ASCII"),
+        ] {
+            let e = validate_secret(bad).unwrap_err();
+            assert!(
+                e.starts_with("webhook_secret:") && e.contains(says),
+                "{bad}: {e}"
+            );
+            assert!(!e.contains(bad), "the message repeats the secret: {e}");
+        }
     }
 
     /// The audit's targets (and their relatives) are refused without an allow-list,
@@ -447,8 +555,12 @@ mod tests {
                 .await
                 .is_ok()
         });
-        let body = serde_json::json!({"x": 1});
-        let delivered = deliver(url, TargetPolicy::default(), "al_1".into(), body).await;
+        let to = Target {
+            profile_id: "tol_1".into(),
+            url,
+            secret: None,
+        };
+        let delivered = deliver(to, TargetPolicy::default(), "al_1".into(), "{}".into()).await;
         assert!(!delivered);
         assert!(!seen.await.unwrap(), "a refused target was connected to");
     }

@@ -207,7 +207,12 @@ async fn story(url: &str) {
     );
     assert_maintained(store.as_ref(), "after a bulk import and a refresh").await;
     store
-        .update_tolerance(p["id"].as_str().unwrap(), &json!({"drift_um": 2.0}), None)
+        .update_tolerance(
+            p["id"].as_str().unwrap(),
+            &json!({"drift_um": 2.0}),
+            None,
+            None,
+        )
         .await
         .unwrap();
     assert_eq!(

@@ -179,6 +179,16 @@ async fn profiles_are_written_with_a_write_key_and_bad_ones_refused_naming_the_f
                 "webhook_url": "http://user:pw@127.0.0.1/x"}),
             "webhook_url",
         ),
+        (
+            json!({"scope": "tag", "target": "vmc", "limits": {"drift_um": 1.0},
+                "webhook_url": "http://127.0.0.1:1/x", "webhook_secret": "too-short"}),
+            "webhook_secret",
+        ),
+        (
+            json!({"scope": "tag", "target": "vmc", "limits": {"drift_um": 1.0},
+                "webhook_secret": "a-secret-without-a-webhook"}),
+            "webhook_secret",
+        ),
     ] {
         let (s, b) = send(
             &f.app,
@@ -553,19 +563,39 @@ async fn a_drift_inside_its_uncertainty_raises_no_alert_one_3_sigma_outside_does
     );
 }
 
+/// What a webhook receiver accepted: the body's bytes and the signature header.
+struct Delivered {
+    body: Vec<u8>,
+    signature: Option<String>,
+}
+
+impl Delivered {
+    fn json(&self) -> Value {
+        serde_json::from_slice(&self.body).unwrap()
+    }
+}
+
 /// A webhook receiver on 127.0.0.1: answers 500 to the first `fail_first` requests, then
-/// 200; every body it accepted goes to the channel.
-async fn receiver(fail_first: usize) -> (String, tokio::sync::mpsc::UnboundedReceiver<Value>) {
+/// 200; every request it accepted goes to the channel.
+async fn receiver(fail_first: usize) -> (String, tokio::sync::mpsc::UnboundedReceiver<Delivered>) {
     use std::sync::atomic::{AtomicUsize, Ordering};
     let (tx, rx) = tokio::sync::mpsc::unbounded_channel();
     let seen = Arc::new(AtomicUsize::new(0));
-    let handler = move |axum::Json(body): axum::Json<Value>| {
+    let handler = move |headers: axum::http::HeaderMap, body: axum::body::Bytes| {
         let (tx, seen) = (tx.clone(), seen.clone());
         async move {
             if seen.fetch_add(1, Ordering::SeqCst) < fail_first {
                 return StatusCode::INTERNAL_SERVER_ERROR;
             }
-            tx.send(body).unwrap();
+            assert_eq!(headers["content-type"], "application/json");
+            let signature = headers
+                .get("mtcal-signature")
+                .map(|v| v.to_str().unwrap().to_string());
+            tx.send(Delivered {
+                body: body.to_vec(),
+                signature,
+            })
+            .unwrap();
             StatusCode::NO_CONTENT
         }
     };
@@ -575,6 +605,57 @@ async fn receiver(fail_first: usize) -> (String, tokio::sync::mpsc::UnboundedRec
     let app = axum::Router::new().route("/hook", axum::routing::post(handler));
     tokio::spawn(async move { axum::serve(listener, app).await });
     (format!("http://{addr}/hook"), rx)
+}
+
+/// Checks a delivery's signature as a receiver would, with nothing of the service's
+/// code: `t=<unix seconds>,v1=<hex HMAC-SHA256(secret, "<t>.<body>")>`, within five
+/// minutes of now.
+fn verify(secret: &str, d: &Delivered) -> Result<(), String> {
+    use hmac::{Hmac, Mac};
+    let header = d.signature.as_deref().ok_or("unsigned")?;
+    let (mut t, mut v1) = (None, None);
+    for part in header.split(',') {
+        match part.split_once('=') {
+            Some(("t", x)) => t = Some(x),
+            Some(("v1", x)) => v1 = Some(x),
+            _ => return Err(format!("unknown part {part:?}")),
+        }
+    }
+    let (t, v1) = (t.ok_or("no t")?, v1.ok_or("no v1")?);
+    let now = std::time::SystemTime::now()
+        .duration_since(std::time::UNIX_EPOCH)
+        .unwrap()
+        .as_secs() as i64;
+    if (now - t.parse::<i64>().map_err(|e| e.to_string())?).abs() > 300 {
+        return Err(format!("timestamp {t} is not within 5 min of {now}"));
+    }
+    let mut mac = Hmac::<sha2::Sha256>::new_from_slice(secret.as_bytes()).unwrap();
+    mac.update(format!("{t}.").as_bytes());
+    mac.update(&d.body);
+    mac.verify_slice(&hex::decode(v1).map_err(|e| e.to_string())?)
+        .map_err(|_| "signature does not match".to_string())
+}
+
+/// Lands a baseline of machine M1, then a check whose EXX drifted beyond a 5 µm
+/// threshold (0.16 µm/mm), and returns the alert it raised.
+async fn drift_alert(f: &Fixture) -> mtcal_domain::alerts::AlertView {
+    for (at, slope) in [
+        ("2026-01-05T08:00:00Z", 0.0),
+        ("2026-04-05T08:00:00Z", 0.16),
+    ] {
+        let r = f
+            .store
+            .import_result(identification("M1", at, slope, S2))
+            .await
+            .unwrap();
+        let raised = mtcal_domain::landing::result_landed(&f.store, "M1", &r.id, &local_hooks())
+            .await
+            .unwrap();
+        if slope > 0.0 {
+            return raised.expect("alert");
+        }
+    }
+    unreachable!()
 }
 
 #[tokio::test]
@@ -590,38 +671,124 @@ async fn an_alert_is_posted_to_the_webhook_of_the_machines_tag_and_a_dead_one_fa
         .create_machine(&machine("M1", &["line-a", "line-b"]))
         .await
         .unwrap();
+    let mut secrets = vec![];
     for (tag, hook, drift) in [("line-a", &url, json!(5.0)), ("line-b", &dead, json!(50.0))] {
         let (s, b) = send(&f.app, "POST", "/api/v1/tolerances", &f.write,
             Some(json!({"scope": "tag", "target": tag, "limits": {"drift_um": drift}, "webhook_url": hook}))).await;
         assert_eq!(s, StatusCode::CREATED, "{b}");
         assert_eq!(b["webhook_url"], hook.as_str());
+        secrets.push(b["webhook_secret"].as_str().unwrap().to_string());
     }
-    let base = f
-        .store
-        .import_result(identification("M1", "2026-01-05T08:00:00Z", 0.0, S2))
-        .await
-        .unwrap();
-    mtcal_domain::landing::result_landed(&f.store, "M1", &base.id, &local_hooks())
-        .await
-        .unwrap();
-    let r = f
-        .store
-        .import_result(identification("M1", "2026-04-05T08:00:00Z", 0.16, S2))
-        .await
-        .unwrap();
     // The first tag's profile applies (5 µm); both tags' webhooks are told.
-    let alert = mtcal_domain::landing::result_landed(&f.store, "M1", &r.id, &local_hooks())
-        .await
-        .unwrap()
-        .expect("alert");
+    let alert = drift_alert(&f).await;
     let got = tokio::time::timeout(std::time::Duration::from_secs(20), rx.recv())
         .await
         .expect("the webhook is called within its tries")
         .unwrap();
+    verify(&secrets[0], &got).unwrap();
+    assert!(verify(&secrets[1], &got).is_err(), "another hook's secret");
+    let mut forged = Delivered {
+        body: got.body.clone(),
+        signature: got.signature.clone(),
+    };
+    forged.body.extend_from_slice(b" ");
+    assert!(verify(&secrets[0], &forged).is_err(), "a changed body");
+    let got = got.json();
     assert_eq!(got["id"], alert.id.as_str(), "after one refused try: {got}");
     assert_eq!(got["machine_id"], "M1");
     assert_eq!(got["items"][0]["item"], "EXX");
     assert_eq!(got["active"], true);
+}
+
+/// A webhook's secret is write-only: generated and shown once when none is given, kept
+/// when a replacement gives none, replaced when one is given, never in what a key reads
+/// back; deliveries are signed with the secret the profile holds at the time.
+#[tokio::test]
+async fn webhook_secrets_are_shown_once_and_sign_the_deliveries() {
+    let f = fixture().await;
+    let (url, mut rx) = receiver(0).await;
+    f.store
+        .create_machine(&machine("M1", &["line-a"]))
+        .await
+        .unwrap();
+    let (s, b) = send(&f.app, "POST", "/api/v1/tolerances", &f.write,
+        Some(json!({"scope": "tag", "target": "line-a", "limits": {"drift_um": 5.0}, "webhook_url": url}))).await;
+    assert_eq!(s, StatusCode::CREATED, "{b}");
+    let generated = b["webhook_secret"].as_str().unwrap().to_string();
+    assert!(
+        generated.starts_with("whsec_") && generated.len() == 6 + 64,
+        "{generated}"
+    );
+    assert_eq!(b["webhook_signed"], true);
+    let id = b["id"].as_str().unwrap().to_string();
+    let path = format!("/api/v1/tolerances/{id}");
+    for key in [&f.read, &f.write] {
+        for uri in ["/api/v1/tolerances", path.as_str()] {
+            let (s, b) = send(&f.app, "GET", uri, key, None).await;
+            assert_eq!(s, StatusCode::OK, "{b}");
+            let text = b.to_string();
+            assert!(
+                !text.contains(&generated[6..]),
+                "{uri} shows the secret: {text}"
+            );
+            assert!(!text.contains("webhook_secret"), "{uri}: {text}");
+            assert!(text.contains(r#""webhook_signed":true"#), "{uri}: {text}");
+        }
+    }
+    // A replacement without a secret keeps it (and does not show it).
+    let (s, b) = send(
+        &f.app,
+        "PUT",
+        &path,
+        &f.write,
+        Some(json!({"limits": {"drift_um": 4.0}, "webhook_url": url})),
+    )
+    .await;
+    assert_eq!(s, StatusCode::OK, "{b}");
+    assert!(b.get("webhook_secret").is_none(), "{b}");
+    assert_eq!(
+        f.store
+            .get_tolerance(&id)
+            .await
+            .unwrap()
+            .webhook_secret
+            .as_deref(),
+        Some(generated.as_str())
+    );
+    // One given replaces it, and is not echoed.
+    let chosen = "receiver-chosen-secret-0001";
+    let (s, b) = send(
+        &f.app,
+        "PUT",
+        &path,
+        &f.write,
+        Some(json!({"limits": {"drift_um": 4.0}, "webhook_url": url, "webhook_secret": chosen})),
+    )
+    .await;
+    assert_eq!(s, StatusCode::OK, "{b}");
+    assert!(!b.to_string().contains(chosen), "{b}");
+    drift_alert(&f).await;
+    let got = tokio::time::timeout(std::time::Duration::from_secs(20), rx.recv())
+        .await
+        .expect("delivered")
+        .unwrap();
+    verify(chosen, &got).unwrap();
+    assert!(verify(&generated, &got).is_err(), "the replaced secret");
+    // Removing the webhook removes its secret.
+    let (s, b) = send(
+        &f.app,
+        "PUT",
+        &path,
+        &f.write,
+        Some(json!({"limits": {"drift_um": 4.0}})),
+    )
+    .await;
+    assert_eq!(s, StatusCode::OK, "{b}");
+    assert_eq!(b["webhook_signed"], false);
+    assert_eq!(
+        f.store.get_tolerance(&id).await.unwrap().webhook_secret,
+        None
+    );
 }
 
 /// The identification of a simulated machine with 6 µm of X backlash (seed plan, 10 Hz):

@@ -1226,13 +1226,14 @@ impl Store for This {
             let now = now_rfc3339();
             sqlx::query(
                 "INSERT INTO tolerance_profiles (id, scope, target, limits, webhook_url, \
-                 created_at, updated_at) VALUES ($1, $2, $3, $4, $5, $6, $6)",
+                 webhook_secret, created_at, updated_at) VALUES ($1, $2, $3, $4, $5, $6, $7, $7)",
             )
             .bind(&p.id)
             .bind(&p.scope)
             .bind(&p.target)
             .bind(serde_json::to_string(&p.limits).db()?)
             .bind(&p.webhook_url)
+            .bind(&p.webhook_secret)
             .bind(&now)
             .execute(&self.pool)
             .await
@@ -1276,16 +1277,18 @@ impl Store for This {
         id: &'a str,
         limits: &'a serde_json::Value,
         webhook_url: Option<&'a str>,
+        webhook_secret: Option<&'a str>,
     ) -> StoreFuture<'a, ToleranceProfile> {
         Box::pin(async move {
             let done = sqlx::query(
-                "UPDATE tolerance_profiles SET limits = $2, webhook_url = $3, updated_at = $4 \
-                 WHERE id = $1",
+                "UPDATE tolerance_profiles SET limits = $2, webhook_url = $3, updated_at = $4, \
+                 webhook_secret = $5 WHERE id = $1",
             )
             .bind(id)
             .bind(serde_json::to_string(limits).db()?)
             .bind(webhook_url)
             .bind(now_rfc3339())
+            .bind(webhook_secret)
             .execute(&self.pool)
             .await
             .db()?;

@@ -97,6 +97,13 @@ pub fn generate_token() -> String {
     hex::encode(bytes)
 }
 
+/// A webhook's signing key: `whsec_` and 256 random bits (64 hex digits).
+pub fn generate_webhook_secret() -> String {
+    let mut bytes = [0u8; 32];
+    rand::rng().fill_bytes(&mut bytes);
+    format!("whsec_{}", hex::encode(bytes))
+}
+
 /// SHA-256 of a key, hex.
 pub fn hash_secret(secret: &str) -> String {
     hex::encode(Sha256::digest(secret.as_bytes()))

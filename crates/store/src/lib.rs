@@ -179,12 +179,13 @@ pub trait Store: Queue {
     /// Every profile, by scope then target (profiles are few: one per machine or tag at
     /// most).
     fn list_tolerances(&self) -> StoreFuture<'_, Vec<ToleranceProfile>>;
-    /// Replaces a profile's limits and webhook.
+    /// Replaces a profile's limits and webhook (its URL and the key of its signatures).
     fn update_tolerance<'a>(
         &'a self,
         id: &'a str,
         limits: &'a serde_json::Value,
         webhook_url: Option<&'a str>,
+        webhook_secret: Option<&'a str>,
     ) -> StoreFuture<'a, ToleranceProfile>;
     fn delete_tolerance<'a>(&'a self, id: &'a str) -> StoreFuture<'a, ()>;
 

@@ -354,16 +354,37 @@ pub struct FleetPage {
 /// for one machine (`scope` `machine`, `target` its id) or for every machine with a tag
 /// (`scope` `tag`, `target` the tag). `limits` is the JSON of the solver's
 /// `tolerance::Limits` (the service validates it); `webhook_url` (tag profiles) receives
-/// the drift alerts of the tag's machines.
-#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+/// the drift alerts of the tag's machines, signed with `webhook_secret`.
+#[derive(Clone, PartialEq, Serialize, Deserialize)]
 pub struct ToleranceProfile {
     pub id: String,
     pub scope: String,
     pub target: String,
     pub limits: Value,
     pub webhook_url: Option<String>,
+    /// The key of the webhook's signatures: never shown, serialised or printed.
+    #[serde(skip_serializing, default)]
+    pub webhook_secret: Option<String>,
     pub created_at: String,
     pub updated_at: String,
+}
+
+impl std::fmt::Debug for ToleranceProfile {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.debug_struct("ToleranceProfile")
+            .field("id", &self.id)
+            .field("scope", &self.scope)
+            .field("target", &self.target)
+            .field("limits", &self.limits)
+            .field("webhook_url", &self.webhook_url)
+            .field(
+                "webhook_secret",
+                &self.webhook_secret.as_ref().map(|_| "(set)"),
+            )
+            .field("created_at", &self.created_at)
+            .field("updated_at", &self.updated_at)
+            .finish()
+    }
 }
 
 /// A drift alert as stored: raised when `result_id` landed with a change since

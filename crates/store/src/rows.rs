@@ -253,7 +253,7 @@ pub(crate) fn fleet_drift(r: &impl Columns) -> Result<FleetDriftRow> {
 
 /// The columns of a tolerance profile, in [`tolerance`]'s order.
 pub(crate) const TOLERANCE_COLUMNS: &str =
-    "id, scope, target, limits, webhook_url, created_at, updated_at";
+    "id, scope, target, limits, webhook_url, webhook_secret, created_at, updated_at";
 
 pub(crate) fn tolerance(r: &impl Columns) -> Result<ToleranceProfile> {
     Ok(ToleranceProfile {
@@ -262,6 +262,7 @@ pub(crate) fn tolerance(r: &impl Columns) -> Result<ToleranceProfile> {
         target: r.text("target")?,
         limits: r.json("limits")?,
         webhook_url: r.opt_text("webhook_url")?,
+        webhook_secret: r.opt_text("webhook_secret")?,
         created_at: r.text("created_at")?,
         updated_at: r.text("updated_at")?,
     })

@@ -619,6 +619,7 @@ async fn tolerance_profiles_one_per_target_and_alerts_acknowledged_once(s: &dyn 
         target: target.into(),
         limits: json!({"terms": {"EXX": 5.0}, "drift_um": 2.0}),
         webhook_url: None,
+        webhook_secret: None,
         created_at: String::new(),
         updated_at: String::new(),
     };
@@ -663,13 +664,22 @@ async fn tolerance_profiles_one_per_target_and_alerts_acknowledged_once(s: &dyn 
             "tol_2",
             &json!({"drift_um": 3.0}),
             Some("http://127.0.0.1:9/hook"),
+            Some("whsec_0123456789abcdef"),
         )
         .await
         .unwrap();
     assert_eq!(u.limits, json!({"drift_um": 3.0}));
     assert_eq!(u.webhook_url.as_deref(), Some("http://127.0.0.1:9/hook"));
+    assert_eq!(u.webhook_secret.as_deref(), Some("whsec_0123456789abcdef"));
+    assert!(
+        !format!("{u:?}").contains("0123456789abcdef")
+            && !serde_json::to_string(&u)
+                .unwrap()
+                .contains("0123456789abcdef"),
+        "a webhook secret is never printed or serialised"
+    );
     assert!(matches!(
-        s.update_tolerance("nope", &json!({}), None).await,
+        s.update_tolerance("nope", &json!({}), None, None).await,
         Err(StoreError::NotFound(_))
     ));
     s.delete_tolerance("tol_4").await.unwrap();

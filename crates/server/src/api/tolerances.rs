@@ -38,7 +38,12 @@ pub async fn create(
     ApiJson(p): ApiJson<NewProfile>,
 ) -> Result<(StatusCode, Json<Profile>), ApiError> {
     let target = profiles::check_target(&p.scope, &p.target)?;
-    validate(&p.scope, &p.limits, p.webhook_url.as_deref())?;
+    validate(
+        &p.scope,
+        &p.limits,
+        p.webhook_url.as_deref(),
+        p.webhook_secret.as_deref(),
+    )?;
     if let Some(url) = &p.webhook_url {
         mtcal_domain::webhooks::resolve(url, &s.settings.webhooks)
             .await
@@ -47,6 +52,8 @@ pub async fn create(
     if p.scope == "machine" {
         s.store.get_machine(target).await?;
     }
+    let (secret, shown) =
+        profiles::webhook_secret(p.webhook_url.as_deref(), p.webhook_secret.as_deref(), None);
     let stored = s
         .store
         .create_tolerance(&ToleranceProfile {
@@ -55,12 +62,15 @@ pub async fn create(
             target: target.to_string(),
             limits: limits_json(&p.limits)?,
             webhook_url: p.webhook_url.clone(),
+            webhook_secret: secret,
             created_at: String::new(),
             updated_at: String::new(),
         })
         .await?;
     refresh_targets(&s, &stored.scope, &stored.target);
-    Ok((StatusCode::CREATED, Json(Profile::of(&stored)?)))
+    let mut answer = Profile::of(&stored)?;
+    answer.webhook_secret = shown;
+    Ok((StatusCode::CREATED, Json(answer)))
 }
 
 #[utoipa::path(operation_id = "tolerances_list", summary = "Every tolerance profile", get, path = "/api/v1/tolerances", tag = "tolerances",
@@ -96,18 +106,35 @@ pub async fn replace(
     ApiJson(u): ApiJson<ProfileUpdate>,
 ) -> Result<Json<Profile>, ApiError> {
     let old = s.store.get_tolerance(&id).await?;
-    validate(&old.scope, &u.limits, u.webhook_url.as_deref())?;
+    validate(
+        &old.scope,
+        &u.limits,
+        u.webhook_url.as_deref(),
+        u.webhook_secret.as_deref(),
+    )?;
     if let Some(url) = &u.webhook_url {
         mtcal_domain::webhooks::resolve(url, &s.settings.webhooks)
             .await
             .map_err(ApiError::InvalidRequest)?;
     }
+    let (secret, shown) = profiles::webhook_secret(
+        u.webhook_url.as_deref(),
+        u.webhook_secret.as_deref(),
+        old.webhook_secret.as_deref(),
+    );
     let stored = s
         .store
-        .update_tolerance(&id, &limits_json(&u.limits)?, u.webhook_url.as_deref())
+        .update_tolerance(
+            &id,
+            &limits_json(&u.limits)?,
+            u.webhook_url.as_deref(),
+            secret.as_deref(),
+        )
         .await?;
     refresh_targets(&s, &stored.scope, &stored.target);
-    Ok(Json(Profile::of(&stored)?))
+    let mut answer = Profile::of(&stored)?;
+    answer.webhook_secret = shown;
+    Ok(Json(answer))
 }
 
 #[utoipa::path(operation_id = "tolerances_delete", summary = "Delete a tolerance profile", delete, path = "/api/v1/tolerances/{id}", tag = "tolerances",
