@@ -293,6 +293,7 @@ pub mod reduced;
 pub mod repeatability;
 pub(crate) mod search;
 pub mod session;
+pub mod temperature;
 pub mod thermal_search;
 
 pub use session::{DiagnoseOptions, diagnose_session, diagnose_session_with_progress};

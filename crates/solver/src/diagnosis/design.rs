@@ -8,6 +8,7 @@
 //! are eliminated exactly by centring every column and the data within each (run,
 //! component) — the Frisch–Waugh form of estimating them jointly.
 
+use super::temperature::Smoother;
 use crate::axis::{Axis, Plane, Topology};
 use crate::basis::BasisKind;
 use crate::design::ErrorModel;
@@ -36,8 +37,8 @@ pub struct SampleFields {
     pub dir: [Vec<f64>; 3],
     /// Travel since the last reversal of each axis (mm; infinite before one).
     pub since_reversal_mm: [Vec<f64>; 3],
-    /// Logged temperature minus the session's first logged temperature (K), when every
-    /// run logs `temp_c`.
+    /// The logged temperature, smoothed ([`super::temperature::Smoother`]), minus its
+    /// smoothed value at the session's first sample (K), when every run logs `temp_c`.
     pub temp_k: Option<Vec<f64>>,
 }
 
@@ -117,6 +118,8 @@ pub struct Design {
     /// The catalogue's time band of the session (duration, Nyquist frequency, longest
     /// run), formed on first use.
     pub time_band: std::sync::OnceLock<(f64, f64, f64)>,
+    /// The smoother of the logged temperature, when every run logs `temp_c`.
+    pub temperature: Option<Smoother>,
 }
 
 impl Design {
@@ -337,6 +340,15 @@ pub fn build(session: &Session, topology: &Topology, order: usize) -> Result<Des
             "the session has no samples".into(),
         ));
     }
+    // The logged temperature is a noisy measurement: the columns follow its smoother.
+    let temperature = f.temp_k.as_mut().map(|temp| {
+        let ranges: Vec<_> = runs.iter().map(|r| r.start..r.end).collect();
+        let sm = Smoother::fit(&f.t_s, temp, &ranges);
+        for (v, &t) in temp.iter_mut().zip(&f.t_s) {
+            *v = sm.delta(t);
+        }
+        sm
+    });
     let mut d = Design {
         fields: f,
         row_axes,
@@ -354,6 +366,7 @@ pub fn build(session: &Session, topology: &Topology, order: usize) -> Result<Des
             travel.map(|t| t.map(|[lo, hi]| (lo, hi))),
         ),
         time_band: std::sync::OnceLock::new(),
+        temperature,
     };
     let mut y = std::mem::take(&mut d.y);
     d.centre(&mut y);

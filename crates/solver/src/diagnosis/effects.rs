@@ -68,6 +68,10 @@ const fn q(name: &'static str, unit: &'static str, convention: &'static str) -> 
 }
 
 /// Every mechanism with a name.
+/// What decides a session's growth per kelvin: the per-run zero offsets leave only the
+/// change of the temperature within each run, measured against the sensor's noise.
+const PER_KELVIN_DECIDE: &str = "longer runs, or a larger change of the temperature within each run against the noise of its sensor (the per-run zero offsets leave only the change within a run),";
+
 pub const EFFECTS: &[EffectSpec] = &[
     EffectSpec {
         name: "backlash",
@@ -227,13 +231,15 @@ pub const EFFECTS: &[EffectSpec] = &[
             p(
                 "offset_um_per_k_{axis}",
                 "um/K",
-                "sessions with logged temperatures: error_j = dT*(o_j + k_j*q_j/1000), dT the change of the logged temperature from the first sample",
-            ),
+                "sessions with logged temperatures: error_j = dT*(o_j + k_j*q_j/1000), dT the change of the smoothed logged temperature from the first sample",
+            )
+            .decided_by(PER_KELVIN_DECIDE),
             p(
                 "scale_ppm_per_k_{axis}",
                 "ppm/K",
                 "sessions with logged temperatures: k_j of the same model",
-            ),
+            )
+            .decided_by(PER_KELVIN_DECIDE),
             p(
                 "offset_um_per_k",
                 "um/K",

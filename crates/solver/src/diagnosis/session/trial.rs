@@ -8,6 +8,7 @@ use super::super::local_scan;
 use super::super::moments::Moments;
 use super::super::periodic_scan;
 use super::super::search::golden_section;
+use super::super::temperature;
 use super::super::thermal_search::ThermalBasis;
 use super::anomalies::{self, sequences, step_time};
 use super::context::{Ctx, State};
@@ -432,9 +433,57 @@ pub(crate) fn report_parameters(t: &Trial, sigma: f64, d: &Design) -> BTreeMap<S
         p.insert("extra_order".into(), 10.0);
         return p;
     }
+    let smoother = (t.cand.effect == "thermal_temperature")
+        .then(|| smoother_variance(t, d))
+        .flatten();
     for (i, name) in t.names.iter().enumerate() {
         p.insert(name.clone(), t.coef[i]);
-        p.insert(format!("std_{name}"), sd(i));
+        let sd = match &smoother {
+            Some(v) => (sd(i).powi(2) + v[i]).sqrt(),
+            None => sd(i),
+        };
+        p.insert(format!("std_{name}"), sd);
     }
     p
+}
+
+/// The variance the smoother of the logged temperature adds to each coefficient per
+/// kelvin ([`temperature::Smoother::coefficient_cov`]); infinite where the smoother does not follow
+/// the temperature (the coefficients are then undetermined), none without a smoother.
+fn smoother_variance(t: &Trial, d: &Design) -> Option<Vec<f64>> {
+    let sm = d.temperature.as_ref()?;
+    let kc = t.names.len();
+    if !sm.follows {
+        return Some(vec![f64::INFINITY; kc]);
+    }
+    // The columns by name: scale_ppm_per_k_{j} weighs q_j/1000, offset_um_per_k_{j} 1.
+    let col = |name: &str| -> Option<(bool, Axis)> {
+        let (scale, a) = if let Some(a) = name.strip_prefix("scale_ppm_per_k_") {
+            (true, a)
+        } else {
+            (false, name.strip_prefix("offset_um_per_k_")?)
+        };
+        Some((scale, Axis::ALL.into_iter().find(|x| x.to_string() == a)?))
+    };
+    let cols: Vec<(bool, Axis)> = t.names.iter().map(|n| col(n)).collect::<Option<_>>()?;
+    let mut groups = Vec::with_capacity(2 * d.runs.len());
+    for run in &d.runs {
+        let (u, v) = d.plane_axes[run.plane_idx];
+        for read in [u, v] {
+            let mut w = Vec::with_capacity((run.end - run.start) * kc);
+            for s in run.start..run.end {
+                w.extend(cols.iter().map(|&(scale, a)| match (a == read, scale) {
+                    (false, _) => 0.0,
+                    (true, true) => d.fields.q_mm[a.index()][s] * 1e-3,
+                    (true, false) => 1.0,
+                }));
+            }
+            groups.push(temperature::Group {
+                t_s: d.fields.t_s[run.start..run.end].to_vec(),
+                w,
+            });
+        }
+    }
+    let cov = sm.coefficient_cov(&groups, &t.coef, &t.gram)?;
+    Some((0..kc).map(|i| cov[(i, i)]).collect())
 }

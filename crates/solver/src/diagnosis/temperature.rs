@@ -1,0 +1,242 @@
+//! A logged temperature as a measurement with noise of its own, not an exact regressor.
+//!
+//! The per-run zero offsets of a session leave only the change of the temperature
+//! within each run; when that change is not large against the sensor's noise, a
+//! coefficient fitted on the raw log is attenuated toward zero (errors in variables:
+//! E[ĉ] = c·S/(S + N), S the within-run variance of the true temperature, N the
+//! sensor's). The log is therefore smoothed first with a model of its own: a Legendre
+//! polynomial in session time, P₀…P_p of τ = (t − t_mid)/t_half, fitted by least
+//! squares (Householder QR, faer) with its order p ≤ [`MAX_ORDER`] chosen by the
+//! Bayesian information criterion, n·ln(SSR_p/n) + (p + 1)·ln n, and the sensor's noise
+//! estimated from the residual, σ_T² = SSR_p/(n − p − 1). The smoothed temperature
+//! T̂ = Q_p·Q_pᵀ·T has an error Q_p·Q_pᵀ·ε of covariance σ_T²·Q_p·Q_pᵀ, whose effect on
+//! the fitted coefficients is propagated by [`Smoother::coefficient_cov`]: with G the
+//! Gram matrix of the centred temperature columns and B their cross-products with the
+//! fitted growth times the smoother's basis, cov(δβ) = σ_T²·G⁻¹·B·Bᵀ·G⁻¹. Where the
+//! within-run change is small against that, the coefficients' σ grow and the
+//! determined rule (`effects::determined`) reports them undetermined.
+
+use crate::basis::Legendre;
+use nalgebra::{DMatrix, DVector};
+
+/// Highest polynomial order of the smoother (a temperature that turns more than about a
+/// dozen times in a session is not followed: `Smoother::follows` says so).
+pub const MAX_ORDER: usize = 24;
+
+/// The smoother of a session's logged temperature.
+#[derive(Debug, Clone)]
+pub struct Smoother {
+    mid: f64,
+    half: f64,
+    /// Chosen polynomial order p.
+    pub order: usize,
+    /// Leading (p + 1) × (p + 1) block of the R factor of the Legendre columns.
+    r: DMatrix<f64>,
+    /// Legendre coefficients of the smoothed temperature (K).
+    coef: Vec<f64>,
+    /// The sensor's noise estimated from the residual (K per sample).
+    pub noise_k: f64,
+    /// The smoothed temperature at the first sample: [`Smoother::delta`]'s zero.
+    zero: f64,
+    /// Whether the residual is as rough as the sensor's noise: its RMS is within 1.5×
+    /// the noise estimated from successive differences within runs (σ² = mean(Δ²)/2).
+    /// When not, the polynomial does not follow the temperature and the coefficients
+    /// fitted on it are reported undetermined.
+    pub follows: bool,
+}
+
+impl Smoother {
+    /// Fits the smoother to the temperatures `temp` (K) logged at times `t_s`; `runs`
+    /// gives the sample ranges of the runs (for the difference-based noise estimate).
+    pub fn fit(t_s: &[f64], temp: &[f64], runs: &[std::ops::Range<usize>]) -> Smoother {
+        let n = t_s.len();
+        let (lo, hi) = t_s
+            .iter()
+            .fold((f64::INFINITY, f64::NEG_INFINITY), |(l, h), &t| {
+                (l.min(t), h.max(t))
+            });
+        let mid = 0.5 * (lo + hi);
+        let half = (0.5 * (hi - lo)).max(1e-9);
+        let pmax = MAX_ORDER.min((n / 10).saturating_sub(1));
+        let k = pmax + 1;
+        let mean = temp.iter().sum::<f64>() / n.max(1) as f64;
+        let mut a = faer::Mat::<f64>::zeros(n, k + 1);
+        for (i, (&t, &y)) in t_s.iter().zip(temp).enumerate() {
+            for (j, (p, _)) in Legendre::new((t - mid) / half).take(k).enumerate() {
+                a[(i, j)] = p;
+            }
+            a[(i, k)] = y - mean;
+        }
+        let qr = a.qr();
+        let rf = qr.thin_R();
+        // SSR of order p: the tail of Qᵀy below p, plus the final residual.
+        let tail: Vec<f64> = (0..=k).map(|j| rf[(j.min(k), k)].powi(2)).collect();
+        let nn = n as f64;
+        let ssr_of = |p: usize| tail[p + 1..].iter().sum::<f64>().max(1e-300);
+        let order = (0..k)
+            .min_by(|&p, &q| {
+                let bic = |p: usize| nn * (ssr_of(p) / nn).ln() + (p + 1) as f64 * nn.ln();
+                bic(p).total_cmp(&bic(q))
+            })
+            .unwrap_or(0);
+        let m = order + 1;
+        let r = DMatrix::from_fn(m, m, |i, j| if j >= i { rf[(i, j)] } else { 0.0 });
+        let qty = DVector::from_fn(m, |i, _| rf[(i, k)]);
+        let mut coef = r
+            .solve_upper_triangular(&qty)
+            .map(|c| c.as_slice().to_vec())
+            .unwrap_or_else(|| vec![0.0; m]);
+        coef[0] += mean;
+        let noise_k = (ssr_of(order) / (nn - m as f64).max(1.0)).sqrt();
+        let (mut d2, mut nd) = (0.0, 0usize);
+        for run in runs {
+            for i in run.start + 1..run.end {
+                d2 += (temp[i] - temp[i - 1]).powi(2);
+                nd += 1;
+            }
+        }
+        let diff_noise = (d2 / (2.0 * nd.max(1) as f64)).sqrt();
+        let mut s = Smoother {
+            mid,
+            half,
+            order,
+            r,
+            coef,
+            noise_k,
+            zero: 0.0,
+            follows: noise_k <= 1.5 * diff_noise + 1e-9,
+        };
+        s.zero = t_s.first().map_or(0.0, |&t| s.value(t));
+        s
+    }
+
+    /// The smoothed temperature at time `t` minus that at the first sample (K).
+    pub fn delta(&self, t: f64) -> f64 {
+        self.value(t) - self.zero
+    }
+
+    fn tau(&self, t: f64) -> f64 {
+        (t - self.mid) / self.half
+    }
+
+    /// The smoothed temperature at time `t` (K).
+    pub fn value(&self, t: f64) -> f64 {
+        Legendre::new(self.tau(t))
+            .zip(&self.coef)
+            .map(|((p, _), c)| p * c)
+            .sum()
+    }
+
+    /// Covariance of the coefficients β of columns z_k(row) = ΔT̂(s)·w_k(row) (centred
+    /// as the model's) caused by the smoother's error: σ_T²·G⁻¹·B·Bᵀ·G⁻¹ with
+    /// B = Zᵀ·diag(Σ_k β_k w_k)·Q_p. `rows` lists, per group of rows centred together
+    /// (a run's component), its samples, their times and the weights w_k of each
+    /// column (0 where the column does not act on the group); `gram` is G. Returns
+    /// `None` when G is singular.
+    pub fn coefficient_cov(
+        &self,
+        groups: &[Group],
+        beta: &[f64],
+        gram: &DMatrix<f64>,
+    ) -> Option<DMatrix<f64>> {
+        let kc = beta.len();
+        let m = self.order + 1;
+        let mut ba = DMatrix::<f64>::zeros(kc, m);
+        let mut leg = vec![0.0; m];
+        for g in groups {
+            let n = g.t_s.len();
+            if n == 0 {
+                continue;
+            }
+            let tv: Vec<f64> = g.t_s.iter().map(|&t| self.delta(t)).collect();
+            // Means of the columns over the group (the run offsets' centring).
+            let means: Vec<f64> = (0..kc)
+                .map(|k| (0..n).map(|i| tv[i] * g.w[i * kc + k]).sum::<f64>() / n as f64)
+                .collect();
+            for i in 0..n {
+                let w = &g.w[i * kc..(i + 1) * kc];
+                let growth: f64 = w.iter().zip(beta).map(|(w, b)| w * b).sum();
+                for (l, (p, _)) in leg.iter_mut().zip(Legendre::new(self.tau(g.t_s[i]))) {
+                    *l = p * growth;
+                }
+                for k in 0..kc {
+                    let z = tv[i] * w[k] - means[k];
+                    if z != 0.0 {
+                        for (j, l) in leg.iter().enumerate() {
+                            ba[(k, j)] += z * l;
+                        }
+                    }
+                }
+            }
+        }
+        // B·Q-basis: B_A·R⁻¹ (Qᵀh = R⁻ᵀAᵀh).
+        let bq = self
+            .r
+            .transpose()
+            .solve_lower_triangular(&ba.transpose())?
+            .transpose();
+        let svd = gram.clone().svd(true, true);
+        let smax = svd.singular_values.max();
+        if svd.singular_values.min() <= 1e-12 * smax {
+            return None;
+        }
+        let gb = svd.solve(&bq, 0.0).ok()?;
+        Some(&gb * gb.transpose() * self.noise_k.powi(2))
+    }
+}
+
+/// One group of rows centred together, for [`Smoother::coefficient_cov`].
+pub struct Group {
+    pub t_s: Vec<f64>,
+    /// Row-major weights: sample i, column k at `i·K + k`.
+    pub w: Vec<f64>,
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use rand::SeedableRng;
+    use rand_distr::{Distribution, Normal};
+
+    fn sample(noise: f64, seed: u64) -> (Vec<f64>, Vec<f64>, Vec<f64>) {
+        let mut rng = rand::rngs::StdRng::seed_from_u64(seed);
+        let e = Normal::new(0.0, noise).unwrap();
+        let t: Vec<f64> = (0..4000).map(|i| i as f64 * 0.25).collect();
+        let truth: Vec<f64> = t
+            .iter()
+            .map(|&t| 0.8 * (2.0 * std::f64::consts::PI * t / 1000.0).sin())
+            .collect();
+        let obs = truth.iter().map(|v| v + e.sample(&mut rng)).collect();
+        (t, truth, obs)
+    }
+
+    /// A rise then a fall below the start, 5 mK noise: the smoother follows the truth
+    /// within a tenth of the noise and estimates the noise within 5 %.
+    #[test]
+    fn follows_a_smooth_temperature_and_estimates_the_sensor_noise() {
+        let (t, truth, obs) = sample(0.005, 3);
+        let s = Smoother::fit(&t, &obs, std::slice::from_ref(&(0..t.len())));
+        assert!(s.follows);
+        assert!((s.noise_k / 0.005 - 1.0).abs() < 0.05, "{}", s.noise_k);
+        let err = t
+            .iter()
+            .zip(&truth)
+            .map(|(&t, v)| (s.value(t) - v).powi(2))
+            .sum::<f64>()
+            / t.len() as f64;
+        assert!(err.sqrt() < 0.0005, "{}", err.sqrt());
+    }
+
+    /// A temperature with a jump is not followed by a polynomial: said so.
+    #[test]
+    fn a_jump_is_not_followed() {
+        let (t, _, mut obs) = sample(0.005, 4);
+        for (v, &t) in obs.iter_mut().zip(&t) {
+            if t > 500.0 {
+                *v += 0.5;
+            }
+        }
+        let s = Smoother::fit(&t, &obs, std::slice::from_ref(&(0..t.len())));
+        assert!(!s.follows, "{}", s.noise_k);
+    }
+}
