@@ -302,6 +302,15 @@ async fn run_job(
     {
         tracing::warn!(machine = %m, %e, "fleet drift or drift alerts not refreshed");
     }
+    // A diagnosis: the machine's fleet row shows its findings.
+    if let Ok(j) = &recorded
+        && j.state == mtcal_store::JobState::Succeeded
+        && job.kind.result_kind() == mtcal_domain::kinds::DIAGNOSIS
+        && let Some(m) = &job.machine_id
+        && let Err(e) = mtcal_domain::landing::diagnosis_landed(store.as_ref(), m).await
+    {
+        tracing::warn!(machine = %m, %e, "fleet row not refreshed after the diagnosis");
+    }
     // A result whose model does not explain its recording: its dataset's diagnosis is
     // queued (once), so that its findings reach the pages and the report.
     if let Ok(j) = &recorded

@@ -78,6 +78,40 @@ pub struct Finding {
     pub undetermined: Vec<Undetermined>,
 }
 
+impl Finding {
+    /// Its fitted parameters in words, in a person's units:
+    /// `backlash_um = 6.01 (u = 0.02), …` (u: the standard uncertainty, k = 1, where
+    /// reported).
+    pub fn parameters_in_words(&self) -> String {
+        use crate::text::{num, person_units};
+        let list = self
+            .parameters
+            .iter()
+            .filter(|(k, _)| !k.starts_with("std_"))
+            .map(|(k, v)| match self.parameters.get(&format!("std_{k}")) {
+                Some(u) => format!("{k} = {} (u = {})", num(*v), num(*u)),
+                None => format!("{k} = {}", num(*v)),
+            })
+            .collect::<Vec<_>>()
+            .join(", ");
+        person_units(&list)
+    }
+
+    /// The effect and its axis in words: `backlash (X)`.
+    pub fn name_in_words(&self) -> String {
+        let name = self.effect.replace('_', " ");
+        match &self.axis {
+            Some(a) => format!("{name} ({a})"),
+            None => name,
+        }
+    }
+
+    /// One line: `backlash (X): backlash_um = 6.01 (u = 0.02)`.
+    pub fn in_words(&self) -> String {
+        format!("{}: {}", self.name_in_words(), self.parameters_in_words())
+    }
+}
+
 /// The stored shape of a [`Finding`], whose parameters may hold `null` (an earlier
 /// version's unbounded σ).
 #[derive(Deserialize)]
@@ -208,6 +242,17 @@ pub enum Verdict {
     Consistent,
     Explained,
     PartlyExplained,
+}
+
+impl Verdict {
+    /// Its name in the document: `consistent`, `explained`, `partly_explained`.
+    pub fn as_str(self) -> &'static str {
+        match self {
+            Verdict::Consistent => "consistent",
+            Verdict::Explained => "explained",
+            Verdict::PartlyExplained => "partly_explained",
+        }
+    }
 }
 
 /// The diagnosis result document.

@@ -206,15 +206,10 @@ async fn diagnosis_of(s: &AppState, r: &StoredResult) -> Result<Option<ReportDia
     let Some(dataset) = &r.meta.dataset_id else {
         return Ok(None);
     };
-    let list = s
-        .store
-        .list_results(&r.meta.machine_id, "diagnosis")
-        .await?;
-    let Some(m) = list
-        .iter()
-        .rev()
-        .find(|m| m.dataset_id.as_ref() == Some(dataset))
-    else {
+    let found =
+        mtcal_domain::history::diagnosis_of_dataset(s.store.as_ref(), &r.meta.machine_id, dataset)
+            .await?;
+    let Some(m) = found else {
         return Ok(None);
     };
     let d = s.store.get_result(&m.id).await?;

@@ -62,12 +62,11 @@ pub fn check_report(r: &CheckReport) -> Markup {
     let view = IdentificationView::of(d);
     let compensation = Compensation::from_result(d, DEFAULT_STEP_MM, false);
     let rows: Vec<VerdictRow> = r.verdict.map(verdict_rows).unwrap_or_default();
-    let check = d.model_check();
     print_page(
         &title,
         html! {
             article.report {
-                @if check.is_misfit() { (result::misfit_banner(&check, misfit_diagnosis(r.diagnosis))) }
+                (result::misfit_banner(d, Some(misfit_diagnosis(r.diagnosis))))
                 (facts(r))
                 (standards(r))
                 @if !rows.is_empty() { (result::verdict_table(&rows)) }
@@ -77,7 +76,7 @@ pub fn check_report(r: &CheckReport) -> Markup {
                 (signature(r))
                 div.appendix #appendix {
                     h1 { "Appendix: detail" }
-                    (result::identification_detail(&view))
+                    (result::identification(&view))
                     @if let Some(ReportDiagnosis { doc: Ok(doc), .. }) = r.diagnosis {
                         div #diagnosis-detail { (result::diagnosis(doc)) }
                     }

@@ -8,7 +8,6 @@ use maud::{Markup, html};
 use mtcal_solver::cradle::CradleResult;
 use mtcal_solver::diagnosis::{DiagnosisResult, Finding};
 use mtcal_solver::identification::IdentificationResult;
-use mtcal_solver::misfit::ModelCheck;
 use mtcal_solver::positioning_check::DiagnosisDocument;
 use mtcal_solver::residuals::ResidualSummary;
 use mtcal_solver::sensitivity::SensitivityResult;
@@ -171,6 +170,7 @@ pub fn result_page(
                     button.secondary type="submit" { "Set as baseline" }
                 }
             }
+            @if let ResultBody::Identification(v) = body { (misfit_banner(v.doc, None)) }
             @if !verdict.is_empty() { (verdict_table(verdict)) }
             (sections(body))
         },
@@ -213,39 +213,39 @@ pub fn verdict_table(rows: &[VerdictRow]) -> Markup {
     }
 }
 
-/// The misfit gate's banner and the identification's sections (the result page).
-pub fn identification(v: &IdentificationView) -> Markup {
-    let d = v.doc;
+/// The misfit gate's banner of an identification whose model does not explain its
+/// recording (nothing otherwise): first on its page, above the verdict, and first in its
+/// check report. It states the gate's finding (the residual RMS against the noise floor
+/// and the factor), that no value is judged and that the compensation table is refused
+/// unless forced, and where the diagnosis of the recording is: `diagnosis` says it (the
+/// report names the diagnosis it holds), else the machine's page lists the diagnoses.
+pub fn misfit_banner(d: &IdentificationResult, diagnosis: Option<Markup>) -> Markup {
     let check = d.model_check();
     html! {
         @if check.is_misfit() {
-            (misfit_banner(&check, html! {
-                "The diagnosis of this recording says which physics the model leaves out: \
-                 see the diagnoses on " a href=(machine_href(&d.machine_id)) { "the machine's page" } "."
-            }))
-        }
-        (identification_detail(v))
-    }
-}
-
-/// The misfit gate's banner: the model does not explain its recording (the gate's
-/// statement: residual RMS against the noise floor and the factor), so no value of it is
-/// judged and its compensation table is refused unless forced; `diagnosis` says where
-/// the diagnosis of the recording is.
-pub fn misfit_banner(check: &ModelCheck, diagnosis: Markup) -> Markup {
-    html! {
-        section.card.misfit #misfit {
-            h2 { "Not decided: model misfit" }
-            p { (check.statement) "." }
-            p { "No value of this model is judged against a tolerance and its compensation \
-                 table is refused unless forced. " (diagnosis) }
+            // The misfit gate: no value of this model is judged, no table made unforced.
+            section.card.misfit #misfit {
+                h2 { "Not decided: model misfit" }
+                p { (check.statement) "." }
+                p { "No value of this model is judged against a tolerance and its compensation \
+                     table is refused unless forced. "
+                    @match diagnosis {
+                        Some(m) => { (m) }
+                        None => {
+                            "The diagnosis of this recording says which physics the model leaves \
+                             out: see the diagnoses on "
+                            a href=(machine_href(&d.machine_id)) { "the machine's page" } "."
+                        }
+                    }
+                }
+            }
         }
     }
 }
 
 /// Fit figures, squareness, the 18 error functions, residuals, circle tests,
-/// identifiability and reporting notes of an identification (without the misfit banner).
-pub fn identification_detail(v: &IdentificationView) -> Markup {
+/// identifiability and reporting notes of an identification.
+pub fn identification(v: &IdentificationView) -> Markup {
     let d = v.doc;
     let o = &d.observability;
     html! {
@@ -407,17 +407,6 @@ fn undetermined(f: &Finding) -> Markup {
 /// whole diagnosis is [`diagnosis`]).
 pub fn findings_summary(doc: &DiagnosisResult) -> Markup {
     use mtcal_solver::diagnosis::Verdict;
-    let params = |f: &Finding| -> String {
-        f.parameters
-            .iter()
-            .filter(|(k, _)| !k.starts_with("std_"))
-            .map(|(k, v)| match f.parameters.get(&format!("std_{k}")) {
-                Some(u) => format!("{k} = {} (u = {})", num(*v), num(*u)),
-                None => format!("{k} = {}", num(*v)),
-            })
-            .collect::<Vec<_>>()
-            .join(", ")
-    };
     html! {
         p {
             (match doc.verdict {
@@ -430,16 +419,13 @@ pub fn findings_summary(doc: &DiagnosisResult) -> Markup {
             ul {
                 @for f in &doc.findings {
                     li data-effect=(f.effect) {
-                        strong { (f.effect.replace('_', " ")) }
-                        @if let Some(a) = &f.axis { " (" (a) ")" }
-                        ": " (mtcal_solver::text::person_units(&params(f)))
+                        strong { (f.name_in_words()) }
+                        ": " (f.parameters_in_words())
                     }
                 }
                 @for f in &doc.possible {
                     li data-effect=(f.effect) {
-                        (f.effect.replace('_', " "))
-                        @if let Some(a) = &f.axis { " (" (a) ")" }
-                        " — possible, undetermined"
+                        (f.name_in_words()) " — possible, undetermined"
                     }
                 }
             }
@@ -843,11 +829,20 @@ mod tests {
         let body = ResultBody::Identification(IdentificationView::of(&doc));
         let mut h = header("identification");
         h.verdict = Some("misfit".into());
-        let html = result_page(&viewer("read"), &h, &[], &body).into_string();
+        let verdict = [VerdictRow {
+            quantity: "EXX".into(),
+            at: String::new(),
+            value: 3.747,
+            std: Some(0.01),
+            unit: "um".into(),
+            limit: 4.0,
+            outcome: "misfit".into(),
+        }];
+        let html = result_page(&viewer("read"), &h, &verdict, &body).into_string();
         let at = html.find("id=\"misfit\"").expect("the misfit banner");
         assert!(
-            at < html.find("id=\"fit\"").unwrap(),
-            "the banner comes first"
+            at < html.find("id=\"verdict\"").unwrap() && at < html.find("id=\"fit\"").unwrap(),
+            "the banner comes first, above the verdict"
         );
         assert!(html.contains("the model does not explain this recording"));
         assert!(html.contains("6.6 × the noise floor"));
