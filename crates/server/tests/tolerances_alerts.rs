@@ -1005,11 +1005,9 @@ async fn a_pending_delivery_survives_a_worker_that_died_on_postgres() {
     pg.drop_schema().await.unwrap();
 }
 
-/// A backlash machine's identification (the model does not explain its recording): its
-/// compensation export answers 409 `model_misfit` unless `force=true`, whose table says
-/// why in its first line; its verdict on a term is "misfit" with the gate's statement.
-#[tokio::test]
-async fn a_misfit_result_is_not_decided_and_its_table_needs_force() {
+/// The identification of a simulated machine with 6 µm of X backlash (seed plan, 10 Hz):
+/// its rigid model does not explain the recording.
+fn backlash_identification() -> mtcal_solver::identification::IdentificationResult {
     use mtcal_solver::identification::{IdentifyOptions, identify};
     use mtcal_solver::simulate::{Effect, Plan, SimOptions, random_truth, simulate};
     let sim = simulate(
@@ -1027,7 +1025,103 @@ async fn a_misfit_result_is_not_decided_and_its_table_needs_force() {
         },
     )
     .unwrap();
-    let doc = identify(&sim.session, &IdentifyOptions::default()).unwrap();
+    identify(&sim.session, &IdentifyOptions::default()).unwrap()
+}
+
+/// The check report of a backlash machine's identification whose dataset has a stored
+/// diagnosis that does not read: the report opens with the misfit banner and says that
+/// the diagnosis (named by its id) could not be read, never "No diagnosis was run"; it
+/// holds the uncertainty budget table with the instrument "not included" (the session
+/// states none).
+#[tokio::test]
+async fn the_report_says_a_stored_diagnosis_could_not_be_read() {
+    let doc = backlash_identification();
+    let f = fixture().await;
+    f.store.create_machine(&machine("M1", &[])).await.unwrap();
+    let ds = f
+        .store
+        .insert_dataset(mtcal_store::NewDataset {
+            machine_id: "M1".into(),
+            kind: "session".into(),
+            measured_at: "2026-01-05T08:00:00Z".into(),
+            samples: 1,
+            files: vec![("session.json".into(), b"{}".to_vec())],
+        })
+        .await
+        .unwrap();
+    let stored = |kind: &str, document: Value| NewResult {
+        machine_id: "M1".into(),
+        dataset_id: Some(ds.id.clone()),
+        kind: kind.into(),
+        measured_at: "2026-01-05T08:00:00Z".into(),
+        document,
+        scalars: ResultScalars::default(),
+        figures: vec![],
+    };
+    let r = f
+        .store
+        .import_result(stored(
+            "identification",
+            serde_json::to_value(&doc).unwrap(),
+        ))
+        .await
+        .unwrap();
+    let report = |id: String| {
+        let app = f.app.clone();
+        let key = f.read.clone();
+        async move {
+            let req = Request::builder()
+                .uri(format!("/api/v1/results/{id}/report"))
+                .header("authorization", format!("Bearer {key}"))
+                .body(Body::empty())
+                .unwrap();
+            let resp = app.oneshot(req).await.unwrap();
+            assert_eq!(resp.status(), StatusCode::OK);
+            let bytes = axum::body::to_bytes(resp.into_body(), 1 << 24)
+                .await
+                .unwrap();
+            String::from_utf8(bytes.to_vec()).unwrap()
+        }
+    };
+    let before = report(r.id.clone()).await;
+    assert!(before.contains("No diagnosis was run"));
+    let bad = f
+        .store
+        .import_result(stored(
+            "diagnosis",
+            json!({"kind": "diagnosis", "machine_id": "M1", "findings": "not a list"}),
+        ))
+        .await
+        .unwrap();
+    let page = report(r.id.clone()).await;
+    assert!(!page.contains("No diagnosis was run"), "{page}");
+    let findings = &page[page.find(r#"id="findings""#).expect("findings")..];
+    let findings = &findings[..findings.find("</section>").unwrap()];
+    assert!(
+        findings.contains("could not be read") && findings.contains(&bad.id),
+        "{findings}"
+    );
+    let article = &page[page.find("<article").unwrap()..];
+    let first = &article[article.find("<section").unwrap()..];
+    assert!(
+        first[..first.find('>').unwrap()].contains(r#"id="misfit""#),
+        "the report opens with the misfit banner"
+    );
+    let banner = &first[..first.find("</section>").unwrap()];
+    assert!(
+        banner.contains("the model does not explain this recording") && banner.contains(&bad.id),
+        "{banner}"
+    );
+    let budget = &page[page.find(r#"id="budget""#).expect("the budget table")..];
+    assert!(budget.contains(r#"data-item="EXX""#) && budget.contains("not included"));
+}
+
+/// A backlash machine's identification (the model does not explain its recording): its
+/// compensation export answers 409 `model_misfit` unless `force=true`, whose table says
+/// why in its first line; its verdict on a term is "misfit" with the gate's statement.
+#[tokio::test]
+async fn a_misfit_result_is_not_decided_and_its_table_needs_force() {
+    let doc = backlash_identification();
     assert!(doc.model_check().is_misfit());
     let f = fixture().await;
     f.store.create_machine(&machine("M1", &[])).await.unwrap();
