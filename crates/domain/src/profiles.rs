@@ -91,17 +91,28 @@ impl Profile {
 #[serde(deny_unknown_fields)]
 pub struct NewProfile {
     /// `machine` or `tag`.
+    #[cfg_attr(feature = "openapi", schema(pattern = "^(machine|tag)$"))]
     pub scope: String,
-    /// The machine id (it must exist) or the tag.
+    /// The machine id (it must exist) or the tag (not blank, at most 200 characters, no
+    /// control character).
+    #[cfg_attr(
+        feature = "openapi",
+        schema(
+            max_length = 200,
+            pattern = "^[^\\u0000-\\u001f\\u007f-\\u009f]*[^\\s\\u0000-\\u001f\\u007f-\\u009f][^\\u0000-\\u001f\\u007f-\\u009f]*$"
+        )
+    )]
     pub target: String,
     /// At least one limit; each positive and finite, names as in docs/api.md.
     pub limits: Limits,
     /// Tag profiles only: an `http` or `https` URL receiving the drift alerts.
     #[serde(default)]
+    #[cfg_attr(feature = "openapi", schema(max_length = 2000))]
     pub webhook_url: Option<String>,
     /// The key of the webhook's signatures (16 to 256 visible ASCII characters);
     /// absent: one is generated and shown once in the answer. Never shown again.
     #[serde(default)]
+    #[cfg_attr(feature = "openapi", schema(pattern = "^[!-~]{16,256}$"))]
     pub webhook_secret: Option<String>,
 }
 
@@ -112,10 +123,13 @@ pub struct NewProfile {
 pub struct ProfileUpdate {
     pub limits: Limits,
     #[serde(default)]
+    #[cfg_attr(feature = "openapi", schema(max_length = 2000))]
     pub webhook_url: Option<String>,
-    /// A new key for the webhook's signatures; absent: the profile's secret is kept
-    /// (one is generated, and shown once, when it has none).
+    /// A new key for the webhook's signatures (16 to 256 visible ASCII characters);
+    /// absent: the profile's secret is kept (one is generated, and shown once, when it
+    /// has none).
     #[serde(default)]
+    #[cfg_attr(feature = "openapi", schema(pattern = "^[!-~]{16,256}$"))]
     pub webhook_secret: Option<String>,
 }
 

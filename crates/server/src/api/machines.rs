@@ -16,8 +16,14 @@ use utoipa::{IntoParams, ToSchema};
 #[derive(Debug, Clone, Serialize, Deserialize, ToSchema)]
 #[serde(deny_unknown_fields)]
 pub struct NewMachine {
-    /// 1–64 characters: letters, digits, '.', '_', '-'.
+    /// 1–64 characters: letters, digits, '.', '_', '-' (not `.` or `..`).
+    #[schema(pattern = "^(?!\\.{1,2}$)[A-Za-z0-9._-]{1,64}$")]
     pub id: String,
+    /// Not blank, at most 200 characters, no control character.
+    #[schema(
+        max_length = 200,
+        pattern = "^[^\\u0000-\\u001f\\u007f-\\u009f]*[^\\s\\u0000-\\u001f\\u007f-\\u009f][^\\u0000-\\u001f\\u007f-\\u009f]*$"
+    )]
     pub name: String,
     /// Axes on the workpiece and tool sides (default `{"workpiece": ["X", "Y"], "tool": ["Z"]}`).
     #[schema(value_type = Option<Object>)]
@@ -25,8 +31,15 @@ pub struct NewMachine {
     /// Travel per axis, mm, e.g. `{"X": [-250, 250]}`.
     #[serde(default)]
     pub travel_mm: BTreeMap<String, [f64; 2]>,
+    /// Not blank, at most 100 characters, no control character.
+    #[schema(
+        max_length = 100,
+        pattern = "^[^\\u0000-\\u001f\\u007f-\\u009f]*[^\\s\\u0000-\\u001f\\u007f-\\u009f][^\\u0000-\\u001f\\u007f-\\u009f]*$"
+    )]
     pub site: Option<String>,
+    /// At most 32, each not blank, at most 64 characters, none twice.
     #[serde(default)]
+    #[schema(max_items = 32)]
     pub tags: Vec<String>,
 }
 
