@@ -316,9 +316,21 @@ async fn a_misfit_identification_is_diagnosed_on_its_own() {
         !report.contains("No diagnosis was run"),
         "the report lacks the diagnosis"
     );
+    let findings = &report[report
+        .find(r#"id="findings""#)
+        .expect("no findings section")..];
     assert!(
-        report.contains("backlash"),
-        "the report lacks the backlash finding"
+        findings[..findings.find("</section>").unwrap()].contains(r#"data-effect="backlash""#),
+        "the report's findings lack the backlash finding"
+    );
+    let budget = &report[report.find(r#"id="budget""#).expect("no budget table")..];
+    assert!(
+        budget.contains(r#"data-item="EXX""#),
+        "no budget row of EXX"
+    );
+    assert!(
+        report.find(r#"id="misfit""#).unwrap() < report.find(r#"id="check""#).unwrap(),
+        "the report opens with the misfit banner"
     );
     // The fleet row says the check is a misfit and, once the diagnosis has landed (its
     // row is refreshed just after the job is recorded), what the diagnosis found.
