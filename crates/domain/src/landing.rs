@@ -11,16 +11,15 @@ use std::sync::Arc;
 
 /// An identification `result_id` of machine `machine_id` has landed: its drift row is
 /// refreshed ([`fleet::refresh_machine`]), then the drift alert check runs
-/// ([`alerts::check_landed`], its webhooks delivered where `webhooks` allows); the alert
+/// ([`alerts::check_landed`], its webhooks' deliveries stored with it); the alert
 /// raised, if any.
 pub async fn result_landed(
     store: &Arc<dyn Store>,
     machine_id: &str,
     result_id: &str,
-    webhooks: &crate::webhooks::TargetPolicy,
 ) -> Result<Option<AlertView>, StoreError> {
     fleet::refresh_machine(store.as_ref(), machine_id).await?;
-    alerts::check_landed(store, machine_id, result_id, webhooks).await
+    alerts::check_landed(store, machine_id, result_id).await
 }
 
 /// A diagnosis of machine `machine_id` has landed: the machine's fleet row is refreshed,
