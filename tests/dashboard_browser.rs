@@ -519,7 +519,20 @@ async fn run(c: &Client, dashboard: &str, base: &str, key: &str, shots: &Path, w
         .unwrap();
     assert_eq!(polar.len(), groups.len(), "one polar plot per circle test");
     let plot = inspect::parse(&polar[0].html(false).await.unwrap()).unwrap();
-    assert!(plot.has_text("0°") || plot.has_text("90°"), "angle labels");
+    assert_eq!(
+        ["+X", "+Y", "+Z"]
+            .iter()
+            .filter(|a| plot.has_text(a))
+            .count(),
+        2,
+        "the plane's axis labels"
+    );
+    assert!(
+        plot.texts
+            .iter()
+            .any(|t| t.content.starts_with("R ") && t.content.ends_with(" mm")),
+        "the nominal radius labels the reference circle"
+    );
     assert!(
         plot.marks
             .iter()

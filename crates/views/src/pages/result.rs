@@ -276,7 +276,7 @@ pub fn identification(v: &IdentificationView) -> Markup {
         }
         @if !d.residuals.is_empty() { (residuals(&d.residuals)) }
         @match &v.circles {
-            Ok(c) => { @if !c.is_empty() { (circles(c)) } }
+            Ok(c) => { @if !c.is_empty() { (circles(c, &d.standards.iso230_4)) } }
             Err(e) => {
                 section.card #circles {
                     h2 { "Circle tests" }
@@ -357,8 +357,11 @@ fn residuals(rows: &[ResidualSummary]) -> Markup {
     }
 }
 
-/// Circle tests grouped by file, plane and radius (both directions in one polar plot).
-fn circles(all: &[CircleTrace]) -> Markup {
+/// Circle tests grouped by file, plane and radius (both directions in one polar plot),
+/// all on one radial scale ([`plots::circle_step`]), each with the ISO 230-4 figures of
+/// its file and plane (`iso`): G per direction, H and the bidirectional G, and F (its
+/// maximum and minimum) when the radius is traceable.
+fn circles(all: &[CircleTrace], iso: &[mtcal_solver::standards::Iso2304]) -> Markup {
     let mut groups: Vec<Vec<CircleTrace>> = vec![];
     for c in all {
         match groups
@@ -369,17 +372,41 @@ fn circles(all: &[CircleTrace]) -> Markup {
             None => groups.push(vec![c.clone()]),
         }
     }
+    let step = plots::circle_step(all);
+    let figures = |c: &CircleTrace| {
+        iso.iter()
+            .find(|f| f.file == c.file && f.plane.to_string() == c.plane)
+    };
     html! {
         section.card #circles {
             h2 { "Circle tests" }
             p.muted { "Radial deviation (measured − nominal radius) and the fitted model's, \
-                       counter-clockwise (ccw) and clockwise (cw), on a scaled radial axis." }
+                       counter-clockwise (ccw, blue) and clockwise (cw, red), the measured trace \
+                       thick; every plot on the same radial scale, rings every " (plots::tick_label(step)) " µm. \
+                       ISO 230-4 figures: G circular deviation, H circular hysteresis, F radial deviation \
+                       (max, min)." }
             div.grid {
                 @for g in &groups {
                     figure.plot.polar data-file=(g[0].file) {
-                        (svg(plots::circle_polar(g)))
-                        figcaption { (g[0].file) ", " (g[0].plane) " plane, R " (plots::tick_label(g[0].radius_mm)) " mm, F "
-                            (num(g[0].feed_mm_min)) " mm/min, centre (" (num(g[0].centre_mm[0])) ", " (num(g[0].centre_mm[1])) ") mm" }
+                        (svg(plots::circle_polar(g, step)))
+                        figcaption {
+                            (g[0].file) ", " (g[0].plane) " plane, R " (plots::nominal_mm(g[0].radius_mm)) " mm, F "
+                            (num(g[0].feed_mm_min)) " mm/min, centre (" (num(g[0].centre_mm[0])) ", " (num(g[0].centre_mm[1])) ") mm"
+                            @if let Some(f) = figures(&g[0]) {
+                                br;
+                                span.iso230-4 {
+                                    "ISO 230-4: "
+                                    @for (k, d) in f.directions.iter().enumerate() {
+                                        @if k > 0 { "; " }
+                                        "G(" (d.direction) ") " (num(d.g_um)) " µm"
+                                        @if f.traceable_radius { ", F(" (d.direction) ") max " (num(d.f_max_um)) ", min " (num(d.f_min_um)) " µm" }
+                                    }
+                                    @if let Some(b) = &f.bidirectional {
+                                        "; G(b) " (num(b.g_um)) " µm, H " (num(b.h_um)) " µm"
+                                    }
+                                }
+                            }
+                        }
                     }
                 }
             }
@@ -947,6 +974,28 @@ mod tests {
             assert!(circles.contains(&format!("measured {}", c.direction)));
             assert!(circles.contains(&format!("model {}", c.direction)));
         }
+        // Each plot with its plane's ISO 230-4 figures, all on one radial scale.
+        assert!(!doc.standards.iso230_4.is_empty());
+        for f in &doc.standards.iso230_4 {
+            let at = circles
+                .find(&format!("data-file=\"{}\"", f.file))
+                .unwrap_or_else(|| panic!("no plot of {}", f.file));
+            let fig = &circles[at..at + circles[at..].find("</figure>").unwrap()];
+            let caption = &fig[fig.find("<figcaption>").unwrap()..];
+            for d in &f.directions {
+                let g = format!("G({}) {} µm", d.direction, num(d.g_um));
+                assert!(caption.contains(&g), "{g}: {caption}");
+            }
+            if let Some(b) = &f.bidirectional {
+                assert!(
+                    caption.contains(&format!("H {} µm", num(b.h_um))),
+                    "{caption}"
+                );
+            }
+        }
+        let step = plots::circle_step(&read.view().circles.unwrap());
+        let rings = format!("+{} µm", plots::tick_label(2.0 * step));
+        assert_eq!(circles.matches(&rings).count(), groups.len(), "{rings}");
         // A shape this version does not read: a note, and the rest of the page.
         let mut changed = stored;
         changed["circles"][0]["angle_deg"] = serde_json::json!("every degree");
@@ -982,7 +1031,7 @@ mod tests {
             measured_um: vec![1.0, -1.0, 1.0, -1.0],
             model_um: vec![0.9, -0.9, 0.9, -0.9],
         };
-        let html = circles(&[c("ccw"), c("cw")]).into_string();
+        let html = circles(&[c("ccw"), c("cw")], &[]).into_string();
         assert_eq!(
             html.matches("<svg").count(),
             1,
