@@ -12,7 +12,7 @@
 
 use crate::error::DomainError;
 use mtcal_solver::tolerance::Limits;
-use mtcal_store::{Machine, StoreError, ToleranceProfile};
+use mtcal_store::{Machine, Store, StoreError, ToleranceProfile};
 use serde::{Deserialize, Serialize};
 
 /// The two scopes of a profile.
@@ -186,6 +186,49 @@ pub fn validate(
         crate::webhooks::validate_secret(secret).map_err(bad)?;
     }
     Ok(())
+}
+
+/// Creates profile `p` after checking it (its webhook target resolved against
+/// `webhooks`, its machine existing); the profile as answered, with a generated webhook
+/// secret shown this once. The fleet rows it applies to are not refreshed here: the
+/// caller runs [`crate::fleet::refresh_profile_targets`] (in the background, or inline).
+pub async fn create(
+    store: &dyn Store,
+    p: &NewProfile,
+    webhooks: &crate::webhooks::TargetPolicy,
+) -> Result<Profile, DomainError> {
+    let target = check_target(&p.scope, &p.target)?;
+    validate(
+        &p.scope,
+        &p.limits,
+        p.webhook_url.as_deref(),
+        p.webhook_secret.as_deref(),
+    )?;
+    if let Some(url) = &p.webhook_url {
+        crate::webhooks::resolve(url, webhooks)
+            .await
+            .map_err(DomainError::Invalid)?;
+    }
+    if p.scope == "machine" {
+        store.get_machine(target).await?;
+    }
+    let (secret, shown) =
+        webhook_secret(p.webhook_url.as_deref(), p.webhook_secret.as_deref(), None);
+    let stored = store
+        .create_tolerance(&ToleranceProfile {
+            id: mtcal_store::rules::new_id("tol"),
+            scope: p.scope.clone(),
+            target: target.to_string(),
+            limits: limits_json(&p.limits)?,
+            webhook_url: p.webhook_url.clone(),
+            webhook_secret: secret,
+            created_at: String::new(),
+            updated_at: String::new(),
+        })
+        .await?;
+    let mut answer = Profile::of(&stored)?;
+    answer.webhook_secret = shown;
+    Ok(answer)
 }
 
 /// Limits as the store holds them.

@@ -216,6 +216,31 @@ fn sparkline_cell(r: &FleetRow) -> Markup {
     }
 }
 
+/// The form registering a machine: id, name, site, tags and the travel of each axis.
+fn machine_form(viewer: &Viewer) -> Markup {
+    html! {
+        section.card #new-machine {
+            details {
+                summary { "Register a machine" }
+                form.stack method="post" action="/machines" {
+                    (super::csrf_field(&viewer.csrf))
+                    label { "id (letters, digits, '.', '_', '-')" input name="id" required maxlength="64"; }
+                    label { "name" input name="name"; }
+                    label { "site" input name="site"; }
+                    label { "tags (comma-separated)" input name="tags"; }
+                    @for axis in ["X", "Y", "Z"] {
+                        label { (axis) " travel (mm): min "
+                            input type="number" name={ (axis.to_lowercase()) "_min" } step="any";
+                            " max " input type="number" name={ (axis.to_lowercase()) "_max" } step="any";
+                        }
+                    }
+                    button type="submit" { "Register" }
+                }
+            }
+        }
+    }
+}
+
 fn select(name: &str, label: &str, options: &[String], chosen: &Option<String>) -> Markup {
     html! {
         label { (label)
@@ -301,6 +326,7 @@ pub fn fleet_page(viewer: &Viewer, f: &FleetPage) -> Markup {
                     }
                 }
             }
+            @if viewer.can_write() { (machine_form(viewer)) }
             @if f.pages > 1 {
                 nav.pager {
                     @if f.page > 1 { a href=(page_href(f, f.page - 1)) rel="prev" { "← previous" } " " }
