@@ -403,6 +403,10 @@ async fn run(c: &Client, dashboard: &str, base: &str, key: &str, shots: &Path, w
     .unwrap();
     let banner = text(c, "#misfit").await;
     assert!(banner.contains("Not decided: model misfit"), "{banner}");
+    assert!(
+        banner.contains("diagnosis of this recording found: backlash (X)"),
+        "the banner says what the service's diagnosis found: {banner}"
+    );
     shot(c, shots, "result-misfit").await;
     c.goto(&format!("{base}/")).await.unwrap();
 

@@ -113,6 +113,9 @@ pub struct ResultHeader {
     pub is_baseline: bool,
     /// The overall verdict, when a tolerance profile applies.
     pub verdict: Option<String>,
+    /// What the diagnosis of the recording this result was computed from found, when one
+    /// is stored (said in the misfit banner).
+    pub diagnosis: Option<super::DiagnosisFindings>,
 }
 
 /// The body of a result page, by kind.
@@ -170,7 +173,9 @@ pub fn result_page(
                     button.secondary type="submit" { "Set as baseline" }
                 }
             }
-            @if let ResultBody::Identification(v) = body { (misfit_banner(v.doc, None)) }
+            @if let ResultBody::Identification(v) = body {
+                (misfit_banner(v.doc, header.diagnosis.as_ref().map(|d| d.sentence())))
+            }
             @if !verdict.is_empty() { (verdict_table(verdict)) }
             (sections(body))
         },
@@ -518,7 +523,7 @@ pub fn diagnosis(d: &DiagnosisResult) -> Markup {
         @if !d.plots.is_empty() {
             section.card #diagnosis-plots {
                 h2 { "Before and after" }
-                div.grid { @for p in &d.plots { figure.plot data-plot=(p.id) { (svg(plots::render_svg(p))) } } }
+                div.grid { @for (p, drawn) in d.plots.iter().zip(plots::render_svgs(&d.plots)) { figure.plot data-plot=(p.id) { (svg(drawn)) } } }
             }
         }
         @if !d.unexplained.is_empty() {
@@ -737,6 +742,7 @@ mod tests {
             dataset_id: Some("d1".into()),
             is_baseline: false,
             verdict: Some("undecided".into()),
+            diagnosis: None,
         }
     }
 
@@ -873,6 +879,21 @@ mod tests {
         );
         assert!(html.contains("the model does not explain this recording"));
         assert!(html.contains("6.6 × the noise floor"));
+        // With the diagnosis of its recording stored, the banner says what it found.
+        h.diagnosis = Some(crate::pages::DiagnosisFindings {
+            result_id: "res_d".into(),
+            verdict: Some("explained".into()),
+            findings: vec!["backlash (X): lost_motion_um = 6.00 (u = 0.01)".into()],
+            more: 0,
+        });
+        let html = result_page(&viewer("read"), &h, &verdict, &body).into_string();
+        let banner =
+            &html[html.find("id=\"misfit\"").unwrap()..html.find("id=\"verdict\"").unwrap()];
+        assert!(
+            banner.contains("href=\"/results/res_d\"")
+                && banner.contains("found: backlash (X): lost_motion_um = 6.00"),
+            "{banner}"
+        );
         assert!(
             html.contains(">not decided: model misfit<"),
             "the badge's words"

@@ -88,14 +88,15 @@ pub(crate) fn nice_ceil(x: f64) -> f64 {
 }
 
 /// A diagnosis figure of kind `polar` (module docs; angle labels 0°, 45°, …).
-pub(crate) fn render(plot: &PlotData) -> String {
+/// `step`: the page's ring step (µm; None: the plot's own, [`plot_step`]).
+pub(crate) fn render(plot: &PlotData, step: Option<f64>) -> String {
     let title = format!("{} ({})", plot.title, plot.y_label);
     svg(CIRCLE, &plot.title, |root| {
         draw(
             root,
             &Style {
                 title: &title,
-                step: None,
+                step,
                 radius_mm: None,
                 font: CIRCLE_FONT,
             },
@@ -106,15 +107,27 @@ pub(crate) fn render(plot: &PlotData) -> String {
     })
 }
 
-/// The ring step (µm) that every circle of `all` fits in: the step of the largest
-/// |deviation|, measured or modelled, of them all (module docs).
-pub fn circle_step(all: &[CircleTrace]) -> f64 {
-    let m = all
-        .iter()
-        .flat_map(|c| c.measured_um.iter().chain(&c.model_um))
+/// The ring step (µm) of one diagnosis figure of kind `polar`: that of its largest
+/// |deviation| (module docs).
+pub(crate) fn plot_step(plot: &PlotData) -> f64 {
+    step_of(plot.series.iter().flat_map(|s| s.y.iter()))
+}
+
+/// The ring step of the largest finite |d| of `ds` (1 µm when there is none).
+fn step_of<'a>(ds: impl Iterator<Item = &'a f64>) -> f64 {
+    let m = ds
         .filter(|d| d.is_finite())
         .fold(0.0f64, |a, d| a.max(d.abs()));
     if m > 0.0 { nice_ceil(m / 2.0) } else { 1.0 }
+}
+
+/// The ring step (µm) that every circle of `all` fits in: the step of the largest
+/// |deviation|, measured or modelled, of them all (module docs).
+pub fn circle_step(all: &[CircleTrace]) -> f64 {
+    step_of(
+        all.iter()
+            .flat_map(|c| c.measured_um.iter().chain(&c.model_um)),
+    )
 }
 
 /// A nominal radius as a person writes it: rounded to 1 µm, shortest form (`50`,
@@ -470,6 +483,26 @@ mod tests {
         assert!(widened.has_text("+4 µm"));
         assert_eq!(nominal_mm(49.999_999), "50");
         assert_eq!(nominal_mm(12.5), "12.5");
+    }
+
+    /// The polar figures of one diagnosis page share one scale: a ±0.3 µm figure drawn
+    /// beside a ±3 µm one gets its rings (±2, ±4 µm), not its own (±0.2, ±0.4 µm); a
+    /// cartesian figure beside them is untouched.
+    #[test]
+    fn diagnosis_polar_figures_of_a_page_share_one_scale() {
+        use mtcal_solver::diagnosis::PlotKind;
+        let big = crate::plots::tests::plot(PlotKind::Polar);
+        let mut small = big.clone();
+        small
+            .series
+            .iter_mut()
+            .for_each(|s| s.y.iter_mut().for_each(|d| *d *= 0.1));
+        assert!(render_svg(&small).contains("+0.4 µm"));
+        let line = crate::plots::tests::plot(PlotKind::Cartesian);
+        let drawn = crate::plots::render_svgs(&[small, line.clone(), big]);
+        assert!(drawn[0].contains("+4 µm") && !drawn[0].contains("+0.4 µm"));
+        assert!(drawn[2].contains("+4 µm"));
+        assert_eq!(drawn[1], render_svg(&line));
     }
 
     #[test]
