@@ -563,7 +563,8 @@ pub async fn result(
         "identification" => {
             let stored = vresult::StoredIdentification::read(doc.clone())
                 .map_err(|e| bad_document(&r, e))?;
-            let body = vresult::ResultBody::Identification(stored.view());
+            let body =
+                vresult::ResultBody::Identification(stored.view().with_limits(&verdict_table));
             vresult::result_page(&viewer, &header, &verdict_table, &body)
         }
         "diagnosis" => {

@@ -59,9 +59,9 @@ pub const INSTRUMENT: &str = "planar grid encoder (cross-grid plate and scanning
 pub fn check_report(r: &CheckReport) -> Markup {
     let d = r.doc;
     let title = format!("Check report {} {}", d.machine_id, when(&d.measured_at));
-    let view = IdentificationView::of(d);
     let compensation = Compensation::from_result(d, DEFAULT_STEP_MM, false);
     let rows: Vec<VerdictRow> = r.verdict.map(verdict_rows).unwrap_or_default();
+    let view = IdentificationView::of(d).with_limits(&rows);
     print_page(
         &title,
         html! {

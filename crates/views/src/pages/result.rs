@@ -37,6 +37,8 @@ pub struct VerdictRow {
 pub struct IdentificationView<'a> {
     pub doc: &'a IdentificationResult,
     pub circles: Result<Vec<CircleTrace>, String>,
+    /// The range limit each error function was judged against (drawn on its panel).
+    pub limits: std::collections::BTreeMap<String, f64>,
 }
 
 impl<'a> IdentificationView<'a> {
@@ -45,7 +47,18 @@ impl<'a> IdentificationView<'a> {
         IdentificationView {
             doc,
             circles: Ok(doc.circles.iter().map(CircleTrace::from).collect()),
+            limits: Default::default(),
         }
+    }
+
+    /// The view with the range limits of the verdict's rows that judge an error function.
+    pub fn with_limits(mut self, rows: &[VerdictRow]) -> Self {
+        self.limits = rows
+            .iter()
+            .filter(|r| self.doc.terms.contains_key(&r.quantity))
+            .map(|r| (r.quantity.clone(), r.limit))
+            .collect();
+        self
     }
 
     /// The travel of term `name`'s axis that the check measured (None: the document
@@ -273,7 +286,7 @@ pub fn identification(v: &IdentificationView) -> Markup {
                 @for name in TERM_ORDER {
                     @if let Some(t) = d.terms.get(name) {
                         figure.plot data-term=(name) data-identifiable=(t.identifiable) {
-                            (svg(plots::error_function(name, t, v.travel(name))))
+                            (svg(plots::error_function(name, t, v.travel(name), v.limits.get(name).copied())))
                         }
                     }
                 }

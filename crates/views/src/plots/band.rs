@@ -57,7 +57,17 @@ pub fn empty_panel(title: &str, message: &str) -> String {
 /// joined by a line, and the band value ± 2·std, over `travel_mm` (the measured travel;
 /// positions outside it are not drawn). A term that is not identifiable, or has no value
 /// inside the travel, is an [`empty_panel`] saying so.
-pub fn error_function(name: &str, term: &TermReport, travel_mm: Option<[f64; 2]>) -> String {
+///
+/// With a tolerance `limit` (the range limit the verdict applied, in the term's unit) the
+/// panel draws the band the function must stay within to pass: two dashed lines a limit
+/// apart, centred on the middle of the function's range (a range limit fixes the width,
+/// not the place), labelled "range limit".
+pub fn error_function(
+    name: &str,
+    term: &TermReport,
+    travel_mm: Option<[f64; 2]>,
+    limit: Option<f64>,
+) -> String {
     let unit = unit_label(&term.unit);
     let title = format!("{name} ({unit})");
     if !term.identifiable {
@@ -80,7 +90,12 @@ pub fn error_function(name: &str, term: &TermReport, travel_mm: Option<[f64; 2]>
         .map(|((&q, &v), &s)| (q, v, s))
         .filter(|&(q, _, _)| inside(q))
         .collect();
-    function_band(name, &title, &pts)
+    let limit = limit.filter(|l| l.is_finite() && *l > 0.0);
+    if limit.is_none() || pts.len() < 2 {
+        return function_band(name, &title, &pts);
+    }
+    let x_desc = format!("{} (mm)", moving_axis(name));
+    svg(PANEL, &title, |root| band(root, &x_desc, &title, &pts, None, limit))
 }
 
 /// A function of position `name` (its last letter names the axis) from points
@@ -110,7 +125,7 @@ pub fn function_band_on(
     }
     let x_desc = format!("{} (mm)", moving_axis(name));
     svg(PANEL, title, |root| {
-        band(root, &x_desc, title, &pts, y_range)
+        band(root, &x_desc, title, &pts, y_range, None)
     })
 }
 
@@ -131,7 +146,7 @@ pub fn compliance_curve(c: &ComplianceCurve) -> String {
         return empty_panel(&title, "no values over the measured A range");
     }
     svg(PANEL, &title, |root| {
-        band(root, "A (°)", &title, &pts, None)
+        band(root, "A (°)", &title, &pts, None, None)
     })
 }
 
@@ -141,8 +156,32 @@ fn band(
     title: &str,
     pts: &[(f64, f64, f64)],
     y_range: Option<(f64, f64)>,
+    limit: Option<f64>,
 ) -> DrawResult {
     let x0 = pts[0].0;
+    // The tolerance band: a range limit's width about the middle of the values' range.
+    let (vmin, vmax) = pts
+        .iter()
+        .fold((f64::INFINITY, f64::NEG_INFINITY), |(a, b), p| (a.min(p.1), b.max(p.1)));
+    // A limit far wider than the data (more than FAR_LIMIT times their span with the
+    // band) is named, not drawn: drawn, it would flatten the function to a line.
+    let span = pts
+        .iter()
+        .map(|p| p.1 + 2.0 * p.2.max(0.0))
+        .fold(f64::NEG_INFINITY, f64::max)
+        - pts
+            .iter()
+            .map(|p| p.1 - 2.0 * p.2.max(0.0))
+            .fold(f64::INFINITY, f64::min);
+    let far = limit.filter(|l| !(span > 0.0 && *l <= FAR_LIMIT * span));
+    let limits = limit
+        .filter(|_| far.is_none())
+        .map(|l| ((vmin + vmax) / 2.0 - l / 2.0, (vmin + vmax) / 2.0 + l / 2.0));
+    let y_range = match (y_range, limits) {
+        (Some((a, b)), Some((l, h))) => Some((a.min(l), b.max(h))),
+        (None, Some(lh)) => Some(lh),
+        (r, None) => r,
+    };
     let x1 = pts[pts.len() - 1].0;
     let with_band = pts.iter().all(|p| p.2.is_finite());
     let u = |p: &(f64, f64, f64)| if with_band { 2.0 * p.2 } else { 0.0 };
@@ -189,8 +228,37 @@ fn band(
         pts.iter().map(|p| (p.0, p.1)),
         COLORS[0].stroke_width(2),
     ))?;
+    if let Some(l) = far {
+        chart.draw_series(std::iter::once(Text::new(
+            format!("range limit {} (beyond this scale)", tick(&l)),
+            (x0, y1),
+            ("sans-serif", 13).into_font().color(&LIMIT),
+        )))?;
+    }
+    if let Some((l, h)) = limits {
+        for y in [l, h] {
+            chart.draw_series(DashedLineSeries::new(
+                [(x0, y), (x1, y)],
+                6,
+                4,
+                LIMIT.stroke_width(1),
+            ))?;
+        }
+        chart.draw_series(std::iter::once(Text::new(
+            "range limit",
+            (x0, h),
+            ("sans-serif", 13).into_font().color(&LIMIT),
+        )))?;
+    }
     Ok(())
 }
+
+/// A range limit wider than this many times the data's span (with their band) is named
+/// on the panel instead of drawn.
+const FAR_LIMIT: f64 = 5.0;
+
+/// The colour of a tolerance's lines.
+pub const LIMIT: RGBColor = RGBColor(0xb0, 0x30, 0x30);
 
 #[cfg(test)]
 mod tests {
@@ -225,7 +293,7 @@ mod tests {
     #[test]
     fn line_and_band_sit_where_the_values_say() {
         let t = term(true);
-        let svg = error_function("EXX", &t, Some([-50.0, 50.0]));
+        let svg = error_function("EXX", &t, Some([-50.0, 50.0]), None);
         let plot = inspect::parse(&svg).unwrap();
         let axes = plot.axes().unwrap();
         let line = plot.marks("polyline", &hex(COLORS[0]));
@@ -263,7 +331,7 @@ mod tests {
     #[test]
     fn nothing_is_drawn_outside_the_measured_travel() {
         let t = term(true);
-        let svg = error_function("EXX", &t, Some([-20.0, 30.0]));
+        let svg = error_function("EXX", &t, Some([-20.0, 30.0]), None);
         let plot = inspect::parse(&svg).unwrap();
         let axes = plot.axes().unwrap();
         let line = &plot.marks("polyline", &hex(COLORS[0]))[0];
@@ -283,7 +351,7 @@ mod tests {
 
     #[test]
     fn a_term_that_is_not_identifiable_is_an_empty_labelled_panel() {
-        let svg = error_function("EAX", &term(false), Some([-50.0, 50.0]));
+        let svg = error_function("EAX", &term(false), Some([-50.0, 50.0]), None);
         let plot = inspect::parse(&svg).unwrap();
         assert!(plot.has_text("EAX (µm)"));
         assert!(plot.has_text("not identifiable"));
@@ -308,7 +376,7 @@ mod tests {
 
     #[test]
     fn a_term_without_values_in_the_travel_is_an_empty_panel() {
-        let svg = error_function("EXX", &term(true), Some([200.0, 300.0]));
+        let svg = error_function("EXX", &term(true), Some([200.0, 300.0]), None);
         assert!(svg.contains("no values inside the measured travel"));
         assert!(!svg.contains("<polyline"));
     }
@@ -358,4 +426,33 @@ mod tests {
         };
         assert!(compliance_curve(&empty).contains("no values over the measured A range"));
     }
+
+    #[test]
+    fn a_range_limit_is_drawn_as_a_band_a_limit_wide_about_the_middle_of_the_range() {
+        // EXX rises linearly from -1 to +1 µm over ±50 mm: range 2 µm, middle 0.
+        let mut t = term(true);
+        t.positions_mm = vec![-50.0, 0.0, 50.0];
+        t.values = vec![-1.0, 0.0, 1.0];
+        t.std = vec![0.01; 3];
+        let svg = error_function("EXX", &t, Some([-50.0, 50.0]), Some(5.0));
+        let plot = inspect::parse(&svg).unwrap();
+        let axes = plot.axes().unwrap();
+        let dashes = plot.marks("polyline", &hex(LIMIT));
+        assert!(!dashes.is_empty(), "{svg}");
+        let mut ys: Vec<f64> = dashes.iter().map(|m| axes.y.value(m.points[0].1)).collect();
+        ys.sort_by(f64::total_cmp);
+        let px = 1.5 / axes.y.scale.abs();
+        assert!((ys[0] + 2.5).abs() <= px && (ys[ys.len() - 1] - 2.5).abs() <= px, "{ys:?}");
+        assert!(plot.has_text("range limit"));
+        let without = error_function("EXX", &t, Some([-50.0, 50.0]), None);
+        assert!(!without.contains("range limit"));
+        // A limit of 1 mm is named, not drawn: the function keeps its scale.
+        let far = inspect::parse(&error_function("EXX", &t, Some([-50.0, 50.0]), Some(1000.0)))
+            .unwrap();
+        assert!(far.marks("polyline", &hex(LIMIT)).is_empty());
+        assert!(far.has_text("range limit 1000 (beyond this scale)"));
+        let axes = far.axes().unwrap();
+        assert!(axes.y.value(0.0) < 5.0, "the scale stays the data's");
+    }
+
 }
