@@ -191,7 +191,13 @@ fn check(e: &Effect, r: &DiagnosisResult) {
             direction,
             coefficient_um_per_mm_s,
         } => {
-            axis(a);
+            // The error's own axis, and the axis whose velocity it follows.
+            axis(direction);
+            assert_eq!(
+                f.depends_on.as_deref(),
+                Some(a.to_string().as_str()),
+                "{ctx}"
+            );
             assert!(
                 close(
                     param(f, "coefficient_um_per_mm_s"),
@@ -632,7 +638,8 @@ fn a_sideways_shift_at_reversal_made_outside_the_simulator_is_found_by_signature
         .iter()
         .find(|f| f.effect == "direction_coupling")
         .unwrap_or_else(|| panic!("{r:#?}"));
-    assert_eq!(f.axis.as_deref(), Some("X"), "{r:#?}");
+    assert_eq!(f.axis.as_deref(), Some("Y"), "{r:#?}");
+    assert_eq!(f.depends_on.as_deref(), Some("X"), "{r:#?}");
     assert_eq!(
         f.signature.as_deref(),
         Some("a Y error that flips with the X direction of travel"),

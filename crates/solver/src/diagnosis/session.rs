@@ -150,11 +150,19 @@ impl SessionProblem<'_> {
         };
         Finding {
             effect: catalogue::reported_name(t.cand.effect).into(),
-            axis: t
-                .cand
-                .axis
-                .map(|a| a.to_string())
-                .or(t.cand.direction.map(|a| a.to_string())),
+            axis: match (t.cand.effect, t.cand.direction) {
+                // An error across the moving axis is the error of its direction.
+                ("direction_coupling" | "velocity_coupling", Some(dir)) => Some(dir.to_string()),
+                _ => t
+                    .cand
+                    .axis
+                    .map(|a| a.to_string())
+                    .or(t.cand.direction.map(|a| a.to_string())),
+            },
+            depends_on: match t.cand.effect {
+                "direction_coupling" | "velocity_coupling" => t.cand.axis.map(|a| a.to_string()),
+                _ => None,
+            },
             parameters,
             physics: effects::physics(catalogue::reported_name(t.cand.effect)).into(),
             signature: match (t.cand.effect, t.theta, t.cand.direction) {

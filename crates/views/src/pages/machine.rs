@@ -116,14 +116,14 @@ fn latest_findings(d: &LatestDiagnosis) -> Markup {
                             @for f in &doc.findings {
                                 li data-effect=(f.effect) {
                                     strong { (f.effect.replace('_', " ")) }
-                                    @if let Some(a) = &f.axis { " (" (a) ")" }
+                                    @if let Some(a) = f.axis_label() { " (" (a) ")" }
                                     ": " (mtcal_solver::text::person_units(&params(f)))
                                 }
                             }
                             @for f in &doc.possible {
                                 li data-effect=(f.effect) {
                                     (f.effect.replace('_', " "))
-                                    @if let Some(a) = &f.axis { " (" (a) ")" }
+                                    @if let Some(a) = f.axis_label() { " (" (a) ")" }
                                     " — possible, undetermined"
                                 }
                             }

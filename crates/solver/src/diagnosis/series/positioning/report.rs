@@ -11,6 +11,7 @@ use crate::diagnosis::local_scan::{self, Kind};
 use crate::diagnosis::lsq;
 use crate::diagnosis::repeatability::Repeatability;
 use crate::diagnosis::{Finding, Mismatch, PlotData, PlotKind, PlotSeries, effects};
+use crate::text::with_std;
 use std::collections::BTreeMap;
 
 /// What one axis's diagnosis produced.
@@ -163,7 +164,7 @@ pub(super) fn outcome(
                     },
                     at.iter()
                         .zip(&a.targets)
-                        .map(|((b, sb), t)| format!("{t:.1} mm {b:+.2} ± {sb:.2}"))
+                        .map(|((b, sb), t)| format!("{t:.1} mm {}", with_std(*b, *sb, 2, true)))
                         .collect::<Vec<_>>()
                         .join(", ")
                 );
@@ -251,6 +252,7 @@ pub(super) fn outcome(
         findings.push(Finding {
             effect: label.into(),
             axis: Some(a.axis.to_string()),
+            depends_on: None,
             parameters: params,
             physics: effects::physics(label).into(),
             residual_rms_um: rms_ba,
