@@ -116,8 +116,9 @@ async fn api(base: &str, key: &str, path: &str) -> Value {
 }
 
 /// The pages whose screenshots the README shows (docs/screenshots/).
-const DOCUMENTED: [&str; 8] = [
+const DOCUMENTED: [&str; 9] = [
     "fleet",
+    "result-misfit",
     "machine",
     "result",
     "result-circles",
@@ -325,7 +326,23 @@ async fn run(c: &Client, dashboard: &str, base: &str, key: &str, shots: &Path, w
         ids(&fleet),
         "the page lists the fleet route's machines"
     );
-    assert_eq!(&rows[..ranked.len()], &ranked[..], "fleet order");
+    // Machines with active alerts first (the demo's VMC-0003), then by drift as ranked.
+    let alerted: Vec<String> = fleet["machines"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .filter(|m| m["active_alerts"].as_i64() > Some(0))
+        .map(|m| m["machine_id"].as_str().unwrap().to_string())
+        .collect();
+    assert_eq!(alerted, ["VMC-0003"], "the demo's active alert");
+    assert_eq!(&rows[..alerted.len()], &alerted[..], "alerted first");
+    let quiet: Vec<&String> = rows.iter().filter(|r| !alerted.contains(r)).collect();
+    let ranked_quiet: Vec<&String> = ranked.iter().filter(|r| !alerted.contains(r)).collect();
+    assert_eq!(
+        &quiet[..ranked_quiet.len()],
+        &ranked_quiet[..],
+        "fleet order"
+    );
     // The 5-axis machine has only a cradle check: shown, with why it has no drift.
     let cradle = r#"#fleet tr[data-machine="5AX-0001"]"#;
     assert!(
@@ -340,7 +357,54 @@ async fn run(c: &Client, dashboard: &str, base: &str, key: &str, shots: &Path, w
             .contains("not applicable"),
         "why it has no drift"
     );
+    // The demo's decisions: the machine beyond its own profile says why it fails; the
+    // machine whose latest check has a backlash the model lacks is not decided (model
+    // misfit) and shows what the service's own diagnosis of it found; the failing
+    // machine's squareness drift alert is active.
+    let strict = r#"#fleet tr[data-machine="VMC-0003"]"#;
+    assert_eq!(text(c, &format!("{strict} .badge.verdict")).await, "fail");
+    let count = text(c, &format!("{strict} .verdict-count")).await;
+    assert!(count.contains("of 6 limits fail"), "{count}");
+    let reason = text(c, &format!("{strict} .reason")).await;
+    assert!(reason.contains("(limit 1.200 µm)"), "{reason}");
+    let worn = r#"#fleet tr[data-machine="VMC-0900"]"#;
+    assert_eq!(
+        text(c, &format!("{worn} .badge.verdict")).await,
+        "not decided: model misfit"
+    );
+    let misfit = text(c, &format!("{worn} .misfit-note")).await;
+    assert!(
+        misfit.contains("does not explain this recording") && misfit.contains("noise floor"),
+        "{misfit}"
+    );
+    let found = text(c, &format!("{worn} .findings")).await;
+    // The backlash put in is 6 µm.
+    let lost_motion: f64 = found
+        .split("backlash (X): lost_motion_um = ")
+        .nth(1)
+        .and_then(|v| v.split_whitespace().next())
+        .and_then(|v| v.parse().ok())
+        .unwrap_or_else(|| panic!("no X backlash found: {found}"));
+    assert!((lost_motion - 6.0).abs() < 0.1, "{found}");
+    let demo_alerts = api(base, key, "/api/v1/alerts?machine=VMC-0003&active=true").await;
+    assert_eq!(demo_alerts.as_array().unwrap().len(), 1, "{demo_alerts}");
+    assert!(
+        text(c, "#alerts").await.contains("VMC-0003"),
+        "the fleet page lists the active alert"
+    );
     shot(c, shots, "fleet-before").await;
+    // The misfit's result page: the banner above everything, and the way to its findings.
+    let worn_latest = api(base, key, "/api/v1/machines/VMC-0900/results/latest").await;
+    c.goto(&format!(
+        "{base}/results/{}",
+        worn_latest["meta"]["id"].as_str().unwrap()
+    ))
+    .await
+    .unwrap();
+    let banner = text(c, "#misfit").await;
+    assert!(banner.contains("Not decided: model misfit"), "{banner}");
+    shot(c, shots, "result-misfit").await;
+    c.goto(&format!("{base}/")).await.unwrap();
 
     // A machine: the trend plot's points are the API's values.
     c.find(Locator::Css(r#"#fleet tr[data-machine="VMC-0001"] a"#))
@@ -696,18 +760,19 @@ async fn run(c: &Client, dashboard: &str, base: &str, key: &str, shots: &Path, w
     shot(c, shots, "machine").await;
     c.goto(&format!("{base}/")).await.unwrap();
     wait_for(c, "#fleet", Duration::from_secs(10)).await;
-    let first = c
-        .find(Locator::Css("#fleet tbody tr:first-child"))
-        .await
-        .unwrap();
+    // Machines with active alerts first: the demo's VMC-0003 and now VMC-0002.
+    let mut alerted = vec![];
+    for r in c.find_all(Locator::Css("#fleet tbody tr")).await.unwrap() {
+        if r.attr("class").await.unwrap().as_deref() != Some("alerted") {
+            break;
+        }
+        alerted.push(r.attr("data-machine").await.unwrap().unwrap());
+    }
+    alerted.sort();
     assert_eq!(
-        first.attr("data-machine").await.unwrap().as_deref(),
-        Some("VMC-0002"),
+        alerted,
+        ["VMC-0002", "VMC-0003"],
         "machines with active alerts first"
-    );
-    assert_eq!(
-        first.attr("class").await.unwrap().as_deref(),
-        Some("alerted")
     );
     assert!(
         text(c, &format!(r#"#alerts tr[data-alert="{alert_id}"]"#))
@@ -748,7 +813,21 @@ async fn run(c: &Client, dashboard: &str, base: &str, key: &str, shots: &Path, w
     .click()
     .await
     .unwrap();
-    wait_for(c, "#no-alerts", Duration::from_secs(10)).await;
+    // Acknowledged: the page lists the active alerts left (the demo's VMC-0003 one).
+    let t0 = Instant::now();
+    while c
+        .find(Locator::Css(&format!(
+            r#"tr[data-alert="{alert_id}"] button"#
+        )))
+        .await
+        .is_ok()
+    {
+        assert!(
+            t0.elapsed() < Duration::from_secs(10),
+            "the alert is still active"
+        );
+        tokio::time::sleep(Duration::from_millis(200)).await;
+    }
     let acked = api(base, key, "/api/v1/alerts?machine=VMC-0002").await;
     assert_eq!(acked[0]["active"], false, "{acked}");
     assert!(
@@ -794,6 +873,17 @@ async fn run(c: &Client, dashboard: &str, base: &str, key: &str, shots: &Path, w
             .len(),
         18
     );
+    // Every difference drawn with its ±2σ band.
+    let mut banded = 0;
+    for f in c
+        .find_all(Locator::Css("#term-diffs figure svg"))
+        .await
+        .unwrap()
+    {
+        let plot = inspect::parse(&f.html(false).await.unwrap()).unwrap();
+        banded += usize::from(!plot.marks("polygon", &inspect::hex(BAND)).is_empty());
+    }
+    assert_eq!(banded, 18, "a ±2σ band in every difference panel");
     shot(c, shots, "compare").await;
 
     // Sign out: the session is gone.

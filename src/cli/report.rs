@@ -10,8 +10,8 @@ use mtcal_solver::diagnosis::DiagnosisResult;
 use mtcal_solver::positioning_check::DiagnosisDocument;
 use mtcal_solver::tolerance::{Assessment, Limits, evaluate, identification_figures};
 use mtcal_views::pages::report::{
-    CheckReport, CradleCheckReport, PositioningReport, check_report, cradle_report,
-    positioning_report,
+    CheckReport, CradleCheckReport, PositioningReport, ReportDiagnosis, check_report,
+    cradle_report, positioning_report,
 };
 use std::path::PathBuf;
 use std::process::ExitCode;
@@ -45,12 +45,18 @@ pub fn run(args: Args) -> anyhow::Result<ExitCode> {
         return write(&args, page);
     }
     let doc = read_identification(&args.result)?;
-    let diagnosis: Option<DiagnosisResult> = args
+    let diagnosis: Option<ReportDiagnosis> = args
         .diagnosis
         .as_deref()
-        .map(|p| super::read_json(p, "diagnosis"))
+        .map(|p| {
+            super::read_json::<DiagnosisResult>(p, "diagnosis").map(|d| ReportDiagnosis {
+                id: p.display().to_string(),
+                stored: false,
+                doc: Ok(d),
+            })
+        })
         .transpose()?;
-    if let Some(d) = &diagnosis
+    if let Some(ReportDiagnosis { doc: Ok(d), .. }) = &diagnosis
         && d.machine_id != doc.machine_id
     {
         return Err(BadInput(format!(

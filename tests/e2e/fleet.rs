@@ -46,7 +46,7 @@ async fn fleet() -> App {
             let m = r.machine_id.clone();
             let stored = store.import_result(r).await.unwrap();
             if kind == "identification" {
-                mtcal_domain::landing::result_landed(&store, &m, &stored.id, &Default::default())
+                mtcal_domain::landing::result_landed(&store, &m, &stored.id)
                     .await
                     .unwrap();
             }
@@ -62,7 +62,7 @@ async fn fleet() -> App {
     land(check("C", id, "2026-02-07T08:00:00Z", 0.05)).await;
     land(check("D", "cradle", "2026-02-08T08:00:00Z", 0.0)).await;
     app.store
-        .raise_alert(&alert("al_b", "B", &b))
+        .raise_alert(&alert("al_b", "B", &b), &[])
         .await
         .unwrap();
     app

@@ -270,9 +270,19 @@ async fn unbounded_and_legacy_null_uncertainties_are_read_everywhere() {
     }
 }
 
+/// The id of the stored diagnosis of dataset `ds`.
+async fn diagnosis_id_of(app: &App, ds: &str) -> String {
+    let jobs = app.store.list_jobs(None, 1000).await.unwrap();
+    jobs.into_iter()
+        .find(|j| j.kind == JobKind::Diagnose && j.dataset_id.as_deref() == Some(ds))
+        .and_then(|j| j.result_id)
+        .expect("the diagnosis job's result")
+}
+
 /// An identification whose model does not explain its recording (a 6 µm X backlash) gets
 /// a diagnosis of its dataset queued by the service on its own, once; its findings reach
-/// the check report with nobody asking. A clean session's identification gets none.
+/// the check report, the fleet row and the machine page with nobody asking. A clean
+/// session's identification gets none.
 #[tokio::test(flavor = "multi_thread", worker_threads = 2)]
 async fn a_misfit_identification_is_diagnosed_on_its_own() {
     let app = spawn_app().await;
@@ -306,12 +316,63 @@ async fn a_misfit_identification_is_diagnosed_on_its_own() {
         !report.contains("No diagnosis was run"),
         "the report lacks the diagnosis"
     );
+    let findings = &report[report
+        .find(r#"id="findings""#)
+        .expect("no findings section")..];
     assert!(
-        report.contains("backlash"),
-        "the report lacks the backlash finding"
+        findings[..findings.find("</section>").unwrap()].contains(r#"data-effect="backlash""#),
+        "the report's findings lack the backlash finding"
+    );
+    let budget = &report[report.find(r#"id="budget""#).expect("no budget table")..];
+    assert!(
+        budget.contains(r#"data-item="EXX""#),
+        "no budget row of EXX"
+    );
+    assert!(
+        report.find(r#"id="misfit""#).unwrap() < report.find(r#"id="check""#).unwrap(),
+        "the report opens with the misfit banner"
+    );
+    // The fleet row says the check is a misfit and, once the diagnosis has landed (its
+    // row is refreshed just after the job is recorded), what the diagnosis found.
+    let params = mtcal_server::api::fleet::FleetParams::default();
+    let mut row = None;
+    for _ in 0..200 {
+        let f = reader.fleet(&params).await.unwrap();
+        let m = f
+            .machines
+            .into_iter()
+            .find(|m| m.machine_id == "AUTO-MISFIT")
+            .expect("the machine's fleet row");
+        if m.diagnosis.is_some() {
+            row = Some(m);
+            break;
+        }
+        tokio::time::sleep(std::time::Duration::from_millis(50)).await;
+    }
+    let row = row.expect("the fleet row never showed the diagnosis");
+    assert!(
+        row.misfit.as_ref().is_some_and(|c| c.is_misfit()),
+        "{:?}",
+        row.misfit
+    );
+    let found = row.diagnosis.unwrap();
+    assert_eq!(found.result_id, diagnosis_id_of(&app, &ds).await);
+    assert!(
+        found.findings.iter().any(|f| f.starts_with("backlash (")),
+        "{:?}",
+        found.findings
+    );
+    let browser = app.sign_in(&app.read_key).await;
+    let fleet_page = browser.get("/").await.text().await.unwrap();
+    let at = fleet_page
+        .find(r#"data-machine="AUTO-MISFIT""#)
+        .expect("the fleet page's row");
+    let fleet_row = &fleet_page[at..at + fleet_page[at..].find("</tr>").unwrap()];
+    assert!(
+        fleet_row.contains("model misfit") && fleet_row.contains("backlash ("),
+        "{fleet_row}"
     );
     // The machine page shows the latest diagnosis' findings.
-    let browser = app.sign_in(&app.read_key).await;
     let page = browser
         .get("/machines/AUTO-MISFIT")
         .await

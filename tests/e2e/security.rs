@@ -99,7 +99,7 @@ async fn next_leads_only_to_a_path_of_this_site() {
         .await
         .unwrap();
     app.store
-        .raise_alert(&alert("al_1", "M1", &alert_result.id))
+        .raise_alert(&alert("al_1", "M1", &alert_result.id), &[])
         .await
         .unwrap();
     let http = no_redirects();

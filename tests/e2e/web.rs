@@ -26,7 +26,7 @@ async fn fleet_of_one() -> (App, [String; 2], String) {
     }
     let alert = app
         .store
-        .raise_alert(&alert("al_1", "M1", &ids[1]))
+        .raise_alert(&alert("al_1", "M1", &ids[1]), &[])
         .await
         .unwrap()
         .unwrap();

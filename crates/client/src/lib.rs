@@ -14,6 +14,7 @@ use mtcal_server::api::history::{Reason, ResultDiff};
 use mtcal_server::api::jobs::SubmitJob;
 use mtcal_server::api::keys::{CreatedKey, NewKey};
 use mtcal_server::api::machines::NewMachine;
+use mtcal_server::api::tolerances::Profile;
 use mtcal_server::api::trends::{FleetDrift, SummaryTrend, TermTrend};
 use mtcal_store::{ApiKey, Dataset, Job, Machine, MachinePatch, ResultMeta, Scope, StoredResult};
 use reqwest::{Method, RequestBuilder, StatusCode};
@@ -175,6 +176,12 @@ impl Client {
 
     pub async fn create_machine(&self, m: &NewMachine) -> Result<Machine> {
         self.post("/api/v1/machines", m).await
+    }
+
+    /// Creates a tolerance profile from its JSON (`{scope, target, limits, …}`, as
+    /// docs/api.md states it).
+    pub async fn create_tolerance(&self, profile: &Value) -> Result<Profile> {
+        self.post("/api/v1/tolerances", profile).await
     }
 
     pub async fn machine(&self, id: &str) -> Result<Machine> {
@@ -356,6 +363,17 @@ impl Client {
 
     pub async fn submit(&self, j: &SubmitJob) -> Result<Job> {
         self.post("/api/v1/jobs", j).await
+    }
+
+    /// Jobs newest first, only those in `state` when given (at most 1000).
+    pub async fn jobs(&self, state: Option<&str>) -> Result<Vec<Job>> {
+        match state {
+            Some(st) => {
+                self.get(&format!("/api/v1/jobs?limit=1000&state={st}"))
+                    .await
+            }
+            None => self.get("/api/v1/jobs?limit=1000").await,
+        }
     }
 
     pub async fn job(&self, id: &str) -> Result<Job> {

@@ -20,16 +20,17 @@
 //! [`MAX_COMMENT`] characters; the first acknowledgement is kept.
 //!
 //! **Webhooks**: every tag profile of the machine's tags with a `webhook_url` receives the
-//! alert's JSON ([`AlertView`]) by `POST`, off the request path (a task of its own), with
-//! the tries, limits and signature of [`crate::webhooks`]. A failing webhook is logged; it never
-//! fails the job or the alert.
+//! alert's JSON ([`AlertView`]) by `POST`: a delivery stored with the alert in one
+//! transaction and tried by the workers with the retries, limits and signature of
+//! [`crate::webhooks`]. A failing webhook is logged and shown in its delivery's state; it
+//! never fails the job or the alert.
 
 use crate::error::DomainError;
 use crate::kinds::IDENTIFICATION;
 use crate::webhooks;
 use mtcal_solver::text::{num, unit_label, with_u};
 use mtcal_solver::tolerance::{self, VerdictItem};
-use mtcal_store::{Alert, ResultMeta, Store, StoreError, now_rfc3339};
+use mtcal_store::{Alert, ResultMeta, Store, StoreError, WebhookDelivery, now_rfc3339};
 use serde::{Deserialize, Serialize};
 use std::sync::Arc;
 
@@ -151,13 +152,12 @@ impl AlertView {
 /// Decides the change of result `result_id` of machine `machine_id` since its baseline
 /// against the applicable drift threshold; stores and announces an alert when one is
 /// raised (returned; `None`: no profile, no threshold, the result is the baseline, is
-/// excluded, or no change exceeds its threshold beyond its uncertainty). Its webhooks
-/// are delivered where `hooks` allows.
+/// excluded, or no change exceeds its threshold beyond its uncertainty), with the
+/// deliveries to its webhooks (the outbox of [`crate::webhooks`]).
 pub async fn check_landed(
     store: &Arc<dyn Store>,
     machine_id: &str,
     result_id: &str,
-    hooks: &webhooks::TargetPolicy,
 ) -> Result<Option<AlertView>, StoreError> {
     let machine = store.get_machine(machine_id).await?;
     let profiles = store.list_tolerances().await?;
@@ -208,16 +208,31 @@ pub async fn check_landed(
         acknowledged_by: None,
         acknowledgement_comment: None,
     };
-    let Some(stored) = store.raise_alert(&alert).await? else {
+    // The webhooks' deliveries, stored with the alert: the body is the alert as the API
+    // shows it (as stored: not acknowledged).
+    let body = serde_json::to_string(&AlertView::of(&alert)?)
+        .map_err(|e| StoreError::Backend(e.to_string()))?;
+    let deliveries: Vec<WebhookDelivery> = webhooks::targets(&profiles, &machine.tags)
+        .into_iter()
+        .map(|to| WebhookDelivery {
+            id: mtcal_store::rules::new_id("whd"),
+            alert_id: alert.id.clone(),
+            profile_id: to.profile_id,
+            url: to.url,
+            body: body.clone(),
+            state: "pending".into(),
+            attempts: 0,
+            next_attempt_ms: 0,
+            last_error: None,
+            created_at: String::new(),
+            updated_at: String::new(),
+        })
+        .collect();
+    let Some(stored) = store.raise_alert(&alert, &deliveries).await? else {
         return Ok(None);
     };
     let view = AlertView::of(&stored)?;
-    tracing::warn!(alert = %view.id, machine = %view.machine_id, "drift alert raised");
-    let body = serde_json::to_string(&view).map_err(|e| StoreError::Backend(e.to_string()))?;
-    for to in webhooks::targets(&profiles, &machine.tags) {
-        let policy = hooks.clone();
-        tokio::spawn(webhooks::deliver(to, policy, view.id.clone(), body.clone()));
-    }
+    tracing::warn!(alert = %view.id, machine = %view.machine_id, webhooks = deliveries.len(), "drift alert raised");
     Ok(Some(view))
 }
 

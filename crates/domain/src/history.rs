@@ -31,6 +31,23 @@ pub async fn latest_diagnosis(
     Ok(Some((meta, doc)))
 }
 
+/// The latest diagnosis of recording `dataset_id` of machine `machine_id` (its stored
+/// row), None when none was run: the diagnosis a check identified from that recording is
+/// reported with.
+pub async fn diagnosis_of_dataset(
+    store: &dyn Store,
+    machine_id: &str,
+    dataset_id: &str,
+) -> Result<Option<ResultMeta>, mtcal_store::StoreError> {
+    let list = store
+        .list_results(machine_id, crate::kinds::DIAGNOSIS)
+        .await?;
+    Ok(list
+        .into_iter()
+        .rev()
+        .find(|m| m.dataset_id.as_deref() == Some(dataset_id)))
+}
+
 /// The baseline among a machine's identifications `results` (time order): its chosen
 /// one, else its first.
 pub fn baseline<'a>(machine: &Machine, results: &'a [ResultMeta]) -> Option<&'a ResultMeta> {

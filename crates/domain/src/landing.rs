@@ -1,6 +1,7 @@
 //! What follows when an identification result lands (the worker, after storing it): the
 //! machine's fleet row is refreshed, then the drift alert check runs; a result whose
-//! model does not explain its recording gets a diagnosis of its dataset queued.
+//! model does not explain its recording gets a diagnosis of its dataset queued. When a
+//! diagnosis lands, the machine's fleet row is refreshed (it shows the findings).
 
 use crate::alerts::{self, AlertView};
 use crate::fleet;
@@ -10,16 +11,22 @@ use std::sync::Arc;
 
 /// An identification `result_id` of machine `machine_id` has landed: its drift row is
 /// refreshed ([`fleet::refresh_machine`]), then the drift alert check runs
-/// ([`alerts::check_landed`], its webhooks delivered where `webhooks` allows); the alert
+/// ([`alerts::check_landed`], its webhooks' deliveries stored with it); the alert
 /// raised, if any.
 pub async fn result_landed(
     store: &Arc<dyn Store>,
     machine_id: &str,
     result_id: &str,
-    webhooks: &crate::webhooks::TargetPolicy,
 ) -> Result<Option<AlertView>, StoreError> {
     fleet::refresh_machine(store.as_ref(), machine_id).await?;
-    alerts::check_landed(store, machine_id, result_id, webhooks).await
+    alerts::check_landed(store, machine_id, result_id).await
+}
+
+/// A diagnosis of machine `machine_id` has landed: the machine's fleet row is refreshed,
+/// so that its findings reach the fleet (a machine without an identification has no row
+/// and keeps none).
+pub async fn diagnosis_landed(store: &dyn Store, machine_id: &str) -> Result<(), StoreError> {
+    fleet::refresh_machine(store, machine_id).await
 }
 
 /// Most jobs of one state read to see whether a diagnosis of a dataset is already queued

@@ -21,23 +21,64 @@
 //! docs/api.md shows how. The secret is set or generated when the profile is written
 //! and never shown again, logged or put in a URL.
 //!
-//! A body is POSTed off the request path (the caller spawns the task): at most
-//! [`WEBHOOK_ATTEMPTS`] tries, each within [`WEBHOOK_TIMEOUT`], [`WEBHOOK_BACKOFF`]
-//! doubling between them, redirects not followed, no proxy. A failing webhook is logged
-//! (its URL without query: [`shown`]); it never fails what raised it.
+//! **Outbox.** A delivery is a row of the database ([`mtcal_store::WebhookDelivery`]),
+//! written in the transaction that stores its alert, and tried by the workers
+//! ([`deliver_next`]): each try within [`WEBHOOK_TIMEOUT`], redirects not followed, no
+//! proxy; a failed try is tried again after [`Retries::first`], doubling up to
+//! [`Retries::max`], until [`Retries::attempts`] tries are spent (`failed`); a 2xx
+//! answer is `delivered`; a refused target fails at once. A claimed try moves the
+//! delivery's next time [`Retries::lease`] ahead, so that a try whose worker died is made
+//! again by another (or the restarted) worker: a receiver may see a delivery twice and
+//! should treat the alert's `id` as the key. Times are the database's clock. Failures
+//! are logged with the URL without query ([`shown`]); they never fail what raised the
+//! alert.
 
+use crate::error::DomainError;
 use hmac::{Hmac, Mac};
 use ipnet::IpNet;
+use serde::{Deserialize, Serialize};
 use sha2::Sha256;
 use std::net::{IpAddr, Ipv4Addr, Ipv6Addr, SocketAddr};
 use std::time::Duration;
 
-/// Tries per webhook delivery.
-pub const WEBHOOK_ATTEMPTS: u32 = 3;
 /// Time limit of one try (connect, send, answer), and of resolving a target's host.
 pub const WEBHOOK_TIMEOUT: Duration = Duration::from_secs(5);
-/// Wait before the second try; doubled before each further one.
-pub const WEBHOOK_BACKOFF: Duration = Duration::from_millis(500);
+
+/// How the outbox tries a delivery (see the module documentation).
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct Retries {
+    /// Tries per delivery.
+    pub attempts: u32,
+    /// Wait after the first failed try; doubled after each further one.
+    pub first: Duration,
+    /// Longest wait between two tries.
+    pub max: Duration,
+    /// How long a claimed try holds its delivery (longer than a try can take).
+    pub lease: Duration,
+}
+
+impl Default for Retries {
+    /// 8 tries over about 21 minutes: 10 s, 20 s, … 640 s apart.
+    fn default() -> Retries {
+        Retries {
+            attempts: 8,
+            first: Duration::from_secs(10),
+            max: Duration::from_secs(3600),
+            lease: 3 * WEBHOOK_TIMEOUT,
+        }
+    }
+}
+
+impl Retries {
+    /// The wait after failed try number `attempt` (1-based): `first · 2^(attempt−1)`,
+    /// at most `max`.
+    pub fn wait(&self, attempt: i64) -> Duration {
+        let doublings = attempt.clamp(1, 32) as u32 - 1;
+        self.first
+            .saturating_mul(2u32.saturating_pow(doublings))
+            .min(self.max)
+    }
+}
 /// Longest webhook URL accepted, bytes.
 pub const WEBHOOK_URL_MAX: usize = 2000;
 /// Shortest and longest webhook secret accepted, characters (visible ASCII).
@@ -353,53 +394,208 @@ fn client(u: &reqwest::Url, addrs: &[SocketAddr]) -> reqwest::Result<reqwest::Cl
     b.build()
 }
 
-/// POSTs the JSON `body` (alert `alert_id`) to `to`, signed with its secret, when
-/// `policy` allows it, checked again before every try (see the module documentation
-/// for tries and limits); returns whether a try was answered with a 2xx status.
-pub async fn deliver(to: Target, policy: TargetPolicy, alert_id: String, body: String) -> bool {
-    let url = &to.url;
-    let target = shown(url);
-    let mut wait = WEBHOOK_BACKOFF;
-    for attempt in 1..=WEBHOOK_ATTEMPTS {
-        let sent = match resolve(url, &policy).await {
-            Err(e) => {
-                tracing::warn!(alert = %alert_id, %target, %e, "webhook target refused");
-                return false;
-            }
-            Ok((u, addrs)) => match client(&u, &addrs) {
-                Ok(c) => {
-                    let mut post = c
-                        .post(u)
-                        .header(reqwest::header::CONTENT_TYPE, "application/json");
-                    if let Some(secret) = &to.secret {
-                        let t = mtcal_store::now_ms().div_euclid(1000);
-                        post = post.header(SIGNATURE_HEADER, signature(secret, t, body.as_bytes()));
-                    }
-                    post.body(body.clone()).send().await
+/// Why a try failed, and whether trying again may help.
+#[derive(Debug, Clone, PartialEq, Eq)]
+pub struct TryError {
+    pub message: String,
+    /// The target is refused: no further try.
+    pub refused: bool,
+}
+
+/// One try: POSTs the JSON `body` to `to`, signed with its secret, when `policy` allows
+/// the target (checked now); `Ok` on a 2xx answer.
+pub async fn try_once(to: &Target, policy: &TargetPolicy, body: &str) -> Result<(), TryError> {
+    let (u, addrs) = resolve(&to.url, policy).await.map_err(|message| TryError {
+        message,
+        refused: true,
+    })?;
+    let failed = |message: String| TryError {
+        message,
+        refused: false,
+    };
+    let c = client(&u, &addrs).map_err(|e| failed(e.without_url().to_string()))?;
+    let mut post = c
+        .post(u)
+        .header(reqwest::header::CONTENT_TYPE, "application/json");
+    if let Some(secret) = &to.secret {
+        let t = mtcal_store::now_ms().div_euclid(1000);
+        post = post.header(SIGNATURE_HEADER, signature(secret, t, body.as_bytes()));
+    }
+    match post.body(body.to_string()).send().await {
+        Ok(r) if r.status().is_success() => Ok(()),
+        Ok(r) => Err(failed(format!("answered {}", r.status()))),
+        Err(e) => Err(failed(e.without_url().to_string())),
+    }
+}
+
+/// Longest `last_error` kept, characters.
+const ERROR_MAX: usize = 500;
+
+/// Claims the next due delivery of the outbox, tries it once under `policy` and records
+/// the outcome by `retries` (see the module documentation); `false` when none was due.
+pub async fn deliver_next(
+    store: &dyn mtcal_store::Store,
+    policy: &TargetPolicy,
+    retries: &Retries,
+) -> Result<bool, mtcal_store::StoreError> {
+    use mtcal_store::DeliveryOutcome;
+    let lease = retries.lease.as_millis() as i64;
+    let Some(d) = store.claim_delivery(lease).await? else {
+        return Ok(false);
+    };
+    let target = shown(&d.url);
+    let secret = match store.get_tolerance(&d.profile_id).await {
+        Ok(p) => Ok(p.webhook_secret),
+        Err(mtcal_store::StoreError::NotFound(_)) => Err(TryError {
+            message: format!("its tolerance profile {} was deleted", d.profile_id),
+            refused: true,
+        }),
+        Err(e) => return Err(e),
+    };
+    let to = secret.map(|secret| Target {
+        profile_id: d.profile_id.clone(),
+        url: d.url.clone(),
+        secret,
+    });
+    let tried = match &to {
+        Ok(to) => try_once(to, policy, &d.body).await,
+        Err(e) => Err(e.clone()),
+    };
+    let (alert, attempt) = (&d.alert_id, d.attempts);
+    let outcome = match tried {
+        Ok(()) => {
+            tracing::info!(%alert, %target, attempt, "webhook delivered");
+            DeliveryOutcome::Delivered
+        }
+        Err(e) => {
+            let error: String = e.message.chars().take(ERROR_MAX).collect();
+            if e.refused || attempt >= i64::from(retries.attempts) {
+                tracing::warn!(%alert, %target, attempt, %error, "webhook given up");
+                DeliveryOutcome::Failed { error }
+            } else {
+                let wait = retries.wait(attempt);
+                tracing::warn!(%alert, %target, attempt, %error, ?wait, "webhook try failed");
+                DeliveryOutcome::Retry {
+                    after_ms: wait.as_millis() as i64,
+                    error,
                 }
-                Err(e) => Err(e),
-            },
-        };
-        match sent {
-            Ok(r) if r.status().is_success() => {
-                tracing::info!(alert = %alert_id, %target, attempt, "webhook delivered");
-                return true;
-            }
-            Ok(r) => {
-                tracing::warn!(alert = %alert_id, %target, attempt, status = %r.status(), "webhook refused")
-            }
-            Err(e) => {
-                let e = e.without_url();
-                tracing::warn!(alert = %alert_id, %target, attempt, %e, "webhook failed")
             }
         }
-        if attempt < WEBHOOK_ATTEMPTS {
-            tokio::time::sleep(wait).await;
-            wait *= 2;
+    };
+    store.finish_delivery(&d.id, attempt, &outcome).await?;
+    Ok(true)
+}
+
+/// Most deliveries one list returns.
+pub const MAX_DELIVERIES: usize = 1000;
+
+/// The state of a webhook delivery (mtcal_store::DELIVERY_STATES).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
+#[cfg_attr(feature = "openapi", derive(utoipa::ToSchema))]
+#[serde(rename_all = "lowercase")]
+pub enum DeliveryState {
+    /// To be tried at `next_attempt_at`.
+    Pending,
+    /// A try was answered 2xx.
+    Delivered,
+    /// Its tries are used up, or its target was refused.
+    Failed,
+}
+
+impl DeliveryState {
+    pub fn as_str(self) -> &'static str {
+        match self {
+            DeliveryState::Pending => "pending",
+            DeliveryState::Delivered => "delivered",
+            DeliveryState::Failed => "failed",
         }
     }
-    tracing::warn!(alert = %alert_id, %target, "webhook given up after {WEBHOOK_ATTEMPTS} tries");
-    false
+}
+
+/// A webhook delivery as the API shows it (to write keys): never the body's signature,
+/// the secret, or the URL's query.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[cfg_attr(feature = "openapi", derive(utoipa::ToSchema))]
+pub struct DeliveryView {
+    pub id: String,
+    /// The drift alert delivered.
+    pub alert_id: String,
+    /// The tag profile whose webhook it goes to.
+    pub profile_id: String,
+    /// The webhook's URL without query or fragment.
+    pub url: String,
+    pub state: DeliveryState,
+    /// Tries made so far.
+    pub attempts: i64,
+    /// When a pending delivery is tried next (RFC 3339, the database's clock); absent
+    /// once it is delivered or failed.
+    pub next_attempt_at: Option<String>,
+    /// Why the last try failed.
+    pub last_error: Option<String>,
+    pub created_at: String,
+    /// When its state last changed.
+    pub updated_at: String,
+}
+
+impl DeliveryView {
+    pub fn of(d: &mtcal_store::WebhookDelivery) -> DeliveryView {
+        let at = |ms: i64| {
+            time::OffsetDateTime::from_unix_timestamp_nanos(i128::from(ms) * 1_000_000)
+                .ok()
+                .and_then(|t| {
+                    t.format(&time::format_description::well_known::Rfc3339)
+                        .ok()
+                })
+        };
+        DeliveryView {
+            id: d.id.clone(),
+            alert_id: d.alert_id.clone(),
+            profile_id: d.profile_id.clone(),
+            url: shown(&d.url),
+            state: match d.state.as_str() {
+                "pending" => DeliveryState::Pending,
+                "delivered" => DeliveryState::Delivered,
+                _ => DeliveryState::Failed,
+            },
+            attempts: d.attempts,
+            next_attempt_at: (d.state == "pending")
+                .then(|| at(d.next_attempt_ms))
+                .flatten(),
+            last_error: d.last_error.clone(),
+            created_at: d.created_at.clone(),
+            updated_at: d.updated_at.clone(),
+        }
+    }
+}
+
+/// Which deliveries a list holds.
+#[derive(Debug, Clone, Default, Deserialize)]
+#[cfg_attr(feature = "openapi", derive(utoipa::IntoParams))]
+#[cfg_attr(feature = "openapi", into_params(parameter_in = Query))]
+pub struct DeliveryQuery {
+    /// Only this alert's deliveries.
+    pub alert_id: Option<String>,
+    /// Only deliveries in this state.
+    pub state: Option<DeliveryState>,
+    /// At most this many, newest first (default 100, at most 1000).
+    #[cfg_attr(feature = "openapi", param(minimum = 1, maximum = 1000))]
+    pub limit: Option<usize>,
+}
+
+/// Deliveries newest first (`GET /api/v1/webhooks/deliveries`).
+pub async fn list(
+    store: &dyn mtcal_store::Store,
+    q: &DeliveryQuery,
+) -> Result<Vec<DeliveryView>, DomainError> {
+    let limit = crate::paging::limit(q.limit, 100, MAX_DELIVERIES)?;
+    let rows = store
+        .list_deliveries(
+            q.alert_id.as_deref(),
+            q.state.map(DeliveryState::as_str),
+            limit as i64,
+        )
+        .await?;
+    Ok(rows.iter().map(DeliveryView::of).collect())
 }
 
 #[cfg(test)]
@@ -435,6 +631,15 @@ mod tests {
             shown("https://u:p@hooks.example.com:8443/a/b?token=s3cret#f"),
             "https://hooks.example.com:8443/a/b"
         );
+    }
+
+    #[test]
+    fn retries_double_up_to_their_longest_wait() {
+        let r = Retries::default();
+        let waits: Vec<u64> = (1..=8).map(|a| r.wait(a).as_secs()).collect();
+        assert_eq!(waits, [10, 20, 40, 80, 160, 320, 640, 1280]);
+        assert_eq!(r.wait(40), Duration::from_secs(3600));
+        assert_eq!(r.wait(0), Duration::from_secs(10));
     }
 
     /// The signature is HMAC-SHA256 of `<t>.<body>`: the expected value was computed
@@ -560,8 +765,10 @@ mod tests {
             url,
             secret: None,
         };
-        let delivered = deliver(to, TargetPolicy::default(), "al_1".into(), "{}".into()).await;
-        assert!(!delivered);
+        let e = try_once(&to, &TargetPolicy::default(), "{}")
+            .await
+            .unwrap_err();
+        assert!(e.refused && e.message.contains("loopback"), "{e:?}");
         assert!(!seen.await.unwrap(), "a refused target was connected to");
     }
 }

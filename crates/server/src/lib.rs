@@ -97,7 +97,7 @@ impl utoipa::Modify for SecurityAddon {
         api::ready,
         api::tolerances::create, api::tolerances::list, api::tolerances::get,
         api::tolerances::replace, api::tolerances::delete, api::tolerances::verdict,
-        api::alerts::list, api::alerts::ack,
+        api::alerts::list, api::alerts::ack, api::webhooks::deliveries,
     ),
     components(schemas(jobs::IdentifyParams, jobs::DiagnoseParams, error::ErrorBody)),
     modifiers(&SecurityAddon, &Statuses),
@@ -186,6 +186,10 @@ pub fn router(state: AppState) -> Router {
         )
         .route("/api/v1/alerts", get(api::alerts::list))
         .route("/api/v1/alerts/{id}/ack", post(api::alerts::ack))
+        .route(
+            "/api/v1/webhooks/deliveries",
+            get(api::webhooks::deliveries),
+        )
         .route("/api/v1/keys", post(keys::create).get(keys::list))
         .route("/api/v1/keys/{id}", axum::routing::delete(keys::revoke))
         .layer(DefaultBodyLimit::max(JSON_BODY_LIMIT))

@@ -21,6 +21,8 @@ pub struct Settings {
     /// Where drift alert webhooks may go (`MTCAL_WEBHOOK_ALLOW`, the service's own
     /// address; mtcal_domain::webhooks).
     pub webhooks: mtcal_domain::webhooks::TargetPolicy,
+    /// How the workers try webhook deliveries (mtcal_domain::webhooks::Retries).
+    pub webhook_retries: mtcal_domain::webhooks::Retries,
 }
 
 impl Settings {
@@ -38,6 +40,7 @@ impl Default for Settings {
             min_upload_rate: Self::MIN_UPLOAD_RATE,
             upload_grace: Self::UPLOAD_GRACE,
             webhooks: Default::default(),
+            webhook_retries: Default::default(),
         }
     }
 }

@@ -8,6 +8,10 @@
 //!
 //! A job that runs longer than [`WorkerConfig::max_run`] fails with code `timeout`.
 //!
+//! Each process with workers also runs one outbox loop: it tries the due webhook
+//! deliveries of drift alerts (`mtcal_domain::webhooks::deliver_next`), one at a time,
+//! polling as the job loops do.
+//!
 //! Shutdown ([`Workers::shutdown`], on SIGTERM or Ctrl-C): the workers stop claiming;
 //! a running job has the grace period ([`WorkerConfig::grace`]) to finish, after which
 //! it is handed back to the queue (`release_job`: queued at once, the attempt not
@@ -56,7 +60,10 @@ impl Default for WorkerConfig {
 
 /// The worker loops of one process, and the switch that stops them.
 pub struct Workers {
+    /// The job loops.
     handles: Vec<tokio::task::JoinHandle<()>>,
+    /// The webhook outbox loop.
+    outbox: Option<tokio::task::JoinHandle<()>>,
     stop: watch::Sender<bool>,
 }
 
@@ -65,6 +72,7 @@ impl Workers {
     pub fn none() -> Workers {
         Workers {
             handles: Vec::new(),
+            outbox: None,
             stop: watch::channel(false).0,
         }
     }
@@ -81,7 +89,7 @@ impl Workers {
     /// back to the queue, and returns when every loop has ended.
     pub async fn shutdown(self) {
         let _ = self.stop.send(true);
-        for h in self.handles {
+        for h in self.handles.into_iter().chain(self.outbox) {
             let _ = h.await;
         }
     }
@@ -101,7 +109,34 @@ pub fn spawn_workers(store: Arc<dyn Store>, cfg: WorkerConfig, wake: Arc<Notify>
             tokio::spawn(async move { worker_loop(store, cfg, slot, wake, stopping).await })
         })
         .collect();
-    Workers { handles, stop }
+    let outbox = Some(tokio::spawn(outbox_loop(store, cfg, stopping)));
+    Workers {
+        handles,
+        outbox,
+        stop,
+    }
+}
+
+/// Tries the due webhook deliveries one after the other, then waits a poll interval;
+/// a try under way when shutdown is asked for is finished (it takes at most the
+/// webhook time limits).
+async fn outbox_loop(store: Arc<dyn Store>, cfg: WorkerConfig, stopping: watch::Receiver<bool>) {
+    let (policy, retries) = (&cfg.settings.webhooks, &cfg.settings.webhook_retries);
+    let poll = Duration::from_millis(cfg.queue.poll_ms);
+    loop {
+        if *stopping.borrow() {
+            return;
+        }
+        match mtcal_domain::webhooks::deliver_next(store.as_ref(), policy, retries).await {
+            Ok(true) => continue,
+            Ok(false) => {}
+            Err(e) => tracing::error!(%e, "webhook outbox"),
+        }
+        tokio::select! {
+            _ = tokio::time::sleep(poll) => {}
+            _ = stop_requested(stopping.clone()) => {}
+        }
+    }
 }
 
 /// Resolves once shutdown has been asked for (never, if the switch is dropped unset).
@@ -297,10 +332,18 @@ async fn run_job(
         && job.kind.result_kind() == mtcal_domain::kinds::IDENTIFICATION
         && let Some(m) = &job.machine_id
         && let Some(r) = &j.result_id
-        && let Err(e) =
-            mtcal_domain::landing::result_landed(store, m, r, &cfg.settings.webhooks).await
+        && let Err(e) = mtcal_domain::landing::result_landed(store, m, r).await
     {
         tracing::warn!(machine = %m, %e, "fleet drift or drift alerts not refreshed");
+    }
+    // A diagnosis: the machine's fleet row shows its findings.
+    if let Ok(j) = &recorded
+        && j.state == mtcal_store::JobState::Succeeded
+        && job.kind.result_kind() == mtcal_domain::kinds::DIAGNOSIS
+        && let Some(m) = &job.machine_id
+        && let Err(e) = mtcal_domain::landing::diagnosis_landed(store.as_ref(), m).await
+    {
+        tracing::warn!(machine = %m, %e, "fleet row not refreshed after the diagnosis");
     }
     // A result whose model does not explain its recording: its dataset's diagnosis is
     // queued (once), so that its findings reach the pages and the report.

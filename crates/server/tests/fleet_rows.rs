@@ -90,9 +90,7 @@ async fn story(url: &str) {
                 .import_result(identification(m, at, c1, 1e-6))
                 .await
                 .unwrap();
-            result_landed(&store, m, &r.id, &Default::default())
-                .await
-                .unwrap();
+            result_landed(&store, m, &r.id).await.unwrap();
             r.id
         }
     };
@@ -367,9 +365,7 @@ async fn concurrent_story(url: &str) {
             .import_result(identification(&id, "2026-01-01T00:00:00Z", 0.01, 1e-6))
             .await
             .unwrap();
-        result_landed(&store, &id, &first.id, &Default::default())
-            .await
-            .unwrap();
+        result_landed(&store, &id, &first.id).await.unwrap();
         let (app, store, key) = (app.clone(), store.clone(), keys.write.clone());
         writers.spawn(async move {
             let mut ids = vec![first.id];
@@ -380,9 +376,7 @@ async fn concurrent_story(url: &str) {
                     .import_result(identification(&id, &at, c1, 1e-6))
                     .await
                     .unwrap();
-                result_landed(&store, &id, &landed.id, &Default::default())
-                    .await
-                    .unwrap();
+                result_landed(&store, &id, &landed.id).await.unwrap();
                 ids.push(landed.id);
                 // Any result but the latest.
                 let chosen = &ids[(r * 7 + m) % (ids.len() - 1)];
@@ -495,9 +489,7 @@ async fn the_fleet_says_why_a_machine_fails_and_which_profile_an_unchecked_one_h
         .import_result(identification("M1", "2026-01-01T00:00:00Z", 0.10, 1e-6))
         .await
         .unwrap();
-    result_landed(&store, "M1", &r.id, &Default::default())
-        .await
-        .unwrap();
+    result_landed(&store, "M1", &r.id).await.unwrap();
     let fleet = call(
         &app,
         "GET",

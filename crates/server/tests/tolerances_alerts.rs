@@ -58,22 +58,81 @@ struct Fixture {
     app: axum::Router,
     read: String,
     write: String,
+    admin: String,
 }
 
 async fn fixture() -> Fixture {
     let dir = tempfile::tempdir().unwrap();
-    let store = mtcal_store::open(dir.path().join("t.sqlite").to_str().unwrap())
-        .await
-        .unwrap();
+    let url = dir.path().join("t.sqlite");
+    fixture_on(dir, url.to_str().unwrap()).await
+}
+
+/// The fixture on the store `url` names (`dir`: kept while the fixture lives).
+async fn fixture_on(dir: tempfile::TempDir, url: &str) -> Fixture {
+    let store = mtcal_store::open(url).await.unwrap();
     let (_, read) = store.create_key(Scope::Read, "viewer").await.unwrap();
     let (_, write) = store.create_key(Scope::Write, "ops").await.unwrap();
+    let (_, admin) = store.create_key(Scope::Admin, "admin").await.unwrap();
     Fixture {
         _dir: dir,
         app: app(store.clone()),
         store,
         read,
         write,
+        admin,
     }
+}
+
+/// Retries of these tests: 3 tries, 50 ms then 100 ms apart, a claimed try held 500 ms.
+const FAST: mtcal_domain::webhooks::Retries = mtcal_domain::webhooks::Retries {
+    attempts: 3,
+    first: std::time::Duration::from_millis(50),
+    max: std::time::Duration::from_secs(1),
+    lease: std::time::Duration::from_millis(500),
+};
+
+/// A process's workers on `store` (their outbox loop delivers to 127.0.0.1 with
+/// [`FAST`] retries).
+fn workers(store: &Arc<dyn Store>) -> mtcal_server::Workers {
+    let cfg = mtcal_server::WorkerConfig {
+        queue: mtcal_store::QueueConfig {
+            poll_ms: 50,
+            ..Default::default()
+        },
+        settings: mtcal_server::Settings {
+            webhooks: local_hooks(),
+            webhook_retries: FAST,
+            ..Default::default()
+        },
+        ..Default::default()
+    };
+    mtcal_server::worker::spawn_workers(store.clone(), cfg, Default::default())
+}
+
+/// The outbox as `GET /api/v1/webhooks/deliveries` shows it to the fixture's write key.
+async fn deliveries(f: &Fixture, query: &str) -> Vec<Value> {
+    let (s, b) = send(
+        &f.app,
+        "GET",
+        &format!("/api/v1/webhooks/deliveries{query}"),
+        &f.write,
+        None,
+    )
+    .await;
+    assert_eq!(s, StatusCode::OK, "{b}");
+    b.as_array().unwrap().clone()
+}
+
+/// Waits (at most 20 s) until the outbox holds no pending delivery.
+async fn settled(f: &Fixture) -> Vec<Value> {
+    for _ in 0..400 {
+        let all = deliveries(f, "").await;
+        if all.iter().all(|d| d["state"] != "pending") {
+            return all;
+        }
+        tokio::time::sleep(std::time::Duration::from_millis(50)).await;
+    }
+    panic!("deliveries still pending: {:?}", deliveries(f, "").await)
 }
 
 fn machine(id: &str, tags: &[&str]) -> Machine {
@@ -423,10 +482,9 @@ async fn a_drift_inside_its_uncertainty_raises_no_alert_one_3_sigma_outside_does
                 .import_result(identification("M1", at, rate, S2))
                 .await
                 .unwrap();
-            let alert =
-                mtcal_domain::landing::result_landed(&store, "M1", &r.id, &Default::default())
-                    .await
-                    .unwrap();
+            let alert = mtcal_domain::landing::result_landed(&store, "M1", &r.id)
+                .await
+                .unwrap();
             (r, alert)
         }
     };
@@ -476,7 +534,7 @@ async fn a_drift_inside_its_uncertainty_raises_no_alert_one_3_sigma_outside_does
     assert_eq!(c.threshold, 5.0);
     // Landing twice (a job run again) raises no second alert.
     assert!(
-        mtcal_domain::landing::result_landed(&f.store, "M1", &outside.id, &Default::default())
+        mtcal_domain::landing::result_landed(&f.store, "M1", &outside.id)
             .await
             .unwrap()
             .is_none()
@@ -556,7 +614,7 @@ async fn a_drift_inside_its_uncertainty_raises_no_alert_one_3_sigma_outside_does
         .unwrap();
     let _ = b2;
     assert!(
-        mtcal_domain::landing::result_landed(&f.store, "M2", &r2.id, &Default::default())
+        mtcal_domain::landing::result_landed(&f.store, "M2", &r2.id)
             .await
             .unwrap()
             .is_none()
@@ -648,7 +706,7 @@ async fn drift_alert(f: &Fixture) -> mtcal_domain::alerts::AlertView {
             .import_result(identification("M1", at, slope, S2))
             .await
             .unwrap();
-        let raised = mtcal_domain::landing::result_landed(&f.store, "M1", &r.id, &local_hooks())
+        let raised = mtcal_domain::landing::result_landed(&f.store, "M1", &r.id)
             .await
             .unwrap();
         if slope > 0.0 {
@@ -679,8 +737,10 @@ async fn an_alert_is_posted_to_the_webhook_of_the_machines_tag_and_a_dead_one_fa
         assert_eq!(b["webhook_url"], hook.as_str());
         secrets.push(b["webhook_secret"].as_str().unwrap().to_string());
     }
-    // The first tag's profile applies (5 µm); both tags' webhooks are told.
+    // The first tag's profile applies (5 µm); both tags' webhooks are told, by the
+    // workers.
     let alert = drift_alert(&f).await;
+    let w = workers(&f.store);
     let got = tokio::time::timeout(std::time::Duration::from_secs(20), rx.recv())
         .await
         .expect("the webhook is called within its tries")
@@ -698,6 +758,47 @@ async fn an_alert_is_posted_to_the_webhook_of_the_machines_tag_and_a_dead_one_fa
     assert_eq!(got["machine_id"], "M1");
     assert_eq!(got["items"][0]["item"], "EXX");
     assert_eq!(got["active"], true);
+    // The receiver's first answer was a 500: delivered at the second try; the dead one
+    // failed after its three tries, each error kept.
+    let all = settled(&f).await;
+    w.shutdown().await;
+    let of = |u: &str| all.iter().find(|d| d["url"] == u).unwrap().clone();
+    let (ok, failed) = (of(&url), of(&dead));
+    assert_eq!(
+        (&ok["state"], &ok["attempts"], &ok["alert_id"]),
+        (&json!("delivered"), &json!(2), &json!(alert.id)),
+        "{ok}"
+    );
+    assert!(ok["last_error"].as_str().unwrap().contains("500"), "{ok}");
+    assert_eq!(ok["next_attempt_at"], Value::Null);
+    assert_eq!(
+        (&failed["state"], &failed["attempts"]),
+        (&json!("failed"), &json!(3)),
+        "{failed}"
+    );
+    assert!(
+        failed["last_error"].as_str().is_some_and(|e| !e.is_empty()),
+        "{failed}"
+    );
+    assert_eq!(deliveries(&f, "?state=failed").await, [failed]);
+    assert_eq!(
+        deliveries(&f, &format!("?alert_id={}&limit=1", alert.id))
+            .await
+            .len(),
+        1
+    );
+    for (q, says) in [("?state=lost", "state"), ("?limit=0", "limit")] {
+        let (s, b) = send(
+            &f.app,
+            "GET",
+            &format!("/api/v1/webhooks/deliveries{q}"),
+            &f.write,
+            None,
+        )
+        .await;
+        assert_eq!(s, StatusCode::BAD_REQUEST, "{q}: {b}");
+        assert!(message(&b).contains(says), "{q}: {b}");
+    }
 }
 
 /// A webhook's secret is write-only: generated and shown once when none is given, kept
@@ -768,10 +869,12 @@ async fn webhook_secrets_are_shown_once_and_sign_the_deliveries() {
     assert_eq!(s, StatusCode::OK, "{b}");
     assert!(!b.to_string().contains(chosen), "{b}");
     drift_alert(&f).await;
+    let w = workers(&f.store);
     let got = tokio::time::timeout(std::time::Duration::from_secs(20), rx.recv())
         .await
         .expect("delivered")
         .unwrap();
+    w.shutdown().await;
     verify(chosen, &got).unwrap();
     assert!(verify(&generated, &got).is_err(), "the replaced secret");
     // Removing the webhook removes its secret.
@@ -791,11 +894,120 @@ async fn webhook_secrets_are_shown_once_and_sign_the_deliveries() {
     );
 }
 
-/// A backlash machine's identification (the model does not explain its recording): its
-/// compensation export answers 409 `model_misfit` unless `force=true`, whose table says
-/// why in its first line; its verdict on a term is "misfit" with the gate's statement.
+/// The outbox survives its worker: a delivery is stored with its alert (pending, before
+/// any worker runs); a worker claims a try and dies before finishing it; once the
+/// claim's time has passed, the restarted worker delivers it, signed. Admin and write
+/// keys see the states, a read key is refused; nothing shows the secret or the URL's
+/// query.
+async fn outbox_story(f: Fixture) {
+    let (url, mut rx) = receiver(0).await;
+    let hook = format!("{url}?token=query-secret");
+    f.store
+        .create_machine(&machine("M1", &["line-a"]))
+        .await
+        .unwrap();
+    let (s, b) = send(
+        &f.app,
+        "POST",
+        "/api/v1/tolerances",
+        &f.write,
+        Some(
+            json!({"scope": "tag", "target": "line-a", "limits": {"drift_um": 5.0},
+                    "webhook_url": hook, "webhook_secret": "outbox-test-secret-01"}),
+        ),
+    )
+    .await;
+    assert_eq!(s, StatusCode::CREATED, "{b}");
+    let alert = drift_alert(&f).await;
+    let before = deliveries(&f, "").await;
+    assert_eq!(before.len(), 1, "{before:?}");
+    assert_eq!(
+        (
+            &before[0]["state"],
+            &before[0]["attempts"],
+            &before[0]["alert_id"]
+        ),
+        (&json!("pending"), &json!(0), &json!(alert.id))
+    );
+    assert_eq!(before[0]["url"], url.as_str(), "shown without its query");
+    let (s, _) = send(&f.app, "GET", "/api/v1/webhooks/deliveries", &f.read, None).await;
+    assert_eq!(s, StatusCode::FORBIDDEN);
+    let (s, b) = send(&f.app, "GET", "/api/v1/webhooks/deliveries", &f.admin, None).await;
+    assert_eq!(s, StatusCode::OK);
+    let text = b.to_string();
+    assert!(
+        !text.contains("query-secret") && !text.contains("outbox-test-secret"),
+        "{text}"
+    );
+    // A worker claims the try and dies mid-try (it never records an outcome).
+    let claimed = f
+        .store
+        .claim_delivery(FAST.lease.as_millis() as i64)
+        .await
+        .unwrap()
+        .unwrap();
+    assert_eq!(claimed.attempts, 1);
+    assert!(
+        f.store.claim_delivery(60_000).await.unwrap().is_none(),
+        "claimed once"
+    );
+    let during = deliveries(&f, "").await;
+    assert_eq!(
+        (&during[0]["state"], &during[0]["attempts"]),
+        (&json!("pending"), &json!(1))
+    );
+    assert!(rx.try_recv().is_err(), "nothing was sent");
+    // The restarted worker.
+    let w = workers(&f.store);
+    let got = tokio::time::timeout(std::time::Duration::from_secs(20), rx.recv())
+        .await
+        .expect("delivered after the restart")
+        .unwrap();
+    verify("outbox-test-secret-01", &got).unwrap();
+    assert_eq!(got.json()["id"], alert.id.as_str());
+    let after = settled(&f).await;
+    w.shutdown().await;
+    assert_eq!(
+        (&after[0]["state"], &after[0]["attempts"]),
+        (&json!("delivered"), &json!(2)),
+        "{after:?}"
+    );
+    // The dead worker's late outcome changes nothing.
+    f.store
+        .finish_delivery(
+            &claimed.id,
+            claimed.attempts,
+            &mtcal_store::DeliveryOutcome::Failed {
+                error: "late".into(),
+            },
+        )
+        .await
+        .unwrap();
+    assert_eq!(deliveries(&f, "").await, after);
+    assert!(rx.try_recv().is_err(), "delivered once");
+}
+
 #[tokio::test]
-async fn a_misfit_result_is_not_decided_and_its_table_needs_force() {
+async fn a_pending_delivery_survives_a_worker_that_died_on_sqlite() {
+    outbox_story(fixture().await).await;
+}
+
+#[tokio::test]
+async fn a_pending_delivery_survives_a_worker_that_died_on_postgres() {
+    let Some(pg) = mtcal_store::testing::ScratchPg::create("outbox")
+        .await
+        .unwrap()
+    else {
+        eprintln!("MTCAL_TEST_PG not set: skipped");
+        return;
+    };
+    outbox_story(fixture_on(tempfile::tempdir().unwrap(), &pg.url).await).await;
+    pg.drop_schema().await.unwrap();
+}
+
+/// The identification of a simulated machine with 6 µm of X backlash (seed plan, 10 Hz):
+/// its rigid model does not explain the recording.
+fn backlash_identification() -> mtcal_solver::identification::IdentificationResult {
     use mtcal_solver::identification::{IdentifyOptions, identify};
     use mtcal_solver::simulate::{Effect, Plan, SimOptions, random_truth, simulate};
     let sim = simulate(
@@ -813,7 +1025,103 @@ async fn a_misfit_result_is_not_decided_and_its_table_needs_force() {
         },
     )
     .unwrap();
-    let doc = identify(&sim.session, &IdentifyOptions::default()).unwrap();
+    identify(&sim.session, &IdentifyOptions::default()).unwrap()
+}
+
+/// The check report of a backlash machine's identification whose dataset has a stored
+/// diagnosis that does not read: the report opens with the misfit banner and says that
+/// the diagnosis (named by its id) could not be read, never "No diagnosis was run"; it
+/// holds the uncertainty budget table with the instrument "not included" (the session
+/// states none).
+#[tokio::test]
+async fn the_report_says_a_stored_diagnosis_could_not_be_read() {
+    let doc = backlash_identification();
+    let f = fixture().await;
+    f.store.create_machine(&machine("M1", &[])).await.unwrap();
+    let ds = f
+        .store
+        .insert_dataset(mtcal_store::NewDataset {
+            machine_id: "M1".into(),
+            kind: "session".into(),
+            measured_at: "2026-01-05T08:00:00Z".into(),
+            samples: 1,
+            files: vec![("session.json".into(), b"{}".to_vec())],
+        })
+        .await
+        .unwrap();
+    let stored = |kind: &str, document: Value| NewResult {
+        machine_id: "M1".into(),
+        dataset_id: Some(ds.id.clone()),
+        kind: kind.into(),
+        measured_at: "2026-01-05T08:00:00Z".into(),
+        document,
+        scalars: ResultScalars::default(),
+        figures: vec![],
+    };
+    let r = f
+        .store
+        .import_result(stored(
+            "identification",
+            serde_json::to_value(&doc).unwrap(),
+        ))
+        .await
+        .unwrap();
+    let report = |id: String| {
+        let app = f.app.clone();
+        let key = f.read.clone();
+        async move {
+            let req = Request::builder()
+                .uri(format!("/api/v1/results/{id}/report"))
+                .header("authorization", format!("Bearer {key}"))
+                .body(Body::empty())
+                .unwrap();
+            let resp = app.oneshot(req).await.unwrap();
+            assert_eq!(resp.status(), StatusCode::OK);
+            let bytes = axum::body::to_bytes(resp.into_body(), 1 << 24)
+                .await
+                .unwrap();
+            String::from_utf8(bytes.to_vec()).unwrap()
+        }
+    };
+    let before = report(r.id.clone()).await;
+    assert!(before.contains("No diagnosis was run"));
+    let bad = f
+        .store
+        .import_result(stored(
+            "diagnosis",
+            json!({"kind": "diagnosis", "machine_id": "M1", "findings": "not a list"}),
+        ))
+        .await
+        .unwrap();
+    let page = report(r.id.clone()).await;
+    assert!(!page.contains("No diagnosis was run"), "{page}");
+    let findings = &page[page.find(r#"id="findings""#).expect("findings")..];
+    let findings = &findings[..findings.find("</section>").unwrap()];
+    assert!(
+        findings.contains("could not be read") && findings.contains(&bad.id),
+        "{findings}"
+    );
+    let article = &page[page.find("<article").unwrap()..];
+    let first = &article[article.find("<section").unwrap()..];
+    assert!(
+        first[..first.find('>').unwrap()].contains(r#"id="misfit""#),
+        "the report opens with the misfit banner"
+    );
+    let banner = &first[..first.find("</section>").unwrap()];
+    assert!(
+        banner.contains("the model does not explain this recording") && banner.contains(&bad.id),
+        "{banner}"
+    );
+    let budget = &page[page.find(r#"id="budget""#).expect("the budget table")..];
+    assert!(budget.contains(r#"data-item="EXX""#) && budget.contains("not included"));
+}
+
+/// A backlash machine's identification (the model does not explain its recording): its
+/// compensation export answers 409 `model_misfit` unless `force=true`, whose table says
+/// why in its first line; its verdict on a term is "misfit" with the gate's statement.
+#[tokio::test]
+async fn a_misfit_result_is_not_decided_and_its_table_needs_force() {
+    let doc = backlash_identification();
     assert!(doc.model_check().is_misfit());
     let f = fixture().await;
     f.store.create_machine(&machine("M1", &[])).await.unwrap();

@@ -96,6 +96,44 @@ impl Finding {
             None => a.to_string(),
         })
     }
+
+    /// Its fitted parameters in words, in a person's units:
+    /// `backlash_um = 6.01 (u = 0.02), …` (u: the standard uncertainty, k = 1, where
+    /// reported).
+    pub fn parameters_in_words(&self) -> String {
+        use crate::text::{num, person_units};
+        let list = self
+            .parameters
+            .iter()
+            .filter(|(k, _)| !k.starts_with("std_"))
+            .map(|(k, v)| match self.parameters.get(&format!("std_{k}")) {
+                Some(u) => {
+                    // σ to two significant digits, the value to its place (never u = 0.000).
+                    let both = crate::text::with_std(*v, *u, 2, false);
+                    let (v, u) = both.split_once(" ± ").unwrap_or((&both, ""));
+                    format!("{k} = {v} (u = {u})")
+                }
+                None => format!("{k} = {}", num(*v)),
+            })
+            .collect::<Vec<_>>()
+            .join(", ");
+        person_units(&list)
+    }
+
+    /// The effect and its axis in words: `backlash (X)`, `direction coupling (Y,
+    /// following X)`.
+    pub fn name_in_words(&self) -> String {
+        let name = self.effect.replace('_', " ");
+        match self.axis_label() {
+            Some(a) => format!("{name} ({a})"),
+            None => name,
+        }
+    }
+
+    /// One line: `backlash (X): backlash_um = 6.01 (u = 0.02)`.
+    pub fn in_words(&self) -> String {
+        format!("{}: {}", self.name_in_words(), self.parameters_in_words())
+    }
 }
 
 /// The stored shape of a [`Finding`], whose parameters may hold `null` (an earlier
@@ -249,6 +287,17 @@ pub enum Verdict {
     Consistent,
     Explained,
     PartlyExplained,
+}
+
+impl Verdict {
+    /// Its name in the document: `consistent`, `explained`, `partly_explained`.
+    pub fn as_str(self) -> &'static str {
+        match self {
+            Verdict::Consistent => "consistent",
+            Verdict::Explained => "explained",
+            Verdict::PartlyExplained => "partly_explained",
+        }
+    }
 }
 
 /// The diagnosis result document.

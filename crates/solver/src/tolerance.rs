@@ -986,7 +986,7 @@ pub fn changes(
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::uncertainty::{Conditions, Instrument, Span};
+    use crate::uncertainty::{Conditions, Span};
 
     // The rule at the limit L = 10 with u = 1 (U = 2). Values chosen exactly
     // representable, so "at the limit" is exact: 8 + 2 = 10 ≤ 10 passes.
@@ -1157,22 +1157,7 @@ mod tests {
     /// "Uncertainty budget": u_c = 0.5553 µm, U = 1.1106 µm) it is undecided.
     #[test]
     fn the_budget_decides_the_worked_example() {
-        let conditions = Conditions {
-            instrument: Some(Instrument {
-                calibration_u_um: Some(0.5),
-                calibration_u_um_per_m: Some(1.0),
-                calibration_k: Some(2.0),
-                expansion_ppm_per_k: Some(8.0),
-                expansion_u_ppm_per_k: Some(0.5),
-                ..Instrument::default()
-            }),
-            temperature_c: Some(22.0),
-            temperature_u_k: Some(0.2),
-            machine_expansion_ppm_per_k: Some(11.5),
-            machine_expansion_u_ppm_per_k: Some(1.0),
-            alignment_urad: Some(500.0),
-            ..Conditions::default()
-        };
+        let conditions = Conditions::worked_example();
         let how = Assessment {
             budget: Budget::new(conditions, Some("session")),
             ..Assessment::default()

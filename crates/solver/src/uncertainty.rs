@@ -196,6 +196,35 @@ pub struct Conditions {
 }
 
 impl Conditions {
+    /// The conditions of the worked example of docs/conventions.md ("Uncertainty
+    /// budget"): a certificate U_cal = 0.5 µm + 1.0 µm/m (k = 2), T = 22.0 ± 0.2 °C
+    /// (stated), α_machine = 11.5 ± 1.0 and α_instrument = 8.0 ± 0.5 µm/(m·K), a
+    /// misalignment bound ϑ = 500 µrad; operator and instrument named as a signed report
+    /// names them.
+    pub fn worked_example() -> Conditions {
+        Conditions {
+            operator: Some("A. Keller".into()),
+            instrument: Some(Instrument {
+                model: Some("grid encoder".into()),
+                serial: Some("1234".into()),
+                calibration_date: Some("2026-03-01".into()),
+                certificate: Some("C-77".into()),
+                calibration_u_um: Some(0.5),
+                calibration_u_um_per_m: Some(1.0),
+                calibration_k: Some(2.0),
+                squareness_u_urad: None,
+                expansion_ppm_per_k: Some(8.0),
+                expansion_u_ppm_per_k: Some(0.5),
+            }),
+            temperature_c: Some(22.0),
+            temperature_source: Some("stated".into()),
+            temperature_u_k: Some(0.2),
+            machine_expansion_ppm_per_k: Some(11.5),
+            machine_expansion_u_ppm_per_k: Some(1.0),
+            alignment_urad: Some(500.0),
+        }
+    }
+
     /// Checks the numbers; the message names the field.
     pub fn validate(&self) -> Result<(), String> {
         if let Some(i) = &self.instrument {
@@ -680,30 +709,7 @@ mod tests {
     use super::*;
 
     fn example() -> Budget {
-        Budget::new(
-            Conditions {
-                operator: Some("A. Keller".into()),
-                instrument: Some(Instrument {
-                    model: Some("grid encoder".into()),
-                    serial: Some("1234".into()),
-                    calibration_date: Some("2026-03-01".into()),
-                    certificate: None,
-                    calibration_u_um: Some(0.5),
-                    calibration_u_um_per_m: Some(1.0),
-                    calibration_k: Some(2.0),
-                    squareness_u_urad: None,
-                    expansion_ppm_per_k: Some(8.0),
-                    expansion_u_ppm_per_k: Some(0.5),
-                }),
-                temperature_c: Some(22.0),
-                temperature_source: Some("stated".into()),
-                temperature_u_k: Some(0.2),
-                machine_expansion_ppm_per_k: Some(11.5),
-                machine_expansion_u_ppm_per_k: Some(1.0),
-                alignment_urad: Some(500.0),
-            },
-            Some("session"),
-        )
+        Budget::new(Conditions::worked_example(), Some("session"))
     }
 
     /// The worked example of docs/conventions.md ("Uncertainty budget"), by hand:

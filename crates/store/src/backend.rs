@@ -12,8 +12,8 @@ use crate::model::JobKind;
 use crate::model::*;
 use crate::queue::{Heartbeat, Queue, lease_held};
 use crate::rows::{
-    self, Columns, DATASET_COLUMNS, FLEET_DRIFT_COLUMNS, JOB_COLUMNS, KEY_COLUMNS, MACHINE_COLUMNS,
-    RESULT_COLUMNS,
+    self, Columns, DATASET_COLUMNS, DELIVERY_COLUMNS, FLEET_DRIFT_COLUMNS, JOB_COLUMNS,
+    KEY_COLUMNS, MACHINE_COLUMNS, RESULT_COLUMNS,
 };
 use crate::rules::{self, MachineJson, Manifest, ResultRow};
 use crate::{Store, StoreFuture, now_rfc3339};
@@ -1313,8 +1313,13 @@ impl Store for This {
         })
     }
 
-    fn raise_alert<'a>(&'a self, a: &'a Alert) -> StoreFuture<'a, Option<Alert>> {
+    fn raise_alert<'a>(
+        &'a self,
+        a: &'a Alert,
+        deliveries: &'a [WebhookDelivery],
+    ) -> StoreFuture<'a, Option<Alert>> {
         Box::pin(async move {
+            let mut tx = self.pool.begin().await.db()?;
             let done = sqlx::query(
                 "INSERT INTO alerts (id, machine_id, result_id, baseline_result_id, profile_id, \
                  raised_at, message, items, details, acknowledged_at, acknowledged_by, \
@@ -1334,13 +1339,113 @@ impl Store for This {
                 Some(d) => Some(serde_json::to_string(d).db()?),
                 None => None,
             })
-            .execute(&self.pool)
+            .execute(&mut *tx)
             .await
             .db()?;
             if done.rows_affected() == 0 {
+                tx.rollback().await.db()?;
                 return Ok(None);
             }
+            let now = now_rfc3339();
+            for d in deliveries {
+                let q = format!(
+                    "INSERT INTO webhook_deliveries (id, alert_id, profile_id, url, body, state, \
+                     attempts, next_attempt_ms, last_error, created_at, updated_at) \
+                     VALUES ($1, $2, $3, $4, $5, 'pending', 0, {}, NULL, $6, $6)",
+                    dialect::NOW_MS
+                );
+                sqlx::query(sqlx::AssertSqlSafe(q))
+                    .bind(&d.id)
+                    .bind(&a.id)
+                    .bind(&d.profile_id)
+                    .bind(&d.url)
+                    .bind(&d.body)
+                    .bind(&now)
+                    .execute(&mut *tx)
+                    .await
+                    .db()?;
+            }
+            tx.commit().await.db()?;
             self.get_alert(&a.id).await.map(Some)
+        })
+    }
+
+    fn claim_delivery(&self, lease_ms: i64) -> StoreFuture<'_, Option<WebhookDelivery>> {
+        Box::pin(async move {
+            let q = format!(
+                "UPDATE webhook_deliveries SET attempts = attempts + 1, \
+                 next_attempt_ms = {now} + $1, updated_at = $2 \
+                 WHERE id = (SELECT id FROM webhook_deliveries WHERE state = 'pending' \
+                             AND next_attempt_ms <= {now} ORDER BY next_attempt_ms, id \
+                             LIMIT 1 {lock}) \
+                 AND state = 'pending' RETURNING {DELIVERY_COLUMNS}",
+                now = dialect::NOW_MS,
+                lock = dialect::CLAIM_LOCK
+            );
+            let row = sqlx::query(sqlx::AssertSqlSafe(q))
+                .bind(lease_ms)
+                .bind(now_rfc3339())
+                .fetch_optional(&self.pool)
+                .await
+                .db()?;
+            row.as_ref().map(rows::delivery).transpose()
+        })
+    }
+
+    fn finish_delivery<'a>(
+        &'a self,
+        id: &'a str,
+        attempt: i64,
+        outcome: &'a DeliveryOutcome,
+    ) -> StoreFuture<'a, ()> {
+        Box::pin(async move {
+            let (state, after_ms, error) = match outcome {
+                DeliveryOutcome::Delivered => ("delivered", 0, None),
+                DeliveryOutcome::Retry { after_ms, error } => ("pending", *after_ms, Some(error)),
+                DeliveryOutcome::Failed { error } => ("failed", 0, Some(error)),
+            };
+            let q = format!(
+                "UPDATE webhook_deliveries SET state = $3, next_attempt_ms = {} + $4, \
+                 last_error = COALESCE($5, last_error), updated_at = $6 \
+                 WHERE id = $1 AND attempts = $2 AND state = 'pending'",
+                dialect::NOW_MS
+            );
+            sqlx::query(sqlx::AssertSqlSafe(q))
+                .bind(id)
+                .bind(attempt)
+                .bind(state)
+                .bind(after_ms)
+                .bind(error)
+                .bind(now_rfc3339())
+                .execute(&self.pool)
+                .await
+                .db()?;
+            Ok(())
+        })
+    }
+
+    fn list_deliveries<'a>(
+        &'a self,
+        alert_id: Option<&'a str>,
+        state: Option<&'a str>,
+        limit: i64,
+    ) -> StoreFuture<'a, Vec<WebhookDelivery>> {
+        Box::pin(async move {
+            let q = format!(
+                "SELECT {DELIVERY_COLUMNS} FROM webhook_deliveries \
+                 WHERE ($1 IS NULL OR alert_id = $1) AND ($2 IS NULL OR state = $2) \
+                 ORDER BY created_at DESC, id DESC LIMIT $3"
+            );
+            sqlx::query(sqlx::AssertSqlSafe(q))
+                .bind(alert_id)
+                .bind(state)
+                .bind(limit)
+                .fetch_all(&self.pool)
+                .await
+                .db()?
+                .iter()
+                .map(rows::delivery)
+                .collect()
         })
     }
 

@@ -190,9 +190,37 @@ pub trait Store: Queue {
     fn delete_tolerance<'a>(&'a self, id: &'a str) -> StoreFuture<'a, ()>;
 
     // Drift alerts.
-    /// Stores an alert unless its result already raised one; returns the stored alert
-    /// (`None`: the result had one, e.g. a job run twice).
-    fn raise_alert<'a>(&'a self, a: &'a Alert) -> StoreFuture<'a, Option<Alert>>;
+    /// Stores an alert unless its result already raised one, with its webhook
+    /// deliveries (`pending`, due now by the database's clock) in the same transaction;
+    /// returns the stored alert (`None`: the result had one, e.g. a job run twice, and
+    /// nothing is written).
+    fn raise_alert<'a>(
+        &'a self,
+        a: &'a Alert,
+        deliveries: &'a [WebhookDelivery],
+    ) -> StoreFuture<'a, Option<Alert>>;
+
+    // The webhook outbox.
+    /// Claims the oldest due `pending` delivery for one try: its attempts counted and its
+    /// next try moved `lease_ms` ahead (database clock), so that a try whose worker dies
+    /// is made again then; `None` when none is due.
+    fn claim_delivery(&self, lease_ms: i64) -> StoreFuture<'_, Option<WebhookDelivery>>;
+    /// Records the outcome of the try claimed as attempt `attempt` (a stale claim,
+    /// whose delivery was claimed again since, changes nothing).
+    fn finish_delivery<'a>(
+        &'a self,
+        id: &'a str,
+        attempt: i64,
+        outcome: &'a DeliveryOutcome,
+    ) -> StoreFuture<'a, ()>;
+    /// Deliveries newest first, of one alert or all, of one state or all, at most
+    /// `limit`.
+    fn list_deliveries<'a>(
+        &'a self,
+        alert_id: Option<&'a str>,
+        state: Option<&'a str>,
+        limit: i64,
+    ) -> StoreFuture<'a, Vec<WebhookDelivery>>;
     fn get_alert<'a>(&'a self, id: &'a str) -> StoreFuture<'a, Alert>;
     /// Alerts newest first, of one machine or all, active only (`Some(true)`),
     /// acknowledged only (`Some(false)`) or both, at most `limit`.

@@ -268,6 +268,27 @@ pub(crate) fn tolerance(r: &impl Columns) -> Result<ToleranceProfile> {
     })
 }
 
+/// The columns of a webhook delivery, in [`delivery`]'s order (`attempts` is a 32-bit
+/// INTEGER in PostgreSQL's table: read as 64 bits like every count).
+pub(crate) const DELIVERY_COLUMNS: &str = "id, alert_id, profile_id, url, body, state, \
+     CAST(attempts AS BIGINT) AS attempts, next_attempt_ms, last_error, created_at, updated_at";
+
+pub(crate) fn delivery(r: &impl Columns) -> Result<WebhookDelivery> {
+    Ok(WebhookDelivery {
+        id: r.text("id")?,
+        alert_id: r.text("alert_id")?,
+        profile_id: r.text("profile_id")?,
+        url: r.text("url")?,
+        body: r.text("body")?,
+        state: r.text("state")?,
+        attempts: r.int("attempts")?,
+        next_attempt_ms: r.int("next_attempt_ms")?,
+        last_error: r.opt_text("last_error")?,
+        created_at: r.text("created_at")?,
+        updated_at: r.text("updated_at")?,
+    })
+}
+
 /// The columns of an alert.
 pub(crate) const ALERT_COLUMNS: &str = "id, machine_id, result_id, baseline_result_id, \
      profile_id, raised_at, message, items, details, acknowledged_at, acknowledged_by, \

@@ -733,7 +733,7 @@ async fn tolerance_profiles_one_per_target_and_alerts_acknowledged_once(s: &dyn 
         acknowledgement_comment: None,
     };
     let a1 = s
-        .raise_alert(&alert("al_1", &r1.id, "2026-03-01T00:00:00Z"))
+        .raise_alert(&alert("al_1", &r1.id, "2026-03-01T00:00:00Z"), &[])
         .await
         .unwrap()
         .unwrap();
@@ -745,12 +745,12 @@ async fn tolerance_profiles_one_per_target_and_alerts_acknowledged_once(s: &dyn 
     assert_eq!(a1.acknowledgement_comment, None);
     // The same result again (a job run twice) raises nothing more.
     assert!(
-        s.raise_alert(&alert("al_x", &r1.id, "2026-03-02T00:00:00Z"))
+        s.raise_alert(&alert("al_x", &r1.id, "2026-03-02T00:00:00Z"), &[])
             .await
             .unwrap()
             .is_none()
     );
-    s.raise_alert(&alert("al_2", &r2.id, "2026-03-03T00:00:00Z"))
+    s.raise_alert(&alert("al_2", &r2.id, "2026-03-03T00:00:00Z"), &[])
         .await
         .unwrap()
         .unwrap();
@@ -966,7 +966,7 @@ async fn fleet_page_puts_alerted_machines_first_then_filters_sorts_and_counts(s:
         acknowledged_by: None,
         acknowledgement_comment: None,
     };
-    s.raise_alert(&alert("al_1")).await.unwrap();
+    s.raise_alert(&alert("al_1"), &[]).await.unwrap();
     let p = s
         .fleet_page(&q(FleetSort::DriftUm, None, None))
         .await
@@ -1064,20 +1064,23 @@ async fn fleet_pages_equal_a_sort_of_every_machine_from_scratch(s: &dyn Store) {
             .await
             .unwrap();
         let id = format!("al_{n}");
-        s.raise_alert(&Alert {
-            id: id.clone(),
-            machine_id: machine_id.into(),
-            result_id: r.id.clone(),
-            baseline_result_id: r.id,
-            profile_id: "p".into(),
-            raised_at: "2026-05-09T00:00:00Z".into(),
-            message: "m".into(),
-            items: json!([]),
-            details: None,
-            acknowledged_at: None,
-            acknowledged_by: None,
-            acknowledgement_comment: None,
-        })
+        s.raise_alert(
+            &Alert {
+                id: id.clone(),
+                machine_id: machine_id.into(),
+                result_id: r.id.clone(),
+                baseline_result_id: r.id,
+                profile_id: "p".into(),
+                raised_at: "2026-05-09T00:00:00Z".into(),
+                message: "m".into(),
+                items: json!([]),
+                details: None,
+                acknowledged_at: None,
+                acknowledged_by: None,
+                acknowledgement_comment: None,
+            },
+            &[],
+        )
         .await
         .unwrap();
         if machine_id == "M07" {

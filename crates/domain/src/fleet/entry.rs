@@ -21,6 +21,9 @@ pub struct VerdictSummary {
     pub items: usize,
     pub failed: usize,
     pub undecided: usize,
+    /// Limits not decided because the model does not explain its recording.
+    #[serde(default)]
+    pub misfit: usize,
     /// The failing items (the undecided ones when none fails), at most
     /// [`SUMMARY_ITEMS`], as `EXX 12.30 ± 0.40 µm at 50.00 mm (limit 10.00 µm)`.
     pub reasons: Vec<String>,
@@ -46,6 +49,7 @@ impl VerdictSummary {
             items: v.items.len(),
             failed,
             undecided,
+            misfit: count(Decision::Misfit),
             reasons: items
                 .iter()
                 .take(SUMMARY_ITEMS)
@@ -66,6 +70,59 @@ fn reason(i: &VerdictItem) -> String {
             format!("{} {}{at} ({limit})", i.item, with_u(i.value, i.u, &i.unit))
         }
         None => format!("{} not determined ({limit})", i.item),
+    }
+}
+
+/// Findings a [`DiagnosisSummary`] names.
+pub const FINDINGS_SHOWN: usize = 3;
+
+/// What the diagnosis of a machine's latest check found, for its fleet row: the
+/// diagnosis result, its verdict and its findings in words (the full diagnosis is on its
+/// result page).
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[cfg_attr(feature = "openapi", derive(utoipa::ToSchema))]
+pub struct DiagnosisSummary {
+    pub result_id: String,
+    /// Null when its document cannot be read (then `findings` says why).
+    pub verdict: Option<mtcal_solver::diagnosis::Verdict>,
+    /// The findings, at most [`FINDINGS_SHOWN`], one line each
+    /// (`backlash (X): backlash_um = 6.01 (u = 0.02)`), then the possible ones
+    /// (`… — possible, undetermined`); or why the document cannot be read.
+    pub findings: Vec<String>,
+    /// Findings and possible effects not listed in `findings`.
+    #[serde(default)]
+    pub more: usize,
+}
+
+impl DiagnosisSummary {
+    /// The summary of diagnosis `result_id` from its stored `document`.
+    pub fn of(result_id: &str, document: serde_json::Value) -> DiagnosisSummary {
+        match serde_json::from_value::<mtcal_solver::diagnosis::DiagnosisResult>(document) {
+            Ok(d) => {
+                let all: Vec<String> = d
+                    .findings
+                    .iter()
+                    .map(|f| f.in_words())
+                    .chain(
+                        d.possible
+                            .iter()
+                            .map(|f| format!("{} — possible, undetermined", f.name_in_words())),
+                    )
+                    .collect();
+                DiagnosisSummary {
+                    result_id: result_id.to_string(),
+                    verdict: Some(d.verdict),
+                    more: all.len().saturating_sub(FINDINGS_SHOWN),
+                    findings: all.into_iter().take(FINDINGS_SHOWN).collect(),
+                }
+            }
+            Err(e) => DiagnosisSummary {
+                result_id: result_id.to_string(),
+                verdict: None,
+                findings: vec![format!("the diagnosis {result_id} cannot be read: {e}")],
+                more: 0,
+            },
+        }
     }
 }
 
@@ -91,6 +148,13 @@ pub struct FleetEntry {
     /// Why the verdict is what it is (null: no verdict).
     #[serde(default)]
     pub verdict_summary: Option<VerdictSummary>,
+    /// The latest check's misfit gate when its model does not explain its recording
+    /// (null: the model explains it, or the result cannot be checked).
+    #[serde(default)]
+    pub misfit: Option<mtcal_solver::misfit::ModelCheck>,
+    /// What the diagnosis of the latest check's recording found (null: none was run).
+    #[serde(default)]
+    pub diagnosis: Option<DiagnosisSummary>,
     /// The worst µm term's value in each check, in time order, at the end of the latest
     /// check's measured travel where it changed more (null: not identified or not
     /// measured there); the fleet page's sparkline.

@@ -8,7 +8,7 @@
 //! ([`mtcal_store::Store::fleet_page`]: an index walk that stops once the page is full).
 
 use crate::error::DomainError;
-use crate::fleet::entry::{FleetEntry, VerdictSummary};
+use crate::fleet::entry::{DiagnosisSummary, FleetEntry, VerdictSummary};
 use crate::kinds::IDENTIFICATION;
 use crate::trends::{DRIFT_DEFINITION, Drift};
 use mtcal_solver::tolerance::Decision;
@@ -67,6 +67,11 @@ pub struct FleetMachine {
     pub tolerance_profile: Option<crate::verdicts::ProfileRef>,
     /// Why the verdict is what it is: counts and the items behind it (null: no verdict).
     pub verdict_summary: Option<VerdictSummary>,
+    /// The latest identification's misfit gate when its model does not explain its
+    /// recording (its verdicts are then "misfit", not decided; null otherwise).
+    pub misfit: Option<mtcal_solver::misfit::ModelCheck>,
+    /// What the diagnosis of the latest identification's recording found (null: none).
+    pub diagnosis: Option<DiagnosisSummary>,
     /// The baseline the drift is measured from (its chosen one, else its first
     /// identification).
     pub baseline_result_id: Option<String>,
@@ -160,22 +165,25 @@ fn machine(
         )),
         (None, None) => None,
     };
-    let (last_check, verdict, summary, baseline, results, drift, sparkline) = match entry {
-        Some(e) => (
-            Some(LastCheck {
-                result_id: e.latest_result_id,
-                kind: IDENTIFICATION.into(),
-                measured_at: e.latest_measured_at,
-            }),
-            e.verdict,
-            e.verdict_summary,
-            Some(e.baseline_result_id),
-            e.results,
-            Some(e.drift),
-            e.sparkline,
-        ),
-        None => (other, None, None, None, 0, None, vec![]),
-    };
+    let (last_check, verdict, summary, baseline, results, drift, sparkline, misfit, diagnosis) =
+        match entry {
+            Some(e) => (
+                Some(LastCheck {
+                    result_id: e.latest_result_id,
+                    kind: IDENTIFICATION.into(),
+                    measured_at: e.latest_measured_at,
+                }),
+                e.verdict,
+                e.verdict_summary,
+                Some(e.baseline_result_id),
+                e.results,
+                Some(e.drift),
+                e.sparkline,
+                e.misfit,
+                e.diagnosis,
+            ),
+            None => (other, None, None, None, 0, None, vec![], None, None),
+        };
     FleetMachine {
         machine_id: m.id,
         name: m.name,
@@ -187,6 +195,8 @@ fn machine(
         tolerance_profile_id: applies.as_ref().map(|p| p.id.clone()),
         tolerance_profile: applies,
         verdict_summary: summary,
+        misfit,
+        diagnosis,
         baseline_result_id: baseline,
         results,
         drift,

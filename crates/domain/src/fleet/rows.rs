@@ -8,7 +8,10 @@
 //! Each row also carries the latest result's verdict against the machine's tolerance
 //! profile ([`crate::verdicts`]); a profile's change refreshes the machines it applies
 //! to ([`refresh_profile_targets`]). When an identification lands its row is refreshed
-//! before the drift alert check runs (the module `landing`).
+//! before the drift alert check runs (the module `landing`). The row also says whether
+//! the latest check's model explains its recording (its misfit gate) and what the
+//! diagnosis of that recording found; a diagnosis landing refreshes the row too
+//! (`landing::diagnosis_landed`), so the basis need not name it.
 //!
 //! Concurrency: each row records when the state it was computed from was read; the store
 //! keeps the row from the latest read, so two workers finishing results of one machine at
@@ -19,10 +22,11 @@
 //! at start compares it with the basis the machine has now and recomputes only the rows
 //! that differ, so a restart costs one query over the fleet, not a read of every check.
 
-use crate::fleet::entry::FleetEntry;
+use crate::fleet::entry::{DiagnosisSummary, FleetEntry};
 use crate::history::baseline;
 use crate::kinds::IDENTIFICATION;
 use crate::trends;
+use mtcal_solver::identification::IdentificationResult;
 use mtcal_store::{
     FleetDriftRow, Machine, ResultMeta, Store, StoreError, ToleranceProfile, now_ms,
 };
@@ -30,7 +34,7 @@ use std::collections::HashMap;
 
 /// The format of the rows this version computes: raised whenever what a row holds or how
 /// it is computed changes, so that rows of an older computation are recomputed at start.
-pub const ROW_FORMAT: u32 = 2;
+pub const ROW_FORMAT: u32 = 3;
 
 /// Rows written per transaction by [`refresh_all`].
 const REFRESH_BATCH: usize = 500;
@@ -85,6 +89,23 @@ pub fn sparkline(
     }
 }
 
+/// The diagnosis of the recording machine `machine`'s latest check `latest` was
+/// identified from (its latest, when there are several), summarised for the row.
+async fn latest_check_diagnosis(
+    store: &dyn Store,
+    machine: &Machine,
+    latest: &ResultMeta,
+) -> Result<Option<DiagnosisSummary>, StoreError> {
+    let Some(dataset) = &latest.dataset_id else {
+        return Ok(None);
+    };
+    let Some(d) = crate::history::diagnosis_of_dataset(store, &machine.id, dataset).await? else {
+        return Ok(None);
+    };
+    let doc = store.get_result(&d.id).await?.document;
+    Ok(Some(DiagnosisSummary::of(&d.id, doc)))
+}
+
 /// Machine `machine`'s row from its identifications `results` (time order, not empty).
 async fn row(
     store: &dyn Store,
@@ -98,20 +119,23 @@ async fn row(
     };
     let profile = crate::profiles::applicable(profiles, machine);
     let basis = basis(&baseline.id, &latest.id, results.len(), profile);
-    // The latest result's document is read only when a profile applies. A document that
-    // cannot be judged leaves the verdict out, never the drift.
+    // The latest result's document: its misfit gate, and its verdict when a profile
+    // applies. A document that cannot be judged leaves the verdict out, never the drift.
+    let latest_doc = store.get_result(&latest.id).await?;
+    let misfit = serde_json::from_value::<IdentificationResult>(latest_doc.document.clone())
+        .ok()
+        .map(|d| d.model_check())
+        .filter(|c| c.is_misfit());
     let verdict = match profile {
-        Some(_) => {
-            let r = store.get_result(&latest.id).await?;
-            crate::verdicts::verdict(store, profiles, machine, &r)
-                .await
-                .unwrap_or_else(|e| {
-                    tracing::warn!(result = %latest.id, %e, "no verdict for the fleet row");
-                    None
-                })
-        }
+        Some(_) => crate::verdicts::verdict(store, profiles, machine, &latest_doc)
+            .await
+            .unwrap_or_else(|e| {
+                tracing::warn!(result = %latest.id, %e, "no verdict for the fleet row");
+                None
+            }),
         None => None,
     };
+    let diagnosis = latest_check_diagnosis(store, machine, latest).await?;
     // The arithmetic off the async threads (a machine's every check for the sparkline).
     let (base, checks) = (baseline.scalars.clone(), results.to_vec());
     let (drift, sparkline) = crate::blocking::run::<_, StoreError>(move || {
@@ -128,6 +152,8 @@ async fn row(
             .filter(|(_, v)| v.decision.is_some())
             .map(|(_, v)| crate::fleet::entry::VerdictSummary::of(v)),
         tolerance_profile_id: verdict.map(|(p, _)| p.id),
+        misfit,
+        diagnosis,
         sparkline,
         drift,
         machine_id: machine.id.clone(),

@@ -17,8 +17,8 @@ use mtcal_solver::identification::IdentificationResult;
 use mtcal_solver::positioning_check::DiagnosisDocument;
 use mtcal_store::StoredResult;
 use mtcal_views::pages::report::{
-    CheckReport, CradleCheckReport, PositioningReport, check_report, cradle_report,
-    positioning_report,
+    CheckReport, CradleCheckReport, PositioningReport, ReportDiagnosis, check_report,
+    cradle_report, positioning_report,
 };
 use serde::Deserialize;
 use utoipa::IntoParams;
@@ -200,24 +200,25 @@ fn identification(r: &StoredResult) -> Result<IdentificationResult, ApiError> {
     })
 }
 
-/// The latest diagnosis of the same dataset, when one was run.
-async fn diagnosis_of(s: &AppState, r: &StoredResult) -> Result<Option<DiagnosisResult>, ApiError> {
+/// The latest diagnosis of the same dataset, when one was run: its document, or why the
+/// stored document does not read (the report says so with its id, never "no diagnosis").
+async fn diagnosis_of(s: &AppState, r: &StoredResult) -> Result<Option<ReportDiagnosis>, ApiError> {
     let Some(dataset) = &r.meta.dataset_id else {
         return Ok(None);
     };
-    let list = s
-        .store
-        .list_results(&r.meta.machine_id, "diagnosis")
-        .await?;
-    let Some(m) = list
-        .iter()
-        .rev()
-        .find(|m| m.dataset_id.as_ref() == Some(dataset))
-    else {
+    let found =
+        mtcal_domain::history::diagnosis_of_dataset(s.store.as_ref(), &r.meta.machine_id, dataset)
+            .await?;
+    let Some(m) = found else {
         return Ok(None);
     };
     let d = s.store.get_result(&m.id).await?;
-    Ok(serde_json::from_value(d.document).ok())
+    Ok(Some(ReportDiagnosis {
+        id: m.id.clone(),
+        stored: true,
+        doc: serde_json::from_value::<DiagnosisResult>(d.document)
+            .map_err(|e| format!("its document does not read: {e}")),
+    }))
 }
 
 /// A text body with its content type, as an attachment named `name` when given.

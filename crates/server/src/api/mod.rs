@@ -10,6 +10,7 @@ pub mod keys;
 pub mod machines;
 pub mod tolerances;
 pub mod trends;
+pub mod webhooks;
 
 use crate::AppState;
 use crate::error::{ApiError, ErrorBody};

@@ -168,10 +168,12 @@ pub async fn fleet(
                 measured_at: c.measured_at,
             }),
             verdict: m.verdict.map(|d| d.as_str().to_string()),
-            verdict_counts: m
-                .verdict_summary
-                .as_ref()
-                .map(|v| (v.items, v.failed, v.undecided)),
+            verdict_counts: m.verdict_summary.as_ref().map(|v| vfleet::VerdictCounts {
+                items: v.items,
+                failed: v.failed,
+                undecided: v.undecided,
+                misfit: v.misfit,
+            }),
             verdict_reasons: m.verdict_summary.map(|v| v.reasons).unwrap_or_default(),
             profile: m.tolerance_profile.map(|p| match p.scope.as_str() {
                 "tag" => format!("tag {}", p.target),
@@ -189,6 +191,13 @@ pub async fn fleet(
             drift_note: m.drift_note,
             worst_trend: m.sparkline.iter().map(|v| v.unwrap_or(f64::NAN)).collect(),
             active_alerts: usize::try_from(m.active_alerts).unwrap_or(0),
+            misfit: m.misfit.map(|c| c.statement),
+            diagnosis: m.diagnosis.map(|d| vfleet::RowDiagnosis {
+                result_id: d.result_id,
+                verdict: d.verdict.map(|v| v.as_str().to_string()),
+                findings: d.findings,
+                more: d.more,
+            }),
             machine_id: m.machine_id,
             name: m.name,
             site: m.site,

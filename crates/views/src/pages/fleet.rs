@@ -37,8 +37,8 @@ pub struct FleetRow {
     /// The latest identification, else the latest check of another kind.
     pub last_check: Option<Check>,
     pub verdict: Option<String>,
-    /// Limits decided, failed and undecided (with a verdict).
-    pub verdict_counts: Option<(usize, usize, usize)>,
+    /// Limits decided, failed, undecided and not decided for a misfit (with a verdict).
+    pub verdict_counts: Option<VerdictCounts>,
     /// The items behind the verdict in words, worst first.
     pub verdict_reasons: Vec<String>,
     /// The tolerance profile that applies (`tag vmc`, `machine`), verdict or not.
@@ -53,6 +53,33 @@ pub struct FleetRow {
     /// machine's checks, in time order (the sparkline).
     pub worst_trend: Vec<f64>,
     pub active_alerts: usize,
+    /// The latest check's misfit gate statement when its model does not explain its
+    /// recording (its values are then not decided).
+    pub misfit: Option<String>,
+    /// What the diagnosis of the latest check's recording found.
+    pub diagnosis: Option<RowDiagnosis>,
+}
+
+/// How many limits a verdict decided, and how many of them failed, were undecided or
+/// not decided because the model does not explain its recording.
+#[derive(Debug, Clone, Copy, PartialEq, Default)]
+pub struct VerdictCounts {
+    pub items: usize,
+    pub failed: usize,
+    pub undecided: usize,
+    pub misfit: usize,
+}
+
+/// The diagnosis of a machine's latest check, as its fleet row shows it.
+#[derive(Debug, Clone, PartialEq)]
+pub struct RowDiagnosis {
+    pub result_id: String,
+    /// `consistent`, `explained`, `partly_explained` (None: unreadable).
+    pub verdict: Option<String>,
+    /// Its findings in words, at most a few (or why it cannot be read).
+    pub findings: Vec<String>,
+    /// Findings not listed.
+    pub more: usize,
 }
 
 pub use super::alerts::AlertRow;
@@ -112,10 +139,11 @@ fn verdict_cell(r: &FleetRow) -> Markup {
         @match (&r.verdict, &r.profile) {
             (Some(v), _) => {
                 (verdict_badge(Some(v)))
-                @if let Some((n, failed, undecided)) = r.verdict_counts {
-                    " " span.verdict-count { @if failed > 0 { (failed) " of " (n) " limits fail" }
-                        @else if undecided > 0 { (undecided) " of " (n) " limits undecided" }
-                        @else { "all " (n) " limits pass" } }
+                @if let Some(c) = r.verdict_counts {
+                    " " span.verdict-count { @if c.failed > 0 { (c.failed) " of " (c.items) " limits fail" }
+                        @else if c.misfit > 0 { "for " (c.misfit) " of " (c.items) " limits" }
+                        @else if c.undecided > 0 { (c.undecided) " of " (c.items) " limits undecided" }
+                        @else { "all " (c.items) " limits pass" } }
                 }
                 @for reason in &r.verdict_reasons { div.reason.muted { (reason) } }
             }
@@ -128,6 +156,36 @@ fn verdict_cell(r: &FleetRow) -> Markup {
                 div.reason.muted { "profile: " (p) }
             }
             (None, None) => { (verdict_badge(None)) }
+        }
+        @if let Some(m) = &r.misfit {
+            div.misfit-note {
+                // The verdict's badge already says "model misfit" when a profile applies.
+                @if r.verdict.as_deref() != Some("misfit") { span.badge.misfit { "model misfit" } " " }
+                span.muted { (m) }
+                @if r.diagnosis.is_none() { div.muted { "diagnosis queued, not landed yet" } }
+            }
+        }
+        @if let Some(d) = &r.diagnosis { (findings(d)) }
+    }
+}
+
+/// What the diagnosis of the latest check found, linked to it.
+fn findings(d: &RowDiagnosis) -> Markup {
+    html! {
+        div.findings {
+            a href=(result_href(&d.result_id)) {
+                "diagnosis: "
+                (match d.verdict.as_deref() {
+                    Some("consistent") => "consistent, nothing found",
+                    Some("explained") => "explained by",
+                    Some("partly_explained") => "partly explained by",
+                    _ => "cannot be read",
+                })
+            }
+            @if !d.findings.is_empty() {
+                ul { @for f in &d.findings { li { (f) } } }
+            }
+            @if d.more > 0 { div.muted { "and " (d.more) " more" } }
         }
     }
 }
@@ -277,7 +335,12 @@ mod tests {
                 measured_at: "2026-04-06T08:00:00Z".into(),
             }),
             verdict: Some("fail".into()),
-            verdict_counts: Some((24, 2, 1)),
+            verdict_counts: Some(VerdictCounts {
+                items: 24,
+                failed: 2,
+                undecided: 1,
+                misfit: 0,
+            }),
             verdict_reasons: vec![
                 "EXX 12.30 ± 0.400 µm at 50.00 mm (limit 10.00 µm)".into(),
                 "EC0Y 31.00 ± 0.200 µrad (limit 30.00 µrad)".into(),
@@ -295,7 +358,63 @@ mod tests {
             drift_note: None,
             worst_trend: vec![0.0, 1.0, 4.2],
             active_alerts: alerts,
+            misfit: None,
+            diagnosis: None,
         }
+    }
+
+    #[test]
+    fn a_misfit_row_says_so_with_the_findings_of_its_diagnosis() {
+        let misfit = FleetRow {
+            verdict: Some("misfit".into()),
+            verdict_counts: Some(VerdictCounts {
+                items: 12,
+                misfit: 10,
+                ..VerdictCounts::default()
+            }),
+            verdict_reasons: vec![],
+            misfit: Some(
+                "the model does not explain this recording: the residual RMS 0.976 µm is \
+                 6.5 × the noise floor 0.149 µm (the gate is 1.2 ×)"
+                    .into(),
+            ),
+            diagnosis: Some(RowDiagnosis {
+                result_id: "res_d1".into(),
+                verdict: Some("explained".into()),
+                findings: vec!["backlash (X): backlash_µm = 6.01 (u = 0.02)".into()],
+                more: 2,
+            }),
+            ..row("VMC-8", 0)
+        };
+        let queued = FleetRow {
+            misfit: misfit.misfit.clone(),
+            diagnosis: None,
+            ..row("VMC-9", 0)
+        };
+        let page = FleetPage {
+            rows: vec![misfit, queued, row("VMC-1", 0)],
+            sort: "drift".into(),
+            total: 3,
+            page: 1,
+            pages: 1,
+            ..FleetPage::default()
+        };
+        let html = fleet_page(&viewer("read"), &page).into_string();
+        let found = row_html(&html, "VMC-8");
+        assert!(found.contains("model misfit") && found.contains("6.5 × the noise floor"));
+        assert!(found.contains("for 10 of 12 limits"), "{found}");
+        assert!(found.contains("href=\"/results/res_d1\""), "{found}");
+        assert!(
+            found.contains("explained by") && found.contains("backlash (X): backlash_µm = 6.01")
+        );
+        assert!(found.contains("and 2 more"));
+        let waiting = row_html(&html, "VMC-9");
+        assert!(
+            waiting.contains(">model misfit<") && waiting.contains("diagnosis queued"),
+            "the row without a profile's misfit verdict says it: {waiting}"
+        );
+        let clean = row_html(&html, "VMC-1");
+        assert!(!clean.contains("model misfit") && !clean.contains("diagnosis"));
     }
 
     #[test]

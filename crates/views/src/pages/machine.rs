@@ -81,19 +81,6 @@ pub struct LatestDiagnosis {
 /// with their standard uncertainties, the possible ones, and what is left unexplained;
 /// the full diagnosis is on its result page.
 fn latest_findings(d: &LatestDiagnosis) -> Markup {
-    use mtcal_solver::diagnosis::{Finding, Verdict};
-    use mtcal_solver::text::num;
-    let params = |f: &Finding| -> String {
-        f.parameters
-            .iter()
-            .filter(|(k, _)| !k.starts_with("std_"))
-            .map(|(k, v)| match f.parameters.get(&format!("std_{k}")) {
-                Some(u) => format!("{k} = {} (u = {})", num(*v), num(*u)),
-                None => format!("{k} = {}", num(*v)),
-            })
-            .collect::<Vec<_>>()
-            .join(", ")
-    };
     html! {
         section.card #findings {
             h2 { "Findings of the latest diagnosis" }
@@ -103,34 +90,7 @@ fn latest_findings(d: &LatestDiagnosis) -> Markup {
             }
             @match &d.doc {
                 Err(e) => { div.notice.error { "The latest diagnosis (" (d.result_id) ") cannot be shown: " (e) } }
-                Ok(doc) => {
-                    p {
-                        (match doc.verdict {
-                            Verdict::Consistent => "consistent: the rigid model explains the recording to noise level",
-                            Verdict::Explained => "explained by the findings below",
-                            Verdict::PartlyExplained => "partly explained: a misfit remains (see the diagnosis)",
-                        })
-                    }
-                    @if !doc.findings.is_empty() || !doc.possible.is_empty() {
-                        ul {
-                            @for f in &doc.findings {
-                                li data-effect=(f.effect) {
-                                    strong { (f.effect.replace('_', " ")) }
-                                    @if let Some(a) = f.axis_label() { " (" (a) ")" }
-                                    ": " (mtcal_solver::text::person_units(&params(f)))
-                                }
-                            }
-                            @for f in &doc.possible {
-                                li data-effect=(f.effect) {
-                                    (f.effect.replace('_', " "))
-                                    @if let Some(a) = f.axis_label() { " (" (a) ")" }
-                                    " — possible, undetermined"
-                                }
-                            }
-                        }
-                    }
-                    @for u in &doc.unexplained { p.muted { "Unexplained: " (mtcal_solver::text::person_units(u)) } }
-                }
+                Ok(doc) => { (super::result::findings_summary(doc)) }
             }
         }
     }

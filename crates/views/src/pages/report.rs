@@ -18,7 +18,8 @@ use mtcal_solver::diagnosis::DiagnosisResult;
 use mtcal_solver::identification::IdentificationResult;
 use mtcal_solver::positioning_check::DiagnosisDocument;
 use mtcal_solver::terms::Term;
-use mtcal_solver::tolerance::Verdict;
+use mtcal_solver::tolerance::{Assessment, COVERAGE_K, Figures, Verdict, identification_figures};
+use mtcal_solver::uncertainty::{ItemBudget, Source};
 
 /// Everything the report shows. `verdict` is the result's verdict against a tolerance
 /// profile ([`mtcal_solver::tolerance::evaluate`]; `None`: no profile applies, and every
@@ -31,14 +32,30 @@ pub struct CheckReport<'a> {
     pub generated_at: &'a str,
     pub verdict: Option<&'a Verdict>,
     /// A diagnosis of the same check, when one was run.
-    pub diagnosis: Option<&'a DiagnosisResult>,
+    pub diagnosis: Option<&'a ReportDiagnosis>,
+}
+
+/// A diagnosis of the same recording as the report shows it: its document, or why the
+/// stored document does not read (said, never taken for "no diagnosis").
+#[derive(Debug, Clone, PartialEq)]
+pub struct ReportDiagnosis {
+    /// The stored result's id, or the file the diagnosis was read from.
+    pub id: String,
+    /// Whether `id` is a stored result (the report links to its page).
+    pub stored: bool,
+    pub doc: Result<DiagnosisResult, String>,
 }
 
 /// What recorded the data of an identification: its sessions are planar grid-encoder
 /// recordings (docs/datasets.md).
 pub const INSTRUMENT: &str = "planar grid encoder (cross-grid plate and scanning head)";
 
-/// The report page.
+/// The report page: the summary first (the misfit banner when the model does not
+/// explain its recording, the check's facts with its conditions, the figures of the
+/// standards with their verdicts, the uncertainty budget, the findings of a diagnosis,
+/// what the data could not determine, the signature block), then the appendix with the
+/// detail (fit, squareness, the error functions, residuals, circle tests,
+/// identifiability, the whole diagnosis, the compensation table's summary).
 pub fn check_report(r: &CheckReport) -> Markup {
     let d = r.doc;
     let title = format!("Check report {} {}", d.machine_id, when(&d.measured_at));
@@ -49,21 +66,46 @@ pub fn check_report(r: &CheckReport) -> Markup {
         &title,
         html! {
             article.report {
+                (result::misfit_banner(d, Some(misfit_diagnosis(r.diagnosis))))
                 (facts(r))
                 (standards(r))
                 @if !rows.is_empty() { (result::verdict_table(&rows)) }
-                (result::identification(&view))
-                (diagnosis(r.diagnosis))
-                (compensation_summary(&compensation))
+                (budget(r))
+                (findings(r.diagnosis))
                 (undetermined(d, &compensation))
-                p.muted.signature {
-                    "Figures are value ± U, U = 2u (k = 2); plots show ±2σ. Nothing is evaluated \
-                     outside the travel the check measured. Report made by mtcal "
-                    (env!("CARGO_PKG_VERSION")) " on " (when(r.generated_at)) "."
+                (signature(r))
+                div.appendix #appendix {
+                    h1 { "Appendix: detail" }
+                    (result::identification(&view))
+                    @if let Some(ReportDiagnosis { doc: Ok(doc), .. }) = r.diagnosis {
+                        div #diagnosis-detail { (result::diagnosis(doc)) }
+                    }
+                    (compensation_summary(&compensation))
                 }
             }
         },
     )
+}
+
+/// Where the misfit banner of a report sends the reader: the findings of the diagnosis
+/// of the recording, why it could not be read, or that none is stored yet.
+fn misfit_diagnosis(d: Option<&ReportDiagnosis>) -> Markup {
+    html! {
+        @match d {
+            Some(ReportDiagnosis { doc: Ok(_), id, .. }) => {
+                "The diagnosis of this recording (" (id) ") says which physics the model leaves out: see "
+                a href="#findings" { "its findings" } " below."
+            }
+            Some(ReportDiagnosis { doc: Err(_), id, .. }) => {
+                "The diagnosis of this recording (" (id) ") could not be read (see Findings below)."
+            }
+            None => {
+                "No diagnosis of this recording is stored yet: the service queues one for a misfit \
+                 on its own and the machine's page shows its findings (`mtcal diagnose` on the \
+                 session; `mtcal report --diagnosis` puts it in this report)."
+            }
+        }
+    }
 }
 
 /// The report of a positioning-run check (a diagnosis of positioning runs stored with
@@ -224,8 +266,11 @@ fn verdict_rows(v: &Verdict) -> Vec<VerdictRow> {
         .collect()
 }
 
+/// The check's facts: machine, date, result, the conditions of the test (instrument
+/// with its serial and calibration date, temperature, operator), plan, travel, model.
 fn facts(r: &CheckReport) -> Markup {
     let d = r.doc;
+    let c = &d.conditions;
     let files: Vec<&str> = {
         let mut f: Vec<&str> = d.residuals.iter().map(|x| x.file.as_str()).collect();
         f.dedup();
@@ -239,7 +284,28 @@ fn facts(r: &CheckReport) -> Markup {
                 dt { "machine" } dd { (d.machine_id) }
                 dt { "measured" } dd { (when(&d.measured_at)) }
                 @if let Some(id) = r.result_id { dt { "result" } dd { code { (id) } } }
-                dt { "instrument" } dd { (INSTRUMENT) }
+                dt { "instrument" } dd { (INSTRUMENT) ": "
+                    @match &c.instrument {
+                        Some(i) => {
+                            span.instrument { (i.describe()) }
+                            @if let Some(n) = &i.certificate { ", certificate " (n) }
+                            @if i.serial.is_none() { " (serial not stated)" }
+                            @if i.calibration_date.is_none() { " (calibration date not stated)" }
+                        }
+                        None => { "not stated (no serial, no calibration certificate)" }
+                    }
+                }
+                dt { "temperature" } dd {
+                    @match c.temperature_c {
+                        Some(t) => {
+                            (format!("{t:.1}")) " °C"
+                            @if let Some(u) = c.temperature_u_k { " (u = " (num(u)) " K)" }
+                            @if let Some(s) = &c.temperature_source { ", " (s) }
+                        }
+                        None => { "not stated" }
+                    }
+                }
+                dt { "operator" } dd { (c.operator.as_deref().unwrap_or("not stated")) }
                 dt { "plan" } dd {
                     (files.len()) " plane file(s), " (d.nuisance.runs) " runs, "
                     (d.nuisance.mountings.len()) " mounting(s), " (d.fit.samples) " samples"
@@ -298,15 +364,168 @@ fn standards(r: &CheckReport) -> Markup {
     }
 }
 
-fn diagnosis(d: Option<&DiagnosisResult>) -> Markup {
-    match d {
-        Some(d) => html! { div #findings { (result::diagnosis(d)) } },
-        None => html! {
-            section.card #findings {
-                h2 { "Diagnosis" }
-                p { "No diagnosis was run on this check: no finding to report." }
+/// One line of the budget table: the item, its unit, the value decided and its budget.
+struct BudgetRow<'a> {
+    item: &'a str,
+    unit: &'a str,
+    value: Option<f64>,
+    budget: std::borrow::Cow<'a, ItemBudget>,
+}
+
+/// The budget lines: those of the verdict's items when a tolerance profile applies (the
+/// very budgets the decisions used), else every figure the result offers to be judged
+/// with the budget a verdict would use ([`Assessment::of_identification`]).
+fn budget_rows<'a>(
+    r: &'a CheckReport,
+    figures: &'a Figures,
+    how: &Assessment,
+) -> Vec<BudgetRow<'a>> {
+    let mut rows: Vec<BudgetRow> = match r.verdict {
+        Some(v) => v
+            .items
+            .iter()
+            .filter_map(|i| {
+                Some(BudgetRow {
+                    item: &i.item,
+                    unit: &i.unit,
+                    value: i.value,
+                    budget: std::borrow::Cow::Borrowed(i.budget.as_ref()?),
+                })
+            })
+            .collect(),
+        None => figures
+            .figures
+            .iter()
+            .map(|(name, q)| BudgetRow {
+                item: name,
+                unit: &q.unit,
+                value: Some(q.value),
+                budget: std::borrow::Cow::Owned(how.budget.item(q.span, q.u)),
+            })
+            .collect(),
+    };
+    let order = |n: &str| {
+        result::TERM_ORDER
+            .iter()
+            .position(|t| *t == n)
+            .unwrap_or(result::TERM_ORDER.len())
+    };
+    rows.sort_by(|a, b| (order(a.item), a.item).cmp(&(order(b.item), b.item)));
+    rows
+}
+
+/// The uncertainty budget per ISO/TR 230-9 of every judged figure: the contributions of
+/// the instrument's calibration, the thermal expansion, the setup and the fit (standard
+/// uncertainties, k = 1), u_c and U = 2u_c; a contribution that could not be evaluated
+/// says "not included", with the reason below the table (docs/conventions.md,
+/// "Uncertainty budget").
+fn budget(r: &CheckReport) -> Markup {
+    let how = Assessment::of_identification(r.doc, Default::default());
+    let figures = identification_figures(r.doc);
+    let rows = budget_rows(r, &figures, &how);
+    let inputs = r.verdict.map_or(&how.budget, |v| &v.budget);
+    let mut reasons: Vec<(Source, &str)> = vec![];
+    for row in &rows {
+        for c in row.budget.contributions.iter().filter(|c| c.u.is_none()) {
+            if !reasons.iter().any(|(s, b)| *s == c.source && *b == c.basis) {
+                reasons.push((c.source, &c.basis));
             }
-        },
+        }
+    }
+    let cell = |b: &ItemBudget, s: Source| -> Markup {
+        match b.contributions.iter().find(|c| c.source == s) {
+            Some(c) => match c.u {
+                Some(u) => html! { td.num title=(c.basis) { (num(u)) } },
+                None => html! { td.num.not-included title=(c.basis) { "not included" } },
+            },
+            None => html! { td.num { "—" } },
+        }
+    };
+    html! {
+        section.card #budget {
+            h2 { "Uncertainty budget (ISO/TR 230-9)" }
+            p.muted {
+                "Standard uncertainties (k = 1) in the figure's unit, combined in quadrature into u_c; \
+                 U = 2u_c is the U of every verdict (docs/conventions.md, \"Uncertainty budget\"). "
+                @match &inputs.conditions.instrument {
+                    Some(i) => { "Instrument: " (i.describe()) @if let Some(f) = &inputs.instrument_from { " (from the " (f) ")" } ". " }
+                    None => { "No instrument stated. " }
+                }
+                @for a in &inputs.assumed { "Assumed: " (a) ". " }
+            }
+            @if rows.is_empty() {
+                p { "No figure of this check is judged." }
+            } @else {
+                table.budget {
+                    thead { tr {
+                        th { "figure" } th.num { "value" }
+                        @for s in Source::ALL { th.num { (s.as_str()) } }
+                        th.num { "u_c" } th.num { "U = 2u_c" }
+                    } }
+                    tbody {
+                        @for row in &rows {
+                            tr data-item=(row.item) {
+                                td { (row.item) }
+                                td.num { @match row.value { Some(v) => { (num(v)) " " (unit_label(row.unit)) } None => "—" } }
+                                @for s in Source::ALL { (cell(&row.budget, s)) }
+                                td.num { (num(row.budget.combined_u)) }
+                                td.num { (num(COVERAGE_K * row.budget.combined_u)) }
+                            }
+                        }
+                    }
+                }
+                @if !reasons.is_empty() {
+                    ul.compact.not-included {
+                        @for (s, b) in &reasons { li { "not included, " (s.as_str()) ": " (b) } }
+                    }
+                }
+            }
+        }
+    }
+}
+
+/// The findings of the diagnosis of the same recording in short (the whole diagnosis is
+/// in the appendix), or why it could not be read, or that none was run.
+fn findings(d: Option<&ReportDiagnosis>) -> Markup {
+    html! {
+        section.card #findings {
+            h2 { "Findings of the diagnosis" }
+            @match d {
+                None => { p { "No diagnosis was run on this check: no finding to report." } }
+                Some(ReportDiagnosis { id, doc: Err(e), .. }) => {
+                    div.notice.error { "The diagnosis of this check (" (id) ") could not be read: " (e)
+                        ". Its findings cannot be shown; that does not mean that there are none." }
+                }
+                Some(ReportDiagnosis { id, stored, doc: Ok(doc) }) => {
+                    p.muted {
+                        "Diagnosis "
+                        @if *stored { a href={ "/results/" (super::encode(id)) } { (id) } } @else { (id) }
+                        "; u: standard uncertainty (k = 1); the whole diagnosis is in the appendix."
+                    }
+                    (result::findings_summary(doc))
+                }
+            }
+        }
+    }
+}
+
+/// The signature block: who checked the report, when, and their signature.
+fn signature(r: &CheckReport) -> Markup {
+    html! {
+        section.card #signature {
+            p.muted.signature {
+                "Figures are value ± U, U = 2u_c (k = 2) of the uncertainty budget; plots show ±2σ. \
+                 Nothing is evaluated outside the travel the check measured. Report made by mtcal "
+                (env!("CARGO_PKG_VERSION")) " on " (when(r.generated_at)) "."
+            }
+            table.sign {
+                tbody {
+                    tr { th { "Checked by" } td {} }
+                    tr { th { "Date" } td {} }
+                    tr { th { "Signature" } td {} }
+                }
+            }
+        }
     }
 }
 
@@ -572,7 +791,11 @@ mod tests {
         };
         let how = mtcal_solver::tolerance::Assessment::of_identification(&doc, Default::default());
         let verdict = mtcal_solver::tolerance::evaluate(&limits, &figures, &how);
-        let diag = finding();
+        let diag = ReportDiagnosis {
+            id: "diagnosis.json".into(),
+            stored: false,
+            doc: Ok(finding()),
+        };
         let html = check_report(&CheckReport {
             doc: &doc,
             result_id: None,
@@ -591,6 +814,240 @@ mod tests {
         section(&html, "verdict");
         assert!(html.contains("Finding: backlash (X)"));
         assert!(section(&html, "check").contains("badge verdict pass"));
+    }
+
+    /// The `<tr data-item="…">` row of the budget table.
+    fn budget_row<'a>(html: &'a str, item: &str) -> &'a str {
+        let b = section(html, "budget");
+        let start = b
+            .find(&format!("data-item=\"{item}\""))
+            .unwrap_or_else(|| panic!("no budget row {item}"));
+        &b[start..start + b[start..].find("</tr>").unwrap()]
+    }
+
+    /// The backlash machine's figures (a residual of 0.976 µm against a noise floor of
+    /// 0.149 µm): the report opens with the misfit banner, which states the residual,
+    /// the floor and the gate's factor and sends the reader to the findings of the
+    /// diagnosis, named by its id; the findings are in the summary, the whole diagnosis
+    /// in the appendix.
+    #[test]
+    fn a_misfit_report_opens_with_the_banner_and_its_diagnosis() {
+        let mut doc = simulated_check();
+        doc.fit.residual_rms_um = 0.976;
+        doc.fit.noise_estimate_um = Some(0.149);
+        doc.model_check = None;
+        let diag = ReportDiagnosis {
+            id: "res_diag7".into(),
+            stored: true,
+            doc: Ok(finding()),
+        };
+        let html = check_report(&CheckReport {
+            doc: &doc,
+            result_id: Some("r-42"),
+            generated_at: "2026-11-25T09:00:00Z",
+            verdict: None,
+            diagnosis: Some(&diag),
+        })
+        .into_string();
+        let article = &html[html.find("<article").unwrap()..];
+        let first = &article[article.find("<section").unwrap()..];
+        assert!(
+            first[..first.find('>').unwrap()].contains("id=\"misfit\""),
+            "the first section is the banner: {}",
+            &first[..200]
+        );
+        let banner = section(&html, "misfit");
+        for want in [
+            "the model does not explain this recording",
+            "0.976 µm",
+            "6.6 ×",
+            "0.149 µm",
+            "1.2 ×",
+            "res_diag7",
+            "href=\"#findings\"",
+        ] {
+            assert!(banner.contains(want), "the banner lacks {want}: {banner}");
+        }
+        let f = section(&html, "findings");
+        assert!(
+            f.contains("data-effect=\"backlash\"") && f.contains("backlash_um = 4.000"),
+            "{f}"
+        );
+        assert!(f.contains("href=\"/results/res_diag7\""), "{f}");
+        let appendix = html.find("id=\"appendix\"").unwrap();
+        assert!(html.find("id=\"findings\"").unwrap() < appendix);
+        assert!(html.find("Finding: backlash (X)").unwrap() > appendix);
+        // The same check at noise level has no banner.
+        let clean = simulated_check();
+        let html = check_report(&CheckReport {
+            doc: &clean,
+            result_id: None,
+            generated_at: "2026-11-25T09:00:00Z",
+            verdict: None,
+            diagnosis: None,
+        })
+        .into_string();
+        assert!(!clean.model_check().is_misfit());
+        assert!(!html.contains("id=\"misfit\""));
+    }
+
+    /// A stored diagnosis whose document does not read is said to be unreadable, with its
+    /// id, in the findings and in the misfit banner: never "No diagnosis was run".
+    #[test]
+    fn an_unreadable_diagnosis_is_said_with_its_id() {
+        let mut doc = simulated_check();
+        doc.fit.residual_rms_um = 0.976;
+        doc.fit.noise_estimate_um = Some(0.149);
+        doc.model_check = None;
+        let diag = ReportDiagnosis {
+            id: "res_bad3".into(),
+            stored: true,
+            doc: Err("its document does not read: missing field `baseline`".into()),
+        };
+        let html = check_report(&CheckReport {
+            doc: &doc,
+            result_id: None,
+            generated_at: "2026-11-25T09:00:00Z",
+            verdict: None,
+            diagnosis: Some(&diag),
+        })
+        .into_string();
+        assert!(!html.contains("No diagnosis was run"));
+        let f = section(&html, "findings");
+        assert!(
+            f.contains("could not be read") && f.contains("res_bad3") && f.contains("`baseline`"),
+            "{f}"
+        );
+        let banner = section(&html, "misfit");
+        assert!(
+            banner.contains("res_bad3") && banner.contains("could not be read"),
+            "{banner}"
+        );
+        assert!(!html.contains("id=\"diagnosis-detail\""));
+    }
+
+    /// The budget table against docs/conventions.md's worked example, computed here from
+    /// its formulas: EXX's positioning range over L = the measured X travel takes the
+    /// certificate's (a + b·L)/k, the differential expansion's u_th and the cosine error's
+    /// L·ϑ²/(4√3) beside its fit u; an angular term takes no instrument contribution
+    /// ("not included", with the reason); with a verdict every row carries the very u_c
+    /// the decision used. The header names the operator, the instrument with its serial
+    /// and calibration date and the temperature; the signature block follows.
+    #[test]
+    fn the_budget_table_and_the_conditions_are_the_verdicts() {
+        let mut doc = simulated_check();
+        doc.conditions = mtcal_solver::uncertainty::Conditions::worked_example();
+        let html = check_report(&CheckReport {
+            doc: &doc,
+            result_id: None,
+            generated_at: "2026-11-25T09:00:00Z",
+            verdict: None,
+            diagnosis: None,
+        })
+        .into_string();
+        let [lo, hi] = doc.model.measured_travel_mm["X"];
+        let l = (hi - lo) / 1000.0; // m
+        let instrument = (0.5 + 1.0 * l) / 2.0;
+        let e_nde = (11.5 - 8.0) * (22.0 - 20.0) * l;
+        let thermal = ((e_nde / 3f64.sqrt()).powi(2)
+            + (2.0 * l * (1.0f64 + 0.25).sqrt()).powi(2)
+            + (3.5 * 0.2 * l).powi(2))
+        .sqrt();
+        let setup = (hi - lo) * 1000.0 * 500e-6f64.powi(2) / (4.0 * 3f64.sqrt());
+        let figures = identification_figures(&doc);
+        let fit = figures.figures["EXX"].u.unwrap();
+        let u_c = (instrument.powi(2) + thermal.powi(2) + setup.powi(2) + fit.powi(2)).sqrt();
+        let row = budget_row(&html, "EXX");
+        for (what, v) in [
+            ("instrument", instrument),
+            ("thermal", thermal),
+            ("setup", setup),
+            ("fit", fit),
+            ("u_c", u_c),
+            ("U", 2.0 * u_c),
+        ] {
+            assert!(
+                row.contains(&format!(">{}<", num(v))),
+                "EXX {what} {}: {row}",
+                num(v)
+            );
+        }
+        if l == 0.1 {
+            // The worked example's own numbers.
+            assert!(row.contains(">0.300<") && row.contains(">0.467<"), "{row}");
+        }
+        let angular = ["EAX", "EBX", "ECX", "EAY", "EBY", "ECY"]
+            .into_iter()
+            .find(|t| figures.figures.contains_key(*t))
+            .expect("an identifiable angular term");
+        assert!(budget_row(&html, angular).contains("not included"));
+        assert!(section(&html, "budget").contains("the certificate states no angular uncertainty"));
+        let facts = section(&html, "check");
+        for want in [
+            "A. Keller",
+            "grid encoder s/n 1234, calibrated 2026-03-01",
+            "C-77",
+            "22.0 °C",
+            "0.200 K",
+        ] {
+            assert!(facts.contains(want), "the facts lack {want}: {facts}");
+        }
+        let sign = section(&html, "signature");
+        for want in ["Checked by", "Date", "Signature"] {
+            assert!(sign.contains(want), "{sign}");
+        }
+        // Without conditions the instrument is not included anywhere, and said so.
+        let plain = simulated_check();
+        let html = check_report(&CheckReport {
+            doc: &plain,
+            result_id: None,
+            generated_at: "2026-11-25T09:00:00Z",
+            verdict: None,
+            diagnosis: None,
+        })
+        .into_string();
+        let b = section(&html, "budget");
+        assert_eq!(
+            b.matches("<tr data-item=").count(),
+            identification_figures(&plain).figures.len()
+        );
+        assert!(budget_row(&html, "EXX").contains("not included"));
+        assert!(b.contains("no calibration certificate stated"), "{b}");
+        assert!(section(&html, "check").contains("operator</dt><dd>not stated"));
+        // With a verdict: its items' budgets, u_c as the decisions used them.
+        let limits = mtcal_solver::tolerance::Limits {
+            terms: [(
+                "EXX".to_string(),
+                mtcal_solver::tolerance::TermLimit::range(4.0),
+            )]
+            .into(),
+            ..Default::default()
+        };
+        let how = Assessment::of_identification(&doc, Default::default());
+        let verdict = mtcal_solver::tolerance::evaluate(&limits, &figures, &how);
+        let html = check_report(&CheckReport {
+            doc: &doc,
+            result_id: None,
+            generated_at: "2026-11-25T09:00:00Z",
+            verdict: Some(&verdict),
+            diagnosis: None,
+        })
+        .into_string();
+        let item = &verdict.items[0];
+        assert_eq!(item.item, "EXX");
+        let row = budget_row(&html, "EXX");
+        assert!(
+            row.contains(&format!(">{}<", num(item.u.unwrap()))),
+            "{row}"
+        );
+        assert!(
+            row.contains(&format!(">{}<", num(item.expanded_u.unwrap()))),
+            "{row}"
+        );
+        assert_eq!(
+            section(&html, "budget").matches("<tr data-item=").count(),
+            1
+        );
     }
 
     /// The report of a cradle check whose C table tilts about its mount: facts, the

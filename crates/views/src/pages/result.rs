@@ -170,6 +170,7 @@ pub fn result_page(
                     button.secondary type="submit" { "Set as baseline" }
                 }
             }
+            @if let ResultBody::Identification(v) = body { (misfit_banner(v.doc, None)) }
             @if !verdict.is_empty() { (verdict_table(verdict)) }
             (sections(body))
         },
@@ -212,11 +213,13 @@ pub fn verdict_table(rows: &[VerdictRow]) -> Markup {
     }
 }
 
-/// Fit figures, squareness, the 18 error functions, residuals, circle tests,
-/// identifiability and reporting notes of an identification.
-pub fn identification(v: &IdentificationView) -> Markup {
-    let d = v.doc;
-    let o = &d.observability;
+/// The misfit gate's banner of an identification whose model does not explain its
+/// recording (nothing otherwise): first on its page, above the verdict, and first in its
+/// check report. It states the gate's finding (the residual RMS against the noise floor
+/// and the factor), that no value is judged and that the compensation table is refused
+/// unless forced, and where the diagnosis of the recording is: `diagnosis` says it (the
+/// report names the diagnosis it holds), else the machine's page lists the diagnoses.
+pub fn misfit_banner(d: &IdentificationResult, diagnosis: Option<Markup>) -> Markup {
     let check = d.model_check();
     html! {
         @if check.is_misfit() {
@@ -225,11 +228,27 @@ pub fn identification(v: &IdentificationView) -> Markup {
                 h2 { "Not decided: model misfit" }
                 p { (check.statement) "." }
                 p { "No value of this model is judged against a tolerance and its compensation \
-                     table is refused unless forced. The diagnosis of this recording says which \
-                     physics the model leaves out: see the diagnoses on "
-                    a href=(machine_href(&d.machine_id)) { "the machine's page" } "." }
+                     table is refused unless forced. "
+                    @match diagnosis {
+                        Some(m) => { (m) }
+                        None => {
+                            "The diagnosis of this recording says which physics the model leaves \
+                             out: see the diagnoses on "
+                            a href=(machine_href(&d.machine_id)) { "the machine's page" } "."
+                        }
+                    }
+                }
             }
         }
+    }
+}
+
+/// Fit figures, squareness, the 18 error functions, residuals, circle tests,
+/// identifiability and reporting notes of an identification.
+pub fn identification(v: &IdentificationView) -> Markup {
+    let d = v.doc;
+    let o = &d.observability;
+    html! {
         section.card #fit {
             h2 { "Fit" }
             dl.facts {
@@ -379,6 +398,39 @@ fn undetermined(f: &Finding) -> Markup {
                 tbody { @for u in &f.undetermined { tr { td { (u.name) } td.num { (num(u.value)) } td.num { @match u.std { Some(sd) => (num(sd)), None => "no finite bound" } } td { (u.decide) } } } }
             }
         }
+    }
+}
+
+/// A diagnosis in short: its verdict in words, each finding with its axis and its
+/// parameters with their standard uncertainties (`std_*`), the possible (undetermined)
+/// effects, and what is left unexplained (the machine page and the check report; the
+/// whole diagnosis is [`diagnosis`]).
+pub fn findings_summary(doc: &DiagnosisResult) -> Markup {
+    use mtcal_solver::diagnosis::Verdict;
+    html! {
+        p {
+            (match doc.verdict {
+                Verdict::Consistent => "consistent: the rigid model explains the recording to noise level",
+                Verdict::Explained => "explained by the findings below",
+                Verdict::PartlyExplained => "partly explained: a misfit remains (see the diagnosis)",
+            })
+        }
+        @if !doc.findings.is_empty() || !doc.possible.is_empty() {
+            ul {
+                @for f in &doc.findings {
+                    li data-effect=(f.effect) {
+                        strong { (f.name_in_words()) }
+                        ": " (f.parameters_in_words())
+                    }
+                }
+                @for f in &doc.possible {
+                    li data-effect=(f.effect) {
+                        (f.name_in_words()) " — possible, undetermined"
+                    }
+                }
+            }
+        }
+        @for u in &doc.unexplained { p.muted { "Unexplained: " (mtcal_solver::text::person_units(u)) } }
     }
 }
 
@@ -778,11 +830,20 @@ mod tests {
         let body = ResultBody::Identification(IdentificationView::of(&doc));
         let mut h = header("identification");
         h.verdict = Some("misfit".into());
-        let html = result_page(&viewer("read"), &h, &[], &body).into_string();
+        let verdict = [VerdictRow {
+            quantity: "EXX".into(),
+            at: String::new(),
+            value: 3.747,
+            std: Some(0.01),
+            unit: "um".into(),
+            limit: 4.0,
+            outcome: "misfit".into(),
+        }];
+        let html = result_page(&viewer("read"), &h, &verdict, &body).into_string();
         let at = html.find("id=\"misfit\"").expect("the misfit banner");
         assert!(
-            at < html.find("id=\"fit\"").unwrap(),
-            "the banner comes first"
+            at < html.find("id=\"verdict\"").unwrap() && at < html.find("id=\"fit\"").unwrap(),
+            "the banner comes first, above the verdict"
         );
         assert!(html.contains("the model does not explain this recording"));
         assert!(html.contains("6.6 × the noise floor"));
