@@ -403,6 +403,10 @@ async fn run(c: &Client, dashboard: &str, base: &str, key: &str, shots: &Path, w
     .unwrap();
     let banner = text(c, "#misfit").await;
     assert!(banner.contains("Not decided: model misfit"), "{banner}");
+    assert!(
+        banner.contains("diagnosis of this recording found: backlash (X)"),
+        "the banner says what the service's diagnosis found: {banner}"
+    );
     shot(c, shots, "result-misfit").await;
     c.goto(&format!("{base}/")).await.unwrap();
 
@@ -519,7 +523,20 @@ async fn run(c: &Client, dashboard: &str, base: &str, key: &str, shots: &Path, w
         .unwrap();
     assert_eq!(polar.len(), groups.len(), "one polar plot per circle test");
     let plot = inspect::parse(&polar[0].html(false).await.unwrap()).unwrap();
-    assert!(plot.has_text("0°") || plot.has_text("90°"), "angle labels");
+    assert_eq!(
+        ["+X", "+Y", "+Z"]
+            .iter()
+            .filter(|a| plot.has_text(a))
+            .count(),
+        2,
+        "the plane's axis labels"
+    );
+    assert!(
+        plot.texts
+            .iter()
+            .any(|t| t.content.starts_with("R ") && t.content.ends_with(" mm")),
+        "the nominal radius labels the reference circle"
+    );
     assert!(
         plot.marks
             .iter()

@@ -7,7 +7,8 @@
 //! appendix) prints on at most 6 A4 pages; the appendix starts on a page of its own
 //! (docs/report.md). Pages are counted as the PDF's `/Type /Page` objects.
 //!
-//! The test skips, with a printed reason, only when Chromium is absent (`CHROMIUM` names
+//! With `UPDATE_SCREENSHOTS=1` it saves the report's first page as
+//! `docs/screenshots/report.png` (the README's). The test skips, with a printed reason, only when Chromium is absent (`CHROMIUM` names
 //! another path than `/usr/bin/chromium`); under `MTCAL_CI` it must run.
 
 use std::path::{Path, PathBuf};
@@ -166,6 +167,11 @@ fn a_three_plane_checks_report_prints_its_summary_on_six_a4_pages() {
         first[..first.find('>').unwrap()].contains("id=\"misfit\""),
         "the report opens with the misfit banner"
     );
+    let banner = section(&html, "misfit");
+    assert!(
+        banner.contains("(bkd.json)") && !banner.contains(dir.to_str().unwrap()),
+        "the banner names the diagnosis by its file's name: {banner}"
+    );
     let facts = section(&html, "check");
     for want in [
         "KGM 282 s/n SN-7731, calibrated 2026-03-01",
@@ -203,4 +209,26 @@ fn a_three_plane_checks_report_prints_its_summary_on_six_a4_pages() {
         all_pages > summary_pages,
         "the appendix starts on a page of its own: {all_pages} pages in all"
     );
+    // The README's picture of a report: its first A4 page (794 × 1123 px at 96 dpi).
+    if std::env::var_os("UPDATE_SCREENSHOTS").is_some() {
+        let png = Path::new(env!("CARGO_MANIFEST_DIR")).join("docs/screenshots/report.png");
+        let o = Command::new(&chromium)
+            .args([
+                "--headless",
+                "--no-sandbox",
+                "--disable-gpu",
+                "--hide-scrollbars",
+            ])
+            .arg(format!("--user-data-dir={}", dir.join("profile").display()))
+            .arg("--window-size=794,1123")
+            .arg(format!("--screenshot={}", png.display()))
+            .arg(format!("file://{}", report.display()))
+            .output()
+            .unwrap();
+        assert!(
+            o.status.success() && png.exists(),
+            "{}",
+            String::from_utf8_lossy(&o.stderr)
+        );
+    }
 }

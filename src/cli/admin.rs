@@ -1,6 +1,7 @@
-//! `mtcal admin`: API keys, directly on the database (for the first admin key, and for
-//! operators with access to the database; the same operations exist as admin API routes
-//! under `/api/v1/keys`).
+//! `mtcal admin`: API keys, machines and tolerance profiles, directly on the database
+//! (for the first admin key, and for operators with access to the database; the same
+//! operations exist as API routes: `/api/v1/keys`, `/api/v1/machines`,
+//! `/api/v1/tolerances`, with the same rules, those of crates/domain).
 
 use anyhow::Context;
 use mtcal_store::{ApiKey, Scope, Store};
@@ -46,6 +47,42 @@ pub enum Command {
         #[arg(long)]
         json: bool,
     },
+    /// Register a machine (as `POST /api/v1/machines` does, with the same rules).
+    CreateMachine {
+        #[command(flatten)]
+        db: DbArgs,
+        /// Its id: 1–64 letters, digits, '.', '_', '-'.
+        id: String,
+        /// Its name (default: the id).
+        #[arg(long)]
+        name: Option<String>,
+        #[arg(long)]
+        site: Option<String>,
+        /// A tag (repeat for several); a tag's tolerance profile applies to it.
+        #[arg(long = "tag")]
+        tags: Vec<String>,
+        /// An axis's registered travel, `X=-300:300` mm (repeat per axis).
+        #[arg(long = "travel", value_parser = travel)]
+        travel: Vec<(String, [f64; 2])>,
+    },
+    /// Create a tolerance profile (as `POST /api/v1/tolerances` does, with the same
+    /// rules; a webhook is set through the API or the dashboard) and refresh the verdicts
+    /// of the machines it applies to.
+    CreateProfile {
+        #[command(flatten)]
+        db: DbArgs,
+        /// `machine` (one machine's profile) or `tag` (every machine with the tag).
+        #[arg(long)]
+        scope: String,
+        /// The machine id or the tag.
+        #[arg(long)]
+        target: String,
+        /// The limits as JSON (docs/api.md, "Tolerances and verdicts"), e.g.
+        /// '{"terms": {"EXX": {"range": 10, "per_length_mm": 300}}, "squareness": {"EC0Y": 30}}';
+        /// `@FILE` reads them from a file.
+        #[arg(long)]
+        limits: String,
+    },
     /// Revoke an API key by id: from the next request on it authenticates nothing.
     RevokeKey {
         #[command(flatten)]
@@ -53,6 +90,27 @@ pub enum Command {
         /// The key's id (`key_…`, see `list-keys`).
         id: String,
     },
+}
+
+/// One axis's travel, `X=-300:300` (mm).
+fn travel(v: &str) -> Result<(String, [f64; 2]), String> {
+    let bad = || format!("{v:?}: give AXIS=MIN:MAX in mm, e.g. X=-300:300");
+    let (axis, range) = v.split_once('=').ok_or_else(bad)?;
+    let (lo, hi) = range.split_once(':').ok_or_else(bad)?;
+    let num = |t: &str| t.trim().parse::<f64>().map_err(|_| bad());
+    Ok((axis.trim().to_string(), [num(lo)?, num(hi)?]))
+}
+
+/// A rule of the service refusing what was asked: bad input (exit code 2), with its
+/// message; anything else as it is.
+fn refused(e: mtcal_domain::DomainError) -> anyhow::Error {
+    use mtcal_domain::DomainError as D;
+    use mtcal_store::StoreError as S;
+    match e {
+        D::Invalid(m) | D::NotFound(m) | D::Conflict(m) => super::BadInput(m).into(),
+        D::Store(S::NotFound(m) | S::Conflict(m) | S::Invalid(m)) => super::BadInput(m).into(),
+        other => other.into(),
+    }
 }
 
 /// Opens the database; a SQLite file must exist unless `create`.
@@ -125,6 +183,72 @@ pub fn run(args: Args) -> anyhow::Result<ExitCode> {
             } else {
                 super::out::write(&table(&keys))?;
             }
+        }
+        Command::CreateMachine {
+            db,
+            id,
+            name,
+            site,
+            tags,
+            travel,
+        } => {
+            let m = mtcal_domain::machines::NewMachine {
+                name: name.unwrap_or_else(|| id.clone()),
+                id,
+                topology: None,
+                travel_mm: travel.into_iter().collect(),
+                site,
+                tags,
+            };
+            let m = rt.block_on(async {
+                let store = open(&db.db, false).await?;
+                mtcal_domain::machines::create(store.as_ref(), m)
+                    .await
+                    .map_err(refused)
+            })?;
+            super::out::noteln!("registered machine {} ({})", m.id, m.name);
+        }
+        Command::CreateProfile {
+            db,
+            scope,
+            target,
+            limits,
+        } => {
+            let text = match limits.strip_prefix('@') {
+                Some(file) => std::fs::read_to_string(file)
+                    .map_err(|e| super::BadInput(format!("--limits @{file}: {e}")))?,
+                None => limits,
+            };
+            let limits = serde_json::from_str(&text)
+                .map_err(|e| super::BadInput(format!("--limits: {e}")))?;
+            let p = mtcal_domain::profiles::NewProfile {
+                scope,
+                target,
+                limits,
+                webhook_url: None,
+                webhook_secret: None,
+            };
+            let (profile, refreshed) = rt.block_on(async {
+                let store = open(&db.db, false).await?;
+                let policy = mtcal_domain::webhooks::TargetPolicy::default();
+                let profile = mtcal_domain::profiles::create(store.as_ref(), &p, &policy)
+                    .await
+                    .map_err(refused)?;
+                let n = mtcal_domain::fleet::refresh_profile_targets(
+                    store.as_ref(),
+                    &profile.scope,
+                    &profile.target,
+                )
+                .await?;
+                anyhow::Ok((profile, n))
+            })?;
+            super::out::noteln!(
+                "created tolerance profile {} ({} {}); verdicts of {refreshed} machine(s) refreshed",
+                profile.id,
+                profile.scope,
+                profile.target
+            );
+            super::out::outln!("{}", profile.id)?;
         }
         Command::RevokeKey { db, id } => {
             let key = rt.block_on(async {

@@ -50,7 +50,11 @@ pub fn run(args: Args) -> anyhow::Result<ExitCode> {
         .as_deref()
         .map(|p| {
             super::read_json::<DiagnosisResult>(p, "diagnosis").map(|d| ReportDiagnosis {
-                id: p.display().to_string(),
+                // The file's name: a report does not print the reader's directories.
+                id: p.file_name().map_or_else(
+                    || p.display().to_string(),
+                    |n| n.to_string_lossy().into_owned(),
+                ),
                 stored: false,
                 doc: Ok(d),
             })

@@ -129,6 +129,125 @@ fn admin_lists_and_revokes_keys() {
     assert!(err.contains("no key key_nope"), "{err}");
 }
 
+/// `admin create-machine` and `admin create-profile` apply the API's rules on the
+/// database: a bad field is refused with exit code 2 and a message naming it, and
+/// nothing is stored; what they create is what the API then serves.
+#[tokio::test]
+async fn admin_creates_machines_and_profiles_with_the_apis_rules() {
+    let dir = tempfile::tempdir().unwrap();
+    let db = dir.path().join("m.sqlite");
+    let db = db.to_str().unwrap();
+    mtcal(&["admin", "create-key", "--db", db, "--create"]);
+    let refused = |args: &[&str], says: &str| {
+        let out = Command::new(BIN).args(args).output().unwrap();
+        let err = String::from_utf8_lossy(&out.stderr);
+        assert_eq!(out.status.code(), Some(2), "{args:?}: {err}");
+        assert!(err.contains(says), "{args:?}: {err}");
+    };
+    refused(
+        &[
+            "admin",
+            "create-machine",
+            "--db",
+            db,
+            "VMC-1",
+            "--travel",
+            "X=300:-300",
+        ],
+        "travel_mm.X",
+    );
+    refused(
+        &[
+            "admin",
+            "create-machine",
+            "--db",
+            db,
+            "VMC-1",
+            "--travel",
+            "X=-300",
+        ],
+        "AXIS=MIN:MAX",
+    );
+    refused(&["admin", "create-machine", "--db", db, "bad id"], "id");
+    mtcal(&[
+        "admin",
+        "create-machine",
+        "--db",
+        db,
+        "VMC-1",
+        "--name",
+        "Line 1 VMC",
+        "--site",
+        "north",
+        "--tag",
+        "vmc",
+        "--travel",
+        "X=-300:300",
+        "--travel",
+        "Y=-200:200",
+    ]);
+    refused(&["admin", "create-machine", "--db", db, "VMC-1"], "VMC-1");
+    refused(
+        &[
+            "admin",
+            "create-profile",
+            "--db",
+            db,
+            "--scope",
+            "tag",
+            "--target",
+            "vmc",
+            "--limits",
+            r#"{"terms": {"EQX": 5}}"#,
+        ],
+        "EQX",
+    );
+    refused(
+        &[
+            "admin",
+            "create-profile",
+            "--db",
+            db,
+            "--scope",
+            "machine",
+            "--target",
+            "VMC-2",
+            "--limits",
+            r#"{"drift_um": 1}"#,
+        ],
+        "VMC-2",
+    );
+    let limits = dir.path().join("limits.json");
+    std::fs::write(
+        &limits,
+        r#"{"terms": {"EXX": {"range": 10, "per_length_mm": 300}}, "squareness": {"EC0Y": 30}}"#,
+    )
+    .unwrap();
+    let id = mtcal(&[
+        "admin",
+        "create-profile",
+        "--db",
+        db,
+        "--scope",
+        "tag",
+        "--target",
+        "vmc",
+        "--limits",
+        &format!("@{}", limits.display()),
+    ]);
+    let store = mtcal_store::open(db).await.unwrap();
+    let m = store.get_machine("VMC-1").await.unwrap();
+    assert_eq!(
+        (m.name.as_str(), m.site.as_deref()),
+        ("Line 1 VMC", Some("north"))
+    );
+    assert_eq!(m.travel_mm["Y"], [-200.0, 200.0]);
+    let profiles = store.list_tolerances().await.unwrap();
+    assert_eq!(profiles.len(), 1, "the refused profiles stored nothing");
+    assert_eq!(profiles[0].id, id.trim());
+    assert_eq!(profiles[0].limits["squareness"]["EC0Y"], 30.0);
+}
+
 /// The command lines of the deployment examples (`deploy/`) are ones `mtcal` accepts:
 /// each is run with `--help` appended, which succeeds only when every argument before it
 /// is known (so a renamed flag breaks this test, not a plant's service).

@@ -227,3 +227,120 @@ async fn the_apis_gets_read_the_session_cookie_and_nothing_else_does() {
         .unwrap();
     assert_eq!(r.status(), StatusCode::UNAUTHORIZED);
 }
+
+/// Machines and tolerance profiles are created from the pages, with the API's rules: a
+/// write key registers a machine on the fleet page and gives a machine a profile on its
+/// page (the fleet then names it); a bad field is refused with its name and stores
+/// nothing; a read key sees no form and its posts are refused.
+#[tokio::test]
+async fn machines_and_profiles_are_created_from_the_pages() {
+    let (app, _, _) = fleet_of_one().await;
+    let reader = app.sign_in(&app.read_key).await;
+    let page = reader.get("/").await.text().await.unwrap();
+    assert!(
+        !page.contains(r#"id="new-machine""#),
+        "a read key gets no form"
+    );
+    let r = reader
+        .post("/machines", &[("csrf", &reader.csrf), ("id", "M9")])
+        .await;
+    assert_eq!(r.status(), StatusCode::FORBIDDEN);
+
+    let b = app.sign_in(&app.write_key).await;
+    let page = b.get("/").await.text().await.unwrap();
+    assert!(page.contains(r#"id="new-machine""#));
+    let before = state(&app).await;
+    for (fields, says) in [
+        (vec![("id", "M 9")], "id"),
+        (
+            vec![("id", "M9"), ("x_min", "300"), ("x_max", "-300")],
+            "travel_mm.X",
+        ),
+        (vec![("id", "M9"), ("x_min", "-300")], "travel_mm.X"),
+        (vec![("id", "M1")], "M1"),
+    ] {
+        let mut all = vec![("csrf", b.csrf.as_str())];
+        all.extend(fields.iter().copied());
+        let r = b.post("/machines", &all).await;
+        assert!(r.status().is_client_error(), "{fields:?}: {}", r.status());
+        let text = r.text().await.unwrap();
+        assert!(text.contains(says), "{fields:?}: {text}");
+    }
+    assert_eq!(
+        state(&app).await,
+        before,
+        "a refused form changed something"
+    );
+    let r = b
+        .post(
+            "/machines",
+            &[
+                ("csrf", &b.csrf),
+                ("id", "M9"),
+                ("name", "Line 9"),
+                ("site", "north"),
+                ("tags", "vmc, line9"),
+                ("x_min", "-300"),
+                ("x_max", "300"),
+            ],
+        )
+        .await;
+    assert_eq!(r.status(), StatusCode::SEE_OTHER);
+    let m = app.client.machine("M9").await.unwrap();
+    assert_eq!(m.name, "Line 9");
+    assert_eq!(m.tags, ["vmc", "line9"]);
+    assert_eq!(m.travel_mm["X"], [-300.0, 300.0]);
+
+    // A profile for M1 (which has checks) from its page: its verdict follows.
+    let page = b.get("/machines/M1").await.text().await.unwrap();
+    assert!(page.contains(r#"id="new-profile""#));
+    let r = b
+        .post(
+            "/machines/M1/tolerance",
+            &[
+                ("csrf", &b.csrf),
+                ("target", "machine"),
+                ("squareness_urad", "x"),
+            ],
+        )
+        .await;
+    assert_eq!(r.status(), StatusCode::BAD_REQUEST);
+    assert!(r.text().await.unwrap().contains("squareness_urad"));
+    let r = b
+        .post(
+            "/machines/M1/tolerance",
+            &[("csrf", &b.csrf), ("target", "machine")],
+        )
+        .await;
+    assert_eq!(r.status(), StatusCode::BAD_REQUEST, "no limit at all");
+    assert!(app.store.list_tolerances().await.unwrap().is_empty());
+    let r = b
+        .post(
+            "/machines/M1/tolerance",
+            &[
+                ("csrf", &b.csrf),
+                ("target", "machine"),
+                ("positioning_um", "1000"),
+                ("squareness_urad", "1000"),
+            ],
+        )
+        .await;
+    assert_eq!(r.status(), StatusCode::SEE_OTHER);
+    let profiles = app.store.list_tolerances().await.unwrap();
+    assert_eq!(profiles.len(), 1);
+    assert_eq!(
+        (profiles[0].scope.as_str(), profiles[0].target.as_str()),
+        ("machine", "M1")
+    );
+    // The fleet names the profile that applies to M1 now.
+    let f = app
+        .client
+        .fleet(&mtcal_server::api::fleet::FleetParams::default())
+        .await
+        .unwrap();
+    let m1 = f.machines.iter().find(|m| m.machine_id == "M1").unwrap();
+    assert_eq!(
+        m1.tolerance_profile_id.as_deref(),
+        Some(profiles[0].id.as_str())
+    );
+}

@@ -5,7 +5,7 @@
 //! is judged against it ([`profiles`], [`verdicts`]), when a drift alert is raised and
 //! where it is delivered ([`alerts`], [`webhooks`]), what follows a landed result
 //! ([`landing`]), and the arithmetic of trends and differences over a machine's history
-//! ([`trends`], [`history`]).
+//! ([`trends`], [`history`]), and the rules of a machine's fields ([`machines`]).
 //!
 //! Layers: this crate reads and writes through [`mtcal_store::Store`] and computes with
 //! [`mtcal_solver`] (result arithmetic, decision rule); it knows nothing of HTTP. The
@@ -15,7 +15,7 @@
 //!
 //! Module order (each imports only those before it): [`kinds`], [`error`], [`paging`], [`blocking`],
 //! [`trends`], [`history`], [`webhooks`], [`profiles`], [`verdicts`], [`alerts`],
-//! [`fleet`], [`landing`].
+//! [`fleet`], [`machines`], [`landing`].
 #![deny(clippy::print_stdout, clippy::print_stderr)]
 
 pub mod alerts;
@@ -25,6 +25,7 @@ pub mod fleet;
 pub mod history;
 pub mod kinds;
 pub mod landing;
+pub mod machines;
 pub mod paging;
 pub mod profiles;
 pub mod trends;

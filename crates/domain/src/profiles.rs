@@ -12,7 +12,7 @@
 
 use crate::error::DomainError;
 use mtcal_solver::tolerance::Limits;
-use mtcal_store::{Machine, StoreError, ToleranceProfile};
+use mtcal_store::{Machine, Store, StoreError, ToleranceProfile};
 use serde::{Deserialize, Serialize};
 
 /// The two scopes of a profile.
@@ -91,17 +91,28 @@ impl Profile {
 #[serde(deny_unknown_fields)]
 pub struct NewProfile {
     /// `machine` or `tag`.
+    #[cfg_attr(feature = "openapi", schema(pattern = "^(machine|tag)$"))]
     pub scope: String,
-    /// The machine id (it must exist) or the tag.
+    /// The machine id (it must exist) or the tag (not blank, at most 200 characters, no
+    /// control character).
+    #[cfg_attr(
+        feature = "openapi",
+        schema(
+            max_length = 200,
+            pattern = "^[^\\u0000-\\u001f\\u007f-\\u009f]*[^\\s\\u0000-\\u001f\\u007f-\\u009f][^\\u0000-\\u001f\\u007f-\\u009f]*$"
+        )
+    )]
     pub target: String,
     /// At least one limit; each positive and finite, names as in docs/api.md.
     pub limits: Limits,
     /// Tag profiles only: an `http` or `https` URL receiving the drift alerts.
     #[serde(default)]
+    #[cfg_attr(feature = "openapi", schema(max_length = 2000))]
     pub webhook_url: Option<String>,
     /// The key of the webhook's signatures (16 to 256 visible ASCII characters);
     /// absent: one is generated and shown once in the answer. Never shown again.
     #[serde(default)]
+    #[cfg_attr(feature = "openapi", schema(pattern = "^[!-~]{16,256}$"))]
     pub webhook_secret: Option<String>,
 }
 
@@ -112,10 +123,13 @@ pub struct NewProfile {
 pub struct ProfileUpdate {
     pub limits: Limits,
     #[serde(default)]
+    #[cfg_attr(feature = "openapi", schema(max_length = 2000))]
     pub webhook_url: Option<String>,
-    /// A new key for the webhook's signatures; absent: the profile's secret is kept
-    /// (one is generated, and shown once, when it has none).
+    /// A new key for the webhook's signatures (16 to 256 visible ASCII characters);
+    /// absent: the profile's secret is kept (one is generated, and shown once, when it
+    /// has none).
     #[serde(default)]
+    #[cfg_attr(feature = "openapi", schema(pattern = "^[!-~]{16,256}$"))]
     pub webhook_secret: Option<String>,
 }
 
@@ -186,6 +200,49 @@ pub fn validate(
         crate::webhooks::validate_secret(secret).map_err(bad)?;
     }
     Ok(())
+}
+
+/// Creates profile `p` after checking it (its webhook target resolved against
+/// `webhooks`, its machine existing); the profile as answered, with a generated webhook
+/// secret shown this once. The fleet rows it applies to are not refreshed here: the
+/// caller runs [`crate::fleet::refresh_profile_targets`] (in the background, or inline).
+pub async fn create(
+    store: &dyn Store,
+    p: &NewProfile,
+    webhooks: &crate::webhooks::TargetPolicy,
+) -> Result<Profile, DomainError> {
+    let target = check_target(&p.scope, &p.target)?;
+    validate(
+        &p.scope,
+        &p.limits,
+        p.webhook_url.as_deref(),
+        p.webhook_secret.as_deref(),
+    )?;
+    if let Some(url) = &p.webhook_url {
+        crate::webhooks::resolve(url, webhooks)
+            .await
+            .map_err(DomainError::Invalid)?;
+    }
+    if p.scope == "machine" {
+        store.get_machine(target).await?;
+    }
+    let (secret, shown) =
+        webhook_secret(p.webhook_url.as_deref(), p.webhook_secret.as_deref(), None);
+    let stored = store
+        .create_tolerance(&ToleranceProfile {
+            id: mtcal_store::rules::new_id("tol"),
+            scope: p.scope.clone(),
+            target: target.to_string(),
+            limits: limits_json(&p.limits)?,
+            webhook_url: p.webhook_url.clone(),
+            webhook_secret: secret,
+            created_at: String::new(),
+            updated_at: String::new(),
+        })
+        .await?;
+    let mut answer = Profile::of(&stored)?;
+    answer.webhook_secret = shown;
+    Ok(answer)
 }
 
 /// Limits as the store holds them.

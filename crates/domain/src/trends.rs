@@ -146,6 +146,7 @@ pub struct TermQuery {
     #[cfg_attr(feature = "openapi", param(pattern = "^E[XYZABC][XYZ]$"))]
     pub term: String,
     /// Positions, mm, comma-separated, e.g. `50,-50`.
+    #[cfg_attr(feature = "openapi", param(min_length = 1))]
     pub at: String,
 }
 

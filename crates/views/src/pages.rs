@@ -34,6 +34,37 @@ impl Viewer {
     }
 }
 
+/// What the diagnosis of a recording found, as the fleet row of its machine and the
+/// page of a result computed from it show it (the full diagnosis is on its own page).
+#[derive(Debug, Clone, PartialEq)]
+pub struct DiagnosisFindings {
+    pub result_id: String,
+    /// `consistent`, `explained`, `partly_explained` (None: unreadable).
+    pub verdict: Option<String>,
+    /// Its findings in words, at most a few (or why it cannot be read).
+    pub findings: Vec<String>,
+    /// Findings not listed.
+    pub more: usize,
+}
+
+impl DiagnosisFindings {
+    /// In one sentence, inline, linked to the diagnosis' page.
+    pub fn sentence(&self) -> Markup {
+        html! {
+            "The service's " a href=(result_href(&self.result_id)) { "diagnosis of this recording" }
+            @match self.verdict.as_deref() {
+                Some("consistent") => { " finds the rigid model consistent with it." }
+                None => { ": " (self.findings.join("; ")) "." }
+                Some(_) => {
+                    " found: " (self.findings.join("; "))
+                    @if self.more > 0 { " and " (self.more) " more" }
+                    "."
+                }
+            }
+        }
+    }
+}
+
 /// Name of the hidden form field carrying the CSRF token.
 pub const CSRF_FIELD: &str = "csrf";
 

@@ -43,7 +43,7 @@ pub use errorbars::{
     BarPoint, ErrorBarChart, PointSeries, TrendPoint, TrendSeries, XScale, error_bar_chart,
     rotation_vectors, trend, unix_seconds,
 };
-pub use polar::{CIRCLE_COLORS, CircleTrace, circle_polar};
+pub use polar::{CIRCLE_COLORS, CircleTrace, MIN_FONT_PX, circle_polar, circle_step, nominal_mm};
 pub use spark::sparkline;
 
 /// Series colours, in order. Tests find series by these (`#rrggbb` in the SVG).
@@ -106,6 +106,22 @@ pub use mtcal_solver::text::unit_label;
 /// Renders one diagnosis figure to an SVG document (module docs); its title and axis
 /// labels with units as a person writes them (`µm`, not `um`).
 pub fn render_svg(plot: &PlotData) -> String {
+    render_one(plot, None)
+}
+
+/// Renders the diagnosis figures of one page, the `polar` ones on one radial scale (the
+/// ring step of the largest deviation of them all), in order.
+pub fn render_svgs(plots: &[PlotData]) -> Vec<String> {
+    let step = plots
+        .iter()
+        .filter(|p| p.kind == PlotKind::Polar)
+        .map(polar::plot_step)
+        .reduce(f64::max);
+    plots.iter().map(|p| render_one(p, step)).collect()
+}
+
+/// One diagnosis figure; a `polar` one with rings every `polar_step` µm (None: its own).
+fn render_one(plot: &PlotData, polar_step: Option<f64>) -> String {
     let plot = PlotData {
         title: mtcal_solver::text::person_units(&plot.title),
         x_label: mtcal_solver::text::person_units(&plot.x_label),
@@ -113,7 +129,7 @@ pub fn render_svg(plot: &PlotData) -> String {
         ..plot.clone()
     };
     if plot.kind == PlotKind::Polar {
-        polar::render(&plot)
+        polar::render(&plot, polar_step)
     } else {
         svg(SIZE, &plot.title, |root| cartesian(root, &plot))
     }

@@ -28,7 +28,8 @@ use utoipa::IntoParams;
 pub struct ExportQuery {
     /// `isg` (ISG / Beckhoff volumetric compensation CSV), `etalon` (Etalon exchange
     /// format), `heidenhain` (KinematicsComp-style COM tables) or `csv` (plain, ISO 230-1
-    /// names).
+    /// names). Required.
+    #[param(pattern = "^(isg|etalon|heidenhain|csv)$")]
     pub format: Option<String>,
     /// Spacing of the table's positions, mm (default 5; from the start of each measured
     /// travel, its end always included).

@@ -155,7 +155,9 @@ pub const MAX_JOBS: usize = 1000;
 #[derive(Debug, Default, Deserialize, utoipa::IntoParams)]
 #[into_params(parameter_in = Query)]
 pub struct JobListQuery {
-    /// Only jobs in this state: `queued`, `running`, `succeeded`, `failed`, `cancelled`.
+    /// Only jobs in this state: `queued`, `running`, `succeeded`, `failed`, `cancelled`
+    /// (empty: all).
+    #[param(pattern = "^(|queued|running|succeeded|failed|cancelled)$")]
     pub state: Option<String>,
     /// At most this many, newest first (default 100, at most 1000).
     #[param(minimum = 1, maximum = 1000)]

@@ -15,6 +15,11 @@ use utoipa::ToSchema;
 #[serde(deny_unknown_fields)]
 pub struct NewKey {
     pub scope: Scope,
+    /// Not blank, at most 200 characters, no control character.
+    #[schema(
+        max_length = 200,
+        pattern = "^[^\\u0000-\\u001f\\u007f-\\u009f]*[^\\s\\u0000-\\u001f\\u007f-\\u009f][^\\u0000-\\u001f\\u007f-\\u009f]*$"
+    )]
     pub label: String,
 }
 

@@ -11,11 +11,10 @@ use axum::http::StatusCode;
 use mtcal_domain::profiles::{self, limits_json, validate};
 pub use mtcal_domain::profiles::{NewProfile, Profile, ProfileUpdate, TARGET_MAX};
 pub use mtcal_domain::verdicts::{ProfileRef, ResultVerdict};
-use mtcal_store::ToleranceProfile;
 
 /// Refreshes the fleet rows of the machines a profile applies to, in a task of its own
 /// (a tag may cover many machines; the fleet page follows within moments).
-fn refresh_targets(s: &AppState, scope: &str, target: &str) {
+pub(crate) fn refresh_targets(s: &AppState, scope: &str, target: &str) {
     let (store, scope, target) = (s.store.clone(), scope.to_string(), target.to_string());
     tokio::spawn(async move {
         if let Err(e) =
@@ -37,39 +36,8 @@ pub async fn create(
     State(s): State<AppState>,
     ApiJson(p): ApiJson<NewProfile>,
 ) -> Result<(StatusCode, Json<Profile>), ApiError> {
-    let target = profiles::check_target(&p.scope, &p.target)?;
-    validate(
-        &p.scope,
-        &p.limits,
-        p.webhook_url.as_deref(),
-        p.webhook_secret.as_deref(),
-    )?;
-    if let Some(url) = &p.webhook_url {
-        mtcal_domain::webhooks::resolve(url, &s.settings.webhooks)
-            .await
-            .map_err(ApiError::InvalidRequest)?;
-    }
-    if p.scope == "machine" {
-        s.store.get_machine(target).await?;
-    }
-    let (secret, shown) =
-        profiles::webhook_secret(p.webhook_url.as_deref(), p.webhook_secret.as_deref(), None);
-    let stored = s
-        .store
-        .create_tolerance(&ToleranceProfile {
-            id: mtcal_store::rules::new_id("tol"),
-            scope: p.scope.clone(),
-            target: target.to_string(),
-            limits: limits_json(&p.limits)?,
-            webhook_url: p.webhook_url.clone(),
-            webhook_secret: secret,
-            created_at: String::new(),
-            updated_at: String::new(),
-        })
-        .await?;
-    refresh_targets(&s, &stored.scope, &stored.target);
-    let mut answer = Profile::of(&stored)?;
-    answer.webhook_secret = shown;
+    let answer = profiles::create(s.store.as_ref(), &p, &s.settings.webhooks).await?;
+    refresh_targets(&s, &answer.scope, &answer.target);
     Ok((StatusCode::CREATED, Json(answer)))
 }
 

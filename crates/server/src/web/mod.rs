@@ -9,6 +9,7 @@
 //! itself (a job's progress from `GET /api/v1/jobs/{id}`) with the session cookie as its
 //! key. Sessions: [`session`].
 
+pub mod forms;
 pub mod pages;
 pub mod session;
 
@@ -97,7 +98,9 @@ pub fn router(app: AppState) -> Router {
     let rest = Router::new()
         .route("/", get(pages::fleet))
         .route("/machines/{id}", get(pages::machine))
+        .route("/machines", post(forms::create_machine))
         .route("/machines/{id}/baseline", post(pages::set_baseline))
+        .route("/machines/{id}/tolerance", post(forms::create_profile))
         .route("/results/{id}", get(pages::result))
         .route("/compare", get(pages::compare))
         .route("/alerts", get(pages::alerts))

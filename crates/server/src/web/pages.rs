@@ -26,6 +26,16 @@ use mtcal_views::pages::{
 use mtcal_views::plots::{TrendPoint, TrendSeries};
 use serde::Deserialize;
 
+/// What a diagnosis found, as the pages show it.
+fn findings_view(d: mtcal_domain::fleet::entry::DiagnosisSummary) -> views::DiagnosisFindings {
+    views::DiagnosisFindings {
+        result_id: d.result_id,
+        verdict: d.verdict.map(|v| v.as_str().to_string()),
+        findings: d.findings,
+        more: d.more,
+    }
+}
+
 /// Result kinds shown on a machine page, in this order.
 const KINDS: [&str; 4] = ["identification", "diagnosis", "cradle", "sensitivity"];
 
@@ -192,12 +202,7 @@ pub async fn fleet(
             worst_trend: m.sparkline.iter().map(|v| v.unwrap_or(f64::NAN)).collect(),
             active_alerts: usize::try_from(m.active_alerts).unwrap_or(0),
             misfit: m.misfit.map(|c| c.statement),
-            diagnosis: m.diagnosis.map(|d| vfleet::RowDiagnosis {
-                result_id: d.result_id,
-                verdict: d.verdict.map(|v| v.as_str().to_string()),
-                findings: d.findings,
-                more: d.more,
-            }),
+            diagnosis: m.diagnosis.map(findings_view),
             machine_id: m.machine_id,
             name: m.name,
             site: m.site,
@@ -526,7 +531,7 @@ pub async fn result(
         .as_ref()
         .map(verdict_rows)
         .unwrap_or_default();
-    let header = vresult::ResultHeader {
+    let mut header = vresult::ResultHeader {
         id: r.meta.id.clone(),
         machine_id: r.meta.machine_id.clone(),
         kind: r.meta.kind.clone(),
@@ -539,7 +544,19 @@ pub async fn result(
             .as_ref()
             .and_then(|v| v.decision)
             .map(|d| d.as_str().to_string()),
+        diagnosis: None,
     };
+    // The diagnosis of the recording an identification was computed from (its misfit
+    // banner says what it found).
+    if r.meta.kind == KIND
+        && let Some(ds) = &r.meta.dataset_id
+        && let Some(d) = history::diagnosis_of_dataset(app.store.as_ref(), &m.id, ds).await?
+    {
+        let doc = app.store.get_result(&d.id).await?.document;
+        header.diagnosis = Some(findings_view(
+            mtcal_domain::fleet::entry::DiagnosisSummary::of(&d.id, doc),
+        ));
+    }
     let doc = &r.document;
     let viewer = session.viewer();
     let page = match r.meta.kind.as_str() {

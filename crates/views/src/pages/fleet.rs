@@ -2,7 +2,9 @@
 //! with its uncertainty and a sparkline of its worst term; machines with active alerts
 //! first; filters by site and tag; the active alerts.
 
-use super::{Nav, Viewer, machine_href, page, result_href, svg, verdict_badge, when};
+use super::{
+    DiagnosisFindings, Nav, Viewer, machine_href, page, result_href, svg, verdict_badge, when,
+};
 use crate::plots;
 use maud::{Markup, html};
 
@@ -57,7 +59,7 @@ pub struct FleetRow {
     /// recording (its values are then not decided).
     pub misfit: Option<String>,
     /// What the diagnosis of the latest check's recording found.
-    pub diagnosis: Option<RowDiagnosis>,
+    pub diagnosis: Option<DiagnosisFindings>,
 }
 
 /// How many limits a verdict decided, and how many of them failed, were undecided or
@@ -68,18 +70,6 @@ pub struct VerdictCounts {
     pub failed: usize,
     pub undecided: usize,
     pub misfit: usize,
-}
-
-/// The diagnosis of a machine's latest check, as its fleet row shows it.
-#[derive(Debug, Clone, PartialEq)]
-pub struct RowDiagnosis {
-    pub result_id: String,
-    /// `consistent`, `explained`, `partly_explained` (None: unreadable).
-    pub verdict: Option<String>,
-    /// Its findings in words, at most a few (or why it cannot be read).
-    pub findings: Vec<String>,
-    /// Findings not listed.
-    pub more: usize,
 }
 
 pub use super::alerts::AlertRow;
@@ -170,7 +160,7 @@ fn verdict_cell(r: &FleetRow) -> Markup {
 }
 
 /// What the diagnosis of the latest check found, linked to it.
-fn findings(d: &RowDiagnosis) -> Markup {
+fn findings(d: &DiagnosisFindings) -> Markup {
     html! {
         div.findings {
             a href=(result_href(&d.result_id)) {
@@ -211,6 +201,31 @@ fn sparkline_cell(r: &FleetRow) -> Markup {
             div.spark-scale {
                 @if let Some(t) = &term { (t) " " }
                 (super::num(lo)) " to " (super::num(hi)) " µm"
+            }
+        }
+    }
+}
+
+/// The form registering a machine: id, name, site, tags and the travel of each axis.
+fn machine_form(viewer: &Viewer) -> Markup {
+    html! {
+        section.card #new-machine {
+            details {
+                summary { "Register a machine" }
+                form.stack method="post" action="/machines" {
+                    (super::csrf_field(&viewer.csrf))
+                    label { "id (letters, digits, '.', '_', '-')" input name="id" required maxlength="64"; }
+                    label { "name" input name="name"; }
+                    label { "site" input name="site"; }
+                    label { "tags (comma-separated)" input name="tags"; }
+                    @for axis in ["X", "Y", "Z"] {
+                        label { (axis) " travel (mm): min "
+                            input type="number" name={ (axis.to_lowercase()) "_min" } step="any";
+                            " max " input type="number" name={ (axis.to_lowercase()) "_max" } step="any";
+                        }
+                    }
+                    button type="submit" { "Register" }
+                }
             }
         }
     }
@@ -301,6 +316,7 @@ pub fn fleet_page(viewer: &Viewer, f: &FleetPage) -> Markup {
                     }
                 }
             }
+            @if viewer.can_write() { (machine_form(viewer)) }
             @if f.pages > 1 {
                 nav.pager {
                     @if f.page > 1 { a href=(page_href(f, f.page - 1)) rel="prev" { "← previous" } " " }
@@ -378,7 +394,7 @@ mod tests {
                  6.5 × the noise floor 0.149 µm (the gate is 1.2 ×)"
                     .into(),
             ),
-            diagnosis: Some(RowDiagnosis {
+            diagnosis: Some(DiagnosisFindings {
                 result_id: "res_d1".into(),
                 verdict: Some("explained".into()),
                 findings: vec!["backlash (X): backlash_µm = 6.01 (u = 0.02)".into()],

@@ -96,6 +96,48 @@ fn latest_findings(d: &LatestDiagnosis) -> Markup {
     }
 }
 
+/// The form creating a tolerance profile for the machine (its own) or for one of its
+/// tags: ranges of the error functions (optionally per length, ISO 230-1's
+/// proportionality), squareness and drift thresholds; every field optional, at least one.
+fn profile_form(viewer: &Viewer, m: &MachineInfo, href: &str) -> Markup {
+    let number = |name: &str, label: &str, unit: &str| {
+        html! {
+            label { (label) " (" (unit) ")"
+                input type="number" name=(name) min="0" step="any" inputmode="decimal";
+            }
+        }
+    };
+    html! {
+        section.card #new-profile {
+            details {
+                summary { "Create a tolerance profile" }
+                p.muted { "Limits on the range (max − min) of each error function over the measured \
+                           travel, optionally per length (the limit scales with the measured length, \
+                           ISO 230-1); squareness by magnitude; drift thresholds raise alerts \
+                           (docs/api.md, \"Tolerances and verdicts\"). A machine's own profile wins \
+                           over its tags'." }
+                form.stack.profile method="post" action={ (href) "/tolerance" } {
+                    (csrf_field(&viewer.csrf))
+                    label { "applies to"
+                        select name="target" {
+                            option value="machine" { "this machine (" (m.id) ")" }
+                            @for t in &m.tags { option value={ "tag:" (t) } { "every machine tagged " (t) } }
+                        }
+                    }
+                    (number("positioning_um", "positioning EXX, EYY, EZZ range", "µm"))
+                    (number("straightness_um", "straightness range", "µm"))
+                    (number("angular_urad", "angular errors range", "µrad"))
+                    (number("per_length_mm", "ranges per length (empty: over the measured travel)", "mm"))
+                    (number("squareness_urad", "squareness EC0Y, EB0Z, EA0Z", "µrad"))
+                    (number("drift_um", "drift alert threshold", "µm"))
+                    (number("drift_urad", "drift alert threshold", "µrad"))
+                    button type="submit" { "Create profile" }
+                }
+            }
+        }
+    }
+}
+
 pub fn machine_page(viewer: &Viewer, p: &MachinePage) -> Markup {
     let m = &p.machine;
     let href = machine_href(&m.id);
@@ -191,6 +233,7 @@ pub fn machine_page(viewer: &Viewer, p: &MachinePage) -> Markup {
                     @for j in &p.jobs { (job_progress(j, true)) }
                 }
             }
+            @if viewer.can_write() { (profile_form(viewer, m, &href)) }
             @if viewer.can_write() {
                 section.card #upload {
                     h2 { "Upload a check" }
@@ -269,13 +312,15 @@ mod tests {
         assert!(html.contains(r#"action="/machines/VMC-1/baseline""#));
         assert!(html.contains(r#"href="/compare?a=r1&amp;b=r2""#));
         assert!(html.contains(r#"id="term-trend""#));
+        assert!(html.contains(r#"action="/machines/VMC-1/tolerance""#));
         assert_eq!(
             html.matches(r#"name="csrf""#).count(),
-            3,
-            "sign-out, baseline, upload"
+            4,
+            "sign-out, baseline, tolerance profile, upload"
         );
         let read = machine_page(&viewer("read"), &page()).into_string();
         assert!(!read.contains("/upload") && !read.contains("/baseline"));
+        assert!(!read.contains("/tolerance"));
     }
 
     #[test]

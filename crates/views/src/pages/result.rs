@@ -113,6 +113,9 @@ pub struct ResultHeader {
     pub is_baseline: bool,
     /// The overall verdict, when a tolerance profile applies.
     pub verdict: Option<String>,
+    /// What the diagnosis of the recording this result was computed from found, when one
+    /// is stored (said in the misfit banner).
+    pub diagnosis: Option<super::DiagnosisFindings>,
 }
 
 /// The body of a result page, by kind.
@@ -170,7 +173,9 @@ pub fn result_page(
                     button.secondary type="submit" { "Set as baseline" }
                 }
             }
-            @if let ResultBody::Identification(v) = body { (misfit_banner(v.doc, None)) }
+            @if let ResultBody::Identification(v) = body {
+                (misfit_banner(v.doc, header.diagnosis.as_ref().map(|d| d.sentence())))
+            }
             @if !verdict.is_empty() { (verdict_table(verdict)) }
             (sections(body))
         },
@@ -276,7 +281,7 @@ pub fn identification(v: &IdentificationView) -> Markup {
         }
         @if !d.residuals.is_empty() { (residuals(&d.residuals)) }
         @match &v.circles {
-            Ok(c) => { @if !c.is_empty() { (circles(c)) } }
+            Ok(c) => { @if !c.is_empty() { (circles(c, &d.standards.iso230_4)) } }
             Err(e) => {
                 section.card #circles {
                     h2 { "Circle tests" }
@@ -357,8 +362,11 @@ fn residuals(rows: &[ResidualSummary]) -> Markup {
     }
 }
 
-/// Circle tests grouped by file, plane and radius (both directions in one polar plot).
-fn circles(all: &[CircleTrace]) -> Markup {
+/// Circle tests grouped by file, plane and radius (both directions in one polar plot),
+/// all on one radial scale ([`plots::circle_step`]), each with the ISO 230-4 figures of
+/// its file and plane (`iso`): G per direction, H and the bidirectional G, and F (its
+/// maximum and minimum) when the radius is traceable.
+fn circles(all: &[CircleTrace], iso: &[mtcal_solver::standards::Iso2304]) -> Markup {
     let mut groups: Vec<Vec<CircleTrace>> = vec![];
     for c in all {
         match groups
@@ -369,17 +377,41 @@ fn circles(all: &[CircleTrace]) -> Markup {
             None => groups.push(vec![c.clone()]),
         }
     }
+    let step = plots::circle_step(all);
+    let figures = |c: &CircleTrace| {
+        iso.iter()
+            .find(|f| f.file == c.file && f.plane.to_string() == c.plane)
+    };
     html! {
         section.card #circles {
             h2 { "Circle tests" }
             p.muted { "Radial deviation (measured − nominal radius) and the fitted model's, \
-                       counter-clockwise (ccw) and clockwise (cw), on a scaled radial axis." }
+                       counter-clockwise (ccw, blue) and clockwise (cw, red), the measured trace \
+                       thick; every plot on the same radial scale, rings every " (plots::tick_label(step)) " µm. \
+                       ISO 230-4 figures: G circular deviation, H circular hysteresis, F radial deviation \
+                       (max, min)." }
             div.grid {
                 @for g in &groups {
                     figure.plot.polar data-file=(g[0].file) {
-                        (svg(plots::circle_polar(g)))
-                        figcaption { (g[0].file) ", " (g[0].plane) " plane, R " (plots::tick_label(g[0].radius_mm)) " mm, F "
-                            (num(g[0].feed_mm_min)) " mm/min, centre (" (num(g[0].centre_mm[0])) ", " (num(g[0].centre_mm[1])) ") mm" }
+                        (svg(plots::circle_polar(g, step)))
+                        figcaption {
+                            (g[0].file) ", " (g[0].plane) " plane, R " (plots::nominal_mm(g[0].radius_mm)) " mm, F "
+                            (num(g[0].feed_mm_min)) " mm/min, centre (" (num(g[0].centre_mm[0])) ", " (num(g[0].centre_mm[1])) ") mm"
+                            @if let Some(f) = figures(&g[0]) {
+                                br;
+                                span.iso230-4 {
+                                    "ISO 230-4: "
+                                    @for (k, d) in f.directions.iter().enumerate() {
+                                        @if k > 0 { "; " }
+                                        "G(" (d.direction) ") " (num(d.g_um)) " µm"
+                                        @if f.traceable_radius { ", F(" (d.direction) ") max " (num(d.f_max_um)) ", min " (num(d.f_min_um)) " µm" }
+                                    }
+                                    @if let Some(b) = &f.bidirectional {
+                                        "; G(b) " (num(b.g_um)) " µm, H " (num(b.h_um)) " µm"
+                                    }
+                                }
+                            }
+                        }
                     }
                 }
             }
@@ -491,7 +523,7 @@ pub fn diagnosis(d: &DiagnosisResult) -> Markup {
         @if !d.plots.is_empty() {
             section.card #diagnosis-plots {
                 h2 { "Before and after" }
-                div.grid { @for p in &d.plots { figure.plot data-plot=(p.id) { (svg(plots::render_svg(p))) } } }
+                div.grid { @for (p, drawn) in d.plots.iter().zip(plots::render_svgs(&d.plots)) { figure.plot data-plot=(p.id) { (svg(drawn)) } } }
             }
         }
         @if !d.unexplained.is_empty() {
@@ -710,6 +742,7 @@ mod tests {
             dataset_id: Some("d1".into()),
             is_baseline: false,
             verdict: Some("undecided".into()),
+            diagnosis: None,
         }
     }
 
@@ -847,6 +880,21 @@ mod tests {
         );
         assert!(html.contains("the model does not explain this recording"));
         assert!(html.contains("6.6 × the noise floor"));
+        // With the diagnosis of its recording stored, the banner says what it found.
+        h.diagnosis = Some(crate::pages::DiagnosisFindings {
+            result_id: "res_d".into(),
+            verdict: Some("explained".into()),
+            findings: vec!["backlash (X): lost_motion_um = 6.00 (u = 0.01)".into()],
+            more: 0,
+        });
+        let html = result_page(&viewer("read"), &h, &verdict, &body).into_string();
+        let banner =
+            &html[html.find("id=\"misfit\"").unwrap()..html.find("id=\"verdict\"").unwrap()];
+        assert!(
+            banner.contains("href=\"/results/res_d\"")
+                && banner.contains("found: backlash (X): lost_motion_um = 6.00"),
+            "{banner}"
+        );
         assert!(
             html.contains(">not decided: model misfit<"),
             "the badge's words"
@@ -948,6 +996,28 @@ mod tests {
             assert!(circles.contains(&format!("measured {}", c.direction)));
             assert!(circles.contains(&format!("model {}", c.direction)));
         }
+        // Each plot with its plane's ISO 230-4 figures, all on one radial scale.
+        assert!(!doc.standards.iso230_4.is_empty());
+        for f in &doc.standards.iso230_4 {
+            let at = circles
+                .find(&format!("data-file=\"{}\"", f.file))
+                .unwrap_or_else(|| panic!("no plot of {}", f.file));
+            let fig = &circles[at..at + circles[at..].find("</figure>").unwrap()];
+            let caption = &fig[fig.find("<figcaption>").unwrap()..];
+            for d in &f.directions {
+                let g = format!("G({}) {} µm", d.direction, num(d.g_um));
+                assert!(caption.contains(&g), "{g}: {caption}");
+            }
+            if let Some(b) = &f.bidirectional {
+                assert!(
+                    caption.contains(&format!("H {} µm", num(b.h_um))),
+                    "{caption}"
+                );
+            }
+        }
+        let step = plots::circle_step(&read.view().circles.unwrap());
+        let rings = format!("+{} µm", plots::tick_label(2.0 * step));
+        assert_eq!(circles.matches(&rings).count(), groups.len(), "{rings}");
         // A shape this version does not read: a note, and the rest of the page.
         let mut changed = stored;
         changed["circles"][0]["angle_deg"] = serde_json::json!("every degree");
@@ -983,7 +1053,7 @@ mod tests {
             measured_um: vec![1.0, -1.0, 1.0, -1.0],
             model_um: vec![0.9, -0.9, 0.9, -0.9],
         };
-        let html = circles(&[c("ccw"), c("cw")]).into_string();
+        let html = circles(&[c("ccw"), c("cw")], &[]).into_string();
         assert_eq!(
             html.matches("<svg").count(),
             1,

@@ -1,9 +1,15 @@
 //! Polar plots of radial deviations, drawn as on a ballbar plot: the angle θ (degrees,
 //! counter-clockwise from +u toward +v of the plane) is the polar angle, and a deviation
-//! d (µm) is drawn at radius r = 1 + d/s about a unit reference circle (d = 0). The ring
-//! spacing `step` is the smallest of 1, 2, 2.5, 5 × 10ᵏ µm with 2·step ≥ max|d|; s = 5·step,
-//! so the dotted rings at ±step and ±2·step sit at r = 1 ± 0.2 and 1 ± 0.4 and bound every
-//! point. Each ring is labelled with its deviation (the scaled radial axis).
+//! d (µm) is drawn at radius r = 1 + d/s about a unit reference circle (d = 0, the
+//! nominal radius, labelled `R 50 mm` on a circle test). The ring spacing `step` is the
+//! smallest of 1, 2, 2.5, 5 × 10ᵏ µm with 2·step ≥ max|d|; s = 5·step, so the dotted
+//! rings at ±step and ±2·step sit at r = 1 ± 0.2 and 1 ± 0.4 and bound every point. Each
+//! ring is labelled with its deviation (the scaled radial axis). The circle tests of one
+//! page share one step ([`circle_step`]), so that their plots compare at a glance.
+//!
+//! A polar figure is [`CIRCLE`] px wide with text of at least [`MIN_FONT_PX`]
+//! px: printed two to a row on A4 (about 330 px wide each) its text stays at least
+//! 11 px high.
 
 use super::{Area, COLORS, DrawResult, finite_points, svg};
 use mtcal_solver::diagnosis::{PlotData, PlotSeries};
@@ -11,16 +17,25 @@ use plotters::prelude::*;
 use plotters::style::text_anchor::{HPos, Pos, VPos};
 use serde::{Deserialize, Serialize};
 
-/// Size of a polar figure, px.
-pub const POLAR: (u32, u32) = (640, 680);
+/// Size of a polar figure (a circle test's, a diagnosis's), px (module docs).
+pub const CIRCLE: (u32, u32) = (400, 440);
+
+/// The smallest text of a circle test's figure in the SVG, px (labels, legend; the
+/// title is larger).
+pub const MIN_FONT_PX: u32 = 14;
+
+/// The font size asked of plotters for that text: plotters writes a font of size s as
+/// `font-size` s/1.24 in SVG, so 18 gives 14.5 px.
+const CIRCLE_FONT: u32 = 18;
 
 /// Colours of a circle test's series: `measured ccw`, `model ccw`, `measured cw`,
-/// `model cw` (one hue per direction, the model darker and drawn thicker).
+/// `model cw` (one hue per direction: blue counter-clockwise, red clockwise; the
+/// measured trace dark and drawn thick, the model's light and thin).
 pub const CIRCLE_COLORS: [RGBColor; 4] = [
-    RGBColor(107, 174, 214),
     RGBColor(8, 69, 148),
-    RGBColor(252, 146, 114),
+    RGBColor(107, 174, 214),
     RGBColor(165, 15, 21),
+    RGBColor(252, 146, 114),
 ];
 
 /// One circle test as in the identification result's `circles`: radial deviation
@@ -73,12 +88,18 @@ pub(crate) fn nice_ceil(x: f64) -> f64 {
 }
 
 /// A diagnosis figure of kind `polar` (module docs; angle labels 0°, 45°, …).
-pub(crate) fn render(plot: &PlotData) -> String {
+/// `step`: the page's ring step (µm; None: the plot's own, [`plot_step`]).
+pub(crate) fn render(plot: &PlotData, step: Option<f64>) -> String {
     let title = format!("{} ({})", plot.title, plot.y_label);
-    svg(POLAR, &plot.title, |root| {
+    svg(CIRCLE, &plot.title, |root| {
         draw(
             root,
-            &title,
+            &Style {
+                title: &title,
+                step,
+                radius_mm: None,
+                font: CIRCLE_FONT,
+            },
             &plot.series,
             &|a| format!("{a}°"),
             &|k, _| COLORS[k % COLORS.len()],
@@ -86,12 +107,43 @@ pub(crate) fn render(plot: &PlotData) -> String {
     })
 }
 
+/// The ring step (µm) of one diagnosis figure of kind `polar`: that of its largest
+/// |deviation| (module docs).
+pub(crate) fn plot_step(plot: &PlotData) -> f64 {
+    step_of(plot.series.iter().flat_map(|s| s.y.iter()))
+}
+
+/// The ring step of the largest finite |d| of `ds` (1 µm when there is none).
+fn step_of<'a>(ds: impl Iterator<Item = &'a f64>) -> f64 {
+    let m = ds
+        .filter(|d| d.is_finite())
+        .fold(0.0f64, |a, d| a.max(d.abs()));
+    if m > 0.0 { nice_ceil(m / 2.0) } else { 1.0 }
+}
+
+/// The ring step (µm) that every circle of `all` fits in: the step of the largest
+/// |deviation|, measured or modelled, of them all (module docs).
+pub fn circle_step(all: &[CircleTrace]) -> f64 {
+    step_of(
+        all.iter()
+            .flat_map(|c| c.measured_um.iter().chain(&c.model_um)),
+    )
+}
+
+/// A nominal radius as a person writes it: rounded to 1 µm, shortest form (`50`,
+/// `12.5`).
+pub fn nominal_mm(r: f64) -> String {
+    super::tick(&((r * 1e3).round() / 1e3))
+}
+
 /// Measured and modelled radial deviation of one circle, both directions when given
-/// (series `measured ccw`, `model ccw`, `measured cw`, `model cw`; models drawn thicker).
-/// The circles should be of one plane and radius; the title names the first.
-pub fn circle_polar(circles: &[CircleTrace]) -> String {
+/// (series `measured ccw`, `model ccw`, `measured cw`, `model cw`; measured traces drawn
+/// thicker), with a legend; rings every `step_um` (the page's [`circle_step`]), the
+/// reference circle labelled with the nominal radius. The circles should be of one
+/// plane and radius; the title names the first.
+pub fn circle_polar(circles: &[CircleTrace], step_um: f64) -> String {
     let Some(first) = circles.first() else {
-        return svg(POLAR, "circle", |_| Err("no circle".into()));
+        return svg(CIRCLE, "circle", |_| Err("no circle".into()));
     };
     let mut series = vec![];
     for c in circles {
@@ -106,32 +158,51 @@ pub fn circle_polar(circles: &[CircleTrace]) -> String {
     let mut axes = first.plane.chars();
     let (u, v) = (axes.next().unwrap_or('u'), axes.next().unwrap_or('v'));
     let title = format!(
-        "{} run {}: {} circle R{} mm, radial deviation (µm)",
+        "{} {}, R {} mm, radial deviation",
         first.file,
-        first.run,
         first.plane,
-        super::tick(&first.radius_mm)
+        nominal_mm(first.radius_mm)
     );
     let angle = move |a: i32| match a {
-        0 => format!("0° +{u}"),
-        90 => format!("90° +{v}"),
-        180 => format!("180° −{u}"),
-        270 => format!("270° −{v}"),
-        _ => format!("{a}°"),
+        0 => format!("+{u}"),
+        90 => format!("+{v}"),
+        180 => format!("−{u}"),
+        270 => format!("−{v}"),
+        _ => String::new(),
     };
     let color = |_: usize, s: &PlotSeries| {
         let model = usize::from(s.name.starts_with("model"));
         let cw = if s.name.ends_with(" cw") { 2 } else { 0 };
         CIRCLE_COLORS[cw + model]
     };
-    svg(POLAR, &title, |root| {
-        draw(root, &title, &series, &angle, &color)
+    svg(CIRCLE, &title, |root| {
+        draw(
+            root,
+            &Style {
+                title: &title,
+                step: Some(step_um),
+                radius_mm: Some(first.radius_mm),
+                font: CIRCLE_FONT,
+            },
+            &series,
+            &angle,
+            &color,
+        )
     })
+}
+
+/// How a polar plot is drawn: its title, ring step (None: its own data's), the nominal
+/// radius that labels the reference circle (None: `0 µm`) and its text size, px.
+struct Style<'a> {
+    title: &'a str,
+    step: Option<f64>,
+    radius_mm: Option<f64>,
+    font: u32,
 }
 
 fn draw(
     root: &Area,
-    title: &str,
+    style: &Style,
     series: &[PlotSeries],
     angle_label: &dyn Fn(i32) -> String,
     color: &dyn Fn(usize, &PlotSeries) -> RGBColor,
@@ -141,26 +212,29 @@ fn draw(
         return Err("no points".into());
     }
     let m = pts.iter().flatten().fold(0.0f64, |a, p| a.max(p.1.abs()));
-    let step = if m > 0.0 { nice_ceil(m / 2.0) } else { 1.0 };
+    let own = if m > 0.0 { nice_ceil(m / 2.0) } else { 1.0 };
+    // A shared step smaller than this plot's own would put points outside the rings.
+    let step = style.step.map_or(own, |s| s.max(own));
     let scale = 5.0 * step;
     let to_xy = |ang_deg: f64, dev: f64| {
         let r = 1.0 + dev / scale;
         let a = ang_deg.to_radians();
         (r * a.cos(), r * a.sin())
     };
+    let font = f64::from(style.font);
     // A square plotting area, so that circles stay round.
-    let area = root.titled(title, ("sans-serif", 16))?;
+    let area = root.titled(style.title, ("sans-serif", font + 2.0))?;
     let (w, h) = area.dim_in_pixel();
     let side = w.min(h);
     let area = area.shrink(((w - side) / 2, (h - side) / 2), (side, side));
     let mut chart = ChartBuilder::on(&area)
-        .margin(12)
-        .build_cartesian_2d(-1.75f64..1.75f64, -1.75f64..1.75f64)?;
+        .margin(8)
+        .build_cartesian_2d(-1.6f64..1.6f64, -1.6f64..1.6f64)?;
     let circle = |dev: f64| (0..=360).map(move |a| to_xy(f64::from(a), dev));
     chart.draw_series(LineSeries::new(circle(0.0), BLACK.mix(0.6).stroke_width(1)))?;
-    let label_style = ("sans-serif", 12)
+    let label_style = ("sans-serif", font)
         .into_font()
-        .color(&BLACK.mix(0.7))
+        .color(&BLACK.mix(0.75))
         .pos(Pos::new(HPos::Left, VPos::Center));
     for k in [-2.0, -1.0, 0.0, 1.0, 2.0] {
         let dev = k * step;
@@ -174,14 +248,14 @@ fn draw(
         }
         // Ring labels along the 67.5° ray, where no angle label sits.
         let (x, y) = to_xy(67.5, dev);
-        let text = if k == 0.0 {
-            "0 µm".to_string()
-        } else {
-            format!(
+        let text = match (k == 0.0, style.radius_mm) {
+            (true, Some(r)) => format!("R {} mm", nominal_mm(r)),
+            (true, None) => "0 µm".to_string(),
+            _ => format!(
                 "{}{} µm",
                 if dev > 0.0 { "+" } else { "−" },
                 super::tick(&dev.abs())
-            )
+            ),
         };
         chart.draw_series(std::iter::once(Text::new(
             text,
@@ -202,25 +276,39 @@ fn draw(
         } else {
             HPos::Center
         };
-        let style = TextStyle::from(("sans-serif", 12).into_font()).pos(Pos::new(h, VPos::Center));
+        let text = angle_label(a);
+        if text.is_empty() {
+            continue;
+        }
+        let style =
+            TextStyle::from(("sans-serif", font).into_font()).pos(Pos::new(h, VPos::Center));
         chart.draw_series(std::iter::once(Text::new(
-            angle_label(a),
+            text,
             (x * 1.04, y * 1.04),
             style,
         )))?;
     }
     for (k, (s, p)) in series.iter().zip(&pts).enumerate() {
         let color = color(k, s);
-        let width = if s.name.starts_with("model") { 2 } else { 1 };
+        let width = if s.name.starts_with("model") { 1 } else { 2 };
         chart
             .draw_series(LineSeries::new(
                 p.iter().map(|&(a, d)| to_xy(a, d)),
                 color.stroke_width(width),
             ))?
             .label(s.name.as_str())
-            .legend(move |(x, y)| PathElement::new(vec![(x, y), (x + 18, y)], color));
+            .legend(move |(x, y)| {
+                PathElement::new(vec![(x, y), (x + 18, y)], color.stroke_width(width))
+            });
     }
-    super::legend(&mut chart, SeriesLabelPosition::LowerRight)
+    chart
+        .configure_series_labels()
+        .label_font(("sans-serif", font))
+        .background_style(WHITE.mix(0.85))
+        .border_style(BLACK.mix(0.3))
+        .position(SeriesLabelPosition::LowerRight)
+        .draw()?;
+    Ok(())
 }
 
 #[cfg(test)]
@@ -290,12 +378,16 @@ mod tests {
 
     #[test]
     fn both_directions_measured_and_model_at_their_radii() {
-        let svg = circle_polar(&[circle("ccw", 1.0), circle("cw", -1.0)]);
+        let both = [circle("ccw", 1.0), circle("cw", -1.0)];
+        // max|d| = 3.2 µm → step 2 µm, s = 10 µm: 1 µm is r0/10 px.
+        assert_eq!(circle_step(&both), 2.0);
+        let svg = circle_polar(&both, circle_step(&both));
         let plot = inspect::parse(&svg).unwrap();
         let ((cx, cy), r0) = reference(&plot);
-        // max|d| = 3.2 µm → step 2 µm, s = 10 µm: 1 µm is r0/10 px.
-        assert!(plot.has_text("+4 µm") && plot.has_text("−2 µm") && plot.has_text("0 µm"));
-        assert!(plot.has_text("0° +X") && plot.has_text("90° +Y"));
+        assert!(plot.has_text("+4 µm") && plot.has_text("−2 µm"));
+        // The reference circle is the nominal radius.
+        assert!(plot.has_text("R 50 mm") && !plot.has_text("0 µm"));
+        assert!(plot.has_text("+X") && plot.has_text("+Y") && plot.has_text("−X"));
         let c = circle("ccw", 1.0);
         for (k, name) in ["measured ccw", "model ccw", "measured cw", "model cw"]
             .iter()
@@ -329,6 +421,90 @@ mod tests {
         assert!(p90.1 < cy - 0.5 * r0);
     }
 
+    /// Every `font-size` of an SVG, px.
+    fn font_sizes(svg: &str) -> Vec<f64> {
+        svg.split("font-size=\"")
+            .skip(1)
+            .map(|s| {
+                s[..s.find('"').unwrap()]
+                    .trim_end_matches("px")
+                    .parse()
+                    .unwrap()
+            })
+            .collect()
+    }
+
+    /// Readable when printed: every text of a circle plot is at least 14 px in a 400 px
+    /// wide figure, so at least 11 px at the narrowest it is drawn (two to a row on A4,
+    /// about 330 px); the legend names both directions, measured and model.
+    #[test]
+    fn circle_plot_text_is_readable_at_print_size() {
+        let both = [circle("ccw", 1.0), circle("cw", -1.0)];
+        let svg = circle_polar(&both, 2.0);
+        let sizes = font_sizes(&svg);
+        assert!(sizes.len() >= 10, "{sizes:?}");
+        let smallest = sizes.iter().copied().fold(f64::INFINITY, f64::min);
+        assert!(smallest >= f64::from(MIN_FONT_PX), "{sizes:?}");
+        let printed_px = 330.0;
+        assert!(smallest * printed_px / f64::from(CIRCLE.0) >= 11.0);
+        assert!(
+            svg.contains("viewBox=\"0 0 400 440\""),
+            "scales with its figure"
+        );
+        let plot = inspect::parse(&svg).unwrap();
+        for name in ["measured ccw", "model ccw", "measured cw", "model cw"] {
+            assert!(plot.has_text(name), "legend lacks {name}");
+        }
+    }
+
+    /// One radial scale for the circles of a page: a circle of ±0.3 µm drawn with the
+    /// page's step of a ±3.2 µm circle gets the same rings (±2, ±4 µm), not its own
+    /// (±0.2, ±0.4 µm); a step smaller than a plot's own widens to it (no point leaves
+    /// the rings). A radius of 49.999999 mm is the nominal R 50 mm.
+    #[test]
+    fn circles_of_a_page_share_one_scale() {
+        let big = circle("ccw", 1.0);
+        let mut small = circle("cw", 1.0);
+        small.measured_um.iter_mut().for_each(|d| *d *= 0.1);
+        small.model_um.iter_mut().for_each(|d| *d *= 0.1);
+        small.radius_mm = 49.999_999;
+        let step = circle_step(&[big.clone(), small.clone()]);
+        assert_eq!(step, 2.0);
+        let alone = inspect::parse(&circle_polar(
+            std::slice::from_ref(&small),
+            circle_step(std::slice::from_ref(&small)),
+        ))
+        .unwrap();
+        assert!(alone.has_text("+0.4 µm"));
+        let shared = inspect::parse(&circle_polar(std::slice::from_ref(&small), step)).unwrap();
+        assert!(shared.has_text("+4 µm") && !shared.has_text("+0.4 µm"));
+        assert!(shared.has_text("R 50 mm"));
+        let widened = inspect::parse(&circle_polar(std::slice::from_ref(&big), 0.2)).unwrap();
+        assert!(widened.has_text("+4 µm"));
+        assert_eq!(nominal_mm(49.999_999), "50");
+        assert_eq!(nominal_mm(12.5), "12.5");
+    }
+
+    /// The polar figures of one diagnosis page share one scale: a ±0.3 µm figure drawn
+    /// beside a ±3 µm one gets its rings (±2, ±4 µm), not its own (±0.2, ±0.4 µm); a
+    /// cartesian figure beside them is untouched.
+    #[test]
+    fn diagnosis_polar_figures_of_a_page_share_one_scale() {
+        use mtcal_solver::diagnosis::PlotKind;
+        let big = crate::plots::tests::plot(PlotKind::Polar);
+        let mut small = big.clone();
+        small
+            .series
+            .iter_mut()
+            .for_each(|s| s.y.iter_mut().for_each(|d| *d *= 0.1));
+        assert!(render_svg(&small).contains("+0.4 µm"));
+        let line = crate::plots::tests::plot(PlotKind::Cartesian);
+        let drawn = crate::plots::render_svgs(&[small, line.clone(), big]);
+        assert!(drawn[0].contains("+4 µm") && !drawn[0].contains("+0.4 µm"));
+        assert!(drawn[2].contains("+4 µm"));
+        assert_eq!(drawn[1], render_svg(&line));
+    }
+
     #[test]
     fn diagnosis_polar_keeps_its_rings() {
         let svg = render_svg(&crate::plots::tests::plot(
@@ -341,6 +517,6 @@ mod tests {
 
     #[test]
     fn no_circle_says_so() {
-        assert!(circle_polar(&[]).contains("nothing to draw"));
+        assert!(circle_polar(&[], 1.0).contains("nothing to draw"));
     }
 }

@@ -1,0 +1,128 @@
+//! Machines: registering one and changing it, with the rules a machine's fields obey
+//! (id, topology, travel); the API's machine routes, the dashboard's forms and
+//! `mtcal admin create-machine` call these.
+
+use crate::error::DomainError;
+use mtcal_solver::axis::Topology;
+use mtcal_store::{Machine, MachinePatch, Store};
+use serde::{Deserialize, Serialize};
+use std::collections::BTreeMap;
+
+/// A machine to register.
+#[derive(Debug, Clone, Serialize, Deserialize)]
+#[cfg_attr(feature = "openapi", derive(utoipa::ToSchema))]
+#[serde(deny_unknown_fields)]
+pub struct NewMachine {
+    /// 1–64 characters: letters, digits, '.', '_', '-' (not `.` or `..`).
+    #[cfg_attr(
+        feature = "openapi",
+        schema(pattern = "^(?!\\.{1,2}$)[A-Za-z0-9._-]{1,64}$")
+    )]
+    pub id: String,
+    /// Not blank, at most 200 characters, no control character.
+    #[cfg_attr(
+        feature = "openapi",
+        schema(
+            max_length = 200,
+            pattern = "^[^\\u0000-\\u001f\\u007f-\\u009f]*[^\\s\\u0000-\\u001f\\u007f-\\u009f][^\\u0000-\\u001f\\u007f-\\u009f]*$"
+        )
+    )]
+    pub name: String,
+    /// Axes on the workpiece and tool sides (default `{"workpiece": ["X", "Y"], "tool": ["Z"]}`).
+    #[cfg_attr(feature = "openapi", schema(value_type = Option<Object>))]
+    pub topology: Option<serde_json::Value>,
+    /// Travel per axis, mm, e.g. `{"X": [-250, 250]}`.
+    #[serde(default)]
+    pub travel_mm: BTreeMap<String, [f64; 2]>,
+    /// Not blank, at most 100 characters, no control character.
+    #[cfg_attr(
+        feature = "openapi",
+        schema(
+            max_length = 100,
+            pattern = "^[^\\u0000-\\u001f\\u007f-\\u009f]*[^\\s\\u0000-\\u001f\\u007f-\\u009f][^\\u0000-\\u001f\\u007f-\\u009f]*$"
+        )
+    )]
+    pub site: Option<String>,
+    /// At most 32, each not blank, at most 64 characters, none twice.
+    #[serde(default)]
+    #[cfg_attr(feature = "openapi", schema(max_items = 32))]
+    pub tags: Vec<String>,
+}
+
+/// Checks and normalises a topology given as JSON.
+pub fn topology(v: Option<&serde_json::Value>) -> Result<serde_json::Value, DomainError> {
+    let t: Topology = match v {
+        None => Topology::default(),
+        Some(v) => serde_json::from_value(v.clone())
+            .map_err(|e| DomainError::Invalid(format!("topology: {e}")))?,
+    };
+    let mut all: Vec<_> = t.workpiece.iter().chain(&t.tool).collect();
+    all.sort();
+    all.dedup();
+    if all.len() != 3 || t.workpiece.len() + t.tool.len() != 3 {
+        return Err(DomainError::Invalid(
+            "topology: X, Y and Z must each appear exactly once".into(),
+        ));
+    }
+    Ok(serde_json::to_value(t).expect("topology serialises"))
+}
+
+/// Largest |travel end| accepted, mm (100 m: beyond any machine tool's axis).
+pub const MAX_TRAVEL_MM: f64 = 100_000.0;
+
+/// Checks a machine's travel per axis.
+pub fn check_travel(travel: &BTreeMap<String, [f64; 2]>) -> Result<(), DomainError> {
+    for (axis, [lo, hi]) in travel {
+        let ordered = lo.is_finite() && hi.is_finite() && lo < hi;
+        let bounded = lo.abs() <= MAX_TRAVEL_MM && hi.abs() <= MAX_TRAVEL_MM;
+        if !matches!(axis.as_str(), "X" | "Y" | "Z") || !ordered || !bounded {
+            return Err(DomainError::Invalid(format!(
+                "travel_mm.{axis}: needs axis X, Y or Z and finite [min, max] with min < max \
+                 and |min|, |max| <= {MAX_TRAVEL_MM} mm"
+            )));
+        }
+    }
+    Ok(())
+}
+
+/// Registers machine `m` after checking its fields (the store checks its text fields
+/// and refuses an id already taken).
+pub async fn create(store: &dyn Store, m: NewMachine) -> Result<Machine, DomainError> {
+    mtcal_store::text::check_id("id", &m.id)?;
+    check_travel(&m.travel_mm)?;
+    let machine = Machine {
+        id: m.id,
+        name: m.name,
+        topology: topology(m.topology.as_ref())?,
+        travel_mm: m.travel_mm,
+        site: m.site,
+        tags: m.tags,
+        baseline_result_id: None,
+        created_at: String::new(),
+        updated_at: String::new(),
+    };
+    Ok(store.create_machine(&machine).await?)
+}
+
+/// Checks and applies a patch to machine `id`; its fleet row is refreshed when what the
+/// row depends on changed (the baseline, the tags that choose its tolerance profile, the
+/// name and site its entry repeats).
+pub async fn update(
+    store: &dyn Store,
+    id: &str,
+    mut p: MachinePatch,
+) -> Result<Machine, DomainError> {
+    if let Some(t) = &p.topology {
+        p.topology = Some(topology(Some(t))?);
+    }
+    if let Some(t) = &p.travel_mm {
+        check_travel(t)?;
+    }
+    let row_changes =
+        p.baseline_result_id.is_some() || p.tags.is_some() || p.name.is_some() || p.site.is_some();
+    let m = store.update_machine(id, &p).await?;
+    if row_changes {
+        crate::fleet::refresh_machine(store, id).await?;
+    }
+    Ok(m)
+}
