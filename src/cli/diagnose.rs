@@ -13,6 +13,7 @@ use mtcal_solver::diagnosis::{
     DiagnoseOptions, DiagnosisResult, Finding, PlotData, Progress, Verdict,
 };
 use mtcal_solver::positioning_check::{DiagnosisDocument, check_positioning};
+use mtcal_solver::text::with_std;
 use std::io::Write as _;
 use std::path::{Path, PathBuf};
 use std::process::ExitCode;
@@ -190,8 +191,7 @@ fn write_svgs(plots: &[PlotData], dir: &Path) -> anyhow::Result<Vec<PathBuf>> {
 
 /// " (axis)" of a finding that names one.
 fn axis_of(f: &Finding) -> String {
-    f.axis
-        .as_deref()
+    f.axis_label()
         .map(|a| format!(" ({a})"))
         .unwrap_or_default()
 }
@@ -203,7 +203,7 @@ fn undetermined_lines(s: &mut String, f: &Finding) {
     let mut groups: Vec<(&str, Vec<String>)> = vec![];
     for u in &f.undetermined {
         let item = match u.std {
-            Some(sd) => format!("{} = {:.4} ± {:.2}", u.name, u.value, sd),
+            Some(sd) => format!("{} = {}", u.name, with_std(u.value, sd, 2, false)),
             None => format!("{} = {:.4} (no finite bound)", u.name, u.value),
         };
         match groups.iter_mut().find(|(d, _)| *d == u.decide) {
@@ -253,7 +253,7 @@ pub fn summary(r: &DiagnosisResult) -> String {
             .iter()
             .filter(|(k, _)| !k.starts_with("std_"))
             .map(|(k, v)| match f.parameters.get(&format!("std_{k}")) {
-                Some(sd) => format!("{k} = {v:.4} ± {sd:.2}"),
+                Some(sd) => format!("{k} = {}", with_std(*v, *sd, 2, false)),
                 None => format!("{k} = {v:.4}"),
             })
             .collect();

@@ -55,8 +55,16 @@ pub struct Finding {
     /// `setup_offset`, `model_order`, `vibration`, or another name (then `physics` says
     /// what it is).
     pub effect: String,
+    /// The axis whose error it is: the direction the error acts along for an error that
+    /// one axis's motion causes along another (`direction_coupling`,
+    /// `velocity_coupling`: then `depends_on` names the moving axis); the axis itself
+    /// for an error of its own motion (`backlash`, `cyclic`, a guideway's `waviness`).
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub axis: Option<String>,
+    /// The axis whose motion (direction of travel, velocity) the error follows, when it
+    /// is not `axis`.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub depends_on: Option<String>,
     /// Fitted parameters with their units in the names (and `std_*` uncertainties).
     pub parameters: BTreeMap<String, f64>,
     /// One sentence: what the physics is and why the rigid-body model lacks it.
@@ -79,6 +87,16 @@ pub struct Finding {
 }
 
 impl Finding {
+    /// The finding's axis as a person reads it: `Y`, or `Y, following X` for an error
+    /// along Y that follows the X motion (`depends_on`).
+    pub fn axis_label(&self) -> Option<String> {
+        let a = self.axis.as_deref()?;
+        Some(match &self.depends_on {
+            Some(d) => format!("{a}, following {d}"),
+            None => a.to_string(),
+        })
+    }
+
     /// Its fitted parameters in words, in a person's units:
     /// `backlash_um = 6.01 (u = 0.02), …` (u: the standard uncertainty, k = 1, where
     /// reported).
@@ -89,7 +107,12 @@ impl Finding {
             .iter()
             .filter(|(k, _)| !k.starts_with("std_"))
             .map(|(k, v)| match self.parameters.get(&format!("std_{k}")) {
-                Some(u) => format!("{k} = {} (u = {})", num(*v), num(*u)),
+                Some(u) => {
+                    // σ to two significant digits, the value to its place (never u = 0.000).
+                    let both = crate::text::with_std(*v, *u, 2, false);
+                    let (v, u) = both.split_once(" ± ").unwrap_or((&both, ""));
+                    format!("{k} = {v} (u = {u})")
+                }
                 None => format!("{k} = {}", num(*v)),
             })
             .collect::<Vec<_>>()
@@ -97,10 +120,11 @@ impl Finding {
         person_units(&list)
     }
 
-    /// The effect and its axis in words: `backlash (X)`.
+    /// The effect and its axis in words: `backlash (X)`, `direction coupling (Y,
+    /// following X)`.
     pub fn name_in_words(&self) -> String {
         let name = self.effect.replace('_', " ");
-        match &self.axis {
+        match self.axis_label() {
             Some(a) => format!("{name} ({a})"),
             None => name,
         }
@@ -119,6 +143,8 @@ struct FindingDoc {
     effect: String,
     #[serde(default)]
     axis: Option<String>,
+    #[serde(default)]
+    depends_on: Option<String>,
     parameters: BTreeMap<String, Option<f64>>,
     physics: String,
     #[serde(default)]
@@ -154,9 +180,28 @@ impl From<FindingDoc> for Finding {
                 ));
             }
         }
+        // An earlier version named the moving axis in `axis` for an error across it;
+        // the error's own axis is the first word of its signature ("a Y error that ...").
+        let (axis, depends_on) = match (d.depends_on, d.effect.as_str()) {
+            (None, "direction_coupling" | "velocity_coupling") => {
+                let own = d
+                    .signature
+                    .as_deref()
+                    .and_then(|s| s.strip_prefix("a "))
+                    .and_then(|s| s.split(' ').next())
+                    .filter(|a| ["X", "Y", "Z"].contains(a))
+                    .map(str::to_string);
+                match own {
+                    Some(own) => (Some(own), d.axis),
+                    None => (d.axis, None),
+                }
+            }
+            (dep, _) => (d.axis, dep),
+        };
         Finding {
             effect: d.effect,
-            axis: d.axis,
+            axis,
+            depends_on,
             parameters,
             physics: d.physics,
             signature: d.signature,

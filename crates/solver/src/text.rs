@@ -30,6 +30,23 @@ pub fn num(v: f64) -> String {
     }
 }
 
+/// `value ± σ` with σ (a standard uncertainty) to two significant digits and the value to
+/// the same decimal place (GUM 7.2.6): `0.00026 ± 0.0000042` reads `0.0002600 ± 0.0000042`,
+/// never `± 0.00`; at least `min_decimals` decimals, at most 12. `sign` writes `+` on a
+/// positive value. A σ that is zero or not finite leaves the value with `min_decimals`.
+pub fn with_std(value: f64, std: f64, min_decimals: usize, sign: bool) -> String {
+    let d = if std.is_finite() && std > 0.0 {
+        (1 - std.log10().floor() as i64).clamp(min_decimals as i64, 12) as usize
+    } else {
+        min_decimals
+    };
+    if sign {
+        format!("{value:+.d$} ± {std:.d$}")
+    } else {
+        format!("{value:.d$} ± {std:.d$}")
+    }
+}
+
 /// `value ± U unit` with U = 2u; `value unit` when u is unknown; `—` without a value.
 pub fn with_u(value: Option<f64>, u: Option<f64>, unit: &str) -> String {
     let unit = unit_label(unit);
@@ -72,6 +89,19 @@ pub fn person_units(text: &str) -> String {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// Two significant digits of σ, the value to the same place; never `± 0.00`.
+    #[test]
+    fn a_standard_uncertainty_keeps_two_significant_digits() {
+        assert_eq!(
+            with_std(0.000_26, 0.000_004_2, 2, false),
+            "0.0002600 ± 0.0000042"
+        );
+        assert_eq!(with_std(6.6043, 0.3012, 2, false), "6.60 ± 0.30");
+        assert_eq!(with_std(-0.95, 0.0031, 2, true), "-0.9500 ± 0.0031");
+        assert_eq!(with_std(12.5, 3.4, 2, true), "+12.50 ± 3.40");
+        assert_eq!(with_std(1.0, f64::INFINITY, 2, false), "1.00 ± inf");
+    }
 
     #[test]
     fn unit_words_in_text_are_written_as_a_person_writes_them() {

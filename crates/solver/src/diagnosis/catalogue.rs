@@ -5,6 +5,7 @@
 //! | effect | columns (along the named axis) | nonlinear |
 //! |---|---|---|
 //! | backlash | −d/2 (d: sign of the axis's last travel) → lost motion b, µm | — |
+//! | lost_motion_profile | −d·P_k(s)/2, k = 0, 1, 2, s the position on the measured travel → lost motion b(q), µm; k = 1, 2 alone (its varying part) once the axis's backlash is in the model | — |
 //! | servo_lag | −v·10³ → lag τ, s | — |
 //! | reversal_spike | −d·exp(−s/λ) → height h, µm | decay λ, mm |
 //! | cyclic | sin, cos(2π q/P) → amplitude, phase | period P, mm |
@@ -27,6 +28,7 @@
 
 use super::design::Design;
 use super::linalg::Cols;
+use super::lost_motion::Profile;
 use crate::axis::Axis;
 use std::f64::consts::PI;
 
@@ -106,6 +108,20 @@ fn observed_axes(d: &Design) -> Vec<Axis> {
         .collect()
 }
 
+/// Legendre order of a session's position-dependent lost motion (`lost_motion_profile`):
+/// a linear and a symmetric (ends against middle) variation along the travel.
+pub const PROFILE_ORDER: usize = 2;
+
+/// The lost-motion profile's travel for axis `a`: its measured travel.
+pub fn profile(d: &Design, a: Axis) -> Option<Profile> {
+    let [lo, hi] = d.travel[a.index()]?;
+    (hi > lo).then_some(Profile {
+        lo,
+        hi,
+        order: PROFILE_ORDER,
+    })
+}
+
 /// All candidates for a session.
 pub fn candidates(d: &Design) -> Vec<Candidate> {
     let axes = observed_axes(d);
@@ -117,7 +133,14 @@ pub fn candidates(d: &Design) -> Vec<Candidate> {
     };
     let mut out = Vec::new();
     for &a in &axes {
-        for e in ["backlash", "servo_lag", "reversal_spike", "cyclic"] {
+        for e in [
+            "backlash",
+            "lost_motion_profile",
+            "lost_motion_variation",
+            "servo_lag",
+            "reversal_spike",
+            "cyclic",
+        ] {
             out.push(c(e, Some(a), None, None));
         }
         for dir in Axis::ALL {
@@ -371,6 +394,28 @@ pub fn specs<'a>(
             let dir = &d.fields.dir[a.index()];
             Columns::new(n, ax, move |s, _, o| o[0] = -0.5 * dir[s]).following(a)
         }
+        "lost_motion_profile" | "lost_motion_variation" => {
+            // Lost motion varying along the travel: −d·P_k(s)/2 on the measured travel
+            // (`lost_motion::Profile`), k = 0..=PROFILE_ORDER; k from 1 for its varying
+            // part alone (the constant part, k = 0, is then the axis's `backlash`).
+            let a = c.axis.expect("axis");
+            let Some(prof) = profile(d, a) else {
+                return Columns::none();
+            };
+            let from = usize::from(c.effect == "lost_motion_variation");
+            let (q, dir) = (&d.fields.q_mm[a.index()], &d.fields.dir[a.index()]);
+            Columns::new(
+                (from..=PROFILE_ORDER).map(|k| format!("b{k}")).collect(),
+                vec![Some(a); PROFILE_ORDER + 1 - from],
+                move |s, _, o| {
+                    let p = crate::basis::Legendre::new(prof.s(q[s]).clamp(-1.0, 1.0));
+                    for (o, (pk, _)) in o.iter_mut().zip(p.skip(from)) {
+                        *o = -0.5 * dir[s] * pk;
+                    }
+                },
+            )
+            .following(a)
+        }
         "servo_lag" => {
             let a = c.axis.expect("axis");
             let (n, ax) = one("lag_s", a);
@@ -556,6 +601,7 @@ pub fn columns(
 pub fn reported_name(effect: &'static str) -> &'static str {
     match effect {
         "thermal_temperature" => "thermal_drift",
+        "lost_motion_variation" => "lost_motion_profile",
         e => e,
     }
 }

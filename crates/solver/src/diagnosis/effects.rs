@@ -610,6 +610,7 @@ mod tests {
         Finding {
             effect: effect.into(),
             axis: None,
+            depends_on: None,
             parameters: params.iter().map(|(k, v)| (k.to_string(), *v)).collect(),
             physics: String::new(),
             residual_rms_um: super::super::BeforeAfter {
@@ -757,6 +758,25 @@ mod tests {
         let older = serde_json::json!({"name": "lag_s", "value": 0.01, "std": null, "decide": "x"});
         let u: Undetermined = serde_json::from_value(older).unwrap();
         assert!(!u.bounded && u.std.is_none());
+    }
+
+    /// A stored `direction_coupling` of an earlier version named the moving axis in
+    /// `axis`: it reads back with the error's own axis there (from its signature) and the
+    /// moving axis in `depends_on`; a document of this version reads back unchanged.
+    #[test]
+    fn an_earlier_coupling_document_reads_with_the_errors_own_axis() {
+        let mut f = finding(
+            "direction_coupling",
+            &[("shift_um", 1.0), ("std_shift_um", 0.1)],
+        );
+        f.signature = Some("a Y error that flips with the X direction of travel".into());
+        let mut old = serde_json::to_value(&f).unwrap();
+        old["axis"] = "X".into();
+        let back: Finding = serde_json::from_value(old).unwrap();
+        assert_eq!(back.axis.as_deref(), Some("Y"));
+        assert_eq!(back.depends_on.as_deref(), Some("X"));
+        let again: Finding = serde_json::from_value(serde_json::to_value(&back).unwrap()).unwrap();
+        assert_eq!(again, back);
     }
 
     #[test]

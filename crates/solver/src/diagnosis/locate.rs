@@ -1,6 +1,7 @@
 //! Where the misfit of a session's model is: the squared residual above the noise floor
-//! split by place and signature (file and test, circle angle, line passes near their
-//! reversal, session time), each place with its share and the runs concerned.
+//! split by place and signature (file and test; circle angle per plane, named by the axis
+//! that reverses there; line passes of each axis near its reversals; session time when
+//! the misfit follows time), each place with its share and the runs that carry it.
 
 use super::Mismatch;
 use super::design::Design;
@@ -11,108 +12,196 @@ fn run_id(d: &Design, ri: usize) -> String {
     format!("{}#run {}", d.files[r.plane_idx], r.number)
 }
 
+/// At most this many runs are listed under a place.
+const MAX_RUNS: usize = 6;
+
+/// The runs of a place that carry its misfit: by their excess in the place, largest
+/// first, those with a positive excess until they hold 80 % of the place's, at most
+/// [`MAX_RUNS`].
+fn carriers(per_run: &[(usize, f64)]) -> Vec<usize> {
+    let mut v: Vec<(usize, f64)> = per_run.iter().copied().filter(|r| r.1 > 0.0).collect();
+    v.sort_by(|a, b| b.1.total_cmp(&a.1));
+    let total: f64 = v.iter().map(|r| r.1).sum();
+    let mut out = Vec::new();
+    let mut held = 0.0;
+    for (ri, e) in v {
+        if out.len() >= MAX_RUNS || held >= 0.8 * total {
+            break;
+        }
+        out.push(ri);
+        held += e;
+    }
+    out
+}
+
 /// Splits the squared residual above the noise floor by place and signature.
 pub(crate) fn locate(d: &Design, r: &[f64], sigma: f64) -> Vec<Mismatch> {
-    let excess = |rows: &mut dyn Iterator<Item = usize>| -> f64 {
-        rows.map(|i| r[i] * r[i] - sigma * sigma).sum::<f64>()
-    };
-    let total = excess(&mut (0..r.len())).max(1e-300);
+    let ex = |i: usize| r[i] * r[i] - sigma * sigma;
+    let total = (0..r.len()).map(ex).sum::<f64>().max(1e-300);
     let mut out: Vec<Mismatch> = Vec::new();
-    let mut add = |where_: String, runs: Vec<usize>, e: f64| {
+    // A place: its rows' excess gathered per run.
+    let mut add = |where_: String, per_run: &[(usize, f64)]| {
+        let e: f64 = per_run.iter().map(|r| r.1).sum();
         if e / total >= 0.1 {
             out.push(Mismatch {
                 where_,
-                tests: runs.iter().take(6).map(|&ri| run_id(d, ri)).collect(),
+                tests: carriers(per_run).iter().map(|&ri| run_id(d, ri)).collect(),
                 share_of_misfit: (e / total).min(1.0),
             });
         }
     };
+    let run_excess: Vec<f64> = d
+        .runs
+        .iter()
+        .map(|run| (2 * run.start..2 * run.end).map(ex).sum())
+        .collect();
     // By file and test kind.
+    let kinds = [
+        TestKind::LineX,
+        TestKind::LineY,
+        TestKind::LineZ,
+        TestKind::CircleCcw,
+        TestKind::CircleCw,
+        TestKind::Free,
+    ];
     for (pi, file) in d.files.iter().enumerate() {
-        for kind in [
-            TestKind::LineX,
-            TestKind::LineY,
-            TestKind::LineZ,
-            TestKind::CircleCcw,
-            TestKind::CircleCw,
-            TestKind::Free,
-        ] {
-            let runs: Vec<usize> = (0..d.runs.len())
+        for kind in kinds {
+            let per_run: Vec<(usize, f64)> = (0..d.runs.len())
                 .filter(|&i| d.runs[i].plane_idx == pi && d.runs[i].test == kind)
+                .map(|i| (i, run_excess[i]))
                 .collect();
-            if runs.is_empty() {
-                continue;
+            if !per_run.is_empty() {
+                add(format!("{file}: {} runs", kind.name()), &per_run);
             }
-            let e = excess(
-                &mut runs
-                    .iter()
-                    .flat_map(|&i| 2 * d.runs[i].start..2 * d.runs[i].end),
-            );
-            add(format!("{file}: {} runs", kind.name()), runs, e);
         }
     }
-    // Circles by angle sector (all circles together).
-    for sector in 0..12 {
-        let lo = sector as f64 * 30.0;
-        let mut runs = Vec::new();
-        let mut rows = Vec::new();
+    // Circles by angle sector, per plane: sectors of 30° centred on 0°, 30°, …; the
+    // plane's u axis reverses at 0° and 180°, its v axis at 90° and 270°.
+    for (pi, file) in d.files.iter().enumerate() {
+        let (u, v) = d.plane_axes[pi];
+        for sector in 0..12 {
+            let centre = sector as f64 * 30.0;
+            let mut per_run: Vec<(usize, f64)> = Vec::new();
+            for (ri, run) in d.runs.iter().enumerate() {
+                if run.plane_idx != pi
+                    || !matches!(run.test, TestKind::CircleCcw | TestKind::CircleCw)
+                {
+                    continue;
+                }
+                let mut e = 0.0;
+                let mut any = false;
+                for s in run.start..run.end {
+                    let q = d.fields.q(s);
+                    let ang = q[v.index()].atan2(q[u.index()]).to_degrees();
+                    if (ang - centre + 15.0).rem_euclid(360.0) < 30.0 {
+                        e += ex(2 * s) + ex(2 * s + 1);
+                        any = true;
+                    }
+                }
+                if any {
+                    per_run.push((ri, e));
+                }
+            }
+            if per_run.is_empty() {
+                continue;
+            }
+            let at = match sector % 6 {
+                0 => format!(" ({u} reverses)"),
+                3 => format!(" ({v} reverses)"),
+                _ => String::new(),
+            };
+            add(
+                format!(
+                    "{file}: circle runs, angle {:.0}..{:.0} deg{at}",
+                    centre - 15.0,
+                    centre + 15.0
+                ),
+                &per_run,
+            );
+        }
+    }
+    // Circles near the reversals of each axis, over every plane that moves it: within
+    // 15° of the angles where it reverses (0°/180° for a plane's u axis, 90°/270° for v).
+    for axis in crate::axis::Axis::ALL {
+        let mut per_run: Vec<(usize, f64)> = Vec::new();
         for (ri, run) in d.runs.iter().enumerate() {
             if !matches!(run.test, TestKind::CircleCcw | TestKind::CircleCw) {
                 continue;
             }
             let (u, v) = d.plane_axes[run.plane_idx];
-            for s in run.start..run.end {
-                let q = d.fields.q(s);
-                let ang = q[v.index()]
-                    .atan2(q[u.index()])
-                    .to_degrees()
-                    .rem_euclid(360.0);
-                if ang >= lo && ang < lo + 30.0 {
-                    rows.push(2 * s);
-                    rows.push(2 * s + 1);
-                    if runs.last() != Some(&ri) {
-                        runs.push(ri);
-                    }
-                }
-            }
+            let base = if u == axis {
+                0.0
+            } else if v == axis {
+                90.0
+            } else {
+                continue;
+            };
+            let e = (run.start..run.end)
+                .filter(|&s| {
+                    let q = d.fields.q(s);
+                    let ang = q[v.index()].atan2(q[u.index()]).to_degrees();
+                    (ang - base + 15.0).rem_euclid(180.0) < 30.0
+                })
+                .map(|s| ex(2 * s) + ex(2 * s + 1))
+                .sum();
+            per_run.push((ri, e));
         }
-        let e = excess(&mut rows.into_iter());
-        add(
-            format!("circle runs, angle {lo:.0}..{:.0} deg", lo + 30.0),
-            runs,
-            e,
-        );
+        if !per_run.is_empty() {
+            add(
+                format!("circle runs, within 15 deg of the {axis} reversals ({axis} reverses)"),
+                &per_run,
+            );
+        }
     }
-    // Line passes near their reversal (first 10 % of travel) versus the rest.
-    let mut near = Vec::new();
-    let mut near_runs = Vec::new();
-    for (ri, run) in d.runs.iter().enumerate() {
-        let i = match run.test {
-            TestKind::LineX => 0,
-            TestKind::LineY => 1,
-            TestKind::LineZ => 2,
-            _ => continue,
-        };
+    // Line passes of each axis near its reversals (first 10 % of its travel).
+    for (i, kind) in [TestKind::LineX, TestKind::LineY, TestKind::LineZ]
+        .into_iter()
+        .enumerate()
+    {
         let Some([lo, hi]) = d.travel[i] else {
             continue;
         };
-        for s in run.start..run.end {
-            if d.fields.since_reversal_mm[i][s] < 0.1 * (hi - lo) {
-                near.push(2 * s);
-                near.push(2 * s + 1);
-                if near_runs.last() != Some(&ri) {
-                    near_runs.push(ri);
-                }
+        let per_run: Vec<(usize, f64)> = d
+            .runs
+            .iter()
+            .enumerate()
+            .filter(|(_, run)| run.test == kind)
+            .map(|(ri, run)| {
+                let e = (run.start..run.end)
+                    .filter(|&s| d.fields.since_reversal_mm[i][s] < 0.1 * (hi - lo))
+                    .map(|s| ex(2 * s) + ex(2 * s + 1))
+                    .sum();
+                (ri, e)
+            })
+            .collect();
+        let axis = crate::axis::Axis::ALL[i];
+        add(
+            format!(
+                "{axis} line passes, first 10 % of travel after each {axis} reversal ({axis} reverses)"
+            ),
+            &per_run,
+        );
+    }
+    // By time, in fifths of the session, only where the misfit follows time: a fifth
+    // is a place when its excess is more than 1.5 × what its runs' (file, test) groups
+    // hold on average per row (a misfit that only follows which plane or test was being
+    // measured is placed there, not in time).
+    let group = |ri: usize| (d.runs[ri].plane_idx, d.runs[ri].test);
+    let mut groups: Vec<((usize, TestKind), f64, usize)> = Vec::new();
+    for (ri, run) in d.runs.iter().enumerate() {
+        let rows = 2 * (run.end - run.start);
+        match groups.iter_mut().find(|g| g.0 == group(ri)) {
+            Some(g) => {
+                g.1 += run_excess[ri];
+                g.2 += rows;
             }
+            None => groups.push((group(ri), run_excess[ri], rows)),
         }
     }
-    let e = excess(&mut near.into_iter());
-    add(
-        "line passes, first 10 % of travel after each reversal".into(),
-        near_runs,
-        e,
-    );
-    // By time, in fifths of the session.
+    let expected = |ri: usize| {
+        let g = groups.iter().find(|g| g.0 == group(ri)).expect("group");
+        g.1 / g.2.max(1) as f64 * (2 * (d.runs[ri].end - d.runs[ri].start)) as f64
+    };
     let t = &d.fields.t_s;
     let (t0, t1) = (t[0], t[t.len() - 1]);
     for k in 0..5 {
@@ -126,12 +215,12 @@ pub(crate) fn locate(d: &Design, r: &[f64], sigma: f64) -> Vec<Mismatch> {
                 t >= a && (t < b || k == 4)
             })
             .collect();
-        let e = excess(
-            &mut runs
-                .iter()
-                .flat_map(|&i| 2 * d.runs[i].start..2 * d.runs[i].end),
-        );
-        add(format!("session time {a:.0}..{b:.0} s"), runs, e);
+        let e: f64 = runs.iter().map(|&i| run_excess[i]).sum();
+        let want: f64 = runs.iter().map(|&i| expected(i)).sum();
+        if e > 1.5 * want.max(0.0) {
+            let per_run: Vec<(usize, f64)> = runs.iter().map(|&i| (i, run_excess[i])).collect();
+            add(format!("session time {a:.0}..{b:.0} s"), &per_run);
+        }
     }
     out.sort_by(|a, b| b.share_of_misfit.total_cmp(&a.share_of_misfit));
     out.truncate(6);

@@ -76,6 +76,24 @@ impl Profile {
             .collect()
     }
 
+    /// The mean of b over the points `q`, with its standard uncertainty: p̄ᵀb ± √(p̄ᵀ C p̄),
+    /// p̄ the mean of the basis over the points.
+    pub fn mean(&self, coef: &[f64], cov: &DMatrix<f64>, q: &[f64]) -> (f64, f64) {
+        let m = q.len().max(1) as f64;
+        let basis: Vec<Vec<f64>> = q.iter().map(|&v| self.basis_at(v)).collect();
+        let pm: Vec<f64> = (0..=self.order)
+            .map(|k| basis.iter().map(|p| p[k]).sum::<f64>() / m)
+            .collect();
+        let mean = pm.iter().zip(coef).map(|(a, b)| a * b).sum();
+        let mut var = 0.0;
+        for i in 0..pm.len() {
+            for j in 0..pm.len() {
+                var += pm[i] * cov[(i, j)] * pm[j];
+            }
+        }
+        (mean, var.max(0.0).sqrt())
+    }
+
     /// The variation of b along the points `q`: the RMS of b(q_i) − mean b over them,
     /// with its standard uncertainty (first order in the coefficients).
     pub fn variation(&self, coef: &[f64], cov: &DMatrix<f64>, q: &[f64]) -> (f64, f64) {
@@ -109,6 +127,24 @@ impl Profile {
         }
         (v, var.max(0.0).sqrt())
     }
+}
+
+/// How the constant part (the mean lost motion `mean`) and the part varying along the
+/// travel (`v`, RMS about the mean) share the reversal error's squares at the points, in
+/// words: whether a constant backlash explains most of it and a position-dependent part
+/// remains, or the lost motion is mostly position-dependent.
+pub fn shares(mean: f64, v: f64) -> String {
+    let share = mean * mean / (mean * mean + v * v).max(1e-300);
+    format!(
+        "the constant part (mean lost motion {mean:+.3} µm) carries {:.0} % of the reversal's squares at the targets, the part varying along the travel ({v:.3} µm RMS) {:.0} %{}",
+        100.0 * share,
+        100.0 * (1.0 - share),
+        if share >= 0.5 {
+            ": a constant backlash explains most of it and a position-dependent part remains"
+        } else {
+            ": the lost motion is mostly position-dependent"
+        }
+    )
 }
 
 #[cfg(test)]

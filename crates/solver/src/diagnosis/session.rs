@@ -107,8 +107,16 @@ enum Note {
 }
 
 impl SessionProblem<'_> {
-    fn state(&self, fit: Fit, k: usize) -> State {
+    fn state(
+        &self,
+        fit: Fit,
+        k: usize,
+        backlash: [Option<(f64, f64)>; 3],
+        profiled: [bool; 3],
+    ) -> State {
         State {
+            backlash,
+            profiled,
             eps: (!self.eps_groups.is_empty())
                 .then(|| self.ctx.eps_per_sample(&fit, &self.eps_groups)),
             fit,
@@ -144,17 +152,40 @@ impl SessionProblem<'_> {
     ) -> Finding {
         let (n, heldout_n) = (self.ctx.d.rows(), self.ctx.sets.heldout_n);
         let h_before = self.heldout_rms(f);
+        // A position-dependent lost motion says how its constant and varying parts share
+        // the reversal error.
+        let shares = matches!(
+            t.cand.effect,
+            "lost_motion_profile" | "lost_motion_variation"
+        )
+        .then(|| {
+            let get = |k: &str| parameters.get(k).copied();
+            Some(format!(
+                "; {}",
+                super::lost_motion::shares(get("mean_lost_motion_um")?, get("variation_um")?)
+            ))
+        })
+        .flatten()
+        .unwrap_or_default();
         let (after, h_after) = match nf {
             Some(nf) => (rms(nf.ssr, n), rms(nf.heldout_ssr, heldout_n)),
             None => (rms(t.ssr, n), rms(t.heldout_ssr, heldout_n)),
         };
         Finding {
             effect: catalogue::reported_name(t.cand.effect).into(),
-            axis: t
-                .cand
-                .axis
-                .map(|a| a.to_string())
-                .or(t.cand.direction.map(|a| a.to_string())),
+            axis: match (t.cand.effect, t.cand.direction) {
+                // An error across the moving axis is the error of its direction.
+                ("direction_coupling" | "velocity_coupling", Some(dir)) => Some(dir.to_string()),
+                _ => t
+                    .cand
+                    .axis
+                    .map(|a| a.to_string())
+                    .or(t.cand.direction.map(|a| a.to_string())),
+            },
+            depends_on: match t.cand.effect {
+                "direction_coupling" | "velocity_coupling" => t.cand.axis.map(|a| a.to_string()),
+                _ => None,
+            },
             parameters,
             physics: effects::physics(catalogue::reported_name(t.cand.effect)).into(),
             signature: match (t.cand.effect, t.theta, t.cand.direction) {
@@ -171,7 +202,7 @@ impl SessionProblem<'_> {
                 after: h_after,
             },
             evidence: format!(
-                "{}: BIC {:+.1} with {} extra parameter(s); held-out RMS {:.3} -> {:.3} um over {} folds of whole runs; noise floor {:.3} um",
+                "{}: BIC {:+.1} with {} extra parameter(s); held-out RMS {:.3} -> {:.3} um over {} folds of whole runs; noise floor {:.3} um{shares}",
                 t.cand.label(),
                 t.dbic,
                 t.ncols + t.extra_params,
@@ -206,8 +237,25 @@ impl super::engine::Greedy for SessionProblem<'_> {
             k: s.k as f64,
         }
     }
-    fn candidates(&self, _: &State) -> Vec<Candidate> {
-        self.cands.clone()
+    fn candidates(&self, s: &State) -> Vec<Candidate> {
+        // A lost motion that varies along the travel: whole (constant part included)
+        // while the axis has no backlash in the model, its varying part refining the
+        // axis's backlash once it has; neither, nor a backlash, after a whole profile.
+        self.cands
+            .iter()
+            .filter(|c| {
+                let Some(a) = c.axis.map(|a| a.index()) else {
+                    return true;
+                };
+                match c.effect {
+                    "lost_motion_profile" => s.backlash[a].is_none() && !s.profiled[a],
+                    "lost_motion_variation" => s.backlash[a].is_some() && !s.profiled[a],
+                    "backlash" => !s.profiled[a],
+                    _ => true,
+                }
+            })
+            .cloned()
+            .collect()
     }
     fn label(&self, c: &Candidate) -> String {
         c.label()
@@ -228,6 +276,12 @@ impl super::engine::Greedy for SessionProblem<'_> {
             / (self.dof.saturating_sub(s.k + t.ncols + t.extra_params)).max(1) as f64)
             .sqrt();
         let mut params = report_parameters(t, sigma, d);
+        if let ("lost_motion_profile" | "lost_motion_variation", Some(a)) = (c.effect, c.axis) {
+            let constant = (c.effect == "lost_motion_variation")
+                .then(|| s.backlash[a.index()])
+                .flatten();
+            params = trial::profile_parameters(t, sigma, d, a, constant);
+        }
         if let Some((name, sd)) = self.ctx.theta_std(s, t, sigma) {
             params.insert(format!("std_{name}"), sd);
         }
@@ -274,7 +328,26 @@ impl super::engine::Greedy for SessionProblem<'_> {
             }),
             other => other,
         };
-        (self.state(nf, s.k + t.ncols + t.extra_params), note)
+        let (mut backlash, mut profiled) = (s.backlash, s.profiled);
+        match (&note, c.effect, c.axis) {
+            (Note::Finding(f), "backlash", Some(a)) => {
+                backlash[a.index()] = f.parameters.get("lost_motion_um").map(|&b| {
+                    (
+                        b,
+                        f.parameters
+                            .get("std_lost_motion_um")
+                            .copied()
+                            .unwrap_or(0.0),
+                    )
+                });
+            }
+            (Note::Finding(_), "lost_motion_profile", Some(a)) => profiled[a.index()] = true,
+            _ => {}
+        }
+        (
+            self.state(nf, s.k + t.ncols + t.extra_params, backlash, profiled),
+            note,
+        )
     }
 }
 
@@ -372,7 +445,7 @@ pub fn diagnose_session_with_progress(
         stop_ratio: 0.0,
         max_findings: opts.max_findings,
     };
-    let base = problem.state(f, 0);
+    let base = problem.state(f, 0, [None; 3], [false; 3]);
     let o = engine::run(&problem, base, &rules, "", &mut progress, (0.0, 1.0));
     let findings: Vec<Finding> = o
         .added

@@ -654,6 +654,7 @@ mod tests {
             findings: vec![Finding {
                 effect: "backlash".into(),
                 axis: Some("X".into()),
+                depends_on: None,
                 parameters: [("backlash_um".to_string(), 4.0)].into(),
                 physics: "lost motion at reversal".into(),
                 signature: None,

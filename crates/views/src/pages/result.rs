@@ -505,7 +505,7 @@ pub fn diagnosis(d: &DiagnosisResult) -> Markup {
         }
         @for f in &d.findings {
             section.card.finding data-effect=(f.effect) {
-                h2 { "Finding: " (f.effect.replace('_', " ")) @if let Some(a) = &f.axis { " (" (a) ")" } }
+                h2 { "Finding: " (f.effect.replace('_', " ")) @if let Some(a) = f.axis_label() { " (" (a) ")" } }
                 div.pair {
                     div {
                         p { (mtcal_solver::text::person_units(&f.physics)) }
@@ -527,7 +527,7 @@ pub fn diagnosis(d: &DiagnosisResult) -> Markup {
         }
         @for f in &d.possible {
             section.card.possible data-effect=(f.effect) {
-                h2 { "Possible, undetermined: " (f.effect.replace('_', " ")) @if let Some(a) = &f.axis { " (" (a) ")" } }
+                h2 { "Possible, undetermined: " (f.effect.replace('_', " ")) @if let Some(a) = f.axis_label() { " (" (a) ")" } }
                 p { (mtcal_solver::text::person_units(&f.physics)) }
                 (undetermined(f))
                 p.muted { (mtcal_solver::text::person_units(&f.evidence)) }
@@ -797,6 +797,7 @@ mod tests {
         let finding = |effect: &str, undetermined: Vec<Undetermined>| Finding {
             effect: effect.into(),
             axis: Some("ch1".into()),
+            depends_on: None,
             parameters: [("share_predicted".to_string(), 0.8)].into(),
             physics: "thermal growth".into(),
             signature: None,

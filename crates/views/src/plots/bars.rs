@@ -171,6 +171,7 @@ mod tests {
         Finding {
             effect: "backlash".into(),
             axis: Some("X".into()),
+            depends_on: None,
             parameters: Default::default(),
             physics: "lost motion at reversal".into(),
             residual_rms_um: BeforeAfter {

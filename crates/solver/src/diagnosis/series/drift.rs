@@ -438,6 +438,7 @@ fn analyse_channel(
     out.finding = Some(Finding {
         effect: "thermal_drift".into(),
         axis: Some(ch.name.trim_end_matches("_um").to_string()),
+        depends_on: None,
         parameters: params,
         undetermined: vec![],
         physics: effects::physics("thermal_drift").into(),

@@ -46,6 +46,12 @@ pub(crate) struct State {
     pub fit: Fit,
     pub k: usize,
     pub eps: Option<Vec<[f64; 3]>>,
+    /// Per axis: the constant lost motion of its `backlash` finding in the model (value
+    /// and σ, µm), which a position-dependent profile of that axis refines.
+    pub backlash: [Option<(f64, f64)>; 3],
+    /// Per axis: whether a whole position-dependent lost motion (constant part included)
+    /// is in the model.
+    pub profiled: [bool; 3],
 }
 
 impl State {

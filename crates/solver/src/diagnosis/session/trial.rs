@@ -447,6 +447,69 @@ pub(crate) fn report_parameters(t: &Trial, sigma: f64, d: &Design) -> BTreeMap<S
     p
 }
 
+/// Number of points along the measured travel at which a session's position-dependent
+/// lost motion is reported (evenly spaced, ends included).
+const PROFILE_POINTS: usize = 5;
+
+/// The parameters of a position-dependent lost motion of axis `a` (`lost_motion_profile`,
+/// the effects table's): b(q) = Σ_k b_k·P_k(s) at [`PROFILE_POINTS`] points of the
+/// measured travel, its mean and its variation along the travel, each with its σ. The b_k
+/// are the trial's (their covariance: their σ with the correlation of their Gram
+/// matrix), b₀ ± σ₀ the `constant` lost motion of the axis's `backlash` in the model when
+/// the trial is its varying part alone (taken independent of the b_k).
+pub(crate) fn profile_parameters(
+    t: &Trial,
+    sigma: f64,
+    d: &Design,
+    a: Axis,
+    constant: Option<(f64, f64)>,
+) -> BTreeMap<String, f64> {
+    let mut p = BTreeMap::new();
+    let Some(prof) = catalogue::profile(d, a) else {
+        return p;
+    };
+    let k = prof.order + 1;
+    let mut coef = Vec::with_capacity(k);
+    let mut cov = nalgebra::DMatrix::zeros(k, k);
+    let off = usize::from(constant.is_some());
+    if let Some((b0, sb0)) = constant {
+        coef.push(b0);
+        cov[(0, 0)] = sb0 * sb0;
+    }
+    let m = t.coef.len().min(k - off);
+    coef.extend(&t.coef[..m]);
+    coef.resize(k, 0.0);
+    let ginv = t.gram.clone().pseudo_inverse(1e-12).ok();
+    for i in 0..m {
+        for j in 0..m {
+            let corr = match &ginv {
+                Some(g) if g[(i, i)] > 0.0 && g[(j, j)] > 0.0 => {
+                    g[(i, j)] / (g[(i, i)] * g[(j, j)]).sqrt()
+                }
+                _ => f64::from(u8::from(i == j)),
+            };
+            cov[(i + off, j + off)] = corr * t.coef_sd[i] * t.coef_sd[j] * sigma * sigma;
+        }
+    }
+    let points: Vec<f64> = (0..PROFILE_POINTS)
+        .map(|i| prof.lo + (prof.hi - prof.lo) * i as f64 / (PROFILE_POINTS - 1) as f64)
+        .collect();
+    let at = prof.at(&coef, &cov, &points);
+    for (n, ((b, sb), q)) in at.iter().zip(&points).enumerate() {
+        p.insert(format!("lost_motion_um_{}", n + 1), *b);
+        p.insert(format!("std_lost_motion_um_{}", n + 1), *sb);
+        p.insert(format!("target_mm_{}", n + 1), *q);
+    }
+    let (mean, sm) = prof.mean(&coef, &cov, &points);
+    p.insert("mean_lost_motion_um".into(), mean);
+    p.insert("std_mean_lost_motion_um".into(), sm);
+    let (v, sv) = prof.variation(&coef, &cov, &points);
+    p.insert("variation_um".into(), v);
+    p.insert("std_variation_um".into(), sv);
+    p.insert("order".into(), prof.order as f64);
+    p
+}
+
 /// The variance the smoother of the logged temperature adds to each coefficient per
 /// kelvin ([`temperature::Smoother::coefficient_cov`]); infinite where the smoother does not follow
 /// the temperature (the coefficients are then undetermined), none without a smoother.

@@ -8,9 +8,11 @@ use super::data::AxisData;
 use super::problem::{Candidate, Positioning};
 use crate::diagnosis::engine::Selection;
 use crate::diagnosis::local_scan::{self, Kind};
+use crate::diagnosis::lost_motion;
 use crate::diagnosis::lsq;
 use crate::diagnosis::repeatability::Repeatability;
 use crate::diagnosis::{Finding, Mismatch, PlotData, PlotKind, PlotSeries, effects};
+use crate::text::with_std;
 use std::collections::BTreeMap;
 
 /// What one axis's diagnosis produced.
@@ -119,22 +121,13 @@ pub(super) fn outcome(
                     params.insert(format!("std_lost_motion_um_{}", k + 1), *sb);
                     params.insert(format!("target_mm_{}", k + 1), *t);
                 }
-                let m = a.targets.len() as f64;
-                let mean = at.iter().map(|v| v.0).sum::<f64>() / m;
-                let p_mean: Vec<f64> = (0..=order)
-                    .map(|k| a.targets.iter().map(|&t| prof.basis_at(t)[k]).sum::<f64>() / m)
-                    .collect();
-                let var_mean: f64 = (0..=order)
-                    .flat_map(|i| (0..=order).map(move |j| (i, j)))
-                    .map(|(i, j)| p_mean[i] * cov[(i, j)] * p_mean[j])
-                    .sum();
+                let (mean, sm) = prof.mean(coef, &cov, &a.targets);
                 params.insert("mean_lost_motion_um".into(), mean);
-                params.insert("std_mean_lost_motion_um".into(), var_mean.max(0.0).sqrt());
+                params.insert("std_mean_lost_motion_um".into(), sm);
                 let (v, sv) = prof.variation(coef, &cov, &a.targets);
                 params.insert("variation_um".into(), v);
                 params.insert("std_variation_um".into(), sv);
                 params.insert("order".into(), order as f64);
-                let share = mean * mean / (mean * mean + v * v).max(1e-300);
                 let steps: Vec<String> = lm_steps
                     .iter()
                     .map(|&i| {
@@ -152,18 +145,12 @@ pub(super) fn outcome(
                     })
                     .collect();
                 extra = format!(
-                    "; {}; the constant part (mean lost motion {mean:+.3} µm) carries {:.0} % of the reversal's squares at the targets, the part varying along the travel ({v:.3} µm RMS) {:.0} %{}; profile b (= −B_i of ISO 230-2) at the targets: {}",
+                    "; {}; {}; profile b (= −B_i of ISO 230-2) at the targets: {}",
                     steps.join(", then "),
-                    100.0 * share,
-                    100.0 * (1.0 - share),
-                    if share >= 0.5 {
-                        ": a constant backlash explains most of it and a position-dependent part remains"
-                    } else {
-                        ": the lost motion is mostly position-dependent"
-                    },
+                    lost_motion::shares(mean, v),
                     at.iter()
                         .zip(&a.targets)
-                        .map(|((b, sb), t)| format!("{t:.1} mm {b:+.2} ± {sb:.2}"))
+                        .map(|((b, sb), t)| format!("{t:.1} mm {}", with_std(*b, *sb, 2, true)))
                         .collect::<Vec<_>>()
                         .join(", ")
                 );
@@ -251,6 +238,7 @@ pub(super) fn outcome(
         findings.push(Finding {
             effect: label.into(),
             axis: Some(a.axis.to_string()),
+            depends_on: None,
             parameters: params,
             physics: effects::physics(label).into(),
             residual_rms_um: rms_ba,
