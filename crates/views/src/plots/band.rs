@@ -95,7 +95,9 @@ pub fn error_function(
         return function_band(name, &title, &pts);
     }
     let x_desc = format!("{} (mm)", moving_axis(name));
-    svg(PANEL, &title, |root| band(root, &x_desc, &title, &pts, None, limit))
+    svg(PANEL, &title, |root| {
+        band(root, &x_desc, &title, &pts, None, limit)
+    })
 }
 
 /// A function of position `name` (its last letter names the axis) from points
@@ -162,7 +164,9 @@ fn band(
     // The tolerance band: a range limit's width about the middle of the values' range.
     let (vmin, vmax) = pts
         .iter()
-        .fold((f64::INFINITY, f64::NEG_INFINITY), |(a, b), p| (a.min(p.1), b.max(p.1)));
+        .fold((f64::INFINITY, f64::NEG_INFINITY), |(a, b), p| {
+            (a.min(p.1), b.max(p.1))
+        });
     // A limit far wider than the data (more than FAR_LIMIT times their span with the
     // band) is named, not drawn: drawn, it would flatten the function to a line.
     let span = pts
@@ -442,17 +446,24 @@ mod tests {
         let mut ys: Vec<f64> = dashes.iter().map(|m| axes.y.value(m.points[0].1)).collect();
         ys.sort_by(f64::total_cmp);
         let px = 1.5 / axes.y.scale.abs();
-        assert!((ys[0] + 2.5).abs() <= px && (ys[ys.len() - 1] - 2.5).abs() <= px, "{ys:?}");
+        assert!(
+            (ys[0] + 2.5).abs() <= px && (ys[ys.len() - 1] - 2.5).abs() <= px,
+            "{ys:?}"
+        );
         assert!(plot.has_text("range limit"));
         let without = error_function("EXX", &t, Some([-50.0, 50.0]), None);
         assert!(!without.contains("range limit"));
         // A limit of 1 mm is named, not drawn: the function keeps its scale.
-        let far = inspect::parse(&error_function("EXX", &t, Some([-50.0, 50.0]), Some(1000.0)))
-            .unwrap();
+        let far = inspect::parse(&error_function(
+            "EXX",
+            &t,
+            Some([-50.0, 50.0]),
+            Some(1000.0),
+        ))
+        .unwrap();
         assert!(far.marks("polyline", &hex(LIMIT)).is_empty());
         assert!(far.has_text("range limit 1000 (beyond this scale)"));
         let axes = far.axes().unwrap();
         assert!(axes.y.value(0.0) < 5.0, "the scale stays the data's");
     }
-
 }
