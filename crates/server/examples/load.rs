@@ -17,6 +17,12 @@
 //!    1 worker on SQLite and by 1, 2 and 4 workers on PostgreSQL (`MTCAL_TEST_PG`):
 //!    jobs per second from the first submission to the last success.
 //!
+//! 4. **Reads under load** (only this part, when MTCAL_LOAD_CLIENTS is set): that many
+//!    concurrent clients for MTCAL_LOAD_SECONDS (20) reading the fleet page, trends and
+//!    results of MTCAL_LOAD_MACHINES (1000) × MTCAL_LOAD_RESULTS (20) seeded results,
+//!    first with no job, then with identify jobs running beside them all the time; each
+//!    client waits MTCAL_LOAD_THINK_MS (0) between its requests.
+//!
 //! `scripts/with-postgres cargo run -p mtcal-server --example load` (dev profile:
 //! dependencies optimised). Environment: MTCAL_LOAD_JOBS (20), MTCAL_LOAD_MACHINES
 //! (10000), MTCAL_LOAD_RESULTS (100), MTCAL_LOAD_QUERIES (4000), MTCAL_LOAD_DB (a file in
@@ -574,8 +580,197 @@ async fn fleet_page_bench(base: &str, key: &str, m: usize) {
     }
 }
 
+/// Reads under load: `clients` concurrent clients (each its own connection pool) for
+/// `secs` seconds, each request one of: a fleet page of 100 (`GET /api/v1/fleet`), a
+/// term trend, a summary trend, a stored result; on a fleet of `m` machines × `r`
+/// results seeded through the store. With `busy`, identify jobs run beside them all the
+/// time (2 workers, always 2 queued). Latency percentiles over every request.
+async fn reads_under_load_bench(
+    m: usize,
+    r: usize,
+    clients: usize,
+    secs: u64,
+    think: u64,
+    busy: bool,
+) {
+    let dir = tempfile::tempdir().unwrap();
+    let store: Arc<dyn Store> = Arc::new(
+        SqliteStore::open(dir.path().join("reads.sqlite").to_str().unwrap())
+            .await
+            .unwrap(),
+    );
+    let mut rng = StdRng::seed_from_u64(4);
+    let mut batch = Vec::new();
+    for i in 0..m {
+        let id = format!("M{i:05}");
+        store.create_machine(&machine(&id)).await.unwrap();
+        for k in 0..r {
+            batch.push(NewResult {
+                machine_id: id.clone(),
+                dataset_id: None,
+                kind: "identification".into(),
+                measured_at: format!("{}-{:02}-01T08:00:00Z", 2000 + k / 12, 1 + k % 12),
+                document: json!({"kind": "identification", "seeded": true}),
+                scalars: seeded_scalars(&mut rng, k),
+                figures: vec![],
+            });
+        }
+    }
+    store.import_results_bulk(&batch).await.unwrap();
+    mtcal_domain::fleet::refresh_all(store.as_ref())
+        .await
+        .unwrap();
+    let result_ids: Vec<String> = store
+        .list_results("M00000", "identification")
+        .await
+        .unwrap()
+        .into_iter()
+        .map(|m| m.id)
+        .collect();
+    let (_, key) = store.create_key(Scope::Write, "load").await.unwrap();
+    store.create_machine(&machine("LOAD-B")).await.unwrap();
+    let base = start_with(store.clone(), true, 2).await;
+    let stop = Arc::new(std::sync::atomic::AtomicBool::new(false));
+    let jobs_done = Arc::new(std::sync::atomic::AtomicUsize::new(0));
+    let feeder = if busy {
+        let sim = simulate(
+            &random_truth(5),
+            &SimOptions {
+                seed: 5,
+                sample_rate_hz: 10.0,
+                machine_id: "LOAD-B".into(),
+                ..SimOptions::default()
+            },
+        )
+        .unwrap();
+        let sdir = dir.path().join("busy");
+        mtcal_formats::write_session_dir(&sdir, &sim.session).unwrap();
+        let files = mtcal_client::files_to_upload(&sdir).unwrap();
+        let client = Client::new(&base, &key);
+        let ds = client.upload_files("LOAD-B", &files).await.unwrap();
+        let (stop, done, store) = (stop.clone(), jobs_done.clone(), store.clone());
+        // The seeded results' own jobs are not counted.
+        let before: i64 = store
+            .job_counts()
+            .await
+            .unwrap()
+            .iter()
+            .filter(|c| c.state == "succeeded")
+            .map(|c| c.count)
+            .sum();
+        Some(tokio::spawn(async move {
+            while !stop.load(std::sync::atomic::Ordering::Relaxed) {
+                let counts = store.job_counts().await.unwrap();
+                let n = |st: &str| -> i64 {
+                    counts
+                        .iter()
+                        .filter(|c| c.state == st)
+                        .map(|c| c.count)
+                        .sum()
+                };
+                done.store(
+                    (n("succeeded") - before).max(0) as usize,
+                    std::sync::atomic::Ordering::Relaxed,
+                );
+                if n("queued") < 2 {
+                    client
+                        .submit(&SubmitJob {
+                            kind: JobKind::Identify,
+                            dataset_id: Some(ds.id.clone()),
+                            machine_id: None,
+                            params: json!({}),
+                        })
+                        .await
+                        .unwrap();
+                } else {
+                    tokio::time::sleep(Duration::from_millis(20)).await;
+                }
+            }
+        }))
+    } else {
+        None
+    };
+    let end = Instant::now() + Duration::from_secs(secs);
+    let mut tasks = Vec::new();
+    for c in 0..clients {
+        let (base, key, ids) = (base.clone(), key.clone(), result_ids.clone());
+        tasks.push(tokio::spawn(async move {
+            let client = Client::new(&base, &key);
+            let mut rng = StdRng::seed_from_u64(100 + c as u64);
+            let mut lat = Vec::new();
+            let mut i = c;
+            while Instant::now() < end {
+                let mid = format!("M{:05}", rng.random_range(0..m));
+                let t = Instant::now();
+                match i % 4 {
+                    0 => {
+                        client.fleet(&FleetParams::default()).await.unwrap();
+                    }
+                    1 => {
+                        client
+                            .term_trend(&mid, "EXX", &[-50.0, 50.0])
+                            .await
+                            .unwrap();
+                    }
+                    2 => {
+                        client.summary_trend(&mid).await.unwrap();
+                    }
+                    _ => {
+                        client
+                            .result(&ids[rng.random_range(0..ids.len())])
+                            .await
+                            .unwrap();
+                    }
+                }
+                lat.push(t.elapsed().as_secs_f64() * 1e3);
+                i += 1;
+                if think > 0 {
+                    tokio::time::sleep(Duration::from_millis(think)).await;
+                }
+            }
+            lat
+        }));
+    }
+    let mut all = Vec::new();
+    for t in tasks {
+        all.extend(t.await.unwrap());
+    }
+    stop.store(true, std::sync::atomic::Ordering::Relaxed);
+    if let Some(f) = feeder {
+        f.await.unwrap();
+    }
+    let n = all.len();
+    println!(
+        "reads under load: {clients} clients (each waiting {think} ms between requests) for {secs} s on {m} machines x {r} results (fleet page, term trend, summary trend, result){}",
+        if busy {
+            format!(
+                ", identify jobs running beside (2 workers; {} finished)",
+                jobs_done.load(std::sync::atomic::Ordering::Relaxed)
+            )
+        } else {
+            ", no jobs".into()
+        }
+    );
+    latencies(
+        &format!("{n} requests, {:.0}/s", n as f64 / secs as f64),
+        &mut all,
+    );
+}
+
 #[tokio::main]
 async fn main() {
+    let clients = env("MTCAL_LOAD_CLIENTS", 0);
+    if clients > 0 {
+        let secs = env("MTCAL_LOAD_SECONDS", 20) as u64;
+        let (m, r) = (
+            env("MTCAL_LOAD_MACHINES", 1000),
+            env("MTCAL_LOAD_RESULTS", 20),
+        );
+        let think = env("MTCAL_LOAD_THINK_MS", 0) as u64;
+        reads_under_load_bench(m, r, clients, secs, think, false).await;
+        reads_under_load_bench(m, r, clients, secs, think, true).await;
+        return;
+    }
     let k = env("MTCAL_LOAD_JOBS", 20);
     if k > 0 {
         jobs_bench(k).await;
