@@ -304,7 +304,16 @@ async fn a_misfit_identification_is_diagnosed_on_its_own() {
         ident["document"]["model_check"]["state"], "misfit",
         "{ident}"
     );
-    let queued = diagnoses(ds.clone()).await;
+    // The worker queues it just after it records the identification's success: allow
+    // it a moment.
+    let mut queued = diagnoses(ds.clone()).await;
+    for _ in 0..200 {
+        if !queued.is_empty() {
+            break;
+        }
+        tokio::time::sleep(std::time::Duration::from_millis(50)).await;
+        queued = diagnoses(ds.clone()).await;
+    }
     assert_eq!(queued.len(), 1, "one diagnosis queued: {queued:?}");
     app.wait(&queued[0].id, JobState::Succeeded).await;
     let report = reader
@@ -387,6 +396,8 @@ async fn a_misfit_identification_is_diagnosed_on_its_own() {
     // Identifying the same recording again queues no second diagnosis.
     let again = app.identify(&ds).await;
     app.wait(&again, JobState::Succeeded).await;
+    // (A diagnosis would be queued within moments of the success, as above.)
+    tokio::time::sleep(std::time::Duration::from_millis(500)).await;
     assert_eq!(diagnoses(ds).await.len(), 1);
 
     let (clean, ident) = identified(&app, "AUTO-CLEAN", 5, &[]).await;
@@ -394,5 +405,6 @@ async fn a_misfit_identification_is_diagnosed_on_its_own() {
         ident["document"]["model_check"]["state"], "misfit",
         "{ident}"
     );
+    tokio::time::sleep(std::time::Duration::from_millis(500)).await;
     assert!(diagnoses(clean).await.is_empty());
 }
