@@ -546,23 +546,24 @@ pub async fn result(
             .map(|d| d.as_str().to_string()),
         diagnosis: None,
     };
-    // The diagnosis of the recording an identification was computed from (its misfit
-    // banner says what it found).
-    if r.meta.kind == KIND
-        && let Some(ds) = &r.meta.dataset_id
-        && let Some(d) = history::diagnosis_of_dataset(app.store.as_ref(), &m.id, ds).await?
-    {
-        let doc = app.store.get_result(&d.id).await?.document;
-        header.diagnosis = Some(findings_view(
-            mtcal_domain::fleet::entry::DiagnosisSummary::of(&d.id, doc),
-        ));
-    }
     let doc = &r.document;
     let viewer = session.viewer();
     let page = match r.meta.kind.as_str() {
         "identification" => {
             let stored = vresult::StoredIdentification::read(doc.clone())
                 .map_err(|e| bad_document(&r, e))?;
+            // A misfit's banner says what the diagnosis of its recording found: read only
+            // then.
+            if stored.doc.model_check().is_misfit()
+                && let Some(ds) = &r.meta.dataset_id
+                && let Some(d) =
+                    history::diagnosis_of_dataset(app.store.as_ref(), &m.id, ds).await?
+            {
+                let doc = app.store.get_result(&d.id).await?.document;
+                header.diagnosis = Some(findings_view(
+                    mtcal_domain::fleet::entry::DiagnosisSummary::of(&d.id, doc),
+                ));
+            }
             let body =
                 vresult::ResultBody::Identification(stored.view().with_limits(&verdict_table));
             vresult::result_page(&viewer, &header, &verdict_table, &body)
