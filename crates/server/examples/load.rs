@@ -277,24 +277,46 @@ async fn fresh_store(pg: bool, dir: &std::path::Path, name: &str) -> Arc<dyn Sto
 
 /// `n` identify jobs of one small session, queued at once and drained by `workers`
 /// worker slots; jobs per second from the first submission to the last success.
+/// The upload files of a simulated seed-plan session (10 Hz) of `machine` from truth and
+/// noise `seed`, written under `dir`.
+fn session_files(dir: &std::path::Path, machine: &str, seed: u64) -> mtcal_client::Files {
+    let sim = simulate(
+        &random_truth(seed),
+        &SimOptions {
+            seed,
+            sample_rate_hz: 10.0,
+            machine_id: machine.into(),
+            ..SimOptions::default()
+        },
+    )
+    .unwrap();
+    let sdir = dir.join(format!("{machine}-{seed}"));
+    mtcal_formats::write_session_dir(&sdir, &sim.session).unwrap();
+    mtcal_client::files_to_upload(&sdir).unwrap()
+}
+
+/// `r` seeded identifications of machine `id` (compact documents, realistic scalars),
+/// one a month from January 2000.
+fn seeded_results(rng: &mut StdRng, id: &str, r: usize) -> Vec<NewResult> {
+    (0..r)
+        .map(|k| NewResult {
+            machine_id: id.to_string(),
+            dataset_id: None,
+            kind: "identification".into(),
+            measured_at: format!("{}-{:02}-01T08:00:00Z", 2000 + k / 12, 1 + k % 12),
+            document: json!({"kind": "identification", "seeded": true}),
+            scalars: seeded_scalars(rng, k),
+            figures: vec![],
+        })
+        .collect()
+}
+
 async fn throughput_bench(pg: bool, workers: usize, n: usize) -> f64 {
     let dir = tempfile::tempdir().unwrap();
     let store = fresh_store(pg, dir.path(), &format!("throughput_{workers}")).await;
     let (_, key) = store.create_key(Scope::Write, "load").await.unwrap();
     store.create_machine(&machine("LOAD-T")).await.unwrap();
-    let sim = simulate(
-        &random_truth(3),
-        &SimOptions {
-            seed: 3,
-            sample_rate_hz: 10.0,
-            machine_id: "LOAD-T".into(),
-            ..SimOptions::default()
-        },
-    )
-    .unwrap();
-    let sdir = dir.path().join("s");
-    mtcal_formats::write_session_dir(&sdir, &sim.session).unwrap();
-    let files = mtcal_client::files_to_upload(&sdir).unwrap();
+    let files = session_files(dir.path(), "LOAD-T", 3);
     let client = Client::new(&start_with(store.clone(), true, workers).await, &key);
     let ds = client.upload_files("LOAD-T", &files).await.unwrap();
     let t = Instant::now();
@@ -353,17 +375,7 @@ async fn trends_bench(m: usize, r: usize, q: usize, pg: bool) {
         }
         let mut batch = Vec::new();
         for i in 0..m {
-            for k in 0..r {
-                batch.push(NewResult {
-                    machine_id: format!("M{i:05}"),
-                    dataset_id: None,
-                    kind: "identification".into(),
-                    measured_at: format!("{}-{:02}-01T08:00:00Z", 2000 + k / 12, 1 + k % 12),
-                    document: json!({"kind": "identification", "seeded": true}),
-                    scalars: seeded_scalars(&mut rng, k),
-                    figures: vec![],
-                });
-            }
+            batch.extend(seeded_results(&mut rng, &format!("M{i:05}"), r));
             if batch.len() >= 20_000 || i + 1 == m {
                 store.import_results_bulk(&batch).await.unwrap();
                 batch.clear();
@@ -604,17 +616,7 @@ async fn reads_under_load_bench(
     for i in 0..m {
         let id = format!("M{i:05}");
         store.create_machine(&machine(&id)).await.unwrap();
-        for k in 0..r {
-            batch.push(NewResult {
-                machine_id: id.clone(),
-                dataset_id: None,
-                kind: "identification".into(),
-                measured_at: format!("{}-{:02}-01T08:00:00Z", 2000 + k / 12, 1 + k % 12),
-                document: json!({"kind": "identification", "seeded": true}),
-                scalars: seeded_scalars(&mut rng, k),
-                figures: vec![],
-            });
-        }
+        batch.extend(seeded_results(&mut rng, &id, r));
     }
     store.import_results_bulk(&batch).await.unwrap();
     mtcal_domain::fleet::refresh_all(store.as_ref())
@@ -633,19 +635,7 @@ async fn reads_under_load_bench(
     let stop = Arc::new(std::sync::atomic::AtomicBool::new(false));
     let jobs_done = Arc::new(std::sync::atomic::AtomicUsize::new(0));
     let feeder = if busy {
-        let sim = simulate(
-            &random_truth(5),
-            &SimOptions {
-                seed: 5,
-                sample_rate_hz: 10.0,
-                machine_id: "LOAD-B".into(),
-                ..SimOptions::default()
-            },
-        )
-        .unwrap();
-        let sdir = dir.path().join("busy");
-        mtcal_formats::write_session_dir(&sdir, &sim.session).unwrap();
-        let files = mtcal_client::files_to_upload(&sdir).unwrap();
+        let files = session_files(dir.path(), "LOAD-B", 5);
         let client = Client::new(&base, &key);
         let ds = client.upload_files("LOAD-B", &files).await.unwrap();
         let (stop, done, store) = (stop.clone(), jobs_done.clone(), store.clone());
