@@ -132,8 +132,17 @@ pub fn session(case: &Case, seed: u64) -> mtcal_solver::session::Session {
                 let dt = shape_k(case.shape, case.peak_k, t, dur);
                 structure = match case.make {
                     Make::Lagged(tau) => {
-                        let a = (-(t - last_t).max(0.0) / tau).exp();
-                        a * structure + (1.0 - a) * dt
+                        // Continuous in time through the gaps between runs: sub-steps of
+                        // at most 0.05 s, the input at each sub-step's middle.
+                        let h = (t - last_t).max(0.0);
+                        let steps = (h / 0.05).ceil().max(1.0);
+                        let a = (-(h / steps) / tau).exp();
+                        let mut y = structure;
+                        for k in 0..steps as usize {
+                            let tm = last_t + (k as f64 + 0.5) * h / steps;
+                            y = a * y + (1.0 - a) * shape_k(case.shape, case.peak_k, tm, dur);
+                        }
+                        y
                     }
                     _ => dt,
                 };

@@ -240,6 +240,21 @@ pub const EFFECTS: &[EffectSpec] = &[
                 "sessions with logged temperatures: k_j of the same model",
             )
             .decided_by(PER_KELVIN_DECIDE),
+            q(
+                "lag_s",
+                "s",
+                "sessions with logged temperatures, a structure slower than its sensor: the per-kelvin model with dT through a first-order lag, tau*dTs/dt = dT - Ts, Ts = dT at the first sample",
+            ),
+            p(
+                "offset_um_per_k2_{axis}",
+                "um/K^2",
+                "sessions with logged temperatures, a growth quadratic in the temperature: error_j = dT*(o_j + k_j*q_j/1000) + dT^2*(o2_j + k2_j*q_j/1000); o_j, k_j its slope at dT = 0",
+            ),
+            p(
+                "scale_ppm_per_k2_{axis}",
+                "ppm/K^2",
+                "k2_j of the same quadratic model",
+            ),
             p(
                 "offset_um_per_k",
                 "um/K",
