@@ -70,7 +70,7 @@ const fn q(name: &'static str, unit: &'static str, convention: &'static str) -> 
 /// Every mechanism with a name.
 /// What decides a session's growth per kelvin: the per-run zero offsets leave only the
 /// change of the temperature within each run, measured against the sensor's noise.
-const PER_KELVIN_DECIDE: &str = "longer runs, or a larger change of the temperature within each run against the noise of its sensor (the per-run zero offsets leave only the change within a run),";
+const PER_KELVIN_DECIDE: &str = "longer runs, or a larger change of the temperature within each run against the noise of its sensor (the per-run zero offsets leave only the change within a run), or a temperature that rises and falls, or a sensor nearer the structure (a heating or a cooling that settles does not tell a structure lagging its sensor, or growing nonlinearly, from a change of its coefficients),";
 
 pub const EFFECTS: &[EffectSpec] = &[
     EffectSpec {

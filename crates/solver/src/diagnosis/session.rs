@@ -297,6 +297,14 @@ impl super::engine::Greedy for SessionProblem<'_> {
                 }
             }
         }
+        if t.cand.effect.starts_with("thermal_temperature") {
+            let forms = self.ctx.form_variance(s, t, sigma);
+            for (name, v) in t.names.iter().zip(forms) {
+                if let Some(sd) = params.get_mut(&format!("std_{name}")) {
+                    *sd = sd.hypot(v.sqrt());
+                }
+            }
+        }
         let explained = ((f.ssr - t.ssr).max(0.0) / n as f64).sqrt();
         let size: f64 = t
             .coef

@@ -34,6 +34,9 @@ pub(crate) struct Trial {
     pub heldout_ssr: f64,
     pub dbic: f64,
     pub extra_params: usize,
+    /// A logged temperature's growth: the other forms, evaluated with this one
+    /// ([`Ctx::form_variance`]).
+    pub forms: Vec<Trial>,
 }
 
 /// Most frequencies in one scan, and the most (row, frequency) pairs a scan evaluates.
@@ -325,7 +328,7 @@ impl Ctx<'_> {
     /// temperature the scale sees, the curvature the slope), so the richer form is taken
     /// wherever the data show it, by the criterion the loop uses between effects.
     fn try_temperature_forms(&self, s: &State, cand: &Candidate) -> Option<Trial> {
-        [
+        let mut forms: Vec<Trial> = [
             "thermal_temperature",
             "thermal_temperature_lag",
             "thermal_temperature_quadratic",
@@ -340,7 +343,73 @@ impl Ctx<'_> {
                 },
             )
         })
-        .min_by(|a, b| a.dbic.total_cmp(&b.dbic))
+        .collect();
+        let best = (0..forms.len()).min_by(|&a, &b| forms[a].dbic.total_cmp(&forms[b].dbic))?;
+        let mut t = forms.swap_remove(best);
+        t.forms = forms;
+        Some(t)
+    }
+
+    /// The variance the choice of form adds to each coefficient of a logged
+    /// temperature's growth `t` (its per-kelvin coefficients by name; 0 elsewhere), σ
+    /// the residual standard deviation of its joint fit. A richer form the BIC did not
+    /// choose can still be the physics: the forms are told apart only by how the
+    /// temperature turns. A heating or a cooling that settles exponentially makes a
+    /// lagged temperature nearly an affine function of the sensor's (a lag is then nearly
+    /// a change of the coefficients), and its small within-run changes where the
+    /// temperature is high say little of a curvature; a temperature that rises and falls
+    /// tells them apart. So the coefficients carry the forms as nuisance, the larger of
+    /// per coefficient:
+    ///
+    /// - every richer form: the squared difference of its coefficients from `t`'s (in
+    ///   expectation the richer form's own variance beyond `t`'s where both describe the
+    ///   data, the bias of `t` where only the richer one does);
+    /// - the linear form chosen: the lags the data do not exclude, τ from 0 up to the
+    ///   largest with SSR(τ) within 4σ² of the least of the linear and lagged fits
+    ///   (the 2σ profile interval, τ = 0 being the linear form), the coefficients
+    ///   ranging from the linear ones to those at the interval's end: the square of half
+    ///   that range (the linear estimate lies at one end of it).
+    pub fn form_variance(&self, s: &State, t: &Trial, sigma: f64) -> Vec<f64> {
+        let mut var = vec![0.0; t.ncols];
+        let widen = |var: &mut [f64], names: &[String], coef: &[f64], half: bool| {
+            for (i, name) in t.names.iter().enumerate() {
+                if let Some(j) = names.iter().position(|x| x == name) {
+                    let d = coef[j] - t.coef[i];
+                    let d2 = if half { d * d / 4.0 } else { d * d };
+                    var[i] = var[i].max(d2);
+                }
+            }
+        };
+        let k = |x: &Trial| x.ncols + x.extra_params;
+        for a in t.forms.iter().filter(|a| k(a) > k(t)) {
+            widen(&mut var, &a.names, &a.coef, false);
+        }
+        let lag = t
+            .forms
+            .iter()
+            .find(|a| a.cand.effect == "thermal_temperature_lag");
+        if let (true, Some(lag), Some((_, tau_hat))) = (
+            t.cand.effect == "thermal_temperature",
+            lag,
+            lag.and_then(|l| l.theta),
+        ) {
+            let limit = t.ssr.min(lag.ssr) + 4.0 * sigma * sigma;
+            let top = match catalogue::search(self.d, &lag.cand) {
+                Search::Grid(_, v) => v.iter().copied().fold(tau_hat, f64::max),
+                _ => tau_hat,
+            };
+            let mut up = tau_hat;
+            while up < top && self.ssr_at(s, &lag.cand, (up * 1.25).min(top)) <= limit {
+                up = (up * 1.25).min(top);
+            }
+            let specs = catalogue::specs(self.d, &lag.cand, up, s.eps());
+            if let Some((_, keep, jf)) = self.evaluate(&s.fit, &specs, false) {
+                let names: Vec<String> = keep.iter().map(|&j| specs.names[j].clone()).collect();
+                widen(&mut var, &names, &jf.all.x[..keep.len()], true);
+            }
+            widen(&mut var, &lag.names, &lag.coef, true);
+        }
+        var
     }
 
     /// The slope dβ/dθ of a trial's coefficients along the profile of its nonlinear
@@ -383,6 +452,7 @@ impl Ctx<'_> {
             heldout_ssr: jf.heldout_ssr,
             dbic,
             extra_params: extra,
+            forms: Vec::new(),
         })
     }
 
