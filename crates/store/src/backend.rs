@@ -20,6 +20,35 @@ use crate::{Store, StoreFuture, now_rfc3339};
 use sqlx::{Executor, Transaction};
 use std::collections::HashMap;
 
+/// `sqlx::query(sql)` with its arguments bound in order, to `$1`, `$2`, ...
+macro_rules! bound {
+    ($sql:expr $(, $arg:expr)* $(,)?) => {
+        sqlx::query($sql)$(.bind($arg))*
+    };
+}
+
+/// `sqlx::query_scalar(sql)` with its arguments bound in order, to `$1`, `$2`, ...
+macro_rules! bound_scalar {
+    ($sql:expr $(, $arg:expr)* $(,)?) => {
+        sqlx::query_scalar($sql)$(.bind($arg))*
+    };
+}
+
+/// `bound!(sql, args...)` run on the executor `ex` with sqlx's `method` (`execute`,
+/// `fetch_one`, `fetch_optional`, `fetch_all`), its error the store's.
+macro_rules! run {
+    ($method:ident($ex:expr), $sql:expr $(, $arg:expr)* $(,)?) => {
+        bound!($sql $(, $arg)*).$method($ex).await.db()
+    };
+}
+
+/// `bound_scalar!(sql, args...)` run as [`run!`] runs `bound!`.
+macro_rules! run_scalar {
+    ($method:ident($ex:expr), $sql:expr $(, $arg:expr)* $(,)?) => {
+        bound_scalar!($sql $(, $arg)*).$method($ex).await.db()
+    };
+}
+
 impl This {
     async fn machine(&self, id: &str) -> Result<Machine> {
         let q = format!("SELECT {MACHINE_COLUMNS} FROM machines WHERE id = $1");
@@ -30,13 +59,11 @@ impl This {
     async fn dataset(&self, id: &str) -> Result<Dataset> {
         let q = format!("SELECT {DATASET_COLUMNS} FROM datasets WHERE id = $1");
         let row = row_by_id(&self.pool, q, id, "dataset").await?;
-        let files = sqlx::query(
+        let files = run!(
+            fetch_all(&self.pool),
             "SELECT name, sha256, size FROM dataset_files WHERE dataset_id = $1 ORDER BY name",
-        )
-        .bind(id)
-        .fetch_all(&self.pool)
-        .await
-        .db()?
+            id
+        )?
         .iter()
         .map(rows::file_meta)
         .collect::<Result<Vec<_>>>()?;
@@ -79,29 +106,27 @@ impl This {
         let mut tx = self.pool.begin().await.db()?;
         // Written first (a read before a write in one transaction would deadlock SQLite
         // writers), guarded in the same statement against jobs that still need the data.
-        let marked = sqlx::query(sqlx::AssertSqlSafe(format!(
-            "{mark} AND NOT EXISTS (SELECT 1 FROM jobs WHERE dataset_id = $1 \
+        let marked = run!(
+            execute(&mut *tx),
+            sqlx::AssertSqlSafe(format!(
+                "{mark} AND NOT EXISTS (SELECT 1 FROM jobs WHERE dataset_id = $1 \
              AND state IN ('queued', 'running'))"
-        )))
-        .bind(id)
-        .bind(now_rfc3339())
-        .bind(by)
-        .bind(reason)
-        .execute(&mut *tx)
-        .await
-        .db()?;
+            )),
+            id,
+            now_rfc3339(),
+            by,
+            reason
+        )?;
         if marked.rows_affected() == 0 {
             let q = format!("SELECT {done_column} AS done FROM datasets WHERE id = $1");
             let row = row_by_id(&mut *tx, q, id, "dataset").await?;
             if row.opt_text("done")?.is_none() {
-                let job: String = sqlx::query_scalar(
+                let job: String = run_scalar!(
+                    fetch_optional(&mut *tx),
                     "SELECT id FROM jobs WHERE dataset_id = $1 AND state IN ('queued', 'running') \
                      ORDER BY id LIMIT 1",
-                )
-                .bind(id)
-                .fetch_optional(&mut *tx)
-                .await
-                .db()?
+                    id
+                )?
                 .unwrap_or_default();
                 tx.rollback().await.db()?;
                 return Err(StoreError::Conflict(format!(
@@ -110,26 +135,22 @@ impl This {
                 )));
             }
         }
-        sqlx::query(
+        run!(
+            execute(&mut *tx),
             "UPDATE results SET \
              excluded_at = (SELECT excluded_at FROM datasets WHERE id = $1), \
              excluded_by = (SELECT excluded_by FROM datasets WHERE id = $1), \
              excluded_reason = (SELECT excluded_reason FROM datasets WHERE id = $1) \
              WHERE dataset_id = $1 AND excluded_at IS NULL",
-        )
-        .bind(id)
-        .execute(&mut *tx)
-        .await
-        .db()?;
-        sqlx::query(
+            id
+        )?;
+        run!(
+            execute(&mut *tx),
             "UPDATE dataset_files SET content = $2 WHERE dataset_id = $1 \
              AND (SELECT deleted_at FROM datasets WHERE id = $1) IS NOT NULL",
-        )
-        .bind(id)
-        .bind(Vec::<u8>::new())
-        .execute(&mut *tx)
-        .await
-        .db()?;
+            id,
+            Vec::<u8>::new()
+        )?;
         tx.commit().await.db()?;
         let d = self.dataset(id).await?;
         if d.deleted.is_some() && !dialect::AFTER_BYTES_DELETED.is_empty() {
@@ -172,11 +193,7 @@ async fn row_by_id<'e>(
             id.escape_debug()
         )));
     }
-    sqlx::query(sqlx::AssertSqlSafe(sql))
-        .bind(id)
-        .fetch_optional(ex)
-        .await
-        .db()?
+    run!(fetch_optional(ex), sqlx::AssertSqlSafe(sql), id)?
         .ok_or_else(|| StoreError::NotFound(format!("{what} {id}")))
 }
 
@@ -186,7 +203,8 @@ async fn upsert_fleet_drift<'e>(
     ex: impl Executor<'e, Database = Db>,
     row: &FleetDriftRow,
 ) -> Result<bool> {
-    let done = sqlx::query(
+    let done = run!(
+        execute(ex),
         "INSERT INTO fleet_drift (machine_id, read_at_ms, drift_um, drift_urad, entry, \
          latest_measured_at, basis) \
          VALUES ($1, $2, $3, $4, $5, $6, $7) ON CONFLICT (machine_id) DO UPDATE SET \
@@ -194,17 +212,14 @@ async fn upsert_fleet_drift<'e>(
          drift_urad = EXCLUDED.drift_urad, entry = EXCLUDED.entry, \
          latest_measured_at = EXCLUDED.latest_measured_at, basis = EXCLUDED.basis \
          WHERE fleet_drift.read_at_ms <= EXCLUDED.read_at_ms",
-    )
-    .bind(&row.machine_id)
-    .bind(row.read_at_ms)
-    .bind(row.drift_um)
-    .bind(row.drift_urad)
-    .bind(serde_json::to_string(&row.entry).db()?)
-    .bind(&row.latest_measured_at)
-    .bind(&row.basis)
-    .execute(ex)
-    .await
-    .db()?;
+        &row.machine_id,
+        row.read_at_ms,
+        row.drift_um,
+        row.drift_urad,
+        serde_json::to_string(&row.entry).db()?,
+        &row.latest_measured_at,
+        &row.basis
+    )?;
     Ok(done.rows_affected() == 1)
 }
 
@@ -356,7 +371,7 @@ async fn insert_result(
 ) -> Result<ResultMeta> {
     let row = ResultRow::new(job_id, r)?;
     let (m, s) = (&row.meta, &row.meta.scalars);
-    sqlx::query(
+    bound!(
         "INSERT INTO results (id, job_id, machine_id, dataset_id, kind, measured_at, created_at, \
          document, residual_rms_um, condition_number, rank, ec0y_urad, eb0z_urad, ea0z_urad, \
          term_coefficients, measured_travel, term_covariance, \
@@ -365,42 +380,40 @@ async fn insert_result(
          (SELECT excluded_at FROM datasets WHERE id = $4), \
          (SELECT excluded_by FROM datasets WHERE id = $4), \
          (SELECT excluded_reason FROM datasets WHERE id = $4))",
+        &m.id,
+        &m.job_id,
+        &m.machine_id,
+        &m.dataset_id,
+        &m.kind,
+        &m.measured_at,
+        &m.created_at,
+        &row.document,
+        s.residual_rms_um,
+        s.condition_number,
+        s.rank,
+        s.ec0y_urad,
+        s.eb0z_urad,
+        s.ea0z_urad,
+        &row.term_coefficients,
+        &row.measured_travel,
+        &row.term_covariance
     )
-    .bind(&m.id)
-    .bind(&m.job_id)
-    .bind(&m.machine_id)
-    .bind(&m.dataset_id)
-    .bind(&m.kind)
-    .bind(&m.measured_at)
-    .bind(&m.created_at)
-    .bind(&row.document)
-    .bind(s.residual_rms_um)
-    .bind(s.condition_number)
-    .bind(s.rank)
-    .bind(s.ec0y_urad)
-    .bind(s.eb0z_urad)
-    .bind(s.ea0z_urad)
-    .bind(&row.term_coefficients)
-    .bind(&row.measured_travel)
-    .bind(&row.term_covariance)
     .execute(&mut **tx)
     .await
     .map_err(|e| unique_conflict(e, || format!("result of job {job_id}")))?;
     for f in &r.figures {
-        sqlx::query(
+        run!(
+            execute(&mut **tx),
             "INSERT INTO result_figures (result_id, machine_id, kind, measured_at, name, value, u) \
              VALUES ($1, $2, $3, $4, $5, $6, $7)",
-        )
-        .bind(&m.id)
-        .bind(&m.machine_id)
-        .bind(&m.kind)
-        .bind(&m.measured_at)
-        .bind(&f.name)
-        .bind(f.value)
-        .bind(f.u)
-        .execute(&mut **tx)
-        .await
-        .db()?;
+            &m.id,
+            &m.machine_id,
+            &m.kind,
+            &m.measured_at,
+            &f.name,
+            f.value,
+            f.u
+        )?;
     }
     if m.dataset_id.is_none() {
         return Ok(row.meta);
@@ -415,26 +428,26 @@ async fn insert_result(
 async fn insert_import(tx: &mut Transaction<'_, Db>, r: &NewResult) -> Result<ResultMeta> {
     let job_id = rules::new_id("job");
     let now = now_rfc3339();
-    sqlx::query(
+    bound!(
         "INSERT INTO jobs (id, seq, kind, machine_id, dataset_id, params, state, max_attempts, \
          run_after_ms, created_at, started_at, finished_at, progress, attempts) \
          VALUES ($1, 0, $2, $3, $4, '{}', 'succeeded', 1, 0, $5, $5, $5, 1, 0)",
+        &job_id,
+        crate::JobKind::Import.as_str(),
+        &r.machine_id,
+        &r.dataset_id,
+        &now
     )
-    .bind(&job_id)
-    .bind(crate::JobKind::Import.as_str())
-    .bind(&r.machine_id)
-    .bind(&r.dataset_id)
-    .bind(&now)
     .execute(&mut **tx)
     .await
     .map_err(|e| unique_conflict(e, || format!("import for machine {}", r.machine_id)))?;
     let meta = insert_result(tx, &job_id, r).await?;
-    sqlx::query("UPDATE jobs SET result_id = $2 WHERE id = $1")
-        .bind(&job_id)
-        .bind(&meta.id)
-        .execute(&mut **tx)
-        .await
-        .db()?;
+    run!(
+        execute(&mut **tx),
+        "UPDATE jobs SET result_id = $2 WHERE id = $1",
+        &job_id,
+        &meta.id
+    )?;
     Ok(meta)
 }
 
@@ -444,17 +457,8 @@ impl Store for This {
             crate::text::check_machine(m)?;
             let now = now_rfc3339();
             let json = MachineJson::of(m)?;
-            sqlx::query(
-                "INSERT INTO machines (id, name, topology, travel_mm, site, tags, \
-                 baseline_result_id, created_at, updated_at) VALUES ($1, $2, $3, $4, $5, $6, NULL, $7, $7)",
-            )
-            .bind(&m.id)
-            .bind(&m.name)
-            .bind(&json.topology)
-            .bind(&json.travel_mm)
-            .bind(&m.site)
-            .bind(&json.tags)
-            .bind(&now)
+            bound!("INSERT INTO machines (id, name, topology, travel_mm, site, tags, \
+                 baseline_result_id, created_at, updated_at) VALUES ($1, $2, $3, $4, $5, $6, NULL, $7, $7)", &m.id, &m.name, &json.topology, &json.travel_mm, &m.site, &json.tags, &now)
             .execute(&self.pool)
             .await
             .map_err(|e| unique_conflict(e, || format!("machine {} already exists", m.id)))?;
@@ -476,21 +480,19 @@ impl Store for This {
             rules::apply_patch(&mut m, p, baseline.as_ref())?;
             crate::text::check_machine(&m)?;
             let json = MachineJson::of(&m)?;
-            sqlx::query(
+            run!(
+                execute(&self.pool),
                 "UPDATE machines SET name = $2, topology = $3, travel_mm = $4, site = $5, tags = $6, \
                  baseline_result_id = $7, updated_at = $8 WHERE id = $1",
-            )
-            .bind(id)
-            .bind(&m.name)
-            .bind(&json.topology)
-            .bind(&json.travel_mm)
-            .bind(&m.site)
-            .bind(&json.tags)
-            .bind(&m.baseline_result_id)
-            .bind(now_rfc3339())
-            .execute(&self.pool)
-            .await
-            .db()?;
+                id,
+                &m.name,
+                &json.topology,
+                &json.travel_mm,
+                &m.site,
+                &json.tags,
+                &m.baseline_result_id,
+                now_rfc3339()
+            )?;
             self.machine(id).await
         })
     }
@@ -504,15 +506,15 @@ impl Store for This {
             let q = format!(
                 "SELECT {MACHINE_COLUMNS} FROM machines WHERE id > $1 ORDER BY id LIMIT $2"
             );
-            sqlx::query(sqlx::AssertSqlSafe(q))
-                .bind(after.unwrap_or(""))
-                .bind(limit)
-                .fetch_all(&self.pool)
-                .await
-                .db()?
-                .iter()
-                .map(rows::machine)
-                .collect()
+            run!(
+                fetch_all(&self.pool),
+                sqlx::AssertSqlSafe(q),
+                after.unwrap_or(""),
+                limit
+            )?
+            .iter()
+            .map(rows::machine)
+            .collect()
         })
     }
 
@@ -524,34 +526,32 @@ impl Store for This {
             // The same files with the same bytes for the same machine: a repeated upload,
             // whose second copy would count the check twice in every trend. One statement
             // (a read followed by a write in one transaction would deadlock SQLite writers).
-            let inserted = sqlx::query(
+            let inserted = bound!(
                 "INSERT INTO datasets (id, machine_id, kind, measured_at, uploaded_at, samples, \
                  total_bytes, sha256) SELECT $1, $2, $3, $4, $5, $6, $7, $8 WHERE NOT EXISTS \
                  (SELECT 1 FROM datasets WHERE machine_id = $2 AND sha256 = $8 \
                  AND excluded_at IS NULL)",
+                &id,
+                &d.machine_id,
+                &d.kind,
+                &d.measured_at,
+                now_rfc3339(),
+                d.samples,
+                manifest.total_bytes,
+                &manifest.sha256
             )
-            .bind(&id)
-            .bind(&d.machine_id)
-            .bind(&d.kind)
-            .bind(&d.measured_at)
-            .bind(now_rfc3339())
-            .bind(d.samples)
-            .bind(manifest.total_bytes)
-            .bind(&manifest.sha256)
             .execute(&mut *tx)
             .await
             .map_err(|e| unique_conflict(e, || format!("dataset of machine {}", d.machine_id)))?;
             if inserted.rows_affected() == 0 {
                 tx.rollback().await.db()?;
-                let e: String = sqlx::query_scalar(
+                let e: String = run_scalar!(
+                    fetch_one(&self.pool),
                     "SELECT id FROM datasets WHERE machine_id = $1 AND sha256 = $2 \
                      AND excluded_at IS NULL ORDER BY id LIMIT 1",
-                )
-                .bind(&d.machine_id)
-                .bind(&manifest.sha256)
-                .fetch_one(&self.pool)
-                .await
-                .db()?;
+                    &d.machine_id,
+                    &manifest.sha256
+                )?;
                 return Err(StoreError::Conflict(format!(
                     "this upload is identical to dataset {e} of machine {} (the same files with \
                      the same bytes): submit a new job on {e} instead of uploading it again",
@@ -564,15 +564,15 @@ impl Store for This {
                     .iter()
                     .find(|f| &f.name == name)
                     .ok_or_else(|| StoreError::Backend(format!("file {name} not in manifest")))?;
-                sqlx::query(
+                bound!(
                     "INSERT INTO dataset_files (dataset_id, name, sha256, size, content) \
                      VALUES ($1, $2, $3, $4, $5)",
+                    &id,
+                    name,
+                    &meta.sha256,
+                    meta.size,
+                    bytes.as_slice()
                 )
-                .bind(&id)
-                .bind(name)
-                .bind(&meta.sha256)
-                .bind(meta.size)
-                .bind(bytes.as_slice())
                 .execute(&mut *tx)
                 .await
                 .map_err(|e| unique_conflict(e, || format!("file {name} given twice")))?;
@@ -589,14 +589,12 @@ impl Store for This {
     fn dataset_file<'a>(&'a self, id: &'a str, name: &'a str) -> StoreFuture<'a, Vec<u8>> {
         Box::pin(async move {
             self.bytes_kept(id).await?;
-            let row = sqlx::query(
+            let row = run!(
+                fetch_optional(&self.pool),
                 "SELECT content FROM dataset_files WHERE dataset_id = $1 AND name = $2",
-            )
-            .bind(id)
-            .bind(name)
-            .fetch_optional(&self.pool)
-            .await
-            .db()?
+                id,
+                name
+            )?
             .ok_or_else(|| StoreError::NotFound(format!("file {name} of dataset {id}")))?;
             rows::Columns::bytes(&row, "content")
         })
@@ -605,13 +603,11 @@ impl Store for This {
     fn dataset_files<'a>(&'a self, id: &'a str) -> StoreFuture<'a, Vec<(String, Vec<u8>)>> {
         Box::pin(async move {
             self.bytes_kept(id).await?;
-            let rows = sqlx::query(
+            let rows = run!(
+                fetch_all(&self.pool),
                 "SELECT name, content FROM dataset_files WHERE dataset_id = $1 ORDER BY name",
-            )
-            .bind(id)
-            .fetch_all(&self.pool)
-            .await
-            .db()?;
+                id
+            )?;
             if rows.is_empty() {
                 return Err(StoreError::NotFound(format!("dataset {id}")));
             }
@@ -634,22 +630,13 @@ impl Store for This {
                 "SELECT {DATASET_COLUMNS} FROM datasets WHERE machine_id = $1{shown} \
                  ORDER BY measured_at, id"
             );
-            let found = sqlx::query(sqlx::AssertSqlSafe(q))
-                .bind(machine_id)
-                .fetch_all(&self.pool)
-                .await
-                .db()?;
+            let found = run!(fetch_all(&self.pool), sqlx::AssertSqlSafe(q), machine_id)?;
             let q = format!(
                 "SELECT dataset_id, name, sha256, size FROM dataset_files WHERE dataset_id IN \
                  (SELECT id FROM datasets WHERE machine_id = $1{shown}) ORDER BY dataset_id, name"
             );
             let mut files: std::collections::HashMap<String, Vec<FileMeta>> = Default::default();
-            for r in sqlx::query(sqlx::AssertSqlSafe(q))
-                .bind(machine_id)
-                .fetch_all(&self.pool)
-                .await
-                .db()?
-            {
+            for r in run!(fetch_all(&self.pool), sqlx::AssertSqlSafe(q), machine_id)? {
                 files
                     .entry(r.text("dataset_id")?)
                     .or_default()
@@ -724,12 +711,12 @@ impl Store for This {
                 "SELECT {RESULT_COLUMNS} FROM results WHERE machine_id = $1 AND kind = $2 \
                  AND excluded_at IS NULL ORDER BY measured_at, id"
             );
-            let rows = sqlx::query(sqlx::AssertSqlSafe(q))
-                .bind(machine_id)
-                .bind(kind)
-                .fetch_all(&self.pool)
-                .await
-                .db()?;
+            let rows = run!(
+                fetch_all(&self.pool),
+                sqlx::AssertSqlSafe(q),
+                machine_id,
+                kind
+            )?;
             Ok(rows::result_meta_checked(&rows))
         })
     }
@@ -751,21 +738,21 @@ impl Store for This {
             // One read snapshot for the three queries: a result landing between them
             // must not leave a pair whose result or machine is missing.
             let mut tx = self.read_snapshot().await?;
-            let pairs = sqlx::query(sqlx::AssertSqlSafe(format!(
-                "{PAIRS} SELECT mid, n, base_id, last_id FROM p WHERE n > 0 ORDER BY mid"
-            )))
-            .bind(kind)
-            .fetch_all(&mut *tx)
-            .await
-            .db()?;
-            let metas = sqlx::query(sqlx::AssertSqlSafe(format!(
-                "{PAIRS} SELECT {RESULT_COLUMNS} FROM results WHERE id IN \
+            let pairs = run!(
+                fetch_all(&mut *tx),
+                sqlx::AssertSqlSafe(format!(
+                    "{PAIRS} SELECT mid, n, base_id, last_id FROM p WHERE n > 0 ORDER BY mid"
+                )),
+                kind
+            )?;
+            let metas = run!(
+                fetch_all(&mut *tx),
+                sqlx::AssertSqlSafe(format!(
+                    "{PAIRS} SELECT {RESULT_COLUMNS} FROM results WHERE id IN \
                  (SELECT base_id FROM p WHERE n > 0 UNION SELECT last_id FROM p WHERE n > 0)"
-            )))
-            .bind(kind)
-            .fetch_all(&mut *tx)
-            .await
-            .db()?;
+                )),
+                kind
+            )?;
             let machines = sqlx::query(sqlx::AssertSqlSafe(format!(
                 "SELECT {MACHINE_COLUMNS} FROM machines"
             )))
@@ -780,13 +767,11 @@ impl Store for This {
     fn result_figures<'a>(&'a self, result_id: &'a str) -> StoreFuture<'a, Vec<Figure>> {
         Box::pin(async move {
             self.result_meta(result_id).await?;
-            sqlx::query(
+            run!(
+                fetch_all(&self.pool),
                 "SELECT name, value, u FROM result_figures WHERE result_id = $1 ORDER BY name",
-            )
-            .bind(result_id)
-            .fetch_all(&self.pool)
-            .await
-            .db()?
+                result_id
+            )?
             .iter()
             .map(rows::figure)
             .collect()
@@ -799,17 +784,15 @@ impl Store for This {
         name: &'a str,
     ) -> StoreFuture<'a, Vec<FigurePoint>> {
         Box::pin(async move {
-            sqlx::query(
+            run!(
+                fetch_all(&self.pool),
                 "SELECT result_id, measured_at, value, u FROM result_figures \
                  WHERE machine_id = $1 AND name = $2 AND result_id NOT IN \
                  (SELECT id FROM results WHERE machine_id = $1 AND excluded_at IS NOT NULL) \
                  ORDER BY measured_at, result_id",
-            )
-            .bind(machine_id)
-            .bind(name)
-            .fetch_all(&self.pool)
-            .await
-            .db()?
+                machine_id,
+                name
+            )?
             .iter()
             .map(rows::figure_point)
             .collect()
@@ -818,13 +801,11 @@ impl Store for This {
 
     fn figure_names<'a>(&'a self, machine_id: &'a str) -> StoreFuture<'a, Vec<String>> {
         Box::pin(async move {
-            sqlx::query(
+            run!(
+                fetch_all(&self.pool),
                 "SELECT DISTINCT name FROM result_figures WHERE machine_id = $1 ORDER BY name",
-            )
-            .bind(machine_id)
-            .fetch_all(&self.pool)
-            .await
-            .db()?
+                machine_id
+            )?
             .iter()
             .map(|r| r.text("name"))
             .collect()
@@ -839,17 +820,15 @@ impl Store for This {
     ) -> StoreFuture<'a, ResultMeta> {
         Box::pin(async move {
             crate::text::check_record(by, reason)?;
-            sqlx::query(
+            run!(
+                execute(&self.pool),
                 "UPDATE results SET excluded_at = $2, excluded_by = $3, excluded_reason = $4 \
                  WHERE id = $1 AND excluded_at IS NULL",
-            )
-            .bind(id)
-            .bind(now_rfc3339())
-            .bind(by)
-            .bind(reason)
-            .execute(&self.pool)
-            .await
-            .db()?;
+                id,
+                now_rfc3339(),
+                by,
+                reason
+            )?;
             self.result_meta(id).await
         })
     }
@@ -884,11 +863,11 @@ impl Store for This {
 
     fn delete_fleet_drift<'a>(&'a self, machine_id: &'a str) -> StoreFuture<'a, ()> {
         Box::pin(async move {
-            sqlx::query("DELETE FROM fleet_drift WHERE machine_id = $1")
-                .bind(machine_id)
-                .execute(&self.pool)
-                .await
-                .db()?;
+            run!(
+                execute(&self.pool),
+                "DELETE FROM fleet_drift WHERE machine_id = $1",
+                machine_id
+            )?;
             Ok(())
         })
     }
@@ -906,11 +885,11 @@ impl Store for This {
                  ORDER BY f.{order} DESC, f.machine_id LIMIT $1",
                 qualified("f", FLEET_DRIFT_COLUMNS)
             );
-            let rows = sqlx::query(sqlx::AssertSqlSafe(q))
-                .bind(i64::try_from(limit).unwrap_or(i64::MAX))
-                .fetch_all(&self.pool)
-                .await
-                .db()?;
+            let rows = run!(
+                fetch_all(&self.pool),
+                sqlx::AssertSqlSafe(q),
+                i64::try_from(limit).unwrap_or(i64::MAX)
+            )?;
             rows.iter()
                 .map(|r| Ok((rows::fleet_drift(r)?, r.text("name")?, r.opt_text("site")?)))
                 .collect()
@@ -1115,19 +1094,17 @@ impl Store for This {
         Box::pin(async move {
             crate::text::check_line("label", label, crate::text::LABEL_MAX)?;
             let k = NewKey::generate(scope, label);
-            sqlx::query(
+            run!(
+                execute(&self.pool),
                 "INSERT INTO api_keys (id, hash, prefix, scope, label, created_at) \
                  VALUES ($1, $2, $3, $4, $5, $6)",
-            )
-            .bind(&k.key.id)
-            .bind(&k.hash)
-            .bind(&k.key.prefix)
-            .bind(scope.as_str())
-            .bind(&k.key.label)
-            .bind(&k.key.created_at)
-            .execute(&self.pool)
-            .await
-            .db()?;
+                &k.key.id,
+                &k.hash,
+                &k.key.prefix,
+                scope.as_str(),
+                &k.key.label,
+                &k.key.created_at
+            )?;
             Ok((k.key, k.secret))
         })
     }
@@ -1137,11 +1114,11 @@ impl Store for This {
             let q = format!(
                 "SELECT {KEY_COLUMNS} FROM api_keys WHERE hash = $1 AND revoked_at IS NULL"
             );
-            let row = sqlx::query(sqlx::AssertSqlSafe(q))
-                .bind(crate::keys::hash_secret(secret))
-                .fetch_optional(&self.pool)
-                .await
-                .db()?;
+            let row = run!(
+                fetch_optional(&self.pool),
+                sqlx::AssertSqlSafe(q),
+                crate::keys::hash_secret(secret)
+            )?;
             row.as_ref().map(rows::api_key).transpose()
         })
     }
@@ -1169,25 +1146,23 @@ impl Store for This {
                     .db()?;
             }
             // One statement: the last admin key that is not revoked stays.
-            let done = sqlx::query(
+            let done = run!(
+                execute(&mut *tx),
                 "UPDATE api_keys SET revoked_at = $2 WHERE id = $1 AND revoked_at IS NULL \
                  AND (scope <> 'admin' OR (SELECT COUNT(*) FROM api_keys \
                       WHERE scope = 'admin' AND revoked_at IS NULL) > 1)",
-            )
-            .bind(id)
-            .bind(now_rfc3339())
-            .execute(&mut *tx)
-            .await
-            .db()?;
+                id,
+                now_rfc3339()
+            )?;
             let q = format!("SELECT {KEY_COLUMNS} FROM api_keys WHERE id = $1");
             let key = rows::api_key(&row_by_id(&mut *tx, q, id, "key").await?)?;
             // Its sign-in sessions end with it.
-            sqlx::query("DELETE FROM sessions WHERE key_id = $1 AND $2 = 1")
-                .bind(id)
-                .bind(i64::from(key.revoked_at.is_some()))
-                .execute(&mut *tx)
-                .await
-                .db()?;
+            run!(
+                execute(&mut *tx),
+                "DELETE FROM sessions WHERE key_id = $1 AND $2 = 1",
+                id,
+                i64::from(key.revoked_at.is_some())
+            )?;
             if done.rows_affected() == 0 && key.revoked_at.is_none() {
                 tx.rollback().await.db()?;
                 return Err(StoreError::Conflict(format!(
@@ -1205,15 +1180,15 @@ impl Store for This {
                 "SELECT {JOB_COLUMNS} FROM jobs WHERE ($1 IS NULL OR state = $1) \
                  ORDER BY created_at DESC, seq DESC LIMIT $2"
             );
-            sqlx::query(sqlx::AssertSqlSafe(q))
-                .bind(state.map(|s| s.as_str()))
-                .bind(limit)
-                .fetch_all(&self.pool)
-                .await
-                .db()?
-                .iter()
-                .map(rows::job)
-                .collect()
+            run!(
+                fetch_all(&self.pool),
+                sqlx::AssertSqlSafe(q),
+                state.map(|s| s.as_str()),
+                limit
+            )?
+            .iter()
+            .map(rows::job)
+            .collect()
         })
     }
 
@@ -1224,17 +1199,17 @@ impl Store for This {
         Box::pin(async move {
             crate::text::check_line("target", &p.target, crate::text::TARGET_MAX)?;
             let now = now_rfc3339();
-            sqlx::query(
+            bound!(
                 "INSERT INTO tolerance_profiles (id, scope, target, limits, webhook_url, \
                  webhook_secret, created_at, updated_at) VALUES ($1, $2, $3, $4, $5, $6, $7, $7)",
+                &p.id,
+                &p.scope,
+                &p.target,
+                serde_json::to_string(&p.limits).db()?,
+                &p.webhook_url,
+                &p.webhook_secret,
+                &now
             )
-            .bind(&p.id)
-            .bind(&p.scope)
-            .bind(&p.target)
-            .bind(serde_json::to_string(&p.limits).db()?)
-            .bind(&p.webhook_url)
-            .bind(&p.webhook_secret)
-            .bind(&now)
             .execute(&self.pool)
             .await
             .map_err(|e| {
@@ -1280,18 +1255,16 @@ impl Store for This {
         webhook_secret: Option<&'a str>,
     ) -> StoreFuture<'a, ToleranceProfile> {
         Box::pin(async move {
-            let done = sqlx::query(
+            let done = run!(
+                execute(&self.pool),
                 "UPDATE tolerance_profiles SET limits = $2, webhook_url = $3, updated_at = $4, \
                  webhook_secret = $5 WHERE id = $1",
-            )
-            .bind(id)
-            .bind(serde_json::to_string(limits).db()?)
-            .bind(webhook_url)
-            .bind(now_rfc3339())
-            .bind(webhook_secret)
-            .execute(&self.pool)
-            .await
-            .db()?;
+                id,
+                serde_json::to_string(limits).db()?,
+                webhook_url,
+                now_rfc3339(),
+                webhook_secret
+            )?;
             if done.rows_affected() == 0 {
                 return Err(StoreError::NotFound(format!("tolerance profile {id}")));
             }
@@ -1301,11 +1274,11 @@ impl Store for This {
 
     fn delete_tolerance<'a>(&'a self, id: &'a str) -> StoreFuture<'a, ()> {
         Box::pin(async move {
-            let done = sqlx::query("DELETE FROM tolerance_profiles WHERE id = $1")
-                .bind(id)
-                .execute(&self.pool)
-                .await
-                .db()?;
+            let done = run!(
+                execute(&self.pool),
+                "DELETE FROM tolerance_profiles WHERE id = $1",
+                id
+            )?;
             if done.rows_affected() == 0 {
                 return Err(StoreError::NotFound(format!("tolerance profile {id}")));
             }
@@ -1320,28 +1293,26 @@ impl Store for This {
     ) -> StoreFuture<'a, Option<Alert>> {
         Box::pin(async move {
             let mut tx = self.pool.begin().await.db()?;
-            let done = sqlx::query(
+            let done = run!(
+                execute(&mut *tx),
                 "INSERT INTO alerts (id, machine_id, result_id, baseline_result_id, profile_id, \
                  raised_at, message, items, details, acknowledged_at, acknowledged_by, \
                  acknowledgement_comment) \
                  VALUES ($1, $2, $3, $4, $5, $6, $7, $8, $9, NULL, NULL, NULL) \
                  ON CONFLICT (result_id) DO NOTHING",
-            )
-            .bind(&a.id)
-            .bind(&a.machine_id)
-            .bind(&a.result_id)
-            .bind(&a.baseline_result_id)
-            .bind(&a.profile_id)
-            .bind(&a.raised_at)
-            .bind(&a.message)
-            .bind(serde_json::to_string(&a.items).db()?)
-            .bind(match &a.details {
-                Some(d) => Some(serde_json::to_string(d).db()?),
-                None => None,
-            })
-            .execute(&mut *tx)
-            .await
-            .db()?;
+                &a.id,
+                &a.machine_id,
+                &a.result_id,
+                &a.baseline_result_id,
+                &a.profile_id,
+                &a.raised_at,
+                &a.message,
+                serde_json::to_string(&a.items).db()?,
+                match &a.details {
+                    Some(d) => Some(serde_json::to_string(d).db()?),
+                    None => None,
+                }
+            )?;
             if done.rows_affected() == 0 {
                 tx.rollback().await.db()?;
                 return Ok(None);
@@ -1354,16 +1325,16 @@ impl Store for This {
                      VALUES ($1, $2, $3, $4, $5, 'pending', 0, {}, NULL, $6, $6)",
                     dialect::NOW_MS
                 );
-                sqlx::query(sqlx::AssertSqlSafe(q))
-                    .bind(&d.id)
-                    .bind(&a.id)
-                    .bind(&d.profile_id)
-                    .bind(&d.url)
-                    .bind(&d.body)
-                    .bind(&now)
-                    .execute(&mut *tx)
-                    .await
-                    .db()?;
+                run!(
+                    execute(&mut *tx),
+                    sqlx::AssertSqlSafe(q),
+                    &d.id,
+                    &a.id,
+                    &d.profile_id,
+                    &d.url,
+                    &d.body,
+                    &now
+                )?;
             }
             tx.commit().await.db()?;
             self.get_alert(&a.id).await.map(Some)
@@ -1382,12 +1353,12 @@ impl Store for This {
                 now = dialect::NOW_MS,
                 lock = dialect::CLAIM_LOCK
             );
-            let row = sqlx::query(sqlx::AssertSqlSafe(q))
-                .bind(lease_ms)
-                .bind(now_rfc3339())
-                .fetch_optional(&self.pool)
-                .await
-                .db()?;
+            let row = run!(
+                fetch_optional(&self.pool),
+                sqlx::AssertSqlSafe(q),
+                lease_ms,
+                now_rfc3339()
+            )?;
             row.as_ref().map(rows::delivery).transpose()
         })
     }
@@ -1410,16 +1381,16 @@ impl Store for This {
                  WHERE id = $1 AND attempts = $2 AND state = 'pending'",
                 dialect::NOW_MS
             );
-            sqlx::query(sqlx::AssertSqlSafe(q))
-                .bind(id)
-                .bind(attempt)
-                .bind(state)
-                .bind(after_ms)
-                .bind(error)
-                .bind(now_rfc3339())
-                .execute(&self.pool)
-                .await
-                .db()?;
+            run!(
+                execute(&self.pool),
+                sqlx::AssertSqlSafe(q),
+                id,
+                attempt,
+                state,
+                after_ms,
+                error,
+                now_rfc3339()
+            )?;
             Ok(())
         })
     }
@@ -1436,16 +1407,16 @@ impl Store for This {
                  WHERE ($1 IS NULL OR alert_id = $1) AND ($2 IS NULL OR state = $2) \
                  ORDER BY created_at DESC, id DESC LIMIT $3"
             );
-            sqlx::query(sqlx::AssertSqlSafe(q))
-                .bind(alert_id)
-                .bind(state)
-                .bind(limit)
-                .fetch_all(&self.pool)
-                .await
-                .db()?
-                .iter()
-                .map(rows::delivery)
-                .collect()
+            run!(
+                fetch_all(&self.pool),
+                sqlx::AssertSqlSafe(q),
+                alert_id,
+                state,
+                limit
+            )?
+            .iter()
+            .map(rows::delivery)
+            .collect()
         })
     }
 
@@ -1473,15 +1444,15 @@ impl Store for This {
                  ORDER BY raised_at DESC, id DESC LIMIT $2",
                 rows::ALERT_COLUMNS
             );
-            sqlx::query(sqlx::AssertSqlSafe(q))
-                .bind(machine_id)
-                .bind(limit)
-                .fetch_all(&self.pool)
-                .await
-                .db()?
-                .iter()
-                .map(rows::alert)
-                .collect()
+            run!(
+                fetch_all(&self.pool),
+                sqlx::AssertSqlSafe(q),
+                machine_id,
+                limit
+            )?
+            .iter()
+            .map(rows::alert)
+            .collect()
         })
     }
 
@@ -1493,17 +1464,15 @@ impl Store for This {
     ) -> StoreFuture<'a, Alert> {
         Box::pin(async move {
             crate::text::check_line("by", by, crate::text::BY_MAX)?;
-            sqlx::query(
+            run!(
+                execute(&self.pool),
                 "UPDATE alerts SET acknowledged_at = $2, acknowledged_by = $3, \
                  acknowledgement_comment = $4 WHERE id = $1 AND acknowledged_at IS NULL",
-            )
-            .bind(id)
-            .bind(now_rfc3339())
-            .bind(by)
-            .bind(comment)
-            .execute(&self.pool)
-            .await
-            .db()?;
+                id,
+                now_rfc3339(),
+                by,
+                comment
+            )?;
             self.get_alert(id).await
         })
     }
@@ -1526,14 +1495,14 @@ impl Store for This {
                  SELECT $1, id, $3, {now}, {now} + $4 FROM api_keys \
                  WHERE id = $2 AND revoked_at IS NULL"
             );
-            let done = sqlx::query(sqlx::AssertSqlSafe(q))
-                .bind(crate::keys::hash_secret(&s.token))
-                .bind(key_id)
-                .bind(&s.csrf)
-                .bind(ttl_ms)
-                .execute(&self.pool)
-                .await
-                .db()?;
+            let done = run!(
+                execute(&self.pool),
+                sqlx::AssertSqlSafe(q),
+                crate::keys::hash_secret(&s.token),
+                key_id,
+                &s.csrf,
+                ttl_ms
+            )?;
             if done.rows_affected() == 0 {
                 return Err(StoreError::NotFound(format!(
                     "key {key_id} (or it is revoked)"
@@ -1551,11 +1520,11 @@ impl Store for This {
                 qualified("k", KEY_COLUMNS),
                 dialect::NOW_MS
             );
-            let row = sqlx::query(sqlx::AssertSqlSafe(q))
-                .bind(crate::keys::hash_secret(token))
-                .fetch_optional(&self.pool)
-                .await
-                .db()?;
+            let row = run!(
+                fetch_optional(&self.pool),
+                sqlx::AssertSqlSafe(q),
+                crate::keys::hash_secret(token)
+            )?;
             row.map(|r| {
                 Ok(SessionRecord {
                     key: rows::api_key(&r)?,
@@ -1568,11 +1537,11 @@ impl Store for This {
 
     fn end_session<'a>(&'a self, token: &'a str) -> StoreFuture<'a, ()> {
         Box::pin(async move {
-            sqlx::query("DELETE FROM sessions WHERE token_hash = $1")
-                .bind(crate::keys::hash_secret(token))
-                .execute(&self.pool)
-                .await
-                .db()?;
+            run!(
+                execute(&self.pool),
+                "DELETE FROM sessions WHERE token_hash = $1",
+                crate::keys::hash_secret(token)
+            )?;
             Ok(())
         })
     }
@@ -1632,17 +1601,19 @@ impl Queue for This {
                 seq = dialect::NEXT_SEQ,
                 now = dialect::NOW_MS
             );
-            sqlx::query(sqlx::AssertSqlSafe(q))
-                .bind(&id)
-                .bind(j.kind.as_str())
-                .bind(&j.machine_id)
-                .bind(&j.dataset_id)
-                .bind(serde_json::to_string(&j.params).db()?)
-                .bind(j.max_attempts.max(1))
-                .bind(now_rfc3339())
-                .execute(&self.pool)
-                .await
-                .map_err(|e| unique_conflict(e, || format!("job {id}")))?;
+            bound!(
+                sqlx::AssertSqlSafe(q),
+                &id,
+                j.kind.as_str(),
+                &j.machine_id,
+                &j.dataset_id,
+                serde_json::to_string(&j.params).db()?,
+                j.max_attempts.max(1),
+                now_rfc3339()
+            )
+            .execute(&self.pool)
+            .await
+            .map_err(|e| unique_conflict(e, || format!("job {id}")))?;
             self.job(&id).await
         })
     }
@@ -1662,12 +1633,12 @@ impl Queue for This {
                    cancel_requested = CASE WHEN state = 'running' THEN 1 ELSE cancel_requested END \
                  WHERE id = $1 AND state IN ('queued', 'running') RETURNING {JOB_COLUMNS}"
             );
-            let row = sqlx::query(sqlx::AssertSqlSafe(q))
-                .bind(id)
-                .bind(now_rfc3339())
-                .fetch_optional(&self.pool)
-                .await
-                .db()?;
+            let row = run!(
+                fetch_optional(&self.pool),
+                sqlx::AssertSqlSafe(q),
+                id,
+                now_rfc3339()
+            )?;
             match row {
                 Some(row) => rows::job(&row),
                 None => Err(StoreError::Conflict(format!(
@@ -1692,13 +1663,13 @@ impl Queue for This {
                 kinds = JobKind::runnable_sql_list(),
                 lock = dialect::CLAIM_LOCK
             );
-            let row = sqlx::query(sqlx::AssertSqlSafe(q))
-                .bind(worker)
-                .bind(lease_ms)
-                .bind(now_rfc3339())
-                .fetch_optional(&self.pool)
-                .await
-                .db()?;
+            let row = run!(
+                fetch_optional(&self.pool),
+                sqlx::AssertSqlSafe(q),
+                worker,
+                lease_ms,
+                now_rfc3339()
+            )?;
             row.as_ref().map(rows::job).transpose()
         })
     }
@@ -1718,15 +1689,15 @@ impl Queue for This {
                  RETURNING cancel_requested",
                 dialect::NOW_MS
             );
-            let row = sqlx::query(sqlx::AssertSqlSafe(q))
-                .bind(id)
-                .bind(worker)
-                .bind(lease_ms)
-                .bind(progress.clamp(0.0, 1.0))
-                .bind(message)
-                .fetch_optional(&self.pool)
-                .await
-                .db()?;
+            let row = run!(
+                fetch_optional(&self.pool),
+                sqlx::AssertSqlSafe(q),
+                id,
+                worker,
+                lease_ms,
+                progress.clamp(0.0, 1.0),
+                message
+            )?;
             Ok(match row {
                 None => Heartbeat::LeaseLost,
                 Some(r) if r.int("cancel_requested")? != 0 => Heartbeat::CancelRequested,
@@ -1745,28 +1716,24 @@ impl Queue for This {
             let mut tx = self.pool.begin().await.db()?;
             // Take the lease back first: this write makes the transaction the only writer,
             // and fails when another worker owns the job now.
-            let owned = sqlx::query(
+            let owned = run!(
+                execute(&mut *tx),
                 "UPDATE jobs SET progress = 1, progress_message = 'done' \
                  WHERE id = $1 AND state = 'running' AND lease_owner = $2 AND cancel_requested = 0",
-            )
-            .bind(id)
-            .bind(worker)
-            .execute(&mut *tx)
-            .await
-            .db()?;
+                id,
+                worker
+            )?;
             lease_held(owned.rows_affected(), id)?;
             let meta = insert_result(&mut tx, id, &r).await?;
-            sqlx::query(
+            run!(
+                execute(&mut *tx),
                 "UPDATE jobs SET state = 'succeeded', result_id = $2, finished_at = $3, \
                  lease_owner = NULL, lease_expires_ms = NULL, error_code = NULL, error_message = NULL \
                  WHERE id = $1",
-            )
-            .bind(id)
-            .bind(&meta.id)
-            .bind(now_rfc3339())
-            .execute(&mut *tx)
-            .await
-            .db()?;
+                id,
+                &meta.id,
+                now_rfc3339()
+            )?;
             commit_with_job(tx, id).await
         })
     }
@@ -1789,16 +1756,16 @@ impl Queue for This {
                  WHERE id = $1 AND state = 'running' AND lease_owner = $2",
                 dialect::NOW_MS
             );
-            let done = sqlx::query(sqlx::AssertSqlSafe(q))
-                .bind(id)
-                .bind(worker)
-                .bind(code)
-                .bind(message)
-                .bind(retry_after_ms)
-                .bind(now_rfc3339())
-                .execute(&self.pool)
-                .await
-                .db()?;
+            let done = run!(
+                execute(&self.pool),
+                sqlx::AssertSqlSafe(q),
+                id,
+                worker,
+                code,
+                message,
+                retry_after_ms,
+                now_rfc3339()
+            )?;
             lease_held(done.rows_affected(), id)?;
             self.job(id).await
         })
@@ -1836,13 +1803,13 @@ impl Queue for This {
                  WHERE id = $1 AND state = 'running' AND lease_owner = $2",
                 dialect::NOW_MS
             );
-            let done = sqlx::query(sqlx::AssertSqlSafe(q))
-                .bind(id)
-                .bind(worker)
-                .bind(now_rfc3339())
-                .execute(&self.pool)
-                .await
-                .db()?;
+            let done = run!(
+                execute(&self.pool),
+                sqlx::AssertSqlSafe(q),
+                id,
+                worker,
+                now_rfc3339()
+            )?;
             lease_held(done.rows_affected(), id)?;
             self.job(id).await
         })
@@ -1850,16 +1817,14 @@ impl Queue for This {
 
     fn finish_cancelled<'a>(&'a self, id: &'a str, worker: &'a str) -> StoreFuture<'a, Job> {
         Box::pin(async move {
-            let done = sqlx::query(
+            let done = run!(
+                execute(&self.pool),
                 "UPDATE jobs SET state = 'cancelled', finished_at = $3, lease_owner = NULL, \
                  lease_expires_ms = NULL WHERE id = $1 AND state = 'running' AND lease_owner = $2",
-            )
-            .bind(id)
-            .bind(worker)
-            .bind(now_rfc3339())
-            .execute(&self.pool)
-            .await
-            .db()?;
+                id,
+                worker,
+                now_rfc3339()
+            )?;
             lease_held(done.rows_affected(), id)?;
             self.job(id).await
         })
@@ -1879,11 +1844,7 @@ impl Queue for This {
                  WHERE state = 'running' AND lease_expires_ms < {now}",
                 now = dialect::NOW_MS
             );
-            let done = sqlx::query(sqlx::AssertSqlSafe(q))
-                .bind(now_rfc3339())
-                .execute(&self.pool)
-                .await
-                .db()?;
+            let done = run!(execute(&self.pool), sqlx::AssertSqlSafe(q), now_rfc3339())?;
             Ok(done.rows_affected())
         })
     }
