@@ -11,6 +11,8 @@
 //! | cyclic | sin, cos(2π q/P) → amplitude, phase | period P, mm |
 //! | thermal_drift | g(t)·q_j·10⁻³ and g(t) per direction j, g = 1 − e^(−t/T) → scale ppm, offset µm | T, s |
 //! | thermal_drift (temperature) | ΔT·q_j·10⁻³ and ΔT per direction j, ΔT the logged temperature's change → ppm/K, µm/K | — |
+//! | thermal_drift (temperature, lagged) | the same with ΔT through a first-order lag → ppm/K, µm/K | lag τ, s |
+//! | thermal_drift (temperature, quadratic) | the same and ΔT²·q_j·10⁻³, ΔT² → ppm/K, µm/K, ppm/K², µm/K² | — |
 //! | setup_offset | (Σ_k ε_k(q_k)) × e_j ·10⁻³ on one head-offset group → Δt_j, mm | — |
 //! | model_order | Legendre P_4..P_10 of the axis position, along one direction | — |
 //! | vibration | sin, cos(2π f t) → amplitude, phase | frequency f, Hz |
@@ -248,6 +250,12 @@ pub fn search(d: &Design, c: &Candidate) -> Search {
                 as_period: true,
             }
         }
+        "thermal_temperature_lag" => {
+            // A structure slower than its sensor: 1 s to a quarter of the session.
+            let (span, _, _) = time_band(d);
+            let n = ((0.25 * span).max(2.0).ln() / 1.5f64.ln()).ceil() as i32;
+            Search::Grid("lag_s", (0..=n).map(|i| 1.5f64.powi(i)).collect())
+        }
         "step" => Search::Step,
         "vibration" => {
             let (span, nyq, run_len) = time_band(d);
@@ -483,9 +491,10 @@ pub fn specs<'a>(
                 move |s, _, o| (o[0], o[1]) = (w * d.fields.t_s[s]).sin_cos(),
             )
         }
-        "thermal_drift" | "thermal_temperature" => {
-            // Scale (per axis) then offset (per axis), times g = 1 − e^(−t/T) or ΔT.
-            let temp = c.effect == "thermal_temperature";
+        "thermal_drift" | "thermal_temperature" | "thermal_temperature_lag" => {
+            // Scale (per axis) then offset (per axis), times g = 1 − e^(−t/T), ΔT, or ΔT
+            // through a first-order lag of time constant θ.
+            let temp = c.effect != "thermal_drift";
             let (scale, offset) = if temp {
                 ("scale_ppm_per_k", "offset_um_per_k")
             } else {
@@ -497,16 +506,44 @@ pub fn specs<'a>(
                 .chain(Axis::ALL.map(|j| format!("{offset}_{j}")))
                 .collect();
             let axes = Axis::ALL.into_iter().chain(Axis::ALL).map(Some).collect();
-            let temp_k = d.fields.temp_k.as_deref();
+            let lagged = (c.effect == "thermal_temperature_lag")
+                .then_some(d.temperature.as_ref())
+                .flatten()
+                .map(|sm| sm.lagged(&d.fields.t_s, theta));
+            let temp_k: Option<std::borrow::Cow<[f64]>> = match lagged {
+                Some(l) => Some(l.into()),
+                None => d.fields.temp_k.as_deref().map(Into::into),
+            };
             Columns::new(names, axes, move |s, read, o| {
                 let g = if temp {
-                    temp_k.map_or(0.0, |t| t[s])
+                    temp_k.as_ref().map_or(0.0, |t| t[s])
                 } else {
                     1.0 - (-d.fields.t_s[s] / theta).exp()
                 };
                 let i = read.index();
                 o[i] = g * d.fields.q_mm[i][s] * 1e-3;
                 o[3 + i] = g;
+            })
+        }
+        "thermal_temperature_quadratic" => {
+            // The per-kelvin columns, then the same times ΔT again (a growth quadratic in
+            // the temperature: the per-kelvin coefficients are its slope at ΔT = 0).
+            let names = [
+                "scale_ppm_per_k",
+                "offset_um_per_k",
+                "scale_ppm_per_k2",
+                "offset_um_per_k2",
+            ]
+            .into_iter()
+            .flat_map(|n| Axis::ALL.map(|j| format!("{n}_{j}")))
+            .collect();
+            let axes = (0..4).flat_map(|_| Axis::ALL.map(Some)).collect();
+            let temp_k = d.fields.temp_k.as_deref();
+            Columns::new(names, axes, move |s, read, o| {
+                let g = temp_k.map_or(0.0, |t| t[s]);
+                let i = read.index();
+                let q = d.fields.q_mm[i][s] * 1e-3;
+                (o[i], o[3 + i], o[6 + i], o[9 + i]) = (g * q, g, g * g * q, g * g);
             })
         }
         "model_order" => {
@@ -600,7 +637,9 @@ pub fn columns(
 /// is a form of `thermal_drift`).
 pub fn reported_name(effect: &'static str) -> &'static str {
     match effect {
-        "thermal_temperature" => "thermal_drift",
+        "thermal_temperature" | "thermal_temperature_lag" | "thermal_temperature_quadratic" => {
+            "thermal_drift"
+        }
         "lost_motion_variation" => "lost_motion_profile",
         e => e,
     }

@@ -70,7 +70,7 @@ const fn q(name: &'static str, unit: &'static str, convention: &'static str) -> 
 /// Every mechanism with a name.
 /// What decides a session's growth per kelvin: the per-run zero offsets leave only the
 /// change of the temperature within each run, measured against the sensor's noise.
-const PER_KELVIN_DECIDE: &str = "longer runs, or a larger change of the temperature within each run against the noise of its sensor (the per-run zero offsets leave only the change within a run),";
+const PER_KELVIN_DECIDE: &str = "longer runs, or a larger change of the temperature within each run against the noise of its sensor (the per-run zero offsets leave only the change within a run), or a temperature that rises and falls, or a sensor nearer the structure (a heating or a cooling that settles does not tell a structure lagging its sensor, or growing nonlinearly, from a change of its coefficients),";
 
 pub const EFFECTS: &[EffectSpec] = &[
     EffectSpec {
@@ -240,6 +240,21 @@ pub const EFFECTS: &[EffectSpec] = &[
                 "sessions with logged temperatures: k_j of the same model",
             )
             .decided_by(PER_KELVIN_DECIDE),
+            q(
+                "lag_s",
+                "s",
+                "sessions with logged temperatures, a structure slower than its sensor: the per-kelvin model with dT through a first-order lag, tau*dTs/dt = dT - Ts, Ts = dT at the first sample",
+            ),
+            p(
+                "offset_um_per_k2_{axis}",
+                "um/K^2",
+                "sessions with logged temperatures, a growth quadratic in the temperature: error_j = dT*(o_j + k_j*q_j/1000) + dT^2*(o2_j + k2_j*q_j/1000); o_j, k_j its slope at dT = 0",
+            ),
+            p(
+                "scale_ppm_per_k2_{axis}",
+                "ppm/K^2",
+                "k2_j of the same quadratic model",
+            ),
             p(
                 "offset_um_per_k",
                 "um/K",

@@ -284,6 +284,26 @@ impl super::engine::Greedy for SessionProblem<'_> {
         }
         if let Some((name, sd)) = self.ctx.theta_std(s, t, sigma) {
             params.insert(format!("std_{name}"), sd);
+            // The lag of a logged temperature's lagged form is fitted jointly with the
+            // per-kelvin coefficients: their σ, conditional on it, take its uncertainty
+            // along the profile, σ² + (dβ/dτ·σ_τ)².
+            if t.cand.effect == "thermal_temperature_lag" {
+                let slope = self.ctx.coef_slope(s, t);
+                for (i, n) in t.names.iter().enumerate() {
+                    let b = slope.as_ref().map_or(f64::INFINITY, |v| v[i]);
+                    if let Some(v) = params.get_mut(&format!("std_{n}")) {
+                        *v = v.hypot(b * sd);
+                    }
+                }
+            }
+        }
+        if t.cand.effect.starts_with("thermal_temperature") {
+            let forms = self.ctx.form_variance(s, t, sigma);
+            for (name, v) in t.names.iter().zip(forms) {
+                if let Some(sd) = params.get_mut(&format!("std_{name}")) {
+                    *sd = sd.hypot(v.sqrt());
+                }
+            }
         }
         let explained = ((f.ssr - t.ssr).max(0.0) / n as f64).sqrt();
         let size: f64 = t
@@ -295,7 +315,7 @@ impl super::engine::Greedy for SessionProblem<'_> {
         // A logged temperature is a measured regressor, not a shape fitted to the misfit:
         // a large growth of which the run offsets absorb the bulk is physics, judged by
         // its σ (the smoother's included), not by its size against the misfit.
-        let measured = c.effect == "thermal_temperature";
+        let measured = t.cand.effect.starts_with("thermal_temperature");
         if let Some(why) =
             effects::implausible(&c.label(), size, explained, self.floor).filter(|_| !measured)
         {
@@ -313,8 +333,10 @@ impl super::engine::Greedy for SessionProblem<'_> {
         let d = self.ctx.d;
         let (mut cols, mut local) = (s.fit.cols.clone(), s.fit.local.clone());
         let th = t.theta.map_or(0.0, |x| x.1);
-        let (new_cols, _, _) = catalogue::columns(d, c, th, s.eps());
-        let is_local = catalogue::specs(d, c, th, s.eps()).run().is_some();
+        // The trial's own form (a logged temperature's lagged or quadratic form).
+        let form = &t.cand;
+        let (new_cols, _, _) = catalogue::columns(d, form, th, s.eps());
+        let is_local = catalogue::specs(d, form, th, s.eps()).run().is_some();
         for c in &new_cols {
             let nrm = dot(c, c).sqrt().max(1e-300);
             cols.push(c.iter().map(|v| v / nrm).collect());

@@ -127,19 +127,53 @@ impl Smoother {
             .sum()
     }
 
-    /// Covariance of the coefficients β of columns z_k(row) = ΔT̂(s)·w_k(row) (centred
-    /// as the model's) caused by the smoother's error: σ_T²·G⁻¹·B·Bᵀ·G⁻¹ with
-    /// B = Zᵀ·diag(Σ_k β_k w_k)·Q_p. `rows` lists, per group of rows centred together
-    /// (a run's component), its samples, their times and the weights w_k of each
-    /// column (0 where the column does not act on the group); `gram` is G. Returns
-    /// `None` when G is singular.
-    pub fn coefficient_cov(
-        &self,
-        groups: &[Group],
-        beta: &[f64],
-        gram: &DMatrix<f64>,
-    ) -> Option<DMatrix<f64>> {
-        let kc = beta.len();
+    /// The smoothed temperature change ΔT̂ passed through a first-order lag of time
+    /// constant `tau` (s): the temperature of a structure that follows its sensor's
+    /// with the response τ·dT_s/dt = ΔT̂ − T_s, at the times `t_s` (any order), in
+    /// equilibrium with the sensor at the first time. Integrated exactly for an input
+    /// linear between successive times (steps of at most 1 s through gaps):
+    /// T_s(t + h) = u₁ − rτ + (T_s(t) − u₀ + rτ)·e^(−h/τ), r = (u₁ − u₀)/h.
+    pub fn lagged(&self, t_s: &[f64], tau: f64) -> Vec<f64> {
+        let mut order: Vec<usize> = (0..t_s.len()).collect();
+        if t_s.windows(2).any(|w| w[1] < w[0]) {
+            order.sort_by(|&a, &b| t_s[a].total_cmp(&t_s[b]));
+        }
+        let mut out = vec![0.0; t_s.len()];
+        let Some(&first) = order.first() else {
+            return out;
+        };
+        let tau = tau.max(1e-9);
+        let (mut t0, mut u0) = (t_s[first], self.delta(t_s[first]));
+        let mut y = u0;
+        for i in order {
+            let t1 = t_s[i];
+            let steps = ((t1 - t0) / 1.0).ceil().max(1.0);
+            let h = (t1 - t0) / steps;
+            for k in 1..=steps as usize {
+                let t = t0 + h * k as f64;
+                let u1 = self.delta(t);
+                if h > 0.0 {
+                    let r = (u1 - u0) / h;
+                    y = u1 - r * tau + (y - u0 + r * tau) * (-h / tau).exp();
+                }
+                u0 = u1;
+            }
+            t0 = t1;
+            out[i] = y;
+        }
+        out
+    }
+
+    /// Covariance of the coefficients β of a model fitted on columns made from the
+    /// smoothed temperature, caused by the smoother's error δT̂ = L(t)ᵀ·δc (L the
+    /// Legendre values, δc of covariance σ_T²·R⁻¹R⁻ᵀ): σ_T²·G⁻¹·B·Bᵀ·G⁻¹ with
+    /// B = Zᵀ·diag(∂ŷ/∂T̂)·Q_p, Z the columns centred per group, ∂ŷ/∂T̂ the fitted
+    /// growth's derivative with respect to the temperature at each row (Σ_k β_k w_k for
+    /// columns ΔT̂·w_k; 2ΔT̂·w_k more for columns ΔT̂²·w_k). `groups` lists, per group of
+    /// rows centred together (a run's component), its samples' times, column values and
+    /// derivatives; `gram` is G. Returns `None` when G is singular.
+    pub fn coefficient_cov(&self, groups: &[Group], gram: &DMatrix<f64>) -> Option<DMatrix<f64>> {
+        let kc = gram.nrows();
         let m = self.order + 1;
         let mut ba = DMatrix::<f64>::zeros(kc, m);
         let mut leg = vec![0.0; m];
@@ -148,22 +182,20 @@ impl Smoother {
             if n == 0 {
                 continue;
             }
-            let tv: Vec<f64> = g.t_s.iter().map(|&t| self.delta(t)).collect();
             // Means of the columns over the group (the run offsets' centring).
             let means: Vec<f64> = (0..kc)
-                .map(|k| (0..n).map(|i| tv[i] * g.w[i * kc + k]).sum::<f64>() / n as f64)
+                .map(|k| (0..n).map(|i| g.z[i * kc + k]).sum::<f64>() / n as f64)
                 .collect();
             for i in 0..n {
-                let w = &g.w[i * kc..(i + 1) * kc];
-                let growth: f64 = w.iter().zip(beta).map(|(w, b)| w * b).sum();
+                let z = &g.z[i * kc..(i + 1) * kc];
                 for (l, (p, _)) in leg.iter_mut().zip(Legendre::new(self.tau(g.t_s[i]))) {
-                    *l = p * growth;
+                    *l = p * g.growth[i];
                 }
                 for k in 0..kc {
-                    let z = tv[i] * w[k] - means[k];
-                    if z != 0.0 {
+                    let zc = z[k] - means[k];
+                    if zc != 0.0 {
                         for (j, l) in leg.iter().enumerate() {
-                            ba[(k, j)] += z * l;
+                            ba[(k, j)] += zc * l;
                         }
                     }
                 }
@@ -188,8 +220,10 @@ impl Smoother {
 /// One group of rows centred together, for [`Smoother::coefficient_cov`].
 pub struct Group {
     pub t_s: Vec<f64>,
-    /// Row-major weights: sample i, column k at `i·K + k`.
-    pub w: Vec<f64>,
+    /// Row-major column values (before centring): sample i, column k at `i·K + k`.
+    pub z: Vec<f64>,
+    /// The fitted growth's derivative with respect to the temperature at each sample.
+    pub growth: Vec<f64>,
 }
 
 #[cfg(test)]
@@ -225,6 +259,30 @@ mod tests {
             .sum::<f64>()
             / t.len() as f64;
         assert!(err.sqrt() < 0.0005, "{}", err.sqrt());
+    }
+
+    /// The lag of a ramp settles to the ramp delayed by τ (T_s = T̂ − τ·r), and of a
+    /// sine to its amplitude 1/√(1 + (ωτ)²) and phase −atan(ωτ) (the textbook first-order
+    /// response), within 1 % of the amplitude.
+    #[test]
+    fn lagged_follows_the_first_order_response() {
+        let (t, _, obs) = sample(0.0, 5);
+        let s = Smoother::fit(&t, &obs, std::slice::from_ref(&(0..t.len())));
+        let tau = 30.0;
+        // Uneven times with gaps, in reverse order.
+        let ts: Vec<f64> = (0..300).rev().map(|i| i as f64 * 3.3).collect();
+        let lag = s.lagged(&ts, tau);
+        let w = 2.0 * std::f64::consts::PI / 1000.0;
+        let (gain, phase) = (1.0 / (1.0 + (w * tau).powi(2)).sqrt(), (w * tau).atan());
+        for (&t, &y) in ts.iter().zip(&lag) {
+            if t > 5.0 * tau {
+                let want = 0.8 * gain * (w * t - phase).sin();
+                assert!(
+                    (y - (want - s.value(0.0))).abs() < 0.008,
+                    "{t}: {y} vs {want}"
+                );
+            }
+        }
     }
 
     /// A temperature with a jump is not followed by a polynomial: said so.

@@ -34,6 +34,9 @@ pub(crate) struct Trial {
     pub heldout_ssr: f64,
     pub dbic: f64,
     pub extra_params: usize,
+    /// A logged temperature's growth: the other forms, evaluated with this one
+    /// ([`Ctx::form_variance`]).
+    pub forms: Vec<Trial>,
 }
 
 /// Most frequencies in one scan, and the most (row, frequency) pairs a scan evaluates.
@@ -312,6 +315,120 @@ impl Ctx<'_> {
     /// The candidate evaluated jointly with the current model `s`: its nonlinear
     /// parameter searched, its joint fit on all runs and the folds, its ΔBIC.
     pub fn try_candidate(&self, s: &State, cand: &Candidate) -> Option<Trial> {
+        if cand.effect == "thermal_temperature" {
+            return self.try_temperature_forms(s, cand);
+        }
+        self.try_one(s, cand)
+    }
+
+    /// A growth that follows a logged temperature, in the form of least BIC: linear in
+    /// the smoothed temperature change ΔT̂, linear in ΔT̂ through a first-order lag (a
+    /// structure slower than its sensor; its time constant searched), or quadratic in
+    /// ΔT̂. A form outside the one fitted biases the coefficients (the lag shifts the
+    /// temperature the scale sees, the curvature the slope), so the richer form is taken
+    /// wherever the data show it, by the criterion the loop uses between effects.
+    fn try_temperature_forms(&self, s: &State, cand: &Candidate) -> Option<Trial> {
+        let mut forms: Vec<Trial> = [
+            "thermal_temperature",
+            "thermal_temperature_lag",
+            "thermal_temperature_quadratic",
+        ]
+        .into_iter()
+        .filter_map(|effect| {
+            self.try_one(
+                s,
+                &Candidate {
+                    effect,
+                    ..cand.clone()
+                },
+            )
+        })
+        .collect();
+        let best = (0..forms.len()).min_by(|&a, &b| forms[a].dbic.total_cmp(&forms[b].dbic))?;
+        let mut t = forms.swap_remove(best);
+        t.forms = forms;
+        Some(t)
+    }
+
+    /// The variance the choice of form adds to each coefficient of a logged
+    /// temperature's growth `t` (its per-kelvin coefficients by name; 0 elsewhere), σ
+    /// the residual standard deviation of its joint fit. A richer form the BIC did not
+    /// choose can still be the physics: the forms are told apart only by how the
+    /// temperature turns. A heating or a cooling that settles exponentially makes a
+    /// lagged temperature nearly an affine function of the sensor's (a lag is then nearly
+    /// a change of the coefficients), and its small within-run changes where the
+    /// temperature is high say little of a curvature; a temperature that rises and falls
+    /// tells them apart. So the coefficients carry the forms as nuisance, the larger of
+    /// per coefficient:
+    ///
+    /// - every richer form: the squared difference of its coefficients from `t`'s (in
+    ///   expectation the richer form's own variance beyond `t`'s where both describe the
+    ///   data, the bias of `t` where only the richer one does);
+    /// - the linear form chosen: the lags the data do not exclude, τ from 0 up to the
+    ///   largest with SSR(τ) within 4σ² of the least of the linear and lagged fits
+    ///   (the 2σ profile interval, τ = 0 being the linear form), the coefficients
+    ///   ranging from the linear ones to those at the interval's end: the square of half
+    ///   that range (the linear estimate lies at one end of it).
+    pub fn form_variance(&self, s: &State, t: &Trial, sigma: f64) -> Vec<f64> {
+        let mut var = vec![0.0; t.ncols];
+        let widen = |var: &mut [f64], names: &[String], coef: &[f64], half: bool| {
+            for (i, name) in t.names.iter().enumerate() {
+                if let Some(j) = names.iter().position(|x| x == name) {
+                    let d = coef[j] - t.coef[i];
+                    let d2 = if half { d * d / 4.0 } else { d * d };
+                    var[i] = var[i].max(d2);
+                }
+            }
+        };
+        let k = |x: &Trial| x.ncols + x.extra_params;
+        for a in t.forms.iter().filter(|a| k(a) > k(t)) {
+            widen(&mut var, &a.names, &a.coef, false);
+        }
+        let lag = t
+            .forms
+            .iter()
+            .find(|a| a.cand.effect == "thermal_temperature_lag");
+        if let (true, Some(lag), Some((_, tau_hat))) = (
+            t.cand.effect == "thermal_temperature",
+            lag,
+            lag.and_then(|l| l.theta),
+        ) {
+            let limit = t.ssr.min(lag.ssr) + 4.0 * sigma * sigma;
+            let top = match catalogue::search(self.d, &lag.cand) {
+                Search::Grid(_, v) => v.iter().copied().fold(tau_hat, f64::max),
+                _ => tau_hat,
+            };
+            let mut up = tau_hat;
+            while up < top && self.ssr_at(s, &lag.cand, (up * 1.25).min(top)) <= limit {
+                up = (up * 1.25).min(top);
+            }
+            let specs = catalogue::specs(self.d, &lag.cand, up, s.eps());
+            if let Some((_, keep, jf)) = self.evaluate(&s.fit, &specs, false) {
+                let names: Vec<String> = keep.iter().map(|&j| specs.names[j].clone()).collect();
+                widen(&mut var, &names, &jf.all.x[..keep.len()], true);
+            }
+            widen(&mut var, &lag.names, &lag.coef, true);
+        }
+        var
+    }
+
+    /// The slope dβ/dθ of a trial's coefficients along the profile of its nonlinear
+    /// parameter θ (the coefficients refitted at θ·e^(±0.05), central difference), in
+    /// the trial's column order; `None` when a refit loses a column.
+    pub fn coef_slope(&self, s: &State, t: &Trial) -> Option<Vec<f64>> {
+        let (_, th) = t.theta?;
+        let h: f64 = 0.05;
+        let at = |v: f64| {
+            let specs = catalogue::specs(self.d, &t.cand, v, s.eps());
+            let (_, keep, jf) = self.evaluate(&s.fit, &specs, false)?;
+            (keep.len() == t.ncols).then(|| jf.all.x[..t.ncols].to_vec())
+        };
+        let (hi, lo) = (at(th * h.exp())?, at(th * (-h).exp())?);
+        let dv = th * (h.exp() - (-h).exp());
+        Some(hi.iter().zip(&lo).map(|(a, b)| (a - b) / dv).collect())
+    }
+
+    fn try_one(&self, s: &State, cand: &Candidate) -> Option<Trial> {
         let (d, f) = (self.d, &s.fit);
         let n = d.rows() as f64;
         let (theta, extra) = self.search_theta(s, cand)?;
@@ -335,6 +452,7 @@ impl Ctx<'_> {
             heldout_ssr: jf.heldout_ssr,
             dbic,
             extra_params: extra,
+            forms: Vec::new(),
         })
     }
 
@@ -433,7 +551,10 @@ pub(crate) fn report_parameters(t: &Trial, sigma: f64, d: &Design) -> BTreeMap<S
         p.insert("extra_order".into(), 10.0);
         return p;
     }
-    let smoother = (t.cand.effect == "thermal_temperature")
+    let smoother = t
+        .cand
+        .effect
+        .starts_with("thermal_temperature")
         .then(|| smoother_variance(t, d))
         .flatten();
     for (i, name) in t.names.iter().enumerate() {
@@ -510,43 +631,74 @@ pub(crate) fn profile_parameters(
     p
 }
 
-/// The variance the smoother of the logged temperature adds to each coefficient per
-/// kelvin ([`temperature::Smoother::coefficient_cov`]); infinite where the smoother does not follow
-/// the temperature (the coefficients are then undetermined), none without a smoother.
+/// The variance the smoother of the logged temperature adds to each coefficient of a
+/// temperature-driven form ([`temperature::Smoother::coefficient_cov`]); infinite where
+/// the smoother does not follow the temperature (the coefficients are then
+/// undetermined), none without a smoother. The lagged form's columns follow the lagged
+/// smoothed temperature, whose error is the smoother's error lagged; the smoother's
+/// error is a polynomial of the session time, slow against the lags the data can tell
+/// from none, and is taken unlagged.
 fn smoother_variance(t: &Trial, d: &Design) -> Option<Vec<f64>> {
     let sm = d.temperature.as_ref()?;
     let kc = t.names.len();
     if !sm.follows {
         return Some(vec![f64::INFINITY; kc]);
     }
-    // The columns by name: scale_ppm_per_k_{j} weighs q_j/1000, offset_um_per_k_{j} 1.
-    let col = |name: &str| -> Option<(bool, Axis)> {
-        let (scale, a) = if let Some(a) = name.strip_prefix("scale_ppm_per_k_") {
-            (true, a)
-        } else {
-            (false, name.strip_prefix("offset_um_per_k_")?)
-        };
-        Some((scale, Axis::ALL.into_iter().find(|x| x.to_string() == a)?))
+    // The columns by name: scale_ppm_per_k_{j} weighs q_j/1000, offset_um_per_k_{j} 1;
+    // the `_k2_` ones the same times ΔT̂ once more.
+    let col = |name: &str| -> Option<(bool, bool, Axis)> {
+        let (scale, quad, a) = [
+            ("scale_ppm_per_k_", true, false),
+            ("offset_um_per_k_", false, false),
+            ("scale_ppm_per_k2_", true, true),
+            ("offset_um_per_k2_", false, true),
+        ]
+        .into_iter()
+        .find_map(|(p, scale, quad)| Some((scale, quad, name.strip_prefix(p)?)))?;
+        Some((
+            scale,
+            quad,
+            Axis::ALL.into_iter().find(|x| x.to_string() == a)?,
+        ))
     };
-    let cols: Vec<(bool, Axis)> = t.names.iter().map(|n| col(n)).collect::<Option<_>>()?;
+    let cols: Vec<(bool, bool, Axis)> = t.names.iter().map(|n| col(n)).collect::<Option<_>>()?;
+    let temp: Vec<f64> = match (t.cand.effect, t.theta) {
+        ("thermal_temperature_lag", Some((_, tau))) => sm.lagged(&d.fields.t_s, tau),
+        _ => d.fields.temp_k.clone()?,
+    };
     let mut groups = Vec::with_capacity(2 * d.runs.len());
     for run in &d.runs {
         let (u, v) = d.plane_axes[run.plane_idx];
         for read in [u, v] {
-            let mut w = Vec::with_capacity((run.end - run.start) * kc);
+            let mut z = Vec::with_capacity((run.end - run.start) * kc);
+            let mut growth = Vec::with_capacity(run.end - run.start);
             for s in run.start..run.end {
-                w.extend(cols.iter().map(|&(scale, a)| match (a == read, scale) {
-                    (false, _) => 0.0,
-                    (true, true) => d.fields.q_mm[a.index()][s] * 1e-3,
-                    (true, false) => 1.0,
-                }));
+                let dt = temp[s];
+                let mut g = 0.0;
+                for (&(scale, quad, a), b) in cols.iter().zip(&t.coef) {
+                    let w = match (a == read, scale) {
+                        (false, _) => 0.0,
+                        (true, true) => d.fields.q_mm[a.index()][s] * 1e-3,
+                        (true, false) => 1.0,
+                    };
+                    // Column ΔT̂·w (derivative w) or ΔT̂²·w (derivative 2ΔT̂·w).
+                    let (zv, dz) = if quad {
+                        (dt * dt * w, 2.0 * dt * w)
+                    } else {
+                        (dt * w, w)
+                    };
+                    z.push(zv);
+                    g += b * dz;
+                }
+                growth.push(g);
             }
             groups.push(temperature::Group {
                 t_s: d.fields.t_s[run.start..run.end].to_vec(),
-                w,
+                z,
+                growth,
             });
         }
     }
-    let cov = sm.coefficient_cov(&groups, &t.coef, &t.gram)?;
+    let cov = sm.coefficient_cov(&groups, &t.gram)?;
     Some((0..kc).map(|i| cov[(i, i)]).collect())
 }
