@@ -225,12 +225,17 @@ pub fn summary(r: &CradleResult) -> String {
             p.value,
             p.std,
             p.unit,
-            if p.determined {
+            if p.model_dependent {
+                "  not determined: another model explains the data as well (see below)"
+            } else if p.determined {
                 ""
             } else {
                 "  possible, undetermined (|value| < 3 std)"
             }
         );
+    }
+    for rival in &k.rivals {
+        let _ = writeln!(s, "  {}", rival.statement);
     }
     if let Some(sep) = &k.separability {
         let _ = writeln!(

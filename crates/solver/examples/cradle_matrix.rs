@@ -1,6 +1,7 @@
 //! The cradle rigidity test matrix, every case and seed, as the table of docs/cradle.md:
-//! `cargo run -p mtcal-solver --example cradle_matrix [SEEDS] [THREADS]`
-//! (default 20 seeds, 2 threads). The cases and how the points are made:
+//! `cargo run -p mtcal-solver --example cradle_matrix [SEEDS] [THREADS] [FILTER]`
+//! (default 20 seeds, 2 threads, every case; FILTER keeps the cases whose label contains
+//! it). The cases and how the points are made:
 //! `crates/solver/tests/cradle_matrix_common/mod.rs`; the test `cradle_matrix` runs a
 //! subset in the normal test command.
 
@@ -14,7 +15,12 @@ fn main() {
     let mut args = std::env::args().skip(1);
     let seeds: u64 = args.next().map_or(20, |s| s.parse().expect("SEEDS"));
     let threads: usize = args.next().map_or(2, |s| s.parse().expect("THREADS"));
-    let cases = matrix();
+    // Optional: only the cases whose label contains FILTER (diagnostics).
+    let filter = args.next();
+    let cases: Vec<_> = matrix()
+        .into_iter()
+        .filter(|c| filter.as_deref().is_none_or(|f| c.label().contains(f)))
+        .collect();
     let next = Mutex::new(0usize);
     let done: Mutex<Vec<(usize, CaseTally)>> = Mutex::new(vec![]);
     let t0 = std::time::Instant::now();

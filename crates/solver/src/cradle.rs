@@ -194,6 +194,39 @@ pub struct ModelParameter {
     pub std: f64,
     /// |value| ≥ 3·std; otherwise the term is possible but undetermined.
     pub determined: bool,
+    /// Another model explains the data as well (a [`RivalModel`] of
+    /// `kinematics.rivals`) and puts this parameter more than 2·std away (or does without
+    /// it while |value| > 2·std): its value hangs on which of them is taken, and the
+    /// data do not determine it.
+    #[serde(default)]
+    pub model_dependent: bool,
+}
+
+/// A model the forward selection cannot tell from the chosen one: a successor of the same
+/// model as the chosen one (one term different) that the selection would have accepted
+/// too (it lowers the held-out RMS of that model by more than `margin`) and whose
+/// held-out RMS is within `margin` of the chosen model's.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[cfg_attr(feature = "openapi", derive(utoipa::ToSchema))]
+pub struct RivalModel {
+    pub summary: KinematicSummary,
+    /// BIC(rival) − BIC(chosen) (3N·ln(SSR/3N) + P·ln 3N).
+    pub bic_difference: f64,
+    /// The chosen model's A-dependent parameters as the rival has them (`None`: it does
+    /// without them), where it puts them more than 2·std from the chosen value.
+    pub differs: Vec<RivalValue>,
+    /// In a sentence, with what would decide between the two.
+    pub statement: String,
+}
+
+/// A parameter's value in a [`RivalModel`].
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[cfg_attr(feature = "openapi", derive(utoipa::ToSchema))]
+pub struct RivalValue {
+    pub name: String,
+    pub unit: String,
+    /// In the rival (`None`: not in it).
+    pub value: Option<f64>,
 }
 
 /// One A-dependent term of the chosen model as a function of A, evaluated over the
@@ -255,6 +288,10 @@ pub struct KinematicReport {
     /// The chosen model's A-dependent parameters.
     #[serde(default)]
     pub parameters: Vec<ModelParameter>,
+    /// Models the data cannot tell from the chosen one ([`RivalModel`]); the parameters
+    /// they put elsewhere are flagged `model_dependent`.
+    #[serde(default)]
+    pub rivals: Vec<RivalModel>,
     /// What the ball data can separate among the A-dependent terms of the family, against
     /// the chosen model ([`separability`]).
     #[serde(default)]
@@ -668,8 +705,9 @@ fn successors(spec: &ModelSpec) -> Vec<ModelSpec> {
     v
 }
 
-/// The chosen model's A-dependent parameters in reporting units.
-fn model_parameters(fit: &identify::KinematicFit) -> Vec<ModelParameter> {
+/// The chosen model's A-dependent parameters in reporting units, flagged
+/// `model_dependent` where a rival puts them elsewhere.
+fn model_parameters(fit: &identify::KinematicFit, rivals: &[RivalModel]) -> Vec<ModelParameter> {
     fit.spec
         .names()
         .iter()
@@ -684,9 +722,94 @@ fn model_parameters(fit: &identify::KinematicFit) -> Vec<ModelParameter> {
                 value,
                 std,
                 determined: value.abs() >= 3.0 * std && std.is_finite(),
+                model_dependent: rivals
+                    .iter()
+                    .any(|r| r.differs.iter().any(|d| d.name == *name)),
             }
         })
         .collect()
+}
+
+/// A rival is looked for among the siblings within this BIC of the chosen model (each
+/// one costs a leave-one-pose-out validation); beyond it the evidence against the
+/// sibling is very strong (Kass & Raftery 1995).
+const RIVAL_BIC: f64 = 10.0;
+
+/// The chosen model's rivals among its siblings ([`RivalModel`]). The forward
+/// selection's standard uncertainties are those of the chosen model taken as given; when
+/// a sibling explains the data as well and gives a parameter another value, that σ does
+/// not cover the choice, and the parameter is reported as not determined instead.
+/// (Example: with every deflection ∝ sin A, a tilt about the mount parallel to A with an
+/// A positioning error, and the same tilt larger with a shift along A or sideways,
+/// move the ball identically to first order.)
+fn rivals(
+    best: &Candidate,
+    siblings: Vec<Candidate>,
+    parent_rms: f64,
+    obs: &[Obs],
+    pivot: [f64; 3],
+    n_poses: usize,
+    margin: f64,
+) -> Vec<RivalModel> {
+    let n = obs.len();
+    let bic_best = bic(&best.fit, n);
+    let names = best.fit.spec.names();
+    let mut out = vec![];
+    for sib in siblings {
+        let d_bic = bic(&sib.fit, n) - bic_best;
+        if d_bic > RIVAL_BIC {
+            continue;
+        }
+        let sib = if sib.held.is_some() {
+            sib
+        } else {
+            match with_held_out(sib.fit, obs, pivot, n_poses, true) {
+                Ok(c) => c,
+                Err(_) => continue,
+            }
+        };
+        if sib.rms >= (1.0 - margin) * parent_rms || sib.rms > (1.0 + margin) * best.rms {
+            continue;
+        }
+        let differs: Vec<RivalValue> = names
+            .iter()
+            .enumerate()
+            .skip(model::N_RIGID)
+            .filter_map(|(k, name)| {
+                let theirs = sib.fit.spec.index(name).map(|j| sib.fit.q[j]);
+                let off = (best.fit.q[k] - theirs.unwrap_or(0.0)).abs();
+                (off > 2.0 * best.fit.cov[(k, k)].sqrt()).then(|| RivalValue {
+                    name: name.to_string(),
+                    unit: unit_of(name).into(),
+                    value: theirs.map(|v| v * unit_scale(name)),
+                })
+            })
+            .collect();
+        if differs.is_empty() {
+            continue;
+        }
+        let values: Vec<String> = differs
+            .iter()
+            .map(|d| match d.value {
+                Some(v) => format!("{} = {v:.1} {}", d.name, d.unit),
+                None => format!("no {}", d.name),
+            })
+            .collect();
+        let statement = format!(
+            "The data cannot tell the chosen model from \"{}\" (held-out RMS {:.3} µm against {:.3} µm, BIC difference {d_bic:.1}), which has {}: these are reported as not determined. To first order the two move the ball alike over the measured A poses (as when every deflection has the same form in A, e.g. ∝ sin A); what would decide is a measurement that sees one of the terms in which they differ directly (e.g. the A positioning error with an angle reference on A, ISO 230-2) or a deflection whose A dependence differs between them.",
+            sib.fit.spec.describe(),
+            sib.rms * 1e3,
+            best.rms * 1e3,
+            values.join(", ")
+        );
+        out.push(RivalModel {
+            summary: summary(&sib.fit, sib.held.as_deref()),
+            bic_difference: d_bic,
+            differs,
+            statement,
+        });
+    }
+    out
 }
 
 /// Points per curve of [`compliance_curves`].
@@ -931,6 +1054,10 @@ pub fn check_cradle(
     let mut compliant: Option<KinematicSummary> = None;
     let mut best = rigid;
     let rigid_summary = candidates[0].clone();
+    // The other successors of the step that chose `best`, and the held-out RMS of the
+    // model it was chosen over (for the rivals, [`rivals`]).
+    let mut siblings: Vec<Candidate> = vec![];
+    let mut parent_rms = f64::INFINITY;
     if lopo {
         loop {
             // Richer models fitted; the best by BIC validated on held-out poses.
@@ -945,10 +1072,15 @@ pub fn check_cradle(
                 })
                 .collect();
             fits.sort_by(|a, b| bic(a, obs.len()).total_cmp(&bic(b, obs.len())));
-            let mut step: Option<Candidate> = None;
+            let mut step: Vec<Candidate> = vec![];
             for (k, fit) in fits.into_iter().enumerate() {
                 if k >= VALIDATED_PER_STEP {
                     candidates.push(summary(&fit, None));
+                    step.push(Candidate {
+                        fit,
+                        held: None,
+                        rms: f64::INFINITY,
+                    });
                     continue;
                 }
                 let Ok(c) = with_held_out(fit, &obs, pivot, n_poses, true) else {
@@ -959,16 +1091,28 @@ pub fn check_cradle(
                     compliant = Some(sum.clone());
                 }
                 candidates.push(sum);
-                if step.as_ref().is_none_or(|b| c.rms < b.rms) {
-                    step = Some(c);
-                }
+                step.push(c);
             }
-            match step {
-                Some(c) if c.rms < (1.0 - opts.compliance_margin) * best.rms => best = c,
+            let pick = (0..step.len()).min_by(|&a, &b| step[a].rms.total_cmp(&step[b].rms));
+            match pick {
+                Some(i) if step[i].rms < (1.0 - opts.compliance_margin) * best.rms => {
+                    parent_rms = best.rms;
+                    best = step.swap_remove(i);
+                    siblings = step;
+                }
                 _ => break,
             }
         }
     }
+    let rivals = rivals(
+        &best,
+        siblings,
+        parent_rms,
+        &obs,
+        pivot,
+        n_poses,
+        opts.compliance_margin,
+    );
     if compliant.is_none() && n_poses >= 4 {
         // The classic compliant model, for comparison (validated with 5 poses or more).
         compliant = try_model(
@@ -1057,6 +1201,7 @@ pub fn check_cradle(
     if let Some(f) = &floor {
         notes.push(f.statement.clone());
     }
+    notes.extend(rivals.iter().map(|r| r.statement.clone()));
     Ok(CradleResult {
         kind: "cradle".into(),
         convention: CONVENTION.into(),
@@ -1084,7 +1229,8 @@ pub fn check_cradle(
             rigid: rigid_summary,
             compliant,
             candidates,
-            parameters: model_parameters(fit),
+            parameters: model_parameters(fit, &rivals),
+            rivals,
             separability: Some(separability::separability(&obs, &fit.model, &fit.spec)),
             curves: compliance_curves(fit, &pa.poses),
             ball: BallReport {

@@ -347,13 +347,35 @@ pub struct ParamTally {
     pub reported: usize,
     /// … within 2 standard uncertainties of the truth.
     pub within_2sigma: usize,
-    /// … reported as not separable.
+    /// … reported as not determined: not separable (from a set of terms the truth
+    /// holds) or model-dependent (another model explains the data as well and puts it
+    /// elsewhere).
     pub not_separable: usize,
+    /// … of which model-dependent.
+    pub model_dependent: usize,
     /// … without a truth to compare with.
     pub no_truth: usize,
     pub sum_value: f64,
     pub sum_std: f64,
     pub truth: f64,
+    /// Signed z = (value − truth)/σ of the separable seeds with a truth: its sum and
+    /// sum of squares (honest σ: mean 0, spread 1).
+    pub sum_z: f64,
+    pub sum_z2: f64,
+}
+
+impl ParamTally {
+    /// Seeds with a z (separable, with a truth).
+    pub fn n_z(&self) -> usize {
+        self.reported - self.not_separable - self.no_truth
+    }
+    /// Mean and spread (sample standard deviation) of z over the seeds.
+    pub fn z_mean_sd(&self) -> (f64, f64) {
+        let n = self.n_z() as f64;
+        let mean = self.sum_z / n;
+        let var = (self.sum_z2 - n * mean * mean) / (n - 1.0);
+        (mean, var.max(0.0).sqrt())
+    }
 }
 
 /// The figures of one case over its seeds.
@@ -414,11 +436,15 @@ impl CaseTally {
                 t.no_truth += 1;
                 continue;
             }
-            if !separable {
+            if !separable || p.model_dependent {
                 t.not_separable += 1;
+                t.model_dependent += usize::from(p.model_dependent);
                 continue;
             }
-            let z = (p.value - truth).abs() / p.std;
+            let zs = (p.value - truth) / p.std;
+            t.sum_z += zs;
+            t.sum_z2 += zs * zs;
+            let z = zs.abs();
             self.worst_sigma = self.worst_sigma.max(z);
             if z <= 2.0 {
                 t.within_2sigma += 1;
@@ -501,8 +527,12 @@ pub fn row(case: &Case, t: &CaseTally) -> String {
             p.within_2sigma,
             p.reported
         );
+        if p.n_z() > 1 {
+            let (m, sd) = p.z_mean_sd();
+            s += &format!(" z {m:+.1}/{sd:.1}");
+        }
         if p.not_separable > 0 {
-            s += &format!(" (+{} not separable)", p.not_separable);
+            s += &format!(" (+{} not determined)", p.not_separable);
         }
         main.push(s);
     }

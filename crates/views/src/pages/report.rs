@@ -230,8 +230,11 @@ pub fn cradle_report(r: &CradleCheckReport) -> Markup {
                                  @if !t.separable { "not separable" } @else { "separable only while these terms are absent" }
                                  @if !t.why.is_empty() { " — " (t.why) } }
                         }
-                        @for p in d.kinematics.parameters.iter().filter(|p| !p.determined) {
+                        @for p in d.kinematics.parameters.iter().filter(|p| !p.determined && !p.model_dependent) {
                             li { (p.name) ": possible, undetermined (|value| < 3u)" }
+                        }
+                        @for rival in &d.kinematics.rivals {
+                            li { (rival.statement) }
                         }
                     }
                 }

@@ -633,10 +633,12 @@ pub fn cradle(c: &CradleResult) -> Markup {
                     tbody {
                         @for p in &k.parameters {
                             tr { td { (p.name) } td.num { (with_u(Some(p.value), Some(p.std), &p.unit)) }
-                                 td { @if !p.determined { "undetermined (|value| < 3u)" } } }
+                                 td { @if p.model_dependent { "not determined: another model explains the data as well" }
+                                      @else if !p.determined { "undetermined (|value| < 3u)" } } }
                         }
                     }
                 }
+                @for rival in &k.rivals { p.muted { (rival.statement) } }
             }
         }
         section.card #compliance {
