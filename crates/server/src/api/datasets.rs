@@ -26,7 +26,18 @@ pub struct SessionUpload {
     /// How the CSV files are written: `plain` (default; `,` separators, `.` decimal
     /// points) or `excel` (`;` separators and decimal commas, as a spreadsheet saves CSV
     /// in many locales). A form field, not a file.
-    pub csv_dialect: Option<String>,
+    #[schema(required = false)]
+    pub csv_dialect: CsvDialectName,
+}
+
+/// The names of the CSV dialects (`mtcal_formats::CsvDialect`), as the upload's form
+/// field gives them.
+#[derive(ToSchema)]
+#[schema(rename_all = "lowercase")]
+#[allow(dead_code)]
+pub enum CsvDialectName {
+    Plain,
+    Excel,
 }
 
 /// The name of the multipart field that gives the CSV dialect.
