@@ -12,6 +12,14 @@ use utoipa::openapi::schema::Schema;
 /// control character.
 pub const LINE_PATTERN: &str = "^[^\\u0000-\\u001f\\u007f-\\u009f]*[^\\s\\u0000-\\u001f\\u007f-\\u009f][^\\u0000-\\u001f\\u007f-\\u009f]*$";
 
+/// The pattern of a value without control characters (Unicode category Cc): what the
+/// service's edge requires of every path and query value.
+pub const NO_CONTROL_PATTERN: &str = "^[^\\u0000-\\u001f\\u007f-\\u009f]*$";
+
+/// The pattern of a free-text field ([`crate::text::check_free_text`]): not blank, no
+/// control character but line feeds and tabs.
+pub const FREE_TEXT_PATTERN: &str = "^[^\\u0000-\\u0008\\u000b-\\u001f\\u007f-\\u009f]*[^\\s\\u0000-\\u001f\\u007f-\\u009f][^\\u0000-\\u0008\\u000b-\\u001f\\u007f-\\u009f]*$";
+
 fn read(v: Value) -> Schema {
     serde_json::from_value(v).expect("a schema")
 }

@@ -19,6 +19,7 @@ use utoipa::{IntoParams, ToSchema};
 /// Multipart form of a session upload: one part per file, the part's file name is the
 /// file's name (`session.json`, `xy_L100.csv`, `xz.csv.gz`, …).
 #[derive(ToSchema)]
+#[serde(deny_unknown_fields)]
 #[allow(dead_code)]
 pub struct SessionUpload {
     #[schema(value_type = Vec<String>, format = Binary)]
