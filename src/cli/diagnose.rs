@@ -175,15 +175,16 @@ fn with_bar<T>(diagnose: impl FnOnce(&mut dyn Progress) -> T) -> T {
     r
 }
 
-/// Renders every plot into `dir` as `<stem>.svg` ([`mtcal_views::plots::file_stem`]);
-/// returns the paths written. A folder that cannot be written is bad input.
+/// Renders every plot into `dir` as `<stem>.svg` ([`mtcal_views::plots::file_stem`]), the
+/// polar ones on one radial scale as on the diagnosis page; returns the paths written. A
+/// folder that cannot be written is bad input.
 fn write_svgs(plots: &[PlotData], dir: &Path) -> anyhow::Result<Vec<PathBuf>> {
     let err = |p: &Path, e: std::io::Error| BadInput(format!("{}: cannot write: {e}", p.display()));
     std::fs::create_dir_all(dir).map_err(|e| err(dir, e))?;
     let mut paths = vec![];
-    for p in plots {
+    for (p, svg) in plots.iter().zip(mtcal_views::plots::render_svgs(plots)) {
         let path = dir.join(format!("{}.svg", mtcal_views::plots::file_stem(p)));
-        std::fs::write(&path, mtcal_views::plots::render_svg(p)).map_err(|e| err(&path, e))?;
+        std::fs::write(&path, svg).map_err(|e| err(&path, e))?;
         paths.push(path);
     }
     Ok(paths)

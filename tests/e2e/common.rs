@@ -42,6 +42,9 @@ pub struct AppOptions {
     pub limits: UploadLimits,
     /// The service's settings (cookies, webhooks).
     pub settings: mtcal_server::Settings,
+    /// The database: a URL the store opens (a PostgreSQL schema of its own); `None`, a
+    /// fresh SQLite file.
+    pub db_url: Option<String>,
 }
 
 impl Default for AppOptions {
@@ -51,6 +54,7 @@ impl Default for AppOptions {
             concurrency: 2,
             limits: UploadLimits::default(),
             settings: mtcal_server::Settings::default(),
+            db_url: None,
         }
     }
 }
@@ -63,7 +67,11 @@ pub async fn spawn_app() -> App {
 pub async fn spawn_app_with(o: AppOptions) -> App {
     let dir = tempfile::tempdir().unwrap();
     let db = dir.path().join("svc.sqlite");
-    let store = mtcal_store::open(db.to_str().unwrap()).await.unwrap();
+    let url = o
+        .db_url
+        .clone()
+        .unwrap_or_else(|| db.to_str().unwrap().into());
+    let store = mtcal_store::open(&url).await.unwrap();
     let key = |scope| {
         let store = store.clone();
         async move { store.create_key(scope, "e2e").await.unwrap().1 }

@@ -79,7 +79,15 @@ pub struct AlertDetails {
 #[cfg_attr(feature = "openapi", derive(utoipa::ToSchema))]
 #[serde(deny_unknown_fields)]
 pub struct Acknowledgement {
-    /// Why it is acknowledged, what was done (at most 1000 characters; blank: none).
+    /// Why it is acknowledged, what was done (at most 1000 characters; blank: none; no
+    /// control character but line breaks and tabs).
+    #[cfg_attr(
+        feature = "openapi",
+        schema(
+            max_length = 1000,
+            pattern = "^[^\\u0000-\\u0008\\u000b\\u000c\\u000e-\\u001f\\u007f-\\u009f]*$"
+        )
+    )]
     pub comment: Option<String>,
 }
 

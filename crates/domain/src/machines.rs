@@ -29,10 +29,11 @@ pub struct NewMachine {
     )]
     pub name: String,
     /// Axes on the workpiece and tool sides (default `{"workpiece": ["X", "Y"], "tool": ["Z"]}`).
-    #[cfg_attr(feature = "openapi", schema(value_type = Option<Object>))]
+    #[cfg_attr(feature = "openapi", schema(schema_with = mtcal_store::schemas::topology))]
     pub topology: Option<serde_json::Value>,
     /// Travel per axis, mm, e.g. `{"X": [-250, 250]}`.
     #[serde(default)]
+    #[cfg_attr(feature = "openapi", schema(schema_with = mtcal_store::schemas::travel))]
     pub travel_mm: BTreeMap<String, [f64; 2]>,
     /// Not blank, at most 100 characters, no control character.
     #[cfg_attr(
@@ -43,9 +44,8 @@ pub struct NewMachine {
         )
     )]
     pub site: Option<String>,
-    /// At most 32, each not blank, at most 64 characters, none twice.
     #[serde(default)]
-    #[cfg_attr(feature = "openapi", schema(max_items = 32))]
+    #[cfg_attr(feature = "openapi", schema(schema_with = mtcal_store::schemas::tags))]
     pub tags: Vec<String>,
 }
 
@@ -67,8 +67,7 @@ pub fn topology(v: Option<&serde_json::Value>) -> Result<serde_json::Value, Doma
     Ok(serde_json::to_value(t).expect("topology serialises"))
 }
 
-/// Largest |travel end| accepted, mm (100 m: beyond any machine tool's axis).
-pub const MAX_TRAVEL_MM: f64 = 100_000.0;
+pub use mtcal_store::model::MAX_TRAVEL_MM;
 
 /// Checks a machine's travel per axis.
 pub fn check_travel(travel: &BTreeMap<String, [f64; 2]>) -> Result<(), DomainError> {

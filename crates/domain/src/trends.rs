@@ -145,8 +145,13 @@ pub struct TermQuery {
     /// ISO 230-1 name of one of the 18 functions, e.g. `EXX`.
     #[cfg_attr(feature = "openapi", param(pattern = "^E[XYZABC][XYZ]$"))]
     pub term: String,
-    /// Positions, mm, comma-separated, e.g. `50,-50`.
-    #[cfg_attr(feature = "openapi", param(min_length = 1))]
+    /// Positions, mm, comma-separated, e.g. `50,-50`: 1 to 1000 finite numbers.
+    #[cfg_attr(
+        feature = "openapi",
+        param(
+            pattern = "^ *[-+]?([0-9]{1,15}(\\.[0-9]{0,15})?|\\.[0-9]{1,15})([eE][-+]?[0-9]{1,2})? *(, *[-+]?([0-9]{1,15}(\\.[0-9]{0,15})?|\\.[0-9]{1,15})([eE][-+]?[0-9]{1,2})? *){0,999}$"
+        )
+    )]
     pub at: String,
 }
 

@@ -21,7 +21,9 @@
 //!    concurrent clients for MTCAL_LOAD_SECONDS (20) reading the fleet page, trends and
 //!    results of MTCAL_LOAD_MACHINES (1000) × MTCAL_LOAD_RESULTS (20) seeded results,
 //!    first with no job, then with identify jobs running beside them all the time; each
-//!    client waits MTCAL_LOAD_THINK_MS (0) between its requests.
+//!    client waits MTCAL_LOAD_THINK_MS (0) between its requests. On SQLite, and with
+//!    `MTCAL_TEST_PG` set on PostgreSQL too (a fresh schema; MTCAL_LOAD_SQLITE=0 skips
+//!    SQLite).
 //!
 //! `scripts/with-postgres cargo run -p mtcal-server --example load` (dev profile:
 //! dependencies optimised). Environment: MTCAL_LOAD_JOBS (20), MTCAL_LOAD_MACHINES
@@ -523,7 +525,8 @@ fn set_cookie(r: &reqwest::Response, name: &str) -> Option<String> {
 
 /// The dashboard's fleet page (HTML, one signed-in browser session): 220 requests after
 /// signing in, the first 20 discarded, alternating the default order (drift, alerts
-/// first), the µrad order, a tag filter and the second page.
+/// first), the µrad order, a tag filter and the second page (only when the fleet has
+/// more machines than one page holds: a page past the last shows no machine).
 async fn fleet_page_bench(base: &str, key: &str, m: usize) {
     let http = reqwest::Client::builder()
         .redirect(reqwest::redirect::Policy::none())
@@ -546,7 +549,10 @@ async fn fleet_page_bench(base: &str, key: &str, m: usize) {
         .await
         .unwrap();
     let session = set_cookie(&signed, "mtcal_session").expect("session cookie");
-    let pages = ["/", "/?sort=drift_urad", "/?tag=vmc", "/?page=2"];
+    let mut pages = vec!["/", "/?sort=drift_urad", "/?tag=vmc"];
+    if m > mtcal_server::web::pages::FLEET_PAGE_ROWS {
+        pages.push("/?page=2");
+    }
     let (mut times, mut phases) = (Vec::new(), BTreeMap::<String, Vec<f64>>::new());
     for i in 0..220 {
         let t = Instant::now();
@@ -578,7 +584,11 @@ async fn fleet_page_bench(base: &str, key: &str, m: usize) {
         }
     }
     latencies(
-        &format!("fleet page (HTML, 100 of {m} machines, 4 views)"),
+        &format!(
+            "fleet page (HTML, {} of {m} machines, {} views)",
+            m.min(mtcal_server::web::pages::FLEET_PAGE_ROWS),
+            pages.len()
+        ),
         &mut times,
     );
     for (name, v) in &mut phases {
@@ -604,13 +614,10 @@ async fn reads_under_load_bench(
     secs: u64,
     think: u64,
     busy: bool,
+    pg: bool,
 ) {
     let dir = tempfile::tempdir().unwrap();
-    let store: Arc<dyn Store> = Arc::new(
-        SqliteStore::open(dir.path().join("reads.sqlite").to_str().unwrap())
-            .await
-            .unwrap(),
-    );
+    let store = fresh_store(pg, dir.path(), "reads").await;
     let mut rng = StdRng::seed_from_u64(4);
     let mut batch = Vec::new();
     for i in 0..m {
@@ -731,7 +738,8 @@ async fn reads_under_load_bench(
     }
     let n = all.len();
     println!(
-        "reads under load: {clients} clients (each waiting {think} ms between requests) for {secs} s on {m} machines x {r} results (fleet page, term trend, summary trend, result){}",
+        "reads under load ({}): {clients} clients (each waiting {think} ms between requests) for {secs} s on {m} machines x {r} results (fleet page, term trend, summary trend, result){}",
+        if pg { "PostgreSQL" } else { "SQLite" },
         if busy {
             format!(
                 ", identify jobs running beside (2 workers; {} finished)",
@@ -757,8 +765,17 @@ async fn main() {
             env("MTCAL_LOAD_RESULTS", 20),
         );
         let think = env("MTCAL_LOAD_THINK_MS", 0) as u64;
-        reads_under_load_bench(m, r, clients, secs, think, false).await;
-        reads_under_load_bench(m, r, clients, secs, think, true).await;
+        let pg = std::env::var_os(mtcal_store::testing::TEST_PG_VAR).is_some();
+        let backends: &[bool] = match (env("MTCAL_LOAD_SQLITE", 1) > 0, pg) {
+            (true, true) => &[false, true],
+            (true, false) => &[false],
+            (false, true) => &[true],
+            (false, false) => &[],
+        };
+        for &pg in backends {
+            reads_under_load_bench(m, r, clients, secs, think, false, pg).await;
+            reads_under_load_bench(m, r, clients, secs, think, true, pg).await;
+        }
         return;
     }
     let k = env("MTCAL_LOAD_JOBS", 20);

@@ -17,6 +17,9 @@
 //!
 //! `crates/server/tests/contract.rs` sends each operation the requests that provoke
 //! these and checks that every status answered is declared.
+//!
+//! Every text parameter in a path or a query is stated without control characters
+//! (`state_edge_rules`), as crate::edge refuses them before any route.
 
 use serde_json::{Value, json};
 use utoipa::openapi::schema::{AnyOfBuilder, ObjectBuilder, Schema, Type};
@@ -96,6 +99,7 @@ impl utoipa::Modify for Statuses {
     fn modify(&self, openapi: &mut utoipa::openapi::OpenApi) {
         let mut doc = serde_json::to_value(&*openapi).expect("the OpenAPI document serialises");
         complete_statuses(&mut doc);
+        state_edge_rules(&mut doc);
         *openapi = serde_json::from_value(doc).expect("the completed document reads back");
     }
 }
@@ -105,6 +109,43 @@ pub fn required_scope(op: &Value) -> Option<&str> {
     let reqs = op.get("security")?.as_array()?;
     let scopes = reqs.first()?.as_object()?.values().next()?.as_array()?;
     Some(scopes.first().and_then(Value::as_str).unwrap_or("read"))
+}
+
+/// States the edge's rule (crate::edge: no control character in a path or query) on
+/// every text parameter in a path or a query whose schema has no pattern or
+/// enumeration of its own (those admit no control character anyway).
+fn state_edge_rules(doc: &mut Value) {
+    let Some(paths) = doc.get_mut("paths").and_then(Value::as_object_mut) else {
+        return;
+    };
+    for op in paths
+        .values_mut()
+        .filter_map(Value::as_object_mut)
+        .flat_map(|o| o.values_mut())
+    {
+        let Some(params) = op.get_mut("parameters").and_then(Value::as_array_mut) else {
+            continue;
+        };
+        for p in params {
+            if !matches!(p["in"].as_str(), Some("path" | "query")) {
+                continue;
+            }
+            let Some(schema) = p.get_mut("schema").and_then(Value::as_object_mut) else {
+                continue;
+            };
+            let text = match schema.get("type") {
+                Some(Value::String(t)) => t == "string",
+                Some(Value::Array(ts)) => ts.iter().any(|t| t == "string"),
+                _ => false,
+            };
+            if text && !schema.contains_key("pattern") && !schema.contains_key("enum") {
+                schema.insert(
+                    "pattern".into(),
+                    mtcal_store::schemas::NO_CONTROL_PATTERN.into(),
+                );
+            }
+        }
+    }
 }
 
 fn complete_statuses(doc: &mut Value) {

@@ -31,10 +31,8 @@ pub use mtcal_store::JobKind;
 #[serde(deny_unknown_fields)]
 pub struct IdentifyParams {
     /// `joint` (default) or `stepwise`.
-    #[schema(value_type = Option<String>)]
     pub method: Option<Method>,
     /// `polynomial` (default) or `legendre`.
-    #[schema(value_type = Option<String>)]
     pub basis: Option<BasisKind>,
     /// Polynomial order (default 3).
     pub order: Option<usize>,
@@ -63,6 +61,7 @@ impl IdentifyParams {
 pub struct DiagnoseParams {
     /// Drift logs only: fraction of the recording the models are fitted on, from the
     /// start, in [0.2, 0.9] (default 0.6); the rest is held out to judge them.
+    #[schema(minimum = 0.2, maximum = 0.9)]
     pub fit_fraction: Option<f64>,
 }
 

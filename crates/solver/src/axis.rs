@@ -114,6 +114,7 @@ impl fmt::Display for Plane {
 /// table Y), tool `[Z]`.
 #[derive(Debug, Clone, PartialEq, Eq, Serialize, Deserialize)]
 #[cfg_attr(feature = "openapi", derive(utoipa::ToSchema))]
+#[serde(deny_unknown_fields)]
 pub struct Topology {
     pub workpiece: Vec<Axis>,
     pub tool: Vec<Axis>,

@@ -90,10 +90,16 @@ impl StandardsResult {
 
 /// ISO 230-2 from the line passes and ISO 230-4 from the circle runs of a session.
 pub fn from_session(session: &Session) -> Standards {
+    from_session_circles(session, &iso230_4::circle_runs(session))
+}
+
+/// [`from_session`] with the session's circle runs already reduced
+/// ([`iso230_4::circle_runs`]).
+pub fn from_session_circles(session: &Session, circles: &[iso230_4::CircleRun]) -> Standards {
     let (iso230_2, not_evaluated) = iso230_2::from_session(session);
     Standards {
         iso230_2,
-        iso230_4: iso230_4::from_session(session),
+        iso230_4: iso230_4::from_circle_runs(session, circles),
         not_evaluated,
     }
 }

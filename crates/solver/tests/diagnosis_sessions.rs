@@ -914,3 +914,87 @@ fn a_worn_screw_is_found_as_lost_motion_varying_along_the_travel() {
     effects::conforms(f).unwrap();
     assert_ne!(r.verdict, Verdict::Consistent);
 }
+
+/// The commanded position of axis `a` in `run` at time `t` (s): the Catmull-Rom spline
+/// through the run's set-points (a path with continuous velocity, as an interpolator
+/// makes it), held at the first set-point before the run.
+fn commanded_at(run: &Run, a: usize, t: f64) -> f64 {
+    let (ts, n) = (&run.t_s, run.t_s.len());
+    let p = |i: isize| run.pos_mm[i.clamp(0, n as isize - 1) as usize][a];
+    if t <= ts[0] {
+        return p(0);
+    }
+    let i = ts.partition_point(|&x| x <= t).min(n - 1).max(1) as isize - 1;
+    let (t0, t1) = (ts[i as usize], ts[(i + 1) as usize]);
+    let u = ((t - t0) / (t1 - t0)).clamp(0.0, 1.0);
+    let (p0, p1, p2, p3) = (p(i - 1), p(i), p(i + 1), p(i + 2));
+    0.5 * (2.0 * p1
+        + (p2 - p0) * u
+        + (2.0 * p0 - 5.0 * p1 + 4.0 * p2 - p3) * u * u
+        + (3.0 * p1 - p0 - 3.0 * p2 + p3) * u * u * u)
+}
+
+/// The X error (µm) of a servo that follows its commanded path with a delay `tau` (s),
+/// at sample `i` of `run`: on a circle (a smooth path), (x(t − τ) − x(t))·1000 with x the
+/// Catmull-Rom spline through the set-points; on a line, whose set-points move at a
+/// constant feed and stop between two samples (a spline overshoots there), −τ·v·1000
+/// with v the feed at the sample (0 at rest on either side).
+fn delayed(run: &Run, i: usize, tau: f64) -> f64 {
+    let circle = matches!(
+        run.test,
+        Some(
+            mtcal_solver::session::TestKind::CircleCw | mtcal_solver::session::TestKind::CircleCcw
+        )
+    );
+    if circle {
+        let t = run.t_s[i];
+        return (commanded_at(run, 0, t - tau) - commanded_at(run, 0, t)) * 1000.0;
+    }
+    let v = mtcal_solver::diagnosis::design::velocity(&run.t_s, &run.pos_mm, i)[0];
+    -tau * v * 1000.0
+}
+
+/// A servo that follows its commanded path with a pure delay τ, made in the test (not by
+/// the simulator's `servo_lag`, whose error is −τ·v alone): the X reading is offset on
+/// the circles by (x(t − τ) − x(t))·1000 µm, x the commanded path through the set-points
+/// (a Catmull-Rom spline), i.e. −τ·v + τ²·a/2 − …, whose second-order term during the
+/// circles' acceleration is a transient after each X reversal, and on the lines by −τ
+/// times their feed. At 3 ms and at 1 ms, over six seeds: no reversal spike (found or
+/// possible) and no other finding, a servo lag of X within 5 % and 3σ of τ in every
+/// seed.
+#[test]
+fn a_servo_delay_made_outside_the_simulator_adds_no_reversal_spike() {
+    for tau in [3e-3, 1e-3] {
+        let out = par_map(&[71, 72, 73, 74, 75, 76], |seed| {
+            let mut session = clean_session(seed, RATE);
+            add_error(&mut session, Axis::X, |run, i| delayed(run, i, tau));
+            diagnose_session(&session, &DiagnoseOptions::default()).unwrap()
+        });
+        let mut within = 0;
+        for r in &out {
+            assert!(
+                !r.findings
+                    .iter()
+                    .chain(&r.possible)
+                    .any(|f| f.effect == "reversal_spike"),
+                "{tau}: {r:#?}"
+            );
+            assert_eq!(r.findings.len(), 1, "{tau}: {r:#?}");
+            let f = r
+                .findings
+                .iter()
+                .find(|f| f.effect == "servo_lag")
+                .unwrap_or_else(|| panic!("{tau}: {r:#?}"));
+            assert_eq!(f.axis.as_deref(), Some("X"));
+            let (got, sd) = (param(f, "lag_s"), param(f, "std_lag_s"));
+            assert!(close(got, tau, 0.05, 0.0), "{tau}: {got} ± {sd}");
+            assert!((got - tau).abs() <= 3.0 * sd, "{tau}: {got} ± {sd}");
+            within += usize::from((got - tau).abs() <= 2.0 * sd);
+            effects::conforms(f).unwrap();
+        }
+        // Within 2σ in 4 of 6 seeds at 3 ms and 5 of 6 at 1 ms (z = −2.7…+0.3): the
+        // estimate reads about 1σ low on these seeds with no delay as well (see
+        // docs/diagnosis.md, "Servo lag: what holds"); the lag is held to 3σ here.
+        assert!(within >= 4, "{tau}: {within} of 6 within 2σ");
+    }
+}

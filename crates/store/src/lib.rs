@@ -27,6 +27,8 @@ mod postgres;
 pub mod queue;
 mod rows;
 pub mod rules;
+#[cfg(feature = "openapi")]
+pub mod schemas;
 mod sqlite;
 pub mod testing;
 pub mod text;

@@ -4,6 +4,9 @@ use serde::{Deserialize, Serialize};
 use serde_json::Value;
 use std::collections::BTreeMap;
 
+/// Largest |travel end| of a machine accepted, mm (100 m: beyond any machine tool's axis).
+pub const MAX_TRAVEL_MM: f64 = 100_000.0;
+
 /// A registered machine tool.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 #[cfg_attr(feature = "openapi", derive(utoipa::ToSchema))]
@@ -36,8 +39,9 @@ pub struct MachinePatch {
         )
     )]
     pub name: Option<String>,
-    #[cfg_attr(feature = "openapi", schema(value_type = Option<Object>))]
+    #[cfg_attr(feature = "openapi", schema(schema_with = crate::schemas::topology))]
     pub topology: Option<Value>,
+    #[cfg_attr(feature = "openapi", schema(schema_with = crate::schemas::travel_or_null))]
     pub travel_mm: Option<BTreeMap<String, [f64; 2]>>,
     /// Not blank, at most 100 characters, no control character.
     #[cfg_attr(
@@ -48,8 +52,7 @@ pub struct MachinePatch {
         )
     )]
     pub site: Option<String>,
-    /// At most 32, each not blank, at most 64 characters, none twice.
-    #[cfg_attr(feature = "openapi", schema(max_items = 32))]
+    #[cfg_attr(feature = "openapi", schema(schema_with = crate::schemas::tags_or_null))]
     pub tags: Option<Vec<String>>,
     pub baseline_result_id: Option<String>,
 }

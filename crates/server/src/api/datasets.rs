@@ -19,6 +19,7 @@ use utoipa::{IntoParams, ToSchema};
 /// Multipart form of a session upload: one part per file, the part's file name is the
 /// file's name (`session.json`, `xy_L100.csv`, `xz.csv.gz`, …).
 #[derive(ToSchema)]
+#[serde(deny_unknown_fields)]
 #[allow(dead_code)]
 pub struct SessionUpload {
     #[schema(value_type = Vec<String>, format = Binary)]
@@ -26,7 +27,18 @@ pub struct SessionUpload {
     /// How the CSV files are written: `plain` (default; `,` separators, `.` decimal
     /// points) or `excel` (`;` separators and decimal commas, as a spreadsheet saves CSV
     /// in many locales). A form field, not a file.
-    pub csv_dialect: Option<String>,
+    #[schema(required = false)]
+    pub csv_dialect: CsvDialectName,
+}
+
+/// The names of the CSV dialects (`mtcal_formats::CsvDialect`), as the upload's form
+/// field gives them.
+#[derive(ToSchema)]
+#[schema(rename_all = "lowercase")]
+#[allow(dead_code)]
+pub enum CsvDialectName {
+    Plain,
+    Excel,
 }
 
 /// The name of the multipart field that gives the CSV dialect.

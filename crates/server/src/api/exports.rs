@@ -45,8 +45,8 @@ pub struct ExportQuery {
     security(("api_key" = [])), params(("id" = String, Path), ExportQuery),
     responses((status = 200, description = "the table (attachment): the identifiable terms over the measured travel, mm and rad \
                                             (csv: µm and µrad); the header comment states the sign convention (compensation = −error) \
-                                            and names the terms left out",
-               content_type = "text/plain", body = String),
+                                            and names the terms left out; text/csv for format csv",
+               content((String = "text/plain"), (String = "text/csv"))),
               (status = 400, body = ErrorBody, description = "unknown or missing format (the message names the formats), bad step, or not an identification result"),
               (status = 404, body = ErrorBody),
               (status = 409, body = ErrorBody, description = "model_misfit: the result's model does not explain its recording \

@@ -116,8 +116,12 @@ pub async fn diff(
 #[derive(Debug, Clone, Serialize, Deserialize, ToSchema)]
 #[serde(deny_unknown_fields)]
 pub struct Reason {
-    /// Why (recorded with the key and the time), 1 to 1000 characters.
-    #[schema(min_length = 1, max_length = 1000)]
+    /// Why (recorded with the key and the time): not blank, at most 1000 characters, no
+    /// control character but line feeds and tabs.
+    #[schema(
+        max_length = 1000,
+        pattern = "^[^\\u0000-\\u0008\\u000b-\\u001f\\u007f-\\u009f]*[^\\s\\u0000-\\u001f\\u007f-\\u009f][^\\u0000-\\u0008\\u000b-\\u001f\\u007f-\\u009f]*$"
+    )]
     pub reason: String,
 }
 

@@ -181,6 +181,8 @@ pub fn report(
     }
     let rows = fit.reduced.rows;
     let residuals = crate::design::residuals(session, model, fit, None);
+    // Each circle run's geometry once, for the ISO 230-4 figures and the polar plots.
+    let circles = crate::standards::iso230_4::circle_runs(session);
     IdentificationResult {
         kind: "identification".into(),
         machine_id: session.machine_id.clone(),
@@ -228,8 +230,8 @@ pub fn report(
         .into_iter()
         .chain(est.reporting.iter().cloned())
         .collect(),
-        standards: crate::standards::from_session(session),
-        circles: crate::standards::iso230_4::circle_plots(session, Some(&residuals)),
+        standards: crate::standards::from_session_circles(session, &circles),
+        circles: crate::standards::iso230_4::circle_plots(session, &circles, Some(&residuals)),
         residuals: crate::residuals::by_file_and_test(session, &residuals),
         model_check: None,
         conditions: session.test_conditions(),

@@ -68,6 +68,8 @@ pub struct CirclePath {
     pub sigma_um: f64,
     /// Samples used.
     pub samples: usize,
+    /// The least-squares circle of the bins, computed once ([`CirclePath::lsc`]).
+    lsc: Option<Lsc>,
 }
 
 /// The least-squares circle of a path (module docs): a, b, c (µm).
@@ -78,10 +80,30 @@ pub struct Lsc {
     pub c: f64,
 }
 
-impl CirclePath {
-    /// Reduces one circle run: `du`, `dv` are the deviations per sample (the readings, or a
-    /// model's prediction of them). `None` for fewer than 8 moving samples or no circle.
-    pub fn of(run: &Run, plane: Plane, du: &[f64], dv: &[f64]) -> Option<CirclePath> {
+/// The commanded side of a circle run (module docs): the samples taken while the command
+/// advances, the nominal circle c₀, R₀ through them, each sample's angle θ and bin, the
+/// sweep and the feed. It does not depend on the readings, so a run's measured path and
+/// the fitted model's path of it are reduced from one geometry.
+#[derive(Debug, Clone, PartialEq)]
+pub struct CircleGeometry {
+    /// The plane's (u, v) axis indices.
+    axes: (usize, usize),
+    /// Indices of the samples kept.
+    keep: Vec<u32>,
+    centre_mm: [f64; 2],
+    radius_mm: f64,
+    /// Bin of each sample kept.
+    bin: Vec<u16>,
+    ccw: bool,
+    start_angle_deg: f64,
+    sweep_deg: f64,
+    feed_mm_min: f64,
+}
+
+impl CircleGeometry {
+    /// The geometry of one circle run in `plane`; `None` for fewer than 8 moving samples
+    /// or no circle.
+    pub fn of(run: &Run, plane: Plane) -> Option<CircleGeometry> {
         let (ua, va) = plane.axes();
         let (iu, iv) = (ua.index(), va.index());
         // Samples taken while the command advances (drop dwells and repeats).
@@ -89,7 +111,7 @@ impl CirclePath {
         for (k, p) in run.pos_mm.iter().enumerate() {
             if keep.last().is_none_or(|&l| {
                 let q = run.pos_mm[l];
-                (p[iu] - q[iu]).hypot(p[iv] - q[iv]) > 0.0
+                p[iu] != q[iu] || p[iv] != q[iv]
             }) {
                 keep.push(k);
             }
@@ -102,20 +124,14 @@ impl CirclePath {
             .map(|&k| (run.pos_mm[k][iu], run.pos_mm[k][iv]))
             .collect();
         let (cu, cv, r0) = kasa_circle(&uv)?;
-        let mut sum = vec![0.0; BINS];
-        let mut count = vec![0usize; BINS];
-        let mut rho = Vec::with_capacity(keep.len());
-        let mut theta = Vec::with_capacity(keep.len());
-        for (&k, &(u, v)) in keep.iter().zip(&uv) {
-            let (au, av) = (u + 1e-3 * du[k] - cu, v + 1e-3 * dv[k] - cv);
-            let r = 1e3 * (au.hypot(av) - r0);
-            let th = (v - cv).atan2(u - cu).rem_euclid(2.0 * PI);
-            let bin = ((th / (2.0 * PI) * BINS as f64) as usize).min(BINS - 1);
-            sum[bin] += r;
-            count[bin] += 1;
-            rho.push(r);
-            theta.push(th);
-        }
+        let theta: Vec<f64> = uv
+            .iter()
+            .map(|&(u, v)| (v - cv).atan2(u - cu).rem_euclid(2.0 * PI))
+            .collect();
+        let bin = theta
+            .iter()
+            .map(|th| ((th / (2.0 * PI) * BINS as f64) as u16).min(BINS as u16 - 1))
+            .collect();
         let sweep: f64 = theta
             .windows(2)
             .map(|w| {
@@ -123,10 +139,6 @@ impl CirclePath {
                 d - 2.0 * PI * ((d + PI) / (2.0 * PI)).floor()
             })
             .sum();
-        let n = rho.len();
-        let sigma = (rho.windows(2).map(|w| (w[1] - w[0]).powi(2)).sum::<f64>()
-            / (2.0 * (n - 1) as f64))
-            .sqrt();
         let mut speeds: Vec<f64> = keep
             .windows(2)
             .filter_map(|w| {
@@ -135,7 +147,50 @@ impl CirclePath {
                 (dt > 0.0).then(|| 60.0 * (b[iu] - a[iu]).hypot(b[iv] - a[iv]) / dt)
             })
             .collect();
-        speeds.sort_by(f64::total_cmp);
+        let feed_mm_min = match speeds.len() {
+            0 => 0.0,
+            n => *speeds.select_nth_unstable_by(n / 2, f64::total_cmp).1,
+        };
+        Some(CircleGeometry {
+            centre_mm: [cu, cv],
+            radius_mm: r0,
+            bin,
+            ccw: sweep > 0.0,
+            // (θ just below 2π from rounding is 0.)
+            start_angle_deg: {
+                let a = theta[0].to_degrees();
+                if a > 360.0 - 1e-9 { 0.0 } else { a }
+            },
+            sweep_deg: sweep.abs().to_degrees(),
+            feed_mm_min,
+            axes: (iu, iv),
+            // (A run's samples are limited far below u32::MAX by the readers.)
+            keep: keep.into_iter().map(|k| k as u32).collect(),
+        })
+    }
+
+    /// Reduces the deviations `du`, `dv` (µm, per sample of `run`, the run this geometry
+    /// is of: the readings, or a model's prediction of them) along this geometry.
+    pub fn path(&self, run: &Run, du: &[f64], dv: &[f64]) -> CirclePath {
+        let [cu, cv] = self.centre_mm;
+        let (iu, iv) = self.axes;
+        let r0 = self.radius_mm;
+        let mut sum = vec![0.0; BINS];
+        let mut count = vec![0usize; BINS];
+        let mut rho = Vec::with_capacity(self.keep.len());
+        for (&k, &bin) in self.keep.iter().zip(&self.bin) {
+            let (k, bin) = (k as usize, bin as usize);
+            let (u, v) = (run.pos_mm[k][iu], run.pos_mm[k][iv]);
+            let (au, av) = (u + 1e-3 * du[k] - cu, v + 1e-3 * dv[k] - cv);
+            let r = 1e3 * (au.hypot(av) - r0);
+            sum[bin] += r;
+            count[bin] += 1;
+            rho.push(r);
+        }
+        let n = rho.len();
+        let sigma = (rho.windows(2).map(|w| (w[1] - w[0]).powi(2)).sum::<f64>()
+            / (2.0 * (n - 1) as f64))
+            .sqrt();
         let (mut angle_deg, mut rho_um, mut cnt) = (vec![], vec![], vec![]);
         for b in 0..BINS {
             if count[b] > 0 {
@@ -144,42 +199,54 @@ impl CirclePath {
                 cnt.push(count[b]);
             }
         }
-        Some(CirclePath {
-            ccw: sweep > 0.0,
-            centre_mm: [cu, cv],
+        let lsc = least_squares_circle(&angle_deg, &rho_um);
+        CirclePath {
+            ccw: self.ccw,
+            centre_mm: self.centre_mm,
             radius_mm: r0,
-            // (θ just below 2π from rounding is 0.)
-            start_angle_deg: {
-                let a = theta[0].to_degrees();
-                if a > 360.0 - 1e-9 { 0.0 } else { a }
-            },
-            sweep_deg: sweep.abs().to_degrees(),
-            feed_mm_min: speeds.get(speeds.len() / 2).copied().unwrap_or(0.0),
+            start_angle_deg: self.start_angle_deg,
+            sweep_deg: self.sweep_deg,
+            feed_mm_min: self.feed_mm_min,
             angle_deg,
             rho_um,
             count: cnt,
             sigma_um: sigma,
             samples: n,
-        })
+            lsc,
+        }
+    }
+}
+
+/// The least-squares circle (module docs) of bin means `rho_um` at `angle_deg`: the
+/// linearised fit a + b cos θ + c sin θ, solved by SVD; `None` with fewer than 3 bins.
+fn least_squares_circle(angle_deg: &[f64], rho_um: &[f64]) -> Option<Lsc> {
+    let m = angle_deg.len();
+    if m < 3 {
+        return None;
+    }
+    let a = DMatrix::from_fn(m, 3, |i, j| {
+        let th = angle_deg[i].to_radians();
+        [1.0, th.cos(), th.sin()][j]
+    });
+    let y = DVector::from_column_slice(rho_um);
+    let x = a.svd(true, true).solve(&y, 1e-12).ok()?;
+    Some(Lsc {
+        a: x[0],
+        b: x[1],
+        c: x[2],
+    })
+}
+
+impl CirclePath {
+    /// Reduces one circle run: `du`, `dv` are the deviations per sample (the readings, or a
+    /// model's prediction of them). `None` for fewer than 8 moving samples or no circle.
+    pub fn of(run: &Run, plane: Plane, du: &[f64], dv: &[f64]) -> Option<CirclePath> {
+        Some(CircleGeometry::of(run, plane)?.path(run, du, dv))
     }
 
     /// The least-squares circle (module docs); `None` with fewer than 3 bins.
     pub fn lsc(&self) -> Option<Lsc> {
-        let m = self.angle_deg.len();
-        if m < 3 {
-            return None;
-        }
-        let a = DMatrix::from_fn(m, 3, |i, j| {
-            let th = self.angle_deg[i].to_radians();
-            [1.0, th.cos(), th.sin()][j]
-        });
-        let y = DVector::from_column_slice(&self.rho_um);
-        let x = a.svd(true, true).solve(&y, 1e-12).ok()?;
-        Some(Lsc {
-            a: x[0],
-            b: x[1],
-            c: x[2],
-        })
+        self.lsc
     }
 
     /// e(θ) per bin: radial deviation from the nominal radius about the LSC centre, µm.
@@ -393,8 +460,20 @@ impl Iso2304 {
     }
 }
 
-/// The circle runs of every plane file: (plane index, run index, path).
-pub fn circle_paths(session: &Session) -> Vec<(usize, usize, CirclePath)> {
+/// A circle run of a session: where it is, its geometry and its measured path.
+#[derive(Debug, Clone)]
+pub struct CircleRun {
+    /// Index of the plane file in the session.
+    pub plane: usize,
+    /// Index of the run in its plane file.
+    pub run: usize,
+    pub geometry: CircleGeometry,
+    /// The readings' path.
+    pub path: CirclePath,
+}
+
+/// The circle runs of every plane file, in session order.
+pub fn circle_runs(session: &Session) -> Vec<CircleRun> {
     let mut out = vec![];
     for (p, rec) in session.planes.iter().enumerate() {
         for (r, run) in rec.runs.iter().enumerate() {
@@ -404,8 +483,14 @@ pub fn circle_paths(session: &Session) -> Vec<(usize, usize, CirclePath)> {
             ) {
                 continue;
             }
-            if let Some(path) = CirclePath::of(run, rec.plane, &run.du_um, &run.dv_um) {
-                out.push((p, r, path));
+            if let Some(geometry) = CircleGeometry::of(run, rec.plane) {
+                let path = geometry.path(run, &run.du_um, &run.dv_um);
+                out.push(CircleRun {
+                    plane: p,
+                    run: r,
+                    geometry,
+                    path,
+                });
             }
         }
     }
@@ -416,7 +501,13 @@ pub fn circle_paths(session: &Session) -> Vec<(usize, usize, CirclePath)> {
 /// nearest the tool reference point (smallest |t|; the first in the session on ties)
 /// among those with circle runs, its first cw and first ccw run.
 pub fn from_session(session: &Session) -> Vec<Iso2304> {
-    let paths = circle_paths(session);
+    from_circle_runs(session, &circle_runs(session))
+}
+
+/// [`from_session`] from the session's circle runs (as [`circle_runs`] gives them).
+pub fn from_circle_runs(session: &Session, circles: &[CircleRun]) -> Vec<Iso2304> {
+    let paths: Vec<(usize, usize, &CirclePath)> =
+        circles.iter().map(|c| (c.plane, c.run, &c.path)).collect();
     let mut out = vec![];
     for plane in Plane::ALL {
         let mut files: Vec<usize> = paths
@@ -516,10 +607,12 @@ fn round(v: Vec<f64>) -> Vec<f64> {
 /// [plane][run][sample] = (u, v), µm) gives the model's readings as reading − residual.
 pub fn circle_plots(
     session: &Session,
+    circles: &[CircleRun],
     residuals: Option<&[Vec<Vec<[f64; 2]>>]>,
 ) -> Vec<CirclePlot> {
     let mut out = vec![];
-    for (p, r, path) in circle_paths(session) {
+    for c in circles {
+        let (p, r, path) = (c.plane, c.run, &c.path);
         let rec = &session.planes[p];
         let run = &rec.runs[r];
         let Some(l) = path.lsc() else {
@@ -541,7 +634,7 @@ pub fn circle_plots(
                     .zip(res.iter())
                     .map(|(d, e)| d - e[1])
                     .collect();
-                let mp = CirclePath::of(run, rec.plane, &du, &dv)?;
+                let mp = c.geometry.path(run, &du, &dv);
                 let ml = mp.lsc()?;
                 Some(round(mp.radial_about(&ml)))
             })
@@ -559,7 +652,7 @@ pub fn circle_plots(
             feed_mm_min: path.feed_mm_min,
             start_angle_deg: path.start_angle_deg,
             measured_um: round(path.radial_about(&l)),
-            angle_deg: path.angle_deg,
+            angle_deg: path.angle_deg.clone(),
             model_um,
         });
     }
