@@ -5,6 +5,7 @@
 use crate::axis::Axis;
 use crate::datasets::{Direction, PositioningRecord};
 use crate::diagnosis::repeatability::{self, Repeatability};
+use crate::diagnosis::temperature::Smoother;
 use crate::error::SolverError;
 
 /// One axis's records in file (measurement) order.
@@ -16,7 +17,11 @@ pub(super) struct AxisData {
     pub(super) u: Vec<f64>,
     pub(super) time: Vec<f64>,
     pub(super) time_in_s: bool,
+    /// The logged temperature smoothed ([`Smoother`]), minus its smoothed value at the
+    /// first record (K), when every record logs `temp_c`.
     pub(super) temp: Option<Vec<f64>>,
+    /// The smoother of the logged temperature (in `time`'s unit).
+    pub(super) smoother: Option<Smoother>,
     pub(super) y: Vec<f64>,
     pub(super) run: Vec<i64>,
     pub(super) runs: Vec<i64>,
@@ -102,10 +107,24 @@ impl AxisData {
         } else {
             (0..n).map(|i| i as f64).collect()
         };
-        let temp = recs.iter().all(|r| r.temp_c.is_some()).then(|| {
-            let t0 = recs[0].temp_c.unwrap_or(0.0);
-            recs.iter().map(|r| r.temp_c.unwrap_or(0.0) - t0).collect()
+        // A logged temperature is a noisy measurement: the columns follow its smoother
+        // (the same as sessions', `diagnosis::temperature`), fitted in record time over
+        // the whole axis, the noise estimate's differences taken within each run.
+        let smoother = recs.iter().all(|r| r.temp_c.is_some()).then(|| {
+            let raw: Vec<f64> = recs.iter().map(|r| r.temp_c.unwrap_or(0.0)).collect();
+            let mut ranges = Vec::new();
+            let mut start = 0;
+            for i in 1..=n {
+                if i == n || recs[i].run != recs[start].run {
+                    ranges.push(start..i);
+                    start = i;
+                }
+            }
+            Smoother::fit(&time, &raw, &ranges)
         });
+        let temp = smoother
+            .as_ref()
+            .map(|sm| time.iter().map(|&t| sm.delta(t)).collect());
         let (c, h) = (0.5 * (lo + hi), 0.5 * (hi - lo));
         let first: Vec<bool> = recs.iter().map(|r| r.run == recs[0].run).collect();
         let t1: Vec<f64> = (0..n).filter(|&i| first[i]).map(|i| time[i]).collect();
@@ -141,6 +160,7 @@ impl AxisData {
             time,
             time_in_s,
             temp,
+            smoother,
             runs,
             lo,
             hi,

@@ -210,10 +210,11 @@ pub(super) fn outcome(
                     params.insert(format!("std_time_constant_{unit}"), jfit.std[th]);
                 }
                 Effect::ThermalTemp => {
+                    let sv = smoother_variance(a, [b[0], b[1]]);
                     params.insert("offset_um_per_k".into(), b[0]);
-                    params.insert("std_offset_um_per_k".into(), sb[0]);
+                    params.insert("std_offset_um_per_k".into(), sb[0].hypot(sv[0].sqrt()));
                     params.insert("scale_ppm_per_k".into(), b[1]);
-                    params.insert("std_scale_ppm_per_k".into(), sb[1]);
+                    params.insert("std_scale_ppm_per_k".into(), sb[1].hypot(sv[1].sqrt()));
                 }
                 Effect::Transient => {
                     params.insert("size_um".into(), b[0]);
@@ -682,6 +683,7 @@ fn plots(
             time: vec![tmean; grid.len()],
             time_in_s: a.time_in_s,
             temp: tempmean.map(|t| vec![t; grid.len()]),
+            smoother: None,
             y: vec![0.0; grid.len()],
             run: vec![0; grid.len()],
             runs: vec![0],
@@ -810,4 +812,39 @@ fn plots(
         ],
     );
     out
+}
+
+/// The variance the smoother of the logged temperature adds to the per-kelvin offset and
+/// scale `beta` (`temperature::Smoother::coefficient_cov`, one group of every record,
+/// centred once as the polynomial's constant term does); infinite where the smoother
+/// does not follow the temperature (the coefficients are then undetermined), 0 without
+/// a logged temperature.
+fn smoother_variance(a: &AxisData, beta: [f64; 2]) -> [f64; 2] {
+    let (Some(sm), Some(temp)) = (&a.smoother, &a.temp) else {
+        return [0.0; 2];
+    };
+    if !sm.follows {
+        return [f64::INFINITY; 2];
+    }
+    let n = temp.len();
+    let w: Vec<[f64; 2]> = a.x.iter().map(|&x| [1.0, x / 1000.0]).collect();
+    let z: Vec<f64> = temp
+        .iter()
+        .zip(&w)
+        .flat_map(|(dt, w)| [dt * w[0], dt * w[1]])
+        .collect();
+    let growth = w.iter().map(|w| beta[0] * w[0] + beta[1] * w[1]).collect();
+    let mean = [0, 1].map(|k| (0..n).map(|i| z[2 * i + k]).sum::<f64>() / n.max(1) as f64);
+    let gram = nalgebra::DMatrix::from_fn(2, 2, |k, l| {
+        (0..n)
+            .map(|i| (z[2 * i + k] - mean[k]) * (z[2 * i + l] - mean[l]))
+            .sum::<f64>()
+    });
+    let group = crate::diagnosis::temperature::Group {
+        t_s: a.time.clone(),
+        z,
+        growth,
+    };
+    sm.coefficient_cov([group], &gram)
+        .map_or([f64::INFINITY; 2], |c| [c[(0, 0)], c[(1, 1)]])
 }
