@@ -171,8 +171,13 @@ impl Smoother {
     /// growth's derivative with respect to the temperature at each row (Σ_k β_k w_k for
     /// columns ΔT̂·w_k; 2ΔT̂·w_k more for columns ΔT̂²·w_k). `groups` lists, per group of
     /// rows centred together (a run's component), its samples' times, column values and
-    /// derivatives; `gram` is G. Returns `None` when G is singular.
-    pub fn coefficient_cov(&self, groups: &[Group], gram: &DMatrix<f64>) -> Option<DMatrix<f64>> {
+    /// derivatives, made one at a time (a session's would hold every row's columns);
+    /// `gram` is G. Returns `None` when G is singular.
+    pub fn coefficient_cov(
+        &self,
+        groups: impl IntoIterator<Item = Group>,
+        gram: &DMatrix<f64>,
+    ) -> Option<DMatrix<f64>> {
         let kc = gram.nrows();
         let m = self.order + 1;
         let mut ba = DMatrix::<f64>::zeros(kc, m);

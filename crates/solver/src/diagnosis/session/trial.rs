@@ -328,22 +328,26 @@ impl Ctx<'_> {
     /// temperature the scale sees, the curvature the slope), so the richer form is taken
     /// wherever the data show it, by the criterion the loop uses between effects.
     fn try_temperature_forms(&self, s: &State, cand: &Candidate) -> Option<Trial> {
-        let mut forms: Vec<Trial> = [
-            "thermal_temperature",
-            "thermal_temperature_lag",
-            "thermal_temperature_quadratic",
-        ]
-        .into_iter()
-        .filter_map(|effect| {
-            self.try_one(
-                s,
-                &Candidate {
-                    effect,
-                    ..cand.clone()
-                },
-            )
-        })
-        .collect();
+        let linear = self.try_one(s, cand)?;
+        // No evidence of a growth that follows the temperature at all: the richer forms
+        // are not searched (a lag or a curvature is a refinement of that growth; the
+        // lag's search is the costly part of a session with a logged temperature).
+        if linear.dbic >= 0.0 {
+            return Some(linear);
+        }
+        let mut forms: Vec<Trial> = ["thermal_temperature_lag", "thermal_temperature_quadratic"]
+            .into_iter()
+            .filter_map(|effect| {
+                self.try_one(
+                    s,
+                    &Candidate {
+                        effect,
+                        ..cand.clone()
+                    },
+                )
+            })
+            .collect();
+        forms.insert(0, linear);
         let best = (0..forms.len()).min_by(|&a, &b| forms[a].dbic.total_cmp(&forms[b].dbic))?;
         let mut t = forms.swap_remove(best);
         t.forms = forms;
@@ -666,10 +670,10 @@ fn smoother_variance(t: &Trial, d: &Design) -> Option<Vec<f64>> {
         ("thermal_temperature_lag", Some((_, tau))) => sm.lagged(&d.fields.t_s, tau),
         _ => d.fields.temp_k.clone()?,
     };
-    let mut groups = Vec::with_capacity(2 * d.runs.len());
-    for run in &d.runs {
+    let groups = d.runs.iter().flat_map(|run| {
         let (u, v) = d.plane_axes[run.plane_idx];
-        for read in [u, v] {
+        let (cols, temp) = (&cols, &temp);
+        [u, v].into_iter().map(move |read| {
             let mut z = Vec::with_capacity((run.end - run.start) * kc);
             let mut growth = Vec::with_capacity(run.end - run.start);
             for s in run.start..run.end {
@@ -692,13 +696,13 @@ fn smoother_variance(t: &Trial, d: &Design) -> Option<Vec<f64>> {
                 }
                 growth.push(g);
             }
-            groups.push(temperature::Group {
+            temperature::Group {
                 t_s: d.fields.t_s[run.start..run.end].to_vec(),
                 z,
                 growth,
-            });
-        }
-    }
-    let cov = sm.coefficient_cov(&groups, &t.gram)?;
+            }
+        })
+    });
+    let cov = sm.coefficient_cov(groups, &t.gram)?;
     Some((0..kc).map(|i| cov[(i, i)]).collect())
 }

@@ -845,6 +845,6 @@ fn smoother_variance(a: &AxisData, beta: [f64; 2]) -> [f64; 2] {
         z,
         growth,
     };
-    sm.coefficient_cov(std::slice::from_ref(&group), &gram)
+    sm.coefficient_cov([group], &gram)
         .map_or([f64::INFINITY; 2], |c| [c[(0, 0)], c[(1, 1)]])
 }
