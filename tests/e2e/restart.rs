@@ -222,21 +222,28 @@ async fn a_worker_stopped_by_sigterm_hands_its_job_back_and_the_next_worker_clai
     assert_eq!(done.attempts, 1, "{done:?}");
     assert_eq!(store.row_counts().await.unwrap().results, 1);
     // The worker process serves its own metrics: the job it ran, and the queue's gauges.
-    let metrics = reqwest::get(second.1.clone().expect("metrics URL"))
-        .await
-        .unwrap()
-        .text()
-        .await
-        .unwrap();
-    assert!(
-        metrics
-            .contains(r#"mtcal_job_duration_seconds_count{kind="identify",outcome="succeeded"} 1"#),
-        "{metrics}"
-    );
-    assert!(
-        metrics.contains(r#"mtcal_jobs{kind="identify",state="succeeded"} 1"#),
-        "{metrics}"
-    );
+    // (The worker records the job's duration just after the job's outcome is stored,
+    // which is what the wait above sees: read until it is there.)
+    let wanted = [
+        r#"mtcal_job_duration_seconds_count{kind="identify",outcome="succeeded"} 1"#,
+        r#"mtcal_jobs{kind="identify",state="succeeded"} 1"#,
+    ];
+    let mut metrics = String::new();
+    for _ in 0..100 {
+        metrics = reqwest::get(second.1.clone().expect("metrics URL"))
+            .await
+            .unwrap()
+            .text()
+            .await
+            .unwrap();
+        if wanted.iter().all(|w| metrics.contains(w)) {
+            break;
+        }
+        tokio::time::sleep(std::time::Duration::from_millis(200)).await;
+    }
+    for w in wanted {
+        assert!(metrics.contains(w), "{w} not in {metrics}");
+    }
     // The API process also stops cleanly on SIGTERM.
     let status = terminate(&mut api.child);
     assert!(status.success(), "serve exit after SIGTERM: {status}");

@@ -327,6 +327,13 @@ async fn run_job(
             store.release_job(&job.id, me).await
         }
     };
+    // Claim to outcome: recorded before what follows a landed result.
+    let outcome = match &recorded {
+        Ok(j) if j.state == mtcal_store::JobState::Queued => "requeued",
+        Ok(j) => j.state.as_str(),
+        Err(_) => "lost",
+    };
+    crate::metrics::metrics().job_finished(kind, outcome, claimed.elapsed().as_secs_f64());
     if let Ok(j) = &recorded
         && j.state == mtcal_store::JobState::Succeeded
         && job.kind.result_kind() == mtcal_domain::kinds::IDENTIFICATION
@@ -363,12 +370,6 @@ async fn run_job(
             Err(e) => tracing::warn!(result = %r, %e, "the misfit's diagnosis was not queued"),
         }
     }
-    let outcome = match &recorded {
-        Ok(j) if j.state == mtcal_store::JobState::Queued => "requeued",
-        Ok(j) => j.state.as_str(),
-        Err(_) => "lost",
-    };
-    crate::metrics::metrics().job_finished(kind, outcome, claimed.elapsed().as_secs_f64());
     match recorded {
         Ok(j) => tracing::info!(job = %j.id, state = j.state.as_str(), "job finished"),
         Err(e) => tracing::warn!(job = %job.id, %e, "job outcome not recorded"),
