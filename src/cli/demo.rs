@@ -190,6 +190,7 @@ async fn demo(args: Args, db: PathBuf, temporary: bool) -> anyhow::Result<ExitCo
             max_attempts: 3,
             max_upload_bytes: 256 << 20,
             pause_before_solve_ms: 0,
+            webhook_retry_ms: None,
             grace_seconds: 5,
             job_timeout_seconds: 3600,
             log_format: super::serve::LogFormat::Text,

@@ -45,6 +45,10 @@ pub struct WorkerArgs {
     /// Testing aid: pause each job this long before solving.
     #[arg(long, default_value_t = 0, hide = true)]
     pub pause_before_solve_ms: u64,
+    /// Testing aid: the wait after a webhook delivery's first failed try, ms (default
+    /// that of `mtcal_domain::webhooks::Retries`, 10 s).
+    #[arg(long, hide = true)]
+    pub webhook_retry_ms: Option<u64>,
     /// Longest run of one job, seconds: a job still running then fails (code `timeout`).
     #[arg(long, env = "MTCAL_JOB_TIMEOUT_SECONDS", default_value_t = 3600)]
     pub job_timeout_seconds: u64,
@@ -96,6 +100,13 @@ impl WorkerArgs {
             max_run: std::time::Duration::from_secs(self.job_timeout_seconds.clamp(1, 7 * 86_400)),
             settings: mtcal_server::Settings {
                 webhooks: self.webhook_allow.clone(),
+                webhook_retries: match self.webhook_retry_ms {
+                    Some(ms) => mtcal_domain::webhooks::Retries {
+                        first: std::time::Duration::from_millis(ms.clamp(1, 3_600_000)),
+                        ..Default::default()
+                    },
+                    None => Default::default(),
+                },
                 ..mtcal_server::Settings::default()
             },
             ..WorkerConfig::default()

@@ -3,7 +3,9 @@
 //! (`serve --no-worker`) whose jobs a separate `mtcal worker` process runs; a worker
 //! stopped with SIGTERM that hands its job back, claimed at once by the next worker; and
 //! on PostgreSQL, one API process and three worker processes that run 200 jobs exactly
-//! once each, around a worker stopped by SIGTERM and one killed by SIGKILL.
+//! once each, around a worker stopped by SIGTERM and one killed by SIGKILL; a webhook
+//! delivery waiting out its backoff when its worker is killed (SIGKILL), made once by the
+//! restarted worker, signed, on SQLite and on PostgreSQL.
 
 use crate::common::*;
 use mtcal_client::Client;
@@ -409,4 +411,222 @@ async fn a_client_trickling_its_request_head_is_disconnected() {
     );
     let health = reqwest::get(format!("{}/health", api.url)).await.unwrap();
     assert!(health.status().is_success());
+}
+
+/// A request the webhook receiver of the outbox tests got.
+struct Hit {
+    at: std::time::Instant,
+    signature: Option<String>,
+    body: Vec<u8>,
+}
+
+/// A webhook receiver on 127.0.0.1 that answers its first request 503 (a target down
+/// for a moment) and every later one 200; each request goes to the channel.
+async fn flaky_receiver() -> (String, tokio::sync::mpsc::UnboundedReceiver<Hit>) {
+    use std::sync::atomic::{AtomicUsize, Ordering};
+    let (tx, rx) = tokio::sync::mpsc::unbounded_channel();
+    let seen = std::sync::Arc::new(AtomicUsize::new(0));
+    let handler = move |headers: axum::http::HeaderMap, body: axum::body::Bytes| {
+        let (tx, seen) = (tx.clone(), seen.clone());
+        async move {
+            let _ = tx.send(Hit {
+                at: std::time::Instant::now(),
+                signature: headers
+                    .get("mtcal-signature")
+                    .and_then(|v| v.to_str().ok())
+                    .map(str::to_string),
+                body: body.to_vec(),
+            });
+            if seen.fetch_add(1, Ordering::SeqCst) == 0 {
+                axum::http::StatusCode::SERVICE_UNAVAILABLE
+            } else {
+                axum::http::StatusCode::OK
+            }
+        }
+    };
+    let listener = tokio::net::TcpListener::bind("127.0.0.1:0").await.unwrap();
+    let addr = listener.local_addr().unwrap();
+    let app = axum::Router::new().route("/hook", axum::routing::post(handler));
+    tokio::spawn(async move { axum::serve(listener, app).await });
+    (format!("http://{addr}/hook"), rx)
+}
+
+/// Checks a delivery's signature as a receiver would, with nothing of the service's
+/// code (docs/api.md, "Webhooks"): `t=<unix seconds>,v1=<hex HMAC-SHA256(secret,
+/// "<t>.<body>")>`, within five minutes of now.
+fn verify_signature(secret: &str, hit: &Hit) -> Result<(), String> {
+    use hmac::{Hmac, Mac};
+    let header = hit.signature.as_deref().ok_or("unsigned")?;
+    let part = |name: &str| {
+        header
+            .split(',')
+            .find_map(|p| p.strip_prefix(name)?.strip_prefix('='))
+            .ok_or(format!("no {name} in {header:?}"))
+    };
+    let (t, v1) = (part("t")?, part("v1")?);
+    let now = std::time::SystemTime::now()
+        .duration_since(std::time::UNIX_EPOCH)
+        .unwrap()
+        .as_secs() as i64;
+    if (now - t.parse::<i64>().map_err(|e| e.to_string())?).abs() > 300 {
+        return Err(format!("timestamp {t} is not within 5 min of {now}"));
+    }
+    let mut mac = Hmac::<sha2::Sha256>::new_from_slice(secret.as_bytes()).unwrap();
+    mac.update(format!("{t}.").as_bytes());
+    mac.update(&hit.body);
+    mac.verify_slice(&hex::decode(v1).map_err(|e| e.to_string())?)
+        .map_err(|_| "signature does not match".to_string())
+}
+
+/// The outbox as `GET /api/v1/webhooks/deliveries` shows it.
+async fn deliveries(base: &str, key: &str) -> Vec<serde_json::Value> {
+    reqwest::Client::new()
+        .get(format!("{base}/api/v1/webhooks/deliveries"))
+        .bearer_auth(key)
+        .send()
+        .await
+        .unwrap()
+        .json()
+        .await
+        .unwrap()
+}
+
+/// Waits (at most 20 s) until the only delivery satisfies `done`; returns it.
+async fn delivery_until(
+    base: &str,
+    key: &str,
+    done: impl Fn(&serde_json::Value) -> bool,
+) -> serde_json::Value {
+    let t0 = std::time::Instant::now();
+    loop {
+        let all = deliveries(base, key).await;
+        assert_eq!(all.len(), 1, "{all:?}");
+        if done(&all[0]) {
+            return all[0].clone();
+        }
+        assert!(t0.elapsed().as_secs() < 20, "{all:?}");
+        tokio::time::sleep(std::time::Duration::from_millis(50)).await;
+    }
+}
+
+/// A webhook delivery survives its worker killed by SIGKILL, on the database `db`: a
+/// drift alert's delivery is stored with the alert; the first worker process's try
+/// meets a 503 and the delivery waits out its backoff (3 s); the worker is killed
+/// (SIGKILL) in that wait; nothing is sent while no worker runs, though the try falls
+/// due; a restarted worker process delivers it, signed with the profile's secret
+/// (checked as a receiver would), the same body; it is delivered once (two tries in
+/// all), never again.
+async fn outbox_survives_a_killed_worker(db: &str) {
+    const SECRET: &str = "sigkill-outbox-secret-01";
+    let store = mtcal_store::open(db).await.unwrap();
+    let (_, key) = store
+        .create_key(mtcal_store::Scope::Write, "e2e")
+        .await
+        .unwrap();
+    let (hook, mut rx) = flaky_receiver().await;
+    let allow = ["--webhook-allow", "127.0.0.1"];
+    let api = Server::start(db, &[&allow[..], &["--no-worker"]].concat());
+    register(&Client::new(&api.url, &key), "M1").await;
+    let http = reqwest::Client::new();
+    let tagged = http
+        .patch(format!("{}/api/v1/machines/M1", api.url))
+        .bearer_auth(&key)
+        .json(&serde_json::json!({"tags": ["line-a"]}))
+        .send()
+        .await
+        .unwrap();
+    assert_eq!(tagged.status(), 200);
+    let made = http
+        .post(format!("{}/api/v1/tolerances", api.url))
+        .bearer_auth(&key)
+        .json(&serde_json::json!({"scope": "tag", "target": "line-a",
+            "limits": {"drift_um": 5.0}, "webhook_url": hook, "webhook_secret": SECRET}))
+        .send()
+        .await
+        .unwrap();
+    assert_eq!(made.status(), 201, "{}", made.text().await.unwrap());
+    // A baseline, then a check whose EXX drifted 16 µm over its 100 mm: an alert, and
+    // its delivery stored with it.
+    let mut raised = None;
+    for (at, c1) in [
+        ("2026-01-05T08:00:00Z", 0.0),
+        ("2026-04-05T08:00:00Z", 0.16),
+    ] {
+        let r = store
+            .import_result(check("M1", "identification", at, c1))
+            .await
+            .unwrap();
+        raised = mtcal_domain::landing::result_landed(&store, "M1", &r.id)
+            .await
+            .unwrap();
+    }
+    let alert = raised.expect("a drift alert");
+    let pending = delivery_until(&api.url, &key, |_| true).await;
+    assert_eq!(
+        (&pending["state"], &pending["attempts"]),
+        (&serde_json::json!("pending"), &serde_json::json!(0))
+    );
+
+    let worker_args = [&allow[..], &["--webhook-retry-ms", "3000"]].concat();
+    let first = Worker::start(db, &worker_args);
+    let tried = tokio::time::timeout(std::time::Duration::from_secs(20), rx.recv())
+        .await
+        .expect("a first try")
+        .unwrap();
+    verify_signature(SECRET, &tried).unwrap();
+    // The 503 is recorded: the delivery waits for its next try.
+    delivery_until(&api.url, &key, |d| {
+        d["attempts"] == 1 && d["state"] == "pending" && d["last_error"].is_string()
+    })
+    .await;
+    drop(first); // SIGKILL
+    // The next try falls due (3 s after the first) while no worker runs: nothing is sent.
+    tokio::time::sleep(std::time::Duration::from_millis(4000)).await;
+    assert!(rx.try_recv().is_err(), "a try without a worker");
+    let waiting = delivery_until(&api.url, &key, |_| true).await;
+    assert_eq!(
+        (&waiting["state"], &waiting["attempts"]),
+        (&serde_json::json!("pending"), &serde_json::json!(1))
+    );
+
+    let restarted = std::time::Instant::now();
+    let second = Worker::start(db, &worker_args);
+    let delivered = tokio::time::timeout(std::time::Duration::from_secs(20), rx.recv())
+        .await
+        .expect("delivered after the restart")
+        .unwrap();
+    assert!(delivered.at > restarted);
+    verify_signature(SECRET, &delivered).unwrap();
+    assert_eq!(delivered.body, tried.body, "the same delivery");
+    let body: serde_json::Value = serde_json::from_slice(&delivered.body).unwrap();
+    assert_eq!(body["id"], alert.id.as_str());
+    let done = delivery_until(&api.url, &key, |d| d["state"] != "pending").await;
+    assert_eq!(
+        (&done["state"], &done["attempts"]),
+        (&serde_json::json!("delivered"), &serde_json::json!(2))
+    );
+    // Never again: several of the worker's polls later, no third request.
+    tokio::time::sleep(std::time::Duration::from_millis(1500)).await;
+    assert!(rx.try_recv().is_err(), "delivered twice");
+    drop(second);
+    drop(api);
+}
+
+#[tokio::test]
+async fn a_webhook_delivery_survives_its_worker_killed_by_sigkill_on_sqlite() {
+    let dir = tempfile::tempdir().unwrap();
+    let db = dir.path().join("svc.sqlite");
+    outbox_survives_a_killed_worker(db.to_str().unwrap()).await;
+}
+
+#[tokio::test]
+async fn a_webhook_delivery_survives_its_worker_killed_by_sigkill_on_postgres() {
+    let Some(pg) = mtcal_store::testing::ScratchPg::create("e2e::restart::outbox")
+        .await
+        .unwrap()
+    else {
+        return;
+    };
+    outbox_survives_a_killed_worker(&pg.url).await;
+    pg.drop_schema().await.unwrap();
 }

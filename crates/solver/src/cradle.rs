@@ -33,8 +33,10 @@
 //!    error);
 //! 6. the held-out residual compared with the tracker noise floor √3·σ, σ the noise per
 //!    coordinate pooled from the per-pose circle fits (which no A-dependent effect
-//!    reaches): a gap is reported when the held-out RMS exceeds the floor by more than
-//!    [`FLOOR_RATIO`].
+//!    reaches); a gap is reported when the lack-of-fit F test with that pure error
+//!    ([`LackOfFit`]) rejects the chosen model at [`LACK_OF_FIT_ALPHA`] (without pure
+//!    error to test against, when the held-out RMS exceeds the floor by more than
+//!    [`FLOOR_RATIO`]).
 //!
 //! # Observability (ball data alone)
 //!
@@ -203,7 +205,8 @@ pub struct ModelParameter {
 }
 
 /// A model the forward selection cannot tell from the chosen one: a successor of the same
-/// model as the chosen one (one term different) that the selection would have accepted
+/// model as the chosen one (one term different) whose BIC is within 2·ln 20 ≈ 6 of the
+/// chosen model's (posterior odds above 1 : 20), that the selection would have accepted
 /// too (it lowers the held-out RMS of that model by more than `margin`) and whose
 /// held-out RMS is within `margin` of the chosen model's.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
@@ -260,9 +263,33 @@ pub struct FloorReport {
     pub ratio: f64,
     /// The unexplained part in quadrature, √(held_out² − floor²), µm (0 at the floor).
     pub gap_um: f64,
+    /// The verdict: the lack-of-fit test does not reject the model at
+    /// [`LACK_OF_FIT_ALPHA`] (or, without it, the held-out ratio is within [`FLOOR_RATIO`]).
     pub at_floor: bool,
+    /// The lack-of-fit F test of the chosen model against the tracker noise (`None`
+    /// when the fit leaves no degrees of freedom beyond the circles').
+    #[serde(default)]
+    pub lack_of_fit: Option<LackOfFit>,
     /// In a sentence, with the poses where the gap is largest when there is one.
     pub statement: String,
+}
+
+/// Lack-of-fit F test with pure error (Draper & Smith, Applied Regression Analysis,
+/// 3rd ed., section 2.1): the chosen model's residual sum of squares SSR (3N − P degrees
+/// of freedom) is split into the per-pose circle fits' SSR_c (pure error: the tracker
+/// noise, ν_c = Σ(2N − 6)) and the rest, SSR − SSR_c with ν = 3N − P − ν_c (the circles'
+/// placement and the points' phase, which every A-dependent effect moves);
+/// F = ((SSR − SSR_c)/ν) / (SSR_c/ν_c) follows F(ν, ν_c) when the model is right.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[cfg_attr(feature = "openapi", derive(utoipa::ToSchema))]
+pub struct LackOfFit {
+    pub f: f64,
+    pub dof: f64,
+    pub dof_pure: f64,
+    /// P(F(ν, ν_c) ≥ f).
+    pub p_value: f64,
+    /// The false-alarm rate of the verdict ([`LACK_OF_FIT_ALPHA`]).
+    pub alpha: f64,
 }
 
 /// The identified kinematic model.
@@ -596,23 +623,58 @@ fn held_rms(h: &[identify::HeldOut]) -> f64 {
     (h.iter().map(|x| x.after_rms * x.after_rms).sum::<f64>() / h.len().max(1) as f64).sqrt()
 }
 
-/// A gap is reported when the held-out RMS exceeds the tracker floor by more than this
-/// ratio: the held-out RMS of 3N coordinates scatters by about 1/√(6N) relative (3 % for
-/// 234 points) and the model's own estimation error adds about P/(6N) (under 2 % for
-/// P ≤ 20), so 10 % is well outside chance.
+/// Without a lack-of-fit test ([`LackOfFit`]: no degrees of freedom beyond the circle
+/// fits), a gap is reported when the held-out RMS exceeds the tracker floor by more than
+/// this ratio: the ratio of the two noise estimates scatters by ≈ 3 % for 234 points
+/// (more with fewer) and the model's own estimation error adds about P/(6N).
 pub const FLOOR_RATIO: f64 = 1.1;
 
-/// Tracker noise per coordinate (µm) pooled from the per-pose circle fits, whose
-/// orthogonal residuals (radial and axial, 2 per point, 6 parameters per circle) no
-/// A-dependent effect reaches: σ² = Σ N·rms² / Σ (2N − 6).
-fn tracker_noise_um(poses: &[PoseRow]) -> f64 {
-    let (ss, dof) = poses.iter().fold((0.0, 0.0), |(ss, dof), p| {
+/// False-alarm rate of the lack-of-fit verdict ([`LackOfFit`]): a right model is said to
+/// leave a gap in 1 % of checks.
+pub const LACK_OF_FIT_ALPHA: f64 = 0.01;
+
+/// The lack-of-fit test ([`LackOfFit`]) of a fit with residual sum of squares `ssr_um2`
+/// (µm²) over `n_coords` coordinates and `n_params` parameters.
+fn lack_of_fit(
+    poses: &[PoseRow],
+    ssr_um2: f64,
+    n_coords: usize,
+    n_params: usize,
+) -> Option<LackOfFit> {
+    use statrs::distribution::{ContinuousCDF, FisherSnedecor};
+    let (ss_c, dof_c) = pure_error(poses);
+    let dof = n_coords as f64 - n_params as f64 - dof_c;
+    if dof < 1.0 || dof_c < 1.0 || ss_c <= 0.0 {
+        return None;
+    }
+    let f = ((ssr_um2 - ss_c).max(0.0) / dof) / (ss_c / dof_c);
+    let p_value = FisherSnedecor::new(dof, dof_c).ok()?.sf(f);
+    Some(LackOfFit {
+        f,
+        dof,
+        dof_pure: dof_c,
+        p_value,
+        alpha: LACK_OF_FIT_ALPHA,
+    })
+}
+
+/// The per-pose circle fits' residual sum of squares (µm²) and degrees of freedom: the
+/// pure error of the tracker, which no A-dependent effect reaches.
+fn pure_error(poses: &[PoseRow]) -> (f64, f64) {
+    poses.iter().fold((0.0, 0.0), |(ss, dof), p| {
         let n = p.n_points as f64;
         (
             ss + n * p.circle_rms_um.powi(2),
             dof + (2.0 * n - 6.0).max(0.0),
         )
-    });
+    })
+}
+
+/// Tracker noise per coordinate (µm) pooled from the per-pose circle fits, whose
+/// orthogonal residuals (radial and axial, 2 per point, 6 parameters per circle) no
+/// A-dependent effect reaches: σ² = Σ N·rms² / Σ (2N − 6).
+fn tracker_noise_um(poses: &[PoseRow]) -> f64 {
+    let (ss, dof) = pure_error(poses);
     if dof > 0.0 {
         (ss / dof).sqrt()
     } else {
@@ -730,10 +792,11 @@ fn model_parameters(fit: &identify::KinematicFit, rivals: &[RivalModel]) -> Vec<
         .collect()
 }
 
-/// A rival is looked for among the siblings within this BIC of the chosen model (each
-/// one costs a leave-one-pose-out validation); beyond it the evidence against the
-/// sibling is very strong (Kass & Raftery 1995).
-const RIVAL_BIC: f64 = 10.0;
+/// A sibling within this BIC of the chosen model is a rival: by the BIC approximation
+/// its posterior odds against the chosen model are exp(−ΔBIC/2), above 1 : 20 below
+/// 2·ln 20 ≈ 6 (the edge of "strong" evidence, Kass & Raftery 1995, J. Am. Stat. Assoc.
+/// 90, 773): the chosen model's ±2σ then cannot hold 95 % of what the data allow.
+const RIVAL_BIC: f64 = 5.991_464_547_107_979; // 2·ln 20
 
 /// The chosen model's rivals among its siblings ([`RivalModel`]). The forward
 /// selection's standard uncertainties are those of the chosen model taken as given; when
@@ -940,19 +1003,38 @@ fn compliance_curves(fit: &identify::KinematicFit, poses: &[PoseRow]) -> Vec<Com
         .collect()
 }
 
-fn floor_report(poses: &[PoseRow], held: &[HeldOutPose]) -> Option<FloorReport> {
+fn floor_report(
+    poses: &[PoseRow],
+    held: &[HeldOutPose],
+    fit: &identify::KinematicFit,
+    n_points: usize,
+) -> Option<FloorReport> {
     if held.is_empty() {
         return None;
     }
+    let lof = lack_of_fit(
+        poses,
+        (fit.rms * 1e3).powi(2) * n_points as f64,
+        3 * n_points,
+        fit.q.len(),
+    );
     let noise = tracker_noise_um(poses);
     let floor = 3f64.sqrt() * noise;
     let h = (held.iter().map(|p| p.after_rms_um.powi(2)).sum::<f64>() / held.len() as f64).sqrt();
     let ratio = h / floor;
     let gap = (h * h - floor * floor).max(0.0).sqrt();
-    let at_floor = ratio <= FLOOR_RATIO;
+    let at_floor = lof
+        .as_ref()
+        .map_or(ratio <= FLOOR_RATIO, |l| l.p_value >= l.alpha);
+    let test = lof.as_ref().map_or(String::new(), |l| {
+        format!(
+            "; lack-of-fit test F = {:.2} on ({:.0}, {:.0}) degrees of freedom, p = {:.3}",
+            l.f, l.dof, l.dof_pure, l.p_value
+        )
+    });
     let statement = if at_floor {
         format!(
-            "held-out RMS {h:.2} µm is at the tracker floor {floor:.2} µm (ratio {ratio:.2}): \
+            "held-out RMS {h:.2} µm is at the tracker floor {floor:.2} µm (ratio {ratio:.2}{test}): \
              the model explains everything but the tracker noise"
         )
     } else {
@@ -964,7 +1046,7 @@ fn floor_report(poses: &[PoseRow], held: &[HeldOutPose]) -> Option<FloorReport> 
             .map(|p| format!("{} ({:.1} µm)", p.a_deg, p.after_rms_um))
             .collect();
         format!(
-            "held-out RMS {h:.2} µm against a tracker floor of {floor:.2} µm (ratio {ratio:.2}): \
+            "held-out RMS {h:.2} µm against a tracker floor of {floor:.2} µm (ratio {ratio:.2}{test}): \
              a gap of {gap:.2} µm remains, largest at A = {} °: an A-dependent effect the \
              model does not carry, or tracker noise that is not isotropic",
             at.join(", ")
@@ -977,6 +1059,7 @@ fn floor_report(poses: &[PoseRow], held: &[HeldOutPose]) -> Option<FloorReport> 
         ratio,
         gap_um: gap,
         at_floor,
+        lack_of_fit: lof,
         statement,
     })
 }
@@ -1160,7 +1243,7 @@ pub fn check_cradle(
             (held_poses.iter().map(|h| f(h).powi(2)).sum::<f64>() / held_poses.len() as f64).sqrt()
         }
     };
-    let floor = floor_report(&pa.poses, &held_poses);
+    let floor = floor_report(&pa.poses, &held_poses, fit, obs.len());
     let compensation = CompensationReport {
         method: "leave-one-pose-out: each A pose predicted by the model fitted on the others; before = distance from the nominal kinematics in the registered frame, after = distance from the model (first-order residual after compensation)".into(),
         before_rms_um: rms(|h| h.before_rms_um),

@@ -8,7 +8,8 @@
 //!
 //! Asserted for every seed: the held-out RMS within 1.1 × the tracker floor, and no
 //! reported parameter more than 4σ from the truth (a blunder, not chance: 6e-5 per
-//! parameter). Pooled over the 54 checks (about 230 reported parameters): at least 90 %
+//! parameter). Over the 54 checks: the lack-of-fit test rejects the chosen model at its
+//! 1 % false-alarm rate in at most 3. Pooled over the 54 checks (about 230 reported parameters): at least 90 %
 //! within 2σ (95 % expected for honest uncertainties; the pooled fraction's standard
 //! deviation is 1.4 %, so 90 % fails by chance with probability below 1e-3, and an
 //! uncertainty understated by a third (expected coverage ≈ 82 %) fails).
@@ -31,7 +32,7 @@ fn tilts_about_the_mount_are_found_at_the_floor_and_match_the_truth() {
         .chain(pick(Maker::HtmPlus, 150.0))
         .collect();
     assert_eq!(cases.len(), 18);
-    let (mut reported, mut within) = (0usize, 0usize);
+    let (mut reported, mut within, mut lack_of_fit) = (0usize, 0usize, 0usize);
     for case in &cases {
         let t: CaseTally = run_case(case, 1..=3);
         assert!(
@@ -49,6 +50,7 @@ fn tilts_about_the_mount_are_found_at_the_floor_and_match_the_truth() {
                 assert!(p.sum_value * v > 0.0, "{}: {name} {p:?}", case.label());
             }
         }
+        lack_of_fit += t.lack_of_fit;
         for p in t.params.values() {
             reported += p.reported;
             within += p.within_2sigma + p.not_separable;
@@ -57,6 +59,12 @@ fn tilts_about_the_mount_are_found_at_the_floor_and_match_the_truth() {
     assert!(
         within as f64 >= 0.9 * reported as f64,
         "within 2σ: {within} of {reported}"
+    );
+    // The lack-of-fit test's false alarms at its 1 % rate: 0.54 expected in 54 checks;
+    // 4 or more has probability 0.2 % for a right model.
+    assert!(
+        lack_of_fit <= 3,
+        "lack of fit rejected in {lack_of_fit} of 54"
     );
 }
 

@@ -394,6 +394,9 @@ fn a_gap_above_the_tracker_floor_is_reported() {
     let r = check(&pts);
     let f = r.floor.as_ref().unwrap();
     assert!(!f.at_floor && f.ratio > 1.5, "{f:?}");
+    // The lack-of-fit test (pure error from the circle fits) rejects the model outright.
+    let l = f.lack_of_fit.as_ref().unwrap();
+    assert!(l.p_value < 1e-9 && l.f > 3.0, "{l:?}");
     assert!(f.gap_um > 5.0, "{f:?}");
     assert!(f.statement.contains("gap"), "{}", f.statement);
     assert!(r.notes.iter().any(|n| n.contains("gap")));
