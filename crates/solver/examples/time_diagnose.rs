@@ -49,6 +49,15 @@ fn reset_peak() {
     let _ = std::fs::write("/proc/self/clear_refs", "5");
 }
 
+/// `f` run once: its value, wall time (s), CPU time (s) and peak resident memory (MB).
+fn measured<T>(f: impl FnOnce() -> T) -> (T, f64, f64, f64) {
+    reset_peak();
+    let (t, c) = (Instant::now(), cpu_s());
+    let v = f();
+    let (wall, cpu) = (t.elapsed().as_secs_f64(), cpu_s() - c);
+    (v, wall, cpu, peak_mb().unwrap_or(f64::NAN))
+}
+
 fn main() {
     let samples: f64 = std::env::args()
         .nth(1)
@@ -72,22 +81,12 @@ fn main() {
         s.planes.iter().map(|p| p.runs.len()).sum::<usize>(),
         peak_mb().unwrap_or(f64::NAN)
     );
-    reset_peak();
-    let (t, c) = (Instant::now(), cpu_s());
-    let id = identify(s, &IdentifyOptions::default()).unwrap();
-    let ti = t.elapsed().as_secs_f64();
-    let ci = cpu_s() - c;
-    let mi = peak_mb().unwrap_or(f64::NAN);
+    let (id, ti, ci, mi) = measured(|| identify(s, &IdentifyOptions::default()).unwrap());
     println!(
         "identify: {ti:.3} s (CPU {ci:.2} s), peak resident {mi:.0} MB (residual {:.3} um, floor {:?})",
         id.fit.residual_rms_um, id.fit.noise_estimate_um
     );
-    reset_peak();
-    let (t, c) = (Instant::now(), cpu_s());
-    let d = diagnose_session(s, &DiagnoseOptions::default()).unwrap();
-    let td = t.elapsed().as_secs_f64();
-    let cd = cpu_s() - c;
-    let md = peak_mb().unwrap_or(f64::NAN);
+    let (d, td, cd, md) = measured(|| diagnose_session(s, &DiagnoseOptions::default()).unwrap());
     println!(
         "diagnose: {td:.3} s (CPU {cd:.2} s), peak resident {md:.0} MB (verdict {:?}, {} finding(s)); {:.1} x identify (CPU {:.1} x)",
         d.verdict,
@@ -115,12 +114,8 @@ fn main() {
                 .collect(),
         );
     }
-    reset_peak();
-    let (t, c) = (Instant::now(), cpu_s());
-    let dl = diagnose_session(&logged, &DiagnoseOptions::default()).unwrap();
-    let tl = t.elapsed().as_secs_f64();
-    let cl = cpu_s() - c;
-    let ml = peak_mb().unwrap_or(f64::NAN);
+    let (dl, tl, cl, ml) =
+        measured(|| diagnose_session(&logged, &DiagnoseOptions::default()).unwrap());
     println!(
         "diagnose with a logged temperature: {tl:.3} s (CPU {cl:.2} s), peak resident {ml:.0} MB (verdict {:?}, {} finding(s)); {:.1} x identify (CPU {:.1} x), {:.2} x diagnose without it (CPU {:.2} x)",
         dl.verdict,

@@ -9,7 +9,8 @@
 //! Asserted for every seed: the held-out RMS within 1.1 × the tracker floor, and no
 //! reported parameter more than 4σ from the truth (a blunder, not chance: 6e-5 per
 //! parameter). Over the 54 checks: the lack-of-fit test rejects the chosen model at its
-//! 1 % false-alarm rate in at most 3. Pooled over the 54 checks (about 230 reported parameters): at least 90 %
+//! 1 % false-alarm rate in at most 3, and z = (value − truth)/σ of the reported
+//! parameters has mean 0 and spread 1 within chance. Pooled over the 54 checks (about 230 reported parameters): at least 90 %
 //! within 2σ (95 % expected for honest uncertainties; the pooled fraction's standard
 //! deviation is 1.4 %, so 90 % fails by chance with probability below 1e-3, and an
 //! uncertainty understated by a third (expected coverage ≈ 82 %) fails).
@@ -33,6 +34,8 @@ fn tilts_about_the_mount_are_found_at_the_floor_and_match_the_truth() {
         .collect();
     assert_eq!(cases.len(), 18);
     let (mut reported, mut within, mut lack_of_fit) = (0usize, 0usize, 0usize);
+    // Signed z = (value − truth)/σ pooled: count, sum, sum of squares.
+    let (mut nz, mut sz, mut sz2) = (0usize, 0.0, 0.0);
     for case in &cases {
         let t: CaseTally = run_case(case, 1..=3);
         assert!(
@@ -52,6 +55,7 @@ fn tilts_about_the_mount_are_found_at_the_floor_and_match_the_truth() {
         }
         lack_of_fit += t.lack_of_fit;
         for p in t.params.values() {
+            (nz, sz, sz2) = (nz + p.n_z(), sz + p.sum_z, sz2 + p.sum_z2);
             reported += p.reported;
             within += p.within_2sigma + p.not_separable;
         }
@@ -66,6 +70,14 @@ fn tilts_about_the_mount_are_found_at_the_floor_and_match_the_truth() {
         lack_of_fit <= 3,
         "lack of fit rejected in {lack_of_fit} of 54"
     );
+    // Honest σ: z has mean 0 and spread 1. With about 230 z the mean's standard deviation
+    // is 0.07 and the spread's 0.05: a bias of a third of σ, or σ off by a quarter, fails.
+    let n = nz as f64;
+    let (mean, spread) = (sz / n, ((sz2 - sz * sz / n) / (n - 1.0)).sqrt());
+    assert!(nz >= 150, "{nz} z");
+    assert!(mean.abs() <= 0.3, "z mean {mean}");
+    assert!((0.8..=1.25).contains(&spread), "z spread {spread}");
+    eprintln!("{nz} z: mean {mean:.3}, spread {spread:.3}; lack of fit {lack_of_fit} of 54");
 }
 
 /// With an A positioning error (30·sin A µrad) and only the tilt about X (60·sin A about

@@ -18,7 +18,7 @@
 //! the normal test command runs a few seeds of every cell.
 
 use mtcal_solver::axis::Axis;
-use mtcal_solver::diagnosis::{DiagnoseOptions, DiagnosisResult, diagnose_session};
+use mtcal_solver::diagnosis::{DiagnoseOptions, DiagnosisResult, diagnose_session, effects};
 use mtcal_solver::simulate::{Effect, Plan, SimOptions, random_truth, simulate};
 use rand::rngs::StdRng;
 use rand::{Rng, SeedableRng};
@@ -245,6 +245,11 @@ pub fn score(case: &Case, r: &DiagnosisResult, dur: f64) -> Tally {
         .iter()
         .chain(&r.possible)
         .find(|f| f.effect == "thermal_drift");
+    if let Some(f) = thermal {
+        // Every name it reports (the lagged and quadratic forms' too) is the effects
+        // table's.
+        effects::conforms(f).unwrap_or_else(|e| panic!("{e}: {f:#?}"));
+    }
     let in_time = thermal.is_some_and(|f| {
         f.parameters.contains_key("time_constant_s")
             || f.undetermined.iter().any(|u| u.name == "time_constant_s")

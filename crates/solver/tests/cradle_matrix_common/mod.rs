@@ -502,7 +502,7 @@ pub fn short(spec: &ModelSpec) -> String {
 }
 
 /// The header of [`row`]'s table.
-pub const HEADER: &str = "| case | held-out / floor: mean (max); lack of fit at 1 % |  compensation, held-out poses: RMS before → after, µm | tilts and mount: mean ± mean σ [truth], within 2σ of seeds reporting | other terms (truth 0): within 2σ | models chosen (seeds) |\n|---|---|---|---|---|---|";
+pub const HEADER: &str = "| case | held-out / floor: mean (max); lack of fit at 1 % | compensation, held-out poses: RMS before → after, µm | tilts and mount: mean ± mean σ [truth], within 2σ of seeds reporting | other terms (truth 0): within 2σ | models chosen (seeds) |\n|---|---|---|---|---|---|";
 
 /// A row of the table in docs/cradle.md.
 pub fn row(case: &Case, t: &CaseTally) -> String {
