@@ -21,6 +21,7 @@ use std::pin::Pin;
 
 mod error;
 pub mod keys;
+pub mod limits;
 mod migrations;
 pub mod model;
 mod postgres;

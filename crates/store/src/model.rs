@@ -4,8 +4,7 @@ use serde::{Deserialize, Serialize};
 use serde_json::Value;
 use std::collections::BTreeMap;
 
-/// Largest |travel end| of a machine accepted, mm (100 m: beyond any machine tool's axis).
-pub const MAX_TRAVEL_MM: f64 = 100_000.0;
+pub use crate::limits::MAX_TRAVEL_MM;
 
 /// A registered machine tool.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]

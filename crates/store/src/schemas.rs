@@ -3,7 +3,7 @@
 //! stacks), the travel (axes X, Y, Z; two ends within [`MAX_TRAVEL_MM`]) and the tags
 //! (the rules of [`crate::text`]). The API's machine routes refuse what these refuse.
 
-use crate::model::MAX_TRAVEL_MM;
+use crate::limits::MAX_TRAVEL_MM;
 use crate::text::{TAG_MAX, TAGS_MAX};
 use serde_json::{Value, json};
 use utoipa::openapi::schema::Schema;
