@@ -101,8 +101,8 @@ pub struct CircleGeometry {
 }
 
 impl CircleGeometry {
-    /// The geometry of one circle run in `plane`; `None` for fewer than 8 moving samples
-    /// or no circle.
+    /// The geometry of one circle run in `plane`; `None` for fewer than 8 moving samples,
+    /// no circle, or a run of more than `u32::MAX` samples (indices are held as `u32`).
     pub fn of(run: &Run, plane: Plane) -> Option<CircleGeometry> {
         let (ua, va) = plane.axes();
         let (iu, iv) = (ua.index(), va.index());
@@ -164,8 +164,10 @@ impl CircleGeometry {
             sweep_deg: sweep.abs().to_degrees(),
             feed_mm_min,
             axes: (iu, iv),
-            // (A run's samples are limited far below u32::MAX by the readers.)
-            keep: keep.into_iter().map(|k| k as u32).collect(),
+            keep: keep
+                .into_iter()
+                .map(|k| u32::try_from(k).ok())
+                .collect::<Option<_>>()?,
         })
     }
 
