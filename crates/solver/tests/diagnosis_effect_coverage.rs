@@ -56,8 +56,16 @@ const EFFECTS: [(&str, [&str; 2], &[f64]); 11] = [
     ("waviness", ["simulator", "table"], &[0.3, 0.8, 2.0]),
     ("vibration", ["simulator", "by hand"], &[0.2, 0.6, 1.5]),
     ("step", ["sharp", "ramp"], &[0.45, 1.5, 3.0]),
-    ("direction_coupling", ["sharp", "settling"], &[0.3, 1.0, 3.0]),
-    ("velocity_coupling", ["simulator", "spline"], &[0.01, 0.03, 0.1]),
+    (
+        "direction_coupling",
+        ["sharp", "settling"],
+        &[0.3, 1.0, 3.0],
+    ),
+    (
+        "velocity_coupling",
+        ["simulator", "spline"],
+        &[0.01, 0.03, 0.1],
+    ),
 ];
 
 fn simulated(seed: u64, effects: Vec<Effect>) -> Session {
@@ -213,9 +221,7 @@ fn make(effect: &str, way: usize, m: f64, seed: u64) -> Made {
                     }],
                 );
             } else {
-                add_by_travel(&mut made.session, a, a, |d, s| {
-                    -d * m * (-s / decay).exp()
-                });
+                add_by_travel(&mut made.session, a, a, |d, s| -d * m * (-s / decay).exp());
             }
             made
         }
@@ -254,7 +260,12 @@ fn make(effect: &str, way: usize, m: f64, seed: u64) -> Made {
             let declared = [0.0, 0.0, -200.0];
             let offsets = |middle: [f64; 3]| {
                 Plan::custom(
-                    &[[0.0, 0.0, -100.0], middle, [0.0, 0.0, -300.0], [40.0, 0.0, -100.0]],
+                    &[
+                        [0.0, 0.0, -100.0],
+                        middle,
+                        [0.0, 0.0, -300.0],
+                        [40.0, 0.0, -100.0],
+                    ],
                     true,
                 )
             };
