@@ -225,11 +225,18 @@ fn make(effect: &str, way: usize, m: f64, seed: u64) -> Made {
             }
             made
         }
-        "cyclic" => {
-            let period = [5.0, 10.0, 16.0, 20.0][rng.random_range(0..4)];
+        "cyclic" | "waviness" => {
+            // A cyclic error along the axis itself, or a waviness across it.
+            let cyclic = effect == "cyclic";
+            let dir = if cyclic { a } else { other_axis(&mut rng, a) };
+            let period: f64 = if cyclic {
+                [5.0, 10.0, 16.0, 20.0][rng.random_range(0..4)]
+            } else {
+                rng.random_range(25.0..45.0)
+            };
             let phase: f64 = rng.random_range(0.0..2.0 * PI);
             let mut made = plain(
-                "cyclic",
+                if cyclic { "cyclic" } else { "waviness" },
                 Some(a),
                 named(&[
                     ("amplitude_um", m),
@@ -238,17 +245,25 @@ fn make(effect: &str, way: usize, m: f64, seed: u64) -> Made {
                 ]),
             );
             if way == 0 {
-                made.session = simulated(
-                    seed,
-                    vec![Effect::Cyclic {
+                let e = if cyclic {
+                    Effect::Cyclic {
                         axis: a,
                         period_mm: period,
                         amplitude_um: m,
                         phase_rad: phase,
-                    }],
-                );
+                    }
+                } else {
+                    Effect::Waviness {
+                        axis: a,
+                        direction: dir,
+                        amplitude_um: m,
+                        period_mm: period,
+                        phase_rad: phase,
+                    }
+                };
+                made.session = simulated(seed, vec![e]);
             } else {
-                add_error(&mut made.session, a, |run, i| {
+                add_error(&mut made.session, dir, |run, i| {
                     periodic_table(run.pos_mm[i][ai], m, period, phase, 12)
                 });
             }
@@ -306,37 +321,6 @@ fn make(effect: &str, way: usize, m: f64, seed: u64) -> Made {
                 ]),
                 profile: None,
             }
-        }
-        "waviness" => {
-            let dir = other_axis(&mut rng, a);
-            let period: f64 = rng.random_range(25.0..45.0);
-            let phase: f64 = rng.random_range(0.0..2.0 * PI);
-            let mut made = plain(
-                "waviness",
-                Some(a),
-                named(&[
-                    ("amplitude_um", m),
-                    ("period_mm", period),
-                    ("phase_rad", phase),
-                ]),
-            );
-            if way == 0 {
-                made.session = simulated(
-                    seed,
-                    vec![Effect::Waviness {
-                        axis: a,
-                        direction: dir,
-                        amplitude_um: m,
-                        period_mm: period,
-                        phase_rad: phase,
-                    }],
-                );
-            } else {
-                add_error(&mut made.session, dir, |run, i| {
-                    periodic_table(run.pos_mm[i][ai], m, period, phase, 12)
-                });
-            }
-            made
         }
         "vibration" => {
             let phase: f64 = rng.random_range(0.0..2.0 * PI);
