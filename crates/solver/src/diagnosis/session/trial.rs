@@ -186,9 +186,13 @@ impl Ctx<'_> {
         Some(match catalogue::search(d, cand) {
             Search::None => (None, 0),
             Search::Grid(name, values) => {
-                // The thermal time constant is searched on the reduced problem
-                // ([`ThermalBasis`]); other parameters from their columns.
-                let basis = (cand.effect == "thermal_drift")
+                // The thermal time constant and the lag of a logged temperature are
+                // searched on the reduced problem ([`ThermalBasis`]); other parameters
+                // from their columns.
+                let smoother = (cand.effect == "thermal_temperature_lag")
+                    .then_some(d.temperature.as_ref())
+                    .flatten();
+                let basis = (cand.effect == "thermal_drift" || smoother.is_some())
                     .then(|| ThermalBasis::new(d, red, &self.base_columns(&f.cols)));
                 // A candidate that vanishes away from its axis's reversals (the spike) is
                 // evaluated on the rows within its reach at the largest value searched
@@ -198,7 +202,11 @@ impl Ctx<'_> {
                 let near = catalogue::reach(cand, top).map(|(a, x)| self.near_rows(a, x));
                 let ssr_at = |v: f64| match (&basis, &near) {
                     (Some(b), _) => {
-                        super::super::moments::joint_fit(red, sets, Some(&b.at(v)), &f.base, false)
+                        let mom = match smoother {
+                            Some(sm) => b.lagged(sm, v),
+                            None => b.at(v),
+                        };
+                        super::super::moments::joint_fit(red, sets, Some(&mom), &f.base, false)
                             .all
                             .ssr
                     }
@@ -330,8 +338,8 @@ impl Ctx<'_> {
     fn try_temperature_forms(&self, s: &State, cand: &Candidate) -> Option<Trial> {
         let linear = self.try_one(s, cand)?;
         // No evidence of a growth that follows the temperature at all: the richer forms
-        // are not searched (a lag or a curvature is a refinement of that growth; the
-        // lag's search is the costly part of a session with a logged temperature).
+        // are not searched (a lag or a curvature is a refinement of that growth; each
+        // costs passes over the rows: the lag's basis and exact fit, the quadratic's fit).
         if linear.dbic >= 0.0 {
             return Some(linear);
         }
