@@ -9,12 +9,12 @@ use mtcal_solver::axis::Axis;
 use mtcal_solver::diagnosis::{
     DiagnoseOptions, DiagnosisResult, Finding, Verdict, diagnose_session, effects,
 };
-use mtcal_solver::session::{Run, Session};
+use mtcal_solver::session::{PlaneRecord, Run, Session};
 use mtcal_solver::simulate::{Effect, Plan, SimOptions, random_truth, simulate};
 use rand::SeedableRng;
 use rand::rngs::StdRng;
 
-const RATE: f64 = 10.0;
+pub(crate) const RATE: f64 = 10.0;
 
 fn plan_for(name: &str) -> (Plan, f64) {
     if name == "setup_offset" {
@@ -470,7 +470,7 @@ fn clean_sessions_are_consistent() {
 }
 
 /// `f(seed)` for every seed, on all cores (each diagnosis is single-threaded).
-fn par_map<T: Send>(seeds: &[u64], f: impl Fn(u64) -> T + Sync) -> Vec<T> {
+pub(crate) fn par_map<T: Send>(seeds: &[u64], f: impl Fn(u64) -> T + Sync) -> Vec<T> {
     let threads = std::thread::available_parallelism().map_or(2, |n| n.get());
     let chunk = seeds.len().div_ceil(threads).max(1);
     std::thread::scope(|s| {
@@ -566,7 +566,7 @@ fn progress_is_reported_through_the_phases() {
 }
 
 /// A clean simulated session at `rate` Hz with the seed plan.
-fn clean_session(seed: u64, rate: f64) -> Session {
+pub(crate) fn clean_session(seed: u64, rate: f64) -> Session {
     let o = SimOptions {
         seed,
         sample_rate_hz: rate,
@@ -577,7 +577,7 @@ fn clean_session(seed: u64, rate: f64) -> Session {
 
 /// Adds `e(run, i)` µm to the reading along `dir` of every sample: an effect made in the
 /// test, outside the simulator and its catalogue of effects.
-fn add_error(session: &mut Session, dir: Axis, e: impl Fn(&Run, usize) -> f64) {
+pub(crate) fn add_error(session: &mut Session, dir: Axis, e: impl Fn(&Run, usize) -> f64) {
     for p in &mut session.planes {
         let (u, v) = p.plane.axes();
         for run in &mut p.runs {
@@ -768,29 +768,14 @@ fn a_7_hz_vibration_is_found_not_taken_for_noise() {
 /// of the axis's last travel carried through each file (the unrecorded approach moves
 /// between runs included; before the file's first move, the opposite of it). Made in the
 /// test, not by the simulator.
-fn add_lost_motion(session: &mut Session, axis: Axis, b: impl Fn(f64) -> f64) {
+pub(crate) fn add_lost_motion(session: &mut Session, axis: Axis, b: impl Fn(f64) -> f64) {
     let a = axis.index();
     for p in &mut session.planes {
         let (u, v) = p.plane.axes();
-        let all: Vec<f64> = p
-            .runs
-            .iter()
-            .flat_map(|r| r.pos_mm.iter().map(|q| q[a]))
-            .collect();
-        let first = all
-            .windows(2)
-            .map(|w| w[1] - w[0])
-            .find(|d| d.abs() > 1e-9)
-            .map_or(1.0, f64::signum);
-        let (mut d, mut last) = (-first, all.first().copied().unwrap_or(0.0));
-        for run in &mut p.runs {
-            for i in 0..run.t_s.len() {
-                let x = run.pos_mm[i][a];
-                if (x - last).abs() > 1e-9 {
-                    d = (x - last).signum();
-                }
-                last = x;
-                let e = -d * b(x) / 2.0;
+        let travel = travel_through_file(p, a);
+        for (run, dir) in p.runs.iter_mut().zip(travel) {
+            for (i, (d, _)) in dir.into_iter().enumerate() {
+                let e = -d * b(run.pos_mm[i][a]) / 2.0;
                 if u == axis {
                     run.du_um[i] += e;
                 } else if v == axis {
@@ -799,6 +784,46 @@ fn add_lost_motion(session: &mut Session, axis: Axis, b: impl Fn(f64) -> f64) {
             }
         }
     }
+}
+
+/// Per run of `plane`, per sample: the sign d of axis `a`'s last travel and its travel s
+/// since it last reversed (mm), from the set-points, carried through the file (the
+/// unrecorded approach moves between runs included). Before the file's first move d is
+/// the opposite of that move (the approach came from the other side) and s is infinite;
+/// the first move is a reversal.
+pub(crate) fn travel_through_file(plane: &PlaneRecord, a: usize) -> Vec<Vec<(f64, f64)>> {
+    let all: Vec<f64> = plane
+        .runs
+        .iter()
+        .flat_map(|r| r.pos_mm.iter().map(|q| q[a]))
+        .collect();
+    let first = all
+        .windows(2)
+        .map(|w| w[1] - w[0])
+        .find(|d| d.abs() > 1e-9)
+        .map_or(1.0, f64::signum);
+    let (mut d, mut s) = (-first, f64::INFINITY);
+    let mut last = all.first().copied().unwrap_or(0.0);
+    plane
+        .runs
+        .iter()
+        .map(|run| {
+            run.pos_mm
+                .iter()
+                .map(|q| {
+                    let step = q[a] - last;
+                    if step.abs() > 1e-9 {
+                        if step.signum() != d {
+                            (d, s) = (step.signum(), 0.0);
+                        }
+                        s += step.abs();
+                    }
+                    last = q[a];
+                    (d, s)
+                })
+                .collect()
+        })
+        .collect()
 }
 
 /// The misfit of a backlash of Y (4 µm) and of Z (3 µm), made in the test, is located at
@@ -918,7 +943,7 @@ fn a_worn_screw_is_found_as_lost_motion_varying_along_the_travel() {
 /// The commanded position of axis `a` in `run` at time `t` (s): the Catmull-Rom spline
 /// through the run's set-points (a path with continuous velocity, as an interpolator
 /// makes it), held at the first set-point before the run.
-fn commanded_at(run: &Run, a: usize, t: f64) -> f64 {
+pub(crate) fn commanded_at(run: &Run, a: usize, t: f64) -> f64 {
     let (ts, n) = (&run.t_s, run.t_s.len());
     let p = |i: isize| run.pos_mm[i.clamp(0, n as isize - 1) as usize][a];
     if t <= ts[0] {
@@ -934,24 +959,28 @@ fn commanded_at(run: &Run, a: usize, t: f64) -> f64 {
         + (3.0 * p1 - p0 - 3.0 * p2 + p3) * u * u * u)
 }
 
-/// The X error (µm) of a servo that follows its commanded path with a delay `tau` (s),
-/// at sample `i` of `run`: on a circle (a smooth path), (x(t − τ) − x(t))·1000 with x the
-/// Catmull-Rom spline through the set-points; on a line, whose set-points move at a
-/// constant feed and stop between two samples (a spline overshoots there), −τ·v·1000
-/// with v the feed at the sample (0 at rest on either side).
-fn delayed(run: &Run, i: usize, tau: f64) -> f64 {
-    let circle = matches!(
+/// The error (µm) along axis `a` of a servo that follows its commanded path with a delay
+/// `tau` (s), at sample `i` of `run`: on a circle (a smooth path),
+/// (x(t − τ) − x(t))·1000 with x the Catmull-Rom spline through the set-points; on a line,
+/// whose set-points move at a constant feed and stop between two samples (a spline
+/// overshoots there), −τ·v·1000 with v the feed at the sample (0 at rest on either side).
+pub(crate) fn delayed(run: &Run, a: usize, i: usize, tau: f64) -> f64 {
+    if is_circle(run) {
+        let t = run.t_s[i];
+        return (commanded_at(run, a, t - tau) - commanded_at(run, a, t)) * 1000.0;
+    }
+    let v = mtcal_solver::diagnosis::design::velocity(&run.t_s, &run.pos_mm, i)[a];
+    -tau * v * 1000.0
+}
+
+/// Whether `run` is a circle test.
+pub(crate) fn is_circle(run: &Run) -> bool {
+    matches!(
         run.test,
         Some(
             mtcal_solver::session::TestKind::CircleCw | mtcal_solver::session::TestKind::CircleCcw
         )
-    );
-    if circle {
-        let t = run.t_s[i];
-        return (commanded_at(run, 0, t - tau) - commanded_at(run, 0, t)) * 1000.0;
-    }
-    let v = mtcal_solver::diagnosis::design::velocity(&run.t_s, &run.pos_mm, i)[0];
-    -tau * v * 1000.0
+    )
 }
 
 /// A servo that follows its commanded path with a pure delay τ, made in the test (not by
@@ -967,7 +996,7 @@ fn a_servo_delay_made_outside_the_simulator_adds_no_reversal_spike() {
     for tau in [3e-3, 1e-3] {
         let out = par_map(&[71, 72, 73, 74, 75, 76], |seed| {
             let mut session = clean_session(seed, RATE);
-            add_error(&mut session, Axis::X, |run, i| delayed(run, i, tau));
+            add_error(&mut session, Axis::X, |run, i| delayed(run, 0, i, tau));
             diagnose_session(&session, &DiagnoseOptions::default()).unwrap()
         });
         let mut within = 0;

@@ -7,6 +7,7 @@ mod stepwise_common;
 
 mod cradle_matrix;
 mod cradle_simulated;
+mod diagnosis_effect_coverage;
 mod diagnosis_positioning_real;
 mod diagnosis_positioning_transient;
 mod diagnosis_series_drift;

@@ -145,12 +145,13 @@ fn periodic_best(d: &Design, r: &[f64], v: &ScanVar, freqs: &[f64]) -> Option<f6
     Some(freqs[kbest])
 }
 
-/// A frequency band of a refinement: the scanned frequency, a coarse step and the lowest
-/// frequency of the scan.
+/// A frequency band of a refinement: the scanned frequency, the half-width of the band
+/// searched, the lowest frequency of the scan and the golden-section steps.
 struct Band {
     f0: f64,
     step: f64,
     f_lo: f64,
+    iters: usize,
 }
 
 impl Ctx<'_> {
@@ -161,16 +162,24 @@ impl Ctx<'_> {
     /// frequency f0 (ΔBIC = n·ln(SSR₁/SSR₀) + 3·ln n < 0) has its frequency refined by
     /// golden section on the exact joint SSR within f0 ± step (at least f_lo/2); the
     /// scanned one is kept unless the refined one fits better. Candidates without
-    /// evidence (nearly all, on a clean session) cost nothing more.
+    /// evidence (nearly all, on a clean session) cost nothing more. A frequency in time
+    /// is refined the same way within one fine step: its scan's grid (a tenth of the
+    /// session's inverse length) is about a hundred times its standard uncertainty, so
+    /// the scanned value alone lay several σ from the least-squares one.
     fn refine_on_joint_fit(&self, s: &State, cand: &Candidate, b: Band) -> f64 {
-        let Band { f0, step, f_lo } = b;
+        let Band {
+            f0,
+            step,
+            f_lo,
+            iters,
+        } = b;
         let ssr = |v: f64| self.ssr_at(s, cand, v);
         let s0 = ssr(f0);
         let n = self.d.rows() as f64;
         if !s0.is_finite() || n * (s0 / s.fit.ssr).ln() + 3.0 * n.ln() >= 0.0 {
             return f0;
         }
-        let br = golden_section((f0 - step).max(0.5 * f_lo), f0 + step, 12, ssr);
+        let br = golden_section((f0 - step).max(0.5 * f_lo), f0 + step, iters, ssr);
         let (v, s) = br.best();
         if s < s0 { v } else { f0 }
     }
@@ -288,16 +297,24 @@ impl Ctx<'_> {
                     .take_while(|&x| x <= c0 + coarse_step)
                     .collect();
                 let best = periodic_best(d, &f.resid, &scan(false), &fine)?;
-                let best = if in_time {
-                    best
+                // Position: within a coarse step (12 golden steps); time: within a fine
+                // step, to 10⁻⁵ of it (24 steps).
+                let band = if in_time {
+                    Band {
+                        f0: best,
+                        step: fine_step,
+                        f_lo,
+                        iters: 24,
+                    }
                 } else {
-                    let band = Band {
+                    Band {
                         f0: best,
                         step: coarse_step,
                         f_lo,
-                    };
-                    self.refine_on_joint_fit(s, cand, band)
+                        iters: 12,
+                    }
                 };
+                let best = self.refine_on_joint_fit(s, cand, band);
                 // Columns take a frequency; `report_parameters` turns it into a period.
                 let _ = as_period;
                 (Some((name, best)), 1)
