@@ -198,10 +198,8 @@ impl Ctx<'_> {
                 // The thermal time constant and the lag of a logged temperature are
                 // searched on the reduced problem ([`ThermalBasis`]); other parameters
                 // from their columns.
-                let smoother = (cand.effect == "thermal_temperature_lag")
-                    .then_some(d.temperature.as_ref())
-                    .flatten();
-                let basis = (cand.effect == "thermal_drift" || smoother.is_some())
+                let lag = cand.effect == "thermal_temperature_lag" && d.temperature.is_some();
+                let basis = (cand.effect == "thermal_drift" || lag)
                     .then(|| ThermalBasis::new(d, red, &self.base_columns(&f.cols)));
                 // A candidate that vanishes away from its axis's reversals (the spike) is
                 // evaluated on the rows within its reach at the largest value searched
@@ -211,9 +209,9 @@ impl Ctx<'_> {
                 let near = catalogue::reach(cand, top).map(|(a, x)| self.near_rows(a, x));
                 let ssr_at = |v: f64| match (&basis, &near) {
                     (Some(b), _) => {
-                        let mom = match smoother {
-                            Some(sm) => b.lagged(sm, v),
-                            None => b.at(v),
+                        let mom = if lag { b.lagged(v) } else { Some(b.at(v)) };
+                        let Some(mom) = mom else {
+                            return f64::INFINITY;
                         };
                         super::super::moments::joint_fit(red, sets, Some(&mom), &f.base, false)
                             .all
@@ -692,7 +690,7 @@ fn smoother_variance(t: &Trial, d: &Design) -> Option<Vec<f64>> {
     };
     let cols: Vec<(bool, bool, Axis)> = t.names.iter().map(|n| col(n)).collect::<Option<_>>()?;
     let temp: Vec<f64> = match (t.cand.effect, t.theta) {
-        ("thermal_temperature_lag", Some((_, tau))) => sm.lagged(&d.fields.t_s, tau),
+        ("thermal_temperature_lag", Some((_, tau))) => d.lagged_temperature(tau)?,
         _ => d.fields.temp_k.clone()?,
     };
     let groups = d.runs.iter().flat_map(|run| {
