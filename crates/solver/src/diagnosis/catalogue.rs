@@ -507,9 +507,8 @@ pub fn specs<'a>(
                 .collect();
             let axes = Axis::ALL.into_iter().chain(Axis::ALL).map(Some).collect();
             let lagged = (c.effect == "thermal_temperature_lag")
-                .then_some(d.temperature.as_ref())
-                .flatten()
-                .map(|sm| sm.lagged(&d.fields.t_s, theta));
+                .then(|| d.lagged_temperature(theta))
+                .flatten();
             let temp_k: Option<std::borrow::Cow<[f64]>> = match lagged {
                 Some(l) => Some(l.into()),
                 None => d.fields.temp_k.as_deref().map(Into::into),

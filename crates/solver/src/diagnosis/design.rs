@@ -8,7 +8,7 @@
 //! are eliminated exactly by centring every column and the data within each (run,
 //! component) — the Frisch–Waugh form of estimating them jointly.
 
-use super::temperature::Smoother;
+use super::temperature::{LagInput, Smoother};
 use crate::axis::{Axis, Plane, Topology};
 use crate::basis::BasisKind;
 use crate::design::ErrorModel;
@@ -120,9 +120,23 @@ pub struct Design {
     pub time_band: std::sync::OnceLock<(f64, f64, f64)>,
     /// The smoother of the logged temperature, when every run logs `temp_c`.
     pub temperature: Option<Smoother>,
+    /// The input of the smoothed temperature's lag at every sample, formed on first use
+    /// ([`Design::lagged_temperature`]).
+    pub lag_input: std::sync::OnceLock<Option<LagInput>>,
 }
 
 impl Design {
+    /// The smoothed temperature change through a first-order lag of time constant `tau`
+    /// (s) at every sample ([`Smoother::lagged`]); `None` without a logged temperature.
+    pub fn lagged_temperature(&self, tau: f64) -> Option<Vec<f64>> {
+        let input = self.lag_input.get_or_init(|| {
+            self.temperature
+                .as_ref()
+                .map(|sm| sm.lag_input(&self.fields.t_s))
+        });
+        input.as_ref().map(|i| i.lagged(tau))
+    }
+
     pub fn rows(&self) -> usize {
         self.y.len()
     }
@@ -380,6 +394,7 @@ pub fn build(session: &Session, topology: &Topology, order: usize) -> Result<Des
         ),
         time_band: std::sync::OnceLock::new(),
         temperature,
+        lag_input: std::sync::OnceLock::new(),
     };
     let mut y = std::mem::take(&mut d.y);
     d.centre(&mut y);

@@ -134,34 +134,37 @@ impl Smoother {
     /// linear between successive times (steps of at most 1 s through gaps):
     /// T_s(t + h) = u₁ − rτ + (T_s(t) − u₀ + rτ)·e^(−h/τ), r = (u₁ − u₀)/h.
     pub fn lagged(&self, t_s: &[f64], tau: f64) -> Vec<f64> {
+        self.lag_input(t_s).lagged(tau)
+    }
+
+    /// The input of [`Smoother::lagged`] at the times `t_s`, for any time constant: the
+    /// steps and ΔT̂ at their ends, evaluated once.
+    pub fn lag_input(&self, t_s: &[f64]) -> LagInput {
         let mut order: Vec<usize> = (0..t_s.len()).collect();
         if t_s.windows(2).any(|w| w[1] < w[0]) {
             order.sort_by(|&a, &b| t_s[a].total_cmp(&t_s[b]));
         }
-        let mut out = vec![0.0; t_s.len()];
-        let Some(&first) = order.first() else {
-            return out;
+        let mut input = LagInput {
+            u0: 0.0,
+            steps: Vec::with_capacity(t_s.len()),
+            ends: Vec::with_capacity(t_s.len()),
         };
-        let tau = tau.max(1e-9);
-        let (mut t0, mut u0) = (t_s[first], self.delta(t_s[first]));
-        let mut y = u0;
+        let Some(&first) = order.first() else {
+            return input;
+        };
+        let mut t0 = t_s[first];
+        input.u0 = self.delta(t0);
         for i in order {
             let t1 = t_s[i];
             let steps = ((t1 - t0) / 1.0).ceil().max(1.0);
             let h = (t1 - t0) / steps;
             for k in 1..=steps as usize {
-                let t = t0 + h * k as f64;
-                let u1 = self.delta(t);
-                if h > 0.0 {
-                    let r = (u1 - u0) / h;
-                    y = u1 - r * tau + (y - u0 + r * tau) * (-h / tau).exp();
-                }
-                u0 = u1;
+                input.steps.push((h, self.delta(t0 + h * k as f64)));
             }
             t0 = t1;
-            out[i] = y;
+            input.ends.push((i, input.steps.len()));
         }
-        out
+        input
     }
 
     /// Covariance of the coefficients β of a model fitted on columns made from the
@@ -219,6 +222,44 @@ impl Smoother {
         }
         let gb = svd.solve(&bq, 0.0).ok()?;
         Some(&gb * gb.transpose() * self.noise_k.powi(2))
+    }
+}
+
+/// The input of a first-order lag ([`Smoother::lagged`]) at a set of times, for any
+/// time constant: ΔT̂ at the first time, then every integration step (its length h and
+/// ΔT̂ at its end) in time order.
+pub struct LagInput {
+    u0: f64,
+    steps: Vec<(f64, f64)>,
+    /// Per time asked, in time order: its index among the times and the number of steps
+    /// up to it.
+    ends: Vec<(usize, usize)>,
+}
+
+impl LagInput {
+    /// The lag's output at the times asked, for time constant `tau` (s).
+    pub fn lagged(&self, tau: f64) -> Vec<f64> {
+        let mut out = vec![0.0; self.ends.len()];
+        let tau = tau.max(1e-9);
+        let (mut u0, mut y) = (self.u0, self.u0);
+        // e^(−h/τ) of the last step length (runs are sampled at one rate).
+        let mut decay = (f64::NAN, f64::NAN);
+        let mut done = 0;
+        for &(i, end) in &self.ends {
+            for &(h, u1) in &self.steps[done..end] {
+                if h > 0.0 {
+                    if decay.0 != h {
+                        decay = (h, (-h / tau).exp());
+                    }
+                    let r = (u1 - u0) / h;
+                    y = u1 - r * tau + (y - u0 + r * tau) * decay.1;
+                }
+                u0 = u1;
+            }
+            done = end;
+            out[i] = y;
+        }
+        out
     }
 }
 

@@ -180,9 +180,21 @@ pub fn report(
         );
     }
     let rows = fit.reduced.rows;
-    let residuals = crate::design::residuals(session, model, fit, None);
-    // Each circle run's geometry once, for the ISO 230-4 figures and the polar plots.
-    let circles = crate::standards::iso230_4::circle_runs(session);
+    // The per-sample residuals and, on a second core, each circle run's geometry (once,
+    // for the ISO 230-4 figures and the polar plots) with the standards' figures, which
+    // come from the readings alone.
+    let (residuals, (circles, standards)) = std::thread::scope(|s| {
+        let readings = s.spawn(|| {
+            let circles = crate::standards::iso230_4::circle_runs(session);
+            let standards = crate::standards::from_session_circles(session, &circles);
+            (circles, standards)
+        });
+        let residuals = crate::design::residuals(session, model, fit, None);
+        let readings = readings
+            .join()
+            .unwrap_or_else(|p| std::panic::resume_unwind(p));
+        (residuals, readings)
+    });
     IdentificationResult {
         kind: "identification".into(),
         machine_id: session.machine_id.clone(),
@@ -230,7 +242,7 @@ pub fn report(
         .into_iter()
         .chain(est.reporting.iter().cloned())
         .collect(),
-        standards: crate::standards::from_session_circles(session, &circles),
+        standards,
         circles: crate::standards::iso230_4::circle_plots(session, &circles, Some(&residuals)),
         residuals: crate::residuals::by_file_and_test(session, &residuals),
         model_check: None,

@@ -362,6 +362,8 @@ pub struct ParamTally {
     /// sum of squares (honest σ: mean 0, spread 1).
     pub sum_z: f64,
     pub sum_z2: f64,
+    /// The seeds whose value is more than 2σ from the truth.
+    pub missed: Vec<u64>,
 }
 
 impl ParamTally {
@@ -397,10 +399,13 @@ pub struct CaseTally {
     pub params: BTreeMap<String, ParamTally>,
     /// The largest |value − truth| / σ of a separable reported parameter.
     pub worst_sigma: f64,
+    /// Every check: seed, held-out / floor, the lack-of-fit test's p-value (NaN without
+    /// it).
+    pub checks: Vec<(u64, f64, f64)>,
 }
 
 impl CaseTally {
-    pub fn add(&mut self, case: &Case, r: &CradleResult) {
+    pub fn add(&mut self, case: &Case, seed: u64, r: &CradleResult) {
         self.seeds += 1;
         let f = r.floor.as_ref().expect("held-out poses");
         self.ratio_max = self.ratio_max.max(f.ratio);
@@ -453,6 +458,8 @@ impl CaseTally {
             self.worst_sigma = self.worst_sigma.max(z);
             if z <= 2.0 {
                 t.within_2sigma += 1;
+            } else {
+                t.missed.push(seed);
             }
         }
     }
@@ -471,7 +478,10 @@ pub fn run_case(case: &Case, seeds: impl IntoIterator<Item = u64>) -> CaseTally 
             r.registration.frame, "best_fit",
             "the placement is arbitrary"
         );
-        tally.add(case, &r);
+        tally.add(case, seed, &r);
+        let f = r.floor.as_ref().expect("held-out poses");
+        let p = f.lack_of_fit.as_ref().map_or(f64::NAN, |l| l.p_value);
+        tally.checks.push((seed, f.ratio, p));
     }
     tally
 }

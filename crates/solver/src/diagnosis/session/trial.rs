@@ -195,9 +195,11 @@ impl Ctx<'_> {
         Some(match catalogue::search(d, cand) {
             Search::None => (None, 0),
             Search::Grid(name, values) => {
-                // The thermal time constant is searched on the reduced problem
-                // ([`ThermalBasis`]); other parameters from their columns.
-                let basis = (cand.effect == "thermal_drift")
+                // The thermal time constant and the lag of a logged temperature are
+                // searched on the reduced problem ([`ThermalBasis`]); other parameters
+                // from their columns.
+                let lag = cand.effect == "thermal_temperature_lag" && d.temperature.is_some();
+                let basis = (cand.effect == "thermal_drift" || lag)
                     .then(|| ThermalBasis::new(d, red, &self.base_columns(&f.cols)));
                 // A candidate that vanishes away from its axis's reversals (the spike) is
                 // evaluated on the rows within its reach at the largest value searched
@@ -207,7 +209,11 @@ impl Ctx<'_> {
                 let near = catalogue::reach(cand, top).map(|(a, x)| self.near_rows(a, x));
                 let ssr_at = |v: f64| match (&basis, &near) {
                     (Some(b), _) => {
-                        super::super::moments::joint_fit(red, sets, Some(&b.at(v)), &f.base, false)
+                        let mom = if lag { b.lagged(v) } else { Some(b.at(v)) };
+                        let Some(mom) = mom else {
+                            return f64::INFINITY;
+                        };
+                        super::super::moments::joint_fit(red, sets, Some(&mom), &f.base, false)
                             .all
                             .ssr
                     }
@@ -347,8 +353,8 @@ impl Ctx<'_> {
     fn try_temperature_forms(&self, s: &State, cand: &Candidate) -> Option<Trial> {
         let linear = self.try_one(s, cand)?;
         // No evidence of a growth that follows the temperature at all: the richer forms
-        // are not searched (a lag or a curvature is a refinement of that growth; the
-        // lag's search is the costly part of a session with a logged temperature).
+        // are not searched (a lag or a curvature is a refinement of that growth; each
+        // costs passes over the rows: the lag's basis and exact fit, the quadratic's fit).
         if linear.dbic >= 0.0 {
             return Some(linear);
         }
@@ -690,7 +696,7 @@ fn smoother_variance(t: &Trial, d: &Design) -> Option<Vec<f64>> {
     };
     let cols: Vec<(bool, bool, Axis)> = t.names.iter().map(|n| col(n)).collect::<Option<_>>()?;
     let temp: Vec<f64> = match (t.cand.effect, t.theta) {
-        ("thermal_temperature_lag", Some((_, tau))) => sm.lagged(&d.fields.t_s, tau),
+        ("thermal_temperature_lag", Some((_, tau))) => d.lagged_temperature(tau)?,
         _ => d.fields.temp_k.clone()?,
     };
     let groups = d.runs.iter().flat_map(|run| {
