@@ -284,15 +284,41 @@ impl super::engine::Greedy for SessionProblem<'_> {
         }
         if let Some((name, sd)) = self.ctx.theta_std(s, t, sigma) {
             params.insert(format!("std_{name}"), sd);
-            // The lag of a logged temperature's lagged form is fitted jointly with the
-            // per-kelvin coefficients: their σ, conditional on it, take its uncertainty
-            // along the profile, σ² + (dβ/dτ·σ_τ)².
+            // The linear parameters are fitted jointly with the nonlinear one: their σ,
+            // conditional on it, take its uncertainty along the profile,
+            // σ² + (dβ/dθ·σ_θ)² (a reversal spike's height with its decay length, a
+            // thermal offset or scale with its time constant, a temperature's per-kelvin
+            // coefficients with its lag).
             if t.cand.effect == "thermal_temperature_lag" {
                 let slope = self.ctx.coef_slope(s, t);
                 for (i, n) in t.names.iter().enumerate() {
                     let b = slope.as_ref().map_or(f64::INFINITY, |v| v[i]);
                     if let Some(v) = params.get_mut(&format!("std_{n}")) {
                         *v = v.hypot(b * sd);
+                    }
+                }
+            } else if let Some(slope) = self.ctx.coef_slope(s, t) {
+                // Reported parameters (an amplitude from its sine and cosine) moved by
+                // ±σ_θ along the profile; σ_θ of a frequency from its period's.
+                let sd_theta = match t.theta {
+                    Some(("period_mm", f)) => sd * f * f,
+                    _ => sd,
+                };
+                let moved = |sign: f64| {
+                    let mut m = t.clone();
+                    for (c, b) in m.coef.iter_mut().zip(&slope) {
+                        *c += sign * b * sd_theta;
+                    }
+                    report_parameters(&m, sigma, d)
+                };
+                let (up, down) = (moved(1.0), moved(-1.0));
+                for (n, v) in &up {
+                    if n.starts_with("std_") || n.starts_with("phase") || *n == name {
+                        continue;
+                    }
+                    let shift = 0.5 * (v - down.get(n).copied().unwrap_or(*v));
+                    if let Some(sd) = params.get_mut(&format!("std_{n}")) {
+                        *sd = sd.hypot(shift);
                     }
                 }
             }

@@ -440,19 +440,25 @@ impl Ctx<'_> {
     }
 
     /// The slope dβ/dθ of a trial's coefficients along the profile of its nonlinear
-    /// parameter θ (the coefficients refitted at θ·e^(±0.05), central difference), in
-    /// the trial's column order; `None` when a refit loses a column.
+    /// parameter θ (the coefficients refitted at θ·e^(±0.05), or θ ± one fine step of a
+    /// frequency's scan; central difference), in the trial's column order; `None` when a
+    /// refit loses a column or θ is a step's time (a place between two samples).
     pub fn coef_slope(&self, s: &State, t: &Trial) -> Option<Vec<f64>> {
-        let (_, th) = t.theta?;
-        let h: f64 = 0.05;
+        let (name, th) = t.theta?;
+        if name == "time_s" {
+            return None;
+        }
         let at = |v: f64| {
             let specs = catalogue::specs(self.d, &t.cand, v, s.eps());
             let (_, keep, jf) = self.evaluate(&s.fit, &specs, false)?;
             (keep.len() == t.ncols).then(|| jf.all.x[..t.ncols].to_vec())
         };
-        let (hi, lo) = (at(th * h.exp())?, at(th * (-h).exp())?);
-        let dv = th * (h.exp() - (-h).exp());
-        Some(hi.iter().zip(&lo).map(|(a, b)| (a - b) / dv).collect())
+        let (lo, hi) = match catalogue::search(self.d, &t.cand) {
+            Search::Periodic { fine_step, .. } => (th - fine_step, th + fine_step),
+            _ => (th * (-0.05f64).exp(), th * 0.05f64.exp()),
+        };
+        let (a, b) = (at(hi)?, at(lo)?);
+        Some(a.iter().zip(&b).map(|(a, b)| (a - b) / (hi - lo)).collect())
     }
 
     fn try_one(&self, s: &State, cand: &Candidate) -> Option<Trial> {
