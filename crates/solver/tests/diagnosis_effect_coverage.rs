@@ -637,10 +637,7 @@ fn effect_coverage_over_seeds_magnitudes_and_ways() {
                 let base = 100_000 * ei as u64 + 10_000 * way as u64 + 1_000 * mi as u64;
                 let seeds: Vec<u64> = (base..base + n).collect();
                 let (found, stats) = run_cell(effect, way, m, &seeds);
-                if mi + 1 == mags.len()
-                    && found < seeds.len()
-                    && !NOT_FOUND.contains(&label.as_str())
-                {
+                if mi + 1 == mags.len() && found < seeds.len() {
                     failed.push(format!("{label}: found in {found} of {n} seeds"));
                 }
                 for (name, st) in &stats {
@@ -712,8 +709,3 @@ const KNOWN: [(&str, &str, &str); 13] = [
     ("direction_coupling", "settling", "shift_um"),
     ("thermal_drift", "by hand", "scale_ppm_X"),
 ];
-
-/// Cells of the largest magnitude whose effect is known not to be found in every seed
-/// (docs/diagnosis.md, "Coverage of the other effects": a thermal drift of 40 ppm is
-/// rejected by the size rule in most seeds).
-const NOT_FOUND: [&str; 2] = ["thermal_drift simulator 40", "thermal_drift by hand 40"];

@@ -342,8 +342,16 @@ impl super::engine::Greedy for SessionProblem<'_> {
         // a large growth of which the run offsets absorb the bulk is physics, judged by
         // its σ (the smoother's included), not by its size against the misfit.
         let measured = t.cand.effect.starts_with("thermal_temperature");
-        if let Some(why) =
-            effects::implausible(&c.label(), size, explained, self.floor).filter(|_| !measured)
+        // The size's standard uncertainty, bounded above by Σ peak·σ (the coefficients'
+        // covariance is not at hand; the bound only makes the rule reject more).
+        let size_sd: f64 = t
+            .coef_sd
+            .iter()
+            .zip(&t.peaks)
+            .map(|(s, p)| s * sigma * p)
+            .sum();
+        if let Some(why) = effects::implausible(&c.label(), size, size_sd, explained, self.floor)
+            .filter(|_| !measured)
         {
             return Admission::SetAside(Note::Rejected(why));
         }
