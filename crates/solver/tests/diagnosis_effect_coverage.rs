@@ -18,7 +18,7 @@
 
 use super::diagnosis_sessions::{
     RATE, add_error, add_lost_motion, clean_session, commanded_at, delayed, is_circle, par_map,
-    travel_through_file,
+    session_with, travel_through_file,
 };
 use mtcal_solver::axis::Axis;
 use mtcal_solver::diagnosis::{DiagnoseOptions, DiagnosisResult, Finding, diagnose_session};
@@ -73,15 +73,21 @@ const EFFECTS: [(&str, [&str; 2], &[f64]); 12] = [
     ),
 ];
 
-fn simulated(seed: u64, effects: Vec<Effect>) -> Session {
-    let o = SimOptions {
-        plan: Plan::Seed,
-        seed,
-        sample_rate_hz: RATE,
-        effects,
-        ..SimOptions::default()
-    };
-    simulate(&random_truth(seed), &o).unwrap().session
+/// The session of an effect made the first way (`effect`, by the simulator) or the
+/// second (`by_hand` applied to the clean session), one simulation either way.
+fn either_way(
+    seed: u64,
+    way: usize,
+    effect: Effect,
+    by_hand: impl FnOnce(&mut Session),
+) -> Session {
+    if way == 0 {
+        session_with(seed, RATE, vec![effect])
+    } else {
+        let mut session = clean_session(seed, RATE);
+        by_hand(&mut session);
+        session
+    }
 }
 
 fn random_axis(rng: &mut StdRng) -> Axis {
@@ -162,8 +168,11 @@ fn make(effect: &str, way: usize, m: f64, seed: u64) -> Made {
     let mut rng = StdRng::seed_from_u64(seed ^ 0xc0_7e2a);
     let a = random_axis(&mut rng);
     let ai = a.index();
-    let plain = |effect: &'static str, axis: Option<Axis>, truth: Vec<(String, f64)>| Made {
-        session: clean_session(seed, RATE),
+    let plain = |effect: &'static str,
+                 axis: Option<Axis>,
+                 truth: Vec<(String, f64)>,
+                 session: Session| Made {
+        session,
         effect,
         axis,
         truth,
@@ -171,22 +180,29 @@ fn make(effect: &str, way: usize, m: f64, seed: u64) -> Made {
     };
     match effect {
         "backlash" => {
-            let mut made = plain("backlash", Some(a), named(&[("lost_motion_um", m)]));
-            if way == 0 {
-                made.session = simulated(
-                    seed,
-                    vec![Effect::Backlash {
-                        axis: a,
-                        lost_motion_um: m,
-                    }],
-                );
-            } else {
-                add_lost_motion(&mut made.session, a, |_| m);
-            }
-            made
+            let session = either_way(
+                seed,
+                way,
+                Effect::Backlash {
+                    axis: a,
+                    lost_motion_um: m,
+                },
+                |s| add_lost_motion(s, a, |_| m),
+            );
+            plain(
+                "backlash",
+                Some(a),
+                named(&[("lost_motion_um", m)]),
+                session,
+            )
         }
         "lost_motion_profile" => {
-            let mut made = plain("lost_motion_profile", Some(a), Vec::new());
+            let mut made = plain(
+                "lost_motion_profile",
+                Some(a),
+                Vec::new(),
+                clean_session(seed, RATE),
+            );
             let (lo, hi) = travel(&made.session, ai);
             let u = move |q: f64| (2.0 * q - lo - hi) / (hi - lo);
             // Worn in the middle (the model's own order 2), or a pitch error of the
@@ -201,34 +217,29 @@ fn make(effect: &str, way: usize, m: f64, seed: u64) -> Made {
             made
         }
         "servo_lag" => {
-            let mut made = plain("servo_lag", Some(a), named(&[("lag_s", m)]));
-            if way == 0 {
-                made.session = simulated(seed, vec![Effect::ServoLag { axis: a, lag_s: m }]);
-            } else {
-                add_error(&mut made.session, a, |run, i| delayed(run, ai, i, m));
-            }
-            made
+            let session = either_way(seed, way, Effect::ServoLag { axis: a, lag_s: m }, |s| {
+                add_error(s, a, |run, i| delayed(run, ai, i, m))
+            });
+            plain("servo_lag", Some(a), named(&[("lag_s", m)]), session)
         }
         "reversal_spike" => {
             let decay: f64 = rng.random_range(0.5..2.0);
-            let mut made = plain(
+            let session = either_way(
+                seed,
+                way,
+                Effect::ReversalSpike {
+                    axis: a,
+                    height_um: m,
+                    decay_mm: decay,
+                },
+                |s| add_by_travel(s, a, a, |d, s| -d * m * (-s / decay).exp()),
+            );
+            plain(
                 "reversal_spike",
                 Some(a),
                 named(&[("height_um", m), ("decay_mm", decay)]),
-            );
-            if way == 0 {
-                made.session = simulated(
-                    seed,
-                    vec![Effect::ReversalSpike {
-                        axis: a,
-                        height_um: m,
-                        decay_mm: decay,
-                    }],
-                );
-            } else {
-                add_by_travel(&mut made.session, a, a, |d, s| -d * m * (-s / decay).exp());
-            }
-            made
+                session,
+            )
         }
         "cyclic" | "waviness" => {
             // A cyclic error along the axis itself, or a waviness across it.
@@ -256,7 +267,28 @@ fn make(effect: &str, way: usize, m: f64, seed: u64) -> Made {
                 }
                 2.0 * c.hypot(sn) / k as f64
             };
-            let mut made = plain(
+            let e = if cyclic {
+                Effect::Cyclic {
+                    axis: a,
+                    period_mm: period,
+                    amplitude_um: m,
+                    phase_rad: phase,
+                }
+            } else {
+                Effect::Waviness {
+                    axis: a,
+                    direction: dir,
+                    amplitude_um: m,
+                    period_mm: period,
+                    phase_rad: phase,
+                }
+            };
+            let session = either_way(seed, way, e, |s| {
+                add_error(s, dir, |run, i| {
+                    periodic_table(run.pos_mm[i][ai], m, period, phase, 12)
+                })
+            });
+            plain(
                 if cyclic { "cyclic" } else { "waviness" },
                 Some(a),
                 named(&[
@@ -264,31 +296,8 @@ fn make(effect: &str, way: usize, m: f64, seed: u64) -> Made {
                     ("period_mm", period),
                     ("phase_rad", phase),
                 ]),
-            );
-            if way == 0 {
-                let e = if cyclic {
-                    Effect::Cyclic {
-                        axis: a,
-                        period_mm: period,
-                        amplitude_um: m,
-                        phase_rad: phase,
-                    }
-                } else {
-                    Effect::Waviness {
-                        axis: a,
-                        direction: dir,
-                        amplitude_um: m,
-                        period_mm: period,
-                        phase_rad: phase,
-                    }
-                };
-                made.session = simulated(seed, vec![e]);
-            } else {
-                add_error(&mut made.session, dir, |run, i| {
-                    periodic_table(run.pos_mm[i][ai], m, period, phase, 12)
-                });
-            }
-            made
+                session,
+            )
         }
         "setup_offset" => {
             let sign = if rng.random_bool(0.5) { 1.0 } else { -1.0 };
@@ -351,7 +360,18 @@ fn make(effect: &str, way: usize, m: f64, seed: u64) -> Made {
             } else {
                 rng.random_range(0.2..2.0)
             };
-            let mut made = plain(
+            let session = either_way(
+                seed,
+                way,
+                Effect::Vibration {
+                    direction: a,
+                    amplitude_um: m,
+                    frequency_hz: f,
+                    phase_rad: phase,
+                },
+                |s| add_error(s, a, |run, i| m * (2.0 * PI * f * run.t_s[i] + phase).sin()),
+            );
+            plain(
                 "vibration",
                 Some(a),
                 named(&[
@@ -359,26 +379,11 @@ fn make(effect: &str, way: usize, m: f64, seed: u64) -> Made {
                     ("frequency_hz", f),
                     ("phase_rad", phase),
                 ]),
-            );
-            if way == 0 {
-                made.session = simulated(
-                    seed,
-                    vec![Effect::Vibration {
-                        direction: a,
-                        amplitude_um: m,
-                        frequency_hz: f,
-                        phase_rad: phase,
-                    }],
-                );
-            } else {
-                add_error(&mut made.session, a, |run, i| {
-                    m * (2.0 * PI * f * run.t_s[i] + phase).sin()
-                });
-            }
-            made
+                session,
+            )
         }
         "step" => {
-            let mut made = plain("step", Some(a), Vec::new());
+            let mut made = plain("step", Some(a), Vec::new(), clean_session(seed, RATE));
             // A run reading along `a`, a time in its middle third.
             let runs: Vec<&Run> = made
                 .session
@@ -410,7 +415,12 @@ fn make(effect: &str, way: usize, m: f64, seed: u64) -> Made {
         }
         "direction_coupling" => {
             let dir = other_axis(&mut rng, a);
-            let mut made = plain("direction_coupling", Some(dir), named(&[("shift_um", m)]));
+            let mut made = plain(
+                "direction_coupling",
+                Some(dir),
+                named(&[("shift_um", m)]),
+                clean_session(seed, RATE),
+            );
             // Sharp: ±s/2 by the direction of travel of `a`; settling: the same shift
             // reached over 0.5 mm of travel after each reversal, continuous through it.
             add_by_travel(&mut made.session, a, dir, |d, s| {
@@ -425,26 +435,22 @@ fn make(effect: &str, way: usize, m: f64, seed: u64) -> Made {
         "velocity_coupling" => {
             let dir = other_axis(&mut rng, a);
             let c = if rng.random_bool(0.5) { m } else { -m };
-            let mut made = plain(
+            let session = either_way(
+                seed,
+                way,
+                Effect::VelocityCoupling {
+                    axis: a,
+                    direction: dir,
+                    coefficient_um_per_mm_s: c,
+                },
+                |s| add_error(s, dir, |run, i| c * spline_velocity(run, ai, i)),
+            );
+            plain(
                 "velocity_coupling",
                 Some(dir),
                 named(&[("coefficient_um_per_mm_s", c)]),
-            );
-            if way == 0 {
-                made.session = simulated(
-                    seed,
-                    vec![Effect::VelocityCoupling {
-                        axis: a,
-                        direction: dir,
-                        coefficient_um_per_mm_s: c,
-                    }],
-                );
-            } else {
-                add_error(&mut made.session, dir, |run, i| {
-                    c * spline_velocity(run, ai, i)
-                });
-            }
-            made
+                session,
+            )
         }
         "thermal_drift" => {
             // Growth over session time, g = 1 − e^(−t/T): scales of ±m ppm, offsets of
@@ -458,26 +464,25 @@ fn make(effect: &str, way: usize, m: f64, seed: u64) -> Made {
                 truth.push((format!("scale_ppm_{j}"), scale[j.index()]));
                 truth.push((format!("offset_um_{j}"), offset[j.index()]));
             }
-            let mut made = plain("thermal_drift", None, truth);
-            if way == 0 {
-                made.session = simulated(
-                    seed,
-                    vec![Effect::ThermalDrift {
-                        time_constant_s: t_c,
-                        offset_um: offset,
-                        scale_ppm: scale,
-                    }],
-                );
-            } else {
-                for j in Axis::ALL {
-                    let i = j.index();
-                    add_error(&mut made.session, j, |run, k| {
-                        let g = 1.0 - (-run.t_s[k] / t_c).exp();
-                        g * (offset[i] + scale[i] * run.pos_mm[k][i] * 1e-3)
-                    });
-                }
-            }
-            made
+            let session = either_way(
+                seed,
+                way,
+                Effect::ThermalDrift {
+                    time_constant_s: t_c,
+                    offset_um: offset,
+                    scale_ppm: scale,
+                },
+                |s| {
+                    for j in Axis::ALL {
+                        let i = j.index();
+                        add_error(s, j, |run, k| {
+                            let g = 1.0 - (-run.t_s[k] / t_c).exp();
+                            g * (offset[i] + scale[i] * run.pos_mm[k][i] * 1e-3)
+                        });
+                    }
+                },
+            );
+            plain("thermal_drift", None, truth, session)
         }
         other => panic!("no effect {other}"),
     }

@@ -302,15 +302,11 @@ fn concealed_velocity_coupling() {
 
 /// A session with one known effect, no hint given.
 fn diagnose_with(effect: Effect, seed: u64) -> DiagnosisResult {
-    let o = SimOptions {
-        plan: Plan::Seed,
-        seed,
-        sample_rate_hz: RATE,
-        effects: vec![effect],
-        ..SimOptions::default()
-    };
-    let out = simulate(&random_truth(seed), &o).unwrap();
-    diagnose_session(&out.session, &DiagnoseOptions::default()).unwrap()
+    diagnose_session(
+        &session_with(seed, RATE, vec![effect]),
+        &DiagnoseOptions::default(),
+    )
+    .unwrap()
 }
 
 /// Outside the named catalogue: a Y error periodic in X with period 16 mm (a guideway
@@ -567,9 +563,17 @@ fn progress_is_reported_through_the_phases() {
 
 /// A clean simulated session at `rate` Hz with the seed plan.
 pub(crate) fn clean_session(seed: u64, rate: f64) -> Session {
+    session_with(seed, rate, Vec::new())
+}
+
+/// The seed plan's session of `seed`'s random machine at `rate` Hz with `effects` made by
+/// the simulator.
+pub(crate) fn session_with(seed: u64, rate: f64, effects: Vec<Effect>) -> Session {
     let o = SimOptions {
+        plan: Plan::Seed,
         seed,
         sample_rate_hz: rate,
+        effects,
         ..SimOptions::default()
     };
     simulate(&random_truth(seed), &o).unwrap().session
