@@ -19,7 +19,7 @@
 
 use mtcal_solver::axis::Axis;
 use mtcal_solver::diagnosis::{DiagnoseOptions, DiagnosisResult, diagnose_session, effects};
-use mtcal_solver::simulate::{Effect, Plan, SimOptions, random_truth, simulate};
+use mtcal_solver::simulate::Effect;
 use rand::rngs::StdRng;
 use rand::{Rng, SeedableRng};
 use rand_distr::{Distribution, Normal};
@@ -104,14 +104,7 @@ pub fn session(case: &Case, seed: u64) -> mtcal_solver::session::Session {
     } else {
         Vec::new()
     };
-    let o = SimOptions {
-        plan: Plan::Seed,
-        seed,
-        sample_rate_hz: RATE,
-        effects,
-        ..SimOptions::default()
-    };
-    let mut s = simulate(&random_truth(seed), &o).unwrap().session;
+    let mut s = super::diagnosis_sessions::session_with(seed, RATE, effects);
     let sensor = Normal::new(0.0, SENSOR_K).unwrap();
     if case.make == Make::Catalogue {
         for r in s.planes.iter_mut().flat_map(|p| &mut p.runs) {
