@@ -342,8 +342,11 @@ impl super::engine::Greedy for SessionProblem<'_> {
         // a large growth of which the run offsets absorb the bulk is physics, judged by
         // its σ (the smoother's included), not by its size against the misfit.
         let measured = t.cand.effect.starts_with("thermal_temperature");
-        // The size's standard uncertainty, bounded above by Σ peak·σ (the coefficients'
-        // covariance is not at hand; the bound only makes the rule reject more).
+        // The size's standard uncertainty: Σ peak·σ over the coefficients, an upper bound
+        // of the linear combination's (their covariance is not at hand), with σ
+        // conditional on the nonlinear parameter (a thermal drift's time constant). With
+        // that parameter's uncertainty carried in, as the reported σ carry it, the 40 ppm
+        // thermal drifts of the coverage test keep z = 12.8–22, above the bound too.
         let size_sd: f64 = t
             .coef_sd
             .iter()
