@@ -699,14 +699,7 @@ fn effect_coverage_over_seeds_magnitudes_and_ways() {
 
 /// (effect, way, parameter) that do not hold 90 % within 2σ, marked (a) in the table:
 /// docs/diagnosis.md ("Coverage of the other effects") says why.
-const KNOWN: [(&str, &str, &str); 13] = [
-    ("lost_motion_profile", "tanh", "lost_motion_um_1"),
-    ("lost_motion_profile", "tanh", "lost_motion_um_2"),
-    ("lost_motion_profile", "tanh", "lost_motion_um_3"),
-    ("lost_motion_profile", "tanh", "lost_motion_um_4"),
-    ("lost_motion_profile", "tanh", "lost_motion_um_5"),
-    ("lost_motion_profile", "tanh", "mean_lost_motion_um"),
-    ("lost_motion_profile", "tanh", "variation_um"),
+const KNOWN: [(&str, &str, &str); 6] = [
     ("servo_lag", "simulator", "lag_s"),
     ("servo_lag", "delay", "lag_s"),
     ("step", "ramp", "size_um"),

@@ -5,7 +5,7 @@
 //! | effect | columns (along the named axis) | nonlinear |
 //! |---|---|---|
 //! | backlash | −d/2 (d: sign of the axis's last travel) → lost motion b, µm | — |
-//! | lost_motion_profile | −d·P_k(s)/2, k = 0, 1, 2, s the position on the measured travel → lost motion b(q), µm; k = 1, 2 alone (its varying part) once the axis's backlash is in the model | — |
+//! | lost_motion_profile | −d·P_k(s)/2, k = 0..K, s the position on the measured travel → lost motion b(q), µm; k = 1..K alone (its varying part) once the axis's backlash is in the model; the order K chosen by the data (2 … 9) | — |
 //! | servo_lag | −v·10³ → lag τ, s | — |
 //! | reversal_spike | −d·exp(−s/λ) → height h, µm | decay λ, mm |
 //! | cyclic | sin, cos(2π q/P) → amplitude, phase | period P, mm |
@@ -43,6 +43,10 @@ pub struct Candidate {
     pub direction: Option<Axis>,
     /// For setup_offset: the declared head offset of the group.
     pub group: Option<[f64; 3]>,
+    /// For lost_motion_profile and lost_motion_variation: the Legendre order K of the
+    /// profile (the catalogue's candidate holds the largest, [`PROFILE_ORDERS`]; a
+    /// trial's, the order the data chose); 0 for every other effect.
+    pub order: usize,
 }
 
 impl Candidate {
@@ -56,6 +60,9 @@ impl Candidate {
         }
         if let Some(g) = self.group {
             s += &format!(" at t = {g:?}");
+        }
+        if self.order > 0 {
+            s += &format!(" of order {}", self.order);
         }
         s
     }
@@ -110,18 +117,17 @@ fn observed_axes(d: &Design) -> Vec<Axis> {
         .collect()
 }
 
-/// Legendre order of a session's position-dependent lost motion (`lost_motion_profile`):
-/// a linear and a symmetric (ends against middle) variation along the travel.
-pub const PROFILE_ORDER: usize = 2;
+/// Legendre orders K of a session's position-dependent lost motion
+/// (`lost_motion_profile`) the data choose from: at least a linear and a symmetric (ends
+/// against middle) variation along the travel, at most the positioning runs' largest
+/// order (a lost motion that changes sign along the travel, a pitch error of the screw,
+/// needs more than the lowest orders).
+pub const PROFILE_ORDERS: std::ops::RangeInclusive<usize> = 2..=9;
 
-/// The lost-motion profile's travel for axis `a`: its measured travel.
-pub fn profile(d: &Design, a: Axis) -> Option<Profile> {
+/// The lost-motion profile of order `order` on axis `a`'s measured travel.
+pub fn profile(d: &Design, a: Axis, order: usize) -> Option<Profile> {
     let [lo, hi] = d.travel[a.index()]?;
-    (hi > lo).then_some(Profile {
-        lo,
-        hi,
-        order: PROFILE_ORDER,
-    })
+    (hi > lo).then_some(Profile { lo, hi, order })
 }
 
 /// All candidates for a session.
@@ -132,6 +138,10 @@ pub fn candidates(d: &Design) -> Vec<Candidate> {
         axis,
         direction,
         group,
+        order: match effect {
+            "lost_motion_profile" | "lost_motion_variation" => *PROFILE_ORDERS.end(),
+            _ => 0,
+        },
     };
     let mut out = Vec::new();
     for &a in &axes {
@@ -404,17 +414,18 @@ pub fn specs<'a>(
         }
         "lost_motion_profile" | "lost_motion_variation" => {
             // Lost motion varying along the travel: −d·P_k(s)/2 on the measured travel
-            // (`lost_motion::Profile`), k = 0..=PROFILE_ORDER; k from 1 for its varying
-            // part alone (the constant part, k = 0, is then the axis's `backlash`).
+            // (`lost_motion::Profile`), k = 0..=K (the candidate's order); k from 1 for
+            // its varying part alone (the constant part, k = 0, is then the axis's
+            // `backlash`).
             let a = c.axis.expect("axis");
-            let Some(prof) = profile(d, a) else {
+            let Some(prof) = profile(d, a, c.order) else {
                 return Columns::none();
             };
             let from = usize::from(c.effect == "lost_motion_variation");
             let (q, dir) = (&d.fields.q_mm[a.index()], &d.fields.dir[a.index()]);
             Columns::new(
-                (from..=PROFILE_ORDER).map(|k| format!("b{k}")).collect(),
-                vec![Some(a); PROFILE_ORDER + 1 - from],
+                (from..=c.order).map(|k| format!("b{k}")).collect(),
+                vec![Some(a); c.order + 1 - from],
                 move |s, _, o| {
                     let p = crate::basis::Legendre::new(prof.s(q[s]).clamp(-1.0, 1.0));
                     for (o, (pk, _)) in o.iter_mut().zip(p.skip(from)) {

@@ -95,7 +95,12 @@ impl Profile {
     }
 
     /// The variation of b along the points `q`: the RMS of b(q_i) − mean b over them,
-    /// with its standard uncertainty (first order in the coefficients).
+    /// with its standard uncertainty (first order in the coefficients). The square of the
+    /// estimated RMS exceeds the true one's by the mean variance of the deviations,
+    /// E[v̂²] = v² + tr(C_c)/m (C_c their covariance at the m points), which is
+    /// subtracted: v = √max(v̂² − tr(C_c)/m, 0) (without it, a variation of a few σ read
+    /// about 2σ high with a profile of high order). Where nothing is left, v = 0 with the
+    /// σ of the deviations, √(tr(C_c)/m).
     pub fn variation(&self, coef: &[f64], cov: &DMatrix<f64>, q: &[f64]) -> (f64, f64) {
         let m = q.len().max(1) as f64;
         let basis: Vec<Vec<f64>> = q.iter().map(|&v| self.basis_at(v)).collect();
@@ -111,21 +116,26 @@ impl Profile {
             .iter()
             .map(|c| c.iter().zip(coef).map(|(a, b)| a * b).sum())
             .collect();
-        let v = (dev.iter().map(|x| x * x).sum::<f64>() / m).sqrt();
-        if v <= 0.0 {
-            return (0.0, f64::INFINITY);
+        let quad = |c: &[f64]| {
+            let mut var = 0.0;
+            for i in 0..c.len() {
+                for j in 0..c.len() {
+                    var += c[i] * cov[(i, j)] * c[j];
+                }
+            }
+            var
+        };
+        let noise = centred.iter().map(|c| quad(c)).sum::<f64>() / m;
+        let v2 = dev.iter().map(|x| x * x).sum::<f64>() / m - noise;
+        if v2 <= 0.0 {
+            return (0.0, noise.max(0.0).sqrt());
         }
+        let v = v2.sqrt();
         // ∂v/∂b = Σ_i dev_i c_i / (m v)
         let grad: Vec<f64> = (0..=self.order)
             .map(|k| centred.iter().zip(&dev).map(|(c, d)| d * c[k]).sum::<f64>() / (m * v))
             .collect();
-        let mut var = 0.0;
-        for i in 0..grad.len() {
-            for j in 0..grad.len() {
-                var += grad[i] * cov[(i, j)] * grad[j];
-            }
-        }
-        (v, var.max(0.0).sqrt())
+        (v, quad(&grad).max(0.0).sqrt())
     }
 }
 
@@ -170,8 +180,16 @@ mod tests {
         assert!((at[0].0 - 2.0).abs() < 1e-12 && (at[2].0 - 6.0).abs() < 1e-12);
         assert!((at[0].1 - 0.05f64.sqrt()).abs() < 1e-12, "{at:?}");
         let (v, sv) = p.variation(&[4.0, 2.0], &cov, &[0.0, 50.0, 100.0]);
-        assert!((v - (8.0f64 / 3.0).sqrt()).abs() < 1e-12);
-        // v = |b1|·√(2/3): σ = 0.2·√(2/3).
-        assert!((sv - 0.2 * (2.0f64 / 3.0).sqrt()).abs() < 1e-12, "{sv}");
+        // The deviations 2s (s = −1, 0, 1) have variance 0.04·s², mean 0.08/3: v² =
+        // 8/3 − 0.08/3; ∂v/∂b₁ = Σ 2s²/(3v) = 4/(3v), so σ = 0.2·4/(3v).
+        let want = (8.0f64 / 3.0 - 0.08 / 3.0).sqrt();
+        assert!((v - want).abs() < 1e-12, "{v}");
+        assert!((sv - 0.2 * 4.0 / (3.0 * want)).abs() < 1e-12, "{sv}");
+        // Nothing left beyond the deviations' own variance: v = 0, σ their RMS σ.
+        let (v, sv) = p.variation(&[4.0, 0.1], &cov, &[0.0, 50.0, 100.0]);
+        assert!(
+            v == 0.0 && (sv - (0.08f64 / 3.0).sqrt()).abs() < 1e-12,
+            "{v} {sv}"
+        );
     }
 }

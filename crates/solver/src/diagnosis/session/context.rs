@@ -114,6 +114,12 @@ impl<'a> Ctx<'a> {
         specs: &Columns,
         heldout: bool,
     ) -> Option<(Moments, Vec<usize>, moments::JointFit)> {
+        self.fit_moments(f, self.moments(f, specs), heldout)
+    }
+
+    /// The moments of a candidate's columns with the current model's base (one pass over
+    /// the rows where they can vary).
+    pub fn moments(&self, f: &Fit, specs: &Columns) -> Moments {
         let d = self.d;
         // Columns that follow one axis are constant on the runs that do not move it: the
         // centring per run removes them there (their moments are 0).
@@ -122,7 +128,7 @@ impl<'a> Ctx<'a> {
             |row| specs.live(d, row) && parked.as_ref().is_none_or(|p| !p[d.fields.run(row / 2)]);
         let base = self.base_columns(&f.cols);
         let fill = |row, out: &mut [f64]| specs.at(d, row, out);
-        let mom = match specs.run() {
+        match specs.run() {
             // A local effect varies on its run alone: only that run's live rows.
             Some(g) => {
                 let mut mom = Moments::over_rows(
@@ -140,8 +146,7 @@ impl<'a> Ctx<'a> {
                 mom
             }
             None => Moments::new_on(self.red, specs.len(), &base, live, fill),
-        };
-        self.fit_moments(f, mom, heldout)
+        }
     }
 
     /// Per run: whether axis `a` keeps one position over the whole run.

@@ -5,6 +5,7 @@
 use super::super::catalogue::{self, Candidate, Search};
 use super::super::design::{Design, RunInfo};
 use super::super::local_scan;
+use super::super::lost_motion::Profile;
 use super::super::moments::Moments;
 use super::super::periodic_scan;
 use super::super::search::golden_section;
@@ -338,10 +339,52 @@ impl Ctx<'_> {
     /// The candidate evaluated jointly with the current model `s`: its nonlinear
     /// parameter searched, its joint fit on all runs and the folds, its ΔBIC.
     pub fn try_candidate(&self, s: &State, cand: &Candidate) -> Option<Trial> {
-        if cand.effect == "thermal_temperature" {
-            return self.try_temperature_forms(s, cand);
+        match cand.effect {
+            "thermal_temperature" => self.try_temperature_forms(s, cand),
+            "lost_motion_profile" | "lost_motion_variation" => self.try_profile_orders(s, cand),
+            _ => self.try_one(s, cand),
         }
-        self.try_one(s, cand)
+    }
+
+    /// A lost motion varying along the travel, of the order K the data choose
+    /// ([`catalogue::PROFILE_ORDERS`]): the columns' moments are formed once at the
+    /// candidate's largest order and each order fitted on its first columns. From the
+    /// least order up, a higher order replaces the one chosen when it lowers both the
+    /// BIC (n·ln SSR + k·ln n: each added coefficient must lower the SSR by ln n ≈ 12
+    /// noise variances) and the held-out sum of squares (folds of whole runs), the
+    /// discipline the loop holds every candidate to. A profile of too low an order is
+    /// biased by tens of its σ where the lost motion changes sign along the travel.
+    fn try_profile_orders(&self, s: &State, cand: &Candidate) -> Option<Trial> {
+        let specs = catalogue::specs(self.d, cand, 0.0, s.eps());
+        let mom = self.moments(&s.fit, &specs);
+        let from = usize::from(cand.effect == "lost_motion_variation");
+        let mut best: Option<usize> = None;
+        let mut tried: Vec<Trial> = Vec::new();
+        for order in catalogue::PROFILE_ORDERS.filter(|&k| k <= cand.order) {
+            let cols: Vec<usize> = (0..order + 1 - from).collect();
+            let Some((sub, keep, jf)) = self.fit_moments(&s.fit, mom.select(&cols), true) else {
+                continue;
+            };
+            let c = Candidate {
+                order,
+                ..cand.clone()
+            };
+            let t = self.trial_of(s, &c, (None, 0), &specs.names, (sub, keep, jf));
+            if best
+                .map(|b| &tried[b])
+                .is_none_or(|b| t.dbic < b.dbic && t.heldout_ssr < b.heldout_ssr)
+            {
+                best = Some(tried.len());
+            }
+            tried.push(t);
+        }
+        // The two next orders (one odd, one even) ride along as the orders the data did
+        // not choose but do not exclude ([`profile_parameters`]).
+        let b = best?;
+        let richer: Vec<Trial> = tried.drain(b + 1..).take(2).collect();
+        let mut t = tried.swap_remove(b);
+        t.forms = richer;
+        Some(t)
     }
 
     /// A growth that follows a logged temperature, in the form of least BIC: linear in
@@ -463,20 +506,35 @@ impl Ctx<'_> {
 
     fn try_one(&self, s: &State, cand: &Candidate) -> Option<Trial> {
         let (d, f) = (self.d, &s.fit);
-        let n = d.rows() as f64;
         let (theta, extra) = self.search_theta(s, cand)?;
         let th = theta.map_or(0.0, |t| t.1);
         let specs = catalogue::specs(d, cand, th, s.eps());
-        let (mom, keep, jf) = self.evaluate(f, &specs, true)?;
+        let fitted = self.evaluate(f, &specs, true)?;
+        Some(self.trial_of(s, cand, (theta, extra), &specs.names, fitted))
+    }
+
+    /// The trial of a candidate fitted jointly with the current model `s`: its
+    /// nonlinear parameter and the number of parameters its search adds, its columns'
+    /// names and the joint fit ([`Ctx::evaluate`]'s moments, kept columns and fit).
+    fn trial_of(
+        &self,
+        s: &State,
+        cand: &Candidate,
+        (theta, extra): (Option<(&'static str, f64)>, usize),
+        names: &[String],
+        (mom, keep, jf): (Moments, Vec<usize>, super::super::moments::JointFit),
+    ) -> Trial {
+        let n = self.d.rows() as f64;
+        let f = &s.fit;
         let m = keep.len();
         let ssr = jf.all.ssr;
         let k = m + extra;
         let dbic = n * (ssr / f.ssr).ln() + k as f64 * n.ln();
-        Some(Trial {
+        Trial {
             cand: cand.clone(),
             theta,
             ncols: m,
-            names: keep.iter().map(|&j| specs.names[j].clone()).collect(),
+            names: keep.iter().map(|&j| names[j].clone()).collect(),
             peaks: mom.peaks.clone(),
             coef: jf.all.x[..m].to_vec(),
             coef_sd: jf.all.sd[..m].to_vec(),
@@ -486,7 +544,7 @@ impl Ctx<'_> {
             dbic,
             extra_params: extra,
             forms: Vec::new(),
-        })
+        }
     }
 
     /// Standard uncertainty of a trial's nonlinear parameter from the curvature of the
@@ -619,9 +677,62 @@ pub(crate) fn profile_parameters(
     constant: Option<(f64, f64)>,
 ) -> BTreeMap<String, f64> {
     let mut p = BTreeMap::new();
-    let Some(prof) = catalogue::profile(d, a) else {
+    let Some((prof, coef, cov)) = profile_of(t, sigma, d, a, constant) else {
         return p;
     };
+    let points: Vec<f64> = (0..PROFILE_POINTS)
+        .map(|i| prof.lo + (prof.hi - prof.lo) * i as f64 / (PROFILE_POINTS - 1) as f64)
+        .collect();
+    let report = |prof: &Profile, coef: &[f64], cov: &nalgebra::DMatrix<f64>| {
+        let mut v: Vec<(f64, f64)> = prof.at(coef, cov, &points);
+        v.push(prof.mean(coef, cov, &points));
+        v.push(prof.variation(coef, cov, &points));
+        v
+    };
+    let mut at = report(&prof, &coef, &cov);
+    // The orders the data did not choose are nuisance: each figure's variance takes the
+    // largest squared difference from the figure of the next two orders (the richer
+    // order's own extra variance where the chosen one describes the lost motion, the
+    // chosen one's truncation where it does not: a coefficient just below the BIC's
+    // threshold left out of a profile of order 7 biased its ends by 1.5 σ).
+    let richer: Vec<Vec<(f64, f64)>> = t
+        .forms
+        .iter()
+        .filter_map(|r| profile_of(r, sigma, d, a, constant))
+        .map(|(p, c, v)| report(&p, &c, &v))
+        .collect();
+    for (i, (x, sx)) in at.iter_mut().enumerate() {
+        let wide = richer
+            .iter()
+            .map(|r| (r[i].0 - *x).powi(2))
+            .fold(0.0, f64::max);
+        *sx = sx.hypot(wide.sqrt());
+    }
+    let (v, sv) = at.pop().unwrap_or_default();
+    let (mean, sm) = at.pop().unwrap_or_default();
+    for (n, ((b, sb), q)) in at.iter().zip(&points).enumerate() {
+        p.insert(format!("lost_motion_um_{}", n + 1), *b);
+        p.insert(format!("std_lost_motion_um_{}", n + 1), *sb);
+        p.insert(format!("target_mm_{}", n + 1), *q);
+    }
+    p.insert("mean_lost_motion_um".into(), mean);
+    p.insert("std_mean_lost_motion_um".into(), sm);
+    p.insert("variation_um".into(), v);
+    p.insert("std_variation_um".into(), sv);
+    p.insert("order".into(), prof.order as f64);
+    p
+}
+
+/// The profile of a lost-motion trial `t` with its coefficients and their covariance
+/// ([`profile_parameters`]).
+fn profile_of(
+    t: &Trial,
+    sigma: f64,
+    d: &Design,
+    a: Axis,
+    constant: Option<(f64, f64)>,
+) -> Option<(Profile, Vec<f64>, nalgebra::DMatrix<f64>)> {
+    let prof = catalogue::profile(d, a, t.cand.order)?;
     let k = prof.order + 1;
     let mut coef = Vec::with_capacity(k);
     let mut cov = nalgebra::DMatrix::zeros(k, k);
@@ -645,23 +756,7 @@ pub(crate) fn profile_parameters(
             cov[(i + off, j + off)] = corr * t.coef_sd[i] * t.coef_sd[j] * sigma * sigma;
         }
     }
-    let points: Vec<f64> = (0..PROFILE_POINTS)
-        .map(|i| prof.lo + (prof.hi - prof.lo) * i as f64 / (PROFILE_POINTS - 1) as f64)
-        .collect();
-    let at = prof.at(&coef, &cov, &points);
-    for (n, ((b, sb), q)) in at.iter().zip(&points).enumerate() {
-        p.insert(format!("lost_motion_um_{}", n + 1), *b);
-        p.insert(format!("std_lost_motion_um_{}", n + 1), *sb);
-        p.insert(format!("target_mm_{}", n + 1), *q);
-    }
-    let (mean, sm) = prof.mean(&coef, &cov, &points);
-    p.insert("mean_lost_motion_um".into(), mean);
-    p.insert("std_mean_lost_motion_um".into(), sm);
-    let (v, sv) = prof.variation(&coef, &cov, &points);
-    p.insert("variation_um".into(), v);
-    p.insert("std_variation_um".into(), sv);
-    p.insert("order".into(), prof.order as f64);
-    p
+    Some((prof, coef, cov))
 }
 
 /// The variance the smoother of the logged temperature adds to each coefficient of a
