@@ -231,8 +231,15 @@ pub fn best_step(r: &[f64], sigma: f64) -> Option<Anomaly> {
 fn best_burst(r: &[f64], sigma: f64) -> Option<Anomaly> {
     let mut best: Option<Anomaly> = None;
     for &w in &BURST_WINDOWS {
+        // ln p falls as E rises (w fixed): a window no larger in E than one already
+        // taken at this w cannot have a smaller ln p, and is not evaluated.
+        let mut top = f64::NEG_INFINITY;
         for i in burst_starts(r.len(), w) {
             let e: f64 = r[i..i + w].iter().map(|v| v * v).sum::<f64>() / (sigma * sigma);
+            if e <= top {
+                continue;
+            }
+            top = e;
             let ln_p = ln_p_chi2_even(e, w);
             if best.as_ref().is_none_or(|b| ln_p < b.ln_p) {
                 best = Some(Anomaly {
@@ -304,11 +311,22 @@ pub fn ln_p_chi2_even(e: f64, w: usize) -> f64 {
     if x == 0.0 {
         return 0.0;
     }
-    let terms: Vec<f64> = (0..w / 2)
-        .map(|k| k as f64 * x.ln() - statrs::function::gamma::ln_gamma(k as f64 + 1.0))
-        .collect();
-    let top = terms.iter().copied().fold(f64::NEG_INFINITY, f64::max);
-    (-x + top + terms.iter().map(|t| (t - top).exp()).sum::<f64>().ln()).min(0.0)
+    let ln_x = x.ln();
+    let term = |k: usize| k as f64 * ln_x - ln_factorial(k);
+    let top = (0..w / 2).map(term).fold(f64::NEG_INFINITY, f64::max);
+    (-x + top + (0..w / 2).map(|k| (term(k) - top).exp()).sum::<f64>().ln()).min(0.0)
+}
+
+/// ln k! (`statrs`'s ln Γ(k + 1)), from a table made once for the k of the scan's
+/// windows.
+fn ln_factorial(k: usize) -> f64 {
+    const TABLED: usize = 64;
+    static TABLE: std::sync::OnceLock<[f64; TABLED]> = std::sync::OnceLock::new();
+    let ln_gamma = |k: usize| statrs::function::gamma::ln_gamma(k as f64 + 1.0);
+    match TABLE.get_or_init(|| std::array::from_fn(ln_gamma)).get(k) {
+        Some(&v) => v,
+        None => ln_gamma(k),
+    }
 }
 
 /// The z of a two-sided normal test with p-value e^(ln_p) (bisection on
