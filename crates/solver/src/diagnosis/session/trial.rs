@@ -776,7 +776,8 @@ fn profile_interval(f: impl Fn(f64) -> f64, x0: f64, h: f64, max: usize, thr: f6
         let mut x = x0;
         for j in 1..=max {
             let next = x0 + dir * h * j as f64;
-            if !(f(next) <= thr) {
+            let v = f(next);
+            if v.is_nan() || v > thr {
                 break;
             }
             x = next;
