@@ -2,6 +2,7 @@
 //! parameter searched (a grid refined by golden section, or a frequency scan), its joint
 //! fit on all runs and on the folds, its ΔBIC, and its parameters in physical units.
 
+use super::super::band_search;
 use super::super::catalogue::{self, Candidate, Search};
 use super::super::design::{Design, RunInfo};
 use super::super::local_scan;
@@ -153,6 +154,9 @@ struct Band {
     step: f64,
     f_lo: f64,
     iters: usize,
+    /// A frequency in time (a vibration's): refined on the band's own basis
+    /// ([`band_search`]) where it holds.
+    in_time: bool,
 }
 
 impl Ctx<'_> {
@@ -173,6 +177,7 @@ impl Ctx<'_> {
             step,
             f_lo,
             iters,
+            in_time,
         } = b;
         let ssr = |v: f64| self.ssr_at(s, cand, v);
         let s0 = ssr(f0);
@@ -180,9 +185,29 @@ impl Ctx<'_> {
         if !s0.is_finite() || n * (s0 / s.fit.ssr).ln() + 3.0 * n.ln() >= 0.0 {
             return f0;
         }
-        let br = golden_section((f0 - step).max(0.5 * f_lo), f0 + step, iters, ssr);
-        let (v, s) = br.best();
-        if s < s0 { v } else { f0 }
+        let (lo, hi) = ((f0 - step).max(0.5 * f_lo), f0 + step);
+        let spans = band_search::spans(self.d);
+        if let (true, Some(dir)) = (in_time, cand.direction)
+            && band_search::holds(&spans, (hi - f0).max(f0 - lo))
+        {
+            // The profile from the band's basis: one pass over the rows.
+            let (d, w0) = (self.d, 2.0 * std::f64::consts::PI * f0);
+            let spans = &spans;
+            let specs = catalogue::Columns::new(
+                (0..2 * band_search::N).map(|k| format!("b{k}")).collect(),
+                vec![Some(dir); 2 * band_search::N],
+                move |smp, _, o| band_search::fill(d, spans, w0, smp, o),
+            );
+            let basis = self.moments(&s.fit, &specs);
+            let at = |v: f64| {
+                self.fit_moments(&s.fit, band_search::at(&basis, spans, v - f0), false)
+                    .map_or(f64::INFINITY, |(_, _, jf)| jf.all.ssr)
+            };
+            let (v, sv) = golden_section(lo, hi, iters, at).best();
+            return if sv < at(f0) { v } else { f0 };
+        }
+        let (v, sv) = golden_section(lo, hi, iters, ssr).best();
+        if sv < s0 { v } else { f0 }
     }
 
     /// The candidate's nonlinear parameter searched on the state `s`, with the number of
@@ -304,6 +329,7 @@ impl Ctx<'_> {
                         step: fine_step,
                         f_lo,
                         iters: 24,
+                        in_time,
                     }
                 } else {
                     Band {
@@ -311,6 +337,7 @@ impl Ctx<'_> {
                         step: coarse_step,
                         f_lo,
                         iters: 12,
+                        in_time,
                     }
                 };
                 let best = self.refine_on_joint_fit(s, cand, band);
