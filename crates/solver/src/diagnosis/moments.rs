@@ -42,6 +42,7 @@ pub struct RunMoments {
 }
 
 /// Moments of m columns on every run.
+#[derive(Clone)]
 pub struct Moments {
     pub m: usize,
     /// Number of extra columns U.
