@@ -4,21 +4,13 @@
 
 use mtcal_formats::write_session_dir;
 use mtcal_solver::session::Session;
-use mtcal_solver::simulate::{Plan, SimOptions, random_truth, simulate};
+use mtcal_solver::simulate::benchmark_session;
 
 /// The benchmark session: the full plan (three head offsets, 9 plane files) at 340 Hz,
 /// 999 972 samples, as `mtcal simulate --plan full --rate-hz 340 --seed 1` writes it,
 /// and a temporary folder holding its files.
 pub fn session_on_disk() -> (Session, tempfile::TempDir) {
-    let out = simulate(
-        &random_truth(1),
-        &SimOptions {
-            plan: Plan::Full,
-            sample_rate_hz: 340.0,
-            ..Default::default()
-        },
-    )
-    .expect("simulation");
+    let out = benchmark_session().expect("simulation");
     let dir = tempfile::tempdir().expect("temporary folder");
     write_session_dir(dir.path(), &out.session).expect("session written");
     (out.session, dir)

@@ -724,12 +724,6 @@ pub(crate) fn check_increasing(
     }
 }
 
-/// Writes `v` so that it reads back to the same `f64` (shortest round-trip form).
-pub(crate) fn fmt_f64(out: &mut String, v: f64) {
-    use std::fmt::Write;
-    let _ = write!(out, "{v}");
-}
-
 #[cfg(test)]
 mod tests {
     use super::*;

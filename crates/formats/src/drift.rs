@@ -6,7 +6,8 @@
 //! `<name>_rpm` spindle speeds, `<name>_mm` positions (`<name>` non-empty); at least one
 //! channel and one row. Other columns are rejected unless `x-` prefixed.
 
-use crate::csv_core::{CsvTable, check_increasing, fmt_f64};
+use crate::csv_core::{CsvTable, check_increasing};
+use crate::csv_out::CsvOut;
 use crate::limits::Quantity;
 use crate::{FormatError, Limits, invalid_input};
 use mtcal_solver::datasets::{Channel, ChannelKind, DriftLog};
@@ -107,7 +108,7 @@ pub fn read_drift_log_path(path: &Path, limits: &Limits) -> Result<DriftLog, For
 }
 
 /// Writes a drift log: `t_s` then the channels in order.
-pub fn write_drift_log(mut w: impl Write, log: &DriftLog) -> std::io::Result<()> {
+pub fn write_drift_log(w: impl Write, log: &DriftLog) -> std::io::Result<()> {
     let n = log.t_s.len();
     for ch in &log.channels {
         if channel_kind(&ch.name) != Some(ch.kind) || !ch.name.ends_with(suffix(ch.kind)) {
@@ -135,24 +136,14 @@ pub fn write_drift_log(mut w: impl Write, log: &DriftLog) -> std::io::Result<()>
     if log.t_s.windows(2).any(|p| p[1] <= p[0]) {
         return Err(invalid_input("t_s is not strictly increasing"));
     }
-    let mut line = String::from("t_s");
-    for ch in &log.channels {
-        line.push(',');
-        line.push_str(&ch.name);
-    }
-    line.push('\n');
+    let names = std::iter::once("t_s").chain(log.channels.iter().map(|c| c.name.as_str()));
+    let mut out = CsvOut::with_header(w, names)?;
     for i in 0..n {
-        fmt_f64(&mut line, log.t_s[i]);
-        for ch in &log.channels {
-            line.push(',');
-            fmt_f64(&mut line, ch.values[i]);
-        }
-        line.push('\n');
-        w.write_all(line.as_bytes())?;
-        line.clear();
+        out.number(log.t_s[i])?;
+        out.numbers(log.channels.iter().map(|c| c.values[i]))?;
+        out.end_record()?;
     }
-    w.write_all(line.as_bytes())?;
-    w.flush()
+    out.finish()
 }
 /// Writes the drift-log models' predictions at full resolution (`docs/diagnosis.md`,
 /// "Prediction export"): `t_s,part` then, per displacement channel `<ch>_um`, the columns
@@ -161,7 +152,7 @@ pub fn write_drift_log(mut w: impl Write, log: &DriftLog) -> std::io::Result<()>
 /// −(model − model at the first sample): the correction to add along the channel's
 /// direction to cancel the predicted thermal drift since the start of the log.
 pub fn write_drift_predictions(
-    mut w: impl Write,
+    w: impl Write,
     p: &mtcal_solver::diagnosis::series::drift::DriftPredictions,
 ) -> std::io::Result<()> {
     let n = p.t_s.len();
@@ -171,31 +162,25 @@ pub fn write_drift_predictions(
     {
         return Err(invalid_input("prediction series of unequal lengths"));
     }
-    let mut line = String::from("t_s,part");
-    for c in &p.channels {
-        let stem = c.name.strip_suffix("_um").unwrap_or(&c.name);
-        for col in ["measured", "model", "compensation"] {
-            line.push_str(&format!(",{stem}_{col}_um"));
-        }
-    }
-    line.push('\n');
-    w.write_all(line.as_bytes())?;
+    let names: Vec<String> = ["t_s".to_string(), "part".to_string()]
+        .into_iter()
+        .chain(p.channels.iter().flat_map(|c| {
+            let stem = c.name.strip_suffix("_um").unwrap_or(&c.name);
+            ["measured", "model", "compensation"].map(|col| format!("{stem}_{col}_um"))
+        }))
+        .collect();
+    let mut out = CsvOut::with_header(w, names.iter().map(String::as_str))?;
     for i in 0..n {
-        line.clear();
-        fmt_f64(&mut line, p.t_s[i]);
-        line.push_str(if i < p.n_fit { ",fit" } else { ",held_out" });
+        out.number(p.t_s[i])?;
+        out.text(if i < p.n_fit { "fit" } else { "held_out" })?;
         for c in &p.channels {
-            for v in [
+            out.numbers([
                 c.measured_um[i],
                 c.model_um[i],
                 c.model_at_start_um - c.model_um[i],
-            ] {
-                line.push(',');
-                fmt_f64(&mut line, v);
-            }
+            ])?;
         }
-        line.push('\n');
-        w.write_all(line.as_bytes())?;
+        out.end_record()?;
     }
-    Ok(())
+    out.finish()
 }

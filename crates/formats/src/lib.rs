@@ -20,6 +20,7 @@
 
 pub mod compensation;
 mod csv_core;
+mod csv_out;
 pub mod drift;
 mod files;
 mod gzip;

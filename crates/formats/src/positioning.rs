@@ -4,7 +4,8 @@
 //! `-`: the approach direction), `target_mm`, `deviation_um` required; `t_s` (strictly
 //! increasing within each axis and run) and `temp_c` optional; at least one row.
 
-use crate::csv_core::{CsvTable, check_increasing, fmt_f64};
+use crate::csv_core::{CsvTable, check_increasing};
+use crate::csv_out::CsvOut;
 use crate::limits::Quantity;
 use crate::{FormatError, Limits, invalid_input};
 use mtcal_solver::Axis;
@@ -92,7 +93,7 @@ pub fn read_positioning_path(path: &Path, limits: &Limits) -> Result<Positioning
 }
 
 /// Writes positioning runs (`t_s`, `temp_c` columns when every record has them).
-pub fn write_positioning(mut w: impl Write, runs: &PositioningRuns) -> std::io::Result<()> {
+pub fn write_positioning(w: impl Write, runs: &PositioningRuns) -> std::io::Result<()> {
     let first = runs.records.first();
     let with_t = first.is_some_and(|r| r.t_s.is_some());
     let with_temp = first.is_some_and(|r| r.temp_c.is_some());
@@ -116,31 +117,26 @@ pub fn write_positioning(mut w: impl Write, runs: &PositioningRuns) -> std::io::
             return Err(invalid_input("t_s is not strictly increasing within a run"));
         }
     }
-    let mut line = String::from("axis,run,direction,target_mm,deviation_um");
-    if with_t {
-        line.push_str(",t_s");
-    }
-    if with_temp {
-        line.push_str(",temp_c");
-    }
-    line.push('\n');
+    let optional = [("t_s", with_t), ("temp_c", with_temp)];
+    let names = ["axis", "run", "direction", "target_mm", "deviation_um"]
+        .into_iter()
+        .chain(optional.into_iter().filter(|c| c.1).map(|c| c.0));
+    let mut out = CsvOut::with_header(w, names)?;
     for r in &runs.records {
         let dir = match r.direction {
             Direction::Plus => "+",
             Direction::Minus => "-",
         };
-        line.push_str(&format!("{},{},{dir},", r.axis, r.run));
-        fmt_f64(&mut line, r.target_mm);
-        line.push(',');
-        fmt_f64(&mut line, r.deviation_um);
-        for v in r.t_s.into_iter().chain(r.temp_c) {
-            line.push(',');
-            fmt_f64(&mut line, v);
-        }
-        line.push('\n');
-        w.write_all(line.as_bytes())?;
-        line.clear();
+        out.text(&r.axis.to_string())?;
+        out.text(&r.run.to_string())?;
+        out.text(dir)?;
+        out.numbers(
+            [r.target_mm, r.deviation_um]
+                .into_iter()
+                .chain(r.t_s)
+                .chain(r.temp_c),
+        )?;
+        out.end_record()?;
     }
-    w.write_all(line.as_bytes())?;
-    w.flush()
+    out.finish()
 }

@@ -6,7 +6,8 @@
 //! `.json`): `machine_id` (non-empty string) and `measured_at` (RFC 3339) required,
 //! `nominal_radius_mm` optional (finite, > 0), unknown fields rejected unless `x-`.
 
-use crate::csv_core::{CsvTable, check_increasing, fmt_f64};
+use crate::csv_core::{CsvTable, check_increasing};
+use crate::csv_out::CsvOut;
 use crate::json::JsonDoc;
 use crate::limits::Quantity;
 use crate::{FormatError, Limits, invalid_input};
@@ -118,7 +119,7 @@ pub fn read_rotary_points_path(
 }
 
 /// Writes the CSV of a point set (`t_s` column when every point has a time).
-pub fn write_rotary_points(mut w: impl Write, set: &RotaryPointSet) -> std::io::Result<()> {
+pub fn write_rotary_points(w: impl Write, set: &RotaryPointSet) -> std::io::Result<()> {
     let with_t = set.points.first().is_some_and(|p| p.t_s.is_some());
     let mut prev = f64::NEG_INFINITY;
     for p in &set.points {
@@ -143,28 +144,17 @@ pub fn write_rotary_points(mut w: impl Write, set: &RotaryPointSet) -> std::io::
             prev = t;
         }
     }
-    let mut line = String::from(if with_t {
-        "a_deg,c_deg,x_mm,y_mm,z_mm,t_s\n"
-    } else {
-        "a_deg,c_deg,x_mm,y_mm,z_mm\n"
-    });
+    let names = ["a_deg", "c_deg", "x_mm", "y_mm", "z_mm", "t_s"];
+    let mut out = CsvOut::with_header(w, names[..5 + usize::from(with_t)].iter().copied())?;
     for p in &set.points {
-        for (i, v) in [p.a_deg, p.c_deg, p.x_mm, p.y_mm, p.z_mm]
-            .into_iter()
-            .chain(p.t_s)
-            .enumerate()
-        {
-            if i > 0 {
-                line.push(',');
-            }
-            fmt_f64(&mut line, v);
-        }
-        line.push('\n');
-        w.write_all(line.as_bytes())?;
-        line.clear();
+        out.numbers(
+            [p.a_deg, p.c_deg, p.x_mm, p.y_mm, p.z_mm]
+                .into_iter()
+                .chain(p.t_s),
+        )?;
+        out.end_record()?;
     }
-    w.write_all(line.as_bytes())?;
-    w.flush()
+    out.finish()
 }
 
 /// Writes the sidecar JSON of a point set (machine_id and measured_at must be known).

@@ -18,7 +18,8 @@
 //! increasing within a run; `test` one of line_X, line_Y, line_Z, circle_cw, circle_ccw,
 //! free (an empty cell means "infer"), constant within a run; at least one sample.
 
-use crate::csv_core::{CsvTable, check_increasing, fmt_f64};
+use crate::csv_core::{CsvTable, check_increasing};
+use crate::csv_out::CsvOut;
 use crate::json::{JsonDoc, Obj};
 use crate::limits::Quantity;
 use crate::{FormatError, Limits, gzip, invalid_input};
@@ -760,48 +761,31 @@ fn check_runs(runs: &[Run]) -> std::io::Result<()> {
 /// Writes a plane CSV: `run,t_s,x_mm,y_mm,z_mm,du_um,dv_um`, plus `temp_c` when the runs
 /// carry temperatures and `test` when any run has a label (empty cells for the others).
 /// Numbers are written in their shortest form that reads back to the same value.
-pub fn write_plane_csv(mut w: impl Write, runs: &[Run]) -> std::io::Result<()> {
+pub fn write_plane_csv(w: impl Write, runs: &[Run]) -> std::io::Result<()> {
     check_runs(runs)?;
     let temp = runs.first().is_some_and(|r| r.temp_c.is_some());
     let test = runs.iter().any(|r| r.test.is_some());
-    let mut line = String::with_capacity(128);
-    line.push_str("run,t_s,x_mm,y_mm,z_mm,du_um,dv_um");
-    if temp {
-        line.push_str(",temp_c");
-    }
-    if test {
-        line.push_str(",test");
-    }
-    line.push('\n');
-    w.write_all(line.as_bytes())?;
+    let optional = [("temp_c", temp), ("test", test)];
+    let names = ["run", "t_s", "x_mm", "y_mm", "z_mm", "du_um", "dv_um"]
+        .into_iter()
+        .chain(optional.into_iter().filter(|c| c.1).map(|c| c.0));
+    let mut out = CsvOut::with_header(w, names)?;
     for r in runs {
+        let number = r.number.to_string();
         for i in 0..r.t_s.len() {
-            line.clear();
-            line.push_str(&r.number.to_string());
-            for v in [
-                r.t_s[i],
-                r.pos_mm[i][0],
-                r.pos_mm[i][1],
-                r.pos_mm[i][2],
-                r.du_um[i],
-                r.dv_um[i],
-            ] {
-                line.push(',');
-                fmt_f64(&mut line, v);
-            }
+            out.text(&number)?;
+            let [x, y, z] = r.pos_mm[i];
+            out.numbers([r.t_s[i], x, y, z, r.du_um[i], r.dv_um[i]])?;
             if let Some(temps) = &r.temp_c {
-                line.push(',');
-                fmt_f64(&mut line, temps[i]);
+                out.number(temps[i])?;
             }
             if test {
-                line.push(',');
-                line.push_str(r.test.map_or("", TestKind::name));
+                out.text(r.test.map_or("", TestKind::name))?;
             }
-            line.push('\n');
-            w.write_all(line.as_bytes())?;
+            out.end_record()?;
         }
     }
-    w.flush()
+    out.finish()
 }
 
 /// The session.json document of a session.

@@ -5,20 +5,12 @@
 
 use criterion::{Criterion, criterion_group, criterion_main};
 use mtcal_solver::identification::{IdentifyOptions, identify};
-use mtcal_solver::simulate::{Plan, SimOptions, random_truth, simulate};
+use mtcal_solver::simulate::benchmark_session;
 use std::hint::black_box;
 
 fn bench(c: &mut Criterion) {
     // The full plan at 340 Hz gives ≈ 1.0 million samples (2.0 million readings).
-    let out = simulate(
-        &random_truth(1),
-        &SimOptions {
-            plan: Plan::Full,
-            sample_rate_hz: 340.0,
-            ..Default::default()
-        },
-    )
-    .expect("simulation");
+    let out = benchmark_session().expect("simulation");
     let n = out.session.sample_count();
     eprintln!("session: {n} samples");
     let mut g = c.benchmark_group("identify");

@@ -2,19 +2,11 @@
 //! `cargo run --release -p mtcal-solver --example time_identify`
 use mtcal_solver::design::{ErrorModel, fit, measured_travel};
 use mtcal_solver::identification::{IdentifyOptions, identify};
-use mtcal_solver::simulate::{Plan, SimOptions, random_truth, simulate};
+use mtcal_solver::simulate::benchmark_session;
 use std::time::Instant;
 
 fn main() {
-    let out = simulate(
-        &random_truth(1),
-        &SimOptions {
-            plan: Plan::Full,
-            sample_rate_hz: 340.0,
-            ..Default::default()
-        },
-    )
-    .unwrap();
+    let out = benchmark_session().unwrap();
     let s = &out.session;
     let t = Instant::now();
     let model = ErrorModel::new(

@@ -109,6 +109,27 @@ pub(crate) fn covariance(j: &DMatrix<f64>, sigma: f64) -> DMatrix<f64> {
     })
 }
 
+/// Step control of the Gauss–Newton fits (circle, cradle): the full step λ = 1 is tried,
+/// then λ/2, λ/4, … (at most 30 halvings), and the first trial whose sum of squares does
+/// not exceed the current `ss` (up to a relative rounding allowance `rel`) is accepted.
+/// `trial(λ)` returns the state at λ·step and its sum of squares. Returns the accepted
+/// state with its sum of squares (None when no λ reduced it), and the last λ tried.
+pub(crate) fn halving_step<S>(
+    ss: f64,
+    rel: f64,
+    mut trial: impl FnMut(f64) -> (S, f64),
+) -> (Option<(S, f64)>, f64) {
+    let mut lambda = 1.0;
+    for _ in 0..30 {
+        let (state, s2) = trial(lambda);
+        if s2 <= ss * (1.0 + rel) + 1e-30 {
+            return (Some((state, s2)), lambda);
+        }
+        lambda *= 0.5;
+    }
+    (None, lambda)
+}
+
 /// Condition number of `j` after scaling every column to unit norm (∞ if rank-deficient).
 pub(crate) fn equilibrated_condition(j: &DMatrix<f64>) -> f64 {
     let mut js = j.clone();

@@ -174,6 +174,20 @@ fn check(truth: &PolyErrors, opts: &SimOptions) -> Result<(), SolverError> {
     Ok(())
 }
 
+/// The benchmarks' session: the full plan (three head offsets, 9 plane files) at 340 Hz
+/// on the machine of `random_truth(1)`, 999 972 samples, as `mtcal simulate --plan full
+/// --rate-hz 340 --seed 1` writes it (BENCHMARKS.md).
+pub fn benchmark_session() -> Result<SimOutput, SolverError> {
+    simulate(
+        &random_truth(1),
+        &SimOptions {
+            plan: Plan::Full,
+            sample_rate_hz: 340.0,
+            ..Default::default()
+        },
+    )
+}
+
 /// Runs the plan on a machine with errors `truth` and records the session.
 pub fn simulate(truth: &PolyErrors, opts: &SimOptions) -> Result<SimOutput, SolverError> {
     check(truth, opts)?;

@@ -11,7 +11,7 @@
 
 use super::model::{CradleModel, ModelSpec, model_from_params};
 use crate::error::SolverError;
-use crate::fits::{covariance, equilibrated_condition};
+use crate::fits::{covariance, equilibrated_condition, halving_step};
 use nalgebra::{DMatrix, DVector, Isometry3, Rotation3, Vector3};
 
 /// One measured point: commanded A, C (rad), measured position (mm), pose index.
@@ -137,20 +137,17 @@ pub fn gauss_newton(
             .solve(&(-&res), 1e-12)
             .map_err(|e| SolverError::Degenerate(format!("{what}: {e}")))?;
         let step: Vec<f64> = (0..np).map(|k| z[k] / scale[k]).collect();
-        let mut lambda = 1.0;
-        let mut accepted = false;
-        for _ in 0..30 {
+        let (next, lambda) = halving_step(ss, 1e-14, |lambda| {
             let q2: Vec<f64> = q.iter().zip(&step).map(|(a, d)| a + lambda * d).collect();
             let r2 = f(&q2);
             let s2 = r2.norm_squared();
-            if s2 <= ss * (1.0 + 1e-14) + 1e-30 {
-                q = q2;
-                res = r2;
-                ss = s2;
-                accepted = true;
-                break;
-            }
-            lambda *= 0.5;
+            ((q2, r2), s2)
+        });
+        let accepted = next.is_some();
+        if let Some(((q2, r2), s2)) = next {
+            q = q2;
+            res = r2;
+            ss = s2;
         }
         // Size of the step in the equilibrated coordinates relative to the residual norm.
         // (z is in residual units, mm; the floor is 1e-12 mm.)

@@ -1,7 +1,7 @@
 //! 3-D circle by orthogonal distance: plane + Kåsa start, then Gauss–Newton on the
 //! geometric distance (see the [module docs](super) for the maths).
 
-use super::{perpendicular, plane::fit_plane};
+use super::{halving_step, perpendicular, plane::fit_plane};
 use crate::error::SolverError;
 use nalgebra::{DMatrix, DVector, Vector3};
 use serde::{Deserialize, Serialize};
@@ -151,24 +151,21 @@ pub fn fit_circle(points: &[Vector3<f64>]) -> Result<CircleFit, SolverError> {
             .solve(&(-&res), 1e-14)
             .map_err(|e| SolverError::Degenerate(format!("circle fit: {e}")))?;
         // Step halving keeps the sum of squares from increasing.
-        let mut lambda = 1.0;
-        let mut accepted = false;
-        for _ in 0..30 {
+        let (next, lambda) = halving_step(ss, 1e-15, |lambda| {
             let c2 = c + Vector3::new(step[0], step[1], step[2]) * lambda;
             let n2 = (n + u * (step[3] * lambda) + v * (step[4] * lambda)).normalize();
             let r2 = r + step[5] * lambda;
             let res2 = residuals(points, &c2, &n2, r2);
             let ss2 = res2.norm_squared();
-            if ss2 <= ss * (1.0 + 1e-15) + 1e-30 {
-                c = c2;
-                n = n2;
-                r = r2;
-                res = res2;
-                ss = ss2;
-                accepted = true;
-                break;
-            }
-            lambda *= 0.5;
+            ((c2, n2, r2, res2), ss2)
+        });
+        let accepted = next.is_some();
+        if let Some(((c2, n2, r2, res2), ss2)) = next {
+            c = c2;
+            n = n2;
+            r = r2;
+            res = res2;
+            ss = ss2;
         }
         let size = (step.fixed_rows::<3>(0).norm() + step[5].abs()) / scale
             + step[3].abs()
