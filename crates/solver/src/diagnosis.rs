@@ -367,7 +367,9 @@ pub struct PlotSeries {
 
 // Grid-encoder sessions (the series of positioning runs and drift logs live in
 // `series*` submodules).
+pub mod band_search;
 pub mod catalogue;
+pub mod chebyshev;
 pub mod design;
 pub mod effects;
 pub mod engine;

@@ -312,7 +312,7 @@ pub struct Columns<'a> {
 }
 
 impl<'a> Columns<'a> {
-    fn new(
+    pub(crate) fn new(
         names: Vec<String>,
         axes: Vec<Option<Axis>>,
         fill: impl Fn(usize, Axis, &mut [f64]) + 'a,

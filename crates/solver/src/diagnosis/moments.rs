@@ -42,6 +42,7 @@ pub struct RunMoments {
 }
 
 /// Moments of m columns on every run.
+#[derive(Clone)]
 pub struct Moments {
     pub m: usize,
     /// Number of extra columns U.
@@ -232,6 +233,53 @@ impl Moments {
             peaks: keep.iter().map(|&j| self.peaks[j]).collect(),
             varies: keep.iter().map(|&j| self.varies[j]).collect(),
             local: keep.iter().map(|&j| self.local[j]).collect(),
+        }
+    }
+
+    /// The moments of m combinations of these columns, run by run: column c on run g is
+    /// Σ w·X_b over the (b, w) of `weights(g)[c]` (X_b this set's column b). Each sum is
+    /// taken in the order of its terms.
+    pub fn combine(&self, m: usize, weights: impl Fn(usize) -> Vec<Vec<(usize, f64)>>) -> Moments {
+        let (mb, u) = (self.m, self.u);
+        let runs = self
+            .runs
+            .iter()
+            .enumerate()
+            .map(|(g, rm)| {
+                let wg = weights(g);
+                let r = rm.z.len() / mb.max(1);
+                let mut z = vec![0.0; m * r];
+                let mut xu = vec![0.0; m * u];
+                for (c, wc) in wg.iter().enumerate() {
+                    for &(b, w) in wc {
+                        for (o, v) in z[c * r..(c + 1) * r].iter_mut().zip(&rm.z[b * r..]) {
+                            *o += w * v;
+                        }
+                        for (o, v) in xu[c * u..(c + 1) * u].iter_mut().zip(&rm.xu[b * u..]) {
+                            *o += w * v;
+                        }
+                    }
+                }
+                let mut xx = vec![0.0; m * m];
+                for (c, wc) in wg.iter().enumerate() {
+                    for (e, we) in wg.iter().enumerate() {
+                        let mut acc = 0.0;
+                        for &(b, w) in wc {
+                            acc += w * we.iter().map(|&(l, v)| rm.xx[b * mb + l] * v).sum::<f64>();
+                        }
+                        xx[c * m + e] = acc;
+                    }
+                }
+                RunMoments { z, xx, xu }
+            })
+            .collect();
+        Moments {
+            m,
+            u,
+            runs,
+            peaks: vec![0.0; m],
+            varies: vec![true; m],
+            local: vec![false; m],
         }
     }
 

@@ -60,14 +60,33 @@ impl Smoother {
         let pmax = MAX_ORDER.min((n / 10).saturating_sub(1));
         let k = pmax + 1;
         let mean = temp.iter().sum::<f64>() / n.max(1) as f64;
-        let mut a = faer::Mat::<f64>::zeros(n, k + 1);
-        for (i, (&t, &y)) in t_s.iter().zip(temp).enumerate() {
-            for (j, (p, _)) in Legendre::new((t - mid) / half).take(k).enumerate() {
-                a[(i, j)] = p;
+        // [P₀ … P_pmax | T − mean] column-major, each Legendre column from the two
+        // before it (`Legendre`'s recurrence, column by column).
+        let mut a = vec![0.0; n * (k + 1)];
+        for j in 0..k {
+            let (done, col) = a.split_at_mut(j * n);
+            let col = &mut col[..n];
+            match j {
+                0 => col.fill(1.0),
+                1 => col
+                    .iter_mut()
+                    .zip(t_s)
+                    .for_each(|(p, &t)| *p = (t - mid) / half),
+                _ => {
+                    let nf = (j - 1) as f64;
+                    let (s, p2) = (&done[n..2 * n], &done[(j - 2) * n..(j - 1) * n]);
+                    let p1 = &done[(j - 1) * n..j * n];
+                    for (i, p) in col.iter_mut().enumerate() {
+                        *p = ((2.0 * nf + 1.0) * s[i] * p1[i] - nf * p2[i]) / (nf + 1.0);
+                    }
+                }
             }
-            a[(i, k)] = y - mean;
         }
-        let qr = a.qr();
+        for (v, &y) in a[k * n..].iter_mut().zip(temp) {
+            *v = y - mean;
+        }
+        let qr = faer::MatRef::from_column_major_slice(&a, n, k + 1).qr();
+        drop(a);
         let rf = qr.thin_R();
         // SSR of order p: the tail of Qᵀy below p, plus the final residual.
         let tail: Vec<f64> = (0..=k).map(|j| rf[(j.min(k), k)].powi(2)).collect();

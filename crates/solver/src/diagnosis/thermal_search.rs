@@ -18,12 +18,12 @@
 //! the runs in steps of at most 0.1 s (`FILL_S`), its input evaluated once). The
 //! searches use this profile; the chosen value is evaluated exactly from its own columns.
 
+use super::chebyshev;
 use super::design::Design;
 use super::moments::{Moments, RunMoments};
 use super::reduced::Reduction;
 use super::temperature::LagInput;
 use crate::axis::Axis;
-use std::f64::consts::PI;
 
 /// Chebyshev terms per run.
 const K: usize = 6;
@@ -61,7 +61,6 @@ impl ThermalBasis {
         // into the 6K columns' moments ([`place`]).
         let per_axis = Axis::ALL.map(|a| {
             let j = a.index();
-            let mut tk = [0.0; K];
             Moments::new_on(
                 red,
                 2 * K,
@@ -70,12 +69,7 @@ impl ThermalBasis {
                 |row, out| {
                     let (s, f) = (row / 2, &d.fields);
                     let (tm, h) = span[f.run(s)];
-                    let tau = (f.t_s[s] - tm) / h;
-                    tk[0] = 1.0;
-                    tk[1] = tau;
-                    for k in 2..K {
-                        tk[k] = 2.0 * tau * tk[k - 1] - tk[k - 2];
-                    }
+                    let tk = chebyshev::values::<K>((f.t_s[s] - tm) / h);
                     for k in 0..K {
                         out[k] = tk[k] * f.q_mm[j][s] * 1e-3;
                         out[K + k] = tk[k];
@@ -90,7 +84,7 @@ impl ThermalBasis {
             let mut at = Vec::with_capacity(span.len());
             for &(tm, h) in &span {
                 at.push(times.len());
-                times.extend(node_cosines().map(|c| tm + h * c));
+                times.extend(chebyshev::node_cosines::<K>().map(|c| tm + h * c));
                 let fill = (2.0 * h / FILL_S).ceil().max(1.0) as usize;
                 times.extend((0..=fill).map(|j| tm - h + 2.0 * h * j as f64 / fill as f64));
             }
@@ -113,61 +107,18 @@ impl ThermalBasis {
     pub fn lagged(&self, tau: f64) -> Option<Moments> {
         let (input, at) = self.lag.as_ref()?;
         let y = input.lagged(tau);
-        Some(self.combine(|g, _| chebyshev(std::array::from_fn(|i| y[at[g] + i]))))
+        Some(self.combine(|g, _| chebyshev::coefficients(std::array::from_fn(|i| y[at[g] + i]))))
     }
 
     /// The moments of the six thermal columns with g on run g given by its Chebyshev
-    /// coefficients `coef(g, (t_m, h))`.
+    /// coefficients `coef(g, (t_m, h))`: column c of the six is Σ_k g_k·ψ_{cK+k}.
     fn combine(&self, coef: impl Fn(usize, (f64, f64)) -> [f64; K]) -> Moments {
-        let m = 6;
-        let mb = 6 * K;
-        let u = self.mom.u;
-        let runs = self
-            .mom
-            .runs
-            .iter()
-            .zip(&self.span)
-            .enumerate()
-            .map(|(run, (rm, &span))| {
-                let g = coef(run, span);
-                let r = rm.z.len() / mb;
-                // Column c of the six uses basis columns c·K .. c·K + K with weights g.
-                let mut z = vec![0.0; m * r];
-                let mut xu = vec![0.0; m * u];
-                for c in 0..m {
-                    for (k, gk) in g.iter().enumerate() {
-                        let b = c * K + k;
-                        for (o, v) in z[c * r..(c + 1) * r].iter_mut().zip(&rm.z[b * r..]) {
-                            *o += gk * v;
-                        }
-                        for (o, v) in xu[c * u..(c + 1) * u].iter_mut().zip(&rm.xu[b * u..]) {
-                            *o += gk * v;
-                        }
-                    }
-                }
-                let mut xx = vec![0.0; m * m];
-                for c in 0..m {
-                    for e in 0..m {
-                        let mut acc = 0.0;
-                        for (k, gk) in g.iter().enumerate() {
-                            let row =
-                                &rm.xx[(c * K + k) * mb + e * K..(c * K + k) * mb + e * K + K];
-                            acc += gk * row.iter().zip(&g).map(|(x, gl)| x * gl).sum::<f64>();
-                        }
-                        xx[c * m + e] = acc;
-                    }
-                }
-                RunMoments { z, xx, xu }
-            })
-            .collect();
-        Moments {
-            m,
-            u,
-            runs,
-            peaks: vec![0.0; m],
-            varies: vec![true; m],
-            local: vec![false; m],
-        }
+        self.mom.combine(6, |run| {
+            let g = coef(run, self.span[run]);
+            (0..6)
+                .map(|c| (0..K).map(|k| (c * K + k, g[k])).collect())
+                .collect()
+        })
     }
 }
 
@@ -225,31 +176,12 @@ fn place(per_axis: &[Moments; 3]) -> Moments {
     }
 }
 
-/// cos θ_i of the K Chebyshev nodes, θ_i = π(i + ½)/K.
-fn node_cosines() -> [f64; K] {
-    std::array::from_fn(|i| (PI * (i as f64 + 0.5) / K as f64).cos())
-}
-
-/// Chebyshev coefficients c_k = (2/K)·Σ_i f_i cos(kθ_i) (c₀ halved) of the interpolant
-/// through the values `f` at the nodes cos θ_i ([`node_cosines`]).
-fn chebyshev(f: [f64; K]) -> [f64; K] {
-    let mut c = [0.0; K];
-    for (i, fi) in f.iter().enumerate() {
-        let th = PI * (i as f64 + 0.5) / K as f64;
-        for (k, ck) in c.iter_mut().enumerate() {
-            *ck += 2.0 / K as f64 * fi * (k as f64 * th).cos();
-        }
-    }
-    c[0] *= 0.5;
-    c
-}
-
 /// Chebyshev coefficients on a run (middle `tm`, half duration `h`) of
 /// g(t) = 1 − e^(−t/T) in τ = (t − tm)/h.
 fn coefficients(tm: f64, h: f64, t: f64) -> [f64; K] {
     let beta = h / t;
     let scale = (-tm / t).exp();
-    let c = chebyshev(node_cosines().map(|x| (-beta * x).exp()));
+    let c = chebyshev::coefficients(chebyshev::node_cosines::<K>().map(|x| (-beta * x).exp()));
     let mut g = c.map(|ck| -scale * ck);
     g[0] += 1.0;
     g
@@ -263,6 +195,7 @@ mod tests {
     use crate::simulate::{Plan, SimOptions, random_truth, simulate};
     use rand::SeedableRng;
     use rand_distr::{Distribution, Normal};
+    use std::f64::consts::PI;
 
     /// The lagged form's profile S(τ) from the basis moments equals the one from the
     /// exact lagged columns (the lag at every sample, their moments formed over the rows)

@@ -2,6 +2,7 @@
 //! parameter searched (a grid refined by golden section, or a frequency scan), its joint
 //! fit on all runs and on the folds, its ΔBIC, and its parameters in physical units.
 
+use super::super::band_search;
 use super::super::catalogue::{self, Candidate, Search};
 use super::super::design::{Design, RunInfo};
 use super::super::local_scan;
@@ -153,6 +154,9 @@ struct Band {
     step: f64,
     f_lo: f64,
     iters: usize,
+    /// A frequency in time (a vibration's): refined on the band's own basis
+    /// ([`band_search`]) where it holds.
+    in_time: bool,
 }
 
 impl Ctx<'_> {
@@ -167,34 +171,68 @@ impl Ctx<'_> {
     /// is refined the same way within one fine step: its scan's grid (a tenth of the
     /// session's inverse length) is about a hundred times its standard uncertainty, so
     /// the scanned value alone lay several σ from the least-squares one.
-    fn refine_on_joint_fit(&self, s: &State, cand: &Candidate, b: Band) -> f64 {
+    ///
+    /// Returns the frequency and, when it is the scanned one, the candidate's moments
+    /// there (formed for the evidence; the trial's joint fit takes them instead of a pass
+    /// of its own).
+    fn refine_on_joint_fit(&self, s: &State, cand: &Candidate, b: Band) -> (f64, Option<Moments>) {
         let Band {
             f0,
             step,
             f_lo,
             iters,
+            in_time,
         } = b;
         let ssr = |v: f64| self.ssr_at(s, cand, v);
-        let s0 = ssr(f0);
+        let m0 = self.moments(&s.fit, &catalogue::specs(self.d, cand, f0, s.eps()));
+        let s0 = self
+            .fit_moments(&s.fit, m0.clone(), false)
+            .map_or(f64::INFINITY, |(_, _, jf)| jf.all.ssr);
         let n = self.d.rows() as f64;
         if !s0.is_finite() || n * (s0 / s.fit.ssr).ln() + 3.0 * n.ln() >= 0.0 {
-            return f0;
+            return (f0, Some(m0));
         }
-        let br = golden_section((f0 - step).max(0.5 * f_lo), f0 + step, iters, ssr);
-        let (v, s) = br.best();
-        if s < s0 { v } else { f0 }
+        let (lo, hi) = ((f0 - step).max(0.5 * f_lo), f0 + step);
+        let spans = band_search::spans(self.d);
+        if let (true, Some(dir)) = (in_time, cand.direction)
+            && band_search::holds(&spans, (hi - f0).max(f0 - lo))
+        {
+            // The profile from the band's basis: one pass over the rows.
+            let (d, w0) = (self.d, 2.0 * std::f64::consts::PI * f0);
+            let spans = &spans;
+            let specs = catalogue::Columns::new(
+                (0..2 * band_search::N).map(|k| format!("b{k}")).collect(),
+                vec![Some(dir); 2 * band_search::N],
+                move |smp, _, o| band_search::fill(d, spans, w0, smp, o),
+            );
+            let basis = self.moments(&s.fit, &specs);
+            let at = |v: f64| {
+                self.fit_moments(&s.fit, band_search::at(&basis, spans, v - f0), false)
+                    .map_or(f64::INFINITY, |(_, _, jf)| jf.all.ssr)
+            };
+            let (v, sv) = golden_section(lo, hi, iters, at).best();
+            return if sv < at(f0) {
+                (v, None)
+            } else {
+                (f0, Some(m0))
+            };
+        }
+        let (v, sv) = golden_section(lo, hi, iters, ssr).best();
+        if sv < s0 { (v, None) } else { (f0, Some(m0)) }
     }
 
     /// The candidate's nonlinear parameter searched on the state `s`, with the number of
-    /// parameters the search adds (`None`: it cannot be searched).
+    /// parameters the search adds and the candidate's moments at it when the search
+    /// formed them (`None`: it cannot be searched).
+    #[allow(clippy::type_complexity)]
     fn search_theta(
         &self,
         s: &State,
         cand: &Candidate,
-    ) -> Option<(Option<(&'static str, f64)>, usize)> {
+    ) -> Option<(Option<(&'static str, f64)>, usize, Option<Moments>)> {
         let (d, red, sets, f) = (self.d, self.red, self.sets, &s.fit);
         Some(match catalogue::search(d, cand) {
-            Search::None => (None, 0),
+            Search::None => (None, 0, None),
             Search::Grid(name, values) => {
                 // The thermal time constant and the lag of a logged temperature are
                 // searched on the reduced problem ([`ThermalBasis`]); other parameters
@@ -249,7 +287,7 @@ impl Ctx<'_> {
                 let (_, v0) = best?;
                 let eval = |lv: f64| ssr_at(lv.exp());
                 let bracket = golden_section((v0 / ratio).ln(), (v0 * ratio).ln(), 10, eval);
-                (Some((name, bracket.centre().exp())), 1)
+                (Some((name, bracket.centre().exp())), 1, None)
             }
             Search::Step => {
                 let (g, k) = self.most_significant_step(&f.resid, cand.direction?)?;
@@ -259,7 +297,7 @@ impl Ctx<'_> {
                 let (_, k) = (k.saturating_sub(3).max(1)..(k + 4).min(n))
                     .map(|k| (self.ssr_at(s, cand, step_time(d, start + k)), k))
                     .min_by(|a, b| a.0.total_cmp(&b.0))?;
-                (Some(("time_s", step_time(d, start + k))), 1)
+                (Some(("time_s", step_time(d, start + k))), 1, None)
             }
             Search::Periodic {
                 name,
@@ -304,6 +342,7 @@ impl Ctx<'_> {
                         step: fine_step,
                         f_lo,
                         iters: 24,
+                        in_time,
                     }
                 } else {
                     Band {
@@ -311,12 +350,13 @@ impl Ctx<'_> {
                         step: coarse_step,
                         f_lo,
                         iters: 12,
+                        in_time,
                     }
                 };
-                let best = self.refine_on_joint_fit(s, cand, band);
+                let (best, mom) = self.refine_on_joint_fit(s, cand, band);
                 // Columns take a frequency; `report_parameters` turns it into a period.
                 let _ = as_period;
-                (Some((name, best)), 1)
+                (Some((name, best)), 1, mom)
             }
         })
     }
@@ -646,10 +686,11 @@ impl Ctx<'_> {
 
     fn try_one(&self, s: &State, cand: &Candidate) -> Option<Trial> {
         let (d, f) = (self.d, &s.fit);
-        let (theta, extra) = self.search_theta(s, cand)?;
+        let (theta, extra, mom) = self.search_theta(s, cand)?;
         let th = theta.map_or(0.0, |t| t.1);
         let specs = catalogue::specs(d, cand, th, s.eps());
-        let fitted = self.evaluate(f, &specs, true)?;
+        let mom = mom.unwrap_or_else(|| self.moments(f, &specs));
+        let fitted = self.fit_moments(f, mom, true)?;
         Some(self.trial_of(s, cand, (theta, extra), &specs.names, fitted))
     }
 
