@@ -398,7 +398,7 @@ impl Ctx<'_> {
     /// kept only when the BIC says so (below).
     fn try_step(&self, s: &State, cand: &Candidate) -> Option<Trial> {
         let d = self.d;
-        let (theta, _) = self.search_theta(s, cand)?;
+        let (theta, _, _) = self.search_theta(s, cand)?;
         let (name, t0) = theta?;
         let run = &d.runs[d.run_at_time(t0)?];
         let ts = &d.fields.t_s[run.start..run.end];
