@@ -19,7 +19,7 @@
 //! | waviness (signature) | sin, cos(2π q_a/P) along a direction j ≠ a → amplitude, phase | period P, mm |
 //! | velocity_coupling (signature) | v_a along a direction j ≠ a → coefficient, µm per mm/s | — |
 //! | direction_coupling (signature) | d_a/2 along a direction j ≠ a → shift, µm | — |
-//! | step (signature) | 1 from time t₀ on along direction j → size, µm (local to the run holding t₀) | t₀, s |
+//! | step (signature) | 1 from time t₀ on along direction j, or a ramp from 0 to 1 over a width w centred on t₀ → size, µm (local to the run holding t₀) | t₀, s; w, s |
 //!
 //! The signature space: for each moving axis a, its direction of travel d_a, position
 //! (smooth and periodic), velocity v_a and travel since its last reversal, and the session
@@ -47,6 +47,9 @@ pub struct Candidate {
     /// profile (the catalogue's candidate holds the largest, [`PROFILE_ORDERS`]; a
     /// trial's, the order the data chose); 0 for every other effect.
     pub order: usize,
+    /// For step: the width w of its ramp, s (0: sharp, between two samples; a trial's,
+    /// the width the data chose); 0 for every other effect.
+    pub width_s: f64,
 }
 
 impl Candidate {
@@ -63,6 +66,9 @@ impl Candidate {
         }
         if self.order > 0 {
             s += &format!(" of order {}", self.order);
+        }
+        if self.width_s > 0.0 {
+            s += &format!(" ramped over {:.2} s", self.width_s);
         }
         s
     }
@@ -142,6 +148,7 @@ pub fn candidates(d: &Design) -> Vec<Candidate> {
             "lost_motion_profile" | "lost_motion_variation" => *PROFILE_ORDERS.end(),
             _ => 0,
         },
+        width_s: 0.0,
     };
     let mut out = Vec::new();
     for &a in &axes {
@@ -484,12 +491,17 @@ pub fn specs<'a>(
             Columns::new(n, ax, move |s, _, o| o[0] = 0.5 * travel[s]).following(a)
         }
         "step" => {
-            // +1 from time θ on along the direction: the reading's offset after − before.
+            // +1 from time θ on along the direction: the reading's offset after − before;
+            // with a width w, a ramp from 0 to 1 over [θ − w/2, θ + w/2].
             let dir = c.direction.expect("direction");
             let (n, ax) = one("size_um", dir);
-            let t = &d.fields.t_s;
+            let (t, w) = (&d.fields.t_s, c.width_s);
             Columns::new(n, ax, move |s, _, o| {
-                o[0] = f64::from(u8::from(t[s] >= theta))
+                o[0] = if w > 0.0 {
+                    ((t[s] - theta) / w + 0.5).clamp(0.0, 1.0)
+                } else {
+                    f64::from(u8::from(t[s] >= theta))
+                }
             })
             .on_run(d.run_at_time(theta))
         }

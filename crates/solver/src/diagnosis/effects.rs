@@ -374,8 +374,14 @@ pub const EFFECTS: &[EffectSpec] = &[
             q(
                 "time_s",
                 "s",
-                "t0: session time of the step, halfway between the last reading before it and the first after",
+                "t0: session time of the step, halfway between the last reading before it and the first after; of a ramped step, the middle of its ramp",
             ),
+            q(
+                "width_s",
+                "s",
+                "w: the step ramps linearly from 0 to s over [t0 - w/2, t0 + w/2]; 0: sharp, between two readings",
+            )
+            .decided_by("a higher sample rate (a step within one sample interval reads as sharp)"),
         ],
         principal: &["size_um", "time_s"],
         any_of: false,

@@ -304,23 +304,15 @@ impl super::engine::Greedy for SessionProblem<'_> {
                     Some(("period_mm", f)) => sd * f * f,
                     _ => sd,
                 };
-                let moved = |sign: f64| {
-                    let mut m = t.clone();
-                    for (c, b) in m.coef.iter_mut().zip(&slope) {
-                        *c += sign * b * sd_theta;
-                    }
-                    report_parameters(&m, sigma, d)
-                };
-                let (up, down) = (moved(1.0), moved(-1.0));
-                for (n, v) in &up {
-                    if n.starts_with("std_") || n.starts_with("phase") || *n == name {
-                        continue;
-                    }
-                    let shift = 0.5 * (v - down.get(n).copied().unwrap_or(*v));
-                    if let Some(sd) = params.get_mut(&format!("std_{n}")) {
-                        *sd = sd.hypot(shift);
-                    }
-                }
+                trial::carry(&mut params, (t, sigma, d), &slope, sd_theta, name);
+            }
+        }
+        // A step's ramp: its width with σ, carried into its size along the same path.
+        if let Some((w, sw, slope)) = self.ctx.step_width(s, t, sigma) {
+            params.insert("width_s".into(), w);
+            params.insert("std_width_s".into(), sw);
+            if let Some(slope) = slope {
+                trial::carry(&mut params, (t, sigma, d), &slope, sw, "width_s");
             }
         }
         if t.cand.effect.starts_with("thermal_temperature") {

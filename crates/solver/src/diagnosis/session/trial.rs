@@ -382,8 +382,71 @@ impl Ctx<'_> {
         match cand.effect {
             "thermal_temperature" => self.try_temperature_forms(s, cand),
             "lost_motion_profile" | "lost_motion_variation" => self.try_profile_orders(s, cand),
+            "step" => self.try_step(s, cand),
             _ => self.try_one(s, cand),
         }
+    }
+
+    /// A step with the width of its ramp searched: a slip that takes several samples
+    /// (a ramp from 0 to its size over a width w centred on its time t₀) fitted as a
+    /// sharp step leaves the ramp's odd misfit and reads its size low (z −4 at 20
+    /// floors over 1 s). The sharp step's time is the start ([`Search::Step`]); w = 0
+    /// (sharp) and a geometric grid from 2 sample intervals (a ramp within one interval
+    /// reads as sharp) by ratio 1.5, up to 32 intervals and within the run, are fitted at
+    /// that time; the best ramp, if it fits better than the sharp step, is refined by
+    /// golden section in ln w, then t₀ within one interval, then ln w again. The width is
+    /// kept only when the BIC says so (below).
+    fn try_step(&self, s: &State, cand: &Candidate) -> Option<Trial> {
+        let d = self.d;
+        let (theta, _, _) = self.search_theta(s, cand)?;
+        let (name, t0) = theta?;
+        let run = &d.runs[d.run_at_time(t0)?];
+        let ts = &d.fields.t_s[run.start..run.end];
+        let (first, last) = (*ts.first()?, *ts.last()?);
+        let dt = (last - first) / (ts.len() - 1).max(1) as f64;
+        let top = (32.0 * dt).min(2.0 * (t0 - first).min(last - t0));
+        let with = |w: f64| Candidate {
+            width_s: w,
+            ..cand.clone()
+        };
+        let ssr = |w: f64, t: f64| self.ssr_at(s, &with(w), t);
+        let sharp = ssr(0.0, t0);
+        let (mut grid_w, mut best) = (0.0, sharp);
+        for v in (0..)
+            .map(|i| 2.0 * dt * 1.5f64.powi(i))
+            .take_while(|&v| v <= top)
+        {
+            let x = ssr(v, t0);
+            if x < best {
+                (grid_w, best) = (v, x);
+            }
+        }
+        let (mut w, mut t) = (grid_w, t0);
+        if w > 0.0 {
+            let in_w = |w: f64, t: f64| {
+                let lo = (w / 1.5).max(1.01 * dt).ln();
+                golden_section(lo, (w * 1.5).min(top).ln(), 10, |lv| ssr(lv.exp(), t))
+                    .centre()
+                    .exp()
+            };
+            w = in_w(w, t);
+            t = golden_section(t - dt, t + dt, 12, |x| ssr(w, x)).centre();
+            w = in_w(w, t);
+            if ssr(w, t) >= best {
+                (w, t) = (grid_w, t0);
+            }
+        }
+        // The ramp replaces the sharp step only when its width lowers the BIC, n·ln
+        // SSR + k·ln n, by its one parameter more (a ramp fitted to noise is sharp).
+        let n = d.rows() as f64;
+        if w > 0.0 && n * (ssr(w, t) / sharp).ln() + n.ln() >= 0.0 {
+            (w, t) = (0.0, t0);
+        }
+        let c = with(w);
+        let specs = catalogue::specs(d, &c, t, s.eps());
+        let fitted = self.evaluate(&s.fit, &specs, true)?;
+        let k = 1 + usize::from(w > 0.0);
+        Some(self.trial_of(s, &c, (Some((name, t)), k), &specs.names, fitted))
     }
 
     /// A lost motion varying along the travel, of the order K the data choose
@@ -531,17 +594,94 @@ impl Ctx<'_> {
         if name == "time_s" {
             return None;
         }
-        let at = |v: f64| {
-            let specs = catalogue::specs(self.d, &t.cand, v, s.eps());
-            let (_, keep, jf) = self.evaluate(&s.fit, &specs, false)?;
-            (keep.len() == t.ncols).then(|| jf.all.x[..t.ncols].to_vec())
-        };
         let (lo, hi) = match catalogue::search(self.d, &t.cand) {
             Search::Periodic { fine_step, .. } => (th - fine_step, th + fine_step),
             _ => (th * (-0.05f64).exp(), th * 0.05f64.exp()),
         };
+        self.slope(s, t, (&t.cand, lo), (&t.cand, hi), hi - lo)
+    }
+
+    /// The slope dβ/dw of a ramped step's coefficients along its width w (refitted at
+    /// w·e^(±0.05), t₀ kept), as [`Ctx::coef_slope`] along θ.
+    pub fn width_slope(&self, s: &State, t: &Trial) -> Option<Vec<f64>> {
+        let (_, th) = t.theta?;
+        let w = t.cand.width_s;
+        let at = |f: f64| Candidate {
+            width_s: w * f,
+            ..t.cand.clone()
+        };
+        let (lo, hi) = (at((-0.05f64).exp()), at(0.05f64.exp()));
+        self.slope(s, t, (&lo, th), (&hi, th), hi.width_s - lo.width_s)
+    }
+
+    /// The central difference of a trial's coefficients between two refits, each a
+    /// candidate at a nonlinear value, `h` apart; `None` when a refit loses a column.
+    fn slope(
+        &self,
+        s: &State,
+        t: &Trial,
+        lo: (&Candidate, f64),
+        hi: (&Candidate, f64),
+        h: f64,
+    ) -> Option<Vec<f64>> {
+        let at = |(c, v): (&Candidate, f64)| {
+            let specs = catalogue::specs(self.d, c, v, s.eps());
+            let (_, keep, jf) = self.evaluate(&s.fit, &specs, false)?;
+            (keep.len() == t.ncols).then(|| jf.all.x[..t.ncols].to_vec())
+        };
         let (a, b) = (at(hi)?, at(lo)?);
-        Some(a.iter().zip(&b).map(|(a, b)| (a - b) / (hi - lo)).collect())
+        Some(a.iter().zip(&b).map(|(a, b)| (a - b) / h).collect())
+    }
+
+    /// A step's width with its standard uncertainty and the slope of its coefficients
+    /// along it (`None`: not a step). The 2σ interval of the profiled sum of squares in
+    /// w at the step's time (the widths whose SSR exceeds the trial's by at most 4σ²,
+    /// χ²₁ at 2σ, scanned outward in steps of 2 % in ln w, from one sample interval, as
+    /// a ramp within one interval reads as sharp, to the run's end) is ±2 standard
+    /// uncertainties: the curvature of S read a 0.45 µm ramp's width 3–6σ high, its
+    /// profile being flat toward long ramps. A ramp: the interval reaches 0 when the
+    /// sharp step is within it; the slope is dβ/dw at ŵ. A sharp step (w = 0): the
+    /// interval is [0, w₊], w₊ the widest ramp within it, the width 0 ± w₊/2 (at least
+    /// the mean sample interval: undetermined), and the slope (β(w₊) − β(0))/w₊, so the
+    /// size carries half its change over the ramps the data do not exclude.
+    pub fn step_width(
+        &self,
+        s: &State,
+        t: &Trial,
+        sigma: f64,
+    ) -> Option<(f64, f64, Option<Vec<f64>>)> {
+        let (_, th) = t.theta.filter(|_| t.cand.effect == "step")?;
+        let d = self.d;
+        let run = &d.runs[d.run_at_time(th)?];
+        let ts = &d.fields.t_s;
+        let dt = (ts[run.end - 1] - ts[run.start]) / (run.end - run.start - 1).max(1) as f64;
+        let top = 2.0 * (th - ts[run.start]).min(ts[run.end - 1] - th);
+        let w = t.cand.width_s;
+        let with = |w: f64| Candidate {
+            width_s: w,
+            ..t.cand.clone()
+        };
+        let thr = t.ssr + 4.0 * sigma * sigma;
+        // Within [one interval, the run]: beyond, a ramp reads as sharp or leaves the run.
+        let inside = |x: f64| {
+            let v = x.exp();
+            if v < dt || v > top {
+                f64::INFINITY
+            } else {
+                self.ssr_at(s, &with(v), th)
+            }
+        };
+        if w <= 0.0 {
+            let (_, hi) = profile_interval(inside, (1.03 * dt).min(top).ln(), 0.02, 400, thr);
+            let wide = hi.exp();
+            let slope = self.slope(s, t, (&with(0.0), th), (&with(wide), th), wide);
+            return Some((0.0, (0.5 * wide).max(dt), slope));
+        }
+        let (lo, hi) = profile_interval(inside, w.ln(), 0.02, 400, thr);
+        let (lo, hi) = (lo.exp(), hi.exp());
+        let sharp = lo <= 1.03 * dt && self.ssr_at(s, &with(0.0), th) <= thr;
+        let lo = if sharp { 0.0 } else { lo };
+        Some((w, 0.25 * (hi - lo), self.width_slope(s, t)))
     }
 
     fn try_one(&self, s: &State, cand: &Candidate) -> Option<Trial> {
@@ -643,14 +783,79 @@ impl Ctx<'_> {
         let k = start + ts[start..end].partition_point(|&x| x < th);
         let dt = ts[k.min(end - 1)] - ts[k.saturating_sub(1).max(start)];
         let (mut lo, mut hi) = (th, th);
-        for j in k.saturating_sub(10).max(start + 1)..(k + 11).min(end) {
-            let tj = step_time(d, j);
+        let mut take = |tj: f64| {
             if self.ssr_at(s, &t.cand, tj) - t.ssr <= 4.0 * sigma * sigma {
                 lo = lo.min(tj);
                 hi = hi.max(tj);
             }
+        };
+        if t.cand.width_s > 0.0 {
+            // A ramp's time is continuous: its 2σ interval scanned outward in steps of a
+            // fiftieth of an interval, up to 20 intervals either side.
+            let thr = t.ssr + 4.0 * sigma * sigma;
+            let (lo, hi) =
+                profile_interval(|x| self.ssr_at(s, &t.cand, x), th, 0.02 * dt, 1000, thr);
+            return (0.25 * (hi - lo)).max(0.02 * dt / 12f64.sqrt());
         }
-        (0.25 * (hi - lo)).max(dt / 12f64.sqrt())
+        for j in k.saturating_sub(10).max(start + 1)..(k + 11).min(end) {
+            take(step_time(d, j));
+        }
+        // A sharp step is a ramp of any width the data do not exclude ([`Ctx::step_width`]:
+        // [0, w₊], σ = w₊/2 once w₊ exceeds two intervals) centred within w₊/2 of its
+        // time: ±w₊/2 is at least its 2σ interval.
+        let wide = self
+            .step_width(s, t, sigma)
+            .map_or(0.0, |(_, sw, _)| if sw > dt { 2.0 * sw } else { 0.0 });
+        (0.25 * (hi - lo)).max(dt / 12f64.sqrt()).max(0.25 * wide)
+    }
+}
+
+/// The interval of x around `x0` where `f(x) ≤ thr`, scanned outward in steps of `h`
+/// (at most `max` steps either side): the last x on each side still within.
+fn profile_interval(f: impl Fn(f64) -> f64, x0: f64, h: f64, max: usize, thr: f64) -> (f64, f64) {
+    let side = |dir: f64| {
+        let mut x = x0;
+        for j in 1..=max {
+            let next = x0 + dir * h * j as f64;
+            let v = f(next);
+            if v.is_nan() || v > thr {
+                break;
+            }
+            x = next;
+        }
+        x
+    };
+    (side(-1.0), side(1.0))
+}
+
+/// Carries the uncertainty `sd` of a nonlinear parameter into the other reported
+/// parameters of trial `t` (σ² + (dβ/dθ·σ_θ)²): its coefficients moved by ±σ_θ along
+/// their slope `slope` (so a parameter made of several coefficients, an amplitude of its
+/// sine and cosine, moves as reported), half the difference of the reported figures added
+/// in quadrature to each σ in `params`; `skip` is the nonlinear parameter's own name.
+pub(crate) fn carry(
+    params: &mut BTreeMap<String, f64>,
+    (t, sigma, d): (&Trial, f64, &Design),
+    slope: &[f64],
+    sd: f64,
+    skip: &str,
+) {
+    let moved = |sign: f64| {
+        let mut m = t.clone();
+        for (c, b) in m.coef.iter_mut().zip(slope) {
+            *c += sign * b * sd;
+        }
+        report_parameters(&m, sigma, d)
+    };
+    let (up, down) = (moved(1.0), moved(-1.0));
+    for (n, v) in &up {
+        if n.starts_with("std_") || n.starts_with("phase") || n == skip {
+            continue;
+        }
+        let shift = 0.5 * (v - down.get(n).copied().unwrap_or(*v));
+        if let Some(sd) = params.get_mut(&format!("std_{n}")) {
+            *sd = sd.hypot(shift);
+        }
     }
 }
 
