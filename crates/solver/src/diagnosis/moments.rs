@@ -41,6 +41,52 @@ pub struct RunMoments {
     pub xu: Vec<f64>,
 }
 
+/// The base columns U of the joint fits (full-length, centred), with where each is
+/// nonzero: per run and reading direction (row parity), bit c set when column c has a
+/// nonzero value there (`None`: every column may). A pass over the rows gathers and
+/// multiplies only the columns nonzero on a direction's rows (the others' moments are 0).
+pub struct Extra<'c> {
+    pub cols: Vec<&'c [f64]>,
+    pub support: Option<&'c [[u64; 2]]>,
+}
+
+impl<'c> Extra<'c> {
+    /// Columns that may be nonzero anywhere.
+    pub fn plain(cols: &[&'c [f64]]) -> Extra<'c> {
+        Extra {
+            cols: cols.to_vec(),
+            support: None,
+        }
+    }
+
+    /// Per run and reading direction of `red`, the columns `cols` nonzero there (bit c;
+    /// at most 64 columns, `None` beyond).
+    pub fn support_of(red: &Reduction, cols: &[&[f64]]) -> Option<Vec<[u64; 2]>> {
+        (cols.len() <= 64).then(|| {
+            red.runs
+                .iter()
+                .map(|rs| {
+                    let mut bits = [0u64; 2];
+                    for (c, col) in cols.iter().enumerate() {
+                        for (i, v) in col[rs.row0..rs.row0 + rs.rows].iter().enumerate() {
+                            if *v != 0.0 {
+                                bits[i & 1] |= 1 << c;
+                            }
+                        }
+                    }
+                    bits
+                })
+                .collect()
+        })
+    }
+
+    /// The columns nonzero on run g's rows of each reading direction.
+    fn live(&self, g: usize) -> [Vec<usize>; 2] {
+        let bits = self.support.map_or([u64::MAX; 2], |s| s[g]);
+        bits.map(|b| (0..self.cols.len()).filter(|&c| b >> c & 1 == 1).collect())
+    }
+}
+
 /// Moments of m columns on every run.
 #[derive(Clone)]
 pub struct Moments {
@@ -65,7 +111,7 @@ impl Moments {
     pub fn new(
         red: &Reduction,
         m: usize,
-        extra: &[&[f64]],
+        extra: &Extra,
         fill: impl FnMut(usize, &mut [f64]),
     ) -> Moments {
         Moments::new_on(red, m, extra, |_| true, fill)
@@ -78,7 +124,7 @@ impl Moments {
     pub fn new_on(
         red: &Reduction,
         m: usize,
-        extra: &[&[f64]],
+        extra: &Extra,
         live: impl Fn(usize) -> bool,
         fill: impl FnMut(usize, &mut [f64]),
     ) -> Moments {
@@ -106,11 +152,11 @@ impl Moments {
     pub fn over_rows(
         red: &Reduction,
         m: usize,
-        extra: &[&[f64]],
+        extra: &Extra,
         mut rows: impl FnMut(usize, &RunSpace, &mut Vec<usize>),
         mut fill: impl FnMut(usize, &mut [f64]),
     ) -> Moments {
-        let u = extra.len();
+        let u = extra.cols.len();
         let mut vals = vec![0.0; m];
         let mut peaks = vec![0.0f64; m];
         let mut varies = vec![false; m];
@@ -137,20 +183,23 @@ impl Moments {
             rows(g, rs, &mut visit);
             let w = if rs.rows == 0 { 0 } else { rs.row(0).1.len() };
             let odd = visit.iter().filter(|&&i| i & 1 == 1).count();
-            for (d, k) in dirs.iter_mut().zip([visit.len() - odd, odd]) {
-                d.start(k, m, w, u);
+            let live = extra.live(g);
+            for ((d, k), live) in dirs.iter_mut().zip([visit.len() - odd, odd]).zip(&live) {
+                d.start(k, m, w, live.len());
             }
             for &i in &visit {
                 let row = rs.row0 + i;
                 let (off, qrow) = rs.row(i);
                 fill(row, &mut vals);
-                dirs[i & 1].push(off, &vals, qrow, extra.iter().map(|col| col[row]));
+                let cols = live[i & 1].iter().map(|&c| extra.cols[c][row]);
+                dirs[i & 1].push(off, &vals, qrow, cols);
             }
             for (comp, d) in dirs.iter().enumerate() {
                 let Some(off) = d.off else { continue };
                 let stats = wide(DirectionMoments {
                     d,
                     off,
+                    live: &live[comp],
                     dims: (m, w, u, r),
                     rm: &mut rm,
                 });
@@ -195,7 +244,7 @@ impl Moments {
 
     /// Moments of full-length columns (already centred).
     pub fn of_columns(red: &Reduction, cols: &[&[f64]]) -> Moments {
-        Moments::new(red, cols.len(), &[], |row, out| {
+        Moments::new(red, cols.len(), &Extra::plain(&[]), |row, out| {
             for (o, c) in out.iter_mut().zip(cols) {
                 *o = c[row];
             }
@@ -339,6 +388,8 @@ const STAT_COLUMNS: usize = 4;
 struct DirectionMoments<'a> {
     d: &'a Gathered,
     off: usize,
+    /// The base columns gathered (nonzero on this direction's rows), in order.
+    live: &'a [usize],
     /// m columns, w basis values per row, u base columns, r reduced coordinates.
     dims: (usize, usize, usize, usize),
     rm: &'a mut RunMoments,
@@ -349,7 +400,9 @@ impl pulp::WithSimd for DirectionMoments<'_> {
 
     #[inline(always)]
     fn with_simd<S: pulp::Simd>(self, _: S) -> Self::Output {
-        let DirectionMoments { d, off, rm, .. } = self;
+        let DirectionMoments {
+            d, off, live, rm, ..
+        } = self;
         let (m, w, u, r) = self.dims;
         let k = d.k;
         let stats = column_stats(&d.x, k, m);
@@ -364,8 +417,8 @@ impl pulp::WithSimd for DirectionMoments<'_> {
             for &l in &nz[a..] {
                 rm.xx[j * m + l] += dot_lanes(xj, Gathered::col(&d.x, k, l));
             }
-            for c in 0..u {
-                rm.xu[j * u + c] += dot_lanes(xj, Gathered::col(&d.u, k, c));
+            for (i, &c) in live.iter().enumerate() {
+                rm.xu[j * u + c] += dot_lanes(xj, Gathered::col(&d.u, k, i));
             }
         }
         stats
@@ -383,7 +436,8 @@ struct Gathered {
     /// Rows gathered, and rows to gather.
     n: usize,
     k: usize,
-    /// The m columns X, the w basis values Q_g[·, off..off + w] and the u base columns U.
+    /// The m columns X, the w basis values Q_g[·, off..off + w] and the base columns U
+    /// nonzero on the direction's rows.
     x: Vec<f64>,
     q: Vec<f64>,
     u: Vec<f64>,

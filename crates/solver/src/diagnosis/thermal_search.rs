@@ -20,7 +20,7 @@
 
 use super::chebyshev;
 use super::design::Design;
-use super::moments::{Moments, RunMoments};
+use super::moments::{Extra, Moments, RunMoments};
 use super::reduced::Reduction;
 use super::temperature::LagInput;
 use crate::axis::Axis;
@@ -47,7 +47,7 @@ const FILL_S: f64 = 0.1;
 
 impl ThermalBasis {
     /// One pass over the rows; `extra` are the base columns U of the joint fits.
-    pub fn new(d: &Design, red: &Reduction, extra: &[&[f64]]) -> ThermalBasis {
+    pub fn new(d: &Design, red: &Reduction, extra: &Extra) -> ThermalBasis {
         let span: Vec<(f64, f64)> = d
             .runs
             .iter()
@@ -245,10 +245,10 @@ mod tests {
         let sets = Sets::new(&d, &red, 3);
         let base = Base::new(&red, &sets, Moments::of_columns(&red, &[&d.y]));
         let sm = d.temperature.as_ref().unwrap();
-        let basis = ThermalBasis::new(&d, &red, &[&d.y]);
+        let basis = ThermalBasis::new(&d, &red, &Extra::plain(&[&d.y]));
         for tau in [1.0, 5.0, 30.0, 120.0, 400.0] {
             let lag = sm.lagged(&d.fields.t_s, tau);
-            let exact = Moments::new(&red, 6, &[&d.y], |row, out| {
+            let exact = Moments::new(&red, 6, &Extra::plain(&[&d.y]), |row, out| {
                 let (s, j) = (row / 2, d.row_axis(row).index());
                 out.fill(0.0);
                 out[j] = lag[s] * d.fields.q_mm[j][s] * 1e-3;

@@ -7,7 +7,7 @@
 use super::super::catalogue::{self, Candidate, Columns};
 use super::super::design::Design;
 use super::super::linalg::{Cols, dot};
-use super::super::moments::{self, Moments, Sets};
+use super::super::moments::{self, Extra, Moments, Sets};
 use super::super::reduced::Reduction;
 use crate::axis::Axis;
 use crate::terms::{Component, Term};
@@ -38,6 +38,8 @@ pub(crate) struct Fit {
     pub heldout_ssr: f64,
     /// Numerical rank of [rigid | effects] on all runs.
     pub rank: usize,
+    /// Where each base column [effects | y] is nonzero ([`Extra`]).
+    pub support: Option<Vec<[u64; 2]>>,
 }
 
 /// The current model: its fit, the number of parameters added to the rigid model, and
@@ -68,6 +70,7 @@ impl<'a> Ctx<'a> {
     pub fn fit(&self, cols: Cols, local: Vec<bool>) -> Fit {
         let Ctx { d, red, sets, .. } = *self;
         let mut mom = Moments::of_columns(red, &self.base_columns(&cols));
+        let support = Extra::support_of(red, &self.base_columns(&cols));
         mom.local = local.iter().copied().chain([false]).collect();
         let base = moments::Base::new(red, sets, mom);
         let jf = moments::joint_fit(red, sets, None, &base, true);
@@ -91,6 +94,19 @@ impl<'a> Ctx<'a> {
             resid,
             ssr: jf.all.ssr,
             heldout_ssr: jf.heldout_ssr,
+            support,
+        }
+    }
+
+    /// The base columns of every joint fit on the current model `f`, with where each is
+    /// nonzero.
+    pub fn extra<'c>(&self, f: &'c Fit) -> Extra<'c>
+    where
+        'a: 'c,
+    {
+        Extra {
+            cols: self.base_columns(&f.cols),
+            support: f.support.as_deref(),
         }
     }
 
@@ -126,7 +142,7 @@ impl<'a> Ctx<'a> {
         let parked = specs.follows().map(|a| self.parked_runs(a));
         let live =
             |row| specs.live(d, row) && parked.as_ref().is_none_or(|p| !p[d.fields.run(row / 2)]);
-        let base = self.base_columns(&f.cols);
+        let base = self.extra(f);
         let fill = |row, out: &mut [f64]| specs.at(d, row, out);
         match specs.run() {
             // A local effect varies on its run alone: only that run's live rows.

@@ -239,7 +239,7 @@ impl Ctx<'_> {
                 // from their columns.
                 let lag = cand.effect == "thermal_temperature_lag" && d.temperature.is_some();
                 let basis = (cand.effect == "thermal_drift" || lag)
-                    .then(|| ThermalBasis::new(d, red, &self.base_columns(&f.cols)));
+                    .then(|| ThermalBasis::new(d, red, &self.extra(f)));
                 // A candidate that vanishes away from its axis's reversals (the spike) is
                 // evaluated on the rows within its reach at the largest value searched
                 // (the golden section stays within a grid ratio of the grid; 1 % margin).
@@ -262,7 +262,7 @@ impl Ctx<'_> {
                         let mom = Moments::over_rows(
                             red,
                             specs.len(),
-                            &self.base_columns(&f.cols),
+                            &self.extra(f),
                             |g, _, out| {
                                 out.extend(near[g].iter().filter(|p| p.1 < reach).map(|p| p.0))
                             },
