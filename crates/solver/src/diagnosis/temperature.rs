@@ -115,7 +115,7 @@ impl Smoother {
             })
             .unwrap_or(0);
         let m = order + 1;
-        let r = DMatrix::from_fn(m, m, |i, j| rf(i, j));
+        let r = DMatrix::from_fn(m, m, &rf);
         let qty = DVector::from_fn(m, |i, _| rf(i, k));
         let mut coef = r
             .solve_upper_triangular(&qty)
