@@ -85,11 +85,27 @@ impl Smoother {
         for (v, &y) in a[k * n..].iter_mut().zip(temp) {
             *v = y - mean;
         }
-        let qr = faer::MatRef::from_column_major_slice(&a, n, k + 1).qr();
-        drop(a);
-        let rf = qr.thin_R();
+        // Householder QR in place (faer's, as `Mat::qr` runs it on its copy): R is the
+        // upper triangle of the first k + 1 rows.
+        {
+            use faer::dyn_stack::{MemBuffer, MemStack};
+            use faer::linalg::qr::no_pivoting::factor;
+            let (par, size) = (faer::get_global_parallelism(), n.min(k + 1));
+            let block = factor::recommended_block_size::<f64>(n, k + 1);
+            let mut coeff = faer::Mat::<f64>::zeros(block, size);
+            let scratch =
+                factor::qr_in_place_scratch::<f64>(n, k + 1, block, par, Default::default());
+            factor::qr_in_place(
+                faer::MatMut::from_column_major_slice_mut(&mut a, n, k + 1),
+                coeff.as_mut(),
+                par,
+                MemStack::new(&mut MemBuffer::new(scratch)),
+                Default::default(),
+            );
+        }
+        let rf = |i: usize, j: usize| if i <= j { a[j * n + i] } else { 0.0 };
         // SSR of order p: the tail of Qᵀy below p, plus the final residual.
-        let tail: Vec<f64> = (0..=k).map(|j| rf[(j.min(k), k)].powi(2)).collect();
+        let tail: Vec<f64> = (0..=k).map(|j| rf(j.min(k), k).powi(2)).collect();
         let nn = n as f64;
         let ssr_of = |p: usize| tail[p + 1..].iter().sum::<f64>().max(1e-300);
         let order = (0..k)
@@ -99,8 +115,8 @@ impl Smoother {
             })
             .unwrap_or(0);
         let m = order + 1;
-        let r = DMatrix::from_fn(m, m, |i, j| if j >= i { rf[(i, j)] } else { 0.0 });
-        let qty = DVector::from_fn(m, |i, _| rf[(i, k)]);
+        let r = DMatrix::from_fn(m, m, &rf);
+        let qty = DVector::from_fn(m, |i, _| rf(i, k));
         let mut coef = r
             .solve_upper_triangular(&qty)
             .map(|c| c.as_slice().to_vec())
