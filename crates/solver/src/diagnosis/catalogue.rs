@@ -621,6 +621,60 @@ pub fn specs<'a>(
     }
 }
 
+/// Travel since the axis's last reversal (mm) within which a sample is "near" the
+/// reversal for [`split`].
+pub const SPLIT_NEAR_MM: f64 = 2.0;
+
+/// The four places [`split`] cuts a candidate's support into, in its column order.
+pub const SPLIT_PLACES: [&str; 4] = [
+    "lines, beyond 2 mm of the reversals",
+    "lines, within 2 mm of the reversals",
+    "circles, beyond 2 mm of the reversals",
+    "circles, within 2 mm of the reversals",
+];
+
+/// A one-column candidate of axis `a` (its columns at `theta`) split by place: its column
+/// times the indicator of each of [`SPLIT_PLACES`] (the run's test, a line or a circle,
+/// and the travel of the candidate's axis since its last reversal, below or from
+/// [`SPLIT_NEAR_MM`]): the same model with a coefficient per place. Where the model's
+/// form holds the places share one coefficient; a second-order term of a delay (its
+/// acceleration, largest at the reversals), a shift that settles after each reversal,
+/// a velocity the set-points do not tell at a start or a stop, make them differ.
+/// `None` for a candidate without an axis or with more than one column.
+pub fn split<'a>(
+    d: &'a Design,
+    c: &Candidate,
+    theta: f64,
+    eps: Option<&'a [[f64; 3]]>,
+) -> Option<Columns<'a>> {
+    let a = c.axis?;
+    let inner = specs(d, c, theta, eps);
+    if inner.len() != 1 {
+        return None;
+    }
+    let since = &d.fields.since_reversal_mm[a.index()];
+    let names = SPLIT_PLACES
+        .iter()
+        .map(|p| format!("{} ({p})", inner.names[0]))
+        .collect();
+    let axes = vec![inner.axes[0]; SPLIT_PLACES.len()];
+    let follows = inner.follows;
+    let fill = inner.fill;
+    let mut cols = Columns::new(names, axes, move |s, read, o| {
+        let mut v = [0.0];
+        fill(s, read, &mut v);
+        let circle = matches!(
+            d.runs[d.fields.run(s)].test,
+            crate::session::TestKind::CircleCw | crate::session::TestKind::CircleCcw
+        );
+        let place = 2 * usize::from(circle) + usize::from(since[s] < SPLIT_NEAR_MM);
+        o.iter_mut().for_each(|x| *x = 0.0);
+        o[place] = v[0];
+    });
+    cols.follows = follows;
+    Some(cols)
+}
+
 /// Columns of a candidate at nonlinear value `theta` as full-length vectors, centred per
 /// (run, direction) ([`specs`]), with the names (and units) of their coefficients and
 /// each column's largest |value| before centring; columns the run offsets absorb whole

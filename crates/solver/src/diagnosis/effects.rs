@@ -564,6 +564,33 @@ pub fn classify(mut f: Finding) -> Sorted {
     }
 }
 
+/// A finding whose model form the data show does not hold (`decide`: the whole sentence
+/// saying so and what would decide it): its principal parameters are set aside as
+/// undetermined with that sentence, whatever their σ, and it is possible; its other
+/// parameters are sorted by [`classify`]'s rule.
+pub fn form_rejected(f: Finding, decide: &str) -> Sorted {
+    let Some(spec) = spec(&f.effect) else {
+        return classify(f);
+    };
+    let open: Vec<Undetermined> = f
+        .parameters
+        .iter()
+        .filter(|(name, _)| spec.principal.iter().any(|p| matches_pattern(p, name)))
+        .map(|(name, &v)| {
+            let sd = f
+                .parameters
+                .get(&format!("std_{name}"))
+                .copied()
+                .unwrap_or(f64::INFINITY);
+            Undetermined::with_sentence(name.clone(), v, sd, decide.to_string())
+        })
+        .collect();
+    let f = set_aside(f, open);
+    match classify(f) {
+        Sorted::Determined(f) | Sorted::Possible(f) => Sorted::Possible(f),
+    }
+}
+
 /// Splits findings into the determined ones and the possible ones, by [`classify`].
 pub fn split_undetermined(findings: Vec<Finding>) -> (Vec<Finding>, Vec<Finding>) {
     let mut determined = Vec::new();

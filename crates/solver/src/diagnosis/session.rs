@@ -351,7 +351,18 @@ impl super::engine::Greedy for SessionProblem<'_> {
             return Admission::SetAside(Note::Rejected(why));
         }
         let finding = self.finding_of(t, params, f, None);
-        match effects::classify(finding) {
+        // The model's form on its own support: a lag or a shift that differs between
+        // lines and circles, near and beyond the axis's reversals, beyond what the noise
+        // allows is not the model's (`FORM_ALPHA`).
+        let form = matches!(c.effect, "servo_lag" | "direction_coupling")
+            .then(|| self.ctx.form_test(s, t, sigma))
+            .flatten()
+            .filter(|ft| ft.p < FORM_ALPHA);
+        let sorted = match form {
+            Some(ft) => effects::form_rejected(finding, &form_sentence(c.effect, &ft)),
+            None => effects::classify(finding),
+        };
+        match sorted {
             effects::Sorted::Determined(f) => Admission::Add(Note::Finding(f)),
             effects::Sorted::Possible(f) => Admission::SetAside(Note::Possible(f)),
         }
@@ -400,6 +411,36 @@ impl super::engine::Greedy for SessionProblem<'_> {
             note,
         )
     }
+}
+
+/// False-alarm rate of the lack-of-fit test of an effect's form (`trial::FormTest`): a
+/// servo lag or a direction coupling whose form holds is set aside with this
+/// probability.
+const FORM_ALPHA: f64 = 1e-3;
+
+/// The sentence of an effect whose form does not hold: the coefficient per place, the
+/// test, and what would decide it.
+fn form_sentence(effect: &str, ft: &trial::FormTest) -> String {
+    let unit = if effect == "servo_lag" { "ms" } else { "um" };
+    let k = if effect == "servo_lag" { 1e3 } else { 1.0 };
+    let places: Vec<String> = ft
+        .places
+        .iter()
+        .map(|(name, v, sd)| format!("{:+.3} ± {:.3} {unit} on {name}", k * v, k * sd))
+        .collect();
+    let data = match effect {
+        "servo_lag" => {
+            "the controller's commanded velocity, or a sample rate well above the acceleration ramps,"
+        }
+        _ => "a model of the transient across the axis after its reversals",
+    };
+    format!(
+        "the model's form does not hold on its own support: fitted per place it reads {} (chi2 = {:.1} on {} degrees of freedom, p = {:.1e}); {data} would decide it",
+        places.join(", "),
+        ft.chi2,
+        ft.dof,
+        ft.p
+    )
 }
 
 /// [`diagnose_session`], reporting its phases and the fraction of the work done to

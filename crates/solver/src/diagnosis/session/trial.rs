@@ -810,6 +810,51 @@ impl Ctx<'_> {
     }
 }
 
+/// The lack-of-fit test of a one-column effect's form on its own support
+/// ([`Ctx::form_test`]).
+pub(crate) struct FormTest {
+    /// χ² = (SSR of the effect − SSR with a coefficient per place)/σ².
+    pub chi2: f64,
+    /// Its degrees of freedom: the places where the column varies, less one.
+    pub dof: usize,
+    /// Its p-value (upper tail of χ² with `dof` degrees of freedom).
+    pub p: f64,
+    /// Per place: its name, the coefficient there and its σ.
+    pub places: Vec<(String, f64, f64)>,
+}
+
+impl Ctx<'_> {
+    /// The trial's one column fitted with a coefficient per place instead
+    /// ([`catalogue::split`]: lines or circles, near or beyond the axis's reversals), on
+    /// all runs: where the effect's form holds, the drop of the sum of squares is σ²
+    /// times a χ² with (places − 1) degrees of freedom. `None` for an effect of more
+    /// than one column, or whose column varies in one place only.
+    pub fn form_test(&self, s: &State, t: &Trial, sigma: f64) -> Option<FormTest> {
+        let th = t.theta.map_or(0.0, |x| x.1);
+        let specs = catalogue::split(self.d, &t.cand, th, s.eps())?;
+        let (_, keep, jf) = self.evaluate(&s.fit, &specs, false)?;
+        let dof = keep.len().checked_sub(1).filter(|&k| k > 0)?;
+        let chi2 = ((t.ssr - jf.all.ssr) / (sigma * sigma)).max(0.0);
+        let p = statrs::distribution::ChiSquared::new(dof as f64)
+            .map(|c| 1.0 - statrs::distribution::ContinuousCDF::cdf(&c, chi2))
+            .ok()?;
+        let places = keep
+            .iter()
+            .enumerate()
+            .map(|(i, &j)| {
+                let name = catalogue::SPLIT_PLACES[j].to_string();
+                (name, jf.all.x[i], jf.all.sd[i] * sigma)
+            })
+            .collect();
+        Some(FormTest {
+            chi2,
+            dof,
+            p,
+            places,
+        })
+    }
+}
+
 /// The interval of x around `x0` where `f(x) ≤ thr`, scanned outward in steps of `h`
 /// (at most `max` steps either side): the last x on each side still within.
 fn profile_interval(f: impl Fn(f64) -> f64, x0: f64, h: f64, max: usize, thr: f64) -> (f64, f64) {
