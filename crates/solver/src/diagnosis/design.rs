@@ -387,9 +387,7 @@ pub fn build(session: &Session, topology: &Topology, order: usize) -> Result<Des
     let temperature = f.temp_k.as_mut().map(|temp| {
         let ranges: Vec<_> = runs.iter().map(|r| r.start..r.end).collect();
         let sm = Smoother::fit(&f.t_s, temp, &ranges);
-        for (v, &t) in temp.iter_mut().zip(&f.t_s) {
-            *v = sm.delta(t);
-        }
+        *temp = sm.deltas(&f.t_s);
         sm
     });
     let mut d = Design {

@@ -150,6 +150,31 @@ impl Smoother {
         self.value(t) - self.zero
     }
 
+    /// [`Smoother::delta`] at every time of `t_s`, the same values: the Legendre terms
+    /// by the same recurrence, one term at a time over all the times, each time's sum
+    /// taken in the terms' order.
+    pub fn deltas(&self, t_s: &[f64]) -> Vec<f64> {
+        let s: Vec<f64> = t_s.iter().map(|&t| self.tau(t)).collect();
+        // `Iterator::sum`'s start for f64 (−0.0, the neutral element of +).
+        let mut acc = vec![-0.0; s.len()];
+        let (mut p_prev, mut p) = (vec![1.0; s.len()], s.clone());
+        for (k, &c) in self.coef.iter().enumerate() {
+            match k {
+                0 => acc.iter_mut().for_each(|a| *a += 1.0 * c),
+                1 => acc.iter_mut().zip(&p).for_each(|(a, p)| *a += p * c),
+                _ => {
+                    let nf = (k - 1) as f64;
+                    for (((a, p), q), s) in acc.iter_mut().zip(&mut p).zip(&mut p_prev).zip(&s) {
+                        let next = ((2.0 * nf + 1.0) * s * *p - nf * *q) / (nf + 1.0);
+                        (*q, *p) = (*p, next);
+                        *a += next * c;
+                    }
+                }
+            }
+        }
+        acc.iter().map(|a| a - self.zero).collect()
+    }
+
     fn tau(&self, t: f64) -> f64 {
         (t - self.mid) / self.half
     }
@@ -189,15 +214,21 @@ impl Smoother {
         };
         let mut t0 = t_s[first];
         input.u0 = self.delta(t0);
+        // The step times first, then the smoothed temperature at all of them.
+        let mut times = Vec::with_capacity(t_s.len());
         for i in order {
             let t1 = t_s[i];
             let steps = ((t1 - t0) / 1.0).ceil().max(1.0);
             let h = (t1 - t0) / steps;
             for k in 1..=steps as usize {
-                input.steps.push((h, self.delta(t0 + h * k as f64)));
+                input.steps.push((h, 0.0));
+                times.push(t0 + h * k as f64);
             }
             t0 = t1;
             input.ends.push((i, input.steps.len()));
+        }
+        for (step, u) in input.steps.iter_mut().zip(self.deltas(&times)) {
+            step.1 = u;
         }
         input
     }
@@ -340,6 +371,20 @@ mod tests {
             .sum::<f64>()
             / t.len() as f64;
         assert!(err.sqrt() < 0.0005, "{}", err.sqrt());
+    }
+
+    /// The smoothed change at many times at once is the one at each time, bit for bit
+    /// (the design's ΔT̂ and the lag's input take it), here at times inside and outside
+    /// the logged span.
+    #[test]
+    fn deltas_are_delta_at_every_time() {
+        let (t, _, obs) = sample(0.005, 7);
+        let s = Smoother::fit(&t, &obs, std::slice::from_ref(&(0..t.len())));
+        assert!(s.order >= 2, "{}", s.order);
+        let ts: Vec<f64> = (0..500).map(|i| -20.0 + i as f64 * 2.17).collect();
+        for (&t, d) in ts.iter().zip(s.deltas(&ts)) {
+            assert_eq!(d.to_bits(), s.delta(t).to_bits(), "{t}");
+        }
     }
 
     /// The lag of a ramp settles to the ramp delayed by τ (T_s = T̂ − τ·r), and of a
