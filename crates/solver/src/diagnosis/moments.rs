@@ -128,22 +128,7 @@ impl Moments {
         live: impl Fn(usize) -> bool,
         fill: impl FnMut(usize, &mut [f64]),
     ) -> Moments {
-        Moments::over_rows(
-            red,
-            m,
-            extra,
-            |_, rs, out| {
-                let on = [0, 1].map(|c| c < rs.rows && live(rs.row0 + c));
-                let (first, step) = match on {
-                    [true, true] => (0, 1),
-                    [true, false] => (0, 2),
-                    [false, true] => (1, 2),
-                    [false, false] => (rs.rows, 1),
-                };
-                out.extend((first..rs.rows).step_by(step));
-            },
-            fill,
-        )
+        Moments::over_rows(red, m, extra, live_directions(live), fill)
     }
 
     /// [`Moments::new`] over chosen rows: `rows(g, run, out)` pushes the indices (counted
@@ -240,6 +225,53 @@ impl Moments {
             varies,
             local: vec![false; m],
         }
+    }
+
+    /// X_gᵀU_g of m columns with the base columns `extra` alone, per run (m × u,
+    /// row-major; 0 where a base column is 0 on a direction's rows), over the rows
+    /// `rows` pushes: the same sums [`Moments::over_rows`] forms for them, without Z_g
+    /// and X_gᵀX_g.
+    pub fn cross(
+        red: &Reduction,
+        m: usize,
+        extra: &Extra,
+        mut rows: impl FnMut(usize, &RunSpace, &mut Vec<usize>),
+        mut fill: impl FnMut(usize, &mut [f64]),
+    ) -> Vec<Vec<f64>> {
+        let u = extra.cols.len();
+        let mut vals = vec![0.0; m];
+        let mut visit = Vec::new();
+        let mut dirs = [Gathered::default(), Gathered::default()];
+        let mut out = Vec::with_capacity(red.runs.len());
+        for (g, rs) in red.runs.iter().enumerate() {
+            visit.clear();
+            rows(g, rs, &mut visit);
+            let live = extra.live(g);
+            let odd = visit.iter().filter(|&&i| i & 1 == 1).count();
+            for ((d, k), live) in dirs.iter_mut().zip([visit.len() - odd, odd]).zip(&live) {
+                d.start(k, m, 0, live.len());
+            }
+            for &i in &visit {
+                let row = rs.row0 + i;
+                fill(row, &mut vals);
+                let cols = live[i & 1].iter().map(|&c| extra.cols[c][row]);
+                dirs[i & 1].push(0, &vals, &[], cols);
+            }
+            let mut xu = vec![0.0; m * u];
+            for (d, live) in dirs.iter().zip(&live) {
+                if d.off.is_some() {
+                    wide(CrossMoments {
+                        d,
+                        live,
+                        m,
+                        u,
+                        xu: &mut xu,
+                    });
+                }
+            }
+            out.push(xu);
+        }
+        out
     }
 
     /// Moments of full-length columns (already centred).
@@ -346,6 +378,22 @@ impl Moments {
     }
 }
 
+/// The rows of a run's live reading directions ([`Moments::new_on`]).
+pub fn live_directions(
+    live: impl Fn(usize) -> bool,
+) -> impl FnMut(usize, &RunSpace, &mut Vec<usize>) {
+    move |_, rs, out| {
+        let on = [0, 1].map(|c| c < rs.rows && live(rs.row0 + c));
+        let (first, step) = match on {
+            [true, true] => (0, 1),
+            [true, false] => (0, 2),
+            [false, true] => (1, 2),
+            [false, false] => (rs.rows, 1),
+        };
+        out.extend((first..rs.rows).step_by(step));
+    }
+}
+
 /// Of each of the m gathered columns of k values (column after column in `x`): the number
 /// of its nonzero values, their sum Σv (added in row order: a zero adds nothing, so this
 /// is the sum of every value in order) and its least and largest values (zeros
@@ -422,6 +470,31 @@ impl pulp::WithSimd for DirectionMoments<'_> {
             }
         }
         stats
+    }
+}
+
+/// X_gᵀU_g of one reading direction of a run from its gathered rows, added to `xu`
+/// ([`Moments::cross`]; the products [`DirectionMoments`] forms for them).
+struct CrossMoments<'a> {
+    d: &'a Gathered,
+    live: &'a [usize],
+    m: usize,
+    u: usize,
+    xu: &'a mut [f64],
+}
+
+impl pulp::WithSimd for CrossMoments<'_> {
+    type Output = ();
+
+    #[inline(always)]
+    fn with_simd<S: pulp::Simd>(self, _: S) {
+        let CrossMoments { d, live, m, u, xu } = self;
+        for j in 0..m {
+            let xj = Gathered::col(&d.x, d.k, j);
+            for (i, &c) in live.iter().enumerate() {
+                xu[j * u + c] += dot_lanes(xj, Gathered::col(&d.u, d.k, i));
+            }
+        }
     }
 }
 

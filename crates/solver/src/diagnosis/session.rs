@@ -113,10 +113,13 @@ impl SessionProblem<'_> {
         k: usize,
         backlash: [Option<(f64, f64)>; 3],
         profiled: [bool; 3],
+        prior: Option<(Vec<(Candidate, super::moments::Moments)>, usize)>,
     ) -> State {
         State {
             backlash,
             profiled,
+            kept: Default::default(),
+            prior,
             eps: (!self.eps_groups.is_empty())
                 .then(|| self.ctx.eps_per_sample(&fit, &self.eps_groups)),
             fit,
@@ -407,7 +410,17 @@ impl super::engine::Greedy for SessionProblem<'_> {
             _ => {}
         }
         (
-            self.state(nf, s.k + t.ncols + t.extra_params, backlash, profiled),
+            self.state(
+                nf,
+                s.k + t.ncols + t.extra_params,
+                backlash,
+                profiled,
+                // The candidates' moments on this model serve the next round's.
+                Some((
+                    std::mem::take(&mut *s.kept.lock().expect("kept moments")),
+                    s.fit.cols.len() + 1,
+                )),
+            ),
             note,
         )
     }
@@ -537,7 +550,7 @@ pub fn diagnose_session_with_progress(
         stop_ratio: 0.0,
         max_findings: opts.max_findings,
     };
-    let base = problem.state(f, 0, [None; 3], [false; 3]);
+    let base = problem.state(f, 0, [None; 3], [false; 3], None);
     let o = engine::run(&problem, base, &rules, "", &mut progress, (0.0, 1.0));
     let findings: Vec<Finding> = o
         .added

@@ -54,6 +54,11 @@ pub(crate) struct State {
     /// Per axis: whether a whole position-dependent lost motion (constant part included)
     /// is in the model.
     pub profiled: [bool; 3],
+    /// The moments of the candidates without a nonlinear parameter on this model, kept
+    /// for the next ([`Ctx::moments_kept`]).
+    pub kept: std::sync::Mutex<Vec<(Candidate, Moments)>>,
+    /// Those of the model before it, with its number of base columns.
+    pub prior: Option<(Vec<(Candidate, Moments)>, usize)>,
 }
 
 impl State {
@@ -162,6 +167,89 @@ impl<'a> Ctx<'a> {
                 mom
             }
             None => Moments::new_on(self.red, specs.len(), &base, live, fill),
+        }
+    }
+
+    /// [`Ctx::moments`] of a candidate whose columns do not depend on the model (no
+    /// nonlinear parameter, not the setup offset's), kept on the state for the next
+    /// round. On a state after its model gained columns, from the candidate's moments on
+    /// the model before: its moments with the rigid basis, among its columns and with
+    /// the earlier base columns are those; only its cross-moments with the columns added
+    /// since are formed ([`Moments::cross`]: one pass over the same rows, without the
+    /// other products), the same sums.
+    pub fn moments_kept(&self, s: &State, cand: &Candidate, specs: &Columns) -> Moments {
+        let f = &s.fit;
+        let prior = s.prior.as_ref().and_then(|(list, u_prev)| {
+            let m = list.iter().find(|(c, _)| c == cand)?;
+            Some((&m.1, *u_prev))
+        });
+        let mom = match prior {
+            Some((p, u_prev)) if specs.run().is_none() && p.m == specs.len() => {
+                self.moments_after(f, specs, p, u_prev)
+            }
+            _ => self.moments(f, specs),
+        };
+        s.kept
+            .lock()
+            .expect("kept moments")
+            .push((cand.clone(), mom.clone()));
+        mom
+    }
+
+    /// The moments of `specs` on the model `f` from `prior`, theirs on the model of the
+    /// first `u_prev − 1` of f's columns ([`Ctx::moments_kept`]).
+    fn moments_after(&self, f: &Fit, specs: &Columns, prior: &Moments, u_prev: usize) -> Moments {
+        let d = self.d;
+        let parked = specs.follows().map(|a| self.parked_runs(a));
+        let live =
+            |row| specs.live(d, row) && parked.as_ref().is_none_or(|p| !p[d.fields.run(row / 2)]);
+        let all = self.extra(f);
+        let (m, u, old) = (specs.len(), all.cols.len(), u_prev - 1);
+        let added = u - u_prev;
+        let mask = (1u64 << added) - 1;
+        let support: Option<Vec<[u64; 2]>> = all
+            .support
+            .map(|s| s.iter().map(|b| b.map(|b| (b >> old) & mask)).collect());
+        let new = Extra {
+            cols: all.cols[old..old + added].to_vec(),
+            support: support.as_deref(),
+        };
+        let cross = Moments::cross(
+            self.red,
+            m,
+            &new,
+            moments::live_directions(live),
+            |row, out: &mut [f64]| specs.at(d, row, out),
+        );
+        let runs = prior
+            .runs
+            .iter()
+            .zip(cross)
+            .map(|(rm, xc)| {
+                let mut xu = vec![0.0; m * u];
+                for j in 0..m {
+                    let (to, from) = (
+                        &mut xu[j * u..(j + 1) * u],
+                        &rm.xu[j * u_prev..(j + 1) * u_prev],
+                    );
+                    to[..old].copy_from_slice(&from[..old]);
+                    to[old..old + added].copy_from_slice(&xc[j * added..(j + 1) * added]);
+                    to[u - 1] = from[u_prev - 1];
+                }
+                moments::RunMoments {
+                    z: rm.z.clone(),
+                    xx: rm.xx.clone(),
+                    xu,
+                }
+            })
+            .collect();
+        Moments {
+            m,
+            u,
+            runs,
+            peaks: prior.peaks.clone(),
+            varies: prior.varies.clone(),
+            local: prior.local.clone(),
         }
     }
 

@@ -689,7 +689,13 @@ impl Ctx<'_> {
         let (theta, extra, mom) = self.search_theta(s, cand)?;
         let th = theta.map_or(0.0, |t| t.1);
         let specs = catalogue::specs(d, cand, th, s.eps());
-        let mom = mom.unwrap_or_else(|| self.moments(f, &specs));
+        let mom = match mom {
+            Some(mom) => mom,
+            None if theta.is_none() && cand.effect != "setup_offset" => {
+                self.moments_kept(s, cand, &specs)
+            }
+            None => self.moments(f, &specs),
+        };
         let fitted = self.fit_moments(f, mom, true)?;
         Some(self.trial_of(s, cand, (theta, extra), &specs.names, fitted))
     }
