@@ -789,6 +789,35 @@ mod tests {
         assert!(determined(4.0, 2.0) && !determined(3.999, 2.0) && !determined(1.0, f64::NAN));
     }
 
+    /// A finding whose form the data reject: its principal parameter, determined by its
+    /// σ (z = 20), is set aside with the sentence given, keeping its value and σ, and the
+    /// finding is possible; a parameter that is not principal stays as the rule sorts it.
+    #[test]
+    fn a_rejected_form_sets_aside_a_determined_principal_parameter() {
+        let f = finding(
+            "step",
+            &[
+                ("size_um", 2.0),
+                ("std_size_um", 0.1),
+                ("time_s", 100.0),
+                ("std_time_s", 0.05),
+                ("width_s", 0.0),
+                ("std_width_s", 0.1),
+            ],
+        );
+        let Sorted::Possible(f) = form_rejected(f, "the form does not hold; x would decide it")
+        else {
+            panic!("possible expected")
+        };
+        let open: Vec<&str> = f.undetermined.iter().map(|u| u.name.as_str()).collect();
+        assert_eq!(open, ["size_um", "time_s", "width_s"]);
+        let size = &f.undetermined[0];
+        assert_eq!((size.value, size.std), (2.0, Some(0.1)));
+        assert_eq!(size.decide, "the form does not hold; x would decide it");
+        assert!(f.undetermined[2].decide.starts_with("a higher sample rate"));
+        assert!(f.parameters.is_empty(), "{:?}", f.parameters);
+    }
+
     /// A σ the data do not bound (a flat or non-convex profile: infinite) and a value the
     /// fit did not give (NaN) never reach the document as numbers: the first is an
     /// undetermined parameter stated as unbounded, the second is dropped; the document has
