@@ -353,14 +353,26 @@ impl super::engine::Greedy for SessionProblem<'_> {
         {
             return Admission::SetAside(Note::Rejected(why));
         }
-        let finding = self.finding_of(t, params, f, None);
         // The model's form on its own support: a lag or a shift that differs between
         // lines and circles, near and beyond the axis's reversals, beyond what the noise
-        // allows is not the model's (`FORM_ALPHA`).
+        // allows is not the model's (`FORM_ALPHA`). Below that, the places' spread
+        // beyond their σ (`FormTest::between_places_variance`, τ²) is carried into the
+        // one coefficient's σ, σ² + τ², and so into every figure made of it.
         let form = matches!(c.effect, "servo_lag" | "direction_coupling")
             .then(|| self.ctx.form_test(s, t, sigma))
-            .flatten()
-            .filter(|ft| ft.p < FORM_ALPHA);
+            .flatten();
+        if let Some(ft) = &form {
+            let sd = t.coef_sd[0] * sigma;
+            let widen = (1.0 + ft.between_places_variance() / (sd * sd)).sqrt();
+            if widen.is_finite() {
+                params
+                    .iter_mut()
+                    .filter(|(n, _)| n.starts_with("std_"))
+                    .for_each(|(_, v)| *v *= widen);
+            }
+        }
+        let form = form.filter(|ft| ft.p < FORM_ALPHA);
+        let finding = self.finding_of(t, params, f, None);
         let sorted = match form {
             Some(ft) => effects::form_rejected(finding, &form_sentence(c.effect, &ft)),
             None => effects::classify(finding),
