@@ -142,14 +142,10 @@ impl Moments {
         mut fill: impl FnMut(usize, &mut [f64]),
     ) -> Moments {
         let u = extra.cols.len();
-        let mut vals = vec![0.0; m];
         let mut peaks = vec![0.0f64; m];
         let mut varies = vec![false; m];
         let mut runs = Vec::with_capacity(red.runs.len());
-        let mut visit = Vec::new();
-        // Per reading direction, the visited rows gathered by column: the m columns X,
-        // the basis row Q_g's values and the base columns U.
-        let mut dirs = [Gathered::default(), Gathered::default()];
+        let mut pass = Pass::new(m);
         for (g, rs) in red.runs.iter().enumerate() {
             let r = rs.r;
             let mut rm = RunMoments {
@@ -164,22 +160,9 @@ impl Moments {
             // than the direction's rows, 0 is one of the column's values (for lo/hi;
             // `column_stats` counts the visited zeros in already).
             let mut count = vec![[0usize; 2]; m];
-            visit.clear();
-            rows(g, rs, &mut visit);
             let w = if rs.rows == 0 { 0 } else { rs.row(0).1.len() };
-            let odd = visit.iter().filter(|&&i| i & 1 == 1).count();
-            let live = extra.live(g);
-            for ((d, k), live) in dirs.iter_mut().zip([visit.len() - odd, odd]).zip(&live) {
-                d.start(k, m, w, live.len());
-            }
-            for &i in &visit {
-                let row = rs.row0 + i;
-                let (off, qrow) = rs.row(i);
-                fill(row, &mut vals);
-                let cols = live[i & 1].iter().map(|&c| extra.cols[c][row]);
-                dirs[i & 1].push(off, &vals, qrow, cols);
-            }
-            for (comp, d) in dirs.iter().enumerate() {
+            let live = pass.gather((g, rs), extra, true, &mut rows, &mut fill);
+            for (comp, d) in pass.dirs.iter().enumerate() {
                 let Some(off) = d.off else { continue };
                 let stats = wide(DirectionMoments {
                     d,
@@ -239,26 +222,12 @@ impl Moments {
         mut fill: impl FnMut(usize, &mut [f64]),
     ) -> Vec<Vec<f64>> {
         let u = extra.cols.len();
-        let mut vals = vec![0.0; m];
-        let mut visit = Vec::new();
-        let mut dirs = [Gathered::default(), Gathered::default()];
+        let mut pass = Pass::new(m);
         let mut out = Vec::with_capacity(red.runs.len());
         for (g, rs) in red.runs.iter().enumerate() {
-            visit.clear();
-            rows(g, rs, &mut visit);
-            let live = extra.live(g);
-            let odd = visit.iter().filter(|&&i| i & 1 == 1).count();
-            for ((d, k), live) in dirs.iter_mut().zip([visit.len() - odd, odd]).zip(&live) {
-                d.start(k, m, 0, live.len());
-            }
-            for &i in &visit {
-                let row = rs.row0 + i;
-                fill(row, &mut vals);
-                let cols = live[i & 1].iter().map(|&c| extra.cols[c][row]);
-                dirs[i & 1].push(0, &vals, &[], cols);
-            }
+            let live = pass.gather((g, rs), extra, false, &mut rows, &mut fill);
             let mut xu = vec![0.0; m * u];
-            for (d, live) in dirs.iter().zip(&live) {
+            for (d, live) in pass.dirs.iter().zip(&live) {
                 if d.off.is_some() {
                     wide(CrossMoments {
                         d,
@@ -516,6 +485,58 @@ struct Gathered {
     u: Vec<f64>,
 }
 
+/// Scratch of one pass over the runs: the rows a run visits, one row's column values, and
+/// the visited rows gathered per reading direction (even rows, odd rows).
+struct Pass {
+    visit: Vec<usize>,
+    vals: Vec<f64>,
+    dirs: [Gathered; 2],
+}
+
+impl Pass {
+    fn new(m: usize) -> Pass {
+        Pass {
+            visit: Vec::new(),
+            vals: vec![0.0; m],
+            dirs: [Gathered::default(), Gathered::default()],
+        }
+    }
+
+    /// Gathers run g's rows that `rows` visits into `dirs`, by column: the m columns'
+    /// values from `fill`, the basis row Q_g's values (and the row's offset) when
+    /// `with_basis`, and the base columns of `extra` live on the row's direction.
+    /// Returns those live base columns per direction.
+    fn gather(
+        &mut self,
+        (g, rs): (usize, &RunSpace),
+        extra: &Extra,
+        with_basis: bool,
+        rows: &mut impl FnMut(usize, &RunSpace, &mut Vec<usize>),
+        fill: &mut impl FnMut(usize, &mut [f64]),
+    ) -> [Vec<usize>; 2] {
+        let m = self.vals.len();
+        self.visit.clear();
+        rows(g, rs, &mut self.visit);
+        let w = match (with_basis, rs.rows) {
+            (false, _) | (_, 0) => 0,
+            _ => rs.row(0).1.len(),
+        };
+        let odd = self.visit.iter().filter(|&&i| i & 1 == 1).count();
+        let live = extra.live(g);
+        let counts = [self.visit.len() - odd, odd];
+        for ((d, k), live) in self.dirs.iter_mut().zip(counts).zip(&live) {
+            d.start(k, m, w, live.len());
+        }
+        for &i in &self.visit {
+            let row = rs.row0 + i;
+            let (off, qrow) = if with_basis { rs.row(i) } else { (0, &[][..]) };
+            fill(row, &mut self.vals);
+            let cols = live[i & 1].iter().map(|&c| extra.cols[c][row]);
+            self.dirs[i & 1].push(off, &self.vals, qrow, cols);
+        }
+        live
+    }
+}
 impl Gathered {
     /// Makes room for `k` rows of m columns, w basis values and u base columns (not
     /// cleared: the k rows pushed then write every value).
