@@ -285,7 +285,9 @@ impl super::engine::Greedy for SessionProblem<'_> {
                 .flatten();
             params = trial::profile_parameters(t, sigma, d, a, constant);
         }
-        if let Some((name, sd)) = self.ctx.theta_std(s, t, sigma) {
+        // A step's ramp: its width with σ (also the step time's, below).
+        let width = self.ctx.step_width(s, t, sigma);
+        if let Some((name, sd)) = self.ctx.theta_std(s, t, sigma, width.as_ref().map(|w| w.1)) {
             params.insert(format!("std_{name}"), sd);
             // The linear parameters are fitted jointly with the nonlinear one: their σ,
             // conditional on it, take its uncertainty along the profile,
@@ -310,8 +312,8 @@ impl super::engine::Greedy for SessionProblem<'_> {
                 trial::carry(&mut params, (t, sigma, d), &slope, sd_theta, name);
             }
         }
-        // A step's ramp: its width with σ, carried into its size along the same path.
-        if let Some((w, sw, slope)) = self.ctx.step_width(s, t, sigma) {
+        // The ramp's width carried into the step's size along the same path.
+        if let Some((w, sw, slope)) = width {
             params.insert("width_s".into(), w);
             params.insert("std_width_s".into(), sw);
             if let Some(slope) = slope {

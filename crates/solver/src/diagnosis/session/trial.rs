@@ -738,11 +738,18 @@ impl Ctx<'_> {
     /// profiled sum of squares S(θ) (the linear parameters re-fitted at every θ):
     /// var(θ̂) = 2σ²/S''(θ̂), by central differences (in ln θ for time constants and decay
     /// lengths, in frequency for periods and frequencies). Returns the reported name and
-    /// σ; infinite when S is not convex there (θ not determined).
-    pub fn theta_std(&self, s: &State, t: &Trial, sigma: f64) -> Option<(&'static str, f64)> {
+    /// σ; infinite when S is not convex there (θ not determined). A step's time takes
+    /// the standard uncertainty of its width, `width_sd` ([`Ctx::step_width`]).
+    pub fn theta_std(
+        &self,
+        s: &State,
+        t: &Trial,
+        sigma: f64,
+        width_sd: Option<f64>,
+    ) -> Option<(&'static str, f64)> {
         let (name, th) = t.theta?;
         if name == "time_s" {
-            return Some((name, self.step_time_std(s, t, sigma)));
+            return Some((name, self.step_time_std(s, t, sigma, width_sd)));
         }
         let ssr_at = |v: f64| {
             let x = self.ssr_at(s, &t.cand, v);
@@ -775,8 +782,9 @@ impl Ctx<'_> {
     /// Standard uncertainty of a step's time t̂ (between two samples): the 2σ interval
     /// of the profiled sum of squares, the step times whose SSR exceeds the least by at
     /// most 4σ² (χ²₁ at 2σ), over ±10 samples, is ±2 standard uncertainties; at least the
-    /// uncertainty of a time known to one sample interval Δt, Δt/√12.
-    fn step_time_std(&self, s: &State, t: &Trial, sigma: f64) -> f64 {
+    /// uncertainty of a time known to one sample interval Δt, Δt/√12. `width_sd`: the
+    /// step's width's standard uncertainty, from [`Ctx::step_width`].
+    fn step_time_std(&self, s: &State, t: &Trial, sigma: f64, width_sd: Option<f64>) -> f64 {
         let d = self.d;
         let Some((_, th)) = t.theta else {
             return f64::INFINITY;
@@ -788,13 +796,6 @@ impl Ctx<'_> {
         let ts = &d.fields.t_s;
         let k = start + ts[start..end].partition_point(|&x| x < th);
         let dt = ts[k.min(end - 1)] - ts[k.saturating_sub(1).max(start)];
-        let (mut lo, mut hi) = (th, th);
-        let mut take = |tj: f64| {
-            if self.ssr_at(s, &t.cand, tj) - t.ssr <= 4.0 * sigma * sigma {
-                lo = lo.min(tj);
-                hi = hi.max(tj);
-            }
-        };
         if t.cand.width_s > 0.0 {
             // A ramp's time is continuous: its 2σ interval scanned outward in steps of a
             // fiftieth of an interval, up to 20 intervals either side.
@@ -803,15 +804,18 @@ impl Ctx<'_> {
                 profile_interval(|x| self.ssr_at(s, &t.cand, x), th, 0.02 * dt, 1000, thr);
             return (0.25 * (hi - lo)).max(0.02 * dt / 12f64.sqrt());
         }
+        let (mut lo, mut hi) = (th, th);
         for j in k.saturating_sub(10).max(start + 1)..(k + 11).min(end) {
-            take(step_time(d, j));
+            let tj = step_time(d, j);
+            if self.ssr_at(s, &t.cand, tj) - t.ssr <= 4.0 * sigma * sigma {
+                lo = lo.min(tj);
+                hi = hi.max(tj);
+            }
         }
         // A sharp step is a ramp of any width the data do not exclude ([`Ctx::step_width`]:
         // [0, w₊], σ = w₊/2 once w₊ exceeds two intervals) centred within w₊/2 of its
         // time: ±w₊/2 is at least its 2σ interval.
-        let wide = self
-            .step_width(s, t, sigma)
-            .map_or(0.0, |(_, sw, _)| if sw > dt { 2.0 * sw } else { 0.0 });
+        let wide = width_sd.map_or(0.0, |sw| if sw > dt { 2.0 * sw } else { 0.0 });
         (0.25 * (hi - lo)).max(dt / 12f64.sqrt()).max(0.25 * wide)
     }
 }
