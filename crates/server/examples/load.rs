@@ -82,6 +82,19 @@ async fn start_with(store: Arc<dyn Store>, worker: bool, concurrency: usize) -> 
     format!("http://{addr}")
 }
 
+/// Submits an identification of the dataset `dataset_id`.
+async fn submit_identify(client: &Client, dataset_id: &str) -> mtcal_store::Job {
+    client
+        .submit(&SubmitJob {
+            kind: JobKind::Identify,
+            dataset_id: Some(dataset_id.to_string()),
+            machine_id: None,
+            params: json!({}),
+        })
+        .await
+        .unwrap()
+}
+
 fn machine(id: &str) -> Machine {
     Machine {
         id: id.into(),
@@ -163,15 +176,7 @@ async fn jobs_bench(k: usize) {
         let t = Instant::now();
         let ds = client.upload_files("LOAD-1", &files).await.unwrap();
         up.push(t.elapsed().as_secs_f64());
-        let job = client
-            .submit(&SubmitJob {
-                kind: JobKind::Identify,
-                dataset_id: Some(ds.id),
-                machine_id: None,
-                params: json!({}),
-            })
-            .await
-            .unwrap();
+        let job = submit_identify(&client, &ds.id).await;
         let j = client
             .wait_job(
                 &job.id,
@@ -323,15 +328,7 @@ async fn throughput_bench(pg: bool, workers: usize, n: usize) -> f64 {
     let ds = client.upload_files("LOAD-T", &files).await.unwrap();
     let t = Instant::now();
     for _ in 0..n {
-        client
-            .submit(&SubmitJob {
-                kind: JobKind::Identify,
-                dataset_id: Some(ds.id.clone()),
-                machine_id: None,
-                params: json!({}),
-            })
-            .await
-            .unwrap();
+        submit_identify(&client, &ds.id).await;
     }
     loop {
         let counts = store.job_counts().await.unwrap();
@@ -670,15 +667,7 @@ async fn reads_under_load_bench(
                     std::sync::atomic::Ordering::Relaxed,
                 );
                 if n("queued") < 2 {
-                    client
-                        .submit(&SubmitJob {
-                            kind: JobKind::Identify,
-                            dataset_id: Some(ds.id.clone()),
-                            machine_id: None,
-                            params: json!({}),
-                        })
-                        .await
-                        .unwrap();
+                    submit_identify(&client, &ds.id).await;
                 } else {
                     tokio::time::sleep(Duration::from_millis(20)).await;
                 }

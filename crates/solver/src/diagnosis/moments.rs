@@ -904,14 +904,21 @@ pub fn joint_fit(
     base: &Base,
     heldout: bool,
 ) -> JointFit {
-    let j = Joint { b, base: &base.mom };
-    let all = solve(red, &sets.all, &j, &base.v_all);
-    if !heldout {
-        return JointFit {
-            all,
-            heldout_ssr: f64::NAN,
-        };
+    let all = solve(red, &sets.all, &Joint { b, base: &base.mom }, &base.v_all);
+    JointFit {
+        all,
+        heldout_ssr: if heldout {
+            heldout_ssr(red, sets, b, base)
+        } else {
+            f64::NAN
+        },
     }
+}
+
+/// The held-out sum of squares of [`joint_fit`] alone: the fit on each fold's training
+/// runs, scored on its held-out runs.
+pub fn heldout_ssr(red: &Reduction, sets: &Sets, b: Option<&Moments>, base: &Base) -> f64 {
+    let j = Joint { b, base: &base.mom };
     let mut total = 0.0;
     for ((train, held), v_base) in sets.folds.iter().zip(&base.v_folds) {
         let f = solve(red, train, &j, v_base);
@@ -938,8 +945,5 @@ pub fn joint_fit(
             total += (ee - local_refit(&j, h, &gh, &wv, &pa)).max(0.0);
         }
     }
-    JointFit {
-        all,
-        heldout_ssr: total,
-    }
+    total
 }

@@ -505,6 +505,7 @@ pub fn diagnose_session_with_progress(
         red: &red,
         sets: &sets,
         floor: f64::NAN,
+        bic_threshold: opts.min_bic_gain,
     };
     progress.report("fitting the rigid model", 0.05);
     let f = ctx.fit(Vec::new(), Vec::new());

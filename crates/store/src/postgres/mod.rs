@@ -28,14 +28,14 @@ mod dialect {
     /// How a transaction whose reads are one snapshot begins (READ COMMITTED, the
     /// default, takes a new snapshot per statement).
     pub const BEGIN_SNAPSHOT: &str = "BEGIN ISOLATION LEVEL REPEATABLE READ, READ ONLY";
-    /// Run after a dataset's bytes were deleted: nothing; the old row versions are
-    /// removed by (auto)vacuum, as for every update.
     /// The database's clock, milliseconds since the Unix epoch (the time of the statement,
     /// not of its transaction's start).
     pub const NOW_MS: &str = "CAST(EXTRACT(EPOCH FROM clock_timestamp()) * 1000 AS BIGINT)";
     /// Taken before a key is revoked, so that two revocations of the last two admin keys
     /// cannot both see the other still active.
     pub const LOCK_KEYS: &str = "LOCK TABLE api_keys IN SHARE ROW EXCLUSIVE MODE";
+    /// Run after a dataset's bytes were deleted: nothing; the old row versions are
+    /// removed by (auto)vacuum, as for every update.
     pub const AFTER_BYTES_DELETED: &str = "";
     /// The table `table` (with its alias) for a walk of `index`: as the planner chooses
     /// (it walks the index for an `ORDER BY … LIMIT` the index holds in order).

@@ -24,14 +24,14 @@ mod dialect {
     /// How a transaction whose reads are one snapshot begins: as any (in WAL mode a
     /// transaction reads one snapshot from its first read on).
     pub const BEGIN_SNAPSHOT: &str = "";
-    /// Run after a dataset's bytes were deleted: copies the write-ahead log into the
-    /// database file and empties it, so that (with `secure_delete`, which zeroes freed
-    /// content) the deleted bytes leave the disk at once, not at the next checkpoint.
     /// The database's clock, milliseconds since the Unix epoch (SQLite's `now` has
     /// millisecond resolution).
     pub const NOW_MS: &str = "CAST(ROUND((julianday('now') - 2440587.5) * 86400000.0) AS INTEGER)";
     /// Taken before a key is revoked: nothing (writers are serialised).
     pub const LOCK_KEYS: &str = "";
+    /// Run after a dataset's bytes were deleted: copies the write-ahead log into the
+    /// database file and empties it, so that (with `secure_delete`, which zeroes freed
+    /// content) the deleted bytes leave the disk at once, not at the next checkpoint.
     pub const AFTER_BYTES_DELETED: &str = "PRAGMA wal_checkpoint(TRUNCATE)";
     /// The table `table` (with its alias) read through `index`: the fleet page walks an
     /// index in order (without statistics the planner may drive the walk from the

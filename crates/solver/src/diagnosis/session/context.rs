@@ -9,6 +9,7 @@ use super::super::design::Design;
 use super::super::linalg::{Cols, dot};
 use super::super::moments::{self, Extra, Moments, Sets};
 use super::super::reduced::Reduction;
+use super::super::search::bic;
 use crate::axis::Axis;
 use crate::terms::{Component, Term};
 
@@ -20,6 +21,10 @@ pub(crate) struct Ctx<'a> {
     pub sets: &'a Sets,
     /// The noise floor (µm), estimated without a model (NaN until it is).
     pub floor: f64,
+    /// The engine's BIC threshold ([`super::super::engine::Rules::bic_threshold`]): a
+    /// candidate whose ΔBIC is above −`bic_threshold` cannot qualify
+    /// ([`Ctx::may_qualify`]).
+    pub bic_threshold: f64,
 }
 
 /// The current model (rigid terms and the accepted effects) fitted on all runs and on
@@ -276,6 +281,40 @@ impl<'a> Ctx<'a> {
             mom.select(&keep)
         };
         let jf = moments::joint_fit(self.red, self.sets, Some(&mom), &f.base, heldout);
+        Some((mom, keep, jf))
+    }
+
+    /// Whether a candidate whose joint fit with the current model `s` leaves the sum of
+    /// squares `ssr` with `k` parameters more (its varying columns and searched θ) may
+    /// qualify: its ΔBIC = BIC(ssr, k_s + k) − BIC(SSR_s, k_s), computed as the engine
+    /// computes it (the same operations, so the same value), is at most
+    /// −`bic_threshold`. One that cannot qualify is never chosen, whatever its held-out
+    /// sum of squares: that figure, a fit on every fold, is not formed for it.
+    pub fn may_qualify(&self, s: &State, ssr: f64, k: usize) -> bool {
+        let n = self.d.rows();
+        let dbic = bic(ssr, n, (s.k + k) as f64) - bic(s.fit.ssr, n, s.k as f64);
+        dbic <= -self.bic_threshold
+    }
+
+    /// The held-out sum of squares of the current model `s` plus the columns of `mom`
+    /// (those that vary, as [`Ctx::fit_moments`] keeps them).
+    pub fn heldout_ssr(&self, s: &State, mom: &Moments) -> f64 {
+        moments::heldout_ssr(self.red, self.sets, Some(mom), &s.fit.base)
+    }
+
+    /// [`Ctx::fit_moments`] of a candidate's columns `mom` with `extra` searched
+    /// parameters, its held-out sum of squares formed only when it may qualify
+    /// ([`Ctx::may_qualify`]; NaN otherwise).
+    pub fn fit_candidate(
+        &self,
+        s: &State,
+        mom: Moments,
+        extra: usize,
+    ) -> Option<(Moments, Vec<usize>, moments::JointFit)> {
+        let (mom, keep, mut jf) = self.fit_moments(&s.fit, mom, false)?;
+        if self.may_qualify(s, jf.all.ssr, keep.len() + extra) {
+            jf.heldout_ssr = self.heldout_ssr(s, &mom);
+        }
         Some((mom, keep, jf))
     }
 

@@ -444,8 +444,8 @@ impl Ctx<'_> {
         }
         let c = with(w);
         let specs = catalogue::specs(d, &c, t, s.eps());
-        let fitted = self.evaluate(&s.fit, &specs, true)?;
         let k = 1 + usize::from(w > 0.0);
+        let fitted = self.fit_candidate(s, self.moments(&s.fit, &specs), k)?;
         Some(self.trial_of(s, &c, (Some((name, t)), k), &specs.names, fitted))
     }
 
@@ -456,23 +456,38 @@ impl Ctx<'_> {
     /// BIC (n·ln SSR + k·ln n: each added coefficient must lower the SSR by ln n ≈ 12
     /// noise variances) and the held-out sum of squares (folds of whole runs), the
     /// discipline the loop holds every candidate to. A profile of too low an order is
-    /// biased by tens of its σ where the lost motion changes sign along the travel.
+    /// biased by tens of its σ where the lost motion changes sign along the travel. The
+    /// columns do not depend on the model: their moments are kept for the next round
+    /// ([`Ctx::moments_kept`]).
     fn try_profile_orders(&self, s: &State, cand: &Candidate) -> Option<Trial> {
         let specs = catalogue::specs(self.d, cand, 0.0, s.eps());
-        let mom = self.moments(&s.fit, &specs);
+        let mom = self.moments_kept(s, cand, &specs);
         let from = usize::from(cand.effect == "lost_motion_variation");
-        let mut best: Option<usize> = None;
-        let mut tried: Vec<Trial> = Vec::new();
+        // Every order fitted on all runs; on the folds too when one of them may qualify
+        // ([`Ctx::may_qualify`]; none may: the candidate is not chosen whatever its order).
+        let mut fits = Vec::new();
         for order in catalogue::PROFILE_ORDERS.filter(|&k| k <= cand.order) {
             let cols: Vec<usize> = (0..order + 1 - from).collect();
-            let Some((sub, keep, jf)) = self.fit_moments(&s.fit, mom.select(&cols), true) else {
-                continue;
-            };
+            if let Some(fit) = self.fit_moments(&s.fit, mom.select(&cols), false) {
+                fits.push((order, fit));
+            }
+        }
+        if fits
+            .iter()
+            .any(|(_, (_, keep, jf))| self.may_qualify(s, jf.all.ssr, keep.len()))
+        {
+            for (_, (sub, _, jf)) in &mut fits {
+                jf.heldout_ssr = self.heldout_ssr(s, sub);
+            }
+        }
+        let mut best: Option<usize> = None;
+        let mut tried: Vec<Trial> = Vec::new();
+        for (order, fit) in fits {
             let c = Candidate {
                 order,
                 ..cand.clone()
             };
-            let t = self.trial_of(s, &c, (None, 0), &specs.names, (sub, keep, jf));
+            let t = self.trial_of(s, &c, (None, 0), &specs.names, fit);
             if best
                 .map(|b| &tried[b])
                 .is_none_or(|b| t.dbic < b.dbic && t.heldout_ssr < b.heldout_ssr)
@@ -734,7 +749,7 @@ impl Ctx<'_> {
             }
             None => self.moments(f, &specs),
         };
-        let fitted = self.fit_moments(f, mom, true)?;
+        let fitted = self.fit_candidate(s, mom, extra)?;
         Some(self.trial_of(s, cand, (theta, extra), &specs.names, fitted))
     }
 
