@@ -1292,19 +1292,18 @@ fn smoother_variance(t: &Trial, d: &Design) -> Option<Vec<f64>> {
 mod tests {
     use super::{FormTest, LN_REACH, log_bound};
 
-    /// The bounds of a known profile: within where (x − 0.3)² ≤ 1, i.e. [−0.7, 1.3],
-    /// found to within one 64th of the bracket ([0.8, 1.6] on the upper side,
-    /// [−0.8, −0.4] on the lower); a side that never crosses is open at the reach.
+    /// The bounds of a known profile: within where (x − 0.3)² ≤ 0.9, i.e.
+    /// 0.3 ± √0.9, found from inside to within one 64th of the bracket ([0.8, 1.6] on the
+    /// upper side, [−0.8, −0.4] on the lower); a side that never crosses is open at the
+    /// reach.
     #[test]
     fn log_bound_finds_the_crossings_of_a_known_profile() {
-        let within = |x: f64| (x - 0.3f64).powi(2) <= 1.0;
+        let r = 0.9f64.sqrt();
+        let within = |x: f64| (x - 0.3f64).powi(2) <= 0.9;
         let (hi, open) = log_bound(within, 1.0);
-        assert!(!open && hi <= 1.3 && hi > 1.3 - 0.8 / 64.0 - 1e-12, "{hi}");
+        assert!(!open && hi <= 0.3 + r && hi > 0.3 + r - 0.8 / 64.0, "{hi}");
         let (lo, open) = log_bound(within, -1.0);
-        assert!(
-            !open && lo >= -0.7 && lo < -0.7 + 0.4 / 64.0 + 1e-12,
-            "{lo}"
-        );
+        assert!(!open && lo >= 0.3 - r && lo < 0.3 - r + 0.4 / 64.0, "{lo}");
         let flat_above = |x: f64| x > -0.5;
         assert_eq!(log_bound(flat_above, 1.0), (LN_REACH, true));
     }
