@@ -18,7 +18,7 @@
 
 use super::diagnosis_sessions::{
     RATE, add_error, add_lost_motion, clean_session, commanded_at, delayed, is_circle, par_map,
-    session_with, travel_through_file,
+    session_with, travel_through_file, z_of,
 };
 use mtcal_solver::axis::Axis;
 use mtcal_solver::diagnosis::{DiagnoseOptions, DiagnosisResult, Finding, diagnose_session};
@@ -556,11 +556,12 @@ fn score(made: &Made, r: &DiagnosisResult) -> (bool, BTreeMap<String, Option<f64
             f.parameters.get(&name),
             f.parameters.get(&format!("std_{name}")),
         ) {
-            let mut d = v - want;
-            if name.starts_with("phase") {
-                d = (d + PI).rem_euclid(2.0 * PI) - PI;
-            }
-            out.insert(name, Some(d / sd));
+            let z = if name.starts_with("phase") {
+                ((v - want + PI).rem_euclid(2.0 * PI) - PI) / sd
+            } else {
+                z_of(f, &name, want).unwrap_or(f64::NAN)
+            };
+            out.insert(name, Some(z));
         } else if f.undetermined.iter().any(|u| u.name == name) {
             out.insert(name, None);
         }
@@ -714,7 +715,4 @@ fn effect_coverage_over_seeds_magnitudes_and_ways() {
 
 /// (effect, way, parameter) that do not hold 90 % within 2σ, marked (a) in the table:
 /// docs/diagnosis.md ("Coverage of the other effects") says why.
-const KNOWN: [(&str, &str, &str); 2] = [
-    ("servo_lag", "delay", "lag_s"),
-    ("thermal_drift", "by hand", "scale_ppm_X"),
-];
+const KNOWN: [(&str, &str, &str); 1] = [("servo_lag", "delay", "lag_s")];

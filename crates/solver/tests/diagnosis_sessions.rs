@@ -1082,3 +1082,20 @@ fn a_servo_delay_made_outside_the_simulator_adds_no_reversal_spike() {
         assert!(within >= 4, "{tau}: {within} of 6 within 2σ");
     }
 }
+
+/// z = (estimate − truth)/σ of a parameter `name` a finding reports with its σ (`None`:
+/// not reported with one). Where the finding reports the parameter's 2σ interval
+/// (`{name}_low`, `{name}_high`: a thermal drift's time constant, from its profile,
+/// often asymmetric), σ is half the distance to the bound on the truth's side, so that
+/// |z| ≤ 2 exactly when the truth is within the interval (an absent upper bound: open).
+pub(crate) fn z_of(f: &Finding, name: &str, want: f64) -> Option<f64> {
+    let v = *f.parameters.get(name)?;
+    let sd = *f.parameters.get(&format!("std_{name}"))?;
+    let bound = |side: &str| f.parameters.get(&format!("{name}_{side}")).copied();
+    let half = match (bound("low"), bound("high")) {
+        (Some(lo), _) if want <= v => 0.5 * (v - lo),
+        (Some(_), hi) if want > v => 0.5 * (hi.unwrap_or(f64::INFINITY) - v),
+        _ => sd,
+    };
+    Some((v - want) / half)
+}

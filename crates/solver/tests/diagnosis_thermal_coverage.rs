@@ -17,6 +17,7 @@
 //! `COVERAGE_SEEDS=40 cargo test -p mtcal-solver --test solver thermal_coverage -- --nocapture`;
 //! the normal test command runs a few seeds of every cell.
 
+use super::diagnosis_sessions::z_of;
 use mtcal_solver::axis::Axis;
 use mtcal_solver::diagnosis::{DiagnoseOptions, DiagnosisResult, diagnose_session, effects};
 use mtcal_solver::simulate::Effect;
@@ -257,11 +258,12 @@ pub fn score(case: &Case, r: &DiagnosisResult, dur: f64) -> Tally {
             t.missing += usize::from(k < n_required);
             continue;
         };
-        if let (Some(&v), Some(&sd)) = (
+        if let (Some(&v), Some(&sd), Some(z)) = (
             f.parameters.get(&name),
             f.parameters.get(&format!("std_{name}")),
+            z_of(f, &name, want),
         ) {
-            if (v - want).abs() <= 2.0 * sd {
+            if z.abs() <= 2.0 {
                 t.within += 1;
             } else {
                 if std::env::var("COVERAGE_DEBUG").is_ok() {

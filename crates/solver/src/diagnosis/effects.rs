@@ -223,6 +223,16 @@ pub const EFFECTS: &[EffectSpec] = &[
                 "positioning runs: final scale error k of the axis (um per m from x = 0)",
             ),
             q("time_constant_s", "s", "T > 0 of g = 1 - exp(-t/T)"),
+            p(
+                "time_constant_s_low",
+                "s",
+                "sessions: lower bound of T's 2-sigma likelihood-ratio interval (the T whose profiled sum of squares exceeds the least by at most 4 sigma^2); std_time_constant_s is a quarter of the interval's width",
+            ),
+            p(
+                "time_constant_s_high",
+                "s",
+                "sessions: upper bound of the same interval, absent when the profile stays within it up to 25 times T (the session too short against T to bound it)",
+            ),
             q(
                 "time_constant_records",
                 "records",

@@ -305,6 +305,16 @@ impl super::engine::Greedy for SessionProblem<'_> {
                         *v = v.hypot(b * sd);
                     }
                 }
+            } else if let Some(iv) = self.ctx.time_constant_interval(s, t, sigma, sd) {
+                // A thermal drift's time constant: its likelihood-ratio interval, often
+                // asymmetric, reported as such, σ a quarter of its width; the offsets and
+                // scales refitted at its bounds.
+                params.insert(format!("{name}_low"), iv.low);
+                if iv.high.is_finite() {
+                    params.insert(format!("{name}_high"), iv.high);
+                }
+                params.insert(format!("std_{name}"), 0.25 * (iv.high - iv.low));
+                trial::carry_interval(&mut params, (t, sigma, d), &iv, name);
             } else if let Some(slope) = self.ctx.coef_slope(s, t) {
                 // Reported parameters (an amplitude from its sine and cosine) moved by
                 // ±σ_θ along the profile; σ_θ of a frequency from its period's.

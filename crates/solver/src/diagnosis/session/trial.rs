@@ -637,13 +637,51 @@ impl Ctx<'_> {
         hi: (&Candidate, f64),
         h: f64,
     ) -> Option<Vec<f64>> {
-        let at = |(c, v): (&Candidate, f64)| {
-            let specs = catalogue::specs(self.d, c, v, s.eps());
-            let (_, keep, jf) = self.evaluate(&s.fit, &specs, false)?;
-            (keep.len() == t.ncols).then(|| jf.all.x[..t.ncols].to_vec())
-        };
-        let (a, b) = (at(hi)?, at(lo)?);
+        let (a, b) = (self.coef_at(s, t, hi)?, self.coef_at(s, t, lo)?);
         Some(a.iter().zip(&b).map(|(a, b)| (a - b) / h).collect())
+    }
+
+    /// A trial's coefficients refitted with its candidate `c` at the nonlinear value `v`,
+    /// in the trial's column order; `None` when the refit loses a column.
+    fn coef_at(&self, s: &State, t: &Trial, (c, v): (&Candidate, f64)) -> Option<Vec<f64>> {
+        let specs = catalogue::specs(self.d, c, v, s.eps());
+        let (_, keep, jf) = self.evaluate(&s.fit, &specs, false)?;
+        (keep.len() == t.ncols).then(|| jf.all.x[..t.ncols].to_vec())
+    }
+
+    /// The 2σ likelihood-ratio interval of a thermal drift's time constant T: the T
+    /// whose profiled sum of squares exceeds the trial's by at most 4σ² (χ²₁ at 2σ),
+    /// searched outward in ln T in steps that double from 0.05 up to a factor e^3.2 ≈ 25
+    /// either side, each crossing then halved six times; at least T̂ ± 2`sd` (the
+    /// curvature's σ). Over a session not much longer than T the profile is flat toward
+    /// long T (the growth becomes a straight line in time, its scale and T trading off),
+    /// and the curvature at T̂ read the longer time constants 2–4σ off; the interval is
+    /// asymmetric. Returns (T₋, T₊, β(T₋), β(T₊)): T₊ is infinite when the profile stays
+    /// within 4σ² up to 25·T̂, the coefficients then those at 25·T̂; `None` when a refit
+    /// at a bound loses a column.
+    pub fn time_constant_interval(
+        &self,
+        s: &State,
+        t: &Trial,
+        sigma: f64,
+        sd: f64,
+    ) -> Option<TimeConstantInterval> {
+        let (_, th) = t.theta.filter(|_| t.cand.effect == "thermal_drift")?;
+        let thr = t.ssr + 4.0 * sigma * sigma;
+        let within = |x: f64| self.ssr_at(s, &t.cand, th * x.exp()) <= thr;
+        let (lo, lo_open) = log_bound(within, -1.0);
+        let (hi, hi_open) = log_bound(within, 1.0);
+        let low = (th * lo.exp())
+            .min(th - 2.0 * sd)
+            .max(th * (-LN_REACH).exp());
+        let high = (th * hi.exp()).max(th + 2.0 * sd);
+        let cand = &t.cand;
+        Some(TimeConstantInterval {
+            low: if lo_open { 0.0 } else { low },
+            high: if hi_open { f64::INFINITY } else { high },
+            coef_low: self.coef_at(s, t, (cand, low))?,
+            coef_high: self.coef_at(s, t, (cand, high.min(th * LN_REACH.exp())))?,
+        })
     }
 
     /// A step's width with its standard uncertainty and the slope of its coefficients
@@ -913,6 +951,45 @@ impl Ctx<'_> {
     }
 }
 
+/// How far in ln T [`Ctx::time_constant_interval`] searches either side of T̂.
+const LN_REACH: f64 = 3.2;
+
+/// A thermal drift's time constant's 2σ likelihood-ratio interval [T₋, T₊] and the
+/// trial's coefficients refitted at each bound ([`Ctx::time_constant_interval`]).
+pub(crate) struct TimeConstantInterval {
+    pub low: f64,
+    pub high: f64,
+    pub coef_low: Vec<f64>,
+    pub coef_high: Vec<f64>,
+}
+
+/// The last offset x (of sign `dir`) from 0 with `within(x)`, searched in steps that
+/// double from 0.05 up to [`LN_REACH`], the crossing then halved six times; `true` when
+/// still within at the reach (the interval open on that side).
+fn log_bound(within: impl Fn(f64) -> bool, dir: f64) -> (f64, bool) {
+    let (mut inside, mut step) = (0.0, 0.05);
+    let outside = loop {
+        if step > LN_REACH + 1e-9 {
+            return (dir * LN_REACH, true);
+        }
+        if !within(dir * step) {
+            break step;
+        }
+        inside = step;
+        step *= 2.0;
+    };
+    let (mut a, mut b) = (inside, outside);
+    for _ in 0..6 {
+        let m = 0.5 * (a + b);
+        if within(dir * m) {
+            a = m;
+        } else {
+            b = m;
+        }
+    }
+    (dir * a, false)
+}
+
 /// The interval of x around `x0` where `f(x) ≤ thr`, scanned outward in steps of `h`
 /// (at most `max` steps either side): the last x on each side still within.
 fn profile_interval(f: impl Fn(f64) -> f64, x0: f64, h: f64, max: usize, thr: f64) -> (f64, f64) {
@@ -956,6 +1033,35 @@ pub(crate) fn carry(
             continue;
         }
         let shift = 0.5 * (v - down.get(n).copied().unwrap_or(*v));
+        if let Some(sd) = params.get_mut(&format!("std_{n}")) {
+            *sd = sd.hypot(shift);
+        }
+    }
+}
+
+/// Carries a thermal drift's time constant's interval into the other reported
+/// parameters of trial `t`: each refigured from the coefficients at T₋ and at T₊
+/// ([`Ctx::time_constant_interval`], the 2σ bounds), half the larger change from the
+/// reported figure (one σ's worth of the wider side) added in quadrature to its σ.
+pub(crate) fn carry_interval(
+    params: &mut BTreeMap<String, f64>,
+    (t, sigma, d): (&Trial, f64, &Design),
+    iv: &TimeConstantInterval,
+    skip: &str,
+) {
+    let at = |coef: &[f64]| {
+        let mut m = t.clone();
+        m.coef = coef.to_vec();
+        report_parameters(&m, sigma, d)
+    };
+    let (low, high) = (at(&iv.coef_low), at(&iv.coef_high));
+    let here = report_parameters(t, sigma, d);
+    for (n, v) in &here {
+        if n.starts_with("std_") || n.starts_with("phase") || n == skip {
+            continue;
+        }
+        let side = |m: &BTreeMap<String, f64>| (m.get(n).copied().unwrap_or(*v) - v).abs();
+        let shift = 0.5 * side(&low).max(side(&high));
         if let Some(sd) = params.get_mut(&format!("std_{n}")) {
             *sd = sd.hypot(shift);
         }
@@ -1182,7 +1288,23 @@ fn smoother_variance(t: &Trial, d: &Design) -> Option<Vec<f64>> {
 
 #[cfg(test)]
 mod tests {
-    use super::FormTest;
+    use super::{FormTest, LN_REACH, log_bound};
+
+    /// The bounds of a known profile: within where (x − 0.3)² ≤ 0.9, i.e.
+    /// 0.3 ± √0.9, found from inside to within one 64th of the bracket ([0.8, 1.6] on the
+    /// upper side, [−0.8, −0.4] on the lower); a side that never crosses is open at the
+    /// reach.
+    #[test]
+    fn log_bound_finds_the_crossings_of_a_known_profile() {
+        let r = 0.9f64.sqrt();
+        let within = |x: f64| (x - 0.3f64).powi(2) <= 0.9;
+        let (hi, open) = log_bound(within, 1.0);
+        assert!(!open && hi <= 0.3 + r && hi > 0.3 + r - 0.8 / 64.0, "{hi}");
+        let (lo, open) = log_bound(within, -1.0);
+        assert!(!open && lo >= 0.3 - r && lo < 0.3 - r + 0.4 / 64.0, "{lo}");
+        let flat_above = |x: f64| x > -0.5;
+        assert_eq!(log_bound(flat_above, 1.0), (LN_REACH, true));
+    }
 
     fn places(v: &[(f64, f64)]) -> FormTest {
         FormTest {
