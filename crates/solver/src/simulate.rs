@@ -19,6 +19,7 @@
 //! mounting rotations (uniform ±100 µrad), the zero offsets (uniform ±3 µm), the noise.
 
 pub mod effects;
+pub mod logged;
 pub mod motion;
 pub mod plan;
 pub mod truth;

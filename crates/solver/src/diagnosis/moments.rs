@@ -243,6 +243,60 @@ impl Moments {
         out
     }
 
+    /// These moments, formed with a base of `u_prev` columns (the first `u_prev − 1`
+    /// columns of `all` and y, its last), carried to the base `all`: the products with
+    /// the rigid basis, among the m columns, with the earlier base columns and with y are
+    /// the same sums; only the products with the columns added since are new, which
+    /// `cross(added)` forms per run (m × added, row-major; [`Moments::cross`] over the same
+    /// rows) with `added` those columns and where they are nonzero.
+    pub fn carried(
+        &self,
+        all: &Extra,
+        u_prev: usize,
+        cross: impl FnOnce(&Extra) -> Vec<Vec<f64>>,
+    ) -> Moments {
+        let (m, u, old) = (self.m, all.cols.len(), u_prev - 1);
+        let added = u - u_prev;
+        let mask = (1u64 << added) - 1;
+        let support: Option<Vec<[u64; 2]>> = all
+            .support
+            .map(|s| s.iter().map(|b| b.map(|b| (b >> old) & mask)).collect());
+        let new = Extra {
+            cols: all.cols[old..old + added].to_vec(),
+            support: support.as_deref(),
+        };
+        let runs = self
+            .runs
+            .iter()
+            .zip(cross(&new))
+            .map(|(rm, xc)| {
+                let mut xu = vec![0.0; m * u];
+                for j in 0..m {
+                    let (to, from) = (
+                        &mut xu[j * u..(j + 1) * u],
+                        &rm.xu[j * u_prev..(j + 1) * u_prev],
+                    );
+                    to[..old].copy_from_slice(&from[..old]);
+                    to[old..old + added].copy_from_slice(&xc[j * added..(j + 1) * added]);
+                    to[u - 1] = from[u_prev - 1];
+                }
+                RunMoments {
+                    z: rm.z.clone(),
+                    xx: rm.xx.clone(),
+                    xu,
+                }
+            })
+            .collect();
+        Moments {
+            m,
+            u,
+            runs,
+            peaks: self.peaks.clone(),
+            varies: self.varies.clone(),
+            local: self.local.clone(),
+        }
+    }
+
     /// Moments of full-length columns (already centred).
     pub fn of_columns(red: &Reduction, cols: &[&[f64]]) -> Moments {
         Moments::new(red, cols.len(), &Extra::plain(&[]), |row, out| {

@@ -114,12 +114,15 @@ impl SessionProblem<'_> {
         backlash: [Option<(f64, f64)>; 3],
         profiled: [bool; 3],
         prior: Option<(Vec<(Candidate, super::moments::Moments)>, usize)>,
+        thermal_prior: Option<(std::sync::Arc<super::thermal_search::ThermalBasis>, usize)>,
     ) -> State {
         State {
             backlash,
             profiled,
             kept: Default::default(),
             prior,
+            thermal: Default::default(),
+            thermal_prior,
             eps: (!self.eps_groups.is_empty())
                 .then(|| self.ctx.eps_per_sample(&fit, &self.eps_groups)),
             fit,
@@ -444,6 +447,8 @@ impl super::engine::Greedy for SessionProblem<'_> {
                     std::mem::take(&mut *s.kept.lock().expect("kept moments")),
                     s.fit.cols.len() + 1,
                 )),
+                // So does the thermal searches' basis.
+                s.thermal.get().map(|b| (b.clone(), s.fit.cols.len() + 1)),
             ),
             note,
         )
@@ -575,7 +580,7 @@ pub fn diagnose_session_with_progress(
         stop_ratio: 0.0,
         max_findings: opts.max_findings,
     };
-    let base = problem.state(f, 0, [None; 3], [false; 3], None);
+    let base = problem.state(f, 0, [None; 3], [false; 3], None, None);
     let o = engine::run(&problem, base, &rules, "", &mut progress, (0.0, 1.0));
     let findings: Vec<Finding> = o
         .added

@@ -20,7 +20,7 @@
 
 use super::chebyshev;
 use super::design::Design;
-use super::moments::{Extra, Moments, RunMoments};
+use super::moments::{Extra, Moments, RunMoments, live_directions};
 use super::reduced::Reduction;
 use super::temperature::LagInput;
 use crate::axis::Axis;
@@ -36,7 +36,7 @@ pub struct ThermalBasis {
     /// With a logged temperature: the input of its lag at the session's first sample
     /// time, then, run by run, the K Chebyshev nodes and the run's span every
     /// [`FILL_S`] at most; and where each run's nodes are among those times.
-    lag: Option<(LagInput, Vec<usize>)>,
+    lag: Option<std::sync::Arc<(LagInput, Vec<usize>)>>,
 }
 
 /// Longest step (s) of the lag's integration within a run for the search: the lag is
@@ -60,21 +60,12 @@ impl ThermalBasis {
         // without): one pass per reading axis over its rows with those columns, placed
         // into the 6K columns' moments ([`place`]).
         let per_axis = Axis::ALL.map(|a| {
-            let j = a.index();
             Moments::new_on(
                 red,
                 2 * K,
                 extra,
                 |row| d.row_axis(row) == a,
-                |row, out| {
-                    let (s, f) = (row / 2, &d.fields);
-                    let (tm, h) = span[f.run(s)];
-                    let tk = chebyshev::values::<K>((f.t_s[s] - tm) / h);
-                    for k in 0..K {
-                        out[k] = tk[k] * f.q_mm[j][s] * 1e-3;
-                        out[K + k] = tk[k];
-                    }
-                },
+                |row, out| fill(d, &span, a, row, out),
             )
         });
         let mom = place(&per_axis);
@@ -88,9 +79,52 @@ impl ThermalBasis {
                 let fill = (2.0 * h / FILL_S).ceil().max(1.0) as usize;
                 times.extend((0..=fill).map(|j| tm - h + 2.0 * h * j as f64 / fill as f64));
             }
-            (sm.lag_input(&times), at)
+            std::sync::Arc::new((sm.lag_input(&times), at))
         });
         ThermalBasis { mom, span, lag }
+    }
+
+    /// The basis formed with a base of `u_prev` columns, carried to the base `extra`
+    /// after the model gained columns ([`Moments::carried`]): only the products with the
+    /// columns added since are formed, one pass per reading axis over its rows with its
+    /// 2K columns, placed as [`place`] places the whole moments; the same sums as
+    /// [`ThermalBasis::new`] on that base.
+    pub fn carried(
+        &self,
+        d: &Design,
+        red: &Reduction,
+        extra: &Extra,
+        u_prev: usize,
+    ) -> ThermalBasis {
+        let mom = self.mom.carried(extra, u_prev, |added| {
+            let per_axis = Axis::ALL.map(|a| {
+                Moments::cross(
+                    red,
+                    2 * K,
+                    added,
+                    live_directions(|row| d.row_axis(row) == a),
+                    |row, out| fill(d, &self.span, a, row, out),
+                )
+            });
+            let n = added.cols.len();
+            (0..red.runs.len())
+                .map(|g| {
+                    let mut xu = vec![0.0; 6 * K * n];
+                    for (j, part) in per_axis.iter().enumerate() {
+                        for l in 0..2 * K {
+                            let c = col(j, l);
+                            xu[c * n..(c + 1) * n].copy_from_slice(&part[g][l * n..(l + 1) * n]);
+                        }
+                    }
+                    xu
+                })
+                .collect()
+        });
+        ThermalBasis {
+            mom,
+            span: self.span.clone(),
+            lag: self.lag.clone(),
+        }
     }
 
     /// The moments of the six thermal columns (scale X, Y, Z, offset X, Y, Z) of the time
@@ -105,7 +139,7 @@ impl ThermalBasis {
     /// interpolant through the lag at every run's nodes; `None` without a logged
     /// temperature.
     pub fn lagged(&self, tau: f64) -> Option<Moments> {
-        let (input, at) = self.lag.as_ref()?;
+        let (input, at) = self.lag.as_deref()?;
         let y = input.lagged(tau);
         Some(self.combine(|g, _| chebyshev::coefficients(std::array::from_fn(|i| y[at[g] + i]))))
     }
@@ -130,14 +164,6 @@ impl ThermalBasis {
 fn place(per_axis: &[Moments; 3]) -> Moments {
     let m = 6 * K;
     let u = per_axis[0].u;
-    // The column of the 6K of axis j's column l.
-    let col = |j: usize, l: usize| {
-        if l < K {
-            j * K + l
-        } else {
-            (3 + j) * K + l - K
-        }
-    };
     let runs = (0..per_axis[0].runs.len())
         .map(|g| {
             let r = per_axis[0].runs[g].z.len() / (2 * K);
@@ -176,6 +202,28 @@ fn place(per_axis: &[Moments; 3]) -> Moments {
     }
 }
 
+/// The column of the 6K (scale X, Y, Z, then offset X, Y, Z) of reading axis j's column
+/// l of its 2K (scale, then offset).
+fn col(j: usize, l: usize) -> usize {
+    if l < K {
+        j * K + l
+    } else {
+        (3 + j) * K + l - K
+    }
+}
+
+/// The 2K basis columns of reading axis `a` at `row` (read along `a`): T_k(s)·q_a·10⁻³,
+/// then T_k(s), s the row's time within its run (middle and half duration `span`).
+fn fill(d: &Design, span: &[(f64, f64)], a: Axis, row: usize, out: &mut [f64]) {
+    let (s, f, j) = (row / 2, &d.fields, a.index());
+    let (tm, h) = span[f.run(s)];
+    let tk = chebyshev::values::<K>((f.t_s[s] - tm) / h);
+    for k in 0..K {
+        out[k] = tk[k] * f.q_mm[j][s] * 1e-3;
+        out[K + k] = tk[k];
+    }
+}
+
 /// Chebyshev coefficients on a run (middle `tm`, half duration `h`) of
 /// g(t) = 1 − e^(−t/T) in τ = (t − tm)/h.
 fn coefficients(tm: f64, h: f64, t: f64) -> [f64; K] {
@@ -197,6 +245,16 @@ mod tests {
     use rand_distr::{Distribution, Normal};
     use std::f64::consts::PI;
 
+    /// The seed plan at 10 Hz on the random machine of `seed`.
+    fn seed_session(seed: u64) -> crate::session::Session {
+        let o = SimOptions {
+            plan: Plan::Seed,
+            sample_rate_hz: 10.0,
+            ..Default::default()
+        };
+        simulate(&random_truth(seed), &o).unwrap().session
+    }
+
     /// The lagged form's profile S(τ) from the basis moments equals the one from the
     /// exact lagged columns (the lag at every sample, their moments formed over the rows)
     /// within 10⁻⁴ of the noise variance (10⁻² at a lag of 1 s, a transient in the first
@@ -205,16 +263,7 @@ mod tests {
     /// 5 mK).
     #[test]
     fn lagged_profile_matches_the_exact_columns() {
-        let mut s = simulate(
-            &random_truth(3),
-            &SimOptions {
-                plan: Plan::Seed,
-                sample_rate_hz: 10.0,
-                ..Default::default()
-            },
-        )
-        .unwrap()
-        .session;
+        let mut s = seed_session(3);
         let mut rng = rand::rngs::StdRng::seed_from_u64(3);
         let sensor = Normal::new(0.0, 0.005).unwrap();
         for p in &mut s.planes {
@@ -266,6 +315,58 @@ mod tests {
                 "τ = {tau}: {got} vs {want}, σ² {sigma2}"
             );
         }
+    }
+
+    /// The basis carried to a base that gained two columns (one nonzero on the X
+    /// readings only, one everywhere) holds the same moments, bit for bit, as the basis
+    /// formed on that base in one pass; so do the moments of the time form combined
+    /// from it.
+    #[test]
+    fn carried_basis_is_the_basis_formed_on_the_new_base() {
+        let s = seed_session(5);
+        let d = design::build(&s, &Default::default(), 3).unwrap();
+        let red = Reduction::new(&s, &d);
+        let n = d.y.len();
+        let on_x: Vec<f64> = (0..n)
+            .map(|row| {
+                if d.row_axis(row) == Axis::X {
+                    (0.37 * row as f64).sin()
+                } else {
+                    0.0
+                }
+            })
+            .collect();
+        let everywhere: Vec<f64> = (0..n).map(|row| (0.011 * row as f64).cos()).collect();
+        let before = ThermalBasis::new(&d, &red, &Extra::plain(&[&d.y]));
+        let cols = [on_x.as_slice(), everywhere.as_slice(), d.y.as_slice()];
+        let support = Extra::support_of(&red, &cols);
+        let extra = Extra {
+            cols: cols.to_vec(),
+            support: support.as_deref(),
+        };
+        let carried = before.carried(&d, &red, &extra, 1);
+        let fresh = ThermalBasis::new(&d, &red, &extra);
+        let same = |a: &Moments, b: &Moments| {
+            assert_eq!((a.m, a.u), (b.m, b.u));
+            for (x, y) in a.runs.iter().zip(&b.runs) {
+                assert_eq!(x.z, y.z);
+                assert_eq!(x.xx, y.xx);
+                assert_eq!(x.xu, y.xu);
+            }
+            assert_eq!(a.peaks, b.peaks);
+            assert_eq!(a.varies, b.varies);
+        };
+        same(&carried.mom, &fresh.mom);
+        same(&carried.at(300.0), &fresh.at(300.0));
+        // Not the basis it was carried from: the new columns' products are there.
+        assert!(
+            carried
+                .mom
+                .runs
+                .iter()
+                .any(|r| r.xu.iter().any(|&v| v != 0.0))
+        );
+        assert_eq!(before.mom.u, 1);
     }
 
     /// The interpolant reproduces g(t) = 1 − e^(−t/T) on a run (β = 0.1) within the

@@ -10,8 +10,10 @@ use super::super::linalg::{Cols, dot};
 use super::super::moments::{self, Extra, Moments, Sets};
 use super::super::reduced::Reduction;
 use super::super::search::bic;
+use super::super::thermal_search::ThermalBasis;
 use crate::axis::Axis;
 use crate::terms::{Component, Term};
+use std::sync::Arc;
 
 /// The design, its reduction, the folds' run sets and the noise floor.
 #[derive(Clone, Copy)]
@@ -64,6 +66,11 @@ pub(crate) struct State {
     pub kept: std::sync::Mutex<Vec<(Candidate, Moments)>>,
     /// Those of the model before it, with its number of base columns.
     pub prior: Option<(Vec<(Candidate, Moments)>, usize)>,
+    /// The thermal searches' basis moments on this model, formed once for its time form
+    /// and its lagged form ([`Ctx::thermal_basis`]).
+    pub thermal: std::sync::OnceLock<Arc<ThermalBasis>>,
+    /// That basis on the model before it, with its number of base columns, when formed.
+    pub thermal_prior: Option<(Arc<ThermalBasis>, usize)>,
 }
 
 impl State {
@@ -208,54 +215,29 @@ impl<'a> Ctx<'a> {
         let parked = specs.follows().map(|a| self.parked_runs(a));
         let live =
             |row| specs.live(d, row) && parked.as_ref().is_none_or(|p| !p[d.fields.run(row / 2)]);
-        let all = self.extra(f);
-        let (m, u, old) = (specs.len(), all.cols.len(), u_prev - 1);
-        let added = u - u_prev;
-        let mask = (1u64 << added) - 1;
-        let support: Option<Vec<[u64; 2]>> = all
-            .support
-            .map(|s| s.iter().map(|b| b.map(|b| (b >> old) & mask)).collect());
-        let new = Extra {
-            cols: all.cols[old..old + added].to_vec(),
-            support: support.as_deref(),
-        };
-        let cross = Moments::cross(
-            self.red,
-            m,
-            &new,
-            moments::live_directions(live),
-            |row, out: &mut [f64]| specs.at(d, row, out),
-        );
-        let runs = prior
-            .runs
-            .iter()
-            .zip(cross)
-            .map(|(rm, xc)| {
-                let mut xu = vec![0.0; m * u];
-                for j in 0..m {
-                    let (to, from) = (
-                        &mut xu[j * u..(j + 1) * u],
-                        &rm.xu[j * u_prev..(j + 1) * u_prev],
-                    );
-                    to[..old].copy_from_slice(&from[..old]);
-                    to[old..old + added].copy_from_slice(&xc[j * added..(j + 1) * added]);
-                    to[u - 1] = from[u_prev - 1];
-                }
-                moments::RunMoments {
-                    z: rm.z.clone(),
-                    xx: rm.xx.clone(),
-                    xu,
-                }
+        prior.carried(&self.extra(f), u_prev, |new| {
+            Moments::cross(
+                self.red,
+                specs.len(),
+                new,
+                moments::live_directions(live),
+                |row, out: &mut [f64]| specs.at(d, row, out),
+            )
+        })
+    }
+
+    /// The basis moments of the thermal searches on the state `s`
+    /// ([`ThermalBasis`]), formed on the first call (the time form's or the lagged
+    /// form's search, whichever asks first) and shared: on a state after its model gained
+    /// columns, carried from the model before ([`ThermalBasis::carried`], the same sums).
+    pub fn thermal_basis<'s>(&self, s: &'s State) -> &'s ThermalBasis {
+        s.thermal.get_or_init(|| {
+            let extra = self.extra(&s.fit);
+            Arc::new(match &s.thermal_prior {
+                Some((b, u_prev)) => b.carried(self.d, self.red, &extra, *u_prev),
+                None => ThermalBasis::new(self.d, self.red, &extra),
             })
-            .collect();
-        Moments {
-            m,
-            u,
-            runs,
-            peaks: prior.peaks.clone(),
-            varies: prior.varies.clone(),
-            local: prior.local.clone(),
-        }
+        })
     }
 
     /// Per run: whether axis `a` keeps one position over the whole run.

@@ -11,7 +11,6 @@ use super::super::moments::Moments;
 use super::super::periodic_scan;
 use super::super::search::golden_section;
 use super::super::temperature;
-use super::super::thermal_search::ThermalBasis;
 use super::anomalies::{self, sequences, step_time};
 use super::context::{Ctx, State};
 use crate::axis::Axis;
@@ -238,8 +237,7 @@ impl Ctx<'_> {
                 // searched on the reduced problem ([`ThermalBasis`]); other parameters
                 // from their columns.
                 let lag = cand.effect == "thermal_temperature_lag" && d.temperature.is_some();
-                let basis = (cand.effect == "thermal_drift" || lag)
-                    .then(|| ThermalBasis::new(d, red, &self.extra(f)));
+                let basis = (cand.effect == "thermal_drift" || lag).then(|| self.thermal_basis(s));
                 // A candidate that vanishes away from its axis's reversals (the spike) is
                 // evaluated on the rows within its reach at the largest value searched
                 // (the golden section stays within a grid ratio of the grid; 1 % margin).

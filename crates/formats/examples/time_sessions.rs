@@ -1,0 +1,46 @@
+//! The four sessions of the diagnosis's speed benchmark
+//! (`crates/solver/examples/time_diagnose.rs`) written as session folders, for timing the
+//! whole process (`mtcal identify --json` and `mtcal diagnose --json` reading the files;
+//! BENCHMARKS.md):
+//!
+//! `cargo run --release -p mtcal-formats --example time_sessions -- DIR [SAMPLES]`
+//!
+//! writes DIR/no_temperature (the full plan at the sample rate that gives SAMPLES
+//! samples, default 300 000), DIR/logged (a logged temperature nothing follows),
+//! DIR/growth (a growth of 4 µm/K along Z following it) and DIR/growth_lag30 (the same
+//! growth through a first-order lag of 30 s).
+use mtcal_formats::write_session_dir;
+use mtcal_solver::simulate::logged::{Logged, with_temperature};
+use mtcal_solver::simulate::{Plan, SimOptions, random_truth, simulate};
+use std::path::Path;
+
+fn main() {
+    let mut args = std::env::args().skip(1);
+    let dir = args.next().expect("usage: time_sessions DIR [SAMPLES]");
+    let samples: f64 = args
+        .next()
+        .and_then(|a| a.parse().ok())
+        .unwrap_or(300_000.0);
+    // The full plan gives about 2 940 samples per Hz of sample rate.
+    let s = simulate(
+        &random_truth(1),
+        &SimOptions {
+            plan: Plan::Full,
+            sample_rate_hz: samples / 2941.0,
+            ..Default::default()
+        },
+    )
+    .expect("simulate")
+    .session;
+    let dir = Path::new(&dir);
+    let cases = [
+        ("logged", Logged::Still),
+        ("growth", Logged::Growth { lag_s: 0.0 }),
+        ("growth_lag30", Logged::Growth { lag_s: 30.0 }),
+    ];
+    write_session_dir(&dir.join("no_temperature"), &s).expect("write");
+    for (name, how) in cases {
+        write_session_dir(&dir.join(name), &with_temperature(&s, how)).expect("write");
+    }
+    println!("{}: {} samples each", dir.display(), s.sample_count());
+}
