@@ -715,4 +715,4 @@ fn effect_coverage_over_seeds_magnitudes_and_ways() {
 
 /// (effect, way, parameter) that do not hold 90 % within 2σ, marked (a) in the table:
 /// docs/diagnosis.md ("Coverage of the other effects") says why.
-const KNOWN: [(&str, &str, &str); 1] = [("servo_lag", "delay", "lag_s")];
+const KNOWN: [(&str, &str, &str); 0] = [];

@@ -1045,7 +1045,7 @@ pub(crate) fn is_circle(run: &Run) -> bool {
 /// circles' acceleration is a transient after each X reversal, and on the lines by −τ
 /// times their feed. At 3 ms and at 1 ms, over six seeds: no reversal spike (found or
 /// possible) and no other finding, a servo lag of X within 5 % and 3σ of τ in every
-/// seed.
+/// seed and within 2σ in at least 5 of 6.
 #[test]
 fn a_servo_delay_made_outside_the_simulator_adds_no_reversal_spike() {
     for tau in [3e-3, 1e-3] {
@@ -1076,10 +1076,10 @@ fn a_servo_delay_made_outside_the_simulator_adds_no_reversal_spike() {
             within += usize::from((got - tau).abs() <= 2.0 * sd);
             effects::conforms(f).unwrap();
         }
-        // Within 2σ in 4 of 6 seeds at 3 ms and 5 of 6 at 1 ms (z = −2.7…+0.3): the
-        // estimate reads about 1σ low on these seeds with no delay as well (see
-        // docs/diagnosis.md, "Servo lag: what holds"); the lag is held to 3σ here.
-        assert!(within >= 4, "{tau}: {within} of 6 within 2σ");
+        // The starts and stops of the motion, where the delay made here and the model's
+        // velocity differ, are the lag's nuisance (docs/diagnosis.md, "Servo lag: what
+        // holds"); before, the lag read up to 2.7σ low, within 2σ in 4 of 6 seeds.
+        assert!(within >= 5, "{tau}: {within} of 6 within 2σ");
     }
 }
 

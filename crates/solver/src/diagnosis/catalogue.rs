@@ -443,10 +443,29 @@ pub fn specs<'a>(
             .following(a)
         }
         "servo_lag" => {
+            // The lag, and a nuisance at the starts and stops of the motion, where the
+            // set-points do not tell the velocity ([`super::design::velocity_at_ends`]),
+            // one on lines and one on circles: its coefficient takes what the lag does
+            // there (−τ for a smooth path, whose velocity is about the central
+            // difference; 0 for an axis that moves at the feed until it stops), so that
+            // the lag is read where the velocity is known.
             let a = c.axis.expect("axis");
-            let (n, ax) = one("lag_s", a);
-            let vel = &d.fields.vel_mm_s[a.index()];
-            Columns::new(n, ax, move |s, _, o| o[0] = -vel[s] * 1e3)
+            let i = a.index();
+            let (vel, ends) = (&d.fields.vel_mm_s[i], &d.fields.vel_ends_mm_s[i]);
+            Columns::new(
+                vec![
+                    "lag_s".into(),
+                    NUISANCE_LAG_ENDS[0].into(),
+                    NUISANCE_LAG_ENDS[1].into(),
+                ],
+                vec![Some(a); 3],
+                move |s, _, o| {
+                    o[0] = -vel[s] * 1e3;
+                    let circle = is_circle(d, s);
+                    o[1] = if circle { 0.0 } else { ends[s] * 1e3 };
+                    o[2] = if circle { ends[s] * 1e3 } else { 0.0 };
+                },
+            )
         }
         "reversal_spike" => {
             let a = c.axis.expect("axis");
@@ -621,6 +640,24 @@ pub fn specs<'a>(
     }
 }
 
+/// The servo lag's nuisance columns at the starts and stops of the motion on lines and
+/// on circles: their coefficients are fitted, not reported (names starting `nuisance_`).
+pub const NUISANCE_LAG_ENDS: [&str; 2] =
+    ["nuisance_lag_at_line_ends", "nuisance_lag_at_circle_ends"];
+
+/// Whether sample `s` is of a circle test.
+fn is_circle(d: &Design, s: usize) -> bool {
+    matches!(
+        d.runs[d.fields.run(s)].test,
+        crate::session::TestKind::CircleCw | crate::session::TestKind::CircleCcw
+    )
+}
+
+/// Whether a column's coefficient is a nuisance: fitted with the effect, not reported.
+pub fn is_nuisance(name: &str) -> bool {
+    name.starts_with("nuisance_")
+}
+
 /// Travel since the axis's last reversal (mm) within which a sample is "near" the
 /// reversal for [`split`].
 pub const SPLIT_NEAR_MM: f64 = 2.0;
@@ -640,7 +677,8 @@ pub const SPLIT_PLACES: [&str; 4] = [
 /// form holds the places share one coefficient; a second-order term of a delay (its
 /// acceleration, largest at the reversals), a shift that settles after each reversal,
 /// a velocity the set-points do not tell at a start or a stop, make them differ.
-/// `None` for a candidate without an axis or with more than one column.
+/// The candidate's nuisance columns ([`is_nuisance`]) follow unsplit. `None` for a
+/// candidate without an axis or with more than one column besides its nuisance.
 pub fn split<'a>(
     d: &'a Design,
     c: &Candidate,
@@ -649,27 +687,28 @@ pub fn split<'a>(
 ) -> Option<Columns<'a>> {
     let a = c.axis?;
     let inner = specs(d, c, theta, eps);
-    if inner.len() != 1 {
+    let m = inner.len();
+    if m == 0 || inner.names[1..].iter().any(|n| !is_nuisance(n)) {
         return None;
     }
     let since = &d.fields.since_reversal_mm[a.index()];
-    let names = SPLIT_PLACES
+    let k = SPLIT_PLACES.len();
+    let mut names: Vec<String> = SPLIT_PLACES
         .iter()
         .map(|p| format!("{} ({p})", inner.names[0]))
         .collect();
-    let axes = vec![inner.axes[0]; SPLIT_PLACES.len()];
+    names.extend(inner.names[1..].iter().cloned());
+    let mut axes = vec![inner.axes[0]; k];
+    axes.extend(inner.axes[1..].iter().copied());
     let follows = inner.follows;
     let fill = inner.fill;
     let mut cols = Columns::new(names, axes, move |s, read, o| {
-        let mut v = [0.0];
-        fill(s, read, &mut v);
-        let circle = matches!(
-            d.runs[d.fields.run(s)].test,
-            crate::session::TestKind::CircleCw | crate::session::TestKind::CircleCcw
-        );
-        let place = 2 * usize::from(circle) + usize::from(since[s] < SPLIT_NEAR_MM);
-        o.iter_mut().for_each(|x| *x = 0.0);
+        let mut v = [0.0; 4];
+        fill(s, read, &mut v[..m]);
+        let place = 2 * usize::from(is_circle(d, s)) + usize::from(since[s] < SPLIT_NEAR_MM);
+        o[..k].iter_mut().for_each(|x| *x = 0.0);
         o[place] = v[0];
+        o[k..].copy_from_slice(&v[1..m]);
     });
     cols.follows = follows;
     Some(cols)

@@ -31,6 +31,11 @@ pub struct SampleFields {
     pub q_mm: [Vec<f64>; 3],
     /// Commanded velocity per axis from the set-points ([`velocity`], mm/s).
     pub vel_mm_s: [Vec<f64>; 3],
+    /// Per axis, at a sample where [`velocity`] took a one-sided difference for a start
+    /// or a stop of the motion, that velocity less the central difference (mm/s); 0
+    /// elsewhere. The set-points do not tell which one the axis followed there
+    /// ([`velocity_at_ends`]).
+    pub vel_ends_mm_s: [Vec<f64>; 3],
     /// Sign of each axis's last travel (before its first recorded move in a file: the
     /// opposite of that move, an approach from the other side; 0 for an axis that does
     /// not move in the file).
@@ -50,6 +55,7 @@ impl SampleFields {
             t_s: Vec::with_capacity(n),
             q_mm: axes(),
             vel_mm_s: axes(),
+            vel_ends_mm_s: axes(),
             dir: axes(),
             since_reversal_mm: axes(),
             temp_k: temperature.then(|| Vec::with_capacity(n)),
@@ -248,6 +254,17 @@ fn infer_test(pos: &[[f64; 3]]) -> TestKind {
 /// On a line the first rule matters: the central difference there is off the feed by
 /// half the partial step (a 3 ms servo lag of 8 mm/s read 1 µm off at every start).
 pub fn velocity(t: &[f64], q: &[[f64; 3]], i: usize) -> [f64; 3] {
+    velocity_at_ends(t, q, i).0
+}
+
+/// [`velocity`] at sample i and, per axis, where it took a one-sided difference for a
+/// start or a stop (or the larger one where the differences disagree), that velocity
+/// less the central difference, 0 elsewhere. At those samples the path between the
+/// set-points is not told by them: an axis that stops abruptly still moves at the feed
+/// at its last moving sample (the one-sided difference), a smooth path through the
+/// set-points (an interpolator's spline) moves at about the central difference there
+/// (about half the feed at a stop between two samples).
+pub fn velocity_at_ends(t: &[f64], q: &[[f64; 3]], i: usize) -> ([f64; 3], [f64; 3]) {
     let n = q.len();
     let rest = |k: usize, a: usize, b: usize| (q[b][k] - q[a][k]).abs() < 1e-9;
     let diff = |k: usize, a: usize| (q[a + 1][k] - q[a][k]) / (t[a + 1] - t[a]);
@@ -264,34 +281,37 @@ pub fn velocity(t: &[f64], q: &[[f64; 3]], i: usize) -> [f64; 3] {
         let (before, at, after) = (b - bb, f - b, ff - f);
         (before - at).abs() <= 0.5 * at.abs() && (after - at).abs() <= 0.5 * at.abs()
     };
-    [0, 1, 2].map(|k| {
+    let both = [0, 1, 2].map(|k| {
         let back = (i > 0).then(|| (q[i][k] - q[i - 1][k]) / (t[i] - t[i - 1]));
         let fwd = (i + 1 < n).then(|| (q[i + 1][k] - q[i][k]) / (t[i + 1] - t[i]));
         match (back, fwd) {
             (Some(b), Some(f)) => {
                 let started = i == 1 || (i >= 2 && rest(k, i - 2, i - 1));
                 let stopping = i + 2 < n && rest(k, i + 1, i + 2);
-                if b.abs() < 1e-9 || f.abs() < 1e-9 {
-                    0.0
+                let central = (q[i + 1][k] - q[i - 1][k]) / (t[i + 1] - t[i - 1]);
+                let v = if b.abs() < 1e-9 || f.abs() < 1e-9 {
+                    return (0.0, 0.0);
                 } else if started && !stopping {
                     f
                 } else if stopping && !started {
                     b
                 } else if (b - f).abs() <= 0.1 * b.abs().max(f.abs()) || smooth(k) {
-                    0.5 * (b + f)
+                    return (0.5 * (b + f), 0.0);
                 } else if b.abs() > f.abs() {
                     b
                 } else {
                     f
-                }
+                };
+                (v, v - central)
             }
-            (None, Some(f)) if f.abs() < 1e-9 => 0.0,
+            (None, Some(f)) if f.abs() < 1e-9 => (0.0, 0.0),
             // First sample of a run: lines and circles start from rest.
-            (None, Some(_)) => 0.0,
-            (Some(b), None) => b,
-            _ => 0.0,
+            (None, Some(_)) => (0.0, 0.0),
+            (Some(b), None) => (b, 0.0),
+            _ => (0.0, 0.0),
         }
-    })
+    });
+    (both.map(|x| x.0), both.map(|x| x.1))
 }
 
 /// Builds the design of `session` with error functions of polynomial order `order`.
@@ -344,12 +364,13 @@ pub fn build(session: &Session, topology: &Topology, order: usize) -> Result<Des
                 let q = run.pos_mm[i];
                 let st = state.get_or_insert_with(|| DriveState::at(q));
                 st.move_to(q);
-                let vel = velocity(&run.t_s, &run.pos_mm, i);
+                let (vel, ends) = velocity_at_ends(&run.t_s, &run.pos_mm, i);
                 f.run_idx.push(run_idx);
                 f.t_s.push(run.t_s[i]);
                 for a in 0..3 {
                     f.q_mm[a].push(q[a]);
                     f.vel_mm_s[a].push(vel[a]);
+                    f.vel_ends_mm_s[a].push(ends[a]);
                     f.dir[a].push(st.dir[a]);
                     f.since_reversal_mm[a].push(st.since_reversal_mm[a]);
                 }

@@ -929,7 +929,10 @@ impl Ctx<'_> {
         let th = t.theta.map_or(0.0, |x| x.1);
         let specs = catalogue::split(self.d, &t.cand, th, s.eps())?;
         let (_, keep, jf) = self.evaluate(&s.fit, &specs, false)?;
-        let dof = keep.len().checked_sub(1).filter(|&k| k > 0)?;
+        // The places' columns, not the nuisance ones that follow them.
+        let n_places = catalogue::SPLIT_PLACES.len();
+        let at_places = keep.iter().filter(|&&j| j < n_places).count();
+        let dof = at_places.checked_sub(1).filter(|&k| k > 0)?;
         let chi2 = ((t.ssr - jf.all.ssr) / (sigma * sigma)).max(0.0);
         let p = statrs::distribution::ChiSquared::new(dof as f64)
             .map(|c| 1.0 - statrs::distribution::ContinuousCDF::cdf(&c, chi2))
@@ -937,6 +940,7 @@ impl Ctx<'_> {
         let places = keep
             .iter()
             .enumerate()
+            .filter(|&(_, &j)| j < n_places)
             .map(|(i, &j)| {
                 let name = catalogue::SPLIT_PLACES[j].to_string();
                 (name, jf.all.x[i], jf.all.sd[i] * sigma)
@@ -1104,6 +1108,9 @@ pub(crate) fn report_parameters(t: &Trial, sigma: f64, d: &Design) -> BTreeMap<S
         .then(|| smoother_variance(t, d))
         .flatten();
     for (i, name) in t.names.iter().enumerate() {
+        if catalogue::is_nuisance(name) {
+            continue;
+        }
         p.insert(name.clone(), t.coef[i]);
         let sd = match &smoother {
             Some(v) => (sd(i).powi(2) + v[i]).sqrt(),
