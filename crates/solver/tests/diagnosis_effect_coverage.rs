@@ -482,6 +482,13 @@ fn make(effect: &str, way: usize, m: f64, seed: u64) -> Made {
                     }
                 },
             );
+            // The growth over the recorded span, g(t_end)·(o, k): t_end the last sample's.
+            let t_end = super::diagnosis_thermal_coverage::duration(&session);
+            let g = 1.0 - (-t_end / t_c).exp();
+            for j in Axis::ALL {
+                truth.push((format!("span_scale_ppm_{j}"), g * scale[j.index()]));
+                truth.push((format!("span_offset_um_{j}"), g * offset[j.index()]));
+            }
             plain("thermal_drift", None, truth, session)
         }
         other => panic!("no effect {other}"),

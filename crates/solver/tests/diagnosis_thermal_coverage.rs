@@ -222,7 +222,7 @@ fn truth_in_time(case: &Case, dur: f64) -> Option<Vec<(String, f64)>> {
 }
 
 /// The session's duration (s): the last sample's time.
-fn duration(s: &mtcal_solver::session::Session) -> f64 {
+pub(crate) fn duration(s: &mtcal_solver::session::Session) -> f64 {
     s.planes
         .iter()
         .flat_map(|p| &p.runs)

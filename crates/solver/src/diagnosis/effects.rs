@@ -229,6 +229,16 @@ pub const EFFECTS: &[EffectSpec] = &[
                 "sessions: lower bound of T's 2-sigma likelihood-ratio interval (the T whose profiled sum of squares exceeds the least by at most 4 sigma^2); std_time_constant_s is a quarter of the interval's width",
             ),
             p(
+                "span_offset_um_{axis}",
+                "um",
+                "sessions: the growth of the offset over the recorded span, g(t_end)*o_j, t_end the last sample's time: what the recording saw, determined where T and o_j are not",
+            ),
+            p(
+                "span_scale_ppm_{axis}",
+                "ppm",
+                "sessions: the growth of the scale over the recorded span, g(t_end)*k_j",
+            ),
+            p(
                 "time_constant_s_high",
                 "s",
                 "sessions: upper bound of the same interval, absent when the profile stays within it up to 25 times T (the session too short against T to bound it)",

@@ -315,6 +315,8 @@ impl super::engine::Greedy for SessionProblem<'_> {
                 }
                 params.insert(format!("std_{name}"), 0.25 * (iv.high - iv.low));
                 trial::carry_interval(&mut params, (t, sigma, d), &iv, name);
+                let t_end = d.fields.t_s.iter().copied().fold(0.0, f64::max);
+                trial::span_growth(&mut params, (t, sigma), &iv, t_end);
             } else if let Some(slope) = self.ctx.coef_slope(s, t) {
                 // Reported parameters (an amplitude from its sine and cosine) moved by
                 // ±σ_θ along the profile; σ_θ of a frequency from its period's.

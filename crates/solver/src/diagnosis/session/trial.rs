@@ -676,11 +676,13 @@ impl Ctx<'_> {
             .max(th * (-LN_REACH).exp());
         let high = (th * hi.exp()).max(th + 2.0 * sd);
         let cand = &t.cand;
+        let fit_high = high.min(th * LN_REACH.exp());
         Some(TimeConstantInterval {
             low: if lo_open { 0.0 } else { low },
             high: if hi_open { f64::INFINITY } else { high },
+            fitted_at: [low, fit_high],
             coef_low: self.coef_at(s, t, (cand, low))?,
-            coef_high: self.coef_at(s, t, (cand, high.min(th * LN_REACH.exp())))?,
+            coef_high: self.coef_at(s, t, (cand, fit_high))?,
         })
     }
 
@@ -963,6 +965,8 @@ const LN_REACH: f64 = 3.2;
 pub(crate) struct TimeConstantInterval {
     pub low: f64,
     pub high: f64,
+    /// The T at which the coefficients were refitted: the bounds, within the reach.
+    pub fitted_at: [f64; 2],
     pub coef_low: Vec<f64>,
     pub coef_high: Vec<f64>,
 }
@@ -1069,6 +1073,39 @@ pub(crate) fn carry_interval(
         if let Some(sd) = params.get_mut(&format!("std_{n}")) {
             *sd = sd.hypot(shift);
         }
+    }
+}
+
+/// A thermal drift's growth over the recorded span: each offset and scale times
+/// g(t_end) = 1 − e^(−t_end/T), t_end the last sample's time, reported as
+/// `span_{name}` with its σ (conditional on T, times g) and half the larger change of
+/// the product at T's bounds ([`Ctx::time_constant_interval`]) added in quadrature. What
+/// the recording saw, determined where T and the final growth are not (a session not
+/// much longer than T: the growth nearly a straight line in time); nothing evaluated
+/// beyond the last sample.
+pub(crate) fn span_growth(
+    params: &mut BTreeMap<String, f64>,
+    (t, sigma): (&Trial, f64),
+    iv: &TimeConstantInterval,
+    t_end: f64,
+) {
+    let Some((_, th)) = t.theta else {
+        return;
+    };
+    let g = |tc: f64| -(-t_end / tc).exp_m1();
+    for (i, name) in t.names.iter().enumerate() {
+        if catalogue::is_nuisance(name) {
+            continue;
+        }
+        let v = t.coef[i] * g(th);
+        let low = iv.coef_low[i] * g(iv.fitted_at[0]);
+        let high = iv.coef_high[i] * g(iv.fitted_at[1]);
+        let shift = 0.5 * (low - v).abs().max((high - v).abs());
+        params.insert(format!("span_{name}"), v);
+        params.insert(
+            format!("std_span_{name}"),
+            (t.coef_sd[i] * sigma * g(th)).hypot(shift),
+        );
     }
 }
 
