@@ -15,10 +15,17 @@
 //! variable `TIME_DIAGNOSE_JSON` set to a directory, the four results are written there
 //! (`diagnose0.json` … `diagnose3.json`) to compare the findings before and after a
 //! change.
+//!
+//! With `TIME_DIAGNOSE_EFFECTS` set to sessions separated by `;`, each a `+`-joined list
+//! of effects as `mtcal simulate --effect` takes them (`backlash;cyclic;backlash+cyclic`),
+//! the same machine is simulated with those effects instead, and each session's
+//! identification and diagnosis are measured side by side: the sessions above find
+//! nothing or one growth; these show what a finding of the catalogue costs (every finding
+//! adds an admission, a refit and a round of the search).
 use mtcal_solver::diagnosis::{DiagnoseOptions, diagnose_session};
 use mtcal_solver::identification::{IdentifyOptions, identify};
 use mtcal_solver::simulate::logged::{Logged, with_temperature};
-use mtcal_solver::simulate::{Plan, SimOptions, random_truth, simulate};
+use mtcal_solver::simulate::{Effect, Plan, SimOptions, random_truth, simulate};
 use std::time::Instant;
 
 /// Peak resident set (MB) since the last reset, and a reset.
@@ -71,15 +78,41 @@ fn main() {
         .unwrap_or(300_000.0);
     // The full plan gives about 2 940 samples per Hz of sample rate.
     let rate = samples / 2941.0;
-    let out = simulate(
-        &random_truth(1),
-        &SimOptions {
-            plan: Plan::Full,
-            sample_rate_hz: rate,
-            ..Default::default()
-        },
-    )
-    .unwrap();
+    let session_with = |effects: Vec<Effect>| {
+        simulate(
+            &random_truth(1),
+            &SimOptions {
+                plan: Plan::Full,
+                sample_rate_hz: rate,
+                effects,
+                ..Default::default()
+            },
+        )
+        .unwrap()
+    };
+    if let Ok(list) = std::env::var("TIME_DIAGNOSE_EFFECTS") {
+        for spec in list.split(';').filter(|s| !s.trim().is_empty()) {
+            let effects: Vec<Effect> = spec
+                .split('+')
+                .map(|e| Effect::from_spec(e.trim()).unwrap())
+                .collect();
+            let out = session_with(effects);
+            let s = &out.session;
+            let (_, ti, ci, _) = measured(|| identify(s, &IdentifyOptions::default()).unwrap());
+            let (d, td, cd, md) =
+                measured(|| diagnose_session(s, &DiagnoseOptions::default()).unwrap());
+            let found: Vec<&str> = d.findings.iter().map(|f| f.effect.as_str()).collect();
+            println!(
+                "{spec}: {} samples; identify {ti:.3} s (CPU {ci:.2} s); diagnose {td:.3} s (CPU {cd:.2} s), peak resident {md:.0} MB (verdict {:?}, findings {found:?}); {:.1} x identify (CPU {:.1} x)",
+                s.sample_count(),
+                d.verdict,
+                td / ti,
+                cd / ci
+            );
+        }
+        return;
+    }
+    let out = session_with(Vec::new());
     let s = &out.session;
     println!(
         "session: {} samples, {} runs, {rate:.1} Hz; resident {:.0} MB",
