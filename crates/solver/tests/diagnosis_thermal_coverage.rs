@@ -21,6 +21,7 @@ use super::diagnosis_sessions::z_of;
 use mtcal_solver::axis::Axis;
 use mtcal_solver::diagnosis::{DiagnoseOptions, DiagnosisResult, diagnose_session, effects};
 use mtcal_solver::simulate::Effect;
+use mtcal_solver::simulate::logged::first_order_lag;
 use rand::rngs::StdRng;
 use rand::{Rng, SeedableRng};
 use rand_distr::{Distribution, Normal};
@@ -117,7 +118,7 @@ pub fn session(case: &Case, seed: u64) -> mtcal_solver::session::Session {
     }
     let dur = duration(&s);
     // The structure's temperature: the sensor's, or lagged by a first-order response
-    // integrated exactly over every sample step (the clock is continuous over runs).
+    // ([`first_order_lag`]: the clock continuous over the gaps between runs).
     let mut structure = 0.0;
     let mut last_t = 0.0;
     for p in &mut s.planes {
@@ -128,19 +129,9 @@ pub fn session(case: &Case, seed: u64) -> mtcal_solver::session::Session {
                 let t = r.t_s[i];
                 let dt = shape_k(case.shape, case.peak_k, t, dur);
                 structure = match case.make {
-                    Make::Lagged(tau) => {
-                        // Continuous in time through the gaps between runs: sub-steps of
-                        // at most 0.05 s, the input at each sub-step's middle.
-                        let h = (t - last_t).max(0.0);
-                        let steps = (h / 0.05).ceil().max(1.0);
-                        let a = (-(h / steps) / tau).exp();
-                        let mut y = structure;
-                        for k in 0..steps as usize {
-                            let tm = last_t + (k as f64 + 0.5) * h / steps;
-                            y = a * y + (1.0 - a) * shape_k(case.shape, case.peak_k, tm, dur);
-                        }
-                        y
-                    }
+                    Make::Lagged(tau) => first_order_lag(structure, last_t, t, tau, |tm| {
+                        shape_k(case.shape, case.peak_k, tm, dur)
+                    }),
                     _ => dt,
                 };
                 last_t = t;

@@ -25,6 +25,20 @@ pub enum Logged {
     Growth { lag_s: f64 },
 }
 
+/// A first-order lag's output `y` (time constant `tau`, s) carried from time `from` to
+/// `to` under the input `input(t)`: dy/dt = (input − y)/τ integrated in sub-steps of at
+/// most 0.05 s, each exact for the input held at the sub-step's middle
+/// (y ← a·y + (1 − a)·input, a = e^(−h/τ)). The clock runs on through the gaps between
+/// runs, so a structure slower than its sensor follows it across them.
+pub fn first_order_lag(y: f64, from: f64, to: f64, tau: f64, input: impl Fn(f64) -> f64) -> f64 {
+    let h = (to - from).max(0.0);
+    let steps = (h / 0.05).ceil().max(1.0);
+    let a = (-(h / steps) / tau).exp();
+    (0..steps as usize).fold(y, |y, k| {
+        a * y + (1.0 - a) * input(from + (k as f64 + 0.5) * h / steps)
+    })
+}
+
 /// The session `s` with `temp_c` in every run (the sensor's noise 5 mK) and, for
 /// [`Logged::Growth`], the growth added to the readings along Z.
 pub fn with_temperature(s: &Session, how: Logged) -> Session {
@@ -41,8 +55,7 @@ pub fn with_temperature(s: &Session, how: Logged) -> Session {
         Logged::Still => 0.5 * (2.0 * std::f64::consts::PI * t / dur).sin(),
         Logged::Growth { .. } => SWING_K * (2.0 * std::f64::consts::PI * t / dur).sin(),
     };
-    // The structure's temperature, integrated through the lag in steps of at most 0.05 s
-    // (the clock runs on through the gaps between runs).
+    // The structure's temperature, through the lag ([`first_order_lag`]).
     let (mut structure, mut last) = (0.0, 0.0);
     for p in &mut out.planes {
         let (u, v) = p.plane.axes();
@@ -55,12 +68,7 @@ pub fn with_temperature(s: &Session, how: Logged) -> Session {
                     continue;
                 };
                 structure = if lag_s > 0.0 {
-                    let h = (t - last).max(0.0);
-                    let steps = (h / 0.05).ceil().max(1.0);
-                    let a = (-(h / steps) / lag_s).exp();
-                    (0..steps as usize).fold(structure, |y, k| {
-                        a * y + (1.0 - a) * temp(last + (k as f64 + 0.5) * h / steps)
-                    })
+                    first_order_lag(structure, last, t, lag_s, temp)
                 } else {
                     temp(t)
                 };
@@ -77,4 +85,26 @@ pub fn with_temperature(s: &Session, how: Logged) -> Session {
         }
     }
     out
+}
+
+#[cfg(test)]
+mod tests {
+    use super::first_order_lag;
+
+    /// A unit step held from 0 on: y(t) = 1 − e^(−t/τ) (the textbook response), carried
+    /// over one long stretch or many short ones alike.
+    #[test]
+    fn a_step_input_gives_the_textbook_response() {
+        let tau = 30.0;
+        let one = first_order_lag(0.0, 0.0, 45.0, tau, |_| 1.0);
+        let want = 1.0 - (-45.0f64 / tau).exp();
+        assert!((one - want).abs() < 1e-12, "{one} against {want}");
+        let many = (0..450).fold(0.0, |y, k| {
+            first_order_lag(y, k as f64 * 0.1, (k + 1) as f64 * 0.1, tau, |_| 1.0)
+        });
+        assert!((many - want).abs() < 1e-12, "{many} against {want}");
+        // A ramp input lags by τ once settled: y(t) ≈ t − τ for t ≫ τ.
+        let ramp = first_order_lag(0.0, 0.0, 600.0, tau, |t| t);
+        assert!((ramp - (600.0 - tau)).abs() < 1e-3, "{ramp}");
+    }
 }
