@@ -38,7 +38,7 @@
 
 use super::Monotone;
 use super::lsq::{self, Design};
-use super::search::{bic, grid_then_golden};
+use super::search::{delta_bic, grid_then_golden, passes_bic_gate};
 
 /// What the loop needs of a recording (module docs).
 pub trait Greedy: Sync {
@@ -259,7 +259,6 @@ pub(crate) fn run<G: Greedy + ?Sized>(
         if rms(cur.heldout_sse, n_heldout) <= rules.stop_ratio * noise {
             break;
         }
-        let cur_bic = bic(cur.sse, n, cur.k);
         let cands: Vec<G::Candidate> = g
             .candidates(&state)
             .into_iter()
@@ -281,12 +280,12 @@ pub(crate) fn run<G: Greedy + ?Sized>(
         for (c, e) in cands.into_iter().zip(evaluated) {
             let Some((score, trial)) = e else { continue };
             let ev = Evaluated {
-                dbic: bic(score.sse, n, score.k) - cur_bic,
+                dbic: delta_bic(score.sse, score.k, cur.sse, cur.k, n),
                 candidate: c,
                 score,
                 trial,
             };
-            if ev.dbic <= -rules.bic_threshold
+            if passes_bic_gate(ev.dbic, rules.bic_threshold)
                 && ev.score.heldout_sse <= (1.0 - rules.min_heldout_gain) * cur.heldout_sse
             {
                 qualifying.push(ev.clone());

@@ -66,6 +66,18 @@ pub(crate) fn bic(sse: f64, n: usize, k: f64) -> f64 {
     nf * (sse.max(1e-300) / nf).ln() + k * nf.ln()
 }
 
+/// ΔBIC = BIC₁ − BIC₀ of a model leaving `sse` with `k` parameters against the current
+/// one (`cur_sse`, `cur_k`), both over `n` rows.
+pub(crate) fn delta_bic(sse: f64, k: f64, cur_sse: f64, cur_k: f64, n: usize) -> f64 {
+    bic(sse, n, k) - bic(cur_sse, n, cur_k)
+}
+
+/// The engine's gate on ΔBIC: a candidate may qualify only when ΔBIC ≤ −`threshold`
+/// (the engine also asks for a held-out gain).
+pub(crate) fn passes_bic_gate(dbic: f64, threshold: f64) -> bool {
+    dbic <= -threshold
+}
+
 /// Golden-section minimisation of `f` on `[a, b]` (unimodal assumed), `iters` steps;
 /// returns the best point found and its value.
 pub(crate) fn golden_min(a: f64, b: f64, iters: usize, f: impl FnMut(f64) -> f64) -> (f64, f64) {

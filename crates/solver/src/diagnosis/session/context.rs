@@ -9,7 +9,7 @@ use super::super::design::Design;
 use super::super::linalg::{Cols, dot};
 use super::super::moments::{self, Extra, Moments, Sets};
 use super::super::reduced::Reduction;
-use super::super::search::bic;
+use super::super::search::{delta_bic, passes_bic_gate};
 use super::super::thermal_search::ThermalBasis;
 use crate::axis::Axis;
 use crate::terms::{Component, Term};
@@ -86,8 +86,9 @@ impl<'a> Ctx<'a> {
     /// rows.
     pub fn fit(&self, cols: Cols, local: Vec<bool>) -> Fit {
         let Ctx { d, red, sets, .. } = *self;
-        let mut mom = Moments::of_columns(red, &self.base_columns(&cols));
-        let support = Extra::support_of(red, &self.base_columns(&cols));
+        let base_cols = self.base_columns(&cols);
+        let mut mom = Moments::of_columns(red, &base_cols);
+        let support = Extra::support_of(red, &base_cols);
         mom.local = local.iter().copied().chain([false]).collect();
         let base = moments::Base::new(red, sets, mom);
         let jf = moments::joint_fit(red, sets, None, &base, true);
@@ -268,14 +269,13 @@ impl<'a> Ctx<'a> {
 
     /// Whether a candidate whose joint fit with the current model `s` leaves the sum of
     /// squares `ssr` with `k` parameters more (its varying columns and searched θ) may
-    /// qualify: its ΔBIC = BIC(ssr, k_s + k) − BIC(SSR_s, k_s), computed as the engine
-    /// computes it (the same operations, so the same value), is at most
-    /// −`bic_threshold`. One that cannot qualify is never chosen, whatever its held-out
+    /// qualify: its ΔBIC = BIC(ssr, k_s + k) − BIC(SSR_s, k_s) passes the engine's gate,
+    /// by the functions the engine uses ([`delta_bic`], [`passes_bic_gate`]: the same
+    /// value, the same rule). One that cannot qualify is never chosen, whatever its held-out
     /// sum of squares: that figure, a fit on every fold, is not formed for it.
     pub fn may_qualify(&self, s: &State, ssr: f64, k: usize) -> bool {
-        let n = self.d.rows();
-        let dbic = bic(ssr, n, (s.k + k) as f64) - bic(s.fit.ssr, n, s.k as f64);
-        dbic <= -self.bic_threshold
+        let dbic = delta_bic(ssr, (s.k + k) as f64, s.fit.ssr, s.k as f64, self.d.rows());
+        passes_bic_gate(dbic, self.bic_threshold)
     }
 
     /// The held-out sum of squares of the current model `s` plus the columns of `mom`
