@@ -623,11 +623,10 @@ fn run_cell(effect: &str, way: usize, m: f64, seeds: &[u64]) -> (usize, BTreeMap
 /// truth and its z mean and spread. `COVERAGE_SEEDS` seeds per cell (2 in the normal
 /// test command), `COVERAGE_CELLS` a filter on "effect way magnitude".
 ///
-/// Held in the normal test command: pooled over every cell and parameter but those known
-/// not to hold (`KNOWN`, marked (a)), ≥ 90 % of the reported estimates within 2σ and at
-/// most 10 % of the (seed, parameter) pairs reported outside 2σ; and the large magnitude
-/// of each effect found in every seed. From 20 seeds on, every other (cell, parameter)
-/// reported in at least 10 seeds holds 90 % within 2σ up to two binomial standard errors
+/// Held in the normal test command: pooled over every cell and parameter, ≥ 90 % of the
+/// reported estimates within 2σ and at most 10 % of the (seed, parameter) pairs reported
+/// outside 2σ; and the large magnitude of each effect found in every seed. From 20 seeds
+/// on, every (cell, parameter) reported in at least 10 seeds holds 90 % within 2σ up to two binomial standard errors
 /// (≥ 81 % at 40 seeds), or (a parameter of truth 0, reported only where |value| ≥ 2σ)
 /// has ≤ 10 % of its pairs reported outside.
 #[test]
@@ -676,19 +675,14 @@ fn effect_coverage_over_seeds_magnitudes_and_ways() {
                     // reported only when |value| ≥ 2σ is outside whenever reported).
                     let pairs = st.reported + st.undetermined;
                     let outside = (st.reported - st.within) as f64 / pairs.max(1) as f64;
-                    let known = KNOWN.contains(&(*effect, *way_name, name.as_str()));
                     rows.push(format!(
-                        "| {effect} | {way_name} | {m} | {name}{} | {n} | {found} | {} | {:.0} % | {zm:+.2} | {zs:.2} | {} | {:.0} % |",
-                        if known { " (a)" } else { "" },
+                        "| {effect} | {way_name} | {m} | {name} | {n} | {found} | {} | {:.0} % | {zm:+.2} | {zs:.2} | {} | {:.0} % |",
                         st.reported,
                         100.0 * share,
                         st.undetermined,
                         100.0 * outside,
                     ));
                     eprintln!("{}", rows.last().unwrap());
-                    if known {
-                        continue;
-                    }
                     reported += st.reported;
                     within += st.within;
                     all_pairs += pairs;
@@ -719,7 +713,3 @@ fn effect_coverage_over_seeds_magnitudes_and_ways() {
     assert!(outside <= 0.1, "pooled outside {outside}");
     assert!(failed.is_empty(), "{failed:#?}");
 }
-
-/// (effect, way, parameter) that do not hold 90 % within 2σ, marked (a) in the table:
-/// docs/diagnosis.md ("Coverage of the other effects") says why.
-const KNOWN: [(&str, &str, &str); 0] = [];
