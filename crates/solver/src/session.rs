@@ -54,6 +54,16 @@ pub enum TestKind {
 }
 
 impl TestKind {
+    /// A line along one axis (`line_X`, `line_Y`, `line_Z`).
+    pub fn is_line(self) -> bool {
+        matches!(self, TestKind::LineX | TestKind::LineY | TestKind::LineZ)
+    }
+
+    /// A circle, either direction (`circle_cw`, `circle_ccw`).
+    pub fn is_circle(self) -> bool {
+        matches!(self, TestKind::CircleCw | TestKind::CircleCcw)
+    }
+
     pub fn parse(s: &str) -> Option<TestKind> {
         Some(match s {
             "line_X" => TestKind::LineX,

@@ -1030,12 +1030,7 @@ pub(crate) fn delayed(run: &Run, a: usize, i: usize, tau: f64) -> f64 {
 
 /// Whether `run` is a circle test.
 pub(crate) fn is_circle(run: &Run) -> bool {
-    matches!(
-        run.test,
-        Some(
-            mtcal_solver::session::TestKind::CircleCw | mtcal_solver::session::TestKind::CircleCcw
-        )
-    )
+    run.test.is_some_and(|t| t.is_circle())
 }
 
 /// A servo that follows its commanded path with a pure delay τ, made in the test (not by

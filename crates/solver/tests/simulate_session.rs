@@ -168,10 +168,7 @@ fn feed_and_acceleration_are_respected() {
             );
             assert!(vmax > feed * 0.999, "{} run {}: {vmax}", p.file, r.number);
             // Along a line the speed changes by at most a·dt per sample.
-            if matches!(
-                r.test,
-                Some(TestKind::LineX | TestKind::LineY | TestKind::LineZ)
-            ) {
+            if r.test.is_some_and(|t| t.is_line()) {
                 for w in speeds.windows(2) {
                     assert!((w[1] - w[0]).abs() <= 500.0 * dt * (1.0 + 1e-6));
                 }

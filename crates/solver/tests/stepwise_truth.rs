@@ -6,7 +6,7 @@
 
 use crate::stepwise_common::{pairs, record, run, without_angles};
 use mtcal_solver::identification::{IdentificationResult, Method};
-use mtcal_solver::session::{Session, TestKind};
+use mtcal_solver::session::Session;
 use mtcal_solver::simulate::{Plan, Truth};
 use mtcal_solver::terms::Term;
 
@@ -138,12 +138,7 @@ fn stepwise_without_lines_is_a_clear_error() {
     let (mut session, _) = machine(Plan::Seed, 5);
     for p in &mut session.planes {
         let plane = p.plane;
-        p.runs.retain(|r| {
-            !matches!(
-                r.test_kind(plane),
-                TestKind::LineX | TestKind::LineY | TestKind::LineZ
-            )
-        });
+        p.runs.retain(|r| !r.test_kind(plane).is_line());
     }
     let opts = mtcal_solver::identification::IdentifyOptions {
         method: Method::Stepwise,
@@ -165,8 +160,7 @@ fn stepwise_without_circles_reports_no_angles() {
     let (mut session, truth) = machine(Plan::Seed, 6);
     for p in &mut session.planes {
         let plane = p.plane;
-        p.runs
-            .retain(|r| !matches!(r.test_kind(plane), TestKind::CircleCw | TestKind::CircleCcw));
+        p.runs.retain(|r| !r.test_kind(plane).is_circle());
     }
     let r = run(&session, Method::Stepwise);
     for (name, t) in &r.terms {

@@ -647,10 +647,7 @@ pub const NUISANCE_LAG_ENDS: [&str; 2] =
 
 /// Whether sample `s` is of a circle test.
 fn is_circle(d: &Design, s: usize) -> bool {
-    matches!(
-        d.runs[d.fields.run(s)].test,
-        crate::session::TestKind::CircleCw | crate::session::TestKind::CircleCcw
-    )
+    d.runs[d.fields.run(s)].test.is_circle()
 }
 
 /// Whether a column's coefficient is a nuisance: fitted with the effect, not reported.
@@ -661,6 +658,9 @@ pub fn is_nuisance(name: &str) -> bool {
 /// Travel since the axis's last reversal (mm) within which a sample is "near" the
 /// reversal for [`split`].
 pub const SPLIT_NEAR_MM: f64 = 2.0;
+
+/// The most columns (one and its nuisance) of a candidate [`split`] takes.
+pub const SPLIT_MAX_COLUMNS: usize = 4;
 
 /// The four places [`split`] cuts a candidate's support into, in its column order.
 pub const SPLIT_PLACES: [&str; 4] = [
@@ -678,7 +678,8 @@ pub const SPLIT_PLACES: [&str; 4] = [
 /// acceleration, largest at the reversals), a shift that settles after each reversal,
 /// a velocity the set-points do not tell at a start or a stop, make them differ.
 /// The candidate's nuisance columns ([`is_nuisance`]) follow unsplit. `None` for a
-/// candidate without an axis or with more than one column besides its nuisance.
+/// candidate without an axis, with more than one column besides its nuisance, or with
+/// more than [`SPLIT_MAX_COLUMNS`] in all.
 pub fn split<'a>(
     d: &'a Design,
     c: &Candidate,
@@ -688,7 +689,7 @@ pub fn split<'a>(
     let a = c.axis?;
     let inner = specs(d, c, theta, eps);
     let m = inner.len();
-    if m == 0 || inner.names[1..].iter().any(|n| !is_nuisance(n)) {
+    if m == 0 || m > SPLIT_MAX_COLUMNS || inner.names[1..].iter().any(|n| !is_nuisance(n)) {
         return None;
     }
     let since = &d.fields.since_reversal_mm[a.index()];
@@ -703,7 +704,7 @@ pub fn split<'a>(
     let follows = inner.follows;
     let fill = inner.fill;
     let mut cols = Columns::new(names, axes, move |s, read, o| {
-        let mut v = [0.0; 4];
+        let mut v = [0.0; SPLIT_MAX_COLUMNS];
         fill(s, read, &mut v[..m]);
         let place = 2 * usize::from(is_circle(d, s)) + usize::from(since[s] < SPLIT_NEAR_MM);
         o[..k].iter_mut().for_each(|x| *x = 0.0);

@@ -40,25 +40,19 @@ use crate::design::{self, ErrorModel, Fit, Layout};
 use crate::error::SolverError;
 use crate::lsq::{self, LsSolution, Reduced};
 use crate::observability::{self, Identifiability};
-use crate::session::{Run, Session, TestKind};
+use crate::session::{Run, Session};
 use crate::terms::Term;
 use faer::Mat;
 
 /// Which runs a step uses.
 fn is_line(session: &Session, p: usize, r: usize) -> bool {
     let rec = &session.planes[p];
-    matches!(
-        rec.runs[r].test_kind(rec.plane),
-        TestKind::LineX | TestKind::LineY | TestKind::LineZ
-    )
+    rec.runs[r].test_kind(rec.plane).is_line()
 }
 
 fn is_circle(session: &Session, p: usize, r: usize) -> bool {
     let rec = &session.planes[p];
-    matches!(
-        rec.runs[r].test_kind(rec.plane),
-        TestKind::CircleCw | TestKind::CircleCcw
-    )
+    rec.runs[r].test_kind(rec.plane).is_circle()
 }
 
 /// One step's fit with what the report needs.

@@ -34,7 +34,7 @@
 //! the mean radial deviation σ̂/√N. The plate's calibration is not included.
 
 use crate::axis::Plane;
-use crate::session::{Run, Session, TestKind, kasa_circle};
+use crate::session::{Run, Session, kasa_circle};
 use crate::standards::{ScalarFigure, extremes, nearest_first};
 use nalgebra::{DMatrix, DVector};
 use serde::{Deserialize, Serialize};
@@ -479,10 +479,7 @@ pub fn circle_runs(session: &Session) -> Vec<CircleRun> {
     let mut out = vec![];
     for (p, rec) in session.planes.iter().enumerate() {
         for (r, run) in rec.runs.iter().enumerate() {
-            if !matches!(
-                run.test_kind(rec.plane),
-                TestKind::CircleCw | TestKind::CircleCcw
-            ) {
+            if !run.test_kind(rec.plane).is_circle() {
                 continue;
             }
             if let Some(geometry) = CircleGeometry::of(run, rec.plane) {
