@@ -213,7 +213,9 @@ impl Moments {
     /// X_gᵀU_g of m columns with the base columns `extra` alone, per run (m × u,
     /// row-major; 0 where a base column is 0 on a direction's rows), over the rows
     /// `rows` pushes: the same sums [`Moments::over_rows`] forms for them, without Z_g
-    /// and X_gᵀX_g.
+    /// and X_gᵀX_g. Only the rows of the (run, reading direction) groups where some
+    /// base column is nonzero are visited: elsewhere every product is 0, and in the
+    /// others the same rows are taken in the same order.
     pub fn cross(
         red: &Reduction,
         m: usize,
@@ -225,8 +227,19 @@ impl Moments {
         let mut pass = Pass::new(m);
         let mut out = Vec::with_capacity(red.runs.len());
         for (g, rs) in red.runs.iter().enumerate() {
-            let live = pass.gather((g, rs), extra, false, &mut rows, &mut fill);
             let mut xu = vec![0.0; m * u];
+            let on = extra.live(g).map(|c| !c.is_empty());
+            if on == [false; 2] {
+                out.push(xu);
+                continue;
+            }
+            let mut rows_on = |g: usize, rs: &RunSpace, to: &mut Vec<usize>| {
+                rows(g, rs, to);
+                if on != [true; 2] {
+                    to.retain(|&i| on[i & 1]);
+                }
+            };
+            let live = pass.gather((g, rs), extra, false, &mut rows_on, &mut fill);
             for (d, live) in pass.dirs.iter().zip(&live) {
                 if d.off.is_some() {
                     wide(CrossMoments {
