@@ -6,7 +6,7 @@
 //! one. The API's routes refuse what these refuse.
 
 use crate::limits::MAX_TRAVEL_MM;
-use crate::text::{LABEL_MAX, NAME_MAX, SITE_MAX, TAG_MAX, TAGS_MAX, TARGET_MAX};
+use crate::text::{LABEL_MAX, NAME_MAX, SITE_MAX, TAG_MAX, TAGS_MAX};
 use serde_json::{Value, json};
 use utoipa::openapi::schema::Schema;
 
