@@ -21,7 +21,8 @@
 //! the same machine is simulated with those effects instead, and each session's
 //! identification and diagnosis are measured side by side: the sessions above find
 //! nothing or one growth; these show what a finding of the catalogue costs (every finding
-//! adds an admission, a refit and a round of the search).
+//! adds an admission, a refit and a round of the search). With `TIME_DIAGNOSE_JSON` set
+//! too, each session's result is written there as `SESSION.json` (`backlash+cyclic.json`).
 use mtcal_solver::diagnosis::{DiagnoseOptions, diagnose_session};
 use mtcal_solver::identification::{IdentifyOptions, identify};
 use mtcal_solver::simulate::logged::{Logged, with_temperature};
@@ -109,6 +110,10 @@ fn main() {
                 td / ti,
                 cd / ci
             );
+            if let Some(dir) = std::env::var_os("TIME_DIAGNOSE_JSON") {
+                let path = std::path::Path::new(&dir).join(format!("{}.json", spec.trim()));
+                std::fs::write(&path, serde_json::to_string_pretty(&d).unwrap()).unwrap();
+            }
         }
         return;
     }

@@ -113,14 +113,14 @@ impl SessionProblem<'_> {
         k: usize,
         backlash: [Option<(f64, f64)>; 3],
         profiled: [bool; 3],
-        prior: Option<(Vec<(Candidate, super::moments::Moments)>, usize)>,
+        prior: Option<(context::Kept, usize)>,
         thermal_prior: Option<(std::sync::Arc<super::thermal_search::ThermalBasis>, usize)>,
     ) -> State {
         State {
             backlash,
             profiled,
             kept: Default::default(),
-            prior,
+            prior: std::sync::Mutex::new(prior),
             thermal: Default::default(),
             thermal_prior,
             eps: (!self.eps_groups.is_empty())
@@ -415,6 +415,8 @@ impl super::engine::Greedy for SessionProblem<'_> {
             local.push(is_local);
         }
         let nf = self.ctx.fit(cols, local);
+        // The model before this one is not searched again: its kept moments go.
+        s.prior.lock().expect("prior moments").take();
         let note = match note {
             Note::Finding(finding) => Note::Finding(Finding {
                 undetermined: finding.undetermined,

@@ -346,16 +346,7 @@ mod tests {
         };
         let carried = before.carried(&d, &red, &extra, 1);
         let fresh = ThermalBasis::new(&d, &red, &extra);
-        let same = |a: &Moments, b: &Moments| {
-            assert_eq!((a.m, a.u), (b.m, b.u));
-            for (x, y) in a.runs.iter().zip(&b.runs) {
-                assert_eq!(x.z, y.z);
-                assert_eq!(x.xx, y.xx);
-                assert_eq!(x.xu, y.xu);
-            }
-            assert_eq!(a.peaks, b.peaks);
-            assert_eq!(a.varies, b.varies);
-        };
+        let same = super::super::moments::assert_same_bits;
         same(&carried.mom, &fresh.mom);
         same(&carried.at(300.0), &fresh.at(300.0));
         // Not the basis it was carried from: the new columns' products are there.

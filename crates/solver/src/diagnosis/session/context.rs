@@ -8,11 +8,12 @@ use super::super::catalogue::{self, Candidate, Columns};
 use super::super::design::Design;
 use super::super::linalg::{Cols, dot};
 use super::super::moments::{self, Extra, Moments, Sets};
-use super::super::reduced::Reduction;
+use super::super::reduced::{Reduction, RunSpace};
 use super::super::search::{delta_bic, passes_bic_gate};
 use super::super::thermal_search::ThermalBasis;
 use crate::axis::Axis;
 use crate::terms::{Component, Term};
+use std::collections::HashMap;
 use std::sync::Arc;
 
 /// The design, its reduction, the folds' run sets and the noise floor.
@@ -27,6 +28,54 @@ pub(crate) struct Ctx<'a> {
     /// candidate whose ΔBIC is above −`bic_threshold` cannot qualify
     /// ([`Ctx::may_qualify`]).
     pub bic_threshold: f64,
+}
+
+/// Which rows a candidate's pass visits, for the moments kept on a model
+/// ([`Ctx::moments_kept`]).
+#[derive(Clone, Copy, PartialEq, Eq, Hash, Debug)]
+pub(crate) enum Visit {
+    /// Every row where its columns may vary ([`LiveRows`]).
+    Live,
+    /// The rows within its reach at θ of the last reversal of its axis (a reversal
+    /// spike's search: [`Ctx::near_rows`]).
+    Near,
+    /// A vibration's band basis at its scanned frequency, on every row where it may vary.
+    Band,
+}
+
+/// Moments formed on a model, per candidate, by the rows visited and θ (its bits; 0 for a
+/// candidate without a nonlinear parameter).
+pub(crate) type Kept = Vec<(Candidate, HashMap<(Visit, u64), Moments>)>;
+
+/// The rows where a candidate's columns `specs` may vary: the rows of their reading
+/// axes, on the runs that move the axis they follow (on the others they are constant and
+/// the centring per run removes them), on their one run for a local effect.
+pub(crate) struct LiveRows<'c> {
+    d: &'c Design,
+    specs: &'c Columns<'c>,
+    parked: Option<Vec<bool>>,
+}
+
+impl LiveRows<'_> {
+    fn live(&self, row: usize) -> bool {
+        let d = self.d;
+        self.specs.live(d, row)
+            && self
+                .parked
+                .as_ref()
+                .is_none_or(|p| !p[d.fields.run(row / 2)])
+    }
+
+    /// Pushes run g's rows to visit ([`Moments::over_rows`]): a local effect's live rows
+    /// on its run alone, the live reading directions ([`moments::live_directions`])
+    /// otherwise.
+    pub fn push(&self, g: usize, rs: &RunSpace, out: &mut Vec<usize>) {
+        match self.specs.run() {
+            Some(h) if h == g => out.extend((0..rs.rows).filter(|&i| self.live(rs.row0 + i))),
+            Some(_) => {}
+            None => moments::live_directions(|row| self.live(row))(g, rs, out),
+        }
+    }
 }
 
 /// The current model (rigid terms and the accepted effects) fitted on all runs and on
@@ -61,11 +110,12 @@ pub(crate) struct State {
     /// Per axis: whether a whole position-dependent lost motion (constant part included)
     /// is in the model.
     pub profiled: [bool; 3],
-    /// The moments of the candidates without a nonlinear parameter on this model, kept
-    /// for the next ([`Ctx::moments_kept`]).
-    pub kept: std::sync::Mutex<Vec<(Candidate, Moments)>>,
-    /// Those of the model before it, with its number of base columns.
-    pub prior: Option<(Vec<(Candidate, Moments)>, usize)>,
+    /// The candidates' moments formed on this model, kept for the next
+    /// ([`Ctx::moments_kept`]).
+    pub kept: std::sync::Mutex<Kept>,
+    /// Those of the model before it, with its number of base columns (taken when the
+    /// next model is formed: a state the loop has moved past keeps none).
+    pub prior: std::sync::Mutex<Option<(Kept, usize)>>,
     /// The thermal searches' basis moments on this model, formed once for its time form
     /// and its lagged form ([`Ctx::thermal_basis`]).
     pub thermal: std::sync::OnceLock<Arc<ThermalBasis>>,
@@ -151,80 +201,103 @@ impl<'a> Ctx<'a> {
         self.fit_moments(f, self.moments(f, specs), heldout)
     }
 
-    /// The moments of a candidate's columns with the current model's base (one pass over
-    /// the rows where they can vary).
-    pub fn moments(&self, f: &Fit, specs: &Columns) -> Moments {
-        let d = self.d;
-        // Columns that follow one axis are constant on the runs that do not move it: the
-        // centring per run removes them there (their moments are 0).
-        let parked = specs.follows().map(|a| self.parked_runs(a));
-        let live =
-            |row| specs.live(d, row) && parked.as_ref().is_none_or(|p| !p[d.fields.run(row / 2)]);
-        let base = self.extra(f);
-        let fill = |row, out: &mut [f64]| specs.at(d, row, out);
-        match specs.run() {
-            // A local effect varies on its run alone: only that run's live rows.
-            Some(g) => {
-                let mut mom = Moments::over_rows(
-                    self.red,
-                    specs.len(),
-                    &base,
-                    |h, rs, out| {
-                        if h == g {
-                            out.extend((0..rs.rows).filter(|&i| live(rs.row0 + i)));
-                        }
-                    },
-                    fill,
-                );
-                mom.local = vec![true; mom.m];
-                mom
-            }
-            None => Moments::new_on(self.red, specs.len(), &base, live, fill),
+    /// The rows where the columns `specs` may vary ([`LiveRows`]).
+    pub fn live_rows<'c>(&self, specs: &'c Columns<'c>) -> LiveRows<'c>
+    where
+        'a: 'c,
+    {
+        LiveRows {
+            d: self.d,
+            specs,
+            parked: specs.follows().map(|a| self.parked_runs(a)),
         }
     }
 
-    /// [`Ctx::moments`] of a candidate whose columns do not depend on the model (no
-    /// nonlinear parameter, not the setup offset's), kept on the state for the next
-    /// round. On a state after its model gained columns, from the candidate's moments on
-    /// the model before: its moments with the rigid basis, among its columns and with
-    /// the earlier base columns are those; only its cross-moments with the columns added
-    /// since are formed ([`Moments::cross`]: one pass over the same rows, without the
-    /// other products), the same sums.
-    pub fn moments_kept(&self, s: &State, cand: &Candidate, specs: &Columns) -> Moments {
-        let f = &s.fit;
-        let prior = s.prior.as_ref().and_then(|(list, u_prev)| {
-            let m = list.iter().find(|(c, _)| c == cand)?;
-            Some((&m.1, *u_prev))
-        });
-        let mom = match prior {
-            Some((p, u_prev)) if specs.run().is_none() && p.m == specs.len() => {
-                self.moments_after(f, specs, p, u_prev)
-            }
-            _ => self.moments(f, specs),
-        };
-        s.kept
-            .lock()
-            .expect("kept moments")
-            .push((cand.clone(), mom.clone()));
+    /// The moments of a candidate's columns with the current model's base (one pass over
+    /// the rows where they can vary).
+    pub fn moments(&self, f: &Fit, specs: &Columns) -> Moments {
+        let rows = self.live_rows(specs);
+        self.fresh(f, specs, |g, rs, out| rows.push(g, rs, out))
+    }
+
+    /// One pass over the rows `rows` with the columns `specs` (local on their one run,
+    /// [`Moments::local`]).
+    fn fresh(
+        &self,
+        f: &Fit,
+        specs: &Columns,
+        rows: impl FnMut(usize, &RunSpace, &mut Vec<usize>),
+    ) -> Moments {
+        let d = self.d;
+        let fill = |row, out: &mut [f64]| specs.at(d, row, out);
+        let mut mom = Moments::over_rows(self.red, specs.len(), &self.extra(f), rows, fill);
+        if specs.run().is_some() {
+            mom.local = vec![true; mom.m];
+        }
         mom
     }
 
-    /// The moments of `specs` on the model `f` from `prior`, theirs on the model of the
-    /// first `u_prev − 1` of f's columns ([`Ctx::moments_kept`]).
-    fn moments_after(&self, f: &Fit, specs: &Columns, prior: &Moments, u_prev: usize) -> Moments {
-        let d = self.d;
-        let parked = specs.follows().map(|a| self.parked_runs(a));
-        let live =
-            |row| specs.live(d, row) && parked.as_ref().is_none_or(|p| !p[d.fields.run(row / 2)]);
-        prior.carried(&self.extra(f), u_prev, |new| {
-            Moments::cross(
-                self.red,
-                specs.len(),
-                new,
-                moments::live_directions(live),
-                |row, out: &mut [f64]| specs.at(d, row, out),
-            )
+    /// The moments of the candidate `cand` at θ (0 without a nonlinear parameter) on the
+    /// rows where its columns may vary ([`Ctx::moments_kept`]; the setup offset's columns
+    /// follow the model's rotations: formed afresh).
+    pub fn moments_at(&self, s: &State, cand: &Candidate, theta: f64) -> Moments {
+        let specs = catalogue::specs(self.d, cand, theta, s.eps());
+        if cand.effect == "setup_offset" {
+            return self.moments(&s.fit, &specs);
+        }
+        let rows = self.live_rows(&specs);
+        self.moments_kept(s, (cand, Visit::Live, theta), &specs, |g, rs, out| {
+            rows.push(g, rs, out)
         })
+    }
+
+    /// The moments of a candidate's columns `specs` (the candidate at θ, over the rows
+    /// `rows`, as `visit` says), kept on the state for the rest of its round and the next.
+    /// Already formed on this model: those. Formed on the model before (the same
+    /// candidate, θ and rows): its moments with the rigid basis, among its columns and
+    /// with the earlier base columns are those; only its cross-moments with the columns
+    /// added since are formed ([`Moments::carried`], [`Moments::cross`]: one pass over
+    /// the same rows of the (run, direction) groups where an added column is nonzero,
+    /// without the other products), the same sums. Otherwise one pass over the rows.
+    pub fn moments_kept(
+        &self,
+        s: &State,
+        (cand, visit, theta): (&Candidate, Visit, f64),
+        specs: &Columns,
+        rows: impl FnMut(usize, &RunSpace, &mut Vec<usize>),
+    ) -> Moments {
+        let key = (visit, theta.to_bits());
+        let find = |list: &Kept| {
+            list.iter()
+                .find(|(c, _)| c == cand)
+                .and_then(|(_, by)| by.get(&key).cloned())
+        };
+        if let Some(mom) = find(&s.kept.lock().expect("kept moments")) {
+            return mom;
+        }
+        let prior = s
+            .prior
+            .lock()
+            .expect("prior moments")
+            .as_ref()
+            .and_then(|(list, u_prev)| Some((find(list)?, *u_prev)));
+        let (d, f) = (self.d, &s.fit);
+        let mom = match prior {
+            Some((p, u_prev)) if p.m == specs.len() => p.carried(&self.extra(f), u_prev, |new| {
+                Moments::cross(self.red, specs.len(), new, rows, |row, out| {
+                    specs.at(d, row, out)
+                })
+            }),
+            _ => self.fresh(f, specs, rows),
+        };
+        let mut kept = s.kept.lock().expect("kept moments");
+        match kept.iter_mut().find(|(c, _)| c == cand) {
+            Some((_, by)) => {
+                by.insert(key, mom.clone());
+            }
+            None => kept.push((cand.clone(), HashMap::from([(key, mom.clone())]))),
+        }
+        mom
     }
 
     /// The basis moments of the thermal searches on the state `s`
@@ -302,8 +375,7 @@ impl<'a> Ctx<'a> {
 
     /// SSR of the current model plus the candidate's columns at θ (∞ when it has none).
     pub fn ssr_at(&self, s: &State, cand: &Candidate, theta: f64) -> f64 {
-        let specs = catalogue::specs(self.d, cand, theta, s.eps());
-        self.evaluate(&s.fit, &specs, false)
+        self.fit_moments(&s.fit, self.moments_at(s, cand, theta), false)
             .map_or(f64::INFINITY, |(_, _, jf)| jf.all.ssr)
     }
 
@@ -365,5 +437,118 @@ impl<'a> Ctx<'a> {
             }
         }
         out
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::super::super::design;
+    use super::*;
+    use crate::simulate::{Plan, SimOptions, random_truth, simulate};
+
+    fn state(fit: Fit, prior: Option<(Kept, usize)>) -> State {
+        State {
+            fit,
+            k: 0,
+            eps: None,
+            backlash: [None; 3],
+            profiled: [false; 3],
+            kept: Default::default(),
+            prior: std::sync::Mutex::new(prior),
+            thermal: Default::default(),
+            thermal_prior: None,
+        }
+    }
+
+    use super::super::super::moments::assert_same_bits as same;
+
+    /// Moments kept on a model and carried to the next, after it gained a backlash of X
+    /// (nonzero on the X readings of the runs that move X only) and a column nonzero
+    /// everywhere, are bit for bit those formed on the new model in one pass: a reversal
+    /// spike's on the rows within its reach (at every decay length of its grid), a cyclic
+    /// error's and a step's on the rows where they may vary; and they carry the new
+    /// columns' products.
+    #[test]
+    fn carried_moments_are_the_moments_formed_on_the_new_model() {
+        let o = SimOptions {
+            plan: Plan::Seed,
+            sample_rate_hz: 10.0,
+            ..Default::default()
+        };
+        let session = simulate(&random_truth(3), &o).unwrap().session;
+        let d = design::build(&session, &Default::default(), 3).unwrap();
+        let red = Reduction::new(&session, &d);
+        let sets = Sets::new(&d, &red, 3);
+        let ctx = Ctx {
+            d: &d,
+            red: &red,
+            sets: &sets,
+            floor: 0.15,
+            bic_threshold: 10.0,
+        };
+        let cands = catalogue::candidates(&d);
+        let pick = |effect: &str, axis: Option<Axis>| {
+            cands
+                .iter()
+                .find(|c| c.effect == effect && c.axis == axis)
+                .cloned()
+                .unwrap_or_else(|| panic!("{effect}"))
+        };
+        let spike = pick("reversal_spike", Some(Axis::X));
+        let cyclic = pick("cyclic", Some(Axis::X));
+        let step = Candidate {
+            effect: "step",
+            axis: None,
+            direction: Some(Axis::Y),
+            group: None,
+            order: 0,
+            width_s: 0.0,
+        };
+        let t_step = d.fields.t_s[(d.runs[2].start + d.runs[2].end) / 2];
+        let grid = match catalogue::search(&d, &spike) {
+            catalogue::Search::Grid(_, v) => v,
+            _ => unreachable!(),
+        };
+        let near = ctx.near_rows(Axis::X, 1e9);
+        // Every moment the searches form: the spike's at each grid value on its rows
+        // within reach, the cyclic error's and the step's on their live rows.
+        let all = |s: &State| {
+            let mut out: Vec<Moments> = grid
+                .iter()
+                .map(|&v| {
+                    let specs = catalogue::specs(&d, &spike, v, None);
+                    let reach = catalogue::reach(&spike, v).unwrap().1;
+                    ctx.moments_kept(s, (&spike, Visit::Near, v), &specs, |g, _, out| {
+                        out.extend(near[g].iter().filter(|p| p.1 < reach).map(|p| p.0))
+                    })
+                })
+                .collect();
+            out.push(ctx.moments_at(s, &cyclic, 1.0 / 7.0));
+            out.push(ctx.moments_at(s, &step, t_step));
+            out
+        };
+        let s0 = state(ctx.fit(Vec::new(), Vec::new()), None);
+        let before = all(&s0);
+        // Asked again on the same model: the kept moments.
+        for (a, b) in before.iter().zip(all(&s0)) {
+            same(a, &b);
+        }
+        let (mut cols, _, _) = catalogue::columns(&d, &pick("backlash", Some(Axis::X)), 0.0, None);
+        cols.push((0..d.rows()).map(|r| (0.013 * r as f64).cos()).collect());
+        let fit = ctx.fit(cols, vec![false; 2]);
+        let kept = std::mem::take(&mut *s0.kept.lock().unwrap());
+        let s1 = state(fit, Some((kept, 1)));
+        let carried = all(&s1);
+        // The same on a state formed without the model before: every pass afresh.
+        let fresh = all(&state(ctx.fit(s1.fit.cols.clone(), vec![false; 2]), None));
+        for (a, b) in carried.iter().zip(&fresh) {
+            same(a, b);
+        }
+        assert!(carried.last().unwrap().local.iter().all(|&l| l));
+        // The added columns' products are there: not the moments carried from.
+        for (a, b) in carried.iter().zip(&before) {
+            assert_eq!((a.u, b.u), (3, 1));
+            assert!(a.runs.iter().any(|r| r.xu[..2].iter().any(|&v| v != 0.0)));
+        }
     }
 }

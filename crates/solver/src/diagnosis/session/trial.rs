@@ -12,7 +12,7 @@ use super::super::periodic_scan;
 use super::super::search::golden_section;
 use super::super::temperature;
 use super::anomalies::{self, sequences, step_time};
-use super::context::{Ctx, State};
+use super::context::{Ctx, State, Visit};
 use crate::axis::Axis;
 use std::collections::BTreeMap;
 
@@ -183,7 +183,7 @@ impl Ctx<'_> {
             in_time,
         } = b;
         let ssr = |v: f64| self.ssr_at(s, cand, v);
-        let m0 = self.moments(&s.fit, &catalogue::specs(self.d, cand, f0, s.eps()));
+        let m0 = self.moments_at(s, cand, f0);
         let s0 = self
             .fit_moments(&s.fit, m0.clone(), false)
             .map_or(f64::INFINITY, |(_, _, jf)| jf.all.ssr);
@@ -204,7 +204,10 @@ impl Ctx<'_> {
                 vec![Some(dir); 2 * band_search::N],
                 move |smp, _, o| band_search::fill(d, spans, w0, smp, o),
             );
-            let basis = self.moments(&s.fit, &specs);
+            let rows = self.live_rows(&specs);
+            let basis = self.moments_kept(s, (cand, Visit::Band, f0), &specs, |g, rs, out| {
+                rows.push(g, rs, out)
+            });
             let at = |v: f64| {
                 self.fit_moments(&s.fit, band_search::at(&basis, spans, v - f0), false)
                     .map_or(f64::INFINITY, |(_, _, jf)| jf.all.ssr)
@@ -257,15 +260,10 @@ impl Ctx<'_> {
                     (None, Some(near)) => {
                         let reach = catalogue::reach(cand, v).map_or(f64::INFINITY, |r| r.1);
                         let specs = catalogue::specs(d, cand, v, s.eps());
-                        let mom = Moments::over_rows(
-                            red,
-                            specs.len(),
-                            &self.extra(f),
-                            |g, _, out| {
+                        let mom =
+                            self.moments_kept(s, (cand, Visit::Near, v), &specs, |g, _, out| {
                                 out.extend(near[g].iter().filter(|p| p.1 < reach).map(|p| p.0))
-                            },
-                            |row, out| specs.at(d, row, out),
-                        );
+                            });
                         self.fit_moments(f, mom, false)
                             .map_or(f64::INFINITY, |(_, _, jf)| jf.all.ssr)
                     }
@@ -443,7 +441,7 @@ impl Ctx<'_> {
         let c = with(w);
         let specs = catalogue::specs(d, &c, t, s.eps());
         let k = 1 + usize::from(w > 0.0);
-        let fitted = self.fit_candidate(s, self.moments(&s.fit, &specs), k)?;
+        let fitted = self.fit_candidate(s, self.moments_at(s, &c, t), k)?;
         Some(self.trial_of(s, &c, (Some((name, t)), k), &specs.names, fitted))
     }
 
@@ -459,7 +457,7 @@ impl Ctx<'_> {
     /// ([`Ctx::moments_kept`]).
     fn try_profile_orders(&self, s: &State, cand: &Candidate) -> Option<Trial> {
         let specs = catalogue::specs(self.d, cand, 0.0, s.eps());
-        let mom = self.moments_kept(s, cand, &specs);
+        let mom = self.moments_at(s, cand, 0.0);
         let from = usize::from(cand.effect == "lost_motion_variation");
         // Every order fitted on all runs; on the folds too when one of them may qualify
         // ([`Ctx::may_qualify`]; none may: the candidate is not chosen whatever its order).
@@ -738,16 +736,12 @@ impl Ctx<'_> {
     }
 
     fn try_one(&self, s: &State, cand: &Candidate) -> Option<Trial> {
-        let (d, f) = (self.d, &s.fit);
         let (theta, extra, mom) = self.search_theta(s, cand)?;
         let th = theta.map_or(0.0, |t| t.1);
-        let specs = catalogue::specs(d, cand, th, s.eps());
+        let specs = catalogue::specs(self.d, cand, th, s.eps());
         let mom = match mom {
             Some(mom) => mom,
-            None if theta.is_none() && cand.effect != "setup_offset" => {
-                self.moments_kept(s, cand, &specs)
-            }
-            None => self.moments(f, &specs),
+            None => self.moments_at(s, cand, th),
         };
         let fitted = self.fit_candidate(s, mom, extra)?;
         Some(self.trial_of(s, cand, (theta, extra), &specs.names, fitted))
