@@ -20,13 +20,7 @@ pub struct NewMachine {
     )]
     pub id: String,
     /// Not blank, at most 200 characters, no control character.
-    #[cfg_attr(
-        feature = "openapi",
-        schema(
-            max_length = 200,
-            pattern = "^[^\\u0000-\\u001f\\u007f-\\u009f]*[^\\s\\u0000-\\u001f\\u007f-\\u009f][^\\u0000-\\u001f\\u007f-\\u009f]*$"
-        )
-    )]
+    #[cfg_attr(feature = "openapi", schema(schema_with = mtcal_store::schemas::name))]
     pub name: String,
     /// Axes on the workpiece and tool sides (default `{"workpiece": ["X", "Y"], "tool": ["Z"]}`).
     #[cfg_attr(feature = "openapi", schema(schema_with = mtcal_store::schemas::topology))]
@@ -36,13 +30,7 @@ pub struct NewMachine {
     #[cfg_attr(feature = "openapi", schema(schema_with = mtcal_store::schemas::travel))]
     pub travel_mm: BTreeMap<String, [f64; 2]>,
     /// Not blank, at most 100 characters, no control character.
-    #[cfg_attr(
-        feature = "openapi",
-        schema(
-            max_length = 100,
-            pattern = "^[^\\u0000-\\u001f\\u007f-\\u009f]*[^\\s\\u0000-\\u001f\\u007f-\\u009f][^\\u0000-\\u001f\\u007f-\\u009f]*$"
-        )
-    )]
+    #[cfg_attr(feature = "openapi", schema(schema_with = mtcal_store::schemas::site_or_null))]
     pub site: Option<String>,
     #[serde(default)]
     #[cfg_attr(feature = "openapi", schema(schema_with = mtcal_store::schemas::tags))]

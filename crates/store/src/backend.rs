@@ -20,6 +20,28 @@ use crate::{Store, StoreFuture, now_rfc3339};
 use sqlx::{Executor, Transaction};
 use std::collections::HashMap;
 
+/// A pool of at most `size` connections made with `opts` (waiting at most the options'
+/// acquire timeout for one), the dialect's migrations applied: the end of every backend's
+/// `open_with`.
+pub(super) async fn connect(
+    opts: <<Db as sqlx::Database>::Connection as sqlx::Connection>::Options,
+    size: u32,
+    o: &crate::StoreOptions,
+) -> Result<sqlx::Pool<Db>> {
+    let pool = sqlx::pool::PoolOptions::<Db>::new()
+        .max_connections(size)
+        .acquire_timeout(o.acquire_timeout)
+        .connect_with(opts)
+        .await
+        .db()?;
+    crate::migrations::migrator(dialect::MIGRATIONS)
+        .await?
+        .run(&pool)
+        .await
+        .db()?;
+    Ok(pool)
+}
+
 /// `sqlx::query(sql)` with its arguments bound in order, to `$1`, `$2`, ...
 macro_rules! bound {
     ($sql:expr $(, $arg:expr)* $(,)?) => {

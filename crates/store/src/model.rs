@@ -30,26 +30,14 @@ pub struct Machine {
 #[cfg_attr(feature = "openapi", derive(utoipa::ToSchema))]
 pub struct MachinePatch {
     /// Not blank, at most 200 characters, no control character.
-    #[cfg_attr(
-        feature = "openapi",
-        schema(
-            max_length = 200,
-            pattern = "^[^\\u0000-\\u001f\\u007f-\\u009f]*[^\\s\\u0000-\\u001f\\u007f-\\u009f][^\\u0000-\\u001f\\u007f-\\u009f]*$"
-        )
-    )]
+    #[cfg_attr(feature = "openapi", schema(schema_with = crate::schemas::name_or_null))]
     pub name: Option<String>,
     #[cfg_attr(feature = "openapi", schema(schema_with = crate::schemas::topology))]
     pub topology: Option<Value>,
     #[cfg_attr(feature = "openapi", schema(schema_with = crate::schemas::travel_or_null))]
     pub travel_mm: Option<BTreeMap<String, [f64; 2]>>,
     /// Not blank, at most 100 characters, no control character.
-    #[cfg_attr(
-        feature = "openapi",
-        schema(
-            max_length = 100,
-            pattern = "^[^\\u0000-\\u001f\\u007f-\\u009f]*[^\\s\\u0000-\\u001f\\u007f-\\u009f][^\\u0000-\\u001f\\u007f-\\u009f]*$"
-        )
-    )]
+    #[cfg_attr(feature = "openapi", schema(schema_with = crate::schemas::site_or_null))]
     pub site: Option<String>,
     #[cfg_attr(feature = "openapi", schema(schema_with = crate::schemas::tags_or_null))]
     pub tags: Option<Vec<String>>,

@@ -1,10 +1,12 @@
 //! JSON Schemas (OpenAPI document) of the machine fields whose rules utoipa's field
 //! attributes cannot state: the topology (X, Y and Z each exactly once across the two
 //! stacks), the travel (axes X, Y, Z; two ends within [`MAX_TRAVEL_MM`]) and the tags
-//! (the rules of [`crate::text`]). The API's machine routes refuse what these refuse.
+//! (the rules of [`crate::text`]); and the one-line text fields (a machine's name and
+//! site, a profile's target, a key's label), written once here for every type that has
+//! one. The API's routes refuse what these refuse.
 
 use crate::limits::MAX_TRAVEL_MM;
-use crate::text::{TAG_MAX, TAGS_MAX};
+use crate::text::{LABEL_MAX, NAME_MAX, SITE_MAX, TAG_MAX, TAGS_MAX};
 use serde_json::{Value, json};
 use utoipa::openapi::schema::Schema;
 
@@ -102,6 +104,42 @@ pub fn tags() -> Schema {
 /// A machine's tags, or `null` (keep).
 pub fn tags_or_null() -> Schema {
     tags_of(json!(["array", "null"]))
+}
+
+/// A one-line text field ([`crate::text::check_line`]: not blank, at most `max`
+/// characters, no control character), with `null` too when `nullable`.
+fn line(max: usize, nullable: bool) -> Schema {
+    let types = if nullable {
+        json!(["string", "null"])
+    } else {
+        json!("string")
+    };
+    read(json!({
+        "type": types,
+        "description": format!("Not blank, at most {max} characters, no control character."),
+        "maxLength": max,
+        "pattern": LINE_PATTERN,
+    }))
+}
+
+/// A machine's name.
+pub fn name() -> Schema {
+    line(NAME_MAX, false)
+}
+
+/// A machine's name, or `null` (keep).
+pub fn name_or_null() -> Schema {
+    line(NAME_MAX, true)
+}
+
+/// A machine's site, or `null` (none; in an update: keep).
+pub fn site_or_null() -> Schema {
+    line(SITE_MAX, true)
+}
+
+/// An API key's label.
+pub fn label() -> Schema {
+    line(LABEL_MAX, false)
 }
 
 #[cfg(test)]

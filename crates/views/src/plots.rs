@@ -43,7 +43,7 @@ pub use errorbars::{
     BarPoint, ErrorBarChart, PointSeries, TrendPoint, TrendSeries, XScale, error_bar_chart,
     rotation_vectors, trend, unix_seconds,
 };
-pub use polar::{CIRCLE_COLORS, CircleTrace, MIN_FONT_PX, circle_polar, circle_step, nominal_mm};
+pub use polar::{CIRCLE_COLORS, MIN_FONT_PX, circle_polar, circle_step, nominal_mm};
 pub use spark::sparkline;
 
 /// Series colours, in order. Tests find series by these (`#rrggbb` in the SVG).

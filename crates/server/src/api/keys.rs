@@ -16,10 +16,7 @@ use utoipa::ToSchema;
 pub struct NewKey {
     pub scope: Scope,
     /// Not blank, at most 200 characters, no control character.
-    #[schema(
-        max_length = 200,
-        pattern = "^[^\\u0000-\\u001f\\u007f-\\u009f]*[^\\s\\u0000-\\u001f\\u007f-\\u009f][^\\u0000-\\u001f\\u007f-\\u009f]*$"
-    )]
+    #[schema(schema_with = mtcal_store::schemas::label)]
     pub label: String,
 }
 

@@ -25,7 +25,41 @@ pub use positioning::{diagnose_positioning, diagnose_positioning_with_progress};
 
 pub use drift::diagnose_drift_log;
 
+use crate::diagnosis::{Baseline, DiagnosisResult, Finding, Mismatch, PlotData, effects};
 use serde::{Deserialize, Serialize};
+
+/// The diagnosis result of a series (`source`: `positioning` or `drift_log`): the findings
+/// whose parameters the data do not determine listed as possible
+/// ([`effects::split_undetermined`]), the verdict by the one rule ([`effects::verdict`])
+/// from whether the rigid model was at noise level and whether anything stays
+/// unexplained. A series rejects no candidate as implausible.
+#[allow(clippy::too_many_arguments)] // the result's parts, each named at the call
+fn result(
+    machine_id: &str,
+    source: &str,
+    baseline: Baseline,
+    mismatch: Vec<Mismatch>,
+    findings: Vec<Finding>,
+    rigid_at_noise: bool,
+    unexplained: Vec<String>,
+    plots: Vec<PlotData>,
+) -> DiagnosisResult {
+    let (findings, possible) = effects::split_undetermined(findings);
+    let verdict = effects::verdict(rigid_at_noise, unexplained.is_empty(), findings.len());
+    DiagnosisResult {
+        kind: "diagnosis".into(),
+        machine_id: machine_id.into(),
+        source: source.into(),
+        baseline,
+        mismatch,
+        findings,
+        possible,
+        rejected: vec![],
+        verdict,
+        unexplained,
+        plots,
+    }
+}
 
 /// Options of the series diagnoses. [`Default`] gives the documented values.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]

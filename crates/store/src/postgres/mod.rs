@@ -10,7 +10,7 @@
 //! that path is described in the README, not built.
 
 use crate::error::{Db as _, Result};
-use sqlx::postgres::{PgConnectOptions, PgPoolOptions};
+use sqlx::postgres::PgConnectOptions;
 use std::str::FromStr;
 
 type Db = sqlx::Postgres;
@@ -71,17 +71,7 @@ impl PgStore {
             .pool_size
             .unwrap_or(crate::StoreOptions::DEFAULT_PG_POOL)
             .clamp(1, crate::StoreOptions::MAX_POOL);
-        let pool = PgPoolOptions::new()
-            .max_connections(size)
-            .acquire_timeout(o.acquire_timeout)
-            .connect_with(opts)
-            .await
-            .db()?;
-        crate::migrations::migrator(dialect::MIGRATIONS)
-            .await?
-            .run(&pool)
-            .await
-            .db()?;
+        let pool = backend::connect(opts, size, &o).await?;
         Ok(PgStore { pool })
     }
 }

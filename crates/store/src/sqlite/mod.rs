@@ -6,7 +6,7 @@
 //! exclusive as it stands.
 
 use crate::error::{Db as _, Result, StoreError};
-use sqlx::sqlite::{SqliteConnectOptions, SqliteJournalMode, SqlitePoolOptions, SqliteSynchronous};
+use sqlx::sqlite::{SqliteConnectOptions, SqliteJournalMode, SqliteSynchronous};
 use std::str::FromStr;
 use std::time::Duration;
 
@@ -82,17 +82,7 @@ impl SqliteStore {
             .pool_size
             .unwrap_or(crate::StoreOptions::DEFAULT_SQLITE_POOL)
             .clamp(1, crate::StoreOptions::MAX_POOL);
-        let pool = SqlitePoolOptions::new()
-            .max_connections(if memory { 1 } else { size })
-            .acquire_timeout(o.acquire_timeout)
-            .connect_with(opts)
-            .await
-            .db()?;
-        crate::migrations::migrator(dialect::MIGRATIONS)
-            .await?
-            .run(&pool)
-            .await
-            .db()?;
+        let pool = backend::connect(opts, if memory { 1 } else { size }, &o).await?;
         Ok(SqliteStore { pool })
     }
 }

@@ -3,7 +3,7 @@
 //! sensitivity, and the verdict table.
 
 use super::{Nav, Viewer, csrf_field, machine_href, num, page, svg, verdict_badge, when, with_u};
-use crate::plots::{self, CircleTrace};
+use crate::plots;
 use maud::{Markup, html};
 use mtcal_solver::cradle::CradleResult;
 use mtcal_solver::diagnosis::{DiagnosisResult, Finding};
@@ -12,6 +12,7 @@ use mtcal_solver::positioning_check::DiagnosisDocument;
 use mtcal_solver::residuals::ResidualSummary;
 use mtcal_solver::sensitivity::SensitivityResult;
 use mtcal_solver::standards::iso230_2::{FIGURES, Iso2302};
+use mtcal_solver::standards::iso230_4::CirclePlot;
 use serde::{Deserialize, Serialize};
 
 /// One line of a verdict: a quantity checked against its limit by the decision rule
@@ -36,7 +37,7 @@ pub struct VerdictRow {
 /// polar-plot traces, or why the stored ones could not be read.
 pub struct IdentificationView<'a> {
     pub doc: &'a IdentificationResult,
-    pub circles: Result<Vec<CircleTrace>, String>,
+    pub circles: Result<Vec<CirclePlot>, String>,
     /// The range limit each error function was judged against (drawn on its panel).
     pub limits: std::collections::BTreeMap<String, f64>,
 }
@@ -46,7 +47,7 @@ impl<'a> IdentificationView<'a> {
     pub fn of(doc: &'a IdentificationResult) -> Self {
         IdentificationView {
             doc,
-            circles: Ok(doc.circles.iter().map(CircleTrace::from).collect()),
+            circles: Ok(doc.circles.clone()),
             limits: Default::default(),
         }
     }
@@ -379,8 +380,8 @@ fn residuals(rows: &[ResidualSummary]) -> Markup {
 /// all on one radial scale ([`plots::circle_step`]), each with the ISO 230-4 figures of
 /// its file and plane (`iso`): G per direction, H and the bidirectional G, and F (its
 /// maximum and minimum) when the radius is traceable.
-fn circles(all: &[CircleTrace], iso: &[mtcal_solver::standards::Iso2304]) -> Markup {
-    let mut groups: Vec<Vec<CircleTrace>> = vec![];
+fn circles(all: &[CirclePlot], iso: &[mtcal_solver::standards::Iso2304]) -> Markup {
+    let mut groups: Vec<Vec<CirclePlot>> = vec![];
     for c in all {
         match groups
             .iter_mut()
@@ -391,10 +392,7 @@ fn circles(all: &[CircleTrace], iso: &[mtcal_solver::standards::Iso2304]) -> Mar
         }
     }
     let step = plots::circle_step(all);
-    let figures = |c: &CircleTrace| {
-        iso.iter()
-            .find(|f| f.file == c.file && f.plane.to_string() == c.plane)
-    };
+    let figures = |c: &CirclePlot| iso.iter().find(|f| f.file == c.file && f.plane == c.plane);
     html! {
         section.card #circles {
             h2 { "Circle tests" }
@@ -1055,10 +1053,10 @@ mod tests {
 
     #[test]
     fn circle_tests_are_grouped_by_file_with_both_directions() {
-        let c = |dir: &str| CircleTrace {
+        let c = |dir: &str| CirclePlot {
             file: "xy.csv".into(),
             run: 1,
-            plane: "XY".into(),
+            plane: mtcal_solver::Plane::XY,
             direction: dir.into(),
             radius_mm: 50.0,
             centre_mm: [0.0, 0.0],

@@ -19,6 +19,17 @@ pub struct PointSeries {
     pub points: Vec<BarPoint>,
 }
 
+impl PointSeries {
+    /// The series `name` of the points `point` makes of `items`, in their order; an item
+    /// it makes none of (`None`) is left out.
+    pub fn of<T>(name: &str, items: &[T], point: impl Fn(&T) -> Option<BarPoint>) -> Self {
+        PointSeries {
+            name: name.to_string(),
+            points: items.iter().filter_map(point).collect(),
+        }
+    }
+}
+
 /// How x is labelled: numbers, or Unix seconds labelled as dates `YYYY-MM-DD` (with
 /// `HH:MM` when a tick falls within a day).
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
@@ -68,17 +79,13 @@ fn draw(root: &Area, c: &ErrorBarChart) -> DrawResult {
     let scaled: Vec<PointSeries> = c
         .series
         .iter()
-        .map(|s| PointSeries {
-            name: s.name.clone(),
-            points: s
-                .points
-                .iter()
-                .filter(|p| finite(p))
-                .map(|p| BarPoint {
+        .map(|s| {
+            PointSeries::of(&s.name, &s.points, |p| {
+                finite(p).then_some(BarPoint {
                     x: p.x / unit,
                     ..*p
                 })
-                .collect(),
+            })
         })
         .collect();
     let pts = || scaled.iter().flat_map(|s| s.points.iter());
@@ -165,19 +172,14 @@ pub fn unix_seconds(rfc3339: &str) -> Option<f64> {
 pub fn trend(title: &str, y_label: &str, series: &[TrendSeries]) -> String {
     let series: Vec<PointSeries> = series
         .iter()
-        .map(|s| PointSeries {
-            name: s.name.clone(),
-            points: s
-                .points
-                .iter()
-                .filter_map(|p| {
-                    Some(BarPoint {
-                        x: unix_seconds(&p.measured_at)?,
-                        y: p.value?,
-                        std: p.std,
-                    })
+        .map(|s| {
+            PointSeries::of(&s.name, &s.points, |p| {
+                Some(BarPoint {
+                    x: unix_seconds(&p.measured_at)?,
+                    y: p.value?,
+                    std: p.std,
                 })
-                .collect(),
+            })
         })
         .collect();
     error_bar_chart(&ErrorBarChart {
@@ -196,16 +198,14 @@ pub fn rotation_vectors(poses: &[PoseRow]) -> String {
     let series: Vec<PointSeries> = ["x", "y", "z"]
         .iter()
         .enumerate()
-        .map(|(i, c)| PointSeries {
-            name: format!("r{c}"),
-            points: poses
-                .iter()
-                .map(|p| BarPoint {
+        .map(|(i, c)| {
+            PointSeries::of(&format!("r{c}"), poses, |p| {
+                Some(BarPoint {
                     x: p.a_deg,
                     y: p.rotation_pooled.vector_urad[i],
                     std: Some(p.rotation_pooled.std_urad),
                 })
-                .collect(),
+            })
         })
         .collect();
     error_bar_chart(&ErrorBarChart {

@@ -13,9 +13,9 @@
 
 use super::{Area, COLORS, DrawResult, finite_points, svg};
 use mtcal_solver::diagnosis::{PlotData, PlotSeries};
+use mtcal_solver::standards::iso230_4::CirclePlot;
 use plotters::prelude::*;
 use plotters::style::text_anchor::{HPos, Pos, VPos};
-use serde::{Deserialize, Serialize};
 
 /// Size of a polar figure (a circle test's, a diagnosis's), px (module docs).
 pub const CIRCLE: (u32, u32) = (400, 440);
@@ -37,44 +37,6 @@ pub const CIRCLE_COLORS: [RGBColor; 4] = [
     RGBColor(165, 15, 21),
     RGBColor(252, 146, 114),
 ];
-
-/// One circle test as in the identification result's `circles`: radial deviation
-/// (measured − nominal radius, µm) at up to 360 angles, and the same from the fitted
-/// model.
-#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
-pub struct CircleTrace {
-    pub file: String,
-    pub run: u32,
-    /// `XY`, `XZ` or `YZ`.
-    pub plane: String,
-    /// `ccw` or `cw`.
-    pub direction: String,
-    pub radius_mm: f64,
-    pub centre_mm: [f64; 2],
-    pub feed_mm_min: f64,
-    pub start_angle_deg: f64,
-    pub angle_deg: Vec<f64>,
-    pub measured_um: Vec<f64>,
-    pub model_um: Vec<f64>,
-}
-
-impl From<&mtcal_solver::standards::iso230_4::CirclePlot> for CircleTrace {
-    fn from(c: &mtcal_solver::standards::iso230_4::CirclePlot) -> Self {
-        CircleTrace {
-            file: c.file.clone(),
-            run: u32::try_from(c.run).unwrap_or(0),
-            plane: c.plane.to_string(),
-            direction: c.direction.clone(),
-            radius_mm: c.radius_mm,
-            centre_mm: c.centre_mm,
-            feed_mm_min: c.feed_mm_min,
-            start_angle_deg: c.start_angle_deg,
-            angle_deg: c.angle_deg.clone(),
-            measured_um: c.measured_um.clone(),
-            model_um: c.model_um.clone(),
-        }
-    }
-}
 
 /// The smallest 1, 2, 2.5 or 5 × 10ᵏ not below `x` (> 0).
 pub(crate) fn nice_ceil(x: f64) -> f64 {
@@ -123,7 +85,7 @@ fn step_of<'a>(ds: impl Iterator<Item = &'a f64>) -> f64 {
 
 /// The ring step (µm) that every circle of `all` fits in: the step of the largest
 /// |deviation|, measured or modelled, of them all (module docs).
-pub fn circle_step(all: &[CircleTrace]) -> f64 {
+pub fn circle_step(all: &[CirclePlot]) -> f64 {
     step_of(
         all.iter()
             .flat_map(|c| c.measured_um.iter().chain(&c.model_um)),
@@ -141,7 +103,7 @@ pub fn nominal_mm(r: f64) -> String {
 /// thicker), with a legend; rings every `step_um` (the page's [`circle_step`]), the
 /// reference circle labelled with the nominal radius. The circles should be of one
 /// plane and radius; the title names the first.
-pub fn circle_polar(circles: &[CircleTrace], step_um: f64) -> String {
+pub fn circle_polar(circles: &[CirclePlot], step_um: f64) -> String {
     let Some(first) = circles.first() else {
         return svg(CIRCLE, "circle", |_| Err("no circle".into()));
     };
@@ -155,8 +117,7 @@ pub fn circle_polar(circles: &[CircleTrace], step_um: f64) -> String {
             });
         }
     }
-    let mut axes = first.plane.chars();
-    let (u, v) = (axes.next().unwrap_or('u'), axes.next().unwrap_or('v'));
+    let (u, v) = first.plane.axes();
     let title = format!(
         "{} {}, R {} mm, radial deviation",
         first.file,
@@ -317,7 +278,7 @@ mod tests {
     use crate::plots::inspect::{self, hex};
     use crate::plots::render_svg;
 
-    fn circle(direction: &str, sign: f64) -> CircleTrace {
+    fn circle(direction: &str, sign: f64) -> CirclePlot {
         let angle_deg: Vec<f64> = (0..360).step_by(5).map(f64::from).collect();
         // An oval: +3 µm along ±u, −3 µm along ±v (a squareness-free scale mismatch).
         let measured_um = angle_deg
@@ -328,10 +289,10 @@ mod tests {
             .iter()
             .map(|a| 2.8 * (2.0 * a.to_radians()).cos())
             .collect();
-        CircleTrace {
+        CirclePlot {
             file: "xy.csv".into(),
             run: 3,
-            plane: "XY".into(),
+            plane: mtcal_solver::Plane::XY,
             direction: direction.into(),
             radius_mm: 50.0,
             centre_mm: [0.0, 0.0],

@@ -696,13 +696,7 @@ pub fn diagnose_drift_log_with_progress(
             ));
         }
     }
-    // Findings whose parameters the data do not determine are listed as possible.
-    let (findings, possible) = effects::split_undetermined(findings);
-    let verdict = effects::verdict(
-        !outs.iter().any(needs),
-        unexplained.is_empty(),
-        findings.len(),
-    );
+    let rigid_at_noise = !outs.iter().any(needs);
 
     // Plots: measured, rigid, model against time (h), with the split marked.
     let t_h: Vec<f64> = log.t_s.iter().map(|t| (t - log.t_s[0]) / 3600.0).collect();
@@ -777,19 +771,16 @@ pub fn diagnose_drift_log_with_progress(
             })
             .collect(),
     };
-    let result = DiagnosisResult {
-        kind: "diagnosis".into(),
-        machine_id: machine_id.into(),
-        source: "drift_log".into(),
+    let result = super::result(
+        machine_id,
+        "drift_log",
         baseline,
         mismatch,
         findings,
-        possible,
-        rejected: vec![],
-        verdict,
+        rigid_at_noise,
         unexplained,
         plots,
-    };
+    );
     progress.report("done", 1.0);
     Ok((result, predictions))
 }

@@ -53,7 +53,6 @@ mod report;
 use super::SeriesOptions;
 use crate::axis::Axis;
 use crate::datasets::{PositioningRecord, PositioningRuns};
-use crate::diagnosis::effects;
 use crate::diagnosis::{Baseline, DiagnosisResult, Mismatch, Monotone, NoProgress, Progress};
 use crate::error::SolverError;
 use data::AxisData;
@@ -140,20 +139,14 @@ pub fn diagnose_positioning_with_progress(
         let _ = o.final_heldout;
     }
     mismatch.sort_by(|x: &Mismatch, y| y.share_of_misfit.total_cmp(&x.share_of_misfit));
-    // Findings whose parameters the data do not determine are listed as possible.
-    let (findings, possible) = effects::split_undetermined(findings);
-    let verdict = effects::verdict(!any_needs, unexplained.is_empty(), findings.len());
-    Ok(DiagnosisResult {
-        kind: "diagnosis".into(),
-        machine_id: machine_id.into(),
-        source: "positioning".into(),
+    Ok(super::result(
+        machine_id,
+        "positioning",
         baseline,
         mismatch,
         findings,
-        possible,
-        rejected: vec![],
-        verdict,
+        !any_needs,
         unexplained,
         plots,
-    })
+    ))
 }
