@@ -8,10 +8,12 @@
 //! writes DIR/no_temperature (the full plan at the sample rate that gives SAMPLES
 //! samples, default 300 000), DIR/logged (a logged temperature nothing follows),
 //! DIR/growth (a growth of 4 µm/K along Z following it) and DIR/growth_lag30 (the same
-//! growth through a first-order lag of 30 s).
+//! growth through a first-order lag of 30 s); and the same machine with effects of the
+//! catalogue instead, one folder each: DIR/backlash, DIR/cyclic, DIR/servo_lag,
+//! DIR/reversal_spike, DIR/thermal_drift and DIR/backlash+cyclic.
 use mtcal_formats::write_session_dir;
 use mtcal_solver::simulate::logged::{Logged, with_temperature};
-use mtcal_solver::simulate::{Plan, SimOptions, random_truth, simulate};
+use mtcal_solver::simulate::{Effect, Plan, SimOptions, random_truth, simulate};
 use std::path::Path;
 
 fn main() {
@@ -42,5 +44,35 @@ fn main() {
     for (name, how) in cases {
         write_session_dir(&dir.join(name), &with_temperature(&s, how)).expect("write");
     }
+    // The same machine with effects of the catalogue instead (time_diagnose's
+    // `TIME_DIAGNOSE_EFFECTS` sessions), one finding of each kind and two together.
+    for spec in CATALOGUE_SESSIONS {
+        let effects = spec
+            .split('+')
+            .map(|e| Effect::from_spec(e).expect("effect"))
+            .collect();
+        let with = simulate(
+            &random_truth(1),
+            &SimOptions {
+                plan: Plan::Full,
+                sample_rate_hz: samples / 2941.0,
+                effects,
+                ..Default::default()
+            },
+        )
+        .expect("simulate")
+        .session;
+        write_session_dir(&dir.join(spec), &with).expect("write");
+    }
     println!("{}: {} samples each", dir.display(), s.sample_count());
 }
+
+/// The sessions with effects of the catalogue, as `mtcal simulate --effect` takes them.
+const CATALOGUE_SESSIONS: [&str; 6] = [
+    "backlash",
+    "cyclic",
+    "servo_lag",
+    "reversal_spike",
+    "thermal_drift",
+    "backlash+cyclic",
+];
