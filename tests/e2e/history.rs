@@ -100,7 +100,7 @@ async fn history_and_trends_return_what_was_stored() {
     );
     let summary = app.client.summary_trend("VMC-A").await.unwrap();
     for (p, doc) in summary.points.iter().zip(&docs) {
-        assert_eq!(p.ec0y_urad, doc.squareness["EC0Y"].value_urad);
+        assert_eq!(p.summary.ec0y_urad, doc.squareness["EC0Y"].value_urad);
         // Each squareness point carries the check's standard uncertainty (the ±2σ bars of
         // the machine page's squareness plot).
         for (name, u) in [
@@ -115,7 +115,7 @@ async fn history_and_trends_return_what_was_stored() {
                 "{name}: {got} vs {want}"
             );
         }
-        assert_eq!(p.residual_rms_um, Some(doc.fit.residual_rms_um));
+        assert_eq!(p.summary.residual_rms_um, Some(doc.fit.residual_rms_um));
     }
     // The generator drifts EC0Y by 3·rate µrad per quarter (rate ≥ 0.5): the identified
     // squareness follows within its uncertainty.

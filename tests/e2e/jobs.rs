@@ -186,7 +186,7 @@ async fn diagnose_job_gives_the_library_diagnosis() {
     assert_eq!(stored.meta.machine_id, "VMC-D");
     assert_eq!(stored.document, doc);
     assert_eq!(
-        stored.meta.scalars.residual_rms_um,
+        stored.meta.scalars.summary.residual_rms_um,
         Some(local.baseline.residual_rms_um)
     );
     // In the machine's history of that kind, not among its identifications.

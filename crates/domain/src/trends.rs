@@ -12,7 +12,7 @@ use mtcal_solver::comparison::{self, CheckFunctions, Value};
 pub use mtcal_solver::comparison::{Drift, TermDiff};
 use mtcal_solver::terms::Term;
 use mtcal_solver::tolerance::Figure;
-use mtcal_store::{ResultMeta, ResultScalars, SkippedRow, Store};
+use mtcal_store::{ResultMeta, ResultScalars, ResultSummary, SkippedRow, Store};
 use serde::{Deserialize, Serialize};
 use std::collections::BTreeMap;
 
@@ -30,12 +30,7 @@ impl CheckFunctions for Stored<'_> {
         measured(self.0, axis)
     }
     fn squareness(&self, name: &str) -> Option<f64> {
-        match name {
-            "EC0Y" => self.0.ec0y_urad,
-            "EB0Z" => self.0.eb0z_urad,
-            "EA0Z" => self.0.ea0z_urad,
-            _ => None,
-        }
+        self.0.summary.squareness(name).flatten()
     }
     /// Stored as a 1 × 1 covariance under the squareness's name.
     fn squareness_std(&self, name: &str) -> Option<f64> {
@@ -282,12 +277,9 @@ fn evaluate_term(
 pub struct SummaryPoint {
     pub result_id: String,
     pub measured_at: String,
-    pub residual_rms_um: Option<f64>,
-    pub condition_number: Option<f64>,
-    pub rank: Option<i64>,
-    pub ec0y_urad: Option<f64>,
-    pub eb0z_urad: Option<f64>,
-    pub ea0z_urad: Option<f64>,
+    /// The result's summary figures, as stored.
+    #[serde(flatten)]
+    pub summary: ResultSummary,
     /// Standard uncertainties of the three squareness errors, µrad (from the check's
     /// stored covariance; null where none is stored).
     pub ec0y_u_urad: Option<f64>,
@@ -320,12 +312,7 @@ pub async fn summary_trend(store: &dyn Store, id: &str) -> Result<SummaryTrend, 
             ea0z_u_urad: squareness_u(&r.scalars, "EA0Z"),
             result_id: r.id,
             measured_at: r.measured_at,
-            residual_rms_um: r.scalars.residual_rms_um,
-            condition_number: r.scalars.condition_number,
-            rank: r.scalars.rank,
-            ec0y_urad: r.scalars.ec0y_urad,
-            eb0z_urad: r.scalars.eb0z_urad,
-            ea0z_urad: r.scalars.ea0z_urad,
+            summary: r.scalars.summary,
         })
         .collect();
     Ok(SummaryTrend {
@@ -344,8 +331,11 @@ mod tests {
     #[test]
     fn stored_scalars_are_read_under_their_names() {
         let mut s = ResultScalars {
-            ec0y_urad: Some(5.0),
-            ea0z_urad: Some(-2.0),
+            summary: ResultSummary {
+                ec0y_urad: Some(5.0),
+                ea0z_urad: Some(-2.0),
+                ..Default::default()
+            },
             ..Default::default()
         };
         s.measured_travel_mm.insert("X".into(), [-50.0, 50.0]);
@@ -353,8 +343,8 @@ mod tests {
         s.term_covariance.insert("EXX".into(), vec![vec![1e-6]]);
         s.term_covariance.insert("EC0Y".into(), vec![vec![0.04]]);
         let mut l = s.clone();
-        l.ec0y_urad = Some(6.5);
-        l.ea0z_urad = Some(-2.5);
+        l.summary.ec0y_urad = Some(6.5);
+        l.summary.ea0z_urad = Some(-2.5);
         l.term_covariance.insert("EA0Z".into(), vec![vec![0.09]]);
         let v = value(&s, "EXX", 50.0).unwrap();
         assert!((v.value - 0.5).abs() < 1e-12 && (v.u.unwrap() - 0.05).abs() < 1e-12);

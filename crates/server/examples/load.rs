@@ -244,12 +244,14 @@ fn seeded_scalars(rng: &mut StdRng, quarter: usize) -> ResultScalars {
         );
     }
     ResultScalars {
-        residual_rms_um: Some(0.1 + 0.01 * rng.random::<f64>()),
-        condition_number: Some(27.0),
-        rank: Some(39),
-        ec0y_urad: Some(10.0 + quarter as f64 * 0.3),
-        eb0z_urad: None,
-        ea0z_urad: None,
+        summary: mtcal_store::ResultSummary {
+            residual_rms_um: Some(0.1 + 0.01 * rng.random::<f64>()),
+            condition_number: Some(27.0),
+            rank: Some(39),
+            ec0y_urad: Some(10.0 + quarter as f64 * 0.3),
+            eb0z_urad: None,
+            ea0z_urad: None,
+        },
         measured_travel_mm: ["X", "Y", "Z"]
             .map(|a| (a.to_string(), [-100.0, 100.0]))
             .into(),

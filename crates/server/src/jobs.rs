@@ -18,7 +18,7 @@ use mtcal_solver::identification::{self, IdentificationResult, IdentifyOptions, 
 use mtcal_solver::positioning_check::{DiagnosisDocument, check_positioning};
 use mtcal_solver::sensitivity::{self, SensitivityRequest};
 use mtcal_solver::standards::{self, Standards, StandardsResult};
-use mtcal_store::{Dataset, Figure, Machine, ResultScalars};
+use mtcal_store::{Dataset, Figure, Machine, ResultScalars, ResultSummary};
 use serde::{Deserialize, Serialize};
 use serde_json::Value;
 use utoipa::ToSchema;
@@ -343,7 +343,10 @@ pub fn figures(st: &Standards) -> Vec<Figure> {
 /// The scalar columns of a diagnosis: the rigid model's residual RMS (baseline).
 pub fn diagnosis_scalars(r: &DiagnosisResult) -> ResultScalars {
     ResultScalars {
-        residual_rms_um: Some(r.baseline.residual_rms_um).filter(|v| v.is_finite()),
+        summary: ResultSummary {
+            residual_rms_um: Some(r.baseline.residual_rms_um).filter(|v| v.is_finite()),
+            ..ResultSummary::default()
+        },
         ..ResultScalars::default()
     }
 }
@@ -352,12 +355,14 @@ pub fn diagnosis_scalars(r: &DiagnosisResult) -> ResultScalars {
 pub fn identification_scalars(r: &IdentificationResult) -> ResultScalars {
     let sq = |n: &str| r.squareness.get(n).and_then(|s| s.value_urad);
     ResultScalars {
-        residual_rms_um: Some(r.fit.residual_rms_um),
-        condition_number: Some(r.observability.condition_number).filter(|c| c.is_finite()),
-        rank: Some(r.observability.rank as i64),
-        ec0y_urad: sq("EC0Y"),
-        eb0z_urad: sq("EB0Z"),
-        ea0z_urad: sq("EA0Z"),
+        summary: ResultSummary {
+            residual_rms_um: Some(r.fit.residual_rms_um),
+            condition_number: Some(r.observability.condition_number).filter(|c| c.is_finite()),
+            rank: Some(r.observability.rank as i64),
+            ec0y_urad: sq("EC0Y"),
+            eb0z_urad: sq("EB0Z"),
+            ea0z_urad: sq("EA0Z"),
+        },
         term_coefficients: r
             .terms
             .iter()

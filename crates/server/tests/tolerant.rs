@@ -17,7 +17,10 @@ fn result(measured_at: &str, exx: f64) -> NewResult {
         measured_at: measured_at.into(),
         document: json!({"kind": "identification"}),
         scalars: ResultScalars {
-            residual_rms_um: Some(0.1),
+            summary: mtcal_store::ResultSummary {
+                residual_rms_um: Some(0.1),
+                ..Default::default()
+            },
             term_coefficients: [("EXX".to_string(), vec![exx, 0.0])].into(),
             measured_travel_mm: [("X".to_string(), [-100.0, 100.0])].into(),
             ..ResultScalars::default()

@@ -170,12 +170,9 @@ pub struct NewJob {
 #[derive(Debug, Clone, Default, PartialEq, Serialize, Deserialize)]
 #[cfg_attr(feature = "openapi", derive(utoipa::ToSchema))]
 pub struct ResultScalars {
-    pub residual_rms_um: Option<f64>,
-    pub condition_number: Option<f64>,
-    pub rank: Option<i64>,
-    pub ec0y_urad: Option<f64>,
-    pub eb0z_urad: Option<f64>,
-    pub ea0z_urad: Option<f64>,
+    /// Residual, conditioning, rank and squareness (their own JSON fields).
+    #[serde(flatten)]
+    pub summary: ResultSummary,
     /// Monomial coefficients of the identifiable terms (element i ↔ q^(i+1)).
     pub term_coefficients: BTreeMap<String, Vec<f64>>,
     /// Travel each axis measured, [min, max] mm, by axis letter: the terms are determined
@@ -186,6 +183,37 @@ pub struct ResultScalars {
     /// variance of each squareness value as a 1 × 1 matrix under its name.
     #[serde(default)]
     pub term_covariance: BTreeMap<String, Vec<Vec<f64>>>,
+}
+
+/// The summary figures of an identification, each in its own column (absent for other
+/// kinds of result): what the summary trend shows over a machine's checks.
+#[derive(Debug, Clone, Copy, Default, PartialEq, Serialize, Deserialize)]
+#[cfg_attr(feature = "openapi", derive(utoipa::ToSchema))]
+pub struct ResultSummary {
+    /// RMS of the fit's residual, µm.
+    pub residual_rms_um: Option<f64>,
+    /// Condition number and rank of the identification (its observability's).
+    pub condition_number: Option<f64>,
+    pub rank: Option<i64>,
+    /// Squareness error EC0Y, µrad.
+    pub ec0y_urad: Option<f64>,
+    /// Squareness error EB0Z, µrad.
+    pub eb0z_urad: Option<f64>,
+    /// Squareness error EA0Z, µrad.
+    pub ea0z_urad: Option<f64>,
+}
+
+impl ResultSummary {
+    /// The stored value of squareness `name` (`EC0Y`, `EB0Z`, `EA0Z`; `None` inside where
+    /// the result has none); `None` when `name` is not one of them.
+    pub fn squareness(&self, name: &str) -> Option<Option<f64>> {
+        match name {
+            "EC0Y" => Some(self.ec0y_urad),
+            "EB0Z" => Some(self.eb0z_urad),
+            "EA0Z" => Some(self.ea0z_urad),
+            _ => None,
+        }
+    }
 }
 
 /// One named scalar figure of a result (the standards' figures, e.g. `iso230_2.X.E_um`,

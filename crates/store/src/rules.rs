@@ -122,10 +122,10 @@ pub fn valid_figure_name(name: &str) -> bool {
 /// result is refused (nothing stored) instead.
 pub fn check_scalars(s: &ResultScalars) -> Result<()> {
     let named = [
-        ("residual_rms_um", s.residual_rms_um),
-        ("ec0y_urad", s.ec0y_urad),
-        ("eb0z_urad", s.eb0z_urad),
-        ("ea0z_urad", s.ea0z_urad),
+        ("residual_rms_um", s.summary.residual_rms_um),
+        ("ec0y_urad", s.summary.ec0y_urad),
+        ("eb0z_urad", s.summary.eb0z_urad),
+        ("ea0z_urad", s.summary.ea0z_urad),
     ];
     for (name, v) in named {
         if v.is_some_and(|v| !v.is_finite()) {
@@ -148,12 +148,7 @@ pub fn check_scalars(s: &ResultScalars) -> Result<()> {
     }
     for (term, cov) in &s.term_covariance {
         // A squareness value's variance is a 1 × 1 covariance.
-        let squareness = match term.as_str() {
-            "EC0Y" => Some(s.ec0y_urad),
-            "EB0Z" => Some(s.eb0z_urad),
-            "EA0Z" => Some(s.ea0z_urad),
-            _ => None,
-        };
+        let squareness = s.summary.squareness(term);
         let n = match squareness {
             Some(v) => usize::from(v.is_some()),
             None => s.term_coefficients.get(term).map_or(0, Vec::len),
@@ -232,7 +227,7 @@ mod tests {
         let e = check_scalars(&s).unwrap_err().to_string();
         assert!(e.contains("term EXX"), "{e}");
         s.term_coefficients.clear();
-        s.ec0y_urad = Some(f64::INFINITY);
+        s.summary.ec0y_urad = Some(f64::INFINITY);
         assert!(
             check_scalars(&s)
                 .unwrap_err()

@@ -101,7 +101,10 @@ fn result(machine: &str, at: &str, ec0y: f64) -> NewResult {
         measured_at: at.into(),
         document: json!({"kind": "identification", "ec0y": ec0y}),
         scalars: ResultScalars {
-            ec0y_urad: Some(ec0y),
+            summary: ResultSummary {
+                ec0y_urad: Some(ec0y),
+                ..Default::default()
+            },
             term_coefficients: BTreeMap::from([("EXX".into(), vec![0.01, 0.0, 0.0])]),
             ..Default::default()
         },
@@ -329,7 +332,10 @@ async fn results_in_time_order_with_baseline(s: &dyn Store) {
     // Imports are born succeeded: nothing to claim.
     assert!(s.claim_job("w", 60_000).await.unwrap().is_none());
     let list = s.list_results("M1", "identification").await.unwrap();
-    let ec: Vec<f64> = list.iter().map(|r| r.scalars.ec0y_urad.unwrap()).collect();
+    let ec: Vec<f64> = list
+        .iter()
+        .map(|r| r.scalars.summary.ec0y_urad.unwrap())
+        .collect();
     assert_eq!(ec, [1.0, 2.0, 3.0]);
     let pairs = s.baseline_pairs("identification").await.unwrap();
     assert_eq!(pairs.len(), 1);

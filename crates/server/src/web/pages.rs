@@ -251,10 +251,10 @@ pub struct MachineParams {
 fn summary(r: &ResultMeta) -> String {
     let sc = &r.scalars;
     let mut parts = vec![];
-    if let Some(v) = sc.residual_rms_um {
+    if let Some(v) = sc.summary.residual_rms_um {
         parts.push(format!("residual {} µm", views::num(v)));
     }
-    if let Some(k) = sc.rank {
+    if let Some(k) = sc.summary.rank {
         parts.push(format!("rank {k}"));
     }
     parts.join(", ")
@@ -415,9 +415,9 @@ pub async fn machine(
     let summary = domain_trends::summary_trend(app.store.as_ref(), &id).await?;
     type Pick = fn(&domain_trends::SummaryPoint) -> (Option<f64>, Option<f64>);
     let squareness = [
-        ("EC0Y", (|p| (p.ec0y_urad, p.ec0y_u_urad)) as Pick),
-        ("EB0Z", |p| (p.eb0z_urad, p.eb0z_u_urad)),
-        ("EA0Z", |p| (p.ea0z_urad, p.ea0z_u_urad)),
+        ("EC0Y", (|p| (p.summary.ec0y_urad, p.ec0y_u_urad)) as Pick),
+        ("EB0Z", |p| (p.summary.eb0z_urad, p.eb0z_u_urad)),
+        ("EA0Z", |p| (p.summary.ea0z_urad, p.ea0z_u_urad)),
     ]
     .iter()
     .map(|(name, f)| TrendSeries {
@@ -637,15 +637,11 @@ pub async fn compare(
     let side = |r: &ResultMeta, verdict: Option<String>| compare::Side {
         result_id: r.id.clone(),
         measured_at: r.measured_at.clone(),
-        residual_rms_um: r.scalars.residual_rms_um,
-        rank: r.scalars.rank,
+        residual_rms_um: r.scalars.summary.residual_rms_um,
+        rank: r.scalars.summary.rank,
         verdict,
     };
-    let sq = |r: &ResultMeta, name: &str| match name {
-        "EC0Y" => r.scalars.ec0y_urad,
-        "EB0Z" => r.scalars.eb0z_urad,
-        _ => r.scalars.ea0z_urad,
-    };
+    let sq = |r: &ResultMeta, name: &str| r.scalars.summary.squareness(name).flatten();
     let page = compare::ComparePage {
         machine_id: d.machine_id.clone(),
         a: side(&d.baseline, va),
