@@ -204,15 +204,14 @@ async fn story(url: &str) {
         "M2: (0.03 − 0.01)·50"
     );
     assert_maintained(store.as_ref(), "after a bulk import and a refresh").await;
-    store
-        .update_tolerance(
-            p["id"].as_str().unwrap(),
-            &json!({"drift_um": 2.0}),
-            None,
-            None,
-        )
+    let mut profile = store
+        .get_tolerance(p["id"].as_str().unwrap())
         .await
         .unwrap();
+    profile.limits = json!({"drift_um": 2.0});
+    profile.webhook_url = None;
+    profile.webhook_secret = None;
+    store.update_tolerance(&profile).await.unwrap();
     assert_eq!(
         refresh_all(store.as_ref()).await.unwrap().recomputed,
         2,

@@ -121,9 +121,9 @@ impl This {
         id: &str,
         mark: &'static str,
         done_column: &str,
-        by: &str,
-        reason: &str,
+        why: SetAside<'_>,
     ) -> Result<Dataset> {
+        let SetAside { by, reason } = why;
         crate::text::check_record(by, reason)?;
         let mut tx = self.pool.begin().await.db()?;
         // Written first (a read before a write in one transaction would deadlock SQLite
@@ -671,27 +671,20 @@ impl Store for This {
         })
     }
 
-    fn exclude_dataset<'a>(
-        &'a self,
-        id: &'a str,
-        by: &'a str,
-        reason: &'a str,
-    ) -> StoreFuture<'a, Dataset> {
+    fn exclude_dataset<'a>(&'a self, id: &'a str, why: SetAside<'a>) -> StoreFuture<'a, Dataset> {
         Box::pin(self.set_aside(
             id,
             "UPDATE datasets SET excluded_at = $2, excluded_by = $3, excluded_reason = $4 \
              WHERE id = $1 AND excluded_at IS NULL",
             "excluded_at",
-            by,
-            reason,
+            why,
         ))
     }
 
     fn delete_dataset_files<'a>(
         &'a self,
         id: &'a str,
-        by: &'a str,
-        reason: &'a str,
+        why: SetAside<'a>,
     ) -> StoreFuture<'a, Dataset> {
         // Every right-hand side reads the row as it was: an earlier exclusion is kept.
         Box::pin(self.set_aside(
@@ -702,8 +695,7 @@ impl Store for This {
              excluded_reason = CASE WHEN excluded_at IS NULL THEN $4 ELSE excluded_reason END \
              WHERE id = $1 AND deleted_at IS NULL",
             "deleted_at",
-            by,
-            reason,
+            why,
         ))
     }
 
@@ -834,13 +826,9 @@ impl Store for This {
         })
     }
 
-    fn exclude_result<'a>(
-        &'a self,
-        id: &'a str,
-        by: &'a str,
-        reason: &'a str,
-    ) -> StoreFuture<'a, ResultMeta> {
+    fn exclude_result<'a>(&'a self, id: &'a str, why: SetAside<'a>) -> StoreFuture<'a, ResultMeta> {
         Box::pin(async move {
+            let SetAside { by, reason } = why;
             crate::text::check_record(by, reason)?;
             run!(
                 execute(&self.pool),
@@ -1271,26 +1259,23 @@ impl Store for This {
 
     fn update_tolerance<'a>(
         &'a self,
-        id: &'a str,
-        limits: &'a serde_json::Value,
-        webhook_url: Option<&'a str>,
-        webhook_secret: Option<&'a str>,
+        p: &'a ToleranceProfile,
     ) -> StoreFuture<'a, ToleranceProfile> {
         Box::pin(async move {
             let done = run!(
                 execute(&self.pool),
                 "UPDATE tolerance_profiles SET limits = $2, webhook_url = $3, updated_at = $4, \
                  webhook_secret = $5 WHERE id = $1",
-                id,
-                serde_json::to_string(limits).db()?,
-                webhook_url,
+                &p.id,
+                serde_json::to_string(&p.limits).db()?,
+                &p.webhook_url,
                 now_rfc3339(),
-                webhook_secret
+                &p.webhook_secret
             )?;
             if done.rows_affected() == 0 {
-                return Err(StoreError::NotFound(format!("tolerance profile {id}")));
+                return Err(StoreError::NotFound(format!("tolerance profile {}", p.id)));
             }
-            self.get_tolerance(id).await
+            self.get_tolerance(&p.id).await
         })
     }
 

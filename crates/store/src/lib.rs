@@ -84,12 +84,7 @@ pub trait Store: Queue {
     /// later from it is excluded as it lands. Excluding an excluded dataset keeps the
     /// first record. A job on it that is queued or running: [`StoreError::Conflict`]
     /// naming the job (nothing changed).
-    fn exclude_dataset<'a>(
-        &'a self,
-        id: &'a str,
-        by: &'a str,
-        reason: &'a str,
-    ) -> StoreFuture<'a, Dataset>;
+    fn exclude_dataset<'a>(&'a self, id: &'a str, why: SetAside<'a>) -> StoreFuture<'a, Dataset>;
     /// Deletes a dataset's raw bytes: the files' content is emptied, the dataset row and
     /// its files' names, sizes and checksums stay as a tombstone recorded with who, when
     /// and why. The dataset (its results with it) is excluded first with the same record
@@ -98,8 +93,7 @@ pub trait Store: Queue {
     fn delete_dataset_files<'a>(
         &'a self,
         id: &'a str,
-        by: &'a str,
-        reason: &'a str,
+        why: SetAside<'a>,
     ) -> StoreFuture<'a, Dataset>;
 
     // Results.
@@ -136,12 +130,7 @@ pub trait Store: Queue {
     /// Excludes a result from the history (kept, readable by id, recorded with who, when
     /// and why; left out of lists, trends and drift). Excluding an excluded result keeps
     /// the first record.
-    fn exclude_result<'a>(
-        &'a self,
-        id: &'a str,
-        by: &'a str,
-        reason: &'a str,
-    ) -> StoreFuture<'a, ResultMeta>;
+    fn exclude_result<'a>(&'a self, id: &'a str, why: SetAside<'a>) -> StoreFuture<'a, ResultMeta>;
 
     // The fleet's drift, maintained by the service.
     /// Stores a machine's drift unless the stored row was computed from a later read
@@ -182,14 +171,10 @@ pub trait Store: Queue {
     /// Every profile, by scope then target (profiles are few: one per machine or tag at
     /// most).
     fn list_tolerances(&self) -> StoreFuture<'_, Vec<ToleranceProfile>>;
-    /// Replaces a profile's limits and webhook (its URL and the key of its signatures).
-    fn update_tolerance<'a>(
-        &'a self,
-        id: &'a str,
-        limits: &'a serde_json::Value,
-        webhook_url: Option<&'a str>,
-        webhook_secret: Option<&'a str>,
-    ) -> StoreFuture<'a, ToleranceProfile>;
+    /// Replaces the limits and the webhook (its URL and the key of its signatures) of the
+    /// stored profile `p.id` with `p`'s; its scope, target and creation stay as stored.
+    fn update_tolerance<'a>(&'a self, p: &'a ToleranceProfile)
+    -> StoreFuture<'a, ToleranceProfile>;
     fn delete_tolerance<'a>(&'a self, id: &'a str) -> StoreFuture<'a, ()>;
 
     // Drift alerts.

@@ -358,9 +358,27 @@ async fn results_in_time_order_with_baseline(s: &dyn Store) {
     );
     // Excluding the chosen baseline: the pair falls back to the first result; excluding
     // the latest: the latest left becomes it.
-    let ex = s.exclude_result(&b, "key k1", "wrong probe").await.unwrap();
+    let ex = s
+        .exclude_result(
+            &b,
+            SetAside {
+                by: "key k1",
+                reason: "wrong probe",
+            },
+        )
+        .await
+        .unwrap();
     assert_eq!(ex.excluded.as_ref().unwrap().reason, "wrong probe");
-    let again = s.exclude_result(&b, "key k2", "again").await.unwrap();
+    let again = s
+        .exclude_result(
+            &b,
+            SetAside {
+                by: "key k2",
+                reason: "again",
+            },
+        )
+        .await
+        .unwrap();
     assert_eq!(again.excluded, ex.excluded, "the first record is kept");
     let list = s.list_results("M1", "identification").await.unwrap();
     assert_eq!(list.len(), 2);
@@ -370,14 +388,29 @@ async fn results_in_time_order_with_baseline(s: &dyn Store) {
         (p.baseline.id.as_str(), p.latest.id.as_str(), p.results),
         (early.id.as_str(), late.id.as_str(), 2)
     );
-    s.exclude_result(&late.id, "key k1", "bad").await.unwrap();
+    s.exclude_result(
+        &late.id,
+        SetAside {
+            by: "key k1",
+            reason: "bad",
+        },
+    )
+    .await
+    .unwrap();
     let p = &s.baseline_pairs("identification").await.unwrap()[0];
     assert_eq!((p.latest.id.as_str(), p.results), (early.id.as_str(), 1));
     // Still readable by id, with the record.
     let kept = s.get_result(&late.id).await.unwrap();
     assert_eq!(kept.meta.excluded.unwrap().by, "key k1");
     assert!(matches!(
-        s.exclude_result("res_nope", "k", "r").await,
+        s.exclude_result(
+            "res_nope",
+            SetAside {
+                by: "k",
+                reason: "r"
+            }
+        )
+        .await,
         Err(StoreError::NotFound(_))
     ));
 }
@@ -660,12 +693,12 @@ async fn tolerance_profiles_one_per_target_and_alerts_acknowledged_once(s: &dyn 
         ]
     );
     let u = s
-        .update_tolerance(
-            "tol_2",
-            &json!({"drift_um": 3.0}),
-            Some("http://127.0.0.1:9/hook"),
-            Some("whsec_0123456789abcdef"),
-        )
+        .update_tolerance(&ToleranceProfile {
+            limits: json!({"drift_um": 3.0}),
+            webhook_url: Some("http://127.0.0.1:9/hook".into()),
+            webhook_secret: Some("whsec_0123456789abcdef".into()),
+            ..s.get_tolerance("tol_2").await.unwrap()
+        })
         .await
         .unwrap();
     assert_eq!(u.limits, json!({"drift_um": 3.0}));
@@ -679,7 +712,11 @@ async fn tolerance_profiles_one_per_target_and_alerts_acknowledged_once(s: &dyn 
         "a webhook secret is never printed or serialised"
     );
     assert!(matches!(
-        s.update_tolerance("nope", &json!({}), None, None).await,
+        s.update_tolerance(&ToleranceProfile {
+            id: "nope".into(),
+            ..u.clone()
+        })
+        .await,
         Err(StoreError::NotFound(_))
     ));
     s.delete_tolerance("tol_4").await.unwrap();
@@ -852,9 +889,15 @@ async fn fleet_page_puts_alerted_machines_first_then_filters_sorts_and_counts(s:
         .import_result(cradle("2026-03-01T00:00:00Z"))
         .await
         .unwrap();
-    s.exclude_result(&later.id, "key k1 (ops)", "probe dropped")
-        .await
-        .unwrap();
+    s.exclude_result(
+        &later.id,
+        SetAside {
+            by: "key k1 (ops)",
+            reason: "probe dropped",
+        },
+    )
+    .await
+    .unwrap();
     let q = |sort, site: Option<&str>, tag: Option<&str>| FleetPageQuery {
         site: site.map(Into::into),
         tag: tag.map(Into::into),
@@ -1215,9 +1258,15 @@ async fn sqlite_deleted_dataset_bytes_leave_the_disk() {
         (has(b"small-marker-7f3a"), has(b"big-12345;"))
     };
     assert_eq!(on_disk(), (true, true), "the scan reads the data");
-    s.delete_dataset_files(&d.id, "key k", "retention")
-        .await
-        .unwrap();
+    s.delete_dataset_files(
+        &d.id,
+        SetAside {
+            by: "key k",
+            reason: "retention",
+        },
+    )
+    .await
+    .unwrap();
     assert_eq!(on_disk(), (false, false));
 }
 
@@ -1259,7 +1308,13 @@ async fn datasets_excluded_with_their_results_then_bytes_deleted_under_a_tombsto
         .unwrap();
     // One of d1's results was excluded on its own before: it keeps its own record.
     let own = s
-        .exclude_result(&r1b.id, "key k0", "typo")
+        .exclude_result(
+            &r1b.id,
+            SetAside {
+                by: "key k0",
+                reason: "typo",
+            },
+        )
         .await
         .unwrap()
         .excluded;
@@ -1274,8 +1329,22 @@ async fn datasets_excluded_with_their_results_then_bytes_deleted_under_a_tombsto
         .await
         .unwrap();
     for refused in [
-        s.exclude_dataset(&d2.id, "key k1", "r").await,
-        s.delete_dataset_files(&d2.id, "key k1", "r").await,
+        s.exclude_dataset(
+            &d2.id,
+            SetAside {
+                by: "key k1",
+                reason: "r",
+            },
+        )
+        .await,
+        s.delete_dataset_files(
+            &d2.id,
+            SetAside {
+                by: "key k1",
+                reason: "r",
+            },
+        )
+        .await,
     ] {
         match refused {
             Err(StoreError::Conflict(m)) => assert!(m.contains(&job.id), "{m}"),
@@ -1288,7 +1357,13 @@ async fn datasets_excluded_with_their_results_then_bytes_deleted_under_a_tombsto
 
     // Excluding d1: recorded, and its results excluded with the same record.
     let x = s
-        .exclude_dataset(&d1.id, "key k1", "wrong probe")
+        .exclude_dataset(
+            &d1.id,
+            SetAside {
+                by: "key k1",
+                reason: "wrong probe",
+            },
+        )
         .await
         .unwrap();
     let rec = x.excluded.clone().unwrap();
@@ -1308,7 +1383,16 @@ async fn datasets_excluded_with_their_results_then_bytes_deleted_under_a_tombsto
         std::slice::from_ref(&r2.id)
     );
     // Again: the first record is kept.
-    let again = s.exclude_dataset(&d1.id, "key k2", "again").await.unwrap();
+    let again = s
+        .exclude_dataset(
+            &d1.id,
+            SetAside {
+                by: "key k2",
+                reason: "again",
+            },
+        )
+        .await
+        .unwrap();
     assert_eq!(again.excluded, Some(rec.clone()));
     // Listings: the excluded one only when asked for.
     let listed = |all| async move {
@@ -1362,7 +1446,13 @@ async fn datasets_excluded_with_their_results_then_bytes_deleted_under_a_tombsto
     // Deleting d1's bytes: a tombstone (files named, sized and summed), the first
     // exclusion kept, the bytes gone.
     let t = s
-        .delete_dataset_files(&d1.id, "key admin", "retention")
+        .delete_dataset_files(
+            &d1.id,
+            SetAside {
+                by: "key admin",
+                reason: "retention",
+            },
+        )
         .await
         .unwrap();
     let del = t.deleted.clone().unwrap();
@@ -1386,7 +1476,13 @@ async fn datasets_excluded_with_their_results_then_bytes_deleted_under_a_tombsto
         }
     }
     let again = s
-        .delete_dataset_files(&d1.id, "key other", "again")
+        .delete_dataset_files(
+            &d1.id,
+            SetAside {
+                by: "key other",
+                reason: "again",
+            },
+        )
         .await
         .unwrap();
     assert_eq!(again.deleted, Some(del));
@@ -1397,7 +1493,13 @@ async fn datasets_excluded_with_their_results_then_bytes_deleted_under_a_tombsto
     // Deleting d2 (not excluded, its job cancelled): excluded and deleted with one
     // record, its result with it; d2's bytes are kept by the other datasets' files.
     let t2 = s
-        .delete_dataset_files(&d2.id, "key admin", "wrong machine")
+        .delete_dataset_files(
+            &d2.id,
+            SetAside {
+                by: "key admin",
+                reason: "wrong machine",
+            },
+        )
         .await
         .unwrap();
     assert_eq!(t2.excluded, t2.deleted);
@@ -1416,11 +1518,25 @@ async fn datasets_excluded_with_their_results_then_bytes_deleted_under_a_tombsto
         b"bad probe"
     );
     assert!(matches!(
-        s.exclude_dataset("ds_nope", "k", "r").await,
+        s.exclude_dataset(
+            "ds_nope",
+            SetAside {
+                by: "k",
+                reason: "r"
+            }
+        )
+        .await,
         Err(StoreError::NotFound(_))
     ));
     assert!(matches!(
-        s.delete_dataset_files("ds_nope", "k", "r").await,
+        s.delete_dataset_files(
+            "ds_nope",
+            SetAside {
+                by: "k",
+                reason: "r"
+            }
+        )
+        .await,
         Err(StoreError::NotFound(_))
     ));
 }

@@ -306,10 +306,8 @@ pub async fn exclude(
     Path(id): Path<String>,
     ApiJson(body): ApiJson<Reason>,
 ) -> Result<Json<Dataset>, ApiError> {
-    let (by, reason) = body.recorded(&key)?;
-    let d = s.store.exclude_dataset(&id, &by, reason).await?;
-    mtcal_domain::fleet::refresh_machine(s.store.as_ref(), &d.machine_id).await?;
-    Ok(Json(d))
+    let why = body.recorded(&key)?;
+    set_aside(&s, s.store.exclude_dataset(&id, why.set_aside()).await?).await
 }
 
 /// Deletes a dataset's raw bytes (admin: irreversible, unlike an exclusion). The dataset
@@ -328,8 +326,17 @@ pub async fn delete_files(
     Path(id): Path<String>,
     ApiJson(body): ApiJson<Reason>,
 ) -> Result<Json<Dataset>, ApiError> {
-    let (by, reason) = body.recorded(&key)?;
-    let d = s.store.delete_dataset_files(&id, &by, reason).await?;
+    let why = body.recorded(&key)?;
+    set_aside(
+        &s,
+        s.store.delete_dataset_files(&id, why.set_aside()).await?,
+    )
+    .await
+}
+
+/// The answer to a dataset set aside (excluded, or its bytes deleted), once its machine's
+/// fleet row is refreshed: the dataset's results no longer count for the drift.
+async fn set_aside(s: &AppState, d: Dataset) -> Result<Json<Dataset>, ApiError> {
     mtcal_domain::fleet::refresh_machine(s.store.as_ref(), &d.machine_id).await?;
     Ok(Json(d))
 }

@@ -8,7 +8,7 @@ use axum::Json;
 use axum::extract::{Path, State};
 use mtcal_domain::history;
 pub use mtcal_domain::history::{DiffQuery, ResultDiff};
-use mtcal_store::{Figure, ResultMeta, SkippedRow, StoredResult};
+use mtcal_store::{Figure, ResultMeta, SetAside, SkippedRow, StoredResult};
 use serde::{Deserialize, Serialize};
 use utoipa::{IntoParams, ToSchema};
 
@@ -134,14 +134,33 @@ impl Reason {
 
     /// The reason trimmed, checked (1 to 1000 characters), with who gives it: `key ID
     /// (LABEL)`, as every exclusion and deletion records it.
-    pub fn recorded(&self, key: &mtcal_store::ApiKey) -> Result<(String, &str), ApiError> {
+    pub fn recorded(&self, key: &mtcal_store::ApiKey) -> Result<Recorded<'_>, ApiError> {
         let reason = self.reason.trim();
         if reason.is_empty() || reason.chars().count() > 1000 {
             return Err(ApiError::InvalidRequest(
                 "reason: say why, in 1 to 1000 characters".into(),
             ));
         }
-        Ok((format!("key {} ({})", key.id, key.label), reason))
+        Ok(Recorded {
+            by: format!("key {} ({})", key.id, key.label),
+            reason,
+        })
+    }
+}
+
+/// A checked reason with who gives it ([`Reason::recorded`]).
+pub struct Recorded<'a> {
+    by: String,
+    reason: &'a str,
+}
+
+impl Recorded<'_> {
+    /// The record as the store takes it.
+    pub fn set_aside(&self) -> SetAside<'_> {
+        SetAside {
+            by: &self.by,
+            reason: self.reason,
+        }
     }
 }
 
@@ -159,8 +178,8 @@ pub async fn exclude(
     Path(id): Path<String>,
     ApiJson(body): ApiJson<Reason>,
 ) -> Result<Json<ResultMeta>, ApiError> {
-    let (by, reason) = body.recorded(&key)?;
-    let meta = s.store.exclude_result(&id, &by, reason).await?;
+    let why = body.recorded(&key)?;
+    let meta = s.store.exclude_result(&id, why.set_aside()).await?;
     mtcal_domain::fleet::refresh_machine(s.store.as_ref(), &meta.machine_id).await?;
     Ok(Json(meta))
 }

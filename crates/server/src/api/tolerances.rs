@@ -11,6 +11,7 @@ use axum::http::StatusCode;
 use mtcal_domain::profiles::{self, limits_json, validate};
 pub use mtcal_domain::profiles::{NewProfile, Profile, ProfileUpdate, TARGET_MAX};
 pub use mtcal_domain::verdicts::{ProfileRef, ResultVerdict};
+use mtcal_store::ToleranceProfile;
 
 /// Refreshes the fleet rows of the machines a profile applies to, in a task of its own
 /// (a tag may cover many machines; the fleet page follows within moments).
@@ -90,15 +91,13 @@ pub async fn replace(
         u.webhook_secret.as_deref(),
         old.webhook_secret.as_deref(),
     );
-    let stored = s
-        .store
-        .update_tolerance(
-            &id,
-            &limits_json(&u.limits)?,
-            u.webhook_url.as_deref(),
-            secret.as_deref(),
-        )
-        .await?;
+    let new = ToleranceProfile {
+        limits: limits_json(&u.limits)?,
+        webhook_url: u.webhook_url,
+        webhook_secret: secret,
+        ..old
+    };
+    let stored = s.store.update_tolerance(&new).await?;
     refresh_targets(&s, &stored.scope, &stored.target);
     let mut answer = Profile::of(&stored)?;
     answer.webhook_secret = shown;
