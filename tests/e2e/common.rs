@@ -430,13 +430,15 @@ pub fn check(machine: &str, kind: &str, at: &str, c1: f64) -> mtcal_store::NewRe
 /// An active drift alert of `machine` raised by its result `result_id`.
 pub fn alert(id: &str, machine: &str, result_id: &str) -> mtcal_store::Alert {
     mtcal_store::Alert {
-        id: id.into(),
-        machine_id: machine.into(),
-        result_id: result_id.into(),
-        baseline_result_id: result_id.into(),
-        profile_id: "p".into(),
-        raised_at: "2026-04-06T09:00:00Z".into(),
-        message: format!("{machine} drifted"),
+        raised: mtcal_store::AlertRaised {
+            id: id.into(),
+            machine_id: machine.into(),
+            result_id: result_id.into(),
+            baseline_result_id: result_id.into(),
+            profile_id: "p".into(),
+            raised_at: "2026-04-06T09:00:00Z".into(),
+            message: format!("{machine} drifted"),
+        },
         items: serde_json::json!([]),
         details: None,
         acknowledged_at: None,

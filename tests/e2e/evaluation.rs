@@ -190,7 +190,7 @@ async fn a_term_has_one_value_in_every_consumer() {
         .await
         .unwrap();
     assert_eq!(alerts.len(), 1, "{alerts:?}");
-    assert_eq!(alerts[0].result_id, hist[1].id);
+    assert_eq!(alerts[0].raised.result_id, hist[1].id);
     assert!(!alerts[0].items.is_empty());
     for item in &alerts[0].items {
         let value = item.value.unwrap();

@@ -620,7 +620,7 @@ async fn outbox_survives_a_killed_worker(db: &str) {
     verify_signature(SECRET, &delivered).unwrap();
     assert_eq!(delivered.body, tried.body, "the same delivery");
     let body: serde_json::Value = serde_json::from_slice(&delivered.body).unwrap();
-    assert_eq!(body["id"], alert.id.as_str());
+    assert_eq!(body["id"], alert.raised.id.as_str());
     let done = delivery_until(&api.url, &key, |d| d["state"] != "pending").await;
     assert_eq!(
         (&done["state"], &done["attempts"]),

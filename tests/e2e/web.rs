@@ -30,7 +30,7 @@ async fn fleet_of_one() -> (App, [String; 2], String) {
         .await
         .unwrap()
         .unwrap();
-    (app, [ids[0].clone(), ids[1].clone()], alert.id)
+    (app, [ids[0].clone(), ids[1].clone()], alert.raised.id)
 }
 
 /// What a refused form must leave as it was: the rows, M1's baseline, the alert's state.

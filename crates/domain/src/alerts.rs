@@ -30,7 +30,9 @@ use crate::kinds::IDENTIFICATION;
 use crate::webhooks;
 use mtcal_solver::text::{num, unit_label, with_u};
 use mtcal_solver::tolerance::{self, VerdictItem};
-use mtcal_store::{Alert, ResultMeta, Store, StoreError, WebhookDelivery, now_rfc3339};
+use mtcal_store::{
+    Alert, AlertRaised, ResultMeta, Store, StoreError, WebhookDelivery, now_rfc3339,
+};
 use serde::{Deserialize, Serialize};
 use std::sync::Arc;
 
@@ -95,17 +97,9 @@ pub struct Acknowledgement {
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 #[cfg_attr(feature = "openapi", derive(utoipa::ToSchema))]
 pub struct AlertView {
-    pub id: String,
-    pub machine_id: String,
-    /// The landed result whose change raised it.
-    pub result_id: String,
-    /// The baseline the change is measured from.
-    pub baseline_result_id: String,
-    /// The tolerance profile whose drift threshold was exceeded.
-    pub profile_id: String,
-    pub raised_at: String,
-    /// What changed, by how much, against which threshold.
-    pub message: String,
+    /// Which result raised it, against which baseline and profile, when and why.
+    #[serde(flatten)]
+    pub raised: AlertRaised,
     /// Each change beyond its threshold by more than its expanded uncertainty: the change
     /// at the point that shows it (`value`, `u`, `expanded_u`, `position_mm`), the
     /// threshold (`limit`) and the comparison (`reason`).
@@ -130,21 +124,15 @@ impl AlertView {
     pub fn of(a: &Alert) -> Result<AlertView, StoreError> {
         let details: AlertDetails = match &a.details {
             Some(d) => serde_json::from_value(d.clone()).map_err(|e| {
-                StoreError::Backend(format!("alert {} details do not read: {e}", a.id))
+                StoreError::Backend(format!("alert {} details do not read: {e}", a.raised.id))
             })?,
             None => AlertDetails::default(),
         };
         let date = |s: String| (!s.is_empty()).then_some(s);
         Ok(AlertView {
-            id: a.id.clone(),
-            machine_id: a.machine_id.clone(),
-            result_id: a.result_id.clone(),
-            baseline_result_id: a.baseline_result_id.clone(),
-            profile_id: a.profile_id.clone(),
-            raised_at: a.raised_at.clone(),
-            message: a.message.clone(),
+            raised: a.raised.clone(),
             items: serde_json::from_value(a.items.clone()).map_err(|e| {
-                StoreError::Backend(format!("alert {} items do not read: {e}", a.id))
+                StoreError::Backend(format!("alert {} items do not read: {e}", a.raised.id))
             })?,
             baseline_measured_at: date(details.baseline_measured_at),
             measured_at: date(details.measured_at),
@@ -201,13 +189,15 @@ pub async fn check_landed(
     };
     let message = message(&machine.id, &details);
     let alert = Alert {
-        id: mtcal_store::rules::new_id("alert"),
-        machine_id: machine.id.clone(),
-        result_id: landed.id.clone(),
-        baseline_result_id: baseline.id.clone(),
-        profile_id: profile.id.clone(),
-        raised_at: now_rfc3339(),
-        message,
+        raised: AlertRaised {
+            id: mtcal_store::rules::new_id("alert"),
+            machine_id: machine.id.clone(),
+            result_id: landed.id.clone(),
+            baseline_result_id: baseline.id.clone(),
+            profile_id: profile.id.clone(),
+            raised_at: now_rfc3339(),
+            message,
+        },
         items: serde_json::to_value(&items).map_err(|e| StoreError::Backend(e.to_string()))?,
         details: Some(
             serde_json::to_value(&details).map_err(|e| StoreError::Backend(e.to_string()))?,
@@ -224,7 +214,7 @@ pub async fn check_landed(
         .into_iter()
         .map(|to| WebhookDelivery {
             id: mtcal_store::rules::new_id("whd"),
-            alert_id: alert.id.clone(),
+            alert_id: alert.raised.id.clone(),
             profile_id: to.profile_id,
             url: to.url,
             body: body.clone(),
@@ -240,7 +230,7 @@ pub async fn check_landed(
         return Ok(None);
     };
     let view = AlertView::of(&stored)?;
-    tracing::warn!(alert = %view.id, machine = %view.machine_id, webhooks = deliveries.len(), "drift alert raised");
+    tracing::warn!(alert = %view.raised.id, machine = %view.raised.machine_id, webhooks = deliveries.len(), "drift alert raised");
     Ok(Some(view))
 }
 

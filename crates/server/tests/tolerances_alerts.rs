@@ -501,10 +501,10 @@ async fn a_drift_inside_its_uncertainty_raises_no_alert_one_3_sigma_outside_does
     assert!((item.u.unwrap() - 1.0).abs() < 1e-9, "{item:?}");
     assert_eq!(item.position_mm.map(f64::abs), Some(50.0));
     assert_eq!(item.limit, 5.0);
-    assert_eq!(alert.baseline_result_id, base.id);
+    assert_eq!(alert.raised.baseline_result_id, base.id);
     // The message says it in words: the machine, both checks' dates, the values before
     // and after with U, the change and the threshold; no stored id.
-    let m = &alert.message;
+    let m = &alert.raised.message;
     assert!(
         m.starts_with(
             "M1 drifted between its baseline check of 2026-01-05 and the check of 2026-07-05: EXX at "
@@ -551,13 +551,13 @@ async fn a_drift_inside_its_uncertainty_raises_no_alert_one_3_sigma_outside_does
     .await;
     assert_eq!(s, StatusCode::OK, "{list}");
     assert_eq!(list.as_array().unwrap().len(), 1);
-    assert_eq!(list[0]["id"], alert.id.as_str());
+    assert_eq!(list[0]["id"], alert.raised.id.as_str());
     assert_eq!(list[0]["active"], true);
     let (s, _) = send(&f.app, "GET", "/api/v1/alerts?machine=M2", &f.read, None).await;
     assert_eq!(s, StatusCode::OK);
     let (s, b) = send(&f.app, "GET", "/api/v1/alerts?active=maybe", &f.read, None).await;
     assert_eq!(s, StatusCode::BAD_REQUEST, "{b}");
-    let ack = format!("/api/v1/alerts/{}/ack", alert.id);
+    let ack = format!("/api/v1/alerts/{}/ack", alert.raised.id);
     let (s, _) = send(&f.app, "POST", &ack, &f.read, None).await;
     assert_eq!(s, StatusCode::FORBIDDEN);
     // A comment longer than 1000 characters is refused and acknowledges nothing.
@@ -754,7 +754,11 @@ async fn an_alert_is_posted_to_the_webhook_of_the_machines_tag_and_a_dead_one_fa
     forged.body.extend_from_slice(b" ");
     assert!(verify(&secrets[0], &forged).is_err(), "a changed body");
     let got = got.json();
-    assert_eq!(got["id"], alert.id.as_str(), "after one refused try: {got}");
+    assert_eq!(
+        got["id"],
+        alert.raised.id.as_str(),
+        "after one refused try: {got}"
+    );
     assert_eq!(got["machine_id"], "M1");
     assert_eq!(got["items"][0]["item"], "EXX");
     assert_eq!(got["active"], true);
@@ -766,7 +770,7 @@ async fn an_alert_is_posted_to_the_webhook_of_the_machines_tag_and_a_dead_one_fa
     let (ok, failed) = (of(&url), of(&dead));
     assert_eq!(
         (&ok["state"], &ok["attempts"], &ok["alert_id"]),
-        (&json!("delivered"), &json!(2), &json!(alert.id)),
+        (&json!("delivered"), &json!(2), &json!(alert.raised.id)),
         "{ok}"
     );
     assert!(ok["last_error"].as_str().unwrap().contains("500"), "{ok}");
@@ -782,7 +786,7 @@ async fn an_alert_is_posted_to_the_webhook_of_the_machines_tag_and_a_dead_one_fa
     );
     assert_eq!(deliveries(&f, "?state=failed").await, [failed]);
     assert_eq!(
-        deliveries(&f, &format!("?alert_id={}&limit=1", alert.id))
+        deliveries(&f, &format!("?alert_id={}&limit=1", alert.raised.id))
             .await
             .len(),
         1
@@ -927,7 +931,7 @@ async fn outbox_story(f: Fixture) {
             &before[0]["attempts"],
             &before[0]["alert_id"]
         ),
-        (&json!("pending"), &json!(0), &json!(alert.id))
+        (&json!("pending"), &json!(0), &json!(alert.raised.id))
     );
     assert_eq!(before[0]["url"], url.as_str(), "shown without its query");
     let (s, _) = send(&f.app, "GET", "/api/v1/webhooks/deliveries", &f.read, None).await;
@@ -964,7 +968,7 @@ async fn outbox_story(f: Fixture) {
         .expect("delivered after the restart")
         .unwrap();
     verify("outbox-test-secret-01", &got).unwrap();
-    assert_eq!(got.json()["id"], alert.id.as_str());
+    assert_eq!(got.json()["id"], alert.raised.id.as_str());
     let after = settled(&f).await;
     w.shutdown().await;
     assert_eq!(

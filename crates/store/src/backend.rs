@@ -1307,13 +1307,13 @@ impl Store for This {
                  acknowledgement_comment) \
                  VALUES ($1, $2, $3, $4, $5, $6, $7, $8, $9, NULL, NULL, NULL) \
                  ON CONFLICT (result_id) DO NOTHING",
-                &a.id,
-                &a.machine_id,
-                &a.result_id,
-                &a.baseline_result_id,
-                &a.profile_id,
-                &a.raised_at,
-                &a.message,
+                &a.raised.id,
+                &a.raised.machine_id,
+                &a.raised.result_id,
+                &a.raised.baseline_result_id,
+                &a.raised.profile_id,
+                &a.raised.raised_at,
+                &a.raised.message,
                 serde_json::to_string(&a.items).db()?,
                 match &a.details {
                     Some(d) => Some(serde_json::to_string(d).db()?),
@@ -1336,7 +1336,7 @@ impl Store for This {
                     execute(&mut *tx),
                     sqlx::AssertSqlSafe(q),
                     &d.id,
-                    &a.id,
+                    &a.raised.id,
                     &d.profile_id,
                     &d.url,
                     &d.body,
@@ -1344,7 +1344,7 @@ impl Store for This {
                 )?;
             }
             tx.commit().await.db()?;
-            self.get_alert(&a.id).await.map(Some)
+            self.get_alert(&a.raised.id).await.map(Some)
         })
     }
 

@@ -433,20 +433,34 @@ impl std::fmt::Debug for ToleranceProfile {
     }
 }
 
+/// What raised a drift alert: the landed result `result_id` of `machine_id` changed since
+/// `baseline_result_id` beyond the drift threshold of `profile_id`, at `raised_at`. Held
+/// by the stored alert ([`Alert`]) and by the alert the API shows, alike.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[cfg_attr(feature = "openapi", derive(utoipa::ToSchema))]
+pub struct AlertRaised {
+    pub id: String,
+    pub machine_id: String,
+    /// The landed result whose change raised it.
+    pub result_id: String,
+    /// The baseline the change is measured from.
+    pub baseline_result_id: String,
+    /// The tolerance profile whose drift threshold was exceeded.
+    pub profile_id: String,
+    /// RFC 3339.
+    pub raised_at: String,
+    /// One line saying what changed, by how much, against which threshold.
+    pub message: String,
+}
+
 /// A drift alert as stored: raised when `result_id` landed with a change since
 /// `baseline_result_id` beyond the drift threshold of `profile_id` by more than the
 /// expanded uncertainty. `items` is the JSON of the alerting verdict items. Active until
 /// acknowledged.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 pub struct Alert {
-    pub id: String,
-    pub machine_id: String,
-    pub result_id: String,
-    pub baseline_result_id: String,
-    pub profile_id: String,
-    pub raised_at: String,
-    /// One line saying what changed, by how much, against which threshold.
-    pub message: String,
+    #[serde(flatten)]
+    pub raised: AlertRaised,
     pub items: Value,
     /// What each change is the difference of, with the dates (JSON; `None` for alerts
     /// raised by an older version).

@@ -298,13 +298,15 @@ pub(crate) const ALERT_COLUMNS: &str = "id, machine_id, result_id, baseline_resu
 
 pub(crate) fn alert(r: &impl Columns) -> Result<Alert> {
     Ok(Alert {
-        id: r.text("id")?,
-        machine_id: r.text("machine_id")?,
-        result_id: r.text("result_id")?,
-        baseline_result_id: r.text("baseline_result_id")?,
-        profile_id: r.text("profile_id")?,
-        raised_at: r.text("raised_at")?,
-        message: r.text("message")?,
+        raised: AlertRaised {
+            id: r.text("id")?,
+            machine_id: r.text("machine_id")?,
+            result_id: r.text("result_id")?,
+            baseline_result_id: r.text("baseline_result_id")?,
+            profile_id: r.text("profile_id")?,
+            raised_at: r.text("raised_at")?,
+            message: r.text("message")?,
+        },
         items: r.json("items")?,
         details: match r.opt_text("details")? {
             Some(t) => Some(serde_json::from_str(&t).db()?),

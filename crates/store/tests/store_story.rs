@@ -762,13 +762,15 @@ async fn tolerance_profiles_one_per_target_and_alerts_acknowledged_once(s: &dyn 
         .await
         .unwrap();
     let alert = |id: &str, result: &str, at: &str| Alert {
-        id: id.into(),
-        machine_id: "M1".into(),
-        result_id: result.into(),
-        baseline_result_id: r1.id.clone(),
-        profile_id: "tol_1".into(),
-        raised_at: at.into(),
-        message: "EXX changed".into(),
+        raised: AlertRaised {
+            id: id.into(),
+            machine_id: "M1".into(),
+            result_id: result.into(),
+            baseline_result_id: r1.id.clone(),
+            profile_id: "tol_1".into(),
+            raised_at: at.into(),
+            message: "EXX changed".into(),
+        },
         items: json!([{"item": "EXX"}]),
         details: Some(json!({"measured_at": at})),
         acknowledged_at: None,
@@ -797,7 +799,7 @@ async fn tolerance_profiles_one_per_target_and_alerts_acknowledged_once(s: &dyn 
         .await
         .unwrap()
         .unwrap();
-    let ids = |v: Vec<Alert>| v.into_iter().map(|a| a.id).collect::<Vec<_>>();
+    let ids = |v: Vec<Alert>| v.into_iter().map(|a| a.raised.id).collect::<Vec<_>>();
     assert_eq!(
         ids(s.list_alerts(None, None, 10).await.unwrap()),
         ["al_2", "al_1"]
@@ -1002,13 +1004,15 @@ async fn fleet_page_puts_alerted_machines_first_then_filters_sorts_and_counts(s:
         .await
         .unwrap();
     let alert = |id: &str| Alert {
-        id: id.into(),
-        machine_id: "A".into(),
-        result_id: r.id.clone(),
-        baseline_result_id: r.id.clone(),
-        profile_id: "p".into(),
-        raised_at: "2026-03-02T00:00:00Z".into(),
-        message: "m".into(),
+        raised: AlertRaised {
+            id: id.into(),
+            machine_id: "A".into(),
+            result_id: r.id.clone(),
+            baseline_result_id: r.id.clone(),
+            profile_id: "p".into(),
+            raised_at: "2026-03-02T00:00:00Z".into(),
+            message: "m".into(),
+        },
         items: json!([]),
         details: None,
         acknowledged_at: None,
@@ -1115,13 +1119,15 @@ async fn fleet_pages_equal_a_sort_of_every_machine_from_scratch(s: &dyn Store) {
         let id = format!("al_{n}");
         s.raise_alert(
             &Alert {
-                id: id.clone(),
-                machine_id: machine_id.into(),
-                result_id: r.id.clone(),
-                baseline_result_id: r.id,
-                profile_id: "p".into(),
-                raised_at: "2026-05-09T00:00:00Z".into(),
-                message: "m".into(),
+                raised: AlertRaised {
+                    id: id.clone(),
+                    machine_id: machine_id.into(),
+                    result_id: r.id.clone(),
+                    baseline_result_id: r.id,
+                    profile_id: "p".into(),
+                    raised_at: "2026-05-09T00:00:00Z".into(),
+                    message: "m".into(),
+                },
                 items: json!([]),
                 details: None,
                 acknowledged_at: None,

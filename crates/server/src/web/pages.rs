@@ -59,15 +59,15 @@ fn job_row(j: &Job) -> vjobs::JobRow {
 
 fn alert_row(a: &AlertView) -> AlertRow {
     AlertRow {
-        id: a.id.clone(),
-        machine_id: a.machine_id.clone(),
-        result_id: a.result_id.clone(),
-        raised_at: a.raised_at.clone(),
-        message: a.message.clone(),
+        id: a.raised.id.clone(),
+        machine_id: a.raised.machine_id.clone(),
+        result_id: a.raised.result_id.clone(),
+        raised_at: a.raised.raised_at.clone(),
+        message: a.raised.message.clone(),
         compare_href: Some(format!(
             "/compare?a={}&b={}",
-            views::encode(&a.baseline_result_id),
-            views::encode(&a.result_id)
+            views::encode(&a.raised.baseline_result_id),
+            views::encode(&a.raised.result_id)
         )),
         acknowledged: !a.active,
         acknowledged_at: a.acknowledged_at.clone(),
