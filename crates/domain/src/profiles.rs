@@ -212,37 +212,102 @@ pub async fn create(
     webhooks: &crate::webhooks::TargetPolicy,
 ) -> Result<Profile, DomainError> {
     let target = check_target(&p.scope, &p.target)?;
-    validate(
-        &p.scope,
-        &p.limits,
-        p.webhook_url.as_deref(),
-        p.webhook_secret.as_deref(),
-    )?;
-    if let Some(url) = &p.webhook_url {
-        crate::webhooks::resolve(url, webhooks)
-            .await
-            .map_err(DomainError::Invalid)?;
-    }
+    let content = Content {
+        limits: &p.limits,
+        webhook_url: p.webhook_url.as_deref(),
+        webhook_secret: p.webhook_secret.as_deref(),
+    };
+    let c = content.checked(&p.scope, webhooks, None).await?;
     if p.scope == "machine" {
         store.get_machine(target).await?;
     }
-    let (secret, shown) =
-        webhook_secret(p.webhook_url.as_deref(), p.webhook_secret.as_deref(), None);
     let stored = store
         .create_tolerance(&ToleranceProfile {
             id: mtcal_store::rules::new_id("tol"),
             scope: p.scope.clone(),
             target: target.to_string(),
-            limits: limits_json(&p.limits)?,
+            limits: c.limits,
             webhook_url: p.webhook_url.clone(),
-            webhook_secret: secret,
+            webhook_secret: c.secret,
             created_at: String::new(),
             updated_at: String::new(),
         })
         .await?;
     let mut answer = Profile::of(&stored)?;
-    answer.webhook_secret = shown;
+    answer.webhook_secret = c.shown;
     Ok(answer)
+}
+
+/// Replaces the limits and webhook of profile `id` with `u` after checking them as
+/// [`create`] checks a new profile's; the profile as answered, with a generated webhook
+/// secret shown this once (a profile without a secret that gains a webhook). The fleet
+/// rows it applies to are not refreshed here (as for [`create`]).
+pub async fn replace(
+    store: &dyn Store,
+    id: &str,
+    u: &ProfileUpdate,
+    webhooks: &crate::webhooks::TargetPolicy,
+) -> Result<Profile, DomainError> {
+    let old = store.get_tolerance(id).await?;
+    let content = Content {
+        limits: &u.limits,
+        webhook_url: u.webhook_url.as_deref(),
+        webhook_secret: u.webhook_secret.as_deref(),
+    };
+    let c = content
+        .checked(&old.scope, webhooks, old.webhook_secret.as_deref())
+        .await?;
+    let stored = store
+        .update_tolerance(&ToleranceProfile {
+            limits: c.limits,
+            webhook_url: u.webhook_url.clone(),
+            webhook_secret: c.secret,
+            ..old
+        })
+        .await?;
+    let mut answer = Profile::of(&stored)?;
+    answer.webhook_secret = c.shown;
+    Ok(answer)
+}
+
+/// A profile's content as a request gives it (a new profile's or a replacement's).
+struct Content<'a> {
+    limits: &'a Limits,
+    webhook_url: Option<&'a str>,
+    webhook_secret: Option<&'a str>,
+}
+
+/// A profile's content checked ([`Content::checked`]): the limits as the store holds
+/// them, the webhook secret to store and the one to show.
+struct Checked {
+    limits: serde_json::Value,
+    secret: Option<String>,
+    shown: Option<String>,
+}
+
+impl Content<'_> {
+    /// Checks the content for a profile of `scope` ([`validate`]; the webhook's target
+    /// resolved against `webhooks`), `kept` being the profile's present secret
+    /// ([`webhook_secret`]).
+    async fn checked(
+        &self,
+        scope: &str,
+        webhooks: &crate::webhooks::TargetPolicy,
+        kept: Option<&str>,
+    ) -> Result<Checked, DomainError> {
+        validate(scope, self.limits, self.webhook_url, self.webhook_secret)?;
+        if let Some(url) = self.webhook_url {
+            crate::webhooks::resolve(url, webhooks)
+                .await
+                .map_err(DomainError::Invalid)?;
+        }
+        let (secret, shown) = webhook_secret(self.webhook_url, self.webhook_secret, kept);
+        Ok(Checked {
+            limits: limits_json(self.limits)?,
+            secret,
+            shown,
+        })
+    }
 }
 
 /// Limits as the store holds them.

@@ -8,10 +8,9 @@ use crate::error::{ApiError, ApiJson, ErrorBody};
 use axum::Json;
 use axum::extract::{Path, State};
 use axum::http::StatusCode;
-use mtcal_domain::profiles::{self, limits_json, validate};
+use mtcal_domain::profiles;
 pub use mtcal_domain::profiles::{NewProfile, Profile, ProfileUpdate, TARGET_MAX};
 pub use mtcal_domain::verdicts::{ProfileRef, ResultVerdict};
-use mtcal_store::ToleranceProfile;
 
 /// Refreshes the fleet rows of the machines a profile applies to, in a task of its own
 /// (a tag may cover many machines; the fleet page follows within moments).
@@ -74,33 +73,8 @@ pub async fn replace(
     Path(id): Path<String>,
     ApiJson(u): ApiJson<ProfileUpdate>,
 ) -> Result<Json<Profile>, ApiError> {
-    let old = s.store.get_tolerance(&id).await?;
-    validate(
-        &old.scope,
-        &u.limits,
-        u.webhook_url.as_deref(),
-        u.webhook_secret.as_deref(),
-    )?;
-    if let Some(url) = &u.webhook_url {
-        mtcal_domain::webhooks::resolve(url, &s.settings.webhooks)
-            .await
-            .map_err(ApiError::InvalidRequest)?;
-    }
-    let (secret, shown) = profiles::webhook_secret(
-        u.webhook_url.as_deref(),
-        u.webhook_secret.as_deref(),
-        old.webhook_secret.as_deref(),
-    );
-    let new = ToleranceProfile {
-        limits: limits_json(&u.limits)?,
-        webhook_url: u.webhook_url,
-        webhook_secret: secret,
-        ..old
-    };
-    let stored = s.store.update_tolerance(&new).await?;
-    refresh_targets(&s, &stored.scope, &stored.target);
-    let mut answer = Profile::of(&stored)?;
-    answer.webhook_secret = shown;
+    let answer = profiles::replace(s.store.as_ref(), &id, &u, &s.settings.webhooks).await?;
+    refresh_targets(&s, &answer.scope, &answer.target);
     Ok(Json(answer))
 }
 
