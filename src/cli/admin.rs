@@ -178,11 +178,7 @@ pub fn run(args: Args) -> anyhow::Result<ExitCode> {
         Command::ListKeys { db, json } => {
             let keys =
                 rt.block_on(async { anyhow::Ok(open(&db.db, false).await?.list_keys().await?) })?;
-            if json {
-                super::out::write(&(serde_json::to_string_pretty(&keys)? + "\n"))?;
-            } else {
-                super::out::write(&table(&keys))?;
-            }
+            super::out::document(json, &keys, |keys| table(keys))?;
         }
         Command::CreateMachine {
             db,

@@ -7,7 +7,6 @@
 
 use super::BadInput;
 use super::export::read_identification;
-use anyhow::Context;
 use mtcal_solver::comparison::{self, Drift, TermDiff};
 use serde::Serialize;
 use std::collections::BTreeMap;
@@ -49,12 +48,7 @@ pub fn run(args: Args) -> anyhow::Result<ExitCode> {
         terms,
         squareness,
     };
-    let text = if args.json {
-        serde_json::to_string_pretty(&doc).context("serialising the comparison")? + "\n"
-    } else {
-        summary(&doc)
-    };
-    super::out::write(&text)?;
+    super::out::document(args.json, &doc, summary)?;
     Ok(ExitCode::SUCCESS)
 }
 

@@ -83,12 +83,7 @@ pub fn run(args: Args) -> anyhow::Result<ExitCode> {
         }
         other => anyhow::Error::new(other),
     })?;
-    let text = if args.json {
-        serde_json::to_string_pretty(&result)? + "\n"
-    } else {
-        summary(&result)
-    };
-    super::out::write(&text)?;
+    super::out::document(args.json, &result, summary)?;
     Ok(ExitCode::SUCCESS)
 }
 

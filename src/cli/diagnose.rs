@@ -140,10 +140,8 @@ pub fn run(args: Args) -> anyhow::Result<ExitCode> {
             super::out::noteln!("wrote {} plot(s) to {}", written.len(), dir.display());
         }
     }
-    let text = if args.json {
-        serde_json::to_string_pretty(&doc).context("serialising the result")? + "\n"
-    } else {
-        let mut s = summary(result);
+    super::out::document(args.json, &doc, |doc| {
+        let mut s = summary(&doc.diagnosis);
         s.push_str(&super::standards::summary(
             &mtcal_solver::standards::Standards {
                 iso230_2: doc.iso230_2.clone(),
@@ -152,8 +150,7 @@ pub fn run(args: Args) -> anyhow::Result<ExitCode> {
             },
         ));
         s
-    };
-    super::out::write(&text)?;
+    })?;
     Ok(ExitCode::SUCCESS)
 }
 

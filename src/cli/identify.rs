@@ -3,7 +3,6 @@
 //! summary, or the identification result document with `--json`.
 
 use super::BadInput;
-use anyhow::Context;
 use mtcal_solver::basis::BasisKind;
 use mtcal_solver::identification::{IdentificationResult, IdentifyOptions, Method, identify};
 use mtcal_views::plots::unit_label;
@@ -62,13 +61,7 @@ pub fn run(args: Args) -> anyhow::Result<ExitCode> {
     };
     let result = identify(&session, &opts)
         .map_err(|e| BadInput(format!("{}: {e}", args.session.display())))?;
-    if args.json {
-        super::out::write(
-            &(serde_json::to_string_pretty(&result).context("serialising the result")? + "\n"),
-        )?;
-    } else {
-        super::out::write(&summary(&result))?;
-    }
+    super::out::document(args.json, &result, summary)?;
     Ok(ExitCode::SUCCESS)
 }
 

@@ -20,6 +20,7 @@
 //! nothing else, the command keeps its work and its exit code. `eprintln!` is not used:
 //! it panics on a closed stderr (the crate denies clippy's `print_stderr`).
 
+use anyhow::Context;
 use std::io::Write;
 
 /// The reader of stdout has gone: the command ends quietly, exit code 0.
@@ -35,6 +36,21 @@ pub fn write(text: &str) -> anyhow::Result<()> {
         Err(e) if e.kind() == std::io::ErrorKind::BrokenPipe => Err(ClosedPipe.into()),
         Err(e) => Err(anyhow::Error::new(e).context("writing to stdout")),
     }
+}
+
+/// Writes a command's document: as pretty JSON with a final line end when `json`
+/// (`--json`), else the text `summary` makes of it; through [`write`].
+pub fn document<T: serde::Serialize>(
+    json: bool,
+    doc: &T,
+    summary: impl FnOnce(&T) -> String,
+) -> anyhow::Result<()> {
+    let text = if json {
+        serde_json::to_string_pretty(doc).context("serialising the document")? + "\n"
+    } else {
+        summary(doc)
+    };
+    write(&text)
 }
 
 /// Whether an error is (or was caused by) a closed stdout.

@@ -147,11 +147,7 @@ pub fn run(args: Args) -> anyhow::Result<ExitCode> {
         SolverError::InvalidInput(m) | SolverError::Limit(m) => bad(m),
         other => anyhow::Error::new(other),
     })?;
-    if args.json {
-        super::out::write(&(serde_json::to_string_pretty(&res)? + "\n"))?;
-    } else {
-        super::out::write(&render(&res, args.extra_rows))?;
-    }
+    super::out::document(args.json, &res, |res| render(res, args.extra_rows))?;
     Ok(ExitCode::SUCCESS)
 }
 

@@ -4,7 +4,6 @@
 //! identification result's `standards`).
 
 use super::BadInput;
-use anyhow::Context;
 use mtcal_formats::DatasetKind;
 use mtcal_solver::standards::{self, Standards};
 use std::fmt::Write as _;
@@ -42,13 +41,7 @@ pub fn run(args: Args) -> anyhow::Result<ExitCode> {
             .into());
         }
     };
-    if args.json {
-        super::out::write(
-            &(serde_json::to_string_pretty(&st).context("serialising the figures")? + "\n"),
-        )?;
-    } else {
-        super::out::write(&summary(&st))?;
-    }
+    super::out::document(args.json, &st, summary)?;
     Ok(ExitCode::SUCCESS)
 }
 

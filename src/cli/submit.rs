@@ -95,11 +95,9 @@ pub fn run(args: Args) -> anyhow::Result<ExitCode> {
             );
         }
         let doc = c.job_result(&id).await?;
-        if args.json {
-            super::out::write(&(serde_json::to_string_pretty(&doc)? + "\n"))?;
-        } else {
-            super::out::outln!("job {id}: {}", summary(&doc, job.result_id.as_deref()))?;
-        }
+        super::out::document(args.json, &doc, |doc| {
+            format!("job {id}: {}\n", summary(doc, job.result_id.as_deref()))
+        })?;
         Ok(ExitCode::SUCCESS)
     })
 }
