@@ -667,8 +667,8 @@ impl Ctx<'_> {
         let (_, th) = t.theta.filter(|_| t.cand.effect == "thermal_drift")?;
         let thr = t.ssr + 4.0 * sigma * sigma;
         let within = |x: f64| self.ssr_at(s, &t.cand, th * x.exp()) <= thr;
-        let (lo, lo_open) = log_bound(within, -1.0);
-        let (hi, hi_open) = log_bound(within, 1.0);
+        let (lo, lo_open) = profile_bound(within, -1.0, 0.05, LN_REACH);
+        let (hi, hi_open) = profile_bound(within, 1.0, 0.05, LN_REACH);
         let low = (th * lo.exp())
             .min(th - 2.0 * sd)
             .max(th * (-LN_REACH).exp());
@@ -687,8 +687,9 @@ impl Ctx<'_> {
     /// A step's width with its standard uncertainty and the slope of its coefficients
     /// along it (`None`: not a step). The 2σ interval of the profiled sum of squares in
     /// w at the step's time (the widths whose SSR exceeds the trial's by at most 4σ²,
-    /// χ²₁ at 2σ, scanned outward in steps of 2 % in ln w, from one sample interval, as
-    /// a ramp within one interval reads as sharp, to the run's end) is ±2 standard
+    /// χ²₁ at 2σ, searched outward in ln w by [`profile_bound`] from a first step of 2 %,
+    /// between one sample interval, as a ramp within one interval reads as sharp, and
+    /// twice the step's distance to its run's nearer end) is ±2 standard
     /// uncertainties: the curvature of S read a 0.45 µm ramp's width 3–6σ high, its
     /// profile being flat toward long ramps. A ramp: the interval reaches 0 when the
     /// sharp step is within it; the slope is dβ/dw at ŵ. A sharp step (w = 0): the
@@ -714,22 +715,19 @@ impl Ctx<'_> {
         };
         let thr = t.ssr + 4.0 * sigma * sigma;
         // Within [one interval, the run]: beyond, a ramp reads as sharp or leaves the run.
-        let inside = |x: f64| {
-            let v = x.exp();
-            if v < dt || v > top {
-                f64::INFINITY
-            } else {
-                self.ssr_at(s, &with(v), th)
-            }
-        };
+        let (least, most) = (dt.ln(), top.ln());
+        let within = |x0: f64| move |x: f64| self.ssr_at(s, &with((x0 + x).exp()), th) <= thr;
         if w <= 0.0 {
-            let (_, hi) = profile_interval(inside, (1.03 * dt).min(top).ln(), 0.02, 400, thr);
-            let wide = hi.exp();
+            let x0 = (1.03 * dt).min(top).ln();
+            let (hi, _) = profile_bound(within(x0), 1.0, 0.02, (most - x0).max(0.0));
+            let wide = (x0 + hi).exp();
             let slope = self.slope(s, t, (&with(0.0), th), (&with(wide), th), wide);
             return Some((0.0, (0.5 * wide).max(dt), slope));
         }
-        let (lo, hi) = profile_interval(inside, w.ln(), 0.02, 400, thr);
-        let (lo, hi) = (lo.exp(), hi.exp());
+        let x0 = w.ln();
+        let (lo, _) = profile_bound(within(x0), -1.0, 0.02, (x0 - least).max(0.0));
+        let (hi, _) = profile_bound(within(x0), 1.0, 0.02, (most - x0).max(0.0));
+        let (lo, hi) = ((x0 + lo).exp(), (x0 + hi).exp());
         let sharp = lo <= 1.03 * dt && self.ssr_at(s, &with(0.0), th) <= thr;
         let lo = if sharp { 0.0 } else { lo };
         Some((w, 0.25 * (hi - lo), self.width_slope(s, t)))
@@ -844,11 +842,12 @@ impl Ctx<'_> {
         let k = start + ts[start..end].partition_point(|&x| x < th);
         let dt = ts[k.min(end - 1)] - ts[k.saturating_sub(1).max(start)];
         if t.cand.width_s > 0.0 {
-            // A ramp's time is continuous: its 2σ interval scanned outward in steps of a
-            // fiftieth of an interval, up to 20 intervals either side.
+            // A ramp's time is continuous: its 2σ interval searched from a fiftieth of an
+            // interval up to 20 intervals either side.
             let thr = t.ssr + 4.0 * sigma * sigma;
-            let (lo, hi) =
-                profile_interval(|x| self.ssr_at(s, &t.cand, x), th, 0.02 * dt, 1000, thr);
+            let within = |x: f64| self.ssr_at(s, &t.cand, th + x) <= thr;
+            let (lo, _) = profile_bound(within, -1.0, 0.02 * dt, 20.0 * dt);
+            let (hi, _) = profile_bound(within, 1.0, 0.02 * dt, 20.0 * dt);
             return (0.25 * (hi - lo)).max(0.02 * dt / 12f64.sqrt());
         }
         let (mut lo, mut hi) = (th, th);
@@ -965,20 +964,24 @@ pub(crate) struct TimeConstantInterval {
     pub coef_high: Vec<f64>,
 }
 
-/// The last offset x (of sign `dir`) from 0 with `within(x)`, searched in steps that
-/// double from 0.05 up to [`LN_REACH`], the crossing then halved six times; `true` when
-/// still within at the reach (the interval open on that side).
-fn log_bound(within: impl Fn(f64) -> bool, dir: f64) -> (f64, bool) {
-    let (mut inside, mut step) = (0.0, 0.05);
+/// One side of a profile interval: the last offset x (of sign `dir`) from 0 with
+/// `within(x)` (0 itself within), searched in steps that double from `first` up to
+/// `reach` (the last step cut to it), the crossing then halved six times, i.e. found
+/// to 1/64 of its bracket; `true` when still within at the reach (the interval open on
+/// that side). Every likelihood-ratio interval of the session's parameters is this
+/// search: a thermal drift's time constant (in ln T), a step's width (in ln w) and a
+/// ramp's time.
+fn profile_bound(within: impl Fn(f64) -> bool, dir: f64, first: f64, reach: f64) -> (f64, bool) {
+    let (mut inside, mut step) = (0.0, first.min(reach));
     let outside = loop {
-        if step > LN_REACH + 1e-9 {
-            return (dir * LN_REACH, true);
-        }
         if !within(dir * step) {
             break step;
         }
         inside = step;
-        step *= 2.0;
+        if step >= reach {
+            return (dir * reach, true);
+        }
+        step = (2.0 * step).min(reach);
     };
     let (mut a, mut b) = (inside, outside);
     for _ in 0..6 {
@@ -990,24 +993,6 @@ fn log_bound(within: impl Fn(f64) -> bool, dir: f64) -> (f64, bool) {
         }
     }
     (dir * a, false)
-}
-
-/// The interval of x around `x0` where `f(x) ≤ thr`, scanned outward in steps of `h`
-/// (at most `max` steps either side): the last x on each side still within.
-fn profile_interval(f: impl Fn(f64) -> f64, x0: f64, h: f64, max: usize, thr: f64) -> (f64, f64) {
-    let side = |dir: f64| {
-        let mut x = x0;
-        for j in 1..=max {
-            let next = x0 + dir * h * j as f64;
-            let v = f(next);
-            if v.is_nan() || v > thr {
-                break;
-            }
-            x = next;
-        }
-        x
-    };
-    (side(-1.0), side(1.0))
 }
 
 /// Carries the uncertainty `sd` of a nonlinear parameter into the other reported
@@ -1326,22 +1311,33 @@ fn smoother_variance(t: &Trial, d: &Design) -> Option<Vec<f64>> {
 
 #[cfg(test)]
 mod tests {
-    use super::{FormTest, LN_REACH, log_bound};
+    use super::{FormTest, LN_REACH, profile_bound};
 
     /// The bounds of a known profile: within where (x − 0.3)² ≤ 0.9, i.e.
     /// 0.3 ± √0.9, found from inside to within one 64th of the bracket ([0.8, 1.6] on the
     /// upper side, [−0.8, −0.4] on the lower); a side that never crosses is open at the
     /// reach.
     #[test]
-    fn log_bound_finds_the_crossings_of_a_known_profile() {
+    fn profile_bound_finds_the_crossings_of_a_known_profile() {
         let r = 0.9f64.sqrt();
         let within = |x: f64| (x - 0.3f64).powi(2) <= 0.9;
-        let (hi, open) = log_bound(within, 1.0);
+        let (hi, open) = profile_bound(within, 1.0, 0.05, LN_REACH);
         assert!(!open && hi <= 0.3 + r && hi > 0.3 + r - 0.8 / 64.0, "{hi}");
-        let (lo, open) = log_bound(within, -1.0);
+        let (lo, open) = profile_bound(within, -1.0, 0.05, LN_REACH);
         assert!(!open && lo >= 0.3 - r && lo < 0.3 - r + 0.4 / 64.0, "{lo}");
         let flat_above = |x: f64| x > -0.5;
-        assert_eq!(log_bound(flat_above, 1.0), (LN_REACH, true));
+        assert_eq!(
+            profile_bound(flat_above, 1.0, 0.05, LN_REACH),
+            (LN_REACH, true)
+        );
+        // A reach that is not a doubling of the first step: the last step is cut to it,
+        // so a crossing between the last doubling and the reach is still found.
+        let (hi, open) = profile_bound(|x: f64| x <= 2.5, 1.0, 0.05, 3.0);
+        assert!(!open && hi <= 2.5 && hi > 2.5 - 1.4 / 64.0, "{hi}");
+        assert_eq!(
+            profile_bound(|x: f64| x <= 3.5, 1.0, 0.05, 3.0),
+            (3.0, true)
+        );
     }
 
     fn places(v: &[(f64, f64)]) -> FormTest {
