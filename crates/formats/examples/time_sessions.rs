@@ -12,8 +12,7 @@
 //! catalogue instead, one folder each: DIR/backlash, DIR/cyclic, DIR/servo_lag,
 //! DIR/reversal_spike, DIR/thermal_drift and DIR/backlash+cyclic.
 use mtcal_formats::write_session_dir;
-use mtcal_solver::simulate::logged::{Logged, with_temperature};
-use mtcal_solver::simulate::{Effect, Plan, SimOptions, random_truth, simulate};
+use mtcal_solver::simulate::logged::{Logged, benchmark_session, with_temperature};
 use std::path::Path;
 
 fn main() {
@@ -23,17 +22,7 @@ fn main() {
         .next()
         .and_then(|a| a.parse().ok())
         .unwrap_or(300_000.0);
-    // The full plan gives about 2 940 samples per Hz of sample rate.
-    let s = simulate(
-        &random_truth(1),
-        &SimOptions {
-            plan: Plan::Full,
-            sample_rate_hz: samples / 2941.0,
-            ..Default::default()
-        },
-    )
-    .expect("simulate")
-    .session;
+    let s = benchmark_session(samples, "").expect("simulate");
     let dir = Path::new(&dir);
     let cases = [
         ("logged", Logged::Still),
@@ -47,21 +36,7 @@ fn main() {
     // The same machine with effects of the catalogue instead (time_diagnose's
     // `TIME_DIAGNOSE_EFFECTS` sessions), one finding of each kind and two together.
     for spec in CATALOGUE_SESSIONS {
-        let effects = spec
-            .split('+')
-            .map(|e| Effect::from_spec(e).expect("effect"))
-            .collect();
-        let with = simulate(
-            &random_truth(1),
-            &SimOptions {
-                plan: Plan::Full,
-                sample_rate_hz: samples / 2941.0,
-                effects,
-                ..Default::default()
-            },
-        )
-        .expect("simulate")
-        .session;
+        let with = benchmark_session(samples, spec).expect("simulate");
         write_session_dir(&dir.join(spec), &with).expect("write");
     }
     println!("{}: {} samples each", dir.display(), s.sample_count());

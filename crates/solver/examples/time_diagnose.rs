@@ -25,8 +25,9 @@
 //! too, each session's result is written there as `SESSION.json` (`backlash+cyclic.json`).
 use mtcal_solver::diagnosis::{DiagnoseOptions, diagnose_session};
 use mtcal_solver::identification::{IdentifyOptions, identify};
-use mtcal_solver::simulate::logged::{Logged, with_temperature};
-use mtcal_solver::simulate::{Effect, Plan, SimOptions, random_truth, simulate};
+use mtcal_solver::simulate::logged::{
+    FULL_PLAN_SAMPLES_PER_HZ, Logged, benchmark_session, with_temperature,
+};
 use std::time::Instant;
 
 /// Peak resident set (MB) since the last reset, and a reset.
@@ -77,28 +78,11 @@ fn main() {
         .nth(1)
         .and_then(|a| a.parse().ok())
         .unwrap_or(300_000.0);
-    // The full plan gives about 2 940 samples per Hz of sample rate.
-    let rate = samples / 2941.0;
-    let session_with = |effects: Vec<Effect>| {
-        simulate(
-            &random_truth(1),
-            &SimOptions {
-                plan: Plan::Full,
-                sample_rate_hz: rate,
-                effects,
-                ..Default::default()
-            },
-        )
-        .unwrap()
-    };
+    let rate = samples / FULL_PLAN_SAMPLES_PER_HZ;
     if let Ok(list) = std::env::var("TIME_DIAGNOSE_EFFECTS") {
         for spec in list.split(';').filter(|s| !s.trim().is_empty()) {
-            let effects: Vec<Effect> = spec
-                .split('+')
-                .map(|e| Effect::from_spec(e.trim()).unwrap())
-                .collect();
-            let out = session_with(effects);
-            let s = &out.session;
+            let session = benchmark_session(samples, spec).unwrap();
+            let s = &session;
             let (_, ti, ci, _) = measured(|| identify(s, &IdentifyOptions::default()).unwrap());
             let (d, td, cd, md) =
                 measured(|| diagnose_session(s, &DiagnoseOptions::default()).unwrap());
@@ -117,8 +101,8 @@ fn main() {
         }
         return;
     }
-    let out = session_with(Vec::new());
-    let s = &out.session;
+    let session = benchmark_session(samples, "").unwrap();
+    let s = &session;
     println!(
         "session: {} samples, {} runs, {rate:.1} Hz; resident {:.0} MB",
         s.sample_count(),

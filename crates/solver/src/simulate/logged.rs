@@ -1,12 +1,38 @@
-//! A logged temperature added to a simulated session (`temp_c` in every run, a sensor
-//! noise of 5 mK), with or without a growth of the machine that follows it: the sessions
-//! the speed benchmarks of the diagnosis use (`crates/solver/examples/time_diagnose.rs`,
-//! `crates/formats/examples/time_sessions.rs`, BENCHMARKS.md).
+//! The sessions the speed benchmarks of the diagnosis use
+//! (`crates/solver/examples/time_diagnose.rs`, `crates/formats/examples/time_sessions.rs`,
+//! BENCHMARKS.md): one machine measured with the full plan ([`benchmark_session`]), with
+//! effects of the catalogue, or with a logged temperature added (`temp_c` in every run, a
+//! sensor noise of 5 mK) and a growth of the machine that follows it or not.
 
+use super::{Effect, Plan, SimOptions, random_truth, simulate};
 use crate::axis::Axis;
 use crate::session::Session;
 use rand::SeedableRng;
 use rand_distr::Distribution;
+
+/// About how many samples the full plan gives per hertz of sample rate.
+pub const FULL_PLAN_SAMPLES_PER_HZ: f64 = 2941.0;
+
+/// The benchmarks' machine (`random_truth(1)`) measured with the full plan at the sample
+/// rate that gives about `samples` samples ([`FULL_PLAN_SAMPLES_PER_HZ`]), with the
+/// effects `spec`: `+`-joined, each as `mtcal simulate --effect` takes it (empty: none).
+pub fn benchmark_session(samples: f64, spec: &str) -> Result<Session, String> {
+    let effects = spec
+        .split('+')
+        .map(str::trim)
+        .filter(|e| !e.is_empty())
+        .map(Effect::from_spec)
+        .collect::<Result<Vec<_>, _>>()?;
+    let o = SimOptions {
+        plan: Plan::Full,
+        sample_rate_hz: samples / FULL_PLAN_SAMPLES_PER_HZ,
+        effects,
+        ..Default::default()
+    };
+    simulate(&random_truth(1), &o)
+        .map(|out| out.session)
+        .map_err(|e| e.to_string())
+}
 
 /// The growth along Z per kelvin of the structure's temperature (µm/K), and the rise
 /// and fall (K) of the sessions with a growth.
