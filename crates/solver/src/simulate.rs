@@ -189,6 +189,20 @@ pub fn benchmark_session() -> Result<SimOutput, SolverError> {
     )
 }
 
+/// The seed plan at 10 Hz on the random machine of `seed`: the small session of the
+/// solver's unit tests.
+#[cfg(test)]
+pub(crate) fn seed_session(seed: u64) -> Session {
+    let o = SimOptions {
+        plan: Plan::Seed,
+        sample_rate_hz: 10.0,
+        ..Default::default()
+    };
+    simulate(&random_truth(seed), &o)
+        .expect("the seed plan simulates")
+        .session
+}
+
 /// Runs the plan on a machine with errors `truth` and records the session.
 pub fn simulate(truth: &PolyErrors, opts: &SimOptions) -> Result<SimOutput, SolverError> {
     check(truth, opts)?;

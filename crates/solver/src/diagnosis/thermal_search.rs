@@ -240,20 +240,10 @@ mod tests {
     use super::super::design;
     use super::super::moments::{Base, Sets, joint_fit};
     use super::*;
-    use crate::simulate::{Plan, SimOptions, random_truth, simulate};
+    use crate::simulate::seed_session;
     use rand::SeedableRng;
     use rand_distr::{Distribution, Normal};
     use std::f64::consts::PI;
-
-    /// The seed plan at 10 Hz on the random machine of `seed`.
-    fn seed_session(seed: u64) -> crate::session::Session {
-        let o = SimOptions {
-            plan: Plan::Seed,
-            sample_rate_hz: 10.0,
-            ..Default::default()
-        };
-        simulate(&random_truth(seed), &o).unwrap().session
-    }
 
     /// The lagged form's profile S(τ) from the basis moments equals the one from the
     /// exact lagged columns (the lag at every sample, their moments formed over the rows)

@@ -444,7 +444,7 @@ impl<'a> Ctx<'a> {
 mod tests {
     use super::super::super::design;
     use super::*;
-    use crate::simulate::{Plan, SimOptions, random_truth, simulate};
+    use crate::simulate::seed_session;
 
     fn state(fit: Fit, prior: Option<(Kept, usize)>) -> State {
         State {
@@ -470,12 +470,7 @@ mod tests {
     /// columns' products.
     #[test]
     fn carried_moments_are_the_moments_formed_on_the_new_model() {
-        let o = SimOptions {
-            plan: Plan::Seed,
-            sample_rate_hz: 10.0,
-            ..Default::default()
-        };
-        let session = simulate(&random_truth(3), &o).unwrap().session;
+        let session = seed_session(3);
         let d = design::build(&session, &Default::default(), 3).unwrap();
         let red = Reduction::new(&session, &d);
         let sets = Sets::new(&d, &red, 3);
