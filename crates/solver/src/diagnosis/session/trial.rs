@@ -7,7 +7,7 @@ use super::super::catalogue::{self, Candidate, Search};
 use super::super::design::{Design, RunInfo};
 use super::super::local_scan;
 use super::super::lost_motion::Profile;
-use super::super::moments::Moments;
+use super::super::moments::{self, Moments};
 use super::super::periodic_scan;
 use super::super::search::golden_section;
 use super::super::temperature;
@@ -253,7 +253,7 @@ impl Ctx<'_> {
                         let Some(mom) = mom else {
                             return f64::INFINITY;
                         };
-                        super::super::moments::joint_fit(red, sets, Some(&mom), &f.base, false)
+                        moments::joint_fit(red, sets, Some(&mom), &f.base, false)
                             .all
                             .ssr
                     }
@@ -641,9 +641,10 @@ impl Ctx<'_> {
 
     /// A trial's coefficients refitted with its candidate `c` at the nonlinear value `v`,
     /// in the trial's column order; `None` when the refit loses a column.
+    /// The moments are those kept on the state ([`Ctx::moments_at`]): a thermal drift's
+    /// interval refits at the bounds its confirmation has just evaluated.
     fn coef_at(&self, s: &State, t: &Trial, (c, v): (&Candidate, f64)) -> Option<Vec<f64>> {
-        let specs = catalogue::specs(self.d, c, v, s.eps());
-        let (_, keep, jf) = self.evaluate(&s.fit, &specs, false)?;
+        let (_, keep, jf) = self.fit_moments(&s.fit, self.moments_at(s, c, v), false)?;
         (keep.len() == t.ncols).then(|| jf.all.x[..t.ncols].to_vec())
     }
 
@@ -667,8 +668,18 @@ impl Ctx<'_> {
         let (_, th) = t.theta.filter(|_| t.cand.effect == "thermal_drift")?;
         let thr = t.ssr + 4.0 * sigma * sigma;
         let within = |x: f64| self.ssr_at(s, &t.cand, th * x.exp()) <= thr;
-        let (lo, lo_open) = profile_bound(within, -1.0, 0.05, LN_REACH);
-        let (hi, hi_open) = profile_bound(within, 1.0, 0.05, LN_REACH);
+        // The bracket located on the round's thermal basis (the profile its search used),
+        // then confirmed by the exact passes at its ends ([`profile_bound_confirmed`]).
+        let basis = self.thermal_basis(s);
+        let near = |x: f64| {
+            let mom = basis.at(th * x.exp());
+            moments::joint_fit(self.red, self.sets, Some(&mom), &s.fit.base, false)
+                .all
+                .ssr
+                <= thr
+        };
+        let (lo, lo_open) = profile_bound_confirmed(near, within, -1.0, 0.05, LN_REACH);
+        let (hi, hi_open) = profile_bound_confirmed(near, within, 1.0, 0.05, LN_REACH);
         let low = (th * lo.exp())
             .min(th - 2.0 * sd)
             .max(th * (-LN_REACH).exp());
@@ -754,7 +765,7 @@ impl Ctx<'_> {
         cand: &Candidate,
         (theta, extra): (Option<(&'static str, f64)>, usize),
         names: &[String],
-        (mom, keep, jf): (Moments, Vec<usize>, super::super::moments::JointFit),
+        (mom, keep, jf): (Moments, Vec<usize>, moments::JointFit),
     ) -> Trial {
         let n = self.d.rows() as f64;
         let f = &s.fit;
@@ -972,6 +983,14 @@ pub(crate) struct TimeConstantInterval {
 /// search: a thermal drift's time constant (in ln T), a step's width (in ln w) and a
 /// ramp's time.
 fn profile_bound(within: impl Fn(f64) -> bool, dir: f64, first: f64, reach: f64) -> (f64, bool) {
+    let (a, b) = bracket(within, dir, first, reach);
+    (dir * a, b.is_none())
+}
+
+/// [`profile_bound`]'s last bracket on one side: the last offset found within and the
+/// first found outside (both ≥ 0, along `dir`); `None` outside when still within at the
+/// reach.
+fn bracket(within: impl Fn(f64) -> bool, dir: f64, first: f64, reach: f64) -> (f64, Option<f64>) {
     let (mut inside, mut step) = (0.0, first.min(reach));
     let outside = loop {
         if !within(dir * step) {
@@ -979,7 +998,7 @@ fn profile_bound(within: impl Fn(f64) -> bool, dir: f64, first: f64, reach: f64)
         }
         inside = step;
         if step >= reach {
-            return (dir * reach, true);
+            return (reach, None);
         }
         step = (2.0 * step).min(reach);
     };
@@ -992,7 +1011,31 @@ fn profile_bound(within: impl Fn(f64) -> bool, dir: f64, first: f64, reach: f64)
             b = m;
         }
     }
-    (dir * a, false)
+    (a, Some(b))
+}
+
+/// [`profile_bound`] of `within` (exact, one pass over the rows a call) searched on a
+/// cheap profile `near` of the same quantity, its last bracket [a, b] then confirmed by
+/// `within`: within at a (0 and an open side's reach included), not within at b. On a
+/// profile that crosses its threshold once on that side, every point the search visits
+/// lies at or below a (within) or at or above b (not within), so the exact search would
+/// make the same decisions: the same bound, for at most two exact calls instead of up to
+/// thirteen. Where `within` disagrees at an end (the cheap profile off near the
+/// threshold), the search is made again on `within` alone.
+fn profile_bound_confirmed(
+    near: impl Fn(f64) -> bool,
+    within: impl Fn(f64) -> bool,
+    dir: f64,
+    first: f64,
+    reach: f64,
+) -> (f64, bool) {
+    let (a, b) = bracket(near, dir, first, reach);
+    let confirmed = (a == 0.0 || within(dir * a)) && b.is_none_or(|b| !within(dir * b));
+    if confirmed {
+        (dir * a, b.is_none())
+    } else {
+        profile_bound(within, dir, first, reach)
+    }
 }
 
 /// Carries the uncertainty `sd` of a nonlinear parameter into the other reported
@@ -1311,7 +1354,8 @@ fn smoother_variance(t: &Trial, d: &Design) -> Option<Vec<f64>> {
 
 #[cfg(test)]
 mod tests {
-    use super::{FormTest, LN_REACH, profile_bound};
+    use super::{FormTest, LN_REACH, profile_bound, profile_bound_confirmed};
+    use std::cell::Cell;
 
     /// The bounds of a known profile: within where (x − 0.3)² ≤ 0.9, i.e.
     /// 0.3 ± √0.9, found from inside to within one 64th of the bracket ([0.8, 1.6] on the
@@ -1337,6 +1381,55 @@ mod tests {
         assert_eq!(
             profile_bound(|x: f64| x <= 3.5, 1.0, 0.05, 3.0),
             (3.0, true)
+        );
+    }
+
+    /// The bound located on a cheap profile and confirmed by the exact one is the exact
+    /// search's, bit for bit, whenever the cheap profile crosses within the exact one's
+    /// last bracket (offset by 10⁻⁶ here, or far off on the open side), for two exact
+    /// calls a side (one on an open side); where the cheap profile crosses elsewhere
+    /// (off by 0.1), the confirmation fails and the exact search is made again: the same
+    /// bound still.
+    #[test]
+    fn a_confirmed_bound_is_the_exact_search_s() {
+        let calls = Cell::new(0);
+        let exact = |x: f64| {
+            calls.set(calls.get() + 1);
+            (x - 0.3f64).powi(2) <= 0.9
+        };
+        for off in [1e-6, -1e-6, 0.1, -0.1] {
+            let near = |x: f64| (x - 0.3f64).powi(2) <= 0.9 + off;
+            for dir in [1.0, -1.0] {
+                calls.set(0);
+                let want = profile_bound(exact, dir, 0.05, LN_REACH);
+                let exact_calls = calls.get();
+                calls.set(0);
+                let got = profile_bound_confirmed(near, exact, dir, 0.05, LN_REACH);
+                assert_eq!(got, want, "offset {off}, side {dir}");
+                if off.abs() < 1e-3 {
+                    assert_eq!(calls.get(), 2, "offset {off}, side {dir}");
+                } else {
+                    // One or two calls to find it unconfirmed, then the exact search.
+                    let extra = calls.get() - exact_calls;
+                    assert!((1..=2).contains(&extra), "offset {off}, side {dir}");
+                }
+            }
+        }
+        // Open above on both: one exact call, at the reach.
+        calls.set(0);
+        let flat = |x: f64| {
+            calls.set(calls.get() + 1);
+            x > -0.5
+        };
+        assert_eq!(
+            profile_bound_confirmed(|x: f64| x > -0.6, flat, 1.0, 0.05, LN_REACH),
+            (LN_REACH, true)
+        );
+        assert_eq!(calls.get(), 1);
+        // Open on the cheap profile, closed on the exact one: found by the exact search.
+        assert_eq!(
+            profile_bound_confirmed(|_: f64| true, |x: f64| x <= 2.5, 1.0, 0.05, 3.0),
+            profile_bound(|x: f64| x <= 2.5, 1.0, 0.05, 3.0)
         );
     }
 
