@@ -582,12 +582,32 @@ impl Ctx<'_> {
                 Search::Grid(_, v) => v.iter().copied().fold(tau_hat, f64::max),
                 _ => tau_hat,
             };
-            let mut up = tau_hat;
-            while up < top && self.ssr_at(s, &lag.cand, (up * 1.25).min(top)) <= limit {
-                up = (up * 1.25).min(top);
-            }
+            // Outward from τ̂ in steps of 25 % while within, located on the round's
+            // thermal basis (the profile the lag's search used) and confirmed by exact
+            // passes at the last τ within and the first beyond ([`confirmed`]).
+            let walk = |within: &dyn Fn(f64) -> bool| {
+                let mut up = tau_hat;
+                while up < top && within((up * 1.25).min(top)) {
+                    up = (up * 1.25).min(top);
+                }
+                let next = (up < top).then(|| (up * 1.25).min(top));
+                (up, (up != tau_hat).then_some(up), next)
+            };
+            let basis = self.thermal_basis(s);
+            let near = |tau: f64| {
+                basis.lagged(tau).is_some_and(|mom| {
+                    moments::joint_fit(self.red, self.sets, Some(&mom), &s.fit.base, false)
+                        .all
+                        .ssr
+                        <= limit
+                })
+            };
+            let within = |tau: f64| self.ssr_at(s, &lag.cand, tau) <= limit;
+            let up = confirmed(walk, &near, &within);
             let specs = catalogue::specs(self.d, &lag.cand, up, s.eps());
-            if let Some((_, keep, jf)) = self.evaluate(&s.fit, &specs, false) {
+            if let Some((_, keep, jf)) =
+                self.fit_moments(&s.fit, self.moments_at(s, &lag.cand, up), false)
+            {
                 let names: Vec<String> = keep.iter().map(|&j| specs.names[j].clone()).collect();
                 widen(&mut var, &names, &jf.all.x[..keep.len()], true);
             }
@@ -983,14 +1003,14 @@ pub(crate) struct TimeConstantInterval {
 /// search: a thermal drift's time constant (in ln T), a step's width (in ln w) and a
 /// ramp's time.
 fn profile_bound(within: impl Fn(f64) -> bool, dir: f64, first: f64, reach: f64) -> (f64, bool) {
-    let (a, b) = bracket(within, dir, first, reach);
+    let (a, b) = bracket(&within, dir, first, reach);
     (dir * a, b.is_none())
 }
 
 /// [`profile_bound`]'s last bracket on one side: the last offset found within and the
 /// first found outside (both ≥ 0, along `dir`); `None` outside when still within at the
 /// reach.
-fn bracket(within: impl Fn(f64) -> bool, dir: f64, first: f64, reach: f64) -> (f64, Option<f64>) {
+fn bracket(within: &dyn Fn(f64) -> bool, dir: f64, first: f64, reach: f64) -> (f64, Option<f64>) {
     let (mut inside, mut step) = (0.0, first.min(reach));
     let outside = loop {
         if !within(dir * step) {
@@ -1015,13 +1035,8 @@ fn bracket(within: impl Fn(f64) -> bool, dir: f64, first: f64, reach: f64) -> (f
 }
 
 /// [`profile_bound`] of `within` (exact, one pass over the rows a call) searched on a
-/// cheap profile `near` of the same quantity, its last bracket [a, b] then confirmed by
-/// `within`: within at a (0 and an open side's reach included), not within at b. On a
-/// profile that crosses its threshold once on that side, every point the search visits
-/// lies at or below a (within) or at or above b (not within), so the exact search would
-/// make the same decisions: the same bound, for at most two exact calls instead of up to
-/// thirteen. Where `within` disagrees at an end (the cheap profile off near the
-/// threshold), the search is made again on `within` alone.
+/// cheap profile `near` of the same quantity, its last bracket confirmed by `within`
+/// ([`confirmed`]).
 fn profile_bound_confirmed(
     near: impl Fn(f64) -> bool,
     within: impl Fn(f64) -> bool,
@@ -1029,12 +1044,33 @@ fn profile_bound_confirmed(
     first: f64,
     reach: f64,
 ) -> (f64, bool) {
-    let (a, b) = bracket(near, dir, first, reach);
-    let confirmed = (a == 0.0 || within(dir * a)) && b.is_none_or(|b| !within(dir * b));
-    if confirmed {
-        (dir * a, b.is_none())
+    let search = |w: &dyn Fn(f64) -> bool| {
+        let (a, b) = bracket(w, dir, first, reach);
+        ((dir * a, b.is_none()), (a != 0.0).then_some(dir * a), b.map(|b| dir * b))
+    };
+    confirmed(search, &near, &within)
+}
+
+/// The result of an outward search on the exact predicate `within` (one pass over the
+/// rows a call), made on a cheap one `near` of the same quantity and confirmed by
+/// `within` at the two places that decide it: `search(p)` returns its result on the
+/// predicate p, the last place p held (none: only its start, which is not asked) and the
+/// first where it failed (none: the search reached its end within). Within at the one and
+/// not at the other: on a profile that crosses its threshold once, every place the
+/// search visits lies at or before the first (within) or at or beyond the second (not
+/// within), so the search on `within` would make the same decisions, the same result,
+/// for at most two exact calls. Otherwise (the cheap profile off near the threshold) the
+/// search is made again on `within`.
+fn confirmed<R>(
+    search: impl Fn(&dyn Fn(f64) -> bool) -> (R, Option<f64>, Option<f64>),
+    near: &dyn Fn(f64) -> bool,
+    within: &dyn Fn(f64) -> bool,
+) -> R {
+    let (r, inside, outside) = search(near);
+    if inside.is_none_or(within) && outside.is_none_or(|x| !within(x)) {
+        r
     } else {
-        profile_bound(within, dir, first, reach)
+        search(within).0
     }
 }
 
