@@ -67,8 +67,17 @@ fn mul((a, b): (f64, f64), (c, d): (f64, f64)) -> (f64, f64) {
 /// For the stretch x_i = x0 + i·h with residual `r` (one value per sample), adds to
 /// `out[k]` the raw sums [Σs, Σc, Σs², Σc², Σs·c, Σr·s, Σr·c] of s = sin(2πf x),
 /// c = cos(2πf x) at f = f0 + k·df (k < out.len()) (the periodic scan's
-/// `centred` turns a run's total into its centred moments).
-pub fn even_sums(x0: f64, h: f64, r: &[f64], f0: f64, df: f64, out: &mut [[f64; 7]]) {
+/// `centred` turns a run's total into its centred moments). Without `FULL`, the
+/// residual's two alone (the first five, which do not depend on it, left as they are):
+/// the same values of those two.
+pub fn even_sums<const FULL: bool>(
+    x0: f64,
+    h: f64,
+    r: &[f64],
+    f0: f64,
+    df: f64,
+    out: &mut [[f64; 7]],
+) {
     let n = r.len();
     let nf = n as f64;
     for (b, block) in out.chunks_mut(LANES).enumerate() {
@@ -85,6 +94,11 @@ pub fn even_sums(x0: f64, h: f64, r: &[f64], f0: f64, df: f64, out: &mut [[f64; 
             let tail = (s1[l] - ct * s2[l], -st * s2[l]);
             let (sn, cn) = (theta * (nf - 1.0)).sin_cos();
             let rsum = mul(start, mul((cn, sn), tail));
+            if !FULL {
+                m[5] += rsum.1;
+                m[6] += rsum.0;
+                continue;
+            }
             let s1sum = mul(start, dirichlet(n, theta));
             let start2 = mul(start, start);
             let s2sum = mul(start2, dirichlet(n, 2.0 * theta));
@@ -138,11 +152,11 @@ mod tests {
             .collect();
         let (f0, df, nf) = (0.02, 0.37, 137);
         let mut got = vec![[0.0; 7]; nf];
-        even_sums(x0, h, &r, f0, df, &mut got);
+        even_sums::<true>(x0, h, &r, f0, df, &mut got);
         let mut freqs: Vec<f64> = (0..nf).map(|k| f0 + k as f64 * df).collect();
         freqs.push(50.0);
         let mut nyq = [[0.0; 7]; 1];
-        even_sums(x0, h, &r, 50.0, 1.0, &mut nyq);
+        even_sums::<true>(x0, h, &r, 50.0, 1.0, &mut nyq);
         got.push(nyq[0]);
         let xs: Vec<f64> = (0..n).map(|i| x0 + i as f64 * h).collect();
         for (k, &f) in freqs.iter().enumerate() {

@@ -35,8 +35,11 @@ pub fn centred(sums: &[f64; 7], n: usize) -> [f64; 5] {
 }
 
 /// The run's centred moments [ss, cc, sc, rs, rc] at f = f0 + k·df (k < out.len()) for the
-/// samples at `xs` with residual `rv`; `sums` is scratch of out.len() entries.
-pub fn run_moments(
+/// samples at `xs` with residual `rv`; `sums` is scratch of out.len() entries. Without
+/// `FULL`, rs and rc alone (the same values; ss, cc, sc, which do not depend on the
+/// residual, are left 0): a scan of the same samples and frequencies on another
+/// residual takes them from the first.
+pub fn run_moments<const FULL: bool>(
     rv: &[f64],
     xs: &[f64],
     f0: f64,
@@ -54,7 +57,7 @@ pub fn run_moments(
             .then(|| even_scan::even_step(&xs[i..j]))
             .flatten();
         match even {
-            Some((x0, h)) => even_scan::even_sums(x0, h, &rv[i..j], f0, df, sums),
+            Some((x0, h)) => even_scan::even_sums::<FULL>(x0, h, &rv[i..j], f0, df, sums),
             None => {
                 rest_r.extend_from_slice(&rv[i..j]);
                 rest_x.extend_from_slice(&xs[i..j]);
@@ -63,7 +66,7 @@ pub fn run_moments(
         i = j;
     }
     if !rest_x.is_empty() {
-        phasor_sums(&rest_r, &rest_x, f0, df, sums);
+        phasor_sums::<FULL>(&rest_r, &rest_x, f0, df, sums);
     }
     for (o, s) in out.iter_mut().zip(sums.iter()) {
         *o = centred(s, rv.len());
@@ -91,9 +94,15 @@ fn stretch_end(xs: &[f64], i: usize) -> usize {
 
 /// Adds to `out[k]` the raw sums [Σs, Σc, Σs², Σc², Σs·c, Σr·s, Σr·c] at f = f0 + k·df of
 /// the samples `xs` with residual `rv`, by rotating phasors, [`LANES`] frequencies at a
-/// time.
-pub fn phasor_sums(rv: &[f64], xs: &[f64], f0: f64, df: f64, out: &mut [[f64; 7]]) {
-    wide(Phasors {
+/// time (without `FULL`, the residual's two alone, as [`even_scan::even_sums`]).
+pub fn phasor_sums<const FULL: bool>(
+    rv: &[f64],
+    xs: &[f64],
+    f0: f64,
+    df: f64,
+    out: &mut [[f64; 7]],
+) {
+    wide(Phasors::<FULL> {
         rv,
         xs,
         f0,
@@ -103,7 +112,7 @@ pub fn phasor_sums(rv: &[f64], xs: &[f64], f0: f64, df: f64, out: &mut [[f64; 7]
 }
 
 /// [`phasor_sums`]' arguments, as the kernel [`wide`] runs.
-struct Phasors<'a> {
+struct Phasors<'a, const FULL: bool> {
     rv: &'a [f64],
     xs: &'a [f64],
     f0: f64,
@@ -111,18 +120,18 @@ struct Phasors<'a> {
     out: &'a mut [[f64; 7]],
 }
 
-impl pulp::WithSimd for Phasors<'_> {
+impl<const FULL: bool> pulp::WithSimd for Phasors<'_, FULL> {
     type Output = ();
 
     #[inline(always)]
     fn with_simd<S: pulp::Simd>(self, _: S) {
-        phasors(self.rv, self.xs, self.f0, self.df, self.out)
+        phasors::<FULL>(self.rv, self.xs, self.f0, self.df, self.out)
     }
 }
 
 /// [`phasor_sums`]' work, inlined into its wide build.
 #[inline(always)]
-fn phasors(rv: &[f64], xs: &[f64], f0: f64, df: f64, out: &mut [[f64; 7]]) {
+fn phasors<const FULL: bool>(rv: &[f64], xs: &[f64], f0: f64, df: f64, out: &mut [[f64; 7]]) {
     let two_pi = 2.0 * PI;
     let nf = out.len();
     let nb = nf.div_ceil(LANES);
@@ -149,11 +158,13 @@ fn phasors(rv: &[f64], xs: &[f64], f0: f64, df: f64, out: &mut [[f64; 7]]) {
             let pc = &mut cs[i * LANES..(i + 1) * LANES];
             for l in 0..LANES {
                 let (s, c) = (ps[l], pc[l]);
-                acc[0][l] += s;
-                acc[1][l] += c;
-                acc[2][l] += s * s;
-                acc[3][l] += c * c;
-                acc[4][l] += s * c;
+                if FULL {
+                    acc[0][l] += s;
+                    acc[1][l] += c;
+                    acc[2][l] += s * s;
+                    acc[3][l] += c * c;
+                    acc[4][l] += s * c;
+                }
                 acc[5][l] += r * s;
                 acc[6][l] += r * c;
                 ps[l] = s * c4 + c * s4;
@@ -230,7 +241,7 @@ mod tests {
         let (f0, df, nf) = (1.0 / 30.0, 0.0031, 150);
         let mut sums = vec![[0.0; 7]; nf];
         let mut got = vec![[0.0; 5]; nf];
-        run_moments(&r, &xs, f0, df, &mut sums, &mut got);
+        run_moments::<true>(&r, &xs, f0, df, &mut sums, &mut got);
         let n = xs.len() as f64;
         for (k, g) in got.iter().enumerate() {
             let [s, c, ss, cc, sc, rs, rc] = direct_sums(&xs, &r, f0 + k as f64 * df);
@@ -244,6 +255,14 @@ mod tests {
                     want[j]
                 );
             }
+        }
+        // The residual's two sums alone (a later scan of the same samples and grid):
+        // bit for bit those of the whole scan, closed-form stretch and phasors alike.
+        let mut alone = vec![[0.0; 5]; nf];
+        run_moments::<false>(&r, &xs, f0, df, &mut sums, &mut alone);
+        for (a, g) in alone.iter().zip(&got) {
+            assert_eq!(a[3].to_bits(), g[3].to_bits());
+            assert_eq!(a[4].to_bits(), g[4].to_bits());
         }
     }
 

@@ -509,12 +509,14 @@ pub fn diagnose_session_with_progress(
     let red = Reduction::new(session, &d);
     let sets = Sets::new(&d, &red, folds);
     let heldout_n = sets.heldout_n;
+    let scans = Default::default();
     let ctx = Ctx {
         d: &d,
         red: &red,
         sets: &sets,
         floor: f64::NAN,
         bic_threshold: opts.min_bic_gain,
+        scans: &scans,
     };
     progress.report("fitting the rigid model", 0.05);
     let f = ctx.fit(Vec::new(), Vec::new());

@@ -28,6 +28,37 @@ pub(crate) struct Ctx<'a> {
     /// candidate whose ΔBIC is above −`bic_threshold` cannot qualify
     /// ([`Ctx::may_qualify`]).
     pub bic_threshold: f64,
+    /// The frequency scans' moments that do not depend on the residual, kept for the
+    /// session's later rounds ([`ScanMoments`]).
+    pub scans: &'a ScanMoments,
+}
+
+/// A frequency scan: its reading axis, its variable (the address of the design's field
+/// it reads), its grid's first frequency and step (their bits) and size, and whether it
+/// sums each run's fit apart.
+pub(crate) type ScanKey = (usize, usize, u64, u64, usize, bool);
+
+/// The moments [ss, cc, sc] of every frequency scan the session has made, which depend
+/// on the rows, the variable and the grid and not on the residual (the sines' and
+/// cosines' sums of squares and products, [`super::super::periodic_scan`]): per
+/// frequency, summed over the runs scanned, or per run scanned then frequency when the
+/// scan fits each run apart. A later round's scan of the same rows on the same grid
+/// (every coarse scan; a fine one about the same frequency) forms the residual's two
+/// sums alone and takes these: the same values.
+#[derive(Default)]
+pub(crate) struct ScanMoments(std::sync::Mutex<HashMap<ScanKey, Arc<Vec<[f64; 3]>>>>);
+
+impl ScanMoments {
+    pub fn get(&self, key: &ScanKey) -> Option<Arc<Vec<[f64; 3]>>> {
+        self.0.lock().expect("scan moments").get(key).cloned()
+    }
+
+    pub fn insert(&self, key: ScanKey, v: Vec<[f64; 3]>) {
+        self.0
+            .lock()
+            .expect("scan moments")
+            .insert(key, Arc::new(v));
+    }
 }
 
 /// Which rows a candidate's pass visits, for the moments kept on a model
@@ -480,6 +511,7 @@ mod tests {
             sets: &sets,
             floor: 0.15,
             bic_threshold: 10.0,
+            scans: &Default::default(),
         };
         let cands = catalogue::candidates(&d);
         let pick = |effect: &str, axis: Option<Axis>| {

@@ -12,7 +12,7 @@ use super::super::periodic_scan;
 use super::super::search::golden_section;
 use super::super::temperature;
 use super::anomalies::{self, sequences, step_time};
-use super::context::{Ctx, State, Visit};
+use super::context::{Ctx, ScanMoments, State, Visit};
 use crate::axis::Axis;
 use std::collections::BTreeMap;
 
@@ -61,8 +61,30 @@ struct ScanVar<'v> {
 /// solved in closed form; the chosen frequency is then fitted jointly. The work is bounded:
 /// whole runs, every `stride`-th, so that at most [`MAX_SCAN_WORK`] (row, frequency) pairs
 /// are evaluated (the runs chosen still span the session). Each run's moments at every
-/// frequency come from [`periodic_scan::run_moments`].
-fn periodic_best(d: &Design, r: &[f64], v: &ScanVar, freqs: &[f64]) -> Option<f64> {
+/// frequency come from [`periodic_scan::run_moments`]; those that do not depend on the
+/// residual from `kept` when the session has made the same scan before ([`ScanMoments`]),
+/// and kept there otherwise.
+fn periodic_best(
+    d: &Design,
+    r: &[f64],
+    v: &ScanVar,
+    freqs: &[f64],
+    kept: &ScanMoments,
+) -> Option<f64> {
+    let score = scan_scores(d, r, v, freqs, kept)?;
+    let kbest = (0..freqs.len()).max_by(|&a, &b| score[a].total_cmp(&score[b]))?;
+    Some(freqs[kbest])
+}
+
+/// [`periodic_best`]'s score of every frequency: the residual's sum of squares its pair
+/// explains (`None`: no run reads the axis).
+fn scan_scores(
+    d: &Design,
+    r: &[f64],
+    v: &ScanVar,
+    freqs: &[f64],
+    kept: &ScanMoments,
+) -> Option<Vec<f64>> {
     let ScanVar { axis, var, per_run } = *v;
     let nf = freqs.len();
     let f0 = *freqs.first()?;
@@ -90,6 +112,19 @@ fn periodic_best(d: &Design, r: &[f64], v: &ScanVar, freqs: &[f64]) -> Option<f6
         let b = (ss * rc - sc * rs) / det;
         a * rs + b * rc
     };
+    let key = (
+        axis.index(),
+        var.as_ptr() as usize,
+        f0.to_bits(),
+        df.to_bits(),
+        nf,
+        per_run,
+    );
+    let known = kept.get(&key);
+    // The moments that do not depend on the residual: taken from `known` (from its
+    // first entry, run by run when per run), or gathered into `fresh` to keep.
+    let (from, mut fresh) = (if known.is_some() { 3 } else { 0 }, Vec::new());
+    let mut scanned = 0;
     let mut score = vec![0.0; nf];
     let mut total = vec![[0.0; 5]; nf];
     let mut mom = vec![[0.0; 5]; nf];
@@ -123,27 +158,41 @@ fn periodic_best(d: &Design, r: &[f64], v: &ScanVar, freqs: &[f64]) -> Option<f6
         }
         // The run's moments [ss, cc, sc, rs, rc] at every frequency: in closed form on
         // its evenly spaced stretches, by rotating phasors elsewhere ([`periodic_scan`]).
-        periodic_scan::run_moments(&rv, &xs, f0, df, &mut sums, &mut mom);
-        for (k, m) in mom.iter().enumerate() {
+        match known {
+            Some(_) => periodic_scan::run_moments::<false>(&rv, &xs, f0, df, &mut sums, &mut mom),
+            None => periodic_scan::run_moments::<true>(&rv, &xs, f0, df, &mut sums, &mut mom),
+        }
+        for (k, m) in mom.iter_mut().enumerate() {
             if per_run {
+                match &known {
+                    Some(kn) => m[..3].copy_from_slice(&kn[scanned * nf + k]),
+                    None => fresh.push([m[0], m[1], m[2]]),
+                }
                 score[k] += solve(m);
             } else {
-                for j in 0..5 {
+                for j in from..5 {
                     total[k][j] += m[j];
                 }
             }
         }
+        scanned += 1;
     }
     if !any {
         return None;
     }
     if !per_run {
         for k in 0..nf {
+            match &known {
+                Some(kn) => total[k][..3].copy_from_slice(&kn[k]),
+                None => fresh.push([total[k][0], total[k][1], total[k][2]]),
+            }
             score[k] = solve(&total[k]);
         }
     }
-    let kbest = (0..nf).max_by(|&a, &b| score[a].total_cmp(&score[b]))?;
-    Some(freqs[kbest])
+    if known.is_none() {
+        kept.insert(key, fresh);
+    }
+    Some(score)
 }
 
 /// A frequency band of a refinement: the scanned frequency, the half-width of the band
@@ -324,12 +373,12 @@ impl Ctx<'_> {
                     .take_while(|&x| x <= f_hi)
                     .collect();
                 let scan = |per_run| ScanVar { axis, var, per_run };
-                let c0 = periodic_best(d, &f.resid, &scan(in_time), &coarse)?;
+                let c0 = periodic_best(d, &f.resid, &scan(in_time), &coarse, self.scans)?;
                 let fine: Vec<f64> = (0..)
                     .map(|i| (c0 - coarse_step).max(0.5 * f_lo) + i as f64 * fine_step)
                     .take_while(|&x| x <= c0 + coarse_step)
                     .collect();
-                let best = periodic_best(d, &f.resid, &scan(false), &fine)?;
+                let best = periodic_best(d, &f.resid, &scan(false), &fine, self.scans)?;
                 // Position: within a coarse step (12 golden steps); time: within a fine
                 // step, to 10⁻⁵ of it (24 steps).
                 let band = if in_time {
@@ -1046,7 +1095,11 @@ fn profile_bound_confirmed(
 ) -> (f64, bool) {
     let search = |w: &dyn Fn(f64) -> bool| {
         let (a, b) = bracket(w, dir, first, reach);
-        ((dir * a, b.is_none()), (a != 0.0).then_some(dir * a), b.map(|b| dir * b))
+        (
+            (dir * a, b.is_none()),
+            (a != 0.0).then_some(dir * a),
+            b.map(|b| dir * b),
+        )
     };
     confirmed(search, &near, &within)
 }
@@ -1390,7 +1443,10 @@ fn smoother_variance(t: &Trial, d: &Design) -> Option<Vec<f64>> {
 
 #[cfg(test)]
 mod tests {
-    use super::{FormTest, LN_REACH, profile_bound, profile_bound_confirmed};
+    use super::super::super::design;
+    use super::{FormTest, LN_REACH, ScanMoments, ScanVar, profile_bound, profile_bound_confirmed};
+    use crate::axis::Axis;
+    use crate::simulate::seed_session;
     use std::cell::Cell;
 
     /// The bounds of a known profile: within where (x − 0.3)² ≤ 0.9, i.e.
@@ -1467,6 +1523,42 @@ mod tests {
             profile_bound_confirmed(|_: f64| true, |x: f64| x <= 2.5, 1.0, 0.05, 3.0),
             profile_bound(|x: f64| x <= 2.5, 1.0, 0.05, 3.0)
         );
+    }
+
+    /// A frequency scan of a second residual on the moments kept from the first (the
+    /// same rows and grid) scores every frequency bit for bit as the scan made afresh:
+    /// in position over the whole session and in time run by run.
+    #[test]
+    fn a_scan_on_kept_moments_is_the_fresh_scan() {
+        let session = seed_session(3);
+        let d = design::build(&session, &Default::default(), 3).unwrap();
+        let resid = |a: f64| -> Vec<f64> {
+            (0..d.rows())
+                .map(|i| (a * i as f64).sin() + 0.01 * ((i * 7919) % 13) as f64)
+                .collect()
+        };
+        let (r1, r2) = (resid(0.37), resid(0.011));
+        let scans = [
+            (Axis::X, &d.fields.q_mm[0], false, 1.0 / 30.0, 0.0025),
+            (Axis::Y, &d.fields.t_s, true, 0.01, 0.013),
+        ];
+        for (axis, var, per_run, f0, df) in scans {
+            let v = ScanVar { axis, var, per_run };
+            let freqs: Vec<f64> = (0..300).map(|k| f0 + k as f64 * df).collect();
+            let kept = ScanMoments::default();
+            let first = super::scan_scores(&d, &r1, &v, &freqs, &kept).unwrap();
+            let again = super::scan_scores(&d, &r2, &v, &freqs, &kept).unwrap();
+            let fresh = super::scan_scores(&d, &r2, &v, &freqs, &Default::default()).unwrap();
+            assert!(
+                again
+                    .iter()
+                    .zip(&fresh)
+                    .all(|(a, b)| a.to_bits() == b.to_bits())
+            );
+            // Not the first residual's scores: the residual's sums were formed anew.
+            assert!(again.iter().zip(&first).any(|(a, b)| a != b));
+            assert!(fresh.iter().any(|&x| x > 0.0));
+        }
     }
 
     fn places(v: &[(f64, f64)]) -> FormTest {
