@@ -652,7 +652,6 @@ pub fn specs<'a>(
 pub const NUISANCE_LAG_ENDS: [&str; 2] =
     ["nuisance_lag_at_line_ends", "nuisance_lag_at_circle_ends"];
 
-/// Whether sample `s` is of a circle test.
 /// Writes sin φ and cos φ into the first two of `o`. Both slots are checked before the
 /// pair is computed, so that nothing stands between the two and the compiler makes them
 /// one `sincos` call (on Linux, glibc's `sincos` gives the same values as its `sin` and
@@ -664,6 +663,7 @@ fn sin_cos_into(o: &mut [f64], phi: f64) {
     *pair = phi.sin_cos().into();
 }
 
+/// Whether sample `s` is of a circle test.
 fn is_circle(d: &Design, s: usize) -> bool {
     d.runs[d.fields.run(s)].test.is_circle()
 }
