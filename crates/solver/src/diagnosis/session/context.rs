@@ -410,6 +410,21 @@ impl<'a> Ctx<'a> {
             .map_or(f64::INFINITY, |(_, _, jf)| jf.all.ssr)
     }
 
+    /// [`Ctx::ssr_at`] of a thermal drift at the time constant `v`, or (`lagged`) of a
+    /// growth following the logged temperature lagged by `v`, taken on the state's
+    /// thermal basis ([`Ctx::thermal_basis`]) instead of a pass over the rows: the profile
+    /// the round's search of these two reads, and the cheap profile their intervals are
+    /// located on. ∞ where the lagged form is not defined.
+    pub fn basis_ssr(&self, s: &State, lagged: bool, v: f64) -> f64 {
+        let b = self.thermal_basis(s);
+        let mom = if lagged { b.lagged(v) } else { Some(b.at(v)) };
+        mom.map_or(f64::INFINITY, |mom| {
+            moments::joint_fit(self.red, self.sets, Some(&mom), &s.fit.base, false)
+                .all
+                .ssr
+        })
+    }
+
     /// Per run that moves `axis`: the rows read along it less than `reach` mm of travel
     /// after the axis's last reversal, as (index counted from the run's first row, travel
     /// since reversal). A run that does not move the axis has a constant column (none).

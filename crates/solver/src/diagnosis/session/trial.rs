@@ -281,7 +281,7 @@ impl Ctx<'_> {
         s: &State,
         cand: &Candidate,
     ) -> Option<(Option<(&'static str, f64)>, usize, Option<Moments>)> {
-        let (d, red, sets, f) = (self.d, self.red, self.sets, &s.fit);
+        let (d, f) = (self.d, &s.fit);
         Some(match catalogue::search(d, cand) {
             Search::None => (None, 0, None),
             Search::Grid(name, values) => {
@@ -289,24 +289,16 @@ impl Ctx<'_> {
                 // searched on the reduced problem ([`ThermalBasis`]); other parameters
                 // from their columns.
                 let lag = cand.effect == "thermal_temperature_lag" && d.temperature.is_some();
-                let basis = (cand.effect == "thermal_drift" || lag).then(|| self.thermal_basis(s));
+                let on_basis = cand.effect == "thermal_drift" || lag;
                 // A candidate that vanishes away from its axis's reversals (the spike) is
                 // evaluated on the rows within its reach at the largest value searched
                 // (the golden section stays within a grid ratio of the grid; 1 % margin).
                 let ratio = values.get(1).map_or(2.0, |v1| v1 / values[0]);
                 let top = values.iter().copied().fold(0.0, f64::max) * ratio * 1.01;
                 let near = catalogue::reach(cand, top).map(|(a, x)| self.near_rows(a, x));
-                let ssr_at = |v: f64| match (&basis, &near) {
-                    (Some(b), _) => {
-                        let mom = if lag { b.lagged(v) } else { Some(b.at(v)) };
-                        let Some(mom) = mom else {
-                            return f64::INFINITY;
-                        };
-                        moments::joint_fit(red, sets, Some(&mom), &f.base, false)
-                            .all
-                            .ssr
-                    }
-                    (None, Some(near)) => {
+                let ssr_at = |v: f64| match (on_basis, &near) {
+                    (true, _) => self.basis_ssr(s, lag, v),
+                    (false, Some(near)) => {
                         let reach = catalogue::reach(cand, v).map_or(f64::INFINITY, |r| r.1);
                         let specs = catalogue::specs(d, cand, v, s.eps());
                         let mom =
@@ -316,7 +308,7 @@ impl Ctx<'_> {
                         self.fit_moments(f, mom, false)
                             .map_or(f64::INFINITY, |(_, _, jf)| jf.all.ssr)
                     }
-                    (None, None) => self.ssr_at(s, cand, v),
+                    (false, None) => self.ssr_at(s, cand, v),
                 };
                 let mut best: Option<(f64, f64)> = None;
                 for &v in &values {
@@ -642,15 +634,7 @@ impl Ctx<'_> {
                 let next = (up < top).then(|| (up * 1.25).min(top));
                 (up, (up != tau_hat).then_some(up), next)
             };
-            let basis = self.thermal_basis(s);
-            let near = |tau: f64| {
-                basis.lagged(tau).is_some_and(|mom| {
-                    moments::joint_fit(self.red, self.sets, Some(&mom), &s.fit.base, false)
-                        .all
-                        .ssr
-                        <= limit
-                })
-            };
+            let near = |tau: f64| self.basis_ssr(s, true, tau) <= limit;
             let within = |tau: f64| self.ssr_at(s, &lag.cand, tau) <= limit;
             let up = confirmed(walk, &near, &within);
             let specs = catalogue::specs(self.d, &lag.cand, up, s.eps());
@@ -739,14 +723,7 @@ impl Ctx<'_> {
         let within = |x: f64| self.ssr_at(s, &t.cand, th * x.exp()) <= thr;
         // The bracket located on the round's thermal basis (the profile its search used),
         // then confirmed by the exact passes at its ends ([`profile_bound_confirmed`]).
-        let basis = self.thermal_basis(s);
-        let near = |x: f64| {
-            let mom = basis.at(th * x.exp());
-            moments::joint_fit(self.red, self.sets, Some(&mom), &s.fit.base, false)
-                .all
-                .ssr
-                <= thr
-        };
+        let near = |x: f64| self.basis_ssr(s, false, th * x.exp()) <= thr;
         let (lo, lo_open) = profile_bound_confirmed(near, within, -1.0, 0.05, LN_REACH);
         let (hi, hi_open) = profile_bound_confirmed(near, within, 1.0, 0.05, LN_REACH);
         let low = (th * lo.exp())
