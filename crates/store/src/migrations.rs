@@ -8,7 +8,14 @@
 //! made of the same file: description = the file name's words, checksum = SHA-384 of the
 //! file's text (computed by [`Migration::new`]), in its own transaction unless the file
 //! starts with `-- no-transaction`. Databases migrated by earlier builds therefore
-//! validate unchanged (tested in `tests` below against the files).
+//! validate unchanged (tested in `tests` below against the files, and against the
+//! checksums those databases recorded).
+//!
+//! A migration that both dialects accept as written is one file: its
+//! `migrations/postgres/<version>_<description>.sql` is a symbolic link to the SQLite
+//! folder's file of the same name (the build reads through the link: the same text, the
+//! same checksum). The others are two files, one per dialect, and differ where the
+//! dialects do (PostgreSQL's `BIGINT`, `DOUBLE PRECISION` and byte-wise `COLLATE "C"`).
 
 use sqlx::SqlSafeStr as _;
 use sqlx::migrate::{Migration, MigrationSource, MigrationType, Migrator};
@@ -93,6 +100,79 @@ mod tests {
                 let words = name[5..].trim_end_matches(".sql").replace('_', " ");
                 assert_eq!(migration.description, words, "{name}");
             }
+        }
+    }
+
+    /// The migrations databases have applied keep the checksums they recorded (the first
+    /// 12 bytes of each SHA-384, as applied by every earlier build): a migration is never
+    /// edited, only added. This holds the files, and the links by which a migration both
+    /// dialects accept as written is one file (`migrations/postgres/N_….sql` →
+    /// `../sqlite/N_….sql`), to what was applied.
+    #[test]
+    fn applied_migrations_keep_their_checksums() {
+        const APPLIED: &[(&str, i64, &str)] = &[
+            ("sqlite", 1, "c23215f7ba979c163407713a"),
+            ("sqlite", 2, "e705f8af07d13987f58b19e1"),
+            ("sqlite", 3, "57d3fe838511312387947877"),
+            ("sqlite", 4, "4fd00d7967295dc2f7e0c867"),
+            ("sqlite", 5, "03a81cc902614176644eda31"),
+            ("sqlite", 6, "0d7a1b1508c0013dbad28b7f"),
+            ("sqlite", 7, "1fc0db78b7e5417ecac46020"),
+            ("sqlite", 8, "db2a2143fe25289185a8b095"),
+            ("sqlite", 9, "ad9c4bb6596302573caf5666"),
+            ("sqlite", 10, "771e8b39bf9f288abc4a927b"),
+            ("sqlite", 11, "0499946f0531a05ab2d152e9"),
+            ("sqlite", 12, "d3ec9ce583af5679158a8a5b"),
+            ("sqlite", 13, "3fdb9b7a3b4a5fe1dd6589e0"),
+            ("postgres", 1, "f7d07f97cde8b944d1343952"),
+            ("postgres", 2, "e705f8af07d13987f58b19e1"),
+            ("postgres", 3, "3bea4ac952864d1d1cff781b"),
+            ("postgres", 4, "4fd00d7967295dc2f7e0c867"),
+            ("postgres", 5, "ca92efb82969d1e0795f4194"),
+            ("postgres", 6, "0d7a1b1508c0013dbad28b7f"),
+            ("postgres", 7, "1fc0db78b7e5417ecac46020"),
+            ("postgres", 8, "db2a2143fe25289185a8b095"),
+            ("postgres", 9, "ad9c4bb6596302573caf5666"),
+            ("postgres", 10, "771e8b39bf9f288abc4a927b"),
+            ("postgres", 11, "d596b9f4fb0852525a662f26"),
+            ("postgres", 12, "d3ec9ce583af5679158a8a5b"),
+            ("postgres", 13, "5fb84b7fe3f9d3ffd8194c54"),
+        ];
+        for &(dialect, version, prefix) in APPLIED {
+            let embedded = if dialect == "sqlite" {
+                SQLITE
+            } else {
+                POSTGRES
+            };
+            let m = migrations(embedded)
+                .into_iter()
+                .find(|m| m.version == version)
+                .unwrap_or_else(|| panic!("{dialect} {version}: missing"));
+            let hex: String = m.checksum[..12]
+                .iter()
+                .map(|b| format!("{b:02x}"))
+                .collect();
+            assert_eq!(hex, prefix, "{dialect} {version}");
+        }
+    }
+
+    /// A link in `migrations/postgres` names the SQLite migration of the same file name:
+    /// one version's text for both dialects, never another version's.
+    #[test]
+    fn linked_migrations_are_the_same_version() {
+        let root = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("../../migrations");
+        for entry in std::fs::read_dir(root.join("postgres")).unwrap() {
+            let path = entry.unwrap().path();
+            let Ok(target) = std::fs::read_link(&path) else {
+                continue;
+            };
+            let name = path.file_name().unwrap();
+            assert_eq!(
+                target,
+                std::path::Path::new("../sqlite").join(name),
+                "{}",
+                path.display()
+            );
         }
     }
 }
