@@ -51,6 +51,11 @@ pub trait Greedy: Sync {
     /// What the problem says of an admitted or set-aside candidate (its finding, or why
     /// it was set aside).
     type Note: Send;
+    /// What the outcome keeps of a state an added candidate extended ([`Added::before`]):
+    /// the part the problem reports; the rest of a state the loop has moved past (a
+    /// session's residual, columns and kept moments) is moved into the next state or
+    /// freed before the next round.
+    type Before: Send;
 
     /// The noise floor, estimated independently of any model.
     fn noise_floor(&self) -> f64;
@@ -72,15 +77,15 @@ pub trait Greedy: Sync {
     /// Whether a qualifying candidate, the loop's choice, may be added.
     fn admit(&self, s: &Self::State, c: &Self::Candidate, t: &Self::Trial)
     -> Admission<Self::Note>;
-    /// The state with the admitted candidate added, and its note as the final model
-    /// states it.
+    /// The state `s` with the admitted candidate added, what the outcome keeps of `s`
+    /// (which the loop then moves past), and the note as the final model states it.
     fn add(
         &self,
-        s: &Self::State,
+        s: Self::State,
         c: &Self::Candidate,
         t: Self::Trial,
         note: Self::Note,
-    ) -> (Self::State, Self::Note);
+    ) -> (Self::State, Self::Before, Self::Note);
 }
 
 /// The figures of a fitted model that the loop compares.
@@ -135,8 +140,8 @@ impl<G: Greedy + ?Sized> Clone for Evaluated<G> {
 
 /// One added candidate.
 pub struct Added<G: Greedy + ?Sized> {
-    /// The state it extended.
-    pub before: G::State,
+    /// What is kept of the state it extended ([`Greedy::Before`]).
+    pub before: G::Before,
     pub chosen: Evaluated<G>,
     pub note: G::Note,
     /// RMS on the fitting rows before and after.
@@ -311,8 +316,9 @@ pub(crate) fn run<G: Greedy + ?Sized>(
             &format!("{prefix}refitting with {}", g.label(&chosen.candidate)),
             0.1 + 0.85 * (round + 0.99) / rounds,
         );
-        let (next, note) = g.add(&state, &chosen.candidate, chosen.trial.clone(), note);
-        let score = g.score(&next);
+        let (next, before, note) = g.add(state, &chosen.candidate, chosen.trial.clone(), note);
+        state = next;
+        let score = g.score(&state);
         added.push(Added {
             rms: super::BeforeAfter {
                 before: rms(cur.sse, n),
@@ -322,7 +328,7 @@ pub(crate) fn run<G: Greedy + ?Sized>(
                 before: rms(cur.heldout_sse, n_heldout),
                 after: rms(score.heldout_sse, n_heldout),
             },
-            before: std::mem::replace(&mut state, next),
+            before,
             chosen,
             note,
         });
@@ -447,6 +453,7 @@ impl<P: Problem> Greedy for P {
     type Candidate = P::Candidate;
     type Trial = Current<P>;
     type Note = ();
+    type Before = P::Model;
 
     fn noise_floor(&self) -> f64 {
         Problem::noise_floor(self)
@@ -476,8 +483,14 @@ impl<P: Problem> Greedy for P {
     fn admit(&self, _: &Current<P>, _: &P::Candidate, _: &Current<P>) -> Admission<()> {
         Admission::Add(())
     }
-    fn add(&self, _: &Current<P>, _: &P::Candidate, t: Current<P>, note: ()) -> (Current<P>, ()) {
-        (t, note)
+    fn add(
+        &self,
+        s: Current<P>,
+        _: &P::Candidate,
+        t: Current<P>,
+        note: (),
+    ) -> (Current<P>, P::Model, ()) {
+        (t, s.model, note)
     }
 }
 
@@ -607,7 +620,7 @@ pub(crate) fn select<P: Problem>(
             .added
             .into_iter()
             .map(|a| Step {
-                before: a.before.model,
+                before: a.before,
                 chosen: Scored::of(a.chosen),
                 rms: a.rms,
                 heldout: a.heldout,
@@ -797,6 +810,7 @@ mod tests {
         type Candidate = C;
         type Trial = Current<Toy>;
         type Note = &'static str;
+        type Before = M;
         fn noise_floor(&self) -> f64 {
             Greedy::noise_floor(&self.0)
         }
@@ -824,12 +838,12 @@ mod tests {
         }
         fn add(
             &self,
-            _: &Current<Toy>,
+            s: Current<Toy>,
             _: &C,
             t: Current<Toy>,
             note: &'static str,
-        ) -> (Current<Toy>, &'static str) {
-            (t, note)
+        ) -> (Current<Toy>, M, &'static str) {
+            (t, s.model, note)
         }
     }
 

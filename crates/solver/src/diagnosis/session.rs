@@ -122,7 +122,7 @@ impl SessionProblem<'_> {
             kept: Default::default(),
             prior: std::sync::Mutex::new(prior),
             thermal: Default::default(),
-            thermal_prior,
+            thermal_prior: std::sync::Mutex::new(thermal_prior),
             eps: (!self.eps_groups.is_empty())
                 .then(|| self.ctx.eps_per_sample(&fit, &self.eps_groups)),
             fit,
@@ -226,6 +226,9 @@ impl super::engine::Greedy for SessionProblem<'_> {
     type Candidate = Candidate;
     type Trial = Trial;
     type Note = Note;
+    /// Nothing: the report reads the findings' notes and the final state only, so a
+    /// state the loop has moved past is freed.
+    type Before = ();
 
     fn noise_floor(&self) -> f64 {
         self.floor
@@ -400,23 +403,32 @@ impl super::engine::Greedy for SessionProblem<'_> {
         }
     }
     /// The model refitted with the trial's columns (centred, unit norm); its finding with
-    /// the refitted figures.
-    fn add(&self, s: &State, c: &Candidate, t: Trial, note: Note) -> (State, Note) {
+    /// the refitted figures. The state before is the loop's no longer: its columns move
+    /// into the new model, its kept moments and thermal basis into the new state (for the
+    /// next round's), and its residual and rotation errors are freed before the new
+    /// model's are formed.
+    fn add(&self, mut s: State, c: &Candidate, t: Trial, note: Note) -> (State, (), Note) {
         let d = self.ctx.d;
-        let (mut cols, mut local) = (s.fit.cols.clone(), s.fit.local.clone());
+        // Base columns [accepted effects | y] of the model before.
+        let u_prev = s.fit.cols.len() + 1;
         let th = t.theta.map_or(0.0, |x| x.1);
         // The trial's own form (a logged temperature's lagged or quadratic form).
         let form = &t.cand;
         let (new_cols, _, _) = catalogue::columns(d, form, th, s.eps());
         let is_local = catalogue::specs(d, form, th, s.eps()).run().is_some();
-        for c in &new_cols {
-            let nrm = dot(c, c).sqrt().max(1e-300);
-            cols.push(c.iter().map(|v| v / nrm).collect());
+        let mut cols = std::mem::take(&mut s.fit.cols);
+        let mut local = std::mem::take(&mut s.fit.local);
+        for mut col in new_cols {
+            let nrm = dot(&col, &col).sqrt().max(1e-300);
+            col.iter_mut().for_each(|v| *v /= nrm);
+            cols.push(col);
             local.push(is_local);
         }
-        let nf = self.ctx.fit(cols, local);
+        s.eps = None;
+        s.fit.resid = Vec::new();
         // The model before this one is not searched again: its kept moments go.
-        s.prior.lock().expect("prior moments").take();
+        s.prior.get_mut().expect("prior moments").take();
+        let nf = self.ctx.fit(cols, local);
         let note = match note {
             Note::Finding(finding) => Note::Finding(Finding {
                 undetermined: finding.undetermined,
@@ -440,20 +452,15 @@ impl super::engine::Greedy for SessionProblem<'_> {
             (Note::Finding(_), "lost_motion_profile", Some(a)) => profiled[a.index()] = true,
             _ => {}
         }
+        let k = s.k + t.ncols + t.extra_params;
+        // The candidates' moments on this model serve the next round's.
+        let kept = std::mem::take(s.kept.get_mut().expect("kept moments"));
+        // So does the thermal searches' basis.
+        let thermal = s.thermal.take().map(|b| (b, u_prev));
+        drop(s);
         (
-            self.state(
-                nf,
-                s.k + t.ncols + t.extra_params,
-                backlash,
-                profiled,
-                // The candidates' moments on this model serve the next round's.
-                Some((
-                    std::mem::take(&mut *s.kept.lock().expect("kept moments")),
-                    s.fit.cols.len() + 1,
-                )),
-                // So does the thermal searches' basis.
-                s.thermal.get().map(|b| (b.clone(), s.fit.cols.len() + 1)),
-            ),
+            self.state(nf, k, backlash, profiled, Some((kept, u_prev)), thermal),
+            (),
             note,
         )
     }
@@ -539,7 +546,10 @@ pub fn diagnose_session_with_progress(
         None => noise_floor().map_or(base_rms, |nf| nf.sigma_um),
     };
     let ctx = Ctx { floor, ..ctx };
-    let before_resid = f.resid.clone();
+    // What the report says of the rigid model's residual, formed now: the residual
+    // itself is not kept.
+    let rigid_residual_rms = rms(f.resid.iter().map(|v| v * v).sum(), n);
+    let before_series = plots::Series::of(&d, &f.resid, "before");
     // Local anomalies of the rigid model's residual: a session with one is never
     // consistent, whatever its global ratio.
     let rigid_anomalies = anomalies::scan(&d, &f.resid, floor);
@@ -650,14 +660,14 @@ pub fn diagnose_session_with_progress(
             }
         ));
     }
-    let plots = plots::plots(&d, &before_resid, &f.resid);
+    let plots = plots::plots(&d, before_series, plots::Series::of(&d, &f.resid, "after"));
     progress.report("done", 1.0);
     Ok(DiagnosisResult {
         kind: "diagnosis".into(),
         machine_id: session.machine_id.clone(),
         source: "session".into(),
         baseline: Baseline {
-            residual_rms_um: rms(before_resid.iter().map(|v| v * v).sum(), n),
+            residual_rms_um: rigid_residual_rms,
             heldout_rms_um: base_heldout,
             noise_estimate_um: floor,
         },

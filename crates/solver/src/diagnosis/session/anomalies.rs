@@ -2,7 +2,7 @@
 //! residual along each of its two reading directions, each anomaly named by its place
 //! (file, run, test, reading direction, session time and commanded position).
 
-use super::super::design::Design;
+use super::super::design::{Design, RunInfo};
 use super::super::local_scan::{self, Anomaly, Kind};
 use crate::axis::Axis;
 
@@ -20,14 +20,43 @@ pub(crate) fn sequences(d: &Design, r: &[f64]) -> Vec<Sequence> {
     for (g, run) in d.runs.iter().enumerate() {
         let (u, v) = d.plane_axes[run.plane_idx];
         for (c, axis) in [u, v].into_iter().enumerate() {
+            let mut seq = Vec::new();
+            sequence(run, c, r, &mut seq);
             out.push(Sequence {
                 run: g,
                 axis,
-                r: (run.start..run.end).map(|s| r[2 * s + c]).collect(),
+                r: seq,
             });
         }
     }
     out
+}
+
+/// The sequences of [`sequences`] read along `axis` alone, one at a time: `f(run, r)`
+/// for each, in the same order (one buffer, not a copy of the whole residual).
+pub(crate) fn each_sequence_along(
+    d: &Design,
+    r: &[f64],
+    axis: Axis,
+    mut f: impl FnMut(usize, &[f64]),
+) {
+    let mut seq = Vec::new();
+    for (g, run) in d.runs.iter().enumerate() {
+        let (u, v) = d.plane_axes[run.plane_idx];
+        for (c, a) in [u, v].into_iter().enumerate() {
+            if a == axis {
+                sequence(run, c, r, &mut seq);
+                f(g, &seq);
+            }
+        }
+    }
+}
+
+/// Run `run`'s residual `r` along its reading direction `c` (0: the plane's first axis)
+/// into `out`.
+fn sequence(run: &RunInfo, c: usize, r: &[f64], out: &mut Vec<f64>) {
+    out.clear();
+    out.extend((run.start..run.end).map(|s| r[2 * s + c]));
 }
 
 /// The family-wise thresholds of a scan of every sequence of the session.

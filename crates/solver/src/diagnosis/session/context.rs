@@ -150,8 +150,9 @@ pub(crate) struct State {
     /// The thermal searches' basis moments on this model, formed once for its time form
     /// and its lagged form ([`Ctx::thermal_basis`]).
     pub thermal: std::sync::OnceLock<Arc<ThermalBasis>>,
-    /// That basis on the model before it, with its number of base columns, when formed.
-    pub thermal_prior: Option<(Arc<ThermalBasis>, usize)>,
+    /// That basis on the model before it, with its number of base columns, when formed;
+    /// taken when this model's is carried from it.
+    pub thermal_prior: std::sync::Mutex<Option<(Arc<ThermalBasis>, usize)>>,
 }
 
 impl State {
@@ -306,12 +307,17 @@ impl<'a> Ctx<'a> {
         if let Some(mom) = find(&s.kept.lock().expect("kept moments")) {
             return mom;
         }
+        // Taken out of the model before's: a carried entry is asked again of this
+        // model's kept moments, never of those, which so shrink as this round's grow.
         let prior = s
             .prior
             .lock()
             .expect("prior moments")
-            .as_ref()
-            .and_then(|(list, u_prev)| Some((find(list)?, *u_prev)));
+            .as_mut()
+            .and_then(|(list, u_prev)| {
+                let (_, by) = list.iter_mut().find(|(c, _)| c == cand)?;
+                Some((by.remove(&key)?, *u_prev))
+            });
         let (d, f) = (self.d, &s.fit);
         let mom = match prior {
             Some((p, u_prev)) if p.m == specs.len() => p.carried(&self.extra(f), u_prev, |new| {
@@ -338,8 +344,9 @@ impl<'a> Ctx<'a> {
     pub fn thermal_basis<'s>(&self, s: &'s State) -> &'s ThermalBasis {
         s.thermal.get_or_init(|| {
             let extra = self.extra(&s.fit);
-            Arc::new(match &s.thermal_prior {
-                Some((b, u_prev)) => b.carried(self.d, self.red, &extra, *u_prev),
+            let prior = s.thermal_prior.lock().expect("prior basis").take();
+            Arc::new(match prior {
+                Some((b, u_prev)) => b.carried(self.d, self.red, &extra, u_prev),
                 None => ThermalBasis::new(self.d, self.red, &extra),
             })
         })
@@ -502,7 +509,7 @@ mod tests {
             kept: Default::default(),
             prior: std::sync::Mutex::new(prior),
             thermal: Default::default(),
-            thermal_prior: None,
+            thermal_prior: Default::default(),
         }
     }
 

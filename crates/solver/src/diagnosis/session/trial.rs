@@ -11,7 +11,7 @@ use super::super::moments::{self, Moments};
 use super::super::periodic_scan;
 use super::super::search::golden_section;
 use super::super::temperature;
-use super::anomalies::{self, sequences, step_time};
+use super::anomalies::{self, step_time};
 use super::context::{Ctx, ScanMoments, State, Visit};
 use crate::axis::Axis;
 use std::collections::BTreeMap;
@@ -404,13 +404,20 @@ impl Ctx<'_> {
     /// family-wise threshold of a scan of the whole session).
     fn most_significant_step(&self, r: &[f64], dir: Axis) -> Option<(usize, usize)> {
         let thr = anomalies::thresholds(self.d)[0];
-        sequences(self.d, r)
-            .into_iter()
-            .filter(|s| s.axis == dir)
-            .filter_map(|s| Some((s.run, local_scan::best_step(&s.r, self.floor)?)))
-            .filter(|(_, a)| a.ln_p < thr)
-            .min_by(|a, b| a.1.ln_p.total_cmp(&b.1.ln_p))
-            .map(|(g, a)| (g, a.at))
+        // The first of the least ln p, as `Iterator::min_by` takes it.
+        let mut best: Option<(usize, local_scan::Anomaly)> = None;
+        anomalies::each_sequence_along(self.d, r, dir, |g, seq| {
+            let Some(a) = local_scan::best_step(seq, self.floor) else {
+                return;
+            };
+            let less = best
+                .as_ref()
+                .is_none_or(|b| a.ln_p.total_cmp(&b.1.ln_p).is_lt());
+            if a.ln_p < thr && less {
+                best = Some((g, a));
+            }
+        });
+        best.map(|(g, a)| (g, a.at))
     }
 
     /// The candidate evaluated jointly with the current model `s`: its nonlinear
