@@ -146,6 +146,12 @@ impl Moments {
         let mut varies = vec![false; m];
         let mut runs = Vec::with_capacity(red.runs.len());
         let mut pass = Pass::new(m);
+        // Per column and direction, set anew for each run: the sum, the least and
+        // largest value, and the rows where the column is nonzero (where they are fewer
+        // than the direction's rows, 0 is one of the column's values, for lo/hi;
+        // `column_stats` counts the visited zeros in already).
+        let (mut sums, mut lo, mut hi) = (vec![[0.0; 2]; m], vec![[0.0; 2]; m], vec![[0.0; 2]; m]);
+        let mut count = vec![[0usize; 2]; m];
         for (g, rs) in red.runs.iter().enumerate() {
             let r = rs.r;
             let mut rm = RunMoments {
@@ -153,13 +159,10 @@ impl Moments {
                 xx: vec![0.0; m * m],
                 xu: vec![0.0; m * u],
             };
-            let mut sums = vec![[0.0; 2]; m];
-            let mut lo = vec![[f64::INFINITY; 2]; m];
-            let mut hi = vec![[f64::NEG_INFINITY; 2]; m];
-            // Rows of each direction where each column is nonzero: where it is fewer
-            // than the direction's rows, 0 is one of the column's values (for lo/hi;
-            // `column_stats` counts the visited zeros in already).
-            let mut count = vec![[0usize; 2]; m];
+            sums.fill([0.0; 2]);
+            lo.fill([f64::INFINITY; 2]);
+            hi.fill([f64::NEG_INFINITY; 2]);
+            count.fill([0; 2]);
             let w = if rs.rows == 0 { 0 } else { rs.row(0).1.len() };
             let live = pass.gather((g, rs), extra, true, &mut rows, &mut fill);
             for (comp, d) in pass.dirs.iter().enumerate() {

@@ -76,7 +76,7 @@ pub(crate) enum Visit {
 
 /// Moments formed on a model, per candidate, by the rows visited and θ (its bits; 0 for a
 /// candidate without a nonlinear parameter).
-pub(crate) type Kept = Vec<(Candidate, HashMap<(Visit, u64), Moments>)>;
+pub(crate) type Kept = Vec<(Candidate, HashMap<(Visit, u64), Arc<Moments>>)>;
 
 /// The rows where a candidate's columns `specs` may vary: the rows of their reading
 /// axes, on the runs that move the axis they follow (on the others they are constant and
@@ -229,7 +229,7 @@ impl<'a> Ctx<'a> {
         f: &Fit,
         specs: &Columns,
         heldout: bool,
-    ) -> Option<(Moments, Vec<usize>, moments::JointFit)> {
+    ) -> Option<(Arc<Moments>, Vec<usize>, moments::JointFit)> {
         self.fit_moments(f, self.moments(f, specs), heldout)
     }
 
@@ -272,10 +272,10 @@ impl<'a> Ctx<'a> {
     /// The moments of the candidate `cand` at θ (0 without a nonlinear parameter) on the
     /// rows where its columns may vary ([`Ctx::moments_kept`]; the setup offset's columns
     /// follow the model's rotations: formed afresh).
-    pub fn moments_at(&self, s: &State, cand: &Candidate, theta: f64) -> Moments {
+    pub fn moments_at(&self, s: &State, cand: &Candidate, theta: f64) -> Arc<Moments> {
         let specs = catalogue::specs(self.d, cand, theta, s.eps());
         if cand.effect == "setup_offset" {
-            return self.moments(&s.fit, &specs);
+            return Arc::new(self.moments(&s.fit, &specs));
         }
         let rows = self.live_rows(&specs);
         self.moments_kept(s, (cand, Visit::Live, theta), &specs, |g, rs, out| {
@@ -297,7 +297,7 @@ impl<'a> Ctx<'a> {
         (cand, visit, theta): (&Candidate, Visit, f64),
         specs: &Columns,
         rows: impl FnMut(usize, &RunSpace, &mut Vec<usize>),
-    ) -> Moments {
+    ) -> Arc<Moments> {
         let key = (visit, theta.to_bits());
         let find = |list: &Kept| {
             list.iter()
@@ -320,12 +320,14 @@ impl<'a> Ctx<'a> {
             });
         let (d, f) = (self.d, &s.fit);
         let mom = match prior {
-            Some((p, u_prev)) if p.m == specs.len() => p.carried(&self.extra(f), u_prev, |new| {
-                Moments::cross(self.red, specs.len(), new, rows, |row, out| {
-                    specs.at(d, row, out)
-                })
-            }),
-            _ => self.fresh(f, specs, rows),
+            Some((p, u_prev)) if p.m == specs.len() => {
+                Arc::new(p.carried(&self.extra(f), u_prev, |new| {
+                    Moments::cross(self.red, specs.len(), new, rows, |row, out| {
+                        specs.at(d, row, out)
+                    })
+                }))
+            }
+            _ => Arc::new(self.fresh(f, specs, rows)),
         };
         let mut kept = s.kept.lock().expect("kept moments");
         match kept.iter_mut().find(|(c, _)| c == cand) {
@@ -362,9 +364,10 @@ impl<'a> Ctx<'a> {
     pub fn fit_moments(
         &self,
         f: &Fit,
-        mom: Moments,
+        mom: impl Into<Arc<Moments>>,
         heldout: bool,
-    ) -> Option<(Moments, Vec<usize>, moments::JointFit)> {
+    ) -> Option<(Arc<Moments>, Vec<usize>, moments::JointFit)> {
+        let mom = mom.into();
         let keep: Vec<usize> = (0..mom.m).filter(|&j| mom.varies[j]).collect();
         if keep.is_empty() {
             return None;
@@ -372,7 +375,7 @@ impl<'a> Ctx<'a> {
         let mom = if keep.len() == mom.m {
             mom
         } else {
-            mom.select(&keep)
+            Arc::new(mom.select(&keep))
         };
         let jf = moments::joint_fit(self.red, self.sets, Some(&mom), &f.base, heldout);
         Some((mom, keep, jf))
@@ -401,9 +404,9 @@ impl<'a> Ctx<'a> {
     pub fn fit_candidate(
         &self,
         s: &State,
-        mom: Moments,
+        mom: impl Into<Arc<Moments>>,
         extra: usize,
-    ) -> Option<(Moments, Vec<usize>, moments::JointFit)> {
+    ) -> Option<(Arc<Moments>, Vec<usize>, moments::JointFit)> {
         let (mom, keep, mut jf) = self.fit_moments(&s.fit, mom, false)?;
         if self.may_qualify(s, jf.all.ssr, keep.len() + extra) {
             jf.heldout_ssr = self.heldout_ssr(s, &mom);
@@ -562,7 +565,7 @@ mod tests {
         // Every moment the searches form: the spike's at each grid value on its rows
         // within reach, the cyclic error's and the step's on their live rows.
         let all = |s: &State| {
-            let mut out: Vec<Moments> = grid
+            let mut out: Vec<Arc<Moments>> = grid
                 .iter()
                 .map(|&v| {
                     let specs = catalogue::specs(&d, &spike, v, None);
@@ -578,9 +581,9 @@ mod tests {
         };
         let s0 = state(ctx.fit(Vec::new(), Vec::new()), None);
         let before = all(&s0);
-        // Asked again on the same model: the kept moments.
+        // Asked again on the same model: the kept moments themselves, not a copy.
         for (a, b) in before.iter().zip(all(&s0)) {
-            same(a, &b);
+            assert!(Arc::ptr_eq(a, &b));
         }
         let (mut cols, _, _) = catalogue::columns(&d, &pick("backlash", Some(Axis::X)), 0.0, None);
         cols.push((0..d.rows()).map(|r| (0.013 * r as f64).cos()).collect());

@@ -15,6 +15,7 @@ use super::anomalies::{self, step_time};
 use super::context::{Ctx, ScanMoments, State, Visit};
 use crate::axis::Axis;
 use std::collections::BTreeMap;
+use std::sync::Arc;
 
 /// A candidate fitted jointly with the current model.
 #[derive(Clone)]
@@ -223,7 +224,12 @@ impl Ctx<'_> {
     /// Returns the frequency and, when it is the scanned one, the candidate's moments
     /// there (formed for the evidence; the trial's joint fit takes them instead of a pass
     /// of its own).
-    fn refine_on_joint_fit(&self, s: &State, cand: &Candidate, b: Band) -> (f64, Option<Moments>) {
+    fn refine_on_joint_fit(
+        &self,
+        s: &State,
+        cand: &Candidate,
+        b: Band,
+    ) -> (f64, Option<Arc<Moments>>) {
         let Band {
             f0,
             step,
@@ -280,7 +286,7 @@ impl Ctx<'_> {
         &self,
         s: &State,
         cand: &Candidate,
-    ) -> Option<(Option<(&'static str, f64)>, usize, Option<Moments>)> {
+    ) -> Option<(Option<(&'static str, f64)>, usize, Option<Arc<Moments>>)> {
         let (d, f) = (self.d, &s.fit);
         Some(match catalogue::search(d, cand) {
             Search::None => (None, 0, None),
@@ -818,7 +824,7 @@ impl Ctx<'_> {
         cand: &Candidate,
         (theta, extra): (Option<(&'static str, f64)>, usize),
         names: &[String],
-        (mom, keep, jf): (Moments, Vec<usize>, moments::JointFit),
+        (mom, keep, jf): (Arc<Moments>, Vec<usize>, moments::JointFit),
     ) -> Trial {
         let n = self.d.rows() as f64;
         let f = &s.fit;
