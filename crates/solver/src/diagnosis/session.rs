@@ -615,11 +615,13 @@ pub fn diagnose_session_with_progress(
             Note::Finding(_) => {}
         }
     }
-    let f = o.state.fit;
+    // All the report reads of the final model: the rest of its state (accepted columns,
+    // kept moments, rotation errors, thermal basis) is freed before the report's scans.
+    let (resid, heldout_ssr) = o.state.into_residual();
     progress.report("report", 0.95);
-    let final_heldout = rms(f.heldout_ssr, heldout_n);
+    let final_heldout = rms(heldout_ssr, heldout_n);
     let at_noise = final_heldout <= opts.noise_level_ratio * floor;
-    let final_anomalies = anomalies::scan(&d, &f.resid, floor);
+    let final_anomalies = anomalies::scan(&d, &resid, floor);
     let verdict = effects::verdict(
         base_heldout <= opts.noise_level_ratio * floor && rigid_anomalies.is_empty(),
         at_noise && final_anomalies.is_empty(),
@@ -643,7 +645,7 @@ pub fn diagnose_session_with_progress(
             Some(nf) => nf.note(),
             None => "no run long enough for the spectrum and no repeated passes: the rigid model's residual stands in for the noise floor".into(),
         };
-        let rest = locate(&d, &f.resid, floor);
+        let rest = locate(&d, &resid, floor);
         let places: Vec<String> = rest
             .iter()
             .map(|m| format!("{} ({:.0} %)", m.where_, 100.0 * m.share_of_misfit))
@@ -660,7 +662,7 @@ pub fn diagnose_session_with_progress(
             }
         ));
     }
-    let plots = plots::plots(&d, before_series, plots::Series::of(&d, &f.resid, "after"));
+    let plots = plots::plots(&d, before_series, plots::Series::of(&d, &resid, "after"));
     progress.report("done", 1.0);
     Ok(DiagnosisResult {
         kind: "diagnosis".into(),

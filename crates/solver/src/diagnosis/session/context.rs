@@ -160,6 +160,12 @@ impl State {
     pub fn eps(&self) -> Option<&[[f64; 3]]> {
         self.eps.as_deref()
     }
+
+    /// The model's residual on all rows and its held-out sum of squares, the rest of the
+    /// state (columns, moments, rotation errors) freed.
+    pub fn into_residual(self) -> (Vec<f64>, f64) {
+        (self.fit.resid, self.fit.heldout_ssr)
+    }
 }
 
 impl<'a> Ctx<'a> {
