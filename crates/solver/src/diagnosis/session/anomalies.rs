@@ -16,20 +16,17 @@ pub(crate) struct Sequence {
 
 /// Every run's residual `r` along each of its reading directions.
 pub(crate) fn sequences(d: &Design, r: &[f64]) -> Vec<Sequence> {
-    let mut out = Vec::with_capacity(2 * d.runs.len());
-    for (g, run) in d.runs.iter().enumerate() {
-        let (u, v) = d.plane_axes[run.plane_idx];
-        for (c, axis) in [u, v].into_iter().enumerate() {
+    directions(d)
+        .map(|(g, run, c, axis)| {
             let mut seq = Vec::new();
             sequence(run, c, r, &mut seq);
-            out.push(Sequence {
+            Sequence {
                 run: g,
                 axis,
                 r: seq,
-            });
-        }
-    }
-    out
+            }
+        })
+        .collect()
 }
 
 /// The sequences of [`sequences`] read along `axis` alone, one at a time: `f(run, r)`
@@ -41,15 +38,19 @@ pub(crate) fn each_sequence_along(
     mut f: impl FnMut(usize, &[f64]),
 ) {
     let mut seq = Vec::new();
-    for (g, run) in d.runs.iter().enumerate() {
-        let (u, v) = d.plane_axes[run.plane_idx];
-        for (c, a) in [u, v].into_iter().enumerate() {
-            if a == axis {
-                sequence(run, c, r, &mut seq);
-                f(g, &seq);
-            }
-        }
+    for (g, run, c, _) in directions(d).filter(|p| p.3 == axis) {
+        sequence(run, c, r, &mut seq);
+        f(g, &seq);
     }
+}
+
+/// Every run with each of its reading directions, in the order of the sequences: (run
+/// index, run, direction c (0: the plane's first axis), its axis).
+fn directions(d: &Design) -> impl Iterator<Item = (usize, &RunInfo, usize, Axis)> {
+    d.runs.iter().enumerate().flat_map(|(g, run)| {
+        let (u, v) = d.plane_axes[run.plane_idx];
+        [(g, run, 0, u), (g, run, 1, v)]
+    })
 }
 
 /// Run `run`'s residual `r` along its reading direction `c` (0: the plane's first axis)
