@@ -19,7 +19,9 @@
 
 use crate::ingest::UploadLimits;
 use crate::jobs::{self, JobError, JobInput};
-use mtcal_store::{Heartbeat, Job, NewResult, QueueConfig, Store, StoreError};
+use mtcal_store::{
+    Failure, Heartbeat, Job, Lease, NewResult, Progress, QueueConfig, Store, StoreError,
+};
 use std::sync::Arc;
 use std::time::{Duration, Instant};
 use tokio::sync::{Notify, watch};
@@ -198,6 +200,15 @@ enum Stop {
     TimedOut,
 }
 
+/// A failure of bad input: never retried.
+fn bad_input(message: &str) -> Failure<'_> {
+    Failure {
+        code: "bad_input",
+        message,
+        retry_after_ms: None,
+    }
+}
+
 async fn run_job(
     store: &Arc<dyn Store>,
     cfg: &WorkerConfig,
@@ -206,6 +217,7 @@ async fn run_job(
     stopping: watch::Receiver<bool>,
 ) {
     let lease = cfg.queue.lease_ms;
+    let held = Lease::new(&job.id, me);
     let (stop_tx, mut stop_rx) = watch::channel(None::<u8>);
     // The solver's progress (fraction of the job, phase), written with each heartbeat.
     let (progress_tx, mut progress_rx) = watch::channel((0.2, "solving".to_string()));
@@ -225,8 +237,22 @@ async fn run_job(
                         tokio::time::sleep(PROGRESS_EVERY).await;
                     }
                 }
-                let (progress, message) = progress_rx.borrow_and_update().clone();
-                match store.heartbeat(&id, &me, lease, progress, &message).await {
+                let (fraction, message) = progress_rx.borrow_and_update().clone();
+                let at = Progress {
+                    fraction,
+                    message: &message,
+                };
+                match store
+                    .heartbeat(
+                        Lease {
+                            job: &id,
+                            worker: &me,
+                        },
+                        lease,
+                        at,
+                    )
+                    .await
+                {
                     Ok(Heartbeat::Continue) => {}
                     Ok(Heartbeat::CancelRequested) => {
                         let _ = stop_tx.send(Some(0));
@@ -246,7 +272,11 @@ async fn run_job(
         if cfg.pause_before_solve_ms > 0 {
             tokio::time::sleep(Duration::from_millis(cfg.pause_before_solve_ms)).await;
         }
-        let _ = store.heartbeat(&job.id, me, lease, 0.2, "solving").await;
+        let solving = Progress {
+            fraction: 0.2,
+            message: "solving",
+        };
+        let _ = store.heartbeat(held, lease, solving).await;
         let report = move |fraction: f64, phase: &str| {
             // Solving spans 0.2..0.95 of the job (loading before, storing after).
             let _ = progress_tx.send((0.2 + 0.75 * fraction.clamp(0.0, 1.0), phase.to_string()));
@@ -295,22 +325,25 @@ async fn run_job(
                 scalars: out.scalars,
                 figures: out.figures,
             };
-            match store.complete_job(&job.id, me, r).await {
-                Err(StoreError::LeaseLost(_)) => store.finish_cancelled(&job.id, me).await,
+            match store.complete_job(held, r).await {
+                Err(StoreError::LeaseLost(_)) => store.finish_cancelled(held).await,
                 // A result the store refuses would be refused again: not retried.
-                Err(StoreError::Invalid(m)) => {
-                    store.fail_job(&job.id, me, "bad_input", &m, None).await
-                }
+                Err(StoreError::Invalid(m)) => store.fail_job(held, bad_input(&m)).await,
                 other => other,
             }
         }
-        Ok(Err(JobError::BadInput(m))) => store.fail_job(&job.id, me, "bad_input", &m, None).await,
+        Ok(Err(JobError::BadInput(m))) => store.fail_job(held, bad_input(&m)).await,
         Ok(Err(JobError::Transient(m))) => {
             let retry =
                 (job.attempts < job.max_attempts).then(|| cfg.queue.backoff_ms(job.attempts));
-            store.fail_job(&job.id, me, "transient", &m, retry).await
+            let failure = Failure {
+                code: "transient",
+                message: &m,
+                retry_after_ms: retry,
+            };
+            store.fail_job(held, failure).await
         }
-        Err(Stop::Cancel) => store.finish_cancelled(&job.id, me).await,
+        Err(Stop::Cancel) => store.finish_cancelled(held).await,
         Err(Stop::LeaseLost) => Err(StoreError::LeaseLost(job.id.clone())),
         // The blocking computation cannot be interrupted: it is abandoned and its result
         // discarded, as on cancellation.
@@ -320,11 +353,16 @@ async fn run_job(
                  --job-timeout-seconds)",
                 cfg.max_run.as_secs()
             );
-            store.fail_job(&job.id, me, "timeout", &m, None).await
+            let failure = Failure {
+                code: "timeout",
+                message: &m,
+                retry_after_ms: None,
+            };
+            store.fail_job(held, failure).await
         }
         Err(Stop::HandBack) => {
             tracing::warn!(job = %job.id, "shutting down: job handed back to the queue");
-            store.release_job(&job.id, me).await
+            store.release_job(held).await
         }
     };
     // Claim to outcome: recorded before what follows a landed result.

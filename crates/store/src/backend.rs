@@ -10,7 +10,7 @@ use crate::error::{Db as _, Result, StoreError, unique_conflict};
 use crate::keys::{ApiKey, NewKey, Scope};
 use crate::model::JobKind;
 use crate::model::*;
-use crate::queue::{Heartbeat, Queue, lease_held};
+use crate::queue::{Failure, Heartbeat, Lease, Progress, Queue, lease_held};
 use crate::rows::{
     self, Columns, DATASET_COLUMNS, DELIVERY_COLUMNS, FLEET_DRIFT_COLUMNS, JOB_COLUMNS,
     KEY_COLUMNS, MACHINE_COLUMNS, RESULT_COLUMNS,
@@ -1683,11 +1683,9 @@ impl Queue for This {
 
     fn heartbeat<'a>(
         &'a self,
-        id: &'a str,
-        worker: &'a str,
+        lease: Lease<'a>,
         lease_ms: i64,
-        progress: f64,
-        message: &'a str,
+        progress: Progress<'a>,
     ) -> StoreFuture<'a, Heartbeat> {
         Box::pin(async move {
             let q = format!(
@@ -1699,11 +1697,11 @@ impl Queue for This {
             let row = run!(
                 fetch_optional(&self.pool),
                 sqlx::AssertSqlSafe(q),
-                id,
-                worker,
+                lease.job,
+                lease.worker,
                 lease_ms,
-                progress.clamp(0.0, 1.0),
-                message
+                progress.fraction.clamp(0.0, 1.0),
+                progress.message
             )?;
             Ok(match row {
                 None => Heartbeat::LeaseLost,
@@ -1713,13 +1711,9 @@ impl Queue for This {
         })
     }
 
-    fn complete_job<'a>(
-        &'a self,
-        id: &'a str,
-        worker: &'a str,
-        r: NewResult,
-    ) -> StoreFuture<'a, Job> {
+    fn complete_job<'a>(&'a self, lease: Lease<'a>, r: NewResult) -> StoreFuture<'a, Job> {
         Box::pin(async move {
+            let Lease { job: id, worker } = lease;
             let mut tx = self.pool.begin().await.db()?;
             // Take the lease back first: this write makes the transaction the only writer,
             // and fails when another worker owns the job now.
@@ -1745,15 +1739,9 @@ impl Queue for This {
         })
     }
 
-    fn fail_job<'a>(
-        &'a self,
-        id: &'a str,
-        worker: &'a str,
-        code: &'a str,
-        message: &'a str,
-        retry_after_ms: Option<i64>,
-    ) -> StoreFuture<'a, Job> {
+    fn fail_job<'a>(&'a self, lease: Lease<'a>, f: Failure<'a>) -> StoreFuture<'a, Job> {
         Box::pin(async move {
+            let Lease { job: id, worker } = lease;
             // Retry: back to the queue after the delay; else failed for good.
             let q = format!(
                 "UPDATE jobs SET state = CASE WHEN $5 IS NULL THEN 'failed' ELSE 'queued' END, \
@@ -1768,9 +1756,9 @@ impl Queue for This {
                 sqlx::AssertSqlSafe(q),
                 id,
                 worker,
-                code,
-                message,
-                retry_after_ms,
+                f.code,
+                f.message,
+                f.retry_after_ms,
                 now_rfc3339()
             )?;
             lease_held(done.rows_affected(), id)?;
@@ -1798,8 +1786,9 @@ impl Queue for This {
         })
     }
 
-    fn release_job<'a>(&'a self, id: &'a str, worker: &'a str) -> StoreFuture<'a, Job> {
+    fn release_job<'a>(&'a self, lease: Lease<'a>) -> StoreFuture<'a, Job> {
         Box::pin(async move {
+            let Lease { job: id, worker } = lease;
             let q = format!(
                 "UPDATE jobs SET \
                    state = CASE WHEN cancel_requested = 1 THEN 'cancelled' ELSE 'queued' END, \
@@ -1822,8 +1811,9 @@ impl Queue for This {
         })
     }
 
-    fn finish_cancelled<'a>(&'a self, id: &'a str, worker: &'a str) -> StoreFuture<'a, Job> {
+    fn finish_cancelled<'a>(&'a self, lease: Lease<'a>) -> StoreFuture<'a, Job> {
         Box::pin(async move {
+            let Lease { job: id, worker } = lease;
             let done = run!(
                 execute(&self.pool),
                 "UPDATE jobs SET state = 'cancelled', finished_at = $3, lease_owner = NULL, \

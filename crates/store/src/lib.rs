@@ -38,7 +38,7 @@ pub use error::{Result, StoreError};
 pub use keys::{ApiKey, Scope};
 pub use model::*;
 pub use postgres::PgStore;
-pub use queue::{Heartbeat, JobCount, Queue, QueueConfig};
+pub use queue::{Failure, Heartbeat, JobCount, Lease, Progress, Queue, QueueConfig};
 pub use sqlite::SqliteStore;
 
 /// The future every [`Store`] method returns (boxed so that `dyn Store` works).

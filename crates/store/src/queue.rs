@@ -37,6 +37,43 @@ pub(crate) fn lease_held(rows: u64, id: &str) -> crate::Result<()> {
     }
 }
 
+/// The lease a worker holds on a running job, as the worker names it: the job and the
+/// worker that claimed it. Every write only the holder may make (heartbeat, complete,
+/// fail, hand back, finish cancelled) takes one, and changes the job only while the
+/// stored `lease_owner` is `worker` (else [`crate::StoreError::LeaseLost`]).
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct Lease<'a> {
+    /// The job's id.
+    pub job: &'a str,
+    /// The worker's name, as it claimed the job.
+    pub worker: &'a str,
+}
+
+impl<'a> Lease<'a> {
+    pub fn new(job: &'a str, worker: &'a str) -> Self {
+        Lease { job, worker }
+    }
+}
+
+/// What a heartbeat records: the fraction of the job done (clamped to 0 … 1) and the
+/// phase it is in, shown with the job.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Progress<'a> {
+    pub fraction: f64,
+    pub message: &'a str,
+}
+
+/// Why a job failed, and whether it runs again.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct Failure<'a> {
+    /// The job's `error_code` (`bad_input`, `transient`, `timeout`, …).
+    pub code: &'a str,
+    /// The job's `error_message`.
+    pub message: &'a str,
+    /// Back to the queue after this many ms (a retry); `None`: failed for good.
+    pub retry_after_ms: Option<i64>,
+}
+
 /// The queue half of a store. Implementations must make each method atomic.
 pub trait Queue: Send + Sync + 'static {
     fn enqueue<'a>(&'a self, j: NewJob) -> StoreFuture<'a, Job>;
@@ -47,42 +84,28 @@ pub trait Queue: Send + Sync + 'static {
     /// Claims the oldest runnable job for `worker` with a lease of `lease_ms`, in one
     /// `UPDATE … RETURNING`; counts an attempt.
     fn claim_job<'a>(&'a self, worker: &'a str, lease_ms: i64) -> StoreFuture<'a, Option<Job>>;
-    /// Extends the lease and records progress.
+    /// Extends the lease by `lease_ms` and records progress.
     fn heartbeat<'a>(
         &'a self,
-        id: &'a str,
-        worker: &'a str,
+        lease: Lease<'a>,
         lease_ms: i64,
-        progress: f64,
-        message: &'a str,
+        progress: Progress<'a>,
     ) -> StoreFuture<'a, Heartbeat>;
     /// Stores the result and marks the job succeeded, in one transaction, only while
-    /// `worker` holds the lease: a job completes exactly once.
-    fn complete_job<'a>(
-        &'a self,
-        id: &'a str,
-        worker: &'a str,
-        r: NewResult,
-    ) -> StoreFuture<'a, Job>;
-    /// Records a failure: back to the queue after `retry_after_ms`, or failed for good
-    /// when `None`.
-    fn fail_job<'a>(
-        &'a self,
-        id: &'a str,
-        worker: &'a str,
-        code: &'a str,
-        message: &'a str,
-        retry_after_ms: Option<i64>,
-    ) -> StoreFuture<'a, Job>;
+    /// the lease is held: a job completes exactly once.
+    fn complete_job<'a>(&'a self, lease: Lease<'a>, r: NewResult) -> StoreFuture<'a, Job>;
+    /// Records a failure: back to the queue after its `retry_after_ms`, or failed for
+    /// good when `None`.
+    fn fail_job<'a>(&'a self, lease: Lease<'a>, f: Failure<'a>) -> StoreFuture<'a, Job>;
     /// How many jobs there are of each kind in each state (states with none are left
     /// out): the queue's gauges.
     fn job_counts(&self) -> StoreFuture<'_, Vec<JobCount>>;
     /// Hands a running job back to the queue (a worker that is stopping): queued at once,
     /// lease cleared, the attempt not counted, so another worker claims it without waiting
     /// for the lease to expire. A job whose cancellation was requested is cancelled.
-    fn release_job<'a>(&'a self, id: &'a str, worker: &'a str) -> StoreFuture<'a, Job>;
+    fn release_job<'a>(&'a self, lease: Lease<'a>) -> StoreFuture<'a, Job>;
     /// Marks a running job whose cancellation was requested as cancelled.
-    fn finish_cancelled<'a>(&'a self, id: &'a str, worker: &'a str) -> StoreFuture<'a, Job>;
+    fn finish_cancelled<'a>(&'a self, lease: Lease<'a>) -> StoreFuture<'a, Job>;
     /// Requeues (or fails, when out of attempts) running jobs whose lease has expired;
     /// returns how many.
     fn reap_expired<'a>(&'a self) -> StoreFuture<'a, u64>;

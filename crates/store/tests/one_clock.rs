@@ -61,7 +61,14 @@ async fn story(s: &dyn Store) {
     );
     skew_host_clock(-HOUR_MS);
     let beat = s
-        .heartbeat(&slow.id, "slow", 60_000, 0.5, "half")
+        .heartbeat(
+            Lease::new(&slow.id, "slow"),
+            60_000,
+            Progress {
+                fraction: 0.5,
+                message: "half",
+            },
+        )
         .await
         .unwrap();
     skew_host_clock(0);

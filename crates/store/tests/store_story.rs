@@ -188,19 +188,28 @@ async fn claim_is_exclusive_and_completion_happens_once(s: &dyn Store) {
     assert!(s.claim_job("w2", 60_000).await.unwrap().is_none());
     // Another worker cannot complete it.
     assert!(matches!(
-        s.complete_job(&j.id, "w2", result("M1", "2026-01-01T00:00:00Z", 1.0))
-            .await,
+        s.complete_job(
+            Lease::new(&j.id, "w2"),
+            result("M1", "2026-01-01T00:00:00Z", 1.0)
+        )
+        .await,
         Err(StoreError::LeaseLost(_))
     ));
     let done = s
-        .complete_job(&j.id, "w1", result("M1", "2026-01-01T00:00:00Z", 1.0))
+        .complete_job(
+            Lease::new(&j.id, "w1"),
+            result("M1", "2026-01-01T00:00:00Z", 1.0),
+        )
         .await
         .unwrap();
     assert_eq!(done.state, JobState::Succeeded);
     assert!(
-        s.complete_job(&j.id, "w1", result("M1", "2026-01-01T00:00:00Z", 1.0))
-            .await
-            .is_err()
+        s.complete_job(
+            Lease::new(&j.id, "w1"),
+            result("M1", "2026-01-01T00:00:00Z", 1.0)
+        )
+        .await
+        .is_err()
     );
     assert_eq!(s.row_counts().await.unwrap().results, 1);
 }
@@ -238,17 +247,32 @@ async fn expired_lease_is_reaped_and_the_old_worker_cannot_finish(s: &dyn Store)
     let again = s.claim_job("alive", 60_000).await.unwrap().unwrap();
     assert_eq!(again.attempts, 2);
     assert_eq!(
-        s.heartbeat(&j.id, "dead", 1000, 0.5, "x").await.unwrap(),
+        s.heartbeat(
+            Lease::new(&j.id, "dead"),
+            1000,
+            Progress {
+                fraction: 0.5,
+                message: "x"
+            }
+        )
+        .await
+        .unwrap(),
         Heartbeat::LeaseLost
     );
     assert!(
-        s.complete_job(&j.id, "dead", result("M1", "2026-01-01T00:00:00Z", 1.0))
-            .await
-            .is_err()
-    );
-    s.complete_job(&j.id, "alive", result("M1", "2026-01-01T00:00:00Z", 1.0))
+        s.complete_job(
+            Lease::new(&j.id, "dead"),
+            result("M1", "2026-01-01T00:00:00Z", 1.0)
+        )
         .await
-        .unwrap();
+        .is_err()
+    );
+    s.complete_job(
+        Lease::new(&j.id, "alive"),
+        result("M1", "2026-01-01T00:00:00Z", 1.0),
+    )
+    .await
+    .unwrap();
     // Out of attempts: a second expiry fails the job instead of requeueing it.
     let k = s.enqueue(new_job("M1")).await.unwrap();
     for _ in 0..2 {
@@ -266,7 +290,14 @@ async fn retries_wait_for_their_backoff_and_bad_input_fails_at_once(s: &dyn Stor
     let j = s.enqueue(new_job("M1")).await.unwrap();
     s.claim_job("w", 60_000).await.unwrap().unwrap();
     let back = s
-        .fail_job(&j.id, "w", "transient", "busy", Some(60_000))
+        .fail_job(
+            Lease::new(&j.id, "w"),
+            Failure {
+                code: "transient",
+                message: "busy",
+                retry_after_ms: Some(60_000),
+            },
+        )
         .await
         .unwrap();
     assert_eq!(back.state, JobState::Queued);
@@ -277,7 +308,14 @@ async fn retries_wait_for_their_backoff_and_bad_input_fails_at_once(s: &dyn Stor
     let k = s.enqueue(new_job("M1")).await.unwrap();
     s.claim_job("w", 60_000).await.unwrap().unwrap();
     let f = s
-        .fail_job(&k.id, "w", "bad_input", "no planes", None)
+        .fail_job(
+            Lease::new(&k.id, "w"),
+            Failure {
+                code: "bad_input",
+                message: "no planes",
+                retry_after_ms: None,
+            },
+        )
         .await
         .unwrap();
     assert_eq!(f.state, JobState::Failed);
@@ -299,18 +337,31 @@ async fn cancellation_of_queued_and_running_jobs(s: &dyn Store) {
     s.claim_job("w", 60_000).await.unwrap().unwrap();
     assert_eq!(s.cancel_job(&r.id).await.unwrap().state, JobState::Running);
     assert_eq!(
-        s.heartbeat(&r.id, "w", 60_000, 0.3, "solving")
-            .await
-            .unwrap(),
+        s.heartbeat(
+            Lease::new(&r.id, "w"),
+            60_000,
+            Progress {
+                fraction: 0.3,
+                message: "solving"
+            }
+        )
+        .await
+        .unwrap(),
         Heartbeat::CancelRequested
     );
     assert!(
-        s.complete_job(&r.id, "w", result("M1", "2026-01-01T00:00:00Z", 1.0))
-            .await
-            .is_err()
+        s.complete_job(
+            Lease::new(&r.id, "w"),
+            result("M1", "2026-01-01T00:00:00Z", 1.0)
+        )
+        .await
+        .is_err()
     );
     assert_eq!(
-        s.finish_cancelled(&r.id, "w").await.unwrap().state,
+        s.finish_cancelled(Lease::new(&r.id, "w"))
+            .await
+            .unwrap()
+            .state,
         JobState::Cancelled
     );
     assert_eq!(s.row_counts().await.unwrap().results, 0);
@@ -548,10 +599,10 @@ async fn a_released_job_is_claimable_at_once_without_spending_an_attempt(s: &dyn
     assert_eq!(a.attempts, 1);
     // Only the lease holder may hand it back.
     assert!(matches!(
-        s.release_job(&j.id, "w2").await,
+        s.release_job(Lease::new(&j.id, "w2")).await,
         Err(StoreError::LeaseLost(_))
     ));
-    let back = s.release_job(&j.id, "w1").await.unwrap();
+    let back = s.release_job(Lease::new(&j.id, "w1")).await.unwrap();
     assert_eq!((back.state, back.attempts), (JobState::Queued, 0));
     let counts = s.job_counts().await.unwrap();
     assert_eq!(counts.len(), 1, "{counts:?}");
@@ -565,20 +616,26 @@ async fn a_released_job_is_claimable_at_once_without_spending_an_attempt(s: &dyn
     assert_eq!((b.id.as_str(), b.attempts), (j.id.as_str(), 1));
     // The first worker can no longer finish it.
     assert!(matches!(
-        s.complete_job(&j.id, "w1", result("M1", "2026-01-01T00:00:00Z", 1.0))
-            .await,
+        s.complete_job(
+            Lease::new(&j.id, "w1"),
+            result("M1", "2026-01-01T00:00:00Z", 1.0)
+        )
+        .await,
         Err(StoreError::LeaseLost(_))
     ));
-    s.complete_job(&j.id, "w2", result("M1", "2026-01-01T00:00:00Z", 1.0))
-        .await
-        .unwrap();
+    s.complete_job(
+        Lease::new(&j.id, "w2"),
+        result("M1", "2026-01-01T00:00:00Z", 1.0),
+    )
+    .await
+    .unwrap();
     assert_eq!(s.row_counts().await.unwrap().results, 1);
     // A running job whose cancellation was asked for is cancelled when handed back.
     let k = s.enqueue(new_job("M1")).await.unwrap();
     s.claim_job("w1", 60_000).await.unwrap().unwrap();
     s.cancel_job(&k.id).await.unwrap();
     assert_eq!(
-        s.release_job(&k.id, "w1").await.unwrap().state,
+        s.release_job(Lease::new(&k.id, "w1")).await.unwrap().state,
         JobState::Cancelled
     );
 }
@@ -1433,7 +1490,10 @@ async fn datasets_excluded_with_their_results_then_bytes_deleted_under_a_tombsto
     let claimed = s.claim_job("w", 60_000).await.unwrap().unwrap();
     assert_eq!(claimed.id, late.id);
     let done = s
-        .complete_job(&late.id, "w", from(&d1, "2026-03-01T00:00:00Z", 3.0))
+        .complete_job(
+            Lease::new(&late.id, "w"),
+            from(&d1, "2026-03-01T00:00:00Z", 3.0),
+        )
         .await
         .unwrap();
     let landed = s.get_result(&done.result_id.unwrap()).await.unwrap();
