@@ -366,23 +366,14 @@ fn nul_in_json(bytes: &[u8]) -> Option<String> {
     walk(&v, &mut at).then(|| if at.is_empty() { "/".into() } else { at })
 }
 
-/// Query-string extractor whose rejections are [`ApiError`]s.
+/// Query-string extractor whose rejections are [`ApiError`]s: axum's `Query`, its
+/// rejection turned into an `invalid_request` naming what the query got wrong.
+#[derive(axum::extract::FromRequestParts)]
+#[from_request(via(axum::extract::Query), rejection(ApiError))]
 pub struct ApiQuery<T>(pub T);
 
-impl<S, T> axum::extract::FromRequestParts<S> for ApiQuery<T>
-where
-    S: Send + Sync,
-    T: serde::de::DeserializeOwned,
-{
-    type Rejection = ApiError;
-
-    async fn from_request_parts(
-        parts: &mut axum::http::request::Parts,
-        state: &S,
-    ) -> Result<Self, ApiError> {
-        match axum::extract::Query::<T>::from_request_parts(parts, state).await {
-            Ok(axum::extract::Query(v)) => Ok(ApiQuery(v)),
-            Err(r) => Err(ApiError::InvalidRequest(r.body_text())),
-        }
+impl From<axum::extract::rejection::QueryRejection> for ApiError {
+    fn from(r: axum::extract::rejection::QueryRejection) -> Self {
+        ApiError::InvalidRequest(r.body_text())
     }
 }
