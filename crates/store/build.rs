@@ -7,6 +7,28 @@
 use std::fmt::Write as _;
 use std::path::Path;
 
+/// The file a migration's text is read from: `path` itself, or, where `path` is a link to
+/// `../sqlite/…` that git checked out as a plain file holding the link's target (a
+/// checkout with `core.symlinks` off, the default on Windows), that target. A real link
+/// is read through by the file system.
+fn followed(dir: &Path, path: std::path::PathBuf) -> std::path::PathBuf {
+    let text = std::fs::read_to_string(&path).expect("readable migration");
+    match text.strip_prefix("../sqlite/") {
+        Some(name) if name.ends_with(".sql") && !name.contains(['/', '\\', '\n']) => {
+            // The same version's text for both dialects, never another version's.
+            assert_eq!(
+                Some(std::ffi::OsStr::new(name)),
+                path.file_name(),
+                "{}: a link to another migration",
+                path.display()
+            );
+            println!("cargo:rerun-if-changed={}", dir.join(&text).display());
+            dir.join(text)
+        }
+        _ => path,
+    }
+}
+
 fn main() {
     let root = Path::new(env!("CARGO_MANIFEST_DIR")).join("../../migrations");
     let out = std::env::var("OUT_DIR").expect("cargo sets OUT_DIR");
@@ -31,7 +53,7 @@ fn main() {
             let Some((version, description)) = parsed else {
                 panic!("{}: not <version>_<description>.sql", path.display());
             };
-            files.push((version, description, path));
+            files.push((version, description, followed(&dir, path)));
         }
         files.sort_by_key(|f| f.0);
         let mut code = String::from("&[\n");

@@ -14,7 +14,8 @@
 //! A migration that both dialects accept as written is one file: its
 //! `migrations/postgres/<version>_<description>.sql` is a symbolic link to the SQLite
 //! folder's file of the same name (the build reads through the link: the same text, the
-//! same checksum). The others are two files, one per dialect, and differ where the
+//! same checksum; where git checks a link out as a plain file holding its target, as on
+//! Windows, `build.rs` follows that text instead). The others are two files, one per dialect, and differ where the
 //! dialects do (PostgreSQL's `BIGINT`, `DOUBLE PRECISION` and byte-wise `COLLATE "C"`).
 
 use sqlx::SqlSafeStr as _;
