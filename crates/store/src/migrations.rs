@@ -88,7 +88,11 @@ mod tests {
             assert_eq!(files.len(), embedded.len(), "{dialect}");
             let resolved = migrations(embedded);
             for ((file, migration), (n, _, _)) in files.iter().zip(&resolved).zip(embedded) {
-                let text = std::fs::read_to_string(file).unwrap();
+                let mut text = std::fs::read_to_string(file).unwrap();
+                if text.starts_with("../sqlite/") {
+                    // A link checked out as a plain file holding its target (build.rs).
+                    text = std::fs::read_to_string(dir.join(&text)).unwrap();
+                }
                 let name = file.file_name().unwrap().to_str().unwrap();
                 assert_eq!(name[..4].parse::<i64>().unwrap(), *n, "{name}");
                 assert_eq!(migration.version, *n);
