@@ -381,6 +381,7 @@ pub mod lost_motion;
 pub mod lsq;
 pub mod moments;
 pub mod periodic_scan;
+pub mod phase_walk;
 pub mod reduced;
 pub mod repeatability;
 pub(crate) mod search;

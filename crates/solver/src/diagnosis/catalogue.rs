@@ -31,6 +31,7 @@
 use super::design::Design;
 use super::linalg::Cols;
 use super::lost_motion::Profile;
+use super::phase_walk::PhaseWalk;
 use crate::axis::Axis;
 use std::f64::consts::PI;
 
@@ -483,16 +484,18 @@ pub fn specs<'a>(
             .following(a)
         }
         "cyclic" | "waviness" => {
-            // Along the axis itself (cyclic) or across it (waviness).
+            // Along the axis itself (cyclic) or across it (waviness). The sines and
+            // cosines by a [`PhaseWalk`] along each run (a `sincos` call at every 32nd
+            // sample and after a step of more than a quarter radian, rotations between).
             let a = c.axis.expect("axis");
             let dir = c.direction.unwrap_or(a);
             let i = a.index();
-            let w = 2.0 * PI * theta;
+            let walk = PhaseWalk::new(2.0 * PI * theta);
             let q = &d.fields.q_mm[i];
             Columns::new(
                 vec!["sin".into(), "cos".into()],
                 vec![Some(dir); 2],
-                move |s, _, o| sin_cos_into(o, w * q[s]),
+                move |s, _, o| sin_cos_into(o, walk.at(s, q[s])),
             )
             .following(a)
         }
@@ -526,11 +529,16 @@ pub fn specs<'a>(
         }
         "vibration" => {
             let dir = c.direction.expect("direction");
+            // Directly at every sample, not by a [`PhaseWalk`]: a phase in time reaches
+            // 10⁴–10⁶ rad, where the direct argument's own rounding, and so the walk's
+            // difference from it, is up to 10⁻¹⁰ rad; with a walk, the frequency's 24
+            // golden-section steps (to 10⁻⁵ of a fine step) ended elsewhere in a test
+            // session (10⁻⁵ σ of the frequency, 10⁻⁶ rad of the reported phase).
             let w = 2.0 * PI * theta;
             Columns::new(
                 vec!["sin".into(), "cos".into()],
                 vec![Some(dir); 2],
-                move |s, _, o| sin_cos_into(o, w * d.fields.t_s[s]),
+                move |s, _, o| sin_cos_into(o, (w * d.fields.t_s[s]).sin_cos()),
             )
         }
         "thermal_drift" | "thermal_temperature" | "thermal_temperature_lag" => {
@@ -652,15 +660,11 @@ pub fn specs<'a>(
 pub const NUISANCE_LAG_ENDS: [&str; 2] =
     ["nuisance_lag_at_line_ends", "nuisance_lag_at_circle_ends"];
 
-/// Writes sin φ and cos φ into the first two of `o`. Both slots are checked before the
-/// pair is computed, so that nothing stands between the two and the compiler makes them
-/// one `sincos` call (on Linux, glibc's `sincos` gives the same values as its `sin` and
-/// `cos`, bit for bit): a periodic candidate's pass costs about a third less in its
-/// sines and cosines than with one call each.
+/// Writes a periodic candidate's sine and cosine into the first two of `o`.
 #[inline(always)]
-fn sin_cos_into(o: &mut [f64], phi: f64) {
+fn sin_cos_into(o: &mut [f64], (sin, cos): (f64, f64)) {
     let pair: &mut [f64; 2] = (&mut o[..2]).try_into().expect("two columns");
-    *pair = phi.sin_cos().into();
+    *pair = [sin, cos];
 }
 
 /// Whether sample `s` is of a circle test.
