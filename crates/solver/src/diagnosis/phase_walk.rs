@@ -12,10 +12,12 @@
 //! next terms are below 10⁻²¹ of them). Each rotation adds a rounding of order 10⁻¹⁶;
 //! the pair is evaluated directly ("anchored") at every sample whose index is a multiple
 //! of [`ANCHOR`], at a sample that does not follow the one before, and wherever a check
-//! fails, so the values stay within about [`ANCHOR`]·10⁻¹⁶ of the direct ones — the
-//! order of the rounding of the direct evaluation itself, whose argument ω·x carries a
-//! relative error of 10⁻¹⁶ of the whole phase (10⁻¹⁴ absolute at a few hundred radians).
-//! The value at a sample depends only on the samples since its anchor.
+//! fails. A walked value is then within about [`ANCHOR`]·10⁻¹⁶ of its anchor's value
+//! carried exactly over the steps since; that anchor, like every direct evaluation,
+//! carries the rounding of its argument ω·x (10⁻¹⁶ of the whole phase, 10⁻¹⁴ absolute at
+//! a few hundred radians), so walked and direct values differ by about as much as the
+//! direct ones differ from the exact sine and cosine. The value at a sample depends only
+//! on the samples since its anchor.
 
 use std::cell::Cell;
 
@@ -46,7 +48,9 @@ impl PhaseWalk {
         let w = self.w;
         let (sin, cos) = match self.last.get() {
             Some((ls, lx, sin, cos)) if ls == s && lx == x => return (sin, cos),
-            Some((ls, lx, sin, cos)) if ls + 1 == s && s % ANCHOR != 0 && within_2(x, lx) => {
+            Some((ls, lx, sin, cos))
+                if ls + 1 == s && !s.is_multiple_of(ANCHOR) && within_2(x, lx) =>
+            {
                 let phi = w * (x - lx);
                 if phi.abs() <= MAX_STEP {
                     let (sp, cp) = small_sin_cos(phi);
@@ -125,7 +129,7 @@ mod tests {
                 (sw - sd).abs() <= 1e-13 && (cw - cd).abs() <= 1e-13,
                 "sample {s}"
             );
-            if s % ANCHOR == 0 {
+            if s.is_multiple_of(ANCHOR) {
                 assert_eq!((sw.to_bits(), cw.to_bits()), (sd.to_bits(), cd.to_bits()));
             }
             rotated += usize::from(sw != sd || cw != cd);
