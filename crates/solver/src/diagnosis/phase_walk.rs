@@ -1,7 +1,7 @@
 //! sin(ω·x_s) and cos(ω·x_s) over samples taken in order, by rotation from the sample
-//! before instead of a `sincos` call each: a periodic candidate's columns
-//! ([`super::catalogue`]) along a run, where x_s (a position) moves by a small step from
-//! sample to sample.
+//! before instead of a `sincos` call each: the columns of the cyclic error and the
+//! waviness (the catalogue's) along a run, where x_s (a position) moves by a small step
+//! from sample to sample.
 //!
 //! With δ = x_s − x_{s−1} (exact by Sterbenz's lemma where the two are within a factor 2
 //! of each other, which is checked) and φ = ω·δ,
