@@ -242,17 +242,7 @@ async fn run_job(
                     fraction,
                     message: &message,
                 };
-                match store
-                    .heartbeat(
-                        Lease {
-                            job: &id,
-                            worker: &me,
-                        },
-                        lease,
-                        at,
-                    )
-                    .await
-                {
+                match store.heartbeat(Lease::new(&id, &me), lease, at).await {
                     Ok(Heartbeat::Continue) => {}
                     Ok(Heartbeat::CancelRequested) => {
                         let _ = stop_tx.send(Some(0));
