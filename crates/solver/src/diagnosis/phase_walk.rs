@@ -17,7 +17,10 @@
 //! carries the rounding of its argument ω·x (10⁻¹⁶ of the whole phase, 10⁻¹⁴ absolute at
 //! a few hundred radians), so walked and direct values differ by about as much as the
 //! direct ones differ from the exact sine and cosine. The value at a sample depends only
-//! on the samples since its anchor.
+//! on the samples since its anchor, and on which of them the caller asked for just
+//! before it (a walk resumes only from the sample before): passes that visit different
+//! rows may differ at a sample by that rounding, and the same passes in the same order
+//! give the same values.
 
 use std::cell::Cell;
 
