@@ -3,7 +3,7 @@
 //! kind is detected from the content). Human summary by default; `--json` prints the
 //! diagnosis result document. For drift logs, `--fit-fraction` sets the share of the
 //! recording the models are fitted on (the rest judges them) and `--predictions` writes
-//! the models' predictions at every sample (`docs/diagnosis.md`, "Prediction export").
+//! the models' predictions at every sample (`docs/diagnosis-series.md`, "Prediction export").
 
 use super::BadInput;
 use anyhow::Context;

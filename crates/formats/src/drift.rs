@@ -145,7 +145,7 @@ pub fn write_drift_log(w: impl Write, log: &DriftLog) -> std::io::Result<()> {
     }
     out.finish()
 }
-/// Writes the drift-log models' predictions at full resolution (`docs/diagnosis.md`,
+/// Writes the drift-log models' predictions at full resolution (`docs/diagnosis-series.md`,
 /// "Prediction export"): `t_s,part` then, per displacement channel `<ch>_um`, the columns
 /// `<ch>_measured_um`, `<ch>_model_um` and `<ch>_compensation_um`. `part` is `fit` for
 /// the samples the model was fitted on and `held_out` for the rest. The compensation is

@@ -12,7 +12,8 @@
 //! (lost motion along the travel, a step, a shift at reversal) are made in two shapes,
 //! one of them outside the candidate's model.
 //!
-//! The full table of docs/diagnosis.md ("Coverage of the other effects") is printed by
+//! The full table (docs/diagnosis-catalogue.md, "Coverage of the other effects", holds it
+//! condensed to one row per cell) is printed by
 //! `COVERAGE_SEEDS=40 cargo test -p mtcal-solver --test solver effect_coverage -- --nocapture`;
 //! the normal test command runs 2 seeds of every cell and holds the pooled share.
 

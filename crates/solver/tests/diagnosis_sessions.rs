@@ -1072,8 +1072,8 @@ fn a_servo_delay_made_outside_the_simulator_adds_no_reversal_spike() {
             effects::conforms(f).unwrap();
         }
         // The starts and stops of the motion, where the delay made here and the model's
-        // velocity differ, are the lag's nuisance (docs/diagnosis.md, "Servo lag: what
-        // holds"); before, the lag read up to 2.7σ low, within 2σ in 4 of 6 seeds.
+        // velocity differ, are the lag's nuisance (docs/diagnosis-catalogue.md, "Servo lag:
+        // what holds"); before, the lag read up to 2.7σ low, within 2σ in 4 of 6 seeds.
         assert!(within >= 5, "{tau}: {within} of 6 within 2σ");
     }
 }

@@ -13,7 +13,8 @@
 //! quadratic forms are scored too where a finding reports them (truth 0 where the
 //! growth was made without them).
 //!
-//! The full table of docs/diagnosis.md is printed by
+//! The full table of docs/diagnosis-catalogue.md ("Coverage of a logged temperature's
+//! growth") is printed by
 //! `COVERAGE_SEEDS=40 cargo test -p mtcal-solver --test solver thermal_coverage -- --nocapture`;
 //! the normal test command runs a few seeds of every cell.
 

@@ -26,7 +26,7 @@
 //! time and logged temperature, each acting along X, Y or Z. Along a itself these are the
 //! named mechanisms (backlash, model order, cyclic error, servo lag, reversal spike);
 //! across it they are model order, waviness, velocity coupling and direction coupling; in
-//! time, vibration and thermal drift (docs/diagnosis.md, "Beyond the catalogue").
+//! time, vibration and thermal drift (docs/diagnosis-catalogue.md, "Beyond the catalogue: signatures").
 
 use super::design::Design;
 use super::linalg::Cols;

@@ -2,7 +2,7 @@
 //! positioning runs and drift logs: the physics sentence, every parameter with its unit
 //! and its one sign convention, the parameters that must be determined for a finding,
 //! and what extra data would decide an undetermined one. The table is written out in
-//! docs/diagnosis.md ("Effects and sign conventions"); a test holds every parameter a
+//! docs/diagnosis-catalogue.md ("Effects and sign conventions"); a test holds every parameter a
 //! finding reports to a name of this table.
 //!
 //! d is the sign of the axis's travel (+1 moving, or approaching the target, toward +),
@@ -643,7 +643,7 @@ pub const MAX_SIZE_RATIO: f64 = 100.0;
 /// Least ratio of a size to its standard uncertainty for the size to count as determined
 /// by the data. A large effect most of which the run offsets take (a thermal drift of
 /// 40 ppm: offsets of 13 µm explaining 0.15 µm of misfit within the runs) is physics when
-/// its size is determined (z = 15–24 in the coverage test of docs/diagnosis.md); a
+/// its size is determined (z = 15–24 in the coverage test of docs/diagnosis-catalogue.md); a
 /// degenerate combination of columns has a size of the order of its uncertainty.
 pub const MIN_SIZE_Z: f64 = 10.0;
 

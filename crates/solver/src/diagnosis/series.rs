@@ -1,7 +1,7 @@
 //! Diagnosis of one-dimensional recordings: positioning runs (datasets contract section 3,
 //! ISO 230-2 style) and drift logs (section 4, ISO 230-3 style).
 //!
-//! Both follow the diagnosis loop (docs/diagnosis.md): fit the rigid model, **locate** where its residuals
+//! Both follow the diagnosis loop (docs/diagnosis.md, docs/diagnosis-series.md): fit the rigid model, **locate** where its residuals
 //! concentrate, **explain** them with candidate physical effects fitted jointly with the
 //! rigid model (nonlinear parameters such as a period or a time constant by a 1-D search),
 //! keep an effect only when it improves the fit on data held out of the fit (whole runs,

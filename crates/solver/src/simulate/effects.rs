@@ -1,4 +1,4 @@
-//! Physical effects the rigid-body model leaves out (docs/diagnosis.md), added by the simulator on
+//! Physical effects the rigid-body model leaves out (docs/diagnosis-catalogue.md), added by the simulator on
 //! top of the exact HTM chain. Every effect gives an error vector e (µm) of the tool point
 //! relative to the workpiece, in the tool-relative-to-workpiece sense of the kinematics
 //! contract, except [`Effect::SetupOffset`], which changes the true head offset.
