@@ -56,7 +56,8 @@ pub struct Profile {
     /// The machine id or the tag.
     pub target: String,
     pub limits: Limits,
-    /// Tag profiles only: drift alerts of the tag's machines are POSTed here.
+    /// Tag profiles only: drift alerts of the tag's machines are POSTed here. A read
+    /// key sees its scheme, host and port only ([`Profile::seen_by`]).
     pub webhook_url: Option<String>,
     /// Whether the webhook's deliveries are signed (the profile has a secret; the
     /// secret itself is never shown again).
@@ -82,6 +83,17 @@ impl Profile {
             created_at: p.created_at.clone(),
             updated_at: p.updated_at.clone(),
         })
+    }
+}
+
+impl Profile {
+    /// The profile as a key of `scope` may see it: below write scope, the webhook URL's
+    /// path and query (which may carry a receiver's token) are left out.
+    pub fn seen_by(mut self, scope: mtcal_store::Scope) -> Profile {
+        if !scope.allows(mtcal_store::Scope::Write) {
+            self.webhook_url = self.webhook_url.as_deref().map(crate::webhooks::host_only);
+        }
+        self
     }
 }
 

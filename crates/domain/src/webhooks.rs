@@ -4,12 +4,16 @@
 //!
 //! **Where a webhook may go.** A target's host is resolved and refused when any of its
 //! addresses is loopback, private, link-local, shared (carrier-grade NAT), multicast,
-//! broadcast, unspecified, reserved or documentation space ([`reserved`], IPv4-mapped
-//! IPv6 addresses as their IPv4 address), or one of the service's own listening
-//! addresses, unless the operator's allow-list ([`TargetPolicy::allow`],
-//! `MTCAL_WEBHOOK_ALLOW`) names the host or a network holding the address. Numeric
-//! host forms (`2130706433`, `0x7f.1`) are read as the addresses they are (WHATWG URL
-//! parsing). No credentials in the URL (`user:password@`). The check runs when a
+//! broadcast, unspecified, reserved or documentation space ([`reserved`]: the IANA
+//! special-purpose registries; IPv6 forms that carry an IPv4 address, IPv4-mapped,
+//! NAT64 and 6to4, as that address; IPv4-compatible, Teredo, NAT64 local-use and
+//! site-local refused whole), unless the operator's allow-list ([`TargetPolicy::allow`],
+//! `MTCAL_WEBHOOK_ALLOW`) names the host or a network holding the address. The
+//! service's own ports and its database's are refused even to an allowed host
+//! ([`TargetPolicy::own`]). Numeric host forms (`2130706433`, `0x7f.1`) are read as the
+//! addresses they are (WHATWG URL parsing). No credentials in the URL
+//! (`user:password@`), and no control character or blank anywhere in it (URL parsers
+//! drop tabs and line feeds silently, so the stored text would not be the URL used). The check runs when a
 //! profile is saved and again at every delivery, whose connection goes to the very
 //! addresses just checked (no second DNS answer can point it elsewhere).
 //!
@@ -158,7 +162,8 @@ pub struct TargetPolicy {
     /// Hosts and networks an operator allows although they are not public
     /// (`MTCAL_WEBHOOK_ALLOW`, comma-separated).
     pub allow: Vec<Allowed>,
-    /// The service's own listening addresses (refused unless allowed).
+    /// The service's own listening addresses and its database's: refused even when the
+    /// allow-list names the host ([`TargetPolicy::is_own`]).
     pub own: Vec<SocketAddr>,
 }
 
@@ -177,6 +182,16 @@ impl TargetPolicy {
         self.allow
             .iter()
             .any(|a| matches!(a, Allowed::Host(h) if h == host))
+    }
+
+    /// Whether `a` reaches one of [`TargetPolicy::own`]: the same port on the same
+    /// address, on any address when the service listens on all of them, or on a
+    /// loopback address (which reaches whatever listens on this host).
+    pub fn is_own(&self, a: SocketAddr) -> bool {
+        self.own.iter().any(|o| {
+            o.port() == a.port()
+                && (o.ip() == a.ip() || o.ip().is_unspecified() || a.ip().is_loopback())
+        })
     }
 
     fn allows_ip(&self, ip: IpAddr) -> bool {
@@ -208,6 +223,8 @@ pub fn reserved(ip: IpAddr) -> Option<&'static str> {
             "documentation or protocol"
         } else if a >= 240 || (a == 198 && (b == 18 || b == 19)) {
             "reserved"
+        } else if a == 192 && b == 88 && ip.octets()[2] == 99 {
+            "6to4 relay anycast (deprecated)"
         } else {
             return None;
         })
@@ -217,22 +234,42 @@ pub fn reserved(ip: IpAddr) -> Option<&'static str> {
             return v4(v);
         }
         let s = ip.segments();
+        let embedded = |hi: u16, lo: u16| Ipv4Addr::from(((hi as u32) << 16) | lo as u32);
         // NAT64 (64:ff9b::/96): the IPv4 address it leads to.
         if s[..6] == [0x64, 0xff9b, 0, 0, 0, 0] {
-            return v4(Ipv4Addr::from(((s[6] as u32) << 16) | s[7] as u32));
+            return v4(embedded(s[6], s[7]));
         }
         Some(if ip.is_unspecified() {
             "unspecified"
         } else if ip.is_loopback() {
             "loopback"
+        } else if s[..6] == [0; 6] {
+            // ::a.b.c.d, deprecated (RFC 4291 2.5.5.1): no route leads there.
+            "IPv4-compatible (deprecated)"
+        } else if s[0] == 0x2002 {
+            // 6to4 (RFC 3056, deprecated by RFC 7526): the relay leads to the IPv4
+            // address in bits 16-47, which may be any of those refused above.
+            v4(embedded(s[1], s[2])).unwrap_or("6to4 (deprecated relay)")
+        } else if s[0] == 0x2001 && s[1] == 0 {
+            "Teredo (tunnel to an address hidden in the address)"
+        } else if s[..3] == [0x64, 0xff9b, 1] {
+            "NAT64 local-use"
         } else if ip.is_multicast() {
             "multicast"
         } else if s[0] & 0xfe00 == 0xfc00 {
             "private (unique local)"
         } else if s[0] & 0xffc0 == 0xfe80 {
             "link-local"
-        } else if s[0] == 0x2001 && s[1] == 0x0db8 {
+        } else if s[0] & 0xffc0 == 0xfec0 {
+            "site-local (deprecated)"
+        } else if (s[0] == 0x2001 && s[1] == 0x0db8) || (s[0] == 0x3fff && s[1] < 0x1000) {
             "documentation or protocol"
+        } else if s[0] == 0x2001 && s[1] < 0x0200 {
+            // 2001::/23, IETF protocol assignments (benchmarking, ORCHID, AMT, ...).
+            "documentation or protocol"
+        } else if s[..4] == [0x100, 0, 0, 0] || s[0] == 0x5f00 {
+            // Discard-only (RFC 6666), SRv6 segment identifiers (RFC 9602).
+            "reserved"
         } else {
             return None;
         })
@@ -254,6 +291,18 @@ fn parse(url: &str) -> Result<reqwest::Url, String> {
         return Err(format!(
             "webhook_url: at most {WEBHOOK_URL_MAX} bytes, got {}",
             url.len()
+        ));
+    }
+    if let Some(c) = url.chars().find(|c| c.is_control() || c.is_whitespace()) {
+        return Err(format!(
+            "webhook_url: holds {} (U+{:04X}); write a URL without blanks or control \
+             characters (percent-encode them)",
+            if c.is_control() {
+                "a control character"
+            } else {
+                "a blank"
+            },
+            c as u32
         ));
     }
     let u =
@@ -291,6 +340,18 @@ pub fn shown(url: &str) -> String {
     }
 }
 
+/// A webhook URL as a read key sees it: scheme, host and port only (its path and query
+/// may carry a receiver's token).
+pub fn host_only(url: &str) -> String {
+    match reqwest::Url::parse(url) {
+        Ok(u) => {
+            let port = u.port().map(|p| format!(":{p}")).unwrap_or_default();
+            format!("{}://{}{port}/", u.scheme(), u.host_str().unwrap_or(""))
+        }
+        Err(_) => "(not a URL)".into(),
+    }
+}
+
 /// The addresses `url` may be delivered to under `policy`, resolved now; refused, with
 /// the address and the rule named, when one of them is not allowed (see the module
 /// documentation).
@@ -322,13 +383,14 @@ pub async fn resolve(
     }
     let by_name = policy.allows_host(&name);
     for a in &addrs {
+        if policy.is_own(*a) {
+            return Err(format!(
+                "webhook_url: {name} is {a}, this service itself or its database; webhooks \
+                 go elsewhere"
+            ));
+        }
         if by_name || policy.allows_ip(a.ip()) {
             continue;
-        }
-        if policy.own.contains(a) {
-            return Err(format!(
-                "webhook_url: {name} is {a}, this service itself; webhooks go elsewhere"
-            ));
         }
         if let Some(kind) = reserved(a.ip()) {
             return Err(format!(
@@ -339,6 +401,27 @@ pub async fn resolve(
         }
     }
     Ok((u, addrs))
+}
+
+/// The addresses of a PostgreSQL database URL's host (port 5432 when none is given), which
+/// no webhook may reach, allow-listed or not ([`TargetPolicy::own`]); none for SQLite or
+/// a host that does not resolve now.
+pub async fn database_addrs(db_url: &str) -> Vec<SocketAddr> {
+    let Ok(u) = reqwest::Url::parse(db_url) else {
+        return vec![];
+    };
+    if !matches!(u.scheme(), "postgres" | "postgresql") {
+        return vec![];
+    }
+    let Some(host) = u.host_str().filter(|h| !h.is_empty()) else {
+        return vec![];
+    };
+    let host = host.trim_start_matches('[').trim_end_matches(']');
+    let port = u.port().unwrap_or(5432);
+    match tokio::net::lookup_host((host, port)).await {
+        Ok(found) => found.collect(),
+        Err(_) => vec![],
+    }
 }
 
 /// A webhook to tell: its profile, URL and signing secret (`None`: a profile written
@@ -615,9 +698,14 @@ mod tests {
             ("file:///etc/passwd", "scheme"),
             ("/relative/path", "absolute"),
             ("http://", "absolute"),
-            ("not a url", "absolute"),
+            ("not a url", "blank"),
+            ("not-a-url", "absolute"),
             ("https://user:pw@alerts.example.com/x", "credentials"),
             ("https://token@alerts.example.com/x", "credentials"),
+            ("https://alerts.example.com/a\tb", "control character"),
+            ("https://alerts.example.com/a\nb", "control character"),
+            ("https://alerts.example.com/\u{85}", "control character"),
+            ("https://alerts.example.com/a b", "blank"),
         ] {
             let e = validate_webhook_url(bad).unwrap_err();
             assert!(
@@ -631,6 +719,11 @@ mod tests {
             shown("https://u:p@hooks.example.com:8443/a/b?token=s3cret#f"),
             "https://hooks.example.com:8443/a/b"
         );
+        assert_eq!(
+            host_only("https://hooks.example.com:8443/a/b?token=s3cret"),
+            "https://hooks.example.com:8443/"
+        );
+        assert_eq!(host_only("http://[::1]/x"), "http://[::1]/");
     }
 
     #[test]
@@ -699,6 +792,21 @@ mod tests {
             ("http://[ff02::1]/", "multicast"),
             ("http://255.255.255.255/", "broadcast"),
             ("http://100.64.0.1/", "carrier-grade NAT"),
+            // IPv6 forms that carry or hide an IPv4 address, and deprecated ranges.
+            ("http://[::127.0.0.1]/", "IPv4-compatible"),
+            ("http://[::a9fe:a9fe]/", "IPv4-compatible"),
+            ("http://[2002:7f00:1::]/", "loopback"),
+            ("http://[2002:a9fe:a9fe::1]/", "link-local"),
+            ("http://[2002:c0a8:101::]/", "private"),
+            ("http://[2002:5db8:d70e::1]/", "6to4"),
+            ("http://[2001:0:4136:e378:8000:63bf:3fff:fdd2]/", "Teredo"),
+            ("http://[64:ff9b::7f00:1]/", "loopback"),
+            ("http://[64:ff9b:1::a00:1]/", "NAT64 local-use"),
+            ("http://[fec0::1]/", "site-local"),
+            ("http://[2001:2::1]/", "protocol"),
+            ("http://[3fff::1]/", "documentation"),
+            ("http://[100::1]/", "reserved"),
+            ("http://192.88.99.1/", "6to4 relay"),
         ] {
             let e = resolve(url, &none).await.unwrap_err();
             assert!(
@@ -721,6 +829,42 @@ mod tests {
             .unwrap_err();
         assert!(e.contains("this service itself"), "{e}");
         resolve("http://93.184.215.14:9090/", &me).await.unwrap();
+        // An allow-listed host does not open the service's own port or the database's,
+        // whichever loopback address or name reaches them.
+        let mut local = TargetPolicy::with_allow_list("127.0.0.0/8, localhost").unwrap();
+        local.own = vec![
+            "0.0.0.0:8080".parse().unwrap(),
+            "10.0.0.5:5432".parse().unwrap(),
+        ];
+        for url in [
+            "http://127.0.0.1:8080/api/v1/keys",
+            "http://127.0.0.2:8080/",
+            "http://localhost:8080/",
+        ] {
+            let e = resolve(url, &local).await.unwrap_err();
+            assert!(
+                e.contains("this service itself or its database"),
+                "{url}: {e}"
+            );
+        }
+        resolve("http://127.0.0.1:9000/hook", &local).await.unwrap();
+        assert!(local.is_own("10.0.0.5:5432".parse().unwrap()));
+        assert!(local.is_own("127.0.0.1:5432".parse().unwrap()));
+        assert!(!local.is_own("10.0.0.6:5432".parse().unwrap()));
+    }
+
+    #[tokio::test]
+    async fn the_database_of_a_postgres_url_is_protected() {
+        assert_eq!(
+            database_addrs("postgres://mtcal:pw@127.0.0.1:6543/mtcal").await,
+            ["127.0.0.1:6543".parse::<SocketAddr>().unwrap()]
+        );
+        assert_eq!(
+            database_addrs("postgresql://[::1]/mtcal").await,
+            ["[::1]:5432".parse::<SocketAddr>().unwrap()]
+        );
+        assert!(database_addrs("mtcal.sqlite").await.is_empty());
+        assert!(database_addrs("sqlite:///var/lib/mtcal/db").await.is_empty());
     }
 
     #[tokio::test]

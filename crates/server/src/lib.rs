@@ -380,6 +380,12 @@ pub async fn run_workers(
     worker: WorkerConfig,
 ) -> anyhow::Result<(Arc<dyn mtcal_store::Store>, Workers)> {
     let store = mtcal_store::open_with(db_url, options).await?;
+    let mut worker = worker;
+    worker
+        .settings
+        .webhooks
+        .own
+        .extend(mtcal_domain::webhooks::database_addrs(db_url).await);
     let workers =
         worker::spawn_workers(store.clone(), worker, Arc::new(tokio::sync::Notify::new()));
     Ok((store, workers))
@@ -421,6 +427,11 @@ pub async fn serve(
     let listener = tokio::net::TcpListener::bind(cfg.listen).await?;
     let mut worker = cfg.worker.clone();
     worker.settings.webhooks.own.push(listener.local_addr()?);
+    worker
+        .settings
+        .webhooks
+        .own
+        .extend(mtcal_domain::webhooks::database_addrs(&cfg.db_url).await);
     let (app, workers) = app(store.clone(), &worker, cfg.run_worker);
     // Drift of results stored before this version or imported in bulk.
     tokio::spawn(async move {

@@ -650,7 +650,7 @@ impl Store for This {
             };
             let q = format!(
                 "SELECT {DATASET_COLUMNS} FROM datasets WHERE machine_id = $1{shown} \
-                 ORDER BY measured_at, id"
+                 ORDER BY measured_at, uploaded_at, id"
             );
             let found = run!(fetch_all(&self.pool), sqlx::AssertSqlSafe(q), machine_id)?;
             let q = format!(
@@ -723,7 +723,7 @@ impl Store for This {
         Box::pin(async move {
             let q = format!(
                 "SELECT {RESULT_COLUMNS} FROM results WHERE machine_id = $1 AND kind = $2 \
-                 AND excluded_at IS NULL ORDER BY measured_at, id"
+                 AND excluded_at IS NULL ORDER BY measured_at, created_at, id"
             );
             let rows = run!(
                 fetch_all(&self.pool),
@@ -745,9 +745,9 @@ impl Store for This {
                  COALESCE((SELECT r.id FROM results r WHERE r.id = m.baseline_result_id \
                    AND r.excluded_at IS NULL), (SELECT r.id FROM results r \
                    WHERE r.machine_id = m.id AND r.kind = $1 AND r.excluded_at IS NULL \
-                   ORDER BY r.measured_at, r.id LIMIT 1)) AS base_id, \
+                   ORDER BY r.measured_at, r.created_at, r.id LIMIT 1)) AS base_id, \
                  (SELECT r.id FROM results r WHERE r.machine_id = m.id AND r.kind = $1 \
-                   AND r.excluded_at IS NULL ORDER BY r.measured_at DESC, r.id DESC LIMIT 1) AS last_id \
+                   AND r.excluded_at IS NULL ORDER BY r.measured_at DESC, r.created_at DESC, r.id DESC LIMIT 1) AS last_id \
                  FROM machines m) ";
             // One read snapshot for the three queries: a result landing between them
             // must not leave a pair whose result or machine is missing.
@@ -803,7 +803,8 @@ impl Store for This {
                 "SELECT result_id, measured_at, value, u FROM result_figures \
                  WHERE machine_id = $1 AND name = $2 AND result_id NOT IN \
                  (SELECT id FROM results WHERE machine_id = $1 AND excluded_at IS NOT NULL) \
-                 ORDER BY measured_at, result_id",
+                 ORDER BY measured_at, (SELECT created_at FROM results WHERE id = result_id), \
+                 result_id",
                 machine_id,
                 name
             )?
@@ -1013,7 +1014,7 @@ impl Store for This {
                         format!(
                             "SELECT * FROM (SELECT id, machine_id, kind, measured_at FROM results \
                              WHERE machine_id = ${i} AND excluded_at IS NULL \
-                             ORDER BY measured_at DESC, id DESC LIMIT 1) AS r{i}"
+                             ORDER BY measured_at DESC, created_at DESC, id DESC LIMIT 1) AS r{i}"
                         )
                     })
                     .collect::<Vec<_>>()

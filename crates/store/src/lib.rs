@@ -71,7 +71,7 @@ pub trait Store: Queue {
     fn dataset_file<'a>(&'a self, id: &'a str, name: &'a str) -> StoreFuture<'a, Vec<u8>>;
     /// Every file of a dataset, as uploaded.
     fn dataset_files<'a>(&'a self, id: &'a str) -> StoreFuture<'a, Vec<(String, Vec<u8>)>>;
-    /// A machine's datasets in time order (measured_at, then id); excluded ones (deleted
+    /// A machine's datasets in time order (measured_at, uploaded_at, id); excluded ones (deleted
     /// ones included) only when `include_excluded`.
     fn list_datasets<'a>(
         &'a self,
@@ -98,9 +98,10 @@ pub trait Store: Queue {
 
     // Results.
     fn get_result<'a>(&'a self, id: &'a str) -> StoreFuture<'a, StoredResult>;
-    /// A machine's results of `kind` in time order (measured_at, then id). A stored row
-    /// that does not decode (written by an older version, a null where a number belongs)
-    /// is left out; [`Store::list_results_checked`] says which.
+    /// A machine's results of `kind` in time order (measured_at, then when each landed,
+    /// then id: of two checks measured at the same time the later to land is the later).
+    /// A stored row that does not decode (written by an older version, a null where a
+    /// number belongs) is left out; [`Store::list_results_checked`] says which.
     fn list_results<'a>(
         &'a self,
         machine_id: &'a str,
@@ -116,7 +117,7 @@ pub trait Store: Queue {
     fn baseline_pairs<'a>(&'a self, kind: &'a str) -> StoreFuture<'a, Vec<BaselinePair>>;
     /// The named figures of a result ([`Figure`]), by name.
     fn result_figures<'a>(&'a self, result_id: &'a str) -> StoreFuture<'a, Vec<Figure>>;
-    /// One figure of a machine's results in time order (measured_at, then result id),
+    /// One figure of a machine's results in time order (measured_at, when it landed, id),
     /// whatever the result kind (ISO 230-2 figures come from `identification` and
     /// `standards` results alike).
     fn figure_trend<'a>(

@@ -6,7 +6,7 @@
 //! one. The API's routes refuse what these refuse.
 
 use crate::limits::MAX_TRAVEL_MM;
-use crate::text::{LABEL_MAX, NAME_MAX, SITE_MAX, TAG_MAX, TAGS_MAX};
+use crate::text::{LABEL_MAX, NAME_MAX, SITE_MAX, TAG_MAX, TAGS_BYTES_MAX, TAGS_MAX};
 use serde_json::{Value, json};
 use utoipa::openapi::schema::Schema;
 
@@ -89,7 +89,8 @@ fn tags_of(types: Value) -> Schema {
     read(json!({
         "type": types,
         "description": format!("At most {TAGS_MAX}, each not blank, at most {TAG_MAX} characters, \
-                                no control character, none twice."),
+                                no control character, none twice; together at most \
+                                {TAGS_BYTES_MAX} bytes as stored (a JSON list, UTF-8)."),
         "items": {"type": "string", "maxLength": TAG_MAX, "pattern": LINE_PATTERN},
         "maxItems": TAGS_MAX,
         "uniqueItems": true,

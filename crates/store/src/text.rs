@@ -10,10 +10,12 @@
 //!   character (Unicode category Cc: U+0000–U+001F, U+007F–U+009F).
 //! * **Free text** (reasons, comments): as a line, but line feeds and tabs are allowed.
 //! * **Tags**: at most [`TAGS_MAX`] of them, each a line of at most [`TAG_MAX`]
-//!   characters, none given twice.
+//!   characters, none given twice, and the list as stored (JSON, UTF-8) at most
+//!   [`TAGS_BYTES_MAX`] bytes: the list is one indexed value.
 //!
-//! Lengths count characters (Unicode scalar values); every cap times 4 (the longest
-//! UTF-8 character) stays far below PostgreSQL's index row limit.
+//! Lengths count characters (Unicode scalar values); every single cap times 4 (the
+//! longest UTF-8 character) stays below PostgreSQL's index row limit (2704 bytes), and
+//! an indexed value made of several parts (the tag list) is bounded as a whole.
 
 use crate::error::{Result, StoreError};
 
@@ -27,6 +29,10 @@ pub const SITE_MAX: usize = 100;
 pub const TAG_MAX: usize = 64;
 /// Most tags on one machine.
 pub const TAGS_MAX: usize = 32;
+/// Longest tag list as stored (a JSON array, UTF-8), bytes: below PostgreSQL's index row
+/// limit of 2704 bytes with room for the row's header (32 ASCII tags of 58 characters,
+/// or 10 of 64 CJK characters, fit).
+pub const TAGS_BYTES_MAX: usize = 2000;
 /// Longest tolerance profile target (a machine id or a tag), characters.
 pub const TARGET_MAX: usize = 200;
 /// Longest API key label, characters.
@@ -102,6 +108,13 @@ pub fn check_tags(tags: &[String]) -> Result<()> {
             return Err(invalid(format!("tags[{i}]: {t:?} is given twice")));
         }
     }
+    let stored = serde_json::to_string(tags).map_or(usize::MAX, |j| j.len());
+    if stored > TAGS_BYTES_MAX {
+        return Err(invalid(format!(
+            "tags: at most {TAGS_BYTES_MAX} bytes together as stored (UTF-8, a JSON list), \
+             got {stored}: use fewer or shorter tags"
+        )));
+    }
     Ok(())
 }
 
@@ -171,5 +184,21 @@ mod tests {
                 .to_string()
                 .contains("at most 32")
         );
+        // The list is one indexed value: bounded as a whole, as stored.
+        let cjk = |n: usize| -> Vec<String> {
+            (0..n)
+                .map(|i| {
+                    char::from_u32(0x4e00 + i as u32)
+                        .unwrap()
+                        .to_string()
+                        .repeat(TAG_MAX)
+                })
+                .collect()
+        };
+        check_tags(&cjk(10)).unwrap();
+        let e = check_tags(&cjk(14)).unwrap_err().to_string();
+        assert!(e.contains("2000 bytes together"), "{e}");
+        let ascii: Vec<String> = (0..TAGS_MAX).map(|i| format!("{i:058}")).collect();
+        check_tags(&ascii).unwrap();
     }
 }

@@ -57,6 +57,7 @@ stories!(
     retries_wait_for_their_backoff_and_bad_input_fails_at_once,
     cancellation_of_queued_and_running_jobs,
     results_in_time_order_with_baseline,
+    checks_measured_at_the_same_time_order_by_when_they_landed,
     figures_trend_by_name_and_bad_ones_store_nothing,
     keys_are_found_by_secret_only,
     keys_are_listed_and_a_revoked_key_authenticates_nothing,
@@ -365,6 +366,31 @@ async fn cancellation_of_queued_and_running_jobs(s: &dyn Store) {
         JobState::Cancelled
     );
     assert_eq!(s.row_counts().await.unwrap().results, 0);
+}
+
+/// Two checks with the same `measured_at`: the one that landed first is the earlier (the
+/// baseline), the one that landed last the latest, whatever their ids. Over eight
+/// machines, an order by id alone would pass by chance once in 256 runs.
+async fn checks_measured_at_the_same_time_order_by_when_they_landed(s: &dyn Store) {
+    let at = "2026-05-01T08:00:00Z";
+    let mut landed = vec![];
+    for i in 0..8 {
+        let m = format!("T{i}");
+        s.create_machine(&machine(&m)).await.unwrap();
+        let first = s.import_result(result(&m, at, 1.0)).await.unwrap();
+        // Stored times are to the millisecond.
+        tokio::time::sleep(std::time::Duration::from_millis(3)).await;
+        let last = s.import_result(result(&m, at, 2.0)).await.unwrap();
+        landed.push((m, first.id, last.id));
+    }
+    let pairs = s.baseline_pairs("identification").await.unwrap();
+    for (m, first, last) in &landed {
+        let p = pairs.iter().find(|p| &p.machine.id == m).unwrap();
+        assert_eq!((&p.baseline.id, &p.latest.id), (first, last), "{m}");
+        let list = s.list_results(m, "identification").await.unwrap();
+        let ids: Vec<&String> = list.iter().map(|r| &r.id).collect();
+        assert_eq!(ids, [first, last], "{m}");
+    }
 }
 
 async fn results_in_time_order_with_baseline(s: &dyn Store) {

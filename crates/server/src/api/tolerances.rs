@@ -45,22 +45,27 @@ pub async fn create(
     security(("api_key" = [])),
     responses((status = 200, body = Vec<Profile>, description = "by scope, then target"), (status = 401, body = ErrorBody)))]
 pub async fn list(
-    _key: ReadKey,
+    ReadKey(key): ReadKey,
     State(s): State<AppState>,
 ) -> Result<Json<Vec<Profile>>, ApiError> {
     let all = s.store.list_tolerances().await?;
-    Ok(Json(all.iter().map(Profile::of).collect::<Result<_, _>>()?))
+    Ok(Json(
+        all.iter()
+            .map(|p| Profile::of(p).map(|p| p.seen_by(key.scope)))
+            .collect::<Result<_, _>>()?,
+    ))
 }
 
 #[utoipa::path(operation_id = "tolerances_get", summary = "One tolerance profile", get, path = "/api/v1/tolerances/{id}", tag = "tolerances",
     security(("api_key" = [])), params(("id" = String, Path)),
     responses((status = 200, body = Profile), (status = 401, body = ErrorBody), (status = 404, body = ErrorBody)))]
 pub async fn get(
-    _key: ReadKey,
+    ReadKey(key): ReadKey,
     State(s): State<AppState>,
     Path(id): Path<String>,
 ) -> Result<Json<Profile>, ApiError> {
-    Ok(Json(Profile::of(&s.store.get_tolerance(&id).await?)?))
+    let p = Profile::of(&s.store.get_tolerance(&id).await?)?;
+    Ok(Json(p.seen_by(key.scope)))
 }
 
 #[utoipa::path(operation_id = "tolerances_replace", summary = "Replace a tolerance profile's limits and webhook", put, path = "/api/v1/tolerances/{id}", tag = "tolerances",
