@@ -28,7 +28,10 @@ fn assess(
     m: &Machine,
 ) -> Result<(Figures, Assessment), StoreError> {
     let unreadable = |what: &str, e: serde_json::Error| {
-        StoreError::Backend(format!("result {} does not read as {what}: {e}", r.meta.id))
+        StoreError::Conflict(format!(
+            "result {} does not read as {what}: {e}; exclude it and run the check again",
+            r.meta.id
+        ))
     };
     let mut how = Assessment {
         registered_travel_mm: m.travel_mm.clone(),

@@ -133,6 +133,24 @@ impl<'d> Obj<'d> {
         }
     }
 
+    /// An optional finite number within ±`max` (`what`: its quantity and unit, for the
+    /// message, as the CSV readers name it).
+    pub fn opt_f64_within(
+        &self,
+        field: &str,
+        max: f64,
+        what: &str,
+    ) -> Result<Option<f64>, FormatError> {
+        let v = self.opt_f64(field)?;
+        match v {
+            Some(x) if x.abs() > max => Err(self.error(
+                field,
+                format!("{x} is beyond the bound of ±{max} for a {what}: a unit mistake?"),
+            )),
+            _ => Ok(v),
+        }
+    }
+
     pub fn opt_f64(&self, field: &str) -> Result<Option<f64>, FormatError> {
         match self.get(field) {
             None => Ok(None),

@@ -42,7 +42,10 @@ pub use rotary::{
 };
 pub use session::{read_session_dir, read_session_files, write_session_dir};
 pub use sniff::{DatasetKind, sniff_kind, sniff_path};
-pub use upload::{Dataset, DatasetData, read_archive, read_path, read_upload};
+pub use upload::{
+    Dataset, DatasetData, is_archive_name, read_archive, read_path, read_upload,
+    unpack_single_archive,
+};
 
 /// A rejected input: which file, where, and which rule it broke. Shown as
 /// `file:line:column: rule`, leaving out what it is not tied to: `file:line: rule`

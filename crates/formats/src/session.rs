@@ -64,8 +64,22 @@ struct SessionSpec {
 /// it names, with the rules of an upload (`docs/datasets.md`, "Uploads"): a plane file
 /// named `f` may be present as `f.gz`; a CSV the description does not name is refused;
 /// other files (`truth.json`, notes) are ignored. Error messages name files relative to
-/// `dir`.
+/// `dir`. `dir` may also be a `.tar`, `.tar.gz` or `.tgz` archive of such a folder (with
+/// or without its top folder), read as the same upload would be.
 pub fn read_session_dir(dir: &Path, limits: &Limits) -> Result<Session, FormatError> {
+    if dir.is_file() && crate::is_archive_name(&crate::display_name(dir)) {
+        return match crate::read_path(dir, limits)?.data {
+            crate::DatasetData::Session(s) => Ok(s),
+            other => Err(FormatError::file(
+                crate::display_name(dir),
+                format!(
+                    "the archive holds a {} dataset, not a session (session.json and its \
+                     plane CSVs)",
+                    other.kind()
+                ),
+            )),
+        };
+    }
     let (names, mut load) = crate::files::folder(dir, limits)?;
     if !names
         .iter()
@@ -171,7 +185,7 @@ pub(crate) fn read_session_named<'a>(
     };
     let raw = read(description, &mut raw_budget, Vec::new())?;
     let json = gzip::decode(description, &raw, &mut budget)?;
-    let (spec, doc) = parse_session_json(&json)?;
+    let (spec, doc) = parse_session_json(&json, limits)?;
     drop(json);
     drop(raw);
     let mut stored: Vec<String> = Vec::with_capacity(spec.planes.len());
@@ -373,7 +387,10 @@ fn valid_file_name(name: &str) -> bool {
         && !name.contains(['/', '\\', '\0', ':'])
 }
 
-fn parse_session_json(bytes: &[u8]) -> Result<(SessionSpec, JsonDoc<'static>), FormatError> {
+fn parse_session_json(
+    bytes: &[u8],
+    limits: &Limits,
+) -> Result<(SessionSpec, JsonDoc<'static>), FormatError> {
     let doc = JsonDoc::parse(SESSION_JSON, bytes)?;
     let spec = {
         let root = doc.root()?;
@@ -402,7 +419,7 @@ fn parse_session_json(bytes: &[u8]) -> Result<(SessionSpec, JsonDoc<'static>), F
             Some(v) => Some(parse_topology(&root.object("topology", v)?)?),
         };
         let notes = root.opt_str("notes")?.map(str::to_string);
-        let conditions = parse_conditions(&root)?;
+        let conditions = parse_conditions(&root, limits)?;
         let planes_v = root.required("planes")?;
         let Value::Array(items) = planes_v else {
             return Err(root.error("planes", "must be an array of plane objects"));
@@ -416,7 +433,7 @@ fn parse_session_json(bytes: &[u8]) -> Result<(SessionSpec, JsonDoc<'static>), F
         let mut files: HashSet<String> = HashSet::with_capacity(items.len());
         for (i, item) in items.iter().enumerate() {
             let p = root.object(&format!("planes[{i}]"), item)?;
-            let spec = parse_plane(&p)?;
+            let spec = parse_plane(&p, limits)?;
             if !files.insert(spec.file.clone()) {
                 return Err(p.error("file", format!("file `{}` is listed twice", spec.file)));
             }
@@ -449,7 +466,13 @@ fn parse_session_json(bytes: &[u8]) -> Result<(SessionSpec, JsonDoc<'static>), F
 /// The test's conditions stated in session.json (docs/datasets.md, "session.json"): the
 /// operator, the instrument with its calibration, the temperature and the budget's other
 /// inputs, each checked with the field named.
-fn parse_conditions(root: &Obj<'_>) -> Result<Conditions, FormatError> {
+fn parse_conditions(root: &Obj<'_>, limits: &Limits) -> Result<Conditions, FormatError> {
+    // Every number within the bound of its quantity (docs/datasets.md, "Limits"), as in
+    // the CSV files: a finite but absurd value would make the budget's figures overflow.
+    let value = |o: &Obj<'_>, field: &str| o.opt_f64_within(field, limits.max_abs_value, "value");
+    let kelvin = |o: &Obj<'_>, field: &str| {
+        o.opt_f64_within(field, limits.max_abs_temperature_c, "temperature (K)")
+    };
     let text = |o: &Obj<'_>, field: &str| -> Result<Option<String>, FormatError> {
         match o.opt_str(field)? {
             Some(s) if s.trim().is_empty() => Err(o.error(field, "must not be empty")),
@@ -481,12 +504,12 @@ fn parse_conditions(root: &Obj<'_>) -> Result<Conditions, FormatError> {
                 serial: text(&o, "serial")?,
                 calibration_date: text(&o, "calibration_date")?,
                 certificate: text(&o, "certificate")?,
-                calibration_u_um: o.opt_f64("calibration_u_um")?,
-                calibration_u_um_per_m: o.opt_f64("calibration_u_um_per_m")?,
-                calibration_k: o.opt_f64("calibration_k")?,
-                squareness_u_urad: o.opt_f64("squareness_u_urad")?,
-                expansion_ppm_per_k: o.opt_f64("expansion_ppm_per_k")?,
-                expansion_u_ppm_per_k: o.opt_f64("expansion_u_ppm_per_k")?,
+                calibration_u_um: value(&o, "calibration_u_um")?,
+                calibration_u_um_per_m: value(&o, "calibration_u_um_per_m")?,
+                calibration_k: value(&o, "calibration_k")?,
+                squareness_u_urad: value(&o, "squareness_u_urad")?,
+                expansion_ppm_per_k: value(&o, "expansion_ppm_per_k")?,
+                expansion_u_ppm_per_k: value(&o, "expansion_u_ppm_per_k")?,
             };
             if let Err(m) = i.validate("") {
                 let field = m.split(':').next().unwrap_or("").to_string();
@@ -495,16 +518,20 @@ fn parse_conditions(root: &Obj<'_>) -> Result<Conditions, FormatError> {
             Some(i)
         }
     };
-    let temperature_c = root.opt_f64("temperature_c")?;
+    let temperature_c = root.opt_f64_within(
+        "temperature_c",
+        limits.max_abs_temperature_c,
+        "temperature (°C)",
+    )?;
     let c = Conditions {
         operator: text(root, "operator")?,
         instrument,
         temperature_c,
         temperature_source: temperature_c.map(|_| "stated".to_string()),
-        temperature_u_k: root.opt_f64("temperature_u_k")?,
-        machine_expansion_ppm_per_k: root.opt_f64("machine_expansion_ppm_per_k")?,
-        machine_expansion_u_ppm_per_k: root.opt_f64("machine_expansion_u_ppm_per_k")?,
-        alignment_urad: root.opt_f64("alignment_urad")?,
+        temperature_u_k: kelvin(root, "temperature_u_k")?,
+        machine_expansion_ppm_per_k: value(root, "machine_expansion_ppm_per_k")?,
+        machine_expansion_u_ppm_per_k: value(root, "machine_expansion_u_ppm_per_k")?,
+        alignment_urad: value(root, "alignment_urad")?,
     };
     if let Err(m) = c.validate() {
         let field = m.split(':').next().unwrap_or("").to_string();
@@ -542,7 +569,7 @@ fn parse_topology(o: &Obj<'_>) -> Result<Topology, FormatError> {
     Ok(topology)
 }
 
-fn parse_plane(p: &Obj<'_>) -> Result<PlaneSpec, FormatError> {
+fn parse_plane(p: &Obj<'_>, limits: &Limits) -> Result<PlaneSpec, FormatError> {
     p.check_fields(&["file", "plane", "head_offset_mm", "mounting"])?;
     let file = p.req_str("file")?.to_string();
     if !valid_file_name(&file) {
@@ -562,10 +589,21 @@ fn parse_plane(p: &Obj<'_>) -> Result<PlaneSpec, FormatError> {
     let head_offset_mm = match offset {
         Value::Array(a) if a.len() == 3 => {
             let mut t = [0.0; 3];
+            let max = limits.max_abs_position_mm;
             for (k, v) in a.iter().enumerate() {
                 t[k] = v.as_f64().filter(|x| x.is_finite()).ok_or_else(|| {
                     p.error("head_offset_mm", "must hold three finite numbers (mm)")
                 })?;
+                if t[k].abs() > max {
+                    return Err(p.error(
+                        "head_offset_mm",
+                        format!(
+                            "{} is beyond the bound of ±{max} for a position (mm): \
+                             micrometres where millimetres are required?",
+                            t[k]
+                        ),
+                    ));
+                }
             }
             t
         }

@@ -78,6 +78,10 @@ pub fn sniff_path(path: &Path) -> Option<DatasetKind> {
             .is_file()
             .then_some(DatasetKind::Session);
     }
+    if crate::is_archive_name(&crate::display_name(path)) {
+        // An archive is read as a session folder (read_session_dir says when it is not).
+        return path.is_file().then_some(DatasetKind::Session);
+    }
     use std::io::Read;
     let mut head = Vec::new();
     std::fs::File::open(path)

@@ -239,6 +239,40 @@ pub fn read_path(path: &Path, limits: &Limits) -> Result<Dataset, FormatError> {
     read_upload(&files, limits)
 }
 
+/// The files of an upload with a single archive among them unpacked: an upload of exactly
+/// one file that is a tar archive (by its name, `.tar`, `.tar.gz`, `.tgz`, or by its
+/// content, a tar header after any gzip) is read as the files inside it, as when the
+/// archive is the request's body; any other upload is returned as it is. So a `.tar.gz`
+/// made with `tar czf x.tar.gz -C dir .` reads the same whether it is sent as the body,
+/// as a multipart file or through the dashboard's form.
+pub fn unpack_single_archive(
+    files: Vec<(String, Vec<u8>)>,
+    limits: &Limits,
+) -> Result<Vec<(String, Vec<u8>)>, FormatError> {
+    match files.as_slice() {
+        [(name, bytes)] if is_archive_name(name) || is_tar(bytes) => {
+            read_archive(name, bytes, limits)
+        }
+        _ => Ok(files),
+    }
+}
+
+/// Whether `bytes` (gzip-compressed or not) hold a tar archive: the POSIX `ustar` magic
+/// of the first header, at byte 257.
+fn is_tar(bytes: &[u8]) -> bool {
+    const MAGIC: &[u8] = b"ustar";
+    let at = |b: &[u8]| b.len() > 262 && &b[257..262] == MAGIC;
+    if bytes.starts_with(&[0x1f, 0x8b]) {
+        // Only the first header is needed: a bounded decode of the start.
+        let mut head = Vec::with_capacity(512);
+        let mut d = flate2::read::MultiGzDecoder::new(bytes).take(512);
+        let _ = d.read_to_end(&mut head);
+        at(&head)
+    } else {
+        at(bytes)
+    }
+}
+
 /// Whether a name is an archive's (`.tar`, `.tar.gz`, `.tgz`).
 pub fn is_archive_name(name: &str) -> bool {
     let n = name.to_ascii_lowercase();

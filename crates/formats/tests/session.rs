@@ -239,6 +239,49 @@ fn json_head_offset_must_be_three_finite_numbers() {
     // 1e999 is not a finite f64: serde_json refuses it as a syntax-level error.
     let e = json_err(&JSON.replace("[0, 0, -100], \"mounting\"", "[0, 0, 1e999], \"mounting\""));
     check(&e, "session.json", 8, "", "invalid JSON");
+    // A finite but absurd offset is refused at its field, as a position cell is: such a
+    // number made every figure of its result overflow (nothing stored that cannot be
+    // read back).
+    for big in ["1e308", "1e20", "1e10", "100001"] {
+        let e = json_err(&JSON.replace(
+            "[0, 0, -100], \"mounting\"",
+            &format!("[{big}, 0, -100], \"mounting\""),
+        ));
+        check(
+            &e,
+            "session.json",
+            8,
+            "planes[0].head_offset_mm",
+            "beyond the bound of ±100000 for a position (mm)",
+        );
+    }
+}
+
+#[test]
+fn json_stated_numbers_are_bounded_as_csv_cells_are() {
+    for (from, to, field, rule) in [
+        (
+            "\"temperature_c\": 20.4",
+            "\"temperature_c\": 5000",
+            "temperature_c",
+            "±1000 for a temperature",
+        ),
+        (
+            "\"temperature_c\": 20.4",
+            "\"temperature_c\": -1e300",
+            "temperature_c",
+            "±1000 for a temperature",
+        ),
+    ] {
+        let e = json_err(&JSON.replace(from, to));
+        assert_eq!(e.column, field, "{e}");
+        assert!(e.rule.contains(rule), "{e}");
+    }
+    let s = read(
+        &JSON.replace("\"temperature_c\": 20.4", "\"temperature_c\": 999.5"),
+        CSV,
+    );
+    assert_eq!(s.unwrap().conditions.temperature_c, Some(999.5));
 }
 
 #[test]

@@ -437,3 +437,57 @@ fn hostile_archive_entries_are_refused_with_the_entry_named() {
     let e = read_archive("up.tar", b"not a tar", &Limits::default()).unwrap_err();
     assert_eq!(e.file, "up.tar");
 }
+
+/// An archive made as a person makes one, with `tar czf s.tar.gz -C dir .` (entries
+/// `./session.json`, …), sent as the one file of an upload (a multipart part, the
+/// dashboard's form) or under a name that says nothing (read by its content), reads as
+/// the folder does; so does its path for the CLI's session commands.
+#[test]
+fn an_archive_made_with_tar_reads_as_the_one_file_of_an_upload() {
+    let dir = tempfile::tempdir().unwrap();
+    let src = dir.path().join("session");
+    std::fs::create_dir(&src).unwrap();
+    write_dir(&src, &session_files());
+    let archive = dir.path().join("s.tar.gz");
+    let status = std::process::Command::new("tar")
+        .arg("czf")
+        .arg(&archive)
+        .arg("-C")
+        .arg(&src)
+        .arg(".")
+        .status()
+        .expect("tar runs");
+    assert!(status.success());
+    let bytes = std::fs::read(&archive).unwrap();
+    let want = read_path(&src, &Limits::default()).unwrap();
+    for name in ["s.tar.gz", "upload.bin", "s.tgz"] {
+        let files = mtcal_formats::unpack_single_archive(
+            vec![(name.into(), bytes.clone())],
+            &Limits::default(),
+        )
+        .unwrap();
+        let d = read_upload(&files, &Limits::default()).unwrap_or_else(|e| panic!("{name}: {e}"));
+        assert_eq!(
+            (d.kind(), d.samples()),
+            (want.kind(), want.samples()),
+            "{name}"
+        );
+        assert_eq!(d.files, want.files, "{name}");
+    }
+    // Several files, or one file that is no archive, are left as they are.
+    let plain = session_files();
+    assert_eq!(
+        mtcal_formats::unpack_single_archive(plain.clone(), &Limits::default()).unwrap(),
+        plain
+    );
+    let one = files(&[("runs.csv", POSITIONING.as_bytes())]);
+    assert_eq!(
+        mtcal_formats::unpack_single_archive(one.clone(), &Limits::default()).unwrap(),
+        one
+    );
+    // The CLI reads the archive where it reads a folder.
+    let s = mtcal_formats::read_session_dir(&archive, &Limits::default()).unwrap();
+    let folder = mtcal_formats::read_session_dir(&src, &Limits::default()).unwrap();
+    assert_eq!(s.planes.len(), folder.planes.len());
+    assert_eq!(s.machine_id, folder.machine_id);
+}

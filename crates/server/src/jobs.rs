@@ -172,8 +172,7 @@ fn run(input: &JobInput, progress: &mut dyn FnMut(f64, &str)) -> Result<JobOutpu
             let result = identification::identify(&session, &opts)
                 .map_err(|e| JobError::BadInput(format!("identification: {e}")))?;
             Ok(JobOutput {
-                document: serde_json::to_value(&result)
-                    .map_err(|e| JobError::Transient(e.to_string()))?,
+                document: stored(&result)?,
                 scalars: identification_scalars(&result),
                 figures: figures(&result.standards),
                 measured_at: dataset.measured_at.clone(),
@@ -188,8 +187,7 @@ fn run(input: &JobInput, progress: &mut dyn FnMut(f64, &str)) -> Result<JobOutpu
             let result = sensitivity::analyse(&req)
                 .map_err(|e| JobError::BadInput(format!("sensitivity: {e}")))?;
             Ok(JobOutput {
-                document: serde_json::to_value(&result)
-                    .map_err(|e| JobError::Transient(e.to_string()))?,
+                document: stored(&result)?,
                 scalars: ResultScalars::default(),
                 figures: vec![],
                 measured_at: mtcal_store::now_rfc3339(),
@@ -235,8 +233,7 @@ fn run(input: &JobInput, progress: &mut dyn FnMut(f64, &str)) -> Result<JobOutpu
             }
             .map_err(|e| JobError::BadInput(format!("diagnosis: {e}")))?;
             Ok(JobOutput {
-                document: serde_json::to_value(&document)
-                    .map_err(|e| JobError::Transient(e.to_string()))?,
+                document: stored(&document)?,
                 scalars: diagnosis_scalars(&document.diagnosis),
                 figures: vec![],
                 measured_at: dataset.measured_at.clone(),
@@ -250,8 +247,7 @@ fn run(input: &JobInput, progress: &mut dyn FnMut(f64, &str)) -> Result<JobOutpu
             let result = cradle::check_cradle(&set, &CradleOptions::default())
                 .map_err(|e| JobError::BadInput(format!("cradle: {e}")))?;
             Ok(JobOutput {
-                document: serde_json::to_value(&result)
-                    .map_err(|e| JobError::Transient(e.to_string()))?,
+                document: stored(&result)?,
                 scalars: ResultScalars::default(),
                 figures: vec![],
                 measured_at: dataset.measured_at.clone(),
@@ -281,8 +277,7 @@ fn run(input: &JobInput, progress: &mut dyn FnMut(f64, &str)) -> Result<JobOutpu
             let figures = figures(&st);
             let result = StandardsResult::new(&dataset.machine_id, source, st);
             Ok(JobOutput {
-                document: serde_json::to_value(&result)
-                    .map_err(|e| JobError::Transient(e.to_string()))?,
+                document: stored(&result)?,
                 scalars: ResultScalars::default(),
                 figures,
                 measured_at: dataset.measured_at.clone(),
@@ -292,6 +287,23 @@ fn run(input: &JobInput, progress: &mut dyn FnMut(f64, &str)) -> Result<JobOutpu
             "an import job has nothing to run".into(),
         )),
     }
+}
+
+/// A result as its stored document, refused unless it reads back as its type: a number
+/// the JSON cannot carry (a NaN or an infinity, written as `null`) would make every page,
+/// report and export of the result fail, so such a result is never stored and the job
+/// fails with the reason (nothing stored that cannot be read back).
+fn stored<T: serde::Serialize + serde::de::DeserializeOwned>(
+    result: &T,
+) -> Result<serde_json::Value, JobError> {
+    let document = serde_json::to_value(result).map_err(|e| JobError::Transient(e.to_string()))?;
+    serde_json::from_value::<T>(document.clone()).map_err(|e| {
+        JobError::BadInput(format!(
+            "the result does not read back as stored ({e}): a figure is not a finite \
+             number; check the dataset's stated conditions and offsets for absurd values"
+        ))
+    })?;
+    Ok(document)
 }
 
 /// The job's dataset, parsed again with the reader of its kind (files stored verbatim).

@@ -187,6 +187,9 @@ pub async fn store_upload(
 ) -> Result<Dataset, ApiError> {
     let limits = upload_limits(s).with_dialect(dialect);
     let (data, mut files) = crate::blocking::run::<_, ApiError>(move || {
+        // One archive sent as a file (a multipart part, the dashboard's form) is read as
+        // its files, as when it is the request's body.
+        let files = mtcal_formats::unpack_single_archive(files, &limits)?;
         ingest::read_dataset(&files, &limits).map(|d| (d, files))
     })
     .await??;

@@ -113,8 +113,9 @@ pub async fn report(
     if r.meta.kind == "cradle" {
         let page = crate::blocking::run::<_, ApiError>(move || {
             let doc: CradleResult = serde_json::from_value(r.document.clone()).map_err(|e| {
-                ApiError::Internal(format!(
-                    "result {} does not read as a cradle result: {e}",
+                ApiError::Conflict(format!(
+                    "result {} does not read as a cradle result: {e}; exclude it and run the \
+                     check again",
                     r.meta.id
                 ))
             })?;
@@ -194,8 +195,9 @@ fn identification_kind(r: &StoredResult) -> Result<(), ApiError> {
 fn identification(r: &StoredResult) -> Result<IdentificationResult, ApiError> {
     identification_kind(r)?;
     serde_json::from_value(r.document.clone()).map_err(|e| {
-        ApiError::Internal(format!(
-            "result {} does not read as an identification: {e}",
+        ApiError::Conflict(format!(
+            "result {} does not read as an identification: {e}; exclude it and run the \
+             check again",
             r.meta.id
         ))
     })

@@ -329,10 +329,15 @@ pub async fn machine(
         // Each identification's document is read only when a profile applies.
         let verdict = if tolerance.is_some() && r.kind == KIND {
             let stored = app.store.get_result(&r.id).await?;
-            verdicts::verdict(app.store.as_ref(), &profiles, &m, &stored)
-                .await?
-                .and_then(|(_, v)| v.decision)
-                .map(|d| d.as_str().to_string())
+            // A stored document that does not read is this row's verdict, not the page's
+            // failure.
+            match verdicts::verdict(app.store.as_ref(), &profiles, &m, &stored).await {
+                Ok(v) => v
+                    .and_then(|(_, v)| v.decision)
+                    .map(|d| d.as_str().to_string()),
+                Err(mtcal_store::StoreError::Conflict(_)) => Some("unreadable".to_string()),
+                Err(e) => return Err(e.into()),
+            }
         } else {
             None
         };
@@ -509,8 +514,9 @@ pub async fn set_baseline(
 }
 
 fn bad_document(r: &StoredResult, e: serde_json::Error) -> WebError {
-    WebError(ApiError::Internal(format!(
-        "result {} of kind {} does not read as its document: {e}",
+    WebError(ApiError::Conflict(format!(
+        "result {} of kind {} does not read as its document: {e}; exclude it and run the \
+         check again",
         r.meta.id, r.meta.kind
     )))
 }
@@ -714,9 +720,18 @@ pub async fn upload(
     let machine = app.store.get_machine(&id).await?;
     let mut files = vec![];
     let mut diagnose = false;
+    let mut dialect = mtcal_formats::CsvDialect::Plain;
     while let Some(field) = mp.next_field().await.map_err(bad)? {
         match field.name() {
             Some("diagnose") => diagnose = true,
+            Some("csv_dialect") => {
+                let text = field.text().await.map_err(bad)?;
+                dialect = mtcal_formats::CsvDialect::parse(&text).ok_or_else(|| {
+                    WebError(ApiError::InvalidRequest(format!(
+                        "csv_dialect: {text:?} is neither plain nor excel"
+                    )))
+                })?;
+            }
             Some("files") => {
                 let name = field.file_name().unwrap_or_default().to_string();
                 let bytes = field.bytes().await.map_err(bad)?;
@@ -732,9 +747,7 @@ pub async fn upload(
             "choose the files of one dataset to upload".into(),
         )));
     }
-    let dataset =
-        crate::api::datasets::store_upload(app, machine, files, mtcal_formats::CsvDialect::Plain)
-            .await?;
+    let dataset = crate::api::datasets::store_upload(app, machine, files, dialect).await?;
     let kinds: Vec<JobKind> = match dataset.kind.as_str() {
         "session" if diagnose => vec![JobKind::Identify, JobKind::Diagnose],
         "session" => vec![JobKind::Identify],

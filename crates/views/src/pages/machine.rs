@@ -245,7 +245,14 @@ pub fn machine_page(viewer: &Viewer, p: &MachinePage) -> Markup {
                         (csrf_field(&viewer.csrf))
                         label { "files" input type="file" name="files" multiple required; }
                         span.files.muted {}
-                        label { input type="checkbox" name="diagnose" value="1"; " also diagnose a session" }
+                        label {
+                            "CSV written by"
+                            select name="csv_dialect" {
+                                option value="plain" selected { "a program: commas, decimal point" }
+                                option value="excel" { "a spreadsheet: semicolons, decimal comma" }
+                            }
+                        }
+                        label.check { input type="checkbox" name="diagnose" value="1"; "also diagnose a session" }
                         button type="submit" { "Upload and run" }
                     }
                 }
