@@ -88,6 +88,17 @@ pub fn summary(r: &IdentificationResult) -> String {
             .noise_estimate_um
             .map_or("n/a".to_string(), |n| format!("{n:.3} µm"))
     );
+    // The misfit gate's outcome, said where the fit is: a misfit's figures are not judged
+    // and its compensation table is refused (docs/conventions.md, "The misfit gate").
+    let check = r.model_check.clone().unwrap_or_else(|| r.model_check());
+    let _ = writeln!(s, "model check: {}", check.statement);
+    if check.state == mtcal_solver::misfit::FitState::Misfit {
+        let _ = writeln!(
+            s,
+            "  no verdict and no compensation table from this model; `mtcal diagnose` on \
+             this session says what the model leaves out"
+        );
+    }
     let _ = writeln!(
         s,
         "identifiability: rank {} of {} parameters, condition number {}",

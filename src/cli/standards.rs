@@ -55,10 +55,27 @@ pub fn summary(st: &Standards) -> String {
             "\nISO 230-2 (µm)  {:>7} {:>7} {:>7} {:>7} {:>7} {:>7} {:>7} {:>7} {:>7} {:>7} {:>7} {:>7}",
             "B", "B_mean", "R_up", "R_down", "R", "E_up", "E_down", "E", "M", "A_up", "A_down", "A"
         );
+        // A figure this plan cannot determine is printed as "—", its reason once below.
+        let mut unavailable: Vec<(&str, Vec<&str>)> = vec![];
         for f in &st.iso230_2 {
             let _ = write!(s, "axis {}          ", f.axis);
-            for v in f.values() {
-                let _ = write!(s, " {v:>7.3}");
+            for (name, v) in mtcal_solver::standards::iso230_2::FIGURES
+                .iter()
+                .zip(f.values())
+            {
+                match f.not_available(name) {
+                    Some(why) => {
+                        let _ = write!(s, " {:>7}", "—");
+                        match unavailable.iter_mut().find(|(w, _)| *w == why) {
+                            Some((_, names)) if !names.contains(name) => names.push(name),
+                            Some(_) => {}
+                            None => unavailable.push((why, vec![name])),
+                        }
+                    }
+                    None => {
+                        let _ = write!(s, " {v:>7.3}");
+                    }
+                }
             }
             let from = match (&f.file, f.head_offset_mm) {
                 (Some(file), Some(t)) => format!(
@@ -82,10 +99,17 @@ pub fn summary(st: &Standards) -> String {
                     w.readings.len()
                 );
                 for name in mtcal_solver::standards::iso230_2::FIGURES {
-                    let _ = write!(s, " {:>7.3}", w.figures[name]);
+                    if f.not_available(name).is_some() {
+                        let _ = write!(s, " {:>7}", "—");
+                    } else {
+                        let _ = write!(s, " {:>7.3}", w.figures[name]);
+                    }
                 }
                 let _ = writeln!(s);
             }
+        }
+        for (why, names) in unavailable {
+            let _ = writeln!(s, "  — not available ({}): {why}", names.join(", "));
         }
     }
     if !st.iso230_4.is_empty() {
