@@ -327,3 +327,87 @@ fn scorer_flags_a_false_finding() {
     );
     assert!(!fails.is_empty());
 }
+
+/// A noise-free session of a perfect machine with no nuisance, with `effects`.
+fn bare(effects: Vec<Effect>) -> mtcal_solver::session::Session {
+    generate(&truth::generator::Setup {
+        noise_um: 0.0,
+        geometry: false,
+        nuisance: false,
+        effects,
+        ..Default::default()
+    })
+}
+
+/// The XY plate's samples of runs of `kind` at cruise (the axis moving at the feed
+/// along X, 500 mm/min): (direction of travel, du, dv).
+fn cruise_x(s: &mtcal_solver::session::Session) -> Vec<(f64, f64, f64)> {
+    use mtcal_solver::session::TestKind;
+    let mut out = Vec::new();
+    for r in s.planes[0]
+        .runs
+        .iter()
+        .filter(|r| r.test == Some(TestKind::LineX))
+    {
+        for i in 1..r.len() - 1 {
+            let v = (r.pos_mm[i + 1][0] - r.pos_mm[i - 1][0]) / (r.t_s[i + 1] - r.t_s[i - 1]);
+            if (v.abs() - 500.0 / 60.0).abs() < 1e-6 {
+                out.push((v.signum(), r.du_um[i], r.dv_um[i]));
+            }
+        }
+    }
+    assert!(out.len() > 500, "{} cruise samples", out.len());
+    out
+}
+
+/// The generator makes the physics it says: a play's −d·b/2, a lag's −v·τ, a lateral
+/// play's ±s/2 across, a plate's scale; and a play keeps its state across the unrecorded
+/// approach to a circle.
+#[test]
+fn generator_physics() {
+    let close = |a: f64, b: f64| (a - b).abs() < 1e-6;
+    let s = bare(vec![Effect::Backlash {
+        axis: Axis::X,
+        um: 6.0,
+    }]);
+    for (d, du, dv) in cruise_x(&s) {
+        assert!(close(du, -d * 3.0) && close(dv, 0.0), "{d} {du} {dv}");
+    }
+    let s = bare(vec![Effect::ServoLag {
+        axis: Axis::X,
+        ms: 2.0,
+    }]);
+    for (d, du, _) in cruise_x(&s) {
+        assert!(close(du, -d * 500.0 / 60.0 * 2.0), "{d} {du}");
+    }
+    let s = bare(vec![Effect::LateralPlay {
+        axis: Axis::Y,
+        moving: Axis::X,
+        shift_um: 1.5,
+    }]);
+    for (d, du, dv) in cruise_x(&s) {
+        assert!(close(du, 0.0) && close(dv, d * 0.75), "{d} {du} {dv}");
+    }
+    let s = bare(vec![Effect::PlateScale {
+        plane: mtcal_solver::axis::Plane::XY,
+        ppm: 10.0,
+    }]);
+    for r in &s.planes[0].runs {
+        for (q, du) in r.pos_mm.iter().zip(&r.du_um) {
+            assert!(close(*du, 10.0 * q[0] * 1e-3), "{q:?} {du}");
+        }
+    }
+    // The ccw circle starts at +X after an unrecorded move toward +X, and X then turns
+    // back: its first samples still read the play taken up toward +X (−b/2).
+    let s = bare(vec![Effect::Backlash {
+        axis: Axis::X,
+        um: 6.0,
+    }]);
+    let ccw = s.planes[0]
+        .runs
+        .iter()
+        .find(|r| r.test == Some(mtcal_solver::session::TestKind::CircleCcw))
+        .unwrap();
+    assert!(close(ccw.du_um[0], -3.0), "{}", ccw.du_um[0]);
+    assert!(ccw.du_um.iter().any(|&du| close(du, 3.0)));
+}

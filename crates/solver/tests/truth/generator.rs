@@ -142,6 +142,9 @@ pub struct Setup {
     /// The recorder samples on its own clock, from 0.2 s before each run's motion (true),
     /// or is started with each run's motion (false: a sample at its first instant).
     pub free_running: bool,
+    /// Per-run zero offsets (±3 µm) and plate rotations (±100 µrad), as on a real
+    /// set-up; off only for the generator's own tests.
+    pub nuisance: bool,
     pub effects: Vec<Effect>,
 }
 
@@ -157,6 +160,7 @@ impl Default for Setup {
             pause_s: 3.0,
             geometry: true,
             free_running: true,
+            nuisance: true,
             effects: Vec::new(),
         }
     }
@@ -462,7 +466,7 @@ pub fn generate(setup: &Setup) -> Session {
         let (ua, va) = test.plane.axes();
         let (iu, iv) = (ua.index(), va.index());
         let n = test.plane.normal().index();
-        let phi_urad = rng.random_range(-100.0..100.0);
+        let phi_urad = rng.random_range(-100.0..100.0) * f64::from(u8::from(setup.nuisance));
         let scale_ppm: f64 = setup
             .effects
             .iter()
@@ -554,7 +558,11 @@ pub fn generate(setup: &Setup) -> Session {
             });
             let (dur, s_of) = profile(path.length(), feed / 60.0);
             let mut run = record;
-            let (ou, ov) = (rng.random_range(-3.0..3.0), rng.random_range(-3.0..3.0));
+            let on = f64::from(u8::from(setup.nuisance));
+            let (ou, ov) = (
+                on * rng.random_range(-3.0..3.0),
+                on * rng.random_range(-3.0..3.0),
+            );
             let pre = if run.is_some() && setup.free_running {
                 0.2
             } else {

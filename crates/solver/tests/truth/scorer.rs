@@ -12,8 +12,9 @@ use mtcal_solver::diagnosis::{DiagnosisResult, Finding, Verdict};
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub struct Name {
     pub effect: &'static str,
-    /// `None`: any axis (or none) is accepted.
+    /// The finding's axis (`None`: a finding with no axis).
     pub axis: Option<Axis>,
+    /// The moving axis an error across follows (`None`: not checked).
     pub depends_on: Option<Axis>,
 }
 
@@ -33,6 +34,7 @@ pub fn accepted(e: &Effect) -> Vec<Name> {
         }
         Effect::ServoLag { axis, .. } => vec![on("servo_lag", axis)],
         Effect::Cyclic { axis, .. } => vec![on("cyclic", axis)],
+        // A session's drift may be reported with no axis (its parameters name them).
         Effect::Thermal { axis, .. } => vec![
             on("thermal_drift", axis),
             Name {
@@ -63,9 +65,7 @@ fn axis_of(s: &Option<String>) -> Option<Axis> {
 }
 
 fn matches(n: &Name, effect: &str, axis: Option<Axis>, dep: Option<Axis>) -> bool {
-    n.effect == effect
-        && (n.axis.is_none() || n.axis == axis)
-        && (n.depends_on.is_none() || n.depends_on == dep)
+    n.effect == effect && n.axis == axis && (n.depends_on.is_none() || n.depends_on == dep)
 }
 
 /// A parameter of a right claim checked against its truth.
