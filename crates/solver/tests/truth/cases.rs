@@ -42,6 +42,11 @@ impl Case {
         self.setup.free_running = false;
         self
     }
+    /// No standstill recorded before each run's motion (the clock still free-running).
+    fn no_lead(mut self) -> Case {
+        self.setup.lead_s = 0.0;
+        self
+    }
     fn perfect(mut self) -> Case {
         self.setup.geometry = false;
         self
@@ -129,6 +134,7 @@ pub fn all() -> Vec<Case> {
         )
         .synced()
         .perfect(),
+        case("backlash_x6_no_lead", 21, false, vec![backlash(X, 6.0)]).no_lead(),
         case("backlash_y3", 22, true, vec![backlash(Y, 3.0)]),
         case("backlash_z10_20hz", 23, true, vec![backlash(Z, 10.0)]).rate(20.0),
         case("backlash_x1_n005", 24, false, vec![backlash(X, 1.0)]).noise(0.05),
@@ -158,6 +164,7 @@ pub fn all() -> Vec<Case> {
         case("lag_x2_synced_perfect", 32, false, vec![lag(X, 2.0)])
             .synced()
             .perfect(),
+        case("lag_x2_no_lead", 32, false, vec![lag(X, 2.0)]).no_lead(),
         case("lag_x2_perfect", 32, false, vec![lag(X, 2.0)]).perfect(),
         case("lag_z4_fast_circles", 33, false, vec![lag(Z, 4.0)]).fast_circles(),
         case("lag_y2_n005", 34, false, vec![lag(Y, 2.0)]).noise(0.05),

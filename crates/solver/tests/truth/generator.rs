@@ -142,6 +142,8 @@ pub struct Setup {
     /// The recorder samples on its own clock, from 0.2 s before each run's motion (true),
     /// or is started with each run's motion (false: a sample at its first instant).
     pub free_running: bool,
+    /// Standstill recorded before each run's motion on a free-running recorder, s.
+    pub lead_s: f64,
     /// Per-run zero offsets (±3 µm) and plate rotations (±100 µrad), as on a real
     /// set-up; off only for the generator's own tests.
     pub nuisance: bool,
@@ -160,6 +162,7 @@ impl Default for Setup {
             pause_s: 3.0,
             geometry: true,
             free_running: true,
+            lead_s: 0.2,
             nuisance: true,
             effects: Vec::new(),
         }
@@ -564,7 +567,7 @@ pub fn generate(setup: &Setup) -> Session {
                 on * rng.random_range(-3.0..3.0),
             );
             let pre = if run.is_some() && setup.free_running {
-                0.2
+                setup.lead_s
             } else {
                 0.0
             };

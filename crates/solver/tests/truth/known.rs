@@ -43,6 +43,19 @@ pub const KNOWN_DEFECTS: &[(&str, &[(&str, &str)])] = &[
         )],
     ),
     (
+        "backlash_x6_no_lead",
+        &[
+            (
+                "step (X)",
+                "a one-off step along X: no event was put in (truth: backlash X 6 µm)",
+            ),
+            (
+                "unexplained: a misfit that recurs",
+                "every effect put in is named, yet a misfit that recurs is claimed (truth: backlash X 6 µm)",
+            ),
+        ],
+    ),
+    (
         "backlash_y3",
         &[(
             "unexplained: a misfit that recurs",
@@ -122,6 +135,23 @@ pub const KNOWN_DEFECTS: &[(&str, &[(&str, &str)])] = &[
     ),
     (
         "lag_x2",
+        &[
+            (
+                "lost_motion_profile (X)",
+                "lost motion on X, whose only effect is a servo lag (no play) (truth: servo lag X 2 ms)",
+            ),
+            (
+                "vibration (X)",
+                "a vibration along X: nothing periodic in time was put in (truth: servo lag X 2 ms)",
+            ),
+            (
+                "unexplained: a misfit that recurs",
+                "every effect put in is named, yet a misfit that recurs is claimed (truth: servo lag X 2 ms)",
+            ),
+        ],
+    ),
+    (
+        "lag_x2_no_lead",
         &[
             (
                 "lost_motion_profile (X)",
