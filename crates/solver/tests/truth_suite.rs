@@ -34,7 +34,18 @@ fn run_case(c: &Case) -> Outcome {
     let r = diagnose_session(&session, &DiagnoseOptions::default())
         .unwrap_or_else(|e| panic!("{}: diagnosis failed: {e}", c.name));
     if std::env::var("TRUTH_VERBOSE").is_ok() {
-        eprintln!("{}: {:#?}\n{:#?}", c.name, r.findings, r.unexplained);
+        let end = session.planes.iter().flat_map(|p| &p.runs);
+        let end = end
+            .filter_map(|r| r.t_s.last())
+            .fold(0.0, |a: f64, &b| a.max(b));
+        eprintln!(
+            "{}: {} samples over {:.2} h\n{:#?}\n{:#?}",
+            c.name,
+            session.sample_count(),
+            end / 3600.0,
+            r.findings,
+            r.unexplained
+        );
     }
     Outcome {
         name: c.name,

@@ -47,6 +47,11 @@ impl Case {
         self.setup.lead_s = 0.0;
         self
     }
+    /// Unrecorded pause between runs, s (a longer session).
+    fn pause(mut self, s: f64) -> Case {
+        self.setup.pause_s = s;
+        self
+    }
     fn perfect(mut self) -> Case {
         self.setup.geometry = false;
         self
@@ -103,6 +108,18 @@ fn knock(axis: Axis, size_um: f64, decay_s: f64, plane: usize, run: i64) -> Effe
         axis,
         size_um,
         decay_s,
+        ring_hz: 0.0,
+        plane,
+        run,
+        at: 0.4,
+    }
+}
+fn ringing(axis: Axis, size_um: f64, decay_s: f64, ring_hz: f64, plane: usize, run: i64) -> Effect {
+    Effect::Knock {
+        axis,
+        size_um,
+        decay_s,
+        ring_hz,
         plane,
         run,
         at: 0.4,
@@ -294,6 +311,22 @@ pub fn all() -> Vec<Case> {
         case("clean_n040_fast_circles", 129, true, vec![])
             .noise(0.4)
             .fast_circles(),
+        case(
+            "knock_y5_ringing",
+            138,
+            true,
+            vec![ringing(Y, 5.0, 0.4, 3.0, 0, 14)],
+        ),
+        case("knock_y5_20hz", 139, false, vec![knock(Y, 5.0, 0.4, 0, 14)]).rate(20.0),
+        // The trial's growth, 2 -> 7 um over about 1.8 h (a minute's pause between runs).
+        case("growing_x2_to7_long", 140, true, vec![growing(X, 2.0, 2.8)]).pause(77.0),
+        case(
+            "thermal_x_long",
+            141,
+            false,
+            vec![thermal(X, 6.0, 15.0, 2400.0)],
+        )
+        .pause(70.0),
         // The recorder started with each run's motion (as the diagnosis's own simulator
         // records): the same physics, another sampling.
         case("clean_synced", 131, true, vec![]).synced(),

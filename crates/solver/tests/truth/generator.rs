@@ -66,12 +66,14 @@ pub enum Effect {
         height_um: f64,
         decay_mm: f64,
     },
-    /// One knock along `axis`: `size_um`·e^(−(t − t₀)/τ) from t₀ on, t₀ at `at` of run
-    /// `run` (1-based) of plane file `plane` (0-based).
+    /// One knock along `axis`: `size_um`·e^(−(t − t₀)/τ)·cos(2π f (t − t₀)) from t₀ on
+    /// (f = `ring_hz`, 0: a plain decay), t₀ at `at` of run `run` (1-based) of plane file
+    /// `plane` (0-based).
     Knock {
         axis: Axis,
         size_um: f64,
         decay_s: f64,
+        ring_hz: f64,
         plane: usize,
         run: i64,
         at: f64,
@@ -113,6 +115,15 @@ impl Effect {
                 height_um,
                 decay_mm,
             } => format!("reversal spike {axis} {height_um} µm / {decay_mm} mm"),
+            Effect::Knock {
+                axis,
+                size_um,
+                decay_s,
+                ring_hz,
+                ..
+            } if *ring_hz > 0.0 => {
+                format!("knock {axis} {size_um} µm, {decay_s} s, ringing {ring_hz} Hz")
+            }
             Effect::Knock {
                 axis,
                 size_um,
@@ -582,10 +593,11 @@ pub fn generate(setup: &Setup) -> Session {
                 let t = tick as f64 * DT;
                 let mut e = machine.step(t, q);
                 // A knock of this run, from `at` of its motion on.
-                for &(axis, size, decay, at) in &run_knocks {
+                for &(axis, size, decay, ring, at) in &run_knocks {
                     let tk = (t0 as f64 + (pre + at * dur) / DT) * DT;
                     if t >= tk {
-                        e[axis.index()] += size * (-(t - tk) / decay).exp();
+                        let ph = 2.0 * std::f64::consts::PI * ring * (t - tk);
+                        e[axis.index()] += size * (-(t - tk) / decay).exp() * ph.cos();
                     }
                 }
                 if let Some(r) = run.as_mut() {
@@ -627,8 +639,8 @@ pub fn generate(setup: &Setup) -> Session {
 }
 
 /// The knocks of run `number` (1-based; 0: an unrecorded move) of plane file `pi`:
-/// (axis, size µm, decay s, fraction of the motion at which it happens).
-fn knocks(effects: &[Effect], pi: usize, number: i64) -> Vec<(Axis, f64, f64, f64)> {
+/// (axis, size µm, decay s, ringing Hz, fraction of the motion at which it happens).
+fn knocks(effects: &[Effect], pi: usize, number: i64) -> Vec<(Axis, f64, f64, f64, f64)> {
     effects
         .iter()
         .filter_map(|e| match *e {
@@ -636,10 +648,13 @@ fn knocks(effects: &[Effect], pi: usize, number: i64) -> Vec<(Axis, f64, f64, f6
                 axis,
                 size_um,
                 decay_s,
+                ring_hz,
                 plane,
                 run,
                 at,
-            } if plane == pi && run == number && number > 0 => Some((axis, size_um, decay_s, at)),
+            } if plane == pi && run == number && number > 0 => {
+                Some((axis, size_um, decay_s, ring_hz, at))
+            }
             _ => None,
         })
         .collect()

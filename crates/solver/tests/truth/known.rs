@@ -546,6 +546,19 @@ pub const KNOWN_DEFECTS: &[(&str, &[(&str, &str)])] = &[
         ],
     ),
     (
+        "growing_x2_to7_long",
+        &[
+            (
+                "step (X)",
+                "a one-off step along X: no event was put in (truth: growing backlash X 2 µm + 2.8 µm/h)",
+            ),
+            (
+                "unexplained: a misfit that recurs",
+                "every effect put in is named, yet a misfit that recurs is claimed (truth: growing backlash X 2 µm + 2.8 µm/h)",
+            ),
+        ],
+    ),
+    (
         "spike_x4_synced",
         &[(
             "unexplained: a misfit that recurs",
@@ -648,6 +661,6 @@ pub const KNOWN_DEFECTS: &[(&str, &[(&str, &str)])] = &[
 ];
 
 /// Sessions of the CI subset that are right (no false finding, no missed effect) today.
-pub const RIGHT_CI: usize = 13;
+pub const RIGHT_CI: usize = 14;
 /// Sessions of the full suite that are right today.
-pub const RIGHT_ALL: usize = 18;
+pub const RIGHT_ALL: usize = 21;
