@@ -230,6 +230,50 @@ fn truth_suite_full() {
     assert!(fails.is_empty(), "truth suite:\n{}", fails.join("\n"));
 }
 
+/// Each case over 5 seeds (its own and 4 more: other noise, offsets, rotations, play
+/// states and geometry): how often it is right and which false claims recur, so a fix
+/// can be told from a seed's luck. Not a gate.
+/// `cargo test -p mtcal-solver --test truth_suite seeds -- --ignored --nocapture`.
+#[test]
+#[ignore = "every case over 5 seeds (a minute): prints how often each is right"]
+fn truth_suite_seeds() {
+    let only = std::env::var("TRUTH_CASE").ok();
+    let (mut right, mut n) = (0, 0);
+    for c in cases::all() {
+        if only.as_ref().is_some_and(|s| !c.name.contains(s.as_str())) {
+            continue;
+        }
+        let mut kinds: BTreeMap<String, usize> = BTreeMap::new();
+        let mut ok = 0;
+        for k in 0..5 {
+            let mut c = Case {
+                name: c.name,
+                setup: c.setup.clone(),
+                ci: c.ci,
+            };
+            c.setup.seed += 1000 * k;
+            let o = run_case(&c);
+            ok += usize::from(o.score.right());
+            eprintln!(
+                "{} seed {}: {:?}",
+                c.name,
+                c.setup.seed,
+                o.score.false_labels()
+            );
+            for f in o.score.false_labels() {
+                *kinds.entry(f).or_default() += 1;
+            }
+            for m in &o.score.missed {
+                *kinds.entry(format!("missed {m}")).or_default() += 1;
+            }
+        }
+        right += ok;
+        n += 5;
+        println!("| {} | {ok}/5 | {kinds:?} |", c.name);
+    }
+    println!("{right} of {n} sessions right");
+}
+
 /// Every known defect names a case of the suite.
 #[test]
 fn known_defects_name_cases() {

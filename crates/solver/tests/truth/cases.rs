@@ -214,6 +214,13 @@ pub fn all() -> Vec<Case> {
         case("growing_y3", 82, false, vec![growing(Y, 3.0, 4.0)]),
         // A single decaying knock.
         case("knock_y5", 91, true, vec![knock(Y, 5.0, 0.4, 0, 14)]),
+        // The same knock on another seed: its anomalies called a misfit that recurs.
+        case(
+            "knock_y5_seed1091",
+            1091,
+            true,
+            vec![knock(Y, 5.0, 0.4, 0, 14)],
+        ),
         case("knock_x3", 92, false, vec![knock(X, 3.0, 0.4, 1, 5)]),
         // Per-mounting plate scale.
         case(

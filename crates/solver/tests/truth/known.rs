@@ -316,6 +316,13 @@ pub const KNOWN_DEFECTS: &[(&str, &[(&str, &str)])] = &[
         ],
     ),
     (
+        "knock_y5_seed1091",
+        &[(
+            "unexplained: a misfit that recurs",
+            "a one-off knock's anomalies, all in its run, called a misfit that recurs (truth: knock Y 5 µm, 0.4 s)",
+        )],
+    ),
+    (
         "plate_xz_m8_yz_p6",
         &[
             (

@@ -305,6 +305,11 @@ pub fn explain(label: &str, truth: &[Effect]) -> String {
             })
     };
     let why = match effect {
+        "unexplained: a misfit that recurs"
+            if truth.iter().all(|e| matches!(e, Effect::Knock { .. })) =>
+        {
+            "a one-off knock's anomalies, all in its run, called a misfit that recurs".to_string()
+        }
         "unexplained: a misfit that recurs" => {
             "every effect put in is named, yet a misfit that recurs is claimed".to_string()
         }
