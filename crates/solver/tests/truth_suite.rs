@@ -3,8 +3,8 @@
 //!
 //! The CI subset fails on any FALSE finding not listed in [`KNOWN_DEFECTS`], on a listed
 //! one that no longer occurs (the list only shrinks), and when fewer sessions than
-//! [`RIGHT_CI`] are right. The full suite prints the table:
-//! `cargo test -p mtcal-solver --test truth_suite -- --ignored --nocapture`.
+//! [`RIGHT_CI`] are right. The full suite prints the table (and the seed sweep runs):
+//! `cargo test -p mtcal-solver --test truth_suite -- --ignored`.
 
 mod truth;
 
@@ -201,6 +201,15 @@ fn run_all(ci_only: bool) -> Vec<Outcome> {
         .collect()
 }
 
+/// Writes `text` to the standard output past the test harness's capture (which takes
+/// `print!` alone), so the full suite prints its table without `--nocapture`.
+fn show(text: &str) {
+    use std::io::Write;
+    let mut out = std::io::stdout().lock();
+    out.write_all(text.as_bytes()).expect("stdout");
+    out.flush().expect("stdout");
+}
+
 #[test]
 fn truth_suite() {
     let out = run_all(true);
@@ -217,12 +226,16 @@ fn truth_suite() {
 #[ignore = "the full truth suite (minutes): prints the table of docs/truth-suite.md"]
 fn truth_suite_full() {
     let out = run_all(false);
-    println!("{}", table(&out));
-    println!("{}", summary(&out));
-    println!("parameters outside 2σ:\n{}", outside(&out));
+    let mut text = format!(
+        "{}\n{}\nparameters outside 2σ:\n{}",
+        table(&out),
+        summary(&out),
+        outside(&out)
+    );
     if std::env::var("TRUTH_KNOWN").is_ok() {
-        println!("{}", known_source(&out));
+        text += &known_source(&out);
     }
+    show(&text);
     let fails = failures(&out, RIGHT_ALL);
     if std::env::var("TRUTH_CASE").is_ok() {
         return;
@@ -233,7 +246,7 @@ fn truth_suite_full() {
 /// Each case over 5 seeds (its own and 4 more: other noise, offsets, rotations, play
 /// states and geometry): how often it is right and which false claims recur, so a fix
 /// can be told from a seed's luck. Not a gate.
-/// `cargo test -p mtcal-solver --test truth_suite seeds -- --ignored --nocapture`.
+/// `cargo test -p mtcal-solver --test truth_suite seeds -- --ignored`.
 #[test]
 #[ignore = "every case over 5 seeds (a minute): prints how often each is right"]
 fn truth_suite_seeds() {
@@ -269,9 +282,9 @@ fn truth_suite_seeds() {
         }
         right += ok;
         n += 5;
-        println!("| {} | {ok}/5 | {kinds:?} |", c.name);
+        show(&format!("| {} | {ok}/5 | {kinds:?} |\n", c.name));
     }
-    println!("{right} of {n} sessions right");
+    show(&format!("{right} of {n} sessions right over 5 seeds\n"));
 }
 
 /// Every known defect names a case of the suite.

@@ -4,7 +4,7 @@
 /// The false findings seen today, per case: each the exact label the scorer gives and
 /// one line of what is wrong. Tick an entry off when the diagnosis no longer makes it
 /// (a listed one that no longer occurs fails the suite, so the list only shrinks).
-/// `TRUTH_KNOWN=1 cargo test -p mtcal-solver --test truth_suite -- --ignored --nocapture`
+/// `TRUTH_KNOWN=1 cargo test -p mtcal-solver --test truth_suite full -- --ignored`
 /// prints the entries of today's diagnosis in this form.
 pub const KNOWN_DEFECTS: &[(&str, &[(&str, &str)])] = &[
     (
