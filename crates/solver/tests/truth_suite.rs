@@ -16,9 +16,8 @@ use std::collections::BTreeMap;
 use std::time::Instant;
 use truth::cases::{self, Case};
 use truth::generator::{Effect, generate};
-use truth::scorer::{Score, explain, score};
-
 use truth::known::{KNOWN_DEFECTS, RIGHT_ALL, RIGHT_CI};
+use truth::scorer::{Score, explain, score};
 
 struct Outcome {
     name: &'static str,
