@@ -1,0 +1,337 @@
+//! The scorer: each claim of a diagnosis (a finding, a possible effect, a recurring misfit
+//! it says it cannot explain) is right when it names an effect that was put in, on its
+//! axis, under a name of the equivalence table, and FALSE otherwise; a truth effect no
+//! claim names is missed. Parameters of right claims are checked against the truth
+//! within 2σ where the mapping is clear.
+
+use super::generator::Effect;
+use mtcal_solver::axis::Axis;
+use mtcal_solver::diagnosis::{DiagnosisResult, Finding, Verdict};
+
+/// What a claim names: the effect and its axis (and the moving axis for an error across).
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct Name {
+    pub effect: &'static str,
+    /// The finding's axis (`None`: a finding with no axis).
+    pub axis: Option<Axis>,
+    /// The moving axis an error across follows (`None`: not checked).
+    pub depends_on: Option<Axis>,
+}
+
+const fn on(effect: &'static str, axis: Axis) -> Name {
+    Name {
+        effect,
+        axis: Some(axis),
+        depends_on: None,
+    }
+}
+
+/// The equivalence table: the names under which a truth effect counts as found.
+pub fn accepted(e: &Effect) -> Vec<Name> {
+    match *e {
+        Effect::Backlash { axis, .. } | Effect::GrowingBacklash { axis, .. } => {
+            vec![on("backlash", axis), on("lost_motion_profile", axis)]
+        }
+        Effect::ServoLag { axis, .. } => vec![on("servo_lag", axis)],
+        Effect::Cyclic { axis, .. } => vec![on("cyclic", axis)],
+        // A session's drift may be reported with no axis (its parameters name them).
+        Effect::Thermal { axis, .. } => vec![
+            on("thermal_drift", axis),
+            Name {
+                effect: "thermal_drift",
+                axis: None,
+                depends_on: None,
+            },
+        ],
+        Effect::LateralPlay { axis, moving, .. } => vec![Name {
+            effect: "direction_coupling",
+            axis: Some(axis),
+            depends_on: Some(moving),
+        }],
+        Effect::ReversalSpike { axis, .. } => vec![on("reversal_spike", axis)],
+        // Or a local anomaly in its reading (see `score`).
+        Effect::Knock { axis, .. } => vec![on("step", axis)],
+        // No effect of today's catalogue is a plate's scale: the name a fix would add.
+        Effect::PlateScale { .. } => vec![Name {
+            effect: "plate_scale",
+            axis: None,
+            depends_on: None,
+        }],
+    }
+}
+
+fn axis_of(s: &Option<String>) -> Option<Axis> {
+    s.as_deref().and_then(Axis::parse)
+}
+
+fn matches(n: &Name, effect: &str, axis: Option<Axis>, dep: Option<Axis>) -> bool {
+    n.effect == effect && n.axis == axis && (n.depends_on.is_none() || n.depends_on == dep)
+}
+
+/// A parameter of a right claim checked against its truth.
+#[derive(Debug, Clone)]
+pub struct ParamCheck {
+    pub name: String,
+    pub got: f64,
+    pub std: Option<f64>,
+    pub truth: f64,
+    /// |got − truth| ≤ 2σ (false when no σ is reported).
+    pub within: bool,
+}
+
+/// The truth values of the parameters a claim under `effect` reports, where the mapping
+/// from the generator's physics to the catalogue's parameter is clear.
+pub fn truth_params(e: &Effect, effect: &str) -> Vec<(String, f64)> {
+    match (e, effect) {
+        (Effect::Backlash { um, .. }, "backlash") => vec![("lost_motion_um".into(), *um)],
+        (Effect::Backlash { um, .. }, "lost_motion_profile") => {
+            vec![
+                ("mean_lost_motion_um".into(), *um),
+                ("variation_um".into(), 0.0),
+            ]
+        }
+        (Effect::ServoLag { ms, .. }, "servo_lag") => vec![("lag_s".into(), ms * 1e-3)],
+        (
+            Effect::Cyclic {
+                amp_um, period_mm, ..
+            },
+            "cyclic",
+        ) => vec![
+            ("amplitude_um".into(), *amp_um),
+            ("period_mm".into(), *period_mm),
+        ],
+        (
+            Effect::Thermal {
+                axis,
+                scale_ppm,
+                tau_s,
+                ..
+            },
+            "thermal_drift",
+        ) => vec![
+            (format!("scale_ppm_{axis}"), *scale_ppm),
+            ("time_constant_s".into(), *tau_s),
+        ],
+        (Effect::LateralPlay { shift_um, .. }, "direction_coupling") => {
+            vec![("shift_um".into(), *shift_um)]
+        }
+        (
+            Effect::ReversalSpike {
+                height_um,
+                decay_mm,
+                ..
+            },
+            "reversal_spike",
+        ) => vec![
+            ("height_um".into(), *height_um),
+            ("decay_mm".into(), *decay_mm),
+        ],
+        _ => Vec::new(),
+    }
+}
+
+/// One claim of a diagnosis and its class.
+#[derive(Debug, Clone)]
+pub struct Claim {
+    /// `lost_motion_profile (Y)`, `direction_coupling (Y, following X)`; `possible …`
+    /// for an effect listed as possible.
+    pub label: String,
+    /// Index of the truth effect it names; `None`: FALSE.
+    pub truth: Option<usize>,
+    pub params: Vec<ParamCheck>,
+}
+
+/// The score of one session.
+#[derive(Debug, Clone)]
+pub struct Score {
+    pub claims: Vec<Claim>,
+    /// Truth effects no claim names (descriptions).
+    pub missed: Vec<String>,
+    pub verdict: String,
+}
+
+impl Score {
+    /// The labels of the FALSE claims, each once, in order.
+    pub fn false_labels(&self) -> Vec<String> {
+        let mut out: Vec<String> = Vec::new();
+        for c in self.claims.iter().filter(|c| c.truth.is_none()) {
+            if !out.contains(&c.label) {
+                out.push(c.label.clone());
+            }
+        }
+        out
+    }
+
+    /// No false claim and no missed effect.
+    pub fn right(&self) -> bool {
+        self.missed.is_empty() && self.claims.iter().all(|c| c.truth.is_some())
+    }
+
+    /// (within 2σ, checked) over the right claims' parameters.
+    pub fn params(&self) -> (usize, usize) {
+        let all = self.claims.iter().flat_map(|c| &c.params);
+        let n = all.clone().count();
+        (all.filter(|p| p.within).count(), n)
+    }
+}
+
+/// The text a diagnosis gives when it calls its unexplained anomalies recurring.
+pub const RECURRING: &str = "a misfit that recurs";
+
+/// Scores `r` against `truth`: see the module documentation.
+pub fn score(truth: &[Effect], r: &DiagnosisResult) -> Score {
+    let mut claims = Vec::new();
+    let mut found = vec![false; truth.len()];
+    let all = r
+        .findings
+        .iter()
+        .map(|f| (f, false))
+        .chain(r.possible.iter().map(|f| (f, true)));
+    for (f, possible) in all {
+        claims.push(classify(truth, f, possible, &mut found));
+    }
+    // A knock is found when the diagnosis names a local anomaly in its reading (a place
+    // of the misfit, or what it leaves unexplained).
+    let places = r
+        .unexplained
+        .iter()
+        .chain(r.mismatch.iter().map(|m| &m.where_));
+    for (i, e) in truth.iter().enumerate() {
+        if let Effect::Knock { axis, .. } = e {
+            let reading = format!("in the {axis} reading");
+            if places
+                .clone()
+                .any(|u| u.contains("local anomaly") && u.contains(&reading))
+            {
+                found[i] = true;
+            }
+        }
+    }
+    let missed: Vec<String> = truth
+        .iter()
+        .zip(&found)
+        .filter(|(_, f)| !**f)
+        .map(|(e, _)| e.describe())
+        .collect();
+    // What it leaves unexplained is a claim too: with every effect put in found, a
+    // remainder is physics that is not there, unless it is a knock's one-off anomaly;
+    // calling anomalies a misfit that recurs is never right of a knock.
+    let recurring = r.unexplained.iter().any(|u| u.contains(RECURRING));
+    let knock = truth.iter().any(|e| matches!(e, Effect::Knock { .. }));
+    if r.verdict == Verdict::PartlyExplained && missed.is_empty() && (recurring || !knock) {
+        claims.push(Claim {
+            label: if recurring {
+                "unexplained: a misfit that recurs".into()
+            } else {
+                "unexplained: a remainder".into()
+            },
+            truth: None,
+            params: Vec::new(),
+        });
+    }
+    Score {
+        claims,
+        missed,
+        verdict: r.verdict.as_str().to_string(),
+    }
+}
+
+fn classify(truth: &[Effect], f: &Finding, possible: bool, found: &mut [bool]) -> Claim {
+    let (axis, dep) = (axis_of(&f.axis), axis_of(&f.depends_on));
+    let mut label = match f.axis_label() {
+        Some(a) => format!("{} ({a})", f.effect),
+        None => f.effect.clone(),
+    };
+    if possible {
+        label = format!("possible {label}");
+    }
+    // The first truth effect it names, preferring one not yet found.
+    let hits: Vec<usize> = (0..truth.len())
+        .filter(|&i| {
+            accepted(&truth[i])
+                .iter()
+                .any(|n| matches(n, &f.effect, axis, dep))
+        })
+        .collect();
+    let Some(&i) = hits.iter().find(|&&i| !found[i]).or(hits.first()) else {
+        return Claim {
+            label,
+            truth: None,
+            params: Vec::new(),
+        };
+    };
+    found[i] = true;
+    let params = truth_params(&truth[i], &f.effect)
+        .into_iter()
+        .filter_map(|(name, t)| {
+            let got = *f.parameters.get(&name)?;
+            let std = f.parameters.get(&format!("std_{name}")).copied();
+            Some(ParamCheck {
+                within: std.is_some_and(|s| (got - t).abs() <= 2.0 * s),
+                name,
+                got,
+                std,
+                truth: t,
+            })
+        })
+        .collect();
+    Claim {
+        label,
+        truth: Some(i),
+        params,
+    }
+}
+
+/// One line of what is wrong with the FALSE claim `label` of a session of `truth`.
+pub fn explain(label: &str, truth: &[Effect]) -> String {
+    let put_in = if truth.is_empty() {
+        "a clean session".to_string()
+    } else {
+        truth
+            .iter()
+            .map(Effect::describe)
+            .collect::<Vec<_>>()
+            .join("; ")
+    };
+    let what = label.trim_start_matches("possible ");
+    let effect = what.split(" (").next().unwrap_or(what);
+    let axis = what
+        .split_once(" (")
+        .map_or("", |(_, a)| a.trim_end_matches(')'));
+    let lag_only = |a: &str| {
+        truth.iter().any(|e| matches!(e, Effect::ServoLag { axis, .. } if axis.to_string() == a))
+            && !truth.iter().any(|e| {
+                matches!(e, Effect::Backlash { axis, .. } | Effect::GrowingBacklash { axis, .. } if axis.to_string() == a)
+            })
+    };
+    let why = match effect {
+        "unexplained: a misfit that recurs"
+            if truth.iter().all(|e| matches!(e, Effect::Knock { .. })) =>
+        {
+            "a one-off knock's anomalies, all in its run, called a misfit that recurs".to_string()
+        }
+        "unexplained: a misfit that recurs" => {
+            "every effect put in is named, yet a misfit that recurs is claimed".to_string()
+        }
+        "unexplained: a remainder" => {
+            "every effect put in is named, yet a remainder is left unexplained".to_string()
+        }
+        "lost_motion_profile" | "backlash" if lag_only(axis) => {
+            format!("lost motion on {axis}, whose only effect is a servo lag (no play)")
+        }
+        "lost_motion_profile" | "backlash" => format!("lost motion on {axis}: no play there"),
+        "step" => format!("a one-off step along {axis}: no event was put in"),
+        "vibration" => format!("a vibration along {axis}: nothing periodic in time was put in"),
+        "model_order" => {
+            format!("model order along {axis}: the geometry is within the rigid model")
+        }
+        "velocity_coupling" => format!("velocity coupling ({axis}): no error follows a velocity"),
+        "direction_coupling" => format!("direction coupling ({axis}): no lateral play there"),
+        "thermal_drift" => "thermal drift: nothing drifts in time".to_string(),
+        "servo_lag" => format!("servo lag on {axis}: no lag was put in"),
+        "reversal_spike" => format!("reversal spike on {axis}: no reversal transient was put in"),
+        "cyclic" => format!("cyclic error on {axis}: none was put in"),
+        other => format!("{other}: not put in"),
+    };
+    format!("{why} (truth: {put_in})")
+}
