@@ -97,3 +97,76 @@ fn a_bad_number_is_rejected_with_file_line_column_and_rule() {
     assert!(err.contains(&want), "expected `{want}` in: {err}");
     assert!(err.to_lowercase().contains("finite"), "{err}");
 }
+
+/// A person's session as one `.tar.gz` (made with `tar czf s.tar.gz -C dir .`) is read
+/// where a folder is; a misfit is said where the fit is (no verdict, no table, what to
+/// run next); ISO 230-2 figures that line passes cannot determine are printed as "—"
+/// with their reason once, not as numbers.
+#[test]
+fn identify_reads_an_archive_and_states_a_misfit_and_no_absent_figure() {
+    use mtcal_solver::Axis;
+    use mtcal_solver::simulate::Effect;
+    let out = simulate(
+        &random_truth(5),
+        &SimOptions {
+            plan: Plan::Seed,
+            seed: 5,
+            sample_rate_hz: 10.0,
+            effects: vec![Effect::Backlash {
+                axis: Axis::X,
+                lost_motion_um: 6.0,
+            }],
+            ..Default::default()
+        },
+    )
+    .unwrap();
+    let dir = tempfile::tempdir().unwrap();
+    let src = dir.path().join("s");
+    std::fs::create_dir(&src).unwrap();
+    mtcal_formats::write_session_dir(&src, &out.session).unwrap();
+    let archive = dir.path().join("s.tar.gz");
+    let tar = Command::new("tar")
+        .arg("czf")
+        .arg(&archive)
+        .arg("-C")
+        .arg(&src)
+        .arg(".")
+        .status()
+        .unwrap();
+    assert!(tar.success());
+    let run = |args: &[&str]| {
+        let out = Command::new(env!("CARGO_BIN_EXE_mtcal"))
+            .args(args)
+            .output()
+            .unwrap();
+        assert!(
+            out.status.success(),
+            "{args:?}: {}",
+            String::from_utf8_lossy(&out.stderr)
+        );
+        String::from_utf8(out.stdout).unwrap()
+    };
+    let text = run(&["identify", archive.to_str().unwrap()]);
+    assert!(
+        text.contains("model check: the model does not explain this recording"),
+        "{text}"
+    );
+    assert!(
+        text.contains("no verdict and no compensation table"),
+        "{text}"
+    );
+    assert!(text.contains("`mtcal diagnose`"), "{text}");
+    for cmd in ["identify", "standards"] {
+        let text = run(&[cmd, archive.to_str().unwrap()]);
+        let row = text
+            .lines()
+            .find(|l| l.starts_with("axis X "))
+            .unwrap_or_else(|| panic!("{cmd}: no ISO 230-2 row for X in:\n{text}"));
+        assert!(row.contains('—'), "{cmd}: {row}");
+        assert_eq!(
+            text.matches("— not available (").count(),
+            1,
+            "{cmd}: the reason once:\n{text}"
+        );
+    }
+}

@@ -141,7 +141,9 @@ pub fn run(args: Args) -> anyhow::Result<ExitCode> {
         )?;
         return Ok(ExitCode::SUCCESS);
     }
-    super::serve::init_logging(super::serve::LogFormat::Text);
+    // Warnings only: the dashboard's address comes first, not after the setup's log
+    // lines (RUST_LOG=info shows them).
+    super::serve::init_logging_with(super::serve::LogFormat::Text, "warn");
     // Without --db, everything lives in a temporary folder whose guard deletes it when
     // `run` returns: after Ctrl-C or SIGTERM too, since the service takes those signals
     // and stops gracefully (an error on the way out returns through here as well).

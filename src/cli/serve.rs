@@ -167,10 +167,18 @@ impl Args {
 /// Logging to stderr, `RUST_LOG` to tune (default: info for mtcal crates); `json`
 /// writes one JSON object per event (time, level, target, fields).
 pub fn init_logging(format: LogFormat) {
+    init_logging_with(format, "warn,mtcal_server=info,mtcal_store=info");
+}
+
+/// [`init_logging`] with another default filter (`RUST_LOG` still wins). Colours only
+/// when stderr is a terminal: a log written to a file holds no escape codes.
+pub fn init_logging_with(format: LogFormat, default_filter: &str) {
+    use std::io::IsTerminal;
     let filter = tracing_subscriber::EnvFilter::try_from_default_env()
-        .unwrap_or_else(|_| "warn,mtcal_server=info,mtcal_store=info".into());
+        .unwrap_or_else(|_| default_filter.into());
     let builder = tracing_subscriber::fmt()
         .with_env_filter(filter)
+        .with_ansi(std::io::stderr().is_terminal())
         .with_writer(std::io::stderr);
     let _ = match format {
         LogFormat::Text => builder.try_init(),

@@ -128,8 +128,10 @@ async fn history_and_trends_return_what_was_stored() {
     // Difference from the baseline (default: the first result).
     // Read keys cannot make the service allocate without bound: a step too fine for the
     // travel is refused, and so is a travel of absurd size.
-    let msg = refusal_message(app.client.diff("VMC-A", &[("step_mm", "0.000001")]).await);
+    let msg = refusal_message(app.client.diff("VMC-A", &[("step_mm", "0.001")]).await);
     assert!(msg.contains("positions per term"), "{msg}");
+    let msg = refusal_message(app.client.diff("VMC-A", &[("step_mm", "5e-324")]).await);
+    assert!(msg.contains("at least 0.001"), "{msg}");
     for huge in [1e9, 1e300] {
         let patch = mtcal_store::MachinePatch {
             travel_mm: Some([("X".to_string(), [-huge, huge])].into()),

@@ -269,7 +269,8 @@ async fn cradle_job_on_an_uploaded_point_set_gives_the_library_result() {
 /// still answer from the checks before it. The service is configured with the readers'
 /// bound on deviations lifted (`WorkerConfig::limits`), so that a plane file with one
 /// deviation of 1e308 µm (finite) is accepted and its identification's residual
-/// overflows (refused by the store's rule for a result's scalars,
+/// overflows (refused because the document does not read back as stored,
+/// `crates/server/src/jobs.rs`, before the store's rule for a result's scalars,
 /// `crates/store/src/rules.rs`).
 #[tokio::test]
 async fn a_result_that_is_not_finite_is_refused_and_the_history_stays_readable() {
@@ -306,8 +307,10 @@ async fn a_result_that_is_not_finite_is_refused_and_the_history_stays_readable()
     let failed = app.wait(&job, JobState::Failed).await;
     let message = failed.error_message.unwrap_or_default();
     assert_eq!(failed.error_code.as_deref(), Some("bad_input"), "{message}");
+    // Refused before the store's own rule for a result's scalars: the document does
+    // not read back as stored.
     assert!(
-        message.contains("residual_rms_um is not finite"),
+        message.contains("does not read back") && message.contains("not a finite number"),
         "{message}"
     );
     assert!(failed.result_id.is_none());

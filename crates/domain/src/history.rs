@@ -88,8 +88,9 @@ pub struct DiffQuery {
     pub baseline: Option<String>,
     /// Result compared with it (default: the latest).
     pub against: Option<String>,
-    /// Grid step, mm (default 5); at most 10 000 positions per term over the travel.
-    #[cfg_attr(feature = "openapi", param(exclusive_minimum = 0))]
+    /// Grid step, mm (default 5, at least 0.001); at most 10 000 positions per term over
+    /// the travel.
+    #[cfg_attr(feature = "openapi", param(minimum = 0.001))]
     pub step_mm: Option<f64>,
 }
 

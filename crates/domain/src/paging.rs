@@ -6,6 +6,21 @@
 
 use crate::error::DomainError;
 
+/// Largest `offset` a list takes: past it the request is refused (400), as the schema
+/// says.
+pub const MAX_OFFSET: usize = 1_000_000;
+
+/// The offset `given` (default 0), at most [`MAX_OFFSET`].
+pub fn offset(given: Option<usize>) -> Result<usize, DomainError> {
+    let n = given.unwrap_or(0);
+    if n > MAX_OFFSET {
+        return Err(DomainError::Invalid(format!(
+            "offset: 0 to {MAX_OFFSET}, got {n}"
+        )));
+    }
+    Ok(n)
+}
+
 /// The limit `given` for a list of default `default` and maximum `max`.
 pub fn limit(given: Option<usize>, default: usize, max: usize) -> Result<usize, DomainError> {
     let n = given.unwrap_or(default);

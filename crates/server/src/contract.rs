@@ -100,7 +100,30 @@ impl utoipa::Modify for Statuses {
         let mut doc = serde_json::to_value(&*openapi).expect("the OpenAPI document serialises");
         complete_statuses(&mut doc);
         state_edge_rules(&mut doc);
+        optional_bodies(&mut doc);
         *openapi = serde_json::from_value(doc).expect("the completed document reads back");
+    }
+}
+
+/// The operations whose body may be left out (utoipa marks every declared body
+/// required): an acknowledgement without a comment is an empty body.
+const OPTIONAL_BODIES: [&str; 1] = ["alerts_ack"];
+
+fn optional_bodies(doc: &mut Value) {
+    let Some(paths) = doc.get_mut("paths").and_then(Value::as_object_mut) else {
+        return;
+    };
+    for op in paths
+        .values_mut()
+        .filter_map(Value::as_object_mut)
+        .flat_map(|o| o.values_mut())
+    {
+        let id = op.get("operationId").and_then(Value::as_str).unwrap_or("");
+        if OPTIONAL_BODIES.contains(&id)
+            && let Some(body) = op.get_mut("requestBody").and_then(Value::as_object_mut)
+        {
+            body.insert("required".into(), Value::Bool(false));
+        }
     }
 }
 

@@ -302,6 +302,14 @@ fn cases(result: &str) -> Vec<Case> {
             201,
         ),
         case(
+            "a tag list over its bytes as stored is refused (one indexed value)",
+            "POST",
+            "/api/v1/machines",
+            Some(json!({"id": "M9", "name": "n",
+                         "tags": (0..14u32).map(|i| char::from_u32(0x4e00 + i).unwrap().to_string().repeat(64)).collect::<Vec<_>>()})),
+            400,
+        ),
+        case(
             "a plain name is accepted",
             "PATCH",
             "/api/v1/machines/M1",

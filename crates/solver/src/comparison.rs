@@ -414,13 +414,19 @@ pub const MAX_DIFF_POSITIONS: usize = 10_000;
 
 /// Checks a diff's step: positive, finite, and at most [`MAX_DIFF_POSITIONS`] per term
 /// over the widest travel both checks measured; the error says why, in a sentence.
+/// Finest grid step of a difference or a compensation table, mm (1 µm): a finer step
+/// says nothing a person or a controller can use, and is refused as the schema says.
+pub const MIN_STEP_MM: f64 = 0.001;
+
 pub fn check_diff_step(
     base: &impl CheckFunctions,
     other: &impl CheckFunctions,
     step_mm: f64,
 ) -> Result<(), String> {
-    if !(step_mm > 0.0 && step_mm.is_finite()) {
-        return Err(format!("step_mm {step_mm}: give a positive number"));
+    if !(step_mm >= MIN_STEP_MM && step_mm.is_finite()) {
+        return Err(format!(
+            "step_mm {step_mm}: give a number of mm of at least {MIN_STEP_MM}"
+        ));
     }
     let widest = ['X', 'Y', 'Z']
         .iter()

@@ -37,7 +37,8 @@ pub struct FleetParams {
         param(pattern = "^(drift|drift_urad|name|last_check)$")
     )]
     pub sort: Option<String>,
-    /// Machines skipped, in this order (default 0).
+    /// Machines skipped, in this order (default 0, at most 1 000 000).
+    #[cfg_attr(feature = "openapi", param(maximum = 1_000_000))]
     pub offset: Option<usize>,
     /// At most this many machines (default 100, at most 1000).
     #[cfg_attr(feature = "openapi", param(minimum = 1, maximum = 1000))]
@@ -210,7 +211,7 @@ pub async fn page(store: &dyn Store, q: &FleetParams) -> Result<FleetList, Domai
     let sort = q.sort.clone().unwrap_or_else(|| "drift".into());
     let by = order(&sort)?;
     let limit = crate::paging::limit(q.limit, DEFAULT_LIMIT, MAX_LIMIT)?;
-    let offset = q.offset.unwrap_or(0);
+    let offset = crate::paging::offset(q.offset)?;
     let (site, tag) = (given(&q.site), given(&q.tag));
     let found = store
         .fleet_page(&FleetPageQuery {

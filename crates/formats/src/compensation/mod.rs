@@ -186,9 +186,10 @@ impl Compensation {
         step_mm: f64,
         force: bool,
     ) -> Result<Compensation, ExportError> {
-        if !step_mm.is_finite() || step_mm <= 0.0 {
+        let min = mtcal_solver::comparison::MIN_STEP_MM;
+        if !step_mm.is_finite() || step_mm < min {
             return Err(ExportError::BadStep(format!(
-                "step must be a positive number of mm, got {step_mm}"
+                "step must be a number of mm of at least {min}, got {step_mm}"
             )));
         }
         let check = r.model_check();

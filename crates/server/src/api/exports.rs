@@ -31,8 +31,9 @@ pub struct ExportQuery {
     /// names). Required.
     #[param(pattern = "^(isg|etalon|heidenhain|csv)$")]
     pub format: Option<String>,
-    /// Spacing of the table's positions, mm (default 5; from the start of each measured
-    /// travel, its end always included).
+    /// Spacing of the table's positions, mm (default 5, at least 0.001; from the start of
+    /// each measured travel, its end always included).
+    #[param(minimum = 0.001)]
     pub step_mm: Option<f64>,
     /// Make the table although the result's model does not explain its recording (the
     /// misfit gate): the table's first header line then says why it is not for use
