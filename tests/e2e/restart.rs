@@ -263,7 +263,7 @@ async fn on_postgres_three_workers_run_200_jobs_exactly_once_around_sigterm_and_
     else {
         return;
     };
-    let store = mtcal_store::PgStore::open(&pg.url).await.unwrap();
+    let store = mtcal_store::PostgresStore::open(&pg.url).await.unwrap();
     let (_, key) = store
         .create_key(mtcal_store::Scope::Write, "e2e")
         .await

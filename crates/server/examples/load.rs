@@ -277,7 +277,7 @@ async fn fresh_store(pg: bool, dir: &std::path::Path, name: &str) -> Arc<dyn Sto
             .await
             .unwrap()
             .expect("MTCAL_TEST_PG names a server");
-        Arc::new(mtcal_store::PgStore::open(&scratch.url).await.unwrap())
+        Arc::new(mtcal_store::PostgresStore::open(&scratch.url).await.unwrap())
     } else {
         let path = dir.join(format!("{name}.sqlite"));
         Arc::new(SqliteStore::open(path.to_str().unwrap()).await.unwrap())
@@ -358,7 +358,7 @@ async fn trends_bench(m: usize, r: usize, q: usize, pg: bool) {
     let store: Arc<dyn Store> = if pg {
         match std::env::var("MTCAL_LOAD_PG_URL") {
             // A schema seeded by an earlier run (its URL sets `search_path`): reused.
-            Ok(url) => Arc::new(mtcal_store::PgStore::open(&url).await.unwrap()),
+            Ok(url) => Arc::new(mtcal_store::PostgresStore::open(&url).await.unwrap()),
             Err(_) => fresh_store(true, std::path::Path::new("."), "trends").await,
         }
     } else {

@@ -1,5 +1,5 @@
-//! The durable job queue, in the service's own `jobs` table: the [`Queue`] half of a
-//! store, its typed [`JobKind`], and the rules every backend shares.
+//! The durable job queue, in the service's own `jobs` table: the jobs and queue of a
+//! store ([`Queue`]), its typed [`JobKind`], and the rules every backend shares.
 //!
 //! * **Claim**: one `UPDATE jobs … WHERE id = (SELECT … state = 'queued' AND run_after_ms
 //!   <= now AND kind IN (runnable kinds) ORDER BY seq LIMIT 1) RETURNING …`. SQLite
@@ -24,7 +24,7 @@
 //!   backoff ([`QueueConfig::backoff_ms`]); bad input never retries.
 
 use crate::StoreFuture;
-use crate::model::{Job, NewJob, NewResult};
+use crate::model::{Job, JobState, NewJob, NewResult};
 use serde::{Deserialize, Serialize};
 
 /// A write guarded by `state = 'running' AND lease_owner = worker` changed `rows` rows:
@@ -74,8 +74,9 @@ pub struct Failure<'a> {
     pub retry_after_ms: Option<i64>,
 }
 
-/// The queue half of a store. Implementations must make each method atomic.
-pub trait Queue: Send + Sync + 'static {
+/// The jobs: the durable queue and its listing. Implementations must make each method
+/// atomic.
+pub trait Queue: Send + Sync {
     fn enqueue<'a>(&'a self, j: NewJob) -> StoreFuture<'a, Job>;
     fn get_job<'a>(&'a self, id: &'a str) -> StoreFuture<'a, Job>;
     /// Cancels a queued job at once; asks a running one to stop (the worker sees it at its
@@ -109,6 +110,9 @@ pub trait Queue: Send + Sync + 'static {
     /// Requeues (or fails, when out of attempts) running jobs whose lease has expired;
     /// returns how many.
     fn reap_expired<'a>(&'a self) -> StoreFuture<'a, u64>;
+
+    /// Jobs newest first (created_at, then seq), of one state or all, at most `limit`.
+    fn list_jobs<'a>(&'a self, state: Option<JobState>, limit: i64) -> StoreFuture<'a, Vec<Job>>;
 }
 
 /// Number of jobs of one kind in one state.

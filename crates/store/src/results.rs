@@ -1,0 +1,60 @@
+//! The results (document + scalar columns for trend queries) and their figures:
+//! [`Results`].
+
+use crate::StoreFuture;
+use crate::model::{
+    BaselinePair, Figure, FigurePoint, NewResult, ResultMeta, SetAside, SkippedRow, StoredResult,
+};
+
+/// The results of the jobs (and of imports) and their named figures. Implementations
+/// must make each method atomic.
+pub trait Results: Send + Sync {
+    fn get_result<'a>(&'a self, id: &'a str) -> StoreFuture<'a, StoredResult>;
+
+    /// A machine's results of `kind` in time order (measured_at, then when each landed,
+    /// then id: of two checks measured at the same time the later to land is the later).
+    /// A stored row that does not decode (written by an older version, a null where a
+    /// number belongs) is left out; [`Results::list_results_checked`] says which.
+    fn list_results<'a>(
+        &'a self,
+        machine_id: &'a str,
+        kind: &'a str,
+    ) -> StoreFuture<'a, Vec<ResultMeta>>;
+
+    /// [`Results::list_results`] with the rows left out because they do not decode.
+    fn list_results_checked<'a>(
+        &'a self,
+        machine_id: &'a str,
+        kind: &'a str,
+    ) -> StoreFuture<'a, (Vec<ResultMeta>, Vec<SkippedRow>)>;
+
+    /// For every machine with results of `kind`: baseline, latest and count.
+    fn baseline_pairs<'a>(&'a self, kind: &'a str) -> StoreFuture<'a, Vec<BaselinePair>>;
+
+    /// The named figures of a result ([`Figure`]), by name.
+    fn result_figures<'a>(&'a self, result_id: &'a str) -> StoreFuture<'a, Vec<Figure>>;
+
+    /// One figure of a machine's results in time order (measured_at, when it landed, id),
+    /// whatever the result kind (ISO 230-2 figures come from `identification` and
+    /// `standards` results alike).
+    fn figure_trend<'a>(
+        &'a self,
+        machine_id: &'a str,
+        name: &'a str,
+    ) -> StoreFuture<'a, Vec<FigurePoint>>;
+
+    /// The names of every figure stored for a machine, sorted.
+    fn figure_names<'a>(&'a self, machine_id: &'a str) -> StoreFuture<'a, Vec<String>>;
+
+    /// Excludes a result from the history (kept, readable by id, recorded with who, when
+    /// and why; left out of lists, trends and drift). Excluding an excluded result keeps
+    /// the first record.
+    fn exclude_result<'a>(&'a self, id: &'a str, why: SetAside<'a>) -> StoreFuture<'a, ResultMeta>;
+
+    /// Inserts a result without a job run (an `import` job, born succeeded).
+    fn import_result<'a>(&'a self, r: NewResult) -> StoreFuture<'a, ResultMeta>;
+
+    /// Inserts many results (each with its `import` job) in one transaction: for seeding
+    /// benchmarks and bulk imports.
+    fn import_results_bulk<'a>(&'a self, results: &'a [NewResult]) -> StoreFuture<'a, ()>;
+}
