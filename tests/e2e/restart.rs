@@ -9,7 +9,8 @@
 
 use crate::common::*;
 use mtcal_client::Client;
-use mtcal_store::{JobState, Queue, SqliteStore, Store};
+use mtcal_store::prelude::*;
+use mtcal_store::{JobState, SqliteStore};
 use std::io::{BufRead, BufReader};
 use std::process::{Child, Command, Stdio};
 
