@@ -20,7 +20,7 @@ pub fn rfc3339_millis(t: time::OffsetDateTime) -> String {
 }
 
 /// This host's time in milliseconds since the Unix epoch (plus the skew a test may set,
-/// [`testing::skew_host_clock`]). The queue's leases and the sessions' expiry do not use
+/// [`crate::testing::skew_host_clock`]). The queue's leases and the sessions' expiry do not use
 /// it: they are kept by the database's clock, the one clock every host shares.
 pub fn now_ms() -> i64 {
     (time::OffsetDateTime::now_utc().unix_timestamp_nanos() / 1_000_000) as i64

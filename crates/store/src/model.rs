@@ -53,7 +53,7 @@ pub struct FileMeta {
     pub size: i64,
 }
 
-/// A dataset's metadata (the bytes are read with [`crate::Store::dataset_file`]).
+/// A dataset's metadata (the bytes are read with [`crate::Datasets::dataset_file`]).
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 #[cfg_attr(feature = "openapi", derive(utoipa::ToSchema))]
 pub struct Dataset {
@@ -597,7 +597,7 @@ pub enum JobKind {
     /// Figures of ISO 230-2 (positioning runs, or the line passes of a session) and ISO
     /// 230-4 (the circles of a session); result kind `standards`.
     Standards,
-    /// A result stored without a run ([`crate::Store::import_result`]): born succeeded,
+    /// A result stored without a run ([`crate::Results::import_result`]): born succeeded,
     /// never claimed, never submitted through the API.
     Import,
 }

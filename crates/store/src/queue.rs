@@ -1,12 +1,12 @@
 //! The durable job queue, in the service's own `jobs` table: the jobs and queue of a
-//! store ([`Queue`]), its typed [`JobKind`], and the rules every backend shares.
+//! store ([`Queue`]), its typed [`JobKind`](crate::JobKind), and the rules every backend shares.
 //!
 //! * **Claim**: one `UPDATE jobs … WHERE id = (SELECT … state = 'queued' AND run_after_ms
 //!   <= now AND kind IN (runnable kinds) ORDER BY seq LIMIT 1) RETURNING …`. SQLite
 //!   serialises writers, so two workers never claim the same job; PostgreSQL adds
 //!   `FOR UPDATE SKIP LOCKED` to the sub-select. Claiming counts an attempt and sets a
 //!   lease (owner + expiry). A worker claims only the kinds its build knows
-//!   ([`JobKind::RUNNABLE`]), so an older worker sharing a database with a newer API leaves
+//!   ([`JobKind::RUNNABLE`](crate::JobKind::RUNNABLE)), so an older worker sharing a database with a newer API leaves
 //!   new kinds to newer workers.
 //! * **Lease and heartbeat**: a running worker extends its lease every few seconds and
 //!   records progress; the heartbeat tells it when cancellation was requested or when its

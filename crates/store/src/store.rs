@@ -48,7 +48,7 @@ pub trait Operations: Send + Sync {
 
 /// How a store connects: the size of its connection pool and how long a statement
 /// waits for a connection before the database counts as unavailable
-/// ([`StoreError::Unavailable`]).
+/// ([`crate::StoreError::Unavailable`]).
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct StoreOptions {
     /// Connections of this process (`None`: [`StoreOptions::DEFAULT_PG_POOL`] on
