@@ -6,7 +6,6 @@
 //! database; lookups are by hash.
 
 use crate::StoreFuture;
-use crate::model::{NewSession, SessionRecord};
 use rand::RngCore;
 use serde::{Deserialize, Serialize};
 use sha2::{Digest, Sha256};
@@ -140,6 +139,21 @@ pub trait Keys: Send + Sync {
 
     /// Ends session `token` (signing out); ending an ended session does nothing.
     fn end_session<'a>(&'a self, token: &'a str) -> StoreFuture<'a, ()>;
+}
+
+/// A new sign-in session: its token (for the cookie; shown once, stored as its SHA-256)
+/// and the CSRF token of its forms.
+#[derive(Debug, Clone, PartialEq, Eq)]
+pub struct NewSession {
+    pub token: String,
+    pub csrf: String,
+}
+
+/// A live sign-in session: its key (not revoked) and its forms' CSRF token.
+#[derive(Debug, Clone, PartialEq)]
+pub struct SessionRecord {
+    pub key: crate::ApiKey,
+    pub csrf: String,
 }
 
 #[cfg(test)]

@@ -2,7 +2,7 @@
 //!
 //! Persistence of the mtcal service behind one interface, [`Store`], so that handlers and
 //! the worker never see a database. [`Store`] is one trait per resource, each in the file
-//! of its name:
+//! of its name with the records it reads and writes (all re-exported by [`model`]):
 //!
 //! | trait | file | what it keeps |
 //! |---|---|---|
@@ -19,7 +19,7 @@
 //! Callers hold an `Arc<dyn Store>` and call any of these methods on it; code that calls
 //! them on a concrete store type adds `use mtcal_store::prelude::*`.
 //!
-//! Layout: the records ([`model`]), the queue's typed kinds and rules ([`queue`]), key
+//! Layout: the records, the queue's typed kinds and rules ([`queue`]), key
 //! generation and hashing ([`keys`]) and the other backend-independent rules
 //! ([`rules`]: manifest checksums, machine patches and baselines, result rows) are
 //! shared; so are the statements (`sql/`, one file per resource, compiled once per

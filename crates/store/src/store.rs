@@ -2,11 +2,11 @@
 //! and how a store is opened ([`open`], [`StoreOptions`]).
 
 use crate::error::Result;
-use crate::model::RowCounts;
 use crate::{
     Datasets, Fleet, Keys, Machines, PostgresStore, Queue, Results, SqliteStore, Tolerances,
     Webhooks,
 };
+use serde::{Deserialize, Serialize};
 use std::future::Future;
 use std::pin::Pin;
 use std::sync::Arc;
@@ -91,4 +91,16 @@ pub async fn open_with(url: &str, o: StoreOptions) -> Result<Arc<dyn Store>> {
         return Ok(Arc::new(PostgresStore::open_with(url, o).await?));
     }
     Ok(Arc::new(SqliteStore::open_with(url, o).await?))
+}
+
+/// Row counts of every table (for tests and the admin view).
+#[derive(Debug, Clone, Copy, Default, PartialEq, Eq, Serialize, Deserialize)]
+pub struct RowCounts {
+    pub machines: i64,
+    pub datasets: i64,
+    pub dataset_files: i64,
+    pub jobs: i64,
+    pub results: i64,
+    pub result_figures: i64,
+    pub api_keys: i64,
 }

@@ -1,7 +1,6 @@
 //! The webhook outbox: [`Webhooks`].
 
 use crate::StoreFuture;
-use crate::model::{DeliveryOutcome, WebhookDelivery};
 
 /// The outbox of webhook deliveries (written with their alert by
 /// [`crate::Tolerances::raise_alert`]). Implementations must make each method atomic.
@@ -28,4 +27,61 @@ pub trait Webhooks: Send + Sync {
         state: Option<&'a str>,
         limit: i64,
     ) -> StoreFuture<'a, Vec<WebhookDelivery>>;
+}
+
+/// The states of a webhook delivery of the outbox: `pending` (to be tried, at
+/// `next_attempt_ms` of the database's clock), `delivered` (a try was answered 2xx),
+/// `failed` (its tries are used up, or its target was refused).
+pub const DELIVERY_STATES: [&str; 3] = ["pending", "delivered", "failed"];
+
+/// A webhook delivery of the outbox: alert `alert_id` POSTed to the webhook of profile
+/// `profile_id` at `url`, `body` the exact bytes sent (and signed). Written with its
+/// alert, in the same transaction; tried by the workers.
+#[derive(Clone, PartialEq, Eq)]
+pub struct WebhookDelivery {
+    pub id: String,
+    pub alert_id: String,
+    pub profile_id: String,
+    pub url: String,
+    pub body: String,
+    /// One of [`DELIVERY_STATES`].
+    pub state: String,
+    /// Tries made (a claimed try counts).
+    pub attempts: i64,
+    /// When it is tried next, or was last claimed (database clock, ms since the epoch).
+    pub next_attempt_ms: i64,
+    /// Why the last try failed.
+    pub last_error: Option<String>,
+    pub created_at: String,
+    pub updated_at: String,
+}
+
+impl std::fmt::Debug for WebhookDelivery {
+    /// Without the URL (its query may hold a token) or the body.
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.debug_struct("WebhookDelivery")
+            .field("id", &self.id)
+            .field("alert_id", &self.alert_id)
+            .field("profile_id", &self.profile_id)
+            .field("state", &self.state)
+            .field("attempts", &self.attempts)
+            .field("next_attempt_ms", &self.next_attempt_ms)
+            .field("last_error", &self.last_error)
+            .finish_non_exhaustive()
+    }
+}
+
+/// What became of a claimed try of a webhook delivery.
+#[derive(Debug, Clone, PartialEq, Eq)]
+pub enum DeliveryOutcome {
+    Delivered,
+    /// Try again `after_ms` from now (database clock).
+    Retry {
+        after_ms: i64,
+        error: String,
+    },
+    /// No more tries.
+    Failed {
+        error: String,
+    },
 }
