@@ -6,7 +6,7 @@
 //! Placeholders are `$N`, which SQLite and PostgreSQL both read; everything else is SQL
 //! both dialects share.
 //!
-//! Backend module holds the connection setup, the statement macros and the helpers every
+//! This module holds the connection setup, the statement macros and the helpers every
 //! resource uses; each resource's statements are in the file of its name, implementing
 //! the trait of that name (`machines.rs`: [`crate::Machines`], …). Rules live in
 //! [`crate::rules`] and [`crate::queue`], row decoding in `crate::rows`.
