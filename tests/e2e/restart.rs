@@ -9,7 +9,8 @@
 
 use crate::common::*;
 use mtcal_client::Client;
-use mtcal_store::{JobState, Queue, SqliteStore, Store};
+use mtcal_store::prelude::*;
+use mtcal_store::{JobState, SqliteStore};
 use std::io::{BufRead, BufReader};
 use std::process::{Child, Command, Stdio};
 
@@ -263,7 +264,7 @@ async fn on_postgres_three_workers_run_200_jobs_exactly_once_around_sigterm_and_
     else {
         return;
     };
-    let store = mtcal_store::PgStore::open(&pg.url).await.unwrap();
+    let store = mtcal_store::PostgresStore::open(&pg.url).await.unwrap();
     let (_, key) = store
         .create_key(mtcal_store::Scope::Write, "e2e")
         .await

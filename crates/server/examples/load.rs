@@ -42,9 +42,8 @@ use mtcal_server::jobs::JobKind;
 use mtcal_server::{UploadLimits, WorkerConfig};
 use mtcal_solver::identification::{IdentifyOptions, identify};
 use mtcal_solver::simulate::{SimOptions, random_truth, simulate};
-use mtcal_store::{
-    JobState, Machine, NewResult, QueueConfig, ResultScalars, Scope, SqliteStore, Store,
-};
+use mtcal_store::prelude::*;
+use mtcal_store::{JobState, Machine, NewResult, QueueConfig, ResultScalars, Scope, SqliteStore};
 use rand::rngs::StdRng;
 use rand::{Rng, SeedableRng};
 use serde_json::json;
@@ -277,7 +276,11 @@ async fn fresh_store(pg: bool, dir: &std::path::Path, name: &str) -> Arc<dyn Sto
             .await
             .unwrap()
             .expect("MTCAL_TEST_PG names a server");
-        Arc::new(mtcal_store::PgStore::open(&scratch.url).await.unwrap())
+        Arc::new(
+            mtcal_store::PostgresStore::open(&scratch.url)
+                .await
+                .unwrap(),
+        )
     } else {
         let path = dir.join(format!("{name}.sqlite"));
         Arc::new(SqliteStore::open(path.to_str().unwrap()).await.unwrap())
@@ -358,7 +361,7 @@ async fn trends_bench(m: usize, r: usize, q: usize, pg: bool) {
     let store: Arc<dyn Store> = if pg {
         match std::env::var("MTCAL_LOAD_PG_URL") {
             // A schema seeded by an earlier run (its URL sets `search_path`): reused.
-            Ok(url) => Arc::new(mtcal_store::PgStore::open(&url).await.unwrap()),
+            Ok(url) => Arc::new(mtcal_store::PostgresStore::open(&url).await.unwrap()),
             Err(_) => fresh_store(true, std::path::Path::new("."), "trends").await,
         }
     } else {

@@ -1,9 +1,11 @@
-//! API keys: random 128-bit secrets shown once, stored as their SHA-256.
+//! API keys: random 128-bit secrets shown once, stored as their SHA-256; [`Keys`], the
+//! store's keys and the dashboard's sign-in sessions.
 //!
 //! A key reads `mtk_<32 hex digits>`. Because the secret is uniformly random (not a
 //! password), one SHA-256 is enough to make the stored hash useless to a reader of the
 //! database; lookups are by hash.
 
+use crate::StoreFuture;
 use rand::RngCore;
 use serde::{Deserialize, Serialize};
 use sha2::{Digest, Sha256};
@@ -107,6 +109,51 @@ pub fn generate_webhook_secret() -> String {
 /// SHA-256 of a key, hex.
 pub fn hash_secret(secret: &str) -> String {
     hex::encode(Sha256::digest(secret.as_bytes()))
+}
+
+/// API keys and the dashboard's sign-in sessions, kept by the database. Implementations
+/// must make each method atomic.
+pub trait Keys: Send + Sync {
+    /// Creates a key; returns it with the secret, which is not stored.
+    fn create_key<'a>(&'a self, scope: Scope, label: &'a str) -> StoreFuture<'a, (ApiKey, String)>;
+
+    fn key_by_secret<'a>(&'a self, secret: &'a str) -> StoreFuture<'a, Option<ApiKey>>;
+
+    /// Every key, revoked ones included, oldest first (never a secret or a hash).
+    fn list_keys(&self) -> StoreFuture<'_, Vec<ApiKey>>;
+
+    /// Revokes key `id` (from now on it authenticates nothing, and its sign-in sessions
+    /// end); revoking a revoked key keeps its first revocation time. Not found:
+    /// [`crate::StoreError::NotFound`]; the last admin key that is not revoked:
+    /// [`crate::StoreError::Conflict`] (nothing changed).
+    fn revoke_key<'a>(&'a self, id: &'a str) -> StoreFuture<'a, ApiKey>;
+
+    // Sign-in sessions (the dashboard's), kept by the database.
+    /// Starts a session of key `key_id` ending `ttl_ms` from now by the database's clock;
+    /// returns its token (stored as its SHA-256 only) and its CSRF token.
+    fn create_session<'a>(&'a self, key_id: &'a str, ttl_ms: i64) -> StoreFuture<'a, NewSession>;
+
+    /// The session `token` opens: None when it was ended, has expired (by the database's
+    /// clock) or its key is revoked.
+    fn session<'a>(&'a self, token: &'a str) -> StoreFuture<'a, Option<SessionRecord>>;
+
+    /// Ends session `token` (signing out); ending an ended session does nothing.
+    fn end_session<'a>(&'a self, token: &'a str) -> StoreFuture<'a, ()>;
+}
+
+/// A new sign-in session: its token (for the cookie; shown once, stored as its SHA-256)
+/// and the CSRF token of its forms.
+#[derive(Debug, Clone, PartialEq, Eq)]
+pub struct NewSession {
+    pub token: String,
+    pub csrf: String,
+}
+
+/// A live sign-in session: its key (not revoked) and its forms' CSRF token.
+#[derive(Debug, Clone, PartialEq)]
+pub struct SessionRecord {
+    pub key: crate::ApiKey,
+    pub csrf: String,
 }
 
 #[cfg(test)]

@@ -100,7 +100,7 @@ async fn leases_and_sessions_keep_the_databases_time() {
     else {
         return;
     };
-    let s = PgStore::open(&pg.url).await.unwrap();
+    let s = PostgresStore::open(&pg.url).await.unwrap();
     story(&s).await;
     pg.drop_schema().await.unwrap();
 }

@@ -39,7 +39,7 @@ macro_rules! stories {
                     else {
                         return;
                     };
-                    let s = mtcal_store::PgStore::open(&pg.url).await.unwrap();
+                    let s = mtcal_store::PostgresStore::open(&pg.url).await.unwrap();
                     super::$story(&s).await;
                     pg.drop_schema().await.unwrap();
                 }

@@ -5,7 +5,7 @@
 //!
 //! Everything comes from the rows the service maintains ([`crate::fleet::rows`]),
 //! filtered, ordered and counted by the database in one read snapshot
-//! ([`mtcal_store::Store::fleet_page`]: an index walk that stops once the page is full).
+//! ([`mtcal_store::Fleet::fleet_page`]: an index walk that stops once the page is full).
 
 use crate::error::DomainError;
 use crate::fleet::entry::{DiagnosisSummary, FleetEntry, VerdictSummary};

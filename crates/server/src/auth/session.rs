@@ -2,7 +2,7 @@
 //! (crates/server/src/web/session.rs) and by the API's GET routes ([`super`]).
 //!
 //! Signing in with an API key starts a session kept by the database
-//! ([`mtcal_store::Store::create_session`]) and sets one cookie, `mtcal_session`:
+//! ([`mtcal_store::Keys::create_session`]) and sets one cookie, `mtcal_session`:
 //! HttpOnly, SameSite=Strict, Path=/, no expiry (it ends with the browser session),
 //! `Secure` when the request came over TLS or the service is configured so
 //! ([`crate::Settings::cookie_secure`]). It holds only the session's random token

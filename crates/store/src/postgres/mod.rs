@@ -2,7 +2,7 @@
 //! share one database. Runtime-checked queries (no database needed to build), migrations
 //! in `migrations/postgres` embedded at build time and applied under the migrator's
 //! advisory lock (processes starting together migrate once). The statements are the
-//! shared ones of `backend.rs`; only the connection and the dialect live here.
+//! shared ones of `sql/`; only the connection and the dialect live here.
 //!
 //! Raw dataset files are kept in `dataset_files.content` (`BYTEA`) with the upload limits
 //! of the API, as on SQLite. A fleet whose raw files outgrow the database would move
@@ -13,8 +13,10 @@ use crate::error::{Db as _, Result};
 use sqlx::postgres::PgConnectOptions;
 use std::str::FromStr;
 
-type Db = sqlx::Postgres;
-type This = PgStore;
+/// The sqlx database the shared statements (`sql/`) run on.
+type Driver = sqlx::Postgres;
+/// The store type the shared statements implement the store traits for.
+type Backend = PostgresStore;
 
 /// The statements whose SQL differs from SQLite's.
 mod dialect {
@@ -46,32 +48,32 @@ mod dialect {
 
 /// The shared statements, compiled for PostgreSQL.
 #[allow(clippy::duplicate_mod)] // compiled once per backend on purpose
-#[path = "../backend.rs"]
-mod backend;
+#[path = "../sql/mod.rs"]
+mod sql;
 
 /// PostgreSQL store. Cheap to clone (a pool handle).
 #[derive(Clone)]
-pub struct PgStore {
+pub struct PostgresStore {
     pool: sqlx::PgPool,
 }
 
-impl PgStore {
+impl PostgresStore {
     /// Connects to `url` (`postgres://user:password@host:port/database`, with the usual
     /// parameters: `sslmode`, `options=-c search_path=…`, …) and applies the migrations.
-    pub async fn open(url: &str) -> Result<PgStore> {
+    pub async fn open(url: &str) -> Result<PostgresStore> {
         Self::open_with(url, crate::StoreOptions::default()).await
     }
 
-    /// [`PgStore::open`] with a pool of the given size and wait ([`crate::StoreOptions`]:
+    /// [`PostgresStore::open`] with a pool of the given size and wait ([`crate::StoreOptions`]:
     /// by default [`crate::StoreOptions::DEFAULT_PG_POOL`] connections, a server's
     /// `max_connections` (100 by default) bounds processes × this).
-    pub async fn open_with(url: &str, o: crate::StoreOptions) -> Result<PgStore> {
+    pub async fn open_with(url: &str, o: crate::StoreOptions) -> Result<PostgresStore> {
         let opts = PgConnectOptions::from_str(url).db()?;
         let size = o
             .pool_size
             .unwrap_or(crate::StoreOptions::DEFAULT_PG_POOL)
             .clamp(1, crate::StoreOptions::MAX_POOL);
-        let pool = backend::connect(opts, size, &o).await?;
-        Ok(PgStore { pool })
+        let pool = sql::connect(opts, size, &o).await?;
+        Ok(PostgresStore { pool })
     }
 }

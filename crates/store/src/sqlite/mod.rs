@@ -1,6 +1,6 @@
 //! The SQLite backend (the embedded default; single host): WAL mode, runtime-checked
 //! queries, migrations in `migrations/sqlite` embedded at build time. The statements are
-//! the shared ones of `backend.rs`; only the connection and the dialect live here.
+//! the shared ones of `sql/`; only the connection and the dialect live here.
 //!
 //! SQLite serialises writers, so the claim's `UPDATE … WHERE id = (SELECT …)` is
 //! exclusive as it stands.
@@ -10,8 +10,10 @@ use sqlx::sqlite::{SqliteConnectOptions, SqliteJournalMode, SqliteSynchronous};
 use std::str::FromStr;
 use std::time::Duration;
 
-type Db = sqlx::Sqlite;
-type This = SqliteStore;
+/// The sqlx database the shared statements (`sql/`) run on.
+type Driver = sqlx::Sqlite;
+/// The store type the shared statements implement the store traits for.
+type Backend = SqliteStore;
 
 /// The statements whose SQL differs from PostgreSQL's.
 mod dialect {
@@ -43,8 +45,8 @@ mod dialect {
 
 /// The shared statements, compiled for SQLite.
 #[allow(clippy::duplicate_mod)] // compiled once per backend on purpose
-#[path = "../backend.rs"]
-mod backend;
+#[path = "../sql/mod.rs"]
+mod sql;
 
 /// SQLite store. Cheap to clone (a pool handle).
 #[derive(Clone)]
@@ -82,7 +84,7 @@ impl SqliteStore {
             .pool_size
             .unwrap_or(crate::StoreOptions::DEFAULT_SQLITE_POOL)
             .clamp(1, crate::StoreOptions::MAX_POOL);
-        let pool = backend::connect(opts, if memory { 1 } else { size }, &o).await?;
+        let pool = sql::connect(opts, if memory { 1 } else { size }, &o).await?;
         Ok(SqliteStore { pool })
     }
 }

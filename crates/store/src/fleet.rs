@@ -1,0 +1,115 @@
+//! The fleet's drift, maintained by the service, and the fleet page: [`Fleet`].
+
+use crate::StoreFuture;
+use crate::model::Machine;
+use serde::{Deserialize, Serialize};
+
+/// The fleet's drift (one row per machine, maintained by the service) and the fleet
+/// page. Implementations must make each method atomic.
+pub trait Fleet: Send + Sync {
+    /// Stores a machine's drift unless the stored row was computed from a later read
+    /// (`read_at_ms`); returns whether it was stored.
+    fn put_fleet_drift<'a>(&'a self, row: &'a FleetDriftRow) -> StoreFuture<'a, bool>;
+
+    /// Stores many machines' rows in one transaction, each as [`Fleet::put_fleet_drift`];
+    /// returns how many were stored.
+    fn put_fleet_drifts<'a>(&'a self, rows: &'a [FleetDriftRow]) -> StoreFuture<'a, usize>;
+
+    /// Every stored row's machine and basis ([`FleetDriftRow::basis`]).
+    fn fleet_drift_bases(&self) -> StoreFuture<'_, Vec<(String, Option<String>)>>;
+
+    /// Removes a machine's drift (it has no result of the kind any more).
+    fn delete_fleet_drift<'a>(&'a self, machine_id: &'a str) -> StoreFuture<'a, ()>;
+
+    /// The machines' drift, largest first by `drift_um` (`by_um`) or `drift_urad`, at
+    /// most `limit`, with each machine's current name and site.
+    fn fleet_drift_ranked(
+        &self,
+        by_um: bool,
+        limit: usize,
+    ) -> StoreFuture<'_, Vec<(FleetDriftRow, String, Option<String>)>>;
+
+    /// One page of the fleet ([`FleetPageQuery`]): machines with their drift rows and
+    /// active alert counts, filtered, sorted and counted by the database.
+    fn fleet_page<'a>(&'a self, q: &'a FleetPageQuery) -> StoreFuture<'a, FleetPage>;
+}
+
+/// A machine's drift since its baseline as the fleet ranking stores it (computed by the
+/// service when a result lands or the baseline changes).
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct FleetDriftRow {
+    pub machine_id: String,
+    /// When the results it was computed from were read (ms since the epoch): a row from
+    /// an older read never replaces a newer one.
+    pub read_at_ms: i64,
+    pub drift_um: f64,
+    pub drift_urad: f64,
+    /// The ranking's entry for the machine (ids, result count, drift, uncertainty).
+    pub entry: serde_json::Value,
+    /// When the latest result was measured (the fleet page sorts by it).
+    #[serde(default)]
+    pub latest_measured_at: Option<String>,
+    /// What the row was computed from, as the service names it (None: written by an
+    /// older version); a refresh skips the rows whose basis is still current.
+    #[serde(default)]
+    pub basis: Option<String>,
+}
+
+/// The orders of the fleet page.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum FleetSort {
+    /// Largest drift in µm first.
+    DriftUm,
+    /// Largest drift in µrad first.
+    DriftUrad,
+    /// By machine id.
+    Name,
+    /// Most recent check first.
+    LastCheck,
+}
+
+/// One page of the fleet: machines filtered by site and tag, those with active alerts
+/// first, then in `sort` order.
+#[derive(Debug, Clone, PartialEq)]
+pub struct FleetPageQuery {
+    pub site: Option<String>,
+    pub tag: Option<String>,
+    pub sort: FleetSort,
+    pub offset: i64,
+    pub limit: i64,
+}
+
+/// A stored result named by id, kind and time.
+// A machine's last check: the one struct the store reads, the fleet routes answer and
+// the fleet page is given (converted to the view's own type in crates/server/src/web).
+#[derive(Debug, Clone, PartialEq, Eq, Serialize, Deserialize)]
+#[cfg_attr(feature = "openapi", derive(utoipa::ToSchema))]
+pub struct LastCheck {
+    pub result_id: String,
+    /// `identification`, `diagnosis`, `cradle` or `sensitivity`.
+    pub kind: String,
+    pub measured_at: String,
+}
+
+/// A machine on the fleet page: its drift row (None before its first identification)
+/// and how many active alerts it has.
+#[derive(Debug, Clone, PartialEq)]
+pub struct FleetPageRow {
+    pub machine: Machine,
+    pub drift: Option<FleetDriftRow>,
+    pub active_alerts: i64,
+    /// For a machine without a drift row (no identification): its latest result of any
+    /// other kind that is not excluded (None: it has no result, or it has a drift row,
+    /// whose entry names its latest identification).
+    pub other_check: Option<LastCheck>,
+}
+
+/// A fleet page and how many machines match the filter in all.
+#[derive(Debug, Clone, PartialEq)]
+pub struct FleetPage {
+    pub rows: Vec<FleetPageRow>,
+    pub total: i64,
+    /// Every site and every tag of the fleet, sorted (the filters' choices).
+    pub sites: Vec<String>,
+    pub tags: Vec<String>,
+}
