@@ -1,7 +1,7 @@
 //! The datasets (raw files with checksums): [`Datasets`].
 
 use crate::StoreFuture;
-use crate::model::{Exclusion, SetAside};
+use crate::exclusion::{Exclusion, SetAside};
 use serde::{Deserialize, Serialize};
 
 /// The datasets uploaded for the machines: their files' bytes, excluded or deleted with a

@@ -1,7 +1,7 @@
 //! The fleet's drift, maintained by the service, and the fleet page: [`Fleet`].
 
 use crate::StoreFuture;
-use crate::model::Machine;
+use crate::machines::Machine;
 use serde::{Deserialize, Serialize};
 
 /// The fleet's drift (one row per machine, maintained by the service) and the fleet

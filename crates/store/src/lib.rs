@@ -35,6 +35,7 @@
 mod clock;
 mod datasets;
 mod error;
+mod exclusion;
 mod fleet;
 pub mod keys;
 pub mod limits;

@@ -11,7 +11,7 @@ pub trait Machines: Send + Sync {
 
     fn get_machine<'a>(&'a self, id: &'a str) -> StoreFuture<'a, Machine>;
 
-    /// Applies a patch ([`crate::rules::apply_patch`]: a baseline must be one of the machine's
+    /// Applies a patch (the rules module's `apply_patch`: a baseline must be one of the machine's
     /// results).
     fn update_machine<'a>(&'a self, id: &'a str, p: &'a MachinePatch) -> StoreFuture<'a, Machine>;
 

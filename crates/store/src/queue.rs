@@ -24,7 +24,7 @@
 //!   backoff ([`QueueConfig::backoff_ms`]); bad input never retries.
 
 use crate::StoreFuture;
-use crate::model::NewResult;
+use crate::results::NewResult;
 use serde::{Deserialize, Serialize};
 use serde_json::Value;
 
@@ -359,8 +359,8 @@ impl JobKind {
 
 #[cfg(test)]
 mod tests {
+    use super::JobKind;
     use super::*;
-    use crate::model::JobKind;
 
     #[test]
     fn backoff_doubles_and_caps() {

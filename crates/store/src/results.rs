@@ -2,7 +2,8 @@
 //! [`Results`].
 
 use crate::StoreFuture;
-use crate::model::{Exclusion, Machine, SetAside};
+use crate::exclusion::{Exclusion, SetAside};
+use crate::machines::Machine;
 use serde::{Deserialize, Serialize};
 use serde_json::Value;
 use std::collections::BTreeMap;

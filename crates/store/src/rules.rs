@@ -2,8 +2,10 @@
 //! record ids, the dataset manifest checksum, machine patches and the baseline rule, and
 //! the metadata of a freshly stored result. A backend only runs SQL around them.
 
+use crate::datasets::FileMeta;
 use crate::error::{Db, Result, StoreError};
-use crate::model::*;
+use crate::machines::{Machine, MachinePatch};
+use crate::results::{FIGURE_NAME_MAX, Figure, NewResult, ResultMeta, ResultScalars};
 use sha2::{Digest, Sha256};
 
 /// A new record id: `<prefix>_<32 hex digits>` (a random UUID).

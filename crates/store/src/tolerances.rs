@@ -1,7 +1,7 @@
 //! Tolerance profiles and the drift alerts they raise: [`Tolerances`].
 
 use crate::StoreFuture;
-use crate::model::WebhookDelivery;
+use crate::webhooks::WebhookDelivery;
 use serde::{Deserialize, Serialize};
 use serde_json::Value;
 
