@@ -93,6 +93,14 @@ fn report_writes_a_self_contained_page_with_verdicts_from_tolerances() {
         String::from_utf8_lossy(&out.stderr)
     );
     let page = std::fs::read_to_string(&html).unwrap();
+    // It says on stderr what it wrote, where (stdout stays empty).
+    let note = String::from_utf8_lossy(&out.stderr);
+    assert!(
+        note.contains(&format!("wrote the report ({} bytes) to ", page.len()))
+            && note.contains("check.html"),
+        "{note}"
+    );
+    assert!(out.stdout.is_empty());
     for id in [
         "check",
         "standards",

@@ -7,7 +7,7 @@
 
 use super::BadInput;
 use super::export::read_identification;
-use mtcal_solver::comparison::{self, Drift, TermDiff};
+use mtcal_solver::comparison::{self, CheckFunctions, Drift, TermDiff};
 use serde::Serialize;
 use std::collections::BTreeMap;
 use std::path::PathBuf;
@@ -35,6 +35,40 @@ struct Comparison {
     terms: BTreeMap<String, TermDiff>,
     /// other − baseline per squareness, µrad (null when either did not identify it).
     squareness: BTreeMap<String, Option<f64>>,
+    /// Standard uncertainty of each squareness difference, µrad (u² = u_baseline² +
+    /// u_other²; null when not compared or a σ is not stored).
+    squareness_u: BTreeMap<String, Option<f64>>,
+    /// Which check lacks each term or squareness that is not compared for that reason.
+    not_identifiable_in: BTreeMap<String, Lacking>,
+}
+
+/// Which of the two checks did not identify a term.
+#[derive(Serialize, Clone, Copy, PartialEq, Debug)]
+#[serde(rename_all = "snake_case")]
+enum Lacking {
+    Baseline,
+    Other,
+    Both,
+}
+
+impl Lacking {
+    /// From whether each check identified the term; `None` when both did.
+    fn of(in_base: bool, in_other: bool) -> Option<Self> {
+        match (in_base, in_other) {
+            (true, true) => None,
+            (false, true) => Some(Self::Baseline),
+            (true, false) => Some(Self::Other),
+            (false, false) => Some(Self::Both),
+        }
+    }
+
+    fn says(self) -> &'static str {
+        match self {
+            Self::Baseline => "not identifiable in the baseline",
+            Self::Other => "not identifiable in the other check",
+            Self::Both => "not identifiable in either",
+        }
+    }
 }
 
 pub fn run(args: Args) -> anyhow::Result<ExitCode> {
@@ -43,10 +77,35 @@ pub fn run(args: Args) -> anyhow::Result<ExitCode> {
     comparison::check_diff_step(&base, &other, args.step_mm)
         .map_err(|m| BadInput(format!("--{}", m.replace('_', "-"))))?;
     let (terms, squareness) = comparison::diff(&base, &other, args.step_mm);
+    let squareness_u = comparison::squareness_changes(&base, &other)
+        .into_iter()
+        .map(|(name, c)| (name.to_string(), c.and_then(|c| c.u)))
+        .collect();
+    let mut not_identifiable_in = BTreeMap::new();
+    for name in terms.keys() {
+        let lacking = Lacking::of(
+            base.coefficients(name).is_some(),
+            other.coefficients(name).is_some(),
+        );
+        if let Some(l) = lacking {
+            not_identifiable_in.insert(name.clone(), l);
+        }
+    }
+    for name in squareness.keys() {
+        let lacking = Lacking::of(
+            base.squareness(name).is_some(),
+            other.squareness(name).is_some(),
+        );
+        if let Some(l) = lacking {
+            not_identifiable_in.insert(name.clone(), l);
+        }
+    }
     let doc = Comparison {
         drift: comparison::drift(&base, &other),
         terms,
         squareness,
+        squareness_u,
+        not_identifiable_in,
     };
     super::out::document(args.json, &doc, summary)?;
     Ok(ExitCode::SUCCESS)
@@ -84,8 +143,11 @@ fn summary(c: &Comparison) -> String {
             }
             _ if !d.identifiable => {
                 s += &format!(
-                    "{name:<6} {:<5} not identifiable in both\n",
-                    unit_label(&d.unit)
+                    "{name:<6} {:<5} {}\n",
+                    unit_label(&d.unit),
+                    c.not_identifiable_in
+                        .get(name)
+                        .map_or("not identifiable", |l| l.says())
                 )
             }
             _ => {
@@ -98,8 +160,26 @@ fn summary(c: &Comparison) -> String {
     }
     for (name, v) in &c.squareness {
         match v {
-            Some(v) => s += &format!("{name:<6} µrad  {v:.3}\n"),
-            None => s += &format!("{name:<6} µrad  not identifiable in both\n"),
+            Some(v) => {
+                s += &format!(
+                    "{name:<6} µrad  {:<20}  {v:>14.3}  {:>8}  {}\n",
+                    "(a constant)",
+                    "",
+                    c.squareness_u
+                        .get(name)
+                        .copied()
+                        .flatten()
+                        .map_or("-".into(), |u| format!("{u:.3}"))
+                )
+            }
+            None => {
+                s += &format!(
+                    "{name:<6} µrad  {}\n",
+                    c.not_identifiable_in
+                        .get(name)
+                        .map_or("not identifiable", |l| l.says())
+                )
+            }
         }
     }
     if !c.drift.not_compared.is_empty() {

@@ -47,13 +47,17 @@ pub fn run(args: Args) -> anyhow::Result<ExitCode> {
     let limits = args.read.limits();
     let path = &args.path;
     mtcal_formats::stat_path(path)?;
-    let kind = mtcal_formats::sniff_path(path).ok_or_else(|| {
-        BadInput(format!(
-            "{}: not a session folder (session.json), a positioning-run CSV \
+    // A CSV that looks like positioning runs or a drift log but breaks its format is read
+    // with that kind's reader, which names what is wrong (file, line, column and rule).
+    let kind = mtcal_formats::sniff_path(path)
+        .or_else(|| super::resembled_kind(path))
+        .ok_or_else(|| {
+            BadInput(format!(
+                "{}: not a session folder (session.json), a positioning-run CSV \
              (axis,run,direction,target_mm,deviation_um) or a drift-log CSV (t_s, <name>_um, ...)",
-            path.display()
-        ))
-    })?;
+                path.display()
+            ))
+        })?;
     let machine_id = args.machine_id.clone().unwrap_or_else(|| {
         let name = path
             .file_name()

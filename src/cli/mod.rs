@@ -40,6 +40,73 @@ impl ReadArgs {
     }
 }
 
+/// The kind of dataset a CSV file that matches no kind ([`mtcal_formats::sniff_path`]
+/// is `None`) resembles by its header, so that the kind's strict reader can say what is
+/// wrong (a missing column, with file, line, column and rule) instead of a generic "not
+/// a positioning-run CSV": positioning runs when the header names `axis` and
+/// `target_mm`, or three of the five required columns; a drift log when it names `t_s`
+/// and a channel (`<name>_um`, `_c`, `_rpm`, `_mm`), or only channels and one other
+/// column, and no column of a session's plane CSV or a rotary point set. `None` for a
+/// folder, a JSON file, an unreadable file or any other header.
+pub fn resembled_kind(path: &std::path::Path) -> Option<mtcal_formats::DatasetKind> {
+    use mtcal_formats::DatasetKind;
+    use mtcal_formats::drift::channel_kind;
+    use std::io::Read;
+    const HEAD: u64 = 64 * 1024;
+    if !path.is_file() {
+        return None;
+    }
+    let mut raw = Vec::new();
+    std::fs::File::open(path)
+        .ok()?
+        .take(HEAD)
+        .read_to_end(&mut raw)
+        .ok()?;
+    let head = if raw.starts_with(&[0x1f, 0x8b]) {
+        let mut text = Vec::new();
+        // A prefix of a gzip stream ends early: what was decoded so far is the head.
+        let _ = flate2::read::GzDecoder::new(raw.as_slice())
+            .take(HEAD)
+            .read_to_end(&mut text);
+        text
+    } else {
+        raw
+    };
+    let text = String::from_utf8_lossy(&head);
+    let text = text.trim_start_matches('\u{feff}').trim_start();
+    if text.starts_with('{') {
+        return None;
+    }
+    let header = text
+        .lines()
+        .map(str::trim)
+        .find(|l| !l.is_empty() && !l.starts_with('#'))?;
+    let sep = if header.contains(';') && !header.contains(',') {
+        ';'
+    } else {
+        ','
+    };
+    let cols: Vec<&str> = header
+        .split(sep)
+        .map(|c| c.trim().trim_matches('"'))
+        .filter(|c| !c.starts_with("x-"))
+        .collect();
+    let has = |n: &str| cols.contains(&n);
+    let positioning = ["axis", "run", "direction", "target_mm", "deviation_um"];
+    if (has("axis") && has("target_mm")) || positioning.iter().filter(|c| has(c)).count() >= 3 {
+        return Some(DatasetKind::Positioning);
+    }
+    if ["run", "test", "du_um", "dv_um", "a_deg", "c_deg"]
+        .iter()
+        .any(|c| has(c))
+    {
+        return None;
+    }
+    let channels = cols.iter().filter(|c| channel_kind(c).is_some()).count();
+    let drift = channels >= 1 && (has("t_s") || channels + 1 == cols.len());
+    drift.then_some(DatasetKind::DriftLog)
+}
+
 /// Marks an error as the user's input being wrong (exit code 2).
 #[derive(Debug, thiserror::Error)]
 #[error("{0}")]

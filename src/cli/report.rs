@@ -92,9 +92,14 @@ pub fn run(args: Args) -> anyhow::Result<ExitCode> {
     write(&args, page)
 }
 
+/// Writes the page to `--out` (then says so on stderr, as the other commands that write
+/// a file do) or to stdout.
 fn write(args: &Args, page: String) -> anyhow::Result<ExitCode> {
     match &args.out {
-        Some(p) => std::fs::write(p, page).with_context(|| format!("writing {}", p.display()))?,
+        Some(p) => {
+            std::fs::write(p, &page).with_context(|| format!("writing {}", p.display()))?;
+            super::out::noteln!("wrote the report ({} bytes) to {}", page.len(), p.display());
+        }
         None => super::out::write(&page)?,
     }
     Ok(ExitCode::SUCCESS)
