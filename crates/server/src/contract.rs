@@ -109,15 +109,18 @@ impl utoipa::Modify for Statuses {
 /// required): an acknowledgement without a comment is an empty body.
 const OPTIONAL_BODIES: [&str; 1] = ["alerts_ack"];
 
-fn optional_bodies(doc: &mut Value) {
-    let Some(paths) = doc.get_mut("paths").and_then(Value::as_object_mut) else {
-        return;
-    };
-    for op in paths
-        .values_mut()
+/// Every operation of the document (each method of each path).
+fn operations_mut(doc: &mut Value) -> impl Iterator<Item = &mut Value> {
+    doc.get_mut("paths")
+        .and_then(Value::as_object_mut)
+        .into_iter()
+        .flat_map(|paths| paths.values_mut())
         .filter_map(Value::as_object_mut)
         .flat_map(|o| o.values_mut())
-    {
+}
+
+fn optional_bodies(doc: &mut Value) {
+    for op in operations_mut(doc) {
         let id = op.get("operationId").and_then(Value::as_str).unwrap_or("");
         if OPTIONAL_BODIES.contains(&id)
             && let Some(body) = op.get_mut("requestBody").and_then(Value::as_object_mut)
@@ -138,14 +141,7 @@ pub fn required_scope(op: &Value) -> Option<&str> {
 /// every text parameter in a path or a query whose schema has no pattern or
 /// enumeration of its own (those admit no control character anyway).
 fn state_edge_rules(doc: &mut Value) {
-    let Some(paths) = doc.get_mut("paths").and_then(Value::as_object_mut) else {
-        return;
-    };
-    for op in paths
-        .values_mut()
-        .filter_map(Value::as_object_mut)
-        .flat_map(|o| o.values_mut())
-    {
+    for op in operations_mut(doc) {
         let Some(params) = op.get_mut("parameters").and_then(Value::as_array_mut) else {
             continue;
         };
