@@ -146,18 +146,65 @@ pub fn print_page(title: &str, body: Markup) -> Markup {
 
 /// An error page: the status and what went wrong, with a way back.
 pub fn error_page(viewer: Option<&Viewer>, status: u16, reason: &str, message: &str) -> Markup {
+    let (heading, what_to_do) = error_words(status);
     page(
-        reason,
+        heading,
         Nav::Other,
         viewer,
         html! {
             section.card #error {
-                h1 { (status) " " (reason) }
+                h1 { (heading) }
                 p.error { (message) }
-                p { a href="/" { "Back to the fleet" } }
+                p { (what_to_do) }
+                p.muted { "HTTP " (status) " " (reason) }
+                p { a href="/" { "Back to the fleet" } " · " a href="/jobs" { "jobs" } }
             }
         },
     )
+}
+
+/// What an error page says in words: its heading, and what a person does next.
+fn error_words(status: u16) -> (&'static str, &'static str) {
+    match status {
+        422 => (
+            "The dataset was not accepted",
+            "Correct the file at the line and column named (docs/datasets.md lists every \
+             rule), then upload it again. Nothing was stored.",
+        ),
+        413 => (
+            "The upload is too large",
+            "Send fewer or smaller files, or compress them (.gz or one .tar.gz). Nothing was \
+             stored.",
+        ),
+        408 => (
+            "The upload took too long",
+            "Try again on a faster connection, or compress the files. Nothing was stored.",
+        ),
+        400 | 415 => (
+            "The request was not accepted",
+            "Check the fields named above and send the form again. Nothing was changed.",
+        ),
+        401 | 403 => (
+            "Not allowed",
+            "Sign in with a key whose scope allows this (write for uploads and profiles).",
+        ),
+        404 => (
+            "Not found",
+            "The link may be old: start again from the fleet.",
+        ),
+        409 => (
+            "Not possible now",
+            "The message says what stands in the way; nothing was changed.",
+        ),
+        503 => (
+            "The service is not ready",
+            "The database cannot be reached now; try again in a few seconds.",
+        ),
+        _ => (
+            "Something went wrong",
+            "The cause is in the service's log; try again, or tell whoever runs the service.",
+        ),
+    }
 }
 
 /// An SVG document inline (plots escape their own text).
@@ -230,6 +277,28 @@ pub(crate) mod tests {
             scope: scope.into(),
             csrf: "tok\"en".into(),
         }
+    }
+
+    /// An error page says what happened and what to do in words, with the message and
+    /// the way back; the HTTP status is small print.
+    #[test]
+    fn an_error_page_says_what_to_do() {
+        let html = error_page(
+            None,
+            422,
+            "Unprocessable Entity",
+            "xy.csv:3:du_um: `1,5` has a decimal comma",
+        )
+        .into_string();
+        assert!(
+            html.contains("<h1>The dataset was not accepted</h1>"),
+            "{html}"
+        );
+        assert!(html.contains("Correct the file at the line and column named"));
+        assert!(html.contains("xy.csv:3:du_um:"));
+        assert!(html.contains("HTTP 422 Unprocessable Entity"));
+        assert!(html.contains(r#"<a href="/">Back to the fleet</a>"#));
+        assert!(!html.contains("<h1>422"));
     }
 
     #[test]
