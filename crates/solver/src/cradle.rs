@@ -91,15 +91,12 @@ use crate::error::SolverError;
 use crate::identification::CONVENTION;
 use curves::compliance_curves;
 use floor::{floor_report, held_rms};
-use identify::{fit_kinematics, start};
-use location::{location_reports, summary};
-use model::params_from_model;
+use frames::PosePoints;
+use identify::{Obs, start};
+use location::location_reports;
 use nalgebra::Vector3;
 use poses::{data_frame, group_poses, observations};
-use selection::{
-    Candidate, VALIDATED_PER_STEP, bic, model_parameters, rivals, successors, try_model,
-    with_held_out,
-};
+use selection::{Selection, forward_selection, model_parameters};
 use serde::{Deserialize, Serialize};
 
 /// Options of [`check_cradle`].
@@ -149,16 +146,100 @@ pub fn check_cradle(
         .collect();
     let rotation_model = fit_dependence(&a_rad, &r);
 
-    let to_obs = |map: &dyn Fn(&Vector3<f64>) -> Vector3<f64>| observations(&poses, map);
+    let frame = register_frame(&poses, &pa, opts)?;
+    let (pivot, obs) = (frame.pivot, &frame.obs);
+    let n_poses = poses.len();
+    let Selection {
+        best,
+        candidates,
+        compliant,
+        rigid_summary,
+        rivals,
+    } = forward_selection(obs, pivot, n_poses, opts.compliance_margin)?;
+    let fit = &best.fit;
+    let use_compliant = !fit.spec.is_rigid();
+    let std = |k: usize| fit.cov[(k, k)].sqrt();
+    let compliance = use_compliant.then(|| compliance_report(fit));
+    let held_poses = held_out_poses(&poses, best.held.as_deref());
+    let floor = floor_report(&pa.poses, &held_poses, fit, obs.len());
+    let compensation = compensation_report(held_poses);
+    let notes = check_notes(opts, &frame, &pa, n_poses, floor.as_ref(), &rivals);
+    Ok(CradleResult {
+        kind: "cradle".into(),
+        convention: CONVENTION.into(),
+        machine_id: points.machine_id.clone(),
+        measured_at: points.measured_at.clone(),
+        n_points: points.points.len(),
+        n_poses,
+        registered_frame: frame.machine_frame,
+        pivot_mm: pivot,
+        reference_a_deg: pa.reference_a_deg,
+        a_axis: pa.a_axis.clone(),
+        poses: pa.poses.clone(),
+        rotation_model,
+        location_errors: location_reports(fit, frame.machine_frame),
+        registration: frame.registration,
+        kinematics: KinematicReport {
+            chosen: if use_compliant {
+                Dependence::Compliant
+            } else {
+                Dependence::Rigid
+            },
+            spec: fit.spec,
+            description: fit.spec.describe(),
+            margin: opts.compliance_margin,
+            rigid: rigid_summary,
+            compliant,
+            candidates,
+            parameters: model_parameters(fit, &rivals),
+            rivals,
+            separability: Some(separability::separability(obs, &fit.model, &fit.spec)),
+            curves: compliance_curves(fit, &pa.poses),
+            ball: BallReport {
+                radius_mm: fit.q[8],
+                radius_std_um: std(8) * 1e3,
+                azimuth_deg: frame.machine_frame.then(|| fit.q[9].to_degrees()),
+                height_mm: fit.q[10],
+                height_std_um: std(10) * 1e3,
+            },
+            compliance,
+            model: fit.model,
+        },
+        compensation,
+        floor,
+        notes,
+    })
+}
 
-    // Registration of the instrument frame (module docs, step 3).
-    let (r0, o) = data_frame(&pa);
+/// The instrument frame the check works in (module docs, step 3), with the
+/// observations in it.
+struct Frame {
+    /// The frame is the machine's as stated (else the best-fit frame).
+    machine_frame: bool,
+    pivot: [f64; 3],
+    obs: Vec<Obs>,
+    registration: RegistrationReport,
+    /// The best-fit registration's rotation (rad) and the stated pivot's offset (mm).
+    rotation_vec: Vector3<f64>,
+    pivot_offset: Vector3<f64>,
+}
+
+/// Registration of the instrument frame (module docs, step 3): the best-fit rigid map
+/// to the nominal kinematics; a frame stated to be the machine's is kept when the data
+/// agree with it, otherwise the check works in the best-fit frame.
+fn register_frame(
+    poses: &[PosePoints],
+    pa: &PatentAnalysis,
+    opts: &CradleOptions,
+) -> Result<Frame, SolverError> {
+    let to_obs = |map: &dyn Fn(&Vector3<f64>) -> Vector3<f64>| observations(poses, map);
+    let (r0, o) = data_frame(pa);
     let q_ball = start(
         &to_obs(&|p| r0.inverse() * (p - o)),
         [0.0; 3],
         &ModelSpec::RIGID,
     );
-    let reg = register::register(&poses, &r0, &o, [q_ball[8], q_ball[9], q_ball[10]])?;
+    let reg = register::register(poses, &r0, &o, [q_ball[8], q_ball[9], q_ball[10]])?;
     let rotation_vec = reg.rotation.scaled_axis();
     let pivot_offset = reg.apply(&Vector3::from(opts.pivot_mm));
     let machine_frame = opts.registered_frame
@@ -175,122 +256,35 @@ pub fn check_cradle(
         pivot_offset_mm: pivot_offset.into(),
         residual_rms_um: reg.residual_rms_mm * 1e3,
     };
+    Ok(Frame {
+        machine_frame,
+        pivot,
+        obs,
+        registration,
+        rotation_vec,
+        pivot_offset,
+    })
+}
 
-    // Forward selection of the A-dependent terms (module docs, step 4).
-    let n_poses = poses.len();
-    let lopo_rigid = n_poses >= 4;
-    let lopo = n_poses >= 5;
-    let q0 = start(&obs, pivot, &ModelSpec::RIGID);
-    let start_model = model::model_from_params(pivot, &ModelSpec::RIGID, &q0);
-    let rigid = try_model(
-        &obs,
-        pivot,
-        &ModelSpec::RIGID,
-        &start_model,
-        n_poses,
-        lopo_rigid,
-    )?;
-    let mut candidates = vec![summary(&rigid.fit, rigid.held.as_deref())];
-    let mut compliant: Option<KinematicSummary> = None;
-    let mut best = rigid;
-    let rigid_summary = candidates[0].clone();
-    // The other successors of the step that chose `best`, and the held-out RMS of the
-    // model it was chosen over (for the rivals, [`rivals`]).
-    let mut siblings: Vec<Candidate> = vec![];
-    let mut parent_rms = f64::INFINITY;
-    // The successors of the chosen model (the step the margin refused).
-    let mut richer: Vec<Candidate> = vec![];
-    if lopo {
-        loop {
-            // Richer models fitted; the best by BIC validated on held-out poses.
-            let mut fits: Vec<identify::KinematicFit> = successors(&best.fit.spec)
-                .iter()
-                .filter_map(|spec| {
-                    // A degenerate richer model is simply not a candidate.
-                    // … nor is one whose terms the data cannot separate.
-                    fit_kinematics(&obs, pivot, spec, &params_from_model(&best.fit.model, spec))
-                        .ok()
-                        .filter(|f| separability::separable(&obs, &f.model, &f.spec))
-                })
-                .collect();
-            fits.sort_by(|a, b| bic(a, obs.len()).total_cmp(&bic(b, obs.len())));
-            let mut step: Vec<Candidate> = vec![];
-            for (k, fit) in fits.into_iter().enumerate() {
-                if k >= VALIDATED_PER_STEP {
-                    candidates.push(summary(&fit, None));
-                    step.push(Candidate {
-                        fit,
-                        held: None,
-                        rms: f64::INFINITY,
-                    });
-                    continue;
-                }
-                let Ok(c) = with_held_out(fit, &obs, pivot, n_poses, true) else {
-                    continue;
-                };
-                let sum = summary(&c.fit, c.held.as_deref());
-                if c.fit.spec == ModelSpec::COMPLIANT {
-                    compliant = Some(sum.clone());
-                }
-                candidates.push(sum);
-                step.push(c);
-            }
-            let pick = (0..step.len()).min_by(|&a, &b| step[a].rms.total_cmp(&step[b].rms));
-            match pick {
-                Some(i) if step[i].rms < (1.0 - opts.compliance_margin) * best.rms => {
-                    parent_rms = best.rms;
-                    best = step.swap_remove(i);
-                    siblings = step;
-                }
-                _ => {
-                    richer = step;
-                    break;
-                }
-            }
-        }
-    }
-    let rivals = rivals(
-        &best,
-        siblings,
-        richer,
-        parent_rms,
-        &obs,
-        pivot,
-        n_poses,
-        opts.compliance_margin,
-    );
-    if compliant.is_none() && n_poses >= 4 {
-        // The classic compliant model, for comparison (validated with 5 poses or more).
-        compliant = try_model(
-            &obs,
-            pivot,
-            &ModelSpec::COMPLIANT,
-            &best.fit.model,
-            n_poses,
-            lopo,
-        )
-        .ok()
-        .map(|c| summary(&c.fit, c.held.as_deref()));
-    }
-    let fit = &best.fit;
-    let held = best.held.as_deref();
-    let use_compliant = !fit.spec.is_rigid();
+/// The chosen model's compliance terms with their standard uncertainties.
+fn compliance_report(fit: &identify::KinematicFit) -> ComplianceReport {
     let std = |k: usize| fit.cov[(k, k)].sqrt();
     let std_of = |name: &str| fit.spec.index(name).map_or(0.0, std);
-    let compliance = use_compliant.then(|| {
-        let [sa, ka, mb, mc] = fit.model.compliance.observable();
-        ComplianceReport {
-            s_a_urad: sa,
-            k_a_urad: ka,
-            m_b_urad: mb,
-            m_c_urad: mc,
-            std_urad: ["s_A", "k_A", "m_B", "m_C"].map(|n| std_of(n) * 1e6),
-            sin_urad: fit.model.compliance.sin_urad,
-            cos_urad: fit.model.compliance.cos_urad,
-        }
-    });
-    let held_poses: Vec<HeldOutPose> = held
-        .unwrap_or(&[])
+    let [sa, ka, mb, mc] = fit.model.compliance.observable();
+    ComplianceReport {
+        s_a_urad: sa,
+        k_a_urad: ka,
+        m_b_urad: mb,
+        m_c_urad: mc,
+        std_urad: ["s_A", "k_A", "m_B", "m_C"].map(|n| std_of(n) * 1e6),
+        sin_urad: fit.model.compliance.sin_urad,
+        cos_urad: fit.model.compliance.cos_urad,
+    }
+}
+
+/// Every held-out pose's prediction errors before and after, µm (module docs, step 5).
+fn held_out_poses(poses: &[PosePoints], held: Option<&[identify::HeldOut]>) -> Vec<HeldOutPose> {
+    held.unwrap_or(&[])
         .iter()
         .map(|h| HeldOutPose {
             a_deg: poses[h.pose].a_deg,
@@ -298,7 +292,11 @@ pub fn check_cradle(
             after_rms_um: h.after_rms * 1e3,
             after_max_um: h.after_max * 1e3,
         })
-        .collect();
+        .collect()
+}
+
+/// The held-out compensation figures: RMS over the held-out poses before and after.
+fn compensation_report(held_poses: Vec<HeldOutPose>) -> CompensationReport {
     let rms = |f: fn(&HeldOutPose) -> f64| {
         if held_poses.is_empty() {
             f64::NAN
@@ -306,19 +304,31 @@ pub fn check_cradle(
             (held_poses.iter().map(|h| f(h).powi(2)).sum::<f64>() / held_poses.len() as f64).sqrt()
         }
     };
-    let floor = floor_report(&pa.poses, &held_poses, fit, obs.len());
-    let compensation = CompensationReport {
+    CompensationReport {
         method: "leave-one-pose-out: each A pose predicted by the model fitted on the others; before = distance from the nominal kinematics in the registered frame, after = distance from the model (first-order residual after compensation)".into(),
         before_rms_um: rms(|h| h.before_rms_um),
         after_rms_um: rms(|h| h.after_rms_um),
         poses: held_poses,
-    };
+    }
+}
+
+/// The check's conventions and assumptions, in sentences: the model, the frame, the
+/// poses, the floor's statement and the rivals'.
+fn check_notes(
+    opts: &CradleOptions,
+    frame: &Frame,
+    pa: &PatentAnalysis,
+    n_poses: usize,
+    floor: Option<&FloorReport>,
+    rivals: &[RivalModel],
+) -> Vec<String> {
+    let (rotation_vec, pivot_offset) = (frame.rotation_vec, frame.pivot_offset);
     let mut notes = vec![
         "Cradle: A about X carries C about Z; tool fixed; linear axes taken as exact.".to_string(),
         "Rotation vectors: matR = [e1 e2 e3]·[et1 et2 et3]^-1 in the instrument frame, log(matR) = axis × angle, µrad; e1 from the point at C = 0 (patent) and from the phase of all points (phase).".to_string(),
         "Model of the kinematics: location errors, ball, and the A-dependent terms kept by forward selection on held-out A poses: a tilt ρ(A) = s·sin A + k·(cos A − 1) about the pivot, tilts of the C table about its mount about X and about its Y (each a·sin A + b·(cos A − 1)), an A positioning error, a shift along A or sideways.".to_string(),
     ];
-    if machine_frame {
+    if frame.machine_frame {
         notes.push(format!(
             "Instrument frame registered to the machine axes as stated; nominal A/C intersection (pivot) at {:?} mm (the best-fit registration agrees within {} and {:.3} mm).",
             opts.pivot_mm,
@@ -344,53 +354,9 @@ pub fn check_cradle(
             "Fewer than 5 A poses: no A-dependent model can be validated; rigid kept.".to_string(),
         );
     }
-    if let Some(f) = &floor {
+    if let Some(f) = floor {
         notes.push(f.statement.clone());
     }
     notes.extend(rivals.iter().map(|r| r.statement.clone()));
-    Ok(CradleResult {
-        kind: "cradle".into(),
-        convention: CONVENTION.into(),
-        machine_id: points.machine_id.clone(),
-        measured_at: points.measured_at.clone(),
-        n_points: points.points.len(),
-        n_poses,
-        registered_frame: machine_frame,
-        pivot_mm: pivot,
-        reference_a_deg: pa.reference_a_deg,
-        a_axis: pa.a_axis.clone(),
-        poses: pa.poses.clone(),
-        rotation_model,
-        location_errors: location_reports(fit, machine_frame),
-        registration,
-        kinematics: KinematicReport {
-            chosen: if use_compliant {
-                Dependence::Compliant
-            } else {
-                Dependence::Rigid
-            },
-            spec: fit.spec,
-            description: fit.spec.describe(),
-            margin: opts.compliance_margin,
-            rigid: rigid_summary,
-            compliant,
-            candidates,
-            parameters: model_parameters(fit, &rivals),
-            rivals,
-            separability: Some(separability::separability(&obs, &fit.model, &fit.spec)),
-            curves: compliance_curves(fit, &pa.poses),
-            ball: BallReport {
-                radius_mm: fit.q[8],
-                radius_std_um: std(8) * 1e3,
-                azimuth_deg: machine_frame.then(|| fit.q[9].to_degrees()),
-                height_mm: fit.q[10],
-                height_std_um: std(10) * 1e3,
-            },
-            compliance,
-            model: fit.model,
-        },
-        compensation,
-        floor,
-        notes,
-    })
+    notes
 }

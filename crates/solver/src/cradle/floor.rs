@@ -132,6 +132,8 @@ pub(super) fn floor_report(
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::cradle::identify::fit_kinematics;
+    use crate::cradle::model::params_from_model;
 
     /// The lack-of-fit test's false-alarm rate against the truth: the simulated cradle
     /// whose C table tilts about its mount ([`Deflection::Mount`], 2 µm isotropic noise),

@@ -1,7 +1,8 @@
 //! The forward selection of the A-dependent terms by leave-one-pose-out prediction
 //! error, and the rival models the BIC does not exclude.
 
-use crate::cradle::identify::{self, Obs, fit_kinematics, leave_one_pose_out};
+use crate::cradle::identify::{self, Obs, fit_kinematics, leave_one_pose_out, start};
+use crate::cradle::location::summary;
 use crate::cradle::model::{params_from_model, unit_of, unit_scale};
 use crate::cradle::*;
 use crate::error::SolverError;
@@ -211,4 +212,123 @@ pub(super) fn rivals(
         });
     }
     out
+}
+
+/// The outcome of the forward selection ([`forward_selection`]).
+pub(super) struct Selection {
+    /// The chosen model with its held-out figures.
+    pub(super) best: Candidate,
+    /// Every model fitted, in the order tried.
+    pub(super) candidates: Vec<KinematicSummary>,
+    /// The classic compliant model, for comparison.
+    pub(super) compliant: Option<KinematicSummary>,
+    pub(super) rigid_summary: KinematicSummary,
+    /// The rival models the data do not exclude ([`rivals`]).
+    pub(super) rivals: Vec<RivalModel>,
+}
+
+/// Forward selection of the A-dependent terms (module docs, step 4): from the rigid
+/// model, the richer models fitted and the best by BIC validated on held-out poses, a
+/// step kept when it lowers the held-out RMS by more than `margin` (relative); then the
+/// rivals and the classic compliant model for comparison.
+pub(super) fn forward_selection(
+    obs: &[Obs],
+    pivot: [f64; 3],
+    n_poses: usize,
+    margin: f64,
+) -> Result<Selection, SolverError> {
+    let lopo_rigid = n_poses >= 4;
+    let lopo = n_poses >= 5;
+    let q0 = start(obs, pivot, &ModelSpec::RIGID);
+    let start_model = model::model_from_params(pivot, &ModelSpec::RIGID, &q0);
+    let rigid = try_model(
+        obs,
+        pivot,
+        &ModelSpec::RIGID,
+        &start_model,
+        n_poses,
+        lopo_rigid,
+    )?;
+    let mut candidates = vec![summary(&rigid.fit, rigid.held.as_deref())];
+    let mut compliant: Option<KinematicSummary> = None;
+    let mut best = rigid;
+    let rigid_summary = candidates[0].clone();
+    // The other successors of the step that chose `best`, and the held-out RMS of the
+    // model it was chosen over (for the rivals, [`rivals`]).
+    let mut siblings: Vec<Candidate> = vec![];
+    let mut parent_rms = f64::INFINITY;
+    // The successors of the chosen model (the step the margin refused).
+    let mut richer: Vec<Candidate> = vec![];
+    if lopo {
+        loop {
+            // Richer models fitted; the best by BIC validated on held-out poses.
+            let mut fits: Vec<identify::KinematicFit> = successors(&best.fit.spec)
+                .iter()
+                .filter_map(|spec| {
+                    // A degenerate richer model is simply not a candidate.
+                    // … nor is one whose terms the data cannot separate.
+                    fit_kinematics(obs, pivot, spec, &params_from_model(&best.fit.model, spec))
+                        .ok()
+                        .filter(|f| separability::separable(obs, &f.model, &f.spec))
+                })
+                .collect();
+            fits.sort_by(|a, b| bic(a, obs.len()).total_cmp(&bic(b, obs.len())));
+            let mut step: Vec<Candidate> = vec![];
+            for (k, fit) in fits.into_iter().enumerate() {
+                if k >= VALIDATED_PER_STEP {
+                    candidates.push(summary(&fit, None));
+                    step.push(Candidate {
+                        fit,
+                        held: None,
+                        rms: f64::INFINITY,
+                    });
+                    continue;
+                }
+                let Ok(c) = with_held_out(fit, obs, pivot, n_poses, true) else {
+                    continue;
+                };
+                let sum = summary(&c.fit, c.held.as_deref());
+                if c.fit.spec == ModelSpec::COMPLIANT {
+                    compliant = Some(sum.clone());
+                }
+                candidates.push(sum);
+                step.push(c);
+            }
+            let pick = (0..step.len()).min_by(|&a, &b| step[a].rms.total_cmp(&step[b].rms));
+            match pick {
+                Some(i) if step[i].rms < (1.0 - margin) * best.rms => {
+                    parent_rms = best.rms;
+                    best = step.swap_remove(i);
+                    siblings = step;
+                }
+                _ => {
+                    richer = step;
+                    break;
+                }
+            }
+        }
+    }
+    let rivals = rivals(
+        &best, siblings, richer, parent_rms, obs, pivot, n_poses, margin,
+    );
+    if compliant.is_none() && n_poses >= 4 {
+        // The classic compliant model, for comparison (validated with 5 poses or more).
+        compliant = try_model(
+            obs,
+            pivot,
+            &ModelSpec::COMPLIANT,
+            &best.fit.model,
+            n_poses,
+            lopo,
+        )
+        .ok()
+        .map(|c| summary(&c.fit, c.held.as_deref()));
+    }
+    Ok(Selection {
+        best,
+        candidates,
+        compliant,
+        rigid_summary,
+        rivals,
+    })
 }
