@@ -864,7 +864,11 @@ mod tests {
             ["[::1]:5432".parse::<SocketAddr>().unwrap()]
         );
         assert!(database_addrs("mtcal.sqlite").await.is_empty());
-        assert!(database_addrs("sqlite:///var/lib/mtcal/db").await.is_empty());
+        assert!(
+            database_addrs("sqlite:///var/lib/mtcal/db")
+                .await
+                .is_empty()
+        );
     }
 
     #[tokio::test]
