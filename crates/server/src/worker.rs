@@ -220,43 +220,10 @@ async fn run_job(
     let held = Lease::new(&job.id, me);
     let (stop_tx, mut stop_rx) = watch::channel(None::<u8>);
     // The solver's progress (fraction of the job, phase), written with each heartbeat.
-    let (progress_tx, mut progress_rx) = watch::channel((0.2, "solving".to_string()));
+    let (progress_tx, progress_rx) = watch::channel((0.2, "solving".to_string()));
     // Heartbeat: extend the lease every third of it, and learn about cancellation; a new
     // phase is written at once, at most every PROGRESS_EVERY.
-    let hb = {
-        let store = store.clone();
-        let (id, me) = (job.id.clone(), me.to_string());
-        tokio::spawn(async move {
-            let every = Duration::from_millis((lease / 3).max(50) as u64);
-            let mut changed = true;
-            loop {
-                tokio::select! {
-                    _ = tokio::time::sleep(every) => {}
-                    r = progress_rx.changed(), if changed => {
-                        changed = r.is_ok();
-                        tokio::time::sleep(PROGRESS_EVERY).await;
-                    }
-                }
-                let (fraction, message) = progress_rx.borrow_and_update().clone();
-                let at = Progress {
-                    fraction,
-                    message: &message,
-                };
-                match store.heartbeat(Lease::new(&id, &me), lease, at).await {
-                    Ok(Heartbeat::Continue) => {}
-                    Ok(Heartbeat::CancelRequested) => {
-                        let _ = stop_tx.send(Some(0));
-                        return;
-                    }
-                    Ok(Heartbeat::LeaseLost) => {
-                        let _ = stop_tx.send(Some(1));
-                        return;
-                    }
-                    Err(e) => tracing::warn!(%e, "heartbeat"),
-                }
-            }
-        })
-    };
+    let hb = spawn_heartbeat(store, (&job.id, me), lease, progress_rx, stop_tx);
     let work = async {
         let input = load_input(store, cfg, &job).await?;
         if cfg.pause_before_solve_ms > 0 {
@@ -304,7 +271,77 @@ async fn run_job(
         _ = tokio::time::sleep(cfg.max_run) => Err(Stop::TimedOut),
     };
     hb.abort();
-    let recorded = match outcome {
+    let recorded = record_outcome(store, cfg, &job, held, outcome).await;
+    // Claim to outcome: recorded before what follows a landed result.
+    let outcome = match &recorded {
+        Ok(j) if j.state == mtcal_store::JobState::Queued => "requeued",
+        Ok(j) => j.state.as_str(),
+        Err(_) => "lost",
+    };
+    crate::metrics::metrics().job_finished(kind, outcome, claimed.elapsed().as_secs_f64());
+    if let Ok(j) = &recorded {
+        result_landed(store, cfg, &job, j).await;
+    }
+    match recorded {
+        Ok(j) => tracing::info!(job = %j.id, state = j.state.as_str(), "job finished"),
+        Err(e) => tracing::warn!(job = %job.id, %e, "job outcome not recorded"),
+    }
+}
+
+/// The heartbeat of a running job: extends the lease every third of it and learns about
+/// cancellation (`stop_tx`: 0 cancel requested, 1 lease lost); a new phase of
+/// `progress_rx` is written at once, at most every PROGRESS_EVERY.
+fn spawn_heartbeat(
+    store: &Arc<dyn Store>,
+    (id, me): (&str, &str),
+    lease: i64,
+    mut progress_rx: watch::Receiver<(f64, String)>,
+    stop_tx: watch::Sender<Option<u8>>,
+) -> tokio::task::JoinHandle<()> {
+    let store = store.clone();
+    let (id, me) = (id.to_string(), me.to_string());
+    tokio::spawn(async move {
+        let every = Duration::from_millis((lease / 3).max(50) as u64);
+        let mut changed = true;
+        loop {
+            tokio::select! {
+                _ = tokio::time::sleep(every) => {}
+                r = progress_rx.changed(), if changed => {
+                    changed = r.is_ok();
+                    tokio::time::sleep(PROGRESS_EVERY).await;
+                }
+            }
+            let (fraction, message) = progress_rx.borrow_and_update().clone();
+            let at = Progress {
+                fraction,
+                message: &message,
+            };
+            match store.heartbeat(Lease::new(&id, &me), lease, at).await {
+                Ok(Heartbeat::Continue) => {}
+                Ok(Heartbeat::CancelRequested) => {
+                    let _ = stop_tx.send(Some(0));
+                    return;
+                }
+                Ok(Heartbeat::LeaseLost) => {
+                    let _ = stop_tx.send(Some(1));
+                    return;
+                }
+                Err(e) => tracing::warn!(%e, "heartbeat"),
+            }
+        }
+    })
+}
+
+/// Records a job's outcome in the store: its result, its failure (retried when
+/// transient), its cancellation or its hand-back to the queue.
+async fn record_outcome(
+    store: &Arc<dyn Store>,
+    cfg: &WorkerConfig,
+    job: &Job,
+    held: Lease<'_>,
+    outcome: Result<Result<jobs::JobOutput, JobError>, Stop>,
+) -> Result<Job, StoreError> {
+    match outcome {
         Ok(Ok(out)) => {
             let r = NewResult {
                 machine_id: job.machine_id.clone().unwrap_or_default(),
@@ -340,7 +377,7 @@ async fn run_job(
         Err(Stop::TimedOut) => {
             let m = format!(
                 "the job ran longer than the limit of {} s and was stopped (the service's \
-                 --job-timeout-seconds)",
+             --job-timeout-seconds)",
                 cfg.max_run.as_secs()
             );
             let failure = Failure {
@@ -354,16 +391,14 @@ async fn run_job(
             tracing::warn!(job = %job.id, "shutting down: job handed back to the queue");
             store.release_job(held).await
         }
-    };
-    // Claim to outcome: recorded before what follows a landed result.
-    let outcome = match &recorded {
-        Ok(j) if j.state == mtcal_store::JobState::Queued => "requeued",
-        Ok(j) => j.state.as_str(),
-        Err(_) => "lost",
-    };
-    crate::metrics::metrics().job_finished(kind, outcome, claimed.elapsed().as_secs_f64());
-    if let Ok(j) = &recorded
-        && j.state == mtcal_store::JobState::Succeeded
+    }
+}
+
+/// What follows a landed result: an identification refreshes the fleet's drift and
+/// alerts and, when its model does not explain its recording, queues its dataset's
+/// diagnosis; a diagnosis refreshes the machine's fleet row.
+async fn result_landed(store: &Arc<dyn Store>, cfg: &WorkerConfig, job: &Job, j: &Job) {
+    if j.state == mtcal_store::JobState::Succeeded
         && job.kind.result_kind() == mtcal_domain::kinds::IDENTIFICATION
         && let Some(m) = &job.machine_id
         && let Some(r) = &j.result_id
@@ -372,8 +407,7 @@ async fn run_job(
         tracing::warn!(machine = %m, %e, "fleet drift or drift alerts not refreshed");
     }
     // A diagnosis: the machine's fleet row shows its findings.
-    if let Ok(j) = &recorded
-        && j.state == mtcal_store::JobState::Succeeded
+    if j.state == mtcal_store::JobState::Succeeded
         && job.kind.result_kind() == mtcal_domain::kinds::DIAGNOSIS
         && let Some(m) = &job.machine_id
         && let Err(e) = mtcal_domain::landing::diagnosis_landed(store.as_ref(), m).await
@@ -382,8 +416,7 @@ async fn run_job(
     }
     // A result whose model does not explain its recording: its dataset's diagnosis is
     // queued (once), so that its findings reach the pages and the report.
-    if let Ok(j) = &recorded
-        && j.state == mtcal_store::JobState::Succeeded
+    if j.state == mtcal_store::JobState::Succeeded
         && job.kind.result_kind() == mtcal_domain::kinds::IDENTIFICATION
         && let Some(r) = &j.result_id
     {
@@ -397,10 +430,6 @@ async fn run_job(
             Ok(None) => {}
             Err(e) => tracing::warn!(result = %r, %e, "the misfit's diagnosis was not queued"),
         }
-    }
-    match recorded {
-        Ok(j) => tracing::info!(job = %j.id, state = j.state.as_str(), "job finished"),
-        Err(e) => tracing::warn!(job = %job.id, %e, "job outcome not recorded"),
     }
 }
 

@@ -24,161 +24,15 @@ pub fn report(
     est: &Estimate,
 ) -> IdentificationResult {
     let (fit, ident) = (&est.fit, &est.ident);
-    let x = fit.error_params();
     let all = Term::all();
-    // Which terms each term is confounded with.
-    let mut confounded_with: Vec<Vec<String>> = vec![Vec::new(); all.len() + 3];
-    let mut groups = Vec::new();
-    for g in &ident.groups {
-        let names = observability::group_terms(model, g);
-        for n in &names {
-            let i = name_index(n);
-            confounded_with[i] = names.iter().filter(|m| *m != n).cloned().collect();
-        }
-        groups.push(Confounded {
-            seen_as: match est.seen_as {
-                Some(f) => f(&names),
-                None => seen_as(&names, session),
-            },
-            terms: names,
-        });
-    }
+    let (confounded_with, groups) = confounded_groups(session, model, est);
     let term_ok: Vec<bool> = (0..all.len())
         .map(|i| model.bases[i].is_some() && model.term_range(i).all(|j| ident.param_determined[j]))
         .collect();
-    let mut terms = BTreeMap::new();
-    let mut lines: Vec<Option<(Vec<f64>, Vec<f64>)>> = vec![None; all.len()];
-    for (i, term) in all.into_iter().enumerate() {
-        let name = term.name();
-        let mut rep = TermReport {
-            unit: term.unit().to_string(),
-            positions_mm: vec![],
-            values: vec![],
-            std: vec![],
-            identifiable: term_ok[i],
-            confounded_with: confounded_with[i].clone(),
-            coefficients: vec![],
-            coefficient_covariance: vec![],
-        };
-        if let (true, Some((lo, hi))) = (term_ok[i], model.travel[term.axis.index()]) {
-            let straight = term.kind() == TermKind::Straightness;
-            // Least-squares line of the function over the travel (straightness only),
-            // as functionals (a, b) of the parameters.
-            let line = straight.then(|| ls_line_functionals(model, i, lo, hi));
-            if let Some(l) = &line {
-                lines[i] = Some(l.clone());
-            }
-            for q in grid(lo, hi, opts.grid_step_mm) {
-                let mut w = model.term_value_gradient(i, q);
-                if let Some((a, b)) = &line {
-                    for j in 0..w.len() {
-                        w[j] -= a[j] + b[j] * q;
-                    }
-                }
-                let v: f64 = w.iter().zip(x).map(|(w, x)| w * x).sum();
-                rep.positions_mm.push(q);
-                rep.values.push(round(v));
-                rep.std
-                    .push(round(observability::functional_variance(fit, &w).sqrt()));
-            }
-            rep.coefficients = monomial_coefficients(model, i, x);
-            rep.coefficient_covariance = coefficient_covariance(model, fit, i);
-        }
-        terms.insert(name, rep);
-    }
-    // Reported squareness: γ − s_XY − s_YX, β + s_XZ + s_ZX, α − s_YZ − s_ZY (µrad; the
-    // slopes s in µm/mm are mrad, hence × 1000).
-    let mut squareness = BTreeMap::new();
-    for s in SquarenessTerm::ALL {
-        let (pa, pb, sign) = match s {
-            SquarenessTerm::EC0Y => ("EXY", "EYX", -1.0),
-            SquarenessTerm::EB0Z => ("EXZ", "EZX", 1.0),
-            SquarenessTerm::EA0Z => ("EYZ", "EZY", -1.0),
-        };
-        let mut w = vec![0.0; model.len()];
-        w[model.squareness_index(s)] = 1.0;
-        let mut ok = true;
-        for name in [pa, pb] {
-            let i = name_index(name);
-            match (&lines[i], model.travel[all[i].axis.index()]) {
-                (Some((_, b)), _) => {
-                    for j in 0..w.len() {
-                        w[j] += sign * 1000.0 * b[j];
-                    }
-                }
-                (None, Some((lo, hi))) => {
-                    // Straightness not reported on its own: its slope may still be
-                    // estimable in combination.
-                    let (_, b) = ls_line_functionals(model, i, lo, hi);
-                    for j in 0..w.len() {
-                        w[j] += sign * 1000.0 * b[j];
-                    }
-                }
-                (None, None) => ok = false,
-            }
-        }
-        let sq_index = model.squareness_index(s);
-        let param_ok = ident.param_determined[sq_index];
-        let lines_ok = ok && observability::estimable(fit, &w);
-        // The model constant alone, when the least-squares-line angle is not estimable.
-        let w = if lines_ok {
-            w
-        } else {
-            let mut w0 = vec![0.0; model.len()];
-            w0[sq_index] = 1.0;
-            w0
-        };
-        let ok = lines_ok || param_ok;
-        let idx = all.len() + SquarenessTerm::ALL.iter().position(|&t| t == s).unwrap();
-        squareness.insert(
-            s.name().to_string(),
-            SquarenessReport {
-                value_urad: ok.then(|| round(w.iter().zip(x).map(|(a, b)| a * b).sum())),
-                std_urad: ok.then(|| round(observability::functional_variance(fit, &w).sqrt())),
-                identifiable: ok,
-                confounded_with: if ok {
-                    vec![]
-                } else {
-                    confounded_with[idx].clone()
-                },
-                reported_as: ok.then(|| {
-                    if lines_ok {
-                        "ls_axis_lines"
-                    } else {
-                        "model_constant"
-                    }
-                    .to_string()
-                }),
-            },
-        );
-    }
-    let mut identifiable = Vec::new();
-    let mut not_identifiable = Vec::new();
-    for (i, t) in all.into_iter().enumerate() {
-        if term_ok[i] {
-            identifiable.push(t.name());
-        } else {
-            not_identifiable.push(t.name());
-        }
-    }
-    for s in SquarenessTerm::ALL {
-        if squareness[s.name()].identifiable {
-            identifiable.push(s.name().to_string());
-        } else {
-            not_identifiable.push(s.name().to_string());
-        }
-    }
-    let mut mountings = BTreeMap::new();
-    for (m, name) in fit.layout.mountings.iter().enumerate() {
-        let ok = ident.rotation_determined[m];
-        mountings.insert(
-            name.clone(),
-            MountingReport {
-                rotation_urad: ok.then(|| round(fit.solution.x[m])),
-                std_urad: ok.then(|| round(fit.solution.cov[(m, m)].max(0.0).sqrt())),
-            },
-        );
-    }
+    let (terms, lines) = term_reports(model, opts, fit, &term_ok, &confounded_with);
+    let squareness = squareness_reports(model, est, &lines, &confounded_with);
+    let (identifiable, not_identifiable) = identifiability_lists(&term_ok, &squareness);
+    let mountings = mounting_reports(est);
     let rows = fit.reduced.rows;
     // The per-sample residuals and, on a second core, each circle run's geometry (once,
     // for the ISO 230-4 figures and the polar plots) with the standards' figures, which
@@ -248,6 +102,213 @@ pub fn report(
         model_check: None,
         conditions: session.test_conditions(),
     }
+}
+
+/// Which terms each term is confounded with (by index, [`name_index`]), and the
+/// confounded groups as reported.
+fn confounded_groups(
+    session: &Session,
+    model: &ErrorModel,
+    est: &Estimate,
+) -> (Vec<Vec<String>>, Vec<Confounded>) {
+    let (ident, all) = (&est.ident, Term::all());
+    // Which terms each term is confounded with.
+    let mut confounded_with: Vec<Vec<String>> = vec![Vec::new(); all.len() + 3];
+    let mut groups = Vec::new();
+    for g in &ident.groups {
+        let names = observability::group_terms(model, g);
+        for n in &names {
+            let i = name_index(n);
+            confounded_with[i] = names.iter().filter(|m| *m != n).cloned().collect();
+        }
+        groups.push(Confounded {
+            seen_as: match est.seen_as {
+                Some(f) => f(&names),
+                None => seen_as(&names, session),
+            },
+            terms: names,
+        });
+    }
+    (confounded_with, groups)
+}
+
+/// Each error function's values on the reporting grid with their uncertainties (a
+/// straightness about its least-squares line over the travel), and the least-squares
+/// lines' functionals of the straightnesses.
+#[allow(clippy::type_complexity)]
+fn term_reports(
+    model: &ErrorModel,
+    opts: &IdentifyOptions,
+    fit: &Fit,
+    term_ok: &[bool],
+    confounded_with: &[Vec<String>],
+) -> (
+    BTreeMap<String, TermReport>,
+    Vec<Option<(Vec<f64>, Vec<f64>)>>,
+) {
+    let (x, all) = (fit.error_params(), Term::all());
+    let mut terms = BTreeMap::new();
+    let mut lines: Vec<Option<(Vec<f64>, Vec<f64>)>> = vec![None; all.len()];
+    for (i, term) in all.into_iter().enumerate() {
+        let name = term.name();
+        let mut rep = TermReport {
+            unit: term.unit().to_string(),
+            positions_mm: vec![],
+            values: vec![],
+            std: vec![],
+            identifiable: term_ok[i],
+            confounded_with: confounded_with[i].clone(),
+            coefficients: vec![],
+            coefficient_covariance: vec![],
+        };
+        if let (true, Some((lo, hi))) = (term_ok[i], model.travel[term.axis.index()]) {
+            let straight = term.kind() == TermKind::Straightness;
+            // Least-squares line of the function over the travel (straightness only),
+            // as functionals (a, b) of the parameters.
+            let line = straight.then(|| ls_line_functionals(model, i, lo, hi));
+            if let Some(l) = &line {
+                lines[i] = Some(l.clone());
+            }
+            for q in grid(lo, hi, opts.grid_step_mm) {
+                let mut w = model.term_value_gradient(i, q);
+                if let Some((a, b)) = &line {
+                    for j in 0..w.len() {
+                        w[j] -= a[j] + b[j] * q;
+                    }
+                }
+                let v: f64 = w.iter().zip(x).map(|(w, x)| w * x).sum();
+                rep.positions_mm.push(q);
+                rep.values.push(round(v));
+                rep.std
+                    .push(round(observability::functional_variance(fit, &w).sqrt()));
+            }
+            rep.coefficients = monomial_coefficients(model, i, x);
+            rep.coefficient_covariance = coefficient_covariance(model, fit, i);
+        }
+        terms.insert(name, rep);
+    }
+    (terms, lines)
+}
+
+/// Every squareness as the angle between the least-squares axis lines, or the model
+/// constant alone when that angle is not estimable.
+fn squareness_reports(
+    model: &ErrorModel,
+    est: &Estimate,
+    lines: &[Option<(Vec<f64>, Vec<f64>)>],
+    confounded_with: &[Vec<String>],
+) -> BTreeMap<String, SquarenessReport> {
+    let (fit, ident) = (&est.fit, &est.ident);
+    let (x, all) = (fit.error_params(), Term::all());
+    // Reported squareness: γ − s_XY − s_YX, β + s_XZ + s_ZX, α − s_YZ − s_ZY (µrad; the
+    // slopes s in µm/mm are mrad, hence × 1000).
+    let mut squareness = BTreeMap::new();
+    for s in SquarenessTerm::ALL {
+        let (pa, pb, sign) = match s {
+            SquarenessTerm::EC0Y => ("EXY", "EYX", -1.0),
+            SquarenessTerm::EB0Z => ("EXZ", "EZX", 1.0),
+            SquarenessTerm::EA0Z => ("EYZ", "EZY", -1.0),
+        };
+        let mut w = vec![0.0; model.len()];
+        w[model.squareness_index(s)] = 1.0;
+        let mut ok = true;
+        for name in [pa, pb] {
+            let i = name_index(name);
+            match (&lines[i], model.travel[all[i].axis.index()]) {
+                (Some((_, b)), _) => {
+                    for j in 0..w.len() {
+                        w[j] += sign * 1000.0 * b[j];
+                    }
+                }
+                (None, Some((lo, hi))) => {
+                    // Straightness not reported on its own: its slope may still be
+                    // estimable in combination.
+                    let (_, b) = ls_line_functionals(model, i, lo, hi);
+                    for j in 0..w.len() {
+                        w[j] += sign * 1000.0 * b[j];
+                    }
+                }
+                (None, None) => ok = false,
+            }
+        }
+        let sq_index = model.squareness_index(s);
+        let param_ok = ident.param_determined[sq_index];
+        let lines_ok = ok && observability::estimable(fit, &w);
+        // The model constant alone, when the least-squares-line angle is not estimable.
+        let w = if lines_ok {
+            w
+        } else {
+            let mut w0 = vec![0.0; model.len()];
+            w0[sq_index] = 1.0;
+            w0
+        };
+        let ok = lines_ok || param_ok;
+        let idx = all.len() + SquarenessTerm::ALL.iter().position(|&t| t == s).unwrap();
+        squareness.insert(
+            s.name().to_string(),
+            SquarenessReport {
+                value_urad: ok.then(|| round(w.iter().zip(x).map(|(a, b)| a * b).sum())),
+                std_urad: ok.then(|| round(observability::functional_variance(fit, &w).sqrt())),
+                identifiable: ok,
+                confounded_with: if ok {
+                    vec![]
+                } else {
+                    confounded_with[idx].clone()
+                },
+                reported_as: ok.then(|| {
+                    if lines_ok {
+                        "ls_axis_lines"
+                    } else {
+                        "model_constant"
+                    }
+                    .to_string()
+                }),
+            },
+        );
+    }
+    squareness
+}
+
+/// The names of the identifiable and the not identifiable terms and squarenesses.
+fn identifiability_lists(
+    term_ok: &[bool],
+    squareness: &BTreeMap<String, SquarenessReport>,
+) -> (Vec<String>, Vec<String>) {
+    let all = Term::all();
+    let mut identifiable = Vec::new();
+    let mut not_identifiable = Vec::new();
+    for (i, t) in all.into_iter().enumerate() {
+        if term_ok[i] {
+            identifiable.push(t.name());
+        } else {
+            not_identifiable.push(t.name());
+        }
+    }
+    for s in SquarenessTerm::ALL {
+        if squareness[s.name()].identifiable {
+            identifiable.push(s.name().to_string());
+        } else {
+            not_identifiable.push(s.name().to_string());
+        }
+    }
+    (identifiable, not_identifiable)
+}
+
+/// Each mounting's rotation with its standard uncertainty, where determined.
+fn mounting_reports(est: &Estimate) -> BTreeMap<String, MountingReport> {
+    let (fit, ident) = (&est.fit, &est.ident);
+    let mut mountings = BTreeMap::new();
+    for (m, name) in fit.layout.mountings.iter().enumerate() {
+        let ok = ident.rotation_determined[m];
+        mountings.insert(
+            name.clone(),
+            MountingReport {
+                rotation_urad: ok.then(|| round(fit.solution.x[m])),
+                std_urad: ok.then(|| round(fit.solution.cov[(m, m)].max(0.0).sqrt())),
+            },
+        );
+    }
+    mountings
 }
 
 /// Rounds a reported figure to 1e-6 of its unit (keeps documents readable).

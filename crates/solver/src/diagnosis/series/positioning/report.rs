@@ -41,18 +41,77 @@ pub(super) fn outcome(
 ) -> AxisOutcome {
     let n = a.n();
     let noise = sel.noise;
-    let residuals =
-        |pred: &[f64]| -> Vec<f64> { a.y.iter().zip(pred).map(|(y, p)| y - p).collect() };
-    let base_res = residuals(&sel.base_fit.prediction);
+    let base_res = residuals(a, &sel.base_fit.prediction);
+    let jf = final_joint_fit(a, &sel.model);
+    let findings = step_findings(a, &sel, &jf, &base_res, rep);
+    let res = jf.res.as_slice();
+    let final_heldout = sel.heldout_rms();
+    let base_heldout = sel.base_heldout_rms();
+    let local = local_anomalies(a, res, noise, rep);
+    let needs = base_heldout > opts.explained_ratio * noise
+        || !rep.set_aside.is_empty()
+        || !local.is_empty();
+    let mut left = vec![];
+    if needs && final_heldout > opts.explained_ratio * noise {
+        left.push(format!(
+            "held-out RMS {:.3} µm after {} effect(s) against a noise floor of {:.3} µm; the largest remaining residuals: {}",
+            final_heldout,
+            sel.steps.len(),
+            noise,
+            worst_places(a, res)
+        ));
+    }
+    left.extend(unexplained_anomalies(a, res, noise, rep, &local));
+    let unexplained = (!left.is_empty()).then(|| format!("axis {}: {}", a.axis, left.join("; ")));
+    let misfit = (base_res.iter().map(|v| v * v).sum::<f64>() - n as f64 * noise * noise).max(0.0);
+    let mismatch = mismatches(a, &base_res, res, misfit, noise, rep, &local);
+    AxisOutcome {
+        noise,
+        base_rms: rms(&base_res),
+        base_heldout,
+        final_heldout,
+        n,
+        mismatch,
+        findings,
+        unexplained,
+        plots: plots(a, &sel.model, &jf.fit.coef, &base_res, res, opts),
+        misfit,
+        needs,
+    }
+}
 
+/// The residuals of the axis's readings from a prediction.
+fn residuals(a: &AxisData, pred: &[f64]) -> Vec<f64> {
+    a.y.iter().zip(pred).map(|(y, p)| y - p).collect()
+}
+
+/// The final joint fit of a selection's model, with the Jacobian fit that gives its
+/// parameters' uncertainties (∂/∂θ columns of the nonlinear terms appended).
+struct FinalFit {
+    fit: lsq::LsqFit,
+    /// Residual of the final fit.
+    res: Vec<f64>,
+    /// Fit of the residual on the Jacobian: the standard uncertainties and covariance.
+    jfit: lsq::LsqFit,
+    /// Each term's first column.
+    offsets: Vec<usize>,
+    /// The first ∂/∂θ column of the Jacobian.
+    theta_idx: usize,
+    /// The lost-motion profile's first column (after every term's).
+    lm_off: usize,
+}
+
+/// Final joint fit; parameters and uncertainties from the Jacobian with ∂/∂θ columns.
+fn final_joint_fit(a: &AxisData, model: &Model) -> FinalFit {
+    let n = a.n();
     // Final joint fit; parameters and uncertainties from the Jacobian with ∂/∂θ columns.
-    let d = a.design(&sel.model);
+    let d = a.design(model);
     let fit = lsq::solve(&d, &a.y);
-    let res = residuals(&d.predict(&fit.coef));
+    let res = residuals(a, &d.predict(&fit.coef));
     let mut jac = d.clone();
-    let mut col = sel.model.order + 1;
+    let mut col = model.order + 1;
     let mut offsets = vec![];
-    for t in &sel.model.terms {
+    for t in &model.terms {
         offsets.push(col);
         if t.effect.nonlinear() {
             let h = 1e-4 * t.theta;
@@ -72,6 +131,25 @@ pub(super) fn outcome(
     let theta_idx = d.len();
     // The lost-motion profile's columns come after every term's.
     let lm_off = col;
+    FinalFit {
+        fit,
+        res,
+        jfit,
+        offsets,
+        theta_idx,
+        lm_off,
+    }
+}
+
+/// One finding per step of the selection, with its parameters from the final joint fit.
+fn step_findings(
+    a: &AxisData,
+    sel: &Selection<Positioning>,
+    jf: &FinalFit,
+    base_res: &[f64],
+    rep: &Repeatability,
+) -> Vec<Finding> {
+    let (fit, noise) = (&jf.fit, sel.noise);
     let mut findings = vec![];
     // Steps that change the lost motion (a constant backlash, then a profile, or a profile
     // raised in order) make one finding when the final model has a profile: the first
@@ -108,52 +186,7 @@ pub(super) fn outcome(
                 let first = &sel.steps[lm_steps[0]];
                 rms_ba.before = first.rms.before;
                 heldout_ba.before = first.heldout.before;
-                let order = sel.model.lost_motion.unwrap_or(0);
-                let prof = a.profile(order);
-                let coef = &fit.coef[lm_off..lm_off + order + 1];
-                let cov = jfit
-                    .cov
-                    .view((lm_off, lm_off), (order + 1, order + 1))
-                    .into_owned();
-                let at = prof.at(coef, &cov, &a.targets);
-                for (k, ((b, sb), t)) in at.iter().zip(&a.targets).enumerate() {
-                    params.insert(format!("lost_motion_um_{}", k + 1), *b);
-                    params.insert(format!("std_lost_motion_um_{}", k + 1), *sb);
-                    params.insert(format!("target_mm_{}", k + 1), *t);
-                }
-                let (mean, sm) = prof.mean(coef, &cov, &a.targets);
-                params.insert("mean_lost_motion_um".into(), mean);
-                params.insert("std_mean_lost_motion_um".into(), sm);
-                let (v, sv) = prof.variation(coef, &cov, &a.targets);
-                params.insert("variation_um".into(), v);
-                params.insert("std_variation_um".into(), sv);
-                params.insert("order".into(), order as f64);
-                let steps: Vec<String> = lm_steps
-                    .iter()
-                    .map(|&i| {
-                        let s = &sel.steps[i];
-                        format!(
-                            "{} (ΔBIC {:.1}, held-out {:.3} → {:.3} µm)",
-                            match s.chosen.candidate {
-                                Candidate::LostMotion(k) => format!("profile of order {k}"),
-                                _ => "constant backlash".into(),
-                            },
-                            s.chosen.dbic,
-                            s.heldout.before,
-                            s.heldout.after
-                        )
-                    })
-                    .collect();
-                extra = format!(
-                    "; {}; {}; profile b (= −B_i of ISO 230-2) at the targets: {}",
-                    steps.join(", then "),
-                    lost_motion::shares(mean, v),
-                    at.iter()
-                        .zip(&a.targets)
-                        .map(|((b, sb), t)| format!("{t:.1} mm {}", with_std(*b, *sb, 2, true)))
-                        .collect::<Vec<_>>()
-                        .join(", ")
-                );
+                extra = lost_motion_parameters(a, sel, jf, &lm_steps, &mut params);
                 Some(None)
             }
             Candidate::LostMotion(_) => unreachable!("a profile step is in lm_steps"),
@@ -165,71 +198,16 @@ pub(super) fn outcome(
             Some(Some(e)) => e.name(),
         };
         let effect = effect.flatten();
-        if let Some(e) = effect {
-            let ti = sel
-                .model
-                .terms
-                .iter()
-                .position(|t| t.effect == e)
-                .expect("term present");
-            let t = sel.model.terms[ti];
-            let c0 = offsets[ti];
-            // θ's Jacobian column index: count nonlinear terms before this one.
-            let th = theta_idx
-                + sel.model.terms[..ti]
-                    .iter()
-                    .filter(|t| t.effect.nonlinear())
-                    .count();
-            let (b, sb) = (&fit.coef[c0..], &jfit.std[c0..]);
-            let unit = a.time_unit();
-            match e {
-                Effect::Backlash => {
-                    params.insert("lost_motion_um".into(), b[0]);
-                    params.insert("std_lost_motion_um".into(), sb[0]);
-                }
-                Effect::Spike => {
-                    params.insert("height_um".into(), b[0]);
-                    params.insert("std_height_um".into(), sb[0]);
-                    params.insert("decay_mm".into(), t.theta);
-                    params.insert("std_decay_mm".into(), jfit.std[th]);
-                }
-                Effect::Cyclic => {
-                    let amp = b[0].hypot(b[1]);
-                    params.insert("amplitude_um".into(), amp);
-                    params.insert("std_amplitude_um".into(), sb[0].hypot(sb[1]) / 2f64.sqrt());
-                    params.insert("phase_rad".into(), b[1].atan2(b[0]));
-                    params.insert("period_mm".into(), t.theta);
-                    params.insert("std_period_mm".into(), jfit.std[th]);
-                }
-                Effect::Thermal => {
-                    params.insert("offset_um".into(), b[0]);
-                    params.insert("std_offset_um".into(), sb[0]);
-                    params.insert("scale_ppm".into(), b[1]);
-                    params.insert("std_scale_ppm".into(), sb[1]);
-                    params.insert(format!("time_constant_{unit}"), t.theta);
-                    params.insert(format!("std_time_constant_{unit}"), jfit.std[th]);
-                }
-                Effect::ThermalTemp => {
-                    let sv = smoother_variance(a, [b[0], b[1]]);
-                    params.insert("offset_um_per_k".into(), b[0]);
-                    params.insert("std_offset_um_per_k".into(), sb[0].hypot(sv[0].sqrt()));
-                    params.insert("scale_ppm_per_k".into(), b[1]);
-                    params.insert("std_scale_ppm_per_k".into(), sb[1].hypot(sv[1].sqrt()));
-                }
-                Effect::Transient => {
-                    params.insert("size_um".into(), b[0]);
-                    params.insert("std_size_um".into(), sb[0]);
-                    params.insert(format!("time_constant_{unit}"), t.theta);
-                    params.insert(format!("std_time_constant_{unit}"), jfit.std[th]);
-                    extra = transient_evidence(a, b[0], t.theta, noise, rep.critical_t, &res);
-                }
-            }
+        if let Some(e) = effect
+            && let Some(x) = effect_parameters(a, sel, jf, e, rep, &mut params)
+        {
+            extra = x;
         }
         let signature = match effect {
             Some(Effect::Backlash) => {
                 // Sign agreement of the per-target step with the fitted lost motion.
                 let lm = params.get("lost_motion_um").copied().unwrap_or(0.0);
-                let (agree, total) = step_signs(a, &base_res, lm);
+                let (agree, total) = step_signs(a, base_res, lm);
                 format!(
                     "; step − minus + approach has the sign of the lost motion at {agree} of {total} targets"
                 )
@@ -257,8 +235,156 @@ pub(super) fn outcome(
             signature: None,
         });
     }
-    let final_heldout = sel.heldout_rms();
-    let base_heldout = sel.base_heldout_rms();
+    findings
+}
+
+/// The parameters of the lost motion's profile (the last lost-motion step of the
+/// selection) into `params`; returns the finding's evidence beyond its ΔBIC.
+fn lost_motion_parameters(
+    a: &AxisData,
+    sel: &Selection<Positioning>,
+    jf: &FinalFit,
+    lm_steps: &[usize],
+    params: &mut BTreeMap<String, f64>,
+) -> String {
+    let (fit, jfit, lm_off) = (&jf.fit, &jf.jfit, jf.lm_off);
+    let order = sel.model.lost_motion.unwrap_or(0);
+    let prof = a.profile(order);
+    let coef = &fit.coef[lm_off..lm_off + order + 1];
+    let cov = jfit
+        .cov
+        .view((lm_off, lm_off), (order + 1, order + 1))
+        .into_owned();
+    let at = prof.at(coef, &cov, &a.targets);
+    for (k, ((b, sb), t)) in at.iter().zip(&a.targets).enumerate() {
+        params.insert(format!("lost_motion_um_{}", k + 1), *b);
+        params.insert(format!("std_lost_motion_um_{}", k + 1), *sb);
+        params.insert(format!("target_mm_{}", k + 1), *t);
+    }
+    let (mean, sm) = prof.mean(coef, &cov, &a.targets);
+    params.insert("mean_lost_motion_um".into(), mean);
+    params.insert("std_mean_lost_motion_um".into(), sm);
+    let (v, sv) = prof.variation(coef, &cov, &a.targets);
+    params.insert("variation_um".into(), v);
+    params.insert("std_variation_um".into(), sv);
+    params.insert("order".into(), order as f64);
+    let steps: Vec<String> = lm_steps
+        .iter()
+        .map(|&i| {
+            let s = &sel.steps[i];
+            format!(
+                "{} (ΔBIC {:.1}, held-out {:.3} → {:.3} µm)",
+                match s.chosen.candidate {
+                    Candidate::LostMotion(k) => format!("profile of order {k}"),
+                    _ => "constant backlash".into(),
+                },
+                s.chosen.dbic,
+                s.heldout.before,
+                s.heldout.after
+            )
+        })
+        .collect();
+    format!(
+        "; {}; {}; profile b (= −B_i of ISO 230-2) at the targets: {}",
+        steps.join(", then "),
+        lost_motion::shares(mean, v),
+        at.iter()
+            .zip(&a.targets)
+            .map(|((b, sb), t)| format!("{t:.1} mm {}", with_std(*b, *sb, 2, true)))
+            .collect::<Vec<_>>()
+            .join(", ")
+    )
+}
+
+/// The parameters of an effect's term into `params`; returns the evidence of a
+/// transient (the others have none beyond their ΔBIC).
+fn effect_parameters(
+    a: &AxisData,
+    sel: &Selection<Positioning>,
+    jf: &FinalFit,
+    e: Effect,
+    rep: &Repeatability,
+    params: &mut BTreeMap<String, f64>,
+) -> Option<String> {
+    let (fit, jfit, res, noise) = (&jf.fit, &jf.jfit, &jf.res, sel.noise);
+    let mut extra = None;
+    let ti = sel
+        .model
+        .terms
+        .iter()
+        .position(|t| t.effect == e)
+        .expect("term present");
+    let t = sel.model.terms[ti];
+    let c0 = jf.offsets[ti];
+    // θ's Jacobian column index: count nonlinear terms before this one.
+    let th = jf.theta_idx
+        + sel.model.terms[..ti]
+            .iter()
+            .filter(|t| t.effect.nonlinear())
+            .count();
+    let (b, sb) = (&fit.coef[c0..], &jfit.std[c0..]);
+    let unit = a.time_unit();
+    match e {
+        Effect::Backlash => {
+            params.insert("lost_motion_um".into(), b[0]);
+            params.insert("std_lost_motion_um".into(), sb[0]);
+        }
+        Effect::Spike => {
+            params.insert("height_um".into(), b[0]);
+            params.insert("std_height_um".into(), sb[0]);
+            params.insert("decay_mm".into(), t.theta);
+            params.insert("std_decay_mm".into(), jfit.std[th]);
+        }
+        Effect::Cyclic => {
+            let amp = b[0].hypot(b[1]);
+            params.insert("amplitude_um".into(), amp);
+            params.insert("std_amplitude_um".into(), sb[0].hypot(sb[1]) / 2f64.sqrt());
+            params.insert("phase_rad".into(), b[1].atan2(b[0]));
+            params.insert("period_mm".into(), t.theta);
+            params.insert("std_period_mm".into(), jfit.std[th]);
+        }
+        Effect::Thermal => {
+            params.insert("offset_um".into(), b[0]);
+            params.insert("std_offset_um".into(), sb[0]);
+            params.insert("scale_ppm".into(), b[1]);
+            params.insert("std_scale_ppm".into(), sb[1]);
+            params.insert(format!("time_constant_{unit}"), t.theta);
+            params.insert(format!("std_time_constant_{unit}"), jfit.std[th]);
+        }
+        Effect::ThermalTemp => {
+            let sv = smoother_variance(a, [b[0], b[1]]);
+            params.insert("offset_um_per_k".into(), b[0]);
+            params.insert("std_offset_um_per_k".into(), sb[0].hypot(sv[0].sqrt()));
+            params.insert("scale_ppm_per_k".into(), b[1]);
+            params.insert("std_scale_ppm_per_k".into(), sb[1].hypot(sv[1].sqrt()));
+        }
+        Effect::Transient => {
+            params.insert("size_um".into(), b[0]);
+            params.insert("std_size_um".into(), sb[0]);
+            params.insert(format!("time_constant_{unit}"), t.theta);
+            params.insert(format!("std_time_constant_{unit}"), jfit.std[th]);
+            extra = Some(transient_evidence(
+                a,
+                b[0],
+                t.theta,
+                noise,
+                rep.critical_t,
+                res,
+            ));
+        }
+    }
+    extra
+}
+
+/// What no effect explains: the outlying approaches the final model does not bring
+/// within the outlier test's critical value, and the local anomalies of its residual.
+fn unexplained_anomalies(
+    a: &AxisData,
+    res: &[f64],
+    noise: f64,
+    rep: &Repeatability,
+    local: &[LocalAnomaly],
+) -> Vec<String> {
     // Outlying approaches the final model does not bring within the outlier test's
     // critical value are local anomalies left unexplained.
     let anomalies: Vec<String> = rep
@@ -273,20 +399,7 @@ pub(super) fn outcome(
             )
         })
         .collect();
-    let local = local_anomalies(a, &res, noise, rep);
-    let needs = base_heldout > opts.explained_ratio * noise
-        || !rep.set_aside.is_empty()
-        || !local.is_empty();
     let mut left = vec![];
-    if needs && final_heldout > opts.explained_ratio * noise {
-        left.push(format!(
-            "held-out RMS {:.3} µm after {} effect(s) against a noise floor of {:.3} µm; the largest remaining residuals: {}",
-            final_heldout,
-            sel.steps.len(),
-            noise,
-            worst_places(a, &res)
-        ));
-    }
     if !anomalies.is_empty() {
         left.push(format!(
             "outlying approaches no effect explains: {}",
@@ -300,9 +413,21 @@ pub(super) fn outcome(
             local.iter().map(|l| l.text.as_str()).collect::<Vec<_>>().join(", ")
         ));
     }
-    let unexplained = (!left.is_empty()).then(|| format!("axis {}: {}", a.axis, left.join("; ")));
-    let misfit = (base_res.iter().map(|v| v * v).sum::<f64>() - n as f64 * noise * noise).max(0.0);
-    let mut mismatch = locate(a, &base_res, noise);
+    left
+}
+
+/// Where the rigid model's misfit lies: the located places, the outlying approaches
+/// set aside and the local anomalies, by their share of the misfit.
+fn mismatches(
+    a: &AxisData,
+    base_res: &[f64],
+    res: &[f64],
+    misfit: f64,
+    noise: f64,
+    rep: &Repeatability,
+    local: &[LocalAnomaly],
+) -> Vec<Mismatch> {
+    let mut mismatch = locate(a, base_res, noise);
     if !rep.set_aside.is_empty() {
         let excess = misfit.max(1e-300);
         let ss: f64 = rep
@@ -360,19 +485,7 @@ pub(super) fn outcome(
         });
         mismatch.sort_by(|x, y| y.share_of_misfit.total_cmp(&x.share_of_misfit));
     }
-    AxisOutcome {
-        noise,
-        base_rms: rms(&base_res),
-        base_heldout,
-        final_heldout,
-        n,
-        mismatch,
-        findings,
-        unexplained,
-        plots: plots(a, &sel.model, &fit.coef, &base_res, &res, opts),
-        misfit,
-        needs,
-    }
+    mismatch
 }
 
 /// A local anomaly of an axis's final residual.
