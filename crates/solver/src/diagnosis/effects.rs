@@ -713,11 +713,11 @@ mod tests {
             depends_on: None,
             parameters: params.iter().map(|(k, v)| (k.to_string(), *v)).collect(),
             physics: String::new(),
-            residual_rms_um: super::super::BeforeAfter {
+            residual_rms_um: crate::diagnosis::BeforeAfter {
                 before: 1.0,
                 after: 0.5,
             },
-            heldout_rms_um: super::super::BeforeAfter {
+            heldout_rms_um: crate::diagnosis::BeforeAfter {
                 before: 1.0,
                 after: 0.5,
             },

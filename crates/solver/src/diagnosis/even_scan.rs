@@ -160,7 +160,7 @@ mod tests {
         got.push(nyq[0]);
         let xs: Vec<f64> = (0..n).map(|i| x0 + i as f64 * h).collect();
         for (k, &f) in freqs.iter().enumerate() {
-            let want = super::super::periodic_scan::direct_sums(&xs, &r, f);
+            let want = crate::diagnosis::periodic_scan::direct_sums(&xs, &r, f);
             for j in 0..7 {
                 assert!(
                     (got[k][j] - want[j]).abs() <= 1e-9 * n as f64,

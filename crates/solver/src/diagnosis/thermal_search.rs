@@ -237,9 +237,9 @@ fn coefficients(tm: f64, h: f64, t: f64) -> [f64; K] {
 
 #[cfg(test)]
 mod tests {
-    use super::super::design;
-    use super::super::moments::{Base, Sets, joint_fit};
     use super::*;
+    use crate::diagnosis::design;
+    use crate::diagnosis::moments::{Base, Sets, joint_fit};
     use crate::simulate::seed_session;
     use rand::SeedableRng;
     use rand_distr::{Distribution, Normal};
@@ -336,7 +336,7 @@ mod tests {
         };
         let carried = before.carried(&d, &red, &extra, 1);
         let fresh = ThermalBasis::new(&d, &red, &extra);
-        let same = super::super::moments::assert_same_bits;
+        let same = crate::diagnosis::moments::assert_same_bits;
         same(&carried.mom, &fresh.mom);
         same(&carried.at(300.0), &fresh.at(300.0));
         // Not the basis it was carried from: the new columns' products are there.

@@ -526,7 +526,9 @@ mod tests {
             ..Default::default()
         };
         let s = &simulate(&random_truth(9), &opts).unwrap().session;
-        let full = super::super::prepare(s, &super::super::IdentifyOptions::default()).unwrap();
+        let full =
+            crate::identification::prepare(s, &crate::identification::IdentifyOptions::default())
+                .unwrap();
         let m1 = full.restricted(|t| !t.is_angular(), true);
         let m2 = full.restricted(|t| t.is_angular(), false);
         let circles = |p, r| is_circle(s, p, r);

@@ -932,7 +932,7 @@ mod tests {
         assert!(html.contains("Set as baseline"));
         assert!(html.contains("2.000 ± 0.200 µm") && html.contains("2.100 µm"));
         // The result links to its check report and its compensation tables.
-        let id = super::super::encode(&header("identification").id);
+        let id = crate::pages::encode(&header("identification").id);
         assert!(
             html.contains(&format!(r#"href="/api/v1/results/{id}/report""#)),
             "{html}"

@@ -1,10 +1,10 @@
-//! Local anomalies of a session: the scan of [`super::super::local_scan`] on every run's
+//! Local anomalies of a session: the scan of [`crate::diagnosis::local_scan`] on every run's
 //! residual along each of its two reading directions, each anomaly named by its place
 //! (file, run, test, reading direction, session time and commanded position).
 
-use super::super::design::{Design, RunInfo};
-use super::super::local_scan::{self, Anomaly, Kind};
 use crate::axis::Axis;
+use crate::diagnosis::design::{Design, RunInfo};
+use crate::diagnosis::local_scan::{self, Anomaly, Kind};
 
 /// One run's residual along one reading direction, in sample order.
 pub(crate) struct Sequence {

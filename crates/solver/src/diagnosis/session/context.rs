@@ -4,14 +4,14 @@
 //! candidate reads them). Each helper of the session's diagnosis is a method of the
 //! context taking the state it extends, instead of the six arguments it would need.
 
-use super::super::catalogue::{self, Candidate, Columns};
-use super::super::design::Design;
-use super::super::linalg::{Cols, dot};
-use super::super::moments::{self, Extra, Moments, Sets};
-use super::super::reduced::{Reduction, RunSpace};
-use super::super::search::{delta_bic, passes_bic_gate};
-use super::super::thermal_search::ThermalBasis;
 use crate::axis::Axis;
+use crate::diagnosis::catalogue::{self, Candidate, Columns};
+use crate::diagnosis::design::Design;
+use crate::diagnosis::linalg::{Cols, dot};
+use crate::diagnosis::moments::{self, Extra, Moments, Sets};
+use crate::diagnosis::reduced::{Reduction, RunSpace};
+use crate::diagnosis::search::{delta_bic, passes_bic_gate};
+use crate::diagnosis::thermal_search::ThermalBasis;
 use crate::terms::{Component, Term};
 use std::collections::HashMap;
 use std::sync::Arc;
@@ -24,7 +24,7 @@ pub(crate) struct Ctx<'a> {
     pub sets: &'a Sets,
     /// The noise floor (µm), estimated without a model (NaN until it is).
     pub floor: f64,
-    /// The engine's BIC threshold ([`super::super::engine::Rules::bic_threshold`]): a
+    /// The engine's BIC threshold ([`crate::diagnosis::engine::Rules::bic_threshold`]): a
     /// candidate whose ΔBIC is above −`bic_threshold` cannot qualify
     /// ([`Ctx::may_qualify`]).
     pub bic_threshold: f64,
@@ -40,7 +40,7 @@ pub(crate) type ScanKey = (usize, usize, u64, u64, usize, bool);
 
 /// The moments [ss, cc, sc] of every frequency scan the session has made, which depend
 /// on the rows, the variable and the grid and not on the residual (the sines' and
-/// cosines' sums of squares and products, [`super::super::periodic_scan`]): per
+/// cosines' sums of squares and products, [`crate::diagnosis::periodic_scan`]): per
 /// frequency, summed over the runs scanned, or per run scanned then frequency when the
 /// scan fits each run apart. A later round's scan of the same rows on the same grid
 /// (every coarse scan; a fine one about the same frequency) forms the residual's two
@@ -504,8 +504,8 @@ impl<'a> Ctx<'a> {
 
 #[cfg(test)]
 mod tests {
-    use super::super::super::design;
     use super::*;
+    use crate::diagnosis::design;
     use crate::simulate::seed_session;
 
     fn state(fit: Fit, prior: Option<(Kept, usize)>) -> State {
@@ -522,7 +522,7 @@ mod tests {
         }
     }
 
-    use super::super::super::moments::assert_same_bits as same;
+    use crate::diagnosis::moments::assert_same_bits as same;
 
     /// Moments kept on a model and carried to the next, after it gained a backlash of X
     /// (nonzero on the X readings of the runs that move X only) and a column nonzero

@@ -1,7 +1,7 @@
 //! The figures of a session's diagnosis, before and after its findings.
 
-use super::super::design::{Design, RunInfo};
-use super::super::{PlotData, PlotKind, PlotSeries};
+use crate::diagnosis::design::{Design, RunInfo};
+use crate::diagnosis::{PlotData, PlotKind, PlotSeries};
 use crate::session::TestKind;
 
 /// The first circle run of the session, whose radial residual is plotted.

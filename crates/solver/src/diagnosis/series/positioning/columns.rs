@@ -2,11 +2,11 @@
 //! module's table): Legendre columns of the smooth positioning error, each effect's
 //! columns at its nonlinear parameter, and the search grid of that parameter.
 
-use super::super::log_grid;
 use super::data::AxisData;
 use crate::basis::legendre;
 use crate::diagnosis::lost_motion::Profile;
 use crate::diagnosis::lsq::Design;
+use crate::diagnosis::series::log_grid;
 use std::f64::consts::PI;
 
 /// The candidate effects of the module table.

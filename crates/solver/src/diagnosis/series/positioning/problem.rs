@@ -4,13 +4,13 @@
 //! and the noise floor of repeated readings. The rigid order itself is chosen by the
 //! same held-out figure among 1..=`max_base_order`.
 
-use super::super::SeriesOptions;
 use super::columns::{Effect, Model, Term};
 use super::data::AxisData;
 use crate::diagnosis::Monotone;
 use crate::diagnosis::engine::{self, Fold, Problem, Rules, Selection};
 use crate::diagnosis::lsq::Design;
 use crate::diagnosis::repeatability::Repeatability;
+use crate::diagnosis::series::SeriesOptions;
 use crate::error::SolverError;
 
 /// A candidate: an effect of the table, the polynomial raised to an order, or the lost

@@ -2,7 +2,6 @@
 //! uncertainties (Jacobian of the final joint fit with ∂/∂θ columns), where the rigid
 //! model's residuals concentrate, what remains unexplained, and the plots.
 
-use super::super::{SeriesOptions, decimate, rms};
 use super::columns::{Effect, LOST_MOTION_PROFILE, Model};
 use super::data::AxisData;
 use super::problem::{Candidate, Positioning};
@@ -11,6 +10,7 @@ use crate::diagnosis::local_scan::{self, Kind};
 use crate::diagnosis::lost_motion;
 use crate::diagnosis::lsq;
 use crate::diagnosis::repeatability::Repeatability;
+use crate::diagnosis::series::{SeriesOptions, decimate, rms};
 use crate::diagnosis::{Finding, Mismatch, PlotData, PlotKind, PlotSeries, effects};
 use crate::text::with_std;
 use std::collections::BTreeMap;
