@@ -28,7 +28,14 @@
 use super::design::Design;
 use super::linalg::{Projector, dot, dot_lanes, wide};
 use super::reduced::{Reduction, RunSpace};
+use column_stats::column_stats;
 use nalgebra::{DMatrix, SymmetricEigen};
+
+mod column_stats;
+#[cfg(test)]
+mod same_bits;
+#[cfg(test)]
+pub(crate) use same_bits::assert_same_bits;
 
 /// Moments of m columns on one run.
 #[derive(Clone)]
@@ -432,41 +439,6 @@ pub fn live_directions(
         out.extend((first..rs.rows).step_by(step));
     }
 }
-
-/// Of each of the m gathered columns of k values (column after column in `x`): the number
-/// of its nonzero values, their sum Σv (added in row order: a zero adds nothing, so this
-/// is the sum of every value in order) and its least and largest values (zeros
-/// included). [`STAT_COLUMNS`] columns are taken side by side, each in row order: their
-/// sums' chains of dependent additions overlap, and the extremes take no branches.
-#[inline(always)]
-fn column_stats(x: &[f64], k: usize, m: usize) -> Vec<(usize, f64, f64, f64)> {
-    let mut out = Vec::with_capacity(m);
-    for j0 in (0..m).step_by(STAT_COLUMNS) {
-        // A last group short of columns repeats its first (the repeats are dropped).
-        let cols: [&[f64]; STAT_COLUMNS] = std::array::from_fn(|c| {
-            let j = if j0 + c < m { j0 + c } else { j0 };
-            &x[j * k..(j + 1) * k]
-        });
-        let mut n = [0usize; STAT_COLUMNS];
-        let mut sum = [0.0; STAT_COLUMNS];
-        let mut lo = [f64::INFINITY; STAT_COLUMNS];
-        let mut hi = [f64::NEG_INFINITY; STAT_COLUMNS];
-        for i in 0..k {
-            for c in 0..STAT_COLUMNS {
-                let v = cols[c][i];
-                n[c] += usize::from(v != 0.0);
-                sum[c] += v;
-                lo[c] = if v < lo[c] { v } else { lo[c] };
-                hi[c] = if v > hi[c] { v } else { hi[c] };
-            }
-        }
-        out.extend((0..STAT_COLUMNS.min(m - j0)).map(|c| (n[c], sum[c], lo[c], hi[c])));
-    }
-    out
-}
-
-/// Columns of [`column_stats`] taken together.
-const STAT_COLUMNS: usize = 4;
 
 /// The moments of one reading direction of a run from its gathered rows, added to the
 /// run's (Z_g at the direction's offset `off`, the upper triangle of X_gᵀX_g, X_gᵀU_g)
@@ -1016,19 +988,4 @@ pub fn heldout_ssr(red: &Reduction, sets: &Sets, b: Option<&Moments>, base: &Bas
         }
     }
     total
-}
-
-/// Asserts that two sets of moments are the same bit for bit (the tests of the carries:
-/// carried moments against those formed afresh).
-#[cfg(test)]
-pub(crate) fn assert_same_bits(a: &Moments, b: &Moments) {
-    assert_eq!((a.m, a.u), (b.m, b.u));
-    for (x, y) in a.runs.iter().zip(&b.runs) {
-        assert_eq!(x.z, y.z);
-        assert_eq!(x.xx, y.xx);
-        assert_eq!(x.xu, y.xu);
-    }
-    assert_eq!(a.peaks, b.peaks);
-    assert_eq!(a.varies, b.varies);
-    assert_eq!(a.local, b.local);
 }
