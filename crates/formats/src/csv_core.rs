@@ -588,18 +588,10 @@ impl<'a> CsvTable<'a> {
     /// [`Self::quantity`] from the cell's text.
     fn quantity_of_cell(&self, idx: usize, q: Quantity) -> Result<f64, FormatError> {
         let v = self.f64(idx)?;
-        let max = q.bound(&self.limits);
-        if v.abs() > max {
-            return Err(self.err_at(
-                idx,
-                format!(
-                    "{v:e} is beyond the plausible {} of ±{max} ({}; the limit is configurable)",
-                    q.what(),
-                    q.hint()
-                ),
-            ));
+        match q.beyond(v, &self.limits) {
+            Some(why) => Err(self.err_at(idx, why)),
+            None => Ok(v),
         }
-        Ok(v)
     }
 
     /// The cell as a decimal integer.

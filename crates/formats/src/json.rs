@@ -5,6 +5,7 @@
 
 use crate::FormatError;
 use crate::csv_core::{IGNORED_PREFIX, UTF8_BOM};
+use crate::limits::{Limits, Quantity};
 use serde_json::{Map, Value};
 use std::collections::HashMap;
 
@@ -133,21 +134,18 @@ impl<'d> Obj<'d> {
         }
     }
 
-    /// An optional finite number within ±`max` (`what`: its quantity and unit, for the
-    /// message, as the CSV readers name it).
+    /// An optional finite number within the bound of its quantity `q`, refused as a CSV
+    /// cell of that quantity is ([`Quantity::beyond`]).
     pub fn opt_f64_within(
         &self,
         field: &str,
-        max: f64,
-        what: &str,
+        q: Quantity,
+        limits: &Limits,
     ) -> Result<Option<f64>, FormatError> {
         let v = self.opt_f64(field)?;
-        match v {
-            Some(x) if x.abs() > max => Err(self.error(
-                field,
-                format!("{x} is beyond the bound of ±{max} for a {what}: a unit mistake?"),
-            )),
-            _ => Ok(v),
+        match v.and_then(|x| q.beyond(x, limits)) {
+            Some(why) => Err(self.error(field, why)),
+            None => Ok(v),
         }
     }
 

@@ -206,8 +206,22 @@ impl Quantity {
             Quantity::Deviation => "deviation (µm)",
             Quantity::Temperature => "temperature (°C)",
             Quantity::Angle => "angle (°)",
-            Quantity::Value => "channel value",
+            Quantity::Value => "value",
         }
+    }
+
+    /// Why `v` is refused as this quantity under `l` (`None`: within its bound): the
+    /// value, the bound and the unit mistake that most often causes it. One message for a
+    /// CSV cell and a number of session.json alike.
+    pub fn beyond(self, v: f64, l: &Limits) -> Option<String> {
+        let max = self.bound(l);
+        (v.abs() > max).then(|| {
+            format!(
+                "{v:e} is beyond the plausible {} of ±{max} ({}; the limit is configurable)",
+                self.what(),
+                self.hint()
+            )
+        })
     }
 
     /// What to change when a value is beyond the bound.

@@ -469,10 +469,8 @@ fn parse_session_json(
 fn parse_conditions(root: &Obj<'_>, limits: &Limits) -> Result<Conditions, FormatError> {
     // Every number within the bound of its quantity (docs/datasets.md, "Limits"), as in
     // the CSV files: a finite but absurd value would make the budget's figures overflow.
-    let value = |o: &Obj<'_>, field: &str| o.opt_f64_within(field, limits.max_abs_value, "value");
-    let kelvin = |o: &Obj<'_>, field: &str| {
-        o.opt_f64_within(field, limits.max_abs_temperature_c, "temperature (K)")
-    };
+    let value = |o: &Obj<'_>, field: &str| o.opt_f64_within(field, Quantity::Value, limits);
+    let kelvin = |o: &Obj<'_>, field: &str| o.opt_f64_within(field, Quantity::Temperature, limits);
     let text = |o: &Obj<'_>, field: &str| -> Result<Option<String>, FormatError> {
         match o.opt_str(field)? {
             Some(s) if s.trim().is_empty() => Err(o.error(field, "must not be empty")),
@@ -518,11 +516,7 @@ fn parse_conditions(root: &Obj<'_>, limits: &Limits) -> Result<Conditions, Forma
             Some(i)
         }
     };
-    let temperature_c = root.opt_f64_within(
-        "temperature_c",
-        limits.max_abs_temperature_c,
-        "temperature (°C)",
-    )?;
+    let temperature_c = root.opt_f64_within("temperature_c", Quantity::Temperature, limits)?;
     let c = Conditions {
         operator: text(root, "operator")?,
         instrument,
@@ -589,20 +583,12 @@ fn parse_plane(p: &Obj<'_>, limits: &Limits) -> Result<PlaneSpec, FormatError> {
     let head_offset_mm = match offset {
         Value::Array(a) if a.len() == 3 => {
             let mut t = [0.0; 3];
-            let max = limits.max_abs_position_mm;
             for (k, v) in a.iter().enumerate() {
                 t[k] = v.as_f64().filter(|x| x.is_finite()).ok_or_else(|| {
                     p.error("head_offset_mm", "must hold three finite numbers (mm)")
                 })?;
-                if t[k].abs() > max {
-                    return Err(p.error(
-                        "head_offset_mm",
-                        format!(
-                            "{} is beyond the bound of ±{max} for a position (mm): \
-                             micrometres where millimetres are required?",
-                            t[k]
-                        ),
-                    ));
+                if let Some(why) = Quantity::Position.beyond(t[k], limits) {
+                    return Err(p.error("head_offset_mm", why));
                 }
             }
             t

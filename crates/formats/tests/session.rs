@@ -252,7 +252,7 @@ fn json_head_offset_must_be_three_finite_numbers() {
             "session.json",
             8,
             "planes[0].head_offset_mm",
-            "beyond the bound of ±100000 for a position (mm)",
+            "is beyond the plausible position (mm) of ±100000 (micrometres where millimetres",
         );
     }
 }
@@ -264,13 +264,13 @@ fn json_stated_numbers_are_bounded_as_csv_cells_are() {
             "\"temperature_c\": 20.4",
             "\"temperature_c\": 5000",
             "temperature_c",
-            "±1000 for a temperature",
+            "beyond the plausible temperature (°C) of ±1000",
         ),
         (
             "\"temperature_c\": 20.4",
             "\"temperature_c\": -1e300",
             "temperature_c",
-            "±1000 for a temperature",
+            "beyond the plausible temperature (°C) of ±1000",
         ),
     ] {
         let e = json_err(&JSON.replace(from, to));
