@@ -50,7 +50,7 @@ pub fn run(args: Args) -> anyhow::Result<ExitCode> {
     // A CSV that looks like positioning runs or a drift log but breaks its format is read
     // with that kind's reader, which names what is wrong (file, line, column and rule).
     let kind = mtcal_formats::sniff_path(path)
-        .or_else(|| super::resembled_kind(path))
+        .or_else(|| mtcal_formats::sniff::resembled_path(path))
         .ok_or_else(|| {
             BadInput(format!(
                 "{}: not a session folder (session.json), a positioning-run CSV \

@@ -27,8 +27,9 @@ pub fn run(args: Args) -> anyhow::Result<ExitCode> {
     mtcal_formats::stat_path(path)?;
     // A CSV that looks like positioning runs but breaks their format is read with their
     // reader, which names the missing column (file, line, column and rule).
-    let kind = mtcal_formats::sniff_path(path)
-        .or_else(|| super::resembled_kind(path).filter(|k| *k == DatasetKind::Positioning));
+    let kind = mtcal_formats::sniff_path(path).or_else(|| {
+        mtcal_formats::sniff::resembled_path(path).filter(|k| *k == DatasetKind::Positioning)
+    });
     let st = match kind {
         Some(DatasetKind::Session) => {
             standards::from_session(&mtcal_formats::read_session_dir(path, &limits)?)

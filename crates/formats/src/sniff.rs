@@ -41,15 +41,7 @@ pub fn sniff_kind(name: &str, bytes: &[u8]) -> Option<DatasetKind> {
         let is_session = text.contains("\"planes\"") && text.contains("\"machine_id\"");
         return is_session.then_some(DatasetKind::Session);
     }
-    let header = header_line(trimmed)?;
-    // A spreadsheet's `;` header (the Excel dialect) names its kind too; the reader then
-    // reads it or says what to change.
-    let sep = char::from(dialect_of_header(header).delimiter());
-    let cols: Vec<&str> = header
-        .split(sep)
-        .map(|c| c.trim().trim_matches('"'))
-        .filter(|c| !c.starts_with("x-"))
-        .collect();
+    let cols = header_columns(trimmed)?;
     let has_all = |names: &[&str]| names.iter().all(|n| cols.contains(n));
     if has_all(&PLANE_COLUMNS[..7]) {
         Some(DatasetKind::PlaneCsv)
@@ -69,6 +61,73 @@ pub fn sniff_kind(name: &str, bytes: &[u8]) -> Option<DatasetKind> {
     }
 }
 
+/// The column names of the header of a CSV's text (after any byte-order mark): its first
+/// line that is neither blank nor a `#` comment, split at `,` (at `;` when it holds no
+/// `,`: a spreadsheet's header names its kind too, and the reader then reads it or says
+/// what to change), `x-` columns left out.
+fn header_columns(text: &str) -> Option<Vec<&str>> {
+    let header = header_line(text)?;
+    let sep = char::from(dialect_of_header(header).delimiter());
+    Some(
+        header
+            .split(sep)
+            .map(|c| c.trim().trim_matches('"'))
+            .filter(|c| !c.starts_with("x-"))
+            .collect(),
+    )
+}
+
+/// The kind a CSV that matches no kind ([`sniff_kind`] is `None`) resembles by its
+/// header, so that the kind's strict reader can say what is wrong (a missing column,
+/// with file, line, column and rule) instead of a generic "not a positioning-run CSV":
+/// positioning runs when the header names `axis` and `target_mm`, or three of the five
+/// required columns; a drift log when it names `t_s` and a channel (`<name>_um`, `_c`,
+/// `_rpm`, `_mm`), or only channels and one other column, and no column of a session's
+/// plane CSV or a rotary point set. `None` for JSON or any other header.
+pub fn resembled_kind(bytes: &[u8]) -> Option<DatasetKind> {
+    let head = gzip::prefix(bytes, SNIFF_BYTES)?;
+    let text = String::from_utf8_lossy(&head);
+    let trimmed = text.trim_start_matches('\u{feff}').trim_start();
+    if trimmed.starts_with('{') {
+        return None;
+    }
+    let cols = header_columns(trimmed)?;
+    let has = |n: &str| cols.contains(&n);
+    let positioning = &POSITIONING_COLUMNS[..5];
+    if (has("axis") && has("target_mm")) || positioning.iter().filter(|c| has(c)).count() >= 3 {
+        return Some(DatasetKind::Positioning);
+    }
+    if ["run", "test", "du_um", "dv_um", "a_deg", "c_deg"]
+        .iter()
+        .any(|c| has(c))
+    {
+        return None;
+    }
+    let channels = cols.iter().filter(|c| channel_kind(c).is_some()).count();
+    let drift = channels >= 1 && (has("t_s") || channels + 1 == cols.len());
+    drift.then_some(DatasetKind::DriftLog)
+}
+
+/// [`resembled_kind`] for a file's path (`None` for a folder or an unreadable file).
+pub fn resembled_path(path: &Path) -> Option<DatasetKind> {
+    if !path.is_file() {
+        return None;
+    }
+    resembled_kind(&file_head(path)?)
+}
+
+/// The first [`SNIFF_BYTES`] of a file as stored (still compressed when gzip).
+fn file_head(path: &Path) -> Option<Vec<u8>> {
+    use std::io::Read;
+    let mut head = Vec::new();
+    std::fs::File::open(path)
+        .ok()?
+        .take(SNIFF_BYTES as u64)
+        .read_to_end(&mut head)
+        .ok()?;
+    Some(head)
+}
+
 /// [`sniff_kind`] for a path: a folder holding `session.json` is a session; a file is
 /// sniffed from its first bytes. `None` when unreadable or unrecognised.
 pub fn sniff_path(path: &Path) -> Option<DatasetKind> {
@@ -82,14 +141,7 @@ pub fn sniff_path(path: &Path) -> Option<DatasetKind> {
         // An archive is read as a session folder (read_session_dir says when it is not).
         return path.is_file().then_some(DatasetKind::Session);
     }
-    use std::io::Read;
-    let mut head = Vec::new();
-    std::fs::File::open(path)
-        .ok()?
-        .take(SNIFF_BYTES as u64)
-        .read_to_end(&mut head)
-        .ok()?;
-    sniff_kind(&crate::display_name(path), &head)
+    sniff_kind(&crate::display_name(path), &file_head(path)?)
 }
 
 /// The first line that is neither blank nor a `#` comment.
