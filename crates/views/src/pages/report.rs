@@ -548,6 +548,7 @@ fn undetermined(d: &IdentificationResult, c: &Result<Compensation, ExportError>)
     let nothing = o.not_identifiable.is_empty()
         && not_moved.is_empty()
         && d.standards.not_evaluated.is_empty()
+        && d.standards.not_available().is_empty()
         && left_out.is_empty();
     html! {
         section.card #undetermined {
@@ -567,6 +568,9 @@ fn undetermined(d: &IdentificationResult, c: &Result<Compensation, ExportError>)
                     }
                     @for n in &d.standards.not_evaluated {
                         li { (n.standard) " " (n.what) ": " (n.reason) }
+                    }
+                    @for n in &d.standards.not_available() {
+                        li.not-available { (mtcal_solver::names::figures_in_words(&n.figures)) ": — (" (n.reason) ")" }
                     }
                     @if !left_out.is_empty() { li { "Left out of the compensation table: " (left_out.join(", ")) } }
                     li { "Nothing outside the measured travel: "
