@@ -13,6 +13,7 @@ pub mod axis;
 pub mod datasets;
 pub mod error;
 pub mod kinematics;
+pub mod names;
 pub mod session;
 pub mod terms;
 pub mod text;
