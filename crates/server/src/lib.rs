@@ -89,9 +89,9 @@ impl utoipa::Modify for SecurityAddon {
         api::datasets::exclude, api::datasets::delete_files,
         api::jobs::submit, api::jobs::list, api::jobs::get, api::jobs::result, api::jobs::cancel,
         api::history::list, api::history::latest, api::history::get, api::history::diff,
-        api::history::figures, api::history::exclude,
+        api::history::figures, api::history::exclude, api::history::verification,
         api::exports::export, api::exports::report,
-        api::trends::term, api::trends::summary, api::trends::figure, api::trends::fleet,
+        api::trends::term, api::trends::summary, api::trends::verification, api::trends::figure, api::trends::fleet,
         api::fleet::list,
         api::keys::create, api::keys::list, api::keys::revoke,
         api::ready,
@@ -164,6 +164,14 @@ pub fn router(state: AppState) -> Router {
         .route("/api/v1/results/{id}/exclude", post(history::exclude))
         .route("/api/v1/results/{id}/figures", get(history::figures))
         .route("/api/v1/results/{id}/export", get(exports::export))
+        .route(
+            "/api/v1/results/{id}/verification",
+            get(history::verification),
+        )
+        .route(
+            "/api/v1/machines/{id}/trends/verification",
+            get(trends::verification),
+        )
         .route("/api/v1/results/{id}/report", get(exports::report))
         .route("/api/v1/machines/{id}/trends/term", get(trends::term))
         .route("/api/v1/machines/{id}/trends/summary", get(trends::summary))
