@@ -202,6 +202,7 @@ async fn demo(args: Args, db: PathBuf, temporary: bool) -> anyhow::Result<ExitCo
         cookie_secure: false,
         min_upload_rate: mtcal_server::Settings::MIN_UPLOAD_RATE,
         upload_grace_seconds: 10,
+        upload_slot_seconds: mtcal_server::Settings::UPLOAD_SLOT_TIME.as_secs(),
         header_timeout_seconds: 10,
     };
     let (tx, rx) = tokio::sync::oneshot::channel();

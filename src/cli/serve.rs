@@ -136,6 +136,11 @@ pub struct Args {
     #[arg(long, env = "MTCAL_UPLOAD_GRACE_SECONDS", default_value_t = 10,
           value_parser = clap::value_parser!(u64).range(1..=3600))]
     pub upload_grace_seconds: u64,
+    /// Longest an upload may hold a reading slot, seconds (reading, checking, storing);
+    /// past it the upload is answered 408 and its slot freed.
+    #[arg(long, env = "MTCAL_UPLOAD_SLOT_SECONDS", default_value_t = 120,
+          value_parser = clap::value_parser!(u64).range(1..=3600))]
+    pub upload_slot_seconds: u64,
     /// Seconds a client has to send a request's head (slow clients are disconnected).
     #[arg(long, env = "MTCAL_HEADER_TIMEOUT_SECONDS", default_value_t = 10)]
     pub header_timeout_seconds: u64,
@@ -156,6 +161,7 @@ impl Args {
                     cookie_secure: self.cookie_secure,
                     min_upload_rate: self.min_upload_rate,
                     upload_grace: std::time::Duration::from_secs(self.upload_grace_seconds),
+                    upload_slot_time: std::time::Duration::from_secs(self.upload_slot_seconds),
                     ..self.worker.config().settings
                 },
                 ..self.worker.config()

@@ -2,7 +2,10 @@
 //! grace period is over is answered 408 naming the rate (and stores nothing), on the
 //! API's upload route and the dashboard's alike; and the dashboard's upload waits for
 //! the same reading slots as the API's (`MAX_CONCURRENT_UPLOADS` for both together), so
-//! slow API uploads holding every slot hold the dashboard's too.
+//! slow API uploads holding every slot hold the dashboard's too; and clients that keep
+//! just above the minimum rate hold their slots no longer than the slot time
+//! (`Settings::upload_slot_time`): they are answered 408 naming it, and an upload waiting
+//! behind them is read.
 
 use crate::common::{AppOptions, spawn_app, spawn_app_with};
 use mtcal_server::{MAX_CONCURRENT_UPLOADS, Settings};
@@ -146,4 +149,97 @@ async fn the_dashboard_upload_waits_for_the_slots_api_uploads_hold() {
         status != StatusCode::REQUEST_TIMEOUT && !status.is_server_error(),
         "{status}"
     );
+}
+
+/// Sends `c`'s body in pieces of `piece` bytes every 100 ms (a steady rate) until the
+/// server stops reading or 60 s have passed; the answer read meanwhile, within `wait`.
+async fn trickle(c: TcpStream, piece: usize, wait: Duration) -> String {
+    let (mut rd, mut wr) = c.into_split();
+    let writer = tokio::spawn(async move {
+        for _ in 0..600 {
+            if wr.write_all(&vec![b'x'; piece]).await.is_err() {
+                break;
+            }
+            tokio::time::sleep(Duration::from_millis(100)).await;
+        }
+    });
+    let mut out = Vec::new();
+    tokio::time::timeout(wait, rd.read_to_end(&mut out))
+        .await
+        .expect("an answer in time")
+        .ok();
+    writer.abort();
+    String::from_utf8_lossy(&out).into_owned()
+}
+
+#[tokio::test]
+async fn clients_above_the_minimum_rate_hold_a_slot_no_longer_than_the_slot_time() {
+    let slot_time = Duration::from_secs(3);
+    let app = spawn_app_with(AppOptions {
+        run_worker: false,
+        settings: Settings {
+            min_upload_rate: 1000,
+            upload_grace: Duration::from_secs(1),
+            upload_slot_time: slot_time,
+            ..Settings::default()
+        },
+        ..AppOptions::default()
+    })
+    .await;
+    app.machine("M1").await;
+    let api = format!(
+        "Authorization: Bearer {}\r\nContent-Type: application/gzip\r\n",
+        app.write_key
+    );
+    // Every slot taken by a client sending 4000 bytes/s (four times the minimum rate) of
+    // a 1 MB body: 250 s at that rate, were the slot time not bounding it.
+    let started = std::time::Instant::now();
+    let mut slow = vec![];
+    for _ in 0..MAX_CONCURRENT_UPLOADS {
+        let c = start_upload(
+            &app.url,
+            "/api/v1/machines/M1/datasets",
+            &api,
+            1_000_000,
+            b"",
+        )
+        .await;
+        slow.push(tokio::spawn(trickle(c, 400, Duration::from_secs(30))));
+    }
+    tokio::time::sleep(Duration::from_millis(300)).await;
+    // An upload behind them waits for a slot, then is read.
+    let quick = {
+        let form = Form::new().part(
+            "files",
+            Part::bytes(b"x_mm,y_mm\n0,0\n".to_vec()).file_name("xy.csv"),
+        );
+        app.with_key(&app.write_key)
+            .request(reqwest::Method::POST, "/api/v1/machines/M1/datasets")
+            .multipart(form)
+            .send()
+    };
+    let quick = tokio::time::timeout(Duration::from_secs(20), quick)
+        .await
+        .expect("the waiting upload is answered once the slot time freed a slot")
+        .unwrap()
+        .status();
+    assert!(
+        quick != StatusCode::REQUEST_TIMEOUT && !quick.is_server_error(),
+        "{quick}"
+    );
+    for c in slow {
+        let text = c.await.unwrap();
+        assert!(text.starts_with("HTTP/1.1 408"), "{text}");
+        assert!(
+            text.contains("longer than the limit of 3 s"),
+            "the answer names the slot time: {text}"
+        );
+    }
+    // (No sooner than the slot time; the 30 s each waited for its answer bounds it above.)
+    let took = started.elapsed();
+    assert!(
+        took >= slot_time,
+        "answered after {took:?}, before the slot time"
+    );
+    assert_eq!(app.counts().await.datasets, 0, "nothing stored");
 }

@@ -106,6 +106,7 @@ fn hand_result() -> IdentificationResult {
         residuals: vec![],
         model_check: None,
         conditions: Default::default(),
+        explained: None,
     }
 }
 

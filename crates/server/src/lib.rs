@@ -5,7 +5,7 @@
 //! one process. Storage goes through [`mtcal_store::Store`] only.
 //!
 //! Limits: every route has a body-size limit (1 MiB; uploads [`ingest::UploadLimits`],
-//! 256 MiB by default) and a time limit (30 s; uploads 300 s). Every route but `/health`,
+//! 256 MiB by default) and a time limit (30 s; uploads [`Settings::upload_slot_time`], 120 s by default). Every route but `/health`,
 //! `/ready`, `/metrics` ([`metrics`]) and the documentation needs an API key (see
 //! [`auth`]).
 #![deny(clippy::print_stdout, clippy::print_stderr)]
@@ -48,10 +48,9 @@ pub use worker::{WorkerConfig, Workers};
 pub const JSON_BODY_LIMIT: usize = 1 << 20;
 /// Time limit of every route but uploads.
 pub const REQUEST_TIMEOUT: Duration = Duration::from_secs(30);
-/// Time limit of uploads.
-pub const UPLOAD_TIMEOUT: Duration = Duration::from_secs(300);
 /// Longest an upload waits for a reading slot ([`MAX_CONCURRENT_UPLOADS`]) before its
-/// own time limit ([`UPLOAD_TIMEOUT`]) starts; past it the upload is refused with 408.
+/// own time limit ([`Settings::upload_slot_time`]) starts; past it the upload is refused
+/// with 408.
 pub const UPLOAD_SLOT_WAIT: Duration = Duration::from_secs(300);
 /// Uploads read at the same time by one process; more wait for a slot (at most
 /// [`UPLOAD_SLOT_WAIT`]) before their body is read. An upload may decompress to the byte
@@ -132,10 +131,7 @@ pub fn router(state: AppState) -> Router {
             state.clone(),
             auth::require_write,
         ))
-        .layer(TimeoutLayer::with_status_code(
-            StatusCode::REQUEST_TIMEOUT,
-            UPLOAD_SLOT_WAIT + UPLOAD_TIMEOUT,
-        ));
+        .layer(upload_gate::outer_limit(&state));
     let rest = Router::new()
         .route(
             "/api/v1/machines",

@@ -18,6 +18,9 @@ pub struct Settings {
     pub min_upload_rate: u64,
     /// Time an upload has before its minimum rate applies.
     pub upload_grace: std::time::Duration,
+    /// Longest an upload may hold its reading slot, from taking it to its answer
+    /// (reading, checking, storing); past it, 408 (crate::upload_gate).
+    pub upload_slot_time: std::time::Duration,
     /// Where drift alert webhooks may go (`MTCAL_WEBHOOK_ALLOW`, the service's own
     /// address; mtcal_domain::webhooks).
     pub webhooks: mtcal_domain::webhooks::TargetPolicy,
@@ -31,6 +34,9 @@ impl Settings {
     pub const MIN_UPLOAD_RATE: u64 = 16 * 1024;
     /// Default grace period of an upload.
     pub const UPLOAD_GRACE: std::time::Duration = std::time::Duration::from_secs(10);
+    /// Default longest hold of an upload slot (120 s: a 256 MiB upload needs about
+    /// 2.2 MB/s, a tenth of a 100 Mbit/s plant network).
+    pub const UPLOAD_SLOT_TIME: std::time::Duration = std::time::Duration::from_secs(120);
 }
 
 impl Default for Settings {
@@ -39,6 +45,7 @@ impl Default for Settings {
             cookie_secure: false,
             min_upload_rate: Self::MIN_UPLOAD_RATE,
             upload_grace: Self::UPLOAD_GRACE,
+            upload_slot_time: Self::UPLOAD_SLOT_TIME,
             webhooks: Default::default(),
             webhook_retries: Default::default(),
         }

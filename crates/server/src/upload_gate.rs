@@ -10,8 +10,13 @@
 //!   (16 KiB/s by default) since reading began; a client slower than that is answered
 //!   408 `timeout` naming the rate, and its slot goes to the next upload. Two clients
 //!   sending a byte a second no longer hold both slots for minutes.
-//! * **Size and time**: the route's body limit (`--max-upload-bytes`, also on the
-//!   decompressed size) and [`crate::UPLOAD_TIMEOUT`].
+//! * **Slot time**: an upload holds its slot at most [`crate::Settings::upload_slot_time`]
+//!   (`--upload-slot-seconds`, 120 s by default), from taking it to its answer: reading,
+//!   checking and storing. Past it the upload is answered 408 `timeout` naming the limit,
+//!   nothing is stored, and the slot goes to the next upload. A client just above the
+//!   minimum rate cannot hold a slot for longer than that either.
+//! * **Size**: the route's body limit (`--max-upload-bytes`, also on the decompressed
+//!   size).
 
 use crate::error::ApiError;
 use axum::Router;
@@ -55,8 +60,9 @@ impl Default for Gate {
 
 /// Puts `routes` (routes that take an upload) behind the process's upload gate: a slot of
 /// [`Gate`] (shared by every upload route), counted in `mtcal_uploads_reading` while it
-/// is held, the minimum rate ([`min_rate`]) and [`crate::UPLOAD_TIMEOUT`] from the moment
-/// the slot is taken. The route's own body limit sits inside (the caller's layers).
+/// is held, the minimum rate and the slot time ([`slot_limits`]) from the moment the slot
+/// is taken. The route's own body limit sits inside (the caller's layers). The caller
+/// bounds the whole, wait included, with [`outer_limit`].
 pub fn guard<S: Clone + Send + Sync + 'static>(
     routes: Router<S>,
     app: &crate::AppState,
@@ -64,13 +70,21 @@ pub fn guard<S: Clone + Send + Sync + 'static>(
     routes
         // The upload's own time limit starts when it has a reading slot: waiting behind
         // other uploads does not use it up. The wait is bounded by an outer limit.
-        .layer(tower_http::timeout::TimeoutLayer::with_status_code(
-            StatusCode::REQUEST_TIMEOUT,
-            crate::UPLOAD_TIMEOUT,
+        .layer(axum::middleware::from_fn_with_state(
+            app.clone(),
+            slot_limits,
         ))
-        .layer(axum::middleware::from_fn_with_state(app.clone(), min_rate))
         .layer(axum::middleware::from_fn(crate::metrics::reading_upload))
         .layer(app.uploads.layer())
+}
+
+/// The time limit of an upload route as a whole: the wait for a slot
+/// ([`crate::UPLOAD_SLOT_WAIT`]) and the slot's own time.
+pub fn outer_limit(app: &crate::AppState) -> tower_http::timeout::TimeoutLayer {
+    tower_http::timeout::TimeoutLayer::with_status_code(
+        StatusCode::REQUEST_TIMEOUT,
+        crate::UPLOAD_SLOT_WAIT + app.settings.upload_slot_time,
+    )
 }
 
 /// The minimum rate an upload's body must keep (see the module documentation).
@@ -159,38 +173,48 @@ impl hyper::body::Body for RateBody {
 }
 
 /// Middleware inside an upload route's slot (it starts when reading can start): reads the
-/// body at the minimum rate of the service's settings; an upload that falls below it is
-/// answered 408 `timeout` naming the rate.
-pub async fn min_rate(State(s): State<crate::AppState>, req: Request, next: Next) -> Response {
+/// body at the minimum rate of the service's settings and answers within the slot time;
+/// an upload that falls below the rate, or holds the slot longer, is answered 408
+/// `timeout` naming the limit it broke, and the connection is closed.
+pub async fn slot_limits(State(s): State<crate::AppState>, req: Request, next: Next) -> Response {
     let rate = MinRate {
         bytes_per_second: s.settings.min_upload_rate,
         grace: s.settings.upload_grace,
     };
-    if rate.bytes_per_second == 0 {
-        return next.run(req).await;
-    }
+    let slot_time = s.settings.upload_slot_time;
     let tripped = Arc::new(Mutex::new(None));
-    let (parts, body) = req.into_parts();
-    let start = Instant::now();
-    let body = RateBody {
-        inner: body,
-        rate,
-        start,
-        received: 0,
-        deadline: Box::pin(tokio::time::sleep_until(start + rate.grace)),
-        tripped: tripped.clone(),
+    let req = if rate.bytes_per_second == 0 {
+        req
+    } else {
+        let (parts, body) = req.into_parts();
+        let start = Instant::now();
+        let body = RateBody {
+            inner: body,
+            rate,
+            start,
+            received: 0,
+            deadline: Box::pin(tokio::time::sleep_until(start + rate.grace)),
+            tripped: tripped.clone(),
+        };
+        Request::from_parts(parts, Body::new(body))
     };
-    let resp = next.run(Request::from_parts(parts, Body::new(body))).await;
-    let message = tripped.lock().ok().and_then(|mut t| t.take());
-    if let Some(message) = message {
-        tracing::warn!(%message, "an upload fell below the minimum rate and was refused");
-        let mut refused = ApiError::Timeout(message).into_response();
-        // The rest of the body is not read: the connection ends with the answer.
-        refused.headers_mut().insert(
-            axum::http::header::CONNECTION,
-            axum::http::HeaderValue::from_static("close"),
-        );
-        return refused;
-    }
-    resp
+    let message = match tokio::time::timeout(slot_time, next.run(req)).await {
+        Err(_) => format!(
+            "the upload held its reading slot longer than the limit of {} s \
+             (reading, checking and storing it); send it faster or split it",
+            slot_time.as_secs_f64()
+        ),
+        Ok(resp) => match tripped.lock().ok().and_then(|mut t| t.take()) {
+            Some(message) => message,
+            None => return resp,
+        },
+    };
+    tracing::warn!(%message, "an upload broke a time limit of its slot and was refused");
+    let mut refused = ApiError::Timeout(message).into_response();
+    // The rest of the body is not read: the connection ends with the answer.
+    refused.headers_mut().insert(
+        axum::http::header::CONNECTION,
+        axum::http::HeaderValue::from_static("close"),
+    );
+    refused
 }

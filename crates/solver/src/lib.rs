@@ -38,6 +38,7 @@ pub mod fits;
 
 // mismatch diagnosis.
 pub mod diagnosis;
+pub mod explained;
 
 // Figures of the machine-tool test standards (ISO 230-2, ISO 230-4) and the residuals
 // of a fit by file and test.

@@ -173,7 +173,7 @@ pub async fn upload(
 /// The readers' limits for one upload: the service's, with a deadline at the upload time
 /// limit from now, so that a parsing thread stops no later than its request would.
 fn upload_limits(s: &AppState) -> ingest::UploadLimits {
-    s.limits.with_time_limit(crate::UPLOAD_TIMEOUT)
+    s.limits.with_time_limit(s.settings.upload_slot_time)
 }
 
 /// Reads the uploaded files as one dataset of `machine` with the strict reader of its

@@ -14,7 +14,7 @@ pub mod pages;
 pub mod session;
 
 use crate::error::ApiError;
-use crate::{AppState, JSON_BODY_LIMIT, REQUEST_TIMEOUT, UPLOAD_SLOT_WAIT, UPLOAD_TIMEOUT};
+use crate::{AppState, JSON_BODY_LIMIT, REQUEST_TIMEOUT};
 use axum::Router;
 use axum::extract::{DefaultBodyLimit, Form, Path, Query, State};
 use axum::http::{HeaderMap, StatusCode, header};
@@ -90,11 +90,8 @@ pub fn router(app: AppState) -> Router {
     let uploads = Router::new()
         .route("/machines/{id}/upload", post(pages::upload))
         .layer(DefaultBodyLimit::max(upload_limit));
-    let uploads =
-        crate::upload_gate::guard(uploads, &state.app).layer(TimeoutLayer::with_status_code(
-            StatusCode::REQUEST_TIMEOUT,
-            UPLOAD_SLOT_WAIT + UPLOAD_TIMEOUT,
-        ));
+    let uploads = crate::upload_gate::guard(uploads, &state.app)
+        .layer(crate::upload_gate::outer_limit(&state.app));
     let rest = Router::new()
         .route("/", get(pages::fleet))
         .route("/machines/{id}", get(pages::machine))

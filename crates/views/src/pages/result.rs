@@ -534,7 +534,7 @@ pub fn diagnosis(d: &DiagnosisResult) -> Markup {
         @if !d.plots.is_empty() {
             section.card #diagnosis-plots {
                 h2 { "Before and after" }
-                div.grid { @for (p, drawn) in d.plots.iter().zip(plots::render_svgs(&d.plots)) { figure.plot data-plot=(p.id) { (svg(drawn)) } } }
+                div.grid { @for (p, drawn) in d.plots.iter().zip(plots::render_svgs(&d.plots)) { figure.plot.wide[p.kind != mtcal_solver::diagnosis::PlotKind::Polar] data-plot=(p.id) { (svg(drawn)) } } }
             }
         }
         @if !d.unexplained.is_empty() {
