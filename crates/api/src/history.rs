@@ -47,3 +47,50 @@ impl Reason {
         }
     }
 }
+
+/// One finding of the earlier check, verified at the later one.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[cfg_attr(feature = "openapi", derive(utoipa::ToSchema))]
+pub struct VerifiedFinding {
+    /// The effect (`backlash`, `lost_motion_profile`) and its axis.
+    pub effect: String,
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub axis: Option<String>,
+    /// The parameter compared, with its unit in the name (`lost_motion_um`).
+    pub parameter: String,
+    /// Its value at the earlier check.
+    pub before: f64,
+    /// The value predicted once the action is taken (a compensated backlash: 0).
+    pub predicted: f64,
+    /// Its value at the later check; absent when the later check no longer shows it
+    /// (`gone`) or its diagnosis has not landed (`pending`).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub measured: Option<f64>,
+    /// `gone`, `still_present` or `pending`.
+    pub state: String,
+    /// Whether the later check agrees with the prediction (module docs); absent while
+    /// `pending`.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub as_predicted: Option<bool>,
+    /// In words: `backlash X: 5.96 → 0.40 µm after compensation (predicted 0)`.
+    pub statement: String,
+}
+
+/// A check verified against the prediction of the check before it.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[cfg_attr(feature = "openapi", derive(utoipa::ToSchema))]
+pub struct Verification {
+    pub machine_id: String,
+    /// The check verified.
+    pub result_id: String,
+    pub measured_at: String,
+    /// The check before it whose predictions are verified (absent: none before it).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub previous_result_id: Option<String>,
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub previous_measured_at: Option<String>,
+    /// One per finding of the earlier check with a prediction (empty: nothing to verify).
+    pub findings: Vec<VerifiedFinding>,
+    /// One sentence: what was verified, or why nothing was.
+    pub statement: String,
+}

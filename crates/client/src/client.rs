@@ -454,6 +454,21 @@ impl Client {
         .await
     }
 
+    /// Check `id` verified against the predictions of the check before it.
+    pub async fn verification(&self, id: &str) -> Result<mtcal_api::history::Verification> {
+        self.get(&format!("/api/v1/results/{id}/verification"))
+            .await
+    }
+
+    /// The machine's checks verified against the check before each, in time order.
+    pub async fn verification_trend(
+        &self,
+        machine: &str,
+    ) -> Result<Vec<mtcal_api::history::Verification>> {
+        self.get(&format!("/api/v1/machines/{machine}/trends/verification"))
+            .await
+    }
+
     pub async fn summary_trend(&self, machine: &str) -> Result<SummaryTrend> {
         self.get(&format!("/api/v1/machines/{machine}/trends/summary"))
             .await

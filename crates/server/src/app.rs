@@ -63,6 +63,14 @@ pub fn router(state: AppState) -> Router {
         .route("/api/v1/results/{id}/exclude", post(history::exclude))
         .route("/api/v1/results/{id}/figures", get(history::figures))
         .route("/api/v1/results/{id}/export", get(exports::export))
+        .route(
+            "/api/v1/results/{id}/verification",
+            get(history::verification),
+        )
+        .route(
+            "/api/v1/machines/{id}/trends/verification",
+            get(trends::verification),
+        )
         .route("/api/v1/results/{id}/report", get(exports::report))
         .route("/api/v1/machines/{id}/trends/term", get(trends::term))
         .route("/api/v1/machines/{id}/trends/summary", get(trends::summary))

@@ -9,6 +9,7 @@ use axum::extract::{Path, State};
 pub use mtcal_api::history::Reason;
 use mtcal_domain::history;
 pub use mtcal_domain::history::{DiffQuery, ResultDiff};
+pub use mtcal_domain::verification::{Verification, VerifiedFinding};
 use mtcal_store::{Figure, ResultMeta, SetAside, SkippedRow, StoredResult};
 use serde::Deserialize;
 use utoipa::IntoParams;
@@ -99,6 +100,23 @@ pub async fn figures(
     Path(id): Path<String>,
 ) -> Result<Json<Vec<Figure>>, ApiError> {
     Ok(Json(s.store.result_figures(&id).await?))
+}
+
+#[utoipa::path(operation_id = "history_verification", summary = "A check verified against the predictions of the check before it", get, path = "/api/v1/results/{id}/verification", tag = "history",
+    security(("api_key" = [])), params(("id" = String, Path)),
+    responses((status = 200, body = Verification, description = "per finding of the previous check with a predicted residual after compensation \
+                                                                  (a backlash: 0): still present or gone at this check, measured against \
+                                                                  predicted; empty findings with the reason when there is nothing to verify"),
+              (status = 400, body = ErrorBody, description = "not an identification result"),
+              (status = 404, body = ErrorBody)))]
+pub async fn verification(
+    _key: ReadKey,
+    State(s): State<AppState>,
+    Path(id): Path<String>,
+) -> Result<Json<Verification>, ApiError> {
+    Ok(Json(
+        mtcal_domain::verification::verification(s.store.as_ref(), &id).await?,
+    ))
 }
 
 #[utoipa::path(operation_id = "history_diff", summary = "Difference of a result from the baseline, term by term", get, path = "/api/v1/machines/{id}/results/diff", tag = "history",
