@@ -11,6 +11,7 @@
 #![deny(clippy::print_stdout, clippy::print_stderr)]
 
 pub mod api;
+pub mod audit;
 pub mod auth;
 pub mod blocking;
 pub mod contract;
@@ -97,13 +98,15 @@ impl utoipa::Modify for SecurityAddon {
         api::tolerances::create, api::tolerances::list, api::tolerances::get,
         api::tolerances::replace, api::tolerances::delete, api::tolerances::verdict,
         api::alerts::list, api::alerts::ack, api::webhooks::deliveries,
+        api::audit::list, api::audit::export,
     ),
     components(schemas(jobs::IdentifyParams, jobs::DiagnoseParams, error::ErrorBody)),
     modifiers(&SecurityAddon, &Statuses),
     tags((name = "machines"), (name = "datasets"), (name = "jobs"), (name = "history"),
          (name = "trends"), (name = "keys"), (name = "service"),
          (name = "tolerances", description = "Tolerance profiles and verdicts (ISO 14253-1 decision rule, U = 2u)"),
-         (name = "alerts", description = "Drift alerts raised when a result lands"))
+         (name = "alerts", description = "Drift alerts raised when a result lands"),
+         (name = "audit", description = "The audit trail: every change of state a person made (append-only)"))
 )]
 pub struct ApiDoc;
 
@@ -186,6 +189,8 @@ pub fn router(state: AppState) -> Router {
             "/api/v1/webhooks/deliveries",
             get(api::webhooks::deliveries),
         )
+        .route("/api/v1/audit", get(api::audit::list))
+        .route("/api/v1/audit/export", get(api::audit::export))
         .route("/api/v1/keys", post(keys::create).get(keys::list))
         .route("/api/v1/keys/{id}", axum::routing::delete(keys::revoke))
         .layer(DefaultBodyLimit::max(JSON_BODY_LIMIT))
@@ -335,8 +340,8 @@ pub async fn serve_http(
     loop {
         tokio::select! {
             accepted = listener.accept() => {
-                let stream = match accepted {
-                    Ok((stream, _)) => stream,
+                let (stream, peer) = match accepted {
+                    Ok(accepted) => accepted,
                     Err(e) => {
                         // Out of file descriptors and the like: wait, do not spin.
                         tracing::warn!(%e, "accepting a connection");
@@ -345,7 +350,12 @@ pub async fn serve_http(
                     }
                 };
                 let _ = stream.set_nodelay(true);
-                let service = hyper_util::service::TowerToHyperService::new(app.clone());
+                // The client's address, for the audit trail (crate::audit).
+                let app = tower::Layer::layer(
+                    &axum::Extension(axum::extract::ConnectInfo(peer)),
+                    app.clone(),
+                );
+                let service = hyper_util::service::TowerToHyperService::new(app);
                 let conn = builder
                     .serve_connection_with_upgrades(TokioIo::new(stream), service)
                     .into_owned();

@@ -56,6 +56,7 @@ pub struct ExportQuery {
               (status = 422, body = ErrorBody, description = "not_identifiable: no term of the result is identifiable")))]
 pub async fn export(
     _key: ReadKey,
+    who: crate::audit::Actor,
     State(s): State<AppState>,
     Path(id): Path<String>,
     ApiQuery(q): ApiQuery<ExportQuery>,
@@ -77,6 +78,7 @@ pub async fn export(
     );
     let step = q.step_mm.unwrap_or(DEFAULT_STEP_MM);
     let force = q.force.unwrap_or(false);
+    let (result_id, machine_id) = (r.meta.id.clone(), r.meta.machine_id.clone());
     let text = crate::blocking::run::<_, ApiError>(move || {
         let doc = identification(&r)?;
         let table = Compensation::from_result(&doc, step, force).map_err(|e| match e {
@@ -87,6 +89,17 @@ pub async fn export(
         Ok::<_, ApiError>(format.write(&table))
     })
     .await??;
+    if force {
+        // A table made past the misfit gate (or asked to be): who took that decision.
+        let change = crate::audit::Change {
+            action: "export.forced",
+            target: &result_id,
+            machine: Some(&machine_id),
+            before: None,
+            after: Some(serde_json::json!({"format": format.name(), "step_mm": step})),
+        };
+        who.record(s.store.as_ref(), change).await?;
+    }
     Ok(attachment(text, format.content_type(), Some(&name)))
 }
 
@@ -226,7 +239,7 @@ async fn diagnosis_of(s: &AppState, r: &StoredResult) -> Result<Option<ReportDia
 }
 
 /// A text body with its content type, as an attachment named `name` when given.
-fn attachment(body: String, content_type: &'static str, name: Option<&str>) -> Response {
+pub(crate) fn attachment(body: String, content_type: &'static str, name: Option<&str>) -> Response {
     let mut resp = body.into_response();
     let h = resp.headers_mut();
     h.insert(header::CONTENT_TYPE, HeaderValue::from_static(content_type));
