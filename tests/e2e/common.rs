@@ -335,12 +335,9 @@ pub fn set_cookie(r: &reqwest::Response, name: &str) -> (String, String) {
 }
 
 impl App {
-    /// Signs a browser in with `key` through the sign-in form.
-    pub async fn sign_in(&self, key: &str) -> Browser {
-        let http = reqwest::Client::builder()
-            .redirect(reqwest::redirect::Policy::none())
-            .build()
-            .unwrap();
+    /// Sends the sign-in form with `key` from a browser of its own (`http`, which follows
+    /// no redirect); the answer.
+    pub async fn post_sign_in(&self, http: &reqwest::Client, key: &str) -> reqwest::Response {
         let r = http
             .get(format!("{}/signin", self.url))
             .send()
@@ -348,13 +345,21 @@ impl App {
             .unwrap();
         let (pre, _) = set_cookie(&r, "mtcal_signin");
         let token = csrf_of(&r.text().await.unwrap());
-        let r = http
-            .post(format!("{}/signin", self.url))
+        http.post(format!("{}/signin", self.url))
             .header(reqwest::header::COOKIE, pre)
             .form(&[("csrf", token.as_str()), ("key", key), ("next", "/")])
             .send()
             .await
+            .unwrap()
+    }
+
+    /// Signs a browser in with `key` through the sign-in form.
+    pub async fn sign_in(&self, key: &str) -> Browser {
+        let http = reqwest::Client::builder()
+            .redirect(reqwest::redirect::Policy::none())
+            .build()
             .unwrap();
+        let r = self.post_sign_in(&http, key).await;
         assert_eq!(r.status(), StatusCode::SEE_OTHER, "signed in");
         let (cookie, set_cookie) = set_cookie(&r, "mtcal_session");
         let mut b = Browser {

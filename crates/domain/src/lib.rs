@@ -5,9 +5,9 @@
 //! is judged against it ([`profiles`], [`verdicts`]), when a drift alert is raised and
 //! where it is delivered ([`alerts`], [`webhooks`]), what follows a landed result
 //! ([`landing`]), and the arithmetic of trends and differences over a machine's history
-//! ([`trends`], [`history`]), the rules of a machine's fields ([`machines`]), and the
+//! ([`trends`], [`history`]), the rules of a machine's fields ([`machines`]), the
 //! verification of a check against the predictions of the check before it
-//! ([`verification`]).
+//! ([`verification`]), and the reading of the audit trail ([`audit`]).
 //!
 //! Layers: this crate reads and writes through [`mtcal_store::Store`] and computes with
 //! [`mtcal_solver`] (result arithmetic, decision rule); it knows nothing of HTTP. The
@@ -15,12 +15,13 @@
 //! of these functions and their answers into JSON or pages. Its answers derive their
 //! OpenAPI schema behind the feature `openapi` (derive only).
 //!
-//! Module order (each imports only those before it): [`kinds`], [`error`], [`paging`], [`blocking`],
+//! Module order (each imports only those before it): [`kinds`], [`error`], [`paging`], [`audit`], [`blocking`],
 //! [`trends`], [`history`], [`webhooks`], [`profiles`], [`verdicts`], [`alerts`],
 //! [`fleet`], [`machines`], [`landing`], [`verification`].
 #![deny(clippy::print_stdout, clippy::print_stderr)]
 
 pub mod alerts;
+pub mod audit;
 pub mod blocking;
 pub mod error;
 pub mod fleet;

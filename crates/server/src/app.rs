@@ -97,6 +97,8 @@ pub fn router(state: AppState) -> Router {
             "/api/v1/webhooks/deliveries",
             get(api::webhooks::deliveries),
         )
+        .route("/api/v1/audit", get(api::audit::list))
+        .route("/api/v1/audit/export", get(api::audit::export))
         .route("/api/v1/keys", post(keys::create).get(keys::list))
         .route("/api/v1/keys/{id}", axum::routing::delete(keys::revoke))
         .layer(DefaultBodyLimit::max(JSON_BODY_LIMIT))

@@ -44,13 +44,15 @@ impl utoipa::Modify for SecurityAddon {
         api::tolerances::create, api::tolerances::list, api::tolerances::get,
         api::tolerances::replace, api::tolerances::delete, api::tolerances::verdict,
         api::alerts::list, api::alerts::ack, api::webhooks::deliveries,
+        api::audit::list, api::audit::export,
     ),
     components(schemas(jobs::IdentifyParams, jobs::DiagnoseParams, error::ErrorBody)),
     modifiers(&SecurityAddon, &Statuses),
     tags((name = "machines"), (name = "datasets"), (name = "jobs"), (name = "history"),
          (name = "trends"), (name = "keys"), (name = "service"),
          (name = "tolerances", description = "Tolerance profiles and verdicts (ISO 14253-1 decision rule, U = 2u)"),
-         (name = "alerts", description = "Drift alerts raised when a result lands"))
+         (name = "alerts", description = "Drift alerts raised when a result lands"),
+         (name = "audit", description = "The audit trail: every change of state a person made (append-only)"))
 )]
 pub struct ApiDoc;
 

@@ -14,6 +14,7 @@
 //! | [`Tolerances`] | `tolerances.rs` | tolerance profiles and the drift alerts they raise |
 //! | [`Webhooks`] | `webhooks.rs` | the outbox of webhook deliveries |
 //! | [`Keys`] | `keys.rs` | API keys and the dashboard's sign-in sessions |
+//! | [`Audit`] | `audit.rs` | the audit trail: every change of state a person made (append-only) |
 //! | [`Operations`] | `store.rs` | the database as a whole: migrations, row counts |
 //!
 //! Callers hold an `Arc<dyn Store>` and call any of these methods on it; code that calls
@@ -32,6 +33,7 @@
 //! PostgreSQL database. Both use runtime-checked `sqlx::query` and migrations embedded
 //! at build time; [`open`] picks the backend from the URL.
 
+pub mod audit;
 mod clock;
 mod datasets;
 mod error;
@@ -57,6 +59,7 @@ mod tolerances;
 mod url;
 mod webhooks;
 
+pub use audit::Audit;
 pub use clock::{now_ms, now_rfc3339, rfc3339_millis};
 pub use datasets::Datasets;
 pub use error::{Result, StoreError};
@@ -78,6 +81,7 @@ pub use webhooks::Webhooks;
 /// (Through a `dyn Store` every method is callable without it.)
 pub mod prelude {
     pub use crate::{
-        Datasets, Fleet, Keys, Machines, Operations, Queue, Results, Store, Tolerances, Webhooks,
+        Audit, Datasets, Fleet, Keys, Machines, Operations, Queue, Results, Store, Tolerances,
+        Webhooks,
     };
 }

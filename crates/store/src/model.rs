@@ -6,6 +6,7 @@
 //! datasets and results, are in `exclusion.rs`). Nothing inside the crate imports this
 //! module: each imports a record from its own file.
 
+pub use crate::audit::{AuditEvent, AuditQuery, NewAuditEvent};
 pub use crate::datasets::{Dataset, FileMeta, NewDataset};
 pub use crate::exclusion::{Exclusion, SetAside};
 pub use crate::fleet::{

@@ -236,6 +236,33 @@ pub(crate) fn api_key(r: &impl Columns) -> Result<ApiKey> {
     })
 }
 
+/// The columns of an audit event, in [`audit_event`]'s order.
+pub(crate) const AUDIT_COLUMNS: &str = "seq, at, actor, actor_name, via, action, target, \
+     machine_id, before_json, after_json, client";
+
+pub(crate) fn audit_event(r: &impl Columns) -> Result<crate::audit::AuditEvent> {
+    let json = |c: &str| -> Result<Option<serde_json::Value>> {
+        r.opt_text(c)?
+            .map(|t| serde_json::from_str(&t).db())
+            .transpose()
+    };
+    Ok(crate::audit::AuditEvent {
+        seq: r.int("seq")?,
+        at: r.text("at")?,
+        event: crate::audit::NewAuditEvent {
+            actor: r.text("actor")?,
+            actor_name: r.text("actor_name")?,
+            via: r.text("via")?,
+            action: r.text("action")?,
+            target: r.text("target")?,
+            machine_id: r.opt_text("machine_id")?,
+            before: json("before_json")?,
+            after: json("after_json")?,
+            client: r.opt_text("client")?,
+        },
+    })
+}
+
 /// The columns of a fleet drift row, in [`fleet_drift`]'s order.
 pub(crate) const FLEET_DRIFT_COLUMNS: &str =
     "machine_id, read_at_ms, drift_um, drift_urad, entry, latest_measured_at, basis";

@@ -3,7 +3,7 @@
 
 use crate::error::Result;
 use crate::{
-    Datasets, Fleet, Keys, Machines, PostgresStore, Queue, Results, SqliteStore, Tolerances,
+    Audit, Datasets, Fleet, Keys, Machines, PostgresStore, Queue, Results, SqliteStore, Tolerances,
     Webhooks,
 };
 use serde::{Deserialize, Serialize};
@@ -19,7 +19,17 @@ pub type StoreFuture<'a, T> = Pin<Box<dyn Future<Output = Result<T>> + Send + 'a
 /// calls them on a concrete store type brings the traits into scope with
 /// `use mtcal_store::prelude::*`. Implemented for every type that implements them all.
 pub trait Store:
-    Machines + Datasets + Queue + Results + Fleet + Tolerances + Webhooks + Keys + Operations + 'static
+    Machines
+    + Datasets
+    + Queue
+    + Results
+    + Fleet
+    + Tolerances
+    + Webhooks
+    + Keys
+    + Audit
+    + Operations
+    + 'static
 {
 }
 
@@ -32,6 +42,7 @@ impl<T> Store for T where
         + Tolerances
         + Webhooks
         + Keys
+        + Audit
         + Operations
         + 'static
 {

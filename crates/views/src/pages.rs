@@ -9,6 +9,7 @@
 use maud::{DOCTYPE, Markup, PreEscaped, html};
 
 pub mod alerts;
+pub mod audit;
 pub mod compare;
 pub mod fleet;
 pub mod jobs;
@@ -103,6 +104,7 @@ pub fn page(title: &str, nav: Nav, viewer: Option<&Viewer>, body: Markup) -> Mar
                             a href="/" class=[(nav == Nav::Fleet).then_some("active")] { "Fleet" }
                             a href="/jobs" class=[(nav == Nav::Jobs).then_some("active")] { "Jobs" }
                             a href="/alerts" class=[(nav == Nav::Alerts).then_some("active")] { "Alerts" }
+                            @if v.scope == "admin" { a href="/audit" { "Audit" } }
                             a href="/docs" { "API" }
                         }
                         div.who {

@@ -2,6 +2,7 @@
 //! [`mtcal_domain::alerts`]).
 
 use crate::AppState;
+use crate::audit::{Actor, Change, json};
 use crate::auth::{ReadKey, WriteKey};
 use crate::error::{ApiError, ApiQuery, ErrorBody};
 use axum::Json;
@@ -26,13 +27,13 @@ pub async fn list(
     responses((status = 200, body = AlertView, description = "acknowledged (an acknowledged alert keeps its first acknowledgement)"),
               (status = 400, body = ErrorBody), (status = 401, body = ErrorBody), (status = 403, body = ErrorBody), (status = 404, body = ErrorBody)))]
 pub async fn ack(
-    WriteKey(key): WriteKey,
+    _key: WriteKey,
+    who: Actor,
     State(s): State<AppState>,
     Path(id): Path<String>,
     headers: axum::http::HeaderMap,
     body: axum::body::Bytes,
 ) -> Result<Json<AlertView>, ApiError> {
-    let by = format!("key {} ({})", key.id, key.label);
     if let Some(t) = headers.get(axum::http::header::CONTENT_TYPE)
         && !t.as_bytes().starts_with(b"application/json")
     {
@@ -46,6 +47,27 @@ pub async fn ack(
         serde_json::from_slice(&body).map_err(|e| ApiError::InvalidRequest(format!("body: {e}")))?
     };
     Ok(Json(
-        alerts::acknowledge(s.store.as_ref(), &id, &by, ack.comment.as_deref()).await?,
+        acknowledge(&s, &id, &who, ack.comment.as_deref()).await?,
     ))
+}
+
+/// Acknowledges an alert as `who` and records it (`POST /api/v1/alerts/{id}/ack`; the
+/// dashboard's button).
+pub async fn acknowledge(
+    s: &AppState,
+    id: &str,
+    who: &Actor,
+    comment: Option<&str>,
+) -> Result<AlertView, ApiError> {
+    let before = AlertView::of(&s.store.get_alert(id).await?)?;
+    let after = alerts::acknowledge(s.store.as_ref(), id, &who.by, comment).await?;
+    let change = Change {
+        action: "alert.ack",
+        target: &after.raised.id,
+        machine: Some(&after.raised.machine_id),
+        before: json(&before),
+        after: json(&after),
+    };
+    who.record(s.store.as_ref(), change).await?;
+    Ok(after)
 }

@@ -3,6 +3,7 @@
 
 use crate::AppState;
 use crate::api::history::Reason;
+use crate::audit::{Actor, Change, json};
 use crate::auth::{AdminKey, ReadKey, WriteKey};
 use crate::error::{ApiError, ApiJson, ApiQuery, ErrorBody};
 use crate::ingest;
@@ -305,12 +306,15 @@ pub async fn list(
               (status = 409, body = ErrorBody, description = "conflict: a job on the dataset is queued or running (the message names it); nothing changed")))]
 pub async fn exclude(
     WriteKey(key): WriteKey,
+    who: Actor,
     State(s): State<AppState>,
     Path(id): Path<String>,
     ApiJson(body): ApiJson<Reason>,
 ) -> Result<Json<Dataset>, ApiError> {
     let why = super::history::recorded(&body, &key)?;
-    set_aside(&s, s.store.exclude_dataset(&id, why.set_aside()).await?).await
+    let before = s.store.get_dataset(&id).await?;
+    let after = s.store.exclude_dataset(&id, why.set_aside()).await?;
+    set_aside(&s, "dataset.exclude", before, after, &who).await
 }
 
 /// Deletes a dataset's raw bytes (admin: irreversible, unlike an exclusion). The dataset
@@ -325,21 +329,35 @@ pub async fn exclude(
               (status = 409, body = ErrorBody, description = "conflict: a job on the dataset is queued or running (the message names it); nothing changed")))]
 pub async fn delete_files(
     AdminKey(key): AdminKey,
+    who: Actor,
     State(s): State<AppState>,
     Path(id): Path<String>,
     ApiJson(body): ApiJson<Reason>,
 ) -> Result<Json<Dataset>, ApiError> {
     let why = super::history::recorded(&body, &key)?;
-    set_aside(
-        &s,
-        s.store.delete_dataset_files(&id, why.set_aside()).await?,
-    )
-    .await
+    let before = s.store.get_dataset(&id).await?;
+    let after = s.store.delete_dataset_files(&id, why.set_aside()).await?;
+    set_aside(&s, "dataset.delete_files", before, after, &who).await
 }
 
-/// The answer to a dataset set aside (excluded, or its bytes deleted), once its machine's
-/// fleet row is refreshed: the dataset's results no longer count for the drift.
-async fn set_aside(s: &AppState, d: Dataset) -> Result<Json<Dataset>, ApiError> {
+/// The answer to a dataset set aside (`action`: excluded, or its bytes deleted), once it
+/// is recorded and its machine's fleet row refreshed: the dataset's results no longer
+/// count for the drift.
+async fn set_aside(
+    s: &AppState,
+    action: &str,
+    before: Dataset,
+    d: Dataset,
+    who: &Actor,
+) -> Result<Json<Dataset>, ApiError> {
+    let change = Change {
+        action,
+        target: &d.id,
+        machine: Some(&d.machine_id),
+        before: json(&before),
+        after: json(&d),
+    };
+    who.record(s.store.as_ref(), change).await?;
     mtcal_domain::fleet::refresh_machine(s.store.as_ref(), &d.machine_id).await?;
     Ok(Json(d))
 }

@@ -62,6 +62,7 @@ pub struct ExportQuery {
                                                                 (linuxcnc: no axis's error along itself and no reversal)")))]
 pub async fn export(
     _key: ReadKey,
+    who: crate::audit::Actor,
     State(s): State<AppState>,
     Path(id): Path<String>,
     ApiQuery(q): ApiQuery<ExportQuery>,
@@ -89,6 +90,7 @@ pub async fn export(
         Some(ReportDiagnosis { doc: Ok(d), .. }) => d.findings,
         _ => vec![],
     };
+    let (result_id, machine_id) = (r.meta.id.clone(), r.meta.machine_id.clone());
     let text = crate::blocking::run::<_, ApiError>(move || {
         let doc = identification(&r)?;
         let refused = |e| match e {
@@ -103,6 +105,17 @@ pub async fn export(
         Ok::<_, ApiError>(format.write(&table))
     })
     .await??;
+    if force {
+        // A table made past the misfit gate (or asked to be): who took that decision.
+        let change = crate::audit::Change {
+            action: "export.forced",
+            target: &result_id,
+            machine: Some(&machine_id),
+            before: None,
+            after: Some(serde_json::json!({"format": format.name(), "step_mm": step})),
+        };
+        who.record(s.store.as_ref(), change).await?;
+    }
     Ok(attachment(text, format.content_type(), Some(&name)))
 }
 
@@ -242,7 +255,7 @@ async fn diagnosis_of(s: &AppState, r: &StoredResult) -> Result<Option<ReportDia
 }
 
 /// A text body with its content type, as an attachment named `name` when given.
-fn attachment(body: String, content_type: &'static str, name: Option<&str>) -> Response {
+pub(crate) fn attachment(body: String, content_type: &'static str, name: Option<&str>) -> Response {
     let mut resp = body.into_response();
     let h = resp.headers_mut();
     h.insert(header::CONTENT_TYPE, HeaderValue::from_static(content_type));

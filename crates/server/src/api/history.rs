@@ -2,6 +2,7 @@
 //! difference from a baseline.
 
 use crate::AppState;
+use crate::audit::{Actor, Change, json};
 use crate::auth::{ReadKey, WriteKey};
 use crate::error::{ApiError, ApiJson, ApiQuery, ErrorBody};
 use axum::Json;
@@ -172,12 +173,22 @@ impl Recorded<'_> {
               (status = 403, body = ErrorBody), (status = 404, body = ErrorBody)))]
 pub async fn exclude(
     WriteKey(key): WriteKey,
+    who: Actor,
     State(s): State<AppState>,
     Path(id): Path<String>,
     ApiJson(body): ApiJson<Reason>,
 ) -> Result<Json<ResultMeta>, ApiError> {
     let why = recorded(&body, &key)?;
+    let before = s.store.get_result(&id).await?.meta;
     let meta = s.store.exclude_result(&id, why.set_aside()).await?;
+    let change = Change {
+        action: "result.exclude",
+        target: &meta.id,
+        machine: Some(&meta.machine_id),
+        before: json(&before),
+        after: json(&meta),
+    };
+    who.record(s.store.as_ref(), change).await?;
     mtcal_domain::fleet::refresh_machine(s.store.as_ref(), &meta.machine_id).await?;
     Ok(Json(meta))
 }

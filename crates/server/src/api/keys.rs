@@ -2,6 +2,7 @@
 //! creation; a list shows prefixes and labels, never a secret or its hash.
 
 use crate::AppState;
+use crate::audit::{Actor, Change, json};
 use crate::auth::AdminKey;
 use crate::error::{ApiError, ApiJson, ErrorBody};
 use axum::Json;
@@ -15,10 +16,20 @@ use mtcal_store::ApiKey;
     responses((status = 201, body = CreatedKey), (status = 403, body = ErrorBody)))]
 pub async fn create(
     _key: AdminKey,
+    who: Actor,
     State(s): State<AppState>,
     ApiJson(k): ApiJson<NewKey>,
 ) -> Result<(StatusCode, Json<CreatedKey>), ApiError> {
     let (key, secret) = s.store.create_key(k.scope, &k.label).await?;
+    // The record without the secret (shown once, never kept).
+    let change = Change {
+        action: "key.create",
+        target: &key.id,
+        machine: None,
+        before: None,
+        after: json(&key),
+    };
+    who.record(s.store.as_ref(), change).await?;
     Ok((StatusCode::CREATED, Json(CreatedKey { key, secret })))
 }
 
@@ -42,6 +53,7 @@ pub async fn list(
               (status = 409, body = ErrorBody, description = "the key is the one making the request, or the last admin key")))]
 pub async fn revoke(
     AdminKey(me): AdminKey,
+    who: Actor,
     State(s): State<AppState>,
     Path(id): Path<String>,
 ) -> Result<Json<ApiKey>, ApiError> {
@@ -50,5 +62,15 @@ pub async fn revoke(
             "key {id} is the key of this request: revoke it with another admin key"
         )));
     }
-    Ok(Json(s.store.revoke_key(&id).await?))
+    let before = s.store.list_keys().await?.into_iter().find(|k| k.id == id);
+    let after = s.store.revoke_key(&id).await?;
+    let change = Change {
+        action: "key.revoke",
+        target: &after.id,
+        machine: None,
+        before: before.as_ref().and_then(json),
+        after: json(&after),
+    };
+    who.record(s.store.as_ref(), change).await?;
+    Ok(Json(after))
 }

@@ -1,6 +1,7 @@
 //! `/api/v1/machines`: register, read, update, list.
 
 use crate::AppState;
+use crate::audit::{Actor, Change, json};
 use crate::auth::{ReadKey, WriteKey};
 use crate::error::{ApiError, ApiJson, ApiQuery, ErrorBody};
 use axum::Json;
@@ -18,13 +19,28 @@ pub use mtcal_domain::machines::{MAX_TRAVEL_MM, NewMachine};
                (status = 409, body = ErrorBody)))]
 pub async fn create(
     _key: WriteKey,
+    who: Actor,
     State(s): State<AppState>,
     ApiJson(m): ApiJson<NewMachine>,
 ) -> Result<(StatusCode, Json<Machine>), ApiError> {
     Ok((
         StatusCode::CREATED,
-        Json(mtcal_domain::machines::create(s.store.as_ref(), m).await?),
+        Json(create_machine(&s, m, &who).await?),
     ))
+}
+
+/// Registers a machine and records it (`POST /api/v1/machines`; the dashboard's form).
+pub async fn create_machine(s: &AppState, m: NewMachine, who: &Actor) -> Result<Machine, ApiError> {
+    let m = mtcal_domain::machines::create(s.store.as_ref(), m).await?;
+    let change = Change {
+        action: "machine.create",
+        target: &m.id,
+        machine: Some(&m.id),
+        before: None,
+        after: json(&m),
+    };
+    who.record(s.store.as_ref(), change).await?;
+    Ok(m)
 }
 
 #[utoipa::path(operation_id = "machines_get", summary = "A machine", get, path = "/api/v1/machines/{id}", tag = "machines",
@@ -44,17 +60,43 @@ pub async fn get(
               (status = 409, body = ErrorBody, description = "the baseline named is a result of another machine")))]
 pub async fn update(
     _key: WriteKey,
+    who: Actor,
     State(s): State<AppState>,
     Path(id): Path<String>,
     ApiJson(p): ApiJson<MachinePatch>,
 ) -> Result<Json<Machine>, ApiError> {
-    Ok(Json(update_machine(&s, &id, p).await?))
+    Ok(Json(update_machine(&s, &id, p, &who).await?))
 }
 
-/// Checks and applies a patch (`PATCH /api/v1/machines/{id}`; the dashboard's baseline
-/// form too).
-pub async fn update_machine(s: &AppState, id: &str, p: MachinePatch) -> Result<Machine, ApiError> {
-    Ok(mtcal_domain::machines::update(s.store.as_ref(), id, p).await?)
+/// Checks and applies a patch and records it (`PATCH /api/v1/machines/{id}`; the
+/// dashboard's baseline form too): `baseline.set` when the patch only moves the
+/// baseline, `machine.update` otherwise.
+pub async fn update_machine(
+    s: &AppState,
+    id: &str,
+    p: MachinePatch,
+    who: &Actor,
+) -> Result<Machine, ApiError> {
+    let only_baseline = p.baseline_result_id.is_some()
+        && MachinePatch {
+            baseline_result_id: None,
+            ..p.clone()
+        } == MachinePatch::default();
+    let before = s.store.get_machine(id).await?;
+    let after = mtcal_domain::machines::update(s.store.as_ref(), id, p).await?;
+    let change = Change {
+        action: if only_baseline {
+            "baseline.set"
+        } else {
+            "machine.update"
+        },
+        target: &after.id,
+        machine: Some(&after.id),
+        before: json(&before),
+        after: json(&after),
+    };
+    who.record(s.store.as_ref(), change).await?;
+    Ok(after)
 }
 
 /// Most machines one list returns.

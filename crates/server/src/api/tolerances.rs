@@ -3,6 +3,7 @@
 //! [`mtcal_domain::verdicts`]).
 
 use crate::AppState;
+use crate::audit::{Actor, Change, json};
 use crate::auth::{ReadKey, WriteKey};
 use crate::error::{ApiError, ApiJson, ErrorBody};
 use axum::Json;
@@ -33,12 +34,47 @@ pub(crate) fn refresh_targets(s: &AppState, scope: &str, target: &str) {
               (status = 409, body = ErrorBody, description = "the target already has a profile")))]
 pub async fn create(
     _key: WriteKey,
+    who: Actor,
     State(s): State<AppState>,
     ApiJson(p): ApiJson<NewProfile>,
 ) -> Result<(StatusCode, Json<Profile>), ApiError> {
-    let answer = profiles::create(s.store.as_ref(), &p, &s.settings.webhooks).await?;
-    refresh_targets(&s, &answer.scope, &answer.target);
-    Ok((StatusCode::CREATED, Json(answer)))
+    Ok((
+        StatusCode::CREATED,
+        Json(create_profile(&s, &p, &who).await?),
+    ))
+}
+
+/// The profile as the audit trail keeps it: its webhook as a read key sees it (the
+/// host, not a token in its query), never its signing secret.
+fn recorded(p: &Profile) -> Option<serde_json::Value> {
+    let mut p = mtcal_domain::profiles::seen_by(p.clone(), mtcal_store::Scope::Read);
+    p.webhook_secret = None;
+    json(&p)
+}
+
+/// The machine a profile's change concerns (a machine profile's target), if any.
+fn machine_of(p: &Profile) -> Option<&str> {
+    (p.scope == "machine").then_some(p.target.as_str())
+}
+
+/// Creates a profile, records it and refreshes the verdicts of the machines it applies
+/// to (`POST /api/v1/tolerances`; the dashboard's form).
+pub async fn create_profile(
+    s: &AppState,
+    p: &NewProfile,
+    who: &Actor,
+) -> Result<Profile, ApiError> {
+    let answer = profiles::create(s.store.as_ref(), p, &s.settings.webhooks).await?;
+    let change = Change {
+        action: "profile.create",
+        target: &answer.id,
+        machine: machine_of(&answer),
+        before: None,
+        after: recorded(&answer),
+    };
+    who.record(s.store.as_ref(), change).await?;
+    refresh_targets(s, &answer.scope, &answer.target);
+    Ok(answer)
 }
 
 #[utoipa::path(operation_id = "tolerances_list", summary = "Every tolerance profile", get, path = "/api/v1/tolerances", tag = "tolerances",
@@ -74,11 +110,21 @@ pub async fn get(
               (status = 401, body = ErrorBody), (status = 403, body = ErrorBody), (status = 404, body = ErrorBody)))]
 pub async fn replace(
     _key: WriteKey,
+    who: Actor,
     State(s): State<AppState>,
     Path(id): Path<String>,
     ApiJson(u): ApiJson<ProfileUpdate>,
 ) -> Result<Json<Profile>, ApiError> {
+    let before = mtcal_domain::profiles::profile_of(&s.store.get_tolerance(&id).await?)?;
     let answer = profiles::replace(s.store.as_ref(), &id, &u, &s.settings.webhooks).await?;
+    let change = Change {
+        action: "profile.replace",
+        target: &answer.id,
+        machine: machine_of(&answer),
+        before: recorded(&before),
+        after: recorded(&answer),
+    };
+    who.record(s.store.as_ref(), change).await?;
     refresh_targets(&s, &answer.scope, &answer.target);
     Ok(Json(answer))
 }
@@ -89,11 +135,21 @@ pub async fn replace(
               (status = 404, body = ErrorBody)))]
 pub async fn delete(
     _key: WriteKey,
+    who: Actor,
     State(s): State<AppState>,
     Path(id): Path<String>,
 ) -> Result<StatusCode, ApiError> {
     let old = s.store.get_tolerance(&id).await?;
+    let before = mtcal_domain::profiles::profile_of(&old)?;
     s.store.delete_tolerance(&id).await?;
+    let change = Change {
+        action: "profile.delete",
+        target: &before.id,
+        machine: machine_of(&before),
+        before: recorded(&before),
+        after: None,
+    };
+    who.record(s.store.as_ref(), change).await?;
     refresh_targets(&s, &old.scope, &old.target);
     Ok(StatusCode::NO_CONTENT)
 }

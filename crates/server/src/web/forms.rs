@@ -58,6 +58,7 @@ pub struct MachineForm {
 /// its page.
 pub async fn create_machine(
     session: Session,
+    client: crate::audit::Client,
     State(s): State<WebState>,
     Form(f): Form<MachineForm>,
 ) -> PageResult {
@@ -99,9 +100,7 @@ pub async fn create_machine(
             .map(str::to_string)
             .collect(),
     };
-    let m = mtcal_domain::machines::create(s.app.store.as_ref(), m)
-        .await
-        .map_err(|e| WebError(e.into()))?;
+    let m = crate::api::machines::create_machine(&s.app, m, &session.actor(client)).await?;
     Ok(Redirect::to(&format!(
         "{}?notice={}",
         views::machine_href(&m.id),
@@ -189,6 +188,7 @@ fn profile_request(machine: &str, f: &ProfileForm) -> Result<NewProfile, WebErro
 /// refreshes the verdicts of the machines it applies to, and shows the machine's page.
 pub async fn create_profile(
     session: Session,
+    client: crate::audit::Client,
     State(s): State<WebState>,
     Path(id): Path<String>,
     Form(f): Form<ProfileForm>,
@@ -198,10 +198,7 @@ pub async fn create_profile(
     s.app.store.get_machine(&id).await?;
     let p = profile_request(&id, &f)?;
     let created =
-        mtcal_domain::profiles::create(s.app.store.as_ref(), &p, &s.app.settings.webhooks)
-            .await
-            .map_err(|e| WebError(e.into()))?;
-    crate::api::tolerances::refresh_targets(&s.app, &created.scope, &created.target);
+        crate::api::tolerances::create_profile(&s.app, &p, &session.actor(client)).await?;
     Ok(Redirect::to(&format!(
         "{}?notice={}",
         views::machine_href(&id),

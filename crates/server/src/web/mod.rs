@@ -9,6 +9,7 @@
 //! itself (a job's progress from `GET /api/v1/jobs/{id}`) with the session cookie as its
 //! key. Sessions: [`session`].
 
+pub mod audit;
 pub mod forms;
 pub mod pages;
 pub mod session;
@@ -103,6 +104,7 @@ pub fn router(app: AppState) -> Router {
         .route("/alerts", get(pages::alerts))
         .route("/alerts/{id}/ack", post(pages::ack_alert))
         .route("/jobs", get(pages::jobs))
+        .route("/audit", get(audit::page))
         .route("/signin", get(signin_form).post(signin))
         .route("/signout", post(signout))
         .layer(DefaultBodyLimit::max(JSON_BODY_LIMIT))
@@ -187,6 +189,7 @@ struct SigninForm {
 /// Checks the key; on success starts a session and goes on to `next`.
 async fn signin(
     State(s): State<WebState>,
+    client: crate::audit::Client,
     headers: HeaderMap,
     jar: PrivateCookieJar,
     Form(f): Form<SigninForm>,
@@ -212,9 +215,19 @@ async fn signin(
     {
         Some(key) => {
             let jar = session::start(&s.app, jar, &key, secure).await?;
+            let who = crate::audit::Actor::of_key(&key, "dashboard", client.0);
+            who.record(s.app.store.as_ref(), signed("signin", &key))
+                .await?;
             Ok((jar, Redirect::to(&next)).into_response())
         }
         None => {
+            // Nothing of the secret is kept: a wrong key may be a real one mistyped.
+            let change = crate::audit::Change {
+                action: "signin.failed",
+                ..Default::default()
+            };
+            let who = crate::audit::Actor::unknown("dashboard", client.0);
+            who.record(s.app.store.as_ref(), change).await?;
             let (jar, token) = session::signin_token(jar, secure);
             let page = mtcal_views::pages::signin::signin_page(
                 &token,
@@ -223,6 +236,18 @@ async fn signin(
             );
             Ok((StatusCode::UNAUTHORIZED, jar, html(page)).into_response())
         }
+    }
+}
+
+/// A session's start or end (`action`) as the audit trail records it: its key, and the
+/// key's scope after.
+fn signed<'a>(action: &'a str, key: &'a mtcal_store::ApiKey) -> crate::audit::Change<'a> {
+    crate::audit::Change {
+        action,
+        target: &key.id,
+        machine: None,
+        before: None,
+        after: Some(serde_json::json!({"key": key.id, "scope": key.scope.as_str()})),
     }
 }
 
@@ -236,12 +261,18 @@ pub struct CsrfForm {
 /// Ends the session in the database (the cookie, if kept, opens nothing any more).
 async fn signout(
     session: Session,
+    client: crate::audit::Client,
     State(s): State<WebState>,
     jar: PrivateCookieJar,
     Form(f): Form<CsrfForm>,
 ) -> PageResult {
     session.check_csrf(&f.csrf)?;
     let jar = session::end(&s.app, jar).await?;
+    let change = signed("signout", &session.key);
+    session
+        .actor(client)
+        .record(s.app.store.as_ref(), change)
+        .await?;
     Ok((jar, Redirect::to("/signin")).into_response())
 }
 

@@ -499,6 +499,7 @@ pub struct BaselineForm {
 /// `baseline_result_id`.
 pub async fn set_baseline(
     session: Session,
+    client: crate::audit::Client,
     State(s): State<WebState>,
     Path(id): Path<String>,
     Form(f): Form<BaselineForm>,
@@ -519,6 +520,7 @@ pub async fn set_baseline(
             baseline_result_id: Some(f.result_id),
             ..MachinePatch::default()
         },
+        &session.actor(client),
     )
     .await?;
     Ok(Redirect::to(&format!(
@@ -847,14 +849,15 @@ pub struct AckForm {
 /// `POST /alerts/{id}/ack`: the acknowledge route of the API, then back to `next`.
 pub async fn ack_alert(
     session: Session,
+    client: crate::audit::Client,
     State(s): State<WebState>,
     Path(id): Path<String>,
     Form(f): Form<AckForm>,
 ) -> PageResult {
     session.check_csrf(&f.csrf)?;
     session.require_write()?;
-    let by = format!("key {} ({})", session.key.id, session.key.label);
-    alerts::acknowledge(s.app.store.as_ref(), &id, &by, f.comment.as_deref()).await?;
+    let who = session.actor(client);
+    crate::api::alerts::acknowledge(&s.app, &id, &who, f.comment.as_deref()).await?;
     Ok(Redirect::to(&super::local_path(f.next.as_deref())).into_response())
 }
 

@@ -43,6 +43,11 @@ impl Session {
         }
     }
 
+    /// The session's holder as the audit trail records it, from `client`.
+    pub fn actor(&self, client: crate::audit::Client) -> crate::audit::Actor {
+        crate::audit::Actor::of_key(&self.key, "dashboard", client.0)
+    }
+
     /// Refuses a form whose token is not the session's (403).
     pub fn check_csrf(&self, given: &str) -> Result<(), super::WebError> {
         if same(&self.csrf, given) {

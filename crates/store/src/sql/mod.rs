@@ -69,6 +69,7 @@ macro_rules! run_scalar {
     };
 }
 
+mod audit;
 mod datasets;
 mod fleet;
 mod jobs;
