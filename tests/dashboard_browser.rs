@@ -18,102 +18,15 @@
 //! `docs/screenshots/` too. The test skips, with a printed reason, only when chromedriver
 //! is absent (`CHROMEDRIVER` names another path than `/usr/bin/chromedriver`).
 
-use fantoccini::{Client, ClientBuilder, Locator};
+mod browser;
+
+use browser::{api, log_tail, start_demo, wait_for};
+use fantoccini::{Client, Locator};
 use mtcal_views::plots::{BAND, COLORS, inspect};
 use serde_json::{Value, json};
-use std::io::{BufRead, BufReader};
-use std::path::{Path, PathBuf};
-use std::process::{Child, Command, Stdio};
+use std::path::Path;
+use std::process::Command;
 use std::time::{Duration, Instant};
-
-/// Kills a child process when dropped (by its own handle).
-struct Guard(Child);
-
-impl Drop for Guard {
-    fn drop(&mut self) {
-        let _ = self.0.kill();
-        let _ = self.0.wait();
-    }
-}
-
-fn chromedriver() -> Option<PathBuf> {
-    let p = PathBuf::from(
-        std::env::var("CHROMEDRIVER").unwrap_or_else(|_| "/usr/bin/chromedriver".into()),
-    );
-    p.exists().then_some(p)
-}
-
-fn free_port() -> u16 {
-    std::net::TcpListener::bind("127.0.0.1:0")
-        .and_then(|l| l.local_addr())
-        .map(|a| a.port())
-        .expect("a free port")
-}
-
-/// `mtcal demo` serving a small fleet on a free port: (guard, the dashboard URL it
-/// prints first, base URL, API key).
-fn start_demo(dir: &Path) -> (Guard, String, String, String) {
-    let mut child = Command::new(env!("CARGO_BIN_EXE_mtcal"))
-        .args(["demo", "--no-browser", "--machines", "3", "--checks", "3"])
-        .args(["--listen", "127.0.0.1:0", "--db"])
-        .arg(dir.join("demo.sqlite"))
-        .stdout(Stdio::piped())
-        // The service's log, printed when the test fails (see `log_tail`).
-        .stderr(std::fs::File::create(dir.join("demo.log")).expect("demo log"))
-        .spawn()
-        .expect("mtcal demo starts");
-    let out = BufReader::new(child.stdout.take().expect("stdout"));
-    let guard = Guard(child);
-    let (mut dashboard, mut key) = (String::new(), String::new());
-    for line in out.lines() {
-        let line = line.expect("demo output");
-        if let Some(rest) = line.strip_prefix("dashboard:") {
-            dashboard = rest.trim().to_string();
-        }
-        if let Some(rest) = line.strip_prefix("API key:") {
-            key = rest.split_whitespace().next().unwrap_or("").to_string();
-        }
-        assert!(!line.contains("failed "), "demo job failed: {line}");
-        if line.starts_with("serving") {
-            break;
-        }
-    }
-    let base = dashboard
-        .split("/signin")
-        .next()
-        .expect("the dashboard URL is printed first")
-        .to_string();
-    assert!(base.starts_with("http://127.0.0.1:"), "{dashboard}");
-    assert!(key.starts_with("mtk_"));
-    assert_eq!(
-        dashboard,
-        format!("{base}/signin#key={key}"),
-        "the one-click sign-in"
-    );
-    (guard, dashboard, base, key)
-}
-
-/// The last lines of the demo service's log (for a failure message).
-fn log_tail(dir: &Path) -> String {
-    let log = std::fs::read_to_string(dir.join("demo.log")).unwrap_or_default();
-    let lines: Vec<&str> = log.lines().collect();
-    format!(
-        "--- service log (last 40 lines) ---\n{}",
-        lines[lines.len().saturating_sub(40)..].join("\n")
-    )
-}
-
-/// The API, as a client of the documented routes.
-async fn api(base: &str, key: &str, path: &str) -> Value {
-    let r = reqwest::Client::new()
-        .get(format!("{base}{path}"))
-        .bearer_auth(key)
-        .send()
-        .await
-        .expect("API answers");
-    assert!(r.status().is_success(), "GET {path}: {}", r.status());
-    r.json().await.expect("JSON")
-}
 
 /// The pages whose screenshots the README shows (docs/screenshots/).
 const DOCUMENTED: [&str; 9] = [
@@ -187,82 +100,20 @@ async fn scroll_to(c: &Client, css: &str) {
         .expect("scrolled");
 }
 
-/// Waits until `css` matches an element (the page script reloads pages).
-async fn wait_for(c: &Client, css: &str, timeout: Duration) {
-    let t0 = Instant::now();
-    loop {
-        if c.find(Locator::Css(css)).await.is_ok() {
-            return;
-        }
-        assert!(t0.elapsed() < timeout, "{css} did not appear");
-        tokio::time::sleep(Duration::from_millis(250)).await;
-    }
-}
-
 #[tokio::test(flavor = "multi_thread", worker_threads = 2)]
 async fn dashboard_in_headless_chromium() {
-    let Some(driver) = chromedriver() else {
-        // In CI (.ci/run installs chromium and chromium-driver, sets MTCAL_CI) it must run.
-        assert!(
-            std::env::var_os("MTCAL_CI").is_none(),
-            "chromedriver not found under MTCAL_CI"
-        );
-        println!(
-            "skipped: chromedriver not found at /usr/bin/chromedriver (install Debian's \
-             chromium and chromium-driver, or set CHROMEDRIVER)"
-        );
+    let work = tempfile::tempdir().unwrap();
+    let Some((_driver, c)) = browser::browser(&work.path().join("chromium-profile")).await else {
         return;
     };
     let shots = Path::new(env!("CARGO_TARGET_TMPDIR")).join("dashboard");
     std::fs::create_dir_all(&shots).unwrap();
-    let work = tempfile::tempdir().unwrap();
     let (_demo, dashboard, base, key) = start_demo(work.path());
-
-    let port = free_port();
-    let _driver = Guard(
-        Command::new(driver)
-            .arg(format!("--port={port}"))
-            .stdout(Stdio::null())
-            .stderr(Stdio::null())
-            .spawn()
-            .expect("chromedriver starts"),
-    );
-    let profile = work.path().join("chromium-profile");
-    let caps = json!({"goog:chromeOptions": {"args": [
-        "--headless", "--no-sandbox", "--disable-gpu", "--disable-quic", "--no-first-run",
-        "--disable-background-networking", "--disable-component-update", "--disable-sync",
-        "--window-size=1400,1000", format!("--user-data-dir={}", profile.display()),
-    ]}});
-    let caps = match caps {
-        Value::Object(m) => m,
-        _ => unreachable!(),
-    };
-    let mut client = None;
-    let t0 = Instant::now();
-    while client.is_none() {
-        match ClientBuilder::new(hyper_util::client::legacy::connect::HttpConnector::new())
-            .capabilities(caps.clone())
-            .connect(&format!("http://127.0.0.1:{port}"))
-            .await
-        {
-            Ok(c) => client = Some(c),
-            Err(e) => {
-                assert!(t0.elapsed() < Duration::from_secs(30), "chromedriver: {e}");
-                tokio::time::sleep(Duration::from_millis(200)).await;
-            }
-        }
-    }
-    let c = client.unwrap();
-    // Run in a task so that the browser is closed even when an assertion fails.
-    let task = {
-        let (c, work) = (c.clone(), work.path().to_path_buf());
-        tokio::spawn(async move { run(&c, &dashboard, &base, &key, &shots, &work).await })
-    };
-    let outcome = task.await;
-    let _ = c.close().await;
-    if let Err(e) = outcome {
-        std::panic::resume_unwind(e.into_panic());
-    }
+    let (c2, dir) = (c.clone(), work.path().to_path_buf());
+    browser::closing(c, async move {
+        run(&c2, &dashboard, &base, &key, &shots, &dir).await;
+    })
+    .await;
 }
 
 async fn run(c: &Client, dashboard: &str, base: &str, key: &str, shots: &Path, work: &Path) {

@@ -265,3 +265,57 @@ fn the_checker_finds_a_planted_cycle() {
     assert_eq!(c.len(), 1, "{c:?}");
     assert!(c[0].contains("a::x") && c[0].contains("a::y"));
 }
+
+/// The packages `cargo tree` shows package `pkg` linking through its normal dependencies
+/// (itself included), by name.
+fn linked(pkg: &str) -> BTreeSet<String> {
+    let cargo = std::env::var("CARGO").unwrap_or_else(|_| "cargo".into());
+    let out = std::process::Command::new(cargo)
+        .current_dir(env!("CARGO_MANIFEST_DIR"))
+        .args(["tree", "--offline", "-p", pkg, "-e", "normal"])
+        .args(["--prefix", "none", "--format", "{p}"])
+        .output()
+        .expect("cargo tree runs");
+    assert!(
+        out.status.success(),
+        "cargo tree -p {pkg}: {}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    String::from_utf8_lossy(&out.stdout)
+        .lines()
+        .filter_map(|l| l.split_whitespace().next())
+        .map(String::from)
+        .collect()
+}
+
+/// The typed client shares the API's types through `mtcal-api` and links neither the
+/// server nor the store: no axum, no sqlx. The same reading of the tree finds them in
+/// the server, so the check can fail.
+#[test]
+fn the_client_links_neither_http_server_nor_database() {
+    let banned = [
+        "axum",
+        "axum-core",
+        "sqlx",
+        "sqlx-core",
+        "mtcal-server",
+        "mtcal-store",
+        "mtcal-domain",
+        "mtcal-views",
+    ];
+    let client = linked("mtcal-client");
+    assert!(client.contains("mtcal-api"), "{client:?}");
+    let found: Vec<&str> = banned
+        .iter()
+        .copied()
+        .filter(|b| client.contains(*b))
+        .collect();
+    assert!(found.is_empty(), "mtcal-client links {found:?}");
+    let server = linked("mtcal-server");
+    for b in ["axum", "sqlx", "mtcal-store", "mtcal-api"] {
+        assert!(
+            server.contains(b),
+            "the server's tree lacks {b}: {server:?}"
+        );
+    }
+}

@@ -1,15 +1,18 @@
 //! The check report of a three-plane check printed by a real headless Chromium
 //! (`--print-to-pdf`, A4): a simulated machine with 6 µm of X backlash, its session stating
 //! the test's conditions (docs/datasets.md), identified, diagnosed and reported with the
-//! command line. The report opens with the misfit banner, holds the findings of the
-//! diagnosis and the uncertainty budget with the certificate's contribution, names the
-//! instrument's serial and calibration date, and its summary (everything before the
-//! appendix) prints on at most 6 A4 pages; the appendix starts on a page of its own
-//! (docs/report.md). Pages are counted as the PDF's `/Type /Page` objects.
+//! command line against a tolerance file. Page 1 is the decision: the verdict with the
+//! items that do not pass (named as a person says them), the findings of the diagnosis and
+//! the actions, read from the PDF's first page (`pdftotext` of Debian's poppler-utils);
+//! the summary (everything before the appendix) prints on at most 2 A4 pages and the
+//! appendix starts on a page of its own (docs/report.md). A second check without the
+//! backlash and a tight limit on EXX fails, and its failing item is on page 1. Pages are
+//! counted as the PDF's `/Type /Page` objects.
 //!
 //! With `UPDATE_SCREENSHOTS=1` it saves the report's first page as
-//! `docs/screenshots/report.png` (the README's). The test skips, with a printed reason, only when Chromium is absent (`CHROMIUM` names
-//! another path than `/usr/bin/chromium`); under `MTCAL_CI` it must run.
+//! `docs/screenshots/report.png` (the README's). The tests skip, with a printed reason,
+//! only when Chromium or pdftotext is absent (`CHROMIUM` names another path than
+//! `/usr/bin/chromium`); under `MTCAL_CI` they must run.
 
 use std::path::{Path, PathBuf};
 use std::process::Command;
@@ -17,6 +20,25 @@ use std::process::Command;
 fn chromium() -> Option<PathBuf> {
     let p = PathBuf::from(std::env::var("CHROMIUM").unwrap_or_else(|_| "/usr/bin/chromium".into()));
     p.exists().then_some(p)
+}
+
+/// Chromium and pdftotext, or None after saying why (never under `MTCAL_CI`).
+fn tools() -> Option<PathBuf> {
+    let pdftotext = Command::new("pdftotext").arg("-v").output().is_ok();
+    match chromium() {
+        Some(c) if pdftotext => Some(c),
+        _ => {
+            assert!(
+                std::env::var_os("MTCAL_CI").is_none(),
+                "chromium or pdftotext not found under MTCAL_CI"
+            );
+            eprintln!(
+                "skipped: chromium (at /usr/bin/chromium, or CHROMIUM) or pdftotext (Debian's \
+                 poppler-utils) not found"
+            );
+            None
+        }
+    }
 }
 
 /// Runs mtcal with `args`, its standard output written to `out` when given.
@@ -54,8 +76,8 @@ fn pages(pdf: &[u8]) -> usize {
     n
 }
 
-/// `html` printed to PDF on A4 by headless Chromium; its page count.
-fn print(chromium: &Path, dir: &Path, name: &str, html: &str) -> usize {
+/// `html` printed to PDF on A4 by headless Chromium: the PDF's path and page count.
+fn print(chromium: &Path, dir: &Path, name: &str, html: &str) -> (PathBuf, usize) {
     let page = dir.join(format!("{name}.html"));
     let pdf = dir.join(format!("{name}.pdf"));
     std::fs::write(&page, html).unwrap();
@@ -73,7 +95,23 @@ fn print(chromium: &Path, dir: &Path, name: &str, html: &str) -> usize {
         .unwrap();
     let bytes = std::fs::read(&pdf)
         .unwrap_or_else(|e| panic!("no PDF ({e}): {}", String::from_utf8_lossy(&o.stderr)));
-    pages(&bytes)
+    (pdf, pages(&bytes))
+}
+
+/// The text of page `n` of a PDF (pdftotext), its white space collapsed to single spaces.
+fn page_text(pdf: &Path, n: usize) -> String {
+    let o = Command::new("pdftotext")
+        .args(["-f", &n.to_string(), "-l", &n.to_string()])
+        .arg(pdf)
+        .arg("-")
+        .output()
+        .unwrap();
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    String::from_utf8(o.stdout)
+        .unwrap()
+        .split_whitespace()
+        .collect::<Vec<_>>()
+        .join(" ")
 }
 
 /// The `<section … id="id" …>` of the page up to its end.
@@ -84,6 +122,44 @@ fn section<'a>(html: &'a str, id: &str) -> &'a str {
     &html[start..start + html[start..].find("</section>").unwrap()]
 }
 
+/// A simulated three-plane check (the seed plan at 10 Hz, seed 5) in `dir/name`, with
+/// `effect` (e.g. 6 µm of X backlash) when given, identified into `dir/name.json`.
+fn simulated_check(dir: &Path, name: &str, effect: Option<&str>) -> (String, PathBuf) {
+    let session = dir.join(name).to_str().unwrap().to_string();
+    let mut args = vec![
+        "simulate",
+        "--out",
+        &session,
+        "--plan",
+        "seed",
+        "--seed",
+        "5",
+        "--rate-hz",
+        "10",
+        "--machine-id",
+        name,
+    ];
+    if let Some(e) = effect {
+        args.extend(["--effect", e]);
+    }
+    mtcal(&args, None);
+    let result = dir.join(format!("{name}.json"));
+    (session, result)
+}
+
+/// The tolerance file of the checks: the X, Y and Z positioning ranges, the X–Y
+/// squareness and one figure of ISO 230-2 (µm, µrad).
+fn tolerances(dir: &Path, exx_um: f64) -> String {
+    let p = dir.join(format!("limits-{exx_um}.json"));
+    let limits = serde_json::json!({
+        "terms": {"EXX": exx_um, "EYY": 40.0, "EZZ": 40.0},
+        "squareness": {"EC0Y": 200.0},
+        "standards": {"iso230_2.X.E_up_um": 40.0}
+    });
+    std::fs::write(&p, limits.to_string()).unwrap();
+    p.to_str().unwrap().to_string()
+}
+
 #[test]
 fn pages_of_the_sample_pdf_objects_are_counted() {
     let pdf = b"<< /Type /Pages /Kids [3 0 R 4 0 R] >> << /Type /Page /Parent 2 0 R >>\
@@ -92,41 +168,15 @@ fn pages_of_the_sample_pdf_objects_are_counted() {
 }
 
 #[test]
-fn a_three_plane_checks_report_prints_its_summary_on_six_a4_pages() {
-    let Some(chromium) = chromium() else {
-        assert!(
-            std::env::var_os("MTCAL_CI").is_none(),
-            "chromium not found under MTCAL_CI"
-        );
-        eprintln!(
-            "skipped: chromium not found at /usr/bin/chromium (install Debian's chromium, or set CHROMIUM)"
-        );
-        return;
-    };
+fn a_three_plane_checks_report_has_its_decision_on_page_one_and_prints_its_summary_on_two_a4_pages()
+{
+    let Some(chromium) = tools() else { return };
     let tmp = tempfile::tempdir().unwrap();
     let dir = tmp.path();
     let s = |p: PathBuf| p.to_str().unwrap().to_string();
-    let session = s(dir.join("bk"));
-    mtcal(
-        &[
-            "simulate",
-            "--out",
-            &session,
-            "--plan",
-            "seed",
-            "--seed",
-            "5",
-            "--rate-hz",
-            "10",
-            "--effect",
-            "backlash:lost_motion_um=6",
-            "--machine-id",
-            "BACKLASH",
-        ],
-        None,
-    );
+    let (session, result) = simulated_check(dir, "BACKLASH", Some("backlash:lost_motion_um=6"));
     // The test's conditions as a plant states them (docs/datasets.md, session.json).
-    let meta = dir.join("bk").join("session.json");
+    let meta = dir.join("BACKLASH").join("session.json");
     let mut v: serde_json::Value =
         serde_json::from_str(&std::fs::read_to_string(&meta).unwrap()).unwrap();
     let conditions = serde_json::json!({
@@ -143,7 +193,6 @@ fn a_three_plane_checks_report_prints_its_summary_on_six_a4_pages() {
         v[k] = x.clone();
     }
     std::fs::write(&meta, v.to_string()).unwrap();
-    let result = dir.join("bk.json");
     let diagnosis = dir.join("bkd.json");
     let report = dir.join("report.html");
     mtcal(&["identify", &session, "--json"], Some(&result));
@@ -154,6 +203,8 @@ fn a_three_plane_checks_report_prints_its_summary_on_six_a4_pages() {
             &s(result),
             "--diagnosis",
             &s(diagnosis),
+            "--tolerances",
+            &tolerances(dir, 40.0),
             "--out",
             &s(report.clone()),
         ],
@@ -199,15 +250,39 @@ fn a_three_plane_checks_report_prints_its_summary_on_six_a4_pages() {
         .expect("the appendix");
     let end = html.rfind("</article>").unwrap();
     let summary = format!("{}{}", &html[..appendix], &html[end..]);
-    let summary_pages = print(&chromium, dir, "summary", &summary);
-    let all_pages = print(&chromium, dir, "report", &html);
+    let (_, summary_pages) = print(&chromium, dir, "summary", &summary);
+    let (pdf, all_pages) = print(&chromium, dir, "report", &html);
+    eprintln!(
+        "the three-plane check's report: summary {summary_pages} A4 pages, {all_pages} in all"
+    );
     assert!(
-        (1..=6).contains(&summary_pages),
+        (1..=2).contains(&summary_pages),
         "the summary prints on {summary_pages} A4 pages"
     );
     assert!(
         all_pages > summary_pages,
         "the appendix starts on a page of its own: {all_pages} pages in all"
+    );
+    // Page 1 is the decision: the verdict with the items not decided (the model does
+    // not explain its recording), named in words, the findings and the actions.
+    let one = page_text(&pdf, 1);
+    for want in [
+        "Verdict",
+        "not decided: model misfit",
+        "X axis: positioning",
+        "Z axis: positioning",
+        "squareness X–Y",
+        "ISO 230-2, X: E↑",
+        "Findings of the diagnosis",
+        "backlash (X)",
+        "Actions",
+        "backlash compensation",
+    ] {
+        assert!(one.contains(want), "page 1 lacks {want:?}: {one}");
+    }
+    assert!(
+        !one.contains("EXX"),
+        "code names belong to the appendix: {one}"
     );
     // The README's picture of a report: its first A4 page (794 × 1123 px at 96 dpi).
     if std::env::var_os("UPDATE_SCREENSHOTS").is_some() {
@@ -231,4 +306,38 @@ fn a_three_plane_checks_report_prints_its_summary_on_six_a4_pages() {
             String::from_utf8_lossy(&o.stderr)
         );
     }
+}
+
+/// A check the model explains, against a limit on EXX far below its range: it fails,
+/// and the failing item is on page 1 in words, with its action.
+#[test]
+fn a_failing_item_is_printed_on_page_one() {
+    let Some(chromium) = tools() else { return };
+    let tmp = tempfile::tempdir().unwrap();
+    let dir = tmp.path();
+    let (session, result) = simulated_check(dir, "CLEAN", None);
+    mtcal(&["identify", &session, "--json"], Some(&result));
+    let report = dir.join("clean.html");
+    mtcal(
+        &[
+            "report",
+            result.to_str().unwrap(),
+            "--tolerances",
+            &tolerances(dir, 0.01),
+            "--out",
+            report.to_str().unwrap(),
+        ],
+        None,
+    );
+    let html = std::fs::read_to_string(&report).unwrap();
+    let (pdf, _) = print(&chromium, dir, "clean", &html);
+    let one = page_text(&pdf, 1);
+    let verdict = &one[one.find("Verdict").expect("the verdict on page 1")..];
+    assert!(verdict.starts_with("Verdict fail"), "{verdict}");
+    let items = &verdict[..verdict.find("limits pass").expect("the count of passes")];
+    assert!(items.contains("X axis: positioning"), "{items}");
+    assert!(
+        one.contains("X axis: positioning: exceeds its limit of 0.010 µm"),
+        "the action: {one}"
+    );
 }

@@ -13,7 +13,7 @@ use mtcal_solver::diagnosis::{
     DiagnoseOptions, DiagnosisResult, Finding, PlotData, Progress, Verdict,
 };
 use mtcal_solver::positioning_check::{DiagnosisDocument, check_positioning};
-use mtcal_solver::text::with_std;
+use mtcal_solver::text::{num, with_std};
 use std::io::Write as _;
 use std::path::{Path, PathBuf};
 use std::process::ExitCode;
@@ -206,7 +206,7 @@ fn undetermined_lines(s: &mut String, f: &Finding) {
     for u in &f.undetermined {
         let item = match u.std {
             Some(sd) => format!("{} = {}", u.name, with_std(u.value, sd, 2, false)),
-            None => format!("{} = {:.4} (no finite bound)", u.name, u.value),
+            None => format!("{} = {} (no finite bound)", u.name, num(u.value)),
         };
         match groups.iter_mut().find(|(d, _)| *d == u.decide) {
             Some((_, v)) => v.push(item),
@@ -231,8 +231,10 @@ pub fn summary(r: &DiagnosisResult) -> String {
     let b = &r.baseline;
     let _ = writeln!(
         s,
-        "rigid model: residual RMS {:.3} µm, held-out RMS {:.3} µm, noise floor {:.3} µm",
-        b.residual_rms_um, b.heldout_rms_um, b.noise_estimate_um
+        "rigid model: residual RMS {} µm, held-out RMS {} µm, noise floor {} µm",
+        num(b.residual_rms_um),
+        num(b.heldout_rms_um),
+        num(b.noise_estimate_um)
     );
     if !r.mismatch.is_empty() {
         let _ = writeln!(s, "where the misfit is:");
@@ -243,11 +245,11 @@ pub fn summary(r: &DiagnosisResult) -> String {
     for f in &r.findings {
         let _ = writeln!(
             s,
-            "finding: {}{}: held-out RMS {:.3} → {:.3} µm",
+            "finding: {}{}: held-out RMS {} → {} µm",
             f.effect,
             axis_of(f),
-            f.heldout_rms_um.before,
-            f.heldout_rms_um.after
+            num(f.heldout_rms_um.before),
+            num(f.heldout_rms_um.after)
         );
         let _ = writeln!(s, "  physics: {}", f.physics);
         let params: Vec<String> = f
@@ -256,7 +258,7 @@ pub fn summary(r: &DiagnosisResult) -> String {
             .filter(|(k, _)| !k.starts_with("std_"))
             .map(|(k, v)| match f.parameters.get(&format!("std_{k}")) {
                 Some(sd) => format!("{k} = {}", with_std(*v, *sd, 2, false)),
-                None => format!("{k} = {v:.4}"),
+                None => format!("{k} = {}", num(*v)),
             })
             .collect();
         let _ = writeln!(s, "  parameters: {}", params.join(", "));

@@ -1,12 +1,14 @@
-//! `mtcal export RESULT.json --format isg|etalon|heidenhain|csv [--step-mm S] [--out F]`:
-//! the compensation table of an identification result for a controller
-//! (docs/compensation.md). Only identifiable terms, only over the measured travel; the
-//! file's header comment states the sign convention (compensation = −error) and names
-//! the terms left out.
+//! `mtcal export RESULT.json --format isg|etalon|heidenhain|csv|linuxcnc [--step-mm S]
+//! [--diagnosis D.json] [--out F]`: the compensation table of an identification result
+//! for a controller (docs/compensation.md). Only identifiable terms, only over the
+//! measured travel; the file's header comment states the sign convention (compensation =
+//! −error) and names the terms left out; with a diagnosis of the same recording, the
+//! reversal and thermal coefficients it found.
 
 use super::BadInput;
 use anyhow::Context;
 use mtcal_formats::compensation::{Compensation, DEFAULT_STEP_MM, ExportError, Format};
+use mtcal_solver::diagnosis::DiagnosisResult;
 use mtcal_solver::identification::IdentificationResult;
 use std::path::{Path, PathBuf};
 use std::process::ExitCode;
@@ -16,9 +18,14 @@ pub struct Args {
     /// An identification result: the document `mtcal identify --json` prints, or a stored
     /// result as `GET /api/v1/results/{id}` returns it.
     pub result: PathBuf,
-    /// isg, etalon, heidenhain or csv.
+    /// isg, etalon, heidenhain, csv or linuxcnc.
     #[arg(long)]
     pub format: String,
+    /// A diagnosis of the same recording (`mtcal diagnose --json`, or a stored diagnosis
+    /// result): the reversal and thermal coefficients it found go into the table (csv,
+    /// linuxcnc) or are named in its header (the other formats).
+    #[arg(long)]
+    pub diagnosis: Option<PathBuf>,
     /// Spacing of the table's positions, mm (from the start of each measured travel; the
     /// end is always included).
     #[arg(long, default_value_t = DEFAULT_STEP_MM)]
@@ -36,12 +43,20 @@ pub struct Args {
 pub fn run(args: Args) -> anyhow::Result<ExitCode> {
     let format = Format::parse(&args.format).map_err(BadInput)?;
     let doc = read_identification(&args.result)?;
-    let table = Compensation::from_result(&doc, args.step_mm, args.force).map_err(|e| match e {
+    let refused = |e| match e {
         ExportError::BadStep(m) => BadInput(format!("--step-mm: {m}")),
         e @ (ExportError::NothingIdentifiable(_) | ExportError::ModelMisfit(_)) => {
             BadInput(format!("{}: {e}", args.result.display()))
         }
-    })?;
+    };
+    let findings = match &args.diagnosis {
+        Some(p) => read_diagnosis(p)?.findings,
+        None => vec![],
+    };
+    let table = Compensation::from_result(&doc, args.step_mm, args.force)
+        .map_err(refused)?
+        .with_findings(&findings);
+    format.check(&table).map_err(refused)?;
     let text = format.write(&table);
     match &args.out {
         Some(p) => std::fs::write(p, text).with_context(|| format!("writing {}", p.display()))?,
@@ -73,4 +88,20 @@ pub fn read_identification(path: &Path) -> anyhow::Result<IdentificationResult> 
         ))
         .into()
     })
+}
+
+/// A diagnosis result from a file: the document itself, or a stored result.
+fn read_diagnosis(path: &Path) -> anyhow::Result<DiagnosisResult> {
+    let v: serde_json::Value = super::read_json(path, "diagnosis")?;
+    let doc = match v.get("document") {
+        Some(d) if v.get("meta").is_some() => d.clone(),
+        _ => v,
+    };
+    // A positioning-run check stores its diagnosis inside (`diagnosis`).
+    let doc = match doc.get("diagnosis") {
+        Some(d) if doc.get("kind").is_none() => d.clone(),
+        _ => doc,
+    };
+    serde_json::from_value(doc)
+        .map_err(|e| BadInput(format!("{}: not a diagnosis result: {e}", path.display())).into())
 }

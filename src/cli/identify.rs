@@ -5,6 +5,7 @@
 use super::BadInput;
 use mtcal_solver::basis::BasisKind;
 use mtcal_solver::identification::{IdentificationResult, IdentifyOptions, Method, identify};
+use mtcal_solver::text::num;
 use mtcal_views::plots::unit_label;
 use std::path::PathBuf;
 use std::process::ExitCode;
@@ -81,12 +82,12 @@ pub fn summary(r: &IdentificationResult) -> String {
     );
     let _ = writeln!(
         s,
-        "fit: {} samples, residual RMS {:.3} µm, noise floor {}",
+        "fit: {} samples, residual RMS {} µm, noise floor {}",
         r.fit.samples,
-        r.fit.residual_rms_um,
+        num(r.fit.residual_rms_um),
         r.fit
             .noise_estimate_um
-            .map_or("n/a".to_string(), |n| format!("{n:.3} µm"))
+            .map_or("n/a".to_string(), |n| format!("{} µm", num(n)))
     );
     // The misfit gate's outcome, said where the fit is: a misfit's figures are not judged
     // and its compensation table is refused (docs/conventions.md, "The misfit gate").
@@ -104,7 +105,7 @@ pub fn summary(r: &IdentificationResult) -> String {
         "identifiability: rank {} of {} parameters, condition number {}",
         o.rank,
         o.parameters,
-        mtcal_views::pages::num(o.condition_number)
+        num(o.condition_number)
     );
     let _ = writeln!(
         s,
@@ -118,8 +119,11 @@ pub fn summary(r: &IdentificationResult) -> String {
             let sd = t.std.iter().copied().fold(0.0, f64::max);
             let _ = writeln!(
                 s,
-                "{name:<6} {:>5} {min:>12.3} {max:>12.3} {sd:>10.3}",
-                unit_label(&t.unit)
+                "{name:<6} {:>5} {:>12} {:>12} {:>10}",
+                unit_label(&t.unit),
+                num(min),
+                num(max),
+                num(sd)
             );
         } else {
             let _ = writeln!(
@@ -137,7 +141,7 @@ pub fn summary(r: &IdentificationResult) -> String {
     for (name, q) in &r.squareness {
         match (q.value_urad, q.std_urad) {
             (Some(v), Some(sd)) => {
-                let _ = writeln!(s, "{name:<6} {:>5} {v:>12.3} ± {sd:.3}", "µrad");
+                let _ = writeln!(s, "{name:<6} {:>5} {:>12} ± {}", "µrad", num(v), num(sd));
             }
             _ => {
                 let _ = writeln!(s, "{name:<6} {:>5} {:>36}", "µrad", "not identifiable");

@@ -6,6 +6,7 @@
 use super::BadInput;
 use mtcal_formats::DatasetKind;
 use mtcal_solver::standards::{self, Standards};
+use mtcal_solver::text::num;
 use std::fmt::Write as _;
 use std::path::PathBuf;
 use std::process::ExitCode;
@@ -68,8 +69,8 @@ pub fn summary(st: &Standards) -> String {
                 .iter()
                 .zip(f.values())
             {
-                match f.not_available(name) {
-                    Some(why) => {
+                match (f.not_available(name), v) {
+                    (Some(why), _) => {
                         let _ = write!(s, " {:>7}", "—");
                         match unavailable.iter_mut().find(|(w, _)| *w == why) {
                             Some((_, names)) if !names.contains(name) => names.push(name),
@@ -77,15 +78,17 @@ pub fn summary(st: &Standards) -> String {
                             None => unavailable.push((why, vec![name])),
                         }
                     }
-                    None => {
-                        let _ = write!(s, " {v:>7.3}");
+                    (None, v) => {
+                        let _ = write!(s, " {:>7}", v.map_or("—".into(), num));
                     }
                 }
             }
             let from = match (&f.file, f.head_offset_mm) {
                 (Some(file), Some(t)) => format!(
                     "line passes of {file}, head offset ({}, {}, {}) mm",
-                    t[0], t[1], t[2]
+                    num(t[0]),
+                    num(t[1]),
+                    num(t[2])
                 ),
                 _ => "positioning runs".into(),
             };
@@ -107,7 +110,11 @@ pub fn summary(st: &Standards) -> String {
                     if f.not_available(name).is_some() {
                         let _ = write!(s, " {:>7}", "—");
                     } else {
-                        let _ = write!(s, " {:>7.3}", w.figures[name]);
+                        let _ = write!(
+                            s,
+                            " {:>7}",
+                            w.figures.get(name).map_or("—".into(), |v| num(*v))
+                        );
                     }
                 }
                 let _ = writeln!(s);
@@ -127,39 +134,42 @@ pub fn summary(st: &Standards) -> String {
             for d in &f.directions {
                 let _ = writeln!(
                     s,
-                    "plane {:<9} {:<4} {:>8.3} {:>10.1} {:>8.1} {:>8.3} {:>9.3} {:>8.3} {:>8.3}",
+                    "plane {:<9} {:<4} {:>8} {:>10} {:>8} {:>8} {:>9} {:>8} {:>8}",
                     format!("{:?}", f.plane),
                     d.direction,
-                    f.diameter_mm,
-                    d.feed_mm_min,
-                    d.start_angle_deg,
-                    d.g_um,
-                    d.mean_radial_um,
-                    d.f_max_um,
-                    d.f_min_um
+                    num(f.diameter_mm),
+                    num(d.feed_mm_min),
+                    num(d.start_angle_deg),
+                    num(d.g_um),
+                    num(d.mean_radial_um),
+                    num(d.f_max_um),
+                    num(d.f_min_um)
                 );
             }
             if let Some(b) = &f.bidirectional {
                 let _ = writeln!(
                     s,
-                    "plane {:<9} {:<4} {:>8} {:>10} {:>8} {:>8.3} {:>9.3} {:>8.3} {:>8.3} {:>8.3}",
+                    "plane {:<9} {:<4} {:>8} {:>10} {:>8} {:>8} {:>9} {:>8} {:>8} {:>8}",
                     format!("{:?}", f.plane),
                     "bi",
                     "",
                     "",
                     "",
-                    b.g_um,
-                    b.mean_radial_um,
-                    b.f_max_um,
-                    b.f_min_um,
-                    b.h_um
+                    num(b.g_um),
+                    num(b.mean_radial_um),
+                    num(b.f_max_um),
+                    num(b.f_min_um),
+                    num(b.h_um)
                 );
             }
             let t = f.head_offset_mm;
             let _ = writeln!(
                 s,
                 "  from {}, head offset ({}, {}, {}) mm",
-                f.file, t[0], t[1], t[2]
+                f.file,
+                num(t[0]),
+                num(t[1]),
+                num(t[2])
             );
             for n in &f.notes {
                 let _ = writeln!(s, "  note: {n}");

@@ -3,10 +3,10 @@
 
 use crate::error::DomainError;
 use crate::kinds::{IDENTIFICATION, result_kind};
-use crate::trends::{self, Drift, TermDiff};
+use crate::trends;
+pub use mtcal_api::history::ResultDiff;
 use mtcal_store::{Machine, ResultMeta, SkippedRow, Store};
-use serde::{Deserialize, Serialize};
-use std::collections::BTreeMap;
+use serde::Deserialize;
 
 /// A machine's latest diagnosis (the last of its diagnosis results in time order): its
 /// stored row and its document, or why the document does not read (said on the page,
@@ -92,23 +92,6 @@ pub struct DiffQuery {
     /// the travel.
     #[cfg_attr(feature = "openapi", param(minimum = 0.001))]
     pub step_mm: Option<f64>,
-}
-
-/// Difference between two results of one machine (against − baseline).
-#[derive(Debug, Clone, Serialize, Deserialize)]
-#[cfg_attr(feature = "openapi", derive(utoipa::ToSchema))]
-pub struct ResultDiff {
-    pub machine_id: String,
-    pub baseline: ResultMeta,
-    pub against: ResultMeta,
-    pub terms: BTreeMap<String, TermDiff>,
-    /// µrad; null when not identifiable in one of them.
-    pub squareness: BTreeMap<String, Option<f64>>,
-    pub drift: Drift,
-    /// Stored results left out because their rows do not decode, one sentence each
-    /// naming the result (absent when none).
-    #[serde(default, skip_serializing_if = "Vec::is_empty")]
-    pub warnings: Vec<String>,
 }
 
 /// The difference of two identifications of machine `id` (`GET …/results/diff`; the

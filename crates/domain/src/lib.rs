@@ -5,7 +5,9 @@
 //! is judged against it ([`profiles`], [`verdicts`]), when a drift alert is raised and
 //! where it is delivered ([`alerts`], [`webhooks`]), what follows a landed result
 //! ([`landing`]), and the arithmetic of trends and differences over a machine's history
-//! ([`trends`], [`history`]), and the rules of a machine's fields ([`machines`]).
+//! ([`trends`], [`history`]), the rules of a machine's fields ([`machines`]), and the
+//! verification of a check against the predictions of the check before it
+//! ([`verification`]).
 //!
 //! Layers: this crate reads and writes through [`mtcal_store::Store`] and computes with
 //! [`mtcal_solver`] (result arithmetic, decision rule); it knows nothing of HTTP. The
@@ -15,7 +17,7 @@
 //!
 //! Module order (each imports only those before it): [`kinds`], [`error`], [`paging`], [`blocking`],
 //! [`trends`], [`history`], [`webhooks`], [`profiles`], [`verdicts`], [`alerts`],
-//! [`fleet`], [`machines`], [`landing`].
+//! [`fleet`], [`machines`], [`landing`], [`verification`].
 #![deny(clippy::print_stdout, clippy::print_stderr)]
 
 pub mod alerts;
@@ -30,6 +32,7 @@ pub mod paging;
 pub mod profiles;
 pub mod trends;
 pub mod verdicts;
+pub mod verification;
 pub mod webhooks;
 
 pub use error::DomainError;

@@ -3,39 +3,10 @@
 //! `mtcal admin create-machine` call these.
 
 use crate::error::DomainError;
+pub use mtcal_api::machines::NewMachine;
 use mtcal_solver::axis::Topology;
 use mtcal_store::{Machine, MachinePatch, Store};
-use serde::{Deserialize, Serialize};
 use std::collections::BTreeMap;
-
-/// A machine to register.
-#[derive(Debug, Clone, Serialize, Deserialize)]
-#[cfg_attr(feature = "openapi", derive(utoipa::ToSchema))]
-#[serde(deny_unknown_fields)]
-pub struct NewMachine {
-    /// 1–64 characters: letters, digits, '.', '_', '-' (not `.` or `..`).
-    #[cfg_attr(
-        feature = "openapi",
-        schema(pattern = "^(?!\\.{1,2}$)[A-Za-z0-9._-]{1,64}$")
-    )]
-    pub id: String,
-    /// Not blank, at most 200 characters, no control character.
-    #[cfg_attr(feature = "openapi", schema(schema_with = mtcal_store::schemas::name))]
-    pub name: String,
-    /// Axes on the workpiece and tool sides (default `{"workpiece": ["X", "Y"], "tool": ["Z"]}`).
-    #[cfg_attr(feature = "openapi", schema(schema_with = mtcal_store::schemas::topology))]
-    pub topology: Option<serde_json::Value>,
-    /// Travel per axis, mm, e.g. `{"X": [-250, 250]}`.
-    #[serde(default)]
-    #[cfg_attr(feature = "openapi", schema(schema_with = mtcal_store::schemas::travel))]
-    pub travel_mm: BTreeMap<String, [f64; 2]>,
-    /// Not blank, at most 100 characters, no control character.
-    #[cfg_attr(feature = "openapi", schema(schema_with = mtcal_store::schemas::site_or_null))]
-    pub site: Option<String>,
-    #[serde(default)]
-    #[cfg_attr(feature = "openapi", schema(schema_with = mtcal_store::schemas::tags))]
-    pub tags: Vec<String>,
-}
 
 /// Checks and normalises a topology given as JSON.
 pub fn topology(v: Option<&serde_json::Value>) -> Result<serde_json::Value, DomainError> {

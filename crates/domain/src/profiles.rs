@@ -11,9 +11,10 @@
 //!
 
 use crate::error::DomainError;
+pub use mtcal_api::tolerances::Profile;
 use mtcal_solver::tolerance::Limits;
 use mtcal_store::{Machine, Store, StoreError, ToleranceProfile};
-use serde::{Deserialize, Serialize};
+use serde::Deserialize;
 
 /// The two scopes of a profile.
 pub const SCOPES: [&str; 2] = ["machine", "tag"];
@@ -46,55 +47,28 @@ pub fn limits(p: &ToleranceProfile) -> Result<Limits, StoreError> {
 /// Longest profile target (machine id or tag), characters.
 pub use mtcal_store::text::TARGET_MAX;
 
-/// A tolerance profile.
-#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
-#[cfg_attr(feature = "openapi", derive(utoipa::ToSchema))]
-pub struct Profile {
-    pub id: String,
-    /// `machine` (the profile of one machine) or `tag` (of every machine with the tag).
-    pub scope: String,
-    /// The machine id or the tag.
-    pub target: String,
-    pub limits: Limits,
-    /// Tag profiles only: drift alerts of the tag's machines are POSTed here. A read
-    /// key sees its scheme, host and port only ([`Profile::seen_by`]).
-    pub webhook_url: Option<String>,
-    /// Whether the webhook's deliveries are signed (the profile has a secret; the
-    /// secret itself is never shown again).
-    pub webhook_signed: bool,
-    /// The webhook's signing secret, in the answer that generated it only (create or
-    /// replace without `webhook_secret`): keep it, it is not shown again.
-    #[serde(default, skip_serializing_if = "Option::is_none")]
-    pub webhook_secret: Option<String>,
-    pub created_at: String,
-    pub updated_at: String,
+/// The profile as the API answers it, from the stored one.
+pub fn profile_of(p: &ToleranceProfile) -> Result<Profile, StoreError> {
+    Ok(Profile {
+        id: p.id.clone(),
+        scope: p.scope.clone(),
+        target: p.target.clone(),
+        limits: limits(p)?,
+        webhook_url: p.webhook_url.clone(),
+        webhook_signed: p.webhook_url.is_some() && p.webhook_secret.is_some(),
+        webhook_secret: None,
+        created_at: p.created_at.clone(),
+        updated_at: p.updated_at.clone(),
+    })
 }
 
-impl Profile {
-    pub fn of(p: &ToleranceProfile) -> Result<Profile, StoreError> {
-        Ok(Profile {
-            id: p.id.clone(),
-            scope: p.scope.clone(),
-            target: p.target.clone(),
-            limits: limits(p)?,
-            webhook_url: p.webhook_url.clone(),
-            webhook_signed: p.webhook_url.is_some() && p.webhook_secret.is_some(),
-            webhook_secret: None,
-            created_at: p.created_at.clone(),
-            updated_at: p.updated_at.clone(),
-        })
+/// The profile as a key of `scope` may see it: below write scope, the webhook URL's
+/// path and query (which may carry a receiver's token) are left out.
+pub fn seen_by(mut p: Profile, scope: mtcal_store::Scope) -> Profile {
+    if !scope.allows(mtcal_store::Scope::Write) {
+        p.webhook_url = p.webhook_url.as_deref().map(crate::webhooks::host_only);
     }
-}
-
-impl Profile {
-    /// The profile as a key of `scope` may see it: below write scope, the webhook URL's
-    /// path and query (which may carry a receiver's token) are left out.
-    pub fn seen_by(mut self, scope: mtcal_store::Scope) -> Profile {
-        if !scope.allows(mtcal_store::Scope::Write) {
-            self.webhook_url = self.webhook_url.as_deref().map(crate::webhooks::host_only);
-        }
-        self
-    }
+    p
 }
 
 /// A new tolerance profile.
@@ -245,7 +219,7 @@ pub async fn create(
             updated_at: String::new(),
         })
         .await?;
-    let mut answer = Profile::of(&stored)?;
+    let mut answer = profile_of(&stored)?;
     answer.webhook_secret = c.shown;
     Ok(answer)
 }
@@ -277,7 +251,7 @@ pub async fn replace(
             ..old
         })
         .await?;
-    let mut answer = Profile::of(&stored)?;
+    let mut answer = profile_of(&stored)?;
     answer.webhook_secret = c.shown;
     Ok(answer)
 }

@@ -8,12 +8,13 @@
 
 use crate::error::DomainError;
 use crate::kinds::IDENTIFICATION;
+pub use mtcal_api::trends::{SummaryPoint, SummaryTrend, TermPoint, TermTrend};
 use mtcal_solver::comparison::{self, CheckFunctions, Value};
 pub use mtcal_solver::comparison::{Drift, TermDiff};
 use mtcal_solver::terms::Term;
 use mtcal_solver::tolerance::Figure;
-use mtcal_store::{ResultMeta, ResultScalars, ResultSummary, SkippedRow, Store};
-use serde::{Deserialize, Serialize};
+use mtcal_store::{ResultMeta, ResultScalars, SkippedRow, Store};
+use serde::Deserialize;
 use std::collections::BTreeMap;
 
 /// A stored result's scalars as a check of the solver's result arithmetic.
@@ -150,34 +151,6 @@ pub struct TermQuery {
     pub at: String,
 }
 
-#[derive(Debug, Clone, Serialize, Deserialize)]
-#[cfg_attr(feature = "openapi", derive(utoipa::ToSchema))]
-pub struct TermPoint {
-    pub result_id: String,
-    pub measured_at: String,
-    /// Value at each position (`um` or `urad`); null when the term was not identifiable
-    /// in this check or the position lies outside the travel it measured.
-    pub values: Vec<Option<f64>>,
-    /// Standard uncertainty of each value (from the check's stored covariance); null
-    /// where the value is null or no covariance is stored.
-    pub u: Vec<Option<f64>>,
-}
-
-#[derive(Debug, Clone, Serialize, Deserialize)]
-#[cfg_attr(feature = "openapi", derive(utoipa::ToSchema))]
-pub struct TermTrend {
-    pub machine_id: String,
-    pub term: String,
-    pub unit: String,
-    pub positions_mm: Vec<f64>,
-    /// In time order.
-    pub points: Vec<TermPoint>,
-    /// Stored results left out because their rows do not decode, one sentence each
-    /// naming the result (absent when none).
-    #[serde(default, skip_serializing_if = "Vec::is_empty")]
-    pub warnings: Vec<String>,
-}
-
 /// A term at positions over time, machine `id`'s identifications in time order.
 pub async fn term_trend(
     store: &dyn Store,
@@ -272,33 +245,6 @@ fn evaluate_term(
     })
 }
 
-#[derive(Debug, Clone, Serialize, Deserialize)]
-#[cfg_attr(feature = "openapi", derive(utoipa::ToSchema))]
-pub struct SummaryPoint {
-    pub result_id: String,
-    pub measured_at: String,
-    /// The result's summary figures, as stored.
-    #[serde(flatten)]
-    pub summary: ResultSummary,
-    /// Standard uncertainties of the three squareness errors, µrad (from the check's
-    /// stored covariance; null where none is stored).
-    pub ec0y_u_urad: Option<f64>,
-    pub eb0z_u_urad: Option<f64>,
-    pub ea0z_u_urad: Option<f64>,
-}
-
-#[derive(Debug, Clone, Serialize, Deserialize)]
-#[cfg_attr(feature = "openapi", derive(utoipa::ToSchema))]
-pub struct SummaryTrend {
-    pub machine_id: String,
-    /// In time order.
-    pub points: Vec<SummaryPoint>,
-    /// Stored results left out because their rows do not decode, one sentence each
-    /// naming the result (absent when none).
-    #[serde(default, skip_serializing_if = "Vec::is_empty")]
-    pub warnings: Vec<String>,
-}
-
 /// Residual, conditioning, rank and squareness of machine `id`'s identifications over
 /// time.
 pub async fn summary_trend(store: &dyn Store, id: &str) -> Result<SummaryTrend, DomainError> {
@@ -325,6 +271,7 @@ pub async fn summary_trend(store: &dyn Store, id: &str) -> Result<SummaryTrend, 
 #[cfg(test)]
 mod tests {
     use super::*;
+    use mtcal_store::ResultSummary;
 
     /// The stored row's squareness and its 1 × 1 variance reach the solver's arithmetic
     /// under the right names (the arithmetic itself is tested in the solver).

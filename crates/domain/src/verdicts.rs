@@ -11,12 +11,12 @@
 use crate::error::DomainError;
 use crate::kinds::IDENTIFICATION;
 use crate::profiles::{applicable, limits};
+pub use mtcal_api::tolerances::{ProfileRef, ResultVerdict};
 use mtcal_solver::identification::IdentificationResult;
 use mtcal_solver::positioning_check::DiagnosisDocument;
 use mtcal_solver::standards::{Standards, StandardsResult};
 use mtcal_solver::tolerance::{self, Assessment, Figures, Verdict};
 use mtcal_store::{Machine, Store, StoreError, StoredResult, ToleranceProfile};
-use serde::{Deserialize, Serialize};
 
 /// What a stored result offers to be judged and how (its figures; the misfit gate of its
 /// model, its uncertainty budget and the machine's registered travel), given the figures
@@ -90,28 +90,6 @@ pub async fn verdict(
     })
     .await??;
     Ok(Some((p.clone(), v)))
-}
-
-/// The profile a verdict is against.
-#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
-#[cfg_attr(feature = "openapi", derive(utoipa::ToSchema))]
-pub struct ProfileRef {
-    pub id: String,
-    pub scope: String,
-    pub target: String,
-}
-
-/// A result's verdict.
-#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
-#[cfg_attr(feature = "openapi", derive(utoipa::ToSchema))]
-pub struct ResultVerdict {
-    pub result_id: String,
-    pub machine_id: String,
-    /// The profile that applies to the machine (its own, else its first tag's that has
-    /// one); null when none applies.
-    pub profile: Option<ProfileRef>,
-    /// The decision per limit and overall; null when no profile applies.
-    pub verdict: Option<Verdict>,
 }
 
 /// The verdict of result `id` (`GET /api/v1/results/{id}/verdict`; reports and the

@@ -4,6 +4,7 @@
 mod common;
 
 mod compensation;
+mod compensation_reversal;
 mod cost;
 mod dialect;
 mod drift;

@@ -240,13 +240,21 @@ pub struct IdentificationResult {
     /// temperature, …): the report's facts and the uncertainty budget's inputs.
     #[serde(default)]
     pub conditions: Conditions,
+    /// The explained model ([`crate::explained::doc`]): present when this document's
+    /// terms are those of the 21 terms fitted jointly with the physics a diagnosis found.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub explained: Option<crate::explained::doc::ExplainedModel>,
 }
 
 impl IdentificationResult {
     /// The misfit gate of this result, from its fit (the same as the stored
     /// `model_check` of a document of this version; an earlier one is gated too).
     pub fn model_check(&self) -> ModelCheck {
-        ModelCheck::of(self.fit.residual_rms_um, self.fit.noise_estimate_um)
+        // An explained model's gate is its own (decided on it, or what remains).
+        match (&self.explained, &self.model_check) {
+            (Some(_), Some(c)) => c.clone(),
+            _ => ModelCheck::of(self.fit.residual_rms_um, self.fit.noise_estimate_um),
+        }
     }
 }
 

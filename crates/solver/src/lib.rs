@@ -13,6 +13,7 @@ pub mod axis;
 pub mod datasets;
 pub mod error;
 pub mod kinematics;
+pub mod names;
 pub mod session;
 pub mod terms;
 pub mod text;
@@ -38,6 +39,7 @@ pub mod fits;
 
 // mismatch diagnosis.
 pub mod diagnosis;
+pub mod explained;
 
 // Figures of the machine-tool test standards (ISO 230-2, ISO 230-4) and the residuals
 // of a fit by file and test.

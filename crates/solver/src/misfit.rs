@@ -55,6 +55,11 @@ pub struct ModelCheck {
     pub factor: f64,
     /// One sentence saying what was found.
     pub statement: String,
+    /// When the check is judged on the explained model (the 21 terms fitted jointly with
+    /// the physics a diagnosis found, `crate::explained`): what that model adds, in words
+    /// (`backlash (X), backlash (Y)`). Absent for the 21-term model alone.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub explained_model: Option<String>,
 }
 
 /// The sentence of a misfit.
@@ -99,7 +104,54 @@ impl ModelCheck {
             ratio,
             factor,
             statement,
+            explained_model: None,
         }
+    }
+
+    /// The gate on the explained model's residual (µm): decided on it when the diagnosis
+    /// explains the misfit (`explained`) and the residual is at noise level; otherwise a
+    /// misfit that says what remains. `adds` is what the model adds to the 21 terms.
+    pub fn explained(
+        residual_rms_um: f64,
+        noise_floor_um: Option<f64>,
+        adds: &str,
+        explained: bool,
+        remains: &[String],
+    ) -> ModelCheck {
+        let mut c = ModelCheck::of(residual_rms_um, noise_floor_um);
+        c.explained_model = Some(adds.to_string());
+        let at_noise = c.state == FitState::Explains;
+        if explained && at_noise {
+            c.statement = format!(
+                "decided on the explained model, the 21 terms fitted jointly with {adds}: the residual RMS {residual_rms_um:.3} µm is {:.2} × the noise floor {:.3} µm (at most {} ×)",
+                c.ratio.unwrap_or(f64::NAN),
+                c.noise_floor_um.unwrap_or(f64::NAN),
+                c.factor
+            );
+        } else {
+            let why = if !explained {
+                format!(
+                    "the diagnosis explains the misfit only partly; the explained model (the 21 terms with {adds}) leaves: {}",
+                    remains.join("; ")
+                )
+            } else if c.state == FitState::Unchecked {
+                "no noise floor could be estimated for the explained model".to_string()
+            } else {
+                format!(
+                    "the explained model (the 21 terms with {adds}) leaves a residual RMS {residual_rms_um:.3} µm, {:.2} × the noise floor (above {} ×)",
+                    c.ratio.unwrap_or(f64::NAN),
+                    c.factor
+                )
+            };
+            c.state = FitState::Misfit;
+            c.statement = format!("{MISFIT}: {why}");
+        }
+        c
+    }
+
+    /// Whether the check is decided on the explained model.
+    pub fn decided_on_explained_model(&self) -> bool {
+        self.explained_model.is_some() && self.state == FitState::Explains
     }
 
     pub fn is_misfit(&self) -> bool {

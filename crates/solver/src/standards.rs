@@ -7,7 +7,9 @@
 //! Every figure is in µm and comes with a standard uncertainty where one is known. The
 //! scalar figures are named `iso230_2.<axis>.<figure>` and
 //! `iso230_4.<plane>.<cw|ccw|bi>.<figure>` ([`ScalarFigure`]): the names under which they
-//! are stored, trended and given tolerances. Formulas and readings: `docs/standards.md`.
+//! are stored, trended and given tolerances. A figure a recording cannot give is `null`,
+//! its reason stated once in [`Standards::not_available`]. Formulas and readings:
+//! `docs/standards.md`.
 
 pub mod iso230_2;
 pub mod iso230_4;
@@ -42,6 +44,16 @@ pub struct NotEvaluated {
     pub reason: String,
 }
 
+/// Figures the recording cannot give (each `null` where it would stand), by their scalar
+/// names, and why: one reason stated once for the list of figures it applies to.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[cfg_attr(feature = "openapi", derive(utoipa::ToSchema))]
+pub struct NotAvailable {
+    /// `iso230_2.<axis>.<figure>` names.
+    pub figures: Vec<String>,
+    pub reason: String,
+}
+
 /// The standards' figures of one session (or of positioning runs: `iso230_4` empty).
 #[derive(Debug, Clone, PartialEq, Default, Serialize, Deserialize)]
 #[cfg_attr(feature = "openapi", derive(utoipa::ToSchema))]
@@ -50,9 +62,52 @@ pub struct Standards {
     pub iso230_4: Vec<Iso2304>,
     #[serde(default, skip_serializing_if = "Vec::is_empty")]
     pub not_evaluated: Vec<NotEvaluated>,
+    /// The figures this recording cannot give, grouped by reason
+    /// ([`Standards::not_available`] answers the same for a document without it).
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    pub not_available: Vec<NotAvailable>,
 }
 
 impl Standards {
+    /// The figures of `iso230_2` and `iso230_4`, with what could not be evaluated and
+    /// what is not available.
+    pub fn new(
+        iso230_2: Vec<Iso2302>,
+        iso230_4: Vec<Iso2304>,
+        not_evaluated: Vec<NotEvaluated>,
+    ) -> Standards {
+        let mut st = Standards {
+            iso230_2,
+            iso230_4,
+            not_evaluated,
+            not_available: vec![],
+        };
+        st.not_available = st.not_available();
+        st
+    }
+
+    /// The figures the recording cannot give, by reason, in axis and [`iso230_2::FIGURES`]
+    /// order (from the axes' sources, so a document of an earlier version answers too).
+    pub fn not_available(&self) -> Vec<NotAvailable> {
+        let mut out: Vec<NotAvailable> = vec![];
+        for f in &self.iso230_2 {
+            for name in iso230_2::FIGURES {
+                let Some(why) = f.not_available(name) else {
+                    continue;
+                };
+                let figure = format!("iso230_2.{}.{name}", f.axis);
+                match out.iter_mut().find(|n| n.reason == why) {
+                    Some(n) => n.figures.push(figure),
+                    None => out.push(NotAvailable {
+                        figures: vec![figure],
+                        reason: why.to_string(),
+                    }),
+                }
+            }
+        }
+        out
+    }
+
     /// Every scalar figure, ISO 230-2 first.
     pub fn scalar_figures(&self) -> Vec<ScalarFigure> {
         self.iso230_2
@@ -97,21 +152,17 @@ pub fn from_session(session: &Session) -> Standards {
 /// ([`iso230_4::circle_runs`]).
 pub fn from_session_circles(session: &Session, circles: &[iso230_4::CircleRun]) -> Standards {
     let (iso230_2, not_evaluated) = iso230_2::from_session(session);
-    Standards {
+    Standards::new(
         iso230_2,
-        iso230_4: iso230_4::from_circle_runs(session, circles),
+        iso230_4::from_circle_runs(session, circles),
         not_evaluated,
-    }
+    )
 }
 
 /// ISO 230-2 from positioning runs.
 pub fn from_positioning_runs(runs: &crate::datasets::PositioningRuns) -> Standards {
     let (iso230_2, not_evaluated) = iso230_2::from_positioning_runs(runs);
-    Standards {
-        iso230_2,
-        iso230_4: vec![],
-        not_evaluated,
-    }
+    Standards::new(iso230_2, vec![], not_evaluated)
 }
 
 /// The largest and the smallest of (value, uncertainty) pairs, each with its

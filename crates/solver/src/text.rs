@@ -1,7 +1,16 @@
 //! How quantities are written for a person, in every output of mtcal (pages, reports,
-//! the CLI's summaries, alert messages): a number with digits that suit its size
-//! ([`num`]), a value with its expanded uncertainty U = 2u ([`with_u`]) and units as a
-//! person writes them ([`unit_label`]: `µm`, `µrad`, never `um`).
+//! the CLI's summaries, alert messages, the sentences of result documents): one rule,
+//! the digits suit the number's size, and never a negative zero (`-0.000` reads `0.000`).
+//!
+//! | function | writes | example |
+//! |---|---|---|
+//! | [`num`] | 3 decimals below 10, 2 below 100, 1 below 100 000, then 4 significant digits in scientific form | `0.300`, `28.54`, `214.2`, `1.712e7` |
+//! | [`signed`] | [`num`] with `+` on a positive number | `+0.125`, `-3.200` |
+//! | [`short`] | at most 4 significant digits, trailing zeros dropped (numbers inside sentences) | `0.0004`, `28.54`, `1.5` |
+//! | [`with_std`] | `value ± σ`, σ to two significant digits and the value to its place (GUM 7.2.6) | `6.60 ± 0.30` |
+//! | [`with_u`] | `value ± U unit`, U = 2u, both by [`num`] | `3.210 ± 0.100 µm` |
+//!
+//! Units as a person writes them: [`unit_label`] (`µm`, `µrad`, never `um`).
 
 /// `um` → `µm`, `urad` → `µrad`, anything else unchanged.
 pub fn unit_label(unit: &str) -> &str {
@@ -19,7 +28,7 @@ pub fn num(v: f64) -> String {
         return "—".into();
     }
     let a = v.abs();
-    if a >= 1e5 {
+    let s = if a >= 1e5 {
         format!("{v:.3e}")
     } else if a < 10.0 {
         format!("{v:.3}")
@@ -27,7 +36,50 @@ pub fn num(v: f64) -> String {
         format!("{v:.2}")
     } else {
         format!("{v:.1}")
+    };
+    unsigned_zero(s)
+}
+
+/// `s` without its minus sign when every digit of it is zero (`-0.000` → `0.000`).
+fn unsigned_zero(s: String) -> String {
+    match s.strip_prefix('-') {
+        Some(rest)
+            if !rest
+                .split('e')
+                .next()
+                .unwrap_or("")
+                .contains(|c: char| ('1'..='9').contains(&c)) =>
+        {
+            rest.to_string()
+        }
+        _ => s,
     }
+}
+
+/// [`num`] with a `+` on a positive number (`+0.125`); zero has no sign.
+pub fn signed(v: f64) -> String {
+    let s = num(v);
+    if v > 0.0 && s.contains(|c: char| ('1'..='9').contains(&c)) {
+        format!("+{s}")
+    } else {
+        s
+    }
+}
+
+/// A number inside a sentence: at most 4 significant digits, trailing zeros dropped, no
+/// float noise (`0.0004`, `28.54`, `1.5`); zero and non-finite numbers as Rust writes them.
+pub fn short(v: f64) -> String {
+    if v == 0.0 || !v.is_finite() {
+        return format!("{}", if v == 0.0 { 0.0 } else { v });
+    }
+    let digits = (4 - 1 - v.abs().log10().floor() as i32).clamp(0, 12) as usize;
+    let s = format!("{v:.digits$}");
+    let s = if s.contains('.') {
+        s.trim_end_matches('0').trim_end_matches('.').to_string()
+    } else {
+        s
+    };
+    unsigned_zero(s)
 }
 
 /// `value ± σ` with σ (a standard uncertainty) to two significant digits and the value to
@@ -40,11 +92,18 @@ pub fn with_std(value: f64, std: f64, min_decimals: usize, sign: bool) -> String
     } else {
         min_decimals
     };
-    if sign {
-        format!("{value:+.d$} ± {std:.d$}")
+    let v = if sign {
+        format!("{value:+.d$}")
     } else {
-        format!("{value:.d$} ± {std:.d$}")
-    }
+        format!("{value:.d$}")
+    };
+    let v = unsigned_zero(v.trim_start_matches('+').to_string());
+    let v = if sign && value > 0.0 && v.contains(|c: char| ('1'..='9').contains(&c)) {
+        format!("+{v}")
+    } else {
+        v
+    };
+    format!("{v} ± {std:.d$}")
 }
 
 /// `value ± U unit` with U = 2u; `value unit` when u is unknown; `—` without a value.
@@ -120,7 +179,18 @@ mod tests {
         assert_eq!(with_u(None, Some(1.0), "um"), "—");
         assert_eq!(num(214.21033695945158), "214.2");
         assert_eq!(num(17_123_456.0), "1.712e7");
-        assert_eq!(num(-0.0004), "-0.000");
+        assert_eq!(num(-0.0004), "0.000");
+        assert_eq!(num(-0.0), "0.000");
+        assert_eq!(num(-0.04), "-0.040");
+        assert_eq!(num(-1e-9), "0.000");
+        assert_eq!(signed(0.125), "+0.125");
+        assert_eq!(signed(-0.0001), "0.000");
+        assert_eq!(signed(-3.2), "-3.200");
+        assert_eq!(short(28.541666666666664), "28.54");
+        assert_eq!(short(-0.00001), "-0.00001");
+        assert_eq!(short(-0.0), "0");
+        assert_eq!(short(1.5), "1.5");
+        assert_eq!(with_std(-0.0001, 0.3, 2, false), "0.00 ± 0.30");
         assert_eq!(num(f64::NAN), "—");
         assert_eq!(unit_label("mm"), "mm");
     }

@@ -689,20 +689,8 @@ pub fn cosine_error_um(l_mm: f64, urad: f64) -> f64 {
     l_mm * 1000.0 * th * th / 2.0
 }
 
-/// A number in a budget's or a verdict's sentence: at most 4 significant digits, no
-/// float noise.
-pub(crate) fn g(v: f64) -> String {
-    if v == 0.0 || !v.is_finite() {
-        return format!("{v}");
-    }
-    let digits = (4 - 1 - v.abs().log10().floor() as i32).clamp(0, 12) as usize;
-    let s = format!("{v:.digits$}");
-    if s.contains('.') {
-        s.trim_end_matches('0').trim_end_matches('.').to_string()
-    } else {
-        s
-    }
-}
+/// A number in a budget's or a verdict's sentence ([`crate::text::short`]).
+pub(crate) use crate::text::short as g;
 
 #[cfg(test)]
 mod tests {

@@ -360,10 +360,16 @@ fn iso230_2_figures_match_definitions() {
         ..Default::default()
     };
     let f = &iso230_2(&simulate_positioning(&cfg))[0];
-    assert!((8.0..9.2).contains(&f.reversal_b_um), "{f:?}");
+    assert!((8.0..9.2).contains(&f.reversal_b_um.unwrap()), "{f:?}");
     // E spans both direction means: ≈ B with no smooth error.
-    assert!((f.systematic_e_um - f.reversal_b_um).abs() < 1.0, "{f:?}");
-    assert!(f.accuracy_a_um > f.systematic_e_um && f.repeatability_r_um > f.reversal_b_um);
+    assert!(
+        (f.systematic_e_um.unwrap() - f.reversal_b_um.unwrap()).abs() < 1.0,
+        "{f:?}"
+    );
+    assert!(
+        f.accuracy_a_um.unwrap() > f.systematic_e_um.unwrap()
+            && f.repeatability_r_um.unwrap() > f.reversal_b_um.unwrap()
+    );
 }
 
 #[test]

@@ -15,6 +15,7 @@ mod diagnosis_series_kernel;
 mod diagnosis_series_positioning;
 mod diagnosis_sessions;
 mod diagnosis_thermal_coverage;
+mod explained_model;
 mod fits_simulated;
 mod fits_sscanss2;
 mod identification_truth;

@@ -1,8 +1,8 @@
 //! The datasets (raw files with checksums): [`Datasets`].
 
 use crate::StoreFuture;
-use crate::exclusion::{Exclusion, SetAside};
-use serde::{Deserialize, Serialize};
+use crate::exclusion::SetAside;
+pub use mtcal_api::datasets::{Dataset, FileMeta};
 
 /// The datasets uploaded for the machines: their files' bytes, excluded or deleted with a
 /// record. Implementations must make each method atomic.
@@ -47,42 +47,6 @@ pub trait Datasets: Send + Sync {
         id: &'a str,
         why: SetAside<'a>,
     ) -> StoreFuture<'a, Dataset>;
-}
-
-/// One stored file of a dataset, as uploaded.
-#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
-#[cfg_attr(feature = "openapi", derive(utoipa::ToSchema))]
-pub struct FileMeta {
-    pub name: String,
-    pub sha256: String,
-    pub size: i64,
-}
-
-/// A dataset's metadata (the bytes are read with [`crate::Datasets::dataset_file`]).
-#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
-#[cfg_attr(feature = "openapi", derive(utoipa::ToSchema))]
-pub struct Dataset {
-    pub id: String,
-    pub machine_id: String,
-    /// `session`, `rotary_points`, `positioning` or `drift_log` (datasets contract).
-    pub kind: String,
-    pub measured_at: String,
-    pub uploaded_at: String,
-    pub samples: i64,
-    pub total_bytes: i64,
-    /// SHA-256 over the sorted list of `name:sha256` lines of its files.
-    pub sha256: String,
-    pub files: Vec<FileMeta>,
-    /// Set when the dataset was excluded ([`Exclusion`]): no new job runs on it, default
-    /// listings leave it out, and the results computed from it are excluded with this
-    /// same record.
-    #[serde(default, skip_serializing_if = "Option::is_none")]
-    pub excluded: Option<Exclusion>,
-    /// Set when the dataset's raw bytes were deleted (who, when, why: the same record
-    /// shape as an exclusion). The files' names, sizes and checksums stay; their bytes are
-    /// gone. A deleted dataset is always excluded too.
-    #[serde(default, skip_serializing_if = "Option::is_none")]
-    pub deleted: Option<Exclusion>,
 }
 
 /// A dataset to insert: metadata plus every file's bytes.

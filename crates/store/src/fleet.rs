@@ -2,6 +2,7 @@
 
 use crate::StoreFuture;
 use crate::machines::Machine;
+pub use mtcal_api::fleet::LastCheck;
 use serde::{Deserialize, Serialize};
 
 /// The fleet's drift (one row per machine, maintained by the service) and the fleet
@@ -77,18 +78,6 @@ pub struct FleetPageQuery {
     pub sort: FleetSort,
     pub offset: i64,
     pub limit: i64,
-}
-
-/// A stored result named by id, kind and time.
-// A machine's last check: the one struct the store reads, the fleet routes answer and
-// the fleet page is given (converted to the view's own type in crates/server/src/web).
-#[derive(Debug, Clone, PartialEq, Eq, Serialize, Deserialize)]
-#[cfg_attr(feature = "openapi", derive(utoipa::ToSchema))]
-pub struct LastCheck {
-    pub result_id: String,
-    /// `identification`, `diagnosis`, `cradle` or `sensitivity`.
-    pub kind: String,
-    pub measured_at: String,
 }
 
 /// A machine on the fleet page: its drift row (None before its first identification)

@@ -6,56 +6,9 @@
 //! database; lookups are by hash.
 
 use crate::StoreFuture;
+pub use mtcal_api::keys::{ApiKey, Scope};
 use rand::RngCore;
-use serde::{Deserialize, Serialize};
 use sha2::{Digest, Sha256};
-
-/// What a key may do. Scopes are ordered: admin ⊃ write ⊃ read.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, PartialOrd, Ord, Serialize, Deserialize)]
-#[cfg_attr(feature = "openapi", derive(utoipa::ToSchema))]
-#[serde(rename_all = "lowercase")]
-pub enum Scope {
-    Read,
-    Write,
-    Admin,
-}
-
-impl Scope {
-    pub fn as_str(self) -> &'static str {
-        match self {
-            Scope::Read => "read",
-            Scope::Write => "write",
-            Scope::Admin => "admin",
-        }
-    }
-
-    pub fn parse(s: &str) -> Option<Scope> {
-        Some(match s {
-            "read" => Scope::Read,
-            "write" => Scope::Write,
-            "admin" => Scope::Admin,
-            _ => return None,
-        })
-    }
-
-    /// Whether a key of this scope may do what `needed` requires.
-    pub fn allows(self, needed: Scope) -> bool {
-        self >= needed
-    }
-}
-
-/// A stored key (never the secret).
-#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
-#[cfg_attr(feature = "openapi", derive(utoipa::ToSchema))]
-pub struct ApiKey {
-    pub id: String,
-    pub prefix: String,
-    pub scope: Scope,
-    pub label: String,
-    pub created_at: String,
-    /// When the key was revoked (RFC 3339); a revoked key authenticates nothing.
-    pub revoked_at: Option<String>,
-}
 
 /// A key about to be stored: the record, the secret (shown once, never stored) and the
 /// hash that is stored.

@@ -25,6 +25,7 @@
 
 use crate::StoreFuture;
 use crate::results::NewResult;
+pub use mtcal_api::jobs::{Job, JobKind, JobState};
 use serde::{Deserialize, Serialize};
 use serde_json::Value;
 
@@ -175,72 +176,6 @@ impl QueueConfig {
     }
 }
 
-/// Life cycle of a job.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
-#[cfg_attr(feature = "openapi", derive(utoipa::ToSchema))]
-#[serde(rename_all = "lowercase")]
-pub enum JobState {
-    Queued,
-    Running,
-    Succeeded,
-    Failed,
-    Cancelled,
-}
-
-impl JobState {
-    pub fn as_str(self) -> &'static str {
-        match self {
-            JobState::Queued => "queued",
-            JobState::Running => "running",
-            JobState::Succeeded => "succeeded",
-            JobState::Failed => "failed",
-            JobState::Cancelled => "cancelled",
-        }
-    }
-
-    pub fn parse(s: &str) -> Option<JobState> {
-        Some(match s {
-            "queued" => JobState::Queued,
-            "running" => JobState::Running,
-            "succeeded" => JobState::Succeeded,
-            "failed" => JobState::Failed,
-            "cancelled" => JobState::Cancelled,
-            _ => return None,
-        })
-    }
-
-    pub fn is_terminal(self) -> bool {
-        matches!(
-            self,
-            JobState::Succeeded | JobState::Failed | JobState::Cancelled
-        )
-    }
-}
-
-/// A job as stored.
-#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
-#[cfg_attr(feature = "openapi", derive(utoipa::ToSchema))]
-pub struct Job {
-    pub id: String,
-    pub kind: JobKind,
-    pub machine_id: Option<String>,
-    pub dataset_id: Option<String>,
-    #[cfg_attr(feature = "openapi", schema(value_type = Object))]
-    pub params: Value,
-    pub state: JobState,
-    /// 0 … 1.
-    pub progress: f64,
-    pub progress_message: Option<String>,
-    pub attempts: i64,
-    pub max_attempts: i64,
-    pub error_code: Option<String>,
-    pub error_message: Option<String>,
-    pub result_id: Option<String>,
-    pub created_at: String,
-    pub started_at: Option<String>,
-    pub finished_at: Option<String>,
-}
-
 /// A job to enqueue.
 #[derive(Debug, Clone)]
 pub struct NewJob {
@@ -251,110 +186,14 @@ pub struct NewJob {
     pub max_attempts: i64,
 }
 
-/// What a job computes. `import` marks a result stored without a run; it cannot be
-/// submitted.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, Serialize, Deserialize)]
-#[cfg_attr(feature = "openapi", derive(utoipa::ToSchema))]
-#[serde(rename_all = "lowercase")]
-pub enum JobKind {
-    /// 21-term identification of a session dataset; result kind `identification`.
-    Identify,
-    /// Error-source ranking (Cheng et al. 2012) from parameters only; result kind
-    /// `sensitivity`.
-    Sensitivity,
-    /// Diagnosis (default options) of a session, positioning-run or drift-log dataset;
-    /// result kind `diagnosis`.
-    Diagnose,
-    /// Cradle (A/C) check of a rotary point set (default options); result kind `cradle`.
-    Cradle,
-    /// Figures of ISO 230-2 (positioning runs, or the line passes of a session) and ISO
-    /// 230-4 (the circles of a session); result kind `standards`.
-    Standards,
-    /// A result stored without a run ([`crate::Results::import_result`]): born succeeded,
-    /// never claimed, never submitted through the API.
-    Import,
-}
-
-impl JobKind {
-    /// Every kind a worker runs (all but [`JobKind::Import`]).
-    pub const RUNNABLE: [JobKind; 5] = [
-        JobKind::Identify,
-        JobKind::Sensitivity,
-        JobKind::Diagnose,
-        JobKind::Cradle,
-        JobKind::Standards,
-    ];
-
-    pub fn as_str(self) -> &'static str {
-        match self {
-            JobKind::Identify => "identify",
-            JobKind::Sensitivity => "sensitivity",
-            JobKind::Diagnose => "diagnose",
-            JobKind::Cradle => "cradle",
-            JobKind::Standards => "standards",
-            JobKind::Import => "import",
-        }
-    }
-
-    pub fn parse(s: &str) -> Option<JobKind> {
-        match s {
-            "identify" => Some(JobKind::Identify),
-            "sensitivity" => Some(JobKind::Sensitivity),
-            "diagnose" => Some(JobKind::Diagnose),
-            "cradle" => Some(JobKind::Cradle),
-            "standards" => Some(JobKind::Standards),
-            "import" => Some(JobKind::Import),
-            _ => None,
-        }
-    }
-
-    /// The `kind` of the result document it produces (an import keeps the kind it was
-    /// given).
-    pub fn result_kind(self) -> &'static str {
-        match self {
-            JobKind::Identify => "identification",
-            JobKind::Sensitivity => "sensitivity",
-            JobKind::Diagnose => "diagnosis",
-            JobKind::Cradle => "cradle",
-            JobKind::Standards => "standards",
-            JobKind::Import => "import",
-        }
-    }
-
-    /// Whether it runs on a dataset of this stored kind (`session`, `rotary_points`,
-    /// `positioning`, `drift_log`).
-    pub fn accepts(self, dataset_kind: &str) -> bool {
-        match self {
-            JobKind::Identify => dataset_kind == "session",
-            JobKind::Diagnose => matches!(dataset_kind, "session" | "positioning" | "drift_log"),
-            JobKind::Cradle => dataset_kind == "rotary_points",
-            JobKind::Standards => matches!(dataset_kind, "session" | "positioning"),
-            JobKind::Sensitivity | JobKind::Import => false,
-        }
-    }
-
-    /// Whether the kind reads a dataset (else only its parameters).
-    pub fn needs_dataset(self) -> bool {
-        match self {
-            JobKind::Identify | JobKind::Diagnose | JobKind::Cradle | JobKind::Standards => true,
-            JobKind::Sensitivity | JobKind::Import => false,
-        }
-    }
-
-    /// Whether clients may submit it (every kind but [`JobKind::Import`]).
-    pub fn is_runnable(self) -> bool {
-        self != JobKind::Import
-    }
-
-    /// `'identify', 'sensitivity', …`: the runnable kinds as an SQL list (constants only,
-    /// never user input), for the claim query of every backend.
-    pub fn runnable_sql_list() -> String {
-        JobKind::RUNNABLE
-            .iter()
-            .map(|k| format!("'{}'", k.as_str()))
-            .collect::<Vec<_>>()
-            .join(", ")
-    }
+/// `'identify', 'sensitivity', …`: the runnable kinds as an SQL list (constants only,
+/// never user input), for the claim query of every backend.
+pub fn runnable_sql_list() -> String {
+    JobKind::RUNNABLE
+        .iter()
+        .map(|k| format!("'{}'", k.as_str()))
+        .collect::<Vec<_>>()
+        .join(", ")
 }
 
 #[cfg(test)]
@@ -384,7 +223,7 @@ mod tests {
         }
         assert!(!JobKind::RUNNABLE.contains(&JobKind::Import));
         assert_eq!(
-            JobKind::runnable_sql_list(),
+            runnable_sql_list(),
             "'identify', 'sensitivity', 'diagnose', 'cradle', 'standards'"
         );
         assert_eq!(JobKind::parse("nope"), None);

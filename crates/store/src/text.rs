@@ -19,28 +19,10 @@
 
 use crate::error::{Result, StoreError};
 
-/// Longest identifier (machine id), characters.
-pub const ID_MAX: usize = 64;
-/// Longest machine name, characters.
-pub const NAME_MAX: usize = 200;
-/// Longest site, characters.
-pub const SITE_MAX: usize = 100;
-/// Longest tag, characters.
-pub const TAG_MAX: usize = 64;
-/// Most tags on one machine.
-pub const TAGS_MAX: usize = 32;
-/// Longest tag list as stored (a JSON array, UTF-8), bytes: below PostgreSQL's index row
-/// limit of 2704 bytes with room for the row's header (32 ASCII tags of 64 characters,
-/// or 12 of 64 CJK characters, fit; 14 of those did not).
-pub const TAGS_BYTES_MAX: usize = 2400;
-/// Longest tolerance profile target (a machine id or a tag), characters.
-pub const TARGET_MAX: usize = 200;
-/// Longest API key label, characters.
-pub const LABEL_MAX: usize = 200;
-/// Longest record of who did something (`key … (label)`), characters.
-pub const BY_MAX: usize = 300;
-/// Longest reason or comment, characters.
-pub const REASON_MAX: usize = 1000;
+pub use mtcal_api::limits::{
+    BY_MAX, ID_MAX, LABEL_MAX, NAME_MAX, REASON_MAX, SITE_MAX, TAG_MAX, TAGS_BYTES_MAX, TAGS_MAX,
+    TARGET_MAX,
+};
 
 fn invalid(m: String) -> StoreError {
     StoreError::Invalid(m)

@@ -8,111 +8,13 @@
 //! ([`mtcal_store::Fleet::fleet_page`]: an index walk that stops once the page is full).
 
 use crate::error::DomainError;
-use crate::fleet::entry::{DiagnosisSummary, FleetEntry, VerdictSummary};
+use crate::fleet::entry::FleetEntry;
 use crate::kinds::IDENTIFICATION;
-use crate::trends::{DRIFT_DEFINITION, Drift};
-use mtcal_solver::tolerance::Decision;
-pub use mtcal_store::LastCheck;
+use crate::trends::DRIFT_DEFINITION;
+pub use mtcal_api::fleet::{
+    DEFAULT_LIMIT, FleetList, FleetMachine, FleetParams, LastCheck, MAX_LIMIT,
+};
 use mtcal_store::{FleetPageQuery, FleetPageRow, FleetSort, Store};
-use serde::{Deserialize, Serialize};
-
-/// Machines a page holds unless asked otherwise (the fleet page's page).
-pub const DEFAULT_LIMIT: usize = 100;
-/// Most machines one page holds.
-pub const MAX_LIMIT: usize = 1000;
-
-#[derive(Debug, Clone, Default, Serialize, Deserialize)]
-#[cfg_attr(feature = "openapi", derive(utoipa::IntoParams))]
-#[cfg_attr(feature = "openapi", into_params(parameter_in = Query))]
-pub struct FleetParams {
-    /// Only the machines of this site (empty: every site).
-    pub site: Option<String>,
-    /// Only the machines carrying this tag, matched whole (empty: every tag).
-    pub tag: Option<String>,
-    /// `drift` (largest drift in µm first, the default), `drift_urad` (in µrad),
-    /// `name` (by machine id) or `last_check` (most recent first); machines without the
-    /// key (no identification) come after those with it, by id.
-    #[cfg_attr(
-        feature = "openapi",
-        param(pattern = "^(drift|drift_urad|name|last_check)$")
-    )]
-    pub sort: Option<String>,
-    /// Machines skipped, in this order (default 0, at most 1 000 000).
-    #[cfg_attr(feature = "openapi", param(maximum = 1_000_000))]
-    pub offset: Option<usize>,
-    /// At most this many machines (default 100, at most 1000).
-    #[cfg_attr(feature = "openapi", param(minimum = 1, maximum = 1000))]
-    pub limit: Option<usize>,
-}
-
-/// One machine of the fleet.
-#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
-#[cfg_attr(feature = "openapi", derive(utoipa::ToSchema))]
-pub struct FleetMachine {
-    pub machine_id: String,
-    pub name: String,
-    pub site: Option<String>,
-    pub tags: Vec<String>,
-    /// Drift alerts not acknowledged.
-    pub active_alerts: i64,
-    /// Its latest identification; for a machine without one, its latest check of
-    /// another kind (null: no check yet).
-    pub last_check: Option<LastCheck>,
-    /// The latest identification's verdict against the machine's tolerance profile
-    /// (null: no identification, no profile applies, or none of its limits applies).
-    pub verdict: Option<Decision>,
-    /// The tolerance profile that applies to the machine (its own, else its first tag's
-    /// that has one), whether or not it has a check to decide.
-    pub tolerance_profile_id: Option<String>,
-    /// That profile's scope and target (`tag` `vmc`).
-    pub tolerance_profile: Option<crate::verdicts::ProfileRef>,
-    /// Why the verdict is what it is: counts and the items behind it (null: no verdict).
-    pub verdict_summary: Option<VerdictSummary>,
-    /// The latest identification's misfit gate when its model does not explain its
-    /// recording (its verdicts are then "misfit", not decided; null otherwise).
-    pub misfit: Option<mtcal_solver::misfit::ModelCheck>,
-    /// What the diagnosis of the latest identification's recording found (null: none).
-    pub diagnosis: Option<DiagnosisSummary>,
-    /// The baseline the drift is measured from (its chosen one, else its first
-    /// identification).
-    pub baseline_result_id: Option<String>,
-    /// Its identifications.
-    pub results: i64,
-    /// Drift since the baseline (`definition`), each with its standard uncertainty
-    /// (null: no identification).
-    pub drift: Option<Drift>,
-    /// Why there is no drift, when there is none (e.g. its checks are of a kind drift is
-    /// not measured on).
-    pub drift_note: Option<String>,
-    /// The worst µm term's value in each identification, in time order, at the end of
-    /// the latest one's measured travel where it changed more (null: not identified or
-    /// not measured there).
-    pub sparkline: Vec<Option<f64>>,
-}
-
-/// One page of the fleet.
-#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
-#[cfg_attr(feature = "openapi", derive(utoipa::ToSchema))]
-pub struct FleetList {
-    /// How drift is measured.
-    pub definition: String,
-    pub site: Option<String>,
-    pub tag: Option<String>,
-    pub sort: String,
-    pub offset: usize,
-    pub limit: usize,
-    /// Machines matching the filters in all.
-    pub total: usize,
-    /// Every site and every tag of the fleet, sorted (the filters' choices).
-    pub sites: Vec<String>,
-    pub tags: Vec<String>,
-    /// Machines with active alerts first, then in `sort` order.
-    pub machines: Vec<FleetMachine>,
-    /// Machines whose stored drift does not decode (written by an older version), one
-    /// sentence each; they are listed without drift (absent when none).
-    #[serde(default, skip_serializing_if = "Vec::is_empty")]
-    pub warnings: Vec<String>,
-}
 
 /// A filter value, empty meaning none.
 fn given(v: &Option<String>) -> Option<String> {

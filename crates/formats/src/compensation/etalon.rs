@@ -19,6 +19,7 @@ pub fn write(c: &Compensation) -> String {
         "//",
         "Etalon exchange format (Vendor variant)",
         "errors in mm and rad, arguments in mm",
+        super::Format::Etalon.carries(),
     );
     for (n, v) in &c.squareness {
         let _ = writeln!(s, "[{}]\nVALUE = {v:.12}", position_error_name(n));

@@ -35,6 +35,7 @@ pub fn write(c: &Compensation) -> String {
         ";",
         "Heidenhain KinematicsComp-style COM tables (one per axis; split at BEGIN)",
         "translations and positions (ADDR) in mm, rotations in degrees",
+        super::Format::Heidenhain.carries(),
     );
     for a in &c.axes {
         let cols: Vec<String> = a

@@ -19,6 +19,7 @@ pub fn write(c: &Compensation) -> String {
         "//",
         "ISG CSV (volumetric compensation, file_format ISG_CSV)",
         "errors in mm and rad, arguments in mm",
+        super::Format::Isg.carries(),
     );
     let mut first = true;
     if !c.squareness.is_empty() {

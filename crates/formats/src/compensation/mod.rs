@@ -19,7 +19,13 @@
 //! * [`isg`]: ISG / Beckhoff TwinCAT CNC volumetric compensation, `ISG_CSV`;
 //! * [`etalon`]: the Etalon exchange format ("Vendor" variant) as ISG reads it;
 //! * [`heidenhain`]: a Heidenhain KinematicsComp-style `*.COM` table per axis;
-//! * [`csv`]: a plain CSV with ISO 230-1 names, in µm and µrad.
+//! * [`csv`]: a plain CSV with ISO 230-1 names, in µm and µrad, with forward and reverse
+//!   values where a reversal was found and the thermal coefficients per kelvin;
+//! * [`linuxcnc`]: LinuxCNC's joint compensation file (`COMP_FILE_TYPE = 0`): nominal,
+//!   forward and reverse positions of each axis along itself.
+//!
+//! The physics a diagnosis found (reversal, thermal coefficients) comes in through
+//! [`physics`].
 //!
 //! The values come from [`IdentificationResult::reported_value_at`]: the solver's own
 //! evaluation of a result's terms.
@@ -28,11 +34,14 @@ pub mod csv;
 pub mod etalon;
 pub mod heidenhain;
 pub mod isg;
+pub mod linuxcnc;
+pub mod physics;
 
 use crate::FormatError;
 use mtcal_solver::Axis;
 use mtcal_solver::identification::IdentificationResult;
-use mtcal_solver::terms::{SquarenessTerm, Term};
+use mtcal_solver::terms::{SquarenessTerm, Term, TermKind};
+pub use physics::{Carries, Thermal, ThermalKind};
 
 /// Default spacing of the table's arguments, mm.
 pub const DEFAULT_STEP_MM: f64 = 5.0;
@@ -48,10 +57,17 @@ pub enum Format {
     Etalon,
     Heidenhain,
     Csv,
+    Linuxcnc,
 }
 
 impl Format {
-    pub const ALL: [Format; 4] = [Format::Isg, Format::Etalon, Format::Heidenhain, Format::Csv];
+    pub const ALL: [Format; 5] = [
+        Format::Isg,
+        Format::Etalon,
+        Format::Heidenhain,
+        Format::Csv,
+        Format::Linuxcnc,
+    ];
 
     /// Name on the command line and in the API (`format=`).
     pub fn name(self) -> &'static str {
@@ -60,7 +76,32 @@ impl Format {
             Format::Etalon => "etalon",
             Format::Heidenhain => "heidenhain",
             Format::Csv => "csv",
+            Format::Linuxcnc => "linuxcnc",
         }
+    }
+
+    /// What the format holds besides the geometric errors.
+    pub fn carries(self) -> Carries {
+        Carries {
+            reversal: matches!(self, Format::Csv | Format::Linuxcnc),
+            thermal: self == Format::Csv,
+        }
+    }
+
+    /// Whether the format holds every identifiable term (LinuxCNC holds each axis's
+    /// error along itself only).
+    pub fn holds_every_term(self) -> bool {
+        self != Format::Linuxcnc
+    }
+
+    /// Whether `c` fits this format: LinuxCNC takes at most
+    /// [`linuxcnc::MAX_TRIPLETS`] triplets per joint and needs an axis with a positioning
+    /// error or a reversal.
+    pub fn check(self, c: &Compensation) -> Result<(), ExportError> {
+        if self == Format::Linuxcnc {
+            linuxcnc::check(c)?;
+        }
+        Ok(())
     }
 
     /// The format named `s`; the error names the formats.
@@ -76,7 +117,7 @@ impl Format {
             })
     }
 
-    /// `isg, etalon, heidenhain, csv`.
+    /// `isg, etalon, heidenhain, csv, linuxcnc`.
     pub fn names() -> String {
         Format::ALL.map(Format::name).join(", ")
     }
@@ -93,7 +134,7 @@ impl Format {
     pub fn extension(self) -> &'static str {
         match self {
             Format::Isg | Format::Csv => "csv",
-            Format::Etalon => "txt",
+            Format::Etalon | Format::Linuxcnc => "txt",
             Format::Heidenhain => "com",
         }
     }
@@ -105,6 +146,7 @@ impl Format {
             Format::Etalon => etalon::write(c),
             Format::Heidenhain => heidenhain::write(c),
             Format::Csv => csv::write(c),
+            Format::Linuxcnc => linuxcnc::write(c),
         }
     }
 
@@ -120,6 +162,7 @@ impl Format {
             Format::Etalon => etalon::read(name, text),
             Format::Heidenhain => heidenhain::read(name, text),
             Format::Csv => csv::read(name, text),
+            Format::Linuxcnc => linuxcnc::read(name, text),
         }
     }
 }
@@ -141,6 +184,18 @@ pub struct AxisTable {
     pub positions_mm: Vec<f64>,
     /// In [`Term::all`] order: EXX EYX EZX EAX EBX ECX for X.
     pub columns: Vec<Column>,
+    /// The lost motion b at each position, mm ([`physics`]: error forward −b/2, reverse
+    /// +b/2), where a reversal was found.
+    pub reversal_mm: Option<Vec<f64>>,
+}
+
+impl AxisTable {
+    /// The column of the axis's error along itself (EXX of X), when identifiable.
+    pub fn positioning(&self) -> Option<&Column> {
+        self.columns
+            .iter()
+            .find(|c| Term::parse(&c.term).is_some_and(|t| t.kind() == TermKind::Positioning))
+    }
 }
 
 /// A compensation table (values in mm and rad).
@@ -158,6 +213,8 @@ pub struct Compensation {
     /// Set when the table was made although the model does not explain its recording
     /// (forced): the reason, written in the header's [`FORCED`] line.
     pub forced: Option<String>,
+    /// Thermal coefficients per kelvin the diagnosis found ([`physics`]).
+    pub thermal: Vec<Thermal>,
 }
 
 /// Why a result gives no table.
@@ -237,6 +294,7 @@ impl Compensation {
                     axis,
                     positions_mm: positions,
                     columns,
+                    reversal_mm: None,
                 });
             }
         }
@@ -259,15 +317,22 @@ impl Compensation {
 
     /// The header comment every file opens with: [`Compensation::header`], each line
     /// after `prefix` and a blank.
-    pub fn header_comment(&self, prefix: &str, format: &str, units: &str) -> String {
-        self.header(format, units)
+    pub fn header_comment(
+        &self,
+        prefix: &str,
+        format: &str,
+        units: &str,
+        carries: Carries,
+    ) -> String {
+        self.header(format, units, carries)
             .into_iter()
             .map(|h| format!("{prefix} {h}\n"))
             .collect()
     }
 
-    /// The sentences every file's header comment carries (each format adds its prefix).
-    pub fn header(&self, format: &str, units: &str) -> Vec<String> {
+    /// The sentences every file's header comment carries (each format adds its prefix),
+    /// with what the format `carries` of the physics found.
+    pub fn header(&self, format: &str, units: &str, carries: Carries) -> Vec<String> {
         let mut h = vec![];
         if let Some(why) = &self.forced {
             h.push(format!("{FORCED}{why}"));
@@ -311,6 +376,7 @@ impl Compensation {
                 self.not_identifiable.join(", ")
             }
         ));
+        h.extend(self.physics_header(carries));
         h
     }
 }
@@ -403,6 +469,7 @@ fn push_point(axes: &mut Vec<AxisTable>, term: Term, q: f64, v: f64) -> Result<(
                 axis: term.axis,
                 positions_mm: vec![],
                 columns: vec![],
+                reversal_mm: None,
             });
             axes.len() - 1
         }
@@ -440,6 +507,21 @@ fn push_point(axes: &mut Vec<AxisTable>, term: Term, q: f64, v: f64) -> Result<(
 /// and columns into [`Term::all`] order.
 fn finish(file: &str, mut c: Compensation) -> Result<Compensation, FormatError> {
     for a in &mut c.axes {
+        if let Some(b) = &a.reversal_mm
+            && b.len() != a.positions_mm.len()
+        {
+            return Err(FormatError::new(
+                file,
+                0,
+                "error_forward",
+                format!(
+                    "{} reversal values for {} positions of {}",
+                    b.len(),
+                    a.positions_mm.len(),
+                    a.axis
+                ),
+            ));
+        }
         for col in &a.columns {
             if col.values.len() != a.positions_mm.len() {
                 return Err(FormatError::new(
@@ -496,6 +578,6 @@ mod tests {
         assert_eq!(grid(0.0, 1e9, 1.0), None);
         assert_eq!(Format::parse("isg"), Ok(Format::Isg));
         let e = Format::parse("fanuc").unwrap_err();
-        assert!(e.contains("isg, etalon, heidenhain, csv"), "{e}");
+        assert!(e.contains("isg, etalon, heidenhain, csv, linuxcnc"), "{e}");
     }
 }

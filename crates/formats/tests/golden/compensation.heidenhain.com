@@ -5,6 +5,10 @@
 ; straightness: deviation from its least-squares line over the measured travel; squareness: angle between the least-squares axis lines (X-Y = 90 deg + EC0Y, X-Z = 90 deg - EB0Z, Y-Z = 90 deg + EA0Z)
 ; measured travel (the table covers it and nothing else): X [-20, 20] mm; Y [0, 30] mm
 ; not identifiable, left out: EZX, EBX, ECX, EXY, EZY, EAY, EBY, ECY, EXZ, EYZ, EZZ, EAZ, EBZ, ECZ, EB0Z, EA0Z
+; reversal (lost motion) found: none found (b > 0: the axis stops short in the direction of travel; error forward = -b/2, reverse = +b/2; ISO 230-2 B = -b)
+; this format does not carry the reversal: set it in the controller's backlash (reversal) compensation, or export format linuxcnc or csv
+; thermal coefficients per kelvin: none found
+; this format does not carry thermal compensation: set the coefficients in the controller's thermal compensation, or export format csv
 ; X.COM columns: C1 = EXX, C2 = EYX, C4 = EAX
 ; Y.COM columns: C2 = EYY
 ; position errors, for the kinematics table (COORD), degrees:

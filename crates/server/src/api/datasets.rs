@@ -309,7 +309,7 @@ pub async fn exclude(
     Path(id): Path<String>,
     ApiJson(body): ApiJson<Reason>,
 ) -> Result<Json<Dataset>, ApiError> {
-    let why = body.recorded(&key)?;
+    let why = super::history::recorded(&body, &key)?;
     set_aside(&s, s.store.exclude_dataset(&id, why.set_aside()).await?).await
 }
 
@@ -329,7 +329,7 @@ pub async fn delete_files(
     Path(id): Path<String>,
     ApiJson(body): ApiJson<Reason>,
 ) -> Result<Json<Dataset>, ApiError> {
-    let why = body.recorded(&key)?;
+    let why = super::history::recorded(&body, &key)?;
     set_aside(
         &s,
         s.store.delete_dataset_files(&id, why.set_aside()).await?,

@@ -27,9 +27,11 @@ use utoipa::IntoParams;
 #[into_params(parameter_in = Query)]
 pub struct ExportQuery {
     /// `isg` (ISG / Beckhoff volumetric compensation CSV), `etalon` (Etalon exchange
-    /// format), `heidenhain` (KinematicsComp-style COM tables) or `csv` (plain, ISO 230-1
-    /// names). Required.
-    #[param(pattern = "^(isg|etalon|heidenhain|csv)$")]
+    /// format), `heidenhain` (KinematicsComp-style COM tables), `csv` (plain, ISO 230-1
+    /// names, with forward/reverse values where a reversal was found and thermal
+    /// coefficients per K) or `linuxcnc` (LinuxCNC joint compensation triplets: nominal,
+    /// forward, reverse, `COMP_FILE_TYPE = 0`). Required.
+    #[param(pattern = "^(isg|etalon|heidenhain|csv|linuxcnc)$")]
     pub format: Option<String>,
     /// Spacing of the table's positions, mm (default 5, at least 0.001; from the start of
     /// each measured travel, its end always included).
@@ -46,14 +48,18 @@ pub struct ExportQuery {
     security(("api_key" = [])), params(("id" = String, Path), ExportQuery),
     responses((status = 200, description = "the table (attachment): the identifiable terms over the measured travel, mm and rad \
                                             (csv: µm and µrad); the header comment states the sign convention (compensation = −error) \
-                                            and names the terms left out; text/csv for format csv",
+                                            and names the terms left out; the reversal and thermal coefficients a diagnosis of the \
+                                            same dataset found go into csv (forward/reverse columns, per-K rows) and linuxcnc \
+                                            (triplets), the other formats name them in their header as not carried; text/csv for format csv",
                content((String = "text/plain"), (String = "text/csv"))),
-              (status = 400, body = ErrorBody, description = "unknown or missing format (the message names the formats), bad step, or not an identification result"),
+              (status = 400, body = ErrorBody, description = "unknown or missing format (the message names the formats), bad step \
+                                                                (linuxcnc: more than 256 triplets per joint), or not an identification result"),
               (status = 404, body = ErrorBody),
               (status = 409, body = ErrorBody, description = "model_misfit: the result's model does not explain its recording \
                                                                 (residual above the noise floor by more than the gate's factor); \
                                                                 force=true makes the table with the reason in its header"),
-              (status = 422, body = ErrorBody, description = "not_identifiable: no term of the result is identifiable")))]
+              (status = 422, body = ErrorBody, description = "not_identifiable: no term of the result is identifiable \
+                                                                (linuxcnc: no axis's error along itself and no reversal)")))]
 pub async fn export(
     _key: ReadKey,
     State(s): State<AppState>,
@@ -77,13 +83,23 @@ pub async fn export(
     );
     let step = q.step_mm.unwrap_or(DEFAULT_STEP_MM);
     let force = q.force.unwrap_or(false);
+    identification_kind(&r)?;
+    // The physics a diagnosis of the same dataset found (reversal, thermal coefficients).
+    let findings = match diagnosis_of(&s, &r).await? {
+        Some(ReportDiagnosis { doc: Ok(d), .. }) => d.findings,
+        _ => vec![],
+    };
     let text = crate::blocking::run::<_, ApiError>(move || {
         let doc = identification(&r)?;
-        let table = Compensation::from_result(&doc, step, force).map_err(|e| match e {
+        let refused = |e| match e {
             ExportError::BadStep(m) => ApiError::InvalidRequest(format!("step_mm: {m}")),
             e @ ExportError::NothingIdentifiable(_) => ApiError::NotIdentifiable(e.to_string()),
             e @ ExportError::ModelMisfit(_) => ApiError::ModelMisfit(e.to_string()),
-        })?;
+        };
+        let table = Compensation::from_result(&doc, step, force)
+            .map_err(refused)?
+            .with_findings(&findings);
+        format.check(&table).map_err(refused)?;
         Ok::<_, ApiError>(format.write(&table))
     })
     .await??;

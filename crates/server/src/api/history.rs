@@ -6,11 +6,13 @@ use crate::auth::{ReadKey, WriteKey};
 use crate::error::{ApiError, ApiJson, ApiQuery, ErrorBody};
 use axum::Json;
 use axum::extract::{Path, State};
+pub use mtcal_api::history::Reason;
 use mtcal_domain::history;
 pub use mtcal_domain::history::{DiffQuery, ResultDiff};
+pub use mtcal_domain::verification::{Verification, VerifiedFinding};
 use mtcal_store::{Figure, ResultMeta, SetAside, SkippedRow, StoredResult};
-use serde::{Deserialize, Serialize};
-use utoipa::{IntoParams, ToSchema};
+use serde::Deserialize;
+use utoipa::IntoParams;
 
 #[derive(Debug, Deserialize, IntoParams)]
 #[into_params(parameter_in = Query)]
@@ -100,6 +102,23 @@ pub async fn figures(
     Ok(Json(s.store.result_figures(&id).await?))
 }
 
+#[utoipa::path(operation_id = "history_verification", summary = "A check verified against the predictions of the check before it", get, path = "/api/v1/results/{id}/verification", tag = "history",
+    security(("api_key" = [])), params(("id" = String, Path)),
+    responses((status = 200, body = Verification, description = "per finding of the previous check with a predicted residual after compensation \
+                                                                  (a backlash: 0): still present or gone at this check, measured against \
+                                                                  predicted; empty findings with the reason when there is nothing to verify"),
+              (status = 400, body = ErrorBody, description = "not an identification result"),
+              (status = 404, body = ErrorBody)))]
+pub async fn verification(
+    _key: ReadKey,
+    State(s): State<AppState>,
+    Path(id): Path<String>,
+) -> Result<Json<Verification>, ApiError> {
+    Ok(Json(
+        mtcal_domain::verification::verification(s.store.as_ref(), &id).await?,
+    ))
+}
+
 #[utoipa::path(operation_id = "history_diff", summary = "Difference of a result from the baseline, term by term", get, path = "/api/v1/machines/{id}/results/diff", tag = "history",
     security(("api_key" = [])), params(("id" = String, Path), DiffQuery),
     responses((status = 200, body = ResultDiff), (status = 400, body = ErrorBody), (status = 404, body = ErrorBody), (status = 409, body = ErrorBody, description = "a named result belongs to another machine")))]
@@ -112,43 +131,22 @@ pub async fn diff(
     Ok(Json(history::diff(s.store.as_ref(), &id, &q).await?))
 }
 
-/// Why a record is set aside: a result or a dataset excluded, a dataset's bytes deleted.
-#[derive(Debug, Clone, Serialize, Deserialize, ToSchema)]
-#[serde(deny_unknown_fields)]
-pub struct Reason {
-    /// Why (recorded with the key and the time): not blank, at most 1000 characters, no
-    /// control character but line feeds and tabs.
-    #[schema(
-        max_length = 1000,
-        pattern = "^[^\\u0000-\\u0008\\u000b-\\u001f\\u007f-\\u009f]*[^\\s\\u0000-\\u001f\\u007f-\\u009f][^\\u0000-\\u0008\\u000b-\\u001f\\u007f-\\u009f]*$"
-    )]
-    pub reason: String,
+/// The reason trimmed, checked (1 to 1000 characters), with who gives it: `key ID
+/// (LABEL)`, as every exclusion and deletion records it.
+pub fn recorded<'a>(r: &'a Reason, key: &mtcal_store::ApiKey) -> Result<Recorded<'a>, ApiError> {
+    let reason = r.reason.trim();
+    if reason.is_empty() || reason.chars().count() > 1000 {
+        return Err(ApiError::InvalidRequest(
+            "reason: say why, in 1 to 1000 characters".into(),
+        ));
+    }
+    Ok(Recorded {
+        by: format!("key {} ({})", key.id, key.label),
+        reason,
+    })
 }
 
-impl Reason {
-    pub fn of(reason: &str) -> Reason {
-        Reason {
-            reason: reason.into(),
-        }
-    }
-
-    /// The reason trimmed, checked (1 to 1000 characters), with who gives it: `key ID
-    /// (LABEL)`, as every exclusion and deletion records it.
-    pub fn recorded(&self, key: &mtcal_store::ApiKey) -> Result<Recorded<'_>, ApiError> {
-        let reason = self.reason.trim();
-        if reason.is_empty() || reason.chars().count() > 1000 {
-            return Err(ApiError::InvalidRequest(
-                "reason: say why, in 1 to 1000 characters".into(),
-            ));
-        }
-        Ok(Recorded {
-            by: format!("key {} ({})", key.id, key.label),
-            reason,
-        })
-    }
-}
-
-/// A checked reason with who gives it ([`Reason::recorded`]).
+/// A checked reason with who gives it ([`recorded`]).
 pub struct Recorded<'a> {
     by: String,
     reason: &'a str,
@@ -178,7 +176,7 @@ pub async fn exclude(
     Path(id): Path<String>,
     ApiJson(body): ApiJson<Reason>,
 ) -> Result<Json<ResultMeta>, ApiError> {
-    let why = body.recorded(&key)?;
+    let why = recorded(&body, &key)?;
     let meta = s.store.exclude_result(&id, why.set_aside()).await?;
     mtcal_domain::fleet::refresh_machine(s.store.as_ref(), &meta.machine_id).await?;
     Ok(Json(meta))

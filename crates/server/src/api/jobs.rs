@@ -3,103 +3,13 @@
 use crate::AppState;
 use crate::auth::{ReadKey, WriteKey};
 use crate::error::{ApiError, ApiJson, ErrorBody};
-use crate::jobs::{self, JobKind};
+use crate::jobs;
 use axum::Json;
 use axum::extract::{Path, State};
 use axum::http::StatusCode;
+pub use mtcal_api::jobs::SubmitJob;
 use mtcal_store::{Job, JobState, NewJob};
-use serde::{Deserialize, Serialize};
-use utoipa::ToSchema;
-
-/// A job to run (its schema: [`SubmitJob::schema`]).
-#[derive(Debug, Clone, Serialize, Deserialize)]
-#[serde(deny_unknown_fields)]
-pub struct SubmitJob {
-    pub kind: JobKind,
-    /// The dataset to run on (required by `identify` (a session), `diagnose` (a session,
-    /// positioning runs or a drift log) and `cradle` (a rotary point set)).
-    pub dataset_id: Option<String>,
-    /// The machine, for kinds without a dataset (required by `sensitivity`; the result
-    /// is filed under it).
-    pub machine_id: Option<String>,
-    /// Kind-specific parameters; for `identify` see `IdentifyParams`, for `diagnose`
-    /// `DiagnoseParams`, for `sensitivity` `SensitivityRequest`; none for `cradle` and
-    /// `standards`.
-    #[serde(default)]
-    pub params: serde_json::Value,
-}
-
-impl utoipa::PartialSchema for SubmitJob {
-    /// One schema per kind (`oneOf`, told apart by `kind`), stating what
-    /// [`submit_job`] requires of each: a dataset for the kinds that run on one
-    /// (`identify`, `diagnose`, `cradle`, `standards`), a machine and no dataset for
-    /// `sensitivity`, and the kind's parameters (none for `cradle` and `standards`).
-    fn schema() -> utoipa::openapi::RefOr<utoipa::openapi::schema::Schema> {
-        use serde_json::json;
-        let schema = |name: &str| json!({"$ref": format!("#/components/schemas/{name}")});
-        let on_dataset = |kinds: &[&str], params: serde_json::Value| {
-            json!({
-                "type": "object",
-                "title": kinds.join(", "),
-                "required": ["kind", "dataset_id"],
-                "properties": {
-                    "kind": {"type": "string", "enum": kinds},
-                    "dataset_id": {"type": "string", "description": "The dataset to run on."},
-                    "machine_id": {
-                        "type": ["string", "null"],
-                        "description": "Not used: the job is filed under the dataset's machine."
-                    },
-                    "params": {"oneOf": [params, {"type": "null"}]},
-                },
-                "additionalProperties": false,
-            })
-        };
-        let none = json!({"type": "object", "maxProperties": 0,
-                          "description": "No parameters (`{}`)."});
-        let doc = json!({
-            "description": "A job to run: its kind, the dataset it runs on (`identify`: a \
-                            session; `diagnose`: a session, positioning runs or a drift log; \
-                            `cradle`: a rotary point set; `standards`: a session or \
-                            positioning runs) or, for `sensitivity`, the machine its result \
-                            is filed under, and the kind's parameters.",
-            "oneOf": [
-                on_dataset(&["identify"], schema("IdentifyParams")),
-                on_dataset(&["diagnose"], schema("DiagnoseParams")),
-                on_dataset(&["cradle", "standards"], none),
-                {
-                    "type": "object",
-                    "title": "sensitivity",
-                    "required": ["kind", "machine_id", "params"],
-                    "properties": {
-                        "kind": {"type": "string", "enum": ["sensitivity"]},
-                        "machine_id": {"type": "string", "description": "The machine the result is filed under."},
-                        "dataset_id": {"type": "null", "description": "None: a sensitivity analysis runs on parameters."},
-                        "params": schema("SensitivityRequest"),
-                    },
-                    "additionalProperties": false,
-                },
-            ],
-        });
-        serde_json::from_value(doc).expect("the job schema reads as a schema")
-    }
-}
-
-impl ToSchema for SubmitJob {
-    fn schemas(
-        schemas: &mut Vec<(
-            String,
-            utoipa::openapi::RefOr<utoipa::openapi::schema::Schema>,
-        )>,
-    ) {
-        use mtcal_solver::sensitivity::SensitivityRequest;
-        use utoipa::PartialSchema as _;
-        schemas.push((
-            SensitivityRequest::name().into_owned(),
-            SensitivityRequest::schema(),
-        ));
-        SensitivityRequest::schemas(schemas);
-    }
-}
+use serde::Deserialize;
 
 #[utoipa::path(operation_id = "jobs_submit", summary = "Submit a job (identify, sensitivity, diagnose, cradle, standards)", post, path = "/api/v1/jobs", tag = "jobs", request_body = SubmitJob,
     security(("api_key" = ["write"])),

@@ -7,25 +7,8 @@ use crate::error::{ApiError, ApiJson, ErrorBody};
 use axum::Json;
 use axum::extract::{Path, State};
 use axum::http::StatusCode;
-use mtcal_store::{ApiKey, Scope};
-use serde::{Deserialize, Serialize};
-use utoipa::ToSchema;
-
-#[derive(Debug, Clone, Serialize, Deserialize, ToSchema)]
-#[serde(deny_unknown_fields)]
-pub struct NewKey {
-    pub scope: Scope,
-    /// Not blank, at most 200 characters, no control character.
-    #[schema(schema_with = mtcal_store::schemas::label)]
-    pub label: String,
-}
-
-/// A new key: `secret` is shown this once and not stored.
-#[derive(Debug, Clone, Serialize, Deserialize, ToSchema)]
-pub struct CreatedKey {
-    pub key: ApiKey,
-    pub secret: String,
-}
+pub use mtcal_api::keys::{CreatedKey, NewKey};
+use mtcal_store::ApiKey;
 
 #[utoipa::path(operation_id = "keys_create", summary = "Create an API key (admin)", post, path = "/api/v1/keys", tag = "keys", request_body = NewKey,
     security(("api_key" = ["admin"])),

@@ -16,15 +16,10 @@ use crate::AppState;
 use crate::error::{ApiError, ErrorBody};
 use axum::Json;
 use axum::extract::State;
+pub use mtcal_api::service::Health;
 use serde::{Deserialize, Serialize};
 use std::time::Duration;
 use utoipa::ToSchema;
-
-#[derive(Debug, Clone, Serialize, Deserialize, ToSchema)]
-pub struct Health {
-    pub status: String,
-    pub version: String,
-}
 
 /// Liveness (no key needed): the process answers; says nothing of the database (see
 /// [`ready`]).

@@ -51,7 +51,7 @@ pub async fn list(
     let all = s.store.list_tolerances().await?;
     Ok(Json(
         all.iter()
-            .map(|p| Profile::of(p).map(|p| p.seen_by(key.scope)))
+            .map(|p| profiles::profile_of(p).map(|p| profiles::seen_by(p, key.scope)))
             .collect::<Result<_, _>>()?,
     ))
 }
@@ -64,8 +64,8 @@ pub async fn get(
     State(s): State<AppState>,
     Path(id): Path<String>,
 ) -> Result<Json<Profile>, ApiError> {
-    let p = Profile::of(&s.store.get_tolerance(&id).await?)?;
-    Ok(Json(p.seen_by(key.scope)))
+    let p = profiles::profile_of(&s.store.get_tolerance(&id).await?)?;
+    Ok(Json(profiles::seen_by(p, key.scope)))
 }
 
 #[utoipa::path(operation_id = "tolerances_replace", summary = "Replace a tolerance profile's limits and webhook", put, path = "/api/v1/tolerances/{id}", tag = "tolerances",

@@ -29,6 +29,21 @@ pub async fn term(
     Ok(Json(trends::term_trend(s.store.as_ref(), &id, q).await?))
 }
 
+#[utoipa::path(operation_id = "trends_verification", summary = "Each check verified against the predictions of the check before it, over time", get, path = "/api/v1/machines/{id}/trends/verification", tag = "trends",
+    security(("api_key" = [])), params(("id" = String, Path)),
+    responses((status = 200, body = Vec<crate::api::history::Verification>, description = "in time order, the checks whose previous check had a finding \
+                                                                                          with a predicted residual after compensation"),
+              (status = 404, body = ErrorBody)))]
+pub async fn verification(
+    _key: ReadKey,
+    State(s): State<AppState>,
+    Path(id): Path<String>,
+) -> Result<Json<Vec<crate::api::history::Verification>>, ApiError> {
+    Ok(Json(
+        mtcal_domain::verification::verifications(s.store.as_ref(), &id).await?,
+    ))
+}
+
 #[utoipa::path(operation_id = "trends_summary", summary = "Summary figures and squareness over time", get, path = "/api/v1/machines/{id}/trends/summary", tag = "trends",
     security(("api_key" = [])), params(("id" = String, Path)),
     responses((status = 200, body = SummaryTrend), (status = 404, body = ErrorBody)))]

@@ -467,8 +467,24 @@ pub async fn machine(
                 measured_at: meta.measured_at,
                 doc,
             }),
+        verification: latest_verification(&app, &id).await?,
     };
     Ok(html(vmachine::machine_page(&session.viewer(), &page)))
+}
+
+/// The machine's latest check verified against the check before it, when there is
+/// something to verify: its sentence and one line per finding.
+async fn latest_verification(
+    app: &AppState,
+    id: &str,
+) -> Result<Option<(String, Vec<String>)>, ApiError> {
+    let list = mtcal_domain::verification::verifications(app.store.as_ref(), id).await?;
+    Ok(list.into_iter().last().map(|v| {
+        (
+            v.statement,
+            v.findings.into_iter().map(|f| f.statement).collect(),
+        )
+    }))
 }
 
 #[derive(Debug, Deserialize)]

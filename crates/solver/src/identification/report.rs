@@ -23,6 +23,20 @@ pub fn report(
     noise: Option<f64>,
     est: &Estimate,
 ) -> IdentificationResult {
+    report_with(session, model, opts, method, noise, est, None)
+}
+
+/// [`report`] of a fit with `extra` columns after the error parameters (the explained
+/// model's physics): the residuals are the full model's.
+pub fn report_with(
+    session: &Session,
+    model: &ErrorModel,
+    opts: &IdentifyOptions,
+    method: Method,
+    noise: Option<f64>,
+    est: &Estimate,
+    extra: Option<&dyn crate::design::ExtraColumns>,
+) -> IdentificationResult {
     let (fit, ident) = (&est.fit, &est.ident);
     let all = Term::all();
     let (confounded_with, groups) = confounded_groups(session, model, est);
@@ -43,7 +57,7 @@ pub fn report(
             let standards = crate::standards::from_session_circles(session, &circles);
             (circles, standards)
         });
-        let residuals = crate::design::residuals(session, model, fit, None);
+        let residuals = crate::design::residuals(session, model, fit, extra);
         let readings = readings
             .join()
             .unwrap_or_else(|p| std::panic::resume_unwind(p));
@@ -101,6 +115,7 @@ pub fn report(
         residuals: crate::residuals::by_file_and_test(session, &residuals),
         model_check: None,
         conditions: session.test_conditions(),
+        explained: None,
     }
 }
 
@@ -312,7 +327,7 @@ fn mounting_reports(est: &Estimate) -> BTreeMap<String, MountingReport> {
 }
 
 /// Rounds a reported figure to 1e-6 of its unit (keeps documents readable).
-pub(super) fn round(v: f64) -> f64 {
+pub(crate) fn round(v: f64) -> f64 {
     (v * 1e6).round() / 1e6
 }
 

@@ -39,6 +39,7 @@ use crate::datasets::{Direction, PositioningRecord, PositioningRuns};
 use crate::error::SolverError;
 use crate::session::{Session, TestKind};
 use crate::standards::{NotEvaluated, ScalarFigure, extremes, nearest_first};
+use crate::text::{num, signed};
 use serde::{Deserialize, Serialize};
 use std::collections::BTreeMap;
 
@@ -95,7 +96,12 @@ pub struct TargetFigures {
     pub r_um: f64,
 }
 
-/// ISO 230-2 figures of one axis (module docs), µm.
+/// ISO 230-2 figures of one axis (module docs), µm. A figure this recording cannot give
+/// ([`Iso2302::not_available`]: for grid-encoder line passes, every figure that depends
+/// on each pass's zero) is `None` (`null` in the document), its reason stated once for the
+/// list of figures it applies to in the standards' `not_available`
+/// ([`crate::standards::Standards`]). A document of an earlier version holding a number
+/// there reads back with the number withheld ([`Iso2302::values`]).
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 #[cfg_attr(feature = "openapi", derive(utoipa::ToSchema))]
 pub struct Iso2302 {
@@ -121,53 +127,48 @@ pub struct Iso2302 {
     pub per_target: Vec<TargetFigures>,
     /// B = max |B_i|
     #[serde(rename = "B_um")]
-    pub reversal_b_um: f64,
+    pub reversal_b_um: Option<f64>,
     /// B̄ = mean B_i
     #[serde(rename = "B_mean_um")]
-    pub mean_reversal_b_um: f64,
+    pub mean_reversal_b_um: Option<f64>,
     /// R↑ = max R_i↑
     #[serde(rename = "R_up_um")]
-    pub repeatability_r_up_um: f64,
+    pub repeatability_r_up_um: Option<f64>,
     /// R↓ = max R_i↓
     #[serde(rename = "R_down_um")]
-    pub repeatability_r_down_um: f64,
+    pub repeatability_r_down_um: Option<f64>,
     /// R = max R_i
     #[serde(rename = "R_um")]
-    pub repeatability_r_um: f64,
+    pub repeatability_r_um: Option<f64>,
     /// E↑
     #[serde(rename = "E_up_um")]
-    pub systematic_e_up_um: f64,
+    pub systematic_e_up_um: Option<f64>,
     /// E↓
     #[serde(rename = "E_down_um")]
-    pub systematic_e_down_um: f64,
+    pub systematic_e_down_um: Option<f64>,
     /// E (both directions together)
     #[serde(rename = "E_um")]
-    pub systematic_e_um: f64,
+    pub systematic_e_um: Option<f64>,
     /// M = max x̄_i − min x̄_i
     #[serde(rename = "M_um")]
-    pub mean_range_m_um: f64,
+    pub mean_range_m_um: Option<f64>,
     /// A↑
     #[serde(rename = "A_up_um")]
-    pub accuracy_a_up_um: f64,
+    pub accuracy_a_up_um: Option<f64>,
     /// A↓
     #[serde(rename = "A_down_um")]
-    pub accuracy_a_down_um: f64,
+    pub accuracy_a_down_um: Option<f64>,
     /// A (both directions together)
     #[serde(rename = "A_um")]
-    pub accuracy_a_um: f64,
-    /// Standard uncertainty of each axis figure, keyed by its name (`E_um`, ...), µm.
+    pub accuracy_a_um: Option<f64>,
+    /// Standard uncertainty of each axis figure, keyed by its name (`E_um`, ...), µm (none
+    /// for a figure that is not available).
     pub u: BTreeMap<String, f64>,
     /// When the outlier test of the repeated readings sets readings aside: the readings
     /// and the axis figures without them (the figures above are the standard's, with every
     /// reading).
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub without_outlying: Option<WithoutOutlying>,
-    /// Figures this recording cannot give, by name ([`FIGURES`]), with the reason: for
-    /// grid-encoder line passes, every figure that depends on each pass's zero
-    /// ([`depends_on_zero`]). Their numbers above are not to be read; they are not stored,
-    /// trended or judged ([`Iso2302::scalar_figures`], [`Iso2302::not_available`]).
-    #[serde(default, skip_serializing_if = "BTreeMap::is_empty")]
-    pub not_available: BTreeMap<String, String>,
 }
 
 /// A reading the outlier test of the repeated readings set aside
@@ -226,9 +227,10 @@ pub const FIGURES: [&str; 12] = [
 ];
 
 impl Iso2302 {
-    /// The axis figures in [`FIGURES`] order.
-    pub fn values(&self) -> [f64; 12] {
-        [
+    /// The axis figures in [`FIGURES`] order; `None` for one that is not available
+    /// (also when an earlier version's document holds a number for it).
+    pub fn values(&self) -> [Option<f64>; 12] {
+        let all = [
             self.reversal_b_um,
             self.mean_reversal_b_um,
             self.repeatability_r_up_um,
@@ -241,20 +243,47 @@ impl Iso2302 {
             self.accuracy_a_up_um,
             self.accuracy_a_down_um,
             self.accuracy_a_um,
-        ]
+        ];
+        let mut i = 0;
+        all.map(|v| {
+            i += 1;
+            v.filter(|_| self.not_available(FIGURES[i - 1]).is_none())
+        })
     }
 
     /// Why figure `name` ([`FIGURES`]) is not available from this recording (None: it
-    /// is). A document of an earlier version, which did not say it, gets the same answer
-    /// for line passes.
-    pub fn not_available(&self, name: &str) -> Option<&str> {
-        self.not_available
-            .get(name)
-            .map(String::as_str)
-            .or_else(|| {
-                (self.source == Source::LinePasses && depends_on_zero(name))
-                    .then_some(NOT_FROM_LINE_PASSES)
-            })
+    /// is): for line passes, every figure that depends on each pass's zero
+    /// ([`depends_on_zero`]).
+    pub fn not_available(&self, name: &str) -> Option<&'static str> {
+        (self.source == Source::LinePasses && depends_on_zero(name)).then_some(NOT_FROM_LINE_PASSES)
+    }
+
+    /// The figures that are not available withheld: `None`, without their uncertainty,
+    /// and out of the figures without the outlying readings.
+    fn withhold(&mut self) {
+        let [b, bm, ru, rd, r, eu, ed, e, m, au, ad, a] = self.values();
+        self.reversal_b_um = b;
+        self.mean_reversal_b_um = bm;
+        self.repeatability_r_up_um = ru;
+        self.repeatability_r_down_um = rd;
+        self.repeatability_r_um = r;
+        self.systematic_e_up_um = eu;
+        self.systematic_e_down_um = ed;
+        self.systematic_e_um = e;
+        self.mean_range_m_um = m;
+        self.accuracy_a_up_um = au;
+        self.accuracy_a_down_um = ad;
+        self.accuracy_a_um = a;
+        for name in FIGURES {
+            if self.not_available(name).is_some() {
+                self.u.remove(name);
+                if let Some(w) = &mut self.without_outlying {
+                    w.figures.remove(name);
+                    w.u.remove(name);
+                    w.dominated.retain(|d| d != name);
+                }
+            }
+        }
     }
 
     /// The available axis figures as stored scalars, named `iso230_2.<axis>.<figure>`
@@ -263,7 +292,7 @@ impl Iso2302 {
         FIGURES
             .iter()
             .zip(self.values())
-            .filter(|(name, _)| self.not_available(name).is_none())
+            .filter_map(|(name, value)| Some((name, value?)))
             .map(|(name, value)| ScalarFigure {
                 name: format!("iso230_2.{}.{name}", self.axis),
                 value,
@@ -332,41 +361,50 @@ fn distinct_targets(x: &[f64]) -> Vec<f64> {
 /// they dominate; the figures themselves are the standard's, with every reading.
 pub fn evaluate(axis: Axis, source: Source, readings: &[Reading]) -> Result<Iso2302, SolverError> {
     let mut f = evaluate_all(axis, source, readings)?;
-    if let Some(w) = without_outlying(axis, source, readings, &f) {
-        if !w.dominated.is_empty() {
+    f.without_outlying = without_outlying(axis, source, readings, &f);
+    f.withhold();
+    let note = match &f.without_outlying {
+        Some(w) if !w.dominated.is_empty() => {
             let list = |fig: &BTreeMap<String, f64>| {
                 w.dominated
                     .iter()
-                    .map(|n| format!("{} = {:.3} µm", n.trim_end_matches("_um"), fig[n]))
+                    .filter_map(|n| {
+                        Some(format!(
+                            "{} = {} µm",
+                            n.trim_end_matches("_um"),
+                            num(*fig.get(n)?)
+                        ))
+                    })
                     .collect::<Vec<_>>()
                     .join(", ")
             };
             let with: BTreeMap<String, f64> = FIGURES
                 .iter()
                 .zip(f.values())
-                .map(|(n, v)| (n.to_string(), v))
+                .filter_map(|(n, v)| Some((n.to_string(), v?)))
                 .collect();
-            f.notes.push(format!(
+            Some(format!(
                 "{} set by {} reading(s) far from the other runs ({}): without them {} (`without_outlying`); the figures above are the standard's, with every reading",
                 list(&with),
                 w.readings.len(),
                 w.readings
                     .iter()
                     .map(|r| format!(
-                        "run {} {} at {} mm, {:+.3} µm, {:+.3} µm off the others",
-                        r.run,
+                        "{} {} at {} mm, {} µm, {} µm off the others",
+                        run_label(source, r.run),
                         if r.up { "+" } else { "−" },
-                        r.target_mm,
-                        r.deviation_um,
-                        r.off_um
+                        num(r.target_mm),
+                        signed(r.deviation_um),
+                        signed(r.off_um)
                     ))
                     .collect::<Vec<_>>()
                     .join("; "),
                 list(&w.figures)
-            ));
+            ))
         }
-        f.without_outlying = Some(w);
-    }
+        _ => None,
+    };
+    f.notes.extend(note);
     Ok(f)
 }
 
@@ -412,8 +450,9 @@ fn without_outlying(
     let dominated = FIGURES
         .iter()
         .zip(with.values().iter().zip(g.values()))
-        .filter(|(_, (a, b))| (*a - b).abs() > DOMINATES * a.abs().max(b.abs()))
-        .map(|(n, _)| n.to_string())
+        .filter_map(|(n, (a, b))| Some((n, (*a)?, b?)))
+        .filter(|(_, a, b)| (a - b).abs() > DOMINATES * a.abs().max(b.abs()))
+        .map(|(n, _, _)| n.to_string())
         .collect();
     Some(WithoutOutlying {
         readings: rep
@@ -435,7 +474,7 @@ fn without_outlying(
         figures: FIGURES
             .iter()
             .zip(g.values())
-            .map(|(n, v)| (n.to_string(), v))
+            .filter_map(|(n, v)| Some((n.to_string(), v?)))
             .collect(),
         u: g.u,
         dominated,
@@ -596,29 +635,20 @@ fn evaluate_all(axis: Axis, source: Source, readings: &[Reading]) -> Result<Iso2
         n_up,
         n_down,
         per_target,
-        reversal_b_um: b_max.0,
-        mean_reversal_b_um: b_mean,
-        repeatability_r_up_um: r_up.0,
-        repeatability_r_down_um: r_down.0,
-        repeatability_r_um: r.0,
-        systematic_e_up_um: e_up.0,
-        systematic_e_down_um: e_down.0,
-        systematic_e_um: e.0,
-        mean_range_m_um: mm.0,
-        accuracy_a_up_um: a_up.0,
-        accuracy_a_down_um: a_down.0,
-        accuracy_a_um: a.0,
+        reversal_b_um: Some(b_max.0),
+        mean_reversal_b_um: Some(b_mean),
+        repeatability_r_up_um: Some(r_up.0),
+        repeatability_r_down_um: Some(r_down.0),
+        repeatability_r_um: Some(r.0),
+        systematic_e_up_um: Some(e_up.0),
+        systematic_e_down_um: Some(e_down.0),
+        systematic_e_um: Some(e.0),
+        mean_range_m_um: Some(mm.0),
+        accuracy_a_up_um: Some(a_up.0),
+        accuracy_a_down_um: Some(a_down.0),
+        accuracy_a_um: Some(a.0),
         u,
         without_outlying: None,
-        not_available: if source == Source::LinePasses {
-            FIGURES
-                .iter()
-                .filter(|f| depends_on_zero(f))
-                .map(|f| (f.to_string(), NOT_FROM_LINE_PASSES.to_string()))
-                .collect()
-        } else {
-            BTreeMap::new()
-        },
     })
 }
 
@@ -881,7 +911,7 @@ fn evaluate_passes(axis: Axis, passes: &[Pass]) -> Result<Iso2302, SolverError> 
                 target_mm: t,
                 up: pass.up,
                 // Passes of one file are distinct runs even when numbered alike.
-                run: pass.run * 1_000_000 + k as i64,
+                run: pass.run * PASS_ID + k as i64,
                 deviation_um: d - mean,
             });
         }
@@ -894,12 +924,27 @@ fn evaluate_passes(axis: Axis, passes: &[Pass]) -> Result<Iso2302, SolverError> 
             "from constant-feed line passes: each pass is one approach of a bidirectional run over {m} evenly spaced targets ({lo:.3} to {hi:.3} mm), read on the fly (local straight-line fit within ±{w:.3} mm); this is not a standstill test"
         ),
     );
-    f.notes.insert(
-        1,
-        "the encoder's zero is set per pass, so each pass is referred to its mean over the targets: a constant reversal (lost motion) is not observed; B, B̄, R↑, R↓, R, E, A↑, A↓ and A are not available from this plan (E↑, E↓ and M are)".into(),
-    );
+    // Why B, B̄, R, E and A are not given is said once for every axis, in the standards'
+    // `not_available` (NOT_FROM_LINE_PASSES).
     Ok(f)
 }
+
+/// A run as a person names it: `run 3` of positioning runs; `run 16, pass 6` of line
+/// passes, whose readings carry the run's number and the pass's index in one identifier
+/// (run × 1 000 000 + pass index, [`evaluate_passes`]).
+pub fn run_label(source: Source, run: i64) -> String {
+    match source {
+        Source::PositioningRuns => format!("run {run}"),
+        Source::LinePasses => format!(
+            "run {}, pass {}",
+            run.div_euclid(PASS_ID),
+            run.rem_euclid(PASS_ID) + 1
+        ),
+    }
+}
+
+/// The factor of a line pass's run number in its readings' run identifier.
+const PASS_ID: i64 = 1_000_000;
 
 /// Why the zero-dependent figures of grid-encoder line passes are not given.
 pub const NOT_FROM_LINE_PASSES: &str = "not available from this plan: a grid encoder's zero \

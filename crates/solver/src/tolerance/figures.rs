@@ -240,7 +240,38 @@ pub fn identification_figures(r: &IdentificationResult) -> Figures {
         }
     }
     f.add_standards(&r.standards);
+    if let Some(m) = &r.explained {
+        f.add_explained_lost_motion(m);
+    }
     f
+}
+
+impl Figures {
+    /// The explained model's lost motion as ISO 230-2's reversal value B of its axis
+    /// (`iso230_2.<axis>.B_um`): a backlash's |lost motion|, a profile's largest |b(q)| at
+    /// its points, with its σ. It replaces the figure the line passes cannot give (each
+    /// pass is zeroed) and is judged as a model figure (not decided on a misfit).
+    pub fn add_explained_lost_motion(&mut self, m: &crate::explained::doc::ExplainedModel) {
+        for p in &m.physics {
+            let Some(axis) = &p.axis else { continue };
+            let b = match p.effect.as_str() {
+                "backlash" => p.get("lost_motion_um"),
+                "lost_motion_profile" => (1..=9)
+                    .filter_map(|n| p.get(&format!("lost_motion_um_{n}")))
+                    .max_by(|a, b| a.0.abs().total_cmp(&b.0.abs())),
+                _ => None,
+            };
+            let Some((value, u)) = b.filter(|(v, _)| v.is_finite()) else {
+                continue;
+            };
+            let name = format!("iso230_2.{axis}.B_um");
+            self.undetermined.remove(&name);
+            self.figures.insert(
+                name,
+                Quantity::magnitude("um", value.abs(), u, Span::Local, true),
+            );
+        }
+    }
 }
 
 fn not_determined(confounded_with: &[String]) -> String {

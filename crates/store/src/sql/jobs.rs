@@ -115,7 +115,7 @@ impl Queue for Backend {
                              AND kind IN ({kinds}) ORDER BY run_after_ms, seq LIMIT 1 {lock}) \
                  RETURNING {JOB_COLUMNS}",
                 now = dialect::NOW_MS,
-                kinds = JobKind::runnable_sql_list(),
+                kinds = crate::queue::runnable_sql_list(),
                 lock = dialect::CLAIM_LOCK
             );
             let row = run!(

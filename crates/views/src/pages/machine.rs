@@ -67,6 +67,10 @@ pub struct MachinePage {
     /// The machine's latest diagnosis, if any: its result id, when it was measured, and
     /// its document or why that does not read.
     pub diagnosis: Option<LatestDiagnosis>,
+    /// The latest check verified against the predictions of the check before it: its
+    /// sentence and one line per finding (`backlash (X): 5.96 → 0.40 µm after
+    /// compensation (predicted 0)`); None when there is nothing to verify.
+    pub verification: Option<(String, Vec<String>)>,
 }
 
 /// A machine's latest diagnosis as the machine page shows it.
@@ -156,6 +160,13 @@ pub fn machine_page(viewer: &Viewer, p: &MachinePage) -> Markup {
             }
             @if let Some(n) = &p.notice { div.notice { (n) } }
             @if let Some(d) = &p.diagnosis { (latest_findings(d)) }
+            @if let Some((statement, lines)) = &p.verification {
+                section.card #verification {
+                    h2 { "Verification of the compensation" }
+                    p { (statement) }
+                    ul { @for l in lines { li { (l) } } }
+                }
+            }
             @if !p.alerts.is_empty() {
                 section.card #alerts {
                     h2 { "Drift alerts " span.badge.alert { (p.alerts.iter().filter(|a| !a.acknowledged).count()) " active" } }

@@ -21,6 +21,9 @@ use mtcal_solver::terms::Term;
 use mtcal_solver::tolerance::{Assessment, COVERAGE_K, Figures, Verdict, identification_figures};
 use mtcal_solver::uncertainty::{ItemBudget, Source};
 
+mod summary;
+pub use summary::{ReportAction, actions};
+
 /// Everything the report shows. `verdict` is the result's verdict against a tolerance
 /// profile ([`mtcal_solver::tolerance::evaluate`]; `None`: no profile applies, and every
 /// figure says "no tolerance").
@@ -68,14 +71,18 @@ pub fn check_report(r: &CheckReport) -> Markup {
             article.report {
                 (result::misfit_banner(d, Some(misfit_diagnosis(r.diagnosis))))
                 (facts(r))
-                (standards(r))
-                @if !rows.is_empty() { (result::verdict_table(&rows)) }
-                (budget(r))
+                (summary::decision(r))
                 (findings(r.diagnosis))
+                (summary::actions_section(r))
+                (summary::standards(r))
+                @if r.verdict.is_some() { (budget(r)) }
                 (undetermined(d, &compensation))
                 (signature(r))
                 div.appendix #appendix {
                     h1 { "Appendix: detail" }
+                    (summary::figures_all(r))
+                    @if !rows.is_empty() { (result::verdict_table(&rows)) }
+                    @if r.verdict.is_none() { (budget(r)) }
                     (result::identification(&view))
                     @if let Some(ReportDiagnosis { doc: Ok(doc), .. }) = r.diagnosis {
                         div #diagnosis-detail { (result::diagnosis(doc)) }
@@ -253,13 +260,7 @@ fn verdict_rows(v: &Verdict) -> Vec<VerdictRow> {
         .iter()
         .map(|i| VerdictRow {
             quantity: i.item.clone(),
-            at: match (i.position_mm, i.travel_mm) {
-                (Some(q), Some([lo, hi])) => {
-                    format!("at {} mm of [{}, {}] mm", num(q), num(lo), num(hi))
-                }
-                (Some(q), None) => format!("at {} mm", num(q)),
-                _ => String::new(),
-            },
+            at: summary::item_at(i),
             value: i.value.unwrap_or(f64::NAN),
             std: i.u,
             limit: i.limit,
@@ -287,7 +288,7 @@ fn facts(r: &CheckReport) -> Markup {
                 dt { "machine" } dd { (d.machine_id) }
                 dt { "measured" } dd { (when(&d.measured_at)) }
                 @if let Some(id) = r.result_id { dt { "result" } dd { code { (id) } } }
-                dt { "instrument" } dd { (INSTRUMENT) ": "
+                dt { "instrument" } dd.wide { (INSTRUMENT) ": "
                     @match &c.instrument {
                         Some(i) => {
                             span.instrument { (i.describe()) }
@@ -309,59 +310,19 @@ fn facts(r: &CheckReport) -> Markup {
                     }
                 }
                 dt { "operator" } dd { (c.operator.as_deref().unwrap_or("not stated")) }
-                dt { "plan" } dd {
+                dt { "plan" } dd.wide {
                     (files.len()) " plane file(s), " (d.nuisance.runs) " runs, "
                     (d.nuisance.mountings.len()) " mounting(s), " (d.fit.samples) " samples"
                     @if !files.is_empty() { ": " (files.join(", ")) }
                 }
-                dt { "measured travel" } dd {
+                dt { "measured travel" } dd.wide {
                     @for (i, (axis, [lo, hi])) in d.model.measured_travel_mm.iter().enumerate() {
                         @if i > 0 { "; " } (axis) " [" (num(*lo)) ", " (num(*hi)) "] mm"
                     }
                 }
-                dt { "model" } dd { (format!("{:?}", d.method).to_lowercase()) " identification, "
+                dt { "model" } dd.wide { (format!("{:?}", d.method).to_lowercase()) " identification, "
                     (d.model.basis.name()) " basis of order " (d.model.order) }
-                dt { "convention" } dd { (d.convention) }
-            }
-        }
-    }
-}
-
-/// ISO 230-2 and ISO 230-4 figures, each with its verdict or "no tolerance".
-fn standards(r: &CheckReport) -> Markup {
-    let st = &r.doc.standards;
-    let figures = st.scalar_figures();
-    let verdict_of = |name: &str| {
-        r.verdict
-            .and_then(|v| v.items.iter().find(|i| i.item == name))
-            .map(|i| (i.limit, i.decision.as_str()))
-    };
-    html! {
-        section.card #standards {
-            h2 { "Figures of the standards (ISO 230-2, ISO 230-4)" }
-            @if r.verdict.is_none() {
-                p.muted { "No tolerance profile applies to this machine: figures are reported without a verdict." }
-            }
-            @if figures.is_empty() {
-                p { "No figure of ISO 230-2 or ISO 230-4 could be evaluated from this check." }
-            } @else {
-                @for f in &st.iso230_2 {
-                    @for n in &f.notes { p.muted { "ISO 230-2, " (f.axis) ": " (n) } }
-                }
-                table {
-                    thead { tr { th { "figure" } th.num { "value ± U" } th.num { "limit" } th { "verdict" } } }
-                    tbody {
-                        @for f in &figures {
-                            @let v = verdict_of(&f.name);
-                            tr data-figure=(f.name) {
-                                td { (f.name) }
-                                td.num { (super::with_u(Some(f.value), f.u, "um")) }
-                                td.num { @if let Some((limit, _)) = v { (num(limit)) " µm" } @else { "—" } }
-                                td { (verdict_badge(v.map(|x| x.1))) }
-                            }
-                        }
-                    }
-                }
+                dt { "convention" } dd.wide { (d.convention) }
             }
         }
     }
@@ -468,7 +429,7 @@ fn budget(r: &CheckReport) -> Markup {
                     tbody {
                         @for row in &rows {
                             tr data-item=(row.item) {
-                                td { (row.item) }
+                                td { (mtcal_solver::names::in_words(row.item)) }
                                 td.num { @match row.value { Some(v) => { (num(v)) " " (unit_label(row.unit)) } None => "—" } }
                                 @for s in Source::ALL { (cell(&row.budget, s)) }
                                 td.num { (num(row.budget.combined_u)) }
@@ -587,6 +548,7 @@ fn undetermined(d: &IdentificationResult, c: &Result<Compensation, ExportError>)
     let nothing = o.not_identifiable.is_empty()
         && not_moved.is_empty()
         && d.standards.not_evaluated.is_empty()
+        && d.standards.not_available().is_empty()
         && left_out.is_empty();
     html! {
         section.card #undetermined {
@@ -598,12 +560,17 @@ fn undetermined(d: &IdentificationResult, c: &Result<Compensation, ExportError>)
                     @if !o.not_identifiable.is_empty() {
                         li { "Terms not identifiable with this plan: " (o.not_identifiable.join(", ")) }
                     }
-                    @for g in &o.confounded { li { (g.terms.join(" + ")) " cannot be separated (seen as " (g.seen_as) ")" } }
+                    @if !o.confounded.is_empty() {
+                        li { (o.confounded.len()) " group(s) of terms cannot be separated (appendix, Identifiability)" }
+                    }
                     @if !not_moved.is_empty() {
                         li { "Axes that did not move (nothing is known of them): " (not_moved.join(", ")) }
                     }
                     @for n in &d.standards.not_evaluated {
                         li { (n.standard) " " (n.what) ": " (n.reason) }
+                    }
+                    @for n in &d.standards.not_available() {
+                        li.not-available { (mtcal_solver::names::figures_in_words(&n.figures)) ": — (" (n.reason) ")" }
                     }
                     @if !left_out.is_empty() { li { "Left out of the compensation table: " (left_out.join(", ")) } }
                     li { "Nothing outside the measured travel: "
@@ -613,8 +580,7 @@ fn undetermined(d: &IdentificationResult, c: &Result<Compensation, ExportError>)
                     }
                 }
                 @if !o.advice.is_empty() {
-                    h3 { "What would determine them" }
-                    ul.compact { @for a in &o.advice { li { (a) } } }
+                    p.muted { "What would determine them: see Actions." }
                 }
             }
         }

@@ -11,7 +11,7 @@ use mtcal_solver::identification::IdentificationResult;
 use mtcal_solver::positioning_check::DiagnosisDocument;
 use mtcal_solver::residuals::ResidualSummary;
 use mtcal_solver::sensitivity::SensitivityResult;
-use mtcal_solver::standards::iso230_2::{FIGURES, Iso2302};
+use mtcal_solver::standards::iso230_2::{FIGURES, Iso2302, run_label};
 use mtcal_solver::standards::iso230_4::CirclePlot;
 use serde::{Deserialize, Serialize};
 
@@ -534,7 +534,7 @@ pub fn diagnosis(d: &DiagnosisResult) -> Markup {
         @if !d.plots.is_empty() {
             section.card #diagnosis-plots {
                 h2 { "Before and after" }
-                div.grid { @for (p, drawn) in d.plots.iter().zip(plots::render_svgs(&d.plots)) { figure.plot data-plot=(p.id) { (svg(drawn)) } } }
+                div.grid { @for (p, drawn) in d.plots.iter().zip(plots::render_svgs(&d.plots)) { figure.plot.wide[p.kind != mtcal_solver::diagnosis::PlotKind::Polar] data-plot=(p.id) { (svg(drawn)) } } }
             }
         }
         @if !d.unexplained.is_empty() {
@@ -562,7 +562,7 @@ pub fn iso230_2(figs: &[Iso2302]) -> Markup {
                         @for (name, v) in FIGURES.iter().zip(f.values()) {
                             tr data-figure=(name) {
                                 td { (name.trim_end_matches("_um")) }
-                                td.num { (with_u(Some(v), f.u.get(*name).copied(), "um")) }
+                                td.num { (with_u(v, f.u.get(*name).copied(), "um")) }
                                 @if let Some(w) = &f.without_outlying {
                                     td.num {
                                         (with_u(w.figures.get(*name).copied(), w.u.get(*name).copied(), "um"))
@@ -573,12 +573,16 @@ pub fn iso230_2(figs: &[Iso2302]) -> Markup {
                         }
                     }
                 }
+                @let unavailable: Vec<&str> = FIGURES.iter().copied().filter(|n| f.not_available(n).is_some()).collect();
+                @if let Some(why) = unavailable.first().and_then(|n| f.not_available(n)) {
+                    p.muted.not-available { "— " (unavailable.iter().map(|n| n.trim_end_matches("_um")).collect::<Vec<_>>().join(", ")) ": " (why) }
+                }
                 @if let Some(w) = &f.without_outlying {
                     h3 { "Readings set aside (outlier test, 1 % per axis, |t| > " (num(w.critical_t)) ")" }
                     table.outlying {
                         thead { tr { th.num { "run" } th { "direction" } th.num { "target (mm)" } th.num { "reading (µm)" } th.num { "off the other runs (µm)" } th.num { "t" } } }
                         tbody { @for r in &w.readings { tr {
-                            td.num { (r.run) } td { @if r.up { "+" } @else { "−" } } td.num { (num(r.target_mm)) }
+                            td.num { (run_label(f.source, r.run)) } td { @if r.up { "+" } @else { "−" } } td.num { (num(r.target_mm)) }
                             td.num { (num(r.deviation_um)) } td.num { (num(r.off_um)) } td.num { (num(r.t)) }
                         } } }
                     }

@@ -2,7 +2,10 @@
 //! term against A with its band, and the labelled empty panel that stands in for a term
 //! the data cannot determine.
 
-use super::{Area, BAND, BAND_OPACITY, COLORS, DrawResult, PANEL, svg, tick, unit_label};
+use super::key::{self, Key, Swatch};
+use super::{
+    Area, BAND, BAND_OPACITY, COLORS, DrawResult, PANEL, TEXT, TITLE, svg, tick, unit_label,
+};
 use mtcal_solver::cradle::ComplianceCurve;
 use mtcal_solver::identification::TermReport;
 use plotters::prelude::*;
@@ -29,24 +32,24 @@ pub fn empty_panel(title: &str, message: &str) -> String {
                 ),
             )
         };
-        root.draw(&Text::new(title.to_string(), (w / 2, 24), style(18)))?;
-        // Wrap the message at about 48 characters a line.
+        root.draw(&Text::new(title.to_string(), (w / 2, 24), style(TITLE)))?;
+        // Wrap the message at about 40 characters a line.
         let mut lines: Vec<String> = vec![];
         for word in message.split_whitespace() {
             match lines.last_mut() {
-                Some(l) if l.len() + word.len() < 48 => {
+                Some(l) if l.chars().count() + word.chars().count() < 40 => {
                     l.push(' ');
                     l.push_str(word);
                 }
                 _ => lines.push(word.to_string()),
             }
         }
-        let top = h / 2 - 9 * lines.len() as i32;
+        let top = h / 2 - 11 * lines.len() as i32;
         for (k, l) in lines.iter().enumerate() {
             root.draw(&Text::new(
                 l.clone(),
-                (w / 2, top + 18 * k as i32),
-                style(14),
+                (w / 2, top + 22 * k as i32),
+                style(TEXT),
             ))?;
         }
         Ok(())
@@ -61,7 +64,8 @@ pub fn empty_panel(title: &str, message: &str) -> String {
 /// With a tolerance `limit` (the range limit the verdict applied, in the term's unit) the
 /// panel draws the band the function must stay within to pass: two dashed lines a limit
 /// apart, centred on the middle of the function's range (a range limit fixes the width,
-/// not the place), labelled "range limit".
+/// not the place), named with its rounded value and unit under the panel ("range limit
+/// 8.33 µm").
 pub fn error_function(
     name: &str,
     term: &TermReport,
@@ -96,7 +100,7 @@ pub fn error_function(
     }
     let x_desc = format!("{} (mm)", moving_axis(name));
     svg(PANEL, &title, |root| {
-        band(root, &x_desc, &title, &pts, None, limit)
+        band(root, &x_desc, &title, &pts, None, limit.map(|l| (l, unit)))
     })
 }
 
@@ -158,8 +162,10 @@ fn band(
     title: &str,
     pts: &[(f64, f64, f64)],
     y_range: Option<(f64, f64)>,
-    limit: Option<f64>,
+    limit: Option<(f64, &str)>,
 ) -> DrawResult {
+    let unit = limit.map_or("", |l| l.1);
+    let limit = limit.map(|l| l.0);
     let x0 = pts[0].0;
     // The tolerance band: a range limit's width about the middle of the values' range.
     let (vmin, vmax) = pts
@@ -204,19 +210,34 @@ fn band(
         None => super::range(lo.chain(hi)),
     }
     .ok_or("no points")?;
-    let mut chart = ChartBuilder::on(root)
-        .caption(title, ("sans-serif", 16))
+    let keys: Vec<Key> = match (far, limits) {
+        (Some(l), _) => vec![Key::new(
+            format!("range limit {} {unit} (beyond this scale)", rounded(l)),
+            Swatch::None,
+            LIMIT,
+        )],
+        (None, Some(_)) => vec![Key::new(
+            format!("range limit {} {unit}", rounded(limit.unwrap_or(f64::NAN))),
+            Swatch::Dashed,
+            LIMIT,
+        )],
+        (None, None) => vec![],
+    };
+    let area = key::below(root, &keys)?;
+    let mut chart = ChartBuilder::on(&area)
+        .caption(title, ("sans-serif", TITLE))
         .margin(8)
-        .x_label_area_size(36)
-        .y_label_area_size(52)
+        .x_label_area_size(44)
+        .y_label_area_size(64)
         .build_cartesian_2d(x0..x1, y0..y1)?;
     chart
         .configure_mesh()
         .x_desc(x_desc)
         .x_label_formatter(&tick)
         .y_label_formatter(&tick)
-        .label_style(("sans-serif", 14))
-        .x_labels(6)
+        .label_style(("sans-serif", TEXT))
+        .axis_desc_style(("sans-serif", TEXT))
+        .x_labels(5)
         .y_labels(6)
         .light_line_style(WHITE.mix(0.0))
         .draw()?;
@@ -232,13 +253,6 @@ fn band(
         pts.iter().map(|p| (p.0, p.1)),
         COLORS[0].stroke_width(2),
     ))?;
-    if let Some(l) = far {
-        chart.draw_series(std::iter::once(Text::new(
-            format!("range limit {} (beyond this scale)", tick(&l)),
-            (x0, y1),
-            ("sans-serif", 13).into_font().color(&LIMIT),
-        )))?;
-    }
     if let Some((l, h)) = limits {
         for y in [l, h] {
             chart.draw_series(DashedLineSeries::new(
@@ -248,11 +262,6 @@ fn band(
                 LIMIT.stroke_width(1),
             ))?;
         }
-        chart.draw_series(std::iter::once(Text::new(
-            "range limit",
-            (x0, h),
-            ("sans-serif", 13).into_font().color(&LIMIT),
-        )))?;
     }
     Ok(())
 }
@@ -260,6 +269,17 @@ fn band(
 /// A range limit wider than this many times the data's span (with their band) is named
 /// on the panel instead of drawn.
 const FAR_LIMIT: f64 = 5.0;
+
+/// A limit as its label gives it: three significant digits, shortest form (8.333333 →
+/// `8.33`, 1000 → `1000`, 0.0125 → `0.0125`).
+pub(crate) fn rounded(v: f64) -> String {
+    if v == 0.0 || !v.is_finite() {
+        return tick(&v);
+    }
+    let digits = 2 - v.abs().log10().floor() as i32;
+    let f = 10f64.powi(digits);
+    tick(&((v * f).round() / f))
+}
 
 /// The colour of a tolerance's lines.
 pub const LIMIT: RGBColor = RGBColor(0xb0, 0x30, 0x30);
@@ -441,7 +461,12 @@ mod tests {
         let svg = error_function("EXX", &t, Some([-50.0, 50.0]), Some(5.0));
         let plot = inspect::parse(&svg).unwrap();
         let axes = plot.axes().unwrap();
-        let dashes = plot.marks("polyline", &hex(LIMIT));
+        // The dashes in the chart, right of the legend's swatch (at x < 40 px).
+        let dashes: Vec<_> = plot
+            .marks("polyline", &hex(LIMIT))
+            .into_iter()
+            .filter(|m| m.points[0].0 > 40.0)
+            .collect();
         assert!(!dashes.is_empty(), "{svg}");
         let mut ys: Vec<f64> = dashes.iter().map(|m| axes.y.value(m.points[0].1)).collect();
         ys.sort_by(f64::total_cmp);
@@ -450,7 +475,7 @@ mod tests {
             (ys[0] + 2.5).abs() <= px && (ys[ys.len() - 1] - 2.5).abs() <= px,
             "{ys:?}"
         );
-        assert!(plot.has_text("range limit"));
+        assert!(plot.has_text("range limit 5 µm"), "the limit with its unit");
         let without = error_function("EXX", &t, Some([-50.0, 50.0]), None);
         assert!(!without.contains("range limit"));
         // A limit of 1 mm is named, not drawn: the function keeps its scale.
@@ -461,9 +486,23 @@ mod tests {
             Some(1000.0),
         ))
         .unwrap();
-        assert!(far.marks("polyline", &hex(LIMIT)).is_empty());
-        assert!(far.has_text("range limit 1000 (beyond this scale)"));
+        assert!(
+            far.marks("polyline", &hex(LIMIT)).is_empty(),
+            "no line, no swatch"
+        );
+        assert!(far.has_text("range limit 1000 µm (beyond this scale)"));
         let axes = far.axes().unwrap();
         assert!(axes.y.value(0.0) < 5.0, "the scale stays the data's");
+        // A limit scaled to the travel is labelled as rounded, with its unit.
+        let scaled = inspect::parse(&error_function(
+            "EXX",
+            &t,
+            Some([-50.0, 50.0]),
+            Some(25.0 / 3.0),
+        ))
+        .unwrap();
+        assert!(scaled.has_text("range limit 8.33 µm"), "{:?}", scaled.texts);
+        assert_eq!(rounded(0.012_54), "0.0125");
+        assert_eq!(rounded(1234.5), "1230");
     }
 }

@@ -1,7 +1,8 @@
 //! Bar charts: a diagnosis finding's RMS before and after ([`finding_bars`]) and a
 //! sensitivity ranking ([`ranking_bars`]).
 
-use super::{Area, COLORS, DrawResult, PANEL, SIZE, svg, tick};
+use super::key::{self, Key, Swatch};
+use super::{Area, COLORS, DrawResult, PANEL, TEXT, TITLE, svg, tick};
 use mtcal_solver::diagnosis::Finding;
 use mtcal_solver::sensitivity::local::ComponentRanking;
 use plotters::prelude::*;
@@ -40,70 +41,82 @@ fn finding(root: &Area, title: &str, f: &Finding, noise: f64) -> DrawResult {
     if top <= 0.0 {
         return Err("no RMS".into());
     }
-    let mut chart = ChartBuilder::on(root)
-        .caption(title, ("sans-serif", 15))
+    let mut keys = vec![
+        Key::new("before", Swatch::Box, BEFORE),
+        Key::new("after", Swatch::Box, AFTER),
+    ];
+    if noise.is_finite() && noise > 0.0 {
+        keys.push(Key::new("noise floor", Swatch::Dashed, BLACK.mix(0.6)));
+    }
+    let area = key::below(root, &keys)?;
+    let mut chart = ChartBuilder::on(&area)
+        .caption(title, ("sans-serif", TITLE))
         .margin(8)
-        .x_label_area_size(28)
-        .y_label_area_size(52)
-        .build_cartesian_2d(-0.5f64..1.5f64, 0.0..top * 1.5)?;
+        .x_label_area_size(30)
+        .y_label_area_size(64)
+        .build_cartesian_2d(-0.5f64..1.5f64, 0.0..top * 1.15)?;
     chart
         .configure_mesh()
         .disable_x_mesh()
         .x_labels(0)
         .y_desc("RMS (µm)")
         .y_label_formatter(&tick)
+        .label_style(("sans-serif", TEXT))
+        .axis_desc_style(("sans-serif", TEXT))
         .light_line_style(WHITE.mix(0.0))
         .draw()?;
     for (i, (name, b)) in groups.iter().enumerate() {
         let x = i as f64;
-        for (v, x0, x1, c, label) in [
-            (b.before, x - 0.38, x - 0.02, BEFORE, "before"),
-            (b.after, x + 0.02, x + 0.38, AFTER, "after"),
+        for (v, x0, x1, c) in [
+            (b.before, x - 0.38, x - 0.02, BEFORE),
+            (b.after, x + 0.02, x + 0.38, AFTER),
         ] {
             if v.is_finite() {
-                let r = chart.draw_series(std::iter::once(Rectangle::new(
+                chart.draw_series(std::iter::once(Rectangle::new(
                     [(x0, 0.0), (x1, v)],
                     c.filled(),
                 )))?;
-                if i == 0 {
-                    r.label(label).legend(move |(x, y)| {
-                        Rectangle::new([(x, y - 4), (x + 12, y + 4)], c.filled())
-                    });
-                }
             }
         }
-        chart.draw_series(std::iter::once(Text::new(
-            name.to_string(),
-            (x, 0.0),
-            anchored(13, HPos::Center, VPos::Top),
-        )))?;
+        // Under the axis, clear of the bars.
+        chart.draw_series(std::iter::once(
+            EmptyElement::at((x, 0.0))
+                + Text::new(
+                    name.to_string(),
+                    (0, 6),
+                    anchored(TEXT, HPos::Center, VPos::Top),
+                ),
+        ))?;
     }
     if noise.is_finite() && noise > 0.0 {
-        chart
-            .draw_series(DashedLineSeries::new(
-                [(-0.5, noise), (1.5, noise)],
-                6,
-                4,
-                BLACK.mix(0.6).stroke_width(1),
-            ))?
-            .label("noise floor")
-            .legend(|(x, y)| PathElement::new(vec![(x, y), (x + 12, y)], BLACK.mix(0.6)));
+        chart.draw_series(DashedLineSeries::new(
+            [(-0.5, noise), (1.5, noise)],
+            6,
+            4,
+            BLACK.mix(0.6).stroke_width(1),
+        ))?;
     }
-    super::legend(&mut chart, SeriesLabelPosition::UpperRight)
+    Ok(())
 }
 
 /// The first `top` rows of a sensitivity ranking as horizontal bars of the normalised
 /// coefficient (%), rank 1 on top; the key errors (the fewest covering the share) in
 /// [`BEFORE`]'s colour, the rest grey; each bar labelled with its share.
 pub fn ranking_bars(component: &str, r: &ComponentRanking, top: usize) -> String {
-    let title = format!(
-        "{component}: normalised sensitivity (key errors cover {:.1} %)",
+    let title = format!("{component}: normalised sensitivity");
+    let x_desc = format!(
+        "coefficient (%); key errors cover {:.1} %",
         100.0 * r.covered
     );
-    svg(SIZE, &title, |root| ranking(root, &title, r, top))
+    svg(RANKING, &title, |root| {
+        ranking(root, &title, &x_desc, r, top)
+    })
 }
 
-fn ranking(root: &Area, title: &str, r: &ComponentRanking, top: usize) -> DrawResult {
+/// Size of a ranking, px: drawn in a grid of figures about 430 px wide.
+const RANKING: (u32, u32) = (440, 480);
+
+fn ranking(root: &Area, title: &str, x_desc: &str, r: &ComponentRanking, top: usize) -> DrawResult {
     let rows: Vec<_> = r
         .ranking
         .iter()
@@ -119,17 +132,20 @@ fn ranking(root: &Area, title: &str, r: &ComponentRanking, top: usize) -> DrawRe
     }
     let n = rows.len() as f64;
     let mut chart = ChartBuilder::on(root)
-        .caption(title, ("sans-serif", 16))
+        .caption(title, ("sans-serif", TITLE))
         .margin(12)
-        .x_label_area_size(36)
-        .y_label_area_size(70)
-        .build_cartesian_2d(0.0..xmax * 1.2, -0.5..n - 0.5)?;
+        .x_label_area_size(48)
+        .y_label_area_size(80)
+        .build_cartesian_2d(0.0..xmax * 1.4, -0.5..n - 0.5)?;
     chart
         .configure_mesh()
         .disable_y_mesh()
         .y_labels(0)
-        .x_desc("coefficient (%)")
+        .x_desc(x_desc)
+        .x_labels(5)
         .x_label_formatter(&tick)
+        .label_style(("sans-serif", TEXT))
+        .axis_desc_style(("sans-serif", TEXT))
         .light_line_style(WHITE.mix(0.0))
         .draw()?;
     for (i, e) in rows.iter().enumerate() {
@@ -148,12 +164,12 @@ fn ranking(root: &Area, title: &str, r: &ComponentRanking, top: usize) -> DrawRe
             Text::new(
                 format!("{} ", e.error),
                 (0.0, y),
-                anchored(13, HPos::Right, VPos::Center),
+                anchored(TEXT, HPos::Right, VPos::Center),
             ),
             Text::new(
                 format!(" {v:.1} %"),
                 (v, y),
-                anchored(12, HPos::Left, VPos::Center),
+                anchored(TEXT, HPos::Left, VPos::Center),
             ),
         ])?;
     }

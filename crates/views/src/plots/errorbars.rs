@@ -1,7 +1,8 @@
 //! Points with ±2σ error bars: trends over time ([`trend`]), a cradle's rotation vector
 //! per A pose ([`rotation_vectors`]), or any series ([`error_bar_chart`]).
 
-use super::{Area, COLORS, DrawResult, SIZE, svg, tick};
+use super::key::{self, Key, Swatch};
+use super::{Area, COLORS, DrawResult, SIZE, TEXT, TITLE, svg, tick};
 use mtcal_solver::cradle::PoseRow;
 use plotters::prelude::*;
 
@@ -47,6 +48,10 @@ pub struct ErrorBarChart<'a> {
     pub series: &'a [PointSeries],
 }
 
+/// Size of a trend, px: drawn half a page wide (about 620 px on a 1400 px window), so
+/// its text stays at least 12 px.
+pub const TREND: (u32, u32) = (640, 440);
+
 const DAY: f64 = 86_400.0;
 
 /// The label of a time axis in days since 1970-01-01: `YYYY-MM-DD` on a whole day,
@@ -67,6 +72,11 @@ pub(crate) fn date_label(days: &f64) -> String {
 /// left out.
 pub fn error_bar_chart(c: &ErrorBarChart) -> String {
     svg(SIZE, c.title, |root| draw(root, c))
+}
+
+/// [`error_bar_chart`] on a canvas of `size` px.
+fn error_bar_chart_sized(c: &ErrorBarChart, size: (u32, u32)) -> String {
+    svg(size, c.title, |root| draw(root, c))
 }
 
 fn finite(p: &BarPoint) -> bool {
@@ -98,11 +108,19 @@ fn draw(root: &Area, c: &ErrorBarChart) -> DrawResult {
     }
     let (y0, y1) =
         super::range(pts().flat_map(|p| [p.y - two(p), p.y + two(p)])).ok_or("no points")?;
-    let mut chart = ChartBuilder::on(root)
-        .caption(c.title, ("sans-serif", 18))
-        .margin(12)
-        .x_label_area_size(40)
-        .y_label_area_size(64)
+    let keys: Vec<Key> = scaled
+        .iter()
+        .enumerate()
+        .map(|(k, s)| Key::new(s.name.as_str(), Swatch::Dot, COLORS[k % COLORS.len()]))
+        .collect();
+    let area = key::below(root, &keys)?;
+    let mut chart = ChartBuilder::on(&area)
+        .caption(c.title, ("sans-serif", TITLE))
+        .margin(14)
+        // Room for half a date label right of the axis's end.
+        .margin_right(56)
+        .x_label_area_size(48)
+        .y_label_area_size(80)
         .build_cartesian_2d(x0..x1, y0..y1)?;
     let dates = date_label;
     let x_fmt: &dyn Fn(&f64) -> String = match c.x_scale {
@@ -115,22 +133,18 @@ fn draw(root: &Area, c: &ErrorBarChart) -> DrawResult {
         .y_desc(c.y_label)
         .x_label_formatter(x_fmt)
         .y_label_formatter(&tick)
-        .label_style(("sans-serif", 14))
-        .x_labels(if c.x_scale == XScale::Time { 6 } else { 10 })
+        .label_style(("sans-serif", TEXT))
+        .axis_desc_style(("sans-serif", TEXT))
+        .x_labels(if c.x_scale == XScale::Time { 5 } else { 8 })
         .light_line_style(WHITE.mix(0.0))
         .draw()?;
     for (k, s) in scaled.iter().enumerate() {
         let color = COLORS[k % COLORS.len()];
         let p: Vec<&BarPoint> = s.points.iter().collect();
-        chart
-            .draw_series(LineSeries::new(
-                p.iter().map(|p| (p.x, p.y)),
-                color.mix(0.5).stroke_width(1),
-            ))?
-            .label(s.name.as_str())
-            .legend(move |(x, y)| {
-                Rectangle::new([(x + 4, y - 4), (x + 12, y + 4)], color.filled())
-            });
+        chart.draw_series(LineSeries::new(
+            p.iter().map(|p| (p.x, p.y)),
+            color.mix(0.5).stroke_width(1),
+        ))?;
         chart.draw_series(p.iter().filter(|p| p.std.is_some()).map(|p| {
             ErrorBar::new_vertical(
                 p.x,
@@ -143,7 +157,7 @@ fn draw(root: &Area, c: &ErrorBarChart) -> DrawResult {
         }))?;
         chart.draw_series(p.iter().map(|p| Circle::new((p.x, p.y), 4, color.filled())))?;
     }
-    super::legend(&mut chart, SeriesLabelPosition::UpperLeft)
+    Ok(())
 }
 
 /// One point of a trend: a result's time (RFC 3339) and a value with its standard
@@ -182,13 +196,16 @@ pub fn trend(title: &str, y_label: &str, series: &[TrendSeries]) -> String {
             })
         })
         .collect();
-    error_bar_chart(&ErrorBarChart {
-        title,
-        x_label: "measured at (UTC)",
-        y_label,
-        x_scale: XScale::Time,
-        series: &series,
-    })
+    error_bar_chart_sized(
+        &ErrorBarChart {
+            title,
+            x_label: "measured at (UTC)",
+            y_label,
+            x_scale: XScale::Time,
+            series: &series,
+        },
+        TREND,
+    )
 }
 
 /// The rotation vector of the C-on-A connection per A pose (the pooled variant, which
@@ -338,7 +355,13 @@ mod tests {
         s[0].points.truncate(1);
         let plot = inspect::parse(&trend("EXX", "EXX (µm)", &s)).unwrap();
         let axes = plot.axes().unwrap();
-        let m = plot.marks("circle", &hex(COLORS[0]))[0].points[0];
+        // The marker (r = 4), not the legend's swatch (r = 5).
+        let m = plot
+            .marks("circle", &hex(COLORS[0]))
+            .into_iter()
+            .find(|m| m.r == 4.0)
+            .expect("a marker")
+            .points[0];
         let t = unix_seconds("2026-01-05T08:00:00Z").unwrap();
         assert!((axes.x.value(m.0) - t).abs() < 1.5 * axes.x.scale.recip().abs());
     }

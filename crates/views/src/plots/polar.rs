@@ -4,13 +4,16 @@
 //! nominal radius, labelled `R 50 mm` on a circle test). The ring spacing `step` is the
 //! smallest of 1, 2, 2.5, 5 × 10ᵏ µm with 2·step ≥ max|d|; s = 5·step, so the dotted
 //! rings at ±step and ±2·step sit at r = 1 ± 0.2 and 1 ± 0.4 and bound every point. Each
-//! ring is labelled with its deviation (the scaled radial axis). The circle tests of one
-//! page share one step ([`circle_step`]), so that their plots compare at a glance.
+//! The legend under the plot names the reference circle and the ring spacing, and the
+//! outer ring carries its deviation just outside it, where no trace can be (every point
+//! lies within the rings). The circle tests of one page share one step
+//! ([`circle_step`]), so that their plots compare at a glance.
 //!
 //! A polar figure is [`CIRCLE`] px wide with text of at least [`MIN_FONT_PX`]
 //! px: printed two to a row on A4 (about 330 px wide each) its text stays at least
 //! 11 px high.
 
+use super::key::{self, Key, Swatch};
 use super::{Area, COLORS, DrawResult, finite_points, svg};
 use mtcal_solver::diagnosis::{PlotData, PlotSeries};
 use mtcal_solver::standards::iso230_4::CirclePlot;
@@ -18,7 +21,7 @@ use plotters::prelude::*;
 use plotters::style::text_anchor::{HPos, Pos, VPos};
 
 /// Size of a polar figure (a circle test's, a diagnosis's), px (module docs).
-pub const CIRCLE: (u32, u32) = (400, 440);
+pub const CIRCLE: (u32, u32) = (400, 520);
 
 /// The smallest text of a circle test's figure in the SVG, px (labels, legend; the
 /// title is larger).
@@ -52,7 +55,13 @@ pub(crate) fn nice_ceil(x: f64) -> f64 {
 /// A diagnosis figure of kind `polar` (module docs; angle labels 0°, 45°, …).
 /// `step`: the page's ring step (µm; None: the plot's own, [`plot_step`]).
 pub(crate) fn render(plot: &PlotData, step: Option<f64>) -> String {
-    let title = format!("{} ({})", plot.title, plot.y_label);
+    // The title names the quantity; its unit comes from the axis label ("radial
+    // residual (µm)" → "µm").
+    let unit = plot
+        .y_label
+        .rsplit_once('(')
+        .map_or(plot.y_label.as_str(), |(_, u)| u.trim_end_matches(')'));
+    let title = format!("{} ({unit})", plot.title);
     svg(CIRCLE, &plot.title, |root| {
         draw(
             root,
@@ -183,47 +192,57 @@ fn draw(
         (r * a.cos(), r * a.sin())
     };
     let font = f64::from(style.font);
+    let reference = match style.radius_mm {
+        Some(r) => format!("R {} mm", nominal_mm(r)),
+        None => "0 µm".to_string(),
+    };
+    let mut keys = vec![
+        Key::new(reference, Swatch::Line, BLACK.mix(0.6)),
+        Key::new(
+            format!("rings every {} µm", super::tick(&step)),
+            Swatch::Dashed,
+            BLACK.mix(0.5),
+        ),
+    ];
+    for (k, s) in series.iter().enumerate() {
+        let width = if s.name.starts_with("model") { 1 } else { 2 };
+        keys.push(Key::new(
+            s.name.as_str(),
+            Swatch::Line,
+            color(k, s).stroke_width(width),
+        ));
+    }
     // A square plotting area, so that circles stay round.
     let area = root.titled(style.title, ("sans-serif", font + 2.0))?;
+    let area = key::below(&area, &keys)?;
     let (w, h) = area.dim_in_pixel();
     let side = w.min(h);
     let area = area.shrink(((w - side) / 2, (h - side) / 2), (side, side));
+    // Room outside the rings (r ≤ 1.4) for the angle labels at r = 1.5.
     let mut chart = ChartBuilder::on(&area)
-        .margin(8)
-        .build_cartesian_2d(-1.6f64..1.6f64, -1.6f64..1.6f64)?;
+        .margin(4)
+        .build_cartesian_2d(-1.9f64..1.9f64, -1.9f64..1.9f64)?;
     let circle = |dev: f64| (0..=360).map(move |a| to_xy(f64::from(a), dev));
     chart.draw_series(LineSeries::new(circle(0.0), BLACK.mix(0.6).stroke_width(1)))?;
-    let label_style = ("sans-serif", font)
-        .into_font()
-        .color(&BLACK.mix(0.75))
-        .pos(Pos::new(HPos::Left, VPos::Center));
-    for k in [-2.0, -1.0, 0.0, 1.0, 2.0] {
-        let dev = k * step;
-        if k != 0.0 {
-            chart.draw_series(DashedLineSeries::new(
-                circle(dev),
-                2,
-                4,
-                BLACK.mix(0.3).stroke_width(1),
-            ))?;
-        }
-        // Ring labels along the 67.5° ray, where no angle label sits.
-        let (x, y) = to_xy(67.5, dev);
-        let text = match (k == 0.0, style.radius_mm) {
-            (true, Some(r)) => format!("R {} mm", nominal_mm(r)),
-            (true, None) => "0 µm".to_string(),
-            _ => format!(
-                "{}{} µm",
-                if dev > 0.0 { "+" } else { "−" },
-                super::tick(&dev.abs())
-            ),
-        };
-        chart.draw_series(std::iter::once(Text::new(
-            text,
-            (x, y),
-            label_style.clone(),
-        )))?;
+    for k in [-2.0, -1.0, 1.0, 2.0] {
+        chart.draw_series(DashedLineSeries::new(
+            circle(k * step),
+            2,
+            4,
+            BLACK.mix(0.3).stroke_width(1),
+        ))?;
     }
+    // The outer ring's deviation just outside it along the 67.5° ray (no angle label
+    // there), above the ring, where no point of a trace can be.
+    let (x, y) = to_xy(67.5, 2.15 * step);
+    chart.draw_series(std::iter::once(Text::new(
+        format!("+{} µm", super::tick(&(2.0 * step))),
+        (x, y),
+        ("sans-serif", font)
+            .into_font()
+            .color(&BLACK.mix(0.75))
+            .pos(Pos::new(HPos::Left, VPos::Bottom)),
+    )))?;
     for a in (0..360).step_by(45) {
         let (x, y) = to_xy(f64::from(a), 2.1 * step);
         chart.draw_series(LineSeries::new([(0.0, 0.0), (x, y)], BLACK.mix(0.15)))?;
@@ -241,34 +260,18 @@ fn draw(
         if text.is_empty() {
             continue;
         }
+        let r = 1.5 / (x * x + y * y).sqrt();
         let style =
             TextStyle::from(("sans-serif", font).into_font()).pos(Pos::new(h, VPos::Center));
-        chart.draw_series(std::iter::once(Text::new(
-            text,
-            (x * 1.04, y * 1.04),
-            style,
-        )))?;
+        chart.draw_series(std::iter::once(Text::new(text, (x * r, y * r), style)))?;
     }
     for (k, (s, p)) in series.iter().zip(&pts).enumerate() {
-        let color = color(k, s);
         let width = if s.name.starts_with("model") { 1 } else { 2 };
-        chart
-            .draw_series(LineSeries::new(
-                p.iter().map(|&(a, d)| to_xy(a, d)),
-                color.stroke_width(width),
-            ))?
-            .label(s.name.as_str())
-            .legend(move |(x, y)| {
-                PathElement::new(vec![(x, y), (x + 18, y)], color.stroke_width(width))
-            });
+        chart.draw_series(LineSeries::new(
+            p.iter().map(|&(a, d)| to_xy(a, d)),
+            color(k, s).stroke_width(width),
+        ))?;
     }
-    chart
-        .configure_series_labels()
-        .label_font(("sans-serif", font))
-        .background_style(WHITE.mix(0.85))
-        .border_style(BLACK.mix(0.3))
-        .position(SeriesLabelPosition::LowerRight)
-        .draw()?;
     Ok(())
 }
 
@@ -345,7 +348,7 @@ mod tests {
         let svg = circle_polar(&both, circle_step(&both));
         let plot = inspect::parse(&svg).unwrap();
         let ((cx, cy), r0) = reference(&plot);
-        assert!(plot.has_text("+4 µm") && plot.has_text("−2 µm"));
+        assert!(plot.has_text("+4 µm") && plot.has_text("rings every 2 µm"));
         // The reference circle is the nominal radius.
         assert!(plot.has_text("R 50 mm") && !plot.has_text("0 µm"));
         assert!(plot.has_text("+X") && plot.has_text("+Y") && plot.has_text("−X"));
@@ -409,7 +412,7 @@ mod tests {
         let printed_px = 330.0;
         assert!(smallest * printed_px / f64::from(CIRCLE.0) >= 11.0);
         assert!(
-            svg.contains("viewBox=\"0 0 400 440\""),
+            svg.contains("viewBox=\"0 0 400 520\""),
             "scales with its figure"
         );
         let plot = inspect::parse(&svg).unwrap();
@@ -473,7 +476,7 @@ mod tests {
         ));
         assert!(svg.starts_with("<svg"));
         // max|d| = 3 → step 2 µm.
-        assert!(svg.contains("90°") && svg.contains("+2 µm") && svg.contains("−4 µm"));
+        assert!(svg.contains("90°") && svg.contains("rings every 2 µm") && svg.contains("+4 µm"));
     }
 
     #[test]

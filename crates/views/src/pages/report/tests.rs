@@ -104,18 +104,42 @@ fn report_of_a_simulated_check_holds_every_section() {
         assert!(facts.contains(want), "facts lack {want}");
     }
     assert!(facts.contains(&when(&doc.measured_at)));
-    // Standards: every scalar figure has a row, with "no tolerance".
-    let st = section(&html, "standards");
+    // Standards: every scalar figure has a row in the appendix, named in words and by
+    // its code, with "no tolerance"; the summary counts them per group.
+    let all = section(&html, "figures");
     let figures = doc.standards.scalar_figures();
     assert!(!figures.is_empty());
     for f in &figures {
         assert!(
-            st.contains(&format!("data-figure=\"{}\"", f.name)),
+            all.contains(&format!("data-figure=\"{}\"", f.name))
+                && all.contains(&format!("<code>{}</code>", f.name)),
             "{}",
             f.name
         );
     }
-    assert_eq!(st.matches("no tolerance</span>").count(), figures.len());
+    assert_eq!(all.matches("no tolerance</span>").count(), figures.len());
+    assert!(all.contains("ISO 230-4, XY, clockwise: mean radial deviation"));
+    let st = section(&html, "standards");
+    assert!(
+        !st.contains("data-figure="),
+        "no unjudged row in the summary"
+    );
+    let counted: usize = st
+        .split("<span class=\"count\"")
+        .skip(1)
+        .map(|c| {
+            let text = &c[c.find('>').unwrap() + 1..c.find("</span>").unwrap()];
+            text.rsplit(": ").next().unwrap().parse::<usize>().unwrap()
+        })
+        .sum();
+    assert_eq!(counted, figures.len(), "{st}");
+    assert!(st.contains("ISO 230-4, XY: "), "{st}");
+    assert!(section(&html, "decision").contains("No tolerance profile applies"));
+    let appendix = html.find("id=\"appendix\"").unwrap();
+    assert!(
+        html.find("id=\"budget\"").unwrap() > appendix,
+        "unjudged budget rows in the appendix"
+    );
     // The 18 functions drawn or labelled, squareness, identifiability, circles.
     let terms = section(&html, "terms");
     assert_eq!(terms.matches("<svg").count(), 18);
@@ -194,6 +218,54 @@ fn verdicts_and_findings_are_shown_when_given() {
     section(&html, "verdict");
     assert!(html.contains("Finding: backlash (X)"));
     assert!(section(&html, "check").contains("badge verdict pass"));
+    // Page 1: the decision, then the findings and the actions, before the figures.
+    let d = section(&html, "decision");
+    assert!(
+        d.contains("badge verdict pass") && d.contains("1 of 1 limits pass"),
+        "{d}"
+    );
+    assert!(
+        row.contains(&mtcal_solver::names::in_words(&figure.name)),
+        "{row}"
+    );
+    let at = |id: &str| html.find(&format!("id=\"{id}\"")).unwrap();
+    assert!(at("check") < at("decision") && at("decision") < at("findings"));
+    assert!(at("findings") < at("actions") && at("actions") < at("standards"));
+    let actions = section(&html, "actions");
+    assert!(
+        actions.contains("backlash (X)") && actions.contains("backlash compensation"),
+        "{actions}"
+    );
+    // A failing item is listed on the decision, in words, with its action.
+    let tight = mtcal_solver::tolerance::Limits {
+        terms: [(
+            "EXX".to_string(),
+            mtcal_solver::tolerance::TermLimit::range(1e-6),
+        )]
+        .into(),
+        ..Default::default()
+    };
+    let verdict = mtcal_solver::tolerance::evaluate(&tight, &figures, &how);
+    assert_eq!(
+        verdict.items[0].decision,
+        mtcal_solver::tolerance::Decision::Fail
+    );
+    let html = check_report(&CheckReport {
+        doc: &doc,
+        result_id: None,
+        generated_at: "2026-11-25T09:00:00Z",
+        verdict: Some(&verdict),
+        diagnosis: None,
+    })
+    .into_string();
+    let d = section(&html, "decision");
+    assert!(
+        d.contains("data-item=\"EXX\"")
+            && d.contains("X axis: positioning")
+            && d.contains("0 of 1 limits pass"),
+        "{d}"
+    );
+    assert!(section(&html, "actions").contains("X axis: positioning"));
 }
 
 /// The `<tr data-item="…">` row of the budget table.

@@ -196,7 +196,7 @@ fn identification_page_draws_identified_terms_and_only_labels_the_others() {
         html.contains(&format!(r#"href="/api/v1/results/{id}/report""#)),
         "{html}"
     );
-    for f in ["isg", "etalon", "heidenhain", "csv"] {
+    for f in ["isg", "etalon", "heidenhain", "csv", "linuxcnc"] {
         assert!(
             html.contains(&format!(r#"href="/api/v1/results/{id}/export?format={f}""#)),
             "{f}"
