@@ -655,12 +655,15 @@ fn effect_coverage_over_seeds_magnitudes_and_ways() {
                 }
                 // The lack-of-fit test of the model's form (docs/diagnosis.md, "A model
                 // form that does not hold"): a shift at reversal made in the model's own
-                // (sharp) form is reported in every seed, one that settles over 0.5 mm
-                // of travel is set aside as undetermined from 1 µm on in every seed.
+                // (sharp) form is reported in every seed. One that settles over 0.5 mm of
+                // travel is a clearance taken up over travel, which the model's take-up
+                // (linear over `take_up_mm`) follows within the noise at 1 µm: reported
+                // there, it holds its σ (the rows below); from 3 µm the exponential shape
+                // shows and the form test sets it aside.
                 if *effect == "direction_coupling" {
                     let st = stats.get("shift_um").cloned().unwrap_or_default();
                     let set_aside = st.undetermined > 0 && way == 0;
-                    let kept = st.reported > 0 && way == 1 && m >= 1.0;
+                    let kept = st.reported > 0 && way == 1 && m >= 3.0;
                     if set_aside || kept {
                         failed.push(format!(
                             "{label}: shift reported in {}, undetermined in {} of {found} seeds",

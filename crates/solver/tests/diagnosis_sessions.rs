@@ -626,11 +626,12 @@ fn direction_and_travel(run: &Run, a: usize) -> Vec<(f64, f64)> {
 /// A sideways shift at each X reversal (a carriage that shifts across its guideway when
 /// its drive reverses), made in the test and not by the simulator: the Y error is
 /// c·d·(1 − 2·e^(−s/w)), continuous through each reversal and settling to ±c over
-/// w = 0.5 mm of travel (the candidate's model is an ideal step ±s/2). It is found by its
-/// signature and proven on held-out runs, but its form does not hold on its own support
-/// (fitted within 2 mm of the X reversals the shift differs from the settled one): the
-/// shift, within 20 % of 2c, is set aside as undetermined with the sentence saying so
-/// (docs/diagnosis.md, "A model form that does not hold"), and the finding is possible.
+/// w = 0.5 mm of travel. The candidate's clearance is taken up linearly over a travel
+/// the data choose (`take_up_mm`): it is found by its signature, proven on held-out
+/// runs, with the shift within 3σ of 2c and a take-up of the order of the settling
+/// (between w and 4w: a linear ramp that follows an exponential over its first 2–3 w).
+/// (Before the take-up, the sharp model's form did not hold near the reversals and the
+/// finding was only possible.)
 #[test]
 fn a_sideways_shift_at_reversal_made_outside_the_simulator_is_found_by_signature() {
     let c = 0.5;
@@ -640,12 +641,8 @@ fn a_sideways_shift_at_reversal_made_outside_the_simulator_is_found_by_signature
         c * d * (1.0 - 2.0 * (-s / 0.5).exp())
     });
     let r = diagnose_session(&session, &DiagnoseOptions::default()).unwrap();
-    assert!(
-        !r.findings.iter().any(|f| f.effect == "direction_coupling"),
-        "{r:#?}"
-    );
     let f = r
-        .possible
+        .findings
         .iter()
         .find(|f| f.effect == "direction_coupling")
         .unwrap_or_else(|| panic!("{r:#?}"));
@@ -656,41 +653,19 @@ fn a_sideways_shift_at_reversal_made_outside_the_simulator_is_found_by_signature
         Some("a Y error that flips with the X direction of travel"),
         "{r:#?}"
     );
-    let shift = f
-        .undetermined
-        .iter()
-        .find(|u| u.name == "shift_um")
-        .unwrap_or_else(|| panic!("{f:#?}"));
-    assert!(close(shift.value.abs(), 2.0 * c, 0.2, 0.0), "{f:#?}");
-    assert!(
-        shift.decide.contains("form does not hold")
-            && shift.decide.contains("within 2 mm of the reversals")
-            && shift.decide.contains("transient across the axis"),
-        "{}",
-        shift.decide
-    );
+    let (shift, sd) = (param(f, "shift_um"), param(f, "std_shift_um"));
+    assert!((shift.abs() - 2.0 * c).abs() <= 3.0 * sd, "{f:#?}");
+    let take_up = param(f, "take_up_mm");
+    assert!((0.5..=2.0).contains(&take_up), "{f:#?}");
     assert!(
         f.heldout_rms_um.after < 0.8 * f.heldout_rms_um.before,
         "{r:#?}"
     );
-    // The misfit stays in the model: the local scan locates it at the X reversals, on
-    // the circles near the X extremes.
-    assert_eq!(r.verdict, Verdict::PartlyExplained, "{r:#?}");
-    let local: Vec<&String> = r
-        .unexplained
-        .iter()
-        .filter(|u| u.starts_with("local anomaly"))
-        .collect();
-    assert!(!local.is_empty(), "{r:#?}");
-    for u in local {
-        let x: f64 = u
-            .split("X = ")
-            .nth(1)
-            .and_then(|s| s.split(' ').next())
-            .and_then(|s| s.parse().ok())
-            .unwrap_or_else(|| panic!("{u}"));
-        assert!(x.abs() > 48.0 && u.contains("circle"), "{u}");
-    }
+    assert!(
+        r.possible.iter().all(|p| p.effect != "direction_coupling"),
+        "{r:#?}"
+    );
+    assert_ne!(r.verdict, Verdict::Consistent, "{r:#?}");
     effects::conforms(f).unwrap();
 }
 

@@ -38,11 +38,12 @@ fn run_case(c: &Case) -> Outcome {
             .filter_map(|r| r.t_s.last())
             .fold(0.0, |a: f64, &b| a.max(b));
         eprintln!(
-            "{}: {} samples over {:.2} h\n{:#?}\n{:#?}",
+            "{}: {} samples over {:.2} h\n{:#?}\npossible: {:#?}\n{:#?}",
             c.name,
             session.sample_count(),
             end / 3600.0,
             r.findings,
+            r.possible,
             r.unexplained
         );
     }

@@ -4,7 +4,7 @@
 //!
 //! | effect | columns (along the named axis) | nonlinear |
 //! |---|---|---|
-//! | backlash | −d/2 (d: sign of the axis's last travel) → lost motion b, µm | — |
+//! | backlash | −d/2 (d: sign of the axis's last travel), taken up over the first b of travel after a reversal (from +d/2) → lost motion b, µm | take-up θ = b (fixed point) |
 //! | lost_motion_profile | −d·P_k(s)/2, k = 0..K, s the position on the measured travel → lost motion b(q), µm; k = 1..K alone (its varying part) once the axis's backlash is in the model; the order K chosen by the data (2 … 9) | — |
 //! | servo_lag | −v·10³ → lag τ, s | — |
 //! | reversal_spike | −d·exp(−s/λ) → height h, µm | decay λ, mm |
@@ -18,7 +18,7 @@
 //! | vibration | sin, cos(2π f t) → amplitude, phase | frequency f, Hz |
 //! | waviness (signature) | sin, cos(2π q_a/P) along a direction j ≠ a → amplitude, phase | period P, mm |
 //! | velocity_coupling (signature) | v_a along a direction j ≠ a → coefficient, µm per mm/s | — |
-//! | direction_coupling (signature) | d_a/2 along a direction j ≠ a → shift, µm | — |
+//! | direction_coupling (signature) | d_a/2 along a direction j ≠ a, taken up over the first θ of a's travel after its reversal → shift, µm | take-up θ, mm |
 //! | step (signature) | 1 from time t₀ on along direction j, or a ramp from 0 to 1 over a width w centred on t₀ → size, µm (local to the run holding t₀) | t₀, s; w, s |
 //!
 //! The signature space: for each moving axis a, its direction of travel d_a, position
@@ -97,6 +97,9 @@ pub enum Search {
     None,
     /// Evaluate the joint fit on each value (few values).
     Grid(&'static str, Vec<f64>),
+    /// A play's take-up travel, the play's own width: θ = the fitted lost motion, by
+    /// fixed-point iteration from the sharp switch (θ = 0), kept when it fits better.
+    TakeUp(&'static str),
     /// A step's time: the most significant step of the current residual along the
     /// candidate's direction (the local scan's rule, `diagnosis::local_scan`), refined on
     /// the exact joint fit.
@@ -275,6 +278,12 @@ pub fn search(d: &Design, c: &Candidate) -> Search {
             Search::Grid("lag_s", (0..=n).map(|i| 1.5f64.powi(i)).collect())
         }
         "step" => Search::Step,
+        // A clearance across the axis taken up over its travel: 2 µm to 1 mm.
+        "direction_coupling" => Search::Grid(
+            "take_up_mm",
+            (0..10).map(|i| 0.002 * 2f64.powi(i)).collect(),
+        ),
+        "backlash" => Search::TakeUp("take_up_um"),
         "vibration" => {
             let (span, nyq, run_len) = time_band(d);
             Search::Periodic {
@@ -415,10 +424,21 @@ pub fn specs<'a>(
     let one = |name: &str, axis: Axis| (vec![name.to_string()], vec![Some(axis)]);
     match c.effect {
         "backlash" => {
+            // A play of width b: −d·b/2 once taken up; over the first θ of travel after
+            // a reversal it is taken up, +d·b/2 − d·s (θ = b, µm: [`Search::TakeUp`]).
             let a = c.axis.expect("axis");
             let (n, ax) = one("lost_motion_um", a);
-            let dir = &d.fields.dir[a.index()];
-            Columns::new(n, ax, move |s, _, o| o[0] = -0.5 * dir[s]).following(a)
+            let i = a.index();
+            let (dir, travel) = (&d.fields.dir[i], &d.fields.play_travel_mm[i]);
+            let w = theta * 1e-3;
+            Columns::new(n, ax, move |s, _, o| {
+                o[0] = if w > 0.0 {
+                    play(travel[s], w)
+                } else {
+                    -0.5 * dir[s]
+                }
+            })
+            .following(a)
         }
         "lost_motion_profile" | "lost_motion_variation" => {
             // Lost motion varying along the travel: −d·P_k(s)/2 on the measured travel
@@ -506,11 +526,12 @@ pub fn specs<'a>(
             Columns::new(n, ax, move |s, _, o| o[0] = vel[s])
         }
         "direction_coupling" => {
-            // Across a, +s/2 while a last travelled toward + and −s/2 toward −.
+            // Across a, +s/2 while a last travelled toward + and −s/2 toward −, the
+            // clearance taken up over the first θ mm of a's travel after its reversal.
             let (a, dir) = (c.axis.expect("axis"), c.direction.expect("direction"));
             let (n, ax) = one("shift_um", dir);
-            let travel = &d.fields.dir[a.index()];
-            Columns::new(n, ax, move |s, _, o| o[0] = 0.5 * travel[s]).following(a)
+            let travel = &d.fields.play_travel_mm[a.index()];
+            Columns::new(n, ax, move |s, _, o| o[0] = -play(travel[s], theta)).following(a)
         }
         "step" => {
             // +1 from time θ on along the direction: the reading's offset after − before;
@@ -735,6 +756,24 @@ pub fn split<'a>(
     });
     cols.follows = follows;
     Some(cols)
+}
+
+/// The shape of a play's error per unit width along the last travel's sign d, at travel
+/// `s` since the reversal when it is taken up over `w` (mm, 0: at once): −1/2 once taken
+/// up, from +1/2 at the reversal linearly to it over w.
+pub fn take_up(s: f64, w: f64) -> f64 {
+    if w > 0.0 && s < w { 0.5 - s / w } else { -0.5 }
+}
+
+/// A play's error per unit width at the signed travel `travel` since the axis turned
+/// ([`super::design::SampleFields::play_travel_mm`]), taken up over `w` mm: d·[`take_up`];
+/// 0 for an axis that has not moved.
+pub fn play(travel: f64, w: f64) -> f64 {
+    if travel == 0.0 {
+        0.0
+    } else {
+        travel.signum() * take_up(travel.abs(), w)
+    }
 }
 
 /// Columns of a candidate at nonlinear value `theta` as full-length vectors, centred per

@@ -42,6 +42,12 @@ pub struct SampleFields {
     pub dir: [Vec<f64>; 3],
     /// Travel since the last reversal of each axis (mm; infinite before one).
     pub since_reversal_mm: [Vec<f64>; 3],
+    /// What a play of each axis follows: the travel since the axis last turned (mm,
+    /// infinite before a turn), signed by the direction of that travel. A turn between
+    /// two samples of a smooth motion (a circle's quadrant) is at the vertex of the
+    /// parabola through the samples around it ([`turn_beyond`]), and a sample already
+    /// past it travels the new way; elsewhere the same as `dir`·`since_reversal_mm`.
+    pub play_travel_mm: [Vec<f64>; 3],
     /// The logged temperature, smoothed ([`super::temperature::Smoother`]), minus its
     /// smoothed value at the session's first sample (K), when every run logs `temp_c`.
     pub temp_k: Option<Vec<f64>>,
@@ -58,6 +64,7 @@ impl SampleFields {
             vel_ends_mm_s: axes(),
             dir: axes(),
             since_reversal_mm: axes(),
+            play_travel_mm: axes(),
             temp_k: temperature.then(|| Vec::with_capacity(n)),
         }
     }
@@ -314,6 +321,32 @@ pub fn velocity_at_ends(t: &[f64], q: &[[f64; 3]], i: usize) -> ([f64; 3], [f64;
     (both.map(|x| x.0), both.map(|x| x.1))
 }
 
+/// At sample `i`, the first after a reversal of axis `a` within a smooth motion (the axis
+/// moving on both sides of sample i − 1, as around a circle): the turn is the vertex of
+/// the parabola through samples i − 2, i − 1, i, when it lies between them. Returns how
+/// far from sample i − 1 the axis turned (mm) and whether sample i − 1 is already past
+/// the turn (a set-point that still moves the old way from i − 2 to i − 1 can be). (0,
+/// false) where the axis stopped to reverse (a line's end, at rest) or the samples do not
+/// bracket a turn: the reversal is then at the sample.
+fn turn_beyond(t: &[f64], q: &[[f64; 3]], i: usize, a: usize) -> (f64, bool) {
+    if i < 2 {
+        return (0.0, false);
+    }
+    let (t0, t1, t2) = (t[i - 2], t[i - 1], t[i]);
+    let (x0, x1, x2) = (q[i - 2][a], q[i - 1][a], q[i][a]);
+    if (x1 - x0) * (x2 - x1) >= 0.0 || t1 <= t0 || t2 <= t1 {
+        return (0.0, false);
+    }
+    let (f01, f12) = ((x1 - x0) / (t1 - t0), (x2 - x1) / (t2 - t1));
+    let f012 = (f12 - f01) / (t2 - t0);
+    let ts = 0.5 * (t0 + t1) - f01 / (2.0 * f012);
+    if !(t0..=t2).contains(&ts) {
+        return (0.0, false);
+    }
+    let top = x0 + f01 * (ts - t0) + f012 * (ts - t0) * (ts - t1);
+    ((top - x1).abs(), ts < t1)
+}
+
 /// Builds the design of `session` with error functions of polynomial order `order`.
 pub fn build(session: &Session, topology: &Topology, order: usize) -> Result<Design, SolverError> {
     topology.validate().map_err(SolverError::InvalidInput)?;
@@ -347,6 +380,9 @@ pub fn build(session: &Session, topology: &Topology, order: usize) -> Result<Des
             dir: first_moves(p.runs.iter().flat_map(|r| &r.pos_mm)).map(|s| -s),
             since_reversal_mm: [f64::INFINITY; 3],
         });
+        // Per axis, how far beyond the last sample before its last reversal the axis
+        // turned (mm).
+        let mut beyond = [0.0; 3];
         let mut counts: std::collections::HashMap<TestKind, usize> = Default::default();
         for run in &p.runs {
             if run.len() < 3 {
@@ -363,7 +399,19 @@ pub fn build(session: &Session, topology: &Topology, order: usize) -> Result<Des
             for i in 0..run.len() {
                 let q = run.pos_mm[i];
                 let st = state.get_or_insert_with(|| DriveState::at(q));
+                let before = st.dir;
                 st.move_to(q);
+                for a in 0..3 {
+                    if st.dir[a] != before[a] && before[a] != 0.0 {
+                        let (b, past) = turn_beyond(&run.t_s, &run.pos_mm, i, a);
+                        beyond[a] = b;
+                        if past {
+                            // The sample before, already past the turn.
+                            let k = f.len() - 1;
+                            f.play_travel_mm[a][k] = st.dir[a] * b;
+                        }
+                    }
+                }
                 let (vel, ends) = velocity_at_ends(&run.t_s, &run.pos_mm, i);
                 f.run_idx.push(run_idx);
                 f.t_s.push(run.t_s[i]);
@@ -373,6 +421,11 @@ pub fn build(session: &Session, topology: &Topology, order: usize) -> Result<Des
                     f.vel_ends_mm_s[a].push(ends[a]);
                     f.dir[a].push(st.dir[a]);
                     f.since_reversal_mm[a].push(st.since_reversal_mm[a]);
+                    f.play_travel_mm[a].push(if st.dir[a] == 0.0 {
+                        0.0
+                    } else {
+                        st.dir[a] * (st.since_reversal_mm[a] + beyond[a])
+                    });
                 }
                 if let (Some(t), Some(t0), Some(temp)) =
                     (f.temp_k.as_mut(), temp0, run.temp_c.as_ref())

@@ -373,11 +373,18 @@ pub const EFFECTS: &[EffectSpec] = &[
     EffectSpec {
         name: "direction_coupling",
         physics: "an error across one axis that flips with that axis's direction of travel (clearance of a guideway or gib: the carriage shifts or tilts sideways when its drive reverses); a static geometric model has no direction (found by its signature, outside the named catalogue)",
-        params: &[p(
-            "shift_um",
-            "um",
-            "s: error along the named direction = +s/2 while the moving axis last travelled toward +, -s/2 toward -",
-        )],
+        params: &[
+            p(
+                "shift_um",
+                "um",
+                "s: error along the named direction = +s/2 while the moving axis last travelled toward +, -s/2 toward -",
+            ),
+            q(
+                "take_up_mm",
+                "mm",
+                "the travel of the moving axis after its reversal over which the shift is taken up, linearly from -s/2 to +s/2 (or back)",
+            ),
+        ],
         principal: &["shift_um"],
         any_of: false,
         decide: "more reversals of the axis, on circles (line passes show a constant shift as a run offset)",

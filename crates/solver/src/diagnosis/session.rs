@@ -561,7 +561,7 @@ pub fn diagnose_session_with_progress(
     let total_excess: f64 = f.resid.iter().map(|r| r * r - floor * floor).sum();
     // Listed as places when they are one-off events (in a few runs); anomalies in many
     // runs are the recurring misfit the other places describe.
-    let one_off = rigid_anomalies.len() <= anomalies::MAX_ONE_OFF;
+    let one_off = anomalies::events(&rigid_anomalies) <= anomalies::MAX_ONE_OFF;
     mismatch.extend(
         rigid_anomalies
             .iter()
@@ -627,13 +627,13 @@ pub fn diagnose_session_with_progress(
         at_noise && final_anomalies.is_empty(),
         findings.len(),
     );
-    let found = final_anomalies.len();
+    let (found, events) = (final_anomalies.len(), anomalies::events(&final_anomalies));
     let mut unexplained: Vec<String> = final_anomalies
         .iter()
         .take(6)
         .map(|a| {
-            let how = if found > anomalies::MAX_ONE_OFF {
-                format!("; {found} such anomalies: a misfit that recurs")
+            let how = if events > anomalies::MAX_ONE_OFF {
+                format!("; {found} such anomalies in {events} runs: a misfit that recurs")
             } else {
                 String::new()
             };

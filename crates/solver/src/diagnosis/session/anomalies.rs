@@ -101,10 +101,20 @@ pub(crate) fn scan(d: &Design, r: &[f64], sigma: f64) -> Vec<Located> {
         .collect()
 }
 
-/// At most this many anomalies in a session are one-off events (a slip, a knock); more
-/// are a misfit that recurs (at every reversal, every pass), which the places of the
-/// misfit describe.
+/// At most this many events in a session are one-off (a slip, a knock); more are a
+/// misfit that recurs (at every reversal, every pass), which the places of the misfit
+/// describe. An event is the anomalies of one run ([`events`]).
 pub(crate) const MAX_ONE_OFF: usize = 2;
+
+/// The number of events among `found`: anomalies in one run, along either reading
+/// direction, are one event (a knock that decays is a step, a burst and an excursion
+/// of one run); a misfit recurs across runs.
+pub(crate) fn events(found: &[Located]) -> usize {
+    let mut runs: Vec<usize> = found.iter().map(|a| a.run).collect();
+    runs.sort_unstable();
+    runs.dedup();
+    runs.len()
+}
 
 /// `file run N (test)`: the run of a sample.
 pub(crate) fn run_name(d: &Design, g: usize) -> String {

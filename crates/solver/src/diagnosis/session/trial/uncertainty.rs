@@ -90,6 +90,10 @@ impl Ctx<'_> {
     /// refit loses a column or θ is a step's time (a place between two samples).
     pub fn coef_slope(&self, s: &State, t: &Trial) -> Option<Vec<f64>> {
         let (name, th) = t.theta?;
+        if name == "take_up_um" {
+            // Not a free parameter: the play's width, b itself.
+            return None;
+        }
         if name == "time_s" {
             return None;
         }
@@ -239,6 +243,10 @@ impl Ctx<'_> {
         width_sd: Option<f64>,
     ) -> Option<(&'static str, f64)> {
         let (name, th) = t.theta?;
+        if name == "take_up_um" {
+            // Not a free parameter: the play's width, b itself.
+            return None;
+        }
         if name == "time_s" {
             return Some((name, self.step_time_std(s, t, sigma, width_sd)));
         }
