@@ -1,4 +1,6 @@
-//! The module import graph of every crate has no cycles: data flows one way.
+//! The module import graph of every crate has no cycles: data flows one way. The
+//! client's dependency tree holds neither the server nor the store. No source file or
+//! function is too long (at the end of this file).
 //!
 //! Each crate's modules (`src/a.rs`, `src/a/b.rs`, `src/a/b/mod.rs`) are grouped two
 //! levels deep (`a::b`); a module imports another when its text names it by a `crate::`
@@ -318,4 +320,163 @@ fn the_client_links_neither_http_server_nor_database() {
             "the server's tree lacks {b}: {server:?}"
         );
     }
+}
+
+// Sizes a reader can hold: no source file over MAX_FILE_LINES lines and no function over
+// MAX_FN_LINES lines, across `crates/*/src` and `src/`. A function's lines run from its
+// `fn` keyword to its closing brace (its documentation and attributes not counted);
+// functions nested in others, methods and trait methods with a body count alike. A long
+// function is split into named steps; none may be too long but those listed in
+// KNOWN_LONG, which are being split.
+
+/// Functions over [`MAX_FN_LINES`] lines that exist and are being split (file, name).
+/// A function found too long must be one of these; remove an entry once its function
+/// is split.
+const KNOWN_LONG: &[(&str, &str)] = &[
+    ("crates/solver/src/diagnosis/catalogue.rs", "specs"),
+    ("crates/solver/src/diagnosis/locate.rs", "locate"),
+    (
+        "crates/solver/src/diagnosis/series/drift.rs",
+        "analyse_channel",
+    ),
+    (
+        "crates/solver/src/diagnosis/series/drift.rs",
+        "diagnose_drift_log_with_progress",
+    ),
+    (
+        "crates/solver/src/diagnosis/series/positioning/report.rs",
+        "plots",
+    ),
+    (
+        "crates/solver/src/diagnosis/session.rs",
+        "diagnose_session_with_progress",
+    ),
+    ("crates/server/src/web/pages.rs", "machine"),
+    ("crates/solver/src/simulate.rs", "simulate"),
+    ("crates/solver/src/sensitivity.rs", "analyse"),
+    ("crates/solver/src/standards/iso230_2.rs", "evaluate_all"),
+];
+
+/// Longest source file, lines.
+const MAX_FILE_LINES: usize = 1000;
+/// Longest function, lines.
+const MAX_FN_LINES: usize = 150;
+
+/// Every function of a file with a body: (first line, name, lines).
+struct Functions(Vec<(usize, String, usize)>);
+
+impl Functions {
+    fn add(&mut self, sig: &syn::Signature, body: &syn::Block) {
+        let (first, last) = (
+            sig.fn_token.span.start().line,
+            syn::spanned::Spanned::span(body).end().line,
+        );
+        self.0
+            .push((first, sig.ident.to_string(), last + 1 - first));
+    }
+}
+
+impl<'ast> syn::visit::Visit<'ast> for Functions {
+    fn visit_item_fn(&mut self, f: &'ast syn::ItemFn) {
+        self.add(&f.sig, &f.block);
+        syn::visit::visit_item_fn(self, f);
+    }
+    fn visit_impl_item_fn(&mut self, f: &'ast syn::ImplItemFn) {
+        self.add(&f.sig, &f.block);
+        syn::visit::visit_impl_item_fn(self, f);
+    }
+    fn visit_trait_item_fn(&mut self, f: &'ast syn::TraitItemFn) {
+        if let Some(body) = &f.default {
+            self.add(&f.sig, body);
+        }
+        syn::visit::visit_trait_item_fn(self, f);
+    }
+}
+
+/// What is too long in the source `text` of `name`, one line each: the file, and each
+/// function as `name:line: fn f has n lines`.
+fn too_long(name: &str, text: &str) -> Vec<String> {
+    let mut found = vec![];
+    let lines = text.lines().count();
+    if lines > MAX_FILE_LINES {
+        found.push(format!("{name}: {lines} lines (at most {MAX_FILE_LINES})"));
+    }
+    let file = syn::parse_file(text).unwrap_or_else(|e| panic!("{name} parses: {e}"));
+    let mut fns = Functions(vec![]);
+    syn::visit::Visit::visit_file(&mut fns, &file);
+    for (line, f, n) in fns.0 {
+        if n > MAX_FN_LINES {
+            found.push(format!(
+                "{name}:{line}: fn {f} has {n} lines (at most {MAX_FN_LINES})"
+            ));
+        }
+    }
+    found
+}
+
+#[test]
+fn no_file_or_function_is_too_long() {
+    let root = Path::new(env!("CARGO_MANIFEST_DIR"));
+    let mut files = vec![];
+    rs_files(&root.join("src"), &mut files);
+    for e in std::fs::read_dir(root.join("crates")).expect("crates/ reads") {
+        let src = e.expect("an entry reads").path().join("src");
+        if src.is_dir() {
+            rs_files(&src, &mut files);
+        }
+    }
+    assert!(files.len() > 100, "only {} source files found", files.len());
+    files.sort();
+    let found: Vec<String> = files
+        .iter()
+        .flat_map(|f| {
+            let text = std::fs::read_to_string(f).expect("a source file reads");
+            let name = f.strip_prefix(root).unwrap_or(f).display().to_string();
+            too_long(&name, &text)
+        })
+        .collect();
+    let is_known = |line: &str, (file, f): &(&str, &str)| {
+        line.starts_with(&format!("{file}:")) && line.contains(&format!(": fn {f} has "))
+    };
+    let new: Vec<&str> = found
+        .iter()
+        .map(String::as_str)
+        .filter(|l| !KNOWN_LONG.iter().any(|k| is_known(l, k)))
+        .collect();
+    assert!(new.is_empty(), "too long:\n{}", new.join("\n"));
+}
+
+/// A function of `n` lines from `fn` to its closing brace, preceded by documentation.
+fn function(name: &str, n: usize) -> String {
+    let mut s = format!("/// Documented.\n#[inline]\npub fn {name}() -> u32 {{\n");
+    for i in 0..n - 3 {
+        s.push_str(&format!("    let _x{i} = {i};\n"));
+    }
+    s.push_str("    0\n}\n");
+    assert_eq!(s.lines().count(), n + 2);
+    s
+}
+
+/// The checker counts a function's lines as stated (150 pass, 151 do not; methods and
+/// nested functions too) and a file's lines (1000 pass, 1001 do not).
+#[test]
+fn the_checker_counts_as_stated() {
+    let ok = function("fits", 150);
+    assert!(too_long("ok.rs", &ok).is_empty());
+    let long = too_long("long.rs", &function("long", 151));
+    assert_eq!(long, ["long.rs:3: fn long has 151 lines (at most 150)"]);
+    let method = format!("struct S;\nimpl S {{\n{}}}\n", function("m", 151));
+    assert_eq!(too_long("m.rs", &method).len(), 1);
+    let nested = format!("fn outer() {{\n{}}}\n", function("inner", 151));
+    let found = too_long("n.rs", &nested);
+    assert!(
+        found.iter().any(|f| f.contains("fn inner has 151")),
+        "{found:?}"
+    );
+    let file = |n: usize| "// a line\n".repeat(n);
+    assert!(too_long("a.rs", &file(1000)).is_empty());
+    assert_eq!(
+        too_long("b.rs", &file(1001)),
+        ["b.rs: 1001 lines (at most 1000)"]
+    );
 }

@@ -143,6 +143,17 @@ fn opt(v: Option<f64>, prec: usize) -> String {
 /// The human summary: per-pose table, A axis, model choice, location errors, compensation.
 pub fn summary(r: &CradleResult) -> String {
     let mut s = String::new();
+    write_poses(&mut s, r);
+    write_model(&mut s, r);
+    if let Some(sep) = &r.kinematics.separability {
+        write_separability(&mut s, sep);
+    }
+    write_location(&mut s, r);
+    s
+}
+
+/// The check's points and poses, the A axis, and the rotation vectors per A pose.
+fn write_poses(s: &mut String, r: &CradleResult) {
     let _ = writeln!(
         s,
         "cradle check: {} points, {} A poses (machine {}), reference pose A = {}°",
@@ -187,6 +198,10 @@ pub fn summary(r: &CradleResult) -> String {
             p.rotation_phase.std_urad
         );
     }
+}
+
+/// The instrument frame, the model chosen with its parameters, and its rivals.
+fn write_model(s: &mut String, r: &CradleResult) {
     let g = &r.registration;
     let _ = writeln!(
         s,
@@ -232,41 +247,48 @@ pub fn summary(r: &CradleResult) -> String {
     for rival in &k.rivals {
         let _ = writeln!(s, "  {}", rival.statement);
     }
-    if let Some(sep) = &k.separability {
-        let _ = writeln!(
-            s,
-            "\nwhat the ball data can separate (first-order Jacobian of the chosen model: rank {} of {}):",
-            sep.rank, sep.n_params
-        );
-        for t in &sep.terms {
-            let sets: Vec<String> = t
-                .confounded_with
-                .iter()
-                .map(|set| {
-                    set.iter()
-                        .map(|t| t.describe())
-                        .collect::<Vec<_>>()
-                        .join(" + ")
-                })
-                .collect();
-            let verdict = match (t.in_model, t.separable, sets.is_empty()) {
-                (true, true, true) => "in the model, separable".to_string(),
-                (true, true, false) => format!(
-                    "in the model, separable; not with {}",
-                    sets.join(", nor with ")
-                ),
-                (false, true, _) => "separable if added".to_string(),
-                (_, false, true) => "not separable".to_string(),
-                (_, false, false) => format!("not separable from {}", sets.join(", ")),
-            };
-            let why = if t.why.is_empty() {
-                String::new()
-            } else {
-                format!(" ({})", t.why)
-            };
-            let _ = writeln!(s, "  {}: {verdict}{why}", t.description);
-        }
+}
+
+/// What the ball data can separate.
+fn write_separability(s: &mut String, sep: &mtcal_solver::cradle::SeparabilityReport) {
+    let _ = writeln!(
+        s,
+        "\nwhat the ball data can separate (first-order Jacobian of the chosen model: rank {} of {}):",
+        sep.rank, sep.n_params
+    );
+    for t in &sep.terms {
+        let sets: Vec<String> = t
+            .confounded_with
+            .iter()
+            .map(|set| {
+                set.iter()
+                    .map(|t| t.describe())
+                    .collect::<Vec<_>>()
+                    .join(" + ")
+            })
+            .collect();
+        let verdict = match (t.in_model, t.separable, sets.is_empty()) {
+            (true, true, true) => "in the model, separable".to_string(),
+            (true, true, false) => format!(
+                "in the model, separable; not with {}",
+                sets.join(", nor with ")
+            ),
+            (false, true, _) => "separable if added".to_string(),
+            (_, false, true) => "not separable".to_string(),
+            (_, false, false) => format!("not separable from {}", sets.join(", ")),
+        };
+        let why = if t.why.is_empty() {
+            String::new()
+        } else {
+            format!(" ({})", t.why)
+        };
+        let _ = writeln!(s, "  {}: {verdict}{why}", t.description);
     }
+}
+
+/// The location errors, the ball, the compensation and the notes.
+fn write_location(s: &mut String, r: &CradleResult) {
+    let k = &r.kinematics;
     let _ = writeln!(s, "\nlocation errors (ISO 230-7):");
     for e in &r.location_errors {
         let _ = writeln!(
@@ -299,7 +321,6 @@ pub fn summary(r: &CradleResult) -> String {
     for n in &r.notes {
         let _ = writeln!(s, "note: {n}");
     }
-    s
 }
 
 #[cfg(test)]

@@ -181,9 +181,46 @@ async fn demo(args: Args, db: PathBuf, temporary: bool) -> anyhow::Result<ExitCo
     let store = mtcal_store::open(&db_url).await?;
     let (_, key) = store.create_key(mtcal_store::Scope::Admin, "demo").await?;
     drop(store);
-    let serve = super::serve::Args {
+    let (server, addr) = start(serve_args(db_url, args.listen)).await?;
+    let base = format!("http://{addr}");
+    let c = Client::new(&base, &key);
+    let work = tempfile_dir(&db)?;
+    c.create_tolerance(&tag_profile()).await?;
+    let mut jobs = seed_fleet(&c, &work, &args).await?;
+    jobs.extend(more_checks(&c, &work, args.machines, args.checks).await?);
+    let _ = std::fs::remove_dir_all(&work);
+    super::out::noteln!("running {} jobs …", jobs.len());
+    let (ok, failed, waited) = run_jobs(&c, jobs, args.machines > 0).await?;
+    let mut lines = vec![format!(
+        "mtcal demo: {} machines, {ok}/{waited} jobs succeeded",
+        args.machines + usize::from(args.machines > 0) + 1,
+    )];
+    lines.extend(failed.iter().take(3).map(|f| format!("  failed {f}")));
+    // The fragment signs the browser in (the page script reads it; it is never sent).
+    let dashboard = format!("{base}/signin#key={key}");
+    lines.extend(addresses(&base, &dashboard, &key, &db, temporary));
+    super::out::announce(&lines.join("\n"));
+    if args.exit {
+        server.abort();
+        return Ok(if failed.is_empty() {
+            ExitCode::SUCCESS
+        } else {
+            ExitCode::from(1)
+        });
+    }
+    if !args.no_browser {
+        open_browser(&dashboard);
+    }
+    super::out::announce("serving; Ctrl-C to stop");
+    server.await??;
+    Ok(ExitCode::SUCCESS)
+}
+
+/// The settings of the demo's service on database `db_url`, listening on `listen`.
+fn serve_args(db_url: String, listen: SocketAddr) -> super::serve::Args {
+    super::serve::Args {
         worker: super::serve::WorkerArgs {
-            db: db_url.clone(),
+            db: db_url,
             db_pool: None,
             db_timeout_ms: 3000,
             webhook_allow: Default::default(),
@@ -197,14 +234,21 @@ async fn demo(args: Args, db: PathBuf, temporary: bool) -> anyhow::Result<ExitCo
             job_timeout_seconds: 3600,
             log_format: super::serve::LogFormat::Text,
         },
-        listen: args.listen,
+        listen,
         no_worker: false,
         cookie_secure: false,
         min_upload_rate: mtcal_server::Settings::MIN_UPLOAD_RATE,
         upload_grace_seconds: 10,
         upload_slot_seconds: mtcal_server::Settings::UPLOAD_SLOT_TIME.as_secs(),
         header_timeout_seconds: 10,
-    };
+    }
+}
+
+/// Starts the service in the background; its task and the address it listens on.
+async fn start(
+    serve: super::serve::Args,
+) -> anyhow::Result<(tokio::task::JoinHandle<anyhow::Result<()>>, SocketAddr)> {
+    let listen = serve.listen;
     let (tx, rx) = tokio::sync::oneshot::channel();
     let server = tokio::spawn(mtcal_server::serve(
         serve.config(),
@@ -222,14 +266,16 @@ async fn demo(args: Args, db: PathBuf, temporary: bool) -> anyhow::Result<ExitCo
         };
         return Err(why.context(format!(
             "starting the service on {} (if the address is in use, try --listen 127.0.0.1:0)",
-            args.listen
+            listen
         )));
     };
-    let base = format!("http://{addr}");
-    let c = Client::new(&base, &key);
-    let work = tempfile_dir(&db)?;
+    Ok((server, addr))
+}
+
+/// Registers the demo's machines (every other one at each site) and uploads and submits
+/// their quarterly checks; the jobs submitted.
+async fn seed_fleet(c: &Client, work: &Path, args: &Args) -> anyhow::Result<Vec<String>> {
     let mut jobs = Vec::new();
-    c.create_tolerance(&tag_profile()).await?;
     for m in 0..args.machines {
         let id = format!("VMC-{:04}", m + 1);
         let travel = [-TRAVEL_MM, TRAVEL_MM];
@@ -274,15 +320,21 @@ async fn demo(args: Args, db: PathBuf, temporary: bool) -> anyhow::Result<ExitCo
             jobs.push(job.id);
         }
     }
-    jobs.extend(more_checks(&c, &work, args.machines, args.checks).await?);
-    let _ = std::fs::remove_dir_all(&work);
-    super::out::noteln!("running {} jobs …", jobs.len());
+    Ok(jobs)
+}
+
+/// Waits for `jobs`, then for those the service queued on its own; how many succeeded,
+/// the failures in words, and how many were waited for.
+async fn run_jobs(
+    c: &Client,
+    mut jobs: Vec<String>,
+    expect_diagnosis: bool,
+) -> anyhow::Result<(usize, Vec<String>, usize)> {
     let (mut ok, mut failed) = (0, Vec::new());
     // The jobs submitted, then those the service queued on its own (the diagnosis of a
     // misfit), until none is left queued or running.
     let mut waited = std::collections::HashSet::new();
-    let expect_diagnosis = args.machines > 0;
-    while let Some(j) = next_job(&c, &mut jobs, &waited, expect_diagnosis).await? {
+    while let Some(j) = next_job(c, &mut jobs, &waited, expect_diagnosis).await? {
         waited.insert(j.clone());
         let job = c
             .wait_job(
@@ -301,17 +353,15 @@ async fn demo(args: Args, db: PathBuf, temporary: bool) -> anyhow::Result<ExitCo
             ));
         }
     }
-    let mut lines = vec![format!(
-        "mtcal demo: {} machines, {ok}/{} jobs succeeded",
-        args.machines + usize::from(args.machines > 0) + 1,
-        waited.len()
-    )];
-    lines.extend(failed.iter().take(3).map(|f| format!("  failed {f}")));
-    // The fragment signs the browser in (the page script reads it; it is never sent).
-    let dashboard = format!("{base}/signin#key={key}");
+    Ok((ok, failed, waited.len()))
+}
+
+/// Where the demo's service answers: the dashboard, the database, the key, and curl
+/// lines for the API.
+fn addresses(base: &str, dashboard: &str, key: &str, db: &Path, temporary: bool) -> Vec<String> {
     let curl = format!("curl -H 'Authorization: Bearer {key}'");
     let machine = format!("{base}/api/v1/machines/VMC-0001");
-    lines.extend([
+    vec![
         format!("dashboard:     {dashboard}"),
         format!(
             "database:      {}{}",
@@ -329,22 +379,7 @@ async fn demo(args: Args, db: PathBuf, temporary: bool) -> anyhow::Result<ExitCo
         format!("history:       {curl} {machine}/results"),
         format!("EXX at ±50 mm: {curl} '{machine}/trends/term?term=EXX&at=-50,50'"),
         format!("vs baseline:   {curl} {machine}/results/diff"),
-    ]);
-    super::out::announce(&lines.join("\n"));
-    if args.exit {
-        server.abort();
-        return Ok(if failed.is_empty() {
-            ExitCode::SUCCESS
-        } else {
-            ExitCode::from(1)
-        });
-    }
-    if !args.no_browser {
-        open_browser(&dashboard);
-    }
-    super::out::announce("serving; Ctrl-C to stop");
-    server.await??;
-    Ok(ExitCode::SUCCESS)
+    ]
 }
 
 /// The next job to wait for: one of `jobs` (taken from it), else one the service queued

@@ -165,6 +165,160 @@ async fn ids<'e>(
         .collect()
 }
 
+/// A connection of the backend, inside the fleet page's read snapshot.
+type Conn = <Driver as sqlx::Database>::Connection;
+
+/// The page's machines in order, with their active alerts: the machines with active
+/// alerts first, then the others, walked in the order of an index.
+async fn page_machines(
+    q: &FleetPageQuery,
+    filter: &str,
+    binds: &[String],
+    conn: &mut Conn,
+) -> Result<Vec<(String, i64)>> {
+    let key = fleet_key(q.sort);
+    let offset = usize::try_from(q.offset).unwrap_or(0);
+    let limit = usize::try_from(q.limit).unwrap_or(0);
+    // 1. The machines with active alerts (few: alerts are acknowledged), all of
+    //    those the filter keeps, in the page's order: they come first.
+    let order = match key {
+        Some((k, _)) => format!("f.{k} DESC NULLS LAST, m.id"),
+        None => "m.id".into(),
+    };
+    let alerted = bound(
+        format!(
+            "SELECT m.id AS id, a.n AS n FROM (SELECT machine_id, COUNT(*) AS n \
+             FROM alerts WHERE acknowledged_at IS NULL GROUP BY machine_id) a \
+             JOIN machines m ON m.id = a.machine_id \
+             LEFT JOIN fleet_drift f ON f.machine_id = m.id \
+             WHERE {filter} ORDER BY {order}"
+        ),
+        binds,
+    )
+    .fetch_all(&mut *conn)
+    .await
+    .db()?
+    .iter()
+    .map(|r| Ok((r.text("id")?, r.int("n")?)))
+    .collect::<Result<Vec<_>>>()?;
+    let mut page: Vec<(String, i64)> = alerted.iter().skip(offset).take(limit).cloned().collect();
+    // 2. The others, walked in the order of an index and stopped once the page
+    //    is full (no sort of the whole fleet): those with the sort key, then
+    //    (sorts by a key some machines lack) those without it, by id.
+    let skip = offset.saturating_sub(alerted.len());
+    let need = limit - page.len();
+    if need > 0 {
+        let walk = FleetWalk::new(key, filter);
+        let keyed = ids(walk.keyed(need, skip), binds, &mut *conn).await?;
+        let got = keyed.len();
+        page.extend(keyed.into_iter().map(|id| (id, 0)));
+        if let Some(unkeyed) = &walk.unkeyed
+            && got < need
+        {
+            // The walk ran out: it held `skip + got` machines unless it started
+            // past its end.
+            let walked = if got == 0 && skip > 0 {
+                let n: i64 = bound(walk.count_keyed(), binds)
+                    .fetch_one(&mut *conn)
+                    .await
+                    .db()?
+                    .int("n")?;
+                usize::try_from(n).unwrap_or(0)
+            } else {
+                skip + got
+            };
+            let sql = format!(
+                "{unkeyed} LIMIT {} OFFSET {}",
+                need - got,
+                skip.saturating_sub(walked)
+            );
+            page.extend(
+                ids(sql, binds, &mut *conn)
+                    .await?
+                    .into_iter()
+                    .map(|id| (id, 0)),
+            );
+        }
+    }
+    Ok(page)
+}
+
+/// The machines and the drift rows of the machines `page_ids`, by id.
+async fn page_records(
+    page_ids: &[String],
+    conn: &mut Conn,
+) -> Result<(HashMap<String, Machine>, HashMap<String, FleetDriftRow>)> {
+    let list = (1..=page_ids.len())
+        .map(|i| format!("${i}"))
+        .collect::<Vec<_>>()
+        .join(", ");
+    let (mut machines, mut drifts) = (HashMap::new(), HashMap::new());
+    if !page_ids.is_empty() {
+        let sql = format!("SELECT {MACHINE_COLUMNS} FROM machines WHERE id IN ({list})");
+        for r in bound(sql, page_ids).fetch_all(&mut *conn).await.db()? {
+            let m = rows::machine(&r)?;
+            machines.insert(m.id.clone(), m);
+        }
+        let sql =
+            format!("SELECT {FLEET_DRIFT_COLUMNS} FROM fleet_drift WHERE machine_id IN ({list})");
+        for r in bound(sql, page_ids).fetch_all(&mut *conn).await.db()? {
+            let d = rows::fleet_drift(&r)?;
+            drifts.insert(d.machine_id.clone(), d);
+        }
+    }
+    Ok((machines, drifts))
+}
+
+/// 4. For the machines without a drift row (no identification), `lacking`: each one's
+///    latest result of another kind, one index seek each, in one statement.
+async fn other_checks(lacking: &[String], conn: &mut Conn) -> Result<HashMap<String, LastCheck>> {
+    let mut others = HashMap::new();
+    if !lacking.is_empty() {
+        let sql = (1..=lacking.len())
+            .map(|i| {
+                format!(
+                    "SELECT * FROM (SELECT id, machine_id, kind, measured_at FROM results \
+                     WHERE machine_id = ${i} AND excluded_at IS NULL \
+                     ORDER BY measured_at DESC, created_at DESC, id DESC LIMIT 1) AS r{i}"
+                )
+            })
+            .collect::<Vec<_>>()
+            .join(" UNION ALL ");
+        for r in bound(sql, lacking).fetch_all(&mut *conn).await.db()? {
+            others.insert(
+                r.text("machine_id")?,
+                LastCheck {
+                    result_id: r.text("id")?,
+                    kind: r.text("kind")?,
+                    measured_at: r.text("measured_at")?,
+                },
+            );
+        }
+    }
+    Ok(others)
+}
+
+/// The filters' choices: every site, and every machine's tag list as stored (JSON).
+async fn choices(conn: &mut Conn) -> Result<(Vec<String>, Vec<String>)> {
+    let (mut sites, mut tag_lists) = (Vec::new(), Vec::new());
+    let sql = format!(
+        "{} UNION ALL {}",
+        distinct_machines("site", "site"),
+        distinct_machines("tags", "tags")
+    );
+    for r in sqlx::query(sqlx::AssertSqlSafe(sql))
+        .fetch_all(&mut *conn)
+        .await
+        .db()?
+    {
+        match r.text("col")?.as_str() {
+            "site" => sites.push(r.text("v")?),
+            _ => tag_lists.push(r.text("v")?),
+        }
+    }
+    Ok((sites, tag_lists))
+}
+
 impl Fleet for Backend {
     fn put_fleet_drift<'a>(&'a self, row: &'a FleetDriftRow) -> StoreFuture<'a, bool> {
         Box::pin(async move { upsert_fleet_drift(&self.pool, row).await })
@@ -232,126 +386,20 @@ impl Fleet for Backend {
     fn fleet_page<'a>(&'a self, q: &'a FleetPageQuery) -> StoreFuture<'a, FleetPage> {
         Box::pin(async move {
             let (filter, binds) = fleet_filter(q)?;
-            let key = fleet_key(q.sort);
-            let offset = usize::try_from(q.offset).unwrap_or(0);
-            let limit = usize::try_from(q.limit).unwrap_or(0);
             // One read snapshot: an alert raised or acknowledged between the statements
             // must not show a machine twice or leave it out.
             let mut tx = self.read_snapshot().await?;
-            // 1. The machines with active alerts (few: alerts are acknowledged), all of
-            //    those the filter keeps, in the page's order: they come first.
-            let order = match key {
-                Some((k, _)) => format!("f.{k} DESC NULLS LAST, m.id"),
-                None => "m.id".into(),
-            };
-            let alerted = bound(
-                format!(
-                    "SELECT m.id AS id, a.n AS n FROM (SELECT machine_id, COUNT(*) AS n \
-                     FROM alerts WHERE acknowledged_at IS NULL GROUP BY machine_id) a \
-                     JOIN machines m ON m.id = a.machine_id \
-                     LEFT JOIN fleet_drift f ON f.machine_id = m.id \
-                     WHERE {filter} ORDER BY {order}"
-                ),
-                &binds,
-            )
-            .fetch_all(&mut *tx)
-            .await
-            .db()?
-            .iter()
-            .map(|r| Ok((r.text("id")?, r.int("n")?)))
-            .collect::<Result<Vec<_>>>()?;
-            let mut page: Vec<(String, i64)> =
-                alerted.iter().skip(offset).take(limit).cloned().collect();
-            // 2. The others, walked in the order of an index and stopped once the page
-            //    is full (no sort of the whole fleet): those with the sort key, then
-            //    (sorts by a key some machines lack) those without it, by id.
-            let skip = offset.saturating_sub(alerted.len());
-            let need = limit - page.len();
-            if need > 0 {
-                let walk = FleetWalk::new(key, &filter);
-                let keyed = ids(walk.keyed(need, skip), &binds, &mut *tx).await?;
-                let got = keyed.len();
-                page.extend(keyed.into_iter().map(|id| (id, 0)));
-                if let Some(unkeyed) = &walk.unkeyed
-                    && got < need
-                {
-                    // The walk ran out: it held `skip + got` machines unless it started
-                    // past its end.
-                    let walked = if got == 0 && skip > 0 {
-                        let n: i64 = bound(walk.count_keyed(), &binds)
-                            .fetch_one(&mut *tx)
-                            .await
-                            .db()?
-                            .int("n")?;
-                        usize::try_from(n).unwrap_or(0)
-                    } else {
-                        skip + got
-                    };
-                    let sql = format!(
-                        "{unkeyed} LIMIT {} OFFSET {}",
-                        need - got,
-                        skip.saturating_sub(walked)
-                    );
-                    page.extend(
-                        ids(sql, &binds, &mut *tx)
-                            .await?
-                            .into_iter()
-                            .map(|id| (id, 0)),
-                    );
-                }
-            }
+            let page = page_machines(q, &filter, &binds, &mut tx).await?;
             // 3. Only the page's rows are read whole (a machine's entry is kilobytes), by
             //    id from each table (a join would let a planner scan the drift rows).
             let page_ids: Vec<String> = page.iter().map(|(id, _)| id.clone()).collect();
-            let list = (1..=page.len())
-                .map(|i| format!("${i}"))
-                .collect::<Vec<_>>()
-                .join(", ");
-            let (mut machines, mut drifts) = (HashMap::new(), HashMap::new());
-            if !page.is_empty() {
-                let sql = format!("SELECT {MACHINE_COLUMNS} FROM machines WHERE id IN ({list})");
-                for r in bound(sql, &page_ids).fetch_all(&mut *tx).await.db()? {
-                    let m = rows::machine(&r)?;
-                    machines.insert(m.id.clone(), m);
-                }
-                let sql = format!(
-                    "SELECT {FLEET_DRIFT_COLUMNS} FROM fleet_drift WHERE machine_id IN ({list})"
-                );
-                for r in bound(sql, &page_ids).fetch_all(&mut *tx).await.db()? {
-                    let d = rows::fleet_drift(&r)?;
-                    drifts.insert(d.machine_id.clone(), d);
-                }
-            }
-            // 4. The machines without a drift row (no identification): each one's latest
-            //    result of another kind, one index seek each, in one statement.
+            let (mut machines, mut drifts) = page_records(&page_ids, &mut tx).await?;
             let lacking: Vec<String> = page_ids
                 .iter()
                 .filter(|id| !drifts.contains_key(*id))
                 .cloned()
                 .collect();
-            let mut others = HashMap::new();
-            if !lacking.is_empty() {
-                let sql = (1..=lacking.len())
-                    .map(|i| {
-                        format!(
-                            "SELECT * FROM (SELECT id, machine_id, kind, measured_at FROM results \
-                             WHERE machine_id = ${i} AND excluded_at IS NULL \
-                             ORDER BY measured_at DESC, created_at DESC, id DESC LIMIT 1) AS r{i}"
-                        )
-                    })
-                    .collect::<Vec<_>>()
-                    .join(" UNION ALL ");
-                for r in bound(sql, &lacking).fetch_all(&mut *tx).await.db()? {
-                    others.insert(
-                        r.text("machine_id")?,
-                        LastCheck {
-                            result_id: r.text("id")?,
-                            kind: r.text("kind")?,
-                            measured_at: r.text("measured_at")?,
-                        },
-                    );
-                }
-            }
+            let mut others = other_checks(&lacking, &mut tx).await?;
             let rows = page
                 .into_iter()
                 .filter_map(|(id, active_alerts)| {
@@ -371,22 +419,7 @@ impl Fleet for Backend {
             .await
             .db()?
             .int("n")?;
-            let (mut sites, mut tag_lists) = (Vec::new(), Vec::new());
-            let sql = format!(
-                "{} UNION ALL {}",
-                distinct_machines("site", "site"),
-                distinct_machines("tags", "tags")
-            );
-            for r in sqlx::query(sqlx::AssertSqlSafe(sql))
-                .fetch_all(&mut *tx)
-                .await
-                .db()?
-            {
-                match r.text("col")?.as_str() {
-                    "site" => sites.push(r.text("v")?),
-                    _ => tag_lists.push(r.text("v")?),
-                }
-            }
+            let (mut sites, tag_lists) = choices(&mut tx).await?;
             sites.sort();
             tx.commit().await.db()?;
             let mut tags = Vec::new();
