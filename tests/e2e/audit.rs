@@ -228,7 +228,7 @@ async fn profiles_and_alerts(app: &App, t: &mut Trail<'_>, writer: &str, r1: &st
 
     // An alert acknowledged; again: nothing changes, nothing recorded.
     app.store
-        .raise_alert(&alert("al_1", "M1", &r1), &[])
+        .raise_alert(&alert("al_1", "M1", r1), &[])
         .await
         .unwrap();
     let body = json!({"comment": "re-measured"});
@@ -249,7 +249,7 @@ async fn profiles_and_alerts(app: &App, t: &mut Trail<'_>, writer: &str, r1: &st
         "{after}"
     );
     assert!(
-        after["acknowledged_by"].as_str().unwrap().contains(&writer),
+        after["acknowledged_by"].as_str().unwrap().contains(writer),
         "{after}"
     );
     send(app, &w, Method::POST, "/api/v1/alerts/al_1/ack", Some(body)).await;
