@@ -10,6 +10,7 @@ use maud::{DOCTYPE, Markup, PreEscaped, html};
 
 pub mod alerts;
 pub mod compare;
+pub mod explained;
 pub mod fleet;
 pub mod jobs;
 pub mod machine;
