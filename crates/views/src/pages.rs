@@ -11,6 +11,7 @@ use maud::{DOCTYPE, Markup, PreEscaped, html};
 pub mod alerts;
 pub mod audit;
 pub mod compare;
+pub mod explained;
 pub mod fleet;
 pub mod jobs;
 pub mod machine;

@@ -268,6 +268,7 @@ pub fn identification(v: &IdentificationView) -> Markup {
     let d = v.doc;
     let o = &d.observability;
     html! {
+        (super::explained::section(d))
         section.card #fit {
             h2 { "Fit" }
             dl.facts {
