@@ -467,7 +467,7 @@ pub async fn machine(
                 measured_at: meta.measured_at,
                 doc,
             }),
-        verification: latest_verification(&app, &id).await?,
+        verification: latest_verification(app, &id).await?,
     };
     Ok(html(vmachine::machine_page(&session.viewer(), &page)))
 }
