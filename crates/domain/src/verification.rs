@@ -103,7 +103,7 @@ pub fn verify(before: &[Finding], later: Later<'_>) -> Vec<VerifiedFinding> {
                 as_predicted,
                 statement: format!(
                     "{name}: {was:.2} → {after} (predicted {}){verdict}",
-                    mtcal_solver::text::num(predicted)
+                    mtcal_solver::text::short(predicted)
                 ),
             })
         })
@@ -114,7 +114,7 @@ pub fn verify(before: &[Finding], later: Later<'_>) -> Vec<VerifiedFinding> {
 pub async fn verification(store: &dyn Store, result_id: &str) -> Result<Verification, DomainError> {
     let r = store.get_result(result_id).await?;
     if r.meta.kind != IDENTIFICATION {
-        return Err(DomainError::Invalid(format!(
+        return Err(DomainError::Conflict(format!(
             "result {result_id} is a {} result; checks (identifications) are verified",
             r.meta.kind
         )));

@@ -56,7 +56,7 @@ pub struct ModelCheck {
     /// One sentence saying what was found.
     pub statement: String,
     /// When the check is judged on the explained model (the 21 terms fitted jointly with
-    /// the physics a diagnosis found, `crate::explained`): what that model adds, in words
+    /// the physics a diagnosis found, module explained): what that model adds, in words
     /// (`backlash (X), backlash (Y)`). Absent for the 21-term model alone.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub explained_model: Option<String>,

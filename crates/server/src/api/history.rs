@@ -108,7 +108,7 @@ pub async fn figures(
     responses((status = 200, body = Verification, description = "per finding of the previous check with a predicted residual after compensation \
                                                                   (a backlash: 0): still present or gone at this check, measured against \
                                                                   predicted; empty findings with the reason when there is nothing to verify"),
-              (status = 400, body = ErrorBody, description = "not an identification result"),
+              (status = 409, body = ErrorBody, description = "conflict: not an identification result"),
               (status = 404, body = ErrorBody)))]
 pub async fn verification(
     _key: ReadKey,
