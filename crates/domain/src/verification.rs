@@ -191,13 +191,33 @@ pub async fn verifications(store: &dyn Store, id: &str) -> Result<Vec<Verificati
     store.get_machine(id).await?;
     let list = store.list_results(id, IDENTIFICATION).await?;
     let mut out = Vec::new();
-    for m in list.iter().skip(1).filter(|m| m.excluded.is_none()) {
+    for m in verifiable(&list) {
         let v = verification(store, &m.id).await?;
         if !v.findings.is_empty() {
             out.push(v);
         }
     }
     Ok(out)
+}
+
+/// The last of [`verifications`] of machine `id`, found newest first: a page that shows
+/// only the latest does not verify every check of the machine.
+pub async fn latest(store: &dyn Store, id: &str) -> Result<Option<Verification>, DomainError> {
+    store.get_machine(id).await?;
+    let list = store.list_results(id, IDENTIFICATION).await?;
+    for m in verifiable(&list).rev() {
+        let v = verification(store, &m.id).await?;
+        if !v.findings.is_empty() {
+            return Ok(Some(v));
+        }
+    }
+    Ok(None)
+}
+
+/// The checks of a machine that can be verified (all but its first, none excluded),
+/// oldest first.
+fn verifiable(list: &[ResultMeta]) -> impl DoubleEndedIterator<Item = &ResultMeta> {
+    list.iter().skip(1).filter(|m| m.excluded.is_none())
 }
 
 /// The diagnosis of the recording of check `m`, when one landed and reads.

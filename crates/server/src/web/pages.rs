@@ -478,8 +478,8 @@ async fn latest_verification(
     app: &AppState,
     id: &str,
 ) -> Result<Option<(String, Vec<String>)>, ApiError> {
-    let list = mtcal_domain::verification::verifications(app.store.as_ref(), id).await?;
-    Ok(list.into_iter().last().map(|v| {
+    let latest = mtcal_domain::verification::latest(app.store.as_ref(), id).await?;
+    Ok(latest.map(|v| {
         (
             v.statement,
             v.findings.into_iter().map(|f| f.statement).collect(),
