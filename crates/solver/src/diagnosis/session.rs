@@ -391,7 +391,14 @@ impl super::engine::Greedy for SessionProblem<'_> {
                     .for_each(|(_, v)| *v *= widen);
             }
         }
-        let form = form.filter(|ft| ft.p < FORM_ALPHA);
+        // A servo lag whose places agree within `LAG_FORM_SPREAD` is a lag whatever the
+        // test's p: its second order (the ramps between samples, the acceleration at the
+        // reversals) moves the places by a few per cent, which the σ now carries, while
+        // a lost motion read as a lag differs between them by the feeds' ratio.
+        let form = form.filter(|ft| {
+            ft.p < FORM_ALPHA
+                && !(c.effect == "servo_lag" && ft.relative_spread() <= LAG_FORM_SPREAD)
+        });
         let finding = self.finding_of(t, params, f, None);
         let sorted = match form {
             Some(ft) => effects::form_rejected(finding, &form_sentence(c.effect, &ft)),
@@ -470,6 +477,14 @@ impl super::engine::Greedy for SessionProblem<'_> {
 /// servo lag or a direction coupling whose form holds is set aside with this
 /// probability.
 const FORM_ALPHA: f64 = 1e-3;
+
+/// Largest spread of a servo lag's places relative to the lag
+/// ([`trial::FormTest::relative_spread`]) within which its form holds whatever the
+/// lack-of-fit test says. A lag is read alike on lines and circles (within a few per
+/// cent: the ramps between samples, the acceleration at the reversals); a lost motion
+/// read as a lag differs between them by the feeds' ratio, and by 2–5× near the
+/// reversals at one feed, where the axis slows but the play does not shrink.
+const LAG_FORM_SPREAD: f64 = 0.25;
 
 /// The sentence of an effect whose form does not hold: the coefficient per place, the
 /// test, and what would decide it.

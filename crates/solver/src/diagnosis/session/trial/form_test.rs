@@ -30,18 +30,10 @@ impl FormTest {
     /// the less precise places' σ², which makes the one figure's σ conservative (the
     /// coverage table's sharp direction couplings: z spread 0.7).
     pub fn between_places_variance(&self) -> f64 {
-        let w: Vec<f64> = self.places.iter().map(|p| 1.0 / (p.2 * p.2)).collect();
-        let sw: f64 = w.iter().sum();
+        let (w, sw, mean) = self.weighted_mean();
         if self.places.len() < 2 || !(sw.is_finite() && sw > 0.0) {
             return 0.0;
         }
-        let mean = self
-            .places
-            .iter()
-            .zip(&w)
-            .map(|(p, w)| w * p.1)
-            .sum::<f64>()
-            / sw;
         let q: f64 = self
             .places
             .iter()
@@ -50,6 +42,28 @@ impl FormTest {
             .sum();
         let c = sw - w.iter().map(|w| w * w).sum::<f64>() / sw;
         ((q - (self.places.len() - 1) as f64) / c).max(0.0)
+    }
+
+    /// The places' spread beyond their σ relative to the one coefficient:
+    /// √τ² ([`FormTest::between_places_variance`]) over |x̄|, x̄ the places' mean weighted by
+    /// 1/σᵢ² (infinite where x̄ is 0 or the places are not at hand).
+    pub fn relative_spread(&self) -> f64 {
+        let r = self.between_places_variance().sqrt() / self.weighted_mean().2.abs();
+        if r.is_finite() { r } else { f64::INFINITY }
+    }
+
+    /// The places' weights wᵢ = 1/σᵢ², their sum and the weighted mean x̄.
+    fn weighted_mean(&self) -> (Vec<f64>, f64, f64) {
+        let w: Vec<f64> = self.places.iter().map(|p| 1.0 / (p.2 * p.2)).collect();
+        let sw: f64 = w.iter().sum();
+        let mean = self
+            .places
+            .iter()
+            .zip(&w)
+            .map(|(p, w)| w * p.1)
+            .sum::<f64>()
+            / sw;
+        (w, sw, mean)
     }
 }
 
@@ -115,5 +129,26 @@ mod tests {
         let t = places(&[(3.0, 0.002), (2.99, 0.001), (2.97, 0.001), (2.99, 0.004)]);
         let tau = t.between_places_variance().sqrt();
         assert!(tau > 0.005 && tau < 0.02, "{tau}");
+    }
+
+    /// The spread relative to the weighted mean: a delay read alike on lines and circles
+    /// within 10 % (the ramps' second order) against a lost motion read as a delay, whose
+    /// places differ by the feeds' ratio (lines at 500, circles at 2000 mm/min: 4×).
+    #[test]
+    fn the_relative_spread_tells_a_feed_dependence() {
+        let delay = places(&[
+            (1.001, 0.004),
+            (1.031, 0.008),
+            (1.003, 0.001),
+            (0.893, 0.009),
+        ]);
+        let r = delay.relative_spread();
+        assert!(r > 0.02 && r < 0.1, "{r}");
+        let lost_motion = places(&[(0.36, 0.002), (0.40, 0.004), (0.09, 0.001), (0.6, 0.01)]);
+        assert!(lost_motion.relative_spread() > 0.5);
+        assert_eq!(
+            places(&[(0.0, 0.1), (0.0, 0.1)]).relative_spread(),
+            f64::INFINITY
+        );
     }
 }
