@@ -407,13 +407,23 @@ async fn next_job(
                 return Ok(Some(j.id));
             }
         }
-        let diagnosed =
-            !expect_diagnosis || !c.results(WORN_MACHINE, Some("diagnosis")).await?.is_empty();
+        let diagnosed = !expect_diagnosis || worn_explained(c).await?;
         if diagnosed || std::time::Instant::now() > deadline {
             return Ok(None);
         }
         tokio::time::sleep(Duration::from_millis(200)).await;
     }
+}
+
+/// Whether the worn machine's misfit check has its explained model stored (the service
+/// fits it once the diagnosis it queued lands).
+async fn worn_explained(c: &Client) -> anyhow::Result<bool> {
+    for r in c.results(WORN_MACHINE, Some("identification")).await? {
+        if c.result(&r.id).await?.document.get("explained").is_some() {
+            return Ok(true);
+        }
+    }
+    Ok(false)
 }
 
 /// The profile of every `vmc` machine (docs/api.md, "Tolerances and verdicts"): ranges of
@@ -452,7 +462,8 @@ fn strict_profile() -> serde_json::Value {
 }
 
 /// Demo machine whose latest check was recorded with a 6 µm backlash of X that the rigid
-/// model lacks: its identification is a misfit, the service diagnoses it on its own.
+/// model lacks: its identification is a misfit, the service diagnoses it on its own and
+/// decides it on the explained model.
 const WORN_MACHINE: &str = "VMC-0900";
 
 /// Demo machine with a tilting rotary table (A/C cradle).
@@ -514,9 +525,10 @@ async fn more_checks(
         .await?;
     }
     if machines > 0 {
-        // Two checks of a machine whose X screw has worn: the second with a 6 µm
-        // backlash of X the model lacks; its identification is a misfit, whose diagnosis
-        // the service queues on its own (its findings then reach the fleet row).
+        // Checks of a machine whose X screw has worn: the second with a 6 µm backlash
+        // of X the model lacks; its identification is a misfit, whose diagnosis the
+        // service queues on its own, and the explained model it then fits decides the
+        // check and lists the actions (the backlash compensation to set).
         c.create_machine(&NewMachine {
             id: WORN_MACHINE.into(),
             name: "Vertical machining centre, worn X screw".into(),

@@ -13,6 +13,7 @@ mod cli;
 mod diagnose;
 mod evaluation;
 mod exclusion;
+mod explained;
 mod exports;
 mod fleet;
 mod history;

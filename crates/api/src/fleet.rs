@@ -162,6 +162,11 @@ pub struct FleetEntry {
     /// (null: the model explains it, or the result cannot be checked).
     #[serde(default)]
     pub misfit: Option<mtcal_solver::misfit::ModelCheck>,
+    /// When the latest check is decided on the explained model (the 21 terms fitted
+    /// jointly with the physics its diagnosis found): the gate's statement, which says
+    /// what that model adds (null otherwise).
+    #[serde(default)]
+    pub explained_model: Option<String>,
     /// What the diagnosis of the latest check's recording found (null: none was run).
     #[serde(default)]
     pub diagnosis: Option<DiagnosisSummary>,
@@ -253,6 +258,10 @@ pub struct FleetMachine {
     /// The latest identification's misfit gate when its model does not explain its
     /// recording (its verdicts are then "misfit", not decided; null otherwise).
     pub misfit: Option<mtcal_solver::misfit::ModelCheck>,
+    /// When the latest identification is decided on the explained model: the gate's
+    /// statement, which says what that model adds (null otherwise).
+    #[serde(default)]
+    pub explained_model: Option<String>,
     /// What the diagnosis of the latest identification's recording found (null: none).
     pub diagnosis: Option<DiagnosisSummary>,
     /// The baseline the drift is measured from (its chosen one, else its first

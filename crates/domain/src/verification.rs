@@ -5,7 +5,7 @@
 //! |---|---|
 //! | which checks | a check (identification) and the machine's identification before it in time order (excluded results left out) |
 //! | what is verified | each finding of the earlier check's diagnosis with a prediction after compensation ([`predicted_after`]) |
-//! | measured after | the same effect on the same axis in the later check's diagnosis (a lost-motion profile stands for a backlash and back: their mean lost motion); a later check whose model explains its recording has none of it left (no diagnosis needed) |
+//! | measured after | the same effect on the same axis in the later check's diagnosis (a lost-motion profile stands for a backlash and back: their mean lost motion); a later check whose 21-term model explains its recording has none of it left (no diagnosis needed); a later explained model is read through its diagnosis |
 //! | state | `gone` (not found later), `still_present` (found later), `pending` (the later check's diagnosis has not landed) |
 //! | as predicted | gone, or the measured value within 2 σ (its own standard uncertainty) and 0.5 µm of the prediction |
 //!
@@ -148,10 +148,11 @@ pub async fn verification(store: &dyn Store, result_id: &str) -> Result<Verifica
         );
         return Ok(v);
     };
+    // A misfit, or an explained model (its physics is what is left): read its diagnosis.
     let misfit = serde_json::from_value::<mtcal_solver::identification::IdentificationResult>(
         r.document.clone(),
     )
-    .map(|d| d.model_check().is_misfit())
+    .map(|d| d.model_check().is_misfit() || d.explained.is_some())
     .unwrap_or(true);
     let later_doc = if misfit {
         diagnosis(store, &r.meta).await?

@@ -171,12 +171,7 @@ fn run(input: &JobInput, progress: &mut dyn FnMut(f64, &str)) -> Result<JobOutpu
             let opts = params.options(input.machine.as_ref())?;
             let result = identification::identify(&session, &opts)
                 .map_err(|e| JobError::BadInput(format!("identification: {e}")))?;
-            Ok(JobOutput {
-                document: stored(&result)?,
-                scalars: identification_scalars(&result),
-                figures: figures(&result.standards),
-                measured_at: dataset.measured_at.clone(),
-            })
+            identification_output(&result, dataset)
         }
         JobKind::Sensitivity => {
             let mut req: SensitivityRequest = serde_json::from_value(input.params.clone())
@@ -287,6 +282,52 @@ fn run(input: &JobInput, progress: &mut dyn FnMut(f64, &str)) -> Result<JobOutpu
             "an import job has nothing to run".into(),
         )),
     }
+}
+
+/// An identification result as a job's output (document, scalars, figures).
+fn identification_output(
+    result: &IdentificationResult,
+    dataset: &Dataset,
+) -> Result<JobOutput, JobError> {
+    Ok(JobOutput {
+        document: stored(result)?,
+        scalars: identification_scalars(result),
+        figures: figures(&result.standards),
+        measured_at: dataset.measured_at.clone(),
+    })
+}
+
+/// Which stored results an explained model links: the check of the 21-term model alone
+/// and the diagnosis whose findings it adds (ids).
+#[derive(Debug, Clone, Copy)]
+pub struct ExplainedLink<'a> {
+    pub original: &'a str,
+    pub diagnosis: &'a str,
+}
+
+/// The explained model of an identification's input (`input.params` its identify
+/// parameters, its dataset a session): the 21 terms fitted jointly with the findings of
+/// `diagnosis`, a diagnosis of the same session (`mtcal_solver::explained::explain`),
+/// its document linked to the results of `link`. Blocking.
+pub fn explain(
+    input: &JobInput,
+    diagnosis: &DiagnosisResult,
+    link: ExplainedLink<'_>,
+) -> Result<JobOutput, JobError> {
+    let params: IdentifyParams = serde_json::from_value(input.params.clone())
+        .map_err(|e| JobError::BadInput(format!("params: {e}")))?;
+    let (dataset, data) = load_dataset(input)?;
+    let DatasetData::Session(session) = data else {
+        return Err(wrong_kind(JobKind::Identify, &data));
+    };
+    let opts = params.options(input.machine.as_ref())?;
+    let mut result = mtcal_solver::explained::explain(&session, &opts, diagnosis)
+        .map_err(|e| JobError::BadInput(format!("explained model: {e}")))?;
+    if let Some(m) = &mut result.explained {
+        m.original_result_id = Some(link.original.to_string());
+        m.diagnosis_result_id = Some(link.diagnosis.to_string());
+    }
+    identification_output(&result, dataset)
 }
 
 /// A result as its stored document, refused unless it reads back as its type: a number

@@ -18,6 +18,7 @@ pub mod blocking;
 pub mod contract;
 pub mod edge;
 pub mod error;
+pub mod explain;
 pub mod http;
 pub mod ingest;
 pub mod jobs;

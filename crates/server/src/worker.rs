@@ -396,7 +396,8 @@ async fn record_outcome(
 
 /// What follows a landed result: an identification refreshes the fleet's drift and
 /// alerts and, when its model does not explain its recording, queues its dataset's
-/// diagnosis; a diagnosis refreshes the machine's fleet row.
+/// diagnosis; a diagnosis stores the explained model of the check it explains and
+/// refreshes the machine's fleet row.
 async fn result_landed(store: &Arc<dyn Store>, cfg: &WorkerConfig, job: &Job, j: &Job) {
     if j.state == mtcal_store::JobState::Succeeded
         && job.kind.result_kind() == mtcal_domain::kinds::IDENTIFICATION
@@ -406,7 +407,18 @@ async fn result_landed(store: &Arc<dyn Store>, cfg: &WorkerConfig, job: &Job, j:
     {
         tracing::warn!(machine = %m, %e, "fleet drift or drift alerts not refreshed");
     }
-    // A diagnosis: the machine's fleet row shows its findings.
+    // A diagnosis that explains a check's misfit: the check's explained model is stored
+    // beside it (`crate::explain`); then the machine's fleet row shows its findings.
+    if j.state == mtcal_store::JobState::Succeeded
+        && job.kind.result_kind() == mtcal_domain::kinds::DIAGNOSIS
+        && let Some(r) = &j.result_id
+    {
+        match crate::explain::diagnosis_landed(store, cfg.limits, r).await {
+            Ok(Some(e)) => tracing::info!(diagnosis = %r, result = %e.id, "explained model stored"),
+            Ok(None) => {}
+            Err(e) => tracing::warn!(diagnosis = %r, %e, "the explained model was not made"),
+        }
+    }
     if j.state == mtcal_store::JobState::Succeeded
         && job.kind.result_kind() == mtcal_domain::kinds::DIAGNOSIS
         && let Some(m) = &job.machine_id

@@ -174,6 +174,8 @@ pub fn explain(
         remains,
         predicted_residual_rms_um: predicted_all,
         actions: vec![],
+        original_result_id: None,
+        diagnosis_result_id: None,
     };
     explained.actions = actions::actions(&explained);
     result.model_check = Some(ModelCheck::explained(

@@ -68,7 +68,7 @@ fn machine(
         )),
         (None, None) => None,
     };
-    let (last_check, verdict, summary, baseline, results, drift, sparkline, misfit, diagnosis) =
+    let (last_check, verdict, summary, baseline, results, drift, sparkline, checks, diagnosis) =
         match entry {
             Some(e) => (
                 Some(LastCheck {
@@ -82,11 +82,12 @@ fn machine(
                 e.results,
                 Some(e.drift),
                 e.sparkline,
-                e.misfit,
+                (e.misfit, e.explained_model),
                 e.diagnosis,
             ),
-            None => (other, None, None, None, 0, None, vec![], None, None),
+            None => (other, None, None, None, 0, None, vec![], (None, None), None),
         };
+    let (misfit, explained_model) = checks;
     FleetMachine {
         machine_id: m.id,
         name: m.name,
@@ -99,6 +100,7 @@ fn machine(
         tolerance_profile: applies,
         verdict_summary: summary,
         misfit,
+        explained_model,
         diagnosis,
         baseline_result_id: baseline,
         results,

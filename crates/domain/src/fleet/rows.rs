@@ -34,7 +34,7 @@ use std::collections::HashMap;
 
 /// The format of the rows this version computes: raised whenever what a row holds or how
 /// it is computed changes, so that rows of an older computation are recomputed at start.
-pub const ROW_FORMAT: u32 = 3;
+pub const ROW_FORMAT: u32 = 4;
 
 /// Rows written per transaction by [`refresh_all`].
 const REFRESH_BATCH: usize = 500;
@@ -122,10 +122,14 @@ async fn row(
     // The latest result's document: its misfit gate, and its verdict when a profile
     // applies. A document that cannot be judged leaves the verdict out, never the drift.
     let latest_doc = store.get_result(&latest.id).await?;
-    let misfit = serde_json::from_value::<IdentificationResult>(latest_doc.document.clone())
+    let check = serde_json::from_value::<IdentificationResult>(latest_doc.document.clone())
         .ok()
-        .map(|d| d.model_check())
-        .filter(|c| c.is_misfit());
+        .map(|d| d.model_check());
+    let explained_model = check
+        .as_ref()
+        .filter(|c| c.decided_on_explained_model())
+        .map(|c| c.statement.clone());
+    let misfit = check.filter(|c| c.is_misfit());
     let verdict = match profile {
         Some(_) => crate::verdicts::verdict(store, profiles, machine, &latest_doc)
             .await
@@ -153,6 +157,7 @@ async fn row(
             .map(|(_, v)| crate::fleet::entry::VerdictSummary::of(v)),
         tolerance_profile_id: verdict.map(|(p, _)| p.id),
         misfit,
+        explained_model,
         diagnosis,
         sparkline,
         drift,

@@ -213,6 +213,10 @@ pub struct Compensation {
     /// Set when the table was made although the model does not explain its recording
     /// (forced): the reason, written in the header's [`FORCED`] line.
     pub forced: Option<String>,
+    /// Set when the result is decided on the explained model (the 21 terms fitted jointly
+    /// with the physics a diagnosis found): the gate's statement, written in the header's
+    /// [`EXPLAINED`] line (not read back).
+    pub explained: Option<String>,
     /// Thermal coefficients per kelvin the diagnosis found ([`physics`]).
     pub thermal: Vec<Thermal>,
 }
@@ -250,6 +254,9 @@ impl Compensation {
             )));
         }
         let check = r.model_check();
+        let explained = check
+            .decided_on_explained_model()
+            .then(|| check.statement.clone());
         let forced = match (check.is_misfit(), force) {
             (true, false) => return Err(ExportError::ModelMisfit(check.statement)),
             (true, true) => Some(check.statement),
@@ -259,6 +266,7 @@ impl Compensation {
             machine_id: r.machine_id.clone(),
             measured_at: r.measured_at.clone(),
             forced,
+            explained,
             ..Default::default()
         };
         for axis in Axis::ALL {
@@ -343,6 +351,11 @@ impl Compensation {
                 "machine: {}; measured at: {}",
                 self.machine_id, self.measured_at
             ),
+        ]);
+        if let Some(why) = &self.explained {
+            h.push(format!("{EXPLAINED}{why}"));
+        }
+        h.extend([
             "sign: the values are the machine's errors (ISO 230-1, tool relative to workpiece); \
              compensation = -error"
                 .into(),
@@ -380,6 +393,9 @@ impl Compensation {
         h
     }
 }
+
+/// Start of the header line of a table of a result decided on the explained model.
+pub const EXPLAINED: &str = "model: ";
 
 /// Start of the header line that lists the terms left out (readers look for it).
 pub const NOT_IDENTIFIABLE: &str = "not identifiable, left out: ";

@@ -24,6 +24,7 @@
 use super::Compensation;
 use mtcal_solver::Axis;
 use mtcal_solver::diagnosis::Finding;
+use mtcal_solver::explained::ExplainedModel;
 
 /// A thermal coefficient per kelvin of one axis (or of the recording's one axis).
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -156,6 +157,33 @@ pub fn thermal(findings: &[Finding]) -> Vec<Thermal> {
         }
     }
     out
+}
+
+/// The physics of an explained model as findings (effect, axis and its jointly fitted
+/// parameters with the held ones): what the tables of a result decided on it take their
+/// reversal and thermal coefficients from. The figures a table does not read (residuals,
+/// evidence) are the model's predictions, not the diagnosis's.
+pub fn explained_findings(m: &ExplainedModel) -> Vec<Finding> {
+    m.physics
+        .iter()
+        .map(|p| Finding {
+            effect: p.effect.clone(),
+            axis: p.axis.clone(),
+            depends_on: p.depends_on.clone(),
+            parameters: p
+                .held
+                .iter()
+                .chain(&p.parameters)
+                .map(|(k, v)| (k.clone(), *v))
+                .collect(),
+            physics: String::new(),
+            signature: None,
+            residual_rms_um: p.predicted_rms_um,
+            heldout_rms_um: p.predicted_rms_um,
+            evidence: String::new(),
+            undetermined: vec![],
+        })
+        .collect()
 }
 
 fn axis_named(s: &str) -> Option<Axis> {

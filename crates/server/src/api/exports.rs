@@ -98,6 +98,11 @@ pub async fn export(
             e @ ExportError::NothingIdentifiable(_) => ApiError::NotIdentifiable(e.to_string()),
             e @ ExportError::ModelMisfit(_) => ApiError::ModelMisfit(e.to_string()),
         };
+        // A result of the explained model: its own fitted physics.
+        let findings = match &doc.explained {
+            Some(m) => mtcal_formats::compensation::physics::explained_findings(m),
+            None => findings,
+        };
         let table = Compensation::from_result(&doc, step, force)
             .map_err(refused)?
             .with_findings(&findings);

@@ -202,6 +202,7 @@ pub async fn fleet(
             worst_trend: m.sparkline.iter().map(|v| v.unwrap_or(f64::NAN)).collect(),
             active_alerts: usize::try_from(m.active_alerts).unwrap_or(0),
             misfit: m.misfit.map(|c| c.statement),
+            explained_model: m.explained_model,
             diagnosis: m.diagnosis.map(findings_view),
             machine_id: m.machine_id,
             name: m.name,
@@ -468,6 +469,11 @@ pub async fn machine(
                 doc,
             }),
         verification: latest_verification(app, &id).await?,
+        explained_model: latest
+            .as_ref()
+            .map(|d| d.model_check())
+            .filter(|c| c.explained_model.is_some())
+            .map(|c| c.statement),
     };
     Ok(html(vmachine::machine_page(&session.viewer(), &page)))
 }

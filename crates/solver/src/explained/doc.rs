@@ -36,6 +36,14 @@ pub struct ExplainedModel {
     /// What to do, one action per finding, in words a technician acts on.
     #[serde(default)]
     pub actions: Vec<Action>,
+    /// The service's link to the check this model was fitted for: the stored result of
+    /// the 21-term model alone (kept, excluded from the history as superseded by this
+    /// one). Absent outside the service.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub original_result_id: Option<String>,
+    /// The stored diagnosis whose findings this model adds (absent outside the service).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub diagnosis_result_id: Option<String>,
 }
 
 /// The 21-term model's figures before the physics was added.

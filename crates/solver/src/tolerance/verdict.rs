@@ -204,6 +204,14 @@ pub fn evaluate(limits: &Limits, figures: &Figures, how: &Assessment) -> Verdict
         };
         notes.push(format!("{what} is not included for {whom}: {why}"));
     }
+    // A check decided on the explained model says so first, with what that model adds.
+    if let Some(c) = how
+        .model_check
+        .as_ref()
+        .filter(|c| c.decided_on_explained_model())
+    {
+        notes.insert(0, c.statement.clone());
+    }
     if let Some(c) = how.model_check.as_ref().filter(|c| c.is_misfit()) {
         notes.insert(
             0,
@@ -550,6 +558,37 @@ mod tests {
         };
         assert_eq!(at(2.6), Some(Decision::Fail));
         assert_eq!(at(4.86), Some(Decision::Pass));
+    }
+
+    /// A check decided on the explained model is decided, and its verdict says so first
+    /// with what the model adds; a partly explained one stays not decided.
+    #[test]
+    fn a_check_on_the_explained_model_is_decided_and_says_so() {
+        let limits = Limits {
+            terms: BTreeMap::from([("EXX".into(), TermLimit::range(100.0))]),
+            ..Limits::default()
+        };
+        let on = |explained: bool| Assessment {
+            model_check: Some(ModelCheck::explained(
+                0.15,
+                Some(0.149),
+                "backlash (X)",
+                explained,
+                &["a cyclic error of Y".to_string()],
+            )),
+            ..Assessment::default()
+        };
+        let v = evaluate(&limits, &figures(), &on(true));
+        assert_eq!(v.decision, Some(Decision::Pass));
+        assert!(
+            v.notes[0].starts_with("decided on the explained model")
+                && v.notes[0].contains("backlash (X)"),
+            "{:?}",
+            v.notes
+        );
+        let v = evaluate(&limits, &figures(), &on(false));
+        assert_eq!(v.decision, Some(Decision::Misfit));
+        assert!(v.notes[0].contains("a cyclic error of Y"), "{:?}", v.notes);
     }
 
     #[test]

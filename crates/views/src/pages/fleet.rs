@@ -58,6 +58,9 @@ pub struct FleetRow {
     /// The latest check's misfit gate statement when its model does not explain its
     /// recording (its values are then not decided).
     pub misfit: Option<String>,
+    /// When the latest check is decided on the explained model: the gate's statement
+    /// (what the model adds).
+    pub explained_model: Option<String>,
     /// What the diagnosis of the latest check's recording found.
     pub diagnosis: Option<DiagnosisFindings>,
 }
@@ -154,6 +157,9 @@ fn verdict_cell(r: &FleetRow) -> Markup {
                 span.muted { (m) }
                 @if r.diagnosis.is_none() { div.muted { "diagnosis queued, not landed yet" } }
             }
+        }
+        @if let Some(m) = &r.explained_model {
+            div.explained-note { span.badge.explained { "explained model" } " " span.muted { (m) } }
         }
         @if let Some(d) = &r.diagnosis { (findings(d)) }
     }
@@ -375,6 +381,7 @@ mod tests {
             worst_trend: vec![0.0, 1.0, 4.2],
             active_alerts: alerts,
             misfit: None,
+            explained_model: None,
             diagnosis: None,
         }
     }

@@ -71,6 +71,9 @@ pub struct MachinePage {
     /// sentence and one line per finding (`backlash (X): 5.96 → 0.40 µm after
     /// compensation (predicted 0)`); None when there is nothing to verify.
     pub verification: Option<(String, Vec<String>)>,
+    /// When the latest check is an explained model: its gate's statement ("decided on
+    /// the explained model, … with backlash (X)", or what remains when not decided).
+    pub explained_model: Option<String>,
 }
 
 /// A machine's latest diagnosis as the machine page shows it.
@@ -208,6 +211,9 @@ pub fn machine_page(viewer: &Viewer, p: &MachinePage) -> Markup {
                         Some(t) => { "Verdicts against the tolerance profile of " (t) " (error functions by their range over the measured travel, squareness and ISO figures by magnitude; pass when value + U ≤ limit, fail when value − U > limit, U = 2u; a misfit model is not decided)." }
                         None => { "No tolerance profile applies to this machine (docs/api.md: tolerances)." }
                     }
+                }
+                @if let Some(e) = &p.explained_model {
+                    p #explained-model { span.badge.explained { "explained model" } " latest check: " (e) }
                 }
                 table {
                     thead { tr { th { "measured" } th { "kind" } th { "verdict" } th { "summary" } th {} } }

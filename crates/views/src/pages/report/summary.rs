@@ -1,5 +1,7 @@
 //! The decision part of a check report (its first page): the verdict with the items that
-//! do not pass, named as a person says them, and the actions; and the figures of the
+//! do not pass, named as a person says them, whether it is decided on the explained
+//! model, and the actions (the explained model's, with the numbers to set, when the
+//! check has one); and the figures of the
 //! standards in short (the judged ones listed, the others counted per group). The code
 //! names and every row are in the appendix ([`figures_all`]).
 
@@ -56,6 +58,9 @@ pub(super) fn decision(r: &CheckReport) -> Markup {
                 Some(v) => {
                     @let open: Vec<&VerdictItem> = v.items.iter().filter(|i| i.decision != Decision::Pass).collect();
                     p.decision { (verdict_badge(v.decision.map(|d| d.as_str()))) " " (decision_words(v)) }
+                    @if let Some(c) = v.model_check.as_ref().filter(|c| c.decided_on_explained_model()) {
+                        p.explained #decided-on { "Decided on the explained model: " (c.explained_model.as_deref().unwrap_or_default()) " added to the 21 terms (the actions below)." }
+                    }
                     @if !open.is_empty() {
                         table.items {
                             thead { tr { th { "item" } th { "where" } th.num { "value ± U" } th.num { "limit" } th { "outcome" } } }
@@ -110,11 +115,24 @@ fn finding_advice(effect: &str) -> &'static str {
     }
 }
 
-/// The actions of a check: one per finding of its diagnosis, one per item that fails,
-/// and what would determine what this check could not.
+/// The actions of a check: one per finding (the explained model's, with the number to
+/// set and the residual predicted once it is done; else the diagnosis's, in words), one
+/// per item that fails, and what would determine what this check could not.
 pub fn actions(r: &CheckReport) -> Vec<ReportAction> {
     let mut out = vec![];
-    if let Some(ReportDiagnosis { doc: Ok(doc), .. }) = r.diagnosis {
+    if let Some(m) = &r.doc.explained {
+        for a in &m.actions {
+            out.push(ReportAction {
+                about: a.finding.clone(),
+                text: format!(
+                    "{} (residual RMS {} µm now, {} µm predicted after it)",
+                    a.text,
+                    num(a.predicted_rms_um.before),
+                    num(a.predicted_rms_um.after)
+                ),
+            });
+        }
+    } else if let Some(ReportDiagnosis { doc: Ok(doc), .. }) = r.diagnosis {
         for f in &doc.findings {
             out.push(ReportAction {
                 about: f.name_in_words(),

@@ -1,0 +1,140 @@
+//! The explained model in the service: when a session diagnosis that explains a check's
+//! misfit lands, the check is fitted again as the explained model and stored beside the
+//! original, which every page, route and export then reads in its place
+//! (docs/compensation.md, "The explained model in the service").
+//!
+//! | step | what happens |
+//! |---|---|
+//! | trigger | a `diagnose` job of a session succeeds with verdict `explained` or `partly_explained` |
+//! | which check | the machine's latest identification of the same dataset, not excluded, a misfit, not itself an explained model |
+//! | the fit | [`crate::jobs::explain`]: the 21 terms with the diagnosis's findings, the original job's identify parameters (defaults for an import) |
+//! | stored | a new `identification` result of the same dataset and time (an `import` job), its `explained` naming the original and the diagnosis |
+//! | the original | excluded from the history by [`BY`], the reason naming the new result: kept, readable by id |
+//! | then | what follows any landed check ([`mtcal_domain::landing::result_landed`]): fleet row, drift alerts |
+//!
+//! An `explained` diagnosis whose model leaves the residual at noise level gives a check
+//! decided on the explained model; a `partly_explained` one (or a residual still above
+//! the gate) gives a check that stays not decided and whose `model_check` says what
+//! remains.
+
+use crate::ingest::UploadLimits;
+use crate::jobs::{self, ExplainedLink, JobError, JobInput, JobKind};
+use mtcal_domain::kinds::IDENTIFICATION;
+use mtcal_solver::diagnosis::{DiagnosisResult, Verdict};
+use mtcal_solver::identification::IdentificationResult;
+use mtcal_store::{NewResult, ResultMeta, SetAside, Store, StoreError};
+use std::sync::Arc;
+
+/// Who excludes the superseded check (the exclusion's `by`).
+pub const BY: &str = "mtcal (explained model)";
+
+/// Why the explained model was not made.
+#[derive(Debug, thiserror::Error)]
+pub enum ExplainError {
+    #[error(transparent)]
+    Store(#[from] StoreError),
+    #[error("{0}")]
+    Job(#[from] JobError),
+}
+
+/// Diagnosis `diagnosis_id` has landed: when it explains (fully or partly) the misfit of
+/// a check of the same session, that check's explained model is stored and the original
+/// excluded (module docs). The explained result stored, if any.
+pub async fn diagnosis_landed(
+    store: &Arc<dyn Store>,
+    limits: UploadLimits,
+    diagnosis_id: &str,
+) -> Result<Option<ResultMeta>, ExplainError> {
+    let d = store.get_result(diagnosis_id).await?;
+    let Some(dataset_id) = d.meta.dataset_id.clone() else {
+        return Ok(None);
+    };
+    let Ok(diagnosis) = serde_json::from_value::<DiagnosisResult>(d.document) else {
+        return Ok(None);
+    };
+    let explains = matches!(
+        diagnosis.verdict,
+        Verdict::Explained | Verdict::PartlyExplained
+    );
+    if diagnosis.source != "session" || !explains || diagnosis.findings.is_empty() {
+        return Ok(None);
+    }
+    let machine_id = d.meta.machine_id.clone();
+    let checks = store.list_results(&machine_id, IDENTIFICATION).await?;
+    let Some(original) = checks
+        .iter()
+        .rev()
+        .find(|m| m.dataset_id.as_deref() == Some(dataset_id.as_str()))
+    else {
+        return Ok(None);
+    };
+    let stored = store.get_result(&original.id).await?;
+    match serde_json::from_value::<IdentificationResult>(stored.document) {
+        Ok(doc) if doc.explained.is_none() && doc.model_check().is_misfit() => {}
+        _ => return Ok(None),
+    }
+    // The original's identify parameters (an imported check: the defaults).
+    let params = match store.get_job(&original.job_id).await {
+        Ok(j) if j.kind == JobKind::Identify => j.params,
+        _ => serde_json::json!({}),
+    };
+    let input = JobInput {
+        kind: JobKind::Identify,
+        params,
+        machine: Some(store.get_machine(&machine_id).await?),
+        dataset: Some((
+            store.get_dataset(&dataset_id).await?,
+            store.dataset_files(&dataset_id).await?,
+        )),
+        limits,
+    };
+    let original_id = original.id.clone();
+    let link_ids = (original_id.clone(), diagnosis_id.to_string());
+    let out = tokio::task::spawn_blocking(move || {
+        let link = ExplainedLink {
+            original: &link_ids.0,
+            diagnosis: &link_ids.1,
+        };
+        jobs::explain(&input, &diagnosis, link)
+    })
+    .await
+    .map_err(|e| JobError::Transient(format!("the explained model's fit panicked: {e}")))??;
+    let decided = serde_json::from_value::<IdentificationResult>(out.document.clone())
+        .map(|r| r.model_check().decided_on_explained_model())
+        .unwrap_or(false);
+    let meta = store
+        .import_result(NewResult {
+            machine_id: machine_id.clone(),
+            dataset_id: Some(dataset_id),
+            kind: IDENTIFICATION.to_string(),
+            measured_at: out.measured_at,
+            document: out.document,
+            scalars: out.scalars,
+            figures: out.figures,
+        })
+        .await?;
+    let reason = if decided {
+        format!(
+            "superseded by result {}: the explained model of the same recording (diagnosis {diagnosis_id}), on which the check is decided",
+            meta.id
+        )
+    } else {
+        format!(
+            "superseded by result {}: the explained model of the same recording (diagnosis {diagnosis_id}); it explains the misfit only partly and says what remains",
+            meta.id
+        )
+    };
+    store
+        .exclude_result(
+            &original_id,
+            SetAside {
+                by: BY,
+                reason: &reason,
+            },
+        )
+        .await?;
+    if let Err(e) = mtcal_domain::landing::result_landed(store, &machine_id, &meta.id).await {
+        tracing::warn!(machine = %machine_id, %e, "fleet drift or drift alerts not refreshed after the explained model");
+    }
+    Ok(Some(meta))
+}
