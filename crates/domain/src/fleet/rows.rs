@@ -26,7 +26,6 @@ use crate::fleet::entry::{DiagnosisSummary, FleetEntry};
 use crate::history::baseline;
 use crate::kinds::IDENTIFICATION;
 use crate::trends;
-use mtcal_solver::identification::IdentificationResult;
 use mtcal_store::{
     FleetDriftRow, Machine, ResultMeta, Store, StoreError, ToleranceProfile, now_ms,
 };
@@ -122,10 +121,7 @@ async fn row(
     // The latest result's document: its misfit gate, and its verdict when a profile
     // applies. A document that cannot be judged leaves the verdict out, never the drift.
     let latest_doc = store.get_result(&latest.id).await?;
-    let misfit = serde_json::from_value::<IdentificationResult>(latest_doc.document.clone())
-        .ok()
-        .map(|d| d.model_check())
-        .filter(|c| c.is_misfit());
+    let misfit = crate::history::misfit_gate(&latest_doc.document);
     let verdict = match profile {
         Some(_) => crate::verdicts::verdict(store, profiles, machine, &latest_doc)
             .await
