@@ -351,7 +351,6 @@ const KNOWN_LONG: &[(&str, &str)] = &[
         "crates/solver/src/diagnosis/session.rs",
         "diagnose_session_with_progress",
     ),
-    ("crates/server/src/web/pages.rs", "machine"),
     ("crates/solver/src/simulate.rs", "simulate"),
     ("crates/solver/src/sensitivity.rs", "analyse"),
     ("crates/solver/src/standards/iso230_2.rs", "evaluate_all"),

@@ -193,6 +193,7 @@ fn a_three_plane_check_reads_at_the_resolution_of_its_numbers() {
         dataset_id: None,
         is_baseline: false,
         verdict: None,
+        profile: None,
         diagnosis: None,
     };
     let stored = StoredIdentification::read(read("bk.json")).unwrap();

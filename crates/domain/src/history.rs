@@ -48,6 +48,31 @@ pub async fn diagnosis_of_dataset(
         .find(|m| m.dataset_id.as_deref() == Some(dataset_id)))
 }
 
+/// The misfit gate of a stored identification document when its model does not explain
+/// its recording (None: it does, it has no noise floor to judge by, or the document is
+/// not an identification's). Such a check is not decided: its drift is not a figure and
+/// it cannot be a baseline.
+pub fn misfit_gate(document: &serde_json::Value) -> Option<mtcal_solver::misfit::ModelCheck> {
+    serde_json::from_value::<mtcal_solver::identification::IdentificationResult>(document.clone())
+        .ok()
+        .map(|d| d.model_check())
+        .filter(|c| c.is_misfit())
+}
+
+/// The ids of the misfit checks among identifications `results` (each document read once).
+pub async fn misfit_ids(
+    store: &dyn Store,
+    results: &[ResultMeta],
+) -> Result<std::collections::HashSet<String>, mtcal_store::StoreError> {
+    let mut out = std::collections::HashSet::new();
+    for r in results.iter().filter(|r| r.kind == IDENTIFICATION) {
+        if misfit_gate(&store.get_result(&r.id).await?.document).is_some() {
+            out.insert(r.id.clone());
+        }
+    }
+    Ok(out)
+}
+
 /// The baseline among a machine's identifications `results` (time order): its chosen
 /// one, else its first.
 pub fn baseline<'a>(machine: &Machine, results: &'a [ResultMeta]) -> Option<&'a ResultMeta> {

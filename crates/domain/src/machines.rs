@@ -62,6 +62,32 @@ pub async fn create(store: &dyn Store, m: NewMachine) -> Result<Machine, DomainE
     Ok(store.create_machine(&machine).await?)
 }
 
+/// Refuses result `id` as a baseline when it is a misfit check: its model does not
+/// explain its recording, so nothing measured against it would be decided. A result not
+/// found, of another kind or of another machine is left to the store's own check.
+async fn refuse_misfit_baseline(
+    store: &dyn Store,
+    machine: &str,
+    id: &str,
+) -> Result<(), DomainError> {
+    let r = match store.get_result(id).await {
+        Ok(r) => r,
+        Err(mtcal_store::StoreError::NotFound(_)) => return Ok(()),
+        Err(e) => return Err(e.into()),
+    };
+    if r.meta.kind != crate::kinds::IDENTIFICATION || r.meta.machine_id != machine {
+        return Ok(());
+    }
+    match crate::history::misfit_gate(&r.document) {
+        Some(gate) => Err(DomainError::Conflict(format!(
+            "result {id} cannot be the baseline: it is a misfit check ({}); choose a check \
+             whose model explains its recording",
+            gate.statement
+        ))),
+        None => Ok(()),
+    }
+}
+
 /// Checks and applies a patch to machine `id`; its fleet row is refreshed when what the
 /// row depends on changed (the baseline, the tags that choose its tolerance profile, the
 /// name and site its entry repeats).
@@ -75,6 +101,9 @@ pub async fn update(
     }
     if let Some(t) = &p.travel_mm {
         check_travel(t)?;
+    }
+    if let Some(b) = &p.baseline_result_id {
+        refuse_misfit_baseline(store, id, b).await?;
     }
     let row_changes =
         p.baseline_result_id.is_some() || p.tags.is_some() || p.name.is_some() || p.site.is_some();

@@ -33,6 +33,25 @@ pub struct Mismatch {
     pub share_of_misfit: f64,
 }
 
+impl Mismatch {
+    /// Whether the place is a whole file's test (`xy.csv: X line runs`): those places do
+    /// not overlap, so their shares add up; the finer ones lie inside them.
+    pub fn by_file_and_test(&self) -> bool {
+        self.where_.ends_with(" runs")
+    }
+}
+
+/// The share of the misfit the places by file and test of `places` hold together (None
+/// when there are none).
+pub fn listed_share(places: &[Mismatch]) -> Option<f64> {
+    let parts: Vec<f64> = places
+        .iter()
+        .filter(|m| m.by_file_and_test())
+        .map(|m| m.share_of_misfit)
+        .collect();
+    (!parts.is_empty()).then(|| parts.iter().sum::<f64>().min(1.0))
+}
+
 /// A before/after pair of RMS figures, µm.
 #[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
 #[cfg_attr(feature = "openapi", derive(utoipa::ToSchema))]

@@ -10,7 +10,8 @@
 //! | [`with_std`] | `value ± σ`, σ to two significant digits and the value to its place (GUM 7.2.6) | `6.60 ± 0.30` |
 //! | [`with_u`] | `value ± U unit`, U = 2u, both by [`num`] | `3.210 ± 0.100 µm` |
 //!
-//! Units as a person writes them: [`unit_label`] (`µm`, `µrad`, never `um`).
+//! Units as a person writes them: [`unit_label`] (`µm`, `µrad`, never `um`); a
+//! parameter's name and unit: [`parameter_name`] (`lost_motion_um` → `lost motion`, `µm`).
 
 /// `um` → `µm`, `urad` → `µrad`, anything else unchanged.
 pub fn unit_label(unit: &str) -> &str {
@@ -19,6 +20,31 @@ pub fn unit_label(unit: &str) -> &str {
         "urad" => "µrad",
         other => other,
     }
+}
+
+/// Units of the parameter names of mtcal's documents, by suffix, longest first.
+const PARAMETER_UNITS: [(&str, &str); 11] = [
+    ("_um_per_mm_s", "µm/(mm/s)"),
+    ("_ppm_per_k", "ppm/K"),
+    ("_um_per_k", "µm/K"),
+    ("_um_per_mm", "µm/mm"),
+    ("_urad", "µrad"),
+    ("_ppm", "ppm"),
+    ("_um", "µm"),
+    ("_mm", "mm"),
+    ("_hz", "Hz"),
+    ("_deg", "°"),
+    ("_s", "s"),
+];
+
+/// A parameter's name in words and its unit as a person writes them:
+/// `lost_motion_um` → (`lost motion`, `µm`), `scale_ppm_per_k` → (`scale`, `ppm/K`),
+/// `time_constant_s` → (`time constant`, `s`); without a known unit, (words, ``).
+pub fn parameter_name(key: &str) -> (String, &'static str) {
+    PARAMETER_UNITS
+        .iter()
+        .find_map(|(suffix, unit)| Some((key.strip_suffix(suffix)?.replace('_', " "), *unit)))
+        .unwrap_or_else(|| (key.replace('_', " "), ""))
 }
 
 /// A number with a precision that suits its size: 3 decimals below 10, 2 below 100,
@@ -147,6 +173,25 @@ pub fn person_units(text: &str) -> String {
 
 #[cfg(test)]
 mod tests {
+
+    #[test]
+    fn parameter_names_in_words() {
+        assert_eq!(
+            parameter_name("lost_motion_um"),
+            ("lost motion".into(), "µm")
+        );
+        assert_eq!(parameter_name("scale_ppm_per_k"), ("scale".into(), "ppm/K"));
+        assert_eq!(parameter_name("t14_um_per_k"), ("t14".into(), "µm/K"));
+        assert_eq!(
+            parameter_name("time_constant_s"),
+            ("time constant".into(), "s")
+        );
+        assert_eq!(
+            parameter_name("share_predicted"),
+            ("share predicted".into(), "")
+        );
+    }
+
     use super::*;
 
     /// Two significant digits of σ, the value to the same place; never `± 0.00`.

@@ -41,8 +41,8 @@ mod spark;
 pub use band::{compliance_curve, empty_panel, error_function, function_band, function_band_on};
 pub use bars::{finding_bars, ranking_bars};
 pub use errorbars::{
-    BarPoint, ErrorBarChart, PointSeries, TrendPoint, TrendSeries, XScale, error_bar_chart,
-    rotation_vectors, trend, unix_seconds,
+    BarPoint, ErrorBarChart, MISFIT_KEY, PointSeries, TrendPoint, TrendSeries, XScale,
+    error_bar_chart, rotation_vectors, trend, unix_seconds,
 };
 pub use polar::{CIRCLE_COLORS, MIN_FONT_PX, circle_polar, circle_step, nominal_mm};
 pub use spark::sparkline;

@@ -57,7 +57,7 @@ pub async fn get(
 #[utoipa::path(operation_id = "machines_update", summary = "Update a machine (name, travel, site, tags, baseline)", patch, path = "/api/v1/machines/{id}", tag = "machines", request_body = MachinePatch,
     security(("api_key" = ["write"])), params(("id" = String, Path)),
     responses((status = 200, body = Machine), (status = 404, body = ErrorBody),
-              (status = 409, body = ErrorBody, description = "the baseline named is a result of another machine")))]
+              (status = 409, body = ErrorBody, description = "the baseline named is a result of another machine, or a misfit check (its model does not explain its recording)")))]
 pub async fn update(
     _key: WriteKey,
     who: Actor,

@@ -17,11 +17,13 @@ pub mod session;
 use crate::error::ApiError;
 use crate::{AppState, JSON_BODY_LIMIT, REQUEST_TIMEOUT};
 use axum::Router;
-use axum::extract::{DefaultBodyLimit, Form, Path, Query, State};
+use axum::extract::{DefaultBodyLimit, Form, Path, Query, Request, State};
 use axum::http::{HeaderMap, StatusCode, header};
+use axum::middleware::Next;
 use axum::response::{Html, IntoResponse, Redirect, Response};
 use axum::routing::{get, post};
 use axum_extra::extract::PrivateCookieJar;
+use mtcal_views::pages::Viewer;
 use serde::Deserialize;
 use session::{Session, WebState};
 use tower_http::timeout::TimeoutLayer;
@@ -49,6 +51,11 @@ impl From<mtcal_domain::DomainError> for WebError {
     }
 }
 
+/// What an error page says, left on the response by [`WebError`] for [`error_pages`],
+/// which renders it inside the layout of whoever is signed in.
+#[derive(Debug, Clone)]
+struct ErrorMessage(String);
+
 impl IntoResponse for WebError {
     fn into_response(self) -> Response {
         let status = self.0.status();
@@ -59,16 +66,94 @@ impl IntoResponse for WebError {
             }
             e => e.to_string(),
         };
-        let page = mtcal_views::pages::error_page(
-            None,
-            status.as_u16(),
-            status.canonical_reason().unwrap_or("error"),
-            &message,
-        );
-        let mut resp = (status, Html(page.into_string())).into_response();
+        let mut resp = (status, error_html(None, status, &message)).into_response();
+        resp.extensions_mut().insert(ErrorMessage(message));
         self.0.mark(&mut resp);
         resp
     }
+}
+
+/// The error page of `status` with `message`, in the layout of `viewer` (None: the
+/// layout without navigation).
+fn error_html(viewer: Option<&Viewer>, status: StatusCode, message: &str) -> Html<String> {
+    Html(
+        mtcal_views::pages::error_page(
+            viewer,
+            status.as_u16(),
+            status.canonical_reason().unwrap_or("error"),
+            message,
+        )
+        .into_string(),
+    )
+}
+
+/// Every error answer of a page route as a page in the layout with its navigation (the
+/// signed-in viewer's, read from the session cookie): a [`WebError`]'s, and an answer
+/// made outside the handlers (a form or query the extractor refuses, a body over its
+/// limit, a request timed out, a method not allowed, the outage guard's 503), whose
+/// text or JSON message becomes the page's message. A page already in HTML (the sign-in
+/// form refusing a key) is left as it is.
+async fn error_pages(State(s): State<WebState>, req: Request, next: Next) -> Response {
+    let headers = req.headers().clone();
+    let resp = next.run(req).await;
+    let status = resp.status();
+    if !(status.is_client_error() || status.is_server_error()) {
+        return resp;
+    }
+    let given = resp.extensions().get::<ErrorMessage>().cloned();
+    let is_html = resp
+        .headers()
+        .get(header::CONTENT_TYPE)
+        .and_then(|v| v.to_str().ok())
+        .is_some_and(|v| v.starts_with("text/html"));
+    if given.is_none() && is_html {
+        return resp;
+    }
+    let (mut parts, body) = resp.into_parts();
+    let (status, message) = match given {
+        Some(ErrorMessage(m)) => (status, m),
+        None => {
+            let bytes = axum::body::to_bytes(body, 16 * 1024)
+                .await
+                .unwrap_or_default();
+            let text = String::from_utf8_lossy(&bytes).trim().to_string();
+            // The API's error body (the outage guard), else the extractor's text.
+            let text = serde_json::from_str::<serde_json::Value>(&text)
+                .ok()
+                .and_then(|v| v["error"]["message"].as_str().map(str::to_string))
+                .unwrap_or(text);
+            if status.is_server_error() {
+                let shown = text
+                    .is_empty()
+                    .then(|| "the service could not answer".to_string());
+                (status, shown.unwrap_or(text))
+            } else if status == StatusCode::METHOD_NOT_ALLOWED
+                || status == StatusCode::REQUEST_TIMEOUT
+            {
+                (
+                    status,
+                    status.canonical_reason().unwrap_or("refused").to_string(),
+                )
+            } else {
+                // As the API maps a refused form or query: a bad request (400), a body
+                // over its limit (413) or of the wrong type (415).
+                let e = ApiError::from_rejection(status, text);
+                (e.status(), e.to_string())
+            }
+        }
+    };
+    let viewer = match session::Session::from_headers(&s.app, &s.key, &headers).await {
+        Ok(Some(session)) => Some(session.viewer()),
+        _ => None,
+    };
+    parts.status = status;
+    parts.headers.remove(header::CONTENT_LENGTH);
+    parts.headers.insert(
+        header::CONTENT_TYPE,
+        axum::http::HeaderValue::from_static("text/html; charset=utf-8"),
+    );
+    let page = error_html(viewer.as_ref(), status, &message).0;
+    Response::from_parts(parts, axum::body::Body::from(page))
 }
 
 /// The result of a page handler.
@@ -114,10 +199,12 @@ pub fn router(app: AppState) -> Router {
         ));
     let guard = axum::middleware::from_fn_with_state(state.app.clone(), crate::outage::guard);
     let assets = Router::new().route("/static/{file}", get(asset));
+    let pages = axum::middleware::from_fn_with_state(state.clone(), error_pages);
     uploads
         .merge(rest)
         .route_layer(guard)
         .merge(assets)
+        .route_layer(pages)
         .with_state(state)
 }
 

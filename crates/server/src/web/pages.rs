@@ -17,7 +17,6 @@ use mtcal_domain::kinds::IDENTIFICATION as KIND;
 use mtcal_domain::trends::{self as domain_trends, TermQuery};
 use mtcal_domain::verdicts;
 use mtcal_solver::identification::IdentificationResult;
-use mtcal_solver::tolerance::Verdict;
 use mtcal_store::{Job, Machine, MachinePatch, ResultMeta, StoredResult};
 use mtcal_views::pages::alerts::{self as valerts, AlertRow};
 use mtcal_views::pages::{
@@ -42,6 +41,44 @@ const KINDS: [&str; 4] = ["identification", "diagnosis", "cradle", "sensitivity"
 /// Machines per fleet page.
 pub const FLEET_PAGE_ROWS: usize = domain_fleet::DEFAULT_LIMIT;
 
+/// What check job `j` belongs to: its dataset's kind, files and measurement time (None
+/// without a dataset, or when it cannot be read: the row then names the machine only).
+async fn job_check(app: &AppState, j: &Job) -> Option<vjobs::JobCheck> {
+    let ds = app.store.get_dataset(j.dataset_id.as_deref()?).await.ok()?;
+    Some(vjobs::JobCheck {
+        dataset_id: ds.id,
+        kind: ds.kind,
+        files: ds.files.into_iter().map(|f| f.name).collect(),
+        measured_at: ds.measured_at,
+    })
+}
+
+/// Jobs as their rows show them, each with the check it belongs to (a dataset read once
+/// however many jobs ran on it).
+async fn job_rows(app: &AppState, jobs: &[Job]) -> Vec<vjobs::JobRow> {
+    let mut checks: std::collections::HashMap<String, Option<vjobs::JobCheck>> =
+        std::collections::HashMap::new();
+    let mut rows = Vec::with_capacity(jobs.len());
+    for j in jobs {
+        let check = match &j.dataset_id {
+            Some(d) => match checks.get(d) {
+                Some(c) => c.clone(),
+                None => {
+                    let c = job_check(app, j).await;
+                    checks.insert(d.clone(), c.clone());
+                    c
+                }
+            },
+            None => None,
+        };
+        rows.push(vjobs::JobRow {
+            check,
+            ..job_row(j)
+        });
+    }
+    rows
+}
+
 fn job_row(j: &Job) -> vjobs::JobRow {
     vjobs::JobRow {
         id: j.id.clone(),
@@ -54,6 +91,7 @@ fn job_row(j: &Job) -> vjobs::JobRow {
         error_message: j.error_message.clone(),
         result_id: j.result_id.clone(),
         created_at: j.created_at.clone(),
+        check: None,
     }
 }
 
@@ -74,31 +112,6 @@ fn alert_row(a: &AlertView) -> AlertRow {
         acknowledged_by: a.acknowledged_by.clone(),
         comment: a.acknowledgement_comment.clone(),
     }
-}
-
-/// The verdict table's rows of a verdict (an undetermined item shows no value).
-fn verdict_rows(v: &Verdict) -> Vec<vresult::VerdictRow> {
-    v.items
-        .iter()
-        .map(|i| vresult::VerdictRow {
-            quantity: i.item.clone(),
-            at: match (i.position_mm, i.travel_mm) {
-                (Some(q), Some([lo, hi])) => format!(
-                    "at {} mm (checked over {}…{} mm)",
-                    views::num(q),
-                    views::num(lo),
-                    views::num(hi)
-                ),
-                _ if i.value.is_none() => i.reason.clone(),
-                _ => String::new(),
-            },
-            value: i.value.unwrap_or(f64::NAN),
-            std: i.u,
-            limit: i.limit,
-            unit: i.unit.clone(),
-            outcome: i.decision.as_str().into(),
-        })
-        .collect()
 }
 
 /// The overall verdict of result `id` as a badge word (None: no profile or no limit
@@ -278,67 +291,84 @@ fn default_positions(latest: Option<&IdentificationResult>, term: &str) -> Strin
     }
 }
 
-/// `/machines/{id}`.
-pub async fn machine(
-    session: Session,
-    State(s): State<WebState>,
-    Path(id): Path<String>,
-    Query(q): Query<MachineParams>,
-) -> PageResult {
-    let app = &s.app;
-    let m = app.store.get_machine(&id).await?;
-    // The jobs are read before the checks: a job already ended has its result in the
-    // list below (a job's result and its end are one commit), and a job still running
-    // is polled by the page script, which reloads the page when it ends. Read after the
-    // checks, a job ending in between would show as ended above a list without its
-    // result, and the page would never reload.
-    let mut jobs = vec![];
-    for j in q
-        .jobs
-        .as_deref()
+/// The jobs of machine `id` named in the page's `jobs` parameter (at most 10).
+async fn named_jobs(app: &AppState, id: &str, jobs: Option<&str>) -> Vec<vjobs::JobRow> {
+    let mut found = vec![];
+    for j in jobs
         .unwrap_or("")
         .split(',')
         .filter(|j| !j.is_empty())
         .take(10)
     {
         if let Ok(job) = app.store.get_job(j).await
-            && job.machine_id.as_deref() == Some(id.as_str())
+            && job.machine_id.as_deref() == Some(id)
         {
-            jobs.push(job_row(&job));
+            found.push(job);
         }
     }
+    job_rows(app, &found).await
+}
+
+/// A machine's stored results of the kinds its page shows, as the checks table lists
+/// them, and what the rest of the page needs of them.
+struct MachineChecks {
+    /// Newest first.
+    rows: Vec<vmachine::CheckRow>,
+    /// Its identifications in time order.
+    identifications: Vec<ResultMeta>,
+    /// Those of them whose model does not explain their recording.
+    misfits: std::collections::HashSet<String>,
+    baseline: Option<String>,
+    /// The tolerance profile that applies (`scope target (id)`).
+    tolerance: Option<String>,
+}
+
+/// The verdict word of identification `r` of machine `m` against `profiles` (None when
+/// none applies); a stored document that does not read is this row's verdict
+/// ("unreadable"), not the page's failure.
+async fn row_verdict(
+    app: &AppState,
+    profiles: &[mtcal_store::ToleranceProfile],
+    m: &Machine,
+    r: &ResultMeta,
+) -> Result<Option<String>, ApiError> {
+    let stored = app.store.get_result(&r.id).await?;
+    match verdicts::verdict(app.store.as_ref(), profiles, m, &stored).await {
+        Ok(v) => Ok(v
+            .and_then(|(_, v)| v.decision)
+            .map(|d| d.as_str().to_string())),
+        Err(mtcal_store::StoreError::Conflict(_)) => Ok(Some("unreadable".to_string())),
+        Err(e) => Err(e.into()),
+    }
+}
+
+/// Machine `m`'s checks ([`MachineChecks`]): every result of [`KINDS`], newest first,
+/// each identification with its verdict (read only when a profile applies) and its
+/// misfit gate.
+async fn machine_checks(app: &AppState, m: &Machine) -> Result<MachineChecks, ApiError> {
     let mut checks = vec![];
     let mut identifications = vec![];
     for kind in KINDS {
-        let list = history::results(app.store.as_ref(), &id, Some(kind)).await?;
+        let list = history::results(app.store.as_ref(), &m.id, Some(kind)).await?;
         if kind == KIND {
             identifications = list.clone();
         }
         checks.extend(list);
     }
-    let baseline = baseline_of(&m, &identifications);
+    let baseline = baseline_of(m, &identifications);
     checks.sort_by(|a, b| {
         b.measured_at
             .cmp(&a.measured_at)
             .then(b.created_at.cmp(&a.created_at))
     });
+    let misfits = history::misfit_ids(app.store.as_ref(), &identifications).await?;
     let profiles = app.store.list_tolerances().await?;
-    let tolerance = mtcal_domain::profiles::applicable(&profiles, &m)
+    let tolerance = mtcal_domain::profiles::applicable(&profiles, m)
         .map(|p| format!("{} {} ({})", p.scope, p.target, p.id));
     let mut rows = Vec::with_capacity(checks.len());
     for r in &checks {
-        // Each identification's document is read only when a profile applies.
         let verdict = if tolerance.is_some() && r.kind == KIND {
-            let stored = app.store.get_result(&r.id).await?;
-            // A stored document that does not read is this row's verdict, not the page's
-            // failure.
-            match verdicts::verdict(app.store.as_ref(), &profiles, &m, &stored).await {
-                Ok(v) => v
-                    .and_then(|(_, v)| v.decision)
-                    .map(|d| d.as_str().to_string()),
-                Err(mtcal_store::StoreError::Conflict(_)) => Some("unreadable".to_string()),
-                Err(e) => return Err(e.into()),
-            }
+            row_verdict(app, &profiles, m, r).await?
         } else {
             None
         };
@@ -349,78 +379,73 @@ pub async fn machine(
             verdict,
             summary: summary(r),
             is_baseline: baseline.as_deref() == Some(r.id.as_str()),
+            misfit: misfits.contains(&r.id),
         });
     }
-    let checks = rows;
-    let alerts = alerts::list(
-        app.store.as_ref(),
-        &AlertQuery {
-            machine: Some(id.clone()),
-            ..AlertQuery::default()
-        },
-    )
-    .await?;
-    let latest = match identifications.last() {
-        Some(r) => serde_json::from_value::<IdentificationResult>(
-            app.store.get_result(&r.id).await?.document,
-        )
-        .ok(),
-        None => None,
+    Ok(MachineChecks {
+        rows,
+        identifications,
+        misfits,
+        baseline,
+        tolerance,
+    })
+}
+
+/// The trend of `term` at positions `at` over machine `id`'s identifications, misfit
+/// checks marked; or why it cannot be drawn (a position outside the measured travel).
+async fn term_trend_view(
+    app: &AppState,
+    id: &str,
+    term: &str,
+    at: &str,
+    misfits: &std::collections::HashSet<String>,
+) -> Result<(Option<vmachine::TermTrend>, Option<String>), ApiError> {
+    let query = TermQuery {
+        term: term.to_string(),
+        at: at.to_string(),
     };
-    let term = q
-        .term
-        .filter(|t| domain_trends::term_info(t).is_some())
-        .unwrap_or_else(|| "EXX".into());
-    let at =
-        q.at.filter(|a| !a.trim().is_empty())
-            .unwrap_or_else(|| default_positions(latest.as_ref(), &term));
-    let (term_trend, trend_error) = if identifications.is_empty() {
-        (None, None)
-    } else {
-        match domain_trends::term_trend(
-            app.store.as_ref(),
-            &id,
-            TermQuery {
-                term: term.clone(),
-                at: at.clone(),
-            },
-        )
-        .await
-        {
-            Ok(t) => {
-                let series = t
-                    .positions_mm
-                    .iter()
-                    .enumerate()
-                    .map(|(i, q)| TrendSeries {
-                        name: format!("{} at {} mm", t.term, mtcal_views::plots::tick_label(*q)),
-                        points: t
-                            .points
-                            .iter()
-                            .map(|p| TrendPoint {
-                                measured_at: p.measured_at.clone(),
-                                value: p.values[i],
-                                std: p.u[i],
-                            })
-                            .collect(),
-                    })
-                    .collect();
-                (
-                    Some(vmachine::TermTrend {
-                        term: t.term,
-                        unit: t.unit,
-                        series,
-                    }),
-                    None,
-                )
-            }
-            Err(mtcal_domain::DomainError::Invalid(msg)) => (None, Some(msg)),
-            Err(e) => return Err(e.into()),
-        }
+    let t = match domain_trends::term_trend(app.store.as_ref(), id, query).await {
+        Ok(t) => t,
+        Err(mtcal_domain::DomainError::Invalid(msg)) => return Ok((None, Some(msg))),
+        Err(e) => return Err(e.into()),
     };
-    let summary = domain_trends::summary_trend(app.store.as_ref(), &id).await?;
+    let series = t
+        .positions_mm
+        .iter()
+        .enumerate()
+        .map(|(i, q)| TrendSeries {
+            name: format!("{} at {} mm", t.term, mtcal_views::plots::tick_label(*q)),
+            points: t
+                .points
+                .iter()
+                .map(|p| TrendPoint {
+                    measured_at: p.measured_at.clone(),
+                    value: p.values[i],
+                    std: p.u[i],
+                    misfit: misfits.contains(&p.result_id),
+                })
+                .collect(),
+        })
+        .collect();
+    Ok((
+        Some(vmachine::TermTrend {
+            term: t.term,
+            unit: t.unit,
+            series,
+        }),
+        None,
+    ))
+}
+
+/// EC0Y, EB0Z and EA0Z over machine `id`'s identifications, misfit checks marked.
+async fn squareness_trend(
+    app: &AppState,
+    id: &str,
+    misfits: &std::collections::HashSet<String>,
+) -> Result<Vec<TrendSeries>, ApiError> {
+    let summary = domain_trends::summary_trend(app.store.as_ref(), id).await?;
     type Pick = fn(&domain_trends::SummaryPoint) -> (Option<f64>, Option<f64>);
-    let squareness = [
+    Ok([
         ("EC0Y", (|p| (p.summary.ec0y_urad, p.ec0y_u_urad)) as Pick),
         ("EB0Z", |p| (p.summary.eb0z_urad, p.eb0z_u_urad)),
         ("EA0Z", |p| (p.summary.ea0z_urad, p.ea0z_u_urad)),
@@ -437,11 +462,59 @@ pub async fn machine(
                     measured_at: p.measured_at.clone(),
                     value,
                     std,
+                    misfit: misfits.contains(&p.result_id),
                 }
             })
             .collect(),
     })
-    .collect();
+    .collect())
+}
+
+/// `/machines/{id}`: the machine, its checks with their verdicts, the trends of a term
+/// and of squareness, its alerts, latest diagnosis and verification, the jobs just
+/// submitted.
+pub async fn machine(
+    session: Session,
+    State(s): State<WebState>,
+    Path(id): Path<String>,
+    Query(q): Query<MachineParams>,
+) -> PageResult {
+    let app = &s.app;
+    let m = app.store.get_machine(&id).await?;
+    // The jobs are read before the checks: a job already ended has its result in the
+    // list below (a job's result and its end are one commit), and a job still running
+    // is polled by the page script, which reloads the page when it ends. Read after the
+    // checks, a job ending in between would show as ended above a list without its
+    // result, and the page would never reload.
+    let jobs = named_jobs(app, &id, q.jobs.as_deref()).await;
+    let checks = machine_checks(app, &m).await?;
+    let alerts = alerts::list(
+        app.store.as_ref(),
+        &AlertQuery {
+            machine: Some(id.clone()),
+            ..AlertQuery::default()
+        },
+    )
+    .await?;
+    let latest = match checks.identifications.last() {
+        Some(r) => serde_json::from_value::<IdentificationResult>(
+            app.store.get_result(&r.id).await?.document,
+        )
+        .ok(),
+        None => None,
+    };
+    let term = q
+        .term
+        .filter(|t| domain_trends::term_info(t).is_some())
+        .unwrap_or_else(|| "EXX".into());
+    let at =
+        q.at.filter(|a| !a.trim().is_empty())
+            .unwrap_or_else(|| default_positions(latest.as_ref(), &term));
+    let (term_trend, trend_error) = if checks.identifications.is_empty() {
+        (None, None)
+    } else {
+        term_trend_view(app, &id, &term, &at, &checks.misfits).await?
+    };
     let page = vmachine::MachinePage {
         machine: vmachine::MachineInfo {
             id: m.id.clone(),
@@ -449,18 +522,18 @@ pub async fn machine(
             site: m.site.clone(),
             tags: m.tags.clone(),
             travel_mm: m.travel_mm.iter().map(|(k, v)| (k.clone(), *v)).collect(),
-            baseline_result_id: baseline,
+            baseline_result_id: checks.baseline,
         },
-        checks,
+        checks: checks.rows,
         term,
         at,
         term_trend,
         trend_error,
-        squareness,
+        squareness: squareness_trend(app, &id, &checks.misfits).await?,
         jobs,
         notice: q.notice,
         alerts: alerts.iter().map(alert_row).collect(),
-        tolerance,
+        tolerance: checks.tolerance,
         diagnosis: mtcal_domain::history::latest_diagnosis(app.store.as_ref(), &id)
             .await?
             .map(|(meta, doc)| vmachine::LatestDiagnosis {
@@ -559,7 +632,7 @@ pub async fn result(
     let verdict_table = verdict
         .verdict
         .as_ref()
-        .map(verdict_rows)
+        .map(vresult::verdict_rows)
         .unwrap_or_default();
     let mut header = vresult::ResultHeader {
         id: r.meta.id.clone(),
@@ -574,6 +647,10 @@ pub async fn result(
             .as_ref()
             .and_then(|v| v.decision)
             .map(|d| d.as_str().to_string()),
+        profile: verdict
+            .profile
+            .as_ref()
+            .map(|p| format!("{} {}", p.scope, p.target)),
         diagnosis: None,
     };
     let doc = &r.document;
@@ -887,6 +964,6 @@ pub async fn jobs(
         },
     )
     .await?;
-    let rows: Vec<vjobs::JobRow> = list.iter().map(job_row).collect();
+    let rows = job_rows(&s.app, &list).await;
     Ok(html(vjobs::jobs_page(&session.viewer(), &rows, &state)))
 }

@@ -34,10 +34,32 @@ fn carriers(per_run: &[(usize, f64)]) -> Vec<usize> {
     out
 }
 
-/// Splits the squared residual above the noise floor by place and signature.
+/// Of the places by file and test (they do not overlap), those listed: largest first
+/// until they hold this share of the misfit.
+const LISTED_SHARE: f64 = 0.9;
+
+/// A test kind in words, as a place names it (`X line`, `clockwise circle`).
+fn kind_words(kind: TestKind) -> &'static str {
+    match kind {
+        TestKind::LineX => "X line",
+        TestKind::LineY => "Y line",
+        TestKind::LineZ => "Z line",
+        TestKind::CircleCcw => "counter-clockwise circle",
+        TestKind::CircleCw => "clockwise circle",
+        TestKind::Free => "free-form",
+    }
+}
+
+/// Splits the squared residual above the noise floor by place and signature. The
+/// places by file and test (`xy.csv: X line runs`, named ending in ` runs`) split the
+/// misfit without overlap: every one carrying misfit is listed, largest first, until
+/// they hold [`LISTED_SHARE`] of it. The finer places (an angle sector, the stretch
+/// after a reversal, a time; each inside those) are listed from 10 % of the misfit, at
+/// most 6.
 pub(crate) fn locate(d: &Design, r: &[f64], sigma: f64) -> Vec<Mismatch> {
     let ex = |i: usize| r[i] * r[i] - sigma * sigma;
     let total = (0..r.len()).map(ex).sum::<f64>().max(1e-300);
+    let mut parts: Vec<Mismatch> = Vec::new();
     let mut out: Vec<Mismatch> = Vec::new();
     // A place: its rows' excess gathered per run.
     let mut add = |where_: String, per_run: &[(usize, f64)]| {
@@ -55,7 +77,15 @@ pub(crate) fn locate(d: &Design, r: &[f64], sigma: f64) -> Vec<Mismatch> {
         .iter()
         .map(|run| (2 * run.start..2 * run.end).map(ex).sum())
         .collect();
-    // By file and test kind.
+    // By file and test kind: every place, kept or not below.
+    let mut part = |where_: String, per_run: &[(usize, f64)]| {
+        let e: f64 = per_run.iter().map(|r| r.1).sum();
+        parts.push(Mismatch {
+            where_,
+            tests: carriers(per_run).iter().map(|&ri| run_id(d, ri)).collect(),
+            share_of_misfit: (e / total).min(1.0),
+        });
+    };
     let kinds = [
         TestKind::LineX,
         TestKind::LineY,
@@ -71,7 +101,7 @@ pub(crate) fn locate(d: &Design, r: &[f64], sigma: f64) -> Vec<Mismatch> {
                 .map(|i| (i, run_excess[i]))
                 .collect();
             if !per_run.is_empty() {
-                add(format!("{file}: {} runs", kind.name()), &per_run);
+                part(format!("{file}: {} runs", kind_words(kind)), &per_run);
             }
         }
     }
@@ -224,5 +254,15 @@ pub(crate) fn locate(d: &Design, r: &[f64], sigma: f64) -> Vec<Mismatch> {
     }
     out.sort_by(|a, b| b.share_of_misfit.total_cmp(&a.share_of_misfit));
     out.truncate(6);
+    parts.sort_by(|a, b| b.share_of_misfit.total_cmp(&a.share_of_misfit));
+    let mut held = 0.0;
+    for p in parts {
+        if held >= LISTED_SHARE || p.share_of_misfit <= 0.0 {
+            break;
+        }
+        held += p.share_of_misfit;
+        out.push(p);
+    }
+    out.sort_by(|a, b| b.share_of_misfit.total_cmp(&a.share_of_misfit));
     out
 }

@@ -110,9 +110,18 @@ fn page_href(f: &FleetPage, page: usize) -> String {
     format!("/?{}", q.join("&"))
 }
 
-fn drift(d: &Option<Drift>) -> Markup {
+/// A drift cell; a `misfit` latest check's drift is not a figure: it says so, the
+/// computed value only on hover.
+fn drift(d: &Option<Drift>, misfit: bool) -> Markup {
     match d {
         None => html! { span.muted { "—" } },
+        Some(d) if misfit => html! {
+            span.badge.misfit.drift-misfit
+                title={ "not decided: the latest check's model does not explain its recording (computed: "
+                    (super::with_u(Some(d.value), d.std, &d.unit)) ")" } {
+                "not decided: misfit"
+            }
+        },
         Some(d) => html! {
             span title=[d.term.as_ref().map(|t| match d.at_mm {
                 Some(q) => format!("{t} at {} mm", plots::tick(&q)),
@@ -312,8 +321,8 @@ pub fn fleet_page(viewer: &Viewer, f: &FleetPage) -> Markup {
                             } @else if r.results == 1 {
                                 td.muted.drift-note colspan="3" { "no drift yet: one check, the baseline" }
                             } @else {
-                                td.num { (drift(&r.drift_um)) }
-                                td.num { (drift(&r.drift_urad)) }
+                                td.num { (drift(&r.drift_um, r.misfit.is_some())) }
+                                td.num { (drift(&r.drift_urad, r.misfit.is_some())) }
                                 td.spark title=[r.drift_um.as_ref().and_then(|d| d.term.clone())] {
                                     (sparkline_cell(r))
                                 }
@@ -438,6 +447,24 @@ mod tests {
         );
         let clean = row_html(&html, "VMC-1");
         assert!(!clean.contains("model misfit") && !clean.contains("diagnosis"));
+        // A misfit's drift is not a figure; a decided one's is.
+        let drift_cells = |row: &str| {
+            row.split(r#"<td class="num">"#)
+                .skip(1)
+                .map(|c| c[..c.find("</td>").unwrap()].to_string())
+                .collect::<Vec<_>>()
+        };
+        for id in ["VMC-8", "VMC-9"] {
+            let cells = drift_cells(&row_html(&html, id));
+            assert_eq!(cells.len(), 2, "{cells:?}");
+            assert!(cells[0].contains(">not decided: misfit<"), "{cells:?}");
+            assert!(!cells[0].contains(">4."), "no figure shown: {cells:?}");
+        }
+        let decided = &drift_cells(&clean)[0];
+        assert!(
+            decided.contains(">4.") && decided.contains(" ± "),
+            "{decided}"
+        );
     }
 
     #[test]

@@ -30,6 +30,9 @@ pub struct CheckRow {
     /// One line: residual, rank, findings, …
     pub summary: String,
     pub is_baseline: bool,
+    /// Its model does not explain its recording (an identification's misfit gate): not
+    /// decided, not offered as a baseline, a ring in the trends.
+    pub misfit: bool,
 }
 
 /// The term trend asked for: a series per position, or why there is none (e.g. a
@@ -192,6 +195,9 @@ pub fn machine_page(viewer: &Viewer, p: &MachinePage) -> Markup {
                         (Some(e), _) => { div.notice.error { (e) } }
                         (None, None) => { p.muted { "No identification yet." } }
                         (None, Some(t)) => {
+                            @if t.series.iter().any(|s| s.points.iter().any(|p| p.misfit && p.value.is_some())) {
+                                p.muted.misfit-note { "A ring is a misfit check: its model does not explain its recording, so its value is not decided (no ±2σ bar, off the line)." }
+                            }
                             figure.plot #term-trend data-term=(t.term) {
                                 (svg(plots::trend(&format!("{} over time (±2σ)", t.term),
                                     &format!("{} ({})", t.term, plots::unit_label(&t.unit)), &t.series)))
@@ -222,10 +228,17 @@ pub fn machine_page(viewer: &Viewer, p: &MachinePage) -> Markup {
                             tr data-result=(c.result_id) data-kind=(c.kind) {
                                 td { a href=(result_href(&c.result_id)) { (when(&c.measured_at)) } }
                                 td { (c.kind) }
-                                td { @if c.kind == "identification" { (verdict_badge(c.verdict.as_deref())) } }
+                                td {
+                                    @if c.kind == "identification" { (verdict_badge(c.verdict.as_deref())) }
+                                    // The verdict's badge already says it when a profile applies.
+                                    @if c.misfit && c.verdict.as_deref() != Some("misfit") { " " span.badge.misfit { "model misfit" } }
+                                }
                                 td { (c.summary) }
                                 td {
                                     @if c.is_baseline { span.badge { "baseline" } }
+                                    @else if c.misfit {
+                                        span.muted.not-baseline title="its model does not explain its recording: nothing measured against it would be decided" { "not a baseline (model misfit)" }
+                                    }
                                     @else if c.kind == "identification" && viewer.can_write() {
                                         form.inline method="post" action={ (href) "/baseline" } {
                                             (csrf_field(&viewer.csrf))
@@ -300,6 +313,7 @@ mod tests {
                     verdict: Some("pass".into()),
                     summary: "residual 0.150 µm".into(),
                     is_baseline: false,
+                    misfit: false,
                 },
                 CheckRow {
                     result_id: "r1".into(),
@@ -308,6 +322,16 @@ mod tests {
                     verdict: None,
                     summary: "residual 0.140 µm".into(),
                     is_baseline: true,
+                    misfit: false,
+                },
+                CheckRow {
+                    result_id: "r3".into(),
+                    kind: "identification".into(),
+                    measured_at: "2026-07-06T08:00:00Z".into(),
+                    verdict: None,
+                    summary: "residual 0.980 µm".into(),
+                    is_baseline: false,
+                    misfit: true,
                 },
             ],
             term: "EXX".into(),
@@ -321,6 +345,7 @@ mod tests {
                         measured_at: "2026-01-05T08:00:00Z".into(),
                         value: Some(1.0),
                         std: Some(0.1),
+                        misfit: false,
                     }],
                 }],
             }),
@@ -345,6 +370,23 @@ mod tests {
         let read = machine_page(&viewer("read"), &page()).into_string();
         assert!(!read.contains("/upload") && !read.contains("/baseline"));
         assert!(!read.contains("/tolerance"));
+    }
+
+    /// A misfit check is marked and not offered as a baseline; the others are.
+    #[test]
+    fn a_misfit_check_is_not_offered_as_baseline() {
+        let html = machine_page(&viewer("write"), &page()).into_string();
+        let row = |id: &str| {
+            let at = html.find(&format!(r#"data-result="{id}""#)).unwrap();
+            let end = html[at..].find("</tr>").unwrap();
+            html[at..at + end].to_string()
+        };
+        assert!(row("r2").contains("Set as baseline"), "{}", row("r2"));
+        assert!(!row("r3").contains("Set as baseline"), "{}", row("r3"));
+        assert!(!row("r3").contains(r#"name="result_id""#));
+        assert!(row("r3").contains("model misfit"));
+        assert!(row("r3").contains("not a baseline (model misfit)"));
+        assert!(!row("r2").contains("model misfit"));
     }
 
     #[test]

@@ -8,7 +8,7 @@
 //! report ([`cradle_report`]): facts, the result page's cradle sections (the compliance
 //! against A with its bands among them) and what the ball data could not determine.
 
-use super::result::{self, IdentificationView, VerdictRow};
+use super::result::{self, IdentificationView, VerdictRow, verdict_rows};
 use super::{num, print_page, verdict_badge, when};
 use crate::plots::{tick_label, unit_label};
 use maud::{Markup, html};
@@ -252,22 +252,6 @@ pub fn cradle_report(r: &CradleCheckReport) -> Markup {
             }
         },
     )
-}
-
-/// The verdict's items as the result page's verdict table shows them.
-fn verdict_rows(v: &Verdict) -> Vec<VerdictRow> {
-    v.items
-        .iter()
-        .map(|i| VerdictRow {
-            quantity: i.item.clone(),
-            at: summary::item_at(i),
-            value: i.value.unwrap_or(f64::NAN),
-            std: i.u,
-            limit: i.limit,
-            unit: i.unit.clone(),
-            outcome: i.decision.as_str().to_string(),
-        })
-        .collect()
 }
 
 /// The check's facts: machine, date, result, the conditions of the test (instrument

@@ -13,6 +13,7 @@ use mtcal_solver::residuals::ResidualSummary;
 use mtcal_solver::sensitivity::SensitivityResult;
 use mtcal_solver::standards::iso230_2::{FIGURES, Iso2302, run_label};
 use mtcal_solver::standards::iso230_4::CirclePlot;
+use mtcal_solver::tolerance::{Verdict, VerdictItem};
 use serde::{Deserialize, Serialize};
 
 /// One line of a verdict: a quantity checked against its limit by the decision rule
@@ -31,6 +32,52 @@ pub struct VerdictRow {
     pub unit: String,
     /// `pass`, `fail` or `undecided`.
     pub outcome: String,
+}
+
+/// Where a verdict item's deciding value lies, in words (`at 28.54 mm of [0, 100] mm`,
+/// `max at 80.00, min at 12.50 mm`, `over [0, 100] mm`), with how a per-length limit was
+/// scaled to the measured length and the part of the registered travel covered; for an
+/// undetermined item, why.
+pub fn item_at(i: &VerdictItem) -> String {
+    let over = |[lo, hi]: [f64; 2]| format!("[{}, {}] mm", num(lo), num(hi));
+    let place = match (i.position_mm, i.at_mm, i.travel_mm) {
+        (Some(q), _, Some(t)) => format!("at {} mm of {}", num(q), over(t)),
+        (Some(q), _, None) => format!("at {} mm", num(q)),
+        (None, Some([a, b]), Some(t)) => {
+            format!("max at {}, min at {} mm of {}", num(a), num(b), over(t))
+        }
+        (None, Some([a, b]), None) => format!("max at {}, min at {} mm", num(a), num(b)),
+        (None, _, Some(t)) => format!("over {}", over(t)),
+        _ if i.value.is_none() => i.reason.clone(),
+        _ => String::new(),
+    };
+    let scaled = i
+        .limit_basis
+        .as_ref()
+        .map(|b| format!("limit {}", mtcal_solver::text::person_units(b)));
+    [Some(place), scaled, i.coverage.clone()]
+        .into_iter()
+        .flatten()
+        .filter(|s| !s.is_empty())
+        .collect::<Vec<_>>()
+        .join("; ")
+}
+
+/// A verdict's items as the verdict table shows them (an undetermined item shows no
+/// value).
+pub fn verdict_rows(v: &Verdict) -> Vec<VerdictRow> {
+    v.items
+        .iter()
+        .map(|i| VerdictRow {
+            quantity: i.item.clone(),
+            at: item_at(i),
+            value: i.value.unwrap_or(f64::NAN),
+            std: i.u,
+            limit: i.limit,
+            unit: i.unit.clone(),
+            outcome: i.decision.as_str().to_string(),
+        })
+        .collect()
 }
 
 /// Everything an identification section shows: the document, and its circle tests as
@@ -127,6 +174,9 @@ pub struct ResultHeader {
     pub is_baseline: bool,
     /// The overall verdict, when a tolerance profile applies.
     pub verdict: Option<String>,
+    /// The tolerance profile that applies to the machine (`scope target`), verdict or
+    /// not.
+    pub profile: Option<String>,
     /// What the diagnosis of the recording this result was computed from found, when one
     /// is stored (said in the misfit banner).
     pub diagnosis: Option<super::DiagnosisFindings>,
@@ -156,13 +206,16 @@ pub fn result_page(
     body: &ResultBody,
 ) -> Markup {
     let title = format!("{} {} of {}", header.kind, header.id, header.machine_id);
+    // A misfit check: no compensation table (the export refuses it) and not a baseline
+    // (the API refuses it); the banner below says why.
+    let misfit = matches!(body, ResultBody::Identification(v) if v.doc.model_check().is_misfit());
     page(
         &title,
         Nav::Other,
         Some(viewer),
         html! {
             h1 { (header.kind) " of " a href=(machine_href(&header.machine_id)) { (header.machine_id) }
-                 " " (verdict_badge(header.verdict.as_deref())) }
+                 " " (header_badge(header)) }
             p.lead {
                 "Measured " (when(&header.measured_at)) " · computed " (when(&header.created_at))
                 " · result " code { (header.id) }
@@ -173,14 +226,18 @@ pub fn result_page(
             @if header.kind == "identification" {
                 p.links #result-links {
                     a.report href={ "/api/v1/results/" (super::encode(&header.id)) "/report" } { "Check report" }
-                    " · compensation tables: "
-                    @for (k, f) in mtcal_formats::compensation::Format::ALL.iter().enumerate() {
-                        @if k > 0 { ", " }
-                        a.export href={ "/api/v1/results/" (super::encode(&header.id)) "/export?format=" (f.name()) } { (f.name()) }
+                    @if misfit {
+                        " · " span.muted.no-tables { "no compensation table: its model does not explain its recording" }
+                    } @else {
+                        " · compensation tables: "
+                        @for (k, f) in mtcal_formats::compensation::Format::ALL.iter().enumerate() {
+                            @if k > 0 { ", " }
+                            a.export href={ "/api/v1/results/" (super::encode(&header.id)) "/export?format=" (f.name()) } { (f.name()) }
+                        }
                     }
                 }
             }
-            @if header.kind == "identification" && viewer.can_write() && !header.is_baseline {
+            @if header.kind == "identification" && viewer.can_write() && !header.is_baseline && !misfit {
                 form.inline method="post" action={ (machine_href(&header.machine_id)) "/baseline" } {
                     (csrf_field(&viewer.csrf))
                     input type="hidden" name="result_id" value=(header.id);
@@ -194,6 +251,20 @@ pub fn result_page(
             (sections(body))
         },
     )
+}
+
+/// The header's verdict badge: the verdict; without one, that no limit of the profile
+/// applies to this result, or that no profile applies to the machine.
+fn header_badge(h: &ResultHeader) -> Markup {
+    match (&h.verdict, &h.profile) {
+        (Some(v), _) => verdict_badge(Some(v)),
+        (None, Some(p)) => html! {
+            span.badge.none title={ "the tolerance profile of " (p) " applies to the machine; none of its limits to this result" } {
+                "no limit applies"
+            }
+        },
+        (None, None) => verdict_badge(None),
+    }
 }
 
 /// The sections of a result body (no page around them).
@@ -327,7 +398,7 @@ fn squareness(d: &IdentificationResult) -> Markup {
         section.card #squareness {
             h2 { "Squareness" }
             table {
-                thead { tr { th { "term" } th.num { "value ± U" } th { "angle" } th { "reported as" } } }
+                thead { tr { th { "term" } th.num { "value ± U" } th { "angle" } th { "measured as" } } }
                 tbody {
                     @for (name, s) in ["EC0Y", "EB0Z", "EA0Z"].iter().filter_map(|n| d.squareness.get(*n).map(|s| (n, s))) {
                         tr data-term=(name) {
@@ -335,7 +406,7 @@ fn squareness(d: &IdentificationResult) -> Markup {
                             @if s.identifiable {
                                 td.num { (with_u(s.value_urad, s.std_urad, "urad")) }
                                 td { (angle(name, s.value_urad)) }
-                                td { (s.reported_as.as_deref().unwrap_or("")) }
+                                td title=[s.reported_as.as_deref()] { (reported_as_words(s.reported_as.as_deref())) }
                             } @else {
                                 td.num colspan="3" { "not identifiable"
                                     @if !s.confounded_with.is_empty() { " (with " (s.confounded_with.join(", ")) ")" } }
@@ -345,6 +416,18 @@ fn squareness(d: &IdentificationResult) -> Markup {
                 }
             }
         }
+    }
+}
+
+/// How a squareness is reported, in words (its code name on hover).
+fn reported_as_words(code: Option<&str>) -> &str {
+    match code {
+        Some("ls_axis_lines") => "the angle between the least-squares lines of the two axes",
+        Some("model_constant") => {
+            "the model's constant (the straightness slopes the axis lines need are not determined)"
+        }
+        Some(other) => other,
+        None => "",
     }
 }
 
@@ -431,17 +514,97 @@ fn circles(all: &[CirclePlot], iso: &[mtcal_solver::standards::Iso2304]) -> Mark
     }
 }
 
-/// A finding's parameters the data leave undetermined: value ± std and what would decide
+/// A parameter's value ± u (k = 1) in one cell with its unit, u to two significant
+/// digits and the value to its place (`6.004 ± 0.004 µm`); without u, the value alone.
+fn value_u(key: &str, value: f64, u: Option<f64>) -> String {
+    let (_, unit) = mtcal_solver::text::parameter_name(key);
+    let v = match u {
+        Some(u) if u.is_finite() => mtcal_solver::text::with_std(value, u, 2, false),
+        _ => num(value),
+    };
+    format!("{v} {unit}").trim_end().to_string()
+}
+
+/// A parameter's name in words, its code name on hover.
+fn parameter_cell(key: &str) -> Markup {
+    html! { td title=(key) { (mtcal_solver::text::parameter_name(key).0) } }
+}
+
+/// A finding's fitted parameters, each as value ± u in one cell (its `std_*` entry is its
+/// u, not a row of its own).
+fn parameters(f: &Finding) -> Markup {
+    html! {
+        table.parameters {
+            thead { tr { th { "parameter" } th.num { "value ± u (k = 1)" } } }
+            tbody {
+                @for (k, v) in f.parameters.iter().filter(|(k, _)| !k.starts_with("std_")) {
+                    tr { (parameter_cell(k)) td.num { (value_u(k, *v, f.parameters.get(&format!("std_{k}")).copied())) } }
+                }
+            }
+        }
+    }
+}
+
+/// A finding's parameters the data leave undetermined: value ± u and what would decide
 /// each (nothing when all are determined).
 fn undetermined(f: &Finding) -> Markup {
     html! {
         @if !f.undetermined.is_empty() {
             h3 { "Undetermined" }
             table.undetermined {
-                thead { tr { th { "parameter" } th.num { "value" } th.num { "std" } th { "would be decided by" } } }
-                tbody { @for u in &f.undetermined { tr { td { (u.name) } td.num { (num(u.value)) } td.num { @match u.std { Some(sd) => (num(sd)), None => "no finite bound" } } td { (u.decide) } } } }
+                thead { tr { th { "parameter" } th.num { "value ± u (k = 1)" } th { "would be decided by" } } }
+                tbody { @for u in &f.undetermined { tr {
+                    (parameter_cell(&u.name))
+                    td.num { (value_u(&u.name, u.value, u.std)) @if u.std.is_none() { " (no finite bound on u)" } }
+                    td { (u.decide) }
+                } } }
             }
         }
+    }
+}
+
+/// How strongly the data prefer a model, from its ΔBIC (the model with the effect minus
+/// the model without; negative favours the effect): the odds exp(−ΔBIC/2) and the
+/// strength of evidence on Kass and Raftery's scale.
+pub fn preference_in_words(dbic: f64) -> String {
+    let two_ln_k = -dbic;
+    if two_ln_k.is_nan() || two_ln_k <= 0.0 {
+        return "the data do not prefer this model".into();
+    }
+    let strength = match two_ln_k {
+        x if x > 10.0 => "very strong evidence",
+        x if x > 6.0 => "strong evidence",
+        x if x > 2.0 => "positive evidence",
+        _ => "barely worth mentioning",
+    };
+    let odds = (two_ln_k / 2.0).exp();
+    let odds = if odds > 1e6 {
+        "more than a million to one".to_string()
+    } else {
+        format!("about {} to one", mtcal_solver::text::short(odds.round()))
+    };
+    format!("the data prefer this model by odds of {odds} ({strength})")
+}
+
+/// A finding's evidence in words: its `BIC ±x` said as what it means
+/// ([`preference_in_words`]), the number on hover.
+fn evidence(text: &str) -> Markup {
+    let text = mtcal_solver::text::person_units(text).replace(" -> ", " → ");
+    let parsed = text.find("BIC ").and_then(|at| {
+        let rest = &text[at + 4..];
+        let end = rest.find(char::is_whitespace).unwrap_or(rest.len());
+        let dbic: f64 = rest[..end].parse().ok()?;
+        Some((at, at + 4 + end, dbic))
+    });
+    match parsed {
+        Some((start, end, dbic)) => html! {
+            (text[..start])
+            span.bic title={ "ΔBIC = " (format!("{dbic:+.1}")) " (Bayesian information criterion of the model with this effect minus the model without; −10 or below is very strong evidence)" } {
+                (preference_in_words(dbic))
+            }
+            (text[end..])
+        },
+        None => html! { (text) },
     }
 }
 
@@ -496,9 +659,21 @@ pub fn diagnosis(d: &DiagnosisResult) -> Markup {
             }
             @if !d.mismatch.is_empty() {
                 h3 { "Where the model and the recording differ" }
-                table {
+                table.mismatch {
                     thead { tr { th { "where" } th.num { "share of misfit" } th { "tests" } } }
-                    tbody { @for m in &d.mismatch { tr { td { (m.where_) } td.num { (format!("{:.0} %", 100.0 * m.share_of_misfit)) } td { (m.tests.join(", ")) } } } }
+                    tbody { @for m in &d.mismatch {
+                        tr.part[m.by_file_and_test()] { td { (mtcal_solver::text::person_units(&m.where_)) } td.num { (format!("{:.0} %", 100.0 * m.share_of_misfit)) } td { (m.tests.join(", ")) } }
+                    } }
+                }
+                p.muted.mismatch-share {
+                    "Share of misfit: of the squared residual above the noise floor. "
+                    @match mtcal_solver::diagnosis::listed_share(&d.mismatch) {
+                        Some(sum) => {
+                            "The places by file and test listed (they do not overlap) carry "
+                            (format!("{:.0} %", 100.0 * sum)) " of the misfit together; the finer places (angles,                             reversals, times, local anomalies) lie inside them."
+                        }
+                        None => { "Places may overlap: their shares do not add up." }
+                    }
                 }
             }
         }
@@ -516,9 +691,9 @@ pub fn diagnosis(d: &DiagnosisResult) -> Markup {
                             }
                         }
                         h3 { "Parameters" }
-                        table { tbody { @for (k, v) in &f.parameters { tr { td { (k) } td.num { (num(*v)) } } } } }
+                        (parameters(f))
                         (undetermined(f))
-                        p.muted { (mtcal_solver::text::person_units(&f.evidence)) }
+                        p.muted.evidence { (evidence(&f.evidence)) }
                     }
                     figure.plot { (svg(plots::finding_bars(f, d.baseline.noise_estimate_um))) }
                 }
@@ -529,7 +704,7 @@ pub fn diagnosis(d: &DiagnosisResult) -> Markup {
                 h2 { "Possible, undetermined: " (f.effect.replace('_', " ")) @if let Some(a) = f.axis_label() { " (" (a) ")" } }
                 p { (mtcal_solver::text::person_units(&f.physics)) }
                 (undetermined(f))
-                p.muted { (mtcal_solver::text::person_units(&f.evidence)) }
+                p.muted.evidence { (evidence(&f.evidence)) }
             }
         }
         @if !d.plots.is_empty() {

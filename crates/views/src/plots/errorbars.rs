@@ -6,12 +6,15 @@ use super::{Area, COLORS, DrawResult, SIZE, TEXT, TITLE, svg, tick};
 use mtcal_solver::cradle::PoseRow;
 use plotters::prelude::*;
 
-/// One point; `std` is the standard uncertainty (1σ), drawn as a ±2σ bar.
-#[derive(Debug, Clone, Copy, PartialEq)]
+/// One point; `std` is the standard uncertainty (1σ), drawn as a ±2σ bar. A `misfit`
+/// point (its model does not explain its recording: not decided) is drawn as a hollow
+/// ring without a bar and outside the series' line.
+#[derive(Debug, Clone, Copy, PartialEq, Default)]
 pub struct BarPoint {
     pub x: f64,
     pub y: f64,
     pub std: Option<f64>,
+    pub misfit: bool,
 }
 
 #[derive(Debug, Clone, PartialEq)]
@@ -47,6 +50,9 @@ pub struct ErrorBarChart<'a> {
     pub x_scale: XScale,
     pub series: &'a [PointSeries],
 }
+
+/// The legend entry of misfit points.
+pub const MISFIT_KEY: &str = "ring: model misfit, not decided";
 
 /// Size of a trend, px: drawn half a page wide (about 620 px on a 1400 px window), so
 /// its text stays at least 12 px.
@@ -108,11 +114,14 @@ fn draw(root: &Area, c: &ErrorBarChart) -> DrawResult {
     }
     let (y0, y1) =
         super::range(pts().flat_map(|p| [p.y - two(p), p.y + two(p)])).ok_or("no points")?;
-    let keys: Vec<Key> = scaled
+    let mut keys: Vec<Key> = scaled
         .iter()
         .enumerate()
         .map(|(k, s)| Key::new(s.name.as_str(), Swatch::Dot, COLORS[k % COLORS.len()]))
         .collect();
+    if pts().any(|p| p.misfit) {
+        keys.push(Key::new(MISFIT_KEY, Swatch::Ring, BLACK.stroke_width(2)));
+    }
     let area = key::below(root, &keys)?;
     let mut chart = ChartBuilder::on(&area)
         .caption(c.title, ("sans-serif", TITLE))
@@ -140,7 +149,12 @@ fn draw(root: &Area, c: &ErrorBarChart) -> DrawResult {
         .draw()?;
     for (k, s) in scaled.iter().enumerate() {
         let color = COLORS[k % COLORS.len()];
-        let p: Vec<&BarPoint> = s.points.iter().collect();
+        let (misfit, p): (Vec<&BarPoint>, Vec<&BarPoint>) = s.points.iter().partition(|p| p.misfit);
+        chart.draw_series(
+            misfit
+                .iter()
+                .map(|p| Circle::new((p.x, p.y), 5, color.stroke_width(2))),
+        )?;
         chart.draw_series(LineSeries::new(
             p.iter().map(|p| (p.x, p.y)),
             color.mix(0.5).stroke_width(1),
@@ -161,12 +175,15 @@ fn draw(root: &Area, c: &ErrorBarChart) -> DrawResult {
 }
 
 /// One point of a trend: a result's time (RFC 3339) and a value with its standard
-/// uncertainty; `value: None` where the result does not determine it (not drawn).
-#[derive(Debug, Clone, PartialEq)]
+/// uncertainty; `value: None` where the result does not determine it (not drawn);
+/// `misfit` when the check's model does not explain its recording (a hollow ring, not
+/// decided).
+#[derive(Debug, Clone, PartialEq, Default)]
 pub struct TrendPoint {
     pub measured_at: String,
     pub value: Option<f64>,
     pub std: Option<f64>,
+    pub misfit: bool,
 }
 
 #[derive(Debug, Clone, PartialEq)]
@@ -192,6 +209,7 @@ pub fn trend(title: &str, y_label: &str, series: &[TrendSeries]) -> String {
                     x: unix_seconds(&p.measured_at)?,
                     y: p.value?,
                     std: p.std,
+                    misfit: p.misfit,
                 })
             })
         })
@@ -221,6 +239,7 @@ pub fn rotation_vectors(poses: &[PoseRow]) -> String {
                     x: p.a_deg,
                     y: p.rotation_pooled.vector_urad[i],
                     std: Some(p.rotation_pooled.std_urad),
+                    misfit: false,
                 })
             })
         })
@@ -253,6 +272,7 @@ mod tests {
                         measured_at: format!("{d}T08:00:00Z"),
                         value: (i != 2).then_some(3.0 + 1.5 * i as f64),
                         std: Some(0.1 + 0.05 * i as f64),
+                        misfit: false,
                     })
                     .collect(),
             },
@@ -265,6 +285,7 @@ mod tests {
                         measured_at: format!("{d}T08:00:00Z"),
                         value: Some(-2.0 - 0.5 * i as f64),
                         std: None,
+                        misfit: false,
                     })
                     .collect(),
             },
@@ -340,6 +361,51 @@ mod tests {
             "no vertical bar without an uncertainty"
         );
         assert!(plot.has_text("2026-"), "dates on the x axis");
+    }
+
+    /// A misfit check's point is a hollow ring at its value, without a ±2σ bar and off
+    /// the series' line, and the legend says what a ring means.
+    #[test]
+    fn a_misfit_point_is_a_ring_without_a_bar() {
+        let mut s = series();
+        s.truncate(1);
+        s[0].points[1].misfit = true;
+        let svg = trend("EXX", "EXX (µm)", &s);
+        let plot = inspect::parse(&svg).unwrap();
+        let axes = plot.axes().unwrap();
+        let c0 = hex(COLORS[0]);
+        let circles = plot.marks("circle", &c0);
+        let rings: Vec<_> = circles
+            .iter()
+            .filter(|m| m.r == 5.0 && m.fill.as_deref() != Some(c0.as_str()))
+            .collect();
+        assert_eq!(rings.len(), 1, "{circles:?}");
+        let (x, y) = axes.data(rings[0].points[0]);
+        let t = unix_seconds(&s[0].points[1].measured_at).unwrap();
+        assert!(
+            (x - t).abs() < 1.5 * axes.x.scale.recip().abs(),
+            "{x} vs {t}"
+        );
+        assert!((y - 4.5).abs() < 1.5 * axes.y.scale.recip().abs(), "{y}");
+        // Two decided points (one check did not determine the term): two bars, none at
+        // the ring's x.
+        let bars: Vec<_> = plot
+            .marks("line", &c0)
+            .into_iter()
+            .filter(|m| m.points[0].0 == m.points[1].0 && m.points[0].1 != m.points[1].1)
+            .collect();
+        assert_eq!(bars.len(), 2, "{bars:?}");
+        assert!(
+            bars.iter()
+                .all(|b| (b.points[0].0 - rings[0].points[0].0).abs() > 2.0)
+        );
+        assert!(plot.has_text(MISFIT_KEY), "the legend names the ring");
+        // Without a misfit point, no such legend entry.
+        assert!(
+            !inspect::parse(&trend("EXX", "EXX (µm)", &series()))
+                .unwrap()
+                .has_text(MISFIT_KEY)
+        );
     }
 
     #[test]

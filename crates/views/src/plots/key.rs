@@ -17,6 +17,8 @@ pub(crate) enum Swatch {
     Box,
     /// A filled dot (markers).
     Dot,
+    /// A hollow ring (a point that is not decided).
+    Ring,
     /// Text only (a note such as a limit beyond the scale).
     None,
 }
@@ -120,6 +122,7 @@ fn draw_rows(area: &Area, rows: &[Vec<&Key>], margin: i32) -> DrawResult {
                     s.filled(),
                 ))?,
                 Swatch::Dot => area.draw(&Circle::new((x + SWATCH / 2, y), 5, s.filled()))?,
+                Swatch::Ring => area.draw(&Circle::new((x + SWATCH / 2, y), 5, s))?,
                 Swatch::None => {}
             }
             let tx = if matches!(k.swatch, Swatch::None) {

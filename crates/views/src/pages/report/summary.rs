@@ -6,24 +6,12 @@
 //! names and every row are in the appendix ([`figures_all`]).
 
 use super::{CheckReport, ReportDiagnosis};
+use crate::pages::result::item_at;
 use crate::pages::{num, verdict_badge, with_u};
 use crate::plots::unit_label;
 use maud::{Markup, html};
 use mtcal_solver::names::{group, in_words};
 use mtcal_solver::tolerance::{Decision, Verdict, VerdictItem};
-
-/// Where a verdict item's deciding value lies, in words (`at 28.54 mm of [0, 100] mm`,
-/// `max at 80.00, min at 12.50 mm`, `over [0, 100] mm`).
-pub(super) fn item_at(i: &VerdictItem) -> String {
-    let over = |[lo, hi]: [f64; 2]| format!("[{}, {}] mm", num(lo), num(hi));
-    match (i.position_mm, i.at_mm, i.travel_mm) {
-        (Some(q), _, Some(t)) => format!("at {} mm of {}", num(q), over(t)),
-        (Some(q), _, None) => format!("at {} mm", num(q)),
-        (None, Some([a, b]), _) => format!("max at {}, min at {} mm", num(a), num(b)),
-        (None, _, Some(t)) => format!("over {}", over(t)),
-        _ => String::new(),
-    }
-}
 
 /// The overall decision in words, with what it rests on.
 fn decision_words(v: &Verdict) -> &'static str {

@@ -16,6 +16,7 @@ fn header(kind: &str) -> ResultHeader {
         dataset_id: Some("d1".into()),
         is_baseline: false,
         verdict: Some("undecided".into()),
+        profile: Some("machine SIM-0001".into()),
         diagnosis: None,
     }
 }
@@ -124,11 +125,13 @@ fn undetermined_parameters_and_possible_effects_are_shown() {
 fn a_misfit_result_says_so_above_everything_else() {
     let mut doc = seed_plan_check(3);
     let body = ResultBody::Identification(IdentificationView::of(&doc));
-    let html = result_page(&viewer("read"), &header("identification"), &[], &body).into_string();
+    let html = result_page(&viewer("write"), &header("identification"), &[], &body).into_string();
     assert!(
         !html.contains("id=\"misfit\""),
         "a model at noise level has no banner"
     );
+    // A check whose model fits offers its tables and to be the baseline.
+    assert!(html.contains("/export?format=") && html.contains("Set as baseline"));
     // The issue's backlash machine: 0.976 µm against a floor of 0.149 µm.
     doc.fit.residual_rms_um = 0.976;
     doc.fit.noise_estimate_um = Some(0.149);
@@ -171,6 +174,15 @@ fn a_misfit_result_says_so_above_everything_else() {
         html.contains(">not decided: model misfit<"),
         "the badge's words"
     );
+    // No table it would refuse (a 409 from the export), no baseline the API refuses.
+    let html = result_page(&viewer("write"), &h, &verdict, &body).into_string();
+    assert!(
+        !html.contains("/export?format="),
+        "no compensation table link"
+    );
+    assert!(html.contains("no compensation table: its model does not explain"));
+    assert!(!html.contains("Set as baseline") && !html.contains("/baseline\""));
+    assert!(html.contains("/report\""), "the check report stays");
 }
 
 #[test]
@@ -369,4 +381,224 @@ fn cradle_and_sensitivity_sections_render() {
     let html = sensitivity(&s).into_string();
     assert_eq!(html.matches("<svg").count(), s.components.len());
     assert!(html.contains("key errors:"));
+}
+
+/// The verdict table's "where": the travel a range was taken over, where its max and
+/// min lie, and how a per-length limit was scaled to the measured length; empty only
+/// where nothing is positional.
+#[test]
+fn the_where_of_a_scaled_per_length_limit() {
+    let item = |extra: serde_json::Value| -> VerdictItem {
+        let mut v = serde_json::json!({
+            "item": "EXX", "group": "term", "limit": 10.0 / 3.0, "unit": "um",
+            "decision": "pass", "measure": "range", "value": 3.0, "u": 0.1,
+            "expanded_u": 0.2, "reason": "range + U = 3 + 0.2 <= 3.333 um",
+        });
+        v.as_object_mut()
+            .unwrap()
+            .extend(extra.as_object().unwrap().clone());
+        serde_json::from_value(v).unwrap()
+    };
+    let scaled = item(serde_json::json!({
+        "at_mm": [80.0, 12.5], "travel_mm": [0.0, 100.0],
+        "limit_basis": "10 per 300 mm over L = 100 mm: 10 × 100/300 = 3.333",
+    }));
+    let at = item_at(&scaled);
+    assert!(
+        at.contains("max at 80") && at.contains("min at 12.5"),
+        "{at}"
+    );
+    assert!(at.contains("[0") && at.contains("100"), "{at}");
+    assert!(
+        at.contains("limit 10 per 300 mm over L = 100 mm: 10 × 100/300 = 3.333"),
+        "{at}"
+    );
+    let plain = item(serde_json::json!({"group": "squareness", "measure": "magnitude"}));
+    assert_eq!(item_at(&plain), "");
+    let v: Verdict = serde_json::from_value(serde_json::json!({
+        "decision": "pass", "k": 2.0, "rule": "", "items": [scaled], "not_evaluated": [],
+    }))
+    .unwrap();
+    let html = verdict_table(&verdict_rows(&v)).into_string();
+    assert!(html.contains("10 × 100/300 = 3.333"), "{html}");
+}
+
+/// A diagnosis finding in words: each parameter as value ± u in one cell (no `std_*`
+/// row), named in words with its unit; the BIC said as what it means, the number on
+/// hover only.
+#[test]
+fn a_finding_reads_in_words() {
+    use mtcal_solver::diagnosis::{Baseline, BeforeAfter, Finding, Verdict};
+    let ba = BeforeAfter {
+        before: 0.98,
+        after: 0.15,
+    };
+    let f = Finding {
+        effect: "backlash".into(),
+        axis: Some("X".into()),
+        depends_on: None,
+        parameters: [
+            ("lost_motion_um".to_string(), 6.0043),
+            ("std_lost_motion_um".to_string(), 0.0041),
+        ]
+        .into(),
+        physics: "lost motion at reversal".into(),
+        signature: None,
+        residual_rms_um: ba,
+        heldout_rms_um: ba,
+        evidence: "backlash X: BIC -129095.9 with 1 extra parameter(s); held-out RMS 0.980 -> \
+                   0.150 um over 5 folds of whole runs; noise floor 0.149 um"
+            .into(),
+        undetermined: vec![],
+    };
+    let d = DiagnosisResult {
+        kind: "diagnosis".into(),
+        machine_id: "M".into(),
+        source: "session".into(),
+        baseline: Baseline {
+            residual_rms_um: 0.98,
+            heldout_rms_um: 0.98,
+            noise_estimate_um: 0.149,
+        },
+        mismatch: vec![],
+        findings: vec![f],
+        possible: vec![],
+        rejected: vec![],
+        verdict: Verdict::Explained,
+        unexplained: vec![],
+        plots: vec![],
+    };
+    let html = diagnosis(&d).into_string();
+    let table = &html[html.find("class=\"parameters\"").unwrap()..];
+    let table = &table[..table.find("</table>").unwrap()];
+    assert!(
+        table.contains(r#"<td title="lost_motion_um">lost motion</td>"#),
+        "{table}"
+    );
+    assert!(table.contains(">6.0043 ± 0.0041 µm<"), "{table}");
+    assert!(!table.contains("std_"), "no row of its own for u: {table}");
+    assert!(!html.contains(">BIC"), "no bare BIC: {html}");
+    let ev = &html[html.find("class=\"muted evidence\"").unwrap()..];
+    let ev = &ev[..ev.find("</p>").unwrap()];
+    assert!(
+        ev.contains("the data prefer this model by odds of more than a million to one (very strong evidence)"),
+        "{ev}"
+    );
+    assert!(ev.contains(r#"title="ΔBIC = -129095.9"#), "{ev}");
+    assert!(ev.contains("0.980 → 0.150 µm"), "{ev}");
+    // The scale, by hand: ΔBIC −4 is odds e² ≈ 7 to one, positive evidence.
+    assert_eq!(
+        preference_in_words(-4.0),
+        "the data prefer this model by odds of about 7 to one (positive evidence)"
+    );
+    assert_eq!(
+        preference_in_words(3.0),
+        "the data do not prefer this model"
+    );
+}
+
+/// A result without a verdict on a machine with a profile says that none of the
+/// profile's limits applies, not "no tolerance"; without a profile it says that.
+#[test]
+fn no_tolerance_badge_where_a_profile_applies() {
+    let doc = seed_plan_check(3);
+    let d = mtcal_solver::diagnosis::DiagnosisResult {
+        kind: "diagnosis".into(),
+        machine_id: "SIM-0001".into(),
+        source: "session".into(),
+        baseline: mtcal_solver::diagnosis::Baseline {
+            residual_rms_um: 0.2,
+            heldout_rms_um: 0.2,
+            noise_estimate_um: 0.15,
+        },
+        mismatch: vec![],
+        findings: vec![],
+        possible: vec![],
+        rejected: vec![],
+        verdict: mtcal_solver::diagnosis::Verdict::Consistent,
+        unexplained: vec![],
+        plots: vec![],
+    };
+    let dd = DiagnosisDocument::from(d);
+    let mut h = header("diagnosis");
+    h.verdict = None;
+    let html = result_page(&viewer("read"), &h, &[], &ResultBody::Diagnosis(&dd)).into_string();
+    let h1 = &html[html.find("<h1>").unwrap()..html.find("</h1>").unwrap()];
+    assert!(
+        h1.contains("no limit applies") && !h1.contains("no tolerance"),
+        "{h1}"
+    );
+    h.profile = None;
+    let body = ResultBody::Identification(IdentificationView::of(&doc));
+    let html = result_page(&viewer("read"), &h, &[], &body).into_string();
+    let h1 = &html[html.find("<h1>").unwrap()..html.find("</h1>").unwrap()];
+    assert!(h1.contains("no tolerance"), "{h1}");
+}
+
+/// "Where they differ" says what share of the misfit the places listed carry together.
+#[test]
+fn the_places_of_the_misfit_say_what_they_sum_to() {
+    use mtcal_solver::diagnosis::{Baseline, Mismatch, Verdict};
+    let place = |w: &str, share: f64| Mismatch {
+        where_: w.into(),
+        tests: vec!["xy.csv#run 1".into()],
+        share_of_misfit: share,
+    };
+    let d = DiagnosisResult {
+        kind: "diagnosis".into(),
+        machine_id: "M".into(),
+        source: "session".into(),
+        baseline: Baseline {
+            residual_rms_um: 0.98,
+            heldout_rms_um: 0.98,
+            noise_estimate_um: 0.149,
+        },
+        mismatch: vec![
+            place("xy.csv: clockwise circle runs", 0.32),
+            place("xy.csv: circle runs, angle 165..195 deg (X reverses)", 0.2),
+            place("xz.csv: X line runs", 0.31),
+            place("yz.csv: Y line runs", 0.28),
+        ],
+        findings: vec![],
+        possible: vec![],
+        rejected: vec![],
+        verdict: Verdict::PartlyExplained,
+        unexplained: vec![],
+        plots: vec![],
+    };
+    let html = diagnosis(&d).into_string();
+    assert_eq!(html.matches("<tr class=\"part\">").count(), 3, "{html}");
+    assert!(
+        html.contains("listed (they do not overlap) carry 91 % of the misfit together"),
+        "{html}"
+    );
+}
+
+/// The squareness table says how each value was measured in words, not by its code.
+#[test]
+fn squareness_reads_in_words() {
+    // The full plan (line passes of every axis): squareness is identified.
+    let out = simulate(
+        &random_truth(5),
+        &SimOptions {
+            plan: Plan::Full,
+            seed: 5,
+            sample_rate_hz: 5.0,
+            ..Default::default()
+        },
+    )
+    .unwrap();
+    let doc = identify(&out.session, &IdentifyOptions::default()).unwrap();
+    let body = ResultBody::Identification(IdentificationView::of(&doc));
+    let html = result_page(&viewer("read"), &header("identification"), &[], &body).into_string();
+    let sq = section(&html, "squareness");
+    assert!(
+        !sq.contains(">ls_axis_lines<") && !sq.contains(">model_constant<"),
+        "{sq}"
+    );
+    assert!(doc.squareness.values().any(|s| s.reported_as.is_some()));
+    assert!(
+        sq.contains("least-squares lines of the two axes") || sq.contains("the model's constant"),
+        "{sq}"
+    );
 }
