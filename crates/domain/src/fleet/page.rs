@@ -122,6 +122,8 @@ pub async fn page(store: &dyn Store, q: &FleetParams) -> Result<FleetList, Domai
             sort: by,
             offset: i64::try_from(offset).unwrap_or(i64::MAX),
             limit: limit as i64,
+            within_sites: vec![],
+            within_tags: vec![],
         })
         .await?;
     let profiles = store.list_tolerances().await?;
