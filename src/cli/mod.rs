@@ -5,6 +5,7 @@
 use std::process::ExitCode;
 
 pub mod admin;
+pub mod command;
 pub mod compare;
 pub mod cradle;
 pub mod demo;

@@ -28,8 +28,9 @@ use std::time::Duration;
 
 /// Cases per operation and phase.
 const MAX_EXAMPLES: &str = "25";
-/// The whole run's limit.
-const WALL_CLOCK: Duration = Duration::from_secs(150);
+/// The whole run's limit: a guard against a hang, not a timing. Both backends' runs go at
+/// once beside the rest of the suite; under a load of 10 on 2 cores a run passed 150 s.
+const WALL_CLOCK: Duration = Duration::from_secs(480);
 
 /// Seeds the service: machine M1 with a session dataset and a result of every kind but
 /// cradle on it (identification, diagnosis, standards; sensitivity from parameters),
