@@ -38,6 +38,13 @@ pub enum Command {
         /// Who or what the key is for.
         #[arg(long, default_value = "cli")]
         label: String,
+        /// A site the key acts on (repeat for several); without it the key covers the
+        /// whole group.
+        #[arg(long = "site", value_name = "NAME")]
+        sites: Vec<String>,
+        /// Within those sites, only machines with this tag (repeat for several).
+        #[arg(long = "tag", value_name = "TAG")]
+        tags: Vec<String>,
     },
     /// List the API keys (id, prefix, scope, label, created, revoked); never a secret.
     ListKeys {
@@ -132,6 +139,14 @@ async fn open(db: &str, create: bool) -> anyhow::Result<Arc<dyn Store>> {
         .with_context(|| format!("opening {}", mtcal_store::redacted(db)))
 }
 
+/// What a key acts on: `whole group`, or `sites [..]` and `tags [..]`.
+fn reach(k: &ApiKey) -> String {
+    if k.is_group() {
+        return "whole group".into();
+    }
+    format!("sites {:?}, tags {:?}", k.sites, k.tags)
+}
+
 fn table(keys: &[ApiKey]) -> String {
     let mut out = format!(
         "{:<30} {:<10} {:<6} {:<21} {:<21} label\n",
@@ -147,6 +162,10 @@ fn table(keys: &[ApiKey]) -> String {
             k.revoked_at.as_deref().unwrap_or("-"),
             k.label
         ));
+        if !k.is_group() {
+            out.pop();
+            out.push_str(&format!(" {}\n", reach(k)));
+        }
     }
     out
 }
@@ -159,19 +178,24 @@ pub fn run(args: Args) -> anyhow::Result<ExitCode> {
             scope,
             label,
             create,
+            sites,
+            tags,
         } => {
             let scope = Scope::parse(&scope).ok_or_else(|| {
                 super::BadInput(format!("--scope {scope:?}: read, write or admin"))
             })?;
+            mtcal_store::text::check_key_scope(&sites, &tags)
+                .map_err(|e| super::BadInput(e.to_string()))?;
             let (key, secret) = rt.block_on(async {
                 let store = open(&db.db, create).await?;
-                anyhow::Ok(store.create_key(scope, &label).await?)
+                anyhow::Ok(store.create_key_in(scope, &label, &sites, &tags).await?)
             })?;
             super::out::noteln!(
-                "created key {} ({}, scope {}); the secret below is shown once:",
+                "created key {} ({}, scope {}, {}); the secret below is shown once:",
                 key.id,
                 key.label,
-                key.scope.as_str()
+                key.scope.as_str(),
+                reach(&key)
             );
             super::out::outln!("{secret}")?;
         }

@@ -176,6 +176,9 @@ pub fn run(args: Args) -> anyhow::Result<ExitCode> {
     out
 }
 
+/// The site of the demo's site-scoped user (the demo's machines are at two sites).
+const SITE_USER_SITE: &str = "plant-north";
+
 async fn demo(args: Args, db: PathBuf, temporary: bool) -> anyhow::Result<ExitCode> {
     let db_url = db.display().to_string();
     let store = mtcal_store::open(&db_url).await?;
@@ -199,6 +202,19 @@ async fn demo(args: Args, db: PathBuf, temporary: bool) -> anyhow::Result<ExitCo
     // The fragment signs the browser in (the page script reads it; it is never sent).
     let dashboard = format!("{base}/signin#key={key}");
     lines.extend(addresses(&base, &dashboard, &key, &db, temporary));
+    // A site's quality engineer: a write key of one site, which sees that site alone.
+    let site_user = c
+        .create_scoped_key(&mtcal_server::api::keys::NewKey {
+            scope: mtcal_store::Scope::Write,
+            label: format!("quality engineer, {SITE_USER_SITE}"),
+            sites: vec![SITE_USER_SITE.into()],
+            tags: vec![],
+        })
+        .await?;
+    lines.push(format!(
+        "site user:     {base}/signin#key={}   ({SITE_USER_SITE} only, write)",
+        site_user.secret
+    ));
     super::out::announce(&lines.join("\n"));
     if args.exit {
         server.abort();

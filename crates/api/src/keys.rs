@@ -48,6 +48,46 @@ pub struct ApiKey {
     pub created_at: String,
     /// When the key was revoked (RFC 3339); a revoked key authenticates nothing.
     pub revoked_at: Option<String>,
+    /// The sites the key acts on (empty: the whole group). A machine without a site is
+    /// in the site [`DEFAULT_SITE`].
+    #[serde(default)]
+    pub sites: Vec<String>,
+    /// Within those sites, only machines with at least one of these tags (empty: every
+    /// machine of the sites).
+    #[serde(default)]
+    pub tags: Vec<String>,
+}
+
+/// The site of a machine that names none (machines registered before sites existed).
+pub const DEFAULT_SITE: &str = "default";
+
+/// The site a machine is in: its own, else [`DEFAULT_SITE`].
+pub fn site_of(site: Option<&str>) -> &str {
+    site.unwrap_or(DEFAULT_SITE)
+}
+
+impl ApiKey {
+    /// Whether the key covers the whole group (no site and no tag list).
+    pub fn is_group(&self) -> bool {
+        self.sites.is_empty() && self.tags.is_empty()
+    }
+
+    /// Whether a machine of `site` with `tags` is within the key's scope.
+    pub fn covers(&self, site: Option<&str>, tags: &[String]) -> bool {
+        let site = site_of(site);
+        (self.sites.is_empty() || self.sites.iter().any(|s| s == site))
+            && (self.tags.is_empty() || self.tags.iter().any(|t| tags.contains(t)))
+    }
+
+    /// Whether a scope of `sites` and `tags` lies within this key's scope (no wider):
+    /// every site of it is one of the key's (or the key has no site list), and likewise
+    /// its tags.
+    pub fn contains(&self, sites: &[String], tags: &[String]) -> bool {
+        let within = |mine: &[String], theirs: &[String]| {
+            mine.is_empty() || (!theirs.is_empty() && theirs.iter().all(|t| mine.contains(t)))
+        };
+        within(&self.sites, sites) && within(&self.tags, tags)
+    }
 }
 
 #[derive(Debug, Clone, Serialize, Deserialize)]
@@ -58,6 +98,13 @@ pub struct NewKey {
     /// Not blank, at most 200 characters, no control character.
     #[cfg_attr(feature = "openapi", schema(schema_with = crate::schemas::label))]
     pub label: String,
+    /// The sites the key acts on (absent or empty: the whole group, which only a key of
+    /// the whole group may give).
+    #[serde(default)]
+    pub sites: Vec<String>,
+    /// Within them, only machines with one of these tags (absent or empty: all).
+    #[serde(default)]
+    pub tags: Vec<String>,
 }
 
 /// A new key: `secret` is shown this once and not stored.

@@ -495,14 +495,18 @@ impl Client {
     // Keys.
 
     pub async fn create_key(&self, scope: Scope, label: &str) -> Result<CreatedKey> {
-        self.post(
-            "/api/v1/keys",
-            &NewKey {
-                scope,
-                label: label.into(),
-            },
-        )
+        self.create_scoped_key(&NewKey {
+            scope,
+            label: label.into(),
+            sites: vec![],
+            tags: vec![],
+        })
         .await
+    }
+
+    /// Creates a key limited to sites (and tags) (`sites` empty: the whole group).
+    pub async fn create_scoped_key(&self, k: &NewKey) -> Result<CreatedKey> {
+        self.post("/api/v1/keys", k).await
     }
 
     /// Every key, revoked ones included (admin).

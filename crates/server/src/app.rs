@@ -110,6 +110,10 @@ pub fn router(state: AppState) -> Router {
         .merge(rest)
         .route_layer(axum::middleware::from_fn_with_state(
             state.clone(),
+            auth::scope::guard,
+        ))
+        .route_layer(axum::middleware::from_fn_with_state(
+            state.clone(),
             auth::authenticate,
         ))
         .route_layer(axum::middleware::from_fn_with_state(

@@ -30,6 +30,8 @@ pub struct Actor {
     pub via: &'static str,
     /// The client's address (the connection's peer).
     pub client: Option<String>,
+    /// The key itself, whose scope limits what the request reaches (None: unknown).
+    pub key: Option<ApiKey>,
 }
 
 /// One change to record: what, on which target, and the target before and after.
@@ -64,7 +66,17 @@ impl Actor {
             name: format!("{} ({})", key.label, key.prefix),
             via,
             client,
+            key: Some(key.clone()),
         }
+    }
+
+    /// The scope of the actor's key (`crate::auth::scope`); an unknown key reaches
+    /// nothing (401).
+    pub fn within(&self) -> Result<crate::auth::scope::Within<'_>, ApiError> {
+        self.key
+            .as_ref()
+            .map(crate::auth::scope::Within)
+            .ok_or_else(|| ApiError::Unauthorized("unknown key".into()))
     }
 
     /// Someone whose key was not recognised (a failed sign-in).
@@ -75,6 +87,7 @@ impl Actor {
             name: "unknown key".into(),
             via,
             client,
+            key: None,
         }
     }
 

@@ -330,6 +330,8 @@ async fn read_page(store: &dyn Store) -> Faults {
         sort: FleetSort::DriftUm,
         offset: 0,
         limit: 100,
+        within_sites: vec![],
+        within_tags: vec![],
     };
     let page = match store.fleet_page(&q).await {
         Ok(p) => p,

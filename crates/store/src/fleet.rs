@@ -78,6 +78,10 @@ pub struct FleetPageQuery {
     pub sort: FleetSort,
     pub offset: i64,
     pub limit: i64,
+    /// The asker's scope (a key's sites and tags, empty: no limit): machines outside it
+    /// are not shown, counted or offered as a filter's choice.
+    pub within_sites: Vec<String>,
+    pub within_tags: Vec<String>,
 }
 
 /// A machine on the fleet page: its drift row (None before its first identification)

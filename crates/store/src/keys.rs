@@ -20,8 +20,14 @@ pub struct NewKey {
 }
 
 impl NewKey {
-    /// A fresh key of `scope`, created now; its prefix is the secret's first 8 characters.
+    /// A fresh key of `scope` over the whole group, created now; its prefix is the
+    /// secret's first 8 characters.
     pub fn generate(scope: Scope, label: &str) -> NewKey {
+        NewKey::generate_in(scope, label, &[], &[])
+    }
+
+    /// A fresh key of `scope` limited to `sites` and `tags` (empty: no limit).
+    pub fn generate_in(scope: Scope, label: &str, sites: &[String], tags: &[String]) -> NewKey {
         let secret = generate_secret();
         NewKey {
             key: ApiKey {
@@ -31,6 +37,8 @@ impl NewKey {
                 label: label.to_string(),
                 created_at: crate::now_rfc3339(),
                 revoked_at: None,
+                sites: sites.to_vec(),
+                tags: tags.to_vec(),
             },
             hash: hash_secret(&secret),
             secret,
@@ -67,8 +75,20 @@ pub fn hash_secret(secret: &str) -> String {
 /// API keys and the dashboard's sign-in sessions, kept by the database. Implementations
 /// must make each method atomic.
 pub trait Keys: Send + Sync {
-    /// Creates a key; returns it with the secret, which is not stored.
-    fn create_key<'a>(&'a self, scope: Scope, label: &'a str) -> StoreFuture<'a, (ApiKey, String)>;
+    /// Creates a key of the whole group; returns it with the secret, which is not stored.
+    fn create_key<'a>(&'a self, scope: Scope, label: &'a str) -> StoreFuture<'a, (ApiKey, String)> {
+        self.create_key_in(scope, label, &[], &[])
+    }
+
+    /// Creates a key limited to `sites` and, within them, to machines with one of `tags`
+    /// (either empty: no limit of that kind); returns it with the secret.
+    fn create_key_in<'a>(
+        &'a self,
+        scope: Scope,
+        label: &'a str,
+        sites: &'a [String],
+        tags: &'a [String],
+    ) -> StoreFuture<'a, (ApiKey, String)>;
 
     fn key_by_secret<'a>(&'a self, secret: &'a str) -> StoreFuture<'a, Option<ApiKey>>;
 

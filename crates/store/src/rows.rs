@@ -73,7 +73,8 @@ pub(crate) const DATASET_COLUMNS: &str = "id, machine_id, kind, measured_at, upl
      excluded_at, excluded_by, excluded_reason, deleted_at, deleted_by, deleted_reason";
 
 /// Columns of an API key (never its hash).
-pub(crate) const KEY_COLUMNS: &str = "id, prefix, scope, label, created_at, revoked_at";
+pub(crate) const KEY_COLUMNS: &str =
+    "id, prefix, scope, label, created_at, revoked_at, sites, tags";
 
 pub(crate) fn machine(r: &impl Columns) -> Result<Machine> {
     machine_as(r, "id")
@@ -233,6 +234,8 @@ pub(crate) fn api_key(r: &impl Columns) -> Result<ApiKey> {
         label: r.text("label")?,
         created_at: r.text("created_at")?,
         revoked_at: r.opt_text("revoked_at")?,
+        sites: r.json("sites")?,
+        tags: r.json("tags")?,
     })
 }
 

@@ -110,6 +110,27 @@ pub fn check_machine(m: &crate::Machine) -> Result<()> {
     check_tags(&m.tags)
 }
 
+/// Most sites one key may name.
+pub const KEY_SITES_MAX: usize = 100;
+
+/// Checks a key's scope: at most [`KEY_SITES_MAX`] sites, each a site line, none twice;
+/// its tags as a machine's.
+pub fn check_key_scope(sites: &[String], tags: &[String]) -> Result<()> {
+    if sites.len() > KEY_SITES_MAX {
+        return Err(invalid(format!(
+            "sites: at most {KEY_SITES_MAX}, got {}",
+            sites.len()
+        )));
+    }
+    for (i, s) in sites.iter().enumerate() {
+        check_line(&format!("sites[{i}]"), s, SITE_MAX)?;
+        if sites[..i].contains(s) {
+            return Err(invalid(format!("sites[{i}]: {s:?} is given twice")));
+        }
+    }
+    check_tags(tags)
+}
+
 /// Checks a record of who did what and why (exclusions, deletions).
 pub fn check_record(by: &str, reason: &str) -> Result<()> {
     check_line("by", by, BY_MAX)?;

@@ -995,6 +995,8 @@ async fn fleet_page_puts_alerted_machines_first_then_filters_sorts_and_counts(s:
         sort,
         offset: 0,
         limit: 10,
+        within_sites: vec![],
+        within_tags: vec![],
     };
     let ids = |p: &FleetPage| {
         p.rows
@@ -1281,6 +1283,8 @@ async fn fleet_pages_equal_a_sort_of_every_machine_from_scratch(s: &dyn Store) {
                             sort,
                             offset: offset as i64,
                             limit: limit as i64,
+                            within_sites: vec![],
+                            within_tags: vec![],
                         })
                         .await
                         .unwrap();

@@ -110,8 +110,13 @@ fn machine(
     }
 }
 
-/// One page of the fleet (`GET /api/v1/fleet`; the dashboard's fleet page).
-pub async fn page(store: &dyn Store, q: &FleetParams) -> Result<FleetList, DomainError> {
+/// One page of the fleet (`GET /api/v1/fleet`; the dashboard's fleet page) as `key`
+/// sees it: the machines of its scope only, counted and offered as choices alone.
+pub async fn page(
+    store: &dyn Store,
+    q: &FleetParams,
+    key: &mtcal_store::ApiKey,
+) -> Result<FleetList, DomainError> {
     let sort = q.sort.clone().unwrap_or_else(|| "drift".into());
     let by = order(&sort)?;
     let limit = crate::paging::limit(q.limit, DEFAULT_LIMIT, MAX_LIMIT)?;
@@ -124,6 +129,8 @@ pub async fn page(store: &dyn Store, q: &FleetParams) -> Result<FleetList, Domai
             sort: by,
             offset: i64::try_from(offset).unwrap_or(i64::MAX),
             limit: limit as i64,
+            within_sites: key.sites.clone(),
+            within_tags: key.tags.clone(),
         })
         .await?;
     let profiles = store.list_tolerances().await?;

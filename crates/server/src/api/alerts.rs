@@ -14,11 +14,32 @@ pub use mtcal_domain::alerts::{Acknowledgement, AlertQuery, AlertView, MAX_ALERT
     security(("api_key" = [])), params(AlertQuery),
     responses((status = 200, body = Vec<AlertView>), (status = 400, body = ErrorBody), (status = 401, body = ErrorBody)))]
 pub async fn list(
-    _key: ReadKey,
+    ReadKey(key): ReadKey,
     State(s): State<AppState>,
     ApiQuery(q): ApiQuery<AlertQuery>,
 ) -> Result<Json<Vec<AlertView>>, ApiError> {
-    Ok(Json(alerts::list(s.store.as_ref(), &q).await?))
+    Ok(Json(list_within(&s, &q, &key).await?))
+}
+
+/// The alerts of `q` within `key`'s scope (the API's list; the dashboard's pages): for a
+/// scoped key, its machines' among the newest [`MAX_ALERTS`].
+pub async fn list_within(
+    s: &AppState,
+    q: &AlertQuery,
+    key: &mtcal_store::ApiKey,
+) -> Result<Vec<AlertView>, ApiError> {
+    let Some(ids) = crate::auth::scope::Within(key).machine_ids(s).await? else {
+        return Ok(alerts::list(s.store.as_ref(), q).await?);
+    };
+    let limit = mtcal_domain::paging::limit(q.limit, 100, MAX_ALERTS)?;
+    let wide = AlertQuery {
+        limit: Some(MAX_ALERTS),
+        ..q.clone()
+    };
+    let mut list = alerts::list(s.store.as_ref(), &wide).await?;
+    list.retain(|a| ids.contains(&a.raised.machine_id));
+    list.truncate(limit);
+    Ok(list)
 }
 
 #[utoipa::path(operation_id = "alerts_ack", summary = "Acknowledge a drift alert (who, when and a comment recorded)", post, path = "/api/v1/alerts/{id}/ack", tag = "alerts",

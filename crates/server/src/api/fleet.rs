@@ -15,11 +15,11 @@ pub use mtcal_domain::fleet::{FleetList, FleetMachine, FleetParams, LastCheck};
     security(("api_key" = [])), params(FleetParams),
     responses((status = 200, body = FleetList), (status = 400, body = ErrorBody)))]
 pub async fn list(
-    _key: ReadKey,
+    ReadKey(key): ReadKey,
     State(s): State<AppState>,
     ApiQuery(q): ApiQuery<FleetParams>,
 ) -> Result<Json<FleetList>, ApiError> {
     Ok(Json(
-        mtcal_domain::fleet::page::page(s.store.as_ref(), &q).await?,
+        mtcal_domain::fleet::page::page(s.store.as_ref(), &q, &key).await?,
     ))
 }

@@ -1,6 +1,7 @@
 //! `/api/v1/jobs`: submit, status with progress, result, cancel.
 
 use crate::AppState;
+use crate::auth::scope::{Kind, Within};
 use crate::auth::{ReadKey, WriteKey};
 use crate::error::{ApiError, ApiJson, ErrorBody};
 use crate::jobs;
@@ -8,7 +9,7 @@ use axum::Json;
 use axum::extract::{Path, State};
 use axum::http::StatusCode;
 pub use mtcal_api::jobs::SubmitJob;
-use mtcal_store::{Job, JobState, NewJob};
+use mtcal_store::{ApiKey, Job, JobState, NewJob};
 use serde::Deserialize;
 
 #[utoipa::path(operation_id = "jobs_submit", summary = "Submit a job (identify, sensitivity, diagnose, cradle, standards)", post, path = "/api/v1/jobs", tag = "jobs", request_body = SubmitJob,
@@ -17,15 +18,23 @@ use serde::Deserialize;
               (status = 404, body = ErrorBody),
               (status = 409, body = ErrorBody, description = "conflict: the dataset is excluded (the message gives its record)")))]
 pub async fn submit(
-    _key: WriteKey,
+    WriteKey(key): WriteKey,
     State(s): State<AppState>,
     ApiJson(j): ApiJson<SubmitJob>,
 ) -> Result<(StatusCode, Json<Job>), ApiError> {
-    Ok((StatusCode::ACCEPTED, Json(submit_job(&s, j).await?)))
+    Ok((StatusCode::ACCEPTED, Json(submit_job(&s, j, &key).await?)))
 }
 
 /// Checks and enqueues a job (`POST /api/v1/jobs`; the dashboard's upload form too).
-pub async fn submit_job(s: &AppState, j: SubmitJob) -> Result<Job, ApiError> {
+pub async fn submit_job(s: &AppState, j: SubmitJob, key: &ApiKey) -> Result<Job, ApiError> {
+    let within = Within(key);
+    let get = axum::http::Method::GET;
+    if let Some(d) = &j.dataset_id {
+        within.check(s, Kind::Dataset, d, &get).await?;
+    }
+    if let Some(m) = &j.machine_id {
+        within.check(s, Kind::Machine, m, &get).await?;
+    }
     let params = if j.params.is_null() {
         serde_json::json!({})
     } else {
@@ -147,7 +156,7 @@ pub struct JobListQuery {
 }
 
 /// Jobs newest first (`GET /api/v1/jobs`; the dashboard's jobs page too).
-pub async fn list_jobs(s: &AppState, q: &JobListQuery) -> Result<Vec<Job>, ApiError> {
+pub async fn list_jobs(s: &AppState, q: &JobListQuery, key: &ApiKey) -> Result<Vec<Job>, ApiError> {
     let state = match q.state.as_deref().filter(|v| !v.is_empty()) {
         None => None,
         Some(v) => Some(JobState::parse(v).ok_or_else(|| {
@@ -157,16 +166,23 @@ pub async fn list_jobs(s: &AppState, q: &JobListQuery) -> Result<Vec<Job>, ApiEr
         })?),
     };
     let limit = mtcal_domain::paging::limit(q.limit, 100, MAX_JOBS)?;
-    Ok(s.store.list_jobs(state, limit as i64).await?)
+    let Some(ids) = Within(key).machine_ids(s).await? else {
+        return Ok(s.store.list_jobs(state, limit as i64).await?);
+    };
+    // A scoped key: the newest jobs of its machines among the newest of all.
+    let mut jobs = s.store.list_jobs(state, MAX_JOBS as i64).await?;
+    jobs.retain(|j| j.machine_id.as_ref().is_some_and(|m| ids.contains(m)));
+    jobs.truncate(limit);
+    Ok(jobs)
 }
 
 #[utoipa::path(operation_id = "jobs_list", summary = "Jobs, newest first (by state)", get, path = "/api/v1/jobs", tag = "jobs",
     security(("api_key" = [])), params(JobListQuery),
     responses((status = 200, body = Vec<Job>), (status = 400, body = ErrorBody), (status = 401, body = ErrorBody)))]
 pub async fn list(
-    _key: ReadKey,
+    ReadKey(key): ReadKey,
     State(s): State<AppState>,
     crate::error::ApiQuery(q): crate::error::ApiQuery<JobListQuery>,
 ) -> Result<Json<Vec<Job>>, ApiError> {
-    Ok(Json(list_jobs(&s, &q).await?))
+    Ok(Json(list_jobs(&s, &q, &key).await?))
 }

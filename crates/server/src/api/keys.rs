@@ -15,12 +15,23 @@ use mtcal_store::ApiKey;
     security(("api_key" = ["admin"])),
     responses((status = 201, body = CreatedKey), (status = 403, body = ErrorBody)))]
 pub async fn create(
-    _key: AdminKey,
+    AdminKey(me): AdminKey,
     who: Actor,
     State(s): State<AppState>,
     ApiJson(k): ApiJson<NewKey>,
 ) -> Result<(StatusCode, Json<CreatedKey>), ApiError> {
-    let (key, secret) = s.store.create_key(k.scope, &k.label).await?;
+    // A key gives no more than it has: its sites and tags bound the new key's.
+    if !me.contains(&k.sites, &k.tags) {
+        return Err(ApiError::Forbidden(format!(
+            "key {} (sites {:?}, tags {:?}) cannot create a key wider than its own scope \
+             (asked: sites {:?}, tags {:?}; empty is the whole group)",
+            me.prefix, me.sites, me.tags, k.sites, k.tags
+        )));
+    }
+    let (key, secret) = s
+        .store
+        .create_key_in(k.scope, &k.label, &k.sites, &k.tags)
+        .await?;
     // The record without the secret (shown once, never kept).
     let change = Change {
         action: "key.create",
@@ -37,10 +48,13 @@ pub async fn create(
     security(("api_key" = ["admin"])),
     responses((status = 200, body = Vec<ApiKey>), (status = 401, body = ErrorBody), (status = 403, body = ErrorBody)))]
 pub async fn list(
-    _key: AdminKey,
+    AdminKey(me): AdminKey,
     State(s): State<AppState>,
 ) -> Result<Json<Vec<ApiKey>>, ApiError> {
-    Ok(Json(s.store.list_keys().await?))
+    let mut keys = s.store.list_keys().await?;
+    // A key limited to sites or tags sees the keys within its scope only.
+    keys.retain(|k| me.contains(&k.sites, &k.tags));
+    Ok(Json(keys))
 }
 
 /// Revokes a key: from the next request on it authenticates nothing (401) and its

@@ -30,7 +30,21 @@ pub async fn create(
 }
 
 /// Registers a machine and records it (`POST /api/v1/machines`; the dashboard's form).
-pub async fn create_machine(s: &AppState, m: NewMachine, who: &Actor) -> Result<Machine, ApiError> {
+/// The machine's site: the one named, else the key's only site, else none (the default
+/// site); a key limited to sites or tags registers machines within them only.
+pub async fn create_machine(
+    s: &AppState,
+    mut m: NewMachine,
+    who: &Actor,
+) -> Result<Machine, ApiError> {
+    let within = who.within()?;
+    m.site = within.site_for_new(m.site.take())?;
+    if !within.0.covers(m.site.as_deref(), &m.tags) {
+        return Err(ApiError::InvalidRequest(format!(
+            "tags: key {} registers machines with one of its tags {:?} only",
+            within.0.prefix, within.0.tags
+        )));
+    }
     let m = mtcal_domain::machines::create(s.store.as_ref(), m).await?;
     let change = Change {
         action: "machine.create",
@@ -82,11 +96,19 @@ pub async fn update_machine(
             baseline_result_id: None,
             ..p.clone()
         } == MachinePatch::default();
-    let before = s.store.get_machine(id).await?;
+    let within = who.within()?;
+    let before = within.get_machine(s, id).await?;
+    let moved = p
+        .site
+        .as_ref()
+        .is_some_and(|site| before.site.as_ref() != Some(site));
+    check_patch_scope(s, &within, &before, &p, moved).await?;
     let after = mtcal_domain::machines::update(s.store.as_ref(), id, p).await?;
     let change = Change {
         action: if only_baseline {
             "baseline.set"
+        } else if moved {
+            "machine.site"
         } else {
             "machine.update"
         },
@@ -97,6 +119,43 @@ pub async fn update_machine(
     };
     who.record(s.store.as_ref(), change).await?;
     Ok(after)
+}
+
+/// The scope rules of a patch by a key (docs/sites.md): moving a machine to another
+/// site takes an admin key, and the machine stays within the key's scope; a baseline
+/// outside the scope is not found.
+async fn check_patch_scope(
+    s: &AppState,
+    within: &crate::auth::scope::Within<'_>,
+    before: &Machine,
+    p: &MachinePatch,
+    moved: bool,
+) -> Result<(), ApiError> {
+    let key = within.0;
+    if moved && !key.scope.allows(mtcal_store::Scope::Admin) {
+        return Err(ApiError::Forbidden(format!(
+            "moving a machine to another site needs a key with scope admin; key {} has \
+             scope {}",
+            key.prefix,
+            key.scope.as_str()
+        )));
+    }
+    let site = p.site.as_deref().or(before.site.as_deref());
+    let tags = p.tags.as_ref().unwrap_or(&before.tags);
+    if !key.covers(site, tags) {
+        return Err(ApiError::Forbidden(format!(
+            "the change would take machine {} out of the scope of key {} (sites {:?}, \
+             tags {:?})",
+            before.id, key.prefix, key.sites, key.tags
+        )));
+    }
+    if let Some(b) = &p.baseline_result_id {
+        let method = axum::http::Method::GET;
+        within
+            .check(s, crate::auth::scope::Kind::Result, b, &method)
+            .await?;
+    }
+    Ok(())
 }
 
 /// Most machines one list returns.
@@ -116,14 +175,27 @@ pub struct ListQuery {
     security(("api_key" = [])),
     responses((status = 200, body = Vec<Machine>)))]
 pub async fn list(
-    _key: ReadKey,
+    ReadKey(key): ReadKey,
     State(s): State<AppState>,
     ApiQuery(q): ApiQuery<ListQuery>,
 ) -> Result<Json<Vec<Machine>>, ApiError> {
     let limit = mtcal_domain::paging::limit(q.limit, 100, MAX_MACHINES)?;
-    Ok(Json(
-        s.store
-            .list_machines(q.after.as_deref(), limit as i64)
-            .await?,
-    ))
+    let within = crate::auth::scope::Within(&key);
+    let mut out = Vec::new();
+    let mut after = q.after;
+    // A scoped key's page: the next machines within its scope, read a page at a time.
+    while out.len() < limit {
+        let page = s
+            .store
+            .list_machines(after.as_deref(), limit as i64)
+            .await?;
+        let full = page.len() == limit;
+        after = page.last().map(|m| m.id.clone());
+        out.extend(page.into_iter().filter(|m| within.machine(m)));
+        if !full {
+            break;
+        }
+    }
+    out.truncate(limit);
+    Ok(Json(out))
 }

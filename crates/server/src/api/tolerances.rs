@@ -4,6 +4,7 @@
 
 use crate::AppState;
 use crate::audit::{Actor, Change, json};
+use crate::auth::scope::Within;
 use crate::auth::{ReadKey, WriteKey};
 use crate::error::{ApiError, ApiJson, ErrorBody};
 use axum::Json;
@@ -12,6 +13,7 @@ use axum::http::StatusCode;
 use mtcal_domain::profiles;
 pub use mtcal_domain::profiles::{NewProfile, Profile, ProfileUpdate, TARGET_MAX};
 pub use mtcal_domain::verdicts::{ProfileRef, ResultVerdict};
+use mtcal_store::{ApiKey, ToleranceProfile};
 
 /// Refreshes the fleet rows of the machines a profile applies to, in a task of its own
 /// (a tag may cover many machines; the fleet page follows within moments).
@@ -64,6 +66,8 @@ pub async fn create_profile(
     p: &NewProfile,
     who: &Actor,
 ) -> Result<Profile, ApiError> {
+    let post = axum::http::Method::POST;
+    who.within()?.profile(s, &p.scope, &p.target, &post).await?;
     let answer = profiles::create(s.store.as_ref(), p, &s.settings.webhooks).await?;
     let change = Change {
         action: "profile.create",
@@ -77,6 +81,17 @@ pub async fn create_profile(
     Ok(answer)
 }
 
+/// A profile as `key` may see it: a tag's profile, the whole group's, shows a key
+/// limited to sites or tags the webhook's host only, as a read key.
+fn seen(p: Profile, key: &ApiKey) -> Profile {
+    let scope = if key.is_group() || p.scope == "machine" {
+        key.scope
+    } else {
+        mtcal_store::Scope::Read
+    };
+    profiles::seen_by(p, scope)
+}
+
 #[utoipa::path(operation_id = "tolerances_list", summary = "Every tolerance profile", get, path = "/api/v1/tolerances", tag = "tolerances",
     security(("api_key" = [])),
     responses((status = 200, body = Vec<Profile>, description = "by scope, then target"), (status = 401, body = ErrorBody)))]
@@ -85,9 +100,15 @@ pub async fn list(
     State(s): State<AppState>,
 ) -> Result<Json<Vec<Profile>>, ApiError> {
     let all = s.store.list_tolerances().await?;
+    let ids = Within(&key).machine_ids(&s).await?;
+    let shown = |p: &&ToleranceProfile| match &ids {
+        Some(ids) if p.scope == "machine" => ids.contains(&p.target),
+        _ => true,
+    };
     Ok(Json(
         all.iter()
-            .map(|p| profiles::profile_of(p).map(|p| profiles::seen_by(p, key.scope)))
+            .filter(shown)
+            .map(|p| profiles::profile_of(p).map(|p| seen(p, &key)))
             .collect::<Result<_, _>>()?,
     ))
 }
@@ -101,7 +122,7 @@ pub async fn get(
     Path(id): Path<String>,
 ) -> Result<Json<Profile>, ApiError> {
     let p = profiles::profile_of(&s.store.get_tolerance(&id).await?)?;
-    Ok(Json(profiles::seen_by(p, key.scope)))
+    Ok(Json(seen(p, &key)))
 }
 
 #[utoipa::path(operation_id = "tolerances_replace", summary = "Replace a tolerance profile's limits and webhook", put, path = "/api/v1/tolerances/{id}", tag = "tolerances",

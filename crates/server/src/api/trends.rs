@@ -113,11 +113,12 @@ pub async fn figure(
     security(("api_key" = [])), params(FleetQuery),
     responses((status = 200, body = FleetDrift), (status = 400, body = ErrorBody)))]
 pub async fn fleet(
-    _key: ReadKey,
+    ReadKey(key): ReadKey,
     State(s): State<AppState>,
     ApiQuery(q): ApiQuery<FleetQuery>,
 ) -> Result<Json<FleetDrift>, ApiError> {
+    let within = crate::auth::scope::Within(&key).machine_ids(&s).await?;
     Ok(Json(
-        mtcal_domain::fleet::entry::ranked(s.store.as_ref(), q).await?,
+        mtcal_domain::fleet::entry::ranked(s.store.as_ref(), q, within.as_ref()).await?,
     ))
 }

@@ -13,6 +13,7 @@
 //!
 //! The dashboard's sign-in cookie is read here too ([`session`]).
 
+pub mod scope;
 pub mod session;
 
 use crate::AppState;

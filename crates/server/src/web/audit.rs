@@ -37,7 +37,7 @@ pub async fn page(
             *field = None;
         }
     }
-    let events = audit::page(s.app.store.as_ref(), &f).await?;
+    let events = crate::api::audit::page_within(&s.app, &f, &session.key).await?;
     let full = events.len() == f.limit.unwrap_or(audit::DEFAULT_EVENTS);
     let rows: Vec<AuditRow> = events
         .iter()

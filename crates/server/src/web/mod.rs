@@ -198,14 +198,39 @@ pub fn router(app: AppState) -> Router {
             REQUEST_TIMEOUT,
         ));
     let guard = axum::middleware::from_fn_with_state(state.app.clone(), crate::outage::guard);
+    let scope = axum::middleware::from_fn_with_state(state.app.clone(), scope_guard);
     let assets = Router::new().route("/static/{file}", get(asset));
     let pages = axum::middleware::from_fn_with_state(state.clone(), error_pages);
     uploads
         .merge(rest)
+        .route_layer(scope)
         .route_layer(guard)
         .merge(assets)
         .route_layer(pages)
         .with_state(state)
+}
+
+/// The sites-and-roles check of every page (`crate::auth::scope`) for the key of the
+/// request's session: an id outside its scope is a 404 page. A request without a
+/// session goes on (its page sends it to the sign-in page).
+async fn scope_guard(
+    State(s): State<AppState>,
+    req: axum::extract::Request,
+    next: axum::middleware::Next,
+) -> Response {
+    let (mut parts, body) = req.into_parts();
+    let cookie = session::cookie_key();
+    let found = Session::from_headers(&s, &cookie, &parts.headers).await;
+    let checked = match found {
+        Ok(Some(session)) => crate::auth::scope::check_request(&s, &session.key, &mut parts).await,
+        Ok(None) => Ok(()),
+        Err(e) => Err(e),
+    };
+    if let Err(e) = checked {
+        return WebError(e).into_response();
+    }
+    next.run(axum::extract::Request::from_parts(parts, body))
+        .await
 }
 
 /// `/static/{file}`: the vendored stylesheet and script (pages link them with a content

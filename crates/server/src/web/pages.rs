@@ -161,16 +161,18 @@ pub async fn fleet(
             offset: Some((page_no - 1) * FLEET_PAGE_ROWS),
             limit: Some(FLEET_PAGE_ROWS),
         },
+        &session.key,
     )
     .await?;
     let read_page = started.elapsed();
-    let alerts = alerts::list(
-        app.store.as_ref(),
+    let alerts = crate::api::alerts::list_within(
+        app,
         &AlertQuery {
             active: Some(true),
             limit: Some(MAX_ALERTS),
             ..AlertQuery::default()
         },
+        &session.key,
     )
     .await?;
     let read_alerts = started.elapsed();
@@ -865,6 +867,7 @@ pub async fn upload(
                 machine_id: None,
                 params: serde_json::Value::Null,
             },
+            &session.key,
         )
         .await?;
         ids.push(job.id);
@@ -902,13 +905,14 @@ pub async fn alerts(
             ))));
         }
     };
-    let list = alerts::list(
-        s.app.store.as_ref(),
+    let list = crate::api::alerts::list_within(
+        &s.app,
         &AlertQuery {
             machine: machine.clone(),
             active,
             limit: Some(MAX_ALERTS),
         },
+        &session.key,
     )
     .await?;
     let page = valerts::AlertsPage {
@@ -962,6 +966,7 @@ pub async fn jobs(
             state: Some(state.clone()),
             limit: Some(api_jobs::MAX_JOBS),
         },
+        &session.key,
     )
     .await?;
     let rows = job_rows(&s.app, &list).await;

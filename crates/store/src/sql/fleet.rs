@@ -35,22 +35,61 @@ async fn upsert_fleet_drift<'e>(
 }
 
 /// The fleet page's filter on machines `m`, as SQL conditions with placeholders from `$1`
-/// and their values: the site; the tag matched whole in the machine's JSON tag list
-/// (the quoted tag, LIKE's wildcards escaped).
+/// and their values: the asker's scope ([`scope_filter`]), the site; the tag matched
+/// whole in the machine's JSON tag list.
 fn fleet_filter(q: &FleetPageQuery) -> Result<(String, Vec<String>)> {
-    let (mut conditions, mut values) = (vec!["1 = 1".to_string()], Vec::new());
+    let (scope, mut values) = scope_filter(q)?;
+    let mut conditions = vec![scope];
     if let Some(site) = &q.site {
         values.push(site.clone());
-        conditions.push(format!("m.site = ${}", values.len()));
+        conditions.push(site_is(values.len(), site));
     }
     if let Some(tag) = &q.tag {
-        let quoted = serde_json::to_string(tag).db()?;
-        let escaped = quoted
-            .replace('!', "!!")
-            .replace('%', "!%")
-            .replace('_', "!_");
-        values.push(format!("%{escaped}%"));
-        conditions.push(format!("m.tags LIKE ${} ESCAPE '!'", values.len()));
+        conditions.push(tag_is(tag, &mut values)?);
+    }
+    Ok((conditions.join(" AND "), values))
+}
+
+/// The condition that machine `m`'s site is placeholder `$n`, whose value is `site` (a
+/// machine without a site is in the site `default`).
+fn site_is(n: usize, site: &str) -> String {
+    if site == mtcal_api::keys::DEFAULT_SITE {
+        format!("(m.site = ${n} OR m.site IS NULL)")
+    } else {
+        format!("m.site = ${n}")
+    }
+}
+
+/// The condition that machine `m` has `tag` (the quoted tag in its JSON list, LIKE's
+/// wildcards escaped), its value pushed onto `values`.
+fn tag_is(tag: &str, values: &mut Vec<String>) -> Result<String> {
+    let quoted = serde_json::to_string(tag).db()?;
+    let escaped = quoted
+        .replace('!', "!!")
+        .replace('%', "!%")
+        .replace('_', "!_");
+    values.push(format!("%{escaped}%"));
+    Ok(format!("m.tags LIKE ${} ESCAPE '!'", values.len()))
+}
+
+/// The asker's scope as conditions on machines `m` (from `$1`) and their values: one of
+/// its sites, and one of its tags (`1 = 1`: the whole group).
+fn scope_filter(q: &FleetPageQuery) -> Result<(String, Vec<String>)> {
+    let (mut conditions, mut values) = (vec!["1 = 1".to_string()], Vec::new());
+    if !q.within_sites.is_empty() {
+        let mut any = Vec::new();
+        for site in &q.within_sites {
+            values.push(site.clone());
+            any.push(site_is(values.len(), site));
+        }
+        conditions.push(format!("({})", any.join(" OR ")));
+    }
+    if !q.within_tags.is_empty() {
+        let mut any = Vec::new();
+        for tag in &q.within_tags {
+            any.push(tag_is(tag, &mut values)?);
+        }
+        conditions.push(format!("({})", any.join(" OR ")));
     }
     Ok((conditions.join(" AND "), values))
 }
@@ -298,19 +337,26 @@ async fn other_checks(lacking: &[String], conn: &mut Conn) -> Result<HashMap<Str
     Ok(others)
 }
 
-/// The filters' choices: every site, and every machine's tag list as stored (JSON).
-async fn choices(conn: &mut Conn) -> Result<(Vec<String>, Vec<String>)> {
+/// The filters' choices: every site, and every machine's tag list as stored (JSON); for
+/// an asker limited to sites or tags, those of the machines in its scope only.
+async fn choices(q: &FleetPageQuery, conn: &mut Conn) -> Result<(Vec<String>, Vec<String>)> {
     let (mut sites, mut tag_lists) = (Vec::new(), Vec::new());
-    let sql = format!(
-        "{} UNION ALL {}",
-        distinct_machines("site", "site"),
-        distinct_machines("tags", "tags")
-    );
-    for r in sqlx::query(sqlx::AssertSqlSafe(sql))
-        .fetch_all(&mut *conn)
-        .await
-        .db()?
-    {
+    let (scope, values) = scope_filter(q)?;
+    let sql = if values.is_empty() {
+        format!(
+            "{} UNION ALL {}",
+            distinct_machines("site", "site"),
+            distinct_machines("tags", "tags")
+        )
+    } else {
+        format!(
+            "SELECT DISTINCT COALESCE(m.site, '{}') AS v, 'site' AS col FROM machines m \
+             WHERE {scope} UNION ALL \
+             SELECT DISTINCT m.tags AS v, 'tags' AS col FROM machines m WHERE {scope}",
+            mtcal_api::keys::DEFAULT_SITE
+        )
+    };
+    for r in bound(sql, &values).fetch_all(&mut *conn).await.db()? {
         match r.text("col")?.as_str() {
             "site" => sites.push(r.text("v")?),
             _ => tag_lists.push(r.text("v")?),
@@ -419,7 +465,7 @@ impl Fleet for Backend {
             .await
             .db()?
             .int("n")?;
-            let (mut sites, tag_lists) = choices(&mut tx).await?;
+            let (mut sites, tag_lists) = choices(q, &mut tx).await?;
             sites.sort();
             tx.commit().await.db()?;
             let mut tags = Vec::new();

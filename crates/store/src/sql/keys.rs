@@ -8,20 +8,29 @@ use crate::rows::{self, Columns, KEY_COLUMNS};
 use crate::{Keys, StoreFuture, now_rfc3339};
 
 impl Keys for Backend {
-    fn create_key<'a>(&'a self, scope: Scope, label: &'a str) -> StoreFuture<'a, (ApiKey, String)> {
+    fn create_key_in<'a>(
+        &'a self,
+        scope: Scope,
+        label: &'a str,
+        sites: &'a [String],
+        tags: &'a [String],
+    ) -> StoreFuture<'a, (ApiKey, String)> {
         Box::pin(async move {
             crate::text::check_line("label", label, crate::text::LABEL_MAX)?;
-            let k = NewKey::generate(scope, label);
+            crate::text::check_key_scope(sites, tags)?;
+            let k = NewKey::generate_in(scope, label, sites, tags);
             run!(
                 execute(&self.pool),
-                "INSERT INTO api_keys (id, hash, prefix, scope, label, created_at) \
-                 VALUES ($1, $2, $3, $4, $5, $6)",
+                "INSERT INTO api_keys (id, hash, prefix, scope, label, created_at, sites, tags) \
+                 VALUES ($1, $2, $3, $4, $5, $6, $7, $8)",
                 &k.key.id,
                 &k.hash,
                 &k.key.prefix,
                 scope.as_str(),
                 &k.key.label,
-                &k.key.created_at
+                &k.key.created_at,
+                serde_json::to_string(sites).db()?,
+                serde_json::to_string(tags).db()?
             )?;
             Ok((k.key, k.secret))
         })
@@ -63,12 +72,14 @@ impl Keys for Backend {
                     .await
                     .db()?;
             }
-            // One statement: the last admin key that is not revoked stays.
+            // One statement: the last admin key of the whole group that is not revoked
+            // stays (admin keys limited to sites or tags do not count).
             let done = run!(
                 execute(&mut *tx),
                 "UPDATE api_keys SET revoked_at = $2 WHERE id = $1 AND revoked_at IS NULL \
-                 AND (scope <> 'admin' OR (SELECT COUNT(*) FROM api_keys \
-                      WHERE scope = 'admin' AND revoked_at IS NULL) > 1)",
+                 AND (scope <> 'admin' OR sites <> '[]' OR tags <> '[]' \
+                      OR (SELECT COUNT(*) FROM api_keys WHERE scope = 'admin' \
+                          AND sites = '[]' AND tags = '[]' AND revoked_at IS NULL) > 1)",
                 id,
                 now_rfc3339()
             )?;
@@ -84,7 +95,7 @@ impl Keys for Backend {
             if done.rows_affected() == 0 && key.revoked_at.is_none() {
                 tx.rollback().await.db()?;
                 return Err(StoreError::Conflict(format!(
-                    "key {id} is the last admin key: create another admin key before revoking it"
+                    "key {id} is the last admin key of the whole group: create another before revoking it"
                 )));
             }
             tx.commit().await.db()?;
