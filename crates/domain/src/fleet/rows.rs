@@ -26,6 +26,7 @@ use crate::fleet::entry::{DiagnosisSummary, FleetEntry};
 use crate::history::baseline;
 use crate::kinds::IDENTIFICATION;
 use crate::trends;
+use mtcal_solver::identification::IdentificationResult;
 use mtcal_store::{
     FleetDriftRow, Machine, ResultMeta, Store, StoreError, ToleranceProfile, now_ms,
 };
