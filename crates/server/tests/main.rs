@@ -12,5 +12,6 @@ mod operations;
 mod outage;
 mod parity;
 mod rejections;
+mod sites;
 mod tolerances_alerts;
 mod tolerant;

@@ -132,6 +132,10 @@ async fn check_patch_scope(
     moved: bool,
 ) -> Result<(), ApiError> {
     let key = within.0;
+    // A site that is no site at all is a bad request (400) before any question of role.
+    if let Some(site) = &p.site {
+        mtcal_store::text::check_line("site", site, mtcal_store::text::SITE_MAX)?;
+    }
     if moved && !key.scope.allows(mtcal_store::Scope::Admin) {
         return Err(ApiError::Forbidden(format!(
             "moving a machine to another site needs a key with scope admin; key {} has \

@@ -132,7 +132,13 @@ impl Within<'_> {
             }
             Kind::Profile => {
                 let p = s.store.get_tolerance(id).await?;
-                self.profile(s, &p.scope, &p.target, method).await
+                // Its machine outside the scope: the profile's own 404, not the machine's.
+                self.profile(s, &p.scope, &p.target, method)
+                    .await
+                    .map_err(|e| match e {
+                        ApiError::NotFound(_) => not_found("tolerance profile", id),
+                        e => e,
+                    })
             }
             Kind::Key => {
                 let keys = s.store.list_keys().await?;
