@@ -5,17 +5,12 @@
 //! least-squares line) within max(0.1 µm / 1 µrad, 3u) at every compared position, and
 //! the drift must name the term that changed most. Bad input is refused with exit code 2.
 
+mod support;
+
 use mtcal_solver::identification::{IdentifyOptions, identify};
 use mtcal_solver::simulate::{Plan, SimOptions, SimOutput, random_truth, simulate};
 use mtcal_solver::terms::Term;
-use std::process::{Command, Output};
-
-fn mtcal(args: &[&str]) -> Output {
-    Command::new(env!("CARGO_BIN_EXE_mtcal"))
-        .args(args)
-        .output()
-        .unwrap()
-}
+use support::mtcal;
 
 fn check(errors: &mtcal_solver::basis::PolyErrors, seed: u64) -> SimOutput {
     simulate(

@@ -3,16 +3,11 @@
 //! line, column and rule), exit code 2, not a generic "not a positioning-run CSV". A CSV
 //! that looks like no dataset still gets the generic message, exit code 2 too.
 
+mod support;
+
 use std::io::Write as _;
 use std::path::Path;
-use std::process::{Command, Output};
-
-fn mtcal(args: &[&str]) -> Output {
-    Command::new(env!("CARGO_BIN_EXE_mtcal"))
-        .args(args)
-        .output()
-        .unwrap()
-}
+use support::mtcal;
 
 /// Runs `mtcal <cmd> <path>`, expects exit code 2 and returns its stderr.
 fn refused(cmd: &str, path: &Path) -> String {

@@ -2,18 +2,13 @@
 //! disk, exported in every format (the file the formats crate writes) and reported as a
 //! self-contained HTML page; bad input is refused with exit code 2 and a message.
 
+mod support;
+
 use mtcal_formats::compensation::{Compensation, Format};
 use mtcal_solver::identification::{IdentificationResult, IdentifyOptions, identify};
 use mtcal_solver::simulate::{Plan, SimOptions, random_truth, simulate};
 use std::path::Path;
-use std::process::{Command, Output};
-
-fn mtcal(args: &[&str]) -> Output {
-    Command::new(env!("CARGO_BIN_EXE_mtcal"))
-        .args(args)
-        .output()
-        .unwrap()
-}
+use support::mtcal;
 
 /// The seed plan's result (some terms not identifiable), written to `dir/result.json`.
 fn result_file(dir: &Path) -> (IdentificationResult, String) {

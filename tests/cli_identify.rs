@@ -170,3 +170,66 @@ fn identify_reads_an_archive_and_states_a_misfit_and_no_absent_figure() {
         );
     }
 }
+
+/// `identify`, `standards` and `diagnose` read a session zipped or tarred as a person does
+/// it (`zip -r s.zip s`, `tar czf s.tgz s`: the files in a top folder) as they read the
+/// folder: the same document; an archive they cannot read (encrypted) is bad input,
+/// exit code 2, with the archive and the entry named.
+#[test]
+fn commands_read_zip_and_tar_archives_where_they_read_a_folder() {
+    let dir = tempfile::tempdir().unwrap();
+    let out = simulate(
+        &random_truth(8),
+        &SimOptions {
+            plan: Plan::Seed,
+            seed: 8,
+            sample_rate_hz: 5.0,
+            ..Default::default()
+        },
+    )
+    .unwrap();
+    let src = dir.path().join("s");
+    std::fs::create_dir(&src).unwrap();
+    mtcal_formats::write_session_dir(&src, &out.session).unwrap();
+    let make = |program: &str, args: &[&str]| {
+        let ok = Command::new(program)
+            .args(args)
+            .current_dir(dir.path())
+            .status()
+            .unwrap();
+        assert!(ok.success(), "{program} {args:?}");
+    };
+    make("zip", &["-qr", "s.zip", "s"]);
+    make("tar", &["czf", "s.tgz", "s"]);
+    make(
+        "zip",
+        &["-q", "-P", "secret", "locked.zip", "s/session.json"],
+    );
+    let run = |args: &[&str]| {
+        Command::new(env!("CARGO_BIN_EXE_mtcal"))
+            .args(args)
+            .output()
+            .unwrap()
+    };
+    let path = |name: &str| dir.path().join(name).to_str().unwrap().to_string();
+    for cmd in ["identify", "standards", "diagnose"] {
+        let folder = run(&[cmd, &path("s"), "--json"]);
+        assert!(folder.status.success(), "{cmd} on the folder");
+        for archive in ["s.zip", "s.tgz"] {
+            let o = run(&[cmd, &path(archive), "--json"]);
+            assert!(
+                o.status.success(),
+                "{cmd} {archive}: {}",
+                String::from_utf8_lossy(&o.stderr)
+            );
+            assert_eq!(o.stdout, folder.stdout, "{cmd} {archive}: as the folder");
+        }
+    }
+    let o = run(&["identify", &path("locked.zip")]);
+    assert_eq!(o.status.code(), Some(2));
+    let err = String::from_utf8_lossy(&o.stderr);
+    assert!(
+        err.contains("locked.zip") && err.contains("entry `s/session.json` is encrypted"),
+        "{err}"
+    );
+}

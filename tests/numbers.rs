@@ -6,22 +6,10 @@
 //! checked by their own tests: the `<svg>` elements are left out here, as are tags,
 //! styles and code names.
 
-use std::path::Path;
-use std::process::Command;
+mod support;
 
-/// Runs mtcal with `args`: its standard output.
-fn mtcal(args: &[&str]) -> String {
-    let o = Command::new(env!("CARGO_BIN_EXE_mtcal"))
-        .args(args)
-        .output()
-        .unwrap();
-    assert!(
-        o.status.success(),
-        "mtcal {args:?}: {}",
-        String::from_utf8_lossy(&o.stderr)
-    );
-    String::from_utf8(o.stdout).unwrap()
-}
+use std::path::Path;
+use support::mtcal_ok as mtcal;
 
 /// The text a person reads of an HTML page: without tags, `<style>` and `<svg>` elements
 /// and `<code>` names.

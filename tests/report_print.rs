@@ -14,6 +14,8 @@
 //! only when Chromium or pdftotext is absent (`CHROMIUM` names another path than
 //! `/usr/bin/chromium`); under `MTCAL_CI` they must run.
 
+mod support;
+
 use std::path::{Path, PathBuf};
 use std::process::Command;
 
@@ -43,17 +45,9 @@ fn tools() -> Option<PathBuf> {
 
 /// Runs mtcal with `args`, its standard output written to `out` when given.
 fn mtcal(args: &[&str], out: Option<&Path>) {
-    let o = Command::new(env!("CARGO_BIN_EXE_mtcal"))
-        .args(args)
-        .output()
-        .unwrap();
-    assert!(
-        o.status.success(),
-        "mtcal {args:?}: {}",
-        String::from_utf8_lossy(&o.stderr)
-    );
+    let stdout = support::mtcal_ok(args);
     if let Some(p) = out {
-        std::fs::write(p, &o.stdout).unwrap();
+        std::fs::write(p, stdout).unwrap();
     }
 }
 

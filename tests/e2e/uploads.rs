@@ -4,6 +4,7 @@
 
 use crate::common::*;
 use mtcal_store::JobState;
+use reqwest::multipart::{Form, Part};
 use reqwest::{Method, StatusCode};
 use serde_json::Value;
 
@@ -466,4 +467,200 @@ async fn positions_in_micrometres_are_refused_against_the_travel() {
         "{msg}"
     );
     assert_eq!(app.counts().await.datasets, 0);
+}
+
+/// The archives a person makes of folder `dir/session`, named by the command that made
+/// them: tar and zip, with the session at the top or in its folder.
+fn archives_of(dir: &std::path::Path) -> Vec<(&'static str, std::path::PathBuf)> {
+    let run = |cwd: &std::path::Path, program: &str, args: &[&str]| {
+        let out = std::process::Command::new(program)
+            .args(args)
+            .current_dir(cwd)
+            .output()
+            .unwrap();
+        assert!(out.status.success(), "{program} {args:?}: {out:?}");
+    };
+    run(dir, "tar", &["czf", "a.tgz", "-C", "session", "."]);
+    run(dir, "tar", &["czf", "b.tar.gz", "session"]);
+    run(dir, "zip", &["-qr", "c.zip", "session"]);
+    run(&dir.join("session"), "zip", &["-qr", "../d.zip", "."]);
+    vec![
+        ("tar czf a.tgz -C session .", dir.join("a.tgz")),
+        ("tar czf b.tar.gz session", dir.join("b.tar.gz")),
+        ("zip -r c.zip session", dir.join("c.zip")),
+        ("cd session && zip -r ../d.zip .", dir.join("d.zip")),
+    ]
+}
+
+/// Each archive made with `tar` or `zip` is stored as the session it holds, with the
+/// files of the folder as they are, whichever way it arrives: as a multipart file of the
+/// API, as the request's body (`application/gzip` or `application/zip`, and
+/// `application/octet-stream` read by its content) and through the dashboard's form.
+#[tokio::test]
+async fn archives_made_with_tar_and_zip_upload_by_every_path() {
+    let app = spawn_app_with(AppOptions {
+        run_worker: false,
+        ..AppOptions::default()
+    })
+    .await;
+    let browser = app.sign_in(&app.write_key).await;
+    let mut n = 0;
+    for which in 0..4 {
+        for path in ["multipart", "body", "octet-stream", "form"] {
+            // A machine and a session of its own each: a machine's identical upload is a
+            // 409.
+            n += 1;
+            let machine = format!("ARC-{n}");
+            app.machine(&machine).await;
+            let dir = app.path(&format!("up{n}"));
+            std::fs::create_dir_all(dir.join("session")).unwrap();
+            write_session(&dir.join("session"), &machine, 3, 0);
+            let (what, archive) = archives_of(&dir).swap_remove(which);
+            let bytes = std::fs::read(&archive).unwrap();
+            let name = archive.file_name().unwrap().to_string_lossy().into_owned();
+            let url = format!("/api/v1/machines/{machine}/datasets");
+            let status = match path {
+                "multipart" => {
+                    let part = Part::bytes(bytes).file_name(name);
+                    let rb = app
+                        .client
+                        .request(Method::POST, &url)
+                        .multipart(Form::new().part("files", part));
+                    app.client
+                        .send_raw(rb)
+                        .await
+                        .unwrap_or_else(|e| panic!("{what} by {path}: {e}"))
+                        .1
+                        .status()
+                }
+                "body" | "octet-stream" => {
+                    let ct = match (path, name.ends_with(".zip")) {
+                        ("body", true) => "application/zip",
+                        ("body", false) => "application/gzip",
+                        _ => "application/octet-stream",
+                    };
+                    let rb = app
+                        .client
+                        .request(Method::POST, &url)
+                        .header(reqwest::header::CONTENT_TYPE, ct)
+                        .body(bytes);
+                    app.client
+                        .send_raw(rb)
+                        .await
+                        .unwrap_or_else(|e| panic!("{what} by {path}: {e}"))
+                        .1
+                        .status()
+                }
+                _ => {
+                    let form = Form::new()
+                        .text("csrf", browser.csrf.clone())
+                        .part("files", Part::bytes(bytes).file_name(name))
+                        .text("csv_dialect", "plain");
+                    let r = browser
+                        .post_multipart(&format!("/machines/{machine}/upload"), form)
+                        .await;
+                    assert_eq!(r.status(), StatusCode::SEE_OTHER, "{what} by the form");
+                    StatusCode::CREATED
+                }
+            };
+            assert_eq!(status, StatusCode::CREATED, "{what} by {path}");
+            let datasets = app.client.datasets(&machine, false).await.unwrap();
+            let [ds] = datasets.as_slice() else {
+                panic!("{what} by {path}: {datasets:?}");
+            };
+            assert_eq!(ds.kind, "session", "{what} by {path}");
+            let folder = folder_files(&dir.join("session"));
+            let mut names: Vec<&str> = ds.files.iter().map(|f| f.name.as_str()).collect();
+            names.sort();
+            let want: Vec<&str> = folder.iter().map(|(n, _)| n.as_str()).collect();
+            assert_eq!(names, want, "{what} by {path}");
+            for f in &ds.files {
+                let raw = app.client.dataset_file(&ds.id, &f.name).await.unwrap();
+                let (_, orig) = folder.iter().find(|(n, _)| *n == f.name).unwrap();
+                assert_eq!(&raw, orig, "{what} by {path}: {} as in the folder", f.name);
+            }
+        }
+    }
+}
+
+/// The upload examples of docs/api.md run as they stand (bash, curl, tar, zip) against
+/// the service: each stores its dataset and answers it (201, JSON) with the kind and
+/// samples of the files it sent.
+#[tokio::test]
+async fn the_upload_examples_of_the_api_document_run_as_written() {
+    const SESSION: &str = r#"{"machine_id": "MACHINE", "measured_at": "2026-11-02T09:30:00Z",
+      "planes": [{"file": "xy.csv", "plane": "XY", "head_offset_mm": [0, 0, -100]},
+                 {"file": "xz.csv", "plane": "XZ", "head_offset_mm": [0, 0, -100]}]}"#;
+    const PLANE: &str = "run,t_s,x_mm,y_mm,z_mm,du_um,dv_um\n1,0.0,0,0,0,0.1,0.2\n1,0.1,1,0,0,0.2,0.3\n2,0.2,0,0,0,0.0,0.0\n";
+    // Saved by a spreadsheet: `;` separators, decimal commas, a byte-order mark.
+    const RUNS: &str =
+        "\u{feff}axis;run;direction;target_mm;deviation_um\nX;1;+;0;0,5\nX;1;+;10;0,7\n";
+    let doc = include_str!("../../docs/api.md");
+    let block = doc
+        .split("Examples (`tests/e2e/uploads.rs` runs each")
+        .nth(1)
+        .and_then(|rest| rest.split("```sh\n").nth(1))
+        .and_then(|rest| rest.split("```").next())
+        .expect("docs/api.md holds the upload examples");
+    // Each example: its comment line and the command after it.
+    let mut examples: Vec<(String, String)> = vec![];
+    for line in block.lines() {
+        match line.strip_prefix("# ") {
+            Some(what) => examples.push((what.to_string(), String::new())),
+            None => examples.last_mut().expect("a comment first").1 += &format!("{line}\n"),
+        }
+    }
+    assert_eq!(examples.len(), 4, "{block}");
+    let app = spawn_app_with(AppOptions {
+        run_worker: false,
+        ..AppOptions::default()
+    })
+    .await;
+    for (k, (what, script)) in examples.iter().enumerate() {
+        let machine = format!("DOC-{k}");
+        app.machine(&machine).await;
+        let dir = app.path(&format!("doc{k}"));
+        std::fs::create_dir_all(dir.join("session")).unwrap();
+        std::fs::write(
+            dir.join("session/session.json"),
+            SESSION.replace("MACHINE", &machine),
+        )
+        .unwrap();
+        for plane in ["xy.csv", "xz.csv"] {
+            std::fs::write(dir.join("session").join(plane), PLANE).unwrap();
+        }
+        std::fs::write(dir.join("runs.csv"), RUNS).unwrap();
+        let out = tokio::process::Command::new("bash")
+            .args(["-euo", "pipefail", "-c", script])
+            .current_dir(&dir)
+            .env("MTCAL_URL", &app.url)
+            .env("MTCAL_API_KEY", &app.write_key)
+            .env("MACHINE", &machine)
+            .output()
+            .await
+            .unwrap();
+        assert!(
+            out.status.success(),
+            "{what}\n{script}\n{}",
+            String::from_utf8_lossy(&out.stderr)
+        );
+        let ds: Value = serde_json::from_slice(&out.stdout)
+            .unwrap_or_else(|e| panic!("{what}: {e}: {}", String::from_utf8_lossy(&out.stdout)));
+        let want = if what.starts_with("Positioning") {
+            ("positioning", 2)
+        } else {
+            ("session", 6)
+        };
+        assert_eq!(
+            (
+                ds["kind"].as_str().unwrap(),
+                ds["samples"].as_i64().unwrap()
+            ),
+            want,
+            "{what}"
+        );
+        assert_eq!(ds["machine_id"], machine.as_str(), "{what}");
+        let stored = app.client.datasets(&machine, false).await.unwrap();
+        assert_eq!(stored.len(), 1, "{what}");
+    }
 }

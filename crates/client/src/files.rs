@@ -22,7 +22,7 @@ pub fn files_to_upload_in(path: &Path, dialect: CsvDialect) -> Result<Files> {
         std::fs::read(p).map_err(|e| ClientError::Input(format!("{}: {e}", p.display())))
     };
     let mut files: Files =
-        if !path.is_dir() && mtcal_formats::upload::is_archive_name(&path.to_string_lossy()) {
+        if !path.is_dir() && mtcal_formats::is_archive_name(&path.to_string_lossy()) {
             let name = path.file_name().unwrap_or_default().to_string_lossy();
             mtcal_formats::read_archive(&name, &read(path)?, &limits)
                 .map_err(|e| ClientError::Input(e.to_string()))?

@@ -13,11 +13,13 @@
 //!   millimetre one, radians in a degree one) refused with what to change;
 //! * [`upload`]: a whole upload (files in memory, an archive, or a path), whatever its
 //!   kind: the one entry point the CLI and the server share, so that both accept and
-//!   refuse the same inputs.
+//!   refuse the same inputs;
+//! * [`archive`]: `.tar`, `.tar.gz` and `.zip` archives unpacked to their files.
 //!
 //! The rules shared by every CSV format live once in `csv_core`, limits in [`limits`],
 //! gzip handling in `gzip`, the files of one read (in memory or in a folder) in `files`.
 
+pub mod archive;
 pub mod compensation;
 mod csv_core;
 mod csv_out;
@@ -35,6 +37,7 @@ pub mod sniff;
 pub mod units;
 pub mod upload;
 
+pub use archive::{is_archive_name, read_archive, unpack_single_archive};
 pub use drift::{read_drift_log, read_drift_log_path, write_drift_log, write_drift_predictions};
 pub use error::{ErrorKind, FormatError, MAX_MESSAGE_PART};
 pub use json::is_rfc3339;
@@ -49,7 +52,4 @@ pub use rotary::{
 };
 pub use session::{read_session_dir, read_session_files, write_session_dir};
 pub use sniff::{DatasetKind, sniff_kind, sniff_path};
-pub use upload::{
-    Dataset, DatasetData, is_archive_name, read_archive, read_path, read_upload,
-    unpack_single_archive,
-};
+pub use upload::{Dataset, DatasetData, read_path, read_upload};

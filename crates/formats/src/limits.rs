@@ -9,6 +9,10 @@
 use crate::FormatError;
 use std::time::Instant;
 
+/// Largest length of a file name in an upload (and of an archive entry's path shown in a
+/// message).
+pub const MAX_NAME_LEN: usize = 200;
+
 /// Limits applied by every reader.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct Limits {

@@ -1,6 +1,6 @@
 //! A whole upload, whatever its kind: the files of an HTTP request (multipart parts or
 //! the entries of one archive), or a path on disk (a session folder, one dataset file, or
-//! a `.tar`/`.tar.gz` archive). The CLI and the server both read through here, so they
+//! a `.tar`, `.tar.gz` or `.zip` archive). The CLI and the server both read through here, so they
 //! accept and refuse the same inputs.
 //!
 //! Rules (datasets contract, "Uploads"):
@@ -14,18 +14,16 @@
 //!   characters; not starting with `.`) given once; at most [`Limits::max_files`] files;
 //! * the byte limit applies to the stored sizes of the files read and, separately, to
 //!   their decompressed sizes;
-//! * an archive's entries are regular files or folders (folders are flattened: the
-//!   dataset may sit in one top-level folder); a path with `..`, an absolute path, a
-//!   link or a device is refused with the entry named; AppleDouble `._*` entries are
-//!   skipped.
+//! * an archive (`.tar`, `.tar.gz`, `.zip`) is read as its files, folders flattened
+//!   (the rules of `crate::archive`).
 
+use crate::archive::{is_archive_name, read_archive};
 use crate::rotary::sidecar_name;
 use crate::session::{SESSION_JSON, SESSION_JSON_GZ, read_session_named};
 use crate::{DatasetKind, FormatError, Limits, gzip, sniff_kind};
 use mtcal_solver::datasets::{DriftLog, PositioningRuns, RotaryPointSet};
 use mtcal_solver::session::Session;
 use std::borrow::Cow;
-use std::io::Read;
 use std::path::Path;
 
 /// The parsed content of an upload.
@@ -164,8 +162,7 @@ impl Dataset {
     }
 }
 
-/// Largest length of a file name in an upload.
-pub const MAX_NAME_LEN: usize = 200;
+pub use crate::limits::MAX_NAME_LEN;
 
 /// A file name as an upload may carry it: a plain name (no directories, no dot files).
 pub fn check_file_name(name: &str) -> Result<(), FormatError> {
@@ -203,7 +200,7 @@ pub fn read_upload(files: &[(String, Vec<u8>)], limits: &Limits) -> Result<Datas
 }
 
 /// Reads a dataset from disk: a folder (its files, as an upload of them), a `.tar`,
-/// `.tar.gz` or `.tgz` archive, or one dataset file (with the sidecar `<stem>.json` of a
+/// `.tar.gz`, `.tgz` or `.zip` archive, or one dataset file (with the sidecar `<stem>.json` of a
 /// rotary point set when it exists beside it).
 pub fn read_path(path: &Path, limits: &Limits) -> Result<Dataset, FormatError> {
     let meta = crate::stat_path(path)?;
@@ -237,46 +234,6 @@ pub fn read_path(path: &Path, limits: &Limits) -> Result<Dataset, FormatError> {
         }
     }
     read_upload(&files, limits)
-}
-
-/// The files of an upload with a single archive among them unpacked: an upload of exactly
-/// one file that is a tar archive (by its name, `.tar`, `.tar.gz`, `.tgz`, or by its
-/// content, a tar header after any gzip) is read as the files inside it, as when the
-/// archive is the request's body; any other upload is returned as it is. So a `.tar.gz`
-/// made with `tar czf x.tar.gz -C dir .` reads the same whether it is sent as the body,
-/// as a multipart file or through the dashboard's form.
-pub fn unpack_single_archive(
-    files: Vec<(String, Vec<u8>)>,
-    limits: &Limits,
-) -> Result<Vec<(String, Vec<u8>)>, FormatError> {
-    match files.as_slice() {
-        [(name, bytes)] if is_archive_name(name) || is_tar(bytes) => {
-            read_archive(name, bytes, limits)
-        }
-        _ => Ok(files),
-    }
-}
-
-/// Whether `bytes` (gzip-compressed or not) hold a tar archive: the POSIX `ustar` magic
-/// of the first header, at byte 257.
-fn is_tar(bytes: &[u8]) -> bool {
-    const MAGIC: &[u8] = b"ustar";
-    let at = |b: &[u8]| b.len() > 262 && &b[257..262] == MAGIC;
-    if bytes.starts_with(&[0x1f, 0x8b]) {
-        // Only the first header is needed: a bounded decode of the start.
-        let mut head = Vec::with_capacity(512);
-        let mut d = flate2::read::MultiGzDecoder::new(bytes).take(512);
-        let _ = d.read_to_end(&mut head);
-        at(&head)
-    } else {
-        at(bytes)
-    }
-}
-
-/// Whether a name is an archive's (`.tar`, `.tar.gz`, `.tgz`).
-pub fn is_archive_name(name: &str) -> bool {
-    let n = name.to_ascii_lowercase();
-    n.ends_with(".tar") || n.ends_with(".tar.gz") || n.ends_with(".tgz")
 }
 
 /// The one reader of uploads, over names and a loader (see the module documentation).
@@ -405,87 +362,4 @@ fn read_named<'a>(
         ignored: vec![],
         declared_in,
     })
-}
-
-/// The files of a `.tar` or `.tar.gz` archive (`name` is the archive's, for messages).
-/// Folders inside are flattened; entries that are not regular files or folders, and
-/// paths that are absolute or hold `..`, are refused with the entry named; AppleDouble
-/// `._*` entries are skipped. The decompressed archive is bounded by the byte limit and
-/// its entries by [`Limits::max_files`].
-pub fn read_archive(
-    name: &str,
-    bytes: &[u8],
-    limits: &Limits,
-) -> Result<Vec<(String, Vec<u8>)>, FormatError> {
-    let mut budget = limits.max_bytes;
-    let tar_bytes = gzip::decode(name, bytes, &mut budget)?;
-    let bad = |rule: String| FormatError::file(name, rule);
-    let mut archive = tar::Archive::new(tar_bytes.as_ref());
-    let entries = archive
-        .entries()
-        .map_err(|e| bad(format!("not a tar archive: {e}")))?;
-    let mut out: Vec<(String, Vec<u8>)> = Vec::new();
-    for entry in entries {
-        limits.check_deadline(name, 0)?;
-        let mut entry = entry.map_err(|e| bad(format!("unreadable entry: {e}")))?;
-        let raw_path = String::from_utf8_lossy(&entry.path_bytes()).into_owned();
-        let shown: String = raw_path.chars().take(MAX_NAME_LEN).collect();
-        let kind = entry.header().entry_type();
-        use tar::EntryType as T;
-        match kind {
-            T::Regular | T::Continuous => {}
-            T::Directory | T::XGlobalHeader | T::XHeader | T::GNULongName | T::GNULongLink => {
-                continue;
-            }
-            other => {
-                let what = match other {
-                    T::Symlink => "a symbolic link",
-                    T::Link => "a hard link",
-                    T::Char | T::Block => "a device",
-                    T::Fifo => "a FIFO",
-                    _ => "not a regular file",
-                };
-                return Err(bad(format!(
-                    "entry `{shown}` is {what}: an archive may hold only files and folders"
-                )));
-            }
-        }
-        if raw_path.starts_with('/')
-            || raw_path.starts_with('\\')
-            || raw_path.split(['/', '\\']).any(|c| c == "..")
-        {
-            return Err(bad(format!(
-                "entry `{shown}`: absolute paths and `..` are not allowed in an archive"
-            )));
-        }
-        let file = raw_path
-            .rsplit(['/', '\\'])
-            .next()
-            .unwrap_or_default()
-            .to_string();
-        if file.starts_with("._") {
-            continue; // AppleDouble metadata written by macOS tar
-        }
-        if out.len() == limits.max_files {
-            return Err(bad(format!(
-                "more than {} files in the archive",
-                limits.max_files
-            ))
-            .as_limit());
-        }
-        if out.iter().any(|(n, _)| *n == file) {
-            return Err(bad(format!(
-                "entry `{shown}`: a file named `{file}` is already in the archive (folders are flattened)"
-            )));
-        }
-        let mut data = Vec::new();
-        entry
-            .read_to_end(&mut data)
-            .map_err(|e| bad(format!("entry `{shown}`: {e}")))?;
-        out.push((file, data));
-    }
-    if out.is_empty() {
-        return Err(bad("no files in the archive".into()));
-    }
-    Ok(out)
 }

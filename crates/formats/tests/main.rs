@@ -3,6 +3,7 @@
 
 mod common;
 
+mod archive;
 mod compensation;
 mod compensation_reversal;
 mod cost;

@@ -6,7 +6,7 @@ use crate::common::{check, gzip};
 use mtcal_formats::{DatasetData, FormatError, Limits, read_archive, read_path, read_upload};
 use std::path::Path;
 
-const JSON: &str = r#"{
+pub(crate) const JSON: &str = r#"{
   "machine_id": "VMC-0042",
   "measured_at": "2026-11-02T09:30:00+01:00",
   "planes": [
@@ -15,10 +15,11 @@ const JSON: &str = r#"{
   ]
 }"#;
 
-const CSV: &str = "run,t_s,x_mm,y_mm,z_mm,du_um,dv_um\n1,0.0,0,0,0,0.1,0.2\n1,0.1,1,0,0,0.2,0.3\n2,0.2,0,0,0,0.0,0.0\n";
+pub(crate) const CSV: &str = "run,t_s,x_mm,y_mm,z_mm,du_um,dv_um\n1,0.0,0,0,0,0.1,0.2\n1,0.1,1,0,0,0.2,0.3\n2,0.2,0,0,0,0.0,0.0\n";
 const ROTARY: &str = "a_deg,c_deg,x_mm,y_mm,z_mm\n0,0,100,0,0\n0,90,0,100,0\n";
 const SIDECAR: &str = r#"{"machine_id": "5AX-1", "measured_at": "2026-11-02T08:30:00Z"}"#;
-const POSITIONING: &str = "axis,run,direction,target_mm,deviation_um\nX,1,+,0,0.5\nX,1,+,10,0.7\n";
+pub(crate) const POSITIONING: &str =
+    "axis,run,direction,target_mm,deviation_um\nX,1,+,0,0.5\nX,1,+,10,0.7\n";
 
 type Files = Vec<(String, Vec<u8>)>;
 

@@ -199,43 +199,8 @@ pub fn analyse(req: &SensitivityRequest) -> Result<SensitivityResult, SolverErro
     // measured: the default grid stays inside it, and a given pose outside is refused
     // (nothing is extrapolated).
     let measured = measured_limits(&chain, req.identification.as_deref());
-    let travel: Vec<[f64; 2]> = chain
-        .travel()
-        .iter()
-        .zip(&measured)
-        .map(|(&[lo, hi], m)| match m {
-            Some([a, b]) => [lo.max(*a), hi.min(*b)],
-            None => [lo, hi],
-        })
-        .collect();
-    if let Some(k) = travel.iter().position(|[lo, hi]| hi < lo) {
-        return Err(SolverError::InvalidInput(format!(
-            "axis {}: the machine's travel {:?} mm and the travel the identification measured \
-             {:?} mm do not overlap",
-            chain.axis_names()[k],
-            chain.travel()[k],
-            measured[k].unwrap_or_default()
-        )));
-    }
-    let poses = match (&req.grid, req.points.is_empty()) {
-        (Some(_), false) => {
-            return Err(SolverError::InvalidInput(
-                "give either points or a grid, not both".into(),
-            ));
-        }
-        (Some(g), true) => Poses::Grid(g.clone()),
-        (None, false) => Poses::Points(req.points.clone()),
-        (None, true) => Poses::Grid(
-            travel
-                .iter()
-                .map(|t| GridAxis {
-                    min: t[0],
-                    max: t[1],
-                    n: 5,
-                })
-                .collect(),
-        ),
-    };
+    let travel = evaluation_travel(&chain, &measured)?;
+    let poses = poses_of(req, &travel)?;
     poses.validate(n_axes)?;
     check_inside_measured(&poses, &measured, chain.axis_names())?;
     const MAX_POSES: usize = 10_000_000;
@@ -258,69 +223,8 @@ pub fn analyse(req: &SensitivityRequest) -> Result<SensitivityResult, SolverErro
             )
         })
         .collect();
-    let global = match &req.global {
-        Some(opts) => {
-            if opts.samples > 1_000_000 || opts.max_poses == 0 || opts.max_poses > 100_000 {
-                return Err(SolverError::Limit(
-                    "global analysis: samples <= 1000000 and 1 <= max_poses <= 100000".into(),
-                ));
-            }
-            let sub = poses.subsample(opts.max_poses);
-            // Work ~ samples × poses × errors; 5e8 is a few seconds on one core.
-            let work = opts.samples as f64 * sub.len() as f64 * chain.params().len() as f64;
-            if work > 5e8 {
-                return Err(SolverError::Limit(format!(
-                    "global analysis: samples × poses × errors = {work:.1e} > 5e8; lower \
-                     samples or max_poses"
-                )));
-            }
-            Some(global::sobol(&chain, &mags, &sub, opts)?)
-        }
-        None => None,
-    };
-    let mut notes = vec![
-        format!(
-            "sensitivities are the analytic Jacobian of the exact HTM chain at {}; paper \
-             scale: mm/mm for translational errors, mm/rad (the Abbe arm) for angular ones",
-            if req.at_error_state {
-                "the machine's error state (given values and functions; tolerances as 0)"
-            } else {
-                "zero error"
-            }
-        ),
-        "sensitivity of E is the length of the Jacobian column, ||dE/dg||".to_string(),
-        format!(
-            "normalised coefficients from the {} sensitivities' means over the poses",
-            match req.weighting {
-                Weighting::Weighted => "magnitude-weighted (um)",
-                Weighting::Paper => "paper-scale",
-            }
-        ),
-    ];
-    if measured.iter().any(Option::is_some) {
-        notes.push(
-            "poses lie inside the travel the identification measured (the identified \
-             functions are not evaluated beyond it)"
-                .into(),
-        );
-    }
-    if req.identification.is_some() {
-        notes.push(
-            "magnitudes of identified terms are the identified functions as reported \
-             (straightness without its least-squares line, squareness between the \
-             least-squares axis lines); the volumetric error they give differs from the \
-             model's by a rigid rotation of the frame, which does not change the ranking's \
-             meaning"
-                .into(),
-        );
-    }
-    if global.is_some() {
-        notes.push(
-            "global indices: first-order model E = J(q)·g, errors independent, pooled over \
-             the poses; estimators Saltelli 2010 (first order) and Jansen 1999 (total)"
-                .into(),
-        );
-    }
+    let global = global_analysis(req, &chain, &mags, &poses)?;
+    let notes = notes_of(req, measured.iter().any(Option::is_some), global.is_some());
     let errors = chain
         .params()
         .iter()
@@ -364,6 +268,133 @@ pub fn analyse(req: &SensitivityRequest) -> Result<SensitivityResult, SolverErro
         global,
         notes,
     })
+}
+
+/// The travel the poses are taken in: the machine's, inside what an identification
+/// measured (`measured`, per axis); refused when the two do not overlap.
+fn evaluation_travel(
+    chain: &Chain,
+    measured: &[Option<[f64; 2]>],
+) -> Result<Vec<[f64; 2]>, SolverError> {
+    let travel: Vec<[f64; 2]> = chain
+        .travel()
+        .iter()
+        .zip(measured)
+        .map(|(&[lo, hi], m)| match m {
+            Some([a, b]) => [lo.max(*a), hi.min(*b)],
+            None => [lo, hi],
+        })
+        .collect();
+    if let Some(k) = travel.iter().position(|[lo, hi]| hi < lo) {
+        return Err(SolverError::InvalidInput(format!(
+            "axis {}: the machine's travel {:?} mm and the travel the identification measured \
+             {:?} mm do not overlap",
+            chain.axis_names()[k],
+            chain.travel()[k],
+            measured[k].unwrap_or_default()
+        )));
+    }
+    Ok(travel)
+}
+
+/// The poses of the request: its points or grid, else a 5-point grid over `travel`.
+fn poses_of(req: &SensitivityRequest, travel: &[[f64; 2]]) -> Result<Poses, SolverError> {
+    Ok(match (&req.grid, req.points.is_empty()) {
+        (Some(_), false) => {
+            return Err(SolverError::InvalidInput(
+                "give either points or a grid, not both".into(),
+            ));
+        }
+        (Some(g), true) => Poses::Grid(g.clone()),
+        (None, false) => Poses::Points(req.points.clone()),
+        (None, true) => Poses::Grid(
+            travel
+                .iter()
+                .map(|t| GridAxis {
+                    min: t[0],
+                    max: t[1],
+                    n: 5,
+                })
+                .collect(),
+        ),
+    })
+}
+
+/// The global (Sobol) analysis when the request asks for one, within its work limits.
+fn global_analysis(
+    req: &SensitivityRequest,
+    chain: &Chain,
+    mags: &Magnitudes,
+    poses: &Poses,
+) -> Result<Option<GlobalResult>, SolverError> {
+    Ok(match &req.global {
+        Some(opts) => {
+            if opts.samples > 1_000_000 || opts.max_poses == 0 || opts.max_poses > 100_000 {
+                return Err(SolverError::Limit(
+                    "global analysis: samples <= 1000000 and 1 <= max_poses <= 100000".into(),
+                ));
+            }
+            let sub = poses.subsample(opts.max_poses);
+            // Work ~ samples × poses × errors; 5e8 is a few seconds on one core.
+            let work = opts.samples as f64 * sub.len() as f64 * chain.params().len() as f64;
+            if work > 5e8 {
+                return Err(SolverError::Limit(format!(
+                    "global analysis: samples × poses × errors = {work:.1e} > 5e8; lower \
+                     samples or max_poses"
+                )));
+            }
+            Some(global::sobol(chain, mags, &sub, opts)?)
+        }
+        None => None,
+    })
+}
+
+/// The sentences stating how the numbers were obtained.
+fn notes_of(req: &SensitivityRequest, within_measured: bool, global: bool) -> Vec<String> {
+    let mut notes = vec![
+        format!(
+            "sensitivities are the analytic Jacobian of the exact HTM chain at {}; paper \
+             scale: mm/mm for translational errors, mm/rad (the Abbe arm) for angular ones",
+            if req.at_error_state {
+                "the machine's error state (given values and functions; tolerances as 0)"
+            } else {
+                "zero error"
+            }
+        ),
+        "sensitivity of E is the length of the Jacobian column, ||dE/dg||".to_string(),
+        format!(
+            "normalised coefficients from the {} sensitivities' means over the poses",
+            match req.weighting {
+                Weighting::Weighted => "magnitude-weighted (um)",
+                Weighting::Paper => "paper-scale",
+            }
+        ),
+    ];
+    if within_measured {
+        notes.push(
+            "poses lie inside the travel the identification measured (the identified \
+             functions are not evaluated beyond it)"
+                .into(),
+        );
+    }
+    if req.identification.is_some() {
+        notes.push(
+            "magnitudes of identified terms are the identified functions as reported \
+             (straightness without its least-squares line, squareness between the \
+             least-squares axis lines); the volumetric error they give differs from the \
+             model's by a rigid rotation of the frame, which does not change the ranking's \
+             meaning"
+                .into(),
+        );
+    }
+    if global {
+        notes.push(
+            "global indices: first-order model E = J(q)·g, errors independent, pooled over \
+             the poses; estimators Saltelli 2010 (first order) and Jansen 1999 (total)"
+                .into(),
+        );
+    }
+    notes
 }
 
 /// Travel the identification measured on each chain axis that it has motion terms for

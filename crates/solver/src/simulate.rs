@@ -207,142 +207,23 @@ pub(crate) fn seed_session(seed: u64) -> Session {
 pub fn simulate(truth: &PolyErrors, opts: &SimOptions) -> Result<SimOutput, SolverError> {
     check(truth, opts)?;
     let mut rng = StdRng::seed_from_u64(opts.seed);
-    let noise = Normal::new(0.0, opts.noise_um.max(0.0)).expect("finite σ");
-    let feed = opts.feed_mm_min / 60.0;
-    let rate = opts.sample_rate_hz;
     let tests = opts.plan.tests();
-
-    let mut rotations: BTreeMap<String, f64> = BTreeMap::new();
-    for t in &tests {
-        if !rotations.contains_key(&t.mounting) {
-            rotations.insert(t.mounting.clone(), rng.random_range(-100.0..100.0));
-        }
-    }
-
+    let rotations = mounting_rotations(&tests, &mut rng);
+    let mut rec = Recorder {
+        truth,
+        opts,
+        noise: Normal::new(0.0, opts.noise_um.max(0.0)).expect("finite σ"),
+        rng,
+        clock: 0.0,
+        offsets: Vec::new(),
+    };
     let mut planes = Vec::with_capacity(tests.len());
-    let mut offsets = Vec::new();
-    let mut clock = 0.0;
     for (ti, test) in tests.iter().enumerate() {
         if ti > 0 {
-            clock += REMOUNT_GAP_S;
+            rec.clock += REMOUNT_GAP_S;
         }
-        let (ua, va) = test.plane.axes();
-        let n = test.plane.normal();
-        let mut base = [0.0; 3];
-        base[n.index()] = test.park_mm;
-        let mut state = DriveState::at(base);
-        let phi = rotations[&test.mounting];
-        let mut t_true = test.head_offset_mm;
-        for eff in &opts.effects {
-            let d = eff.head_offset_delta_mm(test.head_offset_mm);
-            for i in 0..3 {
-                t_true[i] += d[i];
-            }
-        }
-
-        let mut runs = Vec::new();
-        let mut push_run = |path: Path,
-                            length: f64,
-                            kind: TestKind,
-                            clock: &mut f64,
-                            state: &mut DriveState,
-                            rng: &mut StdRng| {
-            let start = path.at(0.0, 0.0).0;
-            state.move_to(start);
-            let profile = Profile::new(length, feed, ACCEL_MM_S2);
-            let samples = motion::run_samples(&path, &profile, opts.dwell_s, *clock, rate, state);
-            let number = runs.len() as i64 + 1;
-            let (ou, ov) = (rng.random_range(-3.0..3.0), rng.random_range(-3.0..3.0));
-            offsets.push(RunOffset {
-                file: test.file.clone(),
-                run: number,
-                du_um: ou,
-                dv_um: ov,
-            });
-            let mut run = Run {
-                number,
-                test: Some(kind),
-                ..Run::default()
-            };
-            let logs_temperature = opts
-                .effects
-                .iter()
-                .any(|e| e.temperature_rise_k(0.0).is_some());
-            if logs_temperature {
-                run.temp_c = Some(Vec::with_capacity(samples.len()));
-            }
-            for s in &samples {
-                if let Some(temp) = run.temp_c.as_mut() {
-                    let rise: f64 = opts
-                        .effects
-                        .iter()
-                        .filter_map(|e| e.temperature_rise_k(s.t_s))
-                        .sum();
-                    temp.push(20.0 + rise);
-                }
-                let (du, dv) = measure(truth, opts, s, t_true, (ua, va), phi);
-                run.t_s.push(s.t_s);
-                run.pos_mm.push(s.q_mm);
-                let (nu, nv) = if opts.noise_um > 0.0 {
-                    (noise.sample(rng), noise.sample(rng))
-                } else {
-                    (0.0, 0.0)
-                };
-                run.du_um.push(du + ou + nu);
-                run.dv_um.push(dv + ov + nv);
-            }
-            *clock = samples.last().map_or(*clock, |s| s.t_s) + 1.0 / rate;
-            runs.push(run);
-        };
-
-        for (axis, kind) in [(ua, line_kind(ua)), (va, line_kind(va))] {
-            let h = test.half_travel_mm;
-            clock += RUN_GAP_S;
-            for pass in 0..2 * test.round_trips {
-                let sense = if pass % 2 == 0 { 1.0 } else { -1.0 };
-                let mut start = base;
-                start[axis.index()] = -sense * h;
-                let mut dir = [0.0; 3];
-                dir[axis.index()] = sense;
-                push_run(
-                    Path::Line { start, dir },
-                    2.0 * h,
-                    kind,
-                    &mut clock,
-                    &mut state,
-                    &mut rng,
-                );
-            }
-        }
-        if let Some(r) = test.circle_radius_mm {
-            for (sense, kind) in [(1.0, TestKind::CircleCcw), (-1.0, TestKind::CircleCw)] {
-                clock += RUN_GAP_S;
-                let path = Path::Circle {
-                    centre: base,
-                    u: ua,
-                    v: va,
-                    radius_mm: r,
-                    sense,
-                };
-                push_run(
-                    path,
-                    path.length_mm(0.0),
-                    kind,
-                    &mut clock,
-                    &mut state,
-                    &mut rng,
-                );
-            }
-        }
-        planes.push(PlaneRecord {
-            file: test.file.clone(),
-            plane: test.plane,
-            head_offset_mm: test.head_offset_mm,
-            mounting: test.mounting.clone(),
-            runs,
-        });
+        planes.push(rec.plane(test, rotations[&test.mounting]));
     }
-
     let session = Session {
         machine_id: opts.machine_id.clone(),
         measured_at: opts.measured_at.clone(),
@@ -352,32 +233,62 @@ pub fn simulate(truth: &PolyErrors, opts: &SimOptions) -> Result<SimOutput, Solv
             temperature_source: Some("stated".into()),
             ..Default::default()
         },
-        notes: Some(format!(
-            "simulated by mtcal (seed {}, noise {} µm{})",
-            opts.seed,
-            opts.noise_um,
-            if opts.effects.is_empty() {
-                String::new()
-            } else {
-                format!(
-                    ", effects: {}",
-                    opts.effects
-                        .iter()
-                        .map(Effect::name)
-                        .collect::<Vec<_>>()
-                        .join(", ")
-                )
-            }
-        )),
+        notes: Some(session_notes(opts)),
         planes,
     };
-    let travel = truth::measured_travel(&session);
+    let truth_doc = truth_document(truth, opts, &session, rotations, rec.offsets);
+    Ok(SimOutput {
+        session,
+        truth: truth_doc,
+    })
+}
+
+/// The plate rotation of each mounting (µrad), drawn in the order of the plan's tests.
+fn mounting_rotations(tests: &[PlaneTest], rng: &mut StdRng) -> BTreeMap<String, f64> {
+    let mut rotations: BTreeMap<String, f64> = BTreeMap::new();
+    for t in tests {
+        if !rotations.contains_key(&t.mounting) {
+            rotations.insert(t.mounting.clone(), rng.random_range(-100.0..100.0));
+        }
+    }
+    rotations
+}
+
+/// The session's note: seed, noise and effects.
+fn session_notes(opts: &SimOptions) -> String {
+    let effects = if opts.effects.is_empty() {
+        String::new()
+    } else {
+        format!(
+            ", effects: {}",
+            opts.effects
+                .iter()
+                .map(Effect::name)
+                .collect::<Vec<_>>()
+                .join(", ")
+        )
+    };
+    format!(
+        "simulated by mtcal (seed {}, noise {} µm{effects})",
+        opts.seed, opts.noise_um
+    )
+}
+
+/// The truth document of a simulated `session`.
+fn truth_document(
+    truth: &PolyErrors,
+    opts: &SimOptions,
+    session: &Session,
+    rotations: BTreeMap<String, f64>,
+    offsets: Vec<RunOffset>,
+) -> Truth {
+    let travel = truth::measured_travel(session);
     let (terms, squareness_urad) = truth::reported_values(truth, &travel, opts.grid_step_mm);
-    let truth_doc = Truth {
+    Truth {
         kind: "simulation_truth".into(),
         seed: opts.seed,
         noise_um: opts.noise_um,
-        sample_rate_hz: rate,
+        sample_rate_hz: opts.sample_rate_hz,
         feed_mm_min: opts.feed_mm_min,
         accel_mm_s2: ACCEL_MM_S2,
         dwell_s: opts.dwell_s,
@@ -392,11 +303,147 @@ pub fn simulate(truth: &PolyErrors, opts: &SimOptions) -> Result<SimOutput, Solv
         terms,
         squareness_urad,
         reporting: truth::reporting_sentences(&travel, opts.grid_step_mm),
-    };
-    Ok(SimOutput {
-        session,
-        truth: truth_doc,
-    })
+    }
+}
+
+/// The recording of a session in progress: the machine, the options, the random draws
+/// (zero offsets, then noise, run by run), the session's clock and the offsets drawn.
+struct Recorder<'a> {
+    truth: &'a PolyErrors,
+    opts: &'a SimOptions,
+    noise: Normal<f64>,
+    rng: StdRng,
+    clock: f64,
+    offsets: Vec<RunOffset>,
+}
+
+/// How one plane test's plate is mounted: its file, in-plane axes, true head offset and
+/// rotation (µrad).
+struct Mount<'t> {
+    file: &'t str,
+    axes: (Axis, Axis),
+    t_true: [f64; 3],
+    phi_urad: f64,
+}
+
+impl Recorder<'_> {
+    /// The runs of one plane test: line passes along both in-plane axes, then the circles
+    /// when the test has them.
+    fn plane(&mut self, test: &PlaneTest, phi_urad: f64) -> PlaneRecord {
+        let (ua, va) = test.plane.axes();
+        let mut base = [0.0; 3];
+        base[test.plane.normal().index()] = test.park_mm;
+        let mut state = DriveState::at(base);
+        let mut t_true = test.head_offset_mm;
+        for eff in &self.opts.effects {
+            let d = eff.head_offset_delta_mm(test.head_offset_mm);
+            for i in 0..3 {
+                t_true[i] += d[i];
+            }
+        }
+        let mount = Mount {
+            file: &test.file,
+            axes: (ua, va),
+            t_true,
+            phi_urad,
+        };
+        let mut runs = Vec::new();
+        for (axis, kind) in [(ua, line_kind(ua)), (va, line_kind(va))] {
+            let h = test.half_travel_mm;
+            self.clock += RUN_GAP_S;
+            for pass in 0..2 * test.round_trips {
+                let sense = if pass % 2 == 0 { 1.0 } else { -1.0 };
+                let mut start = base;
+                start[axis.index()] = -sense * h;
+                let mut dir = [0.0; 3];
+                dir[axis.index()] = sense;
+                let number = runs.len() as i64 + 1;
+                let path = Path::Line { start, dir };
+                runs.push(self.run(&mount, path, 2.0 * h, kind, number, &mut state));
+            }
+        }
+        if let Some(r) = test.circle_radius_mm {
+            for (sense, kind) in [(1.0, TestKind::CircleCcw), (-1.0, TestKind::CircleCw)] {
+                self.clock += RUN_GAP_S;
+                let path = Path::Circle {
+                    centre: base,
+                    u: ua,
+                    v: va,
+                    radius_mm: r,
+                    sense,
+                };
+                let number = runs.len() as i64 + 1;
+                runs.push(self.run(&mount, path, path.length_mm(0.0), kind, number, &mut state));
+            }
+        }
+        PlaneRecord {
+            file: test.file.clone(),
+            plane: test.plane,
+            head_offset_mm: test.head_offset_mm,
+            mounting: test.mounting.clone(),
+            runs,
+        }
+    }
+
+    /// One run along `path` (`length` mm) from where the drive is: its samples with the
+    /// run's zero offsets and noise; the clock moves on past it.
+    fn run(
+        &mut self,
+        m: &Mount<'_>,
+        path: Path,
+        length: f64,
+        kind: TestKind,
+        number: i64,
+        state: &mut DriveState,
+    ) -> Run {
+        let opts = self.opts;
+        let rate = opts.sample_rate_hz;
+        state.move_to(path.at(0.0, 0.0).0);
+        let profile = Profile::new(length, opts.feed_mm_min / 60.0, ACCEL_MM_S2);
+        let samples = motion::run_samples(&path, &profile, opts.dwell_s, self.clock, rate, state);
+        let rng = &mut self.rng;
+        let (ou, ov) = (rng.random_range(-3.0..3.0), rng.random_range(-3.0..3.0));
+        self.offsets.push(RunOffset {
+            file: m.file.to_string(),
+            run: number,
+            du_um: ou,
+            dv_um: ov,
+        });
+        let mut run = Run {
+            number,
+            test: Some(kind),
+            ..Run::default()
+        };
+        let logs_temperature = opts
+            .effects
+            .iter()
+            .any(|e| e.temperature_rise_k(0.0).is_some());
+        if logs_temperature {
+            run.temp_c = Some(Vec::with_capacity(samples.len()));
+        }
+        for s in &samples {
+            if let Some(temp) = run.temp_c.as_mut() {
+                let rise: f64 = opts
+                    .effects
+                    .iter()
+                    .filter_map(|e| e.temperature_rise_k(s.t_s))
+                    .sum();
+                temp.push(20.0 + rise);
+            }
+            let (du, dv) = measure(self.truth, opts, s, m.t_true, m.axes, m.phi_urad);
+            run.t_s.push(s.t_s);
+            run.pos_mm.push(s.q_mm);
+            let (nu, nv) = if opts.noise_um > 0.0 {
+                (self.noise.sample(rng), self.noise.sample(rng))
+            } else {
+                (0.0, 0.0)
+            };
+            run.du_um.push(du + ou + nu);
+            run.dv_um.push(dv + ov + nv);
+        }
+        self.clock = samples.last().map_or(self.clock, |s| s.t_s) + 1.0 / rate;
+        run
+    }
 }
 
 fn line_kind(a: Axis) -> TestKind {

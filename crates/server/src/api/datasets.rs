@@ -162,7 +162,8 @@ pub async fn upload(
         (files, CsvDialect::Plain)
     } else {
         return Err(ApiError::UnsupportedMediaType(format!(
-            "Content-Type {ct:?}: send multipart/form-data or application/gzip (a .tar.gz)"
+            "Content-Type {ct:?}: send multipart/form-data, application/gzip (a .tar.gz) \
+             or application/zip (a .zip)"
         )));
     };
     Ok((
@@ -221,9 +222,14 @@ pub async fn store_upload(
 fn archive_name(media_type: &str) -> Option<&'static str> {
     if media_type.starts_with("application/gzip") || media_type.starts_with("application/x-gzip") {
         Some("upload.tar.gz")
+    } else if media_type.starts_with("application/zip")
+        || media_type.starts_with("application/x-zip-compressed")
+    {
+        Some("upload.zip")
     } else if media_type.starts_with("application/x-tar")
         || media_type.starts_with("application/octet-stream")
     {
+        // A zip sent as octet-stream is read as one: read_archive goes by the content.
         Some("upload.tar")
     } else {
         None

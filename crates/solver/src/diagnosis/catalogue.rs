@@ -421,7 +421,30 @@ pub fn specs<'a>(
     theta: f64,
     eps: Option<&'a [[f64; 3]]>,
 ) -> Columns<'a> {
-    let one = |name: &str, axis: Axis| (vec![name.to_string()], vec![Some(axis)]);
+    match c.effect {
+        "backlash"
+        | "lost_motion_profile"
+        | "lost_motion_variation"
+        | "servo_lag"
+        | "reversal_spike" => motion_columns(d, c, theta),
+        "cyclic" | "waviness" | "velocity_coupling" | "direction_coupling" | "step"
+        | "vibration" => path_columns(d, c, theta),
+        "thermal_drift"
+        | "thermal_temperature"
+        | "thermal_temperature_lag"
+        | "thermal_temperature_quadratic" => thermal_columns(d, c, theta),
+        "model_order" | "setup_offset" => setup_columns(d, c, eps),
+        _ => Columns::none(),
+    }
+}
+
+/// One column `name` read along `axis`.
+fn one(name: &str, axis: Axis) -> (Vec<String>, Vec<Option<Axis>>) {
+    (vec![name.to_string()], vec![Some(axis)])
+}
+
+/// The columns of the effects of an axis's drive: play, lost motion, lag, reversal spike.
+fn motion_columns<'a>(d: &'a Design, c: &Candidate, theta: f64) -> Columns<'a> {
     match c.effect {
         "backlash" => {
             // A play of width b: −d·b/2 once taken up; over the first θ of travel after
@@ -503,6 +526,14 @@ pub fn specs<'a>(
             })
             .following(a)
         }
+        _ => Columns::none(),
+    }
+}
+
+/// The columns of effects along the path or in time: periodic errors, couplings, a step,
+/// a vibration.
+fn path_columns<'a>(d: &'a Design, c: &Candidate, theta: f64) -> Columns<'a> {
+    match c.effect {
         "cyclic" | "waviness" => {
             // Along the axis itself (cyclic) or across it (waviness). The sines and
             // cosines by a [`PhaseWalk`] along each run (a `sincos` call at every 32nd
@@ -562,6 +593,13 @@ pub fn specs<'a>(
                 move |s, _, o| sin_cos_into(o, (w * d.fields.t_s[s]).sin_cos()),
             )
         }
+        _ => Columns::none(),
+    }
+}
+
+/// The columns of thermal growth: in time, with the temperature, or through a lag of it.
+fn thermal_columns<'a>(d: &'a Design, c: &Candidate, theta: f64) -> Columns<'a> {
+    match c.effect {
         "thermal_drift" | "thermal_temperature" | "thermal_temperature_lag" => {
             // Scale (per axis) then offset (per axis), times g = 1 − e^(−t/T), ΔT, or ΔT
             // through a first-order lag of time constant θ.
@@ -623,6 +661,13 @@ pub fn specs<'a>(
                 (o[i], o[3 + i], o[6 + i], o[9 + i]) = (g * q, g, g * g * q, g * g);
             })
         }
+        _ => Columns::none(),
+    }
+}
+
+/// The columns of the model's order along an axis and of a setup's head offset.
+fn setup_columns<'a>(d: &'a Design, c: &Candidate, eps: Option<&'a [[f64; 3]]>) -> Columns<'a> {
+    match c.effect {
         "model_order" => {
             let a = c.axis.expect("axis");
             let dir = c.direction.expect("direction");

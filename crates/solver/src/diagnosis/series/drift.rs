@@ -285,13 +285,12 @@ fn analyse_channel(
     span: (f64, f64),
 ) -> ChannelOutcome {
     let y = &ch.values;
-    let n = y.len();
-    let nt = inp.n_train;
     progress.report_in(span, &format!("{}: thermal model", ch.name), 0.0);
     let thermal_fit = if inp.bank.is_empty() {
         None
     } else {
-        thermal::fit_thermal(&inp.bank, &inp.thermal(), y, nt, &ThermalOptions::default()).ok()
+        let to = ThermalOptions::default();
+        thermal::fit_thermal(&inp.bank, &inp.thermal(), y, inp.n_train, &to).ok()
     };
     let problem = ChannelProblem {
         inp,
@@ -312,14 +311,22 @@ fn analyse_channel(
         progress,
         span,
     );
-    let noise = sel.noise;
-    let nv = sel.n_heldout.max(1) as f64;
-    let mean_train = sel.base_fit.prediction[0];
-    let rigid_res: Vec<f64> = y.iter().map(|v| v - mean_train).collect();
+    let out = rigid_outcome(ch, inp, sel.noise, sel.base_fit.prediction[0]);
+    if sel.steps.is_empty() {
+        return out;
+    }
+    with_chosen_model(out, ch, &problem, &sel, opts)
+}
 
+/// A channel's outcome under the rigid constant `mean_train` (fitted on the fitting
+/// part): its residual RMS on both parts, the misfit above the noise floor `noise`, and
+/// where the drift is largest.
+fn rigid_outcome(ch: &Channel, inp: &Inputs, noise: f64, mean_train: f64) -> ChannelOutcome {
+    let y = &ch.values;
+    let (n, nt) = (y.len(), inp.n_train);
+    let rigid_res: Vec<f64> = y.iter().map(|v| v - mean_train).collect();
     let rigid_train_rms = rms(&rigid_res[..nt]);
     let rigid_test_rms = rms(&rigid_res[nt..]);
-    let sse_rigid_test: f64 = rigid_res[nt..].iter().map(|v| v * v).sum();
     let misfit_sse =
         (rigid_res.iter().map(|v| v * v).sum::<f64>() - n as f64 * noise * noise).max(0.0);
     // Where: the peak and the span where |drift| exceeds half of it.
@@ -335,7 +342,7 @@ fn analyse_channel(
         over.first().map_or(0.0, |&i| hours(i)),
         over.last().map_or(0.0, |&i| hours(i)),
     );
-    let mut out = ChannelOutcome {
+    ChannelOutcome {
         name: ch.name.clone(),
         noise,
         rigid_pred: mean_train,
@@ -349,16 +356,21 @@ fn analyse_channel(
         finding: None,
         peak: (rigid_res[ipk], hours(ipk)),
         window_h,
-    };
-    if sel.steps.is_empty() {
-        return out;
     }
+}
 
-    // The chosen model fitted on the fitting part; judged on the rest.
+/// The chosen model's prediction at every sample, its parameters, what the channel
+/// follows under it and the model described with its cross-validated RMS.
+fn chosen_fit(
+    problem: &ChannelProblem<'_>,
+    sel: &engine::Selection<ChannelProblem<'_>>,
+) -> (Vec<f64>, BTreeMap<String, f64>, String, String) {
+    let inp = problem.inp;
     let mut params = BTreeMap::new();
-    let (pred, follows, model_txt) = match (&sel.model, &problem.thermal) {
+    match (&sel.model, &problem.thermal) {
         (Model::Lags(l), _) => (
-            parametric_fit(inp, y, l, &mut params),
+            parametric_fit(inp, problem.y, l, &mut params),
+            params,
             describe(&sel.model),
             format!(
                 "{}, CV RMS {:.3} µm",
@@ -389,6 +401,7 @@ fn analyse_channel(
             }
             (
                 f.prediction.clone(),
+                params,
                 format!(
                     "{} through first-order lags of 0.1–2 h",
                     inputs.join(" and ")
@@ -404,7 +417,30 @@ fn analyse_channel(
             )
         }
         (Model::Thermal, None) => unreachable!("the thermal candidate needs its fit"),
-    };
+    }
+}
+
+/// The outcome `out` of the rigid constant with the model the engine chose: fitted on the
+/// fitting part, judged on the rest, and its finding.
+fn with_chosen_model(
+    mut out: ChannelOutcome,
+    ch: &Channel,
+    problem: &ChannelProblem<'_>,
+    sel: &engine::Selection<ChannelProblem<'_>>,
+    opts: &SeriesOptions,
+) -> ChannelOutcome {
+    let y = &ch.values;
+    let (n, nt) = (y.len(), problem.inp.n_train);
+    let mean_train = out.rigid_pred;
+    let sse_rigid_test: f64 = y[nt..]
+        .iter()
+        .map(|v| {
+            let r = v - mean_train;
+            r * r
+        })
+        .sum();
+    let nv = sel.n_heldout.max(1) as f64;
+    let (pred, mut params, follows, model_txt) = chosen_fit(problem, sel);
     let res: Vec<f64> = y.iter().zip(&pred).map(|(a, b)| a - b).collect();
     let sse_after_test: f64 = res[nt..].iter().map(|v| v * v).sum();
     out.after_train_rms = rms(&res[..nt]);
@@ -443,11 +479,11 @@ fn analyse_channel(
         undetermined: vec![],
         physics: effects::physics("thermal_drift").into(),
         residual_rms_um: BeforeAfter {
-            before: rigid_train_rms,
+            before: out.rigid_train_rms,
             after: out.after_train_rms,
         },
         heldout_rms_um: BeforeAfter {
-            before: rigid_test_rms,
+            before: out.rigid_test_rms,
             after: out.after_test_rms,
         },
         evidence,
@@ -603,6 +639,50 @@ pub fn diagnose_drift_log_with_progress(
     let n_train = validate(log, opts)?;
     let mut progress = Monotone::new(progress);
     progress.report("regressors of the thermal model", 0.0);
+    let inp = inputs(log, n_train);
+    let displacements: Vec<&Channel> = displacements(log).collect();
+    // Each channel is an equal part of the work.
+    let part = |k: usize| k as f64 / displacements.len() as f64;
+    let outs: Vec<ChannelOutcome> = displacements
+        .iter()
+        .enumerate()
+        .map(|(k, c)| analyse_channel(c, &inp, opts, &mut progress, (part(k), part(k + 1))))
+        .collect();
+
+    let quad = |f: &dyn Fn(&ChannelOutcome) -> f64| -> f64 {
+        (outs.iter().map(|o| f(o).powi(2)).sum::<f64>() / outs.len() as f64).sqrt()
+    };
+    let baseline = Baseline {
+        residual_rms_um: quad(&|o| o.rigid_train_rms),
+        heldout_rms_um: quad(&|o| o.rigid_test_rms),
+        noise_estimate_um: quad(&|o| o.noise),
+    };
+    let needs = |o: &ChannelOutcome| o.rigid_test_rms > opts.explained_ratio * o.noise;
+    let findings: Vec<Finding> = outs.iter().filter_map(|o| o.finding.clone()).collect();
+    let result = super::result(
+        machine_id,
+        "drift_log",
+        baseline,
+        mismatches(&outs, opts),
+        findings,
+        !outs.iter().any(needs),
+        unexplained(&outs, opts),
+        drift_plots(log, &outs, n_train, opts),
+    );
+    progress.report("done", 1.0);
+    Ok((result, predictions(log, &outs, n_train)))
+}
+
+/// The displacement channels of a log, in its order.
+fn displacements(log: &DriftLog) -> impl Iterator<Item = &Channel> {
+    log.channels
+        .iter()
+        .filter(|c| c.kind == ChannelKind::DisplacementUm)
+}
+
+/// The inputs of every channel's models: the spindle speed, the structure temperatures
+/// and the thermal model's regressors (lags fitted on the first `n_train` samples).
+fn inputs(log: &DriftLog, n_train: usize) -> Inputs<'_> {
     let speed = log
         .channels
         .iter()
@@ -623,35 +703,19 @@ pub fn diagnose_drift_log_with_progress(
         &ThermalOptions::default(),
         log.t_s[n_train - 1] - log.t_s[0],
     );
-    let inp = Inputs {
+    Inputs {
         t: &log.t_s,
         speed,
         rpm_max,
         temps,
         n_train,
         bank,
-    };
-    let displacements: Vec<&Channel> = log
-        .channels
-        .iter()
-        .filter(|c| c.kind == ChannelKind::DisplacementUm)
-        .collect();
-    // Each channel is an equal part of the work.
-    let part = |k: usize| k as f64 / displacements.len() as f64;
-    let outs: Vec<ChannelOutcome> = displacements
-        .iter()
-        .enumerate()
-        .map(|(k, c)| analyse_channel(c, &inp, opts, &mut progress, (part(k), part(k + 1))))
-        .collect();
+    }
+}
 
-    let quad = |f: &dyn Fn(&ChannelOutcome) -> f64| -> f64 {
-        (outs.iter().map(|o| f(o).powi(2)).sum::<f64>() / outs.len() as f64).sqrt()
-    };
-    let baseline = Baseline {
-        residual_rms_um: quad(&|o| o.rigid_train_rms),
-        heldout_rms_um: quad(&|o| o.rigid_test_rms),
-        noise_estimate_um: quad(&|o| o.noise),
-    };
+/// Where the rigid constant does not explain a channel, largest share of the misfit
+/// first.
+fn mismatches(outs: &[ChannelOutcome], opts: &SeriesOptions) -> Vec<Mismatch> {
     let total_misfit: f64 = outs.iter().map(|o| o.misfit_sse).sum();
     let mut mismatch: Vec<Mismatch> = outs
         .iter()
@@ -674,11 +738,14 @@ pub fn diagnose_drift_log_with_progress(
         })
         .collect();
     mismatch.sort_by(|a, b| b.share_of_misfit.total_cmp(&a.share_of_misfit));
+    mismatch
+}
 
+/// The channels that need a model and are still above their noise floor with it.
+fn unexplained(outs: &[ChannelOutcome], opts: &SeriesOptions) -> Vec<String> {
     let needs = |o: &ChannelOutcome| o.rigid_test_rms > opts.explained_ratio * o.noise;
-    let findings: Vec<Finding> = outs.iter().filter_map(|o| o.finding.clone()).collect();
     let mut unexplained = vec![];
-    for o in &outs {
+    for o in outs {
         if needs(o) && o.after_test_rms > opts.explained_ratio * o.noise {
             unexplained.push(format!(
                 "{}: held-out RMS {:.3} µm after the model (rigid {:.3} µm, noise floor {:.3} µm); \
@@ -696,19 +763,22 @@ pub fn diagnose_drift_log_with_progress(
             ));
         }
     }
-    let rigid_at_noise = !outs.iter().any(needs);
+    unexplained
+}
 
-    // Plots: measured, rigid, model against time (h), with the split marked.
+/// One plot per channel: measured, rigid, model against time (h), with the split marked.
+fn drift_plots(
+    log: &DriftLog,
+    outs: &[ChannelOutcome],
+    n_train: usize,
+    opts: &SeriesOptions,
+) -> Vec<PlotData> {
     let t_h: Vec<f64> = log.t_s.iter().map(|t| (t - log.t_s[0]) / 3600.0).collect();
     let t_split = t_h[n_train];
     let idx = decimate(t_h.len(), opts.plot_points);
     let pick = |v: &[f64]| -> Vec<f64> { idx.iter().map(|&i| v[i]).collect() };
     let mut plots = vec![];
-    for (o, ch) in outs.iter().zip(
-        log.channels
-            .iter()
-            .filter(|c| c.kind == ChannelKind::DisplacementUm),
-    ) {
+    for (o, ch) in outs.iter().zip(displacements(log)) {
         let (lo, hi) = ch
             .values
             .iter()
@@ -751,17 +821,17 @@ pub fn diagnose_drift_log_with_progress(
             ],
         });
     }
+    plots
+}
 
-    let predictions = DriftPredictions {
+/// The chosen models' predictions at every sample.
+fn predictions(log: &DriftLog, outs: &[ChannelOutcome], n_train: usize) -> DriftPredictions {
+    DriftPredictions {
         t_s: log.t_s.clone(),
         n_fit: n_train,
         channels: outs
             .iter()
-            .zip(
-                log.channels
-                    .iter()
-                    .filter(|c| c.kind == ChannelKind::DisplacementUm),
-            )
+            .zip(displacements(log))
             .map(|(o, ch)| ChannelPrediction {
                 name: ch.name.clone(),
                 measured_um: ch.values.clone(),
@@ -770,17 +840,5 @@ pub fn diagnose_drift_log_with_progress(
                 thermal_model: o.finding.is_some(),
             })
             .collect(),
-    };
-    let result = super::result(
-        machine_id,
-        "drift_log",
-        baseline,
-        mismatch,
-        findings,
-        rigid_at_noise,
-        unexplained,
-        plots,
-    );
-    progress.report("done", 1.0);
-    Ok((result, predictions))
+    }
 }

@@ -744,6 +744,9 @@ fn locate(a: &AxisData, res: &[f64], noise: f64) -> Vec<Mismatch> {
     out
 }
 
+/// The plots of one axis: deviations per approach direction with the rigid model and the
+/// model with effects, residuals before and after the effects, and the reversal value
+/// along the travel when the model has a lost motion profile.
 fn plots(
     a: &AxisData,
     m: &Model,
@@ -752,6 +755,48 @@ fn plots(
     res: &[f64],
     opts: &SeriesOptions,
 ) -> Vec<PlotData> {
+    // Model curves on a fine grid of positions (time terms at the mean time).
+    let ng = 200;
+    let grid: Vec<f64> = (0..=ng)
+        .map(|i| a.lo + (a.hi - a.lo) * i as f64 / ng as f64)
+        .collect();
+    let mut dev = measured_means(a);
+    let rigid = Model::rigid(m.order.min(opts.max_base_order));
+    let rfit = lsq::solve(&a.design(&rigid), &a.y);
+    dev.push(PlotSeries {
+        name: "rigid model".into(),
+        x: grid.clone(),
+        y: model_curve(a, &grid, &rigid, &rfit.coef, true),
+    });
+    for plus in [true, false] {
+        dev.push(PlotSeries {
+            name: format!("model with effects {}", dir_name(plus)),
+            x: grid.clone(),
+            y: model_curve(a, &grid, m, coef, plus),
+        });
+    }
+    let mut out = vec![
+        PlotData {
+            id: format!("positioning_{}", a.axis),
+            title: format!(
+                "axis {}: positioning deviation per approach direction",
+                a.axis
+            ),
+            x_label: "target (mm)".into(),
+            y_label: "deviation (µm)".into(),
+            kind: PlotKind::Cartesian,
+            series: dev,
+        },
+        residual_plot(a, base_res, res, opts),
+    ];
+    if let Some(order) = m.lost_motion {
+        out.push(reversal_plot(a, m, order, coef, res, &grid));
+    }
+    out
+}
+
+/// The mean measured deviation per target, one series per approach direction.
+fn measured_means(a: &AxisData) -> Vec<PlotSeries> {
     let mut dev = vec![];
     for plus in [true, false] {
         let (xs, ys): (Vec<f64>, Vec<f64>) = (0..a.targets.len())
@@ -770,161 +815,140 @@ fn plots(
             y: ys,
         });
     }
-    // Model curves on a fine grid of positions (time terms at the mean time).
-    let ng = 200;
-    let grid: Vec<f64> = (0..=ng)
-        .map(|i| a.lo + (a.hi - a.lo) * i as f64 / ng as f64)
-        .collect();
+    dev
+}
+
+/// A model's prediction along `grid` approached in one direction, its time terms at the
+/// axis's mean time and temperature.
+fn model_curve(a: &AxisData, grid: &[f64], model: &Model, coef: &[f64], plus: bool) -> Vec<f64> {
     let tmean = a.time.iter().sum::<f64>() / a.n() as f64;
     let tempmean = a
         .temp
         .as_ref()
         .map(|t| t.iter().sum::<f64>() / t.len() as f64);
-    let curve = |model: &Model, coef: &[f64], plus: bool| -> Vec<f64> {
-        let gd = AxisData {
-            axis: a.axis,
-            x: grid.clone(),
-            s: grid
-                .iter()
-                .map(|v| (v - 0.5 * (a.lo + a.hi)) / (0.5 * (a.hi - a.lo)))
-                .collect(),
-            d: vec![if plus { 1.0 } else { -1.0 }; grid.len()],
-            u: grid
-                .iter()
-                .map(|v| if plus { v - a.lo } else { a.hi - v })
-                .collect(),
-            time: vec![tmean; grid.len()],
-            time_in_s: a.time_in_s,
-            temp: tempmean.map(|t| vec![t; grid.len()]),
-            smoother: None,
-            y: vec![0.0; grid.len()],
-            run: vec![0; grid.len()],
-            runs: vec![0],
-            lo: a.lo,
-            hi: a.hi,
-            spacing: a.spacing,
-            targets: vec![],
-            group: vec![0; grid.len()],
-            first: vec![false; grid.len()],
-            t_first: a.t_first,
-            first_step: a.first_step,
-            first_duration: a.first_duration,
-        };
-        gd.design(model).predict(coef)
+    let gd = AxisData {
+        axis: a.axis,
+        x: grid.to_vec(),
+        s: grid
+            .iter()
+            .map(|v| (v - 0.5 * (a.lo + a.hi)) / (0.5 * (a.hi - a.lo)))
+            .collect(),
+        d: vec![if plus { 1.0 } else { -1.0 }; grid.len()],
+        u: grid
+            .iter()
+            .map(|v| if plus { v - a.lo } else { a.hi - v })
+            .collect(),
+        time: vec![tmean; grid.len()],
+        time_in_s: a.time_in_s,
+        temp: tempmean.map(|t| vec![t; grid.len()]),
+        smoother: None,
+        y: vec![0.0; grid.len()],
+        run: vec![0; grid.len()],
+        runs: vec![0],
+        lo: a.lo,
+        hi: a.hi,
+        spacing: a.spacing,
+        targets: vec![],
+        group: vec![0; grid.len()],
+        first: vec![false; grid.len()],
+        t_first: a.t_first,
+        first_step: a.first_step,
+        first_duration: a.first_duration,
     };
-    let rigid = Model::rigid(m.order.min(opts.max_base_order));
-    let rfit = lsq::solve(&a.design(&rigid), &a.y);
-    dev.push(PlotSeries {
-        name: "rigid model".into(),
-        x: grid.clone(),
-        y: curve(&rigid, &rfit.coef, true),
-    });
-    for plus in [true, false] {
-        dev.push(PlotSeries {
-            name: format!("model with effects {}", dir_name(plus)),
-            x: grid.clone(),
-            y: curve(m, coef, plus),
-        });
-    }
+    gd.design(model).predict(coef)
+}
+
+/// Residuals against time (or record) before and after the effects.
+fn residual_plot(a: &AxisData, base_res: &[f64], res: &[f64], opts: &SeriesOptions) -> PlotData {
     let idx = decimate(a.n(), opts.plot_points);
     let tx: Vec<f64> = idx
         .iter()
         .map(|&i| a.time[i] / if a.time_in_s { 3600.0 } else { 1.0 })
         .collect();
-    let mut out = vec![];
-    if let Some(order) = m.lost_motion {
-        // ISO 230-2's reversal B = x̄↑ − x̄↓ per target, of the readings less every other
-        // part of the model, and the model's −b(x).
-        let prof = a.profile(order);
-        let off = m.order + 1 + m.terms.iter().map(|t| t.effect.n_linear()).sum::<usize>();
-        let b = &coef[off..off + order + 1];
-        let lm = |i: usize| {
-            let p = prof.basis_at(a.x[i]);
-            -0.5 * a.d[i] * p.iter().zip(b).map(|(u, v)| u * v).sum::<f64>()
-        };
-        let mean = |g: usize| {
-            let v: Vec<f64> = (0..a.n())
-                .filter(|&i| a.group[i] == g)
-                .map(|i| res[i] + lm(i))
-                .collect();
-            (!v.is_empty()).then(|| v.iter().sum::<f64>() / v.len() as f64)
-        };
-        let (xs, ys): (Vec<f64>, Vec<f64>) = (0..a.targets.len())
-            .filter_map(|t| Some((a.targets[t], mean(2 * t)? - mean(2 * t + 1)?)))
-            .unzip();
-        out.push(PlotData {
-            id: format!("positioning_{}_reversal", a.axis),
-            title: format!(
-                "axis {}: reversal value along the travel (+ minus − approach)",
-                a.axis
-            ),
-            x_label: "target (mm)".into(),
-            y_label: "B (µm)".into(),
-            kind: PlotKind::Cartesian,
-            series: vec![
-                PlotSeries {
-                    name: "measured B_i, other effects removed".into(),
-                    x: xs,
-                    y: ys,
-                },
-                PlotSeries {
-                    name: "lost motion profile −b(x)".into(),
-                    x: grid.clone(),
-                    y: grid
-                        .iter()
-                        .map(|&q| {
-                            -prof
-                                .basis_at(q)
-                                .iter()
-                                .zip(b)
-                                .map(|(u, v)| u * v)
-                                .sum::<f64>()
-                        })
-                        .collect(),
-                },
-            ],
-        });
-    }
-    out.splice(
-        0..0,
-        [
-            PlotData {
-                id: format!("positioning_{}", a.axis),
-                title: format!(
-                    "axis {}: positioning deviation per approach direction",
-                    a.axis
-                ),
-                x_label: "target (mm)".into(),
-                y_label: "deviation (µm)".into(),
-                kind: PlotKind::Cartesian,
-                series: dev,
+    PlotData {
+        id: format!("positioning_{}_residuals", a.axis),
+        title: format!("axis {}: residuals before and after the effects", a.axis),
+        x_label: if a.time_in_s {
+            "time (h)".into()
+        } else {
+            "record".into()
+        },
+        y_label: "residual (µm)".into(),
+        kind: PlotKind::Cartesian,
+        series: vec![
+            PlotSeries {
+                name: "rigid model".into(),
+                x: tx.clone(),
+                y: idx.iter().map(|&i| base_res[i]).collect(),
             },
-            PlotData {
-                id: format!("positioning_{}_residuals", a.axis),
-                title: format!("axis {}: residuals before and after the effects", a.axis),
-                x_label: if a.time_in_s {
-                    "time (h)".into()
-                } else {
-                    "record".into()
-                },
-                y_label: "residual (µm)".into(),
-                kind: PlotKind::Cartesian,
-                series: vec![
-                    PlotSeries {
-                        name: "rigid model".into(),
-                        x: tx.clone(),
-                        y: idx.iter().map(|&i| base_res[i]).collect(),
-                    },
-                    PlotSeries {
-                        name: "with effects".into(),
-                        x: tx,
-                        y: idx.iter().map(|&i| res[i]).collect(),
-                    },
-                ],
+            PlotSeries {
+                name: "with effects".into(),
+                x: tx,
+                y: idx.iter().map(|&i| res[i]).collect(),
             },
         ],
-    );
-    out
+    }
+}
+
+/// ISO 230-2's reversal B = x̄↑ − x̄↓ per target, of the readings less every other part of
+/// the model, and the model's −b(x) of its lost motion profile (of `order`).
+fn reversal_plot(
+    a: &AxisData,
+    m: &Model,
+    order: usize,
+    coef: &[f64],
+    res: &[f64],
+    grid: &[f64],
+) -> PlotData {
+    let prof = a.profile(order);
+    let off = m.order + 1 + m.terms.iter().map(|t| t.effect.n_linear()).sum::<usize>();
+    let b = &coef[off..off + order + 1];
+    let lm = |i: usize| {
+        let p = prof.basis_at(a.x[i]);
+        -0.5 * a.d[i] * p.iter().zip(b).map(|(u, v)| u * v).sum::<f64>()
+    };
+    let mean = |g: usize| {
+        let v: Vec<f64> = (0..a.n())
+            .filter(|&i| a.group[i] == g)
+            .map(|i| res[i] + lm(i))
+            .collect();
+        (!v.is_empty()).then(|| v.iter().sum::<f64>() / v.len() as f64)
+    };
+    let (xs, ys): (Vec<f64>, Vec<f64>) = (0..a.targets.len())
+        .filter_map(|t| Some((a.targets[t], mean(2 * t)? - mean(2 * t + 1)?)))
+        .unzip();
+    PlotData {
+        id: format!("positioning_{}_reversal", a.axis),
+        title: format!(
+            "axis {}: reversal value along the travel (+ minus − approach)",
+            a.axis
+        ),
+        x_label: "target (mm)".into(),
+        y_label: "B (µm)".into(),
+        kind: PlotKind::Cartesian,
+        series: vec![
+            PlotSeries {
+                name: "measured B_i, other effects removed".into(),
+                x: xs,
+                y: ys,
+            },
+            PlotSeries {
+                name: "lost motion profile −b(x)".into(),
+                x: grid.to_vec(),
+                y: grid
+                    .iter()
+                    .map(|&q| {
+                        -prof
+                            .basis_at(q)
+                            .iter()
+                            .zip(b)
+                            .map(|(u, v)| u * v)
+                            .sum::<f64>()
+                    })
+                    .collect(),
+            },
+        ],
+    }
 }
 
 /// The variance the smoother of the logged temperature adds to the per-kelvin offset and
