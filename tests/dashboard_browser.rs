@@ -268,27 +268,7 @@ async fn run(c: &Client, dashboard: &str, base: &str, key: &str, shots: &Path, w
         .await
         .unwrap();
     wait_for(c, "#term-trend", Duration::from_secs(10)).await;
-    let at = c
-        .find(Locator::Css(r#"input[name="at"]"#))
-        .await
-        .unwrap()
-        .prop("value")
-        .await
-        .unwrap()
-        .unwrap();
-    let trend = api(
-        base,
-        key,
-        &format!("/api/v1/machines/VMC-0001/trends/term?term=EXX&at={at}"),
-    )
-    .await;
-    let svg = c
-        .find(Locator::Css("#term-trend svg"))
-        .await
-        .unwrap()
-        .html(false)
-        .await
-        .unwrap();
+    let (svg, trend) = browser::shown_trend(c, base, key, "VMC-0001").await;
     let plot = inspect::parse(&svg).unwrap();
     let axes = plot.axes().unwrap();
     let points = trend["points"].as_array().unwrap();

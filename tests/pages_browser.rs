@@ -132,30 +132,10 @@ async fn misfit_marks(c: &Client, base: &str, key: &str, shots: &Path) -> String
             .is_err(),
         "no baseline form on the misfit check"
     );
-    let svg = c
-        .find(Locator::Css("#term-trend svg"))
-        .await
-        .unwrap()
-        .html(false)
-        .await
-        .unwrap();
+    let (svg, trend) = browser::shown_trend(c, base, key, WORN).await;
     let plot = inspect::parse(&svg).unwrap();
     assert!(plot.has_text(MISFIT_KEY), "the legend names the ring");
     let axes = plot.axes().unwrap();
-    let trend_at = c
-        .find(Locator::Css(r#"input[name="at"]"#))
-        .await
-        .unwrap()
-        .prop("value")
-        .await
-        .unwrap()
-        .unwrap();
-    let trend = api(
-        base,
-        key,
-        &format!("/api/v1/machines/{WORN}/trends/term?term=EXX&at={trend_at}"),
-    )
-    .await;
     let point = trend["points"]
         .as_array()
         .unwrap()

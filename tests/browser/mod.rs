@@ -102,6 +102,33 @@ pub async fn api(base: &str, key: &str, path: &str) -> Value {
     r.json().await.expect("JSON")
 }
 
+/// The EXX trend a machine page shows: its SVG, and the API's term trend of `machine` at
+/// the positions the page's form names.
+pub async fn shown_trend(c: &Client, base: &str, key: &str, machine: &str) -> (String, Value) {
+    let at = c
+        .find(Locator::Css(r#"input[name="at"]"#))
+        .await
+        .expect("the trend form")
+        .prop("value")
+        .await
+        .expect("its positions")
+        .unwrap_or_default();
+    let trend = api(
+        base,
+        key,
+        &format!("/api/v1/machines/{machine}/trends/term?term=EXX&at={at}"),
+    )
+    .await;
+    let svg = c
+        .find(Locator::Css("#term-trend svg"))
+        .await
+        .expect("the trend plot")
+        .html(false)
+        .await
+        .expect("its SVG");
+    (svg, trend)
+}
+
 /// Waits until `css` matches an element (the page script reloads pages).
 pub async fn wait_for(c: &Client, css: &str, timeout: Duration) {
     let t0 = Instant::now();

@@ -428,7 +428,7 @@ fn the_where_of_a_scaled_per_length_limit() {
 /// hover only.
 #[test]
 fn a_finding_reads_in_words() {
-    use mtcal_solver::diagnosis::{Baseline, BeforeAfter, Finding, Verdict};
+    use mtcal_solver::diagnosis::{BeforeAfter, Finding, Verdict};
     let ba = BeforeAfter {
         before: 0.98,
         after: 0.15,
@@ -451,23 +451,7 @@ fn a_finding_reads_in_words() {
             .into(),
         undetermined: vec![],
     };
-    let d = DiagnosisResult {
-        kind: "diagnosis".into(),
-        machine_id: "M".into(),
-        source: "session".into(),
-        baseline: Baseline {
-            residual_rms_um: 0.98,
-            heldout_rms_um: 0.98,
-            noise_estimate_um: 0.149,
-        },
-        mismatch: vec![],
-        findings: vec![f],
-        possible: vec![],
-        rejected: vec![],
-        verdict: Verdict::Explained,
-        unexplained: vec![],
-        plots: vec![],
-    };
+    let d = session_diagnosis(vec![], vec![f], Verdict::Explained);
     let html = diagnosis(&d).into_string();
     let table = &html[html.find("class=\"parameters\"").unwrap()..];
     let table = &table[..table.find("</table>").unwrap()];
@@ -502,23 +486,7 @@ fn a_finding_reads_in_words() {
 #[test]
 fn no_tolerance_badge_where_a_profile_applies() {
     let doc = seed_plan_check(3);
-    let d = mtcal_solver::diagnosis::DiagnosisResult {
-        kind: "diagnosis".into(),
-        machine_id: "SIM-0001".into(),
-        source: "session".into(),
-        baseline: mtcal_solver::diagnosis::Baseline {
-            residual_rms_um: 0.2,
-            heldout_rms_um: 0.2,
-            noise_estimate_um: 0.15,
-        },
-        mismatch: vec![],
-        findings: vec![],
-        possible: vec![],
-        rejected: vec![],
-        verdict: mtcal_solver::diagnosis::Verdict::Consistent,
-        unexplained: vec![],
-        plots: vec![],
-    };
+    let d = session_diagnosis(vec![], vec![], mtcal_solver::diagnosis::Verdict::Consistent);
     let dd = DiagnosisDocument::from(d);
     let mut h = header("diagnosis");
     h.verdict = None;
@@ -538,34 +506,22 @@ fn no_tolerance_badge_where_a_profile_applies() {
 /// "Where they differ" says what share of the misfit the places listed carry together.
 #[test]
 fn the_places_of_the_misfit_say_what_they_sum_to() {
-    use mtcal_solver::diagnosis::{Baseline, Mismatch, Verdict};
+    use mtcal_solver::diagnosis::{Mismatch, Verdict};
     let place = |w: &str, share: f64| Mismatch {
         where_: w.into(),
         tests: vec!["xy.csv#run 1".into()],
         share_of_misfit: share,
     };
-    let d = DiagnosisResult {
-        kind: "diagnosis".into(),
-        machine_id: "M".into(),
-        source: "session".into(),
-        baseline: Baseline {
-            residual_rms_um: 0.98,
-            heldout_rms_um: 0.98,
-            noise_estimate_um: 0.149,
-        },
-        mismatch: vec![
+    let d = session_diagnosis(
+        vec![
             place("xy.csv: clockwise circle runs", 0.32),
             place("xy.csv: circle runs, angle 165..195 deg (X reverses)", 0.2),
             place("xz.csv: X line runs", 0.31),
             place("yz.csv: Y line runs", 0.28),
         ],
-        findings: vec![],
-        possible: vec![],
-        rejected: vec![],
-        verdict: Verdict::PartlyExplained,
-        unexplained: vec![],
-        plots: vec![],
-    };
+        vec![],
+        Verdict::PartlyExplained,
+    );
     let html = diagnosis(&d).into_string();
     assert_eq!(html.matches("<tr class=\"part\">").count(), 3, "{html}");
     assert!(
@@ -601,4 +557,30 @@ fn squareness_reads_in_words() {
         sq.contains("least-squares lines of the two axes") || sq.contains("the model's constant"),
         "{sq}"
     );
+}
+
+/// A session's diagnosis of a misfit (0.98 µm against a floor of 0.149 µm) with these
+/// places, findings and verdict.
+fn session_diagnosis(
+    mismatch: Vec<mtcal_solver::diagnosis::Mismatch>,
+    findings: Vec<mtcal_solver::diagnosis::Finding>,
+    verdict: mtcal_solver::diagnosis::Verdict,
+) -> DiagnosisResult {
+    DiagnosisResult {
+        kind: "diagnosis".into(),
+        machine_id: "M".into(),
+        source: "session".into(),
+        baseline: mtcal_solver::diagnosis::Baseline {
+            residual_rms_um: 0.98,
+            heldout_rms_um: 0.98,
+            noise_estimate_um: 0.149,
+        },
+        mismatch,
+        findings,
+        possible: vec![],
+        rejected: vec![],
+        verdict,
+        unexplained: vec![],
+        plots: vec![],
+    }
 }
