@@ -188,7 +188,7 @@ async fn seed(app: &axum::Router, store: &Arc<dyn Store>, admin: &str, site: &st
         updated_at: String::new(),
     };
     store
-        .raise_alert(&alert, &[delivery.clone()])
+        .raise_alert(&alert, std::slice::from_ref(&delivery))
         .await
         .unwrap();
     let k = json!({"scope": "read", "label": format!("{site} reader"), "sites": [site]});
