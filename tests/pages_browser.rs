@@ -83,12 +83,39 @@ async fn pages_in_words_in_headless_chromium() {
     browser::closing(c, async move {
         c2.goto(&dashboard).await.unwrap();
         wait_for(&c2, "#fleet", Duration::from_secs(10)).await;
-        let misfit_id = misfit_marks(&c2, &base, &key, &shots).await;
+        let misfit_id = worn_check(&c2, &base, &key, &shots).await;
         diagnosis_in_words(&c2, &base, &key, &shots).await;
         rows_say_which_and_where(&c2, &base, &key).await;
         error_pages(&c2, &base, &misfit_id, &shots).await;
     })
     .await;
+}
+
+/// The worn machine's misfit check: marked item by item while it is the latest; once the
+/// service has decided it on its explained model (the demo waits for that), the fleet
+/// shows the explained check's drift as a figure and the misfit stays readable by its id
+/// (the marks themselves are checked by the views' unit tests of the fleet, machine and
+/// trend plots). Returns the misfit's result id.
+async fn worn_check(c: &Client, base: &str, key: &str, shots: &Path) -> String {
+    let latest = api(
+        base,
+        key,
+        &format!("/api/v1/machines/{WORN}/results/latest"),
+    )
+    .await;
+    let Some(original) = latest["document"]["explained"]["original_result_id"].as_str() else {
+        return misfit_marks(c, base, key, shots).await;
+    };
+    c.goto(&format!("{base}/")).await.unwrap();
+    let worn = format!(r#"#fleet tr[data-machine="{WORN}"]"#);
+    let cells = texts(c, &format!("{worn} td.num")).await;
+    assert!(
+        cells[0].contains(" ± ") && !cells[0].contains("misfit"),
+        "the explained check's drift is a figure: {cells:?}"
+    );
+    let misfit = api(base, key, &format!("/api/v1/results/{original}")).await;
+    assert_eq!(misfit["meta"]["id"], original, "{misfit}");
+    original.to_string()
 }
 
 /// Item by item, a misfit check is marked and never offered as a decided value; returns

@@ -266,7 +266,6 @@ fn a_three_plane_checks_report_has_its_decision_on_page_one_and_prints_its_summa
         "X axis: positioning",
         "Z axis: positioning",
         "squareness X–Y",
-        "ISO 230-2, X: E↑",
         "Findings of the diagnosis",
         "backlash (X)",
         "Actions",
@@ -274,6 +273,13 @@ fn a_three_plane_checks_report_has_its_decision_on_page_one_and_prints_its_summa
     ] {
         assert!(one.contains(want), "page 1 lacks {want:?}: {one}");
     }
+    // The judged figure of the standards passes: it is in the summary, named in words,
+    // page 1 or 2 (page 1 lists only what does not pass).
+    let summary = format!("{one}{}", page_text(&pdf, 2));
+    assert!(
+        summary.contains("ISO 230-2, X: E↑"),
+        "the summary lacks the judged figure: {summary}"
+    );
     assert!(
         !one.contains("EXX"),
         "code names belong to the appendix: {one}"

@@ -19,7 +19,8 @@ async fn fleet() -> App {
         ..AppOptions::default()
     })
     .await;
-    let c = &app.client;
+    // Moving a machine to a site takes an admin key (docs/sites.md).
+    let c = &app.with_key(&app.admin_key);
     for (id, site, tags) in [
         ("A", "north", vec!["vmc"]),
         ("B", "north", vec!["5-axis"]),

@@ -128,12 +128,15 @@ async fn error_pages(State(s): State<WebState>, req: Request, next: Next) -> Res
                     .then(|| "the service could not answer".to_string());
                 (status, shown.unwrap_or(text))
             } else if status == StatusCode::METHOD_NOT_ALLOWED
-                || status == StatusCode::REQUEST_TIMEOUT
+                || (status == StatusCode::REQUEST_TIMEOUT && text.is_empty())
             {
                 (
                     status,
                     status.canonical_reason().unwrap_or("refused").to_string(),
                 )
+            } else if status == StatusCode::REQUEST_TIMEOUT {
+                // The upload gate's words: the rate or the slot time it passed.
+                (status, text)
             } else {
                 // As the API maps a refused form or query: a bad request (400), a body
                 // over its limit (413) or of the wrong type (415).
