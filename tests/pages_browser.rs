@@ -104,7 +104,7 @@ async fn worn_check(c: &Client, base: &str, key: &str, shots: &Path) -> String {
     )
     .await;
     let Some(original) = latest["document"]["explained"]["original_result_id"].as_str() else {
-        return misfit_marks(c, base, key, shots).await;
+        return misfit_marks(c, base, key, &latest, shots).await;
     };
     c.goto(&format!("{base}/")).await.unwrap();
     let worn = format!(r#"#fleet tr[data-machine="{WORN}"]"#);
@@ -118,15 +118,9 @@ async fn worn_check(c: &Client, base: &str, key: &str, shots: &Path) -> String {
     original.to_string()
 }
 
-/// Item by item, a misfit check is marked and never offered as a decided value; returns
-/// its result id.
-async fn misfit_marks(c: &Client, base: &str, key: &str, shots: &Path) -> String {
-    let latest = api(
-        base,
-        key,
-        &format!("/api/v1/machines/{WORN}/results/latest"),
-    )
-    .await;
+/// Item by item, the misfit check `latest` (the worn machine's latest result as the API
+/// answers it) is marked and never offered as a decided value; returns its result id.
+async fn misfit_marks(c: &Client, base: &str, key: &str, latest: &Value, shots: &Path) -> String {
     let misfit_id = latest["meta"]["id"].as_str().unwrap().to_string();
     // The fleet: the worn machine's drift is not a figure; the others' are.
     c.goto(&format!("{base}/")).await.unwrap();
