@@ -436,7 +436,7 @@ impl FileWalk {
             let known = velocity_known(&run.t_s, &run.pos_mm, i);
             (0..3).any(|a| leave_out[a] && !known[a])
         };
-        let mut skip: Vec<bool> = (0..run.len()).map(|i| unknown(i)).collect();
+        let mut skip: Vec<bool> = (0..run.len()).map(unknown).collect();
         let kept = skip.iter().filter(|&&s| !s).count();
         if kept < 3 || 2 * kept < run.len() {
             skip.iter_mut().for_each(|s| *s = false);
