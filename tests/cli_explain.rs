@@ -1,8 +1,8 @@
 //! `mtcal identify --explain` end to end: a simulated session with 6 µm of X backlash
 //! misfits the 21-term model, is diagnosed, and is decided on the explained model, whose
 //! backlash is the simulated one and whose action says what to set; its document exports
-//! a LinuxCNC table with the reversal; a clean session gives exactly what plain identify
-//! gives.
+//! a LinuxCNC table with the reversal and reports a decided verdict; a clean session
+//! gives exactly what plain identify gives.
 
 mod support;
 
@@ -155,6 +155,25 @@ fn a_backlash_misfit_is_decided_on_the_explained_model_with_its_action() {
     for rev in x.reversal_mm.as_ref().expect("a reversal column") {
         assert!((rev * 1e3 - LOST_X).abs() < 0.3, "{rev} mm vs {LOST_X} µm");
     }
+
+    // Its verdicts are decided: the report against a tolerance profile passes, on the
+    // explained model, and judges the lost motion as ISO 230-2's B of X.
+    let limits = dir.path().join("limits.json");
+    let profile = r#"{"terms": {"EXX": 1000.0}, "standards": {"iso230_2.X.B_um": 10.0}}"#;
+    std::fs::write(&limits, profile).unwrap();
+    let page = dir.path().join("check.html");
+    let (result, limits) = (result.to_str().unwrap(), limits.to_str().unwrap());
+    let args = ["report", result, "--tolerances", limits, "--out"];
+    mtcal_ok(&[&args[..], &[page.to_str().unwrap()]].concat());
+    let page = std::fs::read_to_string(page).unwrap();
+    let decision = &page[page.find(r#"id="decision""#).expect("the verdict")..];
+    let decision = &decision[..decision.find("</section>").unwrap()];
+    assert!(decision.contains("badge verdict pass"), "{decision}");
+    assert!(
+        decision.contains("Decided on the explained model: backlash (X)"),
+        "{decision}"
+    );
+    assert!(!decision.contains("misfit"), "{decision}");
 }
 
 /// On a session the 21-term model explains, `--explain` changes nothing: the same
