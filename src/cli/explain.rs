@@ -132,7 +132,8 @@ mod tests {
     use mtcal_solver::Axis;
     use mtcal_solver::simulate::{Effect, Plan, SimOptions, random_truth, simulate};
 
-    /// A check whose diagnosis explains its misfit only partly (the solver's own
+    /// A misfit whose diagnosis finds nothing keeps its plain result. A check whose
+    /// diagnosis explains its misfit only partly (the solver's own
     /// diagnosis with its Y finding taken out, verdict `partly_explained`, as
     /// tests/e2e/explained.rs makes it): not decided, the summary says so and what
     /// remains, and lists the action for the finding it has.
@@ -163,6 +164,12 @@ mod tests {
             &mut |_: &str, _: f64| {},
         )
         .unwrap();
+        // A diagnosis that finds nothing leaves the plain result as it is.
+        let mut nothing = d.clone();
+        nothing.verdict = Verdict::Consistent;
+        nothing.findings.clear();
+        let same = with_diagnosis(&session, &opts, plain.clone(), &nothing).unwrap();
+        assert_eq!(same, plain);
         d.findings
             .retain(|f| !(f.effect == "backlash" && f.axis.as_deref() == Some("Y")));
         d.verdict = Verdict::PartlyExplained;
