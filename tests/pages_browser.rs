@@ -44,7 +44,12 @@ const WORN: &str = "VMC-0900";
 const MISFIT: &str = "VMC-0901";
 
 /// The screenshots the README shows (docs/screenshots/).
-const DOCUMENTED: [&str; 2] = ["machine-misfit", "diagnosis"];
+const DOCUMENTED: [&str; 4] = [
+    "machine-misfit",
+    "diagnosis",
+    "result-explained",
+    "machine-verified",
+];
 
 async fn shot(c: &Client, dir: &Path, name: &str) {
     let png = c.screenshot().await.expect("screenshot");
@@ -198,6 +203,11 @@ async fn worn_check(c: &Client, base: &str, key: &str, shots: &Path) -> String {
     for b in x.reversal_mm.as_ref().expect("X's reversal column") {
         assert!((b * 1e3 - 6.0).abs() < 0.3, "X reversal {b} mm vs 6 µm");
     }
+    js(
+        c,
+        "document.querySelector('#explained').scrollIntoView({block: 'start'});",
+    )
+    .await;
     shot(c, shots, "result-explained").await;
     // The machine page: the check after compensation verified, the table set linked.
     c.goto(&format!("{base}/machines/{WORN}")).await.unwrap();
