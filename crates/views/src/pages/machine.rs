@@ -408,4 +408,22 @@ mod tests {
         assert!(html.contains("outside the measured travel"));
         assert!(!html.contains(r#"id="term-trend""#));
     }
+
+    /// The verification card links the LinuxCNC table of the check it verifies against.
+    #[test]
+    fn the_verification_links_the_table_set() {
+        let mut p = page();
+        p.verification = Some((
+            "verified against the check of 2026-07-05: 1 of 1 as predicted".into(),
+            vec!["backlash (X): 6.00 → 0.40 µm after compensation (predicted 0)".into()],
+        ));
+        p.verified_against = Some(("r1".into(), "2026-07-05T08:00:00Z".into()));
+        let html = machine_page(&viewer("read"), &p).into_string();
+        let card = &html[html.find(r#"id="verification""#).unwrap()..];
+        assert!(card.contains("6.00 → 0.40 µm after compensation (predicted 0)"));
+        assert!(card.contains(r#"href="/api/v1/results/r1/export?format=linuxcnc""#));
+        p.verified_against = None;
+        let html = machine_page(&viewer("read"), &p).into_string();
+        assert!(!html.contains("verified-table"));
+    }
 }
