@@ -334,10 +334,6 @@ fn the_client_links_neither_http_server_nor_database() {
 /// is split.
 const KNOWN_LONG: &[(&str, &str)] = &[
     ("crates/solver/src/diagnosis/locate.rs", "locate"),
-    (
-        "crates/solver/src/diagnosis/session.rs",
-        "diagnose_session_with_progress",
-    ),
 ];
 
 /// Longest source file, lines.

@@ -389,6 +389,7 @@ pub struct PlotSeries {
 pub mod band_search;
 pub mod catalogue;
 pub mod chebyshev;
+pub mod credible;
 pub mod design;
 pub mod effects;
 pub mod engine;

@@ -136,6 +136,8 @@ pub struct Design {
     /// The input of the smoothed temperature's lag at every sample, formed on first use
     /// ([`Design::lagged_temperature`]).
     pub lag_input: std::sync::OnceLock<Option<LagInput>>,
+    /// Samples of the session left out ([`build_leaving_out`]).
+    pub left_out: usize,
 }
 
 impl Design {
@@ -272,6 +274,19 @@ pub fn velocity(t: &[f64], q: &[[f64; 3]], i: usize) -> [f64; 3] {
 /// set-points (an interpolator's spline) moves at about the central difference there
 /// (about half the feed at a stop between two samples).
 pub fn velocity_at_ends(t: &[f64], q: &[[f64; 3]], i: usize) -> ([f64; 3], [f64; 3]) {
+    let st = velocity_state(t, q, i);
+    (st.map(|x| x.0), st.map(|x| x.1))
+}
+
+/// Largest relative difference of the one-sided differences at a sample where the
+/// set-points tell the velocity (off a smooth path): a cruise's agree to rounding, and a
+/// start or stop of 33 ms between samples 62.5 ms apart changes the next one by 6 %, which
+/// read a 3 ms lag 0.8 µm off at the sample before.
+const STEADY: f64 = 0.01;
+
+/// Per axis at sample i: [`velocity`], what [`velocity_at_ends`] gives beside it, and
+/// whether the set-points tell the velocity there ([`velocity_known`]).
+fn velocity_state(t: &[f64], q: &[[f64; 3]], i: usize) -> [(f64, f64, bool); 3] {
     let n = q.len();
     let rest = |k: usize, a: usize, b: usize| (q[b][k] - q[a][k]).abs() < 1e-9;
     let diff = |k: usize, a: usize| (q[a + 1][k] - q[a][k]) / (t[a + 1] - t[a]);
@@ -288,7 +303,31 @@ pub fn velocity_at_ends(t: &[f64], q: &[[f64; 3]], i: usize) -> ([f64; 3], [f64;
         let (before, at, after) = (b - bb, f - b, ff - f);
         (before - at).abs() <= 0.5 * at.abs() && (after - at).abs() <= 0.5 * at.abs()
     };
-    let both = [0, 1, 2].map(|k| {
+    // On a smooth or steady path sampled evenly, the five-point difference: the central one reads
+    // a circle's velocity low by (ω·dt)²/6 (0.07 % at 2000 mm/min on R50 at 10 Hz, which
+    // moved a lag by more than its σ), this one by (ω·dt)⁴/30.
+    let smooth_velocity = |k: usize| {
+        let dt = t.get(i + 2)? - t.get(i + 1)?;
+        let even = i >= 2
+            && [t[i + 1] - t[i], t[i] - t[i - 1], t[i - 1] - t[i - 2]]
+                .iter()
+                .all(|h| (h - dt).abs() <= 1e-9 * dt.abs());
+        // Smooth, or steady over the four steps (a cruise, or a circle near the axis's
+        // fastest, where `smooth` does not hold): no start or stop among them.
+        let steady = || {
+            let d = [diff(k, i - 2), diff(k, i - 1), diff(k, i), diff(k, i + 1)];
+            let (lo, hi) = d
+                .iter()
+                .fold((f64::INFINITY, f64::NEG_INFINITY), |(l, h), &x| {
+                    (l.min(x), h.max(x))
+                });
+            lo * hi > 0.0 && hi - lo <= STEADY * lo.abs().max(hi.abs())
+        };
+        (even && (smooth(k) || steady())).then(|| {
+            (8.0 * (q[i + 1][k] - q[i - 1][k]) - (q[i + 2][k] - q[i - 2][k])) / (12.0 * dt)
+        })
+    };
+    [0, 1, 2].map(|k| {
         let back = (i > 0).then(|| (q[i][k] - q[i - 1][k]) / (t[i] - t[i - 1]));
         let fwd = (i + 1 < n).then(|| (q[i + 1][k] - q[i][k]) / (t[i + 1] - t[i]));
         match (back, fwd) {
@@ -297,28 +336,48 @@ pub fn velocity_at_ends(t: &[f64], q: &[[f64; 3]], i: usize) -> ([f64; 3], [f64;
                 let stopping = i + 2 < n && rest(k, i + 1, i + 2);
                 let central = (q[i + 1][k] - q[i - 1][k]) / (t[i + 1] - t[i - 1]);
                 let v = if b.abs() < 1e-9 || f.abs() < 1e-9 {
-                    return (0.0, 0.0);
+                    return (0.0, 0.0, true);
                 } else if started && !stopping {
                     f
                 } else if stopping && !started {
                     b
                 } else if (b - f).abs() <= 0.1 * b.abs().max(f.abs()) || smooth(k) {
-                    return (0.5 * (b + f), 0.0);
+                    // Known where the motion is steady or smooth; a difference beyond
+                    // `STEADY` and not smooth is a start or a stop between the samples
+                    // around it (one that begins just after it: the axis still at the
+                    // feed there, not at the central difference).
+                    let steady = (b - f).abs() <= STEADY * b.abs().max(f.abs());
+                    return (
+                        smooth_velocity(k).unwrap_or(0.5 * (b + f)),
+                        0.0,
+                        steady || smooth(k),
+                    );
                 } else if b.abs() > f.abs() {
                     b
                 } else {
                     f
                 };
-                (v, v - central)
+                (v, v - central, false)
             }
-            (None, Some(f)) if f.abs() < 1e-9 => (0.0, 0.0),
-            // First sample of a run: lines and circles start from rest.
-            (None, Some(_)) => (0.0, 0.0),
-            (Some(b), None) => (b, 0.0),
-            _ => (0.0, 0.0),
+            (None, Some(f)) if f.abs() < 1e-9 => (0.0, 0.0, true),
+            // First sample of a run, already moving: lines and circles start from rest,
+            // but where in its start the axis is the set-points do not tell.
+            (None, Some(_)) => (0.0, 0.0, false),
+            (Some(b), None) => (b, 0.0, b.abs() < 1e-9),
+            _ => (0.0, 0.0, true),
         }
-    });
-    (both.map(|x| x.0), both.map(|x| x.1))
+    })
+}
+
+/// Per axis, whether the set-points tell the velocity at sample i: at rest on one side
+/// of it (0), or moving alike on both sides (the central difference of a cruise, or a
+/// smooth path as a circle's). Not at a sample inside a start or a stop of the motion,
+/// where [`velocity`] takes a one-sided difference: the axis there may be anywhere in
+/// its acceleration ramp between the samples around it (at 10 Hz a start of 33 ms at
+/// 500 mm/min falls before the first moving sample or after it by the clock's luck), nor
+/// at a run's first or last sample while it moves.
+pub fn velocity_known(t: &[f64], q: &[[f64; 3]], i: usize) -> [bool; 3] {
+    velocity_state(t, q, i).map(|x| x.2)
 }
 
 /// At sample `i`, the first after a reversal of axis `a` within a smooth motion (the axis
@@ -349,6 +408,98 @@ fn turn_beyond(t: &[f64], q: &[[f64; 3]], i: usize, a: usize) -> (f64, bool) {
 
 /// Builds the design of `session` with error functions of polynomial order `order`.
 pub fn build(session: &Session, topology: &Topology, order: usize) -> Result<Design, SolverError> {
+    build_leaving_out(session, topology, order, [false; 3])
+}
+
+/// The travel state through a plane file, the approach moves between runs included.
+struct FileWalk {
+    state: DriveState,
+    /// Per axis, how far beyond the last sample before its last reversal the axis
+    /// turned (mm).
+    beyond: [f64; 3],
+}
+
+impl FileWalk {
+    /// Pushes the samples of `run` (global index, reading axes, the session's first
+    /// temperature) onto the fields and the rows, but those where the velocity of an axis
+    /// of `leave_out` is not known ([`velocity_known`]; all of them when fewer than half
+    /// of the run's samples, or fewer than 3, would be left): how many it left out.
+    fn push_run(
+        &mut self,
+        run: &crate::session::Run,
+        (run_idx, (u, v), temp0): (u32, (Axis, Axis), Option<f64>),
+        f: &mut SampleFields,
+        (y, row_axes): (&mut Vec<f64>, &mut Vec<Axis>),
+        leave_out: [bool; 3],
+    ) -> usize {
+        let unknown = |i: usize| {
+            let known = velocity_known(&run.t_s, &run.pos_mm, i);
+            (0..3).any(|a| leave_out[a] && !known[a])
+        };
+        let mut skip: Vec<bool> = (0..run.len()).map(unknown).collect();
+        let kept = skip.iter().filter(|&&s| !s).count();
+        if kept < 3 || 2 * kept < run.len() {
+            skip.iter_mut().for_each(|s| *s = false);
+        }
+        let mut last_kept = false;
+        for i in 0..run.len() {
+            let q = run.pos_mm[i];
+            let st = &mut self.state;
+            let before = st.dir;
+            st.move_to(q);
+            for a in 0..3 {
+                if st.dir[a] != before[a] && before[a] != 0.0 {
+                    let (b, past) = turn_beyond(&run.t_s, &run.pos_mm, i, a);
+                    self.beyond[a] = b;
+                    if past && last_kept {
+                        // The sample before, already past the turn.
+                        let k = f.len() - 1;
+                        f.play_travel_mm[a][k] = st.dir[a] * b;
+                    }
+                }
+            }
+            last_kept = !skip[i];
+            if skip[i] {
+                continue;
+            }
+            let (vel, ends) = velocity_at_ends(&run.t_s, &run.pos_mm, i);
+            f.run_idx.push(run_idx);
+            f.t_s.push(run.t_s[i]);
+            for a in 0..3 {
+                f.q_mm[a].push(q[a]);
+                f.vel_mm_s[a].push(vel[a]);
+                f.vel_ends_mm_s[a].push(ends[a]);
+                f.dir[a].push(st.dir[a]);
+                f.since_reversal_mm[a].push(st.since_reversal_mm[a]);
+                f.play_travel_mm[a].push(if st.dir[a] == 0.0 {
+                    0.0
+                } else {
+                    st.dir[a] * (st.since_reversal_mm[a] + self.beyond[a])
+                });
+            }
+            if let (Some(t), Some(t0), Some(temp)) = (f.temp_k.as_mut(), temp0, run.temp_c.as_ref())
+            {
+                t.push(temp[i] - t0);
+            }
+            y.push(run.du_um[i]);
+            y.push(run.dv_um[i]);
+            row_axes.push(u);
+            row_axes.push(v);
+        }
+        skip.iter().filter(|&&s| s).count()
+    }
+}
+
+/// [`build`], leaving out the samples where the set-points do not tell the velocity of
+/// an axis of `leave_out` ([`velocity_known`]): inside the starts and stops of the
+/// motion, where an effect of the axis's velocity (a servo lag) is not known. Their
+/// count is [`Design::left_out`].
+pub fn build_leaving_out(
+    session: &Session,
+    topology: &Topology,
+    order: usize,
+    leave_out: [bool; 3],
+) -> Result<Design, SolverError> {
     topology.validate().map_err(SolverError::InvalidInput)?;
     let travel = measured_travel(session);
     let n = session.sample_count();
@@ -362,6 +513,7 @@ pub fn build(session: &Session, topology: &Topology, order: usize) -> Result<Des
         .then(|| all_runs().find_map(|r| r.temp_c.as_ref()?.first().copied()))
         .flatten();
     let mut f = SampleFields::with_capacity(n, temp0.is_some());
+    let mut left_out = 0;
     for (pi, p) in session.planes.iter().enumerate() {
         let (u, v) = p.plane.axes();
         plane_axes.push((u, v));
@@ -370,19 +522,19 @@ pub fn build(session: &Session, topology: &Topology, order: usize) -> Result<Des
         // have reached it travelling against its first recorded move (an approach from
         // the other side, a reversal at its first move), as a test plan approaches its
         // start from the centre of the travel.
-        let mut state: Option<DriveState> = Some(DriveState {
-            q_mm: p
-                .runs
-                .first()
-                .and_then(|r| r.pos_mm.first())
-                .copied()
-                .unwrap_or_default(),
-            dir: first_moves(p.runs.iter().flat_map(|r| &r.pos_mm)).map(|s| -s),
-            since_reversal_mm: [f64::INFINITY; 3],
-        });
-        // Per axis, how far beyond the last sample before its last reversal the axis
-        // turned (mm).
-        let mut beyond = [0.0; 3];
+        let mut walk = FileWalk {
+            state: DriveState {
+                q_mm: p
+                    .runs
+                    .first()
+                    .and_then(|r| r.pos_mm.first())
+                    .copied()
+                    .unwrap_or_default(),
+                dir: first_moves(p.runs.iter().flat_map(|r| &r.pos_mm)).map(|s| -s),
+                since_reversal_mm: [f64::INFINITY; 3],
+            },
+            beyond: [0.0; 3],
+        };
         let mut counts: std::collections::HashMap<TestKind, usize> = Default::default();
         for run in &p.runs {
             if run.len() < 3 {
@@ -396,47 +548,13 @@ pub fn build(session: &Session, topology: &Topology, order: usize) -> Result<Des
             let start = f.len();
             let run_idx = u32::try_from(runs.len())
                 .map_err(|_| SolverError::InvalidInput("diagnosis: more than 2^32 runs".into()))?;
-            for i in 0..run.len() {
-                let q = run.pos_mm[i];
-                let st = state.get_or_insert_with(|| DriveState::at(q));
-                let before = st.dir;
-                st.move_to(q);
-                for a in 0..3 {
-                    if st.dir[a] != before[a] && before[a] != 0.0 {
-                        let (b, past) = turn_beyond(&run.t_s, &run.pos_mm, i, a);
-                        beyond[a] = b;
-                        if past {
-                            // The sample before, already past the turn.
-                            let k = f.len() - 1;
-                            f.play_travel_mm[a][k] = st.dir[a] * b;
-                        }
-                    }
-                }
-                let (vel, ends) = velocity_at_ends(&run.t_s, &run.pos_mm, i);
-                f.run_idx.push(run_idx);
-                f.t_s.push(run.t_s[i]);
-                for a in 0..3 {
-                    f.q_mm[a].push(q[a]);
-                    f.vel_mm_s[a].push(vel[a]);
-                    f.vel_ends_mm_s[a].push(ends[a]);
-                    f.dir[a].push(st.dir[a]);
-                    f.since_reversal_mm[a].push(st.since_reversal_mm[a]);
-                    f.play_travel_mm[a].push(if st.dir[a] == 0.0 {
-                        0.0
-                    } else {
-                        st.dir[a] * (st.since_reversal_mm[a] + beyond[a])
-                    });
-                }
-                if let (Some(t), Some(t0), Some(temp)) =
-                    (f.temp_k.as_mut(), temp0, run.temp_c.as_ref())
-                {
-                    t.push(temp[i] - t0);
-                }
-                y.push(run.du_um[i]);
-                y.push(run.dv_um[i]);
-                row_axes.push(u);
-                row_axes.push(v);
-            }
+            left_out += walk.push_run(
+                run,
+                (run_idx, (u, v), temp0),
+                &mut f,
+                (&mut y, &mut row_axes),
+                leave_out,
+            );
             runs.push(RunInfo {
                 plane_idx: pi,
                 number: run.number,
@@ -483,6 +601,7 @@ pub fn build(session: &Session, topology: &Topology, order: usize) -> Result<Des
         time_band: std::sync::OnceLock::new(),
         temperature,
         lag_input: std::sync::OnceLock::new(),
+        left_out,
     };
     let mut y = std::mem::take(&mut d.y);
     d.centre(&mut y);

@@ -17,7 +17,7 @@
 //!    found on its evidence).
 
 use super::catalogue::{self, Candidate};
-use super::design;
+use super::design::{self, Design};
 use super::effects;
 use super::engine::{self, Admission, Rules, Score};
 use super::linalg::dot;
@@ -400,9 +400,18 @@ impl super::engine::Greedy for SessionProblem<'_> {
                 && !(c.effect == "servo_lag" && ft.relative_spread() <= LAG_FORM_SPREAD)
         });
         let finding = self.finding_of(t, params, f, None);
-        let sorted = match form {
-            Some(ft) => effects::form_rejected(finding, &form_sentence(c.effect, &ft)),
-            None => effects::classify(finding),
+        // A size far beyond what the held-out runs gain from it is not credible, whatever
+        // its σ (`credible::MAX_SIZE_PER_GAIN`); a logged temperature's growth is judged
+        // by its σ alone, as above; a local effect (a step, on its run) is not judged by a
+        // gain diluted over the session.
+        let th = t.theta.map_or(0.0, |x| x.1);
+        let local = catalogue::specs(d, &t.cand, th, s.eps()).run().is_some();
+        let beyond = super::credible::beyond_heldout_gain(size, &finding.heldout_rms_um)
+            .filter(|_| !measured && !local);
+        let sorted = match (form, beyond) {
+            (Some(ft), _) => effects::form_rejected(finding, &form_sentence(c.effect, &ft)),
+            (None, Some(why)) => super::credible::not_credible(finding, &t.names, &why),
+            (None, None) => effects::classify(finding),
         };
         match sorted {
             effects::Sorted::Determined(f) => Admission::Add(Note::Finding(f)),
@@ -513,39 +522,145 @@ fn form_sentence(effect: &str, ft: &trial::FormTest) -> String {
 
 /// [`diagnose_session`], reporting its phases and the fraction of the work done to
 /// `progress` (fractions in [0, 1], never decreasing, ending at 1).
+///
+/// A servo lag or a velocity coupling found (or possible) reads the axis's velocity at
+/// every sample, which the set-points do not tell inside the starts and stops of the
+/// motion ([`design::velocity_known`]): the session is then diagnosed again with those
+/// samples of the axes concerned left out, and that diagnosis is the result.
 pub fn diagnose_session_with_progress(
     session: &Session,
     opts: &DiagnoseOptions,
     progress: &mut dyn Progress,
 ) -> Result<DiagnosisResult, SolverError> {
     let mut progress = Monotone::new(progress);
-    progress.report("reducing the rigid model", 0.0);
     let topology = session
         .topology
         .clone()
         .or_else(|| opts.topology.clone())
         .unwrap_or_default();
+    progress.report("reducing the rigid model", 0.0);
     let d = design::build(session, &topology, opts.order)?;
+    let first = diagnose_design(session, opts, &d, &mut progress, (0.0, 0.6))?;
+    drop(d);
+    let axes = velocity_axes(&first);
+    if !axes.contains(&true) {
+        progress.report("done", 1.0);
+        return Ok(first);
+    }
+    let d = design::build_leaving_out(session, &topology, opts.order, axes)?;
+    if d.left_out == 0 {
+        progress.report("done", 1.0);
+        return Ok(first);
+    }
+    progress.report("reducing the rigid model without the ramps' samples", 0.6);
+    let mut r = diagnose_design(session, opts, &d, &mut progress, (0.6, 1.0))?;
+    let note = format!(
+        "; {} samples inside the starts and stops of the motion, where the set-points do not tell the velocity, left out",
+        d.left_out
+    );
+    for f in r.findings.iter_mut().chain(r.possible.iter_mut()) {
+        if matches!(f.effect.as_str(), "servo_lag" | "velocity_coupling") {
+            f.evidence.push_str(&note);
+        }
+    }
+    progress.report("done", 1.0);
+    Ok(r)
+}
+
+/// Per axis, whether a finding or a possible finding of `r` reads its velocity (a servo
+/// lag of the axis, a velocity coupling following it).
+fn velocity_axes(r: &DiagnosisResult) -> [bool; 3] {
+    let mut axes = [false; 3];
+    for f in r.findings.iter().chain(&r.possible) {
+        let axis = match f.effect.as_str() {
+            "servo_lag" => f.axis.as_deref(),
+            "velocity_coupling" => f.depends_on.as_deref(),
+            _ => None,
+        };
+        if let Some(a) = crate::axis::Axis::ALL
+            .into_iter()
+            .find(|a| axis.is_some_and(|x| x == a.to_string()))
+        {
+            axes[a.index()] = true;
+        }
+    }
+    axes
+}
+
+/// What the rigid model alone gives the report.
+struct RigidFigures {
+    dof: usize,
+    base_heldout: f64,
+    residual_rms: f64,
+    before: plots::Series,
+    anomalies: Vec<anomalies::Located>,
+    mismatch: Vec<Mismatch>,
+}
+
+/// The rigid model's figures on its fit `f`: its residual, the places of its misfit and
+/// its local anomalies (listed as places when one-off events, in a few runs; anomalies
+/// in many runs are the recurring misfit the other places describe).
+fn rigid_figures(d: &Design, f: &Fit, floor: f64, heldout_n: usize, ratio: f64) -> RigidFigures {
     let n = d.rows();
+    let dof = n.saturating_sub(2 * d.runs.len() + f.rank).max(1);
+    let base_heldout = rms(f.heldout_ssr, heldout_n);
+    // Local anomalies of the rigid model's residual: a session with one is never
+    // consistent, whatever its global ratio.
+    let rigid_anomalies = anomalies::scan(d, &f.resid, floor);
+    let mut mismatch = if base_heldout > ratio * floor {
+        locate(d, &f.resid, floor)
+    } else {
+        Vec::new()
+    };
+    let total_excess: f64 = f.resid.iter().map(|r| r * r - floor * floor).sum();
+    let one_off = anomalies::events(&rigid_anomalies) <= anomalies::MAX_ONE_OFF;
+    mismatch.extend(
+        rigid_anomalies
+            .iter()
+            .filter(|_| one_off)
+            .take(6)
+            .map(|a| Mismatch {
+                where_: a.describe(d),
+                tests: vec![a.test_id(d)],
+                share_of_misfit: (a.excess / total_excess.max(1e-300)).clamp(0.0, 1.0),
+            }),
+    );
+    mismatch.sort_by(|a, b| b.share_of_misfit.total_cmp(&a.share_of_misfit));
+    RigidFigures {
+        dof,
+        base_heldout,
+        residual_rms: rms(f.resid.iter().map(|v| v * v).sum(), n),
+        before: plots::Series::of(d, &f.resid, "before"),
+        anomalies: rigid_anomalies,
+        mismatch,
+    }
+}
+
+/// The diagnosis of the session `session` on its design `d`, reporting within `span`
+/// of the whole work.
+fn diagnose_design(
+    session: &Session,
+    opts: &DiagnoseOptions,
+    d: &Design,
+    progress: &mut Monotone,
+    span: (f64, f64),
+) -> Result<DiagnosisResult, SolverError> {
     let folds = opts.folds.max(2);
-    let red = Reduction::new(session, &d);
-    let sets = Sets::new(&d, &red, folds);
+    let red = Reduction::new(session, d);
+    let sets = Sets::new(d, &red, folds);
     let heldout_n = sets.heldout_n;
     let scans = Default::default();
     let ctx = Ctx {
-        d: &d,
+        d,
         red: &red,
         sets: &sets,
         floor: f64::NAN,
         bic_threshold: opts.min_bic_gain,
         scans: &scans,
     };
-    progress.report("fitting the rigid model", 0.05);
+    progress.report_in(span, "fitting the rigid model", 0.05);
     let f = ctx.fit(Vec::new(), Vec::new());
-    let dof = n.saturating_sub(2 * d.runs.len() + f.rank).max(1);
-    let base_rms = (f.ssr / dof as f64).sqrt();
-    let base_heldout = rms(f.heldout_ssr, heldout_n);
-    progress.report("noise floor", 0.08);
+    progress.report_in(span, "noise floor", 0.08);
     // The floor is the spectral one when a run is long enough for the spectrum; the
     // differences of repeated passes (`noise::session_floor`'s check) otherwise, and for
     // the note, which only a misfit left above the floor needs: computed then.
@@ -558,38 +673,16 @@ pub fn diagnose_session_with_progress(
     };
     let floor = match spectral {
         Some((s, _)) => s,
-        None => noise_floor().map_or(base_rms, |nf| nf.sigma_um),
+        None => noise_floor().map_or(
+            (f.ssr / d.rows().saturating_sub(2 * d.runs.len() + f.rank).max(1) as f64).sqrt(),
+            |nf| nf.sigma_um,
+        ),
     };
     let ctx = Ctx { floor, ..ctx };
     // What the report says of the rigid model's residual, formed now: the residual
     // itself is not kept.
-    let rigid_residual_rms = rms(f.resid.iter().map(|v| v * v).sum(), n);
-    let before_series = plots::Series::of(&d, &f.resid, "before");
-    // Local anomalies of the rigid model's residual: a session with one is never
-    // consistent, whatever its global ratio.
-    let rigid_anomalies = anomalies::scan(&d, &f.resid, floor);
-    let mut mismatch = if base_heldout > opts.noise_level_ratio * floor {
-        locate(&d, &f.resid, floor)
-    } else {
-        Vec::new()
-    };
-    let total_excess: f64 = f.resid.iter().map(|r| r * r - floor * floor).sum();
-    // Listed as places when they are one-off events (in a few runs); anomalies in many
-    // runs are the recurring misfit the other places describe.
-    let one_off = anomalies::events(&rigid_anomalies) <= anomalies::MAX_ONE_OFF;
-    mismatch.extend(
-        rigid_anomalies
-            .iter()
-            .filter(|_| one_off)
-            .take(6)
-            .map(|a| Mismatch {
-                where_: a.describe(&d),
-                tests: vec![a.test_id(&d)],
-                share_of_misfit: (a.excess / total_excess.max(1e-300)).clamp(0.0, 1.0),
-            }),
-    );
-    mismatch.sort_by(|a, b| b.share_of_misfit.total_cmp(&a.share_of_misfit));
-    let cands = catalogue::candidates(&d);
+    let rigid = rigid_figures(d, &f, floor, heldout_n, opts.noise_level_ratio);
+    let cands = catalogue::candidates(d);
     let problem = SessionProblem {
         ctx,
         eps_groups: cands
@@ -599,7 +692,7 @@ pub fn diagnose_session_with_progress(
             .collect(),
         cands,
         floor,
-        dof,
+        dof: rigid.dof,
         folds,
     };
     // No stop at the floor: an effect is accepted on its evidence (BIC and held-out gain),
@@ -612,7 +705,7 @@ pub fn diagnose_session_with_progress(
         max_findings: opts.max_findings,
     };
     let base = problem.state(f, 0, [None; 3], [false; 3], None, None);
-    let o = engine::run(&problem, base, &rules, "", &mut progress, (0.0, 1.0));
+    let o = engine::run(&problem, base, &rules, "", progress, span);
     let findings: Vec<Finding> = o
         .added
         .into_iter()
@@ -633,34 +726,22 @@ pub fn diagnose_session_with_progress(
     // All the report reads of the final model: the rest of its state (accepted columns,
     // kept moments, rotation errors, thermal basis) is freed before the report's scans.
     let (resid, heldout_ssr) = o.state.into_residual();
-    progress.report("report", 0.95);
+    progress.report_in(span, "report", 0.95);
     let final_heldout = rms(heldout_ssr, heldout_n);
     let at_noise = final_heldout <= opts.noise_level_ratio * floor;
-    let final_anomalies = anomalies::scan(&d, &resid, floor);
+    let final_anomalies = anomalies::scan(d, &resid, floor);
     let verdict = effects::verdict(
-        base_heldout <= opts.noise_level_ratio * floor && rigid_anomalies.is_empty(),
+        rigid.base_heldout <= opts.noise_level_ratio * floor && rigid.anomalies.is_empty(),
         at_noise && final_anomalies.is_empty(),
         findings.len(),
     );
-    let (found, events) = (final_anomalies.len(), anomalies::events(&final_anomalies));
-    let mut unexplained: Vec<String> = final_anomalies
-        .iter()
-        .take(6)
-        .map(|a| {
-            let how = if events > anomalies::MAX_ONE_OFF {
-                format!("; {found} such anomalies in {events} runs: a misfit that recurs")
-            } else {
-                String::new()
-            };
-            format!("{} (not explained by the findings{how})", a.describe(&d))
-        })
-        .collect();
+    let mut unexplained = unexplained_anomalies(d, &final_anomalies);
     if !at_noise {
         let floor_note = match noise_floor() {
             Some(nf) => nf.note(),
             None => "no run long enough for the spectrum and no repeated passes: the rigid model's residual stands in for the noise floor".into(),
         };
-        let rest = locate(&d, &resid, floor);
+        let rest = locate(d, &resid, floor);
         let places: Vec<String> = rest
             .iter()
             .map(|m| format!("{} ({:.0} %)", m.where_, 100.0 * m.share_of_misfit))
@@ -677,18 +758,17 @@ pub fn diagnose_session_with_progress(
             }
         ));
     }
-    let plots = plots::plots(&d, before_series, plots::Series::of(&d, &resid, "after"));
-    progress.report("done", 1.0);
+    let plots = plots::plots(d, rigid.before, plots::Series::of(d, &resid, "after"));
     Ok(DiagnosisResult {
         kind: "diagnosis".into(),
         machine_id: session.machine_id.clone(),
         source: "session".into(),
         baseline: Baseline {
-            residual_rms_um: rigid_residual_rms,
-            heldout_rms_um: base_heldout,
+            residual_rms_um: rigid.residual_rms,
+            heldout_rms_um: rigid.base_heldout,
             noise_estimate_um: floor,
         },
-        mismatch,
+        mismatch: rigid.mismatch,
         findings,
         possible,
         rejected,
@@ -696,6 +776,24 @@ pub fn diagnose_session_with_progress(
         unexplained,
         plots,
     })
+}
+
+/// The final model's local anomalies in words (at most 6), each saying whether they
+/// recur (in more runs than one-off events are).
+fn unexplained_anomalies(d: &Design, found: &[anomalies::Located]) -> Vec<String> {
+    let (n, events) = (found.len(), anomalies::events(found));
+    found
+        .iter()
+        .take(6)
+        .map(|a| {
+            let how = if events > anomalies::MAX_ONE_OFF {
+                format!("; {n} such anomalies in {events} runs: a misfit that recurs")
+            } else {
+                String::new()
+            };
+            format!("{} (not explained by the findings{how})", a.describe(d))
+        })
+        .collect()
 }
 
 fn rms(ssr: f64, n: usize) -> f64 {
