@@ -59,28 +59,80 @@ pub fn misfit_gate(document: &serde_json::Value) -> Option<mtcal_solver::misfit:
         .filter(|c| c.is_misfit())
 }
 
-/// The ids of the misfit checks among identifications `results` (each document read once).
-pub async fn misfit_ids(
+pub use mtcal_api::trends::CheckModel;
+
+/// [`CheckModel`]s by result id: of the checks that are misfits or decided on the
+/// explained model.
+pub type CheckModels = std::collections::HashMap<String, CheckModel>;
+
+/// What a trend point or an alert says of the model of a stored document: a misfit and
+/// why, or decided on the explained model (neither: not an identification's document,
+/// or a model that explains its recording).
+pub fn check_model(document: &serde_json::Value) -> CheckModel {
+    let Ok(d) = serde_json::from_value::<mtcal_solver::identification::IdentificationResult>(
+        document.clone(),
+    ) else {
+        return CheckModel::default();
+    };
+    let c = d.model_check();
+    CheckModel {
+        misfit: c.is_misfit(),
+        misfit_reason: c.is_misfit().then(|| c.statement.clone()),
+        explained_model: c.decided_on_explained_model().then_some(c.statement),
+    }
+}
+
+/// [`check_model`] of each identification among `results` that is a misfit or decided
+/// on the explained model, by result id (each document read once).
+pub async fn check_models(
     store: &dyn Store,
     results: &[ResultMeta],
-) -> Result<std::collections::HashSet<String>, mtcal_store::StoreError> {
-    let mut out = std::collections::HashSet::new();
+) -> Result<CheckModels, mtcal_store::StoreError> {
+    let mut out = CheckModels::new();
     for r in results.iter().filter(|r| r.kind == IDENTIFICATION) {
-        if misfit_gate(&store.get_result(&r.id).await?.document).is_some() {
-            out.insert(r.id.clone());
+        let m = check_model(&store.get_result(&r.id).await?.document);
+        if m != CheckModel::default() {
+            out.insert(r.id.clone(), m);
         }
     }
     Ok(out)
 }
 
 /// The baseline among a machine's identifications `results` (time order): its chosen
-/// one, else its first.
-pub fn baseline<'a>(machine: &Machine, results: &'a [ResultMeta]) -> Option<&'a ResultMeta> {
-    machine
-        .baseline_result_id
-        .as_ref()
-        .and_then(|b| results.iter().find(|r| &r.id == b))
-        .or(results.first())
+/// one, else its first check that is not a misfit ([`misfit_gate`]: nothing measured
+/// against a model that does not explain its recording would be decided). None when
+/// there is no check, or every check is a misfit. Reads the documents of the checks
+/// before the first that is not a misfit (one, as a rule).
+pub async fn baseline<'a>(
+    store: &dyn Store,
+    machine: &Machine,
+    results: &'a [ResultMeta],
+) -> Result<Option<&'a ResultMeta>, mtcal_store::StoreError> {
+    if let Some(chosen) = chosen_baseline(machine, results) {
+        return Ok(Some(chosen));
+    }
+    for r in results {
+        if misfit_gate(&store.get_result(&r.id).await?.document).is_none() {
+            return Ok(Some(r));
+        }
+    }
+    Ok(None)
+}
+
+/// [`baseline`] when the models of `results` are known ([`check_models`]).
+pub fn baseline_among<'a>(
+    machine: &Machine,
+    results: &'a [ResultMeta],
+    models: &CheckModels,
+) -> Option<&'a ResultMeta> {
+    let misfit = |r: &ResultMeta| models.get(&r.id).is_some_and(|m| m.misfit);
+    chosen_baseline(machine, results).or_else(|| results.iter().find(|r| !misfit(r)))
+}
+
+/// The machine's chosen baseline among `results`, when it is one of them.
+fn chosen_baseline<'a>(machine: &Machine, results: &'a [ResultMeta]) -> Option<&'a ResultMeta> {
+    let chosen = machine.baseline_result_id.as_ref()?;
+    results.iter().find(|r| &r.id == chosen)
 }
 
 /// The results of kind `kind` (default identification) of machine `id` in time order,
@@ -157,7 +209,7 @@ pub async fn diff(store: &dyn Store, id: &str, q: &DiffQuery) -> Result<ResultDi
                     .ok_or_else(|| DomainError::NotFound(format!("no result for machine {id}"))),
             }
         };
-    let baseline = pick(q.baseline.as_ref(), baseline(&machine, &all))?;
+    let baseline = pick(q.baseline.as_ref(), baseline(store, &machine, &all).await?)?;
     let against = pick(q.against.as_ref(), all.last())?;
     let step = q.step_mm.unwrap_or(5.0);
     let (machine_id, warnings) = (

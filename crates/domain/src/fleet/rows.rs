@@ -114,9 +114,12 @@ async fn row(
     machine: &Machine,
     results: &[ResultMeta],
 ) -> Result<Option<FleetDriftRow>, StoreError> {
-    let (Some(baseline), Some(latest)) = (baseline(machine, results), results.last()) else {
+    let Some(latest) = results.last() else {
         return Ok(None);
     };
+    // Every check a misfit: the latest is its own reference (drift 0) until a check
+    // whose model explains its recording lands.
+    let baseline = baseline(store, machine, results).await?.unwrap_or(latest);
     let profile = crate::profiles::applicable(profiles, machine);
     let basis = basis(&baseline.id, &latest.id, results.len(), profile);
     // The latest result's document: its misfit gate, and its verdict when a profile
