@@ -25,4 +25,5 @@ mod security;
 mod series;
 mod slow_uploads;
 mod uploads;
+mod verification;
 mod web;
