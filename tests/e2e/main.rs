@@ -9,6 +9,7 @@ mod common;
 
 mod audit;
 mod auth;
+mod catch_up;
 mod cli;
 mod diagnose;
 mod evaluation;
