@@ -196,7 +196,7 @@ pub async fn check_landed(
         let (store, id) = (store.clone(), r.id.clone());
         async move {
             let doc = store.get_result(&id).await?.document;
-            Ok::<_, StoreError>(crate::history::check_model(&doc))
+            Ok::<_, StoreError>(crate::trends::check_model(&doc))
         }
     };
     let now_model = model(landed).await?;

@@ -59,45 +59,6 @@ pub fn misfit_gate(document: &serde_json::Value) -> Option<mtcal_solver::misfit:
         .filter(|c| c.is_misfit())
 }
 
-pub use mtcal_api::trends::CheckModel;
-
-/// [`CheckModel`]s by result id: of the checks that are misfits or decided on the
-/// explained model.
-pub type CheckModels = std::collections::HashMap<String, CheckModel>;
-
-/// What a trend point or an alert says of the model of a stored document: a misfit and
-/// why, or decided on the explained model (neither: not an identification's document,
-/// or a model that explains its recording).
-pub fn check_model(document: &serde_json::Value) -> CheckModel {
-    let Ok(d) = serde_json::from_value::<mtcal_solver::identification::IdentificationResult>(
-        document.clone(),
-    ) else {
-        return CheckModel::default();
-    };
-    let c = d.model_check();
-    CheckModel {
-        misfit: c.is_misfit(),
-        misfit_reason: c.is_misfit().then(|| c.statement.clone()),
-        explained_model: c.decided_on_explained_model().then_some(c.statement),
-    }
-}
-
-/// [`check_model`] of each identification among `results` that is a misfit or decided
-/// on the explained model, by result id (each document read once).
-pub async fn check_models(
-    store: &dyn Store,
-    results: &[ResultMeta],
-) -> Result<CheckModels, mtcal_store::StoreError> {
-    let mut out = CheckModels::new();
-    for r in results.iter().filter(|r| r.kind == IDENTIFICATION) {
-        let m = check_model(&store.get_result(&r.id).await?.document);
-        if m != CheckModel::default() {
-            out.insert(r.id.clone(), m);
-        }
-    }
-    Ok(out)
-}
-
 /// The baseline among a machine's identifications `results` (time order): its chosen
 /// one, else its first check that is not a misfit ([`misfit_gate`]: nothing measured
 /// against a model that does not explain its recording would be decided). None when
@@ -119,11 +80,11 @@ pub async fn baseline<'a>(
     Ok(None)
 }
 
-/// [`baseline`] when the models of `results` are known ([`check_models`]).
+/// [`baseline`] when the models of `results` are known ([`trends::check_models`]).
 pub fn baseline_among<'a>(
     machine: &Machine,
     results: &'a [ResultMeta],
-    models: &CheckModels,
+    models: &trends::CheckModels,
 ) -> Option<&'a ResultMeta> {
     let misfit = |r: &ResultMeta| models.get(&r.id).is_some_and(|m| m.misfit);
     chosen_baseline(machine, results).or_else(|| results.iter().find(|r| !misfit(r)))

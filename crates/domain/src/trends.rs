@@ -7,9 +7,8 @@
 //! machine page).
 
 use crate::error::DomainError;
-use crate::history::{CheckModels, check_models};
 use crate::kinds::IDENTIFICATION;
-pub use mtcal_api::trends::{SummaryPoint, SummaryTrend, TermPoint, TermTrend};
+pub use mtcal_api::trends::{CheckModel, SummaryPoint, SummaryTrend, TermPoint, TermTrend};
 use mtcal_solver::comparison::{self, CheckFunctions, Value};
 pub use mtcal_solver::comparison::{Drift, TermDiff};
 use mtcal_solver::terms::Term;
@@ -127,6 +126,43 @@ pub fn diff(
     step_mm: f64,
 ) -> (BTreeMap<String, TermDiff>, BTreeMap<String, Option<f64>>) {
     comparison::diff(&Stored(base), &Stored(other), step_mm)
+}
+
+/// [`CheckModel`]s by result id: of the checks that are misfits or decided on the
+/// explained model.
+pub type CheckModels = std::collections::HashMap<String, CheckModel>;
+
+/// What a trend point or an alert says of the model of a stored document: a misfit and
+/// why, or decided on the explained model (neither: not an identification's document,
+/// or a model that explains its recording).
+pub fn check_model(document: &serde_json::Value) -> CheckModel {
+    let Ok(d) = serde_json::from_value::<mtcal_solver::identification::IdentificationResult>(
+        document.clone(),
+    ) else {
+        return CheckModel::default();
+    };
+    let c = d.model_check();
+    CheckModel {
+        misfit: c.is_misfit(),
+        misfit_reason: c.is_misfit().then(|| c.statement.clone()),
+        explained_model: c.decided_on_explained_model().then_some(c.statement),
+    }
+}
+
+/// [`check_model`] of each identification among `results` that is a misfit or decided
+/// on the explained model, by result id (each document read once).
+pub async fn check_models(
+    store: &dyn Store,
+    results: &[ResultMeta],
+) -> Result<CheckModels, mtcal_store::StoreError> {
+    let mut out = CheckModels::new();
+    for r in results.iter().filter(|r| r.kind == IDENTIFICATION) {
+        let m = check_model(&store.get_result(&r.id).await?.document);
+        if m != CheckModel::default() {
+            out.insert(r.id.clone(), m);
+        }
+    }
+    Ok(out)
 }
 
 /// How drift is measured, in words (the fleet routes and page say it).

@@ -89,7 +89,7 @@ pub struct FigureTrendPoint {
     pub point: FigurePoint,
     /// A misfit, or decided on the explained model.
     #[serde(flatten)]
-    pub model: mtcal_domain::history::CheckModel,
+    pub model: mtcal_domain::trends::CheckModel,
 }
 
 #[utoipa::path(operation_id = "trends_figure", summary = "One figure of the standards over time", get, path = "/api/v1/machines/{id}/trends/figure", tag = "trends",
@@ -127,7 +127,7 @@ pub async fn figure(
         .into_iter()
         .filter(|c| carry.contains(c.id.as_str()))
         .collect();
-    let models = mtcal_domain::history::check_models(s.store.as_ref(), &checks).await?;
+    let models = mtcal_domain::trends::check_models(s.store.as_ref(), &checks).await?;
     let points = points
         .into_iter()
         .map(|point| FigureTrendPoint {

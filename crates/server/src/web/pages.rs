@@ -312,7 +312,7 @@ struct MachineChecks {
     /// Its identifications in time order.
     identifications: Vec<ResultMeta>,
     /// Those of them that are misfits or decided on the explained model.
-    models: history::CheckModels,
+    models: domain_trends::CheckModels,
     baseline: Option<String>,
     /// The tolerance profile that applies (`scope target (id)`).
     tolerance: Option<String>,
@@ -355,7 +355,7 @@ async fn machine_checks(app: &AppState, m: &Machine) -> Result<MachineChecks, Ap
             .cmp(&a.measured_at)
             .then(b.created_at.cmp(&a.created_at))
     });
-    let models = history::check_models(app.store.as_ref(), &identifications).await?;
+    let models = domain_trends::check_models(app.store.as_ref(), &identifications).await?;
     let baseline = history::baseline_among(m, &identifications, &models).map(|r| r.id.clone());
     let profiles = app.store.list_tolerances().await?;
     let tolerance = mtcal_domain::profiles::applicable(&profiles, m)
@@ -393,7 +393,7 @@ async fn term_trend_view(
     id: &str,
     term: &str,
     at: &str,
-    models: &history::CheckModels,
+    models: &domain_trends::CheckModels,
 ) -> Result<(Option<vmachine::TermTrend>, Option<String>), ApiError> {
     let query = TermQuery {
         term: term.to_string(),
@@ -436,7 +436,7 @@ async fn term_trend_view(
 async fn squareness_trend(
     app: &AppState,
     id: &str,
-    models: &history::CheckModels,
+    models: &domain_trends::CheckModels,
 ) -> Result<Vec<TrendSeries>, ApiError> {
     let summary = domain_trends::summary_trend(app.store.as_ref(), id, Some(models)).await?;
     type Pick = fn(&domain_trends::SummaryPoint) -> (Option<f64>, Option<f64>);
