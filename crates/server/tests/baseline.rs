@@ -88,6 +88,11 @@ async fn story(url: &str) {
         (row["drift_um"].as_f64().unwrap() - 1.0).abs() < 1e-9,
         "{row}"
     );
+    // The refresh at start finds the row current (its basis names the store's pair).
+    let n = mtcal_domain::fleet::refresh_all(store.as_ref())
+        .await
+        .unwrap();
+    assert_eq!(n.recomputed, 0, "{n:?}");
     let diff = get(&app, "/api/v1/machines/M1/results/diff", &keys.read).await;
     assert_eq!(diff["baseline"]["id"], json!(second));
     assert_eq!(diff["against"]["id"], json!(third));
