@@ -13,7 +13,7 @@
 //! | then | what follows any landed check ([`mtcal_domain::landing::result_landed`]): fleet row, drift alerts |
 //!
 //! | after a crash | at start, [`catch_up`] runs the landing of every stored session diagnosis whose check is still a misfit without its explained model, and finishes an exclusion a crash left undone |
-//! | once | the landings of one process run one at a time, and each does nothing when the check's explained model is stored |
+//! | once | the landings of one process run one at a time, and each does nothing when the check's explained model is stored; after its fit a landing looks again and stores nothing when another process stored it meanwhile (the moment between that look and the store is not locked across processes) |
 //!
 //! An `explained` diagnosis whose model leaves the residual at noise level gives a check
 //! decided on the explained model; a `partly_explained` one (or a residual still above
@@ -134,6 +134,16 @@ async fn land(
     let decided = serde_json::from_value::<IdentificationResult>(out.document.clone())
         .map(|r| r.model_check().decided_on_explained_model())
         .unwrap_or(false);
+    // Another process (a worker of its own, or one that started) may have stored it
+    // during the fit: the original is then no longer the latest check of the session.
+    let now = store.list_results(&machine_id, IDENTIFICATION).await?;
+    let latest = now
+        .iter()
+        .rev()
+        .find(|m| m.dataset_id.as_deref() == Some(dataset_id.as_str()));
+    if latest.map(|m| m.id.as_str()) != Some(original_id.as_str()) {
+        return Ok(None);
+    }
     let meta = store
         .import_result(NewResult {
             machine_id: machine_id.clone(),
