@@ -122,7 +122,8 @@ pub async fn results(
 #[cfg_attr(feature = "openapi", derive(utoipa::IntoParams))]
 #[cfg_attr(feature = "openapi", into_params(parameter_in = Query))]
 pub struct DiffQuery {
-    /// Baseline result (default: the machine's baseline, else its first result).
+    /// Baseline result (default: the machine's baseline, else its first result that is
+    /// not a misfit check).
     pub baseline: Option<String>,
     /// Result compared with it (default: the latest).
     pub against: Option<String>,
@@ -170,7 +171,14 @@ pub async fn diff(store: &dyn Store, id: &str, q: &DiffQuery) -> Result<ResultDi
                     .ok_or_else(|| DomainError::NotFound(format!("no result for machine {id}"))),
             }
         };
-    let baseline = pick(q.baseline.as_ref(), baseline(store, &machine, &all).await?)?;
+    let default = baseline(store, &machine, &all).await?;
+    if q.baseline.is_none() && default.is_none() && !all.is_empty() {
+        return Err(DomainError::NotFound(format!(
+            "no baseline for machine {id}: every check of it is a misfit (its model does not \
+             explain its recording); name one with baseline="
+        )));
+    }
+    let baseline = pick(q.baseline.as_ref(), default)?;
     let against = pick(q.against.as_ref(), all.last())?;
     let step = q.step_mm.unwrap_or(5.0);
     let (machine_id, warnings) = (

@@ -167,7 +167,7 @@ pub async fn check_models(
 
 /// How drift is measured, in words (the fleet routes and page say it).
 pub const DRIFT_DEFINITION: &str = "largest change since the baseline result (the machine's \
-     chosen baseline, else its first) of any term over 41 points of the travel both checks \
+     chosen baseline, else its first check that is not a misfit) of any term over 41 points of the travel both checks \
      measured, with its standard uncertainty there";
 
 /// A term trend asked for: the term and the positions.

@@ -70,6 +70,20 @@ async fn story(url: &str) {
     let drift = get(&app, "/api/v1/fleet/drift", &keys.read).await;
     let row = &drift["machines"][0];
     assert_eq!(row["baseline_result_id"], json!(first), "{drift}");
+    let req = request(
+        "GET",
+        "/api/v1/machines/M1/results/diff",
+        "",
+        None,
+        vec![],
+        Some(&keys.read),
+    );
+    let (status, b) = send(&app, req).await;
+    assert_eq!(status.as_u16(), 404, "{b}");
+    assert!(
+        b.to_string().contains("every check of it is a misfit"),
+        "{b}"
+    );
 
     // The second explains its recording: it is the baseline, so it does not alert
     // although EXX changed by (0.10 − 0.02)·50 = 4 µm since the misfit.
