@@ -338,7 +338,6 @@ const KNOWN_LONG: &[(&str, &str)] = &[
         "crates/solver/src/diagnosis/session.rs",
         "diagnose_session_with_progress",
     ),
-    ("crates/solver/src/standards/iso230_2.rs", "evaluate_all"),
 ];
 
 /// Longest source file, lines.

@@ -1,7 +1,7 @@
 //! Numbers as a person reads them (`mtcal_solver::text`, docs/report.md "Numbers"): the
 //! check report of a three-plane check with a diagnosis and a tolerance file, the result
 //! page of the same identification and the diagnosis's, and the text of `mtcal identify`
-//! and `mtcal diagnose` hold no raw float (more than 6 significant digits, e.g.
+//! (with and without `--explain`) and `mtcal diagnose` hold no raw float (more than 6 significant digits, e.g.
 //! `28.541666666666664` or `16000005`) and no negative zero (`-0.000`). Plots are
 //! checked by their own tests: the `<svg>` elements are left out here, as are tags,
 //! styles and code names.
@@ -139,6 +139,9 @@ fn a_three_plane_check_reads_at_the_resolution_of_its_numbers() {
     ]);
     let identified = mtcal(&["identify", &p("bk")]);
     assert_clean("mtcal identify", &identified);
+    let explained = mtcal(&["identify", &p("bk"), "--explain"]);
+    assert!(explained.contains("what to do"), "{explained}");
+    assert_clean("mtcal identify --explain", &explained);
     let diagnosed = mtcal(&["diagnose", &p("bk")]);
     assert_clean("mtcal diagnose", &diagnosed);
     assert_clean("mtcal standards", &mtcal(&["standards", &p("bk")]));

@@ -1,7 +1,13 @@
 //! The dashboard's pages read as a person reads them, in a real headless Chromium on the
-//! demo fleet of `mtcal demo` (its worn machine's latest check is a misfit: a 6 µm
-//! backlash of X the rigid model lacks, diagnosed by the service on its own):
+//! demo fleet of `mtcal demo` (src/cli/demo/physics.rs: its worn machine's misfit, a 6 µm
+//! backlash of X the rigid model lacks, is diagnosed by the service on its own and
+//! decided on the explained model, then checked again after compensation; its warm-nut
+//! machine's latest check is explained only partly and stays not decided):
 //!
+//! * a check decided on its explained model says so, lists the backlash to set and links
+//!   its LinuxCNC table (whose reversal column is the backlash put in); the check after
+//!   compensation is verified against the prediction on the machine page ("backlash
+//!   (X): 6.00 → 0.40 µm after compensation (predicted 0)"), beside the table set;
 //! * a misfit check is marked wherever it shows: its drift on the fleet page is not a
 //!   figure but "not decided: misfit"; in the machine's trends it is a ring without a
 //!   ±2σ bar, named in the legend; it is not offered as a baseline, and the API and the
@@ -30,11 +36,20 @@ use serde_json::{Value, json};
 use std::path::Path;
 use std::time::Duration;
 
-/// The demo's machine whose latest check is a misfit.
+/// The demo's machine decided on its explained model (6 µm of X backlash), then checked
+/// again after compensation.
 const WORN: &str = "VMC-0900";
 
+/// The demo's machine whose latest check stays not decided (partly explained).
+const MISFIT: &str = "VMC-0901";
+
 /// The screenshots the README shows (docs/screenshots/).
-const DOCUMENTED: [&str; 2] = ["machine-misfit", "diagnosis"];
+const DOCUMENTED: [&str; 4] = [
+    "machine-misfit",
+    "diagnosis",
+    "result-explained",
+    "machine-verified",
+];
 
 async fn shot(c: &Client, dir: &Path, name: &str) {
     let png = c.screenshot().await.expect("screenshot");
@@ -83,53 +98,179 @@ async fn pages_in_words_in_headless_chromium() {
     browser::closing(c, async move {
         c2.goto(&dashboard).await.unwrap();
         wait_for(&c2, "#fleet", Duration::from_secs(10)).await;
-        let misfit_id = worn_check(&c2, &base, &key, &shots).await;
-        diagnosis_in_words(&c2, &base, &key, &shots).await;
+        let diagnosis_id = worn_check(&c2, &base, &key, &shots).await;
+        let misfit_id = misfit_marks(&c2, &base, &key, &shots).await;
+        diagnosis_in_words(&c2, &base, &key, &diagnosis_id, &shots).await;
         rows_say_which_and_where(&c2, &base, &key).await;
         error_pages(&c2, &base, &misfit_id, &shots).await;
     })
     .await;
 }
 
-/// The worn machine's misfit check: marked item by item while it is the latest; once the
-/// service has decided it on its explained model (the demo waits for that), the fleet
-/// shows the explained check's drift as a figure and the misfit stays readable by its id
-/// (the marks themselves are checked by the views' unit tests of the fleet, machine and
-/// trend plots). Returns the misfit's result id.
+/// The worn machine, decided on its explained model and verified at its next check: the
+/// check after compensation is verified as predicted (its lost motion left, against the
+/// prediction 0) on the machine page, which links the LinuxCNC table that was set; the
+/// explained check's page is decided on the explained model, lists the backlash to set
+/// and links its LinuxCNC table, whose reversal column is the 6 µm put in; the fleet
+/// shows the latest check's drift as a figure. Returns the id of the diagnosis that
+/// explained the misfit.
 async fn worn_check(c: &Client, base: &str, key: &str, shots: &Path) -> String {
-    let latest = api(
+    let trend = api(
         base,
         key,
-        &format!("/api/v1/machines/{WORN}/results/latest"),
+        &format!("/api/v1/machines/{WORN}/trends/verification"),
     )
     .await;
-    let Some(original) = latest["document"]["explained"]["original_result_id"].as_str() else {
-        return misfit_marks(c, base, key, &latest, shots).await;
-    };
+    let v = trend
+        .as_array()
+        .unwrap()
+        .last()
+        .expect("the check after compensation is verified")
+        .clone();
+    let explained_id = v["previous_result_id"].as_str().unwrap().to_string();
+    let f = &v["findings"][0];
+    assert_eq!(v["findings"].as_array().unwrap().len(), 1, "{v}");
+    assert_eq!(
+        (f["effect"].as_str(), f["axis"].as_str()),
+        (Some("backlash"), Some("X"))
+    );
+    assert_eq!(
+        (f["state"].as_str(), f["as_predicted"].as_bool()),
+        (Some("still_present"), Some(true)),
+        "{v}"
+    );
+    let before = f["before"].as_f64().unwrap();
+    let left = f["measured"].as_f64().unwrap();
+    assert!(
+        (before - 6.0).abs() < 0.1 && (left - 0.4).abs() < 0.1,
+        "{v}"
+    );
+    // The fleet: the latest check is decided, its drift a figure.
     c.goto(&format!("{base}/")).await.unwrap();
     let worn = format!(r#"#fleet tr[data-machine="{WORN}"]"#);
     let cells = texts(c, &format!("{worn} td.num")).await;
     assert!(
         cells[0].contains(" ± ") && !cells[0].contains("misfit"),
-        "the explained check's drift is a figure: {cells:?}"
+        "the latest check's drift is a figure: {cells:?}"
     );
-    let misfit = api(base, key, &format!("/api/v1/results/{original}")).await;
-    assert_eq!(misfit["meta"]["id"], original, "{misfit}");
-    original.to_string()
+    // The explained check: decided on it, the actions, the LinuxCNC table.
+    c.goto(&format!("{base}/results/{explained_id}"))
+        .await
+        .unwrap();
+    wait_for(c, "#explained", Duration::from_secs(10)).await;
+    assert_eq!(
+        text(c, "#explained h2").await,
+        "Decided on the explained model"
+    );
+    assert!(
+        c.find(Locator::Css("#misfit")).await.is_err(),
+        "no misfit banner"
+    );
+    let actions = texts(c, "#actions li").await;
+    let set = actions
+        .iter()
+        .find_map(|a| a.split("set X's backlash compensation to +").nth(1))
+        .and_then(|rest| rest.split_whitespace().next()?.parse::<f64>().ok())
+        .unwrap_or_else(|| panic!("the backlash to set: {actions:?}"));
+    assert!((set - 6.0).abs() < 0.1, "{actions:?}");
+    let export = format!("/api/v1/results/{explained_id}/export?format=linuxcnc");
+    let link = c
+        .find(Locator::Css("#reversal-table a.linuxcnc"))
+        .await
+        .expect("the LinuxCNC table link");
+    assert!(link.is_displayed().await.unwrap(), "visible");
+    assert_eq!(link.text().await.unwrap(), "LinuxCNC compensation table");
+    assert_eq!(
+        link.attr("href").await.unwrap().as_deref(),
+        Some(export.as_str())
+    );
+    assert!(text(c, "#reversal-table").await.contains("backlash (X)"));
+    let r = reqwest::Client::new()
+        .get(format!("{base}{export}"))
+        .bearer_auth(key)
+        .send()
+        .await
+        .unwrap();
+    assert_eq!(r.status().as_u16(), 200);
+    let table = mtcal_formats::compensation::Format::Linuxcnc
+        .read("t.txt", &r.text().await.unwrap())
+        .unwrap();
+    let x = table
+        .axes
+        .iter()
+        .find(|a| a.axis.to_string() == "X")
+        .unwrap();
+    for b in x.reversal_mm.as_ref().expect("X's reversal column") {
+        assert!((b * 1e3 - 6.0).abs() < 0.3, "X reversal {b} mm vs 6 µm");
+    }
+    js(
+        c,
+        "document.querySelector('#explained').scrollIntoView({block: 'start'});",
+    )
+    .await;
+    shot(c, shots, "result-explained").await;
+    // The machine page: the check after compensation verified, the table set linked.
+    c.goto(&format!("{base}/machines/{WORN}")).await.unwrap();
+    wait_for(c, "#verification", Duration::from_secs(10)).await;
+    assert!(
+        text(c, "#verification p")
+            .await
+            .contains("1 of 1 as predicted")
+    );
+    let lines = texts(c, "#verification li").await;
+    assert_eq!(
+        lines,
+        [format!(
+            "backlash (X): {before:.2} → {left:.2} µm after compensation (predicted 0)"
+        )]
+    );
+    let set_from = c
+        .find(Locator::Css("#verified-table a.linuxcnc"))
+        .await
+        .expect("the table set");
+    assert_eq!(
+        set_from.attr("href").await.unwrap().as_deref(),
+        Some(export.as_str())
+    );
+    js(
+        c,
+        "document.querySelector('#verification').scrollIntoView({block: 'start'});",
+    )
+    .await;
+    shot(c, shots, "machine-verified").await;
+    let doc = api(base, key, &format!("/api/v1/results/{explained_id}")).await;
+    doc["document"]["explained"]["diagnosis_result_id"]
+        .as_str()
+        .expect("the diagnosis it was explained by")
+        .to_string()
 }
 
-/// Item by item, the misfit check `latest` (the worn machine's latest result as the API
-/// answers it) is marked and never offered as a decided value; returns its result id.
-async fn misfit_marks(c: &Client, base: &str, key: &str, latest: &Value, shots: &Path) -> String {
+/// Item by item, the misfit machine's latest check (partly explained: not decided) is
+/// marked and never offered as a decided value; returns its result id.
+async fn misfit_marks(c: &Client, base: &str, key: &str, shots: &Path) -> String {
+    let latest = api(
+        base,
+        key,
+        &format!("/api/v1/machines/{MISFIT}/results/latest"),
+    )
+    .await;
+    assert_eq!(
+        latest["document"]["explained"]["verdict"], "partly_explained",
+        "the latest check's diagnosis explains it only partly"
+    );
     let misfit_id = latest["meta"]["id"].as_str().unwrap().to_string();
-    // The fleet: the worn machine's drift is not a figure; the others' are.
+    // The fleet: the misfit machine's drift is not a figure; the others' are.
     c.goto(&format!("{base}/")).await.unwrap();
-    let worn = format!(r#"#fleet tr[data-machine="{WORN}"]"#);
-    let cells = texts(c, &format!("{worn} td.num")).await;
+    let row = format!(r#"#fleet tr[data-machine="{MISFIT}"]"#);
+    let cells = texts(c, &format!("{row} td.num")).await;
     assert_eq!(cells.len(), 2, "{cells:?}");
     for cell in &cells {
         assert_eq!(cell, "not decided: misfit", "{cells:?}");
     }
+    assert_eq!(
+        text(c, &format!("{row} .badge.verdict")).await,
+        "not decided: model misfit"
+    );
     let decided = texts(c, r#"#fleet tr[data-machine="VMC-0001"] td.num"#).await;
     assert!(
         decided[0].contains(" ± ") && decided[0].contains("µm"),
@@ -137,7 +278,7 @@ async fn misfit_marks(c: &Client, base: &str, key: &str, latest: &Value, shots: 
     );
     // The machine page: the misfit check is marked, not offered as a baseline, and a
     // ring in the trend.
-    c.goto(&format!("{base}/machines/{WORN}")).await.unwrap();
+    c.goto(&format!("{base}/machines/{MISFIT}")).await.unwrap();
     wait_for(c, "#term-trend", Duration::from_secs(10)).await;
     let row = format!(r#"#checks tr[data-result="{misfit_id}"]"#);
     let row_text = text(c, &row).await;
@@ -153,7 +294,7 @@ async fn misfit_marks(c: &Client, base: &str, key: &str, latest: &Value, shots: 
             .is_err(),
         "no baseline form on the misfit check"
     );
-    let (svg, trend) = browser::shown_trend(c, base, key, WORN).await;
+    let (svg, trend) = browser::shown_trend(c, base, key, MISFIT).await;
     let plot = inspect::parse(&svg).unwrap();
     assert!(plot.has_text(MISFIT_KEY), "the legend names the ring");
     let axes = plot.axes().unwrap();
@@ -192,7 +333,7 @@ async fn misfit_marks(c: &Client, base: &str, key: &str, latest: &Value, shots: 
     shot(c, shots, "machine-misfit").await;
     // The API refuses it as a baseline, saying why.
     let r = reqwest::Client::new()
-        .patch(format!("{base}/api/v1/machines/{WORN}"))
+        .patch(format!("{base}/api/v1/machines/{MISFIT}"))
         .bearer_auth(key)
         .json(&json!({"baseline_result_id": misfit_id}))
         .send()
@@ -205,7 +346,7 @@ async fn misfit_marks(c: &Client, base: &str, key: &str, latest: &Value, shots: 
         message.contains("cannot be the baseline") && message.contains("misfit"),
         "{body}"
     );
-    let machine = api(base, key, &format!("/api/v1/machines/{WORN}")).await;
+    let machine = api(base, key, &format!("/api/v1/machines/{MISFIT}")).await;
     assert_ne!(machine["baseline_result_id"], misfit_id.as_str());
     // Its result page: no compensation table it would refuse, no baseline button.
     c.goto(&format!("{base}/results/{misfit_id}"))
@@ -236,18 +377,9 @@ async fn misfit_marks(c: &Client, base: &str, key: &str, latest: &Value, shots: 
     misfit_id
 }
 
-/// The worn machine's diagnosis page and an identification's squareness in words.
-async fn diagnosis_in_words(c: &Client, base: &str, key: &str, shots: &Path) {
-    let list = api(
-        base,
-        key,
-        &format!("/api/v1/machines/{WORN}/results?kind=diagnosis"),
-    )
-    .await;
-    let id = list.as_array().unwrap().last().unwrap()["id"]
-        .as_str()
-        .unwrap()
-        .to_string();
+/// The worn machine's diagnosis page (diagnosis `id`, of its misfit check) and an
+/// identification's squareness in words.
+async fn diagnosis_in_words(c: &Client, base: &str, key: &str, id: &str, shots: &Path) {
     c.goto(&format!("{base}/results/{id}")).await.unwrap();
     wait_for(c, "#diagnosis", Duration::from_secs(10)).await;
     // The machine has a profile (tag vmc): no "no tolerance" badge.
@@ -467,12 +599,12 @@ async fn error_pages(c: &Client, base: &str, misfit_id: &str, shots: &Path) {
     assert!(page.contains("send the form again"), "{page}");
     assert!(c.find(Locator::Css("header.top nav")).await.is_ok());
     // The dashboard's baseline form refusing the misfit check (as the API does).
-    c.goto(&format!("{base}/machines/{WORN}")).await.unwrap();
+    c.goto(&format!("{base}/machines/{MISFIT}")).await.unwrap();
     wait_for(c, "#checks", Duration::from_secs(10)).await;
     js(
         c,
         &format!(
-            "const f = document.createElement('form'); f.method = 'post'; f.action = '/machines/{WORN}/baseline';
+            "const f = document.createElement('form'); f.method = 'post'; f.action = '/machines/{MISFIT}/baseline';
              for (const [k, v] of [['csrf', document.querySelector('input[name=csrf]').value], ['result_id', '{misfit_id}']]) {{
                const i = document.createElement('input'); i.type = 'hidden'; i.name = k; i.value = v; f.appendChild(i); }}
              document.body.appendChild(f); f.submit(); return true;"

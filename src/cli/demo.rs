@@ -20,6 +20,8 @@ use std::path::{Path, PathBuf};
 use std::process::ExitCode;
 use std::time::Duration;
 
+mod physics;
+
 #[derive(clap::Args)]
 pub struct Args {
     /// SQLite file to create (deleted first if it exists) and kept; default: a file in a
@@ -191,12 +193,15 @@ async fn demo(args: Args, db: PathBuf, temporary: bool) -> anyhow::Result<ExitCo
     c.create_tolerance(&tag_profile()).await?;
     let mut jobs = seed_fleet(&c, &work, &args).await?;
     jobs.extend(more_checks(&c, &work, args.machines, args.checks).await?);
+    if args.machines > 0 {
+        jobs.extend(physics::seed(&c, &work, args.checks).await?);
+    }
     let _ = std::fs::remove_dir_all(&work);
     super::out::noteln!("running {} jobs …", jobs.len());
     let (ok, failed, waited) = run_jobs(&c, jobs, args.machines > 0).await?;
     let mut lines = vec![format!(
         "mtcal demo: {} machines, {ok}/{waited} jobs succeeded",
-        args.machines + usize::from(args.machines > 0) + 1,
+        args.machines + physics::MISFIT_MACHINES.len() * usize::from(args.machines > 0) + 1,
     )];
     lines.extend(failed.iter().take(3).map(|f| format!("  failed {f}")));
     // The fragment signs the browser in (the page script reads it; it is never sent).
@@ -400,8 +405,9 @@ fn addresses(base: &str, dashboard: &str, key: &str, db: &Path, temporary: bool)
 
 /// The next job to wait for: one of `jobs` (taken from it), else one the service queued
 /// on its own that is queued or running and not `waited` for yet; with
-/// `expect_diagnosis`, until the worn machine's diagnosis is stored (the service queues
-/// it just after its misfit identification lands).
+/// `expect_diagnosis`, until the misfits of [`physics::MISFIT_MACHINES`] are diagnosed
+/// and explained (the service queues a diagnosis just after a misfit identification
+/// lands, and stores the explained model just after the diagnosis).
 async fn next_job(
     c: &Client,
     jobs: &mut Vec<String>,
@@ -423,23 +429,17 @@ async fn next_job(
                 return Ok(Some(j.id));
             }
         }
-        let diagnosed = !expect_diagnosis || worn_explained(c).await?;
+        let mut diagnosed = true;
+        if expect_diagnosis {
+            for m in physics::MISFIT_MACHINES {
+                diagnosed &= physics::settled(c, m).await?;
+            }
+        }
         if diagnosed || std::time::Instant::now() > deadline {
             return Ok(None);
         }
         tokio::time::sleep(Duration::from_millis(200)).await;
     }
-}
-
-/// Whether the worn machine's misfit check has its explained model stored (the service
-/// fits it once the diagnosis it queued lands).
-async fn worn_explained(c: &Client) -> anyhow::Result<bool> {
-    for r in c.results(WORN_MACHINE, Some("identification")).await? {
-        if c.result(&r.id).await?.document.get("explained").is_some() {
-            return Ok(true);
-        }
-    }
-    Ok(false)
 }
 
 /// The profile of every `vmc` machine (docs/api.md, "Tolerances and verdicts"): ranges of
@@ -476,11 +476,6 @@ fn strict_profile() -> serde_json::Value {
         }
     })
 }
-
-/// Demo machine whose latest check was recorded with a 6 µm backlash of X that the rigid
-/// model lacks: its identification is a misfit, the service diagnoses it on its own and
-/// decides it on the explained model.
-const WORN_MACHINE: &str = "VMC-0900";
 
 /// Demo machine with a tilting rotary table (A/C cradle).
 const CRADLE_MACHINE: &str = "5AX-0001";
@@ -539,51 +534,6 @@ async fn more_checks(
             json!({"machine": {"template": "vmc3"}}),
         )
         .await?;
-    }
-    if machines > 0 {
-        // Checks of a machine whose X screw has worn: the second with a 6 µm backlash
-        // of X the model lacks; its identification is a misfit, whose diagnosis the
-        // service queues on its own, and the explained model it then fits decides the
-        // check and lists the actions (the backlash compensation to set).
-        c.create_machine(&NewMachine {
-            id: WORN_MACHINE.into(),
-            name: "Vertical machining centre, worn X screw".into(),
-            topology: None,
-            travel_mm: ["X", "Y", "Z"]
-                .map(|a| (a.to_string(), [-TRAVEL_MM, TRAVEL_MM]))
-                .into(),
-            site: Some("plant-south".into()),
-            tags: vec!["vmc".into(), "demo".into()],
-        })
-        .await?;
-        let last = checks.max(2) - 1;
-        for (q, effects) in [
-            (last - 1, vec![]),
-            (last, vec!["backlash:lost_motion_um=6"]),
-        ] {
-            let sim = simulate(
-                &machine_errors(900, q),
-                &SimOptions {
-                    seed: 900 + q as u64,
-                    noise_um: 0.1,
-                    plan: Plan::Full,
-                    sample_rate_hz: 5.0,
-                    machine_id: WORN_MACHINE.into(),
-                    measured_at: check_time(q),
-                    effects: effects
-                        .into_iter()
-                        .map(Effect::from_spec)
-                        .collect::<Result<_, _>>()
-                        .map_err(anyhow::Error::msg)?,
-                    ..SimOptions::default()
-                },
-            )
-            .context("simulating a session of the worn machine")?;
-            let dir = work.join(format!("{WORN_MACHINE}-q{q}"));
-            mtcal_formats::write_session_dir(&dir, &sim.session)?;
-            let ds = c.upload_path(WORN_MACHINE, &dir).await?;
-            submit(JobKind::Identify, Some(ds.id), None, json!({})).await?;
-        }
     }
     c.create_machine(&NewMachine {
         id: CRADLE_MACHINE.into(),

@@ -160,7 +160,7 @@ pub fn run(args: Args) -> anyhow::Result<ExitCode> {
 
 /// Runs a diagnosis with a progress bar on stderr (drawn only when it is a terminal):
 /// the phase and the fraction of the work done.
-fn with_bar<T>(diagnose: impl FnOnce(&mut dyn Progress) -> T) -> T {
+pub fn with_bar<T>(diagnose: impl FnOnce(&mut dyn Progress) -> T) -> T {
     let bar = indicatif::ProgressBar::new(100);
     bar.set_style(
         indicatif::ProgressStyle::with_template(
@@ -218,6 +218,18 @@ fn undetermined_lines(s: &mut String, f: &Finding) {
     }
 }
 
+/// Parameters as `name = value ± σ` (σ from `std_name`), or `name = value` without one.
+pub fn in_words(parameters: &std::collections::BTreeMap<String, f64>) -> Vec<String> {
+    parameters
+        .iter()
+        .filter(|(k, _)| !k.starts_with("std_"))
+        .map(|(k, v)| match parameters.get(&format!("std_{k}")) {
+            Some(sd) => format!("{k} = {}", with_std(*v, *sd, 2, false)),
+            None => format!("{k} = {}", num(*v)),
+        })
+        .collect()
+}
+
 /// The human summary: verdict, baseline, where, findings, what remains.
 pub fn summary(r: &DiagnosisResult) -> String {
     use std::fmt::Write;
@@ -252,15 +264,7 @@ pub fn summary(r: &DiagnosisResult) -> String {
             num(f.heldout_rms_um.after)
         );
         let _ = writeln!(s, "  physics: {}", f.physics);
-        let params: Vec<String> = f
-            .parameters
-            .iter()
-            .filter(|(k, _)| !k.starts_with("std_"))
-            .map(|(k, v)| match f.parameters.get(&format!("std_{k}")) {
-                Some(sd) => format!("{k} = {}", with_std(*v, *sd, 2, false)),
-                None => format!("{k} = {}", num(*v)),
-            })
-            .collect();
+        let params = in_words(&f.parameters);
         let _ = writeln!(s, "  parameters: {}", params.join(", "));
         undetermined_lines(&mut s, f);
         let _ = writeln!(s, "  evidence: {}", f.evidence);

@@ -3,7 +3,8 @@
 //! for a controller (docs/compensation.md). Only identifiable terms, only over the
 //! measured travel; the file's header comment states the sign convention (compensation =
 //! −error) and names the terms left out; with a diagnosis of the same recording, the
-//! reversal and thermal coefficients it found.
+//! reversal and thermal coefficients it found (a result of the explained model: its own
+//! fitted physics, any diagnosis given aside).
 
 use super::BadInput;
 use anyhow::Context;
@@ -23,7 +24,8 @@ pub struct Args {
     pub format: String,
     /// A diagnosis of the same recording (`mtcal diagnose --json`, or a stored diagnosis
     /// result): the reversal and thermal coefficients it found go into the table (csv,
-    /// linuxcnc) or are named in its header (the other formats).
+    /// linuxcnc) or are named in its header (the other formats). A result of the explained
+    /// model (`mtcal identify --explain`) carries its own physics, which is used instead.
     #[arg(long)]
     pub diagnosis: Option<PathBuf>,
     /// Spacing of the table's positions, mm (from the start of each measured travel; the
@@ -52,6 +54,12 @@ pub fn run(args: Args) -> anyhow::Result<ExitCode> {
     let findings = match &args.diagnosis {
         Some(p) => read_diagnosis(p)?.findings,
         None => vec![],
+    };
+    // A result of the explained model (`mtcal identify --explain`): its own jointly
+    // fitted physics, as the service's export takes it.
+    let findings = match &doc.explained {
+        Some(m) => mtcal_formats::compensation::physics::explained_findings(m),
+        None => findings,
     };
     let table = Compensation::from_result(&doc, args.step_mm, args.force)
         .map_err(refused)?

@@ -1,6 +1,8 @@
-//! `mtcal identify SESSION_DIR [--method joint|stepwise] [--order N] [--basis ...] [--json]`:
-//! reads a session folder (strictly), identifies the 21 terms and prints a readable
-//! summary, or the identification result document with `--json`.
+//! `mtcal identify SESSION_DIR [--method joint|stepwise] [--order N] [--basis ...]
+//! [--explain] [--json]`: reads a session folder (strictly), identifies the 21 terms and
+//! prints a readable summary, or the identification result document with `--json`.
+//! With `--explain`, a misfit is diagnosed and, where the diagnosis explains it, the
+//! result is the explained model's ([`super::explain`]).
 
 use super::BadInput;
 use mtcal_solver::basis::BasisKind;
@@ -28,6 +30,12 @@ pub struct Args {
     /// Spacing of the reported value grid, mm.
     #[arg(long, default_value_t = 5.0)]
     pub grid_mm: f64,
+    /// When the 21-term model does not explain the recording (the misfit gate), diagnose
+    /// the session and, where the diagnosis explains the misfit, give the explained model
+    /// (the 21 terms fitted jointly with the physics found), its decision and one action
+    /// per finding. A session the 21-term model explains gives the plain result.
+    #[arg(long)]
+    pub explain: bool,
     /// Print the identification result document (JSON) instead of the summary.
     #[arg(long)]
     pub json: bool,
@@ -60,8 +68,11 @@ pub fn run(args: Args) -> anyhow::Result<ExitCode> {
         grid_step_mm: args.grid_mm,
         topology: None,
     };
-    let result = identify(&session, &opts)
+    let mut result = identify(&session, &opts)
         .map_err(|e| BadInput(format!("{}: {e}", args.session.display())))?;
+    if args.explain {
+        result = super::explain::explained(&session, &opts, result, &args.session)?;
+    }
     super::out::document(args.json, &result, summary)?;
     Ok(ExitCode::SUCCESS)
 }
@@ -93,13 +104,20 @@ pub fn summary(r: &IdentificationResult) -> String {
     // and its compensation table is refused (docs/conventions.md, "The misfit gate").
     let check = r.model_check.clone().unwrap_or_else(|| r.model_check());
     let _ = writeln!(s, "model check: {}", check.statement);
-    if check.state == mtcal_solver::misfit::FitState::Misfit {
+    if check.is_misfit() {
+        let next = if r.explained.is_some() {
+            "not decided (what remains: under the explained model below)"
+        } else {
+            "`mtcal identify --explain` decides it on the explained model where the \
+             diagnosis explains the misfit; `mtcal diagnose` on this session says what the \
+             model leaves out"
+        };
         let _ = writeln!(
             s,
-            "  no verdict and no compensation table from this model; `mtcal diagnose` on \
-             this session says what the model leaves out"
+            "  no verdict and no compensation table from this model; {next}"
         );
     }
+
     let _ = writeln!(
         s,
         "identifiability: rank {} of {} parameters, condition number {}",
@@ -155,5 +173,8 @@ pub fn summary(r: &IdentificationResult) -> String {
         let _ = writeln!(s, "advice: {a}");
     }
     s.push_str(&super::standards::summary(&r.standards));
+    if let Some(m) = &r.explained {
+        s.push_str(&super::explain::summary(m));
+    }
     s
 }

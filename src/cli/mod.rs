@@ -10,6 +10,7 @@ pub mod compare;
 pub mod cradle;
 pub mod demo;
 pub mod diagnose;
+pub mod explain;
 pub mod export;
 pub mod identify;
 pub mod out;

@@ -5,7 +5,7 @@
 //! |---|---|
 //! | which checks | a check (identification) and the machine's identification before it in time order (excluded results left out) |
 //! | what is verified | each finding of the earlier check's diagnosis with a prediction after compensation ([`predicted_after`]) |
-//! | measured after | the same effect on the same axis in the later check's diagnosis (a lost-motion profile stands for a backlash and back: their mean lost motion); a later check whose 21-term model explains its recording has none of it left (no diagnosis needed); a later explained model is read through its diagnosis |
+//! | measured after | the same effect on the same axis in the later check's diagnosis (a lost-motion profile stands for a backlash and back: their mean lost motion); a later check whose 21-term model explains its recording has none of it left, unless it was diagnosed all the same (then its diagnosis says what is left below the misfit gate); a later explained model is read through its diagnosis |
 //! | state | `gone` (not found later), `still_present` (found later), `pending` (the later check's diagnosis has not landed) |
 //! | as predicted | gone, or the measured value within 2 σ (its own standard uncertainty) and 0.5 µm of the prediction |
 //!
@@ -154,14 +154,12 @@ pub async fn verification(store: &dyn Store, result_id: &str) -> Result<Verifica
     )
     .map(|d| d.model_check().is_misfit() || d.explained.is_some())
     .unwrap_or(true);
-    let later_doc = if misfit {
-        diagnosis(store, &r.meta).await?
-    } else {
-        None
-    };
+    // A check its model explains, diagnosed all the same (the dashboard's "also
+    // diagnose"): the diagnosis measures what is left, below the misfit gate.
+    let later_doc = diagnosis(store, &r.meta).await?;
     let later = match (misfit, &later_doc) {
-        (false, _) => Later::Explained,
-        (true, Some(d)) => Later::Diagnosed(d),
+        (_, Some(d)) => Later::Diagnosed(d),
+        (false, None) => Later::Explained,
         (true, None) => Later::Pending,
     };
     v.findings = verify(&before.findings, later);

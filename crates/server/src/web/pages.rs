@@ -510,6 +510,7 @@ pub async fn machine(
     } else {
         term_trend_view(app, &id, &term, &at, &checks.models).await?
     };
+    let verification = latest_verification(app, &id).await?;
     let page = vmachine::MachinePage {
         machine: vmachine::MachineInfo {
             id: m.id.clone(),
@@ -536,7 +537,8 @@ pub async fn machine(
                 measured_at: meta.measured_at,
                 doc,
             }),
-        verification: latest_verification(app, &id).await?,
+        verification: verification.as_ref().map(|v| v.0.clone()),
+        verified_against: verification.and_then(|v| v.1),
         explained_checks: checks
             .identifications
             .iter()
@@ -558,19 +560,24 @@ pub async fn machine(
 }
 
 /// The machine's latest check verified against the check before it, when there is
-/// something to verify: its sentence and one line per finding.
-async fn latest_verification(
-    app: &AppState,
-    id: &str,
-) -> Result<Option<(String, Vec<String>)>, ApiError> {
+/// something to verify: its sentence and one line per finding, and the check before it
+/// (result id, when measured).
+async fn latest_verification(app: &AppState, id: &str) -> Result<Option<Verified>, ApiError> {
     let latest = mtcal_domain::verification::latest(app.store.as_ref(), id).await?;
     Ok(latest.map(|v| {
         (
-            v.statement,
-            v.findings.into_iter().map(|f| f.statement).collect(),
+            (
+                v.statement,
+                v.findings.into_iter().map(|f| f.statement).collect(),
+            ),
+            v.previous_result_id.zip(v.previous_measured_at),
         )
     }))
 }
+
+/// A verification as the machine page shows it: (sentence, lines), and the check it
+/// compares with.
+type Verified = ((String, Vec<String>), Option<(String, String)>);
 
 #[derive(Debug, Deserialize)]
 pub struct BaselineForm {

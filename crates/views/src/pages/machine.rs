@@ -74,6 +74,9 @@ pub struct MachinePage {
     /// sentence and one line per finding (`backlash (X): 5.96 → 0.40 µm after
     /// compensation (predicted 0)`); None when there is nothing to verify.
     pub verification: Option<(String, Vec<String>)>,
+    /// The check the verification compares with (result id, when measured): its
+    /// compensation tables are the ones set.
+    pub verified_against: Option<(String, String)>,
     /// When the latest check is an explained model: its gate's statement ("decided on
     /// the explained model, … with backlash (X)", or what remains when not decided).
     pub explained_model: Option<String>,
@@ -174,6 +177,14 @@ pub fn machine_page(viewer: &Viewer, p: &MachinePage) -> Markup {
                     h2 { "Verification of the compensation" }
                     p { (statement) }
                     ul { @for l in lines { li { (l) } } }
+                    @if let Some((id, at)) = &p.verified_against {
+                        p.links #verified-table {
+                            "Compensation set from the check of " a href=(result_href(id)) { (when(at)) } ": "
+                            a.export.linuxcnc href={ "/api/v1/results/" (super::encode(id)) "/export?format=linuxcnc" } {
+                                "LinuxCNC compensation table"
+                            }
+                        }
+                    }
                 }
             }
             @if !p.alerts.is_empty() {
@@ -420,5 +431,23 @@ mod tests {
         let html = machine_page(&viewer("read"), &p).into_string();
         assert!(html.contains("outside the measured travel"));
         assert!(!html.contains(r#"id="term-trend""#));
+    }
+
+    /// The verification card links the LinuxCNC table of the check it verifies against.
+    #[test]
+    fn the_verification_links_the_table_set() {
+        let mut p = page();
+        p.verification = Some((
+            "verified against the check of 2026-07-05: 1 of 1 as predicted".into(),
+            vec!["backlash (X): 6.00 → 0.40 µm after compensation (predicted 0)".into()],
+        ));
+        p.verified_against = Some(("r1".into(), "2026-07-05T08:00:00Z".into()));
+        let html = machine_page(&viewer("read"), &p).into_string();
+        let card = &html[html.find(r#"id="verification""#).unwrap()..];
+        assert!(card.contains("6.00 → 0.40 µm after compensation (predicted 0)"));
+        assert!(card.contains(r#"href="/api/v1/results/r1/export?format=linuxcnc""#));
+        p.verified_against = None;
+        let html = machine_page(&viewer("read"), &p).into_string();
+        assert!(!html.contains("verified-table"));
     }
 }

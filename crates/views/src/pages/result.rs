@@ -236,6 +236,7 @@ pub fn result_page(
                         }
                     }
                 }
+                @if !misfit { @if let ResultBody::Identification(v) = body { (reversal_table(&header.id, v.doc)) } }
             }
             @if header.kind == "identification" && viewer.can_write() && !header.is_baseline && !misfit {
                 form.inline method="post" action={ (machine_href(&header.machine_id)) "/baseline" } {
@@ -251,6 +252,29 @@ pub fn result_page(
             (sections(body))
         },
     )
+}
+
+/// The reversal the explained model found, and the LinuxCNC table that carries it (its
+/// forward and reverse columns): nothing for a check without one.
+fn reversal_table(id: &str, d: &IdentificationResult) -> Markup {
+    let reversals: Vec<String> = d
+        .explained
+        .iter()
+        .flat_map(|m| &m.physics)
+        .filter(|p| matches!(p.effect.as_str(), "backlash" | "lost_motion_profile"))
+        .map(|p| p.name_in_words())
+        .collect();
+    html! {
+        @if !reversals.is_empty() {
+            p.links #reversal-table {
+                "Reversal compensation of " (reversals.join(", ")) ": "
+                a.export.linuxcnc href={ "/api/v1/results/" (super::encode(id)) "/export?format=linuxcnc" } {
+                    "LinuxCNC compensation table"
+                }
+                " (forward and reverse values per position, one COMP_FILE per joint; the actions below give the value for a controller's backlash parameter instead)"
+            }
+        }
+    }
 }
 
 /// The header's verdict badge: the verdict; without one, that no limit of the profile
