@@ -209,10 +209,7 @@ pub fn machine_page(viewer: &Viewer, p: &MachinePage) -> Markup {
                         (Some(e), _) => { div.notice.error { (e) } }
                         (None, None) => { p.muted { "No identification yet." } }
                         (None, Some(t)) => {
-                            @if t.series.iter().any(|s| s.points.iter().any(|p| p.misfit && p.value.is_some())) {
-                                p.muted.misfit-note { "A ring is a misfit check: its model does not explain its recording, so its value is not decided (no ±2σ bar, off the line)." }
-                            }
-                            (explained_note(&p.explained_checks))
+                            (trend_notes(&t.series, &p.explained_checks))
                             figure.plot #term-trend data-term=(t.term) {
                                 (svg(plots::trend(&format!("{} over time (±2σ)", t.term),
                                     &format!("{} ({})", t.term, plots::unit_label(&t.unit)), &t.series)))
@@ -305,6 +302,20 @@ pub fn machine_page(viewer: &Viewer, p: &MachinePage) -> Markup {
             }
         },
     )
+}
+
+/// Above the term trend: what its rings are (when it has a misfit point), and which of
+/// its checks are decided on the explained model.
+fn trend_notes(series: &[TrendSeries], explained: &[String]) -> Markup {
+    let misfit = series
+        .iter()
+        .any(|s| s.points.iter().any(|p| p.misfit && p.value.is_some()));
+    html! {
+        @if misfit {
+            p.muted.misfit-note { "A ring is a misfit check: its model does not explain its recording, so its value is not decided (no ±2σ bar, off the line)." }
+        }
+        (explained_note(explained))
+    }
 }
 
 /// Under a trend: which of its checks are decided on the explained model (nothing when
