@@ -59,6 +59,25 @@ impl Default for AppOptions {
     }
 }
 
+/// Runs `scenario` with the service on a PostgreSQL schema of its own (default options
+/// otherwise), then drops the schema; skipped, saying so, when `MTCAL_TEST_PG` names no
+/// server (`scripts/with-postgres` starts one).
+pub async fn on_postgres<F, Fut>(test: &str, scenario: F)
+where
+    F: FnOnce(AppOptions) -> Fut,
+    Fut: std::future::Future<Output = ()>,
+{
+    let Some(pg) = mtcal_store::testing::ScratchPg::create(test).await.unwrap() else {
+        return;
+    };
+    scenario(AppOptions {
+        db_url: Some(pg.url.clone()),
+        ..AppOptions::default()
+    })
+    .await;
+    pg.drop_schema().await.unwrap();
+}
+
 /// The service with default options (worker on).
 pub async fn spawn_app() -> App {
     spawn_app_with(AppOptions::default()).await

@@ -18,7 +18,7 @@ const LOST_Y: f64 = 3.5;
 
 /// Simulates a full-plan session of `machine` (seed `seed`, 5 Hz) with `effects` and
 /// uploads it; its folder and the dataset.
-async fn simulated(
+pub(crate) async fn simulated(
     app: &App,
     machine: &str,
     seed: u64,
@@ -50,7 +50,7 @@ async fn simulated(
 
 /// Simulates a session ([`simulated`]), uploads it and identifies it; the dataset id
 /// and the stored identification.
-async fn checked(
+pub(crate) async fn checked(
     app: &App,
     machine: &str,
     seed: u64,
@@ -75,14 +75,14 @@ async fn fleet_row(app: &App, machine: &str) -> mtcal_server::api::fleet::FleetM
 }
 
 /// The machine's latest identification.
-async fn latest(app: &App, machine: &str) -> StoredResult {
+pub(crate) async fn latest(app: &App, machine: &str) -> StoredResult {
     let r = app.client.latest(machine, Some("identification")).await;
     r.unwrap()
 }
 
 /// Waits until the machine's latest identification is the explained model of dataset
 /// `ds` (the worker stores it once the diagnosis it queued on its own has landed).
-async fn explained_of(app: &App, machine: &str, ds: &str) -> StoredResult {
+pub(crate) async fn explained_of(app: &App, machine: &str, ds: &str) -> StoredResult {
     for _ in 0..1200 {
         let r = latest(app, machine).await;
         if r.meta.dataset_id.as_deref() == Some(ds) && r.document.get("explained").is_some() {
@@ -97,7 +97,7 @@ fn doc(r: &StoredResult) -> IdentificationResult {
     typed(&r.document)
 }
 
-async fn get_json(app: &App, path: &str) -> Value {
+pub(crate) async fn get_json(app: &App, path: &str) -> Value {
     let r = reqwest::Client::new()
         .get(format!("{}{path}", app.url))
         .bearer_auth(&app.read_key)
@@ -112,6 +112,12 @@ async fn get_json(app: &App, path: &str) -> Value {
 async fn with_profile(machine: &str, limits: Value) -> App {
     let app = spawn_app().await;
     app.machine(machine).await;
+    profile(&app, machine, limits).await;
+    app
+}
+
+/// Gives machine `machine` a tolerance profile of `limits`.
+pub(crate) async fn profile(app: &App, machine: &str, limits: Value) {
     let created = reqwest::Client::new()
         .post(format!("{}/api/v1/tolerances", app.url))
         .bearer_auth(&app.write_key)
@@ -120,10 +126,27 @@ async fn with_profile(machine: &str, limits: Value) -> App {
         .await
         .unwrap();
     assert_eq!(created.status(), StatusCode::CREATED);
-    app
 }
 
-fn backlash(axis: &str, um: f64) -> String {
+/// A result of `kind` of dataset `ds` with `document`, as the worker stores it (no
+/// scalars, no figures: nothing reads them here).
+pub(crate) fn as_worker_stores(
+    ds: &mtcal_store::Dataset,
+    kind: &str,
+    document: Value,
+) -> mtcal_store::NewResult {
+    mtcal_store::NewResult {
+        machine_id: ds.machine_id.clone(),
+        dataset_id: Some(ds.id.clone()),
+        kind: kind.into(),
+        measured_at: ds.measured_at.clone(),
+        document,
+        scalars: Default::default(),
+        figures: vec![],
+    }
+}
+
+pub(crate) fn backlash(axis: &str, um: f64) -> String {
     format!("backlash:axis={axis},lost_motion_um={um}")
 }
 
@@ -317,15 +340,7 @@ async fn a_partly_explained_check_stays_not_decided_and_says_what_remains() {
     let d = dir.to_str().unwrap();
     // Stored as the worker stores them, without the worker (which would diagnose it
     // fully on its own).
-    let store = |kind: &str, document: Value| mtcal_store::NewResult {
-        machine_id: machine.into(),
-        dataset_id: Some(ds.id.clone()),
-        kind: kind.into(),
-        measured_at: ds.measured_at.clone(),
-        document,
-        scalars: Default::default(),
-        figures: vec![],
-    };
+    let store = |kind: &str, document: Value| as_worker_stores(&ds, kind, document);
     let ident: Value = serde_json::from_str(&mtcal(&["identify", d, "--json"])).unwrap();
     assert_eq!(ident["model_check"]["state"], "misfit");
     let original = app

@@ -9,6 +9,7 @@ mod common;
 
 mod audit;
 mod auth;
+mod catch_up;
 mod cli;
 mod diagnose;
 mod evaluation;
@@ -25,4 +26,5 @@ mod security;
 mod series;
 mod slow_uploads;
 mod uploads;
+mod verification;
 mod web;

@@ -265,7 +265,7 @@ pub struct FleetMachine {
     /// What the diagnosis of the latest identification's recording found (null: none).
     pub diagnosis: Option<DiagnosisSummary>,
     /// The baseline the drift is measured from (its chosen one, else its first
-    /// identification).
+    /// identification that is not a misfit; the latest while every one is).
     pub baseline_result_id: Option<String>,
     /// Its identifications.
     pub results: i64,

@@ -4,6 +4,27 @@
 use crate::results::ResultSummary;
 use serde::{Deserialize, Serialize};
 
+/// What a trend point says of its check's model: a misfit (its model does not explain
+/// its recording: the values are not decided) and why, or a check decided on the
+/// explained model (docs/compensation.md, "The explained model in the service").
+#[derive(Debug, Clone, Default, PartialEq, Serialize, Deserialize)]
+#[cfg_attr(feature = "openapi", derive(utoipa::ToSchema))]
+pub struct CheckModel {
+    /// The check's model does not explain its recording: its values are not decided
+    /// (the machine page draws them as rings, without a ±2σ bar).
+    #[serde(default)]
+    pub misfit: bool,
+    /// Why, when `misfit`: the misfit gate's statement (for a check the diagnosis
+    /// explains only partly, what remains); null otherwise.
+    #[serde(default)]
+    pub misfit_reason: Option<String>,
+    /// When the check is decided on the explained model: the gate's statement, saying
+    /// what the model adds (`decided on the explained model, the 21 terms fitted jointly
+    /// with backlash (X): …`); null otherwise.
+    #[serde(default)]
+    pub explained_model: Option<String>,
+}
+
 #[derive(Debug, Clone, Serialize, Deserialize)]
 #[cfg_attr(feature = "openapi", derive(utoipa::ToSchema))]
 pub struct TermPoint {
@@ -15,6 +36,9 @@ pub struct TermPoint {
     /// Standard uncertainty of each value (from the check's stored covariance); null
     /// where the value is null or no covariance is stored.
     pub u: Vec<Option<f64>>,
+    /// A misfit, or decided on the explained model.
+    #[serde(flatten)]
+    pub model: CheckModel,
 }
 
 #[derive(Debug, Clone, Serialize, Deserialize)]
@@ -45,6 +69,9 @@ pub struct SummaryPoint {
     pub ec0y_u_urad: Option<f64>,
     pub eb0z_u_urad: Option<f64>,
     pub ea0z_u_urad: Option<f64>,
+    /// A misfit, or decided on the explained model.
+    #[serde(flatten)]
+    pub model: CheckModel,
 }
 
 #[derive(Debug, Clone, Serialize, Deserialize)]

@@ -8,7 +8,10 @@
 //! solver's rule ([`mtcal_solver::tolerance::drift_alerts`]): a change alerts when
 //! |change| − U > threshold, U = 2u, i.e. when it exceeds the threshold by more than its
 //! expanded uncertainty. A change inside its uncertainty never alerts. One alert per
-//! landed result at most (a job run twice raises one); the baseline itself never alerts.
+//! landed result at most (a job run twice raises one); the baseline itself never alerts,
+//! nor does a misfit check (its model does not explain its recording: not decided). A
+//! check decided on the explained model says so (`explained_model`, and the message's
+//! last sentence), as does its baseline.
 //!
 //! **What it says**: each alerting change with the two values it is the difference of
 //! (the baseline's and the landed check's, at the position that shows it, each with its
@@ -74,6 +77,12 @@ pub struct AlertDetails {
     pub baseline_measured_at: String,
     pub measured_at: String,
     pub changes: Vec<AlertChange>,
+    /// When the landed check is decided on the explained model: its gate's statement.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub explained_model: Option<String>,
+    /// When the baseline is decided on the explained model: its gate's statement.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub baseline_explained_model: Option<String>,
 }
 
 /// An acknowledgement's body (`POST /api/v1/alerts/{id}/ack`; optional).
@@ -111,6 +120,12 @@ pub struct AlertView {
     /// Each alerting change with the values before and after (empty for alerts raised
     /// by an older version).
     pub changes: Vec<AlertChange>,
+    /// When the landed check is decided on the explained model (docs/compensation.md,
+    /// "The explained model in the service"): its gate's statement, saying what the
+    /// model adds; null otherwise (and for alerts raised by an older version).
+    pub explained_model: Option<String>,
+    /// The same of the baseline check.
+    pub baseline_explained_model: Option<String>,
     /// Not acknowledged yet.
     pub active: bool,
     pub acknowledged_at: Option<String>,
@@ -137,6 +152,8 @@ impl AlertView {
             baseline_measured_at: date(details.baseline_measured_at),
             measured_at: date(details.measured_at),
             changes: details.changes,
+            explained_model: details.explained_model,
+            baseline_explained_model: details.baseline_explained_model,
             active: a.acknowledged_at.is_none(),
             acknowledged_at: a.acknowledged_at.clone(),
             acknowledged_by: a.acknowledged_by.clone(),
@@ -148,7 +165,7 @@ impl AlertView {
 /// Decides the change of result `result_id` of machine `machine_id` since its baseline
 /// against the applicable drift threshold; stores and announces an alert when one is
 /// raised (returned; `None`: no profile, no threshold, the result is the baseline, is
-/// excluded, or no change exceeds its threshold beyond its uncertainty), with the
+/// excluded, is a misfit, or no change exceeds its threshold beyond its uncertainty), with the
 /// deliveries to its webhooks (the outbox of [`crate::webhooks`]).
 pub async fn check_landed(
     store: &Arc<dyn Store>,
@@ -165,13 +182,25 @@ pub async fn check_landed(
         return Ok(None);
     }
     let results = store.list_results(machine_id, IDENTIFICATION).await?;
-    let Some(baseline) = crate::history::baseline(&machine, &results) else {
+    let Some(baseline) = crate::history::baseline(store.as_ref(), &machine, &results).await? else {
         return Ok(None);
     };
     let Some(landed) = results.iter().find(|r| r.id == result_id) else {
         return Ok(None);
     };
     if landed.id == baseline.id {
+        return Ok(None);
+    }
+    // A misfit is not decided: its change is not a figure to alert on.
+    let model = |r: &ResultMeta| {
+        let (store, id) = (store.clone(), r.id.clone());
+        async move {
+            let doc = store.get_result(&id).await?.document;
+            Ok::<_, StoreError>(crate::trends::check_model(&doc))
+        }
+    };
+    let now_model = model(landed).await?;
+    if now_model.misfit {
         return Ok(None);
     }
     let (base, now) = (baseline.scalars.clone(), landed.scalars.clone());
@@ -186,6 +215,8 @@ pub async fn check_landed(
         baseline_measured_at: baseline.measured_at.clone(),
         measured_at: landed.measured_at.clone(),
         changes: items.iter().map(|i| change(baseline, landed, i)).collect(),
+        explained_model: now_model.explained_model,
+        baseline_explained_model: model(baseline).await?.explained_model,
     };
     let message = message(&machine.id, &details);
     let alert = Alert {
@@ -292,6 +323,18 @@ pub fn message(machine: &str, d: &AlertDetails) -> String {
     );
     if d.changes.len() > MESSAGE_ITEMS {
         m.push_str(&format!(" (and {} more)", d.changes.len() - MESSAGE_ITEMS));
+    }
+    match (&d.baseline_explained_model, &d.explained_model) {
+        (Some(_), Some(_)) => m.push_str(
+            ". Both checks are decided on the explained model (the 21 terms fitted jointly with the physics the diagnosis of each recording found)",
+        ),
+        (None, Some(_)) => m.push_str(&format!(
+            ". The check of {to} is decided on the explained model (the 21 terms fitted jointly with the physics the diagnosis of its recording found)"
+        )),
+        (Some(_), None) => m.push_str(&format!(
+            ". The baseline check of {from} is decided on the explained model (the 21 terms fitted jointly with the physics the diagnosis of its recording found)"
+        )),
+        (None, None) => {}
     }
     m
 }

@@ -59,28 +59,41 @@ pub fn misfit_gate(document: &serde_json::Value) -> Option<mtcal_solver::misfit:
         .filter(|c| c.is_misfit())
 }
 
-/// The ids of the misfit checks among identifications `results` (each document read once).
-pub async fn misfit_ids(
+/// The baseline among a machine's identifications `results` (time order): its chosen
+/// one, else its first check that is not a misfit ([`misfit_gate`]: nothing measured
+/// against a model that does not explain its recording would be decided). None when
+/// there is no check, or every check is a misfit. Reads the documents of the checks
+/// before the first that is not a misfit (one, as a rule).
+pub async fn baseline<'a>(
     store: &dyn Store,
-    results: &[ResultMeta],
-) -> Result<std::collections::HashSet<String>, mtcal_store::StoreError> {
-    let mut out = std::collections::HashSet::new();
-    for r in results.iter().filter(|r| r.kind == IDENTIFICATION) {
-        if misfit_gate(&store.get_result(&r.id).await?.document).is_some() {
-            out.insert(r.id.clone());
+    machine: &Machine,
+    results: &'a [ResultMeta],
+) -> Result<Option<&'a ResultMeta>, mtcal_store::StoreError> {
+    if let Some(chosen) = chosen_baseline(machine, results) {
+        return Ok(Some(chosen));
+    }
+    for r in results {
+        if misfit_gate(&store.get_result(&r.id).await?.document).is_none() {
+            return Ok(Some(r));
         }
     }
-    Ok(out)
+    Ok(None)
 }
 
-/// The baseline among a machine's identifications `results` (time order): its chosen
-/// one, else its first.
-pub fn baseline<'a>(machine: &Machine, results: &'a [ResultMeta]) -> Option<&'a ResultMeta> {
-    machine
-        .baseline_result_id
-        .as_ref()
-        .and_then(|b| results.iter().find(|r| &r.id == b))
-        .or(results.first())
+/// [`baseline`] when the models of `results` are known ([`trends::check_models`]).
+pub fn baseline_among<'a>(
+    machine: &Machine,
+    results: &'a [ResultMeta],
+    models: &trends::CheckModels,
+) -> Option<&'a ResultMeta> {
+    let misfit = |r: &ResultMeta| models.get(&r.id).is_some_and(|m| m.misfit);
+    chosen_baseline(machine, results).or_else(|| results.iter().find(|r| !misfit(r)))
+}
+
+/// The machine's chosen baseline among `results`, when it is one of them.
+fn chosen_baseline<'a>(machine: &Machine, results: &'a [ResultMeta]) -> Option<&'a ResultMeta> {
+    let chosen = machine.baseline_result_id.as_ref()?;
+    results.iter().find(|r| &r.id == chosen)
 }
 
 /// The results of kind `kind` (default identification) of machine `id` in time order,
@@ -109,7 +122,8 @@ pub async fn results(
 #[cfg_attr(feature = "openapi", derive(utoipa::IntoParams))]
 #[cfg_attr(feature = "openapi", into_params(parameter_in = Query))]
 pub struct DiffQuery {
-    /// Baseline result (default: the machine's baseline, else its first result).
+    /// Baseline result (default: the machine's baseline, else its first result that is
+    /// not a misfit check).
     pub baseline: Option<String>,
     /// Result compared with it (default: the latest).
     pub against: Option<String>,
@@ -157,7 +171,14 @@ pub async fn diff(store: &dyn Store, id: &str, q: &DiffQuery) -> Result<ResultDi
                     .ok_or_else(|| DomainError::NotFound(format!("no result for machine {id}"))),
             }
         };
-    let baseline = pick(q.baseline.as_ref(), baseline(&machine, &all))?;
+    let default = baseline(store, &machine, &all).await?;
+    if q.baseline.is_none() && default.is_none() && !all.is_empty() {
+        return Err(DomainError::NotFound(format!(
+            "no baseline for machine {id}: every check of it is a misfit (its model does not \
+             explain its recording); name one with baseline="
+        )));
+    }
+    let baseline = pick(q.baseline.as_ref(), default)?;
     let against = pick(q.against.as_ref(), all.last())?;
     let step = q.step_mm.unwrap_or(5.0);
     let (machine_id, warnings) = (

@@ -8,7 +8,7 @@
 
 use crate::error::DomainError;
 use crate::kinds::IDENTIFICATION;
-pub use mtcal_api::trends::{SummaryPoint, SummaryTrend, TermPoint, TermTrend};
+pub use mtcal_api::trends::{CheckModel, SummaryPoint, SummaryTrend, TermPoint, TermTrend};
 use mtcal_solver::comparison::{self, CheckFunctions, Value};
 pub use mtcal_solver::comparison::{Drift, TermDiff};
 use mtcal_solver::terms::Term;
@@ -128,9 +128,46 @@ pub fn diff(
     comparison::diff(&Stored(base), &Stored(other), step_mm)
 }
 
+/// [`CheckModel`]s by result id: of the checks that are misfits or decided on the
+/// explained model.
+pub type CheckModels = std::collections::HashMap<String, CheckModel>;
+
+/// What a trend point or an alert says of the model of a stored document: a misfit and
+/// why, or decided on the explained model (neither: not an identification's document,
+/// or a model that explains its recording).
+pub fn check_model(document: &serde_json::Value) -> CheckModel {
+    let Ok(d) = serde_json::from_value::<mtcal_solver::identification::IdentificationResult>(
+        document.clone(),
+    ) else {
+        return CheckModel::default();
+    };
+    let c = d.model_check();
+    CheckModel {
+        misfit: c.is_misfit(),
+        misfit_reason: c.is_misfit().then(|| c.statement.clone()),
+        explained_model: c.decided_on_explained_model().then_some(c.statement),
+    }
+}
+
+/// [`check_model`] of each identification among `results` that is a misfit or decided
+/// on the explained model, by result id (each document read once).
+pub async fn check_models(
+    store: &dyn Store,
+    results: &[ResultMeta],
+) -> Result<CheckModels, mtcal_store::StoreError> {
+    let mut out = CheckModels::new();
+    for r in results.iter().filter(|r| r.kind == IDENTIFICATION) {
+        let m = check_model(&store.get_result(&r.id).await?.document);
+        if m != CheckModel::default() {
+            out.insert(r.id.clone(), m);
+        }
+    }
+    Ok(out)
+}
+
 /// How drift is measured, in words (the fleet routes and page say it).
 pub const DRIFT_DEFINITION: &str = "largest change since the baseline result (the machine's \
-     chosen baseline, else its first) of any term over 41 points of the travel both checks \
+     chosen baseline, else its first check that is not a misfit) of any term over 41 points of the travel both checks \
      measured, with its standard uncertainty there";
 
 /// A term trend asked for: the term and the positions.
@@ -151,11 +188,14 @@ pub struct TermQuery {
     pub at: String,
 }
 
-/// A term at positions over time, machine `id`'s identifications in time order.
+/// A term at positions over time, machine `id`'s identifications in time order, each
+/// point saying whether its check is a misfit or decided on the explained model (from
+/// `known` when the caller has read them, else from the documents).
 pub async fn term_trend(
     store: &dyn Store,
     id: &str,
     q: TermQuery,
+    known: Option<&CheckModels>,
 ) -> Result<TermTrend, DomainError> {
     let (unit, _) = term_info(&q.term).ok_or_else(|| {
         let hint = if matches!(q.term.as_str(), "EC0Y" | "EB0Z" | "EA0Z") {
@@ -186,10 +226,27 @@ pub async fn term_trend(
         id.to_string(),
         skipped.iter().map(SkippedRow::warning).collect(),
     );
-    crate::blocking::run::<_, DomainError>(move || {
+    let models = models(store, &results, known).await?;
+    let mut t = crate::blocking::run::<_, DomainError>(move || {
         evaluate_term(id, q.term, unit, positions, results, warnings)
     })
-    .await?
+    .await??;
+    for p in &mut t.points {
+        p.model = models.get(&p.result_id).cloned().unwrap_or_default();
+    }
+    Ok(t)
+}
+
+/// The check models of `results`: `known`, else read from their documents.
+async fn models(
+    store: &dyn Store,
+    results: &[ResultMeta],
+    known: Option<&CheckModels>,
+) -> Result<CheckModels, DomainError> {
+    Ok(match known {
+        Some(k) => k.clone(),
+        None => check_models(store, results).await?,
+    })
 }
 
 /// The term trend's arithmetic (blocking): term `term` (in `unit`) of each of the
@@ -230,6 +287,7 @@ fn evaluate_term(
             TermPoint {
                 values: at.iter().map(|v| Some(v.as_ref()?.value)).collect(),
                 u: at.iter().map(|v| v.as_ref()?.u).collect(),
+                model: Default::default(),
                 result_id: r.id,
                 measured_at: r.measured_at,
             }
@@ -246,16 +304,23 @@ fn evaluate_term(
 }
 
 /// Residual, conditioning, rank and squareness of machine `id`'s identifications over
-/// time.
-pub async fn summary_trend(store: &dyn Store, id: &str) -> Result<SummaryTrend, DomainError> {
+/// time, each point saying whether its check is a misfit or decided on the explained
+/// model (as [`term_trend`]).
+pub async fn summary_trend(
+    store: &dyn Store,
+    id: &str,
+    known: Option<&CheckModels>,
+) -> Result<SummaryTrend, DomainError> {
     store.get_machine(id).await?;
     let (results, skipped) = store.list_results_checked(id, IDENTIFICATION).await?;
+    let models = models(store, &results, known).await?;
     let points = results
         .into_iter()
         .map(|r| SummaryPoint {
             ec0y_u_urad: squareness_u(&r.scalars, "EC0Y"),
             eb0z_u_urad: squareness_u(&r.scalars, "EB0Z"),
             ea0z_u_urad: squareness_u(&r.scalars, "EA0Z"),
+            model: models.get(&r.id).cloned().unwrap_or_default(),
             result_id: r.id,
             measured_at: r.measured_at,
             summary: r.scalars.summary,

@@ -12,6 +12,9 @@
 //! | the original | excluded from the history by [`BY`], the reason naming the new result: kept, readable by id |
 //! | then | what follows any landed check ([`mtcal_domain::landing::result_landed`]): fleet row, drift alerts |
 //!
+//! | after a crash | at start, [`catch_up`] runs the landing of every stored session diagnosis whose check is still a misfit without its explained model, and finishes an exclusion a crash left undone |
+//! | once | the landings of one process run one at a time, and each does nothing when the check's explained model is stored; after its fit a landing looks again and stores nothing when another process stored it meanwhile (the moment between that look and the store is not locked across processes) |
+//!
 //! An `explained` diagnosis whose model leaves the residual at noise level gives a check
 //! decided on the explained model; a `partly_explained` one (or a residual still above
 //! the gate) gives a check that stays not decided and whose `model_check` says what
@@ -19,10 +22,11 @@
 
 use crate::ingest::UploadLimits;
 use crate::jobs::{self, ExplainedLink, JobError, JobInput, JobKind};
-use mtcal_domain::kinds::IDENTIFICATION;
+use mtcal_domain::kinds::{DIAGNOSIS, IDENTIFICATION};
 use mtcal_solver::diagnosis::{DiagnosisResult, Verdict};
 use mtcal_solver::identification::IdentificationResult;
 use mtcal_store::{NewResult, ResultMeta, SetAside, Store, StoreError};
+use std::collections::HashSet;
 use std::sync::Arc;
 
 /// Who excludes the superseded check (the exclusion's `by`).
@@ -37,10 +41,25 @@ pub enum ExplainError {
     Job(#[from] JobError),
 }
 
+/// The landings of this process, one at a time: the worker's and [`catch_up`]'s of one
+/// diagnosis cannot both store its explained model.
+static LANDING: tokio::sync::Mutex<()> = tokio::sync::Mutex::const_new(());
+
 /// Diagnosis `diagnosis_id` has landed: when it explains (fully or partly) the misfit of
 /// a check of the same session, that check's explained model is stored and the original
-/// excluded (module docs). The explained result stored, if any.
+/// excluded (module docs). The explained result stored, if any; nothing when it is
+/// stored already (an exclusion a crash left undone is finished).
 pub async fn diagnosis_landed(
+    store: &Arc<dyn Store>,
+    limits: UploadLimits,
+    diagnosis_id: &str,
+) -> Result<Option<ResultMeta>, ExplainError> {
+    let _one = LANDING.lock().await;
+    land(store, limits, diagnosis_id).await
+}
+
+/// [`diagnosis_landed`], its lock held.
+async fn land(
     store: &Arc<dyn Store>,
     limits: UploadLimits,
     diagnosis_id: &str,
@@ -71,7 +90,20 @@ pub async fn diagnosis_landed(
     let stored = store.get_result(&original.id).await?;
     match serde_json::from_value::<IdentificationResult>(stored.document) {
         Ok(doc) if doc.explained.is_none() && doc.model_check().is_misfit() => {}
-        _ => return Ok(None),
+        Ok(doc) => {
+            // Its explained model: a crash may have come before its original was excluded.
+            let decided = doc.model_check().decided_on_explained_model();
+            let Some(e) = doc.explained else {
+                return Ok(None);
+            };
+            let was = e.original_result_id.as_deref();
+            if let Some(was) = was.filter(|w| checks.iter().any(|c| c.id == *w)) {
+                let by = e.diagnosis_result_id.as_deref().unwrap_or(diagnosis_id);
+                set_aside(store, &machine_id, (was, by), original, decided).await?;
+            }
+            return Ok(None);
+        }
+        Err(_) => return Ok(None),
     }
     // The original's identify parameters (an imported check: the defaults).
     let params = match store.get_job(&original.job_id).await {
@@ -102,6 +134,16 @@ pub async fn diagnosis_landed(
     let decided = serde_json::from_value::<IdentificationResult>(out.document.clone())
         .map(|r| r.model_check().decided_on_explained_model())
         .unwrap_or(false);
+    // Another process (a worker of its own, or one that started) may have stored it
+    // during the fit: the original is then no longer the latest check of the session.
+    let now = store.list_results(&machine_id, IDENTIFICATION).await?;
+    let latest = now
+        .iter()
+        .rev()
+        .find(|m| m.dataset_id.as_deref() == Some(dataset_id.as_str()));
+    if latest.map(|m| m.id.as_str()) != Some(original_id.as_str()) {
+        return Ok(None);
+    }
     let meta = store
         .import_result(NewResult {
             machine_id: machine_id.clone(),
@@ -113,28 +155,99 @@ pub async fn diagnosis_landed(
             figures: out.figures,
         })
         .await?;
+    set_aside(
+        store,
+        &machine_id,
+        (&original_id, diagnosis_id),
+        &meta,
+        decided,
+    )
+    .await?;
+    Ok(Some(meta))
+}
+
+/// Excludes the original check of `link` (its id, the diagnosis's), superseded by its
+/// explained model `explained`, then runs what follows a landed check for it.
+async fn set_aside(
+    store: &Arc<dyn Store>,
+    machine_id: &str,
+    (original_id, diagnosis_id): (&str, &str),
+    explained: &ResultMeta,
+    decided: bool,
+) -> Result<(), ExplainError> {
     let reason = if decided {
         format!(
             "superseded by result {}: the explained model of the same recording (diagnosis {diagnosis_id}), on which the check is decided",
-            meta.id
+            explained.id
         )
     } else {
         format!(
             "superseded by result {}: the explained model of the same recording (diagnosis {diagnosis_id}); it explains the misfit only partly and says what remains",
-            meta.id
+            explained.id
         )
     };
     store
         .exclude_result(
-            &original_id,
+            original_id,
             SetAside {
                 by: BY,
                 reason: &reason,
             },
         )
         .await?;
-    if let Err(e) = mtcal_domain::landing::result_landed(store, &machine_id, &meta.id).await {
+    if let Err(e) = mtcal_domain::landing::result_landed(store, machine_id, &explained.id).await {
         tracing::warn!(machine = %machine_id, %e, "fleet drift or drift alerts not refreshed after the explained model");
     }
-    Ok(Some(meta))
+    Ok(())
+}
+
+/// Most machines read per page by [`catch_up`].
+const MACHINES_PER_PAGE: i64 = 1000;
+
+/// What a crash between a diagnosis landing and its explained fit left undone, done at
+/// start: for every machine, the latest diagnosis of each session whose check is still
+/// listed is landed again ([`diagnosis_landed`]: nothing when the check is no misfit or
+/// its explained model is stored). The explained results stored.
+pub async fn catch_up(
+    store: &Arc<dyn Store>,
+    limits: UploadLimits,
+) -> Result<Vec<ResultMeta>, ExplainError> {
+    let mut made = Vec::new();
+    let mut after: Option<String> = None;
+    loop {
+        let page = store
+            .list_machines(after.as_deref(), MACHINES_PER_PAGE)
+            .await?;
+        for m in &page {
+            let diagnoses = store.list_results(&m.id, DIAGNOSIS).await?;
+            if diagnoses.is_empty() {
+                continue;
+            }
+            let checks = store.list_results(&m.id, IDENTIFICATION).await?;
+            let checked: HashSet<&str> = checks
+                .iter()
+                .filter_map(|c| c.dataset_id.as_deref())
+                .collect();
+            let mut seen = HashSet::new();
+            for d in diagnoses.iter().rev() {
+                let Some(ds) = d.dataset_id.as_deref() else {
+                    continue;
+                };
+                if !checked.contains(ds) || !seen.insert(ds) {
+                    continue;
+                }
+                match diagnosis_landed(store, limits, &d.id).await {
+                    Ok(Some(r)) => made.push(r),
+                    Ok(None) => {}
+                    Err(e) => {
+                        tracing::warn!(diagnosis = %d.id, %e, "the explained model was not made at start")
+                    }
+                }
+            }
+        }
+        match page.last() {
+            Some(m) if page.len() as i64 == MACHINES_PER_PAGE => after = Some(m.id.clone()),
+            _ => return Ok(made),
+        }
+    }
 }

@@ -8,7 +8,8 @@
 //!
 //! A job that runs longer than [`WorkerConfig::max_run`] fails with code `timeout`.
 //!
-//! Each process with workers also runs one outbox loop: it tries the due webhook
+//! At start, the workers' process stores the explained models a crash left unmade
+//! (`crate::explain::catch_up`). Each process with workers also runs one outbox loop: it tries the due webhook
 //! deliveries of drift alerts (`mtcal_domain::webhooks::deliver_next`), one at a time,
 //! polling as the job loops do.
 //!
@@ -111,6 +112,17 @@ pub fn spawn_workers(store: Arc<dyn Store>, cfg: WorkerConfig, wake: Arc<Notify>
             tokio::spawn(async move { worker_loop(store, cfg, slot, wake, stopping).await })
         })
         .collect();
+    // What a crash between a diagnosis landing and its explained fit left undone.
+    let (again, limits) = (store.clone(), cfg.limits);
+    tokio::spawn(async move {
+        match crate::explain::catch_up(&again, limits).await {
+            Ok(made) if !made.is_empty() => {
+                tracing::info!(n = made.len(), "explained models stored at start")
+            }
+            Ok(_) => {}
+            Err(e) => tracing::warn!(%e, "explained models not caught up at start"),
+        }
+    });
     let outbox = Some(tokio::spawn(outbox_loop(store, cfg, stopping)));
     Workers {
         handles,

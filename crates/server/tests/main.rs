@@ -5,6 +5,7 @@
 mod common;
 
 mod auth_first;
+mod baseline;
 mod contract;
 mod fleet_rows;
 mod openapi;

@@ -1009,29 +1009,6 @@ async fn a_pending_delivery_survives_a_worker_that_died_on_postgres() {
     pg.drop_schema().await.unwrap();
 }
 
-/// The identification of a simulated machine with 6 µm of X backlash (seed plan, 10 Hz):
-/// its rigid model does not explain the recording.
-fn backlash_identification() -> mtcal_solver::identification::IdentificationResult {
-    use mtcal_solver::identification::{IdentifyOptions, identify};
-    use mtcal_solver::simulate::{Effect, Plan, SimOptions, random_truth, simulate};
-    let sim = simulate(
-        &random_truth(5),
-        &SimOptions {
-            plan: Plan::Seed,
-            seed: 5,
-            sample_rate_hz: 10.0,
-            machine_id: "M1".into(),
-            effects: vec![Effect::Backlash {
-                axis: mtcal_solver::Axis::X,
-                lost_motion_um: 6.0,
-            }],
-            ..Default::default()
-        },
-    )
-    .unwrap();
-    identify(&sim.session, &IdentifyOptions::default()).unwrap()
-}
-
 /// The check report of a backlash machine's identification whose dataset has a stored
 /// diagnosis that does not read: the report opens with the misfit banner and says that
 /// the diagnosis (named by its id) could not be read, never "No diagnosis was run"; it
@@ -1039,7 +1016,7 @@ fn backlash_identification() -> mtcal_solver::identification::IdentificationResu
 /// states none).
 #[tokio::test]
 async fn the_report_says_a_stored_diagnosis_could_not_be_read() {
-    let doc = backlash_identification();
+    let doc = crate::common::backlash_identification();
     let f = fixture().await;
     f.store.create_machine(&machine("M1", &[])).await.unwrap();
     let ds = f
@@ -1125,7 +1102,7 @@ async fn the_report_says_a_stored_diagnosis_could_not_be_read() {
 /// why in its first line; its verdict on a term is "misfit" with the gate's statement.
 #[tokio::test]
 async fn a_misfit_result_is_not_decided_and_its_table_needs_force() {
-    let doc = backlash_identification();
+    let doc = crate::common::backlash_identification();
     assert!(doc.model_check().is_misfit());
     let f = fixture().await;
     f.store.create_machine(&machine("M1", &[])).await.unwrap();

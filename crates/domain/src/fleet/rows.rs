@@ -34,7 +34,7 @@ use std::collections::HashMap;
 
 /// The format of the rows this version computes: raised whenever what a row holds or how
 /// it is computed changes, so that rows of an older computation are recomputed at start.
-pub const ROW_FORMAT: u32 = 4;
+pub const ROW_FORMAT: u32 = 5;
 
 /// Rows written per transaction by [`refresh_all`].
 const REFRESH_BATCH: usize = 500;
@@ -114,11 +114,23 @@ async fn row(
     machine: &Machine,
     results: &[ResultMeta],
 ) -> Result<Option<FleetDriftRow>, StoreError> {
-    let (Some(baseline), Some(latest)) = (baseline(machine, results), results.last()) else {
+    let Some(latest) = results.last() else {
         return Ok(None);
     };
+    // Every check a misfit: the latest is its own reference (drift 0) until a check
+    // whose model explains its recording lands.
+    let baseline = baseline(store, machine, results).await?.unwrap_or(latest);
     let profile = crate::profiles::applicable(profiles, machine);
-    let basis = basis(&baseline.id, &latest.id, results.len(), profile);
+    // The basis names the baseline as the store's pairs do (chosen, else first): the
+    // default baseline (the first check that is not a misfit) changes only with the
+    // checks listed, which the count and the ends already follow.
+    let named = crate::history::baseline_among(machine, results, &Default::default());
+    let basis = basis(
+        &named.unwrap_or(latest).id,
+        &latest.id,
+        results.len(),
+        profile,
+    );
     // The latest result's document: its misfit gate, and its verdict when a profile
     // applies. A document that cannot be judged leaves the verdict out, never the drift.
     let latest_doc = store.get_result(&latest.id).await?;

@@ -26,7 +26,9 @@ pub async fn term(
     Path(id): Path<String>,
     ApiQuery(q): ApiQuery<TermQuery>,
 ) -> Result<Json<TermTrend>, ApiError> {
-    Ok(Json(trends::term_trend(s.store.as_ref(), &id, q).await?))
+    Ok(Json(
+        trends::term_trend(s.store.as_ref(), &id, q, None).await?,
+    ))
 }
 
 #[utoipa::path(operation_id = "trends_verification", summary = "Each check verified against the predictions of the check before it, over time", get, path = "/api/v1/machines/{id}/trends/verification", tag = "trends",
@@ -52,7 +54,9 @@ pub async fn summary(
     State(s): State<AppState>,
     Path(id): Path<String>,
 ) -> Result<Json<SummaryTrend>, ApiError> {
-    Ok(Json(trends::summary_trend(s.store.as_ref(), &id).await?))
+    Ok(Json(
+        trends::summary_trend(s.store.as_ref(), &id, None).await?,
+    ))
 }
 
 #[derive(Debug, Deserialize, IntoParams)]
@@ -71,10 +75,21 @@ pub struct FigureTrend {
     pub name: Option<String>,
     /// In time order, from results of every kind that carry the figure
     /// (`identification`, `standards`).
-    pub points: Vec<FigurePoint>,
+    pub points: Vec<FigureTrendPoint>,
     /// Every figure name stored for the machine (when no name was given).
     #[serde(default, skip_serializing_if = "Vec::is_empty")]
     pub names: Vec<String>,
+}
+
+/// One result's value of a figure, and what it says of its check's model (an
+/// identification's; a `standards` result has no model and says nothing).
+#[derive(Debug, Clone, Serialize, Deserialize, ToSchema)]
+pub struct FigureTrendPoint {
+    #[serde(flatten)]
+    pub point: FigurePoint,
+    /// A misfit, or decided on the explained model.
+    #[serde(flatten)]
+    pub model: mtcal_domain::trends::CheckModel,
 }
 
 #[utoipa::path(operation_id = "trends_figure", summary = "One figure of the standards over time", get, path = "/api/v1/machines/{id}/trends/figure", tag = "trends",
@@ -101,8 +116,27 @@ pub async fn figure(
             "name {name:?}: a figure name such as iso230_2.X.E_um"
         )));
     }
+    let points = s.store.figure_trend(&id, &name).await?;
+    let checks = s
+        .store
+        .list_results(&id, mtcal_domain::kinds::IDENTIFICATION)
+        .await?;
+    let carry: std::collections::HashSet<&str> =
+        points.iter().map(|p| p.result_id.as_str()).collect();
+    let checks: Vec<_> = checks
+        .into_iter()
+        .filter(|c| carry.contains(c.id.as_str()))
+        .collect();
+    let models = mtcal_domain::trends::check_models(s.store.as_ref(), &checks).await?;
+    let points = points
+        .into_iter()
+        .map(|point| FigureTrendPoint {
+            model: models.get(&point.result_id).cloned().unwrap_or_default(),
+            point,
+        })
+        .collect();
     Ok(Json(FigureTrend {
-        points: s.store.figure_trend(&id, &name).await?,
+        points,
         machine_id: id,
         name: Some(name),
         names: vec![],

@@ -123,13 +123,6 @@ async fn verdict_word(app: &AppState, id: &str) -> Result<Option<String>, ApiErr
         .map(|d| d.as_str().to_string()))
 }
 
-/// The baseline of a machine: its chosen one, else its first identification.
-fn baseline_of(m: &Machine, ids: &[ResultMeta]) -> Option<String> {
-    m.baseline_result_id
-        .clone()
-        .or_else(|| ids.first().map(|r| r.id.clone()))
-}
-
 #[derive(Debug, Deserialize, Default)]
 pub struct FleetPageParams {
     site: Option<String>,
@@ -318,8 +311,8 @@ struct MachineChecks {
     rows: Vec<vmachine::CheckRow>,
     /// Its identifications in time order.
     identifications: Vec<ResultMeta>,
-    /// Those of them whose model does not explain their recording.
-    misfits: std::collections::HashSet<String>,
+    /// Those of them that are misfits or decided on the explained model.
+    models: domain_trends::CheckModels,
     baseline: Option<String>,
     /// The tolerance profile that applies (`scope target (id)`).
     tolerance: Option<String>,
@@ -357,13 +350,13 @@ async fn machine_checks(app: &AppState, m: &Machine) -> Result<MachineChecks, Ap
         }
         checks.extend(list);
     }
-    let baseline = baseline_of(m, &identifications);
     checks.sort_by(|a, b| {
         b.measured_at
             .cmp(&a.measured_at)
             .then(b.created_at.cmp(&a.created_at))
     });
-    let misfits = history::misfit_ids(app.store.as_ref(), &identifications).await?;
+    let models = domain_trends::check_models(app.store.as_ref(), &identifications).await?;
+    let baseline = history::baseline_among(m, &identifications, &models).map(|r| r.id.clone());
     let profiles = app.store.list_tolerances().await?;
     let tolerance = mtcal_domain::profiles::applicable(&profiles, m)
         .map(|p| format!("{} {} ({})", p.scope, p.target, p.id));
@@ -381,13 +374,13 @@ async fn machine_checks(app: &AppState, m: &Machine) -> Result<MachineChecks, Ap
             verdict,
             summary: summary(r),
             is_baseline: baseline.as_deref() == Some(r.id.as_str()),
-            misfit: misfits.contains(&r.id),
+            misfit: models.get(&r.id).is_some_and(|m| m.misfit),
         });
     }
     Ok(MachineChecks {
         rows,
         identifications,
-        misfits,
+        models,
         baseline,
         tolerance,
     })
@@ -400,13 +393,13 @@ async fn term_trend_view(
     id: &str,
     term: &str,
     at: &str,
-    misfits: &std::collections::HashSet<String>,
+    models: &domain_trends::CheckModels,
 ) -> Result<(Option<vmachine::TermTrend>, Option<String>), ApiError> {
     let query = TermQuery {
         term: term.to_string(),
         at: at.to_string(),
     };
-    let t = match domain_trends::term_trend(app.store.as_ref(), id, query).await {
+    let t = match domain_trends::term_trend(app.store.as_ref(), id, query, Some(models)).await {
         Ok(t) => t,
         Err(mtcal_domain::DomainError::Invalid(msg)) => return Ok((None, Some(msg))),
         Err(e) => return Err(e.into()),
@@ -424,7 +417,7 @@ async fn term_trend_view(
                     measured_at: p.measured_at.clone(),
                     value: p.values[i],
                     std: p.u[i],
-                    misfit: misfits.contains(&p.result_id),
+                    misfit: p.model.misfit,
                 })
                 .collect(),
         })
@@ -443,9 +436,9 @@ async fn term_trend_view(
 async fn squareness_trend(
     app: &AppState,
     id: &str,
-    misfits: &std::collections::HashSet<String>,
+    models: &domain_trends::CheckModels,
 ) -> Result<Vec<TrendSeries>, ApiError> {
-    let summary = domain_trends::summary_trend(app.store.as_ref(), id).await?;
+    let summary = domain_trends::summary_trend(app.store.as_ref(), id, Some(models)).await?;
     type Pick = fn(&domain_trends::SummaryPoint) -> (Option<f64>, Option<f64>);
     Ok([
         ("EC0Y", (|p| (p.summary.ec0y_urad, p.ec0y_u_urad)) as Pick),
@@ -464,7 +457,7 @@ async fn squareness_trend(
                     measured_at: p.measured_at.clone(),
                     value,
                     std,
-                    misfit: misfits.contains(&p.result_id),
+                    misfit: p.model.misfit,
                 }
             })
             .collect(),
@@ -515,7 +508,7 @@ pub async fn machine(
     let (term_trend, trend_error) = if checks.identifications.is_empty() {
         (None, None)
     } else {
-        term_trend_view(app, &id, &term, &at, &checks.misfits).await?
+        term_trend_view(app, &id, &term, &at, &checks.models).await?
     };
     let verification = latest_verification(app, &id).await?;
     let page = vmachine::MachinePage {
@@ -532,7 +525,7 @@ pub async fn machine(
         at,
         term_trend,
         trend_error,
-        squareness: squareness_trend(app, &id, &checks.misfits).await?,
+        squareness: squareness_trend(app, &id, &checks.models).await?,
         jobs,
         notice: q.notice,
         alerts: alerts.iter().map(alert_row).collect(),
@@ -546,6 +539,17 @@ pub async fn machine(
             }),
         verification: verification.as_ref().map(|v| v.0.clone()),
         verified_against: verification.and_then(|v| v.1),
+        explained_checks: checks
+            .identifications
+            .iter()
+            .filter(|r| {
+                checks
+                    .models
+                    .get(&r.id)
+                    .is_some_and(|m| m.explained_model.is_some())
+            })
+            .map(|r| r.measured_at.clone())
+            .collect(),
         explained_model: latest
             .as_ref()
             .map(|d| d.model_check())
@@ -650,7 +654,10 @@ pub async fn result(
         measured_at: r.meta.measured_at.clone(),
         created_at: r.meta.created_at.clone(),
         dataset_id: r.meta.dataset_id.clone(),
-        is_baseline: r.meta.kind == KIND && baseline_of(&m, &ids).as_deref() == Some(id.as_str()),
+        is_baseline: r.meta.kind == KIND
+            && history::baseline(app.store.as_ref(), &m, &ids)
+                .await?
+                .is_some_and(|b| b.id == id),
         verdict: verdict
             .verdict
             .as_ref()

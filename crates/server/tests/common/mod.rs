@@ -131,3 +131,26 @@ pub fn identification(machine: &str, at: &str, c1: f64, var: f64) -> NewResult {
         figures: vec![],
     }
 }
+
+/// The identification of a simulated machine with 6 µm of X backlash (seed plan, 10 Hz):
+/// its rigid model does not explain the recording.
+pub fn backlash_identification() -> mtcal_solver::identification::IdentificationResult {
+    use mtcal_solver::identification::{IdentifyOptions, identify};
+    use mtcal_solver::simulate::{Effect, Plan, SimOptions, random_truth, simulate};
+    let sim = simulate(
+        &random_truth(5),
+        &SimOptions {
+            plan: Plan::Seed,
+            seed: 5,
+            sample_rate_hz: 10.0,
+            machine_id: "M1".into(),
+            effects: vec![Effect::Backlash {
+                axis: mtcal_solver::Axis::X,
+                lost_motion_um: 6.0,
+            }],
+            ..Default::default()
+        },
+    )
+    .unwrap();
+    identify(&sim.session, &IdentifyOptions::default()).unwrap()
+}

@@ -80,6 +80,9 @@ pub struct MachinePage {
     /// When the latest check is an explained model: its gate's statement ("decided on
     /// the explained model, … with backlash (X)", or what remains when not decided).
     pub explained_model: Option<String>,
+    /// When the checks of the trends decided on the explained model were measured, in
+    /// time order (the trends say so under the plots).
+    pub explained_checks: Vec<String>,
 }
 
 /// A machine's latest diagnosis as the machine page shows it.
@@ -206,9 +209,7 @@ pub fn machine_page(viewer: &Viewer, p: &MachinePage) -> Markup {
                         (Some(e), _) => { div.notice.error { (e) } }
                         (None, None) => { p.muted { "No identification yet." } }
                         (None, Some(t)) => {
-                            @if t.series.iter().any(|s| s.points.iter().any(|p| p.misfit && p.value.is_some())) {
-                                p.muted.misfit-note { "A ring is a misfit check: its model does not explain its recording, so its value is not decided (no ±2σ bar, off the line)." }
-                            }
+                            (trend_notes(&t.series, &p.explained_checks))
                             figure.plot #term-trend data-term=(t.term) {
                                 (svg(plots::trend(&format!("{} over time (±2σ)", t.term),
                                     &format!("{} ({})", t.term, plots::unit_label(&t.unit)), &t.series)))
@@ -218,6 +219,7 @@ pub fn machine_page(viewer: &Viewer, p: &MachinePage) -> Markup {
                 }
                 section.card #squareness-trend {
                     h2 { "Squareness over time (±2σ)" }
+                    (explained_note(&p.explained_checks))
                     figure.plot { (svg(plots::trend("EC0Y, EB0Z, EA0Z over time", "squareness (µrad)", &p.squareness))) }
                 }
             }
@@ -300,6 +302,39 @@ pub fn machine_page(viewer: &Viewer, p: &MachinePage) -> Markup {
             }
         },
     )
+}
+
+/// Above the term trend: what its rings are (when it has a misfit point), and which of
+/// its checks are decided on the explained model.
+fn trend_notes(series: &[TrendSeries], explained: &[String]) -> Markup {
+    let misfit = series
+        .iter()
+        .any(|s| s.points.iter().any(|p| p.misfit && p.value.is_some()));
+    html! {
+        @if misfit {
+            p.muted.misfit-note { "A ring is a misfit check: its model does not explain its recording, so its value is not decided (no ±2σ bar, off the line)." }
+        }
+        (explained_note(explained))
+    }
+}
+
+/// Under a trend: which of its checks are decided on the explained model (nothing when
+/// none is).
+fn explained_note(measured: &[String]) -> Markup {
+    html! {
+        @if !measured.is_empty() {
+            p.muted.explained-note {
+                "Decided on the explained model (the 21 terms fitted jointly with the physics the diagnosis of its recording found): the check"
+                @if measured.len() > 1 { "s" }
+                " of "
+                @for (i, m) in measured.iter().enumerate() {
+                    @if i > 0 { ", " }
+                    (when(m))
+                }
+                "."
+            }
+        }
+    }
 }
 
 #[cfg(test)]
