@@ -1,7 +1,9 @@
 //! Nothing stored that cannot be read back: seeded uploads, valid but extreme (every
 //! number of `session.json` and CSV cells at, just inside and just beyond the bounds of
 //! `docs/datasets.md`; few and many samples; positioning runs over the whole travel),
-//! are sent through the API. A refused upload (4xx) stores nothing. An accepted one is
+//! are sent through the API: 14 cases with every value within the bounds, which must be
+//! accepted, and one case per field with that field beyond its bound, which must be
+//! refused (4xx) and store nothing. Each accepted upload is
 //! run through every job kind that applies to it (identify, diagnose, standards; one
 //! sensitivity per backend; cradle needs a rotary point set, which these are not) by a
 //! worker of this process, and then every GET route of the API (from the OpenAPI
@@ -25,9 +27,13 @@ use serde_json::{Value, json};
 use std::sync::Arc;
 use std::time::{Duration, Instant};
 
-/// Cases per backend; their seeds are `FIRST_SEED..FIRST_SEED + CASES`.
+/// Cases within the bounds per backend; their seeds are `FIRST_SEED..FIRST_SEED + CASES`.
 const CASES: u64 = 14;
 const FIRST_SEED: u64 = 4100;
+/// Then one case beyond the bounds per field ([`SESSION_FIELDS`], then
+/// [`POSITIONING_FIELDS`]), of seeds from `OVER_SEED` on.
+const OVER_SEED: u64 = 4200;
+const POSITIONING_FIELDS: [&str; 2] = ["range_mm", "deviation_um_cell"];
 /// Upload limit of the app under test (the simulated sessions are a few hundred KB).
 const MAX_UPLOAD: usize = 64 << 20;
 const EXPORT_FORMATS: [&str; 5] = ["csv", "isg", "linuxcnc", "etalon", "heidenhain"];
@@ -53,12 +59,10 @@ struct Picker {
 }
 
 impl Picker {
-    /// A case of seed `seed`: one in three pushes one of `fields` beyond its bounds.
-    fn new(seed: u64, fields: &[&'static str]) -> Picker {
-        let mut rng = StdRng::seed_from_u64(seed);
-        let over = (rng.random_range(0..3) == 0).then(|| fields[rng.random_range(0..fields.len())]);
+    /// A case of seed `seed` that pushes `over` (if any) beyond its bounds.
+    fn new(seed: u64, over: Option<&'static str>) -> Picker {
         Picker {
-            rng,
+            rng: StdRng::seed_from_u64(seed),
             what: vec![],
             over,
         }
@@ -95,8 +99,8 @@ const SESSION_FIELDS: [&str; 7] = [
 /// A simulated seed-plan session of `machine` with its numbers drawn at and near the
 /// bounds (`docs/datasets.md`: positions ±100 000 mm, temperatures ±1000 °C, expansion
 /// ±100 ppm/K, deviations ±10 000 µm, any other value ≤ 10⁹).
-fn session_upload(seed: u64, machine: &str) -> Upload {
-    let mut p = Picker::new(seed, &SESSION_FIELDS);
+fn session_upload(seed: u64, machine: &str, over: Option<&'static str>) -> Upload {
+    let mut p = Picker::new(seed, over);
     let rate = p.pick("rate_hz", &[2.0, 10.0, 40.0], &[]);
     let sim = simulate(
         &random_truth(seed),
@@ -204,8 +208,8 @@ fn set_cell(csv: &[u8], column: &str, rng: &mut StdRng, value: &str) -> Vec<u8> 
 
 /// Simulated positioning runs over ranges up to the whole travel the service accepts,
 /// with errors up to the deviation bound, few and many targets.
-fn positioning_upload(seed: u64) -> Upload {
-    let mut p = Picker::new(seed, &["range_mm", "deviation_um_cell"]);
+fn positioning_upload(seed: u64, over: Option<&'static str>) -> Upload {
+    let mut p = Picker::new(seed, over);
     let (lo, hi) = p.pick(
         "range_mm",
         &[
@@ -344,7 +348,7 @@ impl Run {
 
 /// What one backend's run found: (cases, accepted, jobs, reads).
 struct Tally {
-    cases: u64,
+    cases: usize,
     accepted: usize,
     jobs: usize,
     reads: usize,
@@ -375,13 +379,21 @@ async fn property(url: &str) -> Tally {
         jobs: 0,
     };
     let mut tally = Tally {
-        cases: CASES,
+        cases: 0,
         accepted: 0,
         jobs: 0,
         reads: 0,
     };
-    for seed in FIRST_SEED..FIRST_SEED + CASES {
-        if one_case(&mut run, seed, tally.accepted == 0).await {
+    let within = (FIRST_SEED..FIRST_SEED + CASES).map(|seed| (seed, seed % 4 != 3, None));
+    let session_over = SESSION_FIELDS.iter().map(|f| (true, Some(*f)));
+    let positioning_over = POSITIONING_FIELDS.iter().map(|f| (false, Some(*f)));
+    let over = (OVER_SEED..).zip(session_over.chain(positioning_over));
+    let cases: Vec<_> = within
+        .chain(over.map(|(seed, (s, f))| (seed, s, f)))
+        .collect();
+    tally.cases = cases.len();
+    for (seed, session, over) in cases {
+        if one_case(&mut run, seed, session, over, tally.accepted == 0).await {
             tally.accepted += 1;
         }
     }
@@ -400,7 +412,13 @@ async fn property(url: &str) -> Tally {
 
 /// One seeded case; true when its upload was accepted. The `first` accepted one also
 /// gets a sensitivity job (it reads no upload: once is enough).
-async fn one_case(run: &mut Run, seed: u64, first: bool) -> bool {
+async fn one_case(
+    run: &mut Run,
+    seed: u64,
+    session: bool,
+    over: Option<&'static str>,
+    first: bool,
+) -> bool {
     let m = format!("PROP-{seed}");
     let body = json!({"id": m, "name": m, "site": "prop"});
     let (s, b) = run.api("POST", "/api/v1/machines", Some(&body)).await;
@@ -408,10 +426,10 @@ async fn one_case(run: &mut Run, seed: u64, first: bool) -> bool {
     let profile = json!({"scope": "machine", "target": m, "limits": {"drift_um": 5.0}});
     let (s, p) = run.api("POST", "/api/v1/tolerances", Some(&profile)).await;
     assert_eq!(s, StatusCode::CREATED, "{p}");
-    let up = if seed % 4 == 3 {
-        positioning_upload(seed)
+    let up = if session {
+        session_upload(seed, &m, over)
     } else {
-        session_upload(seed, &m)
+        positioning_upload(seed, over)
     };
     let case = format!("seed {seed} ({})", up.what.join(", "));
     let before = run.counts(&m).await;
