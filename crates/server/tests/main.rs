@@ -4,6 +4,7 @@
 
 mod common;
 
+mod accepted;
 mod auth_first;
 mod baseline;
 mod contract;

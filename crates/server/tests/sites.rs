@@ -16,15 +16,16 @@
 //! ids where the case reads them: the 404s come from the scope, not from missing data.
 //! Runs on SQLite and, when `MTCAL_TEST_PG` names a server, on PostgreSQL.
 
-use crate::common::{app_on, identification, request};
-use axum::body::Body;
-use axum::http::{Request, StatusCode, header};
+use crate::common::routes::{
+    Auth, Ids, api_routes, call, fill, missing, page_routes, send_as, session_of,
+};
+use crate::common::{app_on, identification};
+use axum::http::StatusCode;
 use mtcal_store::{
     Alert, AlertRaised, JobKind, NewDataset, NewJob, Store, WebhookDelivery, rules::new_id,
 };
 use serde_json::{Value, json};
 use std::sync::Arc;
-use tower::ServiceExt;
 
 /// The foreign site and its machine: distinctive words, so that a body holding them is
 /// a leak and nothing else.
@@ -32,95 +33,6 @@ const FOREIGN_SITE: &str = "site-south-q7";
 const OWN_SITE: &str = "site-north-k2";
 const FOREIGN_MACHINE: &str = "SOUTH-M7";
 const OWN_MACHINE: &str = "NORTH-M2";
-
-/// What one site holds: an id of each kind.
-#[derive(Debug, Clone)]
-struct Ids {
-    machine: String,
-    dataset: String,
-    result: String,
-    job: String,
-    alert: String,
-    profile: String,
-    delivery: String,
-    key: String,
-    site: String,
-}
-
-impl Ids {
-    /// Every id and the site's name: none may appear in an answer to another site.
-    fn tokens(&self) -> Vec<&str> {
-        vec![
-            &self.machine,
-            &self.dataset,
-            &self.result,
-            &self.job,
-            &self.alert,
-            &self.profile,
-            &self.delivery,
-            &self.key,
-            &self.site,
-        ]
-    }
-
-    /// The id a route's `{param}` after `segment` takes.
-    fn for_segment(&self, segment: &str, param: &str) -> String {
-        if param == "name" {
-            return "session.json".into();
-        }
-        match segment {
-            "machines" => self.machine.clone(),
-            "results" => self.result.clone(),
-            "datasets" => self.dataset.clone(),
-            "jobs" => self.job.clone(),
-            "alerts" => self.alert.clone(),
-            "tolerances" => self.profile.clone(),
-            "keys" => self.key.clone(),
-            other => panic!("a route with an id after `{other}`: add its kind to this test"),
-        }
-    }
-}
-
-/// Ids of each kind that do not exist.
-fn missing() -> Ids {
-    Ids {
-        machine: "NO-SUCH-M".into(),
-        dataset: "ds_00000000000000000000000000000000".into(),
-        result: "res_00000000000000000000000000000000".into(),
-        job: "job_00000000000000000000000000000000".into(),
-        alert: "alert_00000000000000000000000000000000".into(),
-        profile: "tol_00000000000000000000000000000000".into(),
-        delivery: "whd_00000000000000000000000000000000".into(),
-        key: "key_00000000000000000000000000000000".into(),
-        site: "no-such-site".into(),
-    }
-}
-
-async fn call(
-    app: &axum::Router,
-    method: &str,
-    uri: &str,
-    body: Option<&Value>,
-    key: &str,
-) -> (StatusCode, String) {
-    let bytes = body.map(|b| b.to_string().into_bytes()).unwrap_or_default();
-    let ct = if body.is_some() {
-        "application/json"
-    } else {
-        ""
-    };
-    answer(app, request(method, uri, ct, None, bytes, Some(key))).await
-}
-
-/// Sends `req`: the answer's status and its body as text.
-async fn answer(app: &axum::Router, req: Request<Body>) -> (StatusCode, String) {
-    let resp = app.clone().oneshot(req).await.unwrap();
-    let status = resp.status();
-    let bytes = axum::body::to_bytes(resp.into_body(), usize::MAX)
-        .await
-        .unwrap();
-    (status, String::from_utf8_lossy(&bytes).into_owned())
-}
 
 /// A site: a machine of it with a dataset, a result, a job, a tolerance profile, an
 /// alert with a webhook delivery, and a read key of the site (created through the API
@@ -215,51 +127,6 @@ async fn site_key(app: &axum::Router, admin: &str, scope: &str, tags: &[&str]) -
     assert_eq!(s, StatusCode::CREATED, "{b}");
     let created: Value = serde_json::from_str(&b).unwrap();
     created["secret"].as_str().unwrap().into()
-}
-
-/// The routes of the OpenAPI document the code generates: (method, path template).
-fn api_routes() -> Vec<(String, String)> {
-    let doc: Value = serde_json::from_str(&mtcal_server::openapi_json()).unwrap();
-    let mut out = vec![];
-    for (path, ops) in doc["paths"].as_object().unwrap() {
-        for method in ops.as_object().unwrap().keys() {
-            out.push((method.to_uppercase(), path.clone()));
-        }
-    }
-    out
-}
-
-/// The dashboard's routes, read from its router's source: (method, path template).
-fn page_routes() -> Vec<(String, String)> {
-    let src = include_str!("../src/web/mod.rs");
-    let mut out = vec![];
-    for part in src.split(".route(\"").skip(1) {
-        let (path, rest) = part.split_once('"').unwrap();
-        let call = rest.split(")\n").next().unwrap_or(rest);
-        for method in ["get", "post"] {
-            if call.contains(&format!("{method}(")) {
-                out.push((method.to_uppercase(), path.to_string()));
-            }
-        }
-    }
-    assert!(
-        out.len() >= 10,
-        "the dashboard's routes were not found: {out:?}"
-    );
-    out
-}
-
-/// `template` with each `{param}` replaced by `ids`' id of the kind its segment names.
-fn fill(template: &str, ids: &Ids) -> String {
-    let segments: Vec<&str> = template.split('/').collect();
-    let mut out = vec![];
-    for (i, seg) in segments.iter().enumerate() {
-        match seg.strip_prefix('{').and_then(|s| s.strip_suffix('}')) {
-            Some(param) => out.push(ids.for_segment(segments[i - 1], param)),
-            None => out.push(seg.to_string()),
-        }
-    }
-    out.join("/")
 }
 
 /// The ids of `ids` a body holds, leaving out those of `asked` (the request's own).
@@ -441,59 +308,6 @@ fn page_cases(method: &str, path: &str, f: &Ids) -> Vec<Case> {
         )],
         (m, p) => panic!("{m} {p}: a page without an id that this matrix has no case for"),
     }
-}
-
-/// How a request is authenticated: an API key, or a dashboard session (its cookie and
-/// its forms' CSRF token).
-#[derive(Clone)]
-enum Auth {
-    Key(String),
-    Session { cookie: String, csrf: String },
-}
-
-/// A dashboard session of the key `secret`.
-async fn session_of(store: &Arc<dyn Store>, secret: &str) -> Auth {
-    use axum::response::IntoResponse;
-    use axum_extra::extract::PrivateCookieJar;
-    use axum_extra::extract::cookie::Cookie;
-    let key = store.key_by_secret(secret).await.unwrap().unwrap();
-    let s = store.create_session(&key.id, 3_600_000).await.unwrap();
-    let session = mtcal_server::auth::session::SESSION_COOKIE;
-    let jar = PrivateCookieJar::new(mtcal_server::auth::session::cookie_key())
-        .add(Cookie::new(session, s.token));
-    let resp = jar.into_response();
-    let set = resp.headers()[header::SET_COOKIE].to_str().unwrap();
-    Auth::Session {
-        cookie: set.split(';').next().unwrap().to_string(),
-        csrf: s.csrf,
-    }
-}
-
-/// Sends `method uri` as `who` with `body` (JSON to the API; a form, with the session's
-/// CSRF token, to a page): its status and body as text.
-async fn send_as(
-    app: &axum::Router,
-    who: &Auth,
-    method: &str,
-    uri: &str,
-    body: Option<&Value>,
-) -> (StatusCode, String) {
-    let (cookie, csrf) = match who {
-        Auth::Key(k) => return call(app, method, uri, body, k).await,
-        Auth::Session { cookie, csrf } => (cookie, csrf),
-    };
-    let mut form = format!("csrf={csrf}");
-    if let Some(Value::String(f)) = body {
-        form = format!("{form}&{f}");
-    }
-    let mut r = Request::builder()
-        .method(method)
-        .uri(uri)
-        .header(header::COOKIE, cookie.as_str());
-    if method != "GET" {
-        r = r.header(header::CONTENT_TYPE, "application/x-www-form-urlencoded");
-    }
-    answer(app, r.body(Body::from(form)).unwrap()).await
 }
 
 /// `body` with every id of `a` and `b` written as `ID` (answers compared apart from the

@@ -3,6 +3,8 @@
 
 #![allow(dead_code)]
 
+pub mod routes;
+
 use axum::body::Body;
 use axum::http::{Request, StatusCode, header};
 use mtcal_server::{AppState, UploadLimits, router};
@@ -29,13 +31,18 @@ pub async fn app() -> (axum::Router, Keys, Arc<dyn Store>) {
 
 /// [`app`] on the store `url` names.
 pub async fn app_on(url: &str) -> (axum::Router, Keys, Arc<dyn Store>) {
+    app_with(url, MAX_UPLOAD).await
+}
+
+/// [`app_on`] with uploads limited to `max_upload` bytes.
+pub async fn app_with(url: &str, max_upload: usize) -> (axum::Router, Keys, Arc<dyn Store>) {
     let store = mtcal_store::open(url).await.unwrap();
     let (_, read) = store.create_key(Scope::Read, "r").await.unwrap();
     let (_, write) = store.create_key(Scope::Write, "w").await.unwrap();
     let (_, admin) = store.create_key(Scope::Admin, "a").await.unwrap();
     let state = AppState {
         limits: UploadLimits {
-            max_bytes: MAX_UPLOAD,
+            max_bytes: max_upload,
             ..UploadLimits::default()
         },
         ..state(store.clone())
