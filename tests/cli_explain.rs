@@ -174,6 +174,15 @@ fn a_backlash_misfit_is_decided_on_the_explained_model_with_its_action() {
         "{decision}"
     );
     assert!(!decision.contains("misfit"), "{decision}");
+    // Without `--diagnosis` the findings are the explained model's, never "none run".
+    assert!(!page.contains("No diagnosis was run"));
+    let findings = &page[page.find(r#"id="findings""#).expect("the findings")..];
+    let findings = &findings[..findings.find("</section>").unwrap()];
+    assert!(
+        findings.contains("decided on the explained model")
+            && findings.contains("data-effect=\"backlash\""),
+        "{findings}"
+    );
 }
 
 /// On a session the 21-term model explains, `--explain` changes nothing: the same

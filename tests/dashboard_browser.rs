@@ -20,7 +20,7 @@
 
 mod browser;
 
-use browser::{api, log_tail, start_demo, wait_for};
+use browser::{api, log_tail, text, wait_for};
 use fantoccini::{Client, Locator};
 use mtcal_views::plots::{BAND, COLORS, inspect};
 use serde_json::{Value, json};
@@ -42,12 +42,7 @@ const DOCUMENTED: [&str; 9] = [
 ];
 
 async fn shot(c: &Client, dir: &Path, name: &str) {
-    let png = c.screenshot().await.expect("screenshot");
-    std::fs::write(dir.join(format!("{name}.png")), &png).expect("write screenshot");
-    if DOCUMENTED.contains(&name) && std::env::var_os("UPDATE_SCREENSHOTS").is_some() {
-        let docs = Path::new(env!("CARGO_MANIFEST_DIR")).join("docs/screenshots");
-        std::fs::write(docs.join(format!("{name}.png")), &png).expect("write docs screenshot");
-    }
+    browser::shot(c, dir, name, &DOCUMENTED).await;
 }
 
 /// A write to the API (the demo key has admin scope).
@@ -63,18 +58,6 @@ async fn api_send(base: &str, key: &str, method: &str, path: &str, body: Value) 
     let v: Value = r.json().await.unwrap_or(Value::Null);
     assert!(status.is_success(), "{method} {path}: {status} {v}");
     v
-}
-
-/// The text of the element `css` matches, once it appears (a click that submits a form
-/// returns before the next page is loaded).
-async fn text(c: &Client, css: &str) -> String {
-    wait_for(c, css, Duration::from_secs(10)).await;
-    c.find(Locator::Css(css))
-        .await
-        .unwrap_or_else(|e| panic!("{css}: {e}"))
-        .text()
-        .await
-        .expect("text")
 }
 
 /// Attribute `name` of the element `css` matches (which must have it).
@@ -102,16 +85,9 @@ async fn scroll_to(c: &Client, css: &str) {
 
 #[tokio::test(flavor = "multi_thread", worker_threads = 2)]
 async fn dashboard_in_headless_chromium() {
-    let work = tempfile::tempdir().unwrap();
-    let Some((_driver, c)) = browser::browser(&work.path().join("chromium-profile")).await else {
-        return;
-    };
-    let shots = Path::new(env!("CARGO_TARGET_TMPDIR")).join("dashboard");
-    std::fs::create_dir_all(&shots).unwrap();
-    let (_demo, dashboard, base, key) = start_demo(work.path());
-    let (c2, dir) = (c.clone(), work.path().to_path_buf());
-    browser::closing(c, async move {
-        run(&c2, &dashboard, &base, &key, &shots, &dir).await;
+    let shots = browser::shots_dir("dashboard");
+    browser::on_demo(|c, d| async move {
+        run(&c, &d.dashboard, &d.base, &d.key, &shots, &d.work).await;
     })
     .await;
 }

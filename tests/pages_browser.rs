@@ -29,7 +29,7 @@
 
 mod browser;
 
-use browser::{api, start_demo, wait_for};
+use browser::{api, text, wait_for};
 use fantoccini::{Client, Locator};
 use mtcal_views::plots::{COLORS, MISFIT_KEY, inspect};
 use serde_json::{Value, json};
@@ -52,23 +52,7 @@ const DOCUMENTED: [&str; 4] = [
 ];
 
 async fn shot(c: &Client, dir: &Path, name: &str) {
-    let png = c.screenshot().await.expect("screenshot");
-    std::fs::write(dir.join(format!("{name}.png")), &png).expect("write screenshot");
-    if DOCUMENTED.contains(&name) && std::env::var_os("UPDATE_SCREENSHOTS").is_some() {
-        let docs = Path::new(env!("CARGO_MANIFEST_DIR")).join("docs/screenshots");
-        std::fs::write(docs.join(format!("{name}.png")), &png).expect("write docs screenshot");
-    }
-}
-
-/// The visible text of the element `css` matches.
-async fn text(c: &Client, css: &str) -> String {
-    wait_for(c, css, Duration::from_secs(10)).await;
-    c.find(Locator::Css(css))
-        .await
-        .unwrap_or_else(|e| panic!("{css}: {e}"))
-        .text()
-        .await
-        .expect("text")
+    browser::shot(c, dir, name, &DOCUMENTED).await;
 }
 
 /// The visible texts of every element `css` matches.
@@ -87,22 +71,15 @@ async fn js(c: &Client, script: &str) -> Value {
 
 #[tokio::test(flavor = "multi_thread", worker_threads = 2)]
 async fn pages_in_words_in_headless_chromium() {
-    let work = tempfile::tempdir().unwrap();
-    let Some((_driver, c)) = browser::browser(&work.path().join("chromium-profile")).await else {
-        return;
-    };
-    let shots = Path::new(env!("CARGO_TARGET_TMPDIR")).join("pages");
-    std::fs::create_dir_all(&shots).unwrap();
-    let (_demo, dashboard, base, key) = start_demo(work.path());
-    let c2 = c.clone();
-    browser::closing(c, async move {
-        c2.goto(&dashboard).await.unwrap();
-        wait_for(&c2, "#fleet", Duration::from_secs(10)).await;
-        let diagnosis_id = worn_check(&c2, &base, &key, &shots).await;
-        let misfit_id = misfit_marks(&c2, &base, &key, &shots).await;
-        diagnosis_in_words(&c2, &base, &key, &diagnosis_id, &shots).await;
-        rows_say_which_and_where(&c2, &base, &key).await;
-        error_pages(&c2, &base, &misfit_id, &shots).await;
+    let shots = browser::shots_dir("pages");
+    browser::on_demo(|c, d| async move {
+        let (base, key) = (&d.base, &d.key);
+        browser::sign_in(&c, &d.dashboard).await;
+        let diagnosis_id = worn_check(&c, base, key, &shots).await;
+        let misfit_id = misfit_marks(&c, base, key, &shots).await;
+        diagnosis_in_words(&c, base, key, &diagnosis_id, &shots).await;
+        rows_say_which_and_where(&c, base, key).await;
+        error_pages(&c, base, &misfit_id, &shots).await;
     })
     .await;
 }

@@ -11,7 +11,7 @@
 
 mod browser;
 
-use browser::{api, start_demo, wait_for};
+use browser::{api, wait_for};
 use fantoccini::Client;
 use mtcal_client::Client as Api;
 use mtcal_server::api::jobs::SubmitJob;
@@ -28,14 +28,8 @@ const CHECK: &str = include_str!("browser/plots.js");
 
 #[tokio::test(flavor = "multi_thread", worker_threads = 2)]
 async fn every_plot_is_readable_on_screen() {
-    let work = tempfile::tempdir().unwrap();
-    let Some((_driver, c)) = browser::browser(&work.path().join("chromium-profile")).await else {
-        return;
-    };
-    let (_demo, dashboard, base, key) = start_demo(work.path());
-    let c2 = c.clone();
-    browser::closing(c, async move {
-        run(&c2, &dashboard, &base, &key).await;
+    browser::on_demo(|c, d| async move {
+        run(&c, &d.dashboard, &d.base, &d.key).await;
     })
     .await;
 }
@@ -104,8 +98,7 @@ async fn pages(base: &str, key: &str) -> Vec<String> {
 }
 
 async fn run(c: &Client, dashboard: &str, base: &str, key: &str) {
-    c.goto(dashboard).await.unwrap();
-    wait_for(c, "#fleet", Duration::from_secs(10)).await;
+    browser::sign_in(c, dashboard).await;
     let pages = pages(base, key).await;
     assert!(pages.len() > 10, "{pages:?}");
     let mut problems = vec![];

@@ -139,6 +139,42 @@ async fn open(db: &str, create: bool) -> anyhow::Result<Arc<dyn Store>> {
         .with_context(|| format!("opening {}", mtcal_store::redacted(db)))
 }
 
+/// Appends a change made by this command to the audit trail (docs/audit.md), as the
+/// API's routes do: the actor `cli`, named by the OS user running it, through `cli`, no
+/// client address. A change whose record is the same before and after is no event. When
+/// the event cannot be written the command fails although the change was made.
+async fn audit(
+    store: &dyn Store,
+    action: &str,
+    target: &str,
+    before: Option<&ApiKey>,
+    after: &ApiKey,
+) -> anyhow::Result<()> {
+    let json = |k: &ApiKey| serde_json::to_value(k).ok();
+    let (before, after) = (before.and_then(json), json(after));
+    if before.is_some() && before == after {
+        return Ok(());
+    }
+    let user = ["USER", "USERNAME", "LOGNAME"]
+        .iter()
+        .find_map(|v| std::env::var(v).ok().filter(|u| !u.is_empty()));
+    let event = mtcal_store::NewAuditEvent {
+        actor: "cli".into(),
+        actor_name: user.map_or_else(|| "cli".into(), |u| format!("OS user {u}")),
+        via: "cli".into(),
+        action: action.into(),
+        target: target.into(),
+        machine_id: None,
+        before,
+        after,
+        client: None,
+    };
+    store.record_audit(&event).await.with_context(|| {
+        format!("{action} {target} was made but its audit event could not be written")
+    })?;
+    Ok(())
+}
+
 /// What a key acts on: `whole group`, or `sites [..]` and `tags [..]`.
 fn reach(k: &ApiKey) -> String {
     if k.is_group() {
@@ -188,7 +224,9 @@ pub fn run(args: Args) -> anyhow::Result<ExitCode> {
                 .map_err(|e| super::BadInput(e.to_string()))?;
             let (key, secret) = rt.block_on(async {
                 let store = open(&db.db, create).await?;
-                anyhow::Ok(store.create_key_in(scope, &label, &sites, &tags).await?)
+                let (key, secret) = store.create_key_in(scope, &label, &sites, &tags).await?;
+                audit(store.as_ref(), "key.create", &key.id, None, &key).await?;
+                anyhow::Ok((key, secret))
             })?;
             super::out::noteln!(
                 "created key {} ({}, scope {}, {}); the secret below is shown once:",
@@ -273,14 +311,19 @@ pub fn run(args: Args) -> anyhow::Result<ExitCode> {
         Command::RevokeKey { db, id } => {
             let key = rt.block_on(async {
                 let store = open(&db.db, false).await?;
-                match store.revoke_key(&id).await {
-                    Err(mtcal_store::StoreError::NotFound(_)) => Err(super::BadInput(format!(
-                        "no key {id} in {} (see `mtcal admin list-keys`)",
-                        db.db
-                    ))
-                    .into()),
-                    other => anyhow::Ok(other?),
-                }
+                let before = store.list_keys().await?.into_iter().find(|k| k.id == id);
+                let key = match store.revoke_key(&id).await {
+                    Err(mtcal_store::StoreError::NotFound(_)) => {
+                        return Err(super::BadInput(format!(
+                            "no key {id} in {} (see `mtcal admin list-keys`)",
+                            db.db
+                        ))
+                        .into());
+                    }
+                    other => other?,
+                };
+                audit(store.as_ref(), "key.revoke", &key.id, before.as_ref(), &key).await?;
+                anyhow::Ok(key)
             })?;
             super::out::noteln!(
                 "key {} ({}, scope {}) revoked at {}",

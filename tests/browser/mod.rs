@@ -198,3 +198,70 @@ pub async fn closing(c: Client, test: impl Future<Output = ()> + Send + 'static)
         std::panic::resume_unwind(e.into_panic());
     }
 }
+
+/// The demo a browser test runs on: the dashboard's sign-in link (the key in its
+/// fragment), the service's address, the demo's admin key and the test's folder.
+pub struct Demo {
+    pub dashboard: String,
+    pub base: String,
+    pub key: String,
+    pub work: PathBuf,
+}
+
+/// The start-up every browser test shares: a temporary folder, headless Chromium under
+/// chromedriver, `mtcal demo`; then `test` on them, the browser closed afterwards (also
+/// when it fails). Returns without running `test` when the browser test skips.
+pub async fn on_demo<F, T>(test: F)
+where
+    F: FnOnce(Client, Demo) -> T,
+    T: Future<Output = ()> + Send + 'static,
+{
+    let work = tempfile::tempdir().unwrap();
+    let Some((_driver, c)) = browser(&work.path().join("chromium-profile")).await else {
+        return;
+    };
+    let (_demo, dashboard, base, key) = start_demo(work.path());
+    let demo = Demo {
+        dashboard,
+        base,
+        key,
+        work: work.path().to_path_buf(),
+    };
+    closing(c.clone(), test(c, demo)).await;
+}
+
+/// Signs in with one click on the demo's link and waits for the fleet.
+pub async fn sign_in(c: &Client, dashboard: &str) {
+    c.goto(dashboard).await.unwrap();
+    wait_for(c, "#fleet", Duration::from_secs(10)).await;
+}
+
+/// The folder of a test's screenshots (under the target's temporary folder), made.
+pub fn shots_dir(name: &str) -> PathBuf {
+    let dir = Path::new(env!("CARGO_TARGET_TMPDIR")).join(name);
+    std::fs::create_dir_all(&dir).unwrap();
+    dir
+}
+
+/// A screenshot `name`.png in `dir`; with `UPDATE_SCREENSHOTS` set, one whose name is in
+/// `documented` (those the README shows) is written to docs/screenshots/ too.
+pub async fn shot(c: &Client, dir: &Path, name: &str, documented: &[&str]) {
+    let png = c.screenshot().await.expect("screenshot");
+    std::fs::write(dir.join(format!("{name}.png")), &png).expect("write screenshot");
+    if documented.contains(&name) && std::env::var_os("UPDATE_SCREENSHOTS").is_some() {
+        let docs = Path::new(env!("CARGO_MANIFEST_DIR")).join("docs/screenshots");
+        std::fs::write(docs.join(format!("{name}.png")), &png).expect("write docs screenshot");
+    }
+}
+
+/// The text of the element `css` matches, once it appears (a click that submits a form
+/// returns before the next page is loaded).
+pub async fn text(c: &Client, css: &str) -> String {
+    wait_for(c, css, Duration::from_secs(10)).await;
+    c.find(Locator::Css(css))
+        .await
+        .unwrap_or_else(|e| panic!("{css}: {e}"))
+        .text()
+        .await
+        .expect("text")
+}

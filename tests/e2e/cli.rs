@@ -127,6 +127,43 @@ fn admin_lists_and_revokes_keys() {
     assert_eq!(out.status.code(), Some(2));
     let err = String::from_utf8_lossy(&out.stderr);
     assert!(err.contains("no key key_nope"), "{err}");
+    // Both changes are in the audit trail, as the API's key routes record them, through
+    // `cli`; revoking the revoked key again records nothing.
+    mtcal(&["admin", "revoke-key", "--db", db, id]);
+    let events = tokio::runtime::Runtime::new().unwrap().block_on(async {
+        let store = mtcal_store::open(db).await.unwrap();
+        let q = mtcal_store::AuditQuery {
+            limit: 100,
+            ..Default::default()
+        };
+        store.list_audit(&q).await.unwrap()
+    });
+    let got: Vec<(&str, &str)> = events
+        .iter()
+        .map(|e| (e.event.action.as_str(), e.event.target.as_str()))
+        .collect();
+    assert_eq!(
+        got,
+        [("key.revoke", id), ("key.create", id)],
+        "newest first"
+    );
+    for e in &events {
+        let x = &e.event;
+        assert_eq!((x.actor.as_str(), x.via.as_str()), ("cli", "cli"));
+        assert!(!x.actor_name.is_empty() && x.client.is_none(), "{x:?}");
+        assert!(x.after.as_ref().unwrap()["label"] == "line 1", "{x:?}");
+        assert!(
+            !x.after
+                .as_ref()
+                .unwrap()
+                .to_string()
+                .contains(secret.trim())
+        );
+    }
+    let revoke = &events[0].event;
+    assert!(revoke.before.as_ref().unwrap()["revoked_at"].is_null());
+    assert!(revoke.after.as_ref().unwrap()["revoked_at"].is_string());
+    assert!(events[1].event.before.is_none());
 }
 
 /// `admin create-machine` and `admin create-profile` apply the API's rules on the

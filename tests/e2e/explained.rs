@@ -285,6 +285,21 @@ async fn a_misfit_is_decided_on_its_explained_model_compensated_and_verified() {
         );
     }
     assert!(actions.contains("predicted after it"), "{actions}");
+    // Its findings: decided on the explained model, its physics, and the diagnosis it
+    // names (not the latest of the dataset by chance), linked.
+    let findings = &report[report.find(r#"id="findings""#).expect("the findings")..];
+    let findings = &findings[..findings.find("</section>").unwrap()];
+    let diagnosis = m
+        .diagnosis_result_id
+        .as_deref()
+        .expect("the diagnosis named");
+    assert!(
+        findings.contains("decided on the explained model")
+            && findings.contains("backlash (X)")
+            && findings.contains(&format!("href=\"/results/{diagnosis}\"")),
+        "{findings}"
+    );
+    assert!(!report.contains("No diagnosis was run"));
     let browser = app.sign_in(&app.read_key).await;
     let page = browser
         .get(&format!("/machines/{machine}"))

@@ -238,21 +238,32 @@ fn identification(r: &StoredResult) -> Result<IdentificationResult, ApiError> {
     })
 }
 
-/// The latest diagnosis of the same dataset, when one was run: its document, or why the
-/// stored document does not read (the report says so with its id, never "no diagnosis").
+/// The diagnosis of the check, when one was run: the one an explained model names (whose
+/// findings it adds), else the latest of the same dataset; its document, or why the stored
+/// document does not read (the report says so with its id, never "no diagnosis").
 async fn diagnosis_of(s: &AppState, r: &StoredResult) -> Result<Option<ReportDiagnosis>, ApiError> {
-    let Some(dataset) = &r.meta.dataset_id else {
-        return Ok(None);
+    let named = r
+        .document
+        .pointer("/explained/diagnosis_result_id")
+        .and_then(|v| v.as_str());
+    // A named diagnosis no longer stored falls back to the dataset's.
+    let mut found = match named {
+        Some(id) => s.store.get_result(id).await.ok(),
+        None => None,
     };
-    let found =
-        mtcal_domain::history::diagnosis_of_dataset(s.store.as_ref(), &r.meta.machine_id, dataset)
-            .await?;
-    let Some(m) = found else {
-        return Ok(None);
-    };
-    let d = s.store.get_result(&m.id).await?;
-    Ok(Some(ReportDiagnosis {
-        id: m.id.clone(),
+    if found.is_none()
+        && let Some(dataset) = &r.meta.dataset_id
+        && let Some(m) = mtcal_domain::history::diagnosis_of_dataset(
+            s.store.as_ref(),
+            &r.meta.machine_id,
+            dataset,
+        )
+        .await?
+    {
+        found = Some(s.store.get_result(&m.id).await?);
+    }
+    Ok(found.map(|d| ReportDiagnosis {
+        id: d.meta.id.clone(),
         stored: true,
         doc: serde_json::from_value::<DiagnosisResult>(d.document)
             .map_err(|e| format!("its document does not read: {e}")),

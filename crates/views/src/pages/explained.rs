@@ -46,7 +46,8 @@ pub fn section(d: &IdentificationResult) -> Markup {
     }
 }
 
-fn parameters(p: &mtcal_solver::explained::Physics) -> String {
+/// The fitted parameters of `p` with their u, then those held at the diagnosis's values.
+pub fn parameters(p: &mtcal_solver::explained::Physics) -> String {
     p.parameters
         .iter()
         .filter(|(k, _)| !k.starts_with("std_"))

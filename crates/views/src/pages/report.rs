@@ -14,7 +14,8 @@ use crate::plots::{tick_label, unit_label};
 use maud::{Markup, html};
 use mtcal_formats::compensation::{Compensation, DEFAULT_STEP_MM, ExportError, Format};
 use mtcal_solver::cradle::{CradleResult, LocationErrorReport, TermSeparability};
-use mtcal_solver::diagnosis::DiagnosisResult;
+use mtcal_solver::diagnosis::{DiagnosisResult, Verdict as DiagnosisVerdict};
+use mtcal_solver::explained::ExplainedModel;
 use mtcal_solver::identification::IdentificationResult;
 use mtcal_solver::positioning_check::DiagnosisDocument;
 use mtcal_solver::terms::Term;
@@ -69,10 +70,10 @@ pub fn check_report(r: &CheckReport) -> Markup {
         &title,
         html! {
             article.report {
-                (result::misfit_banner(d, Some(misfit_diagnosis(r.diagnosis))))
+                (result::misfit_banner(d, Some(misfit_diagnosis(r.diagnosis, d.explained.as_ref()))))
                 (facts(r))
                 (summary::decision(r))
-                (findings(r.diagnosis))
+                (findings(r.diagnosis, d))
                 (summary::actions_section(r))
                 (summary::standards(r))
                 @if r.verdict.is_some() { (budget(r)) }
@@ -95,10 +96,16 @@ pub fn check_report(r: &CheckReport) -> Markup {
 }
 
 /// Where the misfit banner of a report sends the reader: the findings of the diagnosis
-/// of the recording, why it could not be read, or that none is stored yet.
-fn misfit_diagnosis(d: Option<&ReportDiagnosis>) -> Markup {
+/// of the recording, why it could not be read, the physics the document's explained
+/// model adds (and what remains), or that none is stored yet.
+fn misfit_diagnosis(d: Option<&ReportDiagnosis>, explained: Option<&ExplainedModel>) -> Markup {
     html! {
         @match d {
+            None if explained.is_some() => {
+                "The diagnosis of this recording found physics the 21 terms leave out; the \
+                 explained model adds it and still leaves a misfit: see "
+                a href="#findings" { "its findings" } " below."
+            }
             Some(ReportDiagnosis { doc: Ok(_), id, .. }) => {
                 "The diagnosis of this recording (" (id) ") says which physics the model leaves out: see "
                 a href="#findings" { "its findings" } " below."
@@ -433,12 +440,16 @@ fn budget(r: &CheckReport) -> Markup {
 }
 
 /// The findings of the diagnosis of the same recording in short (the whole diagnosis is
-/// in the appendix), or why it could not be read, or that none was run.
-fn findings(d: Option<&ReportDiagnosis>) -> Markup {
+/// in the appendix): the physics of the document's explained model (the check decided on
+/// it, or partly explained), the diagnosis's findings or why it could not be read, or
+/// that none was run.
+fn findings(d: Option<&ReportDiagnosis>, doc: &IdentificationResult) -> Markup {
     html! {
         section.card #findings {
             h2 { "Findings of the diagnosis" }
+            @if let Some(m) = &doc.explained { (explained_findings(m, doc)) }
             @match d {
+                None if doc.explained.is_some() => {}
                 None => { p { "No diagnosis was run on this check: no finding to report." } }
                 Some(ReportDiagnosis { id, doc: Err(e), .. }) => {
                     div.notice.error { "The diagnosis of this check (" (id) ") could not be read: " (e)
@@ -453,6 +464,40 @@ fn findings(d: Option<&ReportDiagnosis>) -> Markup {
                     (result::findings_summary(doc))
                 }
             }
+        }
+    }
+}
+
+/// What the document's explained model says of the check: decided on it, or partly
+/// explained (with what remains), and the physics it adds to the 21 terms as fitted.
+fn explained_findings(m: &ExplainedModel, doc: &IdentificationResult) -> Markup {
+    let check = doc.model_check();
+    let decided = m.verdict == DiagnosisVerdict::Explained && check.decided_on_explained_model();
+    html! {
+        div #explained-findings data-decided=(decided) {
+            p {
+                @if decided {
+                    "This check was decided on the explained model: the 21 terms fitted jointly with "
+                    (m.adds) ", the physics the diagnosis"
+                } @else if m.verdict == DiagnosisVerdict::PartlyExplained {
+                    "This check is partly explained by the explained model (the 21 terms fitted \
+                     jointly with " (m.adds) ") and is not decided on it; the physics the diagnosis"
+                } @else {
+                    "This check is not decided on the explained model (the 21 terms fitted jointly \
+                     with " (m.adds) "): " (check.statement) ". The physics the diagnosis"
+                }
+                @if let Some(id) = &m.diagnosis_result_id { " (" (id) ")" }
+                " found, as the model fits it (u: standard uncertainty, k = 1):"
+            }
+            ul.compact.physics {
+                @for p in &m.physics {
+                    li data-effect=(p.effect) { (p.name_in_words()) ": " (super::explained::parameters(p)) }
+                }
+            }
+            @if !m.remains.is_empty() {
+                p { "What remains unexplained: " (m.remains.join("; ")) "." }
+            }
+            p.muted { "The explained model's figures are in the appendix." }
         }
     }
 }

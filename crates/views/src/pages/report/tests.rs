@@ -378,6 +378,113 @@ fn an_unreadable_diagnosis_is_said_with_its_id() {
     assert!(!html.contains("id=\"diagnosis-detail\""));
 }
 
+/// An explained model of the backlash found (4 µm on X, fitted jointly with the 21
+/// terms), as the service stores it.
+fn explained_model(
+    verdict: Verdict,
+    remains: Vec<String>,
+) -> mtcal_solver::explained::ExplainedModel {
+    use mtcal_solver::explained::{ExplainedModel, Physics, RigidFigures};
+    ExplainedModel {
+        verdict,
+        physics: vec![Physics {
+            effect: "backlash".into(),
+            axis: Some("X".into()),
+            depends_on: None,
+            parameters: [
+                ("backlash_um".to_string(), 4.02),
+                ("std_backlash_um".to_string(), 0.03),
+            ]
+            .into(),
+            held: Default::default(),
+            predicted_rms_um: BeforeAfter {
+                before: 0.976,
+                after: 0.15,
+            },
+        }],
+        residual_rms_um: 0.15,
+        heldout_rms_um: 0.16,
+        noise_floor_um: 0.149,
+        rigid: RigidFigures {
+            residual_rms_um: 0.976,
+            heldout_rms_um: 1.0,
+        },
+        adds: "backlash (X)".into(),
+        remains,
+        predicted_residual_rms_um: 0.15,
+        actions: vec![],
+        original_result_id: Some("res_orig1".into()),
+        diagnosis_result_id: Some("res_diag7".into()),
+    }
+}
+
+/// A document that carries its explained model reports its findings without a
+/// diagnosis given: decided on the explained model with the physics and its u, or
+/// partly explained with what remains (and the banner sends to the findings); never
+/// "No diagnosis was run".
+#[test]
+fn an_explained_model_reports_its_physics_without_a_diagnosis() {
+    let mut doc = simulated_check();
+    doc.explained = Some(explained_model(Verdict::Explained, vec![]));
+    doc.model_check = Some(mtcal_solver::misfit::ModelCheck::explained(
+        0.15,
+        Some(0.149),
+        "backlash (X)",
+        true,
+        &[],
+    ));
+    let report = |doc: &IdentificationResult| {
+        check_report(&CheckReport {
+            doc,
+            result_id: None,
+            generated_at: "2026-11-25T09:00:00Z",
+            verdict: None,
+            diagnosis: None,
+        })
+        .into_string()
+    };
+    let html = report(&doc);
+    assert!(!html.contains("No diagnosis was run"), "{html}");
+    assert!(!html.contains("id=\"misfit\""));
+    let f = section(&html, "findings");
+    for want in [
+        "data-decided=\"true\"",
+        "decided on the explained model",
+        "backlash (X)",
+        "data-effect=\"backlash\"",
+        "backlash_um = 4.020 (u = 0.030)",
+        "res_diag7",
+    ] {
+        assert!(f.contains(want), "the findings lack {want}: {f}");
+    }
+    // Partly explained: not decided, what remains said, the banner to the findings.
+    let remains = vec!["a cyclic error on Y, period 5 mm".to_string()];
+    doc.explained = Some(explained_model(Verdict::PartlyExplained, remains.clone()));
+    doc.model_check = Some(mtcal_solver::misfit::ModelCheck::explained(
+        0.4,
+        Some(0.149),
+        "backlash (X)",
+        false,
+        &remains,
+    ));
+    let html = report(&doc);
+    assert!(!html.contains("No diagnosis was run"), "{html}");
+    let f = section(&html, "findings");
+    for want in [
+        "data-decided=\"false\"",
+        "partly explained by the explained model",
+        "backlash_um = 4.020 (u = 0.030)",
+        "What remains unexplained: a cyclic error on Y, period 5 mm",
+    ] {
+        assert!(f.contains(want), "the findings lack {want}: {f}");
+    }
+    let banner = section(&html, "misfit");
+    assert!(
+        banner.contains("href=\"#findings\"") && !banner.contains("No diagnosis"),
+        "{banner}"
+    );
+}
+
 /// The budget table against docs/conventions.md's worked example, computed here from
 /// its formulas: EXX's positioning range over L = the measured X travel takes the
 /// certificate's (a + b·L)/k, the differential expansion's u_th and the cosine error's
