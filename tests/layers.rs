@@ -332,9 +332,7 @@ fn the_client_links_neither_http_server_nor_database() {
 /// Functions over [`MAX_FN_LINES`] lines that exist and are being split (file, name).
 /// A function found too long must be one of these; remove an entry once its function
 /// is split.
-const KNOWN_LONG: &[(&str, &str)] = &[
-    ("crates/solver/src/diagnosis/locate.rs", "locate"),
-];
+const KNOWN_LONG: &[(&str, &str)] = &[("crates/solver/src/diagnosis/locate.rs", "locate")];
 
 /// Longest source file, lines.
 const MAX_FILE_LINES: usize = 1000;
