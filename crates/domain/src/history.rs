@@ -42,10 +42,18 @@ pub async fn diagnosis_of_dataset(
     let list = store
         .list_results(machine_id, crate::kinds::DIAGNOSIS)
         .await?;
-    Ok(list
-        .into_iter()
+    Ok(latest_of_dataset(&list, dataset_id).cloned())
+}
+
+/// The latest of `results` (time order) from recording `dataset_id`.
+pub fn latest_of_dataset<'a>(
+    results: &'a [ResultMeta],
+    dataset_id: &str,
+) -> Option<&'a ResultMeta> {
+    results
+        .iter()
         .rev()
-        .find(|m| m.dataset_id.as_deref() == Some(dataset_id)))
+        .find(|m| m.dataset_id.as_deref() == Some(dataset_id))
 }
 
 /// The misfit gate of a stored identification document when its model does not explain

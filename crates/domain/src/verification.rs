@@ -13,7 +13,7 @@
 //! explained model that carries its own predicted residuals replaces it there.
 
 use crate::error::DomainError;
-use crate::kinds::{DIAGNOSIS, IDENTIFICATION};
+use crate::kinds::IDENTIFICATION;
 use mtcal_solver::diagnosis::{DiagnosisResult, Finding};
 use mtcal_store::{ResultMeta, Store};
 
@@ -227,12 +227,7 @@ async fn diagnosis(
     let Some(ds) = &m.dataset_id else {
         return Ok(None);
     };
-    let list = store.list_results(&m.machine_id, DIAGNOSIS).await?;
-    let Some(d) = list
-        .iter()
-        .rev()
-        .find(|d| d.dataset_id.as_deref() == Some(ds.as_str()))
-    else {
+    let Some(d) = crate::history::diagnosis_of_dataset(store, &m.machine_id, ds).await? else {
         return Ok(None);
     };
     let doc = store.get_result(&d.id).await?.document;

@@ -22,6 +22,7 @@
 
 use crate::ingest::UploadLimits;
 use crate::jobs::{self, ExplainedLink, JobError, JobInput, JobKind};
+use mtcal_domain::history::latest_of_dataset;
 use mtcal_domain::kinds::{DIAGNOSIS, IDENTIFICATION};
 use mtcal_solver::diagnosis::{DiagnosisResult, Verdict};
 use mtcal_solver::identification::IdentificationResult;
@@ -80,11 +81,7 @@ async fn land(
     }
     let machine_id = d.meta.machine_id.clone();
     let checks = store.list_results(&machine_id, IDENTIFICATION).await?;
-    let Some(original) = checks
-        .iter()
-        .rev()
-        .find(|m| m.dataset_id.as_deref() == Some(dataset_id.as_str()))
-    else {
+    let Some(original) = latest_of_dataset(&checks, &dataset_id) else {
         return Ok(None);
     };
     let stored = store.get_result(&original.id).await?;
@@ -137,10 +134,7 @@ async fn land(
     // Another process (a worker of its own, or one that started) may have stored it
     // during the fit: the original is then no longer the latest check of the session.
     let now = store.list_results(&machine_id, IDENTIFICATION).await?;
-    let latest = now
-        .iter()
-        .rev()
-        .find(|m| m.dataset_id.as_deref() == Some(dataset_id.as_str()));
+    let latest = latest_of_dataset(&now, &dataset_id);
     if latest.map(|m| m.id.as_str()) != Some(original_id.as_str()) {
         return Ok(None);
     }
