@@ -132,11 +132,20 @@ pub fn diff(
 /// explained model.
 pub type CheckModels = std::collections::HashMap<String, CheckModel>;
 
+/// The model check of a stored identification document (None: the document is not an
+/// identification's). The one reader of the gate: the history's misfit
+/// gate and [`check_model`] both take it from here.
+pub fn model_check(document: &serde_json::Value) -> Option<mtcal_solver::misfit::ModelCheck> {
+    mtcal_solver::identification::IdentificationResult::deserialize(document)
+        .ok()
+        .map(|d| d.model_check())
+}
+
 /// What a trend point or an alert says of the model of a stored document: a misfit and
 /// why, or decided on the explained model (neither: not an identification's document,
 /// or a model that explains its recording).
 pub fn check_model(document: &serde_json::Value) -> CheckModel {
-    let Some(c) = crate::history::model_check(document) else {
+    let Some(c) = model_check(document) else {
         return CheckModel::default();
     };
     CheckModel {
