@@ -192,14 +192,8 @@ pub async fn check_landed(
         return Ok(None);
     }
     // A misfit is not decided: its change is not a figure to alert on.
-    let model = |r: &ResultMeta| {
-        let (store, id) = (store.clone(), r.id.clone());
-        async move {
-            let doc = store.get_result(&id).await?.document;
-            Ok::<_, StoreError>(crate::trends::check_model(&doc))
-        }
-    };
-    let now_model = model(landed).await?;
+    let model = crate::trends::stored_check_model;
+    let now_model = model(store.as_ref(), &landed.id).await?;
     if now_model.misfit {
         return Ok(None);
     }
@@ -216,7 +210,7 @@ pub async fn check_landed(
         measured_at: landed.measured_at.clone(),
         changes: items.iter().map(|i| change(baseline, landed, i)).collect(),
         explained_model: now_model.explained_model,
-        baseline_explained_model: model(baseline).await?.explained_model,
+        baseline_explained_model: model(store.as_ref(), &baseline.id).await?.explained_model,
     };
     let message = message(&machine.id, &details);
     let alert = Alert {

@@ -95,6 +95,12 @@ pub fn baseline_among<'a>(
     chosen_baseline(machine, results).or_else(|| results.iter().find(|r| !misfit(r)))
 }
 
+/// The machine's chosen baseline among `results`, else the first of them, whatever its
+/// model: the pair the store's fleet rows name (their basis).
+pub fn chosen_or_first<'a>(machine: &Machine, results: &'a [ResultMeta]) -> Option<&'a ResultMeta> {
+    chosen_baseline(machine, results).or(results.first())
+}
+
 /// The machine's chosen baseline among `results`, when it is one of them.
 fn chosen_baseline<'a>(machine: &Machine, results: &'a [ResultMeta]) -> Option<&'a ResultMeta> {
     let chosen = machine.baseline_result_id.as_ref()?;

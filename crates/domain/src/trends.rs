@@ -155,6 +155,14 @@ pub fn check_model(document: &serde_json::Value) -> CheckModel {
     }
 }
 
+/// [`check_model`] of stored result `id`'s document.
+pub async fn stored_check_model(
+    store: &dyn Store,
+    id: &str,
+) -> Result<CheckModel, mtcal_store::StoreError> {
+    Ok(check_model(&store.get_result(id).await?.document))
+}
+
 /// [`check_model`] of each identification among `results` that is a misfit or decided
 /// on the explained model, by result id (each document read once).
 pub async fn check_models(
@@ -163,7 +171,7 @@ pub async fn check_models(
 ) -> Result<CheckModels, mtcal_store::StoreError> {
     let mut out = CheckModels::new();
     for r in results.iter().filter(|r| r.kind == IDENTIFICATION) {
-        let m = check_model(&store.get_result(&r.id).await?.document);
+        let m = stored_check_model(store, &r.id).await?;
         if m != CheckModel::default() {
             out.insert(r.id.clone(), m);
         }

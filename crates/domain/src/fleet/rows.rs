@@ -124,7 +124,7 @@ async fn row(
     // The basis names the baseline as the store's pairs do (chosen, else first): the
     // default baseline (the first check that is not a misfit) changes only with the
     // checks listed, which the count and the ends already follow.
-    let named = crate::history::baseline_among(machine, results, &Default::default());
+    let named = crate::history::chosen_or_first(machine, results);
     let basis = basis(
         &named.unwrap_or(latest).id,
         &latest.id,
