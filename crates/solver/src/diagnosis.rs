@@ -398,7 +398,6 @@ pub mod linalg;
 pub mod local_scan;
 pub(crate) mod locate;
 pub mod lost_motion;
-pub mod lost_motion_growth;
 pub mod lsq;
 pub mod moments;
 pub mod periodic_scan;

@@ -36,6 +36,8 @@ use super::phase_walk::PhaseWalk;
 use crate::axis::Axis;
 use std::f64::consts::PI;
 
+pub mod lost_motion_growth;
+
 /// One candidate: an effect on an axis/direction (or a head-offset group).
 #[derive(Debug, Clone, PartialEq)]
 pub struct Candidate {
@@ -164,7 +166,7 @@ pub fn candidates(d: &Design) -> Vec<Candidate> {
     for &a in &axes {
         for e in [
             "backlash",
-            super::lost_motion_growth::NAME,
+            lost_motion_growth::NAME,
             "lost_motion_profile",
             "lost_motion_variation",
             "servo_lag",
@@ -435,7 +437,7 @@ pub fn specs<'a>(
         | "lost_motion_variation"
         | "servo_lag"
         | "reversal_spike" => motion_columns(d, c, theta),
-        "backlash_growth" => super::lost_motion_growth::columns(d, c, theta),
+        "backlash_growth" => lost_motion_growth::columns(d, c, theta),
         "cyclic" | "waviness" | "velocity_coupling" | "direction_coupling" | "step"
         | "vibration" => path_columns(d, c, theta),
         "thermal_drift"

@@ -302,7 +302,7 @@ impl super::engine::Greedy for SessionProblem<'_> {
             params = trial::profile_parameters(t, sigma, d, a, constant);
         }
         if let ("backlash_growth", Some(a)) = (c.effect, c.axis) {
-            super::lost_motion_growth::parameters(&mut params, d, a, s.backlash[a.index()]);
+            catalogue::lost_motion_growth::parameters(&mut params, d, a, s.backlash[a.index()]);
         }
         // A step's ramp: its width with σ (also the step time's, below).
         let width = self.ctx.step_width(s, t, sigma);

@@ -2,7 +2,7 @@
 //! narrowing) in time, as a screw and nut warm up, wear in, or lose their preload while
 //! the machine works.
 //!
-//! **Model** (sign convention of `backlash`, [`super::effects`]): with d the sign of the
+//! **Model** (sign convention of `backlash`, [`crate::diagnosis::effects`]): with d the sign of the
 //! axis's travel and t the session time (s, the clock of the samples),
 //!
 //! error = −d·b(t)/2, b(t) = b₀ + g·t/3600,
@@ -32,55 +32,14 @@
 //! not flipping with the direction of travel), a `thermal_drift` (a smooth offset and
 //! scale in time, the same in both directions of travel).
 
-use super::catalogue::{self, Candidate, Columns};
-use super::design::Design;
-use super::effects::{EffectSpec, ParamSpec};
+use super::{Candidate, Columns, play};
 use crate::axis::Axis;
+use crate::diagnosis::design::Design;
 use std::collections::BTreeMap;
 
-/// The candidate's effect name.
+/// The candidate's effect name (its entry in the effects table:
+/// `diagnosis::effects::lost_motion_growth`).
 pub const NAME: &str = "backlash_growth";
-
-const fn param(name: &'static str, unit: &'static str, convention: &'static str) -> ParamSpec {
-    ParamSpec {
-        name,
-        unit,
-        convention,
-        nonlinear: false,
-        decide: "",
-    }
-}
-
-/// The effects table's entry ([`super::effects::EFFECTS`]).
-pub const SPEC: EffectSpec = EffectSpec {
-    name: NAME,
-    physics: "lost motion at direction reversal that changes during the session (a screw and nut warming up, wearing in or losing their preload while the machine works): the play's width drifts in time, a constant backlash cannot follow it",
-    params: &[
-        param(
-            "growth_um_per_h",
-            "um/h",
-            "g > 0 when the lost motion grows: b(t) = b0 + g*t/3600, error = -d*b(t)/2, t the session time (s)",
-        ),
-        param(
-            "lost_motion_start_um",
-            "um",
-            "b0 = b(0), the lost motion at session time 0 (sign of backlash: b > 0 when the axis stops short in the direction of travel)",
-        ),
-        param(
-            "lost_motion_end_um",
-            "um",
-            "b(t_end), t_end the last sample's time",
-        ),
-        param(
-            "centre_s",
-            "s",
-            "t-bar: the session time at which the axis's backlash finding reads the lost motion, b(t-bar) = its lost_motion_um",
-        ),
-    ],
-    principal: &["growth_um_per_h"],
-    any_of: false,
-    decide: "a longer session, or runs that reverse the axis early and late in it",
-};
 
 /// Whether sample `s` is on a run where axis `a` stays parked.
 fn parked(d: &Design, a: Axis, s: usize) -> bool {
@@ -126,10 +85,10 @@ pub fn origin_s(d: &Design, a: Axis) -> f64 {
 }
 
 /// The growth column of candidate `c` (module docs): its coefficient is g, µm/h. At
-/// `theta` = g₀ > 0 (the take-up's fixed point, [`super::catalogue::Search::TakeUp`])
+/// `theta` = g₀ > 0 (the take-up's fixed point, [`super::Search::TakeUp`])
 /// the play's take-up follows the width: the column is
 /// [b(t)·P(b(t)) − b̄·P(b̄)]/g₀ with b(t) = b̄ + g₀·(t − t̄)/3600 (≥ 0), P(w) the play's
-/// error per unit width taken up over w ([`catalogue::play`]) and b̄ the candidate's
+/// error per unit width taken up over w ([`play`]) and b̄ the candidate's
 /// `lost_motion_um`; at 0 (or without b̄) the sharp −d/2·(t − t̄)/3600, its limit.
 pub(crate) fn columns<'a>(d: &'a Design, c: &Candidate, theta: f64) -> Columns<'a> {
     let Some(a) = c.axis else {
@@ -147,7 +106,7 @@ pub(crate) fn columns<'a>(d: &'a Design, c: &Candidate, theta: f64) -> Columns<'
                 0.0
             } else if g0 > 0.0 && b > 0.0 {
                 let bt = (b + g0 * h).max(0.0);
-                let at = |w: f64| w * catalogue::play(travel[s], w * 1e-3);
+                let at = |w: f64| w * play(travel[s], w * 1e-3);
                 (at(bt) - at(b)) / g0
             } else {
                 shape(d, a, s) * h
@@ -198,9 +157,8 @@ mod tests {
 
     #[test]
     fn the_table_entry_names_the_growth_as_principal() {
-        assert_eq!(SPEC.name, NAME);
-        assert!(SPEC.params.iter().any(|p| p.name == SPEC.principal[0]));
-        assert!(super::super::effects::spec(NAME).is_some());
+        let spec = crate::diagnosis::effects::spec(NAME).expect("in the table");
+        assert!(spec.params.iter().any(|p| p.name == spec.principal[0]));
     }
 
     #[test]
