@@ -396,6 +396,46 @@ fn scorer_flags_a_false_finding() {
     assert!(!fails.is_empty());
 }
 
+/// A growing backlash is found only when claimed as growing, its start and rate checked
+/// within 2σ; a growth claimed of a constant play is FALSE.
+#[test]
+fn scorer_wants_a_growing_backlash_reported_as_growing() {
+    let growing = [Effect::GrowingBacklash {
+        axis: Axis::X,
+        from_um: 2.0,
+        per_h_um: 10.0,
+    }];
+    let constant = finding("backlash", Axis::X, &[("lost_motion_um", 4.5)]);
+    let s = score(
+        &growing,
+        &result(vec![constant.clone()], Verdict::Explained),
+    );
+    assert!(s.false_labels().is_empty() && s.missed.len() == 1, "{s:?}");
+    let growth = finding(
+        "backlash_growth",
+        Axis::X,
+        &[
+            ("growth_um_per_h", 10.4),
+            ("std_growth_um_per_h", 0.3),
+            ("lost_motion_start_um", 1.2),
+            ("std_lost_motion_start_um", 0.3),
+        ],
+    );
+    let s = score(
+        &growing,
+        &result(vec![constant, growth.clone()], Verdict::Explained),
+    );
+    assert!(s.right(), "{s:?}");
+    // The rate within 2σ, the start 2.7σ off.
+    assert_eq!(s.params(), (1, 2));
+    let play = [Effect::Backlash {
+        axis: Axis::X,
+        um: 6.0,
+    }];
+    let s = score(&play, &result(vec![growth], Verdict::Explained));
+    assert_eq!(s.false_labels(), ["backlash_growth (X)"]);
+}
+
 /// A noise-free session of a perfect machine with no nuisance, with `effects`.
 fn bare(effects: Vec<Effect>) -> mtcal_solver::session::Session {
     generate(&truth::generator::Setup {

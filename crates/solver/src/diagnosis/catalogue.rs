@@ -5,6 +5,7 @@
 //! | effect | columns (along the named axis) | nonlinear |
 //! |---|---|---|
 //! | backlash | −d/2 (d: sign of the axis's last travel), taken up over the first b of travel after a reversal (from +d/2) → lost motion b, µm | take-up θ = b (fixed point) |
+//! | backlash_growth | −d/2·(t − t̄)/3600 on the runs that move the axis, t the session time (s), once the axis's backlash is in the model → growth g, µm/h (`lost_motion_growth`) | — |
 //! | lost_motion_profile | −d·P_k(s)/2, k = 0..K, s the position on the measured travel → lost motion b(q), µm; k = 1..K alone (its varying part) once the axis's backlash is in the model; the order K chosen by the data (2 … 9) | — |
 //! | servo_lag | −v·10³ → lag τ, s | — |
 //! | reversal_spike | −d·exp(−s/λ) → height h, µm | decay λ, mm |
@@ -35,6 +36,8 @@ use super::phase_walk::PhaseWalk;
 use crate::axis::Axis;
 use std::f64::consts::PI;
 
+pub mod lost_motion_growth;
+
 /// One candidate: an effect on an axis/direction (or a head-offset group).
 #[derive(Debug, Clone, PartialEq)]
 pub struct Candidate {
@@ -51,6 +54,10 @@ pub struct Candidate {
     /// For step: the width w of its ramp, s (0: sharp, between two samples; a trial's,
     /// the width the data chose); 0 for every other effect.
     pub width_s: f64,
+    /// For backlash_growth: the axis's constant lost motion b̄ in the model (µm), the
+    /// play whose take-up the growth widens (`lost_motion_growth`); 0 for every other
+    /// effect.
+    pub lost_motion_um: f64,
 }
 
 impl Candidate {
@@ -153,11 +160,13 @@ pub fn candidates(d: &Design) -> Vec<Candidate> {
             _ => 0,
         },
         width_s: 0.0,
+        lost_motion_um: 0.0,
     };
     let mut out = Vec::new();
     for &a in &axes {
         for e in [
             "backlash",
+            lost_motion_growth::NAME,
             "lost_motion_profile",
             "lost_motion_variation",
             "servo_lag",
@@ -283,7 +292,8 @@ pub fn search(d: &Design, c: &Candidate) -> Search {
             "take_up_mm",
             (0..10).map(|i| 0.002 * 2f64.powi(i)).collect(),
         ),
-        "backlash" => Search::TakeUp("take_up_um"),
+        // A growth's take-up: θ = the fitted growth, the same fixed point.
+        "backlash" | "backlash_growth" => Search::TakeUp("take_up_um"),
         "vibration" => {
             let (span, nyq, run_len) = time_band(d);
             Search::Periodic {
@@ -349,7 +359,7 @@ impl<'a> Columns<'a> {
     }
 
     /// The columns follow axis `a`'s position and travel alone ([`Columns::follows`]).
-    fn following(self, a: Axis) -> Self {
+    pub(crate) fn following(self, a: Axis) -> Self {
         Columns {
             follows: Some(a),
             ..self
@@ -427,6 +437,7 @@ pub fn specs<'a>(
         | "lost_motion_variation"
         | "servo_lag"
         | "reversal_spike" => motion_columns(d, c, theta),
+        "backlash_growth" => lost_motion_growth::columns(d, c, theta),
         "cyclic" | "waviness" | "velocity_coupling" | "direction_coupling" | "step"
         | "vibration" => path_columns(d, c, theta),
         "thermal_drift"

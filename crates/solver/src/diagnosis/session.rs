@@ -119,6 +119,7 @@ impl SessionProblem<'_> {
         State {
             backlash,
             profiled,
+            grown: [false; 3],
             kept: Default::default(),
             prior: std::sync::Mutex::new(prior),
             thermal: Default::default(),
@@ -260,10 +261,19 @@ impl super::engine::Greedy for SessionProblem<'_> {
                     "lost_motion_profile" => s.backlash[a].is_none() && !s.profiled[a],
                     "lost_motion_variation" => s.backlash[a].is_some() && !s.profiled[a],
                     "backlash" => !s.profiled[a],
+                    // A growth in time of the axis's constant lost motion, once.
+                    "backlash_growth" => s.backlash[a].is_some() && !s.grown[a],
                     _ => true,
                 }
             })
-            .cloned()
+            .map(|c| match (c.effect, c.axis) {
+                // The growth widens the play of the axis's backlash in the model.
+                ("backlash_growth", Some(a)) => Candidate {
+                    lost_motion_um: s.backlash[a.index()].map_or(0.0, |b| b.0),
+                    ..c.clone()
+                },
+                _ => c.clone(),
+            })
             .collect()
     }
     fn label(&self, c: &Candidate) -> String {
@@ -290,6 +300,9 @@ impl super::engine::Greedy for SessionProblem<'_> {
                 .then(|| s.backlash[a.index()])
                 .flatten();
             params = trial::profile_parameters(t, sigma, d, a, constant);
+        }
+        if let ("backlash_growth", Some(a)) = (c.effect, c.axis) {
+            catalogue::lost_motion_growth::parameters(&mut params, d, a, s.backlash[a.index()]);
         }
         // A step's ramp: its width with σ (also the step time's, below).
         let width = self.ctx.step_width(s, t, sigma);
@@ -452,7 +465,7 @@ impl super::engine::Greedy for SessionProblem<'_> {
             }),
             other => other,
         };
-        let (mut backlash, mut profiled) = (s.backlash, s.profiled);
+        let (mut backlash, mut profiled, mut grown) = (s.backlash, s.profiled, s.grown);
         match (&note, c.effect, c.axis) {
             (Note::Finding(f), "backlash", Some(a)) => {
                 backlash[a.index()] = f.parameters.get("lost_motion_um").map(|&b| {
@@ -466,6 +479,7 @@ impl super::engine::Greedy for SessionProblem<'_> {
                 });
             }
             (Note::Finding(_), "lost_motion_profile", Some(a)) => profiled[a.index()] = true,
+            (Note::Finding(_), "backlash_growth", Some(a)) => grown[a.index()] = true,
             _ => {}
         }
         let k = s.k + t.ncols + t.extra_params;
@@ -474,11 +488,9 @@ impl super::engine::Greedy for SessionProblem<'_> {
         // So does the thermal searches' basis.
         let thermal = s.thermal.take().map(|b| (b, u_prev));
         drop(s);
-        (
-            self.state(nf, k, backlash, profiled, Some((kept, u_prev)), thermal),
-            (),
-            note,
-        )
+        let mut next = self.state(nf, k, backlash, profiled, Some((kept, u_prev)), thermal);
+        next.grown = grown;
+        (next, (), note)
     }
 }
 

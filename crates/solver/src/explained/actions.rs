@@ -126,6 +126,18 @@ pub fn action(p: &Physics) -> Action {
                 None,
             )
         }
+        "backlash_growth" => {
+            let (g, _) = p.get("growth_um_per_h").unwrap_or((f64::NAN, None));
+            let (b1, _) = p.get("lost_motion_end_um").unwrap_or((f64::NAN, None));
+            (
+                format!(
+                    "{ax}'s lost motion changes by {} µm/h during the session ({} µm at its end): a backlash compensation holds one value only; check the screw's and nut's preload and lubrication, and repeat the check warm",
+                    signed(g),
+                    signed(b1)
+                ),
+                None,
+            )
+        }
         "step" => {
             let (s, _) = p.get("size_um").unwrap_or((f64::NAN, None));
             let (t, _) = p.get("time_s").unwrap_or((f64::NAN, None));

@@ -13,8 +13,9 @@ use crate::session::Session;
 
 /// The effects of the catalogue a finding can be read back as (its `evidence` label's
 /// first word).
-const EFFECTS: [&str; 17] = [
+const EFFECTS: [&str; 18] = [
     "backlash",
+    "backlash_growth",
     "cyclic",
     "direction_coupling",
     "lost_motion_profile",
@@ -81,6 +82,7 @@ pub fn candidate_of(f: &Finding) -> Result<(Candidate, Theta), String> {
         group: None,
         order,
         width_s: if effect == "step" { width_s } else { 0.0 },
+        lost_motion_um: 0.0,
     };
     let theta_name = match effect {
         "reversal_spike" => Some("decay_mm"),

@@ -1,8 +1,9 @@
 //! The scorer: each claim of a diagnosis (a finding, a possible effect, a recurring misfit
 //! it says it cannot explain) is right when it names an effect that was put in, on its
 //! axis, under a name of the equivalence table, and FALSE otherwise; a truth effect no
-//! claim names is missed. Parameters of right claims are checked against the truth
-//! within 2σ where the mapping is clear.
+//! claim names is missed (a growing backlash is found only by a claim that it grows,
+//! [`finds`]). Parameters of right claims are checked against the truth within 2σ where
+//! the mapping is clear.
 
 use super::generator::Effect;
 use mtcal_solver::axis::Axis;
@@ -29,9 +30,16 @@ const fn on(effect: &'static str, axis: Axis) -> Name {
 /// The equivalence table: the names under which a truth effect counts as found.
 pub fn accepted(e: &Effect) -> Vec<Name> {
     match *e {
-        Effect::Backlash { axis, .. } | Effect::GrowingBacklash { axis, .. } => {
+        Effect::Backlash { axis, .. } => {
             vec![on("backlash", axis), on("lost_motion_profile", axis)]
         }
+        // Its constant part under the names of a play; a growth claimed of a constant
+        // play is FALSE.
+        Effect::GrowingBacklash { axis, .. } => vec![
+            on("backlash", axis),
+            on("lost_motion_profile", axis),
+            on("backlash_growth", axis),
+        ],
         Effect::ServoLag { axis, .. } => vec![on("servo_lag", axis)],
         Effect::Cyclic { axis, .. } => vec![on("cyclic", axis)],
         // A session's drift may be reported with no axis (its parameters name them).
@@ -57,6 +65,16 @@ pub fn accepted(e: &Effect) -> Vec<Name> {
             axis: None,
             depends_on: None,
         }],
+    }
+}
+
+/// Whether a right claim under `effect` finds truth effect `e`: a growing backlash only
+/// when the claim says it grows (its constant part alone, a `backlash`, is right but
+/// leaves the growth missed); any name of the table for every other effect.
+pub fn finds(e: &Effect, effect: &str) -> bool {
+    match e {
+        Effect::GrowingBacklash { .. } => effect == "backlash_growth",
+        _ => true,
     }
 }
 
@@ -90,6 +108,15 @@ pub fn truth_params(e: &Effect, effect: &str) -> Vec<(String, f64)> {
                 ("variation_um".into(), 0.0),
             ]
         }
+        (
+            Effect::GrowingBacklash {
+                from_um, per_h_um, ..
+            },
+            "backlash_growth",
+        ) => vec![
+            ("growth_um_per_h".into(), *per_h_um),
+            ("lost_motion_start_um".into(), *from_um),
+        ],
         (Effect::ServoLag { ms, .. }, "servo_lag") => vec![("lag_s".into(), ms * 1e-3)],
         (
             Effect::Cyclic {
@@ -260,7 +287,7 @@ fn classify(truth: &[Effect], f: &Finding, possible: bool, found: &mut [bool]) -
             params: Vec::new(),
         };
     };
-    found[i] = true;
+    found[i] |= finds(&truth[i], &f.effect);
     let params = truth_params(&truth[i], &f.effect)
         .into_iter()
         .filter_map(|(name, t)| {
@@ -320,6 +347,9 @@ pub fn explain(label: &str, truth: &[Effect]) -> String {
             format!("lost motion on {axis}, whose only effect is a servo lag (no play)")
         }
         "lost_motion_profile" | "backlash" => format!("lost motion on {axis}: no play there"),
+        "backlash_growth" => {
+            format!("a lost motion growing in time on {axis}: no play there grows")
+        }
         "step" => format!("a one-off step along {axis}: no event was put in"),
         "vibration" => format!("a vibration along {axis}: nothing periodic in time was put in"),
         "model_order" => {

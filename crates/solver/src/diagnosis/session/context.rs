@@ -141,6 +141,9 @@ pub(crate) struct State {
     /// Per axis: whether a whole position-dependent lost motion (constant part included)
     /// is in the model.
     pub profiled: [bool; 3],
+    /// Per axis: whether a growth of its lost motion in time (`backlash_growth`) is in
+    /// the model.
+    pub grown: [bool; 3],
     /// The candidates' moments formed on this model, kept for the next
     /// ([`Ctx::moments_kept`]).
     pub kept: std::sync::Mutex<Kept>,
@@ -515,6 +518,7 @@ mod tests {
             eps: None,
             backlash: [None; 3],
             profiled: [false; 3],
+            grown: [false; 3],
             kept: Default::default(),
             prior: std::sync::Mutex::new(prior),
             thermal: Default::default(),
@@ -561,6 +565,7 @@ mod tests {
             group: None,
             order: 0,
             width_s: 0.0,
+            lost_motion_um: 0.0,
         };
         let t_step = d.fields.t_s[(d.runs[2].start + d.runs[2].end) / 2];
         let grid = match catalogue::search(&d, &spike) {
