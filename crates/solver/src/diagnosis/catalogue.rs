@@ -20,6 +20,7 @@
 //! | velocity_coupling (signature) | v_a along a direction j ≠ a → coefficient, µm per mm/s | — |
 //! | direction_coupling (signature) | d_a/2 along a direction j ≠ a, taken up over the first θ of a's travel after its reversal → shift, µm | take-up θ, mm |
 //! | step (signature) | 1 from time t₀ on along direction j, or a ramp from 0 to 1 over a width w centred on t₀ → size, µm (local to the run holding t₀) | t₀, s; w, s |
+//! | transient (signature) | e^(−(t − t₀)/τ) from time t₀ on along direction j, 0 before → amplitude, µm (local to the run holding t₀; `transient`) | t₀, s; τ, s |
 //!
 //! The signature space: for each moving axis a, its direction of travel d_a, position
 //! (smooth and periodic), velocity v_a and travel since its last reversal, and the session
@@ -49,7 +50,8 @@ pub struct Candidate {
     /// trial's, the order the data chose); 0 for every other effect.
     pub order: usize,
     /// For step: the width w of its ramp, s (0: sharp, between two samples; a trial's,
-    /// the width the data chose); 0 for every other effect.
+    /// the width the data chose); for transient: its decay time τ, s; 0 for every other
+    /// effect.
     pub width_s: f64,
 }
 
@@ -68,7 +70,9 @@ impl Candidate {
         if self.order > 0 {
             s += &format!(" of order {}", self.order);
         }
-        if self.width_s > 0.0 {
+        if self.width_s > 0.0 && self.effect == "transient" {
+            s += &format!(" decaying over {:.3} s", self.width_s);
+        } else if self.width_s > 0.0 {
             s += &format!(" ramped over {:.2} s", self.width_s);
         }
         s
@@ -185,6 +189,8 @@ pub fn candidates(d: &Design) -> Vec<Candidate> {
         .filter(|j| d.plane_axes.iter().any(|(u, v)| u == j || v == j))
     {
         out.push(c("step", None, Some(dir), None));
+        // An offset that appears at once and recovers (a knock): one-off, in its run.
+        out.push(c("transient", None, Some(dir), None));
     }
     out.push(c("thermal_drift", None, None, None));
     // Logged temperatures: growth that follows the temperature, whatever its course.
@@ -277,7 +283,7 @@ pub fn search(d: &Design, c: &Candidate) -> Search {
             let n = ((0.25 * span).max(2.0).ln() / 1.5f64.ln()).ceil() as i32;
             Search::Grid("lag_s", (0..=n).map(|i| 1.5f64.powi(i)).collect())
         }
-        "step" => Search::Step,
+        "step" | "transient" => Search::Step,
         // A clearance across the axis taken up over its travel: 2 µm to 1 mm.
         "direction_coupling" => Search::Grid(
             "take_up_mm",
@@ -339,7 +345,7 @@ impl<'a> Columns<'a> {
     }
 
     /// The columns vary on run `g` alone ([`Columns::run`]).
-    fn on_run(self, g: Option<usize>) -> Self {
+    pub(crate) fn on_run(self, g: Option<usize>) -> Self {
         Columns { run: g, ..self }
     }
 
@@ -429,6 +435,7 @@ pub fn specs<'a>(
         | "reversal_spike" => motion_columns(d, c, theta),
         "cyclic" | "waviness" | "velocity_coupling" | "direction_coupling" | "step"
         | "vibration" => path_columns(d, c, theta),
+        "transient" => super::transient::columns(d, c, theta),
         "thermal_drift"
         | "thermal_temperature"
         | "thermal_temperature_lag"

@@ -143,6 +143,18 @@ impl SessionProblem<'_> {
         )
     }
 
+    /// A transient's signature in words with its place, as [`Self::step_place`].
+    fn transient_place(&self, t0: f64, dir: crate::axis::Axis) -> String {
+        let d = self.ctx.d;
+        let s = d.fields.t_s.partition_point(|&t| t < t0);
+        let s = s.min(d.fields.len() - 1);
+        format!(
+            "an offset of the {dir} reading from t = {t0:.2} s on that recovered (a knock, a collision, a chip under the plate): {}, at {}",
+            anomalies::run_name(d, d.fields.run(s)),
+            anomalies::position(d, s)
+        )
+    }
+
     fn heldout_rms(&self, f: &Fit) -> f64 {
         rms(f.heldout_ssr, self.ctx.sets.heldout_n)
     }
@@ -196,6 +208,7 @@ impl SessionProblem<'_> {
             physics: effects::physics(catalogue::reported_name(t.cand.effect)).into(),
             signature: match (t.cand.effect, t.theta, t.cand.direction) {
                 ("step", Some((_, th)), Some(dir)) => Some(self.step_place(th, dir)),
+                ("transient", Some((_, th)), Some(dir)) => Some(self.transient_place(th, dir)),
                 _ => catalogue::signature(&t.cand, t.theta.map(|x| x.1)),
             },
             undetermined: vec![],
@@ -338,6 +351,8 @@ impl super::engine::Greedy for SessionProblem<'_> {
                 trial::carry(&mut params, (t, sigma, d), &slope, sw, "width_s");
             }
         }
+        // A transient's decay and its onset within the run, carried into its amplitude.
+        self.ctx.transient_parameters(s, t, sigma, &mut params);
         if t.cand.effect.starts_with("thermal_temperature") {
             let forms = self.ctx.form_variance(s, t, sigma);
             for (name, v) in t.names.iter().zip(forms) {
