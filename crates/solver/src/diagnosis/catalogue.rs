@@ -345,7 +345,7 @@ impl<'a> Columns<'a> {
     }
 
     /// The columns vary on run `g` alone ([`Columns::run`]).
-    pub(crate) fn on_run(self, g: Option<usize>) -> Self {
+    fn on_run(self, g: Option<usize>) -> Self {
         Columns { run: g, ..self }
     }
 
@@ -435,7 +435,7 @@ pub fn specs<'a>(
         | "reversal_spike" => motion_columns(d, c, theta),
         "cyclic" | "waviness" | "velocity_coupling" | "direction_coupling" | "step"
         | "vibration" => path_columns(d, c, theta),
-        "transient" => super::transient::columns(d, c, theta),
+        "transient" => transient_columns(d, c, theta),
         "thermal_drift"
         | "thermal_temperature"
         | "thermal_temperature_lag"
@@ -602,6 +602,31 @@ fn path_columns<'a>(d: &'a Design, c: &Candidate, theta: f64) -> Columns<'a> {
         }
         _ => Columns::none(),
     }
+}
+
+/// The column of a transient at onset `t0` (session time, s; `super::transient`): along
+/// the candidate's direction, e^(−(t − t₀)/τ) from t₀ on (τ the candidate's `width_s`),
+/// 0 before and on every other run (exactly 0, not its tail: a held-out fold without the
+/// run would otherwise fit its amplitude to the tail's 10⁻⁴ on the next run); local to
+/// the run holding t₀.
+fn transient_columns<'a>(d: &'a Design, c: &Candidate, t0: f64) -> Columns<'a> {
+    let dir = c.direction.expect("direction");
+    let tau = c.width_s.max(1e-6);
+    let t = &d.fields.t_s;
+    let g = d.run_at_time(t0);
+    let rows = g.map_or(0..0, |g| d.runs[g].start..d.runs[g].end);
+    Columns::new(
+        vec!["amplitude_um".into()],
+        vec![Some(dir)],
+        move |s, _, o| {
+            o[0] = if rows.contains(&s) && t[s] >= t0 {
+                (-(t[s] - t0) / tau).exp()
+            } else {
+                0.0
+            }
+        },
+    )
+    .on_run(g)
 }
 
 /// The columns of thermal growth: in time, with the temperature, or through a lag of it.

@@ -133,23 +133,25 @@ impl SessionProblem<'_> {
     /// A step's signature in words with its place: direction, time, file, run, test and
     /// commanded position.
     fn step_place(&self, t0: f64, dir: crate::axis::Axis) -> String {
-        let d = self.ctx.d;
-        let s = d.fields.t_s.partition_point(|&t| t < t0);
-        let s = s.min(d.fields.len() - 1);
-        format!(
-            "a lasting offset of the {dir} reading from t = {t0:.2} s on: {}, at {}",
-            anomalies::run_name(d, d.fields.run(s)),
-            anomalies::position(d, s)
-        )
+        let what = format!("a lasting offset of the {dir} reading from t = {t0:.2} s on");
+        self.event_place(&what, t0)
     }
 
     /// A transient's signature in words with its place, as [`Self::step_place`].
     fn transient_place(&self, t0: f64, dir: crate::axis::Axis) -> String {
+        let what = format!(
+            "an offset of the {dir} reading from t = {t0:.2} s on that recovered (a knock, a collision, a chip under the plate)"
+        );
+        self.event_place(&what, t0)
+    }
+
+    /// `what` with the place of time `t0`: file, run, test and commanded position.
+    fn event_place(&self, what: &str, t0: f64) -> String {
         let d = self.ctx.d;
         let s = d.fields.t_s.partition_point(|&t| t < t0);
         let s = s.min(d.fields.len() - 1);
         format!(
-            "an offset of the {dir} reading from t = {t0:.2} s on that recovered (a knock, a collision, a chip under the plate): {}, at {}",
+            "{what}: {}, at {}",
             anomalies::run_name(d, d.fields.run(s)),
             anomalies::position(d, s)
         )

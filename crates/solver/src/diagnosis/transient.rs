@@ -1,7 +1,8 @@
-//! A transient: an offset of one direction's readings that appears at once and recovers,
-//! a·e^(−(t − t₀)/τ) from a time t₀ on, inside one run — a knock, a collision, a chip
-//! under the plate that worked free. One-off: the run holding t₀ is the only one where
-//! its column varies (later runs see nothing of it once it has decayed).
+//! A transient: an offset of one direction's readings that appears at once and
+//! recovers, a·e^(−(t − t₀)/τ) from a time t₀ on, inside one run — a knock, a collision,
+//! a chip under the plate that worked free. One-off: its column (`catalogue`,
+//! "transient") varies on the run holding t₀ alone (later runs see nothing of it once it
+//! has decayed).
 //!
 //! Its rivals: a lasting step (`step`: the offset stays, τ → ∞) and a burst of scatter
 //! (no decay from an onset; the local scan names it). The search
@@ -11,7 +12,6 @@
 //! (a decay the run does not see end) is a step's, not a transient's; a τ under
 //! [`DECAY_LEAST_INTERVALS`] sample intervals is an excursion's.
 
-use super::catalogue::{Candidate, Columns};
 use super::design::Design;
 
 /// The decay grid's ratio.
@@ -29,31 +29,6 @@ pub const DECAY_LEAST_INTERVALS: f64 = 2.0;
 /// The longest decay, as a fraction of the run's time after t₀: a longer one does not
 /// recover within the run and reads as a step.
 pub const DECAY_MOST_OF_RUN: f64 = 0.25;
-
-/// The column of a transient candidate at onset `t0` (session time, s): along the
-/// candidate's direction, e^(−(t − t₀)/τ) from t₀ on (τ the candidate's `width_s`), 0
-/// before and on every other run (exactly 0, not its tail: a held-out fold without the
-/// run would otherwise fit its amplitude to the tail's 10⁻⁴ on the next run); local to
-/// the run holding t₀.
-pub fn columns<'a>(d: &'a Design, c: &Candidate, t0: f64) -> Columns<'a> {
-    let dir = c.direction.expect("direction");
-    let tau = c.width_s.max(1e-6);
-    let t = &d.fields.t_s;
-    let g = d.run_at_time(t0);
-    let rows = g.map_or(0..0, |g| d.runs[g].start..d.runs[g].end);
-    Columns::new(
-        vec!["amplitude_um".into()],
-        vec![Some(dir)],
-        move |s, _, o| {
-            o[0] = if rows.contains(&s) && t[s] >= t0 {
-                (-(t[s] - t0) / tau).exp()
-            } else {
-                0.0
-            }
-        },
-    )
-    .on_run(g)
-}
 
 /// The mean sample interval of run `g` and the time from `t0` to its last sample.
 pub fn run_times(d: &Design, g: usize, t0: f64) -> (f64, f64) {

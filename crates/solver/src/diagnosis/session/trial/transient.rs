@@ -113,10 +113,8 @@ impl Ctx<'_> {
         params.insert("run_time_s".into(), t0 - d.fields.t_s[d.runs[g].start]);
         let sd_t0 = params.get("std_time_s").copied().unwrap_or(f64::INFINITY);
         params.insert("std_run_time_s".into(), sd_t0);
-        if sd_tau.is_finite() {
-            if let Some(slope) = self.width_slope(s, t) {
-                super::carry(params, (t, sigma, d), &slope, sd_tau, "decay_s");
-            }
+        if let Some(slope) = sd_tau.is_finite().then(|| self.width_slope(s, t)).flatten() {
+            super::carry(params, (t, sigma, d), &slope, sd_tau, "decay_s");
         }
         let a = params.get("amplitude_um").copied()?;
         if let Some(sd) = params.get_mut("std_amplitude_um") {
