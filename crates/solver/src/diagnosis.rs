@@ -408,6 +408,7 @@ pub(crate) mod search;
 pub mod session;
 pub mod temperature;
 pub mod thermal_search;
+pub mod transient;
 
 pub use session::{DiagnoseOptions, diagnose_session, diagnose_session_with_progress};
 

@@ -584,3 +584,40 @@ fn lags_on_two_axes_over_seeds() {
     assert!(wrong.is_empty(), "{}", wrong.join("\n"));
     assert!(within >= 44, "{within} of 48 lags within 2σ");
 }
+
+/// A knock is one event: the truth suite's `knock_y5` (5 µm along Y decaying over 0.4 s,
+/// once, inside run 14 of the XY file) is diagnosed as one `transient (Y)` and nothing
+/// else, its amplitude and decay within 2σ of the truth, its run and onset named, and
+/// its reason saying what it may be and that it recovered; nothing is left unexplained.
+#[test]
+fn a_knock_as_one_transient() {
+    let c = cases::all()
+        .into_iter()
+        .find(|c| c.name == "knock_y5")
+        .expect("knock_y5");
+    let r = diagnose_session(&generate(&c.setup), &DiagnoseOptions::default()).expect("diagnosis");
+    assert_eq!(r.findings.len(), 1, "{:#?}", r.findings);
+    assert!(r.possible.is_empty(), "{:#?}", r.possible);
+    let f = &r.findings[0];
+    assert_eq!(
+        (f.effect.as_str(), f.axis.as_deref()),
+        ("transient", Some("Y"))
+    );
+    let within = |name: &str, truth: f64| {
+        let (v, sd) = (f.parameters[name], f.parameters[&format!("std_{name}")]);
+        assert!(
+            (v - truth).abs() <= 2.0 * sd,
+            "{name} = {v} ± {sd}, truth {truth}"
+        );
+    };
+    within("amplitude_um", 5.0);
+    within("decay_s", 0.4);
+    // The knock is at 40 % of run 14's motion (a line pass of about 12 s, after a
+    // lead of 0.2 s): 4.95 s into the run.
+    let t_run = f.parameters["run_time_s"];
+    assert!((4.0..6.0).contains(&t_run), "run_time_s = {t_run}");
+    let sig = f.signature.as_deref().unwrap_or("");
+    assert!(sig.contains("run 14") && sig.contains("recovered"), "{sig}");
+    assert!(f.physics.contains("knock") && f.physics.contains("chip under the plate"));
+    assert_eq!(r.verdict, Verdict::Explained, "{:#?}", r.unexplained);
+}

@@ -21,6 +21,7 @@
 //! | velocity_coupling (signature) | v_a along a direction j ≠ a → coefficient, µm per mm/s | — |
 //! | direction_coupling (signature) | d_a/2 along a direction j ≠ a, taken up over the first θ of a's travel after its reversal → shift, µm | take-up θ, mm |
 //! | step (signature) | 1 from time t₀ on along direction j, or a ramp from 0 to 1 over a width w centred on t₀ → size, µm (local to the run holding t₀) | t₀, s; w, s |
+//! | transient (signature) | e^(−(t − t₀)/τ) from time t₀ on along direction j, 0 before → amplitude, µm (local to the run holding t₀; `transient`) | t₀, s; τ, s |
 //!
 //! The signature space: for each moving axis a, its direction of travel d_a, position
 //! (smooth and periodic), velocity v_a and travel since its last reversal, and the session
@@ -52,7 +53,8 @@ pub struct Candidate {
     /// trial's, the order the data chose); 0 for every other effect.
     pub order: usize,
     /// For step: the width w of its ramp, s (0: sharp, between two samples; a trial's,
-    /// the width the data chose); 0 for every other effect.
+    /// the width the data chose); for transient: its decay time τ, s; 0 for every other
+    /// effect.
     pub width_s: f64,
     /// For backlash_growth: the axis's constant lost motion b̄ in the model (µm), the
     /// play whose take-up the growth widens (`lost_motion_growth`); 0 for every other
@@ -75,7 +77,9 @@ impl Candidate {
         if self.order > 0 {
             s += &format!(" of order {}", self.order);
         }
-        if self.width_s > 0.0 {
+        if self.width_s > 0.0 && self.effect == "transient" {
+            s += &format!(" decaying over {:.3} s", self.width_s);
+        } else if self.width_s > 0.0 {
             s += &format!(" ramped over {:.2} s", self.width_s);
         }
         s
@@ -194,6 +198,8 @@ pub fn candidates(d: &Design) -> Vec<Candidate> {
         .filter(|j| d.plane_axes.iter().any(|(u, v)| u == j || v == j))
     {
         out.push(c("step", None, Some(dir), None));
+        // An offset that appears at once and recovers (a knock): one-off, in its run.
+        out.push(c("transient", None, Some(dir), None));
     }
     out.push(c("thermal_drift", None, None, None));
     // Logged temperatures: growth that follows the temperature, whatever its course.
@@ -286,7 +292,7 @@ pub fn search(d: &Design, c: &Candidate) -> Search {
             let n = ((0.25 * span).max(2.0).ln() / 1.5f64.ln()).ceil() as i32;
             Search::Grid("lag_s", (0..=n).map(|i| 1.5f64.powi(i)).collect())
         }
-        "step" => Search::Step,
+        "step" | "transient" => Search::Step,
         // A clearance across the axis taken up over its travel: 2 µm to 1 mm.
         "direction_coupling" => Search::Grid(
             "take_up_mm",
@@ -440,6 +446,7 @@ pub fn specs<'a>(
         "backlash_growth" => lost_motion_growth::columns(d, c, theta),
         "cyclic" | "waviness" | "velocity_coupling" | "direction_coupling" | "step"
         | "vibration" => path_columns(d, c, theta),
+        "transient" => transient_columns(d, c, theta),
         "thermal_drift"
         | "thermal_temperature"
         | "thermal_temperature_lag"
@@ -606,6 +613,31 @@ fn path_columns<'a>(d: &'a Design, c: &Candidate, theta: f64) -> Columns<'a> {
         }
         _ => Columns::none(),
     }
+}
+
+/// The column of a transient at onset `t0` (session time, s; `super::transient`): along
+/// the candidate's direction, e^(−(t − t₀)/τ) from t₀ on (τ the candidate's `width_s`),
+/// 0 before and on every other run (exactly 0, not its tail: a held-out fold without the
+/// run would otherwise fit its amplitude to the tail's 10⁻⁴ on the next run); local to
+/// the run holding t₀.
+fn transient_columns<'a>(d: &'a Design, c: &Candidate, t0: f64) -> Columns<'a> {
+    let dir = c.direction.expect("direction");
+    let tau = c.width_s.max(1e-6);
+    let t = &d.fields.t_s;
+    let g = d.run_at_time(t0);
+    let rows = g.map_or(0..0, |g| d.runs[g].start..d.runs[g].end);
+    Columns::new(
+        vec!["amplitude_um".into()],
+        vec![Some(dir)],
+        move |s, _, o| {
+            o[0] = if rows.contains(&s) && t[s] >= t0 {
+                (-(t[s] - t0) / tau).exp()
+            } else {
+                0.0
+            }
+        },
+    )
+    .on_run(g)
 }
 
 /// The columns of thermal growth: in time, with the temperature, or through a lag of it.

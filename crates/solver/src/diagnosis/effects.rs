@@ -418,6 +418,36 @@ pub const EFFECTS: &[EffectSpec] = &[
         decide: "a repeat of the run (a one-off event does not repeat)",
     },
     EffectSpec {
+        name: "transient",
+        physics: "an offset of one direction's readings that appears at once and recovers, decaying as a*exp(-(t - t0)/tau), inside one run: a knock, a collision, a chip under the plate that worked free; a one-off event, not a property of the machine's geometry (found by its signature, outside the named catalogue)",
+        params: &[
+            p(
+                "amplitude_um",
+                "um",
+                "a: the reading along the named direction is offset by +a at t0, decaying as a*exp(-(t - t0)/tau)",
+            ),
+            q(
+                "decay_s",
+                "s",
+                "tau: the time over which the offset falls to 1/e of a",
+            )
+            .decided_by("a higher sample rate (a decay within a few sample intervals reads as one or two readings off)"),
+            q(
+                "time_s",
+                "s",
+                "t0: session time of the onset, halfway between the last reading before it and the first after",
+            ),
+            q(
+                "run_time_s",
+                "s",
+                "t0 - the first reading's time of the run it happens in (named in the signature)",
+            ),
+        ],
+        principal: &["amplitude_um", "decay_s"],
+        any_of: false,
+        decide: "a repeat of the run (a one-off event does not repeat)",
+    },
+    EffectSpec {
         name: "setup_offset",
         physics: "the declared head offset of these files differs from the true one, so the Abbe arms of the angular errors are wrong",
         params: &[p(

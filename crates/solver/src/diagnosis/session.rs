@@ -134,11 +134,25 @@ impl SessionProblem<'_> {
     /// A step's signature in words with its place: direction, time, file, run, test and
     /// commanded position.
     fn step_place(&self, t0: f64, dir: crate::axis::Axis) -> String {
+        let what = format!("a lasting offset of the {dir} reading from t = {t0:.2} s on");
+        self.event_place(&what, t0)
+    }
+
+    /// A transient's signature in words with its place, as [`Self::step_place`].
+    fn transient_place(&self, t0: f64, dir: crate::axis::Axis) -> String {
+        let what = format!(
+            "an offset of the {dir} reading from t = {t0:.2} s on that recovered (a knock, a collision, a chip under the plate)"
+        );
+        self.event_place(&what, t0)
+    }
+
+    /// `what` with the place of time `t0`: file, run, test and commanded position.
+    fn event_place(&self, what: &str, t0: f64) -> String {
         let d = self.ctx.d;
         let s = d.fields.t_s.partition_point(|&t| t < t0);
         let s = s.min(d.fields.len() - 1);
         format!(
-            "a lasting offset of the {dir} reading from t = {t0:.2} s on: {}, at {}",
+            "{what}: {}, at {}",
             anomalies::run_name(d, d.fields.run(s)),
             anomalies::position(d, s)
         )
@@ -197,6 +211,7 @@ impl SessionProblem<'_> {
             physics: effects::physics(catalogue::reported_name(t.cand.effect)).into(),
             signature: match (t.cand.effect, t.theta, t.cand.direction) {
                 ("step", Some((_, th)), Some(dir)) => Some(self.step_place(th, dir)),
+                ("transient", Some((_, th)), Some(dir)) => Some(self.transient_place(th, dir)),
                 _ => catalogue::signature(&t.cand, t.theta.map(|x| x.1)),
             },
             undetermined: vec![],
@@ -351,6 +366,8 @@ impl super::engine::Greedy for SessionProblem<'_> {
                 trial::carry(&mut params, (t, sigma, d), &slope, sw, "width_s");
             }
         }
+        // A transient's decay and its onset within the run, carried into its amplitude.
+        self.ctx.transient_parameters(s, t, sigma, &mut params);
         if t.cand.effect.starts_with("thermal_temperature") {
             let forms = self.ctx.form_variance(s, t, sigma);
             for (name, v) in t.names.iter().zip(forms) {

@@ -149,6 +149,18 @@ pub fn action(p: &Physics) -> Action {
                 None,
             )
         }
+        "transient" => {
+            let (a, _) = p.get("amplitude_um").unwrap_or((f64::NAN, None));
+            let (tau, _) = p.get("decay_s").unwrap_or((f64::NAN, None));
+            let (t, _) = p.get("time_s").unwrap_or((f64::NAN, None));
+            (
+                format!(
+                    "transient of {} µm along {ax} at t = {t:.1} s that recovered over {tau:.2} s (a knock, a collision, a chip under the plate): check the plate's seat and the machine, and repeat the run",
+                    signed(a)
+                ),
+                None,
+            )
+        }
         "waviness" | "velocity_coupling" | "direction_coupling" => (
             format!(
                 "{}: check the guideways (gibs, preload, wear)",

@@ -13,7 +13,7 @@ use crate::session::Session;
 
 /// The effects of the catalogue a finding can be read back as (its `evidence` label's
 /// first word).
-const EFFECTS: [&str; 18] = [
+const EFFECTS: [&str; 19] = [
     "backlash",
     "backlash_growth",
     "cyclic",
@@ -29,6 +29,7 @@ const EFFECTS: [&str; 18] = [
     "thermal_temperature",
     "thermal_temperature_lag",
     "thermal_temperature_quadratic",
+    "transient",
     "velocity_coupling",
     "vibration",
     "waviness",
@@ -73,15 +74,23 @@ pub fn candidate_of(f: &Finding) -> Result<(Candidate, Theta), String> {
     let width_s = after("over")
         .and_then(|w| w.parse::<f64>().ok())
         .unwrap_or(0.0);
-    // A step's width is reported with more digits than its label's.
-    let width_s = value(f, "width_s").unwrap_or(width_s);
+    // A step's width and a transient's decay are reported with more digits than its
+    // label's.
+    let width_s = match effect {
+        "transient" => value(f, "decay_s").unwrap_or(width_s),
+        _ => value(f, "width_s").unwrap_or(width_s),
+    };
     let cand = Candidate {
         effect,
         axis,
         direction,
         group: None,
         order,
-        width_s: if effect == "step" { width_s } else { 0.0 },
+        width_s: if matches!(effect, "step" | "transient") {
+            width_s
+        } else {
+            0.0
+        },
         lost_motion_um: 0.0,
     };
     let theta_name = match effect {
@@ -89,7 +98,7 @@ pub fn candidate_of(f: &Finding) -> Result<(Candidate, Theta), String> {
         "thermal_drift" => Some("time_constant_s"),
         "cyclic" | "waviness" => Some("period_mm"),
         "thermal_temperature_lag" => Some("lag_s"),
-        "step" => Some("time_s"),
+        "step" | "transient" => Some("time_s"),
         "vibration" => Some("frequency_hz"),
         _ => None,
     };

@@ -58,7 +58,7 @@ pub fn accepted(e: &Effect) -> Vec<Name> {
         }],
         Effect::ReversalSpike { axis, .. } => vec![on("reversal_spike", axis)],
         // Or a local anomaly in its reading (see `score`).
-        Effect::Knock { axis, .. } => vec![on("step", axis)],
+        Effect::Knock { axis, .. } => vec![on("transient", axis), on("step", axis)],
         // No effect of today's catalogue is a plate's scale: the name a fix would add.
         Effect::PlateScale { .. } => vec![Name {
             effect: "plate_scale",
@@ -152,6 +152,19 @@ pub fn truth_params(e: &Effect, effect: &str) -> Vec<(String, f64)> {
         ) => vec![
             ("height_um".into(), *height_um),
             ("decay_mm".into(), *decay_mm),
+        ],
+        // A plain decay is the transient's form; a ringing one is not (no clear mapping).
+        (
+            Effect::Knock {
+                size_um,
+                decay_s,
+                ring_hz,
+                ..
+            },
+            "transient",
+        ) if *ring_hz == 0.0 => vec![
+            ("amplitude_um".into(), *size_um),
+            ("decay_s".into(), *decay_s),
         ],
         _ => Vec::new(),
     }
@@ -351,6 +364,7 @@ pub fn explain(label: &str, truth: &[Effect]) -> String {
             format!("a lost motion growing in time on {axis}: no play there grows")
         }
         "step" => format!("a one-off step along {axis}: no event was put in"),
+        "transient" => format!("a transient along {axis}: no knock was put in"),
         "vibration" => format!("a vibration along {axis}: nothing periodic in time was put in"),
         "model_order" => {
             format!("model order along {axis}: the geometry is within the rigid model")

@@ -17,6 +17,7 @@ mod frequency_scan;
 mod parameters;
 mod profile_likelihood;
 mod theta_search;
+mod transient;
 mod uncertainty;
 
 pub(crate) use form_test::FormTest;
@@ -62,6 +63,7 @@ impl Ctx<'_> {
             "thermal_temperature" => self.try_temperature_forms(s, cand),
             "lost_motion_profile" | "lost_motion_variation" => self.try_profile_orders(s, cand),
             "step" => self.try_step(s, cand),
+            "transient" => self.try_transient(s, cand),
             _ => self.try_one(s, cand),
         }
     }

@@ -97,6 +97,10 @@ fn finding_advice(effect: &str) -> &'static str {
         "thermal_drift" => "warm the machine up before a check, or compensate its thermal drift",
         "vibration" => "find and isolate the source of the vibration",
         "step" => "check the fixing of the plate and of the head, then repeat the check",
+        "transient" => {
+            "a one-off knock that recovered: check the plate's seat for chips and the \
+             machine for a collision, then repeat the run"
+        }
         "setup_offset" => "check the declared head offsets of the plane files",
         "model_order" => "identify with a higher polynomial order",
         _ => "check the guideways (gibs, preload) along the axis found",

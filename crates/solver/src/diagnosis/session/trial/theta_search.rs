@@ -276,7 +276,7 @@ impl Ctx<'_> {
     /// run, as (run, index of the first sample after it within the run), when it is an
     /// anomaly by the local scan's rule ([`local_scan`]: its p-value below the
     /// family-wise threshold of a scan of the whole session).
-    fn most_significant_step(&self, r: &[f64], dir: Axis) -> Option<(usize, usize)> {
+    pub(super) fn most_significant_step(&self, r: &[f64], dir: Axis) -> Option<(usize, usize)> {
         let thr = anomalies::thresholds(self.d)[0];
         // The first of the least ln p, as `Iterator::min_by` takes it.
         let mut best: Option<(usize, local_scan::Anomaly)> = None;

@@ -295,7 +295,7 @@ impl Ctx<'_> {
         let ts = &d.fields.t_s;
         let k = start + ts[start..end].partition_point(|&x| x < th);
         let dt = ts[k.min(end - 1)] - ts[k.saturating_sub(1).max(start)];
-        if t.cand.width_s > 0.0 {
+        if t.cand.effect == "step" && t.cand.width_s > 0.0 {
             // A ramp's time is continuous: its 2σ interval searched from a fiftieth of an
             // interval up to 20 intervals either side.
             let thr = t.ssr + 4.0 * sigma * sigma;
