@@ -55,7 +55,8 @@ async fn stored_once(a: Arc<dyn Store>, b: Arc<dyn Store>) {
     let list = a.list_results("M1", "identification").await.unwrap();
     let mut ids: Vec<_> = list.iter().map(|r| r.id.as_str()).collect();
     let mut want = [original.id.as_str(), first.id.as_str()];
-    (ids.sort(), want.sort());
+    ids.sort();
+    want.sort();
     assert_eq!(ids, want);
 
     // At the same moment, for each of several checks: one of the two is stored.
