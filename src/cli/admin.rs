@@ -141,16 +141,16 @@ async fn open(db: &str, create: bool) -> anyhow::Result<Arc<dyn Store>> {
 
 /// Appends a change made by this command to the audit trail (docs/audit.md), as the
 /// API's routes do: the actor `cli`, named by the OS user running it, through `cli`, no
-/// client address. A change whose record is the same before and after is no event. When
-/// the event cannot be written the command fails although the change was made.
-async fn audit(
+/// client address. `target` is the changed record's id, `machine` the machine it
+/// concerns. A change whose record is the same before and after is no event. When the
+/// event cannot be written the command fails although the change was made.
+async fn audit<T: serde::Serialize>(
     store: &dyn Store,
-    action: &str,
-    target: &str,
-    before: Option<&ApiKey>,
-    after: &ApiKey,
+    (action, target, machine): (&str, &str, Option<&str>),
+    before: Option<&T>,
+    after: &T,
 ) -> anyhow::Result<()> {
-    let json = |k: &ApiKey| serde_json::to_value(k).ok();
+    let json = |k: &T| serde_json::to_value(k).ok();
     let (before, after) = (before.and_then(json), json(after));
     if before.is_some() && before == after {
         return Ok(());
@@ -164,7 +164,7 @@ async fn audit(
         via: "cli".into(),
         action: action.into(),
         target: target.into(),
-        machine_id: None,
+        machine_id: machine.map(str::to_string),
         before,
         after,
         client: None,
@@ -225,7 +225,8 @@ pub fn run(args: Args) -> anyhow::Result<ExitCode> {
             let (key, secret) = rt.block_on(async {
                 let store = open(&db.db, create).await?;
                 let (key, secret) = store.create_key_in(scope, &label, &sites, &tags).await?;
-                audit(store.as_ref(), "key.create", &key.id, None, &key).await?;
+                let what = ("key.create", key.id.as_str(), None);
+                audit(store.as_ref(), what, None, &key).await?;
                 anyhow::Ok((key, secret))
             })?;
             super::out::noteln!(
@@ -260,9 +261,12 @@ pub fn run(args: Args) -> anyhow::Result<ExitCode> {
             };
             let m = rt.block_on(async {
                 let store = open(&db.db, false).await?;
-                mtcal_domain::machines::create(store.as_ref(), m)
+                let m = mtcal_domain::machines::create(store.as_ref(), m)
                     .await
-                    .map_err(refused)
+                    .map_err(refused)?;
+                let what = ("machine.create", m.id.as_str(), Some(m.id.as_str()));
+                audit(store.as_ref(), what, None, &m).await?;
+                anyhow::Ok(m)
             })?;
             super::out::noteln!("registered machine {} ({})", m.id, m.name);
         }
@@ -292,6 +296,10 @@ pub fn run(args: Args) -> anyhow::Result<ExitCode> {
                 let profile = mtcal_domain::profiles::create(store.as_ref(), &p, &policy)
                     .await
                     .map_err(refused)?;
+                let seen = mtcal_domain::profiles::audited(&profile);
+                let machine = mtcal_domain::profiles::machine_of(&profile);
+                let what = ("profile.create", profile.id.as_str(), machine);
+                audit(store.as_ref(), what, None, &seen).await?;
                 let n = mtcal_domain::fleet::refresh_profile_targets(
                     store.as_ref(),
                     &profile.scope,
@@ -322,7 +330,8 @@ pub fn run(args: Args) -> anyhow::Result<ExitCode> {
                     }
                     other => other?,
                 };
-                audit(store.as_ref(), "key.revoke", &key.id, before.as_ref(), &key).await?;
+                let what = ("key.revoke", key.id.as_str(), None);
+                audit(store.as_ref(), what, before.as_ref(), &key).await?;
                 anyhow::Ok(key)
             })?;
             super::out::noteln!(

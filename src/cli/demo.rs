@@ -245,6 +245,7 @@ fn serve_args(db_url: String, listen: SocketAddr) -> super::serve::Args {
             db_pool: None,
             db_timeout_ms: 3000,
             webhook_allow: Default::default(),
+            metrics_token: None,
             concurrency: 2,
             lease_ms: 30_000,
             max_attempts: 3,

@@ -30,6 +30,10 @@ pub struct WorkerArgs {
     #[arg(long, env = "MTCAL_WEBHOOK_ALLOW", default_value = "",
           value_parser = mtcal_server::WebhookPolicy::with_allow_list)]
     pub webhook_allow: mtcal_server::WebhookPolicy,
+    /// The token a scraper of `/metrics` sends (`Authorization: Bearer …`) instead of an
+    /// admin key of the whole group; without it, admin keys only (docs/api.md).
+    #[arg(long, env = "MTCAL_METRICS_TOKEN", hide_env_values = true)]
+    pub metrics_token: Option<String>,
     /// Jobs run at the same time.
     #[arg(long, default_value_t = 2)]
     pub concurrency: usize,
@@ -107,6 +111,7 @@ impl WorkerArgs {
                     },
                     None => Default::default(),
                 },
+                metrics_token: self.metrics_token.clone().filter(|t| !t.trim().is_empty()),
                 ..mtcal_server::Settings::default()
             },
             ..WorkerConfig::default()
@@ -241,6 +246,7 @@ pub fn run_worker(cmd: WorkerCmd) -> anyhow::Result<ExitCode> {
                 ));
                 Some(tokio::spawn(mtcal_server::serve_probes(
                     store,
+                    args.config().settings,
                     listener,
                     async move {
                         let _ = probes_stopped.await;

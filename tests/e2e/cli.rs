@@ -283,6 +283,34 @@ async fn admin_creates_machines_and_profiles_with_the_apis_rules() {
     assert_eq!(profiles.len(), 1, "the refused profiles stored nothing");
     assert_eq!(profiles[0].id, id.trim());
     assert_eq!(profiles[0].limits["squareness"]["EC0Y"], 30.0);
+    // Both are in the audit trail as the API's routes record them, through `cli`; the
+    // refused ones recorded nothing (after the key's own event).
+    let q = mtcal_store::AuditQuery {
+        limit: 100,
+        ..Default::default()
+    };
+    let events = store.list_audit(&q).await.unwrap();
+    let got: Vec<_> = events
+        .iter()
+        .map(|e| (e.event.action.as_str(), e.event.target.as_str()))
+        .collect();
+    let want = [
+        ("profile.create", id.trim()),
+        ("machine.create", "VMC-1"),
+        ("key.create", events[2].event.target.as_str()),
+    ];
+    assert_eq!(got, want, "newest first");
+    let (profile, machine) = (&events[0].event, &events[1].event);
+    for x in [profile, machine] {
+        assert_eq!((x.actor.as_str(), x.via.as_str()), ("cli", "cli"));
+        assert!(x.before.is_none() && x.client.is_none(), "{x:?}");
+    }
+    assert_eq!(machine.machine_id.as_deref(), Some("VMC-1"));
+    assert_eq!(machine.after, Some(serde_json::to_value(&m).unwrap()));
+    assert_eq!(profile.machine_id, None, "a tag's profile");
+    let after = profile.after.as_ref().unwrap();
+    assert_eq!(after["target"], "vmc");
+    assert_eq!(after["limits"]["squareness"]["EC0Y"], 30.0);
 }
 
 /// The command lines of the deployment examples (`deploy/`) are ones `mtcal` accepts:

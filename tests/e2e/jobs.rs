@@ -46,7 +46,10 @@ async fn sensitivity_job_gives_the_library_result() {
     let id = app.client.submit(&j).await.unwrap().id;
     app.wait(&id, JobState::Succeeded).await;
     // The worker recorded the job's run and queue wait in the process's metrics.
-    let metrics = reqwest::get(format!("{}/metrics", app.url))
+    let metrics = reqwest::Client::new()
+        .get(format!("{}/metrics", app.url))
+        .bearer_auth(&app.admin_key)
+        .send()
         .await
         .unwrap()
         .text()

@@ -218,7 +218,11 @@ async fn a_worker_stopped_by_sigterm_hands_its_job_back_and_the_next_worker_clai
         (JobState::Queued, 0),
         "{back:?}"
     );
-    let second = Worker::start(&db, &["--metrics-listen", "127.0.0.1:0"]);
+    let token = "worker-metrics-token-0123456789";
+    let second = Worker::start(
+        &db,
+        &["--metrics-listen", "127.0.0.1:0", "--metrics-token", token],
+    );
     let done = wait(&c, &job, JobState::Succeeded).await;
     assert_eq!(done.attempts, 1, "{done:?}");
     assert_eq!(store.row_counts().await.unwrap().results, 1);
@@ -231,7 +235,10 @@ async fn a_worker_stopped_by_sigterm_hands_its_job_back_and_the_next_worker_clai
     ];
     let mut metrics = String::new();
     for _ in 0..100 {
-        metrics = reqwest::get(second.1.clone().expect("metrics URL"))
+        metrics = reqwest::Client::new()
+            .get(second.1.clone().expect("metrics URL"))
+            .bearer_auth(token)
+            .send()
             .await
             .unwrap()
             .text()
@@ -245,6 +252,9 @@ async fn a_worker_stopped_by_sigterm_hands_its_job_back_and_the_next_worker_clai
     for w in wanted {
         assert!(metrics.contains(w), "{w} not in {metrics}");
     }
+    // Without the token (or an admin key of the whole group): 401, no metrics.
+    let bare = reqwest::get(second.1.clone().unwrap()).await.unwrap();
+    assert_eq!(bare.status(), 401);
     // The API process also stops cleanly on SIGTERM.
     let status = terminate(&mut api.child);
     assert!(status.success(), "serve exit after SIGTERM: {status}");

@@ -71,6 +71,20 @@ pub fn seen_by(mut p: Profile, scope: mtcal_store::Scope) -> Profile {
     p
 }
 
+/// The profile as the audit trail keeps it (the API's and `mtcal admin`'s events): its
+/// webhook as a read key sees it (the host, not a token in its query), never its signing
+/// secret.
+pub fn audited(p: &Profile) -> Profile {
+    let mut p = seen_by(p.clone(), mtcal_store::Scope::Read);
+    p.webhook_secret = None;
+    p
+}
+
+/// The machine a profile's change concerns (a machine profile's target), if any.
+pub fn machine_of(p: &Profile) -> Option<&str> {
+    (p.scope == "machine").then_some(p.target.as_str())
+}
+
 /// A new tolerance profile.
 #[derive(Debug, Clone, Deserialize)]
 #[cfg_attr(feature = "openapi", derive(utoipa::ToSchema))]

@@ -134,9 +134,9 @@ pub fn router(state: AppState) -> Router {
         .layer(axum::middleware::from_fn(edge::guard))
 }
 
-/// The routes without a key for load balancers, orchestrators and Prometheus:
-/// `/health`, `/ready`, `/metrics` (served by `mtcal serve` on its address and by
-/// `mtcal worker --metrics-listen`).
+/// The routes for load balancers, orchestrators and Prometheus: `/health`, `/ready`
+/// (no key) and `/metrics` (the metrics token or an admin key of the whole group), served
+/// by `mtcal serve` on its address and by `mtcal worker --metrics-listen`.
 fn probes() -> Router<AppState> {
     Router::new()
         .route("/health", get(api::health))
@@ -144,9 +144,11 @@ fn probes() -> Router<AppState> {
         .route("/metrics", get(metrics::serve_metrics))
 }
 
-/// Serves [`probes`] for a worker-only process on `listener` until `stop` resolves.
+/// Serves [`probes`] for a worker-only process on `listener` until `stop` resolves
+/// (`settings`: the metrics token).
 pub async fn serve_probes(
     store: Arc<dyn mtcal_store::Store>,
+    settings: crate::Settings,
     listener: tokio::net::TcpListener,
     stop: impl std::future::Future<Output = ()> + Send + 'static,
 ) -> std::io::Result<()> {
@@ -157,7 +159,7 @@ pub async fn serve_probes(
             limits: UploadLimits::default(),
             max_attempts: 1,
             wake: Arc::new(tokio::sync::Notify::new()),
-            settings: Arc::default(),
+            settings: Arc::new(settings),
             database: Arc::default(),
             uploads: Default::default(),
         });

@@ -13,7 +13,7 @@
 //! | then | what follows any landed check ([`mtcal_domain::landing::result_landed`]): fleet row, drift alerts |
 //!
 //! | after a crash | at start, [`catch_up`] runs the landing of every stored session diagnosis whose check is still a misfit without its explained model, and finishes an exclusion a crash left undone |
-//! | once | the landings of one process run one at a time, and each does nothing when the check's explained model is stored; after its fit a landing looks again and stores nothing when another process stored it meanwhile (the moment between that look and the store is not locked across processes) |
+//! | once | the landings of one process run one at a time, and each does nothing when the check's explained model is stored; across processes the store claims the check ([`Store::import_explained`], a unique index on the check an explained model explains): of two landings storing one at the same moment, the second stores nothing and is no error |
 //!
 //! An `explained` diagnosis whose model leaves the residual at noise level gives a check
 //! decided on the explained model; a `partly_explained` one (or a residual still above
@@ -132,23 +132,19 @@ async fn land(
         .map(|r| r.model_check().decided_on_explained_model())
         .unwrap_or(false);
     // Another process (a worker of its own, or one that started) may have stored it
-    // during the fit: the original is then no longer the latest check of the session.
-    let now = store.list_results(&machine_id, IDENTIFICATION).await?;
-    let latest = latest_of_dataset(&now, &dataset_id);
-    if latest.map(|m| m.id.as_str()) != Some(original_id.as_str()) {
+    // during the fit, or store it now: the store's claim on the original stores one.
+    let explained = NewResult {
+        machine_id: machine_id.clone(),
+        dataset_id: Some(dataset_id),
+        kind: IDENTIFICATION.to_string(),
+        measured_at: out.measured_at,
+        document: out.document,
+        scalars: out.scalars,
+        figures: out.figures,
+    };
+    let Some(meta) = store.import_explained(&original_id, explained).await? else {
         return Ok(None);
-    }
-    let meta = store
-        .import_result(NewResult {
-            machine_id: machine_id.clone(),
-            dataset_id: Some(dataset_id),
-            kind: IDENTIFICATION.to_string(),
-            measured_at: out.measured_at,
-            document: out.document,
-            scalars: out.scalars,
-            figures: out.figures,
-        })
-        .await?;
+    };
     set_aside(
         store,
         &machine_id,

@@ -6,8 +6,8 @@
 //!
 //! Limits: every route has a body-size limit (1 MiB; uploads [`ingest::UploadLimits`],
 //! 256 MiB by default) and a time limit (30 s; uploads [`Settings::upload_slot_time`], 120 s by default). Every route but `/health`,
-//! `/ready`, `/metrics` ([`metrics`]) and the documentation needs an API key (see
-//! [`auth`]).
+//! `/ready` and the documentation needs an API key (see [`auth`]); `/metrics` one of
+//! admin scope of the whole group ([`metrics`]).
 #![deny(clippy::print_stdout, clippy::print_stderr)]
 
 pub mod api;

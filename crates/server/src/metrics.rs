@@ -1,6 +1,10 @@
 //! Prometheus metrics of one process, served at `GET /metrics` (text exposition format
-//! of OpenMetrics, no key: counts and durations only, never a machine id or a secret;
-//! restrict it by network like the health probes).
+//! of OpenMetrics: counts and durations only, never a machine id or a secret). The counts
+//! are the whole group's (every site's jobs and requests), so the route needs the
+//! process's metrics token (`MTCAL_METRICS_TOKEN`, read without the database: the
+//! metrics answer during an outage) or an `admin` key of the whole group (docs/sites.md);
+//! a key of sites or tags, or a lower role, gets 403, nothing or a wrong token 401. A
+//! scraper sends either as `Authorization: Bearer …`.
 //!
 //! - `mtcal_http_requests_total{method, route, status}` and
 //!   `mtcal_http_request_duration_seconds{method, route}`: every request that matched a
@@ -16,6 +20,7 @@
 //! - `mtcal_database_up` (1 or 0) and `mtcal_database_unavailable_total` (requests
 //!   answered 503 because the database could not be reached), kept by the outage guard.
 
+use crate::error::ApiError;
 use axum::extract::{MatchedPath, Request, State};
 use axum::http::header;
 use axum::middleware::Next;
@@ -245,7 +250,11 @@ pub async fn reading_upload(req: Request, next: Next) -> Response {
 /// `GET /metrics`: the job gauges refreshed from the store, then every metric. When the
 /// store does not answer, the gauges keep their last values (the HTTP and job metrics
 /// are this process's own and still valid).
-pub async fn serve_metrics(State(s): State<crate::AppState>) -> Response {
+pub async fn serve_metrics(
+    State(s): State<crate::AppState>,
+    headers: header::HeaderMap,
+) -> Result<Response, ApiError> {
+    may_read(&s, &headers).await?;
     let m = metrics();
     match tokio::time::timeout(std::time::Duration::from_secs(3), s.store.job_counts()).await {
         Ok(Ok(counts)) => {
@@ -255,14 +264,41 @@ pub async fn serve_metrics(State(s): State<crate::AppState>) -> Response {
         Ok(Err(mtcal_store::StoreError::Unavailable(_))) | Err(_) => s.database.mark_down(),
         Ok(Err(_)) => {}
     }
-    (
+    Ok((
         [(
             header::CONTENT_TYPE,
             "application/openmetrics-text; version=1.0.0; charset=utf-8",
         )],
         m.encode(),
     )
-        .into_response()
+        .into_response())
+}
+
+/// Whether a request may read `/metrics` (module docs): the metrics token, compared by
+/// its SHA-256, else an admin key of the whole group.
+async fn may_read(s: &crate::AppState, headers: &header::HeaderMap) -> Result<(), ApiError> {
+    let sent = crate::auth::presented(headers);
+    if let (Some(token), Some(sent)) = (&s.settings.metrics_token, sent) {
+        let hash = mtcal_store::keys::hash_secret;
+        if hash(token) == hash(sent) {
+            return Ok(());
+        }
+    }
+    let key = crate::auth::key_of(s, headers).await?;
+    if !key.scope.allows(mtcal_store::Scope::Admin) || !key.is_group() {
+        return Err(ApiError::Forbidden(format!(
+            "/metrics counts the whole group's jobs and requests: it needs the metrics token \
+             or an admin key of the whole group; key {} has scope {}{}",
+            key.prefix,
+            key.scope.as_str(),
+            if key.is_group() {
+                ""
+            } else {
+                " and is limited to sites or tags"
+            }
+        )));
+    }
+    Ok(())
 }
 
 /// Seconds between two RFC 3339 times (`None` if either does not parse).

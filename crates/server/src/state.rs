@@ -26,6 +26,10 @@ pub struct Settings {
     pub webhooks: mtcal_domain::webhooks::TargetPolicy,
     /// How the workers try webhook deliveries (mtcal_domain::webhooks::Retries).
     pub webhook_retries: mtcal_domain::webhooks::Retries,
+    /// The token a scraper of `/metrics` sends instead of an admin key of the whole group
+    /// (`MTCAL_METRICS_TOKEN`; crate::metrics): read without the database, so the
+    /// metrics answer during an outage too. `None`: admin keys only.
+    pub metrics_token: Option<String>,
 }
 
 impl Settings {
@@ -48,6 +52,7 @@ impl Default for Settings {
             upload_slot_time: Self::UPLOAD_SLOT_TIME,
             webhooks: Default::default(),
             webhook_retries: Default::default(),
+            metrics_token: None,
         }
     }
 }

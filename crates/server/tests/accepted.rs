@@ -1,11 +1,13 @@
 //! Nothing stored that cannot be read back: seeded uploads, valid but extreme (every
 //! number of `session.json` and CSV cells at, just inside and just beyond the bounds of
 //! `docs/datasets.md`; few and many samples; positioning runs over the whole travel),
-//! are sent through the API: 14 cases with every value within the bounds, which must be
-//! accepted, and one case per field with that field beyond its bound, which must be
-//! refused (4xx) and store nothing. Each accepted upload is
-//! run through every job kind that applies to it (identify, diagnose, standards; one
-//! sensitivity per backend; cradle needs a rotary point set, which these are not) by a
+//! cradle (5-axis A/C) point sets with their sidecar, angles and ball positions at and
+//! near their bounds; drift logs with times, speeds and displacements at and near theirs)
+//! are sent through the API: 14 session and positioning cases and 6 of each of cradle and
+//! drift log with every value within the bounds, which must be accepted, and one case per
+//! field with that field beyond its bound, which must be refused (4xx) and store nothing.
+//! Each accepted upload is run through every job kind that applies to it (identify,
+//! diagnose, standards; cradle for a point set; one sensitivity per backend) by a
 //! worker of this process, and then every GET route of the API (from the OpenAPI
 //! document) and every page of the dashboard is read with its machine, dataset, results
 //! and jobs, each export format too: no answer may be a 5xx, and no job may fail other
@@ -30,10 +32,47 @@ use std::time::{Duration, Instant};
 /// Cases within the bounds per backend; their seeds are `FIRST_SEED..FIRST_SEED + CASES`.
 const CASES: u64 = 14;
 const FIRST_SEED: u64 = 4100;
-/// Then one case beyond the bounds per field ([`SESSION_FIELDS`], then
-/// [`POSITIONING_FIELDS`]), of seeds from `OVER_SEED` on.
+/// Then one case beyond the bounds per field ([`SESSION_FIELDS`], [`POSITIONING_FIELDS`],
+/// [`CRADLE_FIELDS`], [`DRIFT_FIELDS`]), of seeds from `OVER_SEED` on.
 const OVER_SEED: u64 = 4200;
 const POSITIONING_FIELDS: [&str; 2] = ["range_mm", "deviation_um_cell"];
+/// Cradle and drift-log cases within the bounds per backend, of seeds from `CRADLE_SEED`
+/// and `DRIFT_SEED` on.
+const MORE_CASES: u64 = 6;
+const CRADLE_SEED: u64 = 4300;
+const DRIFT_SEED: u64 = 4400;
+const CRADLE_FIELDS: [&str; 2] = ["angle_cell", "position_cell"];
+const DRIFT_FIELDS: [&str; 2] = ["time_cell", "value_cell"];
+
+/// What an upload is: which generator makes it, and the job kinds run on it.
+#[derive(Debug, Clone, Copy, PartialEq)]
+enum Kind {
+    Session,
+    Positioning,
+    Cradle,
+    Drift,
+}
+
+impl Kind {
+    fn jobs(self) -> &'static [&'static str] {
+        match self {
+            Kind::Session => &["identify", "diagnose", "standards"],
+            Kind::Positioning => &["diagnose", "standards"],
+            Kind::Cradle => &["cradle"],
+            Kind::Drift => &["diagnose"],
+        }
+    }
+
+    /// The fields a case of this kind may push beyond their bounds.
+    fn fields(self) -> &'static [&'static str] {
+        match self {
+            Kind::Session => &SESSION_FIELDS,
+            Kind::Positioning => &POSITIONING_FIELDS,
+            Kind::Cradle => &CRADLE_FIELDS,
+            Kind::Drift => &DRIFT_FIELDS,
+        }
+    }
+}
 /// Upload limit of the app under test (the simulated sessions are a few hundred KB).
 const MAX_UPLOAD: usize = 64 << 20;
 const EXPORT_FORMATS: [&str; 5] = ["csv", "isg", "linuxcnc", "etalon", "heidenhain"];
@@ -44,7 +83,7 @@ type Files = Vec<(String, Vec<u8>)>;
 struct Upload {
     what: Vec<String>,
     files: Files,
-    session: bool,
+    kind: Kind,
     /// The field drawn beyond its bounds: the upload must be refused (else accepted).
     over: Option<&'static str>,
 }
@@ -189,17 +228,23 @@ fn session_upload(seed: u64, machine: &str, over: Option<&'static str>) -> Uploa
     Upload {
         what: p.what,
         files,
-        session: true,
+        kind: Kind::Session,
         over: p.over,
     }
 }
 
 /// `csv` with the cell of `column` on a random data line set to `value`.
 fn set_cell(csv: &[u8], column: &str, rng: &mut StdRng, value: &str) -> Vec<u8> {
+    let lines = String::from_utf8_lossy(csv).lines().count();
+    let line = rng.random_range(1..lines);
+    set_cell_at(csv, column, line, value)
+}
+
+/// `csv` with the cell of `column` on line `line` (0 the header) set to `value`.
+fn set_cell_at(csv: &[u8], column: &str, line: usize, value: &str) -> Vec<u8> {
     let text = String::from_utf8(csv.to_vec()).unwrap();
     let mut lines: Vec<String> = text.lines().map(str::to_string).collect();
     let col = lines[0].split(',').position(|c| c == column).unwrap();
-    let line = rng.random_range(1..lines.len());
     let mut cells: Vec<String> = lines[line].split(',').map(str::to_string).collect();
     cells[col] = value.into();
     lines[line] = cells.join(",");
@@ -247,7 +292,119 @@ fn positioning_upload(seed: u64, over: Option<&'static str>) -> Upload {
     Upload {
         what: p.what,
         files: vec![("positioning.csv".into(), csv)],
-        session: false,
+        kind: Kind::Positioning,
+        over: p.over,
+    }
+}
+
+/// A simulated cradle check (A carrying C, `docs/datasets.md` §2) of `machine` with its
+/// sidecar: poses few and many, C turned near the angle bound (±36 000°), the ball near
+/// the position bound (±100 000 mm), tracker noise up to 0.5 mm, a cell at or beyond.
+fn cradle_upload(seed: u64, machine: &str, over: Option<&'static str>) -> Upload {
+    use mtcal_solver::cradle::simulate::{CradleSimulation, Deflection, simulate_cradle};
+    let mut p = Picker::new(seed, over);
+    let deflection = p.pick(
+        "deflection",
+        &[Deflection::Rigid, Deflection::Pivot, Deflection::Mount],
+        &[],
+    );
+    let mut sim = CradleSimulation::example_with(deflection, seed);
+    let a_step = p.pick("a_step_deg", &[15.0, 30.0, 45.0], &[]);
+    let steps = (90.0 / a_step) as i32;
+    sim.a_deg = (-steps..=steps).map(|k| a_step * f64::from(k)).collect();
+    let turns = p.pick("c_turns", &[0.0, 99.0, -99.0], &[]);
+    sim.c_deg = (0..18)
+        .map(|k| 360.0 * turns + 20.0 * f64::from(k) * if turns < 0.0 { -1.0 } else { 1.0 })
+        .collect();
+    let pivot = p.pick(
+        "pivot_mm",
+        &[
+            [0.0, 0.0, 0.0],
+            [99_700.0, -99_700.0, 0.0],
+            [0.0, 0.0, -99_700.0],
+        ],
+        &[],
+    );
+    sim.truth.pivot_mm = pivot;
+    sim.noise_um = p.pick("noise_um", &[0.0, 2.0, 500.0], &[]);
+    let mut set = simulate_cradle(&sim);
+    set.machine_id = Some(machine.into());
+    set.measured_at = Some("2026-11-02T08:30:00Z".into());
+    set.nominal_radius_mm = p.pick("nominal_radius_mm", &[None, Some(150.0), Some(1e9)], &[]);
+    let mut csv = vec![];
+    mtcal_formats::write_rotary_points(&mut csv, &set).unwrap();
+    let angle = p.pick(
+        "angle_cell",
+        &[None, Some("36000"), Some("-36000")],
+        &[Some("36000.001"), Some("1e9")],
+    );
+    if let Some(cell) = angle {
+        csv = set_cell(&csv, "c_deg", &mut p.rng, cell);
+    }
+    let position = p.pick(
+        "position_cell",
+        &[None, Some("100000"), Some("-100000")],
+        &[Some("100000.001")],
+    );
+    if let Some(cell) = position {
+        csv = set_cell(&csv, "x_mm", &mut p.rng, cell);
+    }
+    let mut sidecar = vec![];
+    mtcal_formats::write_rotary_sidecar(&mut sidecar, &set).unwrap();
+    Upload {
+        what: p.what,
+        files: vec![("cradle.csv".into(), csv), ("cradle.json".into(), sidecar)],
+        kind: Kind::Cradle,
+        over: p.over,
+    }
+}
+
+/// A simulated drift log (`docs/datasets.md` §4): short and long recordings up to the
+/// time bound (10⁸ s), speeds and displacements up to the value bound (10⁹), a cell at
+/// or beyond.
+fn drift_upload(seed: u64, over: Option<&'static str>) -> Upload {
+    use mtcal_solver::diagnosis::series::simulate::{DriftSim, simulate_drift_log};
+    let mut p = Picker::new(seed, over);
+    let (duration_s, dt_s) = p.pick(
+        "span_s",
+        &[(86_400.0, 30.0), (7_200.0, 1.0), (99_000_000.0, 100_000.0)],
+        &[],
+    );
+    let rpm_max = p.pick("rpm_max", &[6000.0, 1e9], &[]);
+    let gain_um = p.pick("gain_um", &[0.0, 20.0, 1e6], &[]);
+    let noise_um = p.pick("noise_um", &[0.1, 5.0], &[]);
+    let log = simulate_drift_log(&DriftSim {
+        duration_s,
+        dt_s,
+        rpm_max,
+        gain_um,
+        tau_s: dt_s * 180.0,
+        noise_um,
+        seed,
+    });
+    let mut csv = vec![];
+    mtcal_formats::write_drift_log(&mut csv, &log).unwrap();
+    // The last time is the largest: at or beyond the bound there, still increasing.
+    let time = p.pick(
+        "time_cell",
+        &[None, Some("100000000")],
+        &[Some("100000000.5"), Some("1e12")],
+    );
+    if let Some(cell) = time {
+        csv = set_cell_at(&csv, "t_s", log.t_s.len(), cell);
+    }
+    let value = p.pick(
+        "value_cell",
+        &[None, Some("1000000000"), Some("-1e9")],
+        &[Some("1000000001"), Some("-1e10")],
+    );
+    if let Some(cell) = value {
+        csv = set_cell(&csv, "ch1_um", &mut p.rng, cell);
+    }
+    Upload {
+        what: p.what,
+        files: vec![("drift.csv".into(), csv)],
+        kind: Kind::Drift,
         over: p.over,
     }
 }
@@ -278,6 +435,8 @@ struct Run {
     failures: Vec<String>,
     checks: usize,
     jobs: usize,
+    /// Results made per kind of upload (each kind's jobs must make some).
+    made: std::collections::BTreeMap<String, usize>,
 }
 
 impl Run {
@@ -377,6 +536,7 @@ async fn property(url: &str) -> Tally {
         failures: vec![],
         checks: 0,
         jobs: 0,
+        made: Default::default(),
     };
     let mut tally = Tally {
         cases: 0,
@@ -384,20 +544,39 @@ async fn property(url: &str) -> Tally {
         jobs: 0,
         reads: 0,
     };
-    let within = (FIRST_SEED..FIRST_SEED + CASES).map(|seed| (seed, seed % 4 != 3, None));
-    let session_over = SESSION_FIELDS.iter().map(|f| (true, Some(*f)));
-    let positioning_over = POSITIONING_FIELDS.iter().map(|f| (false, Some(*f)));
-    let over = (OVER_SEED..).zip(session_over.chain(positioning_over));
+    let within = (FIRST_SEED..FIRST_SEED + CASES).map(|seed| {
+        let kind = if seed % 4 != 3 {
+            Kind::Session
+        } else {
+            Kind::Positioning
+        };
+        (seed, kind, None)
+    });
+    let more = |first: u64, kind: Kind| (first..first + MORE_CASES).map(move |s| (s, kind, None));
+    let within = within
+        .chain(more(CRADLE_SEED, Kind::Cradle))
+        .chain(more(DRIFT_SEED, Kind::Drift));
+    let kinds = [Kind::Session, Kind::Positioning, Kind::Cradle, Kind::Drift];
+    let fields = kinds
+        .into_iter()
+        .flat_map(|k| k.fields().iter().map(move |f| (k, Some(*f))));
+    let over = (OVER_SEED..).zip(fields);
     let cases: Vec<_> = within
-        .chain(over.map(|(seed, (s, f))| (seed, s, f)))
+        .chain(over.map(|(seed, (k, f))| (seed, k, f)))
         .collect();
     tally.cases = cases.len();
-    for (seed, session, over) in cases {
-        if one_case(&mut run, seed, session, over, tally.accepted == 0).await {
+    for (seed, kind, over) in cases {
+        if one_case(&mut run, seed, kind, over, tally.accepted == 0).await {
             tally.accepted += 1;
         }
     }
     workers.shutdown().await;
+    for kind in kinds {
+        let made = run.made.get(&format!("{kind:?}")).copied().unwrap_or(0);
+        if made == 0 {
+            run.failures.push(format!("{kind:?}: no job made a result"));
+        }
+    }
     tally.reads = run.checks;
     tally.jobs = run.jobs;
     assert!(
@@ -415,7 +594,7 @@ async fn property(url: &str) -> Tally {
 async fn one_case(
     run: &mut Run,
     seed: u64,
-    session: bool,
+    kind: Kind,
     over: Option<&'static str>,
     first: bool,
 ) -> bool {
@@ -426,10 +605,11 @@ async fn one_case(
     let profile = json!({"scope": "machine", "target": m, "limits": {"drift_um": 5.0}});
     let (s, p) = run.api("POST", "/api/v1/tolerances", Some(&profile)).await;
     assert_eq!(s, StatusCode::CREATED, "{p}");
-    let up = if session {
-        session_upload(seed, &m, over)
-    } else {
-        positioning_upload(seed, over)
+    let up = match kind {
+        Kind::Session => session_upload(seed, &m, over),
+        Kind::Positioning => positioning_upload(seed, over),
+        Kind::Cradle => cradle_upload(seed, &m, over),
+        Kind::Drift => drift_upload(seed, over),
     };
     let case = format!("seed {seed} ({})", up.what.join(", "));
     let before = run.counts(&m).await;
@@ -465,17 +645,13 @@ async fn one_case(
             .push(format!("{case}: {field} beyond its bound, accepted"));
     }
     let dataset = b["id"].as_str().unwrap().to_string();
-    let kinds: &[&str] = if up.session {
-        &["identify", "diagnose", "standards"]
-    } else {
-        &["diagnose", "standards"]
-    };
     let (mut jobs, mut results) = (vec![], vec![]);
-    for kind in kinds {
+    for kind in up.kind.jobs() {
         let (job, result) = run
             .job(&case, json!({"kind": kind, "dataset_id": dataset}))
             .await;
         jobs.push(job);
+        *run.made.entry(format!("{:?}", up.kind)).or_default() += usize::from(result.is_some());
         results.extend(result);
     }
     if first {

@@ -99,12 +99,12 @@ async fn admin_lists_and_revokes_keys_and_a_revoked_key_is_refused_at_once() {
     assert_eq!(s, StatusCode::NOT_FOUND);
 }
 
-async fn text(app: &axum::Router, uri: &str) -> (StatusCode, String) {
-    let (status, body) = call(
-        app,
-        Request::builder().uri(uri).body(Body::empty()).unwrap(),
-    )
-    .await;
+/// `GET uri` with `key`: the status and the body as text.
+async fn text(app: &axum::Router, uri: &str, key: &str) -> (StatusCode, String) {
+    let r = Request::builder()
+        .uri(uri)
+        .header("authorization", format!("Bearer {key}"));
+    let (status, body) = call(app, r.body(Body::empty()).unwrap()).await;
     (status, String::from_utf8(body).unwrap())
 }
 
@@ -115,14 +115,60 @@ fn sample(exposition: &str, series: &str) -> Option<f64> {
         .find_map(|l| l.strip_prefix(series)?.trim().parse().ok())
 }
 
+/// `/metrics` counts the whole group's jobs and requests: an admin key of the whole
+/// group reads it; no key is 401, a lower role or an admin key of a site 403, and none
+/// of those answers carries a metric.
 #[tokio::test]
-async fn metrics_count_requests_by_route_template_and_jobs_by_state_without_a_key() {
+async fn metrics_need_an_admin_key_of_the_whole_group() {
+    let store = mtcal_store::open("sqlite::memory:").await.unwrap();
+    let app = app(store.clone());
+    let (_, group) = store.create_key(Scope::Admin, "scraper").await.unwrap();
+    assert_eq!(text(&app, "/metrics", &group).await.0, StatusCode::OK);
+    let north = ["north".to_string()];
+    let (_, site) = store
+        .create_key_in(Scope::Admin, "north ops", &north, &[])
+        .await
+        .unwrap();
+    let (_, write) = store.create_key(Scope::Write, "line").await.unwrap();
+    let (s, b) = send(&app, "GET", "/metrics", None).await;
+    assert_eq!(s, StatusCode::UNAUTHORIZED, "{b}");
+    for (key, why) in [(&site, "limited to sites"), (&write, "scope write")] {
+        let (s, b) = text(&app, "/metrics", key).await;
+        assert_eq!(s, StatusCode::FORBIDDEN, "{b}");
+        assert!(b.contains(why) && !b.contains("mtcal_http"), "{b}");
+    }
+    // The process's metrics token, where one is set: read without a key of the database.
+    let token = "metrics-token-of-the-scraper-0123456789";
+    let mut state = crate::common::state(store.clone());
+    state.settings = Arc::new(mtcal_server::Settings {
+        metrics_token: Some(token.into()),
+        ..Default::default()
+    });
+    let with_token = router(state);
+    let (s, b) = text(&with_token, "/metrics", token).await;
+    assert_eq!(s, StatusCode::OK);
+    assert!(b.contains("mtcal_http_requests_total"), "{b}");
+    assert_eq!(
+        text(&app, "/metrics", token).await.0,
+        StatusCode::UNAUTHORIZED
+    );
+    let (s, _) = text(&with_token, "/metrics", &token[1..]).await;
+    assert_eq!(s, StatusCode::UNAUTHORIZED, "a wrong token");
+    assert_eq!(
+        text(&with_token, "/metrics", &group).await.0,
+        StatusCode::OK
+    );
+}
+
+#[tokio::test]
+async fn metrics_count_requests_by_route_template_and_jobs_by_state() {
     let store = mtcal_store::open("sqlite::memory:").await.unwrap();
     let (_, read) = store.create_key(Scope::Read, "r").await.unwrap();
+    let (_, admin) = store.create_key(Scope::Admin, "scraper").await.unwrap();
     let app = app(store.clone());
     let series =
         r#"mtcal_http_requests_total{method="GET",route="/api/v1/machines/{id}",status="404"}"#;
-    let (_, before) = text(&app, "/metrics").await;
+    let (_, before) = text(&app, "/metrics", &admin).await;
     let n0 = sample(&before, series).unwrap_or(0.0);
     for id in ["VMC-SECRET-1", "VMC-SECRET-2"] {
         let (s, _) = send(&app, "GET", &format!("/api/v1/machines/{id}"), Some(&read)).await;
@@ -155,7 +201,7 @@ async fn metrics_count_requests_by_route_template_and_jobs_by_state_without_a_ke
             .await
             .unwrap();
     }
-    let (s, after) = text(&app, "/metrics").await;
+    let (s, after) = text(&app, "/metrics", &admin).await;
     assert_eq!(s, StatusCode::OK);
     assert_eq!(sample(&after, series), Some(n0 + 2.0), "{after}");
     assert!(

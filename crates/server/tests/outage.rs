@@ -102,7 +102,14 @@ async fn a_database_outage_is_answered_503_at_once_and_the_service_comes_back() 
     };
     let store = mtcal_store::open_with(&url, options).await.unwrap();
     let (_, key) = store.create_key(Scope::Read, "r").await.unwrap();
-    let app = router(crate::common::state(store));
+    // The metrics token: `/metrics` answers without the database.
+    let token = "outage-metrics-token-0123456789";
+    let mut state = crate::common::state(store);
+    state.settings = std::sync::Arc::new(mtcal_server::Settings {
+        metrics_token: Some(token.into()),
+        ..Default::default()
+    });
+    let app = router(state);
     let (s, ..) = get(&app, "/api/v1/machines", &key).await;
     assert_eq!(s, StatusCode::OK);
 
@@ -134,7 +141,7 @@ async fn a_database_outage_is_answered_503_at_once_and_the_service_comes_back() 
     assert!(retry.is_some());
     let metrics = app
         .clone()
-        .oneshot(request("GET", "/metrics", "", None, vec![], None))
+        .oneshot(request("GET", "/metrics", "", None, vec![], Some(token)))
         .await
         .unwrap();
     let text = axum::body::to_bytes(metrics.into_body(), usize::MAX)

@@ -50,6 +50,7 @@ async fn no_more_uploads_than_the_limit_are_read_at_once() {
         .await
         .unwrap();
     let (_, key) = store.create_key(Scope::Write, "w").await.unwrap();
+    let (_, admin) = store.create_key(Scope::Admin, "scraper").await.unwrap();
     let addr = mtcal_server::spawn_local(store, &WorkerConfig::default(), false)
         .await
         .unwrap();
@@ -65,6 +66,7 @@ async fn no_more_uploads_than_the_limit_are_read_at_once() {
     let metrics = || async {
         let text = http
             .get(format!("http://{addr}/metrics"))
+            .bearer_auth(&admin)
             .send()
             .await
             .unwrap()

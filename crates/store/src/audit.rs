@@ -1,5 +1,6 @@
 //! The audit trail: [`Audit`], an append-only record of every change of state a person
-//! made through the service (who, what, before and after, when, from where).
+//! made through the service (its API and dashboard) or with `mtcal admin` on the database
+//! (who, what, before and after, when, from where).
 //!
 //! Append-only is the database's rule, not only this crate's: the migration's triggers
 //! refuse every `UPDATE` and `DELETE` of `audit_events` on both backends (and `TRUNCATE`
@@ -40,7 +41,7 @@ pub struct NewAuditEvent {
     pub actor: String,
     /// The key's label and prefix, as it was then.
     pub actor_name: String,
-    /// Through what: `api` or `dashboard`.
+    /// Through what: `api`, `dashboard`, or `cli` (`mtcal admin` on the database).
     pub via: String,
     /// What: `machine.create`, `baseline.set`, `profile.replace`, … (docs/audit.md).
     pub action: String,

@@ -58,6 +58,16 @@ pub trait Results: Send + Sync {
     /// Inserts a result without a job run (an `import` job, born succeeded).
     fn import_result<'a>(&'a self, r: NewResult) -> StoreFuture<'a, ResultMeta>;
 
+    /// Inserts `r`, the explained model of check `original_id`, as [`Results::import_result`]
+    /// does, claiming the check: one explained model per check. When one is stored
+    /// already (another process stored it, even concurrently), nothing is stored and the
+    /// answer is `None`, not an error.
+    fn import_explained<'a>(
+        &'a self,
+        original_id: &'a str,
+        r: NewResult,
+    ) -> StoreFuture<'a, Option<ResultMeta>>;
+
     /// Inserts many results (each with its `import` job) in one transaction: for seeding
     /// benchmarks and bulk imports.
     fn import_results_bulk<'a>(&'a self, results: &'a [NewResult]) -> StoreFuture<'a, ()>;

@@ -46,17 +46,9 @@ pub async fn create(
     ))
 }
 
-/// The profile as the audit trail keeps it: its webhook as a read key sees it (the
-/// host, not a token in its query), never its signing secret.
+/// The profile as the audit trail keeps it ([`profiles::audited`]).
 fn recorded(p: &Profile) -> Option<serde_json::Value> {
-    let mut p = mtcal_domain::profiles::seen_by(p.clone(), mtcal_store::Scope::Read);
-    p.webhook_secret = None;
-    json(&p)
-}
-
-/// The machine a profile's change concerns (a machine profile's target), if any.
-fn machine_of(p: &Profile) -> Option<&str> {
-    (p.scope == "machine").then_some(p.target.as_str())
+    json(&profiles::audited(p))
 }
 
 /// Creates a profile, records it and refreshes the verdicts of the machines it applies
@@ -72,7 +64,7 @@ pub async fn create_profile(
     let change = Change {
         action: "profile.create",
         target: &answer.id,
-        machine: machine_of(&answer),
+        machine: profiles::machine_of(&answer),
         before: None,
         after: recorded(&answer),
     };
@@ -141,7 +133,7 @@ pub async fn replace(
     let change = Change {
         action: "profile.replace",
         target: &answer.id,
-        machine: machine_of(&answer),
+        machine: profiles::machine_of(&answer),
         before: recorded(&before),
         after: recorded(&answer),
     };
@@ -166,7 +158,7 @@ pub async fn delete(
     let change = Change {
         action: "profile.delete",
         target: &before.id,
-        machine: machine_of(&before),
+        machine: profiles::machine_of(&before),
         before: recorded(&before),
         after: None,
     };

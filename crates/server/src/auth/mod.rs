@@ -27,7 +27,7 @@ use mtcal_store::{ApiKey, Scope};
 
 /// The secret a request presents, if any: `Authorization: Bearer <key>` (the scheme's
 /// name in any case, RFC 9110 section 11.1), else `X-Api-Key: <key>`.
-fn presented(headers: &HeaderMap) -> Option<&str> {
+pub(crate) fn presented(headers: &HeaderMap) -> Option<&str> {
     fn bearer(v: &str) -> Option<&str> {
         let (scheme, rest) = v.split_once(' ')?;
         scheme.eq_ignore_ascii_case("bearer").then_some(rest)

@@ -260,6 +260,37 @@ impl Results for Backend {
         })
     }
 
+    fn import_explained<'a>(
+        &'a self,
+        original_id: &'a str,
+        r: NewResult,
+    ) -> StoreFuture<'a, Option<ResultMeta>> {
+        Box::pin(async move {
+            let mut tx = self.pool.begin().await.db()?;
+            let meta = insert_import(&mut tx, &r).await?;
+            // The claim: the unique index on `explains_result_id` refuses a second one
+            // (on PostgreSQL a concurrent one waits for the first to commit, then fails).
+            let claim = bound!(
+                "UPDATE results SET explains_result_id = $2 WHERE id = $1",
+                &meta.id,
+                original_id
+            )
+            .execute(&mut *tx)
+            .await;
+            match claim {
+                Ok(_) => {
+                    tx.commit().await.db()?;
+                    Ok(Some(meta))
+                }
+                Err(sqlx::Error::Database(d)) if d.is_unique_violation() => {
+                    tx.rollback().await.db()?;
+                    Ok(None)
+                }
+                Err(e) => Err(crate::error::db_error(e)),
+            }
+        })
+    }
+
     fn import_results_bulk<'a>(&'a self, results: &'a [NewResult]) -> StoreFuture<'a, ()> {
         Box::pin(async move {
             let mut tx = self.pool.begin().await.db()?;

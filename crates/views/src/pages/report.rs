@@ -495,7 +495,7 @@ fn explained_findings(m: &ExplainedModel, doc: &IdentificationResult) -> Markup 
                 }
             }
             @if !m.remains.is_empty() {
-                p { "What remains unexplained: " (m.remains.join("; ")) "." }
+                p { "What remains unexplained: " (mtcal_solver::misfit::remains_in_short(&m.remains)) "." }
             }
             p.muted { "The explained model's figures are in the appendix." }
         }
