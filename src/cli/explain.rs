@@ -178,7 +178,7 @@ mod tests {
         let r = with_diagnosis(&session, &opts, plain, &d).unwrap();
         let check = r.model_check();
         assert!(check.is_misfit() && !check.decided_on_explained_model());
-        let text = super::super::identify::summary(&r);
+        let text = crate::cli::identify::summary(&r);
         assert!(
             text.contains("no verdict and no compensation table from this model; not decided"),
             "{text}"

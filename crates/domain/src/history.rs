@@ -61,10 +61,17 @@ pub fn latest_of_dataset<'a>(
 /// not an identification's). Such a check is not decided: its drift is not a figure and
 /// it cannot be a baseline.
 pub fn misfit_gate(document: &serde_json::Value) -> Option<mtcal_solver::misfit::ModelCheck> {
-    serde_json::from_value::<mtcal_solver::identification::IdentificationResult>(document.clone())
+    model_check(document).filter(|c| c.is_misfit())
+}
+
+/// The model check of a stored identification document (None: the document is not an
+/// identification's). The one reader of the gate: [`misfit_gate`] and
+/// [`crate::trends::check_model`] both take it from here.
+pub fn model_check(document: &serde_json::Value) -> Option<mtcal_solver::misfit::ModelCheck> {
+    use serde::Deserialize;
+    mtcal_solver::identification::IdentificationResult::deserialize(document)
         .ok()
         .map(|d| d.model_check())
-        .filter(|c| c.is_misfit())
 }
 
 /// The baseline among a machine's identifications `results` (time order): its chosen

@@ -136,12 +136,9 @@ pub type CheckModels = std::collections::HashMap<String, CheckModel>;
 /// why, or decided on the explained model (neither: not an identification's document,
 /// or a model that explains its recording).
 pub fn check_model(document: &serde_json::Value) -> CheckModel {
-    let Ok(d) = serde_json::from_value::<mtcal_solver::identification::IdentificationResult>(
-        document.clone(),
-    ) else {
+    let Some(c) = crate::history::model_check(document) else {
         return CheckModel::default();
     };
-    let c = d.model_check();
     CheckModel {
         misfit: c.is_misfit(),
         misfit_reason: c.is_misfit().then(|| c.statement.clone()),
