@@ -129,22 +129,7 @@ async fn seed(store: &dyn Store, pool: &sqlx::PgPool, m: usize, r: usize) {
     store.import_results_bulk(&batch).await.unwrap();
     // The templates' fleet rows, copied below with the rest.
     mtcal_domain::fleet::refresh_all(store).await.unwrap();
-    // Storage before the copy: each row as stored (the document compressed by TOAST).
-    let (raw, stored, row): (f64, f64, f64) = sqlx::query_as(
-        "SELECT avg(octet_length(document))::float8, avg(pg_column_size(document))::float8, \
-         avg(pg_column_size(r.*))::float8 FROM results r",
-    )
-    .fetch_one(pool)
-    .await
-    .unwrap();
-    let n = (m * r) as f64;
-    println!(
-        "  a result (mean of the templates'): document {raw:.0} B, stored {stored:.0} B \
-         ({:.1}x compressed), row {row:.0} B; estimate for {n} results: {:.2} GB before \
-         indexes and jobs",
-        raw / stored,
-        row * n / 1e9
-    );
+    estimate(pool, m * r).await;
     let id = |v: &str| format!("'M' || lpad(({v})::text, 5, '0')");
     // The copy's baseline and latest result ids (named by the template row's basis).
     let new_ids = |text: &str| {
@@ -237,6 +222,27 @@ async fn seed(store: &dyn Store, pool: &sqlx::PgPool, m: usize, r: usize) {
         n.machines,
         n.recomputed,
         t.elapsed().as_secs_f64()
+    );
+}
+
+/// Storage before the copy, from the templates' rows as stored (each document compressed
+/// by TOAST), for `n` results.
+async fn estimate(pool: &sqlx::PgPool, n: usize) {
+    // Storage before the copy: each row as stored (the document compressed by TOAST).
+    let (raw, stored, row): (f64, f64, f64) = sqlx::query_as(
+        "SELECT avg(octet_length(document))::float8, avg(pg_column_size(document))::float8, \
+         avg(pg_column_size(r.*))::float8 FROM results r",
+    )
+    .fetch_one(pool)
+    .await
+    .unwrap();
+    let n = n as f64;
+    println!(
+        "  a result (mean of the templates'): document {raw:.0} B, stored {stored:.0} B \
+         ({:.1}x compressed), row {row:.0} B; estimate for {n} results: {:.2} GB before \
+         indexes and jobs",
+        raw / stored,
+        row * n / 1e9
     );
 }
 
@@ -363,6 +369,7 @@ async fn reads(
                     eprintln!("a read failed: {e}");
                     failed.fetch_add(1, Ordering::Relaxed);
                     i += 1;
+                    tokio::time::sleep(Duration::from_millis(think)).await;
                     continue;
                 }
                 lat.push((i % READS.len(), t.elapsed().as_secs_f64() * 1e3));
