@@ -25,6 +25,10 @@
 //!    `MTCAL_TEST_PG` set on PostgreSQL too (a fresh schema; MTCAL_LOAD_SQLITE=0 skips
 //!    SQLite).
 //!
+//! 5. **Scale of a plant group** (only this part, when MTCAL_LOAD_SCALE is 1): the module
+//!    `scale` (100 000 machines × 20 results on PostgreSQL, seeded in SQL; reads while the
+//!    fleet rows are refreshed after a row-format change).
+//!
 //! `scripts/with-postgres cargo run -p mtcal-server --example load` (dev profile:
 //! dependencies optimised). Environment: MTCAL_LOAD_JOBS (20), MTCAL_LOAD_MACHINES
 //! (10000), MTCAL_LOAD_RESULTS (100), MTCAL_LOAD_QUERIES (4000), MTCAL_LOAD_DB (a file in
@@ -50,6 +54,9 @@ use serde_json::json;
 use std::collections::BTreeMap;
 use std::sync::Arc;
 use std::time::{Duration, Instant};
+
+#[path = "load/scale.rs"]
+mod scale;
 
 fn env(name: &str, default: usize) -> usize {
     std::env::var(name)
@@ -525,11 +532,9 @@ fn set_cookie(r: &reqwest::Response, name: &str) -> Option<String> {
         })
 }
 
-/// The dashboard's fleet page (HTML, one signed-in browser session): 220 requests after
-/// signing in, the first 20 discarded, alternating the default order (drift, alerts
-/// first), the µrad order, a tag filter and the second page (only when the fleet has
-/// more machines than one page holds: a page past the last shows no machine).
-async fn fleet_page_bench(base: &str, key: &str, m: usize) {
+/// A browser session of the dashboard signed in with API key `key`: the HTTP client (no
+/// redirects followed) and the `mtcal_session` cookie's value.
+async fn sign_in(base: &str, key: &str) -> (reqwest::Client, String) {
     let http = reqwest::Client::builder()
         .redirect(reqwest::redirect::Policy::none())
         .build()
@@ -551,6 +556,15 @@ async fn fleet_page_bench(base: &str, key: &str, m: usize) {
         .await
         .unwrap();
     let session = set_cookie(&signed, "mtcal_session").expect("session cookie");
+    (http, session)
+}
+
+/// The dashboard's fleet page (HTML, one signed-in browser session): 220 requests after
+/// signing in, the first 20 discarded, alternating the default order (drift, alerts
+/// first), the µrad order, a tag filter and the second page (only when the fleet has
+/// more machines than one page holds: a page past the last shows no machine).
+async fn fleet_page_bench(base: &str, key: &str, m: usize) {
+    let (http, session) = sign_in(base, key).await;
     let mut pages = vec!["/", "/?sort=drift_urad", "/?tag=vmc"];
     if m > mtcal_server::web::pages::FLEET_PAGE_ROWS {
         pages.push("/?page=2");
@@ -751,6 +765,10 @@ async fn reads_under_load_bench(
 
 #[tokio::main]
 async fn main() {
+    if env("MTCAL_LOAD_SCALE", 0) > 0 {
+        scale::run().await;
+        return;
+    }
     let clients = env("MTCAL_LOAD_CLIENTS", 0);
     if clients > 0 {
         let secs = env("MTCAL_LOAD_SECONDS", 20) as u64;
