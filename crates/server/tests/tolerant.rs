@@ -11,6 +11,7 @@ use serde_json::json;
 
 fn result(measured_at: &str, exx: f64) -> NewResult {
     NewResult {
+        check_model: None,
         machine_id: "M".into(),
         dataset_id: None,
         kind: "identification".into(),
