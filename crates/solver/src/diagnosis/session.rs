@@ -555,10 +555,7 @@ fn form_sentence(effect: &str, ft: &trial::FormTest) -> String {
 /// A servo lag or a velocity coupling found (or possible) reads the axis's velocity at
 /// every sample, which the set-points do not tell inside the starts and stops of the
 /// motion ([`design::velocity_known`]): the session is then diagnosed again with those
-/// samples of the axes concerned left out, and that diagnosis is the result. The first
-/// diagnosis is then searched but not reported (its misfit places, anomalies and plots
-/// are formed only for the diagnosis that is the result); both share the session's
-/// noise floor.
+/// samples of the axes concerned left out, and that diagnosis is the result.
 pub fn diagnose_session_with_progress(
     session: &Session,
     opts: &DiagnoseOptions,
@@ -570,40 +567,22 @@ pub fn diagnose_session_with_progress(
         .clone()
         .or_else(|| opts.topology.clone())
         .unwrap_or_default();
-    let noise = SessionNoise {
-        session,
-        spectral: crate::noise::session_spectral_floor(session),
-        checked: Default::default(),
-    };
     progress.report("reducing the rigid model", 0.0);
     let d = design::build(session, &topology, opts.order)?;
-    let first = search_design(opts, &d, &noise, &mut progress, (0.0, 0.6));
-    let axes = velocity_axes(first.findings.iter().chain(&first.possible));
-    if !axes.contains(&true) {
-        let r = report(session, opts, &d, first, &noise, &mut progress, (0.0, 0.6));
-        progress.report("done", 1.0);
-        return Ok(r);
-    }
+    let first = diagnose_design(session, opts, &d, &mut progress, (0.0, 0.6))?;
     drop(d);
+    let axes = velocity_axes(&first);
+    if !axes.contains(&true) {
+        progress.report("done", 1.0);
+        return Ok(first);
+    }
     let d = design::build_leaving_out(session, &topology, opts.order, axes)?;
     if d.left_out == 0 {
-        // No sample left out: `d` is the first diagnosis's design, built again.
-        let r = report(session, opts, &d, first, &noise, &mut progress, (0.0, 0.6));
         progress.report("done", 1.0);
-        return Ok(r);
+        return Ok(first);
     }
-    drop(first);
     progress.report("reducing the rigid model without the ramps' samples", 0.6);
-    let searched = search_design(opts, &d, &noise, &mut progress, (0.6, 1.0));
-    let mut r = report(
-        session,
-        opts,
-        &d,
-        searched,
-        &noise,
-        &mut progress,
-        (0.6, 1.0),
-    );
+    let mut r = diagnose_design(session, opts, &d, &mut progress, (0.6, 1.0))?;
     let note = format!(
         "; {} samples inside the starts and stops of the motion, where the set-points do not tell the velocity, left out",
         d.left_out
@@ -617,11 +596,11 @@ pub fn diagnose_session_with_progress(
     Ok(r)
 }
 
-/// Per axis, whether one of the findings or possible findings `found` reads its
-/// velocity (a servo lag of the axis, a velocity coupling following it).
-fn velocity_axes<'f>(found: impl Iterator<Item = &'f Finding>) -> [bool; 3] {
+/// Per axis, whether a finding or a possible finding of `r` reads its velocity (a servo
+/// lag of the axis, a velocity coupling following it).
+fn velocity_axes(r: &DiagnosisResult) -> [bool; 3] {
     let mut axes = [false; 3];
-    for f in found {
+    for f in r.findings.iter().chain(&r.possible) {
         let axis = match f.effect.as_str() {
             "servo_lag" => f.axis.as_deref(),
             "velocity_coupling" => f.depends_on.as_deref(),
@@ -637,28 +616,9 @@ fn velocity_axes<'f>(found: impl Iterator<Item = &'f Finding>) -> [bool; 3] {
     axes
 }
 
-/// The session's noise floor, shared by its diagnoses: the spectral one, and its check
-/// by the differences of repeated passes (`noise::session_floor`'s), formed when first
-/// asked.
-struct SessionNoise<'s> {
-    session: &'s Session,
-    spectral: Option<(f64, usize)>,
-    checked: std::cell::OnceCell<Option<crate::noise::NoiseFloor>>,
-}
-
-impl SessionNoise<'_> {
-    fn checked(&self) -> Option<crate::noise::NoiseFloor> {
-        *self.checked.get_or_init(|| {
-            crate::noise::NoiseFloor::of(
-                self.spectral,
-                crate::noise::pass_differences(self.session),
-            )
-        })
-    }
-}
-
 /// What the rigid model alone gives the report.
 struct RigidFigures {
+    dof: usize,
     base_heldout: f64,
     residual_rms: f64,
     before: plots::Series,
@@ -666,33 +626,22 @@ struct RigidFigures {
     mismatch: Vec<Mismatch>,
 }
 
-/// Residual degrees of freedom of the rigid model of rank `rank` on `d`.
-fn rigid_dof(d: &Design, rank: usize) -> usize {
-    d.rows().saturating_sub(2 * d.runs.len() + rank).max(1)
-}
-
-/// The rigid model's figures on its residual `resid` (held-out SSR `heldout_ssr`): the
-/// places of its misfit and its local anomalies (listed as places when one-off events,
-/// in a few runs; anomalies in many runs are the recurring misfit the other places
-/// describe).
-fn rigid_figures(
-    d: &Design,
-    (resid, heldout_ssr): (&[f64], f64),
-    floor: f64,
-    heldout_n: usize,
-    ratio: f64,
-) -> RigidFigures {
+/// The rigid model's figures on its fit `f`: its residual, the places of its misfit and
+/// its local anomalies (listed as places when one-off events, in a few runs; anomalies
+/// in many runs are the recurring misfit the other places describe).
+fn rigid_figures(d: &Design, f: &Fit, floor: f64, heldout_n: usize, ratio: f64) -> RigidFigures {
     let n = d.rows();
-    let base_heldout = rms(heldout_ssr, heldout_n);
+    let dof = n.saturating_sub(2 * d.runs.len() + f.rank).max(1);
+    let base_heldout = rms(f.heldout_ssr, heldout_n);
     // Local anomalies of the rigid model's residual: a session with one is never
     // consistent, whatever its global ratio.
-    let rigid_anomalies = anomalies::scan(d, resid, floor);
+    let rigid_anomalies = anomalies::scan(d, &f.resid, floor);
     let mut mismatch = if base_heldout > ratio * floor {
-        locate(d, resid, floor)
+        locate(d, &f.resid, floor)
     } else {
         Vec::new()
     };
-    let total_excess: f64 = resid.iter().map(|r| r * r - floor * floor).sum();
+    let total_excess: f64 = f.resid.iter().map(|r| r * r - floor * floor).sum();
     let one_off = anomalies::events(&rigid_anomalies) <= anomalies::MAX_ONE_OFF;
     mismatch.extend(
         rigid_anomalies
@@ -707,39 +656,26 @@ fn rigid_figures(
     );
     mismatch.sort_by(|a, b| b.share_of_misfit.total_cmp(&a.share_of_misfit));
     RigidFigures {
+        dof,
         base_heldout,
-        residual_rms: rms(resid.iter().map(|v| v * v).sum(), n),
-        before: plots::Series::of(d, resid, "before"),
+        residual_rms: rms(f.resid.iter().map(|v| v * v).sum(), n),
+        before: plots::Series::of(d, &f.resid, "before"),
         anomalies: rigid_anomalies,
         mismatch,
     }
 }
 
-/// The search of a session on its design: the rigid model's residual and held-out SSR,
-/// the noise floor, what the engine found and its final model's residual and held-out
-/// SSR. Its report ([`report`]) is formed only for the diagnosis that is the result.
-struct Searched {
-    rigid: (Vec<f64>, f64),
-    floor: f64,
-    heldout_n: usize,
-    findings: Vec<Finding>,
-    possible: Vec<Finding>,
-    rejected: Vec<String>,
-    resid: Vec<f64>,
-    heldout_ssr: f64,
-}
-
-/// The engine's search of the session on its design `d` from the rigid model,
-/// reporting within `span` of the whole work.
-fn search_design(
+/// The diagnosis of the session `session` on its design `d`, reporting within `span`
+/// of the whole work.
+fn diagnose_design(
+    session: &Session,
     opts: &DiagnoseOptions,
     d: &Design,
-    noise: &SessionNoise,
     progress: &mut Monotone,
     span: (f64, f64),
-) -> Searched {
+) -> Result<DiagnosisResult, SolverError> {
     let folds = opts.folds.max(2);
-    let red = Reduction::new(noise.session, d);
+    let red = Reduction::new(session, d);
     let sets = Sets::new(d, &red, folds);
     let heldout_n = sets.heldout_n;
     let scans = Default::default();
@@ -757,16 +693,24 @@ fn search_design(
     // The floor is the spectral one when a run is long enough for the spectrum; the
     // differences of repeated passes (`noise::session_floor`'s check) otherwise, and for
     // the note, which only a misfit left above the floor needs: computed then.
-    let dof = rigid_dof(d, f.rank);
-    let floor = match noise.spectral {
+    let spectral = crate::noise::session_spectral_floor(session);
+    let checked = std::cell::OnceCell::new();
+    let noise_floor = || {
+        *checked.get_or_init(|| {
+            crate::noise::NoiseFloor::of(spectral, crate::noise::pass_differences(session))
+        })
+    };
+    let floor = match spectral {
         Some((s, _)) => s,
-        None => noise
-            .checked()
-            .map_or((f.ssr / dof as f64).sqrt(), |nf| nf.sigma_um),
+        None => noise_floor().map_or(
+            (f.ssr / d.rows().saturating_sub(2 * d.runs.len() + f.rank).max(1) as f64).sqrt(),
+            |nf| nf.sigma_um,
+        ),
     };
     let ctx = Ctx { floor, ..ctx };
-    // The rigid model's residual, for the report's figures of it.
-    let rigid = (f.resid.clone(), f.heldout_ssr);
+    // What the report says of the rigid model's residual, formed now: the residual
+    // itself is not kept.
+    let rigid = rigid_figures(d, &f, floor, heldout_n, opts.noise_level_ratio);
     let cands = catalogue::candidates(d);
     let problem = SessionProblem {
         ctx,
@@ -777,7 +721,7 @@ fn search_design(
             .collect(),
         cands,
         floor,
-        dof,
+        dof: rigid.dof,
         folds,
     };
     // No stop at the floor: an effect is accepted on its evidence (BIC and held-out gain),
@@ -811,45 +755,18 @@ fn search_design(
     // All the report reads of the final model: the rest of its state (accepted columns,
     // kept moments, rotation errors, thermal basis) is freed before the report's scans.
     let (resid, heldout_ssr) = o.state.into_residual();
-    Searched {
-        rigid,
-        floor,
-        heldout_n,
-        findings,
-        possible,
-        rejected,
-        resid,
-        heldout_ssr,
-    }
-}
-
-/// The diagnosis of the session `session` searched on its design `d` (`s`), reporting
-/// within `span` of the whole work.
-fn report(
-    session: &Session,
-    opts: &DiagnoseOptions,
-    d: &Design,
-    s: Searched,
-    noise: &SessionNoise,
-    progress: &mut Monotone,
-    span: (f64, f64),
-) -> DiagnosisResult {
     progress.report_in(span, "report", 0.95);
-    let (floor, heldout_n, resid) = (s.floor, s.heldout_n, s.resid);
-    let ratio = opts.noise_level_ratio;
-    let rigid = rigid_figures(d, (&s.rigid.0, s.rigid.1), floor, heldout_n, ratio);
-    drop(s.rigid);
-    let final_heldout = rms(s.heldout_ssr, heldout_n);
-    let at_noise = final_heldout <= ratio * floor;
+    let final_heldout = rms(heldout_ssr, heldout_n);
+    let at_noise = final_heldout <= opts.noise_level_ratio * floor;
     let final_anomalies = anomalies::scan(d, &resid, floor);
     let verdict = effects::verdict(
-        rigid.base_heldout <= ratio * floor && rigid.anomalies.is_empty(),
+        rigid.base_heldout <= opts.noise_level_ratio * floor && rigid.anomalies.is_empty(),
         at_noise && final_anomalies.is_empty(),
-        s.findings.len(),
+        findings.len(),
     );
     let mut unexplained = unexplained_anomalies(d, &final_anomalies);
     if !at_noise {
-        let floor_note = match noise.checked() {
+        let floor_note = match noise_floor() {
             Some(nf) => nf.note(),
             None => "no run long enough for the spectrum and no repeated passes: the rigid model's residual stands in for the noise floor".into(),
         };
@@ -861,7 +778,7 @@ fn report(
         unexplained.push(format!(
             "held-out RMS {:.3} um remains above {:.1} x the noise floor {:.3} um ({floor_note}); misfit concentrates in: {}",
             final_heldout,
-            ratio,
+            opts.noise_level_ratio,
             floor,
             if places.is_empty() {
                 "no single place (spread over the session)".to_string()
@@ -871,7 +788,7 @@ fn report(
         ));
     }
     let plots = plots::plots(d, rigid.before, plots::Series::of(d, &resid, "after"));
-    DiagnosisResult {
+    Ok(DiagnosisResult {
         kind: "diagnosis".into(),
         machine_id: session.machine_id.clone(),
         source: "session".into(),
@@ -881,13 +798,13 @@ fn report(
             noise_estimate_um: floor,
         },
         mismatch: rigid.mismatch,
-        findings: s.findings,
-        possible: s.possible,
-        rejected: s.rejected,
+        findings,
+        possible,
+        rejected,
         verdict,
         unexplained,
         plots,
-    }
+    })
 }
 
 /// The final model's local anomalies in words (at most 6), each saying whether they
