@@ -522,6 +522,7 @@ mod tests {
             backlash: [None; 3],
             profiled: [false; 3],
             grown: [false; 3],
+            growths: Vec::new(),
             kept: Default::default(),
             prior: std::sync::Mutex::new(prior),
             thermal: Default::default(),
