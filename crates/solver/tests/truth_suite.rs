@@ -448,6 +448,7 @@ fn scorer_wants_a_changing_effect_reported_as_changing() {
             phase_rad: 0.7,
         },
         Grows::Spike { decay_mm: 1.0 },
+        Grows::Lateral { moving: Axis::Y },
     ];
     for grows in kinds {
         let names = growth(grows);
@@ -457,14 +458,21 @@ fn scorer_wants_a_changing_effect_reported_as_changing() {
             from: 1.0,
             per_h: 4.0,
         }];
-        let constant = finding(names.constant, x, &[]);
+        // An error across Y's travel names Y as the axis it follows.
+        let follows = |mut f: Finding| {
+            if matches!(grows, Grows::Lateral { .. }) {
+                f.depends_on = Some("Y".into());
+            }
+            f
+        };
+        let constant = follows(finding(names.constant, x, &[]));
         let s = score(
             &growing,
             &result(vec![constant.clone()], Verdict::Explained),
         );
         assert!(s.false_labels().is_empty() && s.missed.len() == 1, "{s:?}");
         let std = format!("std_{}", names.rate);
-        let claim = finding(names.growth, x, &[(names.rate, 4.3), (&std, 0.2)]);
+        let claim = follows(finding(names.growth, x, &[(names.rate, 4.3), (&std, 0.2)]));
         let s = score(
             &growing,
             &result(vec![constant, claim.clone()], Verdict::Explained),
@@ -473,7 +481,11 @@ fn scorer_wants_a_changing_effect_reported_as_changing() {
         assert_eq!(s.params(), (1, 1), "{}", names.growth);
         let steady = [growing[0].at(0.0)];
         let s = score(&steady, &result(vec![claim], Verdict::Explained));
-        assert_eq!(s.false_labels(), [format!("{} (X)", names.growth)]);
+        let label = match grows {
+            Grows::Lateral { .. } => format!("{} (X, following Y)", names.growth),
+            _ => format!("{} (X)", names.growth),
+        };
+        assert_eq!(s.false_labels(), [label]);
     }
 }
 

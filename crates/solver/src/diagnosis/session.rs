@@ -197,7 +197,10 @@ impl SessionProblem<'_> {
             effect: catalogue::reported_name(t.cand.effect).into(),
             axis: match (t.cand.effect, t.cand.direction) {
                 // An error across the moving axis is the error of its direction.
-                ("direction_coupling" | "velocity_coupling", Some(dir)) => Some(dir.to_string()),
+                (
+                    "direction_coupling" | "direction_coupling_growth" | "velocity_coupling",
+                    Some(dir),
+                ) => Some(dir.to_string()),
                 _ => t
                     .cand
                     .axis
@@ -205,7 +208,9 @@ impl SessionProblem<'_> {
                     .or(t.cand.direction.map(|a| a.to_string())),
             },
             depends_on: match t.cand.effect {
-                "direction_coupling" | "velocity_coupling" => t.cand.axis.map(|a| a.to_string()),
+                "direction_coupling" | "direction_coupling_growth" | "velocity_coupling" => {
+                    t.cand.axis.map(|a| a.to_string())
+                }
                 _ => None,
             },
             parameters,

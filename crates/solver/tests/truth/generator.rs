@@ -39,7 +39,8 @@ pub enum Effect {
     },
     /// The axis follows its set-point `ms` milliseconds late.
     ServoLag { axis: Axis, ms: f64 },
-    /// A lag, a cyclic amplitude or a spike height growing linearly in time: `from` at
+    /// A lag, a cyclic amplitude, a spike height or a lateral play's shift growing
+    /// linearly in time: `from` at
     /// the session start (ms for a lag, µm otherwise), + `per_h` per hour.
     Growing {
         axis: Axis,
@@ -99,6 +100,8 @@ pub enum Grows {
     Cyclic { period_mm: f64, phase_rad: f64 },
     /// A reversal spike's height (µm).
     Spike { decay_mm: f64 },
+    /// A lateral play's shift (µm) with the travel of `moving`.
+    Lateral { moving: Axis },
 }
 
 impl Grows {
@@ -119,6 +122,11 @@ impl Grows {
                 axis,
                 height_um: v,
                 decay_mm,
+            },
+            Grows::Lateral { moving } => Effect::LateralPlay {
+                axis,
+                moving,
+                shift_um: v,
             },
         }
     }

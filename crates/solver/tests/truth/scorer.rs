@@ -46,7 +46,17 @@ pub fn accepted(e: &Effect) -> Vec<Name> {
         // effect is FALSE.
         Effect::Growing { axis, grows, .. } => {
             let g = growth(grows);
-            vec![on(g.constant, axis), on(g.growth, axis)]
+            let depends_on = match grows {
+                Grows::Lateral { moving } => Some(moving),
+                _ => None,
+            };
+            [g.constant, g.growth]
+                .map(|effect| Name {
+                    effect,
+                    axis: Some(axis),
+                    depends_on,
+                })
+                .to_vec()
         }
         Effect::Cyclic { axis, .. } => vec![on("cyclic", axis)],
         // A session's drift may be reported with no axis (its parameters name them).
@@ -111,6 +121,12 @@ pub fn growth(g: Grows) -> GrowthNames {
             "height_start_um",
             1.0,
         ),
+        Grows::Lateral { .. } => (
+            "direction_coupling",
+            "shift_growth_um_per_h",
+            "shift_start_um",
+            1.0,
+        ),
     };
     GrowthNames {
         constant,
@@ -118,6 +134,7 @@ pub fn growth(g: Grows) -> GrowthNames {
             Grows::Lag => "servo_lag_growth",
             Grows::Cyclic { .. } => "cyclic_growth",
             Grows::Spike { .. } => "reversal_spike_growth",
+            Grows::Lateral { .. } => "direction_coupling_growth",
         },
         rate,
         start,
