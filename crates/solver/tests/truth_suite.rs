@@ -15,9 +15,9 @@ use mtcal_solver::diagnosis::{
 use std::collections::BTreeMap;
 use std::time::Instant;
 use truth::cases::{self, Case};
-use truth::generator::{Effect, generate};
+use truth::generator::{Effect, Grows, generate};
 use truth::known::{KNOWN_DEFECTS, RIGHT_ALL, RIGHT_CI};
-use truth::scorer::{Score, explain, score};
+use truth::scorer::{Score, explain, growth, score};
 
 struct Outcome {
     name: &'static str,
@@ -434,6 +434,59 @@ fn scorer_wants_a_growing_backlash_reported_as_growing() {
     }];
     let s = score(&play, &result(vec![growth], Verdict::Explained));
     assert_eq!(s.false_labels(), ["backlash_growth (X)"]);
+}
+
+/// Likewise a growing lag, cyclic error and spike: each found only when claimed as
+/// changing, its rate checked within 2σ; a growth claimed of a constant effect is FALSE.
+#[test]
+fn scorer_wants_a_changing_effect_reported_as_changing() {
+    let x = Axis::X;
+    let kinds = [
+        Grows::Lag,
+        Grows::Cyclic {
+            period_mm: 8.0,
+            phase_rad: 0.7,
+        },
+        Grows::Spike { decay_mm: 1.0 },
+        Grows::Lateral { moving: Axis::Y },
+    ];
+    for grows in kinds {
+        let names = growth(grows);
+        let growing = [Effect::Growing {
+            axis: x,
+            grows,
+            from: 1.0,
+            per_h: 4.0,
+        }];
+        // An error across Y's travel names Y as the axis it follows.
+        let follows = |mut f: Finding| {
+            if matches!(grows, Grows::Lateral { .. }) {
+                f.depends_on = Some("Y".into());
+            }
+            f
+        };
+        let constant = follows(finding(names.constant, x, &[]));
+        let s = score(
+            &growing,
+            &result(vec![constant.clone()], Verdict::Explained),
+        );
+        assert!(s.false_labels().is_empty() && s.missed.len() == 1, "{s:?}");
+        let std = format!("std_{}", names.rate);
+        let claim = follows(finding(names.growth, x, &[(names.rate, 4.3), (&std, 0.2)]));
+        let s = score(
+            &growing,
+            &result(vec![constant, claim.clone()], Verdict::Explained),
+        );
+        assert!(s.right(), "{s:?}");
+        assert_eq!(s.params(), (1, 1), "{}", names.growth);
+        let steady = [growing[0].at(0.0)];
+        let s = score(&steady, &result(vec![claim], Verdict::Explained));
+        let label = match grows {
+            Grows::Lateral { .. } => format!("{} (X, following Y)", names.growth),
+            _ => format!("{} (X)", names.growth),
+        };
+        assert_eq!(s.false_labels(), [label]);
+    }
 }
 
 /// A noise-free session of a perfect machine with no nuisance, with `effects`.

@@ -5,6 +5,7 @@
 //! | effect | columns (along the named axis) | nonlinear |
 //! |---|---|---|
 //! | backlash | −d/2 (d: sign of the axis's last travel), taken up over the first b of travel after a reversal (from +d/2) → lost motion b, µm | take-up θ = b (fixed point) |
+//! | servo_lag_growth, cyclic_growth, reversal_spike_growth, direction_coupling_growth | the finding's own column per unit of its principal value (at its nonlinear value and phase) × (t − t̄)/3600 on the runs that move its axis, once the finding is in the model → growth, per hour (`growth`) | — |
 //! | backlash_growth | −d/2·(t − t̄)/3600 on the runs that move the axis, t the session time (s), once the axis's backlash is in the model → growth g, µm/h (`lost_motion_growth`) | — |
 //! | lost_motion_profile | −d·P_k(s)/2, k = 0..K, s the position on the measured travel → lost motion b(q), µm; k = 1..K alone (its varying part) once the axis's backlash is in the model; the order K chosen by the data (2 … 9) | — |
 //! | servo_lag | −v·10³ → lag τ, s | — |
@@ -37,6 +38,7 @@ use super::phase_walk::PhaseWalk;
 use crate::axis::Axis;
 use std::f64::consts::PI;
 
+pub mod growth;
 pub mod lost_motion_growth;
 
 /// One candidate: an effect on an axis/direction (or a head-offset group).
@@ -60,6 +62,9 @@ pub struct Candidate {
     /// play whose take-up the growth widens (`lost_motion_growth`); 0 for every other
     /// effect.
     pub lost_motion_um: f64,
+    /// For a growth (`growth`): the finding it refines, as it is in the model; `None`
+    /// for every other effect.
+    pub parent: Option<growth::Parent>,
 }
 
 impl Candidate {
@@ -165,6 +170,7 @@ pub fn candidates(d: &Design) -> Vec<Candidate> {
         },
         width_s: 0.0,
         lost_motion_um: 0.0,
+        parent: None,
     };
     let mut out = Vec::new();
     for &a in &axes {
@@ -444,6 +450,7 @@ pub fn specs<'a>(
         | "servo_lag"
         | "reversal_spike" => motion_columns(d, c, theta),
         "backlash_growth" => lost_motion_growth::columns(d, c, theta),
+        e if growth::named(e).is_some() => growth::columns(d, c),
         "cyclic" | "waviness" | "velocity_coupling" | "direction_coupling" | "step"
         | "vibration" => path_columns(d, c, theta),
         "transient" => transient_columns(d, c, theta),

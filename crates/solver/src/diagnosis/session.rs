@@ -120,6 +120,7 @@ impl SessionProblem<'_> {
             backlash,
             profiled,
             grown: [false; 3],
+            growths: Vec::new(),
             kept: Default::default(),
             prior: std::sync::Mutex::new(prior),
             thermal: Default::default(),
@@ -196,7 +197,10 @@ impl SessionProblem<'_> {
             effect: catalogue::reported_name(t.cand.effect).into(),
             axis: match (t.cand.effect, t.cand.direction) {
                 // An error across the moving axis is the error of its direction.
-                ("direction_coupling" | "velocity_coupling", Some(dir)) => Some(dir.to_string()),
+                (
+                    "direction_coupling" | "direction_coupling_growth" | "velocity_coupling",
+                    Some(dir),
+                ) => Some(dir.to_string()),
                 _ => t
                     .cand
                     .axis
@@ -204,7 +208,9 @@ impl SessionProblem<'_> {
                     .or(t.cand.direction.map(|a| a.to_string())),
             },
             depends_on: match t.cand.effect {
-                "direction_coupling" | "velocity_coupling" => t.cand.axis.map(|a| a.to_string()),
+                "direction_coupling" | "direction_coupling_growth" | "velocity_coupling" => {
+                    t.cand.axis.map(|a| a.to_string())
+                }
                 _ => None,
             },
             parameters,
@@ -289,6 +295,8 @@ impl super::engine::Greedy for SessionProblem<'_> {
                 },
                 _ => c.clone(),
             })
+            // A change in time of a finding in the model, once (`catalogue::growth`).
+            .chain(s.growths.iter().cloned())
             .collect()
     }
     fn label(&self, c: &Candidate) -> String {
@@ -319,6 +327,7 @@ impl super::engine::Greedy for SessionProblem<'_> {
         if let ("backlash_growth", Some(a)) = (c.effect, c.axis) {
             catalogue::lost_motion_growth::parameters(&mut params, d, a, s.backlash[a.index()]);
         }
+        catalogue::growth::parameters(&mut params, d, c);
         // A step's ramp: its width with σ (also the step time's, below).
         let width = self.ctx.step_width(s, t, sigma);
         if let Some((name, sd)) = self.ctx.theta_std(s, t, sigma, width.as_ref().map(|w| w.1)) {
@@ -499,6 +508,15 @@ impl super::engine::Greedy for SessionProblem<'_> {
             (Note::Finding(_), "backlash_growth", Some(a)) => grown[a.index()] = true,
             _ => {}
         }
+        let mut growths = std::mem::take(&mut s.growths);
+        if let Note::Finding(f) = &note {
+            // A finding tested for a change offers its growth; a growth in the model is
+            // not offered again.
+            growths
+                .retain(|g| g.effect != c.effect || g.axis != c.axis || g.direction != c.direction);
+            let parent = catalogue::growth::Parent::of(c.effect, &f.parameters, th);
+            growths.extend(parent.and_then(|p| catalogue::growth::candidate(c, p)));
+        }
         let k = s.k + t.ncols + t.extra_params;
         // The candidates' moments on this model serve the next round's.
         let kept = std::mem::take(s.kept.get_mut().expect("kept moments"));
@@ -507,6 +525,7 @@ impl super::engine::Greedy for SessionProblem<'_> {
         drop(s);
         let mut next = self.state(nf, k, backlash, profiled, Some((kept, u_prev)), thermal);
         next.grown = grown;
+        next.growths = growths;
         (next, (), note)
     }
 }

@@ -1,6 +1,12 @@
 //! The named truth sessions: each a recording set-up and the effects put in.
 
-use super::generator::{Effect, Setup};
+use super::generator::{Effect, Grows, Setup};
+
+const CYCLIC_P8: Grows = Grows::Cyclic {
+    period_mm: 8.0,
+    phase_rad: 0.7,
+};
+const SPIKE_1MM: Grows = Grows::Spike { decay_mm: 1.0 };
 use mtcal_solver::axis::{Axis, Plane};
 
 /// One named truth session.
@@ -101,6 +107,16 @@ fn growing(axis: Axis, from_um: f64, per_h_um: f64) -> Effect {
         axis,
         from_um,
         per_h_um,
+    }
+}
+/// A lag, cyclic amplitude or spike height growing linearly in time: `from` at the
+/// session start, + `per_h` per hour (ms for a lag, µm for the others).
+fn grows(axis: Axis, grows: Grows, from: f64, per_h: f64) -> Effect {
+    Effect::Growing {
+        axis,
+        grows,
+        from,
+        per_h,
     }
 }
 fn knock(axis: Axis, size_um: f64, decay_s: f64, plane: usize, run: i64) -> Effect {
@@ -212,6 +228,26 @@ pub fn all() -> Vec<Case> {
         // Lost motion growing in time (2 µm, +10 µm/h: about 7 µm at the end).
         case("growing_x2", 81, true, vec![growing(X, 2.0, 10.0)]),
         case("growing_y3", 82, false, vec![growing(Y, 3.0, 4.0)]),
+        // A lag, a cyclic amplitude and a spike height growing in time (about 1 → 3 ms,
+        // 1 → 3 µm and 2 → 5 µm over the half-hour session).
+        case(
+            "growing_lag_x1",
+            83,
+            true,
+            vec![grows(X, Grows::Lag, 1.0, 4.0)],
+        ),
+        case(
+            "growing_cyclic_x1_p8",
+            84,
+            true,
+            vec![grows(X, CYCLIC_P8, 1.0, 4.0)],
+        ),
+        case(
+            "growing_spike_x2",
+            85,
+            true,
+            vec![grows(X, SPIKE_1MM, 2.0, 6.0)],
+        ),
         // A single decaying knock.
         case("knock_y5", 91, true, vec![knock(Y, 5.0, 0.4, 0, 14)]),
         // The same knock on another seed: its anomalies called a misfit that recurs.

@@ -43,6 +43,13 @@ pub const KNOWN_DEFECTS: &[(&str, &[(&str, &str)])] = &[
         )],
     ),
     (
+        "growing_spike_x2",
+        &[(
+            "unexplained: a remainder",
+            "every effect put in is named, yet a remainder is left unexplained (truth: growing reversal spike X 2 µm / 1 mm + 6/h)",
+        )],
+    ),
+    (
         "plate_xz_m8_yz_p6",
         &[
             (
@@ -119,6 +126,6 @@ pub const KNOWN_DEFECTS: &[(&str, &[(&str, &str)])] = &[
 ];
 
 /// Sessions of the CI subset that are right (no false finding, no missed effect) today.
-pub const RIGHT_CI: usize = 38;
+pub const RIGHT_CI: usize = 40;
 /// Sessions of the full suite that are right today.
-pub const RIGHT_ALL: usize = 56;
+pub const RIGHT_ALL: usize = 58;

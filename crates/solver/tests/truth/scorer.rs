@@ -5,7 +5,7 @@
 //! [`finds`]). Parameters of right claims are checked against the truth within 2σ where
 //! the mapping is clear.
 
-use super::generator::Effect;
+use super::generator::{Effect, Grows};
 use mtcal_solver::axis::Axis;
 use mtcal_solver::diagnosis::{DiagnosisResult, Finding, Verdict};
 
@@ -41,6 +41,23 @@ pub fn accepted(e: &Effect) -> Vec<Name> {
             on("backlash_growth", axis),
         ],
         Effect::ServoLag { axis, .. } => vec![on("servo_lag", axis)],
+        // Likewise a growing lag, cyclic error or spike: its constant part under the
+        // constant's name, its change under the growth's; a growth claimed of a constant
+        // effect is FALSE.
+        Effect::Growing { axis, grows, .. } => {
+            let g = growth(grows);
+            let depends_on = match grows {
+                Grows::Lateral { moving } => Some(moving),
+                _ => None,
+            };
+            [g.constant, g.growth]
+                .map(|effect| Name {
+                    effect,
+                    axis: Some(axis),
+                    depends_on,
+                })
+                .to_vec()
+        }
         Effect::Cyclic { axis, .. } => vec![on("cyclic", axis)],
         // A session's drift may be reported with no axis (its parameters name them).
         Effect::Thermal { axis, .. } => vec![
@@ -74,7 +91,54 @@ pub fn accepted(e: &Effect) -> Vec<Name> {
 pub fn finds(e: &Effect, effect: &str) -> bool {
     match e {
         Effect::GrowingBacklash { .. } => effect == "backlash_growth",
+        Effect::Growing { grows, .. } => effect == growth(*grows).growth,
         _ => true,
+    }
+}
+
+/// The catalogue's names of a growing effect: its constant and its growth, the growth's
+/// rate and start, and the start's unit per the generator's (a lag's s per ms).
+pub struct GrowthNames {
+    pub constant: &'static str,
+    pub growth: &'static str,
+    pub rate: &'static str,
+    pub start: &'static str,
+    pub start_per_unit: f64,
+}
+
+pub fn growth(g: Grows) -> GrowthNames {
+    let (constant, rate, start, start_per_unit) = match g {
+        Grows::Lag => ("servo_lag", "lag_growth_ms_per_h", "lag_start_s", 1e-3),
+        Grows::Cyclic { .. } => (
+            "cyclic",
+            "amplitude_growth_um_per_h",
+            "amplitude_start_um",
+            1.0,
+        ),
+        Grows::Spike { .. } => (
+            "reversal_spike",
+            "height_growth_um_per_h",
+            "height_start_um",
+            1.0,
+        ),
+        Grows::Lateral { .. } => (
+            "direction_coupling",
+            "shift_growth_um_per_h",
+            "shift_start_um",
+            1.0,
+        ),
+    };
+    GrowthNames {
+        constant,
+        growth: match g {
+            Grows::Lag => "servo_lag_growth",
+            Grows::Cyclic { .. } => "cyclic_growth",
+            Grows::Spike { .. } => "reversal_spike_growth",
+            Grows::Lateral { .. } => "direction_coupling_growth",
+        },
+        rate,
+        start,
+        start_per_unit,
     }
 }
 
@@ -118,6 +182,18 @@ pub fn truth_params(e: &Effect, effect: &str) -> Vec<(String, f64)> {
             ("lost_motion_start_um".into(), *from_um),
         ],
         (Effect::ServoLag { ms, .. }, "servo_lag") => vec![("lag_s".into(), ms * 1e-3)],
+        (
+            Effect::Growing {
+                grows, from, per_h, ..
+            },
+            e,
+        ) if e == growth(*grows).growth => {
+            let g = growth(*grows);
+            vec![
+                (g.rate.into(), *per_h),
+                (g.start.into(), from * g.start_per_unit),
+            ]
+        }
         (
             Effect::Cyclic {
                 amp_um, period_mm, ..
@@ -362,6 +438,12 @@ pub fn explain(label: &str, truth: &[Effect]) -> String {
         "lost_motion_profile" | "backlash" => format!("lost motion on {axis}: no play there"),
         "backlash_growth" => {
             format!("a lost motion growing in time on {axis}: no play there grows")
+        }
+        "servo_lag_growth"
+        | "cyclic_growth"
+        | "reversal_spike_growth"
+        | "direction_coupling_growth" => {
+            format!("{effect} ({axis}): no effect there changes in time")
         }
         "step" => format!("a one-off step along {axis}: no event was put in"),
         "transient" => format!("a transient along {axis}: no knock was put in"),

@@ -60,28 +60,13 @@ fn shape(d: &Design, a: Axis, s: usize) -> f64 {
 /// t̄ = Σ p_c·p·t / Σ p_c·p over the rows read along `a`, p_c the centred p (module
 /// docs). The mean sample time when p never varies within a run.
 pub fn origin_s(d: &Design, a: Axis) -> f64 {
-    let t = &d.fields.t_s;
-    let (mut num, mut den) = (0.0, 0.0);
-    for run in &d.runs {
-        for comp in 0..2 {
-            let rows = || (run.start..run.end).filter(|&s| d.row_axis(2 * s + comp) == a);
-            let n = rows().count();
-            if n == 0 {
-                continue;
-            }
-            let mean = rows().map(|s| shape(d, a, s)).sum::<f64>() / n as f64;
-            for s in rows() {
-                let p = shape(d, a, s);
-                num += (p - mean) * p * t[s];
-                den += (p - mean) * p;
-            }
+    super::growth::origin(d, |r| {
+        if d.row_axis(r) == a {
+            shape(d, a, r / 2)
+        } else {
+            0.0
         }
-    }
-    if den > 0.0 {
-        num / den
-    } else {
-        t.iter().sum::<f64>() / t.len().max(1) as f64
-    }
+    })
 }
 
 /// The growth column of candidate `c` (module docs): its coefficient is g, µm/h. At
@@ -146,7 +131,7 @@ pub(crate) fn parameters(
 
 /// b(t) ± σ on the line through b̄ ± σ_b̄ at t̄ with slope g ± σ_g (µm/h), the two
 /// taken independent (module docs).
-fn line_at((b, sb): (f64, f64), (g, sg): (f64, f64), tc: f64, t: f64) -> (f64, f64) {
+pub(super) fn line_at((b, sb): (f64, f64), (g, sg): (f64, f64), tc: f64, t: f64) -> (f64, f64) {
     let h = (t - tc) / 3600.0;
     (b + g * h, sb.hypot(sg * h))
 }
