@@ -60,6 +60,11 @@ impl Case {
         self.setup.free_running = false;
         self
     }
+    /// Circles alone, at one feed and radius (no line recorded).
+    fn circles_only(mut self) -> Case {
+        self.setup.round_trips = 0;
+        self
+    }
     fn perfect(mut self) -> Case {
         self.setup.geometry = false;
         self
@@ -380,5 +385,8 @@ pub fn all() -> Vec<Case> {
             vec![backlash(X, 6.0)],
         )
         .lines_one_feed(),
+        // Circles alone, at one feed and radius: a lag reads as a lost motion varying
+        // along the travel.
+        case("lag_x2_circles_only", 144, false, vec![lag(X, 2.0)]).circles_only(),
     ]
 }
