@@ -24,6 +24,8 @@ struct Outcome {
     truth: Vec<Effect>,
     score: Score,
     findings: Vec<String>,
+    /// Its plan records lines and circles, which tell a lag from a lost motion.
+    separates: bool,
     secs: f64,
 }
 
@@ -61,6 +63,7 @@ fn run_case(c: &Case) -> Outcome {
                     .map(|f| format!("possible {}", f.in_words())),
             )
             .collect(),
+        separates: c.setup.circles && c.setup.round_trips > 0,
         secs: t0.elapsed().as_secs_f64(),
     }
 }
@@ -139,6 +142,21 @@ fn failures(out: &[Outcome], right_min: usize) -> Vec<String> {
             }
         }
     }
+    // Where lines and circles separate a lag from a lost motion, neither is named as
+    // the other's rival.
+    for o in out.iter().filter(|o| o.separates) {
+        for c in &o.score.claims {
+            if ["servo_lag", "backlash", "lost_motion_profile"]
+                .iter()
+                .any(|r| c.label.contains(&format!("[rival {r} ")))
+            {
+                fails.push(format!(
+                    "{}: `{}` names a rival its plan separates",
+                    o.name, c.label
+                ));
+            }
+        }
+    }
     let right = out.iter().filter(|o| o.score.right()).count();
     if right < right_min {
         fails.push(format!(
@@ -177,8 +195,13 @@ fn summary(out: &[Outcome]) -> String {
         (a + x, b + y)
     });
     let secs: f64 = out.iter().map(|o| o.secs).sum();
+    let rivals = out
+        .iter()
+        .flat_map(|o| &o.score.claims)
+        .filter(|c| c.rival_named)
+        .count();
     format!(
-        "{} cases, {right} right; false findings by kind: {kinds:?}; missed effects: {missed}; parameters within 2σ: {ok}/{n}; {secs:.1} s",
+        "{} cases, {right} right; false findings by kind: {kinds:?}; missed effects: {missed}; truth named as a rival: {rivals}; parameters within 2σ: {ok}/{n}; {secs:.1} s",
         out.len()
     )
 }
@@ -320,6 +343,7 @@ fn finding(effect: &str, axis: Axis, params: &[(&str, f64)]) -> Finding {
         },
         evidence: String::new(),
         undetermined: Vec::new(),
+        rivals: Vec::new(),
     }
 }
 
@@ -376,6 +400,7 @@ fn scorer_flags_a_false_finding() {
         truth: Vec::new(),
         score: s,
         findings: Vec::new(),
+        separates: true,
         secs: 0.0,
     };
     assert_eq!(failures(&[o], 0).len(), 1);
@@ -386,6 +411,7 @@ fn scorer_flags_a_false_finding() {
         truth: Vec::new(),
         score: score(&[], &result(vec![], Verdict::Consistent)),
         findings: Vec::new(),
+        separates: true,
         secs: 0.0,
     };
     let fails = failures(&[o], 0);
@@ -487,6 +513,40 @@ fn scorer_wants_a_changing_effect_reported_as_changing() {
         };
         assert_eq!(s.false_labels(), [label]);
     }
+}
+
+/// A finding that names the truth as its rival (a plan that cannot tell them apart) is
+/// right as "rival named", the truth found; without the rival it is FALSE.
+#[test]
+fn scorer_counts_a_named_rival() {
+    let truth = [Effect::ServoLag {
+        axis: Axis::X,
+        ms: 2.0,
+    }];
+    let play = finding("backlash", Axis::X, &[("lost_motion_um", 33.0)]);
+    let s = score(&truth, &result(vec![play.clone()], Verdict::Explained));
+    assert_eq!(s.false_labels(), ["backlash (X)"]);
+    let rival = |effect: &str, axis: Axis| mtcal_solver::diagnosis::Rival {
+        effect: effect.into(),
+        axis: Some(axis.to_string()),
+        why: String::new(),
+        separating_test: String::new(),
+    };
+    let named = Finding {
+        rivals: vec![rival("servo_lag", Axis::X)],
+        ..play.clone()
+    };
+    let s = score(&truth, &result(vec![named], Verdict::Explained));
+    assert!(s.right(), "{s:?}");
+    assert!(s.claims[0].rival_named);
+    assert_eq!(s.claims[0].label, "backlash (X) [rival servo_lag (X)]");
+    // A rival on another axis is not the truth.
+    let elsewhere = Finding {
+        rivals: vec![rival("servo_lag", Axis::Y)],
+        ..play
+    };
+    let s = score(&truth, &result(vec![elsewhere], Verdict::Explained));
+    assert!(!s.right());
 }
 
 /// A noise-free session of a perfect machine with no nuisance, with `effects`.

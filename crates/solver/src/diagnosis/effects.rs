@@ -769,6 +769,7 @@ mod tests {
             evidence: String::new(),
             signature: None,
             undetermined: vec![],
+            rivals: Vec::new(),
         }
     }
 

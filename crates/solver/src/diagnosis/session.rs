@@ -38,6 +38,7 @@ use trial::{Trial, report_parameters};
 mod anomalies;
 mod context;
 mod plots;
+mod rivals;
 mod trial;
 
 /// Options of a session diagnosis.
@@ -221,6 +222,7 @@ impl SessionProblem<'_> {
                 _ => catalogue::signature(&t.cand, t.theta.map(|x| x.1)),
             },
             undetermined: vec![],
+            rivals: Vec::new(),
             residual_rms_um: BeforeAfter {
                 before: rms(f.ssr, n),
                 after,
@@ -453,7 +455,11 @@ impl super::engine::Greedy for SessionProblem<'_> {
             (None, None) => effects::classify(finding),
         };
         match sorted {
-            effects::Sorted::Determined(f) => Admission::Add(Note::Finding(f)),
+            // A finding names the rivals the plan cannot tell from it (`rivals`).
+            effects::Sorted::Determined(f) => Admission::Add(Note::Finding(Finding {
+                rivals: self.rivals(s, c, t),
+                ..f
+            })),
             effects::Sorted::Possible(f) => Admission::SetAside(Note::Possible(f)),
         }
     }
@@ -487,6 +493,7 @@ impl super::engine::Greedy for SessionProblem<'_> {
         let note = match note {
             Note::Finding(finding) => Note::Finding(Finding {
                 undetermined: finding.undetermined,
+                rivals: finding.rivals,
                 ..self.finding_of(&t, finding.parameters, &s.fit, Some(&nf))
             }),
             other => other,

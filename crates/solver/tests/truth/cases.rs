@@ -58,6 +58,19 @@ impl Case {
         self.setup.pause_s = s;
         self
     }
+    /// A plan that cannot tell a lag from a play: lines only, all at one feed, the
+    /// recorder started and stopped with each run's motion (no standstill recorded).
+    fn lines_one_feed(mut self) -> Case {
+        self.setup.circles = false;
+        self.setup.dwell_s = 0.0;
+        self.setup.free_running = false;
+        self
+    }
+    /// Circles alone, at one feed and radius (no line recorded).
+    fn circles_only(mut self) -> Case {
+        self.setup.round_trips = 0;
+        self
+    }
     fn perfect(mut self) -> Case {
         self.setup.geometry = false;
         self
@@ -398,5 +411,18 @@ pub fn all() -> Vec<Case> {
             vec![backlash(X, 6.0), backlash(Y, 3.0)],
         )
         .synced(),
+        // A plan that cannot separate a lag from a play (lines only, at one feed, no
+        // standstill recorded): the one found names the other as its rival.
+        case("lag_x2_lines_one_feed", 142, true, vec![lag(X, 2.0)]).lines_one_feed(),
+        case(
+            "backlash_x6_lines_one_feed",
+            143,
+            true,
+            vec![backlash(X, 6.0)],
+        )
+        .lines_one_feed(),
+        // Circles alone, at one feed and radius: a lag reads as a lost motion varying
+        // along the travel.
+        case("lag_x2_circles_only", 144, false, vec![lag(X, 2.0)]).circles_only(),
     ]
 }

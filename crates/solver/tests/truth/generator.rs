@@ -219,6 +219,10 @@ pub struct Setup {
     pub circle_feed_mm_min: f64,
     /// Round trips of each line (two runs each).
     pub round_trips: usize,
+    /// Whether each plate's two circles are recorded after its lines.
+    pub circles: bool,
+    /// Standstill recorded after each run's motion, s.
+    pub dwell_s: f64,
     /// Unrecorded pause between runs, s.
     pub pause_s: f64,
     /// Small geometric errors of the machine (translational, within the rigid model).
@@ -243,6 +247,8 @@ impl Default for Setup {
             line_feed_mm_min: 500.0,
             circle_feed_mm_min: 500.0,
             round_trips: 5,
+            circles: true,
+            dwell_s: DWELL_S,
             pause_s: 3.0,
             geometry: true,
             free_running: true,
@@ -612,7 +618,8 @@ pub fn generate(setup: &Setup) -> Session {
             }
         }
         go(&mut prog, point(RADIUS, 0.0), None);
-        for (sense, kind) in [(1.0, TestKind::CircleCcw), (-1.0, TestKind::CircleCw)] {
+        let senses = [(1.0, TestKind::CircleCcw), (-1.0, TestKind::CircleCw)];
+        for (sense, kind) in senses.into_iter().filter(|_| setup.circles) {
             let c = point(0.0, 0.0);
             prog.push((
                 Path::Circle {
@@ -655,7 +662,7 @@ pub fn generate(setup: &Setup) -> Session {
             } else {
                 0.0
             };
-            let post = if run.is_some() { DWELL_S } else { 0.0 };
+            let post = if run.is_some() { setup.dwell_s } else { 0.0 };
             let t0 = tick;
             let number = run.as_ref().map_or(0, |r| r.number);
             let run_knocks = knocks(&setup.effects, pi, number);

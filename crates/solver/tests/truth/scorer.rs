@@ -2,7 +2,9 @@
 //! it says it cannot explain) is right when it names an effect that was put in, on its
 //! axis, under a name of the equivalence table, and FALSE otherwise; a truth effect no
 //! claim names is missed (a growing backlash is found only by a claim that it grows,
-//! [`finds`]). Parameters of right claims are checked against the truth within 2σ where
+//! [`finds`]). A claim that names a rival the plan cannot tell from it (`rivals`) is
+//! right, as "rival named", when the rival is the truth: it does not take the wrong one
+//! for certain, and the truth counts as found. Parameters of right claims are checked against the truth within 2σ where
 //! the mapping is clear.
 
 use super::generator::{Effect, Grows};
@@ -254,6 +256,8 @@ pub struct Claim {
     pub label: String,
     /// Index of the truth effect it names; `None`: FALSE.
     pub truth: Option<usize>,
+    /// It names the truth only as a rival of the effect it found.
+    pub rival_named: bool,
     pub params: Vec<ParamCheck>,
 }
 
@@ -342,6 +346,7 @@ pub fn score(truth: &[Effect], r: &DiagnosisResult) -> Score {
                 "unexplained: a remainder".into()
             },
             truth: None,
+            rival_named: false,
             params: Vec::new(),
         });
     }
@@ -361,6 +366,13 @@ fn classify(truth: &[Effect], f: &Finding, possible: bool, found: &mut [bool]) -
     if possible {
         label = format!("possible {label}");
     }
+    for r in &f.rivals {
+        let axis = r
+            .axis
+            .as_deref()
+            .map_or(String::new(), |a| format!(" ({a})"));
+        label = format!("{label} [rival {}{axis}]", r.effect);
+    }
     // The first truth effect it names, preferring one not yet found.
     let hits: Vec<usize> = (0..truth.len())
         .filter(|&i| {
@@ -370,9 +382,21 @@ fn classify(truth: &[Effect], f: &Finding, possible: bool, found: &mut [bool]) -
         })
         .collect();
     let Some(&i) = hits.iter().find(|&&i| !found[i]).or(hits.first()) else {
+        // Not the truth itself: right when a rival it names is.
+        let rival = (0..truth.len()).find(|&i| {
+            f.rivals.iter().any(|r| {
+                accepted(&truth[i])
+                    .iter()
+                    .any(|n| matches(n, &r.effect, axis_of(&r.axis), dep))
+            })
+        });
+        if let Some(i) = rival {
+            found[i] |= finds(&truth[i], "");
+        }
         return Claim {
             label,
-            truth: None,
+            truth: rival,
+            rival_named: rival.is_some(),
             params: Vec::new(),
         };
     };
@@ -394,6 +418,7 @@ fn classify(truth: &[Effect], f: &Finding, possible: bool, found: &mut [bool]) -
     Claim {
         label,
         truth: Some(i),
+        rival_named: false,
         params,
     }
 }
