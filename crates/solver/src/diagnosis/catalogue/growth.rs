@@ -253,10 +253,7 @@ pub(crate) fn parameters(p: &mut BTreeMap<String, f64>, d: &Design, c: &Candidat
     let (Some(&r), Some(&sr)) = (p.get(g.param), p.get(&format!("std_{}", g.param))) else {
         return;
     };
-    let t_end = d.fields.t_s.iter().copied().fold(0.0, f64::max);
-    for (at, t) in [("start", 0.0), ("end", t_end)] {
-        let (v, sv) =
-            super::lost_motion_growth::line_at(par.value, (r * g.scale, sr * g.scale), tc, t);
+    for (at, (v, sv)) in start_and_end(d, par.value, (r * g.scale, sr * g.scale), tc) {
         p.insert(format!("{}_{at}_{}", g.stem, g.unit), v);
         p.insert(format!("std_{}_{at}_{}", g.stem, g.unit), sv);
     }
@@ -274,9 +271,41 @@ pub(crate) fn parameters(p: &mut BTreeMap<String, f64>, d: &Design, c: &Candidat
     }
 }
 
+/// The finding's value ± σ at the session's start (t = 0) and end (the last sample's
+/// time): on the line through v̄ ± σ at t̄ with slope r ± σ per hour.
+pub(super) fn start_and_end(
+    d: &Design,
+    value: (f64, f64),
+    rate: (f64, f64),
+    tc: f64,
+) -> [(&'static str, (f64, f64)); 2] {
+    let t_end = d.fields.t_s.iter().copied().fold(0.0, f64::max);
+    [
+        ("start", line_at(value, rate, tc, 0.0)),
+        ("end", line_at(value, rate, tc, t_end)),
+    ]
+}
+
+/// v(t) ± σ on the line through v̄ ± σ_v̄ at t̄ with slope r ± σ_r (per hour), the two
+/// taken independent (as a profile's varying part of its constant).
+fn line_at((v, sv): (f64, f64), (r, sr): (f64, f64), tc: f64, t: f64) -> (f64, f64) {
+    let h = (t - tc) / 3600.0;
+    (v + r * h, sv.hypot(sr * h))
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn start_and_end_follow_the_line_through_the_constant() {
+        // b̄ = 4 ± 0.1 µm at t̄ = 0.2 h, g = 10 ± 0.5 µm/h: b₀ = 2 µm at t = 0, σ from
+        // both; at t̄ itself the constant's own σ.
+        let (b0, s0) = line_at((4.0, 0.1), (10.0, 0.5), 720.0, 0.0);
+        assert!((b0 - 2.0).abs() < 1e-12);
+        assert!((s0 - 0.1f64.hypot(0.1)).abs() < 1e-12);
+        assert_eq!(line_at((4.0, 0.1), (10.0, 0.5), 720.0, 720.0), (4.0, 0.1));
+    }
 
     #[test]
     fn every_growth_has_a_table_entry_naming_its_rate_as_principal() {

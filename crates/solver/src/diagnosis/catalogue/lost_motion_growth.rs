@@ -118,22 +118,11 @@ pub(crate) fn parameters(
         return;
     };
     let tc = origin_s(d, a);
-    let t_end = d.fields.t_s.iter().copied().fold(0.0, f64::max);
-    let at = |t: f64| line_at((b, sb), (g, sg), tc, t);
-    let (b0, s0) = at(0.0);
-    let (b1, s1) = at(t_end);
-    p.insert("lost_motion_start_um".into(), b0);
-    p.insert("std_lost_motion_start_um".into(), s0);
-    p.insert("lost_motion_end_um".into(), b1);
-    p.insert("std_lost_motion_end_um".into(), s1);
+    for (at, (v, sv)) in super::growth::start_and_end(d, (b, sb), (g, sg), tc) {
+        p.insert(format!("lost_motion_{at}_um"), v);
+        p.insert(format!("std_lost_motion_{at}_um"), sv);
+    }
     p.insert("centre_s".into(), tc);
-}
-
-/// b(t) ± σ on the line through b̄ ± σ_b̄ at t̄ with slope g ± σ_g (µm/h), the two
-/// taken independent (module docs).
-pub(super) fn line_at((b, sb): (f64, f64), (g, sg): (f64, f64), tc: f64, t: f64) -> (f64, f64) {
-    let h = (t - tc) / 3600.0;
-    (b + g * h, sb.hypot(sg * h))
 }
 
 #[cfg(test)]
@@ -144,15 +133,5 @@ mod tests {
     fn the_table_entry_names_the_growth_as_principal() {
         let spec = crate::diagnosis::effects::spec(NAME).expect("in the table");
         assert!(spec.params.iter().any(|p| p.name == spec.principal[0]));
-    }
-
-    #[test]
-    fn start_and_end_follow_the_line_through_the_constant() {
-        // b̄ = 4 ± 0.1 µm at t̄ = 0.2 h, g = 10 ± 0.5 µm/h: b₀ = 2 µm at t = 0, σ from
-        // both; at t̄ itself the constant's own σ.
-        let (b0, s0) = line_at((4.0, 0.1), (10.0, 0.5), 720.0, 0.0);
-        assert!((b0 - 2.0).abs() < 1e-12);
-        assert!((s0 - 0.1f64.hypot(0.1)).abs() < 1e-12);
-        assert_eq!(line_at((4.0, 0.1), (10.0, 0.5), 720.0, 720.0), (4.0, 0.1));
     }
 }

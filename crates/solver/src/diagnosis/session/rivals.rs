@@ -21,78 +21,53 @@ use crate::diagnosis::catalogue::{self, Candidate};
 /// admitting an effect ("very strong" evidence, odds of about 150 to one).
 pub(super) const RIVAL_BIC: f64 = 10.0;
 
-/// Two explanations that read alike on some plans: the effect found (its catalogue
-/// name), the rival, why they read alike, and the test that separates them.
+/// Two explanations that read alike on some plans, each the other's rival (catalogue
+/// names), why they read alike, and the test that separates them.
 struct Pair {
-    found: &'static str,
-    rival: &'static str,
+    one: &'static str,
+    other: &'static str,
     why: &'static str,
     test: &'static str,
 }
 
-const LAG_PLAY_WHY: &str = "at one constant feed a lag's error −v·τ is an offset with the direction of travel, as a play's −d·b/2; only the starts and stops of the motion differ";
-const LAG_PLAY_TEST: &str =
-    "lines or circles at a second feed (a lag's error scales with the feed, a play's does not)";
-const LAG_PROFILE_WHY: &str = "on circles at one feed and radius a lag reads as a lost motion varying along the travel, b(x) = 2·v·τ·√(1 − (x/R)²)";
-const LAG_PROFILE_TEST: &str =
-    "circles at a second feed or radius, or lines over the same travel at the circles' feed";
-const STEP_WHY: &str =
-    "a decay much longer than the recording after the event reads as a lasting offset";
-const STEP_TEST: &str =
-    "a longer recording after the event (a standstill, or the next runs of its test)";
-const GROWTH_WHY: &str = "a drift in time and a lost motion growing in time both change the readings over the session; they differ only between the two directions of travel";
-const GROWTH_TEST: &str =
-    "both directions of travel recorded over the same positions at the session's start and end";
+impl Pair {
+    /// The rival of `effect` in this pair, if `effect` is one of the two.
+    fn rival_of(&self, effect: &str) -> Option<&'static str> {
+        if self.one == effect {
+            Some(self.other)
+        } else if self.other == effect {
+            Some(self.one)
+        } else {
+            None
+        }
+    }
+}
 
-/// The rivals of each effect (docs/diagnosis-catalogue.md, "rival" column).
+/// The rival pairs (docs/diagnosis-catalogue.md, "rival" column).
 const PAIRS: &[Pair] = &[
     Pair {
-        found: "backlash",
-        rival: "servo_lag",
-        why: LAG_PLAY_WHY,
-        test: LAG_PLAY_TEST,
+        one: "backlash",
+        other: "servo_lag",
+        why: "at one constant feed a lag's error −v·τ is an offset with the direction of travel, as a play's −d·b/2; only the starts and stops of the motion differ",
+        test: "lines or circles at a second feed (a lag's error scales with the feed, a play's does not)",
     },
     Pair {
-        found: "servo_lag",
-        rival: "backlash",
-        why: LAG_PLAY_WHY,
-        test: LAG_PLAY_TEST,
+        one: "servo_lag",
+        other: "lost_motion_profile",
+        why: "on circles at one feed and radius a lag reads as a lost motion varying along the travel, b(x) = 2·v·τ·√(1 − (x/R)²)",
+        test: "circles at a second feed or radius, or lines over the same travel at the circles' feed",
     },
     Pair {
-        found: "servo_lag",
-        rival: "lost_motion_profile",
-        why: LAG_PROFILE_WHY,
-        test: LAG_PROFILE_TEST,
+        one: "step",
+        other: "transient",
+        why: "a decay much longer than the recording after the event reads as a lasting offset",
+        test: "a longer recording after the event (a standstill, or the next runs of its test)",
     },
     Pair {
-        found: "lost_motion_profile",
-        rival: "servo_lag",
-        why: LAG_PROFILE_WHY,
-        test: LAG_PROFILE_TEST,
-    },
-    Pair {
-        found: "step",
-        rival: "transient",
-        why: STEP_WHY,
-        test: STEP_TEST,
-    },
-    Pair {
-        found: "transient",
-        rival: "step",
-        why: STEP_WHY,
-        test: STEP_TEST,
-    },
-    Pair {
-        found: "thermal_drift",
-        rival: catalogue::lost_motion_growth::NAME,
-        why: GROWTH_WHY,
-        test: GROWTH_TEST,
-    },
-    Pair {
-        found: catalogue::lost_motion_growth::NAME,
-        rival: "thermal_drift",
-        why: GROWTH_WHY,
-        test: GROWTH_TEST,
+        one: "thermal_drift",
+        other: catalogue::lost_motion_growth::NAME,
+        why: "a drift in time and a lost motion growing in time both change the readings over the session; they differ only between the two directions of travel",
+        test: "both directions of travel recorded over the same positions at the session's start and end",
     },
 ];
 
@@ -105,7 +80,7 @@ fn same_place(c: &Candidate, r: &Candidate) -> bool {
 
 /// Whether the effect `effect` (a catalogue name) has known rivals.
 pub(super) fn has_rivals(effect: &str) -> bool {
-    PAIRS.iter().any(|p| p.found == effect)
+    PAIRS.iter().any(|p| p.rival_of(effect).is_some())
 }
 
 impl SessionProblem<'_> {
@@ -117,10 +92,13 @@ impl SessionProblem<'_> {
         }
         let available = <Self as crate::diagnosis::engine::Greedy>::candidates(self, s);
         let mut out = Vec::new();
-        for p in PAIRS.iter().filter(|p| p.found == c.effect) {
+        for (p, rival) in PAIRS
+            .iter()
+            .filter_map(|p| Some((p, p.rival_of(c.effect)?)))
+        {
             let best = available
                 .iter()
-                .filter(|r| r.effect == p.rival && same_place(c, r))
+                .filter(|r| r.effect == rival && same_place(c, r))
                 .filter_map(|r| Some((r, self.ctx.try_candidate(s, r)?)))
                 .min_by(|a, b| a.1.dbic.total_cmp(&b.1.dbic));
             let Some((r, rt)) = best else { continue };
@@ -151,15 +129,11 @@ mod tests {
     #[test]
     fn pairs_are_symmetric() {
         for p in PAIRS {
-            assert!(
-                PAIRS
-                    .iter()
-                    .any(|q| q.found == p.rival && q.rival == p.found && q.test == p.test),
-                "{} -> {}",
-                p.found,
-                p.rival
-            );
+            assert_eq!(p.rival_of(p.one), Some(p.other));
+            assert_eq!(p.rival_of(p.other), Some(p.one));
+            assert!(has_rivals(p.one) && has_rivals(p.other), "{}", p.one);
         }
+        assert!(!has_rivals("cyclic"));
     }
 
     /// A stored finding without rivals reads with none and writes none; one with a rival
