@@ -169,8 +169,17 @@ pub async fn stored_check_model(
 ) -> Result<CheckModel, mtcal_store::StoreError> {
     match store.check_model(id).await? {
         Some(m) => Ok(m),
-        None => Ok(check_model(&store.get_result(id).await?.document)),
+        None => document_check_model(store, id).await,
     }
+}
+
+/// [`check_model`] read from stored result `id`'s document (a result stored before its
+/// model was kept beside it).
+async fn document_check_model(
+    store: &dyn Store,
+    id: &str,
+) -> Result<CheckModel, mtcal_store::StoreError> {
+    Ok(check_model(&store.get_result(id).await?.document))
 }
 
 /// [`check_model`] of each identification among `results` that is a misfit or decided
@@ -191,7 +200,7 @@ pub async fn check_models(
     for r in results.iter().filter(|r| r.kind == IDENTIFICATION) {
         let m = match stored.remove(&r.id).flatten() {
             Some(m) => m,
-            None => check_model(&store.get_result(&r.id).await?.document),
+            None => document_check_model(store, &r.id).await?,
         };
         if m != CheckModel::default() {
             out.insert(r.id.clone(), m);
