@@ -36,6 +36,7 @@ use std::collections::BTreeMap;
 use trial::{Trial, report_parameters};
 
 mod anomalies;
+mod confounded;
 mod context;
 mod plots;
 mod rivals;
@@ -411,6 +412,7 @@ impl super::engine::Greedy for SessionProblem<'_> {
             .sum();
         if let Some(why) = effects::implausible(&c.label(), size, size_sd, explained, self.floor)
             .filter(|_| !measured)
+            .or_else(|| self.confounded(s, c, t, sigma))
         {
             return Admission::SetAside(Note::Rejected(why));
         }
