@@ -149,17 +149,17 @@ impl SessionProblem<'_> {
             let (k, k_rival) = (t.ncols + t.extra_params, rt.ncols + rt.extra_params);
             let how = match standing(dchi2, k, k_rival) {
                 Standing::Separated => continue,
-                Standing::Named => "within",
+                Standing::Named => "",
                 Standing::Prevails => {
                     undetermined = true;
-                    "with fewer or as many parameters within"
+                    "; no more flexible and not behind, it leaves this one undetermined"
                 }
             };
             out.push(Rival {
                 effect: catalogue::reported_name(r.effect).into(),
                 axis: r.axis.or(r.direction).map(|a| a.to_string()),
                 why: format!(
-                    "{}: on this plan's samples its fit ({k_rival} parameter(s)) is {how} Δχ² {dchi2:+.1} of this one's ({k}; separated from Δχ² {RIVAL_DATA:.0} on)",
+                    "{}: on this plan's samples its data term differs from this one's by Δχ² {dchi2:+.1} ({k_rival} parameter(s) against {k}; separated from Δχ² +{RIVAL_DATA:.0} on){how}",
                     p.why
                 ),
                 separating_test: p.test.into(),
