@@ -346,17 +346,24 @@ pub fn score(truth: &[Effect], r: &DiagnosisResult) -> Score {
         .collect();
     // What it leaves unexplained is a claim too: with every effect put in found, a
     // remainder is physics that is not there, unless it is a knock's one-off anomaly;
-    // calling anomalies a misfit that recurs is never right of a knock.
+    // calling anomalies a misfit that recurs is never right of a knock. An effect named
+    // by possible claims alone (undetermined, or left to a rival) is not in the model:
+    // what is left unexplained is its own misfit, no claim of other physics.
     let recurring = r.unexplained.iter().any(|u| u.contains(RECURRING));
     let knock = truth.iter().any(|e| matches!(e, Effect::Knock { .. }));
     // A play that widens and narrows is outside the catalogue: what it leaves is there.
     let outside = truth
         .iter()
         .any(|e| matches!(e, Effect::SwellingBacklash { .. }));
+    let only_possible = (0..truth.len()).any(|i| {
+        let mut by = claims.iter().filter(|c| c.truth == Some(i)).peekable();
+        by.peek().is_some() && by.all(|c| c.label.starts_with("possible "))
+    });
     if r.verdict == Verdict::PartlyExplained
         && missed.is_empty()
-        && (recurring || !knock)
+        && !only_possible
         && !outside
+        && (recurring || !knock)
     {
         claims.push(Claim {
             label: if recurring {
