@@ -37,6 +37,7 @@ use trial::{Trial, report_parameters};
 
 mod anomalies;
 mod context;
+mod plates;
 mod plots;
 mod trial;
 
@@ -120,6 +121,8 @@ impl SessionProblem<'_> {
             backlash,
             profiled,
             grown: [false; 3],
+            plates: Vec::new(),
+            plate_cols: Vec::new(),
             kept: Default::default(),
             prior: std::sync::Mutex::new(prior),
             thermal: Default::default(),
@@ -170,6 +173,7 @@ impl SessionProblem<'_> {
         parameters: BTreeMap<String, f64>,
         f: &Fit,
         nf: Option<&Fit>,
+        plates: &[String],
     ) -> Finding {
         let (n, heldout_n) = (self.ctx.d.rows(), self.ctx.sets.heldout_n);
         let h_before = self.heldout_rms(f);
@@ -192,6 +196,20 @@ impl SessionProblem<'_> {
             Some(nf) => (rms(nf.ssr, n), rms(nf.heldout_ssr, heldout_n)),
             None => (rms(t.ssr, n), rms(t.heldout_ssr, heldout_n)),
         };
+        let signature = match (t.cand.effect, t.theta, t.cand.direction) {
+            ("step", Some((_, th)), Some(dir)) => Some(self.step_place(th, dir)),
+            ("transient", Some((_, th)), Some(dir)) => Some(self.transient_place(th, dir)),
+            _ => match &t.cand.mounting {
+                // A plate's scale: its mounting, the reference and what it means.
+                Some(m) => Some(catalogue::plate_scale::signature(
+                    self.ctx.d,
+                    plates,
+                    m,
+                    parameters.get("scale_ppm").copied(),
+                )),
+                None => catalogue::signature(&t.cand, t.theta.map(|x| x.1)),
+            },
+        };
         Finding {
             effect: catalogue::reported_name(t.cand.effect).into(),
             axis: match (t.cand.effect, t.cand.direction) {
@@ -209,11 +227,7 @@ impl SessionProblem<'_> {
             },
             parameters,
             physics: effects::physics(catalogue::reported_name(t.cand.effect)).into(),
-            signature: match (t.cand.effect, t.theta, t.cand.direction) {
-                ("step", Some((_, th)), Some(dir)) => Some(self.step_place(th, dir)),
-                ("transient", Some((_, th)), Some(dir)) => Some(self.transient_place(th, dir)),
-                _ => catalogue::signature(&t.cand, t.theta.map(|x| x.1)),
-            },
+            signature,
             undetermined: vec![],
             residual_rms_um: BeforeAfter {
                 before: rms(f.ssr, n),
@@ -269,6 +283,10 @@ impl super::engine::Greedy for SessionProblem<'_> {
         self.cands
             .iter()
             .filter(|c| {
+                // A plate's scale, while its group's common scale stays with the axes.
+                if let Some(m) = &c.mounting {
+                    return catalogue::plate_scale::open(self.ctx.d, &s.plates, m);
+                }
                 let Some(a) = c.axis.map(|a| a.index()) else {
                     return true;
                 };
@@ -318,6 +336,9 @@ impl super::engine::Greedy for SessionProblem<'_> {
         }
         if let ("backlash_growth", Some(a)) = (c.effect, c.axis) {
             catalogue::lost_motion_growth::parameters(&mut params, d, a, s.backlash[a.index()]);
+        }
+        if c.effect == catalogue::plate_scale::NAME {
+            catalogue::plate_scale::parameters(&mut params, d);
         }
         // A step's ramp: its width with σ (also the step time's, below).
         let width = self.ctx.step_width(s, t, sigma);
@@ -429,7 +450,7 @@ impl super::engine::Greedy for SessionProblem<'_> {
             ft.p < FORM_ALPHA
                 && !(c.effect == "servo_lag" && ft.relative_spread() <= LAG_FORM_SPREAD)
         });
-        let finding = self.finding_of(t, params, f, None);
+        let finding = self.finding_of(t, params, f, None, &s.plates);
         // A size far beyond what the held-out runs gain from it is not credible, whatever
         // its σ (`credible::MAX_SIZE_PER_GAIN`); a logged temperature's growth is judged
         // by its σ alone, as above; a local effect (a step, on its run) is not judged by a
@@ -478,7 +499,7 @@ impl super::engine::Greedy for SessionProblem<'_> {
         let note = match note {
             Note::Finding(finding) => Note::Finding(Finding {
                 undetermined: finding.undetermined,
-                ..self.finding_of(&t, finding.parameters, &s.fit, Some(&nf))
+                ..self.finding_of(&t, finding.parameters, &s.fit, Some(&nf), &s.plates)
             }),
             other => other,
         };
@@ -499,6 +520,12 @@ impl super::engine::Greedy for SessionProblem<'_> {
             (Note::Finding(_), "backlash_growth", Some(a)) => grown[a.index()] = true,
             _ => {}
         }
+        let mut plates = std::mem::take(&mut s.plates);
+        let mut plate_cols = std::mem::take(&mut s.plate_cols);
+        if let (Note::Finding(_), Some(m)) = (&note, &c.mounting) {
+            plates.push(m.clone());
+            plate_cols.push(u_prev - 1);
+        }
         let k = s.k + t.ncols + t.extra_params;
         // The candidates' moments on this model serve the next round's.
         let kept = std::mem::take(s.kept.get_mut().expect("kept moments"));
@@ -507,6 +534,8 @@ impl super::engine::Greedy for SessionProblem<'_> {
         drop(s);
         let mut next = self.state(nf, k, backlash, profiled, Some((kept, u_prev)), thermal);
         next.grown = grown;
+        next.plates = plates;
+        next.plate_cols = plate_cols;
         (next, (), note)
     }
 }
@@ -735,7 +764,7 @@ fn diagnose_design(
     };
     let base = problem.state(f, 0, [None; 3], [false; 3], None, None);
     let o = engine::run(&problem, base, &rules, "", progress, span);
-    let findings: Vec<Finding> = o
+    let mut findings: Vec<Finding> = o
         .added
         .into_iter()
         .filter_map(|a| match a.note {
@@ -752,6 +781,7 @@ fn diagnose_design(
             Note::Finding(_) => {}
         }
     }
+    problem.restate_plates(&o.state, &mut findings);
     // All the report reads of the final model: the rest of its state (accepted columns,
     // kept moments, rotation errors, thermal basis) is freed before the report's scans.
     let (resid, heldout_ssr) = o.state.into_residual();

@@ -13,7 +13,7 @@ use crate::session::Session;
 
 /// The effects of the catalogue a finding can be read back as (its `evidence` label's
 /// first word).
-const EFFECTS: [&str; 19] = [
+const EFFECTS: [&str; 20] = [
     "backlash",
     "backlash_growth",
     "cyclic",
@@ -21,6 +21,7 @@ const EFFECTS: [&str; 19] = [
     "lost_motion_profile",
     "lost_motion_variation",
     "model_order",
+    "plate_scale",
     "reversal_spike",
     "servo_lag",
     "setup_offset",
@@ -92,6 +93,10 @@ pub fn candidate_of(f: &Finding) -> Result<(Candidate, Theta), String> {
             0.0
         },
         lost_motion_um: 0.0,
+        // A plate's scale names its mounting: `plate_scale of mounting `xz``.
+        mounting: (effect == "plate_scale")
+            .then(|| label.split('`').nth(1).map(str::to_string))
+            .flatten(),
     };
     let theta_name = match effect {
         "reversal_spike" => Some("decay_mm"),

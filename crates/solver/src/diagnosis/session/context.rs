@@ -144,6 +144,10 @@ pub(crate) struct State {
     /// Per axis: whether a growth of its lost motion in time (`backlash_growth`) is in
     /// the model.
     pub grown: [bool; 3],
+    /// The mountings whose plate scale (`plate_scale`) is in the model.
+    pub plates: Vec<String>,
+    /// The index in `fit.cols` of each of `plates`' columns.
+    pub plate_cols: Vec<usize>,
     /// The candidates' moments formed on this model, kept for the next
     /// ([`Ctx::moments_kept`]).
     pub kept: std::sync::Mutex<Kept>,
@@ -519,6 +523,8 @@ mod tests {
             backlash: [None; 3],
             profiled: [false; 3],
             grown: [false; 3],
+            plates: Vec::new(),
+            plate_cols: Vec::new(),
             kept: Default::default(),
             prior: std::sync::Mutex::new(prior),
             thermal: Default::default(),
@@ -566,6 +572,7 @@ mod tests {
             order: 0,
             width_s: 0.0,
             lost_motion_um: 0.0,
+            mounting: None,
         };
         let t_step = d.fields.t_s[(d.runs[2].start + d.runs[2].end) / 2];
         let grid = match catalogue::search(&d, &spike) {
