@@ -228,3 +228,28 @@ impl ExtraColumns for FindingColumns<'_> {
         }
     }
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// A plate scale is read back with its mounting (its evidence's label names it).
+    #[test]
+    fn a_plate_scale_reads_back_with_its_mounting() {
+        let f: Finding = serde_json::from_value(serde_json::json!({
+            "effect": "plate_scale",
+            "parameters": {"scale_ppm": -8.0, "std_scale_ppm": 0.1},
+            "physics": "",
+            "residual_rms_um": {"before": 1.0, "after": 0.2},
+            "heldout_rms_um": {"before": 1.0, "after": 0.2},
+            "evidence": "plate_scale of mounting `xz`: BIC -8538.8 with 1 extra parameter(s)",
+        }))
+        .expect("a finding");
+        let (c, theta) = candidate_of(&f).expect("a catalogue effect");
+        assert_eq!(
+            (c.effect, c.mounting.as_deref()),
+            ("plate_scale", Some("xz"))
+        );
+        assert!(theta.is_none());
+    }
+}
