@@ -267,6 +267,9 @@ pub fn summary(r: &DiagnosisResult) -> String {
         let params = in_words(&f.parameters);
         let _ = writeln!(s, "  parameters: {}", params.join(", "));
         undetermined_lines(&mut s, f);
+        for r in &f.rivals {
+            let _ = writeln!(s, "  rival: {}", r.in_words());
+        }
         let _ = writeln!(s, "  evidence: {}", f.evidence);
     }
     for f in &r.possible {

@@ -16,7 +16,7 @@ pub struct WorkerArgs {
     pub db: String,
     /// Database connections of this process (default 10 on PostgreSQL, 8 on SQLite).
     /// Every process sharing a PostgreSQL server counts: keep their sum below its
-    /// `max_connections` less a few for administration (docs/api.md, "Operations").
+    /// `max_connections` less a few for administration (docs/operations.md, "Operations").
     #[arg(long, env = "MTCAL_DB_POOL", value_parser = clap::value_parser!(u32).range(1..=500))]
     pub db_pool: Option<u32>,
     /// Longest wait for a database connection, ms: past it a request answers 503 with

@@ -340,7 +340,7 @@ fn deployment_examples_use_flags_mtcal_accepts() {
         }
     }
     assert!(lines.len() >= 5, "{lines:?}");
-    // Both set the sign-in cookies' key (docs/api.md, "Operations").
+    // Both set the sign-in cookies' key (docs/operations.md, "Operations").
     for (name, text) in [("mtcal.service", &unit), ("Containerfile", &image)] {
         assert!(
             text.contains("MTCAL_SESSION_KEY"),

@@ -436,6 +436,7 @@ impl Browser {
 /// EXX = c1·x (µm, x in mm, var(c1) = 1e-6) measured over x ∈ [−50, 50] mm.
 pub fn check(machine: &str, kind: &str, at: &str, c1: f64) -> mtcal_store::NewResult {
     mtcal_store::NewResult {
+        check_model: None,
         machine_id: machine.into(),
         dataset_id: None,
         kind: kind.into(),

@@ -136,6 +136,7 @@ pub(crate) fn as_worker_stores(
     document: Value,
 ) -> mtcal_store::NewResult {
     mtcal_store::NewResult {
+        check_model: None,
         machine_id: ds.machine_id.clone(),
         dataset_id: Some(ds.id.clone()),
         kind: kind.into(),

@@ -73,6 +73,7 @@ async fn exports_and_report_of_a_stored_result() {
     let meta = app
         .store
         .import_result(NewResult {
+            check_model: None,
             machine_id: "VMC-E".into(),
             dataset_id: None,
             kind: "identification".into(),

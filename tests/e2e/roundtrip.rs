@@ -245,6 +245,7 @@ async fn unbounded_and_legacy_null_uncertainties_are_read_everywhere() {
         let meta = app
             .store
             .import_result(mtcal_store::NewResult {
+                check_model: None,
                 machine_id: machine.into(),
                 dataset_id: Some(ds),
                 kind: "diagnosis".into(),

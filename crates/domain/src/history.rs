@@ -67,8 +67,8 @@ pub fn misfit_gate(document: &serde_json::Value) -> Option<mtcal_solver::misfit:
 /// The baseline among a machine's identifications `results` (time order): its chosen
 /// one, else its first check that is not a misfit ([`misfit_gate`]: nothing measured
 /// against a model that does not explain its recording would be decided). None when
-/// there is no check, or every check is a misfit. Reads the documents of the checks
-/// before the first that is not a misfit (one, as a rule).
+/// there is no check, or every check is a misfit. Reads the stored check models of the
+/// checks before the first that is not a misfit (one, as a rule), no document.
 pub async fn baseline<'a>(
     store: &dyn Store,
     machine: &Machine,
@@ -78,7 +78,7 @@ pub async fn baseline<'a>(
         return Ok(Some(chosen));
     }
     for r in results {
-        if misfit_gate(&store.get_result(&r.id).await?.document).is_none() {
+        if !trends::stored_check_model(store, &r.id).await?.misfit {
             return Ok(Some(r));
         }
     }

@@ -155,8 +155,27 @@ pub fn check_model(document: &serde_json::Value) -> CheckModel {
     }
 }
 
-/// [`check_model`] of stored result `id`'s document.
+/// The check model to store with a result of `kind` landing with `document`
+/// ([`mtcal_store::NewResult::check_model`]): an identification's, else none.
+pub fn landing_check_model(kind: &str, document: &serde_json::Value) -> Option<CheckModel> {
+    (kind == IDENTIFICATION).then(|| check_model(document))
+}
+
+/// [`check_model`] of stored result `id`: as stored beside the result, else (stored
+/// before it was kept) read from its document.
 pub async fn stored_check_model(
+    store: &dyn Store,
+    id: &str,
+) -> Result<CheckModel, mtcal_store::StoreError> {
+    match store.check_model(id).await? {
+        Some(m) => Ok(m),
+        None => document_check_model(store, id).await,
+    }
+}
+
+/// [`check_model`] read from stored result `id`'s document (a result stored before its
+/// model was kept beside it).
+async fn document_check_model(
     store: &dyn Store,
     id: &str,
 ) -> Result<CheckModel, mtcal_store::StoreError> {
@@ -164,19 +183,55 @@ pub async fn stored_check_model(
 }
 
 /// [`check_model`] of each identification among `results` that is a misfit or decided
-/// on the explained model, by result id (each document read once).
+/// on the explained model, by result id: as stored beside the results (one statement a
+/// machine), a document read only for a result stored before the model was kept.
 pub async fn check_models(
     store: &dyn Store,
     results: &[ResultMeta],
 ) -> Result<CheckModels, mtcal_store::StoreError> {
+    let mut stored = std::collections::HashMap::new();
+    let mut machines: Vec<&str> = results.iter().map(|r| r.machine_id.as_str()).collect();
+    machines.sort_unstable();
+    machines.dedup();
+    for m in machines {
+        stored.extend(store.check_models(m, IDENTIFICATION).await?);
+    }
     let mut out = CheckModels::new();
     for r in results.iter().filter(|r| r.kind == IDENTIFICATION) {
-        let m = stored_check_model(store, &r.id).await?;
+        let m = match stored.remove(&r.id).flatten() {
+            Some(m) => m,
+            None => document_check_model(store, &r.id).await?,
+        };
         if m != CheckModel::default() {
             out.insert(r.id.clone(), m);
         }
     }
     Ok(out)
+}
+
+/// Learns from their documents the check models of the identifications stored before
+/// they were kept beside the results ([`mtcal_store::Results::unknown_check_models`]),
+/// `batch` at a time, until none is left; returns how many. Run at start beside the
+/// server: until a result's model is stored its readers read its document.
+pub async fn fill_check_models(
+    store: &dyn Store,
+    batch: i64,
+) -> Result<usize, mtcal_store::StoreError> {
+    let mut done = 0;
+    loop {
+        let ids = store.unknown_check_models(batch).await?;
+        if ids.is_empty() {
+            return Ok(done);
+        }
+        for id in &ids {
+            let document = store.get_result(id).await?.document;
+            let model =
+                crate::blocking::run::<_, mtcal_store::StoreError>(move || check_model(&document))
+                    .await?;
+            store.set_check_model(id, &model).await?;
+        }
+        done += ids.len();
+    }
 }
 
 /// How drift is measured, in words (the fleet routes and page say it).

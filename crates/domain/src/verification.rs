@@ -259,6 +259,7 @@ mod tests {
             heldout_rms_um: ba,
             evidence: String::new(),
             undetermined: vec![],
+            rivals: Vec::new(),
         }
     }
 

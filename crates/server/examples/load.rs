@@ -324,6 +324,7 @@ fn seeded_results(rng: &mut StdRng, id: &str, r: usize) -> Vec<NewResult> {
             kind: "identification".into(),
             measured_at: format!("{}-{:02}-01T08:00:00Z", 2000 + k / 12, 1 + k % 12),
             document: json!({"kind": "identification", "seeded": true}),
+            check_model: Some(Default::default()),
             scalars: seeded_scalars(rng, k),
             figures: vec![],
         })

@@ -138,6 +138,7 @@ async fn land(
         dataset_id: Some(dataset_id),
         kind: IDENTIFICATION.to_string(),
         measured_at: out.measured_at,
+        check_model: Some(mtcal_domain::trends::check_model(&out.document)),
         document: out.document,
         scalars: out.scalars,
         figures: out.figures,

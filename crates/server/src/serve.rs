@@ -84,8 +84,18 @@ pub async fn serve(
         .own
         .extend(mtcal_domain::webhooks::database_addrs(&cfg.db_url).await);
     let (app, workers) = app(store.clone(), &worker, cfg.run_worker);
-    // Drift of results stored before this version or imported in bulk.
+    // The check models of results stored before they were kept beside them, then the
+    // drift of results stored before this version or imported in bulk.
     tokio::spawn(async move {
+        let started = std::time::Instant::now();
+        match mtcal_domain::trends::fill_check_models(store.as_ref(), 500).await {
+            Ok(n) => tracing::info!(
+                results = n,
+                seconds = started.elapsed().as_secs_f64(),
+                "check models stored"
+            ),
+            Err(e) => tracing::warn!(%e, "check models not stored"),
+        }
         match mtcal_domain::fleet::refresh_all(store.as_ref()).await {
             Ok(n) => tracing::info!(
                 machines = n.machines,

@@ -6,7 +6,7 @@ use mtcal_store::Store;
 use std::sync::Arc;
 
 /// Settings of the service an operator chooses (`mtcal serve` flags and environment;
-/// docs/api.md, "Operations").
+/// docs/operations.md, "Operations").
 #[derive(Debug, Clone)]
 pub struct Settings {
     /// Mark the sign-in cookies `Secure` on every answer (`MTCAL_COOKIE_SECURE`). They

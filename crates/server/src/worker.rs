@@ -355,11 +355,13 @@ async fn record_outcome(
 ) -> Result<Job, StoreError> {
     match outcome {
         Ok(Ok(out)) => {
+            let kind = job.kind.result_kind();
             let r = NewResult {
                 machine_id: job.machine_id.clone().unwrap_or_default(),
                 dataset_id: job.dataset_id.clone(),
-                kind: job.kind.result_kind().to_string(),
+                kind: kind.to_string(),
                 measured_at: out.measured_at,
+                check_model: mtcal_domain::trends::landing_check_model(kind, &out.document),
                 document: out.document,
                 scalars: out.scalars,
                 figures: out.figures,

@@ -368,6 +368,7 @@ async fn profiles_are_written_with_a_write_key_and_bad_ones_refused_naming_the_f
 /// A standards result with ISO 230-2 E = 6.0 µm, u = 0.5 µm (U = 1 µm).
 fn standards_result(machine: &str) -> NewResult {
     NewResult {
+        check_model: None,
         machine_id: machine.into(),
         dataset_id: None,
         kind: "standards".into(),
@@ -1031,6 +1032,7 @@ async fn the_report_says_a_stored_diagnosis_could_not_be_read() {
         .await
         .unwrap();
     let stored = |kind: &str, document: Value| NewResult {
+        check_model: None,
         machine_id: "M1".into(),
         dataset_id: Some(ds.id.clone()),
         kind: kind.into(),
@@ -1109,6 +1111,7 @@ async fn a_misfit_result_is_not_decided_and_its_table_needs_force() {
     let r = f
         .store
         .import_result(NewResult {
+            check_model: None,
             machine_id: "M1".into(),
             dataset_id: None,
             kind: "identification".into(),

@@ -11,6 +11,7 @@ use serde_json::json;
 
 fn result(measured_at: &str, exx: f64) -> NewResult {
     NewResult {
+        check_model: None,
         machine_id: "M".into(),
         dataset_id: None,
         kind: "identification".into(),
@@ -137,4 +138,57 @@ async fn a_bad_stored_row_is_skipped_and_named(url: &str) {
     assert_eq!(s, StatusCode::OK, "{b}");
     assert_eq!(b["machines"].as_array().unwrap().len(), 0, "{b}");
     assert!(b["warnings"].to_string().contains("machine M"), "{b}");
+}
+
+/// A result stored before check models were kept beside results (its model not known)
+/// is read from its document until the fill at start stores it; a landed one is not
+/// filled again.
+async fn unknown_check_models_are_filled(url: &str) {
+    let (app, keys, store) = app_on(url).await;
+    machine(&app, &keys.write, "M").await;
+    let old = store
+        .import_result(result("2026-01-01T00:00:00Z", 0.001))
+        .await
+        .unwrap();
+    let landed = store
+        .import_result(NewResult {
+            check_model: Some(Default::default()),
+            ..result("2026-02-01T00:00:00Z", 0.002)
+        })
+        .await
+        .unwrap();
+    assert_eq!(store.check_model(&old.id).await.unwrap(), None);
+    let models = mtcal_domain::trends::check_models(store.as_ref(), &[old.clone(), landed])
+        .await
+        .unwrap();
+    assert!(
+        models.is_empty(),
+        "neither a misfit nor explained: {models:?}"
+    );
+    let filled = mtcal_domain::trends::fill_check_models(store.as_ref(), 1)
+        .await
+        .unwrap();
+    assert_eq!(filled, 1);
+    assert_eq!(
+        store.check_model(&old.id).await.unwrap(),
+        Some(Default::default())
+    );
+    assert!(store.unknown_check_models(10).await.unwrap().is_empty());
+}
+
+#[tokio::test]
+async fn unknown_check_models_are_filled_on_sqlite() {
+    let dir = tempfile::tempdir().unwrap();
+    let db = dir.path().join("t.sqlite");
+    unknown_check_models_are_filled(&format!("sqlite://{}", db.display())).await;
+}
+
+#[tokio::test]
+async fn unknown_check_models_are_filled_on_postgres() {
+    let name = "unknown_check_models_are_filled_on_postgres";
+    let Some(pg) = mtcal_store::testing::ScratchPg::create(name).await.unwrap() else {
+        return;
+    };
+    unknown_check_models_are_filled(&pg.url).await;
+    pg.drop_schema().await.unwrap();
 }

@@ -103,6 +103,42 @@ pub struct Finding {
     /// a finding with a determined principal parameter may still list others here.
     #[serde(default, skip_serializing_if = "Vec::is_empty")]
     pub undetermined: Vec<Undetermined>,
+    /// Other explanations the session's plan cannot tell from this one (their fits
+    /// differ by less than the BIC threshold), each with the test that would separate
+    /// them; the finding is the engine's less flexible choice.
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    pub rivals: Vec<Rival>,
+}
+
+/// An explanation the plan cannot tell from a finding's, and the test that would.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[cfg_attr(feature = "openapi", derive(utoipa::ToSchema))]
+pub struct Rival {
+    /// The rival effect's name (`servo_lag`, `backlash`, …).
+    pub effect: String,
+    /// Its axis (or direction), as the finding's `axis`.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub axis: Option<String>,
+    /// Why the plan cannot separate the two, with the figures.
+    pub why: String,
+    /// The test that would separate them, in words.
+    pub separating_test: String,
+}
+
+impl Rival {
+    /// One line: `servo lag (X) — would be told apart by lines or circles at a second
+    /// feed (…); why they read alike`.
+    pub fn in_words(&self) -> String {
+        let name = self.effect.replace('_', " ");
+        let name = match &self.axis {
+            Some(a) => format!("{name} ({a})"),
+            None => name,
+        };
+        format!(
+            "{name} — would be told apart by {}; {}",
+            self.separating_test, self.why
+        )
+    }
 }
 
 impl Finding {
@@ -173,6 +209,8 @@ struct FindingDoc {
     evidence: String,
     #[serde(default)]
     undetermined: Vec<Undetermined>,
+    #[serde(default)]
+    rivals: Vec<Rival>,
 }
 
 impl From<FindingDoc> for Finding {
@@ -228,6 +266,7 @@ impl From<FindingDoc> for Finding {
             heldout_rms_um: d.heldout_rms_um,
             evidence: d.evidence,
             undetermined,
+            rivals: d.rivals,
         }
     }
 }

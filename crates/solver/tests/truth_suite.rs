@@ -15,15 +15,17 @@ use mtcal_solver::diagnosis::{
 use std::collections::BTreeMap;
 use std::time::Instant;
 use truth::cases::{self, Case};
-use truth::generator::{Effect, generate, mounting_of};
+use truth::generator::{Effect, Grows, generate, mounting_of};
 use truth::known::{KNOWN_DEFECTS, RIGHT_ALL, RIGHT_CI};
-use truth::scorer::{Score, explain, mounting_named, score};
+use truth::scorer::{Score, explain, growth, mounting_named, score};
 
 struct Outcome {
     name: &'static str,
     truth: Vec<Effect>,
     score: Score,
     findings: Vec<String>,
+    /// Its plan records lines and circles, which tell a lag from a lost motion.
+    separates: bool,
     secs: f64,
 }
 
@@ -61,6 +63,7 @@ fn run_case(c: &Case) -> Outcome {
                     .map(|f| format!("possible {}", f.in_words())),
             )
             .collect(),
+        separates: c.setup.circles && c.setup.round_trips > 0,
         secs: t0.elapsed().as_secs_f64(),
     }
 }
@@ -139,6 +142,21 @@ fn failures(out: &[Outcome], right_min: usize) -> Vec<String> {
             }
         }
     }
+    // Where lines and circles separate a lag from a lost motion, neither is named as
+    // the other's rival.
+    for o in out.iter().filter(|o| o.separates) {
+        for c in &o.score.claims {
+            if ["servo_lag", "backlash", "lost_motion_profile"]
+                .iter()
+                .any(|r| c.label.contains(&format!("[rival {r} ")))
+            {
+                fails.push(format!(
+                    "{}: `{}` names a rival its plan separates",
+                    o.name, c.label
+                ));
+            }
+        }
+    }
     let right = out.iter().filter(|o| o.score.right()).count();
     if right < right_min {
         fails.push(format!(
@@ -177,8 +195,13 @@ fn summary(out: &[Outcome]) -> String {
         (a + x, b + y)
     });
     let secs: f64 = out.iter().map(|o| o.secs).sum();
+    let rivals = out
+        .iter()
+        .flat_map(|o| &o.score.claims)
+        .filter(|c| c.rival_named)
+        .count();
     format!(
-        "{} cases, {right} right; false findings by kind: {kinds:?}; missed effects: {missed}; parameters within 2σ: {ok}/{n}; {secs:.1} s",
+        "{} cases, {right} right; false findings by kind: {kinds:?}; missed effects: {missed}; truth named as a rival: {rivals}; parameters within 2σ: {ok}/{n}; {secs:.1} s",
         out.len()
     )
 }
@@ -320,6 +343,7 @@ fn finding(effect: &str, axis: Axis, params: &[(&str, f64)]) -> Finding {
         },
         evidence: String::new(),
         undetermined: Vec::new(),
+        rivals: Vec::new(),
     }
 }
 
@@ -376,6 +400,7 @@ fn scorer_flags_a_false_finding() {
         truth: Vec::new(),
         score: s,
         findings: Vec::new(),
+        separates: true,
         secs: 0.0,
     };
     assert_eq!(failures(&[o], 0).len(), 1);
@@ -386,6 +411,7 @@ fn scorer_flags_a_false_finding() {
         truth: Vec::new(),
         score: score(&[], &result(vec![], Verdict::Consistent)),
         findings: Vec::new(),
+        separates: true,
         secs: 0.0,
     };
     let fails = failures(&[o], 0);
@@ -434,6 +460,93 @@ fn scorer_wants_a_growing_backlash_reported_as_growing() {
     }];
     let s = score(&play, &result(vec![growth], Verdict::Explained));
     assert_eq!(s.false_labels(), ["backlash_growth (X)"]);
+}
+
+/// Likewise a growing lag, cyclic error and spike: each found only when claimed as
+/// changing, its rate checked within 2σ; a growth claimed of a constant effect is FALSE.
+#[test]
+fn scorer_wants_a_changing_effect_reported_as_changing() {
+    let x = Axis::X;
+    let kinds = [
+        Grows::Lag,
+        Grows::Cyclic {
+            period_mm: 8.0,
+            phase_rad: 0.7,
+        },
+        Grows::Spike { decay_mm: 1.0 },
+        Grows::Lateral { moving: Axis::Y },
+    ];
+    for grows in kinds {
+        let names = growth(grows);
+        let growing = [Effect::Growing {
+            axis: x,
+            grows,
+            from: 1.0,
+            per_h: 4.0,
+        }];
+        // An error across Y's travel names Y as the axis it follows.
+        let follows = |mut f: Finding| {
+            if matches!(grows, Grows::Lateral { .. }) {
+                f.depends_on = Some("Y".into());
+            }
+            f
+        };
+        let constant = follows(finding(names.constant, x, &[]));
+        let s = score(
+            &growing,
+            &result(vec![constant.clone()], Verdict::Explained),
+        );
+        assert!(s.false_labels().is_empty() && s.missed.len() == 1, "{s:?}");
+        let std = format!("std_{}", names.rate);
+        let claim = follows(finding(names.growth, x, &[(names.rate, 4.3), (&std, 0.2)]));
+        let s = score(
+            &growing,
+            &result(vec![constant, claim.clone()], Verdict::Explained),
+        );
+        assert!(s.right(), "{s:?}");
+        assert_eq!(s.params(), (1, 1), "{}", names.growth);
+        let steady = [growing[0].at(0.0)];
+        let s = score(&steady, &result(vec![claim], Verdict::Explained));
+        let label = match grows {
+            Grows::Lateral { .. } => format!("{} (X, following Y)", names.growth),
+            _ => format!("{} (X)", names.growth),
+        };
+        assert_eq!(s.false_labels(), [label]);
+    }
+}
+
+/// A finding that names the truth as its rival (a plan that cannot tell them apart) is
+/// right as "rival named", the truth found; without the rival it is FALSE.
+#[test]
+fn scorer_counts_a_named_rival() {
+    let truth = [Effect::ServoLag {
+        axis: Axis::X,
+        ms: 2.0,
+    }];
+    let play = finding("backlash", Axis::X, &[("lost_motion_um", 33.0)]);
+    let s = score(&truth, &result(vec![play.clone()], Verdict::Explained));
+    assert_eq!(s.false_labels(), ["backlash (X)"]);
+    let rival = |effect: &str, axis: Axis| mtcal_solver::diagnosis::Rival {
+        effect: effect.into(),
+        axis: Some(axis.to_string()),
+        why: String::new(),
+        separating_test: String::new(),
+    };
+    let named = Finding {
+        rivals: vec![rival("servo_lag", Axis::X)],
+        ..play.clone()
+    };
+    let s = score(&truth, &result(vec![named], Verdict::Explained));
+    assert!(s.right(), "{s:?}");
+    assert!(s.claims[0].rival_named);
+    assert_eq!(s.claims[0].label, "backlash (X) [rival servo_lag (X)]");
+    // A rival on another axis is not the truth.
+    let elsewhere = Finding {
+        rivals: vec![rival("servo_lag", Axis::Y)],
+        ..play
+    };
+    let s = score(&truth, &result(vec![elsewhere], Verdict::Explained));
+    assert!(!s.right());
 }
 
 /// A noise-free session of a perfect machine with no nuisance, with `effects`.

@@ -17,8 +17,8 @@ pub use crate::limits::MAX_TRAVEL_MM;
 pub use crate::machines::{Machine, MachinePatch};
 pub use crate::queue::{Job, JobKind, JobState, NewJob};
 pub use crate::results::{
-    BaselinePair, FIGURE_NAME_MAX, Figure, FigurePoint, NewResult, ResultMeta, ResultScalars,
-    ResultSummary, SkippedRow, StoredResult,
+    BaselinePair, CheckModel, FIGURE_NAME_MAX, Figure, FigurePoint, NewResult, ResultMeta,
+    ResultScalars, ResultSummary, SkippedRow, StoredResult,
 };
 pub use crate::store::RowCounts;
 pub use crate::tolerances::{Alert, AlertRaised, ToleranceProfile};

@@ -8,6 +8,7 @@ pub use mtcal_api::results::{
     FIGURE_NAME_MAX, Figure, FigurePoint, ResultMeta, ResultScalars, ResultSummary, SkippedRow,
     StoredResult,
 };
+pub use mtcal_api::trends::CheckModel;
 use serde_json::Value;
 
 /// The results of the jobs (and of imports) and their named figures. Implementations
@@ -71,6 +72,25 @@ pub trait Results: Send + Sync {
     /// Inserts many results (each with its `import` job) in one transaction: for seeding
     /// benchmarks and bulk imports.
     fn import_results_bulk<'a>(&'a self, results: &'a [NewResult]) -> StoreFuture<'a, ()>;
+
+    /// The stored check model ([`NewResult::check_model`]) of each of machine
+    /// `machine_id`'s current results of `kind`, by result id (`None`: not known yet).
+    /// Reads no document.
+    fn check_models<'a>(
+        &'a self,
+        machine_id: &'a str,
+        kind: &'a str,
+    ) -> StoreFuture<'a, Vec<(String, Option<CheckModel>)>>;
+
+    /// The stored check model of result `id` (`None`: not known yet). Reads no document.
+    fn check_model<'a>(&'a self, id: &'a str) -> StoreFuture<'a, Option<CheckModel>>;
+
+    /// Up to `limit` identifications whose check model is not known yet (stored before
+    /// it was kept), by id.
+    fn unknown_check_models<'a>(&'a self, limit: i64) -> StoreFuture<'a, Vec<String>>;
+
+    /// Stores the check model of result `id`, learnt from its document.
+    fn set_check_model<'a>(&'a self, id: &'a str, model: &'a CheckModel) -> StoreFuture<'a, ()>;
 }
 
 /// A result to store on completion of a job.
@@ -84,6 +104,10 @@ pub struct NewResult {
     pub scalars: ResultScalars,
     /// Named scalar figures ([`Figure`]); empty for kinds that have none.
     pub figures: Vec<Figure>,
+    /// The check's model as its document's misfit gate states it (an identification's;
+    /// `None`: not known, read from the document when asked), kept in its own columns
+    /// so listings read no document.
+    pub check_model: Option<CheckModel>,
 }
 
 /// For the fleet ranking: each machine's baseline and latest identification scalars.

@@ -5,7 +5,7 @@
 use crate::datasets::FileMeta;
 use crate::error::{Db, Result, StoreError};
 use crate::machines::{Machine, MachinePatch};
-use crate::results::{FIGURE_NAME_MAX, Figure, NewResult, ResultMeta, ResultScalars};
+use crate::results::{CheckModel, FIGURE_NAME_MAX, Figure, NewResult, ResultMeta, ResultScalars};
 use sha2::{Digest, Sha256};
 
 /// A new record id: `<prefix>_<32 hex digits>` (a random UUID).
@@ -94,6 +94,31 @@ impl MachineJson {
             tags: serde_json::to_string(&m.tags).db()?,
         })
     }
+}
+
+/// The columns (`check_gate`, `check_statement`) of a check model.
+pub fn check_columns(m: &CheckModel) -> (&'static str, Option<&str>) {
+    match (&m.misfit_reason, &m.explained_model) {
+        _ if m.misfit => ("misfit", m.misfit_reason.as_deref()),
+        (_, Some(s)) => ("explained", Some(s)),
+        _ => ("decided", None),
+    }
+}
+
+/// The check model stored in columns `check_gate` and `check_statement` (`None`: not known).
+pub fn check_model(gate: Option<&str>, statement: Option<String>) -> Option<CheckModel> {
+    Some(match gate? {
+        "misfit" => CheckModel {
+            misfit: true,
+            misfit_reason: statement,
+            explained_model: None,
+        },
+        "explained" => CheckModel {
+            explained_model: statement,
+            ..CheckModel::default()
+        },
+        _ => CheckModel::default(),
+    })
 }
 
 /// A result about to be stored: its metadata and the JSON text of its document and of

@@ -64,7 +64,7 @@ pub trait Operations: Send + Sync {
 pub struct StoreOptions {
     /// Connections of this process (`None`: [`StoreOptions::DEFAULT_PG_POOL`] on
     /// PostgreSQL, [`StoreOptions::DEFAULT_SQLITE_POOL`] on SQLite; an in-memory SQLite
-    /// database has one). Sizing rule (docs/api.md, "Operations"): the sum over every
+    /// database has one). Sizing rule (docs/operations.md, "Operations"): the sum over every
     /// process sharing a PostgreSQL server stays below its `max_connections` less the
     /// connections reserved for administration.
     pub pool_size: Option<u32>,

@@ -23,6 +23,7 @@ fn check(machine: &str, explains: Option<&str>) -> NewResult {
         document["explained"] = json!({"original_result_id": original});
     }
     NewResult {
+        check_model: None,
         machine_id: machine.into(),
         dataset_id: None,
         kind: "identification".into(),
@@ -106,5 +107,87 @@ async fn an_explained_model_is_stored_once_on_postgres() {
     let a = open(&pg.url).await.unwrap();
     let b = open(&pg.url).await.unwrap();
     stored_once(a, b).await;
+    pg.drop_schema().await.unwrap();
+}
+
+/// A check's model is kept beside the result as it lands, read back without the
+/// document; one landed without it is listed as not known until it is stored.
+async fn check_models_kept(s: Arc<dyn Store>) {
+    s.create_machine(&machine("M2")).await.unwrap();
+    let misfit = CheckModel {
+        misfit: true,
+        misfit_reason: Some("the residual is 9 times the noise floor".into()),
+        explained_model: None,
+    };
+    let explained = CheckModel {
+        explained_model: Some("decided on the explained model".into()),
+        ..CheckModel::default()
+    };
+    let mut ids = vec![];
+    for m in [
+        Some(misfit.clone()),
+        Some(explained.clone()),
+        Some(CheckModel::default()),
+        None,
+    ] {
+        let r = s
+            .import_result(NewResult {
+                check_model: m,
+                ..check("M2", None)
+            })
+            .await
+            .unwrap();
+        ids.push(r.id);
+    }
+    assert_eq!(s.check_model(&ids[0]).await.unwrap(), Some(misfit.clone()));
+    assert_eq!(
+        s.check_model(&ids[1]).await.unwrap(),
+        Some(explained.clone())
+    );
+    assert_eq!(
+        s.check_model(&ids[2]).await.unwrap(),
+        Some(CheckModel::default())
+    );
+    assert_eq!(s.check_model(&ids[3]).await.unwrap(), None);
+    let mut listed = s.check_models("M2", "identification").await.unwrap();
+    listed.sort_by(|a, b| a.0.cmp(&b.0));
+    let mut want = vec![
+        (ids[0].clone(), Some(misfit)),
+        (ids[1].clone(), Some(explained)),
+        (ids[2].clone(), Some(CheckModel::default())),
+        (ids[3].clone(), None),
+    ];
+    want.sort_by(|a, b| a.0.cmp(&b.0));
+    assert_eq!(listed, want);
+    assert_eq!(
+        s.unknown_check_models(10).await.unwrap(),
+        vec![ids[3].clone()]
+    );
+    s.set_check_model(&ids[3], &CheckModel::default())
+        .await
+        .unwrap();
+    assert!(s.unknown_check_models(10).await.unwrap().is_empty());
+    assert_eq!(
+        s.check_model(&ids[3]).await.unwrap(),
+        Some(CheckModel::default())
+    );
+}
+
+#[tokio::test]
+async fn check_models_are_kept_on_sqlite() {
+    let dir = tempfile::tempdir().unwrap();
+    let path = dir.path().join("c.sqlite");
+    check_models_kept(open(path.to_str().unwrap()).await.unwrap()).await;
+}
+
+#[tokio::test]
+async fn check_models_are_kept_on_postgres() {
+    let Some(pg) = testing::ScratchPg::create("check_models_are_kept")
+        .await
+        .unwrap()
+    else {
+        return;
+    };
+    check_models_kept(open(&pg.url).await.unwrap()).await;
     pg.drop_schema().await.unwrap();
 }

@@ -1,5 +1,5 @@
 //! A process's connections to PostgreSQL are capped by its pool size (`--db-pool`,
-//! `MTCAL_DB_POOL`; docs/api.md, "Operations"): 40 statements at once through a store
+//! `MTCAL_DB_POOL`; docs/operations.md, "Operations"): 40 statements at once through a store
 //! opened with a pool of 3 never hold more than 3 connections, as the server's own
 //! `pg_stat_activity` counts them; the same load through a pool of 8 opens more than 3
 //! (so the count can see a pool that is not capped). PostgreSQL only: a SQLite file's

@@ -96,6 +96,7 @@ fn new_job(machine: &str) -> NewJob {
 
 fn result(machine: &str, at: &str, ec0y: f64) -> NewResult {
     NewResult {
+        check_model: None,
         machine_id: machine.into(),
         dataset_id: None,
         kind: "identification".into(),
@@ -507,6 +508,7 @@ async fn figures_trend_by_name_and_bad_ones_store_nothing(s: &dyn Store) {
         u,
     };
     let with = |machine: &str, at: &str, kind: &str, figures: Vec<Figure>| NewResult {
+        check_model: None,
         kind: kind.into(),
         figures,
         ..result(machine, at, 0.0)
@@ -969,6 +971,7 @@ async fn fleet_page_puts_alerted_machines_first_then_filters_sorts_and_counts(s:
     // D has no identification: no drift row, listed last by drift, with its latest
     // check of another kind that is not excluded.
     let cradle = |at: &str| NewResult {
+        check_model: None,
         kind: "cradle".into(),
         ..result("D", at, 0.0)
     };
@@ -1390,6 +1393,7 @@ async fn datasets_excluded_with_their_results_then_bytes_deleted_under_a_tombsto
         .await
         .unwrap();
     let from = |d: &Dataset, at: &str, ec0y: f64| NewResult {
+        check_model: None,
         dataset_id: Some(d.id.clone()),
         ..result("M1", at, ec0y)
     };

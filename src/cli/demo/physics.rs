@@ -4,7 +4,7 @@
 //! | machine | checks (oldest first) | what the demo shows |
 //! |---|---|---|
 //! | [`WORN_MACHINE`] | clean; 6 µm backlash of X; a month later, 0.4 µm left after compensation (also diagnosed) | a misfit decided on its explained model, its actions and LinuxCNC table; the later check verified against the prediction |
-//! | [`WARM_NUT_MACHINE`] | clean; a lost motion of X growing from 2 to about 8 µm over the session | a misfit only partly explained: not decided, marked in the fleet and the trends |
+//! | [`WARM_NUT_MACHINE`] | clean; a lost motion of X widening from 2 to 8 µm and back to 2 µm over the session (a half sine in time) | a misfit only partly explained: not decided, marked in the fleet and the trends |
 //!
 //! Every session is the full plan at 5 Hz (as the fleet's), so the whole set costs a few
 //! identifications and three diagnoses.
@@ -29,9 +29,9 @@ use std::path::Path;
 /// compensation was set, with 0.4 µm left.
 pub const WORN_MACHINE: &str = "VMC-0900";
 
-/// Demo machine whose latest check stays not decided: its X nut's play grows as it warms
-/// over the session, which no constant backlash explains (the diagnosis explains it only
-/// partly).
+/// Demo machine whose latest check stays not decided: its X nut's play widens as it warms
+/// and narrows again as it cools within the session, which neither a constant backlash nor
+/// a steady growth explains (the diagnosis explains it only partly).
 pub const WARM_NUT_MACHINE: &str = "VMC-0901";
 
 /// The machines the demo waits for until their misfits are diagnosed and explained.
@@ -43,8 +43,9 @@ const WORN_BACKLASH_UM: f64 = 6.0;
 /// Lost motion of X left after the compensation was set, µm.
 const LEFT_BACKLASH_UM: f64 = 0.4;
 
-/// The warm nut's play of X at the session start, µm, and its growth, µm per hour.
-const WARM_NUT_UM: (f64, f64) = (2.0, 4.0);
+/// The warm nut's play of X at the session's start and end, µm, and its widening at
+/// mid-session, µm.
+const WARM_NUT_UM: (f64, f64) = (2.0, 6.0);
 
 /// Registers both machines and uploads and submits their checks (the last quarterly
 /// check `checks - 1` is the misfit); the jobs submitted.
@@ -171,13 +172,13 @@ fn month_after(quarter: usize) -> String {
     format!("{year}-{month:02}-05T08:00:00Z")
 }
 
-/// Adds to `session` the play of `axis`'s nut growing as it warms: a lost motion of
-/// `from_um` at the session start growing by `per_h_um` an hour. The nut follows the
-/// axis with that clearance (taken up at each reversal, in time order over every file),
-/// and the error along the axis is the nut's lag behind the commanded position. No
-/// constant backlash follows it, so its check stays a misfit the diagnosis explains only
-/// partly.
-fn warming_play(session: &mut Session, axis: Axis, from_um: f64, per_h_um: f64) {
+/// Adds to `session` the play of `axis`'s nut warming and cooling again: a lost motion of
+/// `from_um` at the session's start and end, `rise_um` wider at its middle (a half sine in
+/// time). The nut follows the axis with that clearance (taken up at each reversal, in time
+/// order over every file), and the error along the axis is the nut's lag behind the
+/// commanded position. Neither a constant backlash nor a steady growth follows it, so its
+/// check stays a misfit the diagnosis explains only partly.
+fn warming_play(session: &mut Session, axis: Axis, from_um: f64, rise_um: f64) {
     let a = axis.index();
     let mut samples: Vec<(f64, usize, usize, usize)> = vec![];
     for (p, plane) in session.planes.iter().enumerate() {
@@ -186,13 +187,18 @@ fn warming_play(session: &mut Session, axis: Axis, from_um: f64, per_h_um: f64) 
         }
     }
     samples.sort_by(|x, y| x.0.total_cmp(&y.0));
+    let (t0, t1) = match (samples.first(), samples.last()) {
+        (Some(a), Some(b)) if b.0 > a.0 => (a.0, b.0),
+        _ => return,
+    };
     let mut nut: Option<f64> = None;
     for (t, p, r, i) in samples {
         let plane = &mut session.planes[p];
         let (u, v) = plane.plane.axes();
         let run = &mut plane.runs[r];
         let q = run.pos_mm[i][a];
-        let half = (from_um + per_h_um * t / 3600.0) * 1e-3 / 2.0;
+        let warm = (std::f64::consts::PI * (t - t0) / (t1 - t0)).sin();
+        let half = (from_um + rise_um * warm) * 1e-3 / 2.0;
         let at = nut
             .unwrap_or(q - from_um * 1e-3 / 2.0)
             .clamp(q - half, q + half);

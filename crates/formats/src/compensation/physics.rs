@@ -182,6 +182,7 @@ pub fn explained_findings(m: &ExplainedModel) -> Vec<Finding> {
             heldout_rms_um: p.predicted_rms_um,
             evidence: String::new(),
             undetermined: vec![],
+            rivals: Vec::new(),
         })
         .collect()
 }

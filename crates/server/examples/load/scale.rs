@@ -97,6 +97,7 @@ fn real_document() -> serde_json::Value {
 async fn seed(store: &dyn Store, pool: &sqlx::PgPool, m: usize, r: usize) {
     let t = Instant::now();
     let document = real_document();
+    let model = mtcal_domain::trends::check_model(&document);
     println!(
         "seeding {m} machines x {r} results; the document: {} bytes of JSON",
         document.to_string().len()
@@ -119,6 +120,11 @@ async fn seed(store: &dyn Store, pool: &sqlx::PgPool, m: usize, r: usize) {
             } else {
                 json!({"kind": "identification", "seeded": true})
             },
+            check_model: Some(if k + 1 == r || all_real {
+                model.clone()
+            } else {
+                Default::default()
+            }),
             scalars: {
                 let quarter = k + rng.random_range(0..8);
                 seeded_scalars(&mut rng, quarter)

@@ -25,7 +25,7 @@
 //! The cookies' encryption key comes from `MTCAL_SESSION_KEY` (any secret of at least 32
 //! characters, the same for every process behind one address), else it is drawn at
 //! random when the process starts: then a restart signs every browser out, and behind a
-//! load balancer one process refuses the cookies of another (docs/api.md, "Operations").
+//! load balancer one process refuses the cookies of another (docs/operations.md, "Operations").
 
 use crate::AppState;
 use crate::error::ApiError;

@@ -124,6 +124,7 @@ pub async fn machine(app: &axum::Router, write_key: &str, id: &str) {
 /// whole identification: no verdict reads it).
 pub fn identification(machine: &str, at: &str, c1: f64, var: f64) -> NewResult {
     NewResult {
+        check_model: None,
         machine_id: machine.into(),
         dataset_id: None,
         kind: "identification".into(),

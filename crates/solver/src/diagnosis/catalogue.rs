@@ -5,6 +5,7 @@
 //! | effect | columns (along the named axis) | nonlinear |
 //! |---|---|---|
 //! | backlash | −d/2 (d: sign of the axis's last travel), taken up over the first b of travel after a reversal (from +d/2) → lost motion b, µm | take-up θ = b (fixed point) |
+//! | servo_lag_growth, cyclic_growth, reversal_spike_growth, direction_coupling_growth | the finding's own column per unit of its principal value (at its nonlinear value and phase) × (t − t̄)/3600 on the runs that move its axis, once the finding is in the model → growth, per hour (`growth`) | — |
 //! | backlash_growth | −d/2·(t − t̄)/3600 on the runs that move the axis, t the session time (s), once the axis's backlash is in the model → growth g, µm/h (`lost_motion_growth`) | — |
 //! | lost_motion_profile | −d·P_k(s)/2, k = 0..K, s the position on the measured travel → lost motion b(q), µm; k = 1..K alone (its varying part) once the axis's backlash is in the model; the order K chosen by the data (2 … 9) | — |
 //! | servo_lag | −v·10³ → lag τ, s | — |
@@ -38,6 +39,7 @@ use super::phase_walk::PhaseWalk;
 use crate::axis::Axis;
 use std::f64::consts::PI;
 
+pub mod growth;
 pub mod lost_motion_growth;
 pub mod plate_scale;
 
@@ -65,6 +67,9 @@ pub struct Candidate {
     /// For plate_scale: the plate's mounting (the session's name of it,
     /// `plate_scale`); `None` for every other effect.
     pub mounting: Option<String>,
+    /// For a growth (`growth`): the finding it refines, as it is in the model; `None`
+    /// for every other effect.
+    pub parent: Option<growth::Parent>,
 }
 
 impl Candidate {
@@ -174,6 +179,7 @@ pub fn candidates(d: &Design) -> Vec<Candidate> {
         width_s: 0.0,
         lost_motion_um: 0.0,
         mounting: None,
+        parent: None,
     };
     let mut out = Vec::new();
     for &a in &axes {
@@ -454,6 +460,7 @@ pub fn specs<'a>(
         | "servo_lag"
         | "reversal_spike" => motion_columns(d, c, theta),
         "backlash_growth" => lost_motion_growth::columns(d, c, theta),
+        e if growth::named(e).is_some() => growth::columns(d, c),
         "cyclic" | "waviness" | "velocity_coupling" | "direction_coupling" | "step"
         | "vibration" => path_columns(d, c, theta),
         "transient" => transient_columns(d, c, theta),

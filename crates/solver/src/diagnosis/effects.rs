@@ -11,6 +11,7 @@
 
 use super::{Finding, Undetermined, Verdict};
 
+mod growth;
 mod lost_motion_growth;
 mod plate_scale;
 
@@ -89,6 +90,10 @@ pub const EFFECTS: &[EffectSpec] = &[
         decide: "more reversals of the axis (circles, or bidirectional runs)",
     },
     lost_motion_growth::SPEC,
+    growth::LAG,
+    growth::CYCLIC,
+    growth::SPIKE,
+    growth::COUPLING,
     EffectSpec {
         name: "lost_motion_profile",
         physics: "lost motion at direction reversal that varies along the travel (a screw worn where the axis works most, the lead error of a preloaded double nut, a coupling or bearing whose stiffness varies with the load): ISO 230-2's reversal value B_i changes from target to target, a constant backlash cannot follow it",
@@ -766,6 +771,7 @@ mod tests {
             evidence: String::new(),
             signature: None,
             undetermined: vec![],
+            rivals: Vec::new(),
         }
     }
 

@@ -39,6 +39,7 @@ mod anomalies;
 mod context;
 mod plates;
 mod plots;
+mod rivals;
 mod trial;
 
 /// Options of a session diagnosis.
@@ -123,6 +124,7 @@ impl SessionProblem<'_> {
             grown: [false; 3],
             plates: Vec::new(),
             plate_cols: Vec::new(),
+            growths: Vec::new(),
             kept: Default::default(),
             prior: std::sync::Mutex::new(prior),
             thermal: Default::default(),
@@ -214,7 +216,10 @@ impl SessionProblem<'_> {
             effect: catalogue::reported_name(t.cand.effect).into(),
             axis: match (t.cand.effect, t.cand.direction) {
                 // An error across the moving axis is the error of its direction.
-                ("direction_coupling" | "velocity_coupling", Some(dir)) => Some(dir.to_string()),
+                (
+                    "direction_coupling" | "direction_coupling_growth" | "velocity_coupling",
+                    Some(dir),
+                ) => Some(dir.to_string()),
                 _ => t
                     .cand
                     .axis
@@ -222,13 +227,16 @@ impl SessionProblem<'_> {
                     .or(t.cand.direction.map(|a| a.to_string())),
             },
             depends_on: match t.cand.effect {
-                "direction_coupling" | "velocity_coupling" => t.cand.axis.map(|a| a.to_string()),
+                "direction_coupling" | "direction_coupling_growth" | "velocity_coupling" => {
+                    t.cand.axis.map(|a| a.to_string())
+                }
                 _ => None,
             },
             parameters,
             physics: effects::physics(catalogue::reported_name(t.cand.effect)).into(),
             signature,
             undetermined: vec![],
+            rivals: Vec::new(),
             residual_rms_um: BeforeAfter {
                 before: rms(f.ssr, n),
                 after,
@@ -307,6 +315,8 @@ impl super::engine::Greedy for SessionProblem<'_> {
                 },
                 _ => c.clone(),
             })
+            // A change in time of a finding in the model, once (`catalogue::growth`).
+            .chain(s.growths.iter().cloned())
             .collect()
     }
     fn label(&self, c: &Candidate) -> String {
@@ -340,6 +350,7 @@ impl super::engine::Greedy for SessionProblem<'_> {
         if c.effect == catalogue::plate_scale::NAME {
             catalogue::plate_scale::parameters(&mut params, d);
         }
+        catalogue::growth::parameters(&mut params, d, c);
         // A step's ramp: its width with σ (also the step time's, below).
         let width = self.ctx.step_width(s, t, sigma);
         if let Some((name, sd)) = self.ctx.theta_std(s, t, sigma, width.as_ref().map(|w| w.1)) {
@@ -465,7 +476,11 @@ impl super::engine::Greedy for SessionProblem<'_> {
             (None, None) => effects::classify(finding),
         };
         match sorted {
-            effects::Sorted::Determined(f) => Admission::Add(Note::Finding(f)),
+            // A finding names the rivals the plan cannot tell from it (`rivals`).
+            effects::Sorted::Determined(f) => Admission::Add(Note::Finding(Finding {
+                rivals: self.rivals(s, c, t),
+                ..f
+            })),
             effects::Sorted::Possible(f) => Admission::SetAside(Note::Possible(f)),
         }
     }
@@ -499,6 +514,7 @@ impl super::engine::Greedy for SessionProblem<'_> {
         let note = match note {
             Note::Finding(finding) => Note::Finding(Finding {
                 undetermined: finding.undetermined,
+                rivals: finding.rivals,
                 ..self.finding_of(&t, finding.parameters, &s.fit, Some(&nf), &s.plates)
             }),
             other => other,
@@ -526,6 +542,15 @@ impl super::engine::Greedy for SessionProblem<'_> {
             plates.push(m.clone());
             plate_cols.push(u_prev - 1);
         }
+        let mut growths = std::mem::take(&mut s.growths);
+        if let Note::Finding(f) = &note {
+            // A finding tested for a change offers its growth; a growth in the model is
+            // not offered again.
+            growths
+                .retain(|g| g.effect != c.effect || g.axis != c.axis || g.direction != c.direction);
+            let parent = catalogue::growth::Parent::of(c.effect, &f.parameters, th);
+            growths.extend(parent.and_then(|p| catalogue::growth::candidate(c, p)));
+        }
         let k = s.k + t.ncols + t.extra_params;
         // The candidates' moments on this model serve the next round's.
         let kept = std::mem::take(s.kept.get_mut().expect("kept moments"));
@@ -536,6 +561,7 @@ impl super::engine::Greedy for SessionProblem<'_> {
         next.grown = grown;
         next.plates = plates;
         next.plate_cols = plate_cols;
+        next.growths = growths;
         (next, (), note)
     }
 }

@@ -30,10 +30,10 @@ fn axis(p: &Physics) -> String {
     p.axis.clone().unwrap_or_else(|| "the machine".into())
 }
 
-/// The action for one finding.
-pub fn action(p: &Physics) -> Action {
-    let ax = axis(p);
-    let (text, set) = match p.effect.as_str() {
+/// The reversal compensation of a backlash or a lost-motion profile: the text and the
+/// value to set.
+fn reversal(p: &Physics, ax: &str) -> (String, Option<SetValue>) {
+    match p.effect.as_str() {
         "backlash" => {
             let (b, s) = p.get("lost_motion_um").unwrap_or((f64::NAN, None));
             (
@@ -50,7 +50,7 @@ pub fn action(p: &Physics) -> Action {
                 }),
             )
         }
-        "lost_motion_profile" => {
+        _ => {
             let points: Vec<String> = (1..=9)
                 .filter_map(|n| {
                     let (b, _) = p.get(&format!("lost_motion_um_{n}"))?;
@@ -73,6 +73,33 @@ pub fn action(p: &Physics) -> Action {
                 }),
             )
         }
+    }
+}
+
+/// The action for an effect found changing during the session: its rate, and why one
+/// compensation value does not hold it.
+fn change(p: &Physics) -> String {
+    let rate = p
+        .parameters
+        .iter()
+        .find(|(k, _)| k.contains("_growth_") || k.starts_with("growth_"))
+        .map(|(k, v)| format!("{k} = {}", signed(*v)))
+        .unwrap_or_default();
+    format!(
+        "{} changes during the session ({rate}): a compensation holds one value only; find what warms or wears, and repeat the check warm",
+        p.name_in_words()
+    )
+}
+
+/// The action for one finding.
+pub fn action(p: &Physics) -> Action {
+    let ax = axis(p);
+    let (text, set) = match p.effect.as_str() {
+        "backlash" | "lost_motion_profile" => reversal(p, &ax),
+        "servo_lag_growth"
+        | "cyclic_growth"
+        | "reversal_spike_growth"
+        | "direction_coupling_growth" => (change(p), None),
         "servo_lag" => {
             let (lag, _) = p.get("lag_s").unwrap_or((f64::NAN, None));
             (

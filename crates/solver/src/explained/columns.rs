@@ -7,23 +7,28 @@
 use crate::axis::Axis;
 use crate::design::{ExtraColumns, RowMeta};
 use crate::diagnosis::Finding;
+use crate::diagnosis::catalogue::growth::{self, Parent};
 use crate::diagnosis::catalogue::{self, Candidate, Columns};
 use crate::diagnosis::design::Design;
 use crate::session::Session;
 
 /// The effects of the catalogue a finding can be read back as (its `evidence` label's
 /// first word).
-const EFFECTS: [&str; 20] = [
+const EFFECTS: [&str; 24] = [
     "backlash",
     "backlash_growth",
     "cyclic",
+    "cyclic_growth",
     "direction_coupling",
+    "direction_coupling_growth",
     "lost_motion_profile",
     "lost_motion_variation",
     "model_order",
     "plate_scale",
     "reversal_spike",
+    "reversal_spike_growth",
     "servo_lag",
+    "servo_lag_growth",
     "setup_offset",
     "step",
     "thermal_drift",
@@ -97,6 +102,7 @@ pub fn candidate_of(f: &Finding) -> Result<(Candidate, Theta), String> {
         mounting: (effect == "plate_scale")
             .then(|| label.split('`').nth(1).map(str::to_string))
             .flatten(),
+        parent: growth_parent(f, effect),
     };
     let theta_name = match effect {
         "reversal_spike" => Some("decay_mm"),
@@ -118,6 +124,22 @@ pub fn candidate_of(f: &Finding) -> Result<(Candidate, Theta), String> {
         }
     };
     Ok((cand, theta))
+}
+
+/// For a growth (`catalogue::growth`): the finding it refines, from the nonlinear value
+/// and phase the growth reports of it (its value is not needed by the columns).
+fn growth_parent(f: &Finding, effect: &str) -> Option<Parent> {
+    let g = growth::named(effect)?;
+    let theta = match g.theta {
+        Some("period_mm") => 1.0 / value(f, "period_mm")?,
+        Some(name) => value(f, name)?,
+        None => 0.0,
+    };
+    Some(Parent {
+        theta,
+        phase_rad: value(f, "phase_rad").unwrap_or(0.0),
+        value: (0.0, 0.0),
+    })
 }
 
 /// A parameter of a finding, determined or not.

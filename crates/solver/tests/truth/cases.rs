@@ -1,6 +1,12 @@
 //! The named truth sessions: each a recording set-up and the effects put in.
 
-use super::generator::{Effect, Setup};
+use super::generator::{Effect, Grows, Setup};
+
+const CYCLIC_P8: Grows = Grows::Cyclic {
+    period_mm: 8.0,
+    phase_rad: 0.7,
+};
+const SPIKE_1MM: Grows = Grows::Spike { decay_mm: 1.0 };
 use mtcal_solver::axis::{Axis, Plane};
 
 /// One named truth session.
@@ -52,6 +58,19 @@ impl Case {
         self.setup.pause_s = s;
         self
     }
+    /// A plan that cannot tell a lag from a play: lines only, all at one feed, the
+    /// recorder started and stopped with each run's motion (no standstill recorded).
+    fn lines_one_feed(mut self) -> Case {
+        self.setup.circles = false;
+        self.setup.dwell_s = 0.0;
+        self.setup.free_running = false;
+        self
+    }
+    /// Circles alone, at one feed and radius (no line recorded).
+    fn circles_only(mut self) -> Case {
+        self.setup.round_trips = 0;
+        self
+    }
     fn perfect(mut self) -> Case {
         self.setup.geometry = false;
         self
@@ -101,6 +120,16 @@ fn growing(axis: Axis, from_um: f64, per_h_um: f64) -> Effect {
         axis,
         from_um,
         per_h_um,
+    }
+}
+/// A lag, cyclic amplitude or spike height growing linearly in time: `from` at the
+/// session start, + `per_h` per hour (ms for a lag, µm for the others).
+fn grows(axis: Axis, grows: Grows, from: f64, per_h: f64) -> Effect {
+    Effect::Growing {
+        axis,
+        grows,
+        from,
+        per_h,
     }
 }
 fn knock(axis: Axis, size_um: f64, decay_s: f64, plane: usize, run: i64) -> Effect {
@@ -212,6 +241,26 @@ pub fn all() -> Vec<Case> {
         // Lost motion growing in time (2 µm, +10 µm/h: about 7 µm at the end).
         case("growing_x2", 81, true, vec![growing(X, 2.0, 10.0)]),
         case("growing_y3", 82, false, vec![growing(Y, 3.0, 4.0)]),
+        // A lag, a cyclic amplitude and a spike height growing in time (about 1 → 3 ms,
+        // 1 → 3 µm and 2 → 5 µm over the half-hour session).
+        case(
+            "growing_lag_x1",
+            83,
+            true,
+            vec![grows(X, Grows::Lag, 1.0, 4.0)],
+        ),
+        case(
+            "growing_cyclic_x1_p8",
+            84,
+            true,
+            vec![grows(X, CYCLIC_P8, 1.0, 4.0)],
+        ),
+        case(
+            "growing_spike_x2",
+            85,
+            true,
+            vec![grows(X, SPIKE_1MM, 2.0, 6.0)],
+        ),
         // A single decaying knock.
         case("knock_y5", 91, true, vec![knock(Y, 5.0, 0.4, 0, 14)]),
         // The same knock on another seed: its anomalies called a misfit that recurs.
@@ -362,5 +411,18 @@ pub fn all() -> Vec<Case> {
             vec![backlash(X, 6.0), backlash(Y, 3.0)],
         )
         .synced(),
+        // A plan that cannot separate a lag from a play (lines only, at one feed, no
+        // standstill recorded): the one found names the other as its rival.
+        case("lag_x2_lines_one_feed", 142, true, vec![lag(X, 2.0)]).lines_one_feed(),
+        case(
+            "backlash_x6_lines_one_feed",
+            143,
+            true,
+            vec![backlash(X, 6.0)],
+        )
+        .lines_one_feed(),
+        // Circles alone, at one feed and radius: a lag reads as a lost motion varying
+        // along the travel.
+        case("lag_x2_circles_only", 144, false, vec![lag(X, 2.0)]).circles_only(),
     ]
 }

@@ -39,6 +39,15 @@ pub enum Effect {
     },
     /// The axis follows its set-point `ms` milliseconds late.
     ServoLag { axis: Axis, ms: f64 },
+    /// A lag, a cyclic amplitude, a spike height or a lateral play's shift growing
+    /// linearly in time: `from` at
+    /// the session start (ms for a lag, µm otherwise), + `per_h` per hour.
+    Growing {
+        axis: Axis,
+        grows: Grows,
+        from: f64,
+        per_h: f64,
+    },
     /// An error periodic in the axis position: A·sin(2π q/P + φ).
     Cyclic {
         axis: Axis,
@@ -82,7 +91,62 @@ pub enum Effect {
     PlateScale { plane: Plane, ppm: f64 },
 }
 
+/// What grows in an [`Effect::Growing`], with the parameters that stay.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub enum Grows {
+    /// A servo lag (ms).
+    Lag,
+    /// A cyclic error's amplitude (µm).
+    Cyclic { period_mm: f64, phase_rad: f64 },
+    /// A reversal spike's height (µm).
+    Spike { decay_mm: f64 },
+    /// A lateral play's shift (µm) with the travel of `moving`.
+    Lateral { moving: Axis },
+}
+
+impl Grows {
+    /// The constant effect on `axis` with value `v`.
+    fn constant(self, axis: Axis, v: f64) -> Effect {
+        match self {
+            Grows::Lag => Effect::ServoLag { axis, ms: v },
+            Grows::Cyclic {
+                period_mm,
+                phase_rad,
+            } => Effect::Cyclic {
+                axis,
+                amp_um: v,
+                period_mm,
+                phase_rad,
+            },
+            Grows::Spike { decay_mm } => Effect::ReversalSpike {
+                axis,
+                height_um: v,
+                decay_mm,
+            },
+            Grows::Lateral { moving } => Effect::LateralPlay {
+                axis,
+                moving,
+                shift_um: v,
+            },
+        }
+    }
+}
+
 impl Effect {
+    /// The effect as it acts at session time `t` (s): a growing lag, cyclic error or
+    /// spike as its constant form with its value then; every other effect as it is.
+    pub fn at(&self, t: f64) -> Effect {
+        match *self {
+            Effect::Growing {
+                axis,
+                grows,
+                from,
+                per_h,
+            } => grows.constant(axis, from + per_h * t / 3600.0),
+            ref e => e.clone(),
+        }
+    }
+
     /// `backlash X 6 µm`: the truth in words.
     pub fn describe(&self) -> String {
         match self {
@@ -93,6 +157,15 @@ impl Effect {
                 per_h_um,
             } => format!("growing backlash {axis} {from_um} µm + {per_h_um} µm/h"),
             Effect::ServoLag { axis, ms } => format!("servo lag {axis} {ms} ms"),
+            Effect::Growing {
+                axis,
+                grows,
+                from,
+                per_h,
+            } => format!(
+                "growing {} + {per_h}/h",
+                grows.constant(*axis, *from).describe()
+            ),
             Effect::Cyclic {
                 axis,
                 amp_um,
@@ -146,6 +219,10 @@ pub struct Setup {
     pub circle_feed_mm_min: f64,
     /// Round trips of each line (two runs each).
     pub round_trips: usize,
+    /// Whether each plate's two circles are recorded after its lines.
+    pub circles: bool,
+    /// Standstill recorded after each run's motion, s.
+    pub dwell_s: f64,
     /// Unrecorded pause between runs, s.
     pub pause_s: f64,
     /// Small geometric errors of the machine (translational, within the rigid model).
@@ -170,6 +247,8 @@ impl Default for Setup {
             line_feed_mm_min: 500.0,
             circle_feed_mm_min: 500.0,
             round_trips: 5,
+            circles: true,
+            dwell_s: DWELL_S,
             pause_s: 3.0,
             geometry: true,
             free_running: true,
@@ -342,7 +421,7 @@ impl Machine {
         // The drive's position: the set-point, late by the axis's lag.
         let mut drive = q;
         for e in &self.effects {
-            if let Effect::ServoLag { axis, ms } = e {
+            if let Effect::ServoLag { axis, ms } = e.at(t) {
                 let i = axis.index();
                 let back = ms * 1e-3 / DT;
                 let n = self.history.len() - 1;
@@ -358,7 +437,7 @@ impl Machine {
             e[i] = (drive[i] - q[i]) * 1e3;
         }
         for (k, eff) in self.effects.iter().enumerate() {
-            match *eff {
+            match eff.at(t) {
                 Effect::Backlash { axis, um } => {
                     let i = axis.index();
                     let h = um * 1e-3 / 2.0;
@@ -414,7 +493,7 @@ impl Machine {
                         e[i] -= self.dir[i] * height_um * (-self.since_rev[i] / decay_mm).exp();
                     }
                 }
-                Effect::Knock { .. } | Effect::PlateScale { .. } => {}
+                Effect::Knock { .. } | Effect::PlateScale { .. } | Effect::Growing { .. } => {}
             }
         }
         for (a, row) in self.geom.iter().enumerate() {
@@ -546,7 +625,8 @@ pub fn generate(setup: &Setup) -> Session {
             }
         }
         go(&mut prog, point(RADIUS, 0.0), None);
-        for (sense, kind) in [(1.0, TestKind::CircleCcw), (-1.0, TestKind::CircleCw)] {
+        let senses = [(1.0, TestKind::CircleCcw), (-1.0, TestKind::CircleCw)];
+        for (sense, kind) in senses.into_iter().filter(|_| setup.circles) {
             let c = point(0.0, 0.0);
             prog.push((
                 Path::Circle {
@@ -589,7 +669,7 @@ pub fn generate(setup: &Setup) -> Session {
             } else {
                 0.0
             };
-            let post = if run.is_some() { DWELL_S } else { 0.0 };
+            let post = if run.is_some() { setup.dwell_s } else { 0.0 };
             let t0 = tick;
             let number = run.as_ref().map_or(0, |r| r.number);
             let run_knocks = knocks(&setup.effects, pi, number);

@@ -2,10 +2,12 @@
 //! it says it cannot explain) is right when it names an effect that was put in, on its
 //! axis, under a name of the equivalence table, and FALSE otherwise; a truth effect no
 //! claim names is missed (a growing backlash is found only by a claim that it grows,
-//! [`finds`]). Parameters of right claims are checked against the truth within 2σ where
+//! [`finds`]). A claim that names a rival the plan cannot tell from it (`rivals`) is
+//! right, as "rival named", when the rival is the truth: it does not take the wrong one
+//! for certain, and the truth counts as found. Parameters of right claims are checked against the truth within 2σ where
 //! the mapping is clear.
 
-use super::generator::{Effect, mounting_of};
+use super::generator::{Effect, Grows, mounting_of};
 use mtcal_solver::axis::Axis;
 use mtcal_solver::diagnosis::{DiagnosisResult, Finding, Verdict};
 
@@ -44,6 +46,24 @@ pub fn accepted(e: &Effect) -> Vec<Name> {
             on("backlash_growth", axis),
         ],
         Effect::ServoLag { axis, .. } => vec![on("servo_lag", axis)],
+        // Likewise a growing lag, cyclic error or spike: its constant part under the
+        // constant's name, its change under the growth's; a growth claimed of a constant
+        // effect is FALSE.
+        Effect::Growing { axis, grows, .. } => {
+            let g = growth(grows);
+            let depends_on = match grows {
+                Grows::Lateral { moving } => Some(moving),
+                _ => None,
+            };
+            [g.constant, g.growth]
+                .map(|effect| Name {
+                    effect,
+                    axis: Some(axis),
+                    depends_on,
+                    mounting: None,
+                })
+                .to_vec()
+        }
         Effect::Cyclic { axis, .. } => vec![on("cyclic", axis)],
         // A session's drift may be reported with no axis (its parameters name them).
         Effect::Thermal { axis, .. } => vec![
@@ -80,7 +100,54 @@ pub fn accepted(e: &Effect) -> Vec<Name> {
 pub fn finds(e: &Effect, effect: &str) -> bool {
     match e {
         Effect::GrowingBacklash { .. } => effect == "backlash_growth",
+        Effect::Growing { grows, .. } => effect == growth(*grows).growth,
         _ => true,
+    }
+}
+
+/// The catalogue's names of a growing effect: its constant and its growth, the growth's
+/// rate and start, and the start's unit per the generator's (a lag's s per ms).
+pub struct GrowthNames {
+    pub constant: &'static str,
+    pub growth: &'static str,
+    pub rate: &'static str,
+    pub start: &'static str,
+    pub start_per_unit: f64,
+}
+
+pub fn growth(g: Grows) -> GrowthNames {
+    let (constant, rate, start, start_per_unit) = match g {
+        Grows::Lag => ("servo_lag", "lag_growth_ms_per_h", "lag_start_s", 1e-3),
+        Grows::Cyclic { .. } => (
+            "cyclic",
+            "amplitude_growth_um_per_h",
+            "amplitude_start_um",
+            1.0,
+        ),
+        Grows::Spike { .. } => (
+            "reversal_spike",
+            "height_growth_um_per_h",
+            "height_start_um",
+            1.0,
+        ),
+        Grows::Lateral { .. } => (
+            "direction_coupling",
+            "shift_growth_um_per_h",
+            "shift_start_um",
+            1.0,
+        ),
+    };
+    GrowthNames {
+        constant,
+        growth: match g {
+            Grows::Lag => "servo_lag_growth",
+            Grows::Cyclic { .. } => "cyclic_growth",
+            Grows::Spike { .. } => "reversal_spike_growth",
+            Grows::Lateral { .. } => "direction_coupling_growth",
+        },
+        rate,
+        start,
+        start_per_unit,
     }
 }
 
@@ -88,11 +155,18 @@ fn axis_of(s: &Option<String>) -> Option<Axis> {
     s.as_deref().and_then(Axis::parse)
 }
 
-fn matches(n: &Name, f: &Finding, axis: Option<Axis>, dep: Option<Axis>) -> bool {
-    n.effect == f.effect
+/// Whether a claim of `effect` on `axis` (following `dep`, naming `mounting`) is `n`.
+fn matches(
+    n: &Name,
+    effect: &str,
+    mounting: Option<&str>,
+    axis: Option<Axis>,
+    dep: Option<Axis>,
+) -> bool {
+    n.effect == effect
         && n.axis == axis
         && (n.depends_on.is_none() || n.depends_on == dep)
-        && n.mounting.is_none_or(|m| mounting_named(f) == Some(m))
+        && n.mounting.is_none_or(|m| mounting == Some(m))
 }
 
 /// The mounting a plate scale's signature names (`` mounting `xz` ``), if any.
@@ -135,6 +209,18 @@ pub fn truth_params(e: &Effect, effect: &str) -> Vec<(String, f64)> {
         ],
         (Effect::ServoLag { ms, .. }, "servo_lag") => vec![("lag_s".into(), ms * 1e-3)],
         (Effect::PlateScale { ppm, .. }, "plate_scale") => vec![("scale_ppm".into(), *ppm)],
+        (
+            Effect::Growing {
+                grows, from, per_h, ..
+            },
+            e,
+        ) if e == growth(*grows).growth => {
+            let g = growth(*grows);
+            vec![
+                (g.rate.into(), *per_h),
+                (g.start.into(), from * g.start_per_unit),
+            ]
+        }
         (
             Effect::Cyclic {
                 amp_um, period_mm, ..
@@ -195,6 +281,8 @@ pub struct Claim {
     pub label: String,
     /// Index of the truth effect it names; `None`: FALSE.
     pub truth: Option<usize>,
+    /// It names the truth only as a rival of the effect it found.
+    pub rival_named: bool,
     pub params: Vec<ParamCheck>,
 }
 
@@ -283,6 +371,7 @@ pub fn score(truth: &[Effect], r: &DiagnosisResult) -> Score {
                 "unexplained: a remainder".into()
             },
             truth: None,
+            rival_named: false,
             params: Vec::new(),
         });
     }
@@ -303,14 +392,37 @@ fn classify(truth: &[Effect], f: &Finding, possible: bool, found: &mut [bool]) -
     if possible {
         label = format!("possible {label}");
     }
+    for r in &f.rivals {
+        let axis = r
+            .axis
+            .as_deref()
+            .map_or(String::new(), |a| format!(" ({a})"));
+        label = format!("{label} [rival {}{axis}]", r.effect);
+    }
     // The first truth effect it names, preferring one not yet found.
     let hits: Vec<usize> = (0..truth.len())
-        .filter(|&i| accepted(&truth[i]).iter().any(|n| matches(n, f, axis, dep)))
+        .filter(|&i| {
+            accepted(&truth[i])
+                .iter()
+                .any(|n| matches(n, &f.effect, mounting_named(f), axis, dep))
+        })
         .collect();
     let Some(&i) = hits.iter().find(|&&i| !found[i]).or(hits.first()) else {
+        // Not the truth itself: right when a rival it names is.
+        let rival = (0..truth.len()).find(|&i| {
+            f.rivals.iter().any(|r| {
+                accepted(&truth[i])
+                    .iter()
+                    .any(|n| matches(n, &r.effect, None, axis_of(&r.axis), dep))
+            })
+        });
+        if let Some(i) = rival {
+            found[i] |= finds(&truth[i], "");
+        }
         return Claim {
             label,
-            truth: None,
+            truth: rival,
+            rival_named: rival.is_some(),
             params: Vec::new(),
         };
     };
@@ -332,6 +444,7 @@ fn classify(truth: &[Effect], f: &Finding, possible: bool, found: &mut [bool]) -
     Claim {
         label,
         truth: Some(i),
+        rival_named: false,
         params,
     }
 }
@@ -376,6 +489,12 @@ pub fn explain(label: &str, truth: &[Effect]) -> String {
         "lost_motion_profile" | "backlash" => format!("lost motion on {axis}: no play there"),
         "backlash_growth" => {
             format!("a lost motion growing in time on {axis}: no play there grows")
+        }
+        "servo_lag_growth"
+        | "cyclic_growth"
+        | "reversal_spike_growth"
+        | "direction_coupling_growth" => {
+            format!("{effect} ({axis}): no effect there changes in time")
         }
         "step" => format!("a one-off step along {axis}: no event was put in"),
         "transient" => format!("a transient along {axis}: no knock was put in"),

@@ -25,12 +25,14 @@ pub(super) async fn insert_result(
 ) -> Result<ResultMeta> {
     let row = ResultRow::new(job_id, r)?;
     let (m, s) = (&row.meta, &row.meta.scalars);
+    let (gate, statement) = r.check_model.as_ref().map(rules::check_columns).unzip();
     bound!(
         "INSERT INTO results (id, job_id, machine_id, dataset_id, kind, measured_at, created_at, \
          document, residual_rms_um, condition_number, rank, ec0y_urad, eb0z_urad, ea0z_urad, \
-         term_coefficients, measured_travel, term_covariance, \
+         term_coefficients, measured_travel, term_covariance, check_gate, check_statement, \
          excluded_at, excluded_by, excluded_reason) \
          VALUES ($1, $2, $3, $4, $5, $6, $7, $8, $9, $10, $11, $12, $13, $14, $15, $16, $17, \
+         $18, $19, \
          (SELECT excluded_at FROM datasets WHERE id = $4), \
          (SELECT excluded_by FROM datasets WHERE id = $4), \
          (SELECT excluded_reason FROM datasets WHERE id = $4))",
@@ -50,7 +52,9 @@ pub(super) async fn insert_result(
         s.summary.ea0z_urad,
         &row.term_coefficients,
         &row.measured_travel,
-        &row.term_covariance
+        &row.term_covariance,
+        gate,
+        statement.flatten()
     )
     .execute(&mut **tx)
     .await
@@ -300,4 +304,67 @@ impl Results for Backend {
             tx.commit().await.db()
         })
     }
+
+    fn check_models<'a>(
+        &'a self,
+        machine_id: &'a str,
+        kind: &'a str,
+    ) -> StoreFuture<'a, Vec<(String, Option<CheckModel>)>> {
+        Box::pin(async move {
+            run!(
+                fetch_all(&self.pool),
+                "SELECT id, check_gate, check_statement FROM results \
+                 WHERE machine_id = $1 AND kind = $2 AND excluded_at IS NULL",
+                machine_id,
+                kind
+            )?
+            .iter()
+            .map(|r| Ok((r.text("id")?, stored_check_model(r)?)))
+            .collect()
+        })
+    }
+
+    fn check_model<'a>(&'a self, id: &'a str) -> StoreFuture<'a, Option<CheckModel>> {
+        Box::pin(async move {
+            let q = "SELECT check_gate, check_statement FROM results WHERE id = $1";
+            stored_check_model(&row_by_id(&self.pool, q.into(), id, "result").await?)
+        })
+    }
+
+    fn unknown_check_models<'a>(&'a self, limit: i64) -> StoreFuture<'a, Vec<String>> {
+        Box::pin(async move {
+            run!(
+                fetch_all(&self.pool),
+                "SELECT id FROM results WHERE check_gate IS NULL AND kind = 'identification' \
+                 ORDER BY id LIMIT $1",
+                limit
+            )?
+            .iter()
+            .map(|r| r.text("id"))
+            .collect()
+        })
+    }
+
+    fn set_check_model<'a>(&'a self, id: &'a str, model: &'a CheckModel) -> StoreFuture<'a, ()> {
+        Box::pin(async move {
+            let (gate, statement) = rules::check_columns(model);
+            run!(
+                execute(&self.pool),
+                "UPDATE results SET check_gate = $2, check_statement = $3 WHERE id = $1",
+                id,
+                gate,
+                statement
+            )?;
+            Ok(())
+        })
+    }
+}
+
+/// The check model in a row's `check_gate` and `check_statement` (`None`: not known).
+fn stored_check_model(r: &impl Columns) -> Result<Option<CheckModel>> {
+    let gate = r.opt_text("check_gate")?;
+    Ok(rules::check_model(
+        gate.as_deref(),
+        r.opt_text("check_statement")?,
+    ))
 }

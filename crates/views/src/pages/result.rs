@@ -717,6 +717,7 @@ pub fn diagnosis(d: &DiagnosisResult) -> Markup {
                         h3 { "Parameters" }
                         (parameters(f))
                         (undetermined(f))
+                        @for r in &f.rivals { p.rival { "rival: " (mtcal_solver::text::person_units(&r.in_words())) } }
                         p.muted.evidence { (evidence(&f.evidence)) }
                     }
                     figure.plot { (svg(plots::finding_bars(f, d.baseline.noise_estimate_um))) }

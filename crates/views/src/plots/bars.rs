@@ -201,6 +201,7 @@ mod tests {
             evidence: String::new(),
             signature: None,
             undetermined: vec![],
+            rivals: Vec::new(),
         }
     }
 

@@ -60,28 +60,13 @@ fn shape(d: &Design, a: Axis, s: usize) -> f64 {
 /// t̄ = Σ p_c·p·t / Σ p_c·p over the rows read along `a`, p_c the centred p (module
 /// docs). The mean sample time when p never varies within a run.
 pub fn origin_s(d: &Design, a: Axis) -> f64 {
-    let t = &d.fields.t_s;
-    let (mut num, mut den) = (0.0, 0.0);
-    for run in &d.runs {
-        for comp in 0..2 {
-            let rows = || (run.start..run.end).filter(|&s| d.row_axis(2 * s + comp) == a);
-            let n = rows().count();
-            if n == 0 {
-                continue;
-            }
-            let mean = rows().map(|s| shape(d, a, s)).sum::<f64>() / n as f64;
-            for s in rows() {
-                let p = shape(d, a, s);
-                num += (p - mean) * p * t[s];
-                den += (p - mean) * p;
-            }
+    super::growth::origin(d, |r| {
+        if d.row_axis(r) == a {
+            shape(d, a, r / 2)
+        } else {
+            0.0
         }
-    }
-    if den > 0.0 {
-        num / den
-    } else {
-        t.iter().sum::<f64>() / t.len().max(1) as f64
-    }
+    })
 }
 
 /// The growth column of candidate `c` (module docs): its coefficient is g, µm/h. At
@@ -133,22 +118,11 @@ pub(crate) fn parameters(
         return;
     };
     let tc = origin_s(d, a);
-    let t_end = d.fields.t_s.iter().copied().fold(0.0, f64::max);
-    let at = |t: f64| line_at((b, sb), (g, sg), tc, t);
-    let (b0, s0) = at(0.0);
-    let (b1, s1) = at(t_end);
-    p.insert("lost_motion_start_um".into(), b0);
-    p.insert("std_lost_motion_start_um".into(), s0);
-    p.insert("lost_motion_end_um".into(), b1);
-    p.insert("std_lost_motion_end_um".into(), s1);
+    for (at, (v, sv)) in super::growth::start_and_end(d, (b, sb), (g, sg), tc) {
+        p.insert(format!("lost_motion_{at}_um"), v);
+        p.insert(format!("std_lost_motion_{at}_um"), sv);
+    }
     p.insert("centre_s".into(), tc);
-}
-
-/// b(t) ± σ on the line through b̄ ± σ_b̄ at t̄ with slope g ± σ_g (µm/h), the two
-/// taken independent (module docs).
-fn line_at((b, sb): (f64, f64), (g, sg): (f64, f64), tc: f64, t: f64) -> (f64, f64) {
-    let h = (t - tc) / 3600.0;
-    (b + g * h, sb.hypot(sg * h))
 }
 
 #[cfg(test)]
@@ -159,15 +133,5 @@ mod tests {
     fn the_table_entry_names_the_growth_as_principal() {
         let spec = crate::diagnosis::effects::spec(NAME).expect("in the table");
         assert!(spec.params.iter().any(|p| p.name == spec.principal[0]));
-    }
-
-    #[test]
-    fn start_and_end_follow_the_line_through_the_constant() {
-        // b̄ = 4 ± 0.1 µm at t̄ = 0.2 h, g = 10 ± 0.5 µm/h: b₀ = 2 µm at t = 0, σ from
-        // both; at t̄ itself the constant's own σ.
-        let (b0, s0) = line_at((4.0, 0.1), (10.0, 0.5), 720.0, 0.0);
-        assert!((b0 - 2.0).abs() < 1e-12);
-        assert!((s0 - 0.1f64.hypot(0.1)).abs() < 1e-12);
-        assert_eq!(line_at((4.0, 0.1), (10.0, 0.5), 720.0, 720.0), (4.0, 0.1));
     }
 }

@@ -119,6 +119,7 @@ pub fn candidate(m: &str) -> Candidate {
         width_s: 0.0,
         lost_motion_um: 0.0,
         mounting: Some(m.to_string()),
+        parent: None,
     }
 }
 

@@ -477,6 +477,7 @@ fn with_chosen_model(
         depends_on: None,
         parameters: params,
         undetermined: vec![],
+        rivals: Vec::new(),
         physics: effects::physics("thermal_drift").into(),
         residual_rms_um: BeforeAfter {
             before: out.rigid_train_rms,

@@ -148,6 +148,9 @@ pub(crate) struct State {
     pub plates: Vec<String>,
     /// The index in `fit.cols` of each of `plates`' columns.
     pub plate_cols: Vec<usize>,
+    /// The growth candidates of the findings in the model that are tested for a change
+    /// in time (`catalogue::growth`), each until its growth is in the model.
+    pub growths: Vec<Candidate>,
     /// The candidates' moments formed on this model, kept for the next
     /// ([`Ctx::moments_kept`]).
     pub kept: std::sync::Mutex<Kept>,
@@ -525,6 +528,7 @@ mod tests {
             grown: [false; 3],
             plates: Vec::new(),
             plate_cols: Vec::new(),
+            growths: Vec::new(),
             kept: Default::default(),
             prior: std::sync::Mutex::new(prior),
             thermal: Default::default(),
@@ -573,6 +577,7 @@ mod tests {
             width_s: 0.0,
             lost_motion_um: 0.0,
             mounting: None,
+            parent: None,
         };
         let t_step = d.fields.t_s[(d.runs[2].start + d.runs[2].end) / 2];
         let grid = match catalogue::search(&d, &spike) {

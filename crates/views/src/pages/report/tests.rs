@@ -48,6 +48,7 @@ fn finding() -> DiagnosisResult {
             },
             evidence: "BIC".into(),
             undetermined: vec![],
+            rivals: Vec::new(),
         }],
         possible: vec![],
         rejected: vec![],

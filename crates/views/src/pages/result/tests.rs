@@ -67,6 +67,7 @@ fn undetermined_parameters_and_possible_effects_are_shown() {
         heldout_rms_um: ba,
         evidence: "CV".into(),
         undetermined,
+        rivals: Vec::new(),
     };
     let d = DiagnosisResult {
         kind: "diagnosis".into(),
@@ -450,6 +451,7 @@ fn a_finding_reads_in_words() {
                    0.150 um over 5 folds of whole runs; noise floor 0.149 um"
             .into(),
         undetermined: vec![],
+        rivals: Vec::new(),
     };
     let d = session_diagnosis(vec![], vec![f], Verdict::Explained);
     let html = diagnosis(&d).into_string();

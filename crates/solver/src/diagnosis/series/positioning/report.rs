@@ -223,6 +223,7 @@ fn step_findings(
             residual_rms_um: rms_ba,
             heldout_rms_um: heldout_ba,
             undetermined: vec![],
+            rivals: Vec::new(),
             evidence: format!(
                 "ΔBIC {:.1}; held-out RMS (leave one of {} runs out) {:.3} → {:.3} µm; noise floor {:.3} µm; condition number of the final joint fit {:.2e}{signature}",
                 st.chosen.dbic,
