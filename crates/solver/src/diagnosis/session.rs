@@ -257,6 +257,34 @@ impl SessionProblem<'_> {
             ),
         }
     }
+
+    /// The reported parameters of trial `t` of candidate `c` on the model `s` at the
+    /// residual σ `sigma`, with what its effect adds (a profile's, a growth's, a plate's
+    /// temperature) before the σ of its nonlinear parameter are carried in.
+    fn effect_parameters(
+        &self,
+        s: &State,
+        c: &Candidate,
+        t: &Trial,
+        sigma: f64,
+    ) -> std::collections::BTreeMap<String, f64> {
+        let d = self.ctx.d;
+        let mut params = report_parameters(t, sigma, d);
+        if let ("lost_motion_profile" | "lost_motion_variation", Some(a)) = (c.effect, c.axis) {
+            let constant = (c.effect == "lost_motion_variation")
+                .then(|| s.backlash[a.index()])
+                .flatten();
+            params = trial::profile_parameters(t, sigma, d, a, constant);
+        }
+        if let ("backlash_growth", Some(a)) = (c.effect, c.axis) {
+            catalogue::lost_motion_growth::parameters(&mut params, d, a, s.backlash[a.index()]);
+        }
+        if c.effect == catalogue::plate_scale::NAME {
+            catalogue::plate_scale::parameters(&mut params, d);
+        }
+        catalogue::growth::parameters(&mut params, d, c);
+        params
+    }
 }
 
 impl super::engine::Greedy for SessionProblem<'_> {
@@ -332,25 +360,16 @@ impl super::engine::Greedy for SessionProblem<'_> {
         Some((score, t))
     }
     fn admit(&self, s: &State, c: &Candidate, t: &Trial) -> Admission<Note> {
+        // A plate scale whose form does not hold: one axis's change of scale (`plates`).
+        if let Some(why) = self.plate_form_broken(s, c, t) {
+            return Admission::SetAside(Note::Rejected(why));
+        }
         let (d, f) = (self.ctx.d, &s.fit);
         let n = d.rows();
         let sigma = (t.ssr
             / (self.dof.saturating_sub(s.k + t.ncols + t.extra_params)).max(1) as f64)
             .sqrt();
-        let mut params = report_parameters(t, sigma, d);
-        if let ("lost_motion_profile" | "lost_motion_variation", Some(a)) = (c.effect, c.axis) {
-            let constant = (c.effect == "lost_motion_variation")
-                .then(|| s.backlash[a.index()])
-                .flatten();
-            params = trial::profile_parameters(t, sigma, d, a, constant);
-        }
-        if let ("backlash_growth", Some(a)) = (c.effect, c.axis) {
-            catalogue::lost_motion_growth::parameters(&mut params, d, a, s.backlash[a.index()]);
-        }
-        if c.effect == catalogue::plate_scale::NAME {
-            catalogue::plate_scale::parameters(&mut params, d);
-        }
-        catalogue::growth::parameters(&mut params, d, c);
+        let mut params = self.effect_parameters(s, c, t, sigma);
         // A step's ramp: its width with σ (also the step time's, below).
         let width = self.ctx.step_width(s, t, sigma);
         if let Some((name, sd)) = self.ctx.theta_std(s, t, sigma, width.as_ref().map(|w| w.1)) {

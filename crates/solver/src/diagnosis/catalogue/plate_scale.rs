@@ -33,6 +33,7 @@
 //! to the next), a `setup_offset` (a head offset of one group, through the rotations).
 
 use super::{Candidate, Columns};
+use crate::axis::Axis;
 use crate::diagnosis::design::Design;
 use std::collections::BTreeMap;
 
@@ -123,6 +124,26 @@ pub fn candidate(m: &str) -> Candidate {
     }
 }
 
+/// One axis's half of mounting `m`'s candidate: the scale of the reading along `axis`
+/// alone on the mounting's runs — an axis whose scale changed between mountings, as a
+/// warm-up of that axis reads, not a plate (its form test, `session::plates`). Never
+/// offered as a finding.
+pub fn half(m: &str, axis: Axis) -> Candidate {
+    Candidate {
+        axis: Some(axis),
+        ..candidate(m)
+    }
+}
+
+/// The axes mounting `m`'s files read, in axis order.
+pub fn axes_read(d: &Design, m: &str) -> Vec<Axis> {
+    mountings(d)
+        .into_iter()
+        .find(|(n, _)| n == m)
+        .map(|(_, read)| Axis::ALL.into_iter().filter(|a| read[a.index()]).collect())
+        .unwrap_or_default()
+}
+
 /// The mounting whose scale a group's others are reported against: the median of the
 /// group's `values` (ppm, 0 for a mounting with no plate scale in the model; the lower
 /// middle one of an even group). The scales the data determine are the differences
@@ -163,10 +184,12 @@ pub(crate) fn columns<'a>(d: &'a Design, c: &Candidate) -> Columns<'a> {
         return Columns::new(Vec::new(), Vec::new(), |_, _, _| {});
     };
     let on: Vec<bool> = d.mountings.iter().map(|x| *x == m).collect();
+    // A half (`half`) reads along its axis only.
+    let only = c.axis;
     Columns::new(vec!["scale_ppm".into()], vec![None], move |s, read, o| {
         let run = &d.runs[d.fields.run(s)];
         let i = read.index();
-        o[0] = if on[run.plane_idx] {
+        o[0] = if on[run.plane_idx] && only.is_none_or(|a| a == read) {
             (d.fields.q_mm[i][s] + run.head_mm[i]) * 1e-3
         } else {
             0.0

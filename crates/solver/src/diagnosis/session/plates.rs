@@ -7,10 +7,11 @@
 //! the one left as the reference before (the same model: any k − 1 of the group's
 //! columns span the same space with the axes' scales).
 
-use super::catalogue::{self, plate_scale};
+use super::catalogue::{self, Candidate, plate_scale};
 use super::context::State;
 use super::trial::{Trial, report_parameters};
 use super::{Finding, SessionProblem};
+use crate::axis::Axis;
 use crate::diagnosis::linalg::dot;
 
 impl SessionProblem<'_> {
@@ -136,4 +137,34 @@ impl SessionProblem<'_> {
             }
         }
     }
+
+    /// The form test of a plate scale `t` of candidate `c` on the model `s`: a plate
+    /// scales both readings of its mounting alike, so its one column must fit better than
+    /// either reading's scale alone on the same runs (`plate_scale::half`, one parameter
+    /// each). When one axis alone fits as well, the mounting's misfit is that axis's
+    /// scale differing from the other mountings' readings of it — a warm-up of the axis
+    /// between the mountings, not the plate: why the plate is set aside. `None` for any
+    /// other candidate, or when the form holds.
+    pub(super) fn plate_form_broken(&self, s: &State, c: &Candidate, t: &Trial) -> Option<String> {
+        let m = c.mounting.as_deref().filter(|_| c.axis.is_none())?;
+        let n = self.ctx.d.rows() as f64;
+        let halves: Vec<(Axis, f64)> = plate_scale::axes_read(self.ctx.d, m)
+            .into_iter()
+            .filter_map(|a| Some((a, self.ctx.try_candidate(s, &plate_scale::half(m, a))?.ssr)))
+            .collect();
+        let (a, ssr) = halves.into_iter().min_by(|x, y| x.1.total_cmp(&y.1))?;
+        let gap = n * (ssr / t.ssr).ln();
+        (gap < PLATE_FORM_BIC).then(|| {
+            format!(
+                "{}: a plate scales both readings of its mounting alike, but the {a} reading's scale alone on its runs fits within ΔBIC {gap:+.1} of it (from {PLATE_FORM_BIC:.0} on a plate): the {a} axis's scale changed between mountings (a warm-up of {a}), not the plate",
+                c.label()
+            )
+        })
+    }
 }
+
+/// Below this ΔBIC by which a plate scale fits better than either of its readings' scales
+/// alone (one parameter each), the plan does not tell its form from one axis's change of
+/// scale between mountings ([`SessionProblem::plate_form_broken`]): the engine's own
+/// threshold of "very strong" evidence, as between rivals (`rivals::RIVAL_BIC`).
+pub(super) const PLATE_FORM_BIC: f64 = super::rivals::RIVAL_BIC;
