@@ -347,6 +347,33 @@ mod tests {
         }
     }
 
+    /// A half of the candidate (its form test) reads its one axis on the mounting's
+    /// runs: the two halves add up to the plate's column, and each mounting reads its
+    /// plane's two axes.
+    #[test]
+    fn the_halves_add_up_to_the_plate() {
+        let session = seed_session(3);
+        let d = design_of(&session);
+        let m = session.planes[0].mounting.clone();
+        let axes = axes_read(&d, &m);
+        assert_eq!(axes.len(), 2);
+        let whole = columns(&d, &candidate(&m));
+        let halves: Vec<Columns> = axes.iter().map(|&a| columns(&d, &half(&m, a))).collect();
+        let (mut o, mut h) = ([0.0], [0.0]);
+        for row in 0..d.rows() {
+            whole.at(&d, row, &mut o);
+            let mut sum = 0.0;
+            for (a, c) in axes.iter().zip(&halves) {
+                c.at(&d, row, &mut h);
+                if d.row_axis(row) != *a {
+                    assert_eq!(h[0], 0.0);
+                }
+                sum += h[0];
+            }
+            assert_eq!(sum, o[0]);
+        }
+    }
+
     #[test]
     fn the_median_mounting_is_the_reference() {
         let v = |a: f64, b: f64, c: f64| {
