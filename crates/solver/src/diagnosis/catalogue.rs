@@ -16,6 +16,7 @@
 //! | thermal_drift (temperature, lagged) | the same with ΔT through a first-order lag → ppm/K, µm/K | lag τ, s |
 //! | thermal_drift (temperature, quadratic) | the same and ΔT²·q_j·10⁻³, ΔT² → ppm/K, µm/K, ppm/K², µm/K² | — |
 //! | setup_offset | (Σ_k ε_k(q_k)) × e_j ·10⁻³ on one head-offset group → Δt_j, mm | — |
+//! | plate_scale | (u, v)·10⁻³ on both readings of one plate mounting's runs, (u, v) the in-plane position plus head offset → scale s, ppm (`plate_scale`) | — |
 //! | model_order | Legendre P_4..P_10 of the axis position, along one direction | — |
 //! | vibration | sin, cos(2π f t) → amplitude, phase | frequency f, Hz |
 //! | waviness (signature) | sin, cos(2π q_a/P) along a direction j ≠ a → amplitude, phase | period P, mm |
@@ -40,6 +41,7 @@ use std::f64::consts::PI;
 
 pub mod growth;
 pub mod lost_motion_growth;
+pub mod plate_scale;
 
 /// One candidate: an effect on an axis/direction (or a head-offset group).
 #[derive(Debug, Clone, PartialEq)]
@@ -62,6 +64,9 @@ pub struct Candidate {
     /// play whose take-up the growth widens (`lost_motion_growth`); 0 for every other
     /// effect.
     pub lost_motion_um: f64,
+    /// For plate_scale: the plate's mounting (the session's name of it,
+    /// `plate_scale`); `None` for every other effect.
+    pub mounting: Option<String>,
     /// For a growth (`growth`): the finding it refines, as it is in the model; `None`
     /// for every other effect.
     pub parent: Option<growth::Parent>,
@@ -78,6 +83,9 @@ impl Candidate {
         }
         if let Some(g) = self.group {
             s += &format!(" at t = {g:?}");
+        }
+        if let Some(m) = &self.mounting {
+            s += &format!(" of mounting `{m}`");
         }
         if self.order > 0 {
             s += &format!(" of order {}", self.order);
@@ -170,6 +178,7 @@ pub fn candidates(d: &Design) -> Vec<Candidate> {
         },
         width_s: 0.0,
         lost_motion_um: 0.0,
+        mounting: None,
         parent: None,
     };
     let mut out = Vec::new();
@@ -230,6 +239,7 @@ pub fn candidates(d: &Design) -> Vec<Candidate> {
             out.push(c("setup_offset", None, None, Some(g)));
         }
     }
+    out.extend(plate_scale::candidates(d));
     out
 }
 
@@ -488,6 +498,7 @@ pub fn specs<'a>(
         | "thermal_temperature_lag"
         | "thermal_temperature_quadratic" => thermal_columns(d, c, theta),
         "model_order" | "setup_offset" => setup_columns(d, c, eps),
+        plate_scale::NAME => plate_scale::columns(d, c),
         _ => Columns::none(),
     }
 }

@@ -138,6 +138,12 @@ pub struct Design {
     pub lag_input: std::sync::OnceLock<Option<LagInput>>,
     /// Samples of the session left out ([`build_leaving_out`]).
     pub left_out: usize,
+    /// The plate's mounting of each plane file (the session's `mounting`: files sharing
+    /// it share the plate's rotation and scale).
+    pub mountings: Vec<String>,
+    /// The plate's thermal expansion coefficient the session states (its instrument's
+    /// `expansion_ppm_per_k`), µm/(m·K).
+    pub plate_expansion_ppm_per_k: Option<f64>,
 }
 
 impl Design {
@@ -602,6 +608,12 @@ pub fn build_leaving_out(
         temperature,
         lag_input: std::sync::OnceLock::new(),
         left_out,
+        mountings: session.planes.iter().map(|p| p.mounting.clone()).collect(),
+        plate_expansion_ppm_per_k: session
+            .conditions
+            .instrument
+            .as_ref()
+            .and_then(|i| i.expansion_ppm_per_k),
     };
     let mut y = std::mem::take(&mut d.y);
     d.centre(&mut y);

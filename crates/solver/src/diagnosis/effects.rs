@@ -13,6 +13,7 @@ use super::{Finding, Undetermined, Verdict};
 
 mod growth;
 mod lost_motion_growth;
+mod plate_scale;
 
 /// One parameter: its name (`{axis}` stands for X, Y or Z, `{n}` for 1, 2, …,
 /// `{sensor}` for a temperature channel), unit and sign convention.
@@ -464,6 +465,7 @@ pub const EFFECTS: &[EffectSpec] = &[
         any_of: true,
         decide: "a third head offset along the same direction (redundant arms)",
     },
+    plate_scale::SPEC,
     EffectSpec {
         name: "model_order",
         physics: "position-bound, repeatable error with more waviness than the polynomial order can follow (guideway or scale waviness)",

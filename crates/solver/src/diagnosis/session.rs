@@ -38,6 +38,7 @@ use trial::{Trial, report_parameters};
 mod anomalies;
 mod confounded;
 mod context;
+mod plates;
 mod plots;
 mod rivals;
 mod trial;
@@ -125,6 +126,8 @@ impl SessionProblem<'_> {
             backlash,
             profiled,
             grown: [false; 3],
+            plates: Vec::new(),
+            plate_cols: Vec::new(),
             growths: Vec::new(),
             kept: Default::default(),
             prior: std::sync::Mutex::new(prior),
@@ -176,6 +179,7 @@ impl SessionProblem<'_> {
         parameters: BTreeMap<String, f64>,
         f: &Fit,
         nf: Option<&Fit>,
+        plates: &[String],
     ) -> Finding {
         let (n, heldout_n) = (self.ctx.d.rows(), self.ctx.sets.heldout_n);
         let h_before = self.heldout_rms(f);
@@ -197,6 +201,20 @@ impl SessionProblem<'_> {
         let (after, h_after) = match nf {
             Some(nf) => (rms(nf.ssr, n), rms(nf.heldout_ssr, heldout_n)),
             None => (rms(t.ssr, n), rms(t.heldout_ssr, heldout_n)),
+        };
+        let signature = match (t.cand.effect, t.theta, t.cand.direction) {
+            ("step", Some((_, th)), Some(dir)) => Some(self.step_place(th, dir)),
+            ("transient", Some((_, th)), Some(dir)) => Some(self.transient_place(th, dir)),
+            _ => match &t.cand.mounting {
+                // A plate's scale: its mounting, the reference and what it means.
+                Some(m) => Some(catalogue::plate_scale::signature(
+                    self.ctx.d,
+                    plates,
+                    m,
+                    parameters.get("scale_ppm").copied(),
+                )),
+                None => catalogue::signature(&t.cand, t.theta.map(|x| x.1)),
+            },
         };
         Finding {
             effect: catalogue::reported_name(t.cand.effect).into(),
@@ -220,11 +238,7 @@ impl SessionProblem<'_> {
             },
             parameters,
             physics: effects::physics(catalogue::reported_name(t.cand.effect)).into(),
-            signature: match (t.cand.effect, t.theta, t.cand.direction) {
-                ("step", Some((_, th)), Some(dir)) => Some(self.step_place(th, dir)),
-                ("transient", Some((_, th)), Some(dir)) => Some(self.transient_place(th, dir)),
-                _ => catalogue::signature(&t.cand, t.theta.map(|x| x.1)),
-            },
+            signature,
             undetermined: vec![],
             rivals: Vec::new(),
             residual_rms_um: BeforeAfter {
@@ -246,6 +260,34 @@ impl SessionProblem<'_> {
                 self.floor
             ),
         }
+    }
+
+    /// The reported parameters of trial `t` of candidate `c` on the model `s` at the
+    /// residual σ `sigma`, with what its effect adds (a profile's, a growth's, a plate's
+    /// temperature) before the σ of its nonlinear parameter are carried in.
+    fn effect_parameters(
+        &self,
+        s: &State,
+        c: &Candidate,
+        t: &Trial,
+        sigma: f64,
+    ) -> std::collections::BTreeMap<String, f64> {
+        let d = self.ctx.d;
+        let mut params = report_parameters(t, sigma, d);
+        if let ("lost_motion_profile" | "lost_motion_variation", Some(a)) = (c.effect, c.axis) {
+            let constant = (c.effect == "lost_motion_variation")
+                .then(|| s.backlash[a.index()])
+                .flatten();
+            params = trial::profile_parameters(t, sigma, d, a, constant);
+        }
+        if let ("backlash_growth", Some(a)) = (c.effect, c.axis) {
+            catalogue::lost_motion_growth::parameters(&mut params, d, a, s.backlash[a.index()]);
+        }
+        if c.effect == catalogue::plate_scale::NAME {
+            catalogue::plate_scale::parameters(&mut params, d);
+        }
+        catalogue::growth::parameters(&mut params, d, c);
+        params
     }
 }
 
@@ -281,6 +323,10 @@ impl super::engine::Greedy for SessionProblem<'_> {
         self.cands
             .iter()
             .filter(|c| {
+                // A plate's scale, while its group's common scale stays with the axes.
+                if let Some(m) = &c.mounting {
+                    return catalogue::plate_scale::open(self.ctx.d, &s.plates, m);
+                }
                 let Some(a) = c.axis.map(|a| a.index()) else {
                     return true;
                 };
@@ -318,22 +364,16 @@ impl super::engine::Greedy for SessionProblem<'_> {
         Some((score, t))
     }
     fn admit(&self, s: &State, c: &Candidate, t: &Trial) -> Admission<Note> {
+        // A plate scale whose form does not hold: one axis's change of scale (`plates`).
+        if let Some(why) = self.plate_form_broken(s, c, t) {
+            return Admission::SetAside(Note::Rejected(why));
+        }
         let (d, f) = (self.ctx.d, &s.fit);
         let n = d.rows();
         let sigma = (t.ssr
             / (self.dof.saturating_sub(s.k + t.ncols + t.extra_params)).max(1) as f64)
             .sqrt();
-        let mut params = report_parameters(t, sigma, d);
-        if let ("lost_motion_profile" | "lost_motion_variation", Some(a)) = (c.effect, c.axis) {
-            let constant = (c.effect == "lost_motion_variation")
-                .then(|| s.backlash[a.index()])
-                .flatten();
-            params = trial::profile_parameters(t, sigma, d, a, constant);
-        }
-        if let ("backlash_growth", Some(a)) = (c.effect, c.axis) {
-            catalogue::lost_motion_growth::parameters(&mut params, d, a, s.backlash[a.index()]);
-        }
-        catalogue::growth::parameters(&mut params, d, c);
+        let mut params = self.effect_parameters(s, c, t, sigma);
         // A step's ramp: its width with σ (also the step time's, below).
         let width = self.ctx.step_width(s, t, sigma);
         if let Some((name, sd)) = self.ctx.theta_std(s, t, sigma, width.as_ref().map(|w| w.1)) {
@@ -445,7 +485,7 @@ impl super::engine::Greedy for SessionProblem<'_> {
             ft.p < FORM_ALPHA
                 && !(c.effect == "servo_lag" && ft.relative_spread() <= LAG_FORM_SPREAD)
         });
-        let finding = self.finding_of(t, params, f, None);
+        let finding = self.finding_of(t, params, f, None, &s.plates);
         // A size far beyond what the held-out runs gain from it is not credible, whatever
         // its σ (`credible::MAX_SIZE_PER_GAIN`); a logged temperature's growth is judged
         // by its σ alone, as above; a local effect (a step, on its run) is not judged by a
@@ -495,7 +535,7 @@ impl super::engine::Greedy for SessionProblem<'_> {
             Note::Finding(finding) => Note::Finding(Finding {
                 undetermined: finding.undetermined,
                 rivals: finding.rivals,
-                ..self.finding_of(&t, finding.parameters, &s.fit, Some(&nf))
+                ..self.finding_of(&t, finding.parameters, &s.fit, Some(&nf), &s.plates)
             }),
             other => other,
         };
@@ -516,6 +556,12 @@ impl super::engine::Greedy for SessionProblem<'_> {
             (Note::Finding(_), "backlash_growth", Some(a)) => grown[a.index()] = true,
             _ => {}
         }
+        let mut plates = std::mem::take(&mut s.plates);
+        let mut plate_cols = std::mem::take(&mut s.plate_cols);
+        if let (Note::Finding(_), Some(m)) = (&note, &c.mounting) {
+            plates.push(m.clone());
+            plate_cols.push(u_prev - 1);
+        }
         let mut growths = std::mem::take(&mut s.growths);
         if let Note::Finding(f) = &note {
             // A finding tested for a change offers its growth; a growth in the model is
@@ -533,6 +579,8 @@ impl super::engine::Greedy for SessionProblem<'_> {
         drop(s);
         let mut next = self.state(nf, k, backlash, profiled, Some((kept, u_prev)), thermal);
         next.grown = grown;
+        next.plates = plates;
+        next.plate_cols = plate_cols;
         next.growths = growths;
         (next, (), note)
     }
@@ -763,7 +811,7 @@ fn diagnose_design(
     };
     let base = problem.state(f, 0, [None; 3], [false; 3], None, None);
     let o = engine::run(&problem, base, &rules, "", progress, span);
-    let findings: Vec<Finding> = o
+    let mut findings: Vec<Finding> = o
         .added
         .into_iter()
         .filter_map(|a| match a.note {
@@ -780,6 +828,7 @@ fn diagnose_design(
             Note::Finding(_) => {}
         }
     }
+    problem.restate_plates(&o.state, &mut findings);
     // All the report reads of the final model: the rest of its state (accepted columns,
     // kept moments, rotation errors, thermal basis) is freed before the report's scans.
     let (resid, heldout_ssr) = o.state.into_residual();

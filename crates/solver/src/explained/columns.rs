@@ -14,7 +14,7 @@ use crate::session::Session;
 
 /// The effects of the catalogue a finding can be read back as (its `evidence` label's
 /// first word).
-const EFFECTS: [&str; 23] = [
+const EFFECTS: [&str; 24] = [
     "backlash",
     "backlash_growth",
     "cyclic",
@@ -24,6 +24,7 @@ const EFFECTS: [&str; 23] = [
     "lost_motion_profile",
     "lost_motion_variation",
     "model_order",
+    "plate_scale",
     "reversal_spike",
     "reversal_spike_growth",
     "servo_lag",
@@ -97,6 +98,10 @@ pub fn candidate_of(f: &Finding) -> Result<(Candidate, Theta), String> {
             0.0
         },
         lost_motion_um: 0.0,
+        // A plate's scale names its mounting: `plate_scale of mounting `xz``.
+        mounting: (effect == "plate_scale")
+            .then(|| label.split('`').nth(1).map(str::to_string))
+            .flatten(),
         parent: growth_parent(f, effect),
     };
     let theta_name = match effect {
@@ -243,5 +248,30 @@ impl ExtraColumns for FindingColumns<'_> {
                 &mut out[b.clone()],
             );
         }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// A plate scale is read back with its mounting (its evidence's label names it).
+    #[test]
+    fn a_plate_scale_reads_back_with_its_mounting() {
+        let f: Finding = serde_json::from_value(serde_json::json!({
+            "effect": "plate_scale",
+            "parameters": {"scale_ppm": -8.0, "std_scale_ppm": 0.1},
+            "physics": "",
+            "residual_rms_um": {"before": 1.0, "after": 0.2},
+            "heldout_rms_um": {"before": 1.0, "after": 0.2},
+            "evidence": "plate_scale of mounting `xz`: BIC -8538.8 with 1 extra parameter(s)",
+        }))
+        .expect("a finding");
+        let (c, theta) = candidate_of(&f).expect("a catalogue effect");
+        assert_eq!(
+            (c.effect, c.mounting.as_deref()),
+            ("plate_scale", Some("xz"))
+        );
+        assert!(theta.is_none());
     }
 }

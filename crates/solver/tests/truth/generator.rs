@@ -592,6 +592,13 @@ const PLAN: [PlaneTest; 3] = [
     },
 ];
 
+/// The mounting name of the plate's plane `plane` in the plan.
+pub fn mounting_of(plane: Plane) -> &'static str {
+    PLAN.iter()
+        .find(|t| t.plane == plane)
+        .map_or("", |t| t.mounting)
+}
+
 /// Head offset of every plane file, mm.
 pub const HEAD_OFFSET_MM: [f64; 3] = [0.0, 0.0, -100.0];
 const HALF_TRAVEL: f64 = 50.0;

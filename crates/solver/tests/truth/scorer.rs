@@ -7,7 +7,7 @@
 //! for certain, and the truth counts as found. Parameters of right claims are checked against the truth within 2σ where
 //! the mapping is clear.
 
-use super::generator::{Effect, Grows};
+use super::generator::{Effect, Grows, mounting_of};
 use mtcal_solver::axis::Axis;
 use mtcal_solver::diagnosis::{DiagnosisResult, Finding, Verdict};
 
@@ -19,6 +19,8 @@ pub struct Name {
     pub axis: Option<Axis>,
     /// The moving axis an error across follows (`None`: not checked).
     pub depends_on: Option<Axis>,
+    /// The plate's mounting a plate scale names in its signature (`None`: not checked).
+    pub mounting: Option<&'static str>,
 }
 
 const fn on(effect: &'static str, axis: Axis) -> Name {
@@ -26,6 +28,7 @@ const fn on(effect: &'static str, axis: Axis) -> Name {
         effect,
         axis: Some(axis),
         depends_on: None,
+        mounting: None,
     }
 }
 
@@ -57,6 +60,7 @@ pub fn accepted(e: &Effect) -> Vec<Name> {
                     effect,
                     axis: Some(axis),
                     depends_on,
+                    mounting: None,
                 })
                 .to_vec()
         }
@@ -68,12 +72,14 @@ pub fn accepted(e: &Effect) -> Vec<Name> {
                 effect: "thermal_drift",
                 axis: None,
                 depends_on: None,
+                mounting: None,
             },
         ],
         Effect::LateralPlay { axis, moving, .. } => vec![Name {
             effect: "direction_coupling",
             axis: Some(axis),
             depends_on: Some(moving),
+            mounting: None,
         }],
         Effect::ReversalSpike { axis, .. } => vec![on("reversal_spike", axis)],
         // Or a local anomaly in its reading (see `score`).
@@ -85,11 +91,12 @@ pub fn accepted(e: &Effect) -> Vec<Name> {
             on("lost_motion_profile", axis),
             on("backlash_growth", axis),
         ],
-        // No effect of today's catalogue is a plate's scale: the name a fix would add.
-        Effect::PlateScale { .. } => vec![Name {
+        // A plate's scale with its mounting, which the finding's signature names.
+        Effect::PlateScale { plane, .. } => vec![Name {
             effect: "plate_scale",
             axis: None,
             depends_on: None,
+            mounting: Some(mounting_of(plane)),
         }],
     }
 }
@@ -155,8 +162,25 @@ fn axis_of(s: &Option<String>) -> Option<Axis> {
     s.as_deref().and_then(Axis::parse)
 }
 
-fn matches(n: &Name, effect: &str, axis: Option<Axis>, dep: Option<Axis>) -> bool {
-    n.effect == effect && n.axis == axis && (n.depends_on.is_none() || n.depends_on == dep)
+/// Whether a claim of `effect` on `axis` (following `dep`, naming `mounting`) is `n`.
+fn matches(
+    n: &Name,
+    effect: &str,
+    mounting: Option<&str>,
+    axis: Option<Axis>,
+    dep: Option<Axis>,
+) -> bool {
+    n.effect == effect
+        && n.axis == axis
+        && (n.depends_on.is_none() || n.depends_on == dep)
+        && n.mounting.is_none_or(|m| mounting == Some(m))
+}
+
+/// The mounting a plate scale's signature names (`` mounting `xz` ``), if any.
+pub fn mounting_named(f: &Finding) -> Option<&str> {
+    let sig = f.signature.as_deref()?;
+    let rest = sig.split_once("mounting `")?.1;
+    Some(rest.split_once('`')?.0)
 }
 
 /// A parameter of a right claim checked against its truth.
@@ -195,6 +219,7 @@ pub fn truth_params(e: &Effect, effect: &str) -> Vec<(String, f64)> {
             ("lost_motion_start_um".into(), *from_um),
         ],
         (Effect::ServoLag { ms, .. }, "servo_lag") => vec![("lag_s".into(), ms * 1e-3)],
+        (Effect::PlateScale { ppm, .. }, "plate_scale") => vec![("scale_ppm".into(), *ppm)],
         (
             Effect::Growing {
                 grows, from, per_h, ..
@@ -385,9 +410,10 @@ pub fn score(truth: &[Effect], r: &DiagnosisResult) -> Score {
 
 fn classify(truth: &[Effect], f: &Finding, possible: bool, found: &mut [bool]) -> Claim {
     let (axis, dep) = (axis_of(&f.axis), axis_of(&f.depends_on));
-    let mut label = match f.axis_label() {
-        Some(a) => format!("{} ({a})", f.effect),
-        None => f.effect.clone(),
+    let mut label = match (f.axis_label(), mounting_named(f)) {
+        (Some(a), _) => format!("{} ({a})", f.effect),
+        (None, Some(m)) if f.effect == "plate_scale" => format!("{} ({m})", f.effect),
+        (None, _) => f.effect.clone(),
     };
     if possible {
         label = format!("possible {label}");
@@ -404,7 +430,7 @@ fn classify(truth: &[Effect], f: &Finding, possible: bool, found: &mut [bool]) -
         .filter(|&i| {
             accepted(&truth[i])
                 .iter()
-                .any(|n| matches(n, &f.effect, axis, dep))
+                .any(|n| matches(n, &f.effect, mounting_named(f), axis, dep))
         })
         .collect();
     let Some(&i) = hits.iter().find(|&&i| !found[i]).or(hits.first()) else {
@@ -413,7 +439,7 @@ fn classify(truth: &[Effect], f: &Finding, possible: bool, found: &mut [bool]) -
             f.rivals.iter().any(|r| {
                 accepted(&truth[i])
                     .iter()
-                    .any(|n| matches(n, &r.effect, axis_of(&r.axis), dep))
+                    .any(|n| matches(n, &r.effect, None, axis_of(&r.axis), dep))
             })
         });
         if let Some(i) = rival {
@@ -508,6 +534,7 @@ pub fn explain(label: &str, truth: &[Effect]) -> String {
         "servo_lag" => format!("servo lag on {axis}: no lag was put in"),
         "reversal_spike" => format!("reversal spike on {axis}: no reversal transient was put in"),
         "cyclic" => format!("cyclic error on {axis}: none was put in"),
+        "plate_scale" => format!("a plate scale of mounting {axis}: that plate reads true"),
         other => format!("{other}: not put in"),
     };
     format!("{why} (truth: {put_in})")

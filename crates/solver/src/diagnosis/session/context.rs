@@ -144,6 +144,10 @@ pub(crate) struct State {
     /// Per axis: whether a growth of its lost motion in time (`backlash_growth`) is in
     /// the model.
     pub grown: [bool; 3],
+    /// The mountings whose plate scale (`plate_scale`) is in the model.
+    pub plates: Vec<String>,
+    /// The index in `fit.cols` of each of `plates`' columns.
+    pub plate_cols: Vec<usize>,
     /// The growth candidates of the findings in the model that are tested for a change
     /// in time (`catalogue::growth`), each until its growth is in the model.
     pub growths: Vec<Candidate>,
@@ -522,6 +526,8 @@ mod tests {
             backlash: [None; 3],
             profiled: [false; 3],
             grown: [false; 3],
+            plates: Vec::new(),
+            plate_cols: Vec::new(),
             growths: Vec::new(),
             kept: Default::default(),
             prior: std::sync::Mutex::new(prior),
@@ -570,6 +576,7 @@ mod tests {
             order: 0,
             width_s: 0.0,
             lost_motion_um: 0.0,
+            mounting: None,
             parent: None,
         };
         let t_step = d.fields.t_s[(d.runs[2].start + d.runs[2].end) / 2];
