@@ -31,6 +31,7 @@ use crate::axis::Topology;
 use crate::error::SolverError;
 use crate::session::Session;
 use context::{Ctx, Fit, State};
+use seen::Seen;
 use serde::{Deserialize, Serialize};
 use std::collections::BTreeMap;
 use trial::{Trial, report_parameters};
@@ -41,6 +42,7 @@ mod context;
 mod plates;
 mod plots;
 mod rivals;
+mod seen;
 mod trial;
 
 /// Options of a session diagnosis.
@@ -103,6 +105,10 @@ struct SessionProblem<'a> {
     /// The error axes of findings left undetermined for a rival (`rivals`): `None`, an
     /// effect without an axis. Their misfit stays the undecided pair's.
     undecided: std::sync::Mutex<Vec<Option<crate::axis::Axis>>>,
+    /// Where this diagnosis records each candidate's gain (a first diagnosis), and the
+    /// record of the first that spares candidates far from qualifying (a second):
+    /// [`seen`].
+    seen: (Option<&'a Seen>, Option<&'a Seen>),
 }
 
 /// What the session says of a candidate the loop chose.
@@ -133,6 +139,7 @@ impl SessionProblem<'_> {
             prior: std::sync::Mutex::new(prior),
             thermal: Default::default(),
             thermal_prior: std::sync::Mutex::new(thermal_prior),
+            path: Vec::new(),
             eps: (!self.eps_groups.is_empty())
                 .then(|| self.ctx.eps_per_sample(&fit, &self.eps_groups)),
             fit,
@@ -349,6 +356,7 @@ impl super::engine::Greedy for SessionProblem<'_> {
             })
             // A change in time of a finding in the model, once (`catalogue::growth`).
             .chain(s.growths.iter().cloned())
+            .filter(|c| self.seen.1.is_none_or(|first| !first.spares(&s.path, c)))
             .collect()
     }
     fn label(&self, c: &Candidate) -> String {
@@ -356,6 +364,11 @@ impl super::engine::Greedy for SessionProblem<'_> {
     }
     fn evaluate(&self, s: &State, c: &Candidate) -> Option<(Score, Trial)> {
         let t = self.ctx.try_candidate(s, c)?;
+        if let Some(record) = self.seen.0 {
+            let n = self.ctx.d.rows() as f64;
+            let gain = t.dbic - (t.ncols + t.extra_params) as f64 * n.ln();
+            record.record(&s.path, c, gain);
+        }
         let score = Score {
             sse: t.ssr,
             heldout_sse: t.heldout_ssr,
@@ -576,8 +589,11 @@ impl super::engine::Greedy for SessionProblem<'_> {
         let kept = std::mem::take(s.kept.get_mut().expect("kept moments"));
         // So does the thermal searches' basis.
         let thermal = s.thermal.take().map(|b| (b, u_prev));
+        let mut path = std::mem::take(&mut s.path);
+        path.push(c.clone());
         drop(s);
         let mut next = self.state(nf, k, backlash, profiled, Some((kept, u_prev)), thermal);
+        next.path = path;
         next.grown = grown;
         next.plates = plates;
         next.plate_cols = plate_cols;
@@ -644,7 +660,15 @@ pub fn diagnose_session_with_progress(
         .unwrap_or_default();
     progress.report("reducing the rigid model", 0.0);
     let d = design::build(session, &topology, opts.order)?;
-    let first = diagnose_design(session, opts, &d, &mut progress, (0.0, 0.6))?;
+    let seen = Seen::default();
+    let first = diagnose_design(
+        session,
+        opts,
+        &d,
+        &mut progress,
+        (0.0, 0.6),
+        (Some(&seen), None),
+    )?;
     drop(d);
     let axes = velocity_axes(&first);
     if !axes.contains(&true) {
@@ -657,7 +681,14 @@ pub fn diagnose_session_with_progress(
         return Ok(first);
     }
     progress.report("reducing the rigid model without the ramps' samples", 0.6);
-    let mut r = diagnose_design(session, opts, &d, &mut progress, (0.6, 1.0))?;
+    let mut r = diagnose_design(
+        session,
+        opts,
+        &d,
+        &mut progress,
+        (0.6, 1.0),
+        (None, Some(&seen)),
+    )?;
     let note = format!(
         "; {} samples inside the starts and stops of the motion, where the set-points do not tell the velocity, left out",
         d.left_out
@@ -748,6 +779,7 @@ fn diagnose_design(
     d: &Design,
     progress: &mut Monotone,
     span: (f64, f64),
+    seen: (Option<&Seen>, Option<&Seen>),
 ) -> Result<DiagnosisResult, SolverError> {
     let folds = opts.folds.max(2);
     let red = Reduction::new(session, d);
@@ -799,6 +831,7 @@ fn diagnose_design(
         dof: rigid.dof,
         folds,
         undecided: Default::default(),
+        seen,
     };
     // No stop at the floor: an effect is accepted on its evidence (BIC and held-out gain),
     // so a small misfit near the floor is still looked for. The options' held-out gain is

@@ -163,6 +163,8 @@ pub(crate) struct State {
     /// That basis on the model before it, with its number of base columns, when formed;
     /// taken when this model's is carried from it.
     pub thermal_prior: std::sync::Mutex<Option<(Arc<ThermalBasis>, usize)>>,
+    /// The candidates admitted into this model, in order (the round it starts).
+    pub path: Vec<Candidate>,
 }
 
 impl State {
@@ -533,6 +535,7 @@ mod tests {
             prior: std::sync::Mutex::new(prior),
             thermal: Default::default(),
             thermal_prior: Default::default(),
+            path: Vec::new(),
         }
     }
 
