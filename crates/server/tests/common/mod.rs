@@ -60,6 +60,7 @@ pub fn state(store: Arc<dyn Store>) -> AppState {
         settings: Arc::default(),
         database: Arc::default(),
         uploads: Default::default(),
+        fleet_counts: Arc::default(),
     }
 }
 
