@@ -24,10 +24,9 @@
 //! read of every check.
 
 use crate::fleet::entry::{DiagnosisSummary, FleetEntry};
-use crate::history::baseline;
+use crate::history::baseline_among;
 use crate::kinds::IDENTIFICATION;
 use crate::trends;
-use mtcal_solver::identification::IdentificationResult;
 use mtcal_store::{
     FleetDriftRow, Machine, ResultMeta, Store, StoreError, ToleranceProfile, now_ms,
 };
@@ -119,8 +118,10 @@ async fn row(
         return Ok(None);
     };
     // Every check a misfit: the latest is its own reference (drift 0) until a check
-    // whose model explains its recording lands.
-    let baseline = baseline(store, machine, results).await?.unwrap_or(latest);
+    // whose model explains its recording lands. The checks' models as stored beside
+    // them (one statement), a document read only for a model not stored yet.
+    let models = trends::check_models(store, results).await?;
+    let baseline = baseline_among(machine, results, &models).unwrap_or(latest);
     let profile = crate::profiles::applicable(profiles, machine);
     // The basis names the baseline as the store's pairs do (chosen, else first): the
     // default baseline (the first check that is not a misfit) changes only with the
@@ -132,25 +133,33 @@ async fn row(
         results.len(),
         profile,
     );
-    // The latest result's document: its misfit gate, and its verdict when a profile
-    // applies. A document that cannot be judged leaves the verdict out, never the drift.
-    let latest_doc = store.get_result(&latest.id).await?;
-    let check = serde_json::from_value::<IdentificationResult>(latest_doc.document.clone())
-        .ok()
-        .map(|d| d.model_check());
-    let explained_model = check
-        .as_ref()
-        .filter(|c| c.decided_on_explained_model())
-        .map(|c| c.statement.clone());
-    let misfit = check.filter(|c| c.is_misfit());
-    let verdict = match profile {
-        Some(_) => crate::verdicts::verdict(store, profiles, machine, &latest_doc)
+    // The latest result's document, read only for what its stored model does not say:
+    // a misfit's whole model check, and the verdict when a profile applies. A document
+    // that cannot be judged leaves the verdict out, never the drift.
+    let model = models.get(&latest.id).cloned().unwrap_or_default();
+    let latest_doc = match model.misfit || profile.is_some() {
+        true => Some(store.get_result(&latest.id).await?),
+        false => None,
+    };
+    let (misfit, explained_model) = match &latest_doc {
+        Some(doc) => {
+            let check = trends::model_check(&doc.document);
+            let explained = check
+                .as_ref()
+                .filter(|c| c.decided_on_explained_model())
+                .map(|c| c.statement.clone());
+            (check.filter(|c| c.is_misfit()), explained)
+        }
+        None => (None, model.explained_model),
+    };
+    let verdict = match (profile, &latest_doc) {
+        (Some(_), Some(doc)) => crate::verdicts::verdict(store, profiles, machine, doc)
             .await
             .unwrap_or_else(|e| {
                 tracing::warn!(result = %latest.id, %e, "no verdict for the fleet row");
                 None
             }),
-        None => None,
+        _ => None,
     };
     let diagnosis = latest_check_diagnosis(store, machine, latest).await?;
     // The arithmetic off the async threads (a machine's every check for the sparkline).
