@@ -109,13 +109,5 @@ async fn fleet_totals_are_kept_per_scope_and_filter_on_sqlite() {
 
 #[tokio::test]
 async fn fleet_totals_are_kept_per_scope_and_filter_on_postgres() {
-    let Some(pg) = mtcal_store::testing::ScratchPg::create("fleet_total")
-        .await
-        .unwrap()
-    else {
-        eprintln!("MTCAL_TEST_PG not set: skipped");
-        return;
-    };
-    story(&pg.url).await;
-    pg.drop_schema().await.unwrap();
+    crate::common::on_postgres("fleet_total", |url| async move { story(&url).await }).await;
 }
