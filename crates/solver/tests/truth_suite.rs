@@ -549,6 +549,45 @@ fn scorer_counts_a_named_rival() {
     assert!(!s.right());
 }
 
+/// An effect named only by a possible finding (left undetermined for its rival) is not in
+/// the model: the misfit left unexplained is its own, not FALSE; with the effect found by
+/// a determined finding, a remainder still is.
+#[test]
+fn scorer_leaves_an_undetermined_effect_its_remainder() {
+    let truth = [Effect::ServoLag {
+        axis: Axis::X,
+        ms: 2.0,
+    }];
+    let profile = Finding {
+        rivals: vec![mtcal_solver::diagnosis::Rival {
+            effect: "servo_lag".into(),
+            axis: Some("X".into()),
+            why: String::new(),
+            separating_test: String::new(),
+        }],
+        ..finding("lost_motion_profile", Axis::X, &[])
+    };
+    let mut r = result(Vec::new(), Verdict::PartlyExplained);
+    r.possible = vec![profile];
+    r.unexplained = vec![format!("local anomaly (…: {})", truth::scorer::RECURRING)];
+    let s = score(&truth, &r);
+    assert!(s.right(), "{s:?}");
+    assert_eq!(
+        s.claims[0].label,
+        "possible lost_motion_profile (X) [rival servo_lag (X)]"
+    );
+    let lag = finding("servo_lag", Axis::X, &[("lag_s", 0.002)]);
+    let r = DiagnosisResult {
+        findings: vec![lag],
+        possible: Vec::new(),
+        ..r
+    };
+    assert_eq!(
+        score(&truth, &r).false_labels(),
+        ["unexplained: a misfit that recurs"]
+    );
+}
+
 /// A noise-free session of a perfect machine with no nuisance, with `effects`.
 fn bare(effects: Vec<Effect>) -> mtcal_solver::session::Session {
     generate(&truth::generator::Setup {

@@ -258,6 +258,9 @@ fn time_band_of(d: &Design) -> (f64, f64, f64) {
     (t1 - t0, nyq, run_len.max(1.0))
 }
 
+/// The fewest cycles of a vibration within the session's longest run.
+pub const VIBRATION_MIN_CYCLES: f64 = 2.0;
+
 pub fn search(d: &Design, c: &Candidate) -> Search {
     match c.effect {
         "reversal_spike" => {
@@ -308,9 +311,12 @@ pub fn search(d: &Design, c: &Candidate) -> Search {
         "backlash" | "backlash_growth" => Search::TakeUp("take_up_um"),
         "vibration" => {
             let (span, nyq, run_len) = time_band(d);
+            // At least two cycles within the longest run: a slower sine is, within each
+            // run, a slow change (a warm-up, a play that widens) the run offsets and
+            // the effects that change in time read as well (docs/diagnosis.md).
             Search::Periodic {
                 name: "frequency_hz",
-                f_lo: 0.5 / run_len,
+                f_lo: VIBRATION_MIN_CYCLES / run_len,
                 f_hi: 0.98 * nyq,
                 coarse_step: 0.25 / run_len,
                 fine_step: 0.1 / span,
@@ -386,6 +392,29 @@ impl<'a> Columns<'a> {
 
     fn none() -> Self {
         Columns::new(Vec::new(), Vec::new(), |_, _, _| {})
+    }
+
+    /// The same columns (at most [`SPLIT_MAX_COLUMNS`]) with a coefficient per segment:
+    /// `k` copies of each, the copy of segment `segment(sample)` (below `k`) carrying its
+    /// value and the others 0.
+    pub(crate) fn per_segment(self, k: usize, segment: impl Fn(usize) -> usize + 'a) -> Self {
+        let m = self.len();
+        let names = (1..=k)
+            .flat_map(|g| self.names.iter().map(move |n| format!("{n} (segment {g})")))
+            .collect();
+        let axes = (0..k).flat_map(|_| self.axes.iter().copied()).collect();
+        assert!(
+            m <= SPLIT_MAX_COLUMNS,
+            "at most {SPLIT_MAX_COLUMNS} columns per segment"
+        );
+        let fill = self.fill;
+        Columns::new(names, axes, move |s, read, o| {
+            let mut v = [0.0; SPLIT_MAX_COLUMNS];
+            fill(s, read, &mut v[..m]);
+            o.iter_mut().for_each(|x| *x = 0.0);
+            let g = segment(s).min(k - 1);
+            o[g * m..(g + 1) * m].copy_from_slice(&v[..m]);
+        })
     }
 
     pub fn len(&self) -> usize {

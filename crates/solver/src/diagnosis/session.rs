@@ -36,6 +36,7 @@ use std::collections::BTreeMap;
 use trial::{Trial, report_parameters};
 
 mod anomalies;
+mod confounded;
 mod context;
 mod plots;
 mod rivals;
@@ -98,6 +99,9 @@ struct SessionProblem<'a> {
     /// The head offsets of the setup-offset candidates, whose columns need the
     /// per-sample rotation errors on the runs of those groups (none: not needed).
     eps_groups: Vec<[f64; 3]>,
+    /// The error axes of findings left undetermined for a rival (`rivals`): `None`, an
+    /// effect without an axis. Their misfit stays the undecided pair's.
+    undecided: std::sync::Mutex<Vec<Option<crate::axis::Axis>>>,
 }
 
 /// What the session says of a candidate the loop chose.
@@ -411,6 +415,7 @@ impl super::engine::Greedy for SessionProblem<'_> {
             .sum();
         if let Some(why) = effects::implausible(&c.label(), size, size_sd, explained, self.floor)
             .filter(|_| !measured)
+            .or_else(|| self.confounded(s, c, t, sigma))
         {
             return Admission::SetAside(Note::Rejected(why));
         }
@@ -455,11 +460,7 @@ impl super::engine::Greedy for SessionProblem<'_> {
             (None, None) => effects::classify(finding),
         };
         match sorted {
-            // A finding names the rivals the plan cannot tell from it (`rivals`).
-            effects::Sorted::Determined(f) => Admission::Add(Note::Finding(Finding {
-                rivals: self.rivals(s, c, t),
-                ..f
-            })),
+            effects::Sorted::Determined(f) => self.against_rivals(s, c, t, f),
             effects::Sorted::Possible(f) => Admission::SetAside(Note::Possible(f)),
         }
     }
@@ -749,6 +750,7 @@ fn diagnose_design(
         floor,
         dof: rigid.dof,
         folds,
+        undecided: Default::default(),
     };
     // No stop at the floor: an effect is accepted on its evidence (BIC and held-out gain),
     // so a small misfit near the floor is still looked for. The options' held-out gain is

@@ -89,6 +89,22 @@ pub enum Effect {
     },
     /// The grid of the plate of `plane` is `ppm` too long: the head reads (u, v)·(1 + k).
     PlateScale { plane: Plane, ppm: f64 },
+    /// A vibration along `axis`, moving or at rest: A·sin(2π f t + φ) in session time.
+    Vibration {
+        axis: Axis,
+        amp_um: f64,
+        hz: f64,
+        phase_rad: f64,
+    },
+    /// A play that widens and narrows again (a nut warming and cooling): `ends_um` at
+    /// the session start and from `over_s` on, `ends_um + swell_um`·sin(π t/`over_s`)
+    /// between; neither constant nor a steady growth (outside the catalogue).
+    SwellingBacklash {
+        axis: Axis,
+        ends_um: f64,
+        swell_um: f64,
+        over_s: f64,
+    },
 }
 
 /// What grows in an [`Effect::Growing`], with the parameters that stay.
@@ -204,6 +220,17 @@ impl Effect {
                 ..
             } => format!("knock {axis} {size_um} µm, {decay_s} s"),
             Effect::PlateScale { plane, ppm } => format!("plate scale {plane} {ppm} ppm"),
+            Effect::Vibration {
+                axis, amp_um, hz, ..
+            } => {
+                format!("vibration {axis} {amp_um} µm at {hz} Hz")
+            }
+            Effect::SwellingBacklash {
+                axis,
+                ends_um,
+                swell_um,
+                over_s,
+            } => format!("backlash {axis} {ends_um} µm swelling by {swell_um} µm over {over_s} s"),
         }
     }
 }
@@ -364,7 +391,13 @@ impl Machine {
             if let Effect::Backlash { axis, um } = e {
                 play[axis.index()] += rng.random_range(-0.5..0.5) * um * 1e-3;
             }
-            if let Effect::GrowingBacklash { axis, from_um, .. } = e {
+            if let Effect::GrowingBacklash { axis, from_um, .. }
+            | Effect::SwellingBacklash {
+                axis,
+                ends_um: from_um,
+                ..
+            } = e
+            {
                 play[axis.index()] += rng.random_range(-0.5..0.5) * from_um * 1e-3;
             }
         }
@@ -453,6 +486,27 @@ impl Machine {
                     let h = (from_um + per_h_um * t / 3600.0) * 1e-3 / 2.0;
                     self.play[i] = self.play[i].clamp(drive[i] - h, drive[i] + h);
                     e[i] += (self.play[i] - drive[i]) * 1e3;
+                }
+                Effect::SwellingBacklash {
+                    axis,
+                    ends_um,
+                    swell_um,
+                    over_s,
+                } => {
+                    let i = axis.index();
+                    let swell = (std::f64::consts::PI * (t / over_s).min(1.0)).sin();
+                    let h = (ends_um + swell_um * swell) * 1e-3 / 2.0;
+                    self.play[i] = self.play[i].clamp(drive[i] - h, drive[i] + h);
+                    e[i] += (self.play[i] - drive[i]) * 1e3;
+                }
+                Effect::Vibration {
+                    axis,
+                    amp_um,
+                    hz,
+                    phase_rad,
+                } => {
+                    let w = 2.0 * std::f64::consts::PI * hz;
+                    e[axis.index()] += amp_um * (w * t + phase_rad).sin();
                 }
                 Effect::ServoLag { .. } => {}
                 Effect::Cyclic {

@@ -78,6 +78,13 @@ pub fn accepted(e: &Effect) -> Vec<Name> {
         Effect::ReversalSpike { axis, .. } => vec![on("reversal_spike", axis)],
         // Or a local anomaly in its reading (see `score`).
         Effect::Knock { axis, .. } => vec![on("transient", axis), on("step", axis)],
+        Effect::Vibration { axis, .. } => vec![on("vibration", axis)],
+        // A play that changes in time: as a play, or as one that changes.
+        Effect::SwellingBacklash { axis, .. } => vec![
+            on("backlash", axis),
+            on("lost_motion_profile", axis),
+            on("backlash_growth", axis),
+        ],
         // No effect of today's catalogue is a plate's scale: the name a fix would add.
         Effect::PlateScale { .. } => vec![Name {
             effect: "plate_scale",
@@ -168,6 +175,10 @@ pub struct ParamCheck {
 pub fn truth_params(e: &Effect, effect: &str) -> Vec<(String, f64)> {
     match (e, effect) {
         (Effect::Backlash { um, .. }, "backlash") => vec![("lost_motion_um".into(), *um)],
+        (Effect::Vibration { amp_um, hz, .. }, "vibration") => vec![
+            ("amplitude_um".into(), *amp_um),
+            ("frequency_hz".into(), *hz),
+        ],
         (Effect::Backlash { um, .. }, "lost_motion_profile") => {
             vec![
                 ("mean_lost_motion_um".into(), *um),
@@ -335,10 +346,25 @@ pub fn score(truth: &[Effect], r: &DiagnosisResult) -> Score {
         .collect();
     // What it leaves unexplained is a claim too: with every effect put in found, a
     // remainder is physics that is not there, unless it is a knock's one-off anomaly;
-    // calling anomalies a misfit that recurs is never right of a knock.
+    // calling anomalies a misfit that recurs is never right of a knock. An effect named
+    // by possible claims alone (undetermined, or left to a rival) is not in the model:
+    // what is left unexplained is its own misfit, no claim of other physics.
     let recurring = r.unexplained.iter().any(|u| u.contains(RECURRING));
     let knock = truth.iter().any(|e| matches!(e, Effect::Knock { .. }));
-    if r.verdict == Verdict::PartlyExplained && missed.is_empty() && (recurring || !knock) {
+    // A play that widens and narrows is outside the catalogue: what it leaves is there.
+    let outside = truth
+        .iter()
+        .any(|e| matches!(e, Effect::SwellingBacklash { .. }));
+    let only_possible = (0..truth.len()).any(|i| {
+        let mut by = claims.iter().filter(|c| c.truth == Some(i)).peekable();
+        by.peek().is_some() && by.all(|c| c.label.starts_with("possible "))
+    });
+    if r.verdict == Verdict::PartlyExplained
+        && missed.is_empty()
+        && !only_possible
+        && !outside
+        && (recurring || !knock)
+    {
         claims.push(Claim {
             label: if recurring {
                 "unexplained: a misfit that recurs".into()

@@ -6,20 +6,52 @@
 //! and a lost motion that grows in time. Once the engine has chosen an effect (the
 //! parsimonious choice: fewer parameters unless more earn the held-out gain), each
 //! rival available on the same model is fitted on the same model in its place
-//! (`Ctx::try_candidate`); when its ΔBIC is within [`RIVAL_BIC`] of the effect's, the
-//! plan's samples do not separate them, and the finding names the rival and the test
-//! that would. The finding stays the engine's choice, never the more flexible rival.
+//! (`Ctx::try_candidate`) and the two are judged on the data term alone, Δχ² =
+//! n·ln(SSR_rival / SSR_effect) (twice the log-likelihood ratio, σ profiled out; no BIC
+//! penalty), by [`standing`]: a rival the data do not put [`RIVAL_DATA`] behind the
+//! effect is named with the test that would separate them; one with fewer parameters
+//! (or as many and clearly preferred by the data) leaves the effect undetermined, never
+//! the more flexible explanation taken for the simpler one the data prefer. Its misfit
+//! then stays the undecided pair's: no later effect on its axis (or without an axis) is
+//! taken to explain it.
 
-use super::SessionProblem;
 use super::context::State;
 use super::trial::Trial;
-use crate::diagnosis::Rival;
+use super::{Note, SessionProblem};
 use crate::diagnosis::catalogue::{self, Candidate};
+use crate::diagnosis::effects::{self, Sorted};
+use crate::diagnosis::engine::Admission;
+use crate::diagnosis::{Finding, Rival};
 
-/// Below this difference of ΔBIC between an effect and its rival, fitted each on the
-/// same model, the plan does not separate them: the engine's own threshold for
-/// admitting an effect ("very strong" evidence, odds of about 150 to one).
-pub(super) const RIVAL_BIC: f64 = 10.0;
+/// Below this data term Δχ² of a rival over an effect, fitted each on the same model,
+/// the plan does not separate them: the engine's own threshold of evidence (a
+/// likelihood ratio of e⁵, about 150 to one), here without the parameters' penalty.
+pub(super) const RIVAL_DATA: f64 = 10.0;
+
+/// How a rival stands against the effect found, on the data term.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+enum Standing {
+    /// Δχ² ≥ [`RIVAL_DATA`]: the data put the rival behind the effect; not named.
+    Separated,
+    /// Not separated: the rival is named, the effect stays the engine's choice.
+    Named,
+    /// Not separated and no more flexible than the effect (fewer parameters, or as many
+    /// and the data prefer it by [`RIVAL_DATA`] or more): named, and the effect is left
+    /// undetermined.
+    Prevails,
+}
+
+/// The rule of the module documentation: `dchi2` = n·ln(SSR_rival / SSR_effect), `k`
+/// and `k_rival` the parameters each adds to the model.
+fn standing(dchi2: f64, k: usize, k_rival: usize) -> Standing {
+    if dchi2 >= RIVAL_DATA {
+        Standing::Separated
+    } else if k_rival < k || (k_rival == k && dchi2 <= -RIVAL_DATA) {
+        Standing::Prevails
+    } else {
+        Standing::Named
+    }
+}
 
 /// Two explanations that read alike on some plans, each the other's rival (catalogue
 /// names), why they read alike, and the test that separates them.
@@ -78,6 +110,15 @@ fn same_place(c: &Candidate, r: &Candidate) -> bool {
     agree(c.axis, r.axis) && agree(c.direction, r.direction)
 }
 
+/// The axis of candidate `c`'s error: its direction for an error across the moving axis,
+/// its axis or direction otherwise (`None`: an effect without one).
+fn error_axis(c: &Candidate) -> Option<crate::axis::Axis> {
+    match c.effect {
+        "direction_coupling" | "direction_coupling_growth" | "velocity_coupling" => c.direction,
+        _ => c.axis.or(c.direction),
+    }
+}
+
 /// Whether the effect `effect` (a catalogue name) has known rivals.
 pub(super) fn has_rivals(effect: &str) -> bool {
     PAIRS.iter().any(|p| p.rival_of(effect).is_some())
@@ -85,13 +126,15 @@ pub(super) fn has_rivals(effect: &str) -> bool {
 
 impl SessionProblem<'_> {
     /// The rivals of the trial `t` of candidate `c` on the model `s` that the plan does
-    /// not separate from it (module documentation).
-    pub(super) fn rivals(&self, s: &State, c: &Candidate, t: &Trial) -> Vec<Rival> {
+    /// not separate from it, and whether one leaves it undetermined (module
+    /// documentation).
+    pub(super) fn rivals(&self, s: &State, c: &Candidate, t: &Trial) -> (Vec<Rival>, bool) {
         if !has_rivals(c.effect) {
-            return Vec::new();
+            return (Vec::new(), false);
         }
         let available = <Self as crate::diagnosis::engine::Greedy>::candidates(self, s);
-        let mut out = Vec::new();
+        let n = self.ctx.d.rows() as f64;
+        let (mut out, mut undetermined) = (Vec::new(), false);
         for (p, rival) in PAIRS
             .iter()
             .filter_map(|p| Some((p, p.rival_of(c.effect)?)))
@@ -100,30 +143,78 @@ impl SessionProblem<'_> {
                 .iter()
                 .filter(|r| r.effect == rival && same_place(c, r))
                 .filter_map(|r| Some((r, self.ctx.try_candidate(s, r)?)))
-                .min_by(|a, b| a.1.dbic.total_cmp(&b.1.dbic));
+                .min_by(|a, b| a.1.ssr.total_cmp(&b.1.ssr));
             let Some((r, rt)) = best else { continue };
-            let gap = rt.dbic - t.dbic;
-            if gap >= RIVAL_BIC {
-                continue;
-            }
+            let dchi2 = n * (rt.ssr / t.ssr).ln();
+            let (k, k_rival) = (t.ncols + t.extra_params, rt.ncols + rt.extra_params);
+            let how = match standing(dchi2, k, k_rival) {
+                Standing::Separated => continue,
+                Standing::Named => "",
+                Standing::Prevails => {
+                    undetermined = true;
+                    "; no more flexible and not behind, it leaves this one undetermined"
+                }
+            };
             out.push(Rival {
                 effect: catalogue::reported_name(r.effect).into(),
                 axis: r.axis.or(r.direction).map(|a| a.to_string()),
                 why: format!(
-                    "{}: on this plan's samples its fit is within ΔBIC {gap:+.1} of this one's (separated from {RIVAL_BIC:.0} on)",
+                    "{}: on this plan's samples its data term differs from this one's by Δχ² {dchi2:+.1} ({k_rival} parameter(s) against {k}; separated from Δχ² +{RIVAL_DATA:.0} on){how}",
                     p.why
                 ),
                 separating_test: p.test.into(),
             });
         }
-        out
+        (out, undetermined)
+    }
+
+    /// A determined finding `f` of the trial `t` against its rivals: it names those the
+    /// plan does not separate from it, and is set aside as possible (its principal
+    /// parameters undetermined, the rivals' test deciding them) when one prevails.
+    pub(super) fn against_rivals(
+        &self,
+        s: &State,
+        c: &Candidate,
+        t: &Trial,
+        f: Finding,
+    ) -> Admission<Note> {
+        let mut undecided = self.undecided.lock().expect("undecided axes");
+        let here = error_axis(c);
+        if let Some(u) = undecided.iter().find(|&&u| here.is_none() || u == here) {
+            let on = u.map_or(String::new(), |a| format!(" on {a}"));
+            return Admission::SetAside(Note::Rejected(format!(
+                "{} not taken: the misfit{on} is that of a finding left undetermined for its rival (see the possible findings), which no other effect is taken to explain",
+                c.label()
+            )));
+        }
+        let (rivals, undetermined) = self.rivals(s, c, t);
+        if !undetermined {
+            return Admission::Add(Note::Finding(Finding { rivals, ..f }));
+        }
+        undecided.push(here);
+        let decide = format!(
+            "the data do not prefer it to {}, which explains them as well or better with no more parameters; {} would decide it",
+            rivals
+                .iter()
+                .map(|r| r.effect.replace('_', " "))
+                .collect::<Vec<_>>()
+                .join(" or "),
+            rivals
+                .iter()
+                .map(|r| r.separating_test.as_str())
+                .collect::<Vec<_>>()
+                .join("; or "),
+        );
+        let f = Finding { rivals, ..f };
+        match effects::form_rejected(f, &decide) {
+            Sorted::Determined(f) | Sorted::Possible(f) => Admission::SetAside(Note::Possible(f)),
+        }
     }
 }
 
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::diagnosis::Finding;
 
     /// Every pair is told apart both ways: the rival of a rival is the effect.
     #[test]
@@ -134,6 +225,29 @@ mod tests {
             assert!(has_rivals(p.one) && has_rivals(p.other), "{}", p.one);
         }
         assert!(!has_rivals("cyclic"));
+    }
+
+    /// The rule on the data term: a rival the data put 10 behind is not named; one
+    /// within is named; one with fewer parameters, or as many and preferred by 10 or
+    /// more, leaves the effect undetermined; a more flexible rival never does.
+    #[test]
+    fn standing_on_the_data_term() {
+        use Standing::*;
+        // A lost motion profile (9) over a lag (2) the data prefer by 3263: undetermined.
+        assert_eq!(standing(-3263.0, 9, 2), Prevails);
+        // Lines at one feed: a play (1) and a lag (2) within 2: the play stays, the lag named.
+        assert_eq!(standing(-1.8, 1, 2), Named);
+        assert_eq!(standing(9.9, 1, 2), Named);
+        // A lag (2) and a play (1) within the margin: the simpler play prevails.
+        assert_eq!(standing(1.8, 2, 1), Prevails);
+        // Separated by the data from 10 on, whatever the parameters.
+        assert_eq!(standing(10.0, 2, 1), Separated);
+        assert_eq!(standing(3333.0, 9, 2), Separated);
+        // As many parameters: named within the margin, prevails when preferred by it.
+        assert_eq!(standing(-9.9, 1, 1), Named);
+        assert_eq!(standing(-10.0, 1, 1), Prevails);
+        // A more flexible rival fitting better stays named only.
+        assert_eq!(standing(-500.0, 2, 9), Named);
     }
 
     /// A stored finding without rivals reads with none and writes none; one with a rival

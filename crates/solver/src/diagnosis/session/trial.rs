@@ -10,12 +10,14 @@
 //!   slopes of the coefficients along it;
 //! - [`profile_likelihood`]: the 2σ likelihood-ratio intervals of a profile;
 //! - [`form_test`]: the lack-of-fit test of an effect's form on its own support;
+//! - [`stationarity`]: a vibration's one amplitude and phase over the session;
 //! - [`parameters`]: the trial's parameters in physical units with their σ.
 
 mod form_test;
 mod frequency_scan;
 mod parameters;
 mod profile_likelihood;
+mod stationarity;
 mod theta_search;
 mod transient;
 mod uncertainty;
