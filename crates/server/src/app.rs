@@ -162,6 +162,7 @@ pub async fn serve_probes(
             settings: Arc::new(settings),
             database: Arc::default(),
             uploads: Default::default(),
+            fleet_counts: Arc::default(),
         });
     serve_http(listener, app, HEADER_READ_TIMEOUT, stop).await
 }
@@ -188,6 +189,7 @@ pub fn app(
         settings: Arc::new(worker.settings.clone()),
         database: Arc::default(),
         uploads: Default::default(),
+        fleet_counts: Arc::default(),
     });
     (router, workers)
 }

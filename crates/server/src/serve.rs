@@ -64,6 +64,29 @@ pub async fn shutdown_signal() {
     }
 }
 
+/// Connections of the start-up work ([`start_up_store`]).
+pub const START_UP_POOL: u32 = 2;
+
+/// The store the start-up work beside the server runs on (the check models to fill,
+/// the fleet refresh): on PostgreSQL a pool of its own of [`START_UP_POOL`]
+/// connections, so that its statements do not wait in the requests' pool behind a busy
+/// API (nor fail there for want of a connection); on SQLite `store` itself (one file,
+/// one writer; an in-memory database is the pool's own).
+pub async fn start_up_store(
+    url: &str,
+    store: Arc<dyn mtcal_store::Store>,
+    options: mtcal_store::StoreOptions,
+) -> anyhow::Result<Arc<dyn mtcal_store::Store>> {
+    if !(url.starts_with("postgres://") || url.starts_with("postgresql://")) {
+        return Ok(store);
+    }
+    let own = mtcal_store::StoreOptions {
+        pool_size: Some(START_UP_POOL),
+        ..options
+    };
+    Ok(mtcal_store::open_with(url, own).await?)
+}
+
 /// Opens the store, starts the workers and serves until `stop` resolves (`mtcal serve`:
 /// [`shutdown_signal`]); then stops accepting connections, lets requests in flight end,
 /// and shuts the workers down ([`Workers::shutdown`]: running jobs finish within the
@@ -84,6 +107,7 @@ pub async fn serve(
         .own
         .extend(mtcal_domain::webhooks::database_addrs(&cfg.db_url).await);
     let (app, workers) = app(store.clone(), &worker, cfg.run_worker);
+    let store = start_up_store(&cfg.db_url, store, cfg.store).await?;
     // The check models of results stored before they were kept beside them, then the
     // drift of results stored before this version or imported in bulk.
     tokio::spawn(async move {

@@ -71,4 +71,7 @@ pub struct AppState {
     pub database: Arc<crate::outage::Database>,
     /// The upload slots every upload route shares (crate::upload_gate).
     pub uploads: crate::upload_gate::Gate,
+    /// The fleet's totals and filter choices this process keeps for a few seconds
+    /// (mtcal_domain::fleet::page::FleetCountCache; forgotten when it writes a machine).
+    pub fleet_counts: Arc<mtcal_domain::fleet::page::FleetCountCache>,
 }

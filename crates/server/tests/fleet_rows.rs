@@ -228,15 +228,7 @@ async fn maintained_fleet_rows_equal_a_recomputation_on_sqlite() {
 
 #[tokio::test]
 async fn maintained_fleet_rows_equal_a_recomputation_on_postgres() {
-    let Some(pg) = mtcal_store::testing::ScratchPg::create("fleet_rows")
-        .await
-        .unwrap()
-    else {
-        eprintln!("MTCAL_TEST_PG not set: skipped");
-        return;
-    };
-    story(&pg.url).await;
-    pg.drop_schema().await.unwrap();
+    crate::common::on_postgres("fleet_rows", |url| async move { story(&url).await }).await;
 }
 
 /// Machines of [`concurrent_story`], and the checks each lands while the fleet is read.

@@ -9,6 +9,7 @@ mod auth_first;
 mod baseline;
 mod contract;
 mod fleet_rows;
+mod fleet_total;
 mod openapi;
 mod operations;
 mod outage;

@@ -16,8 +16,13 @@ pub trait Fleet: Send + Sync {
     /// returns how many were stored.
     fn put_fleet_drifts<'a>(&'a self, rows: &'a [FleetDriftRow]) -> StoreFuture<'a, usize>;
 
-    /// Every stored row's machine and basis ([`FleetDriftRow::basis`]).
-    fn fleet_drift_bases(&self) -> StoreFuture<'_, Vec<(String, Option<String>)>>;
+    /// The machine and basis ([`FleetDriftRow::basis`]) of every stored row whose
+    /// machine id is after `after` and up to `through` (None: no bound), by machine id.
+    fn fleet_drift_bases<'a>(
+        &'a self,
+        after: Option<&'a str>,
+        through: Option<&'a str>,
+    ) -> StoreFuture<'a, Vec<(String, Option<String>)>>;
 
     /// Removes a machine's drift (it has no result of the kind any more).
     fn delete_fleet_drift<'a>(&'a self, machine_id: &'a str) -> StoreFuture<'a, ()>;
@@ -33,6 +38,14 @@ pub trait Fleet: Send + Sync {
     /// One page of the fleet ([`FleetPageQuery`]): machines with their drift rows and
     /// active alert counts, filtered, sorted and counted by the database.
     fn fleet_page<'a>(&'a self, q: &'a FleetPageQuery) -> StoreFuture<'a, FleetPage>;
+
+    /// [`Fleet::fleet_page`]'s rows alone, without counting the machines the filter
+    /// keeps (for an asker that keeps the counts: [`Fleet::fleet_counts`]).
+    fn fleet_page_rows<'a>(&'a self, q: &'a FleetPageQuery) -> StoreFuture<'a, Vec<FleetPageRow>>;
+
+    /// [`Fleet::fleet_page`]'s counts alone: how many machines the query's filter and
+    /// scope keep, and the filters' choices (its order and page are not read).
+    fn fleet_counts<'a>(&'a self, q: &'a FleetPageQuery) -> StoreFuture<'a, FleetCounts>;
 }
 
 /// A machine's drift since its baseline as the fleet ranking stores it (computed by the
@@ -95,6 +108,15 @@ pub struct FleetPageRow {
     /// other kind that is not excluded (None: it has no result, or it has a drift row,
     /// whose entry names its latest identification).
     pub other_check: Option<LastCheck>,
+}
+
+/// How many machines a fleet filter keeps in all, and the filters' choices.
+#[derive(Debug, Clone, PartialEq, Default)]
+pub struct FleetCounts {
+    pub total: i64,
+    /// Every site and every tag of the fleet (of the asker's scope), sorted.
+    pub sites: Vec<String>,
+    pub tags: Vec<String>,
 }
 
 /// A fleet page and how many machines match the filter in all.

@@ -10,15 +10,15 @@ pub use crate::audit::{AuditEvent, AuditQuery, NewAuditEvent};
 pub use crate::datasets::{Dataset, FileMeta, NewDataset};
 pub use crate::exclusion::{Exclusion, SetAside};
 pub use crate::fleet::{
-    FleetDriftRow, FleetPage, FleetPageQuery, FleetPageRow, FleetSort, LastCheck,
+    FleetCounts, FleetDriftRow, FleetPage, FleetPageQuery, FleetPageRow, FleetSort, LastCheck,
 };
 pub use crate::keys::{NewSession, SessionRecord};
 pub use crate::limits::MAX_TRAVEL_MM;
 pub use crate::machines::{Machine, MachinePatch};
 pub use crate::queue::{Job, JobKind, JobState, NewJob};
 pub use crate::results::{
-    BaselinePair, CheckModel, FIGURE_NAME_MAX, Figure, FigurePoint, NewResult, ResultMeta,
-    ResultScalars, ResultSummary, SkippedRow, StoredResult,
+    BaselinePair, CheckModel, FIGURE_NAME_MAX, Figure, FigurePoint, NewResult, PairBatch,
+    ResultMeta, ResultScalars, ResultSummary, SkippedRow, StoredResult,
 };
 pub use crate::store::RowCounts;
 pub use crate::tolerances::{Alert, AlertRaised, ToleranceProfile};

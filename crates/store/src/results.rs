@@ -36,6 +36,16 @@ pub trait Results: Send + Sync {
     /// For every machine with results of `kind`: baseline, latest and count.
     fn baseline_pairs<'a>(&'a self, kind: &'a str) -> StoreFuture<'a, Vec<BaselinePair>>;
 
+    /// [`Results::baseline_pairs`] of a batch of machines: the first `limit` machines
+    /// by id after `after` (None: from the first), in one read snapshot, so that a walk
+    /// of the fleet costs a batch at a time, not one statement over every machine.
+    fn baseline_pairs_after<'a>(
+        &'a self,
+        kind: &'a str,
+        after: Option<&'a str>,
+        limit: usize,
+    ) -> StoreFuture<'a, PairBatch>;
+
     /// The named figures of a result ([`Figure`]), by name.
     fn result_figures<'a>(&'a self, result_id: &'a str) -> StoreFuture<'a, Vec<Figure>>;
 
@@ -117,4 +127,15 @@ pub struct BaselinePair {
     pub baseline: ResultMeta,
     pub latest: ResultMeta,
     pub results: i64,
+}
+
+/// A batch of the fleet's machines by id ([`Results::baseline_pairs_after`]).
+#[derive(Debug, Clone, PartialEq)]
+pub struct PairBatch {
+    /// The pairs of the batch's machines that have results of the kind, by machine id.
+    pub pairs: Vec<BaselinePair>,
+    /// How many machines the batch holds (fewer than asked: no machine after it).
+    pub machines: usize,
+    /// The batch's last machine (None: no machine after the one asked).
+    pub last: Option<String>,
 }

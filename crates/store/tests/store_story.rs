@@ -392,6 +392,25 @@ async fn checks_measured_at_the_same_time_order_by_when_they_landed(s: &dyn Stor
         let ids: Vec<&String> = list.iter().map(|r| &r.id).collect();
         assert_eq!(ids, [first, last], "{m}");
     }
+    // The same pairs walked in batches of 3 machines by id; a machine without results
+    // is walked and has no pair.
+    s.create_machine(&machine("T35")).await.unwrap();
+    let (mut walked, mut after, mut sizes) = (vec![], None, vec![]);
+    loop {
+        let b = s
+            .baseline_pairs_after("identification", after.as_deref(), 3)
+            .await
+            .unwrap();
+        walked.extend(b.pairs);
+        sizes.push(b.machines);
+        if b.machines < 3 {
+            assert_eq!(b.last.is_none(), b.machines == 0);
+            break;
+        }
+        after = b.last;
+    }
+    assert_eq!(sizes, [3, 3, 3, 0]);
+    assert_eq!(walked, pairs);
 }
 
 async fn results_in_time_order_with_baseline(s: &dyn Store) {
@@ -723,8 +742,7 @@ async fn fleet_drift_is_ranked_and_an_older_computation_never_replaces_a_newer(s
     let ranked = s.fleet_drift_ranked(true, 10).await.unwrap();
     assert_eq!(ids(ranked.clone()), ["M2", "M3", "M1"]);
     assert_eq!(ranked[0].0, row("M2", 10, 5.0, 0.5), "read back whole");
-    let mut bases = s.fleet_drift_bases().await.unwrap();
-    bases.sort();
+    let bases = s.fleet_drift_bases(None, None).await.unwrap();
     assert_eq!(
         bases,
         [
@@ -732,6 +750,15 @@ async fn fleet_drift_is_ranked_and_an_older_computation_never_replaces_a_newer(s
             ("M2".into(), Some("b10".into())),
             ("M3".into(), Some("b12".into())),
         ]
+    );
+    // A batch of the refresh's walk: after M1, up to M2; after M2, to the end.
+    assert_eq!(
+        s.fleet_drift_bases(Some("M1"), Some("M2")).await.unwrap(),
+        bases[1..2]
+    );
+    assert_eq!(
+        s.fleet_drift_bases(Some("M2"), None).await.unwrap(),
+        bases[2..]
     );
 }
 

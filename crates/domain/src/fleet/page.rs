@@ -14,7 +14,88 @@ use crate::trends::DRIFT_DEFINITION;
 pub use mtcal_api::fleet::{
     DEFAULT_LIMIT, FleetList, FleetMachine, FleetParams, LastCheck, MAX_LIMIT,
 };
-use mtcal_store::{FleetPageQuery, FleetPageRow, FleetSort, Store};
+use mtcal_store::{FleetCounts, FleetPageQuery, FleetPageRow, FleetSort, Store};
+use std::collections::HashMap;
+use std::sync::Mutex;
+use std::time::{Duration, Instant};
+
+/// The fleet's counts (how many machines a filter keeps, the filters' choices) as a
+/// process keeps them, per scope and filter, for [`FleetCountCache::TTL`]: counting
+/// every machine the filter keeps costs more than a page (an index walk that stops
+/// after it). A process forgets them when it registers or changes a machine
+/// ([`FleetCountCache::forget`]), so its own changes show at once; another process's
+/// show within the time they are kept (docs/operations.md, "fleet totals").
+#[derive(Debug)]
+pub struct FleetCountCache {
+    ttl: Duration,
+    kept: Mutex<HashMap<CountKey, (Instant, FleetCounts)>>,
+}
+
+/// What the counts depend on: the asker's sites and tags, the site and tag filters.
+type CountKey = (Vec<String>, Vec<String>, Option<String>, Option<String>);
+
+impl FleetCountCache {
+    /// How long counts are kept: the most a total lags behind another process's change.
+    pub const TTL: Duration = Duration::from_secs(5);
+    /// Filters kept at most (past it, the expired ones are dropped, then all).
+    const MAX_KEPT: usize = 1024;
+
+    /// Counts kept for `ttl` (zero: counted on every read).
+    pub fn new(ttl: Duration) -> Self {
+        FleetCountCache {
+            ttl,
+            kept: Mutex::default(),
+        }
+    }
+
+    /// Forgets every count (a machine registered or changed by this process).
+    pub fn forget(&self) {
+        self.kept.lock().unwrap_or_else(|e| e.into_inner()).clear();
+    }
+
+    /// The counts of `q`'s scope and filter: kept ones younger than the TTL, else
+    /// counted by the store and kept.
+    pub async fn counts(
+        &self,
+        store: &dyn Store,
+        q: &FleetPageQuery,
+    ) -> Result<FleetCounts, DomainError> {
+        let key = (
+            q.within_sites.clone(),
+            q.within_tags.clone(),
+            q.site.clone(),
+            q.tag.clone(),
+        );
+        let fresh = |at: &Instant| at.elapsed() < self.ttl;
+        if let Some((at, c)) = self.lock().get(&key)
+            && fresh(at)
+        {
+            return Ok(c.clone());
+        }
+        // Counted before the clock is read: kept no longer than the TTL after the count.
+        let at = Instant::now();
+        let c = store.fleet_counts(q).await?;
+        let mut kept = self.lock();
+        if kept.len() >= Self::MAX_KEPT {
+            kept.retain(|_, (at, _)| fresh(at));
+            if kept.len() >= Self::MAX_KEPT {
+                kept.clear();
+            }
+        }
+        kept.insert(key, (at, c.clone()));
+        Ok(c)
+    }
+
+    fn lock(&self) -> std::sync::MutexGuard<'_, HashMap<CountKey, (Instant, FleetCounts)>> {
+        self.kept.lock().unwrap_or_else(|e| e.into_inner())
+    }
+}
+
+impl Default for FleetCountCache {
+    fn default() -> Self {
+        Self::new(Self::TTL)
+    }
+}
 
 /// A filter value, empty meaning none.
 fn given(v: &Option<String>) -> Option<String> {
@@ -111,9 +192,11 @@ fn machine(
 }
 
 /// One page of the fleet (`GET /api/v1/fleet`; the dashboard's fleet page) as `key`
-/// sees it: the machines of its scope only, counted and offered as choices alone.
+/// sees it: the machines of its scope only, counted and offered as choices alone (the
+/// counts as `counts` keeps them).
 pub async fn page(
     store: &dyn Store,
+    counts: &FleetCountCache,
     q: &FleetParams,
     key: &mtcal_store::ApiKey,
 ) -> Result<FleetList, DomainError> {
@@ -122,21 +205,20 @@ pub async fn page(
     let limit = crate::paging::limit(q.limit, DEFAULT_LIMIT, MAX_LIMIT)?;
     let offset = crate::paging::offset(q.offset)?;
     let (site, tag) = (given(&q.site), given(&q.tag));
-    let found = store
-        .fleet_page(&FleetPageQuery {
-            site: site.clone(),
-            tag: tag.clone(),
-            sort: by,
-            offset: i64::try_from(offset).unwrap_or(i64::MAX),
-            limit: limit as i64,
-            within_sites: key.sites.clone(),
-            within_tags: key.tags.clone(),
-        })
-        .await?;
+    let query = FleetPageQuery {
+        site: site.clone(),
+        tag: tag.clone(),
+        sort: by,
+        offset: i64::try_from(offset).unwrap_or(i64::MAX),
+        limit: limit as i64,
+        within_sites: key.sites.clone(),
+        within_tags: key.tags.clone(),
+    };
+    let rows = store.fleet_page_rows(&query).await?;
+    let found = counts.counts(store, &query).await?;
     let profiles = store.list_tolerances().await?;
     let mut warnings = vec![];
-    let machines = found
-        .rows
+    let machines = rows
         .into_iter()
         .map(|r| machine(r, &profiles, &mut warnings))
         .collect();

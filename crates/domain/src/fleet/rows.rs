@@ -20,13 +20,13 @@
 //! Each row also names its basis ([`basis`]: the row format, the baseline and latest
 //! results, the number of results, the tolerance profile and its revision). The refresh
 //! at start compares it with the basis the machine has now and recomputes only the rows
-//! that differ, so a restart costs one query over the fleet, not a read of every check.
+//! that differ, so a restart costs one query a batch of machines over the fleet, not a
+//! read of every check.
 
 use crate::fleet::entry::{DiagnosisSummary, FleetEntry};
-use crate::history::baseline;
+use crate::history::baseline_among;
 use crate::kinds::IDENTIFICATION;
 use crate::trends;
-use mtcal_solver::identification::IdentificationResult;
 use mtcal_store::{
     FleetDriftRow, Machine, ResultMeta, Store, StoreError, ToleranceProfile, now_ms,
 };
@@ -36,7 +36,7 @@ use std::collections::HashMap;
 /// it is computed changes, so that rows of an older computation are recomputed at start.
 pub const ROW_FORMAT: u32 = 5;
 
-/// Rows written per transaction by [`refresh_all`].
+/// Machines walked, and rows written per transaction, by [`refresh_all`] at a time.
 const REFRESH_BATCH: usize = 500;
 
 /// What a machine's row is computed from: the row format ([`ROW_FORMAT`]), its baseline
@@ -118,8 +118,10 @@ async fn row(
         return Ok(None);
     };
     // Every check a misfit: the latest is its own reference (drift 0) until a check
-    // whose model explains its recording lands.
-    let baseline = baseline(store, machine, results).await?.unwrap_or(latest);
+    // whose model explains its recording lands. The checks' models as stored beside
+    // them (one statement), a document read only for a model not stored yet.
+    let models = trends::check_models(store, results).await?;
+    let baseline = baseline_among(machine, results, &models).unwrap_or(latest);
     let profile = crate::profiles::applicable(profiles, machine);
     // The basis names the baseline as the store's pairs do (chosen, else first): the
     // default baseline (the first check that is not a misfit) changes only with the
@@ -131,25 +133,33 @@ async fn row(
         results.len(),
         profile,
     );
-    // The latest result's document: its misfit gate, and its verdict when a profile
-    // applies. A document that cannot be judged leaves the verdict out, never the drift.
-    let latest_doc = store.get_result(&latest.id).await?;
-    let check = serde_json::from_value::<IdentificationResult>(latest_doc.document.clone())
-        .ok()
-        .map(|d| d.model_check());
-    let explained_model = check
-        .as_ref()
-        .filter(|c| c.decided_on_explained_model())
-        .map(|c| c.statement.clone());
-    let misfit = check.filter(|c| c.is_misfit());
-    let verdict = match profile {
-        Some(_) => crate::verdicts::verdict(store, profiles, machine, &latest_doc)
+    // The latest result's document, read only for what its stored model does not say:
+    // a misfit's whole model check, and the verdict when a profile applies. A document
+    // that cannot be judged leaves the verdict out, never the drift.
+    let model = models.get(&latest.id).cloned().unwrap_or_default();
+    let latest_doc = match model.misfit || profile.is_some() {
+        true => Some(store.get_result(&latest.id).await?),
+        false => None,
+    };
+    let (misfit, explained_model) = match &latest_doc {
+        Some(doc) => {
+            let check = trends::model_check(&doc.document);
+            let explained = check
+                .as_ref()
+                .filter(|c| c.decided_on_explained_model())
+                .map(|c| c.statement.clone());
+            (check.filter(|c| c.is_misfit()), explained)
+        }
+        None => (None, model.explained_model),
+    };
+    let verdict = match (profile, &latest_doc) {
+        (Some(_), Some(doc)) => crate::verdicts::verdict(store, profiles, machine, doc)
             .await
             .unwrap_or_else(|e| {
                 tracing::warn!(result = %latest.id, %e, "no verdict for the fleet row");
                 None
             }),
-        None => None,
+        _ => None,
     };
     let diagnosis = latest_check_diagnosis(store, machine, latest).await?;
     // The arithmetic off the async threads (a machine's every check for the sparkline).
@@ -225,49 +235,65 @@ pub struct Refreshed {
     pub recomputed: usize,
 }
 
-/// Brings every machine's row up to date: one query gives each machine's baseline,
-/// latest result and result count, and only the rows whose stored [`basis`] differs from
-/// the current one are recomputed (each such machine's checks read once: the sparkline
-/// needs them all), written [`REFRESH_BATCH`] to a transaction. Rows of machines left
-/// without an identification are removed.
+/// Brings every machine's row up to date, walking the machines by id
+/// [`REFRESH_BATCH`] at a time: one query gives each machine's baseline, latest result
+/// and result count, and only the rows whose stored [`basis`] differs from the current
+/// one are recomputed (each such machine's checks read once: the sparkline needs them
+/// all) and written in one transaction a batch. Rows of machines left without an
+/// identification are removed. Rows are written from the first batch on, so a refresh
+/// of a large fleet stopped midway keeps what it did.
 pub async fn refresh_all(store: &dyn Store) -> Result<Refreshed, StoreError> {
-    let pairs = store.baseline_pairs(IDENTIFICATION).await?;
     let profiles = store.list_tolerances().await?;
-    let mut stored: HashMap<String, Option<String>> =
-        store.fleet_drift_bases().await?.into_iter().collect();
-    let mut stale = Vec::new();
-    for p in &pairs {
-        let profile = crate::profiles::applicable(&profiles, &p.machine);
-        let now = basis(
-            &p.baseline.id,
-            &p.latest.id,
-            usize::try_from(p.results).unwrap_or(0),
-            profile,
-        );
-        if stored.remove(&p.machine.id).flatten().as_deref() != Some(now.as_str()) {
-            stale.push(p.machine.id.clone());
+    let mut done = Refreshed {
+        machines: 0,
+        recomputed: 0,
+    };
+    let mut after: Option<String> = None;
+    loop {
+        let batch = store
+            .baseline_pairs_after(IDENTIFICATION, after.as_deref(), REFRESH_BATCH)
+            .await?;
+        let last = batch.machines < REFRESH_BATCH;
+        // The stored rows of the batch's machines (and, in the last batch, any after).
+        let through = if last { None } else { batch.last.as_deref() };
+        let mut stored: HashMap<String, Option<String>> = store
+            .fleet_drift_bases(after.as_deref(), through)
+            .await?
+            .into_iter()
+            .collect();
+        let mut stale = Vec::new();
+        for p in &batch.pairs {
+            let profile = crate::profiles::applicable(&profiles, &p.machine);
+            let now = basis(
+                &p.baseline.id,
+                &p.latest.id,
+                usize::try_from(p.results).unwrap_or(0),
+                profile,
+            );
+            if stored.remove(&p.machine.id).flatten().as_deref() != Some(now.as_str()) {
+                stale.push(p.machine.id.clone());
+            }
+        }
+        // Rows left over belong to machines without an identification when the pairs
+        // were read: recomputed too (removed, unless a result landed since).
+        stale.extend(stored.into_keys());
+        let mut rows = Vec::new();
+        for id in &stale {
+            match compute(store, &profiles, id).await? {
+                Some(r) => rows.push(r),
+                None => store.delete_fleet_drift(id).await?,
+            }
+        }
+        if !rows.is_empty() {
+            store.put_fleet_drifts(&rows).await?;
+        }
+        done.machines += batch.pairs.len();
+        done.recomputed += stale.len();
+        match batch.last {
+            Some(id) if !last => after = Some(id),
+            _ => return Ok(done),
         }
     }
-    // Rows left over belong to machines without an identification when the pairs were
-    // read: recomputed too (removed, unless a result landed since).
-    stale.extend(stored.into_keys());
-    let mut batch = Vec::new();
-    for id in &stale {
-        match compute(store, &profiles, id).await? {
-            Some(r) => batch.push(r),
-            None => store.delete_fleet_drift(id).await?,
-        }
-        if batch.len() >= REFRESH_BATCH {
-            store.put_fleet_drifts(&batch).await?;
-            batch.clear();
-        }
-    }
-    store.put_fleet_drifts(&batch).await?;
-    let recomputed = stale.len();
-    Ok(Refreshed {
-        machines: pairs.len(),
-        recomputed,
-    })
 }
 
 /// Refreshes the rows of the machines a profile of `scope` on `target` applies to (after

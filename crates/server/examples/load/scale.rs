@@ -11,7 +11,8 @@
 //!    /api/v1/fleet?limit=100`, a random machine's term trend and its summary trend:
 //!    first for MTCAL_LOAD_SECONDS (20), then while the fleet rows are refreshed after a
 //!    row-format change (every stored basis made one format older, then `refresh_all` in
-//!    the background as `mtcal serve` runs it at start) until the refresh ends.
+//!    the background on connections of its own, as `mtcal serve` runs it at start) until
+//!    the refresh ends (or for MTCAL_LOAD_REFRESH_SECONDS).
 
 use super::{env, latencies, machine, seeded_scalars, sign_in, start};
 use mtcal_client::Client;
@@ -75,7 +76,7 @@ pub async fn run() {
     if env("MTCAL_LOAD_SEED_ONLY", 0) > 0 {
         return;
     }
-    measure(store, &pool, m).await;
+    measure(store, &url, &pool, m).await;
 }
 
 /// One real identification document: a simulated seed-plan session (10 Hz) identified.
@@ -408,7 +409,7 @@ fn report(label: &str, secs: f64, by: &mut BTreeMap<&'static str, Vec<f64>>) {
     latencies(&format!("{:28}", "every read"), &mut all);
 }
 
-async fn measure(store: Arc<dyn Store>, pool: &sqlx::PgPool, m: usize) {
+async fn measure(store: Arc<dyn Store>, url: &str, pool: &sqlx::PgPool, m: usize) {
     let (clients, think) = (
         env("MTCAL_LOAD_CLIENTS", 50),
         env("MTCAL_LOAD_THINK_MS", 100),
@@ -440,8 +441,12 @@ async fn measure(store: Arc<dyn Store>, pool: &sqlx::PgPool, m: usize) {
         .await
         .unwrap();
     let stop = Arc::new(AtomicBool::new(false));
+    // On connections of its own, as `mtcal serve` runs it.
+    let own = mtcal_server::serve::start_up_store(url, store.clone(), Default::default())
+        .await
+        .unwrap();
     let refresh = {
-        let (store, stop) = (store.clone(), stop.clone());
+        let (store, stop) = (own, stop.clone());
         tokio::spawn(async move {
             let t = Instant::now();
             let n = mtcal_domain::fleet::refresh_all(store.as_ref())

@@ -20,6 +20,6 @@ pub async fn list(
     ApiQuery(q): ApiQuery<FleetParams>,
 ) -> Result<Json<FleetList>, ApiError> {
     Ok(Json(
-        mtcal_domain::fleet::page::page(s.store.as_ref(), &q, &key).await?,
+        mtcal_domain::fleet::page::page(s.store.as_ref(), &s.fleet_counts, &q, &key).await?,
     ))
 }

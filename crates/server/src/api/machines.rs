@@ -46,6 +46,7 @@ pub async fn create_machine(
         )));
     }
     let m = mtcal_domain::machines::create(s.store.as_ref(), m).await?;
+    s.fleet_counts.forget();
     let change = Change {
         action: "machine.create",
         target: &m.id,
@@ -104,6 +105,7 @@ pub async fn update_machine(
         .is_some_and(|site| before.site.as_ref() != Some(site));
     check_patch_scope(s, &within, &before, &p, moved).await?;
     let after = mtcal_domain::machines::update(s.store.as_ref(), id, p).await?;
+    s.fleet_counts.forget();
     let change = Change {
         action: if only_baseline {
             "baseline.set"

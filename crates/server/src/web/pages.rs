@@ -147,6 +147,7 @@ pub async fn fleet(
     let started = std::time::Instant::now();
     let found = domain_fleet::page(
         app.store.as_ref(),
+        &app.fleet_counts,
         &domain_fleet::FleetParams {
             site: q.site,
             tag: q.tag,

@@ -60,6 +60,7 @@ pub fn state(store: Arc<dyn Store>) -> AppState {
         settings: Arc::default(),
         database: Arc::default(),
         uploads: Default::default(),
+        fleet_counts: Arc::default(),
     }
 }
 
@@ -161,4 +162,18 @@ pub fn backlash_identification() -> mtcal_solver::identification::Identification
     )
     .unwrap();
     identify(&sim.session, &IdentifyOptions::default()).unwrap()
+}
+
+/// Runs `story` on the URL of a fresh PostgreSQL schema named after `test`, dropped
+/// after it, when `MTCAL_TEST_PG` names a server (else skipped).
+pub async fn on_postgres<F: std::future::Future<Output = ()>>(
+    test: &str,
+    story: impl FnOnce(String) -> F,
+) {
+    let Some(pg) = mtcal_store::testing::ScratchPg::create(test).await.unwrap() else {
+        eprintln!("MTCAL_TEST_PG not set: skipped");
+        return;
+    };
+    story(pg.url.clone()).await;
+    pg.drop_schema().await.unwrap();
 }

@@ -365,6 +365,56 @@ async fn choices(q: &FleetPageQuery, conn: &mut Conn) -> Result<(Vec<String>, Ve
     Ok((sites, tag_lists))
 }
 
+/// The page's rows in order, inside one read snapshot `conn`.
+async fn page_rows(q: &FleetPageQuery, conn: &mut Conn) -> Result<Vec<FleetPageRow>> {
+    let (filter, binds) = fleet_filter(q)?;
+    let page = page_machines(q, &filter, &binds, conn).await?;
+    // 3. Only the page's rows are read whole (a machine's entry is kilobytes), by id
+    //    from each table (a join would let a planner scan the drift rows).
+    let page_ids: Vec<String> = page.iter().map(|(id, _)| id.clone()).collect();
+    let (mut machines, mut drifts) = page_records(&page_ids, conn).await?;
+    let lacking: Vec<String> = page_ids
+        .iter()
+        .filter(|id| !drifts.contains_key(*id))
+        .cloned()
+        .collect();
+    let mut others = other_checks(&lacking, conn).await?;
+    Ok(page
+        .into_iter()
+        .filter_map(|(id, active_alerts)| {
+            Some(FleetPageRow {
+                drift: drifts.remove(&id),
+                other_check: others.remove(&id),
+                machine: machines.remove(&id)?,
+                active_alerts,
+            })
+        })
+        .collect())
+}
+
+/// How many machines the filter keeps, and the filters' choices (sorted, tags from
+/// every machine's list).
+async fn counts(q: &FleetPageQuery, conn: &mut Conn) -> Result<FleetCounts> {
+    let (filter, binds) = fleet_filter(q)?;
+    let total = bound(
+        format!("SELECT COUNT(*) AS n FROM machines m WHERE {filter}"),
+        &binds,
+    )
+    .fetch_one(&mut *conn)
+    .await
+    .db()?
+    .int("n")?;
+    let (mut sites, tag_lists) = choices(q, conn).await?;
+    sites.sort();
+    let mut tags = Vec::new();
+    for t in &tag_lists {
+        tags.extend(serde_json::from_str::<Vec<String>>(t).db()?);
+    }
+    tags.sort();
+    tags.dedup();
+    Ok(FleetCounts { total, sites, tags })
+}
+
 impl Fleet for Backend {
     fn put_fleet_drift<'a>(&'a self, row: &'a FleetDriftRow) -> StoreFuture<'a, bool> {
         Box::pin(async move { upsert_fleet_drift(&self.pool, row).await })
@@ -382,15 +432,29 @@ impl Fleet for Backend {
         })
     }
 
-    fn fleet_drift_bases(&self) -> StoreFuture<'_, Vec<(String, Option<String>)>> {
+    fn fleet_drift_bases<'a>(
+        &'a self,
+        after: Option<&'a str>,
+        through: Option<&'a str>,
+    ) -> StoreFuture<'a, Vec<(String, Option<String>)>> {
         Box::pin(async move {
-            sqlx::query("SELECT machine_id, basis FROM fleet_drift")
-                .fetch_all(&self.pool)
-                .await
-                .db()?
-                .iter()
-                .map(|r| Ok((r.text("machine_id")?, r.opt_text("basis")?)))
-                .collect()
+            let upto = if through.is_some() {
+                "AND machine_id <= $2"
+            } else {
+                "AND $2 IS NULL"
+            };
+            run!(
+                fetch_all(&self.pool),
+                sqlx::AssertSqlSafe(format!(
+                    "SELECT machine_id, basis FROM fleet_drift WHERE machine_id > $1 {upto} \
+                     ORDER BY machine_id"
+                )),
+                after.unwrap_or(""),
+                through
+            )?
+            .iter()
+            .map(|r| Ok((r.text("machine_id")?, r.opt_text("basis")?)))
+            .collect()
         })
     }
 
@@ -431,55 +495,36 @@ impl Fleet for Backend {
 
     fn fleet_page<'a>(&'a self, q: &'a FleetPageQuery) -> StoreFuture<'a, FleetPage> {
         Box::pin(async move {
-            let (filter, binds) = fleet_filter(q)?;
             // One read snapshot: an alert raised or acknowledged between the statements
             // must not show a machine twice or leave it out.
             let mut tx = self.read_snapshot().await?;
-            let page = page_machines(q, &filter, &binds, &mut tx).await?;
-            // 3. Only the page's rows are read whole (a machine's entry is kilobytes), by
-            //    id from each table (a join would let a planner scan the drift rows).
-            let page_ids: Vec<String> = page.iter().map(|(id, _)| id.clone()).collect();
-            let (mut machines, mut drifts) = page_records(&page_ids, &mut tx).await?;
-            let lacking: Vec<String> = page_ids
-                .iter()
-                .filter(|id| !drifts.contains_key(*id))
-                .cloned()
-                .collect();
-            let mut others = other_checks(&lacking, &mut tx).await?;
-            let rows = page
-                .into_iter()
-                .filter_map(|(id, active_alerts)| {
-                    Some(FleetPageRow {
-                        drift: drifts.remove(&id),
-                        other_check: others.remove(&id),
-                        machine: machines.remove(&id)?,
-                        active_alerts,
-                    })
-                })
-                .collect();
-            let total = bound(
-                format!("SELECT COUNT(*) AS n FROM machines m WHERE {filter}"),
-                &binds,
-            )
-            .fetch_one(&mut *tx)
-            .await
-            .db()?
-            .int("n")?;
-            let (mut sites, tag_lists) = choices(q, &mut tx).await?;
-            sites.sort();
+            let rows = page_rows(q, &mut tx).await?;
+            let c = counts(q, &mut tx).await?;
             tx.commit().await.db()?;
-            let mut tags = Vec::new();
-            for t in &tag_lists {
-                tags.extend(serde_json::from_str::<Vec<String>>(t).db()?);
-            }
-            tags.sort();
-            tags.dedup();
             Ok(FleetPage {
                 rows,
-                total,
-                sites,
-                tags,
+                total: c.total,
+                sites: c.sites,
+                tags: c.tags,
             })
+        })
+    }
+
+    fn fleet_page_rows<'a>(&'a self, q: &'a FleetPageQuery) -> StoreFuture<'a, Vec<FleetPageRow>> {
+        Box::pin(async move {
+            let mut tx = self.read_snapshot().await?;
+            let rows = page_rows(q, &mut tx).await?;
+            tx.commit().await.db()?;
+            Ok(rows)
+        })
+    }
+
+    fn fleet_counts<'a>(&'a self, q: &'a FleetPageQuery) -> StoreFuture<'a, FleetCounts> {
+        Box::pin(async move {
+            let mut tx = self.read_snapshot().await?;
+            let c = counts(q, &mut tx).await?;
+            tx.commit().await.db()?;
+            Ok(c)
         })
     }
 }

@@ -109,6 +109,66 @@ async fn insert_import(tx: &mut Transaction<'_, Driver>, r: &NewResult) -> Resul
     Ok(meta)
 }
 
+/// The baseline pairs of the machines (all, or the first `limit` by id after `after`:
+/// `batch`) and the ids of the machines read, by id, inside one read snapshot `tx`.
+async fn pairs_of(
+    tx: &mut Transaction<'static, Driver>,
+    kind: &str,
+    batch: Option<(&str, i64)>,
+) -> Result<(Vec<BaselinePair>, Vec<String>)> {
+    // The machines: `$2` and `$3` bound to the batch's bounds (all: none).
+    let machines = "(SELECT * FROM machines WHERE id > $2 ORDER BY id LIMIT $3) m";
+    let (after, limit) = batch.unwrap_or(("", i64::MAX));
+    // Per machine with results of `kind`: count, baseline id (chosen, else first),
+    // latest id: index seeks on results(machine_id, kind, measured_at, id).
+    let with = format!(
+        "WITH p AS (SELECT m.id AS mid, \
+         (SELECT COUNT(*) FROM results r WHERE r.machine_id = m.id AND r.kind = $1 \
+           AND r.excluded_at IS NULL) AS n, \
+         COALESCE((SELECT r.id FROM results r WHERE r.id = m.baseline_result_id \
+           AND r.excluded_at IS NULL), (SELECT r.id FROM results r \
+           WHERE r.machine_id = m.id AND r.kind = $1 AND r.excluded_at IS NULL \
+           ORDER BY r.measured_at, r.created_at, r.id LIMIT 1)) AS base_id, \
+         (SELECT r.id FROM results r WHERE r.machine_id = m.id AND r.kind = $1 \
+           AND r.excluded_at IS NULL ORDER BY r.measured_at DESC, r.created_at DESC, r.id DESC LIMIT 1) AS last_id \
+         FROM {machines}) "
+    );
+    // One read snapshot for the three queries: a result landing between them must not
+    // leave a pair whose result or machine is missing.
+    let pairs = run!(
+        fetch_all(&mut **tx),
+        sqlx::AssertSqlSafe(format!(
+            "{with} SELECT mid, n, base_id, last_id FROM p WHERE n > 0 ORDER BY mid"
+        )),
+        kind,
+        after,
+        limit
+    )?;
+    let metas = run!(
+        fetch_all(&mut **tx),
+        sqlx::AssertSqlSafe(format!(
+            "{with} SELECT {RESULT_COLUMNS} FROM results WHERE id IN \
+             (SELECT base_id FROM p WHERE n > 0 UNION SELECT last_id FROM p WHERE n > 0)"
+        )),
+        kind,
+        after,
+        limit
+    )?;
+    let machines = run!(
+        fetch_all(&mut **tx),
+        sqlx::AssertSqlSafe(format!(
+            "SELECT {MACHINE_COLUMNS} FROM machines WHERE id > $1 ORDER BY id LIMIT $2"
+        )),
+        after,
+        limit
+    )?;
+    let ids = machines
+        .iter()
+        .map(|r| r.text("id"))
+        .collect::<Result<Vec<_>>>()?;
+    Ok((rows::baseline_pairs(&pairs, &metas, &machines)?, ids))
+}
+
 impl Results for Backend {
     fn get_result<'a>(&'a self, id: &'a str) -> StoreFuture<'a, StoredResult> {
         Box::pin(async move {
@@ -148,44 +208,30 @@ impl Results for Backend {
 
     fn baseline_pairs<'a>(&'a self, kind: &'a str) -> StoreFuture<'a, Vec<BaselinePair>> {
         Box::pin(async move {
-            // Per machine with results of `kind`: count, baseline id (chosen, else first),
-            // latest id: index seeks on results(machine_id, kind, measured_at, id).
-            const PAIRS: &str = "WITH p AS (SELECT m.id AS mid, \
-                 (SELECT COUNT(*) FROM results r WHERE r.machine_id = m.id AND r.kind = $1 \
-                   AND r.excluded_at IS NULL) AS n, \
-                 COALESCE((SELECT r.id FROM results r WHERE r.id = m.baseline_result_id \
-                   AND r.excluded_at IS NULL), (SELECT r.id FROM results r \
-                   WHERE r.machine_id = m.id AND r.kind = $1 AND r.excluded_at IS NULL \
-                   ORDER BY r.measured_at, r.created_at, r.id LIMIT 1)) AS base_id, \
-                 (SELECT r.id FROM results r WHERE r.machine_id = m.id AND r.kind = $1 \
-                   AND r.excluded_at IS NULL ORDER BY r.measured_at DESC, r.created_at DESC, r.id DESC LIMIT 1) AS last_id \
-                 FROM machines m) ";
-            // One read snapshot for the three queries: a result landing between them
-            // must not leave a pair whose result or machine is missing.
             let mut tx = self.read_snapshot().await?;
-            let pairs = run!(
-                fetch_all(&mut *tx),
-                sqlx::AssertSqlSafe(format!(
-                    "{PAIRS} SELECT mid, n, base_id, last_id FROM p WHERE n > 0 ORDER BY mid"
-                )),
-                kind
-            )?;
-            let metas = run!(
-                fetch_all(&mut *tx),
-                sqlx::AssertSqlSafe(format!(
-                    "{PAIRS} SELECT {RESULT_COLUMNS} FROM results WHERE id IN \
-                 (SELECT base_id FROM p WHERE n > 0 UNION SELECT last_id FROM p WHERE n > 0)"
-                )),
-                kind
-            )?;
-            let machines = sqlx::query(sqlx::AssertSqlSafe(format!(
-                "SELECT {MACHINE_COLUMNS} FROM machines"
-            )))
-            .fetch_all(&mut *tx)
-            .await
-            .db()?;
+            let (pairs, _) = pairs_of(&mut tx, kind, None).await?;
             tx.commit().await.db()?;
-            rows::baseline_pairs(&pairs, &metas, &machines)
+            Ok(pairs)
+        })
+    }
+
+    fn baseline_pairs_after<'a>(
+        &'a self,
+        kind: &'a str,
+        after: Option<&'a str>,
+        limit: usize,
+    ) -> StoreFuture<'a, PairBatch> {
+        Box::pin(async move {
+            let limit = i64::try_from(limit).unwrap_or(i64::MAX);
+            let mut tx = self.read_snapshot().await?;
+            let (pairs, machines) =
+                pairs_of(&mut tx, kind, Some((after.unwrap_or(""), limit))).await?;
+            tx.commit().await.db()?;
+            Ok(PairBatch {
+                pairs,
+                machines: machines.len(),
+                last: machines.last().cloned(),
+            })
         })
     }
 
