@@ -103,9 +103,9 @@ pub struct Finding {
     /// a finding with a determined principal parameter may still list others here.
     #[serde(default, skip_serializing_if = "Vec::is_empty")]
     pub undetermined: Vec<Undetermined>,
-    /// Other explanations the session's plan cannot tell from this one (their fits
-    /// differ by less than the BIC threshold), each with the test that would separate
-    /// them; the finding is the engine's less flexible choice.
+    /// Other explanations the session's plan cannot tell from this one (their data
+    /// terms differ by less than Δχ² 10), each with the test that would separate them;
+    /// a finding with a simpler rival is left possible (docs/diagnosis.md).
     #[serde(default, skip_serializing_if = "Vec::is_empty")]
     pub rivals: Vec<Rival>,
 }
