@@ -163,6 +163,29 @@ impl Effect {
         }
     }
 
+    /// A play's axis and width at session time `t` (s), µm: constant, growing linearly,
+    /// or widening and narrowing; `None` for every other effect.
+    fn play_width_um(&self, t: f64) -> Option<(Axis, f64)> {
+        match *self {
+            Effect::Backlash { axis, um } => Some((axis, um)),
+            Effect::GrowingBacklash {
+                axis,
+                from_um,
+                per_h_um,
+            } => Some((axis, from_um + per_h_um * t / 3600.0)),
+            Effect::SwellingBacklash {
+                axis,
+                ends_um,
+                swell_um,
+                over_s,
+            } => {
+                let swell = (std::f64::consts::PI * (t / over_s).min(1.0)).sin();
+                Some((axis, ends_um + swell_um * swell))
+            }
+            _ => None,
+        }
+    }
+
     /// `backlash X 6 µm`: the truth in words.
     pub fn describe(&self) -> String {
         match self {
@@ -471,31 +494,11 @@ impl Machine {
         }
         for (k, eff) in self.effects.iter().enumerate() {
             match eff.at(t) {
-                Effect::Backlash { axis, um } => {
-                    let i = axis.index();
-                    let h = um * 1e-3 / 2.0;
-                    self.play[i] = self.play[i].clamp(drive[i] - h, drive[i] + h);
-                    e[i] += (self.play[i] - drive[i]) * 1e3;
-                }
-                Effect::GrowingBacklash {
-                    axis,
-                    from_um,
-                    per_h_um,
-                } => {
-                    let i = axis.index();
-                    let h = (from_um + per_h_um * t / 3600.0) * 1e-3 / 2.0;
-                    self.play[i] = self.play[i].clamp(drive[i] - h, drive[i] + h);
-                    e[i] += (self.play[i] - drive[i]) * 1e3;
-                }
-                Effect::SwellingBacklash {
-                    axis,
-                    ends_um,
-                    swell_um,
-                    over_s,
-                } => {
-                    let i = axis.index();
-                    let swell = (std::f64::consts::PI * (t / over_s).min(1.0)).sin();
-                    let h = (ends_um + swell_um * swell) * 1e-3 / 2.0;
+                Effect::Backlash { .. }
+                | Effect::GrowingBacklash { .. }
+                | Effect::SwellingBacklash { .. } => {
+                    let (axis, um) = eff.play_width_um(t).expect("a play");
+                    let (i, h) = (axis.index(), um * 1e-3 / 2.0);
                     self.play[i] = self.play[i].clamp(drive[i] - h, drive[i] + h);
                     e[i] += (self.play[i] - drive[i]) * 1e3;
                 }
