@@ -29,6 +29,10 @@ use std::time::{Duration, Instant};
 pub struct FleetCountCache {
     ttl: Duration,
     kept: Mutex<HashMap<CountKey, (Instant, FleetCounts)>>,
+    /// Held while the store counts: readers that find their counts expired together
+    /// wait for one count and read it, instead of each counting (at 100 000 machines
+    /// and 50 readers, 186 counts in 146 s where 30 were due).
+    counting: tokio::sync::Mutex<()>,
 }
 
 /// What the counts depend on: the asker's sites and tags, the site and tag filters.
@@ -45,6 +49,7 @@ impl FleetCountCache {
         FleetCountCache {
             ttl,
             kept: Mutex::default(),
+            counting: tokio::sync::Mutex::const_new(()),
         }
     }
 
@@ -67,10 +72,19 @@ impl FleetCountCache {
             q.tag.clone(),
         );
         let fresh = |at: &Instant| at.elapsed() < self.ttl;
-        if let Some((at, c)) = self.lock().get(&key)
-            && fresh(at)
-        {
-            return Ok(c.clone());
+        let kept = |key: &CountKey| {
+            self.lock()
+                .get(key)
+                .filter(|(at, _)| fresh(at))
+                .map(|(_, c)| c.clone())
+        };
+        if let Some(c) = kept(&key) {
+            return Ok(c);
+        }
+        // One count at a time: whoever waited reads the count just made.
+        let _counting = self.counting.lock().await;
+        if let Some(c) = kept(&key) {
+            return Ok(c);
         }
         // Counted before the clock is read: kept no longer than the TTL after the count.
         let at = Instant::now();
