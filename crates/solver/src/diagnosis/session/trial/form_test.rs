@@ -67,6 +67,17 @@ impl FormTest {
     }
 }
 
+/// The lack-of-fit χ² of a split model against the one it refines (sums of squares
+/// `ssr` and `split_ssr`, σ of the residual) and its upper-tail p-value on `dof`
+/// degrees of freedom.
+pub(super) fn lack_of_fit(ssr: f64, split_ssr: f64, sigma: f64, dof: usize) -> Option<(f64, f64)> {
+    let chi2 = ((ssr - split_ssr) / (sigma * sigma)).max(0.0);
+    let p = statrs::distribution::ChiSquared::new(dof as f64)
+        .map(|c| 1.0 - statrs::distribution::ContinuousCDF::cdf(&c, chi2))
+        .ok()?;
+    Some((chi2, p))
+}
+
 impl Ctx<'_> {
     /// The trial's one column fitted with a coefficient per place instead
     /// ([`catalogue::split`]: lines or circles, near or beyond the axis's reversals), on
@@ -81,10 +92,7 @@ impl Ctx<'_> {
         let n_places = catalogue::SPLIT_PLACES.len();
         let at_places = keep.iter().filter(|&&j| j < n_places).count();
         let dof = at_places.checked_sub(1).filter(|&k| k > 0)?;
-        let chi2 = ((t.ssr - jf.all.ssr) / (sigma * sigma)).max(0.0);
-        let p = statrs::distribution::ChiSquared::new(dof as f64)
-            .map(|c| 1.0 - statrs::distribution::ContinuousCDF::cdf(&c, chi2))
-            .ok()?;
+        let (chi2, p) = lack_of_fit(t.ssr, jf.all.ssr, sigma, dof)?;
         let places = keep
             .iter()
             .enumerate()

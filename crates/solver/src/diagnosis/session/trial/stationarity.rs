@@ -12,6 +12,7 @@
 use crate::diagnosis::catalogue;
 use crate::diagnosis::session::context::{Ctx, State};
 use crate::diagnosis::session::trial::Trial;
+use crate::diagnosis::session::trial::form_test::lack_of_fit;
 
 /// Segments of the session's time the test fits the vibration in.
 pub(crate) const SEGMENTS: usize = 4;
@@ -63,10 +64,7 @@ impl Ctx<'_> {
         let specs = inner.per_segment(SEGMENTS, segment);
         let (_, keep, jf) = self.evaluate(&s.fit, &specs, false)?;
         let dof = keep.len().checked_sub(m).filter(|&k| k > 0)?;
-        let chi2 = ((t.ssr - jf.all.ssr) / (sigma * sigma)).max(0.0);
-        let p = statrs::distribution::ChiSquared::new(dof as f64)
-            .map(|c| 1.0 - statrs::distribution::ContinuousCDF::cdf(&c, chi2))
-            .ok()?;
+        let (chi2, p) = lack_of_fit(t.ssr, jf.all.ssr, sigma, dof)?;
         let at = |j: usize| keep.iter().position(|&k| k == j);
         let amplitudes = (0..SEGMENTS)
             .filter_map(|g| {
