@@ -104,9 +104,10 @@ async fn story(url: &str) {
     // Hand-worked: EXX changed by (0.10 − 0.02)·50 = 4 µm at either end of the travel;
     // the sparkline is EXX at one end in each check: ±(1, 2.5, 5) µm.
     let m1 = &rows[0];
-    assert_eq!(m1.entry["baseline_result_id"], json!(first));
+    let m1_entry: serde_json::Value = m1.entry.decode().unwrap();
+    assert_eq!(m1_entry["baseline_result_id"], json!(first));
     assert!((m1.drift_um - 4.0).abs() < 1e-9, "{}", m1.drift_um);
-    let spark: Vec<f64> = m1.entry["sparkline"]
+    let spark: Vec<f64> = m1_entry["sparkline"]
         .as_array()
         .unwrap()
         .iter()

@@ -10,7 +10,8 @@ pub use crate::audit::{AuditEvent, AuditQuery, NewAuditEvent};
 pub use crate::datasets::{Dataset, FileMeta, NewDataset};
 pub use crate::exclusion::{Exclusion, SetAside};
 pub use crate::fleet::{
-    FleetCounts, FleetDriftRow, FleetPage, FleetPageQuery, FleetPageRow, FleetSort, LastCheck,
+    EntryJson, FleetCounts, FleetDriftRow, FleetPage, FleetPageQuery, FleetPageRow, FleetSort,
+    LastCheck,
 };
 pub use crate::keys::{NewSession, SessionRecord};
 pub use crate::limits::MAX_TRAVEL_MM;

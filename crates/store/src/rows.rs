@@ -277,7 +277,7 @@ pub(crate) fn fleet_drift(r: &impl Columns) -> Result<FleetDriftRow> {
         read_at_ms: r.int("read_at_ms")?,
         drift_um: r.real("drift_um")?,
         drift_urad: r.real("drift_urad")?,
-        entry: r.json("entry")?,
+        entry: crate::fleet::EntryJson::stored(r.text("entry")?),
         latest_measured_at: r.opt_text("latest_measured_at")?,
         basis: r.opt_text("basis")?,
     })

@@ -696,7 +696,7 @@ async fn fleet_drift_is_ranked_and_an_older_computation_never_replaces_a_newer(s
         read_at_ms: at,
         drift_um: um,
         drift_urad: urad,
-        entry: serde_json::json!({"machine_id": id, "drift_um": um}),
+        entry: EntryJson::new(&serde_json::json!({"machine_id": id, "drift_um": um})).unwrap(),
         latest_measured_at: Some(format!("2026-0{}-01T00:00:00Z", 1 + at % 9)),
         basis: Some(format!("b{at}")),
     };
@@ -722,7 +722,8 @@ async fn fleet_drift_is_ranked_and_an_older_computation_never_replaces_a_newer(s
     let ranked = s.fleet_drift_ranked(true, 10).await.unwrap();
     assert_eq!(ids(ranked.clone()), ["M1", "M2", "M3"]);
     assert_eq!(ranked[1].0.drift_um, 5.0);
-    assert_eq!(ranked[0].0.entry["drift_um"], 7.0);
+    let entry: serde_json::Value = ranked[0].0.entry.decode().unwrap();
+    assert_eq!(entry["drift_um"], 7.0);
     assert_eq!(ranked[0].1, "machine M1", "the machine's current name");
     s.delete_fleet_drift("M1").await.unwrap();
     assert_eq!(
@@ -982,7 +983,7 @@ async fn fleet_page_puts_alerted_machines_first_then_filters_sorts_and_counts(s:
         read_at_ms: 1,
         drift_um: um,
         drift_urad: urad,
-        entry: json!({"machine_id": id}),
+        entry: EntryJson::new(&json!({"machine_id": id})).unwrap(),
         latest_measured_at: Some(at.into()),
         basis: None,
     };
@@ -1202,7 +1203,7 @@ async fn fleet_pages_equal_a_sort_of_every_machine_from_scratch(s: &dyn Store) {
                 read_at_ms: 1,
                 drift_um: *um,
                 drift_urad: *urad,
-                entry: json!({"machine_id": id}),
+                entry: EntryJson::new(&json!({"machine_id": id})).unwrap(),
                 latest_measured_at: at.clone(),
                 basis: None,
             })

@@ -35,7 +35,7 @@ pub async fn ranked(
         if machines.len() >= limit {
             break;
         }
-        match serde_json::from_value::<FleetEntry>(row.entry) {
+        match row.entry.decode::<FleetEntry>() {
             Ok(mut e) => {
                 e.name = name;
                 e.site = site;

@@ -141,18 +141,16 @@ fn machine(
         scope: p.scope.clone(),
         target: p.target.clone(),
     });
-    let entry = r
-        .drift
-        .and_then(|d| match serde_json::from_value::<FleetEntry>(d.entry) {
-            Ok(e) => Some(e),
-            Err(e) => {
-                warnings.push(format!(
-                    "machine {}: its stored drift does not decode ({e}); listed without it",
-                    m.id
-                ));
-                None
-            }
-        });
+    let entry = r.drift.and_then(|d| match d.entry.decode::<FleetEntry>() {
+        Ok(e) => Some(e),
+        Err(e) => {
+            warnings.push(format!(
+                "machine {}: its stored drift does not decode ({e}); listed without it",
+                m.id
+            ));
+            None
+        }
+    });
     let other = r.other_check;
     let drift_note = match (&entry, &other) {
         (Some(_), _) => None,

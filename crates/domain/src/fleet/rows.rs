@@ -28,7 +28,7 @@ use crate::history::baseline_among;
 use crate::kinds::IDENTIFICATION;
 use crate::trends;
 use mtcal_store::{
-    FleetDriftRow, Machine, ResultMeta, Store, StoreError, ToleranceProfile, now_ms,
+    EntryJson, FleetDriftRow, Machine, ResultMeta, Store, StoreError, ToleranceProfile, now_ms,
 };
 use std::collections::HashMap;
 
@@ -196,7 +196,7 @@ async fn row(
         read_at_ms,
         drift_um: entry.drift.drift_um,
         drift_urad: entry.drift.drift_urad,
-        entry: serde_json::to_value(&entry).map_err(|e| StoreError::Backend(e.to_string()))?,
+        entry: EntryJson::new(&entry).map_err(|e| StoreError::Backend(e.to_string()))?,
         latest_measured_at: Some(latest.measured_at.clone()),
         basis: Some(basis),
     }))

@@ -27,7 +27,7 @@ async fn upsert_fleet_drift<'e>(
         row.read_at_ms,
         row.drift_um,
         row.drift_urad,
-        serde_json::to_string(&row.entry).db()?,
+        row.entry.as_str(),
         &row.latest_measured_at,
         &row.basis
     )?;
