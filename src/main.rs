@@ -7,6 +7,11 @@
 
 mod cli;
 
+/// mimalloc, not the system's malloc: the service allocates and frees per request
+/// (BENCHMARKS.md, "A plant group").
+#[global_allocator]
+static ALLOCATOR: mimalloc::MiMalloc = mimalloc::MiMalloc;
+
 fn main() -> std::process::ExitCode {
     cli::finish(cli::command::parse().run())
 }

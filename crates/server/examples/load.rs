@@ -58,6 +58,10 @@ use std::time::{Duration, Instant};
 #[path = "load/scale.rs"]
 mod scale;
 
+/// The `mtcal` binary's allocator (src/main.rs), so the service here allocates as it does.
+#[global_allocator]
+static ALLOCATOR: mimalloc::MiMalloc = mimalloc::MiMalloc;
+
 fn env(name: &str, default: usize) -> usize {
     std::env::var(name)
         .ok()
