@@ -8,13 +8,6 @@
 /// prints the entries of today's diagnosis in this form.
 pub const KNOWN_DEFECTS: &[(&str, &[(&str, &str)])] = &[
     (
-        "backlash_x6_no_lead",
-        &[(
-            "unexplained: a misfit that recurs",
-            "every effect put in is named, yet a misfit that recurs is claimed (truth: backlash X 6 µm)",
-        )],
-    ),
-    (
         "lag_z4_fast_circles",
         &[(
             "unexplained: a remainder",
@@ -33,4 +26,4 @@ pub const KNOWN_DEFECTS: &[(&str, &[(&str, &str)])] = &[
 /// Sessions of the CI subset that are right (no false finding, no missed effect) today.
 pub const RIGHT_CI: usize = 50;
 /// Sessions of the full suite that are right today.
-pub const RIGHT_ALL: usize = 75;
+pub const RIGHT_ALL: usize = 76;
