@@ -20,9 +20,10 @@
 //! when the second diagnosis's choice among the others is set aside or none of them
 //! qualifies. The loop chooses among qualifying candidates by their held-out sums of
 //! squares; on a servo-lag session these are the effects that soak up part of the lag
-//! (a backlash, a reversal spike, a cyclic error, a thermal drift: held-out sums 4 to
-//! 100 times the lag's), which a few hundred samples left out cannot bring within
-//! reach of it.
+//! (a backlash, a reversal spike, a cyclic error, a thermal drift: sums of squares 4 to
+//! 13 times the lag's, by their ΔBIC), which a few hundred samples left out cannot
+//! bring within reach of it. Should the second diagnosis set its choice aside, or none
+//! of the others qualify, the deferred are evaluated and the choice is among all.
 
 use crate::diagnosis::catalogue::Candidate;
 use std::sync::Mutex;
@@ -37,17 +38,21 @@ pub(super) const SPARE_GAIN: f64 = 10.0;
 /// The ratio of a candidate's held-out sum of squares in the first diagnosis to that of
 /// the candidate admitted from the same model at or above which the second defers it
 /// (module docs). On the servo-lag session of the benchmark the lost-motion profile
-/// that soaks up most of the lag is within it (1.9), and is evaluated.
+/// that soaks up most of the lag is within it (a sum of squares about 1.9 times the
+/// lag's, by their ΔBIC), and is evaluated.
 pub(super) const FAR_HELDOUT: f64 = 2.0;
 
 /// One candidate as a diagnosis evaluated it: the candidates admitted into the model it
 /// extended (in order), the candidate, its gain and its held-out sum of squares.
 type Record = (Vec<Candidate>, Candidate, f64, f64);
 
+/// A candidate a diagnosis admitted, with the candidates admitted before it (in order).
+type Admitted = (Vec<Candidate>, Candidate);
+
 /// Each candidate as a diagnosis evaluated it, and the candidate admitted from each
-/// model (with the findings before it).
+/// model.
 #[derive(Default)]
-pub(super) struct Seen(Mutex<(Vec<Record>, Vec<(Vec<Candidate>, Candidate)>)>);
+pub(super) struct Seen(Mutex<(Vec<Record>, Vec<Admitted>)>);
 
 impl Seen {
     /// Records the candidate `c`'s `gain` (its ΔBIC less k·ln n: n·ln(SSR₁/SSR₀), ≤ 0) and
