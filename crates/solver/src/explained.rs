@@ -67,7 +67,7 @@ pub fn explain(
         .clone()
         .or_else(|| opts.topology.clone())
         .unwrap_or_default();
-    let d = ddesign::build(session, &topology, opts.order)?;
+    let d = ddesign::build_every_sample(session, &topology, opts.order)?;
     let mut refitted: Vec<&Finding> = Vec::new();
     let mut cands = Vec::new();
     let mut not_refitted = Vec::new();

@@ -34,7 +34,7 @@ use crate::error::SolverError;
 use crate::kinematics::exact_error_um;
 use crate::session::{PlaneRecord, Run, Session, TestKind};
 use crate::terms::{Squareness, Term, TermKind};
-use motion::{DriveState, MotionSample, Path, Profile};
+use motion::{MotionSample, Path, Profile, Travel};
 use rand::rngs::StdRng;
 use rand::{Rng, SeedableRng};
 use rand_distr::{Distribution, Normal};
@@ -333,7 +333,7 @@ impl Recorder<'_> {
         let (ua, va) = test.plane.axes();
         let mut base = [0.0; 3];
         base[test.plane.normal().index()] = test.park_mm;
-        let mut state = DriveState::at(base);
+        let mut state = Travel::at(base);
         let mut t_true = test.head_offset_mm;
         for eff in &self.opts.effects {
             let d = eff.head_offset_delta_mm(test.head_offset_mm);
@@ -394,7 +394,7 @@ impl Recorder<'_> {
         length: f64,
         kind: TestKind,
         number: i64,
-        state: &mut DriveState,
+        state: &mut Travel,
     ) -> Run {
         let opts = self.opts;
         let rate = opts.sample_rate_hz;

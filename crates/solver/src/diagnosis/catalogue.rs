@@ -464,6 +464,17 @@ impl<'a> Columns<'a> {
 /// transient's height).
 const SPIKE_REACH: f64 = 40.0;
 
+/// The travel (mm) a reversal spike has decayed over at the signed travel `travel` since
+/// its axis turned ([`super::design::SampleFields::play_travel_mm`]); infinite for an axis
+/// that has not moved (no spike).
+pub fn spike_travel(travel: f64) -> f64 {
+    if travel == 0.0 {
+        f64::INFINITY
+    } else {
+        travel.abs()
+    }
+}
+
 /// For a candidate whose columns vanish away from its axis's reversals (the reversal
 /// spike): the axis and the travel since the last reversal from which its columns are 0
 /// at nonlinear value `theta` (they are 0 on the rows read along other axes too).
@@ -577,14 +588,17 @@ fn motion_columns<'a>(d: &'a Design, c: &Candidate, theta: f64) -> Columns<'a> {
             )
         }
         "reversal_spike" => {
+            // −d·e^(−s/λ), s the travel since the axis turned and d its direction: from
+            // the turn itself, as the play's (between two samples of a circle, at the
+            // vertex; a sample already past it travels the new way), not from the last
+            // sample before it.
             let a = c.axis.expect("axis");
-            let i = a.index();
             let (n, ax) = one("height_um", a);
-            let (since, dir) = (&d.fields.since_reversal_mm[i], &d.fields.dir[i]);
+            let travel = &d.fields.play_travel_mm[a.index()];
             Columns::new(n, ax, move |s, _, o| {
-                let x = since[s];
+                let x = spike_travel(travel[s]);
                 o[0] = if x < SPIKE_REACH * theta {
-                    -dir[s] * (-x / theta).exp()
+                    -travel[s].signum() * (-x / theta).exp()
                 } else {
                     0.0
                 };

@@ -412,9 +412,49 @@ fn turn_beyond(t: &[f64], q: &[[f64; 3]], i: usize, a: usize) -> (f64, bool) {
     ((top - x1).abs(), ts < t1)
 }
 
+/// Whether a run's first sample `q` may read the play on the other side than the approach
+/// gives it (left out: on a file's first run, or when the set-points are already at
+/// speed there, [`at_speed`]): an axis that an unrecorded approach
+/// brought to it (`approach`: the approach to a file's first sample, or a move from where
+/// the last run ended) moves on from it (to `next`) against `dir`, the way the approach
+/// is taken to have reached it. The axis turned then somewhere between the last recorded
+/// sample and the next one, and where is not recorded: at the sample after a standstill,
+/// or before it when the recorder started with the motion (a circle begun at its reversal
+/// of the axis, a file's first run already moving), where the sample reads the play on
+/// its new side, not the approach's. An axis that rested at the sample since the last
+/// run ended turns there.
+fn turns_at_start(dir: [f64; 3], approach: [bool; 3], q: [f64; 3], next: [f64; 3]) -> bool {
+    (0..3).any(|a| {
+        let step = next[a] - q[a];
+        approach[a] && step.abs() > 1e-12 && dir[a] != 0.0 && step.signum() != dir[a]
+    })
+}
+
+/// Whether the set-points are already at speed at a run's first sample `q`: an axis's
+/// first step (to `next`) and its second (to `then`) agree within [`STEADY`], where a
+/// start from rest at the sample makes the first short by half its ramp's time (a third
+/// of a 10 Hz step at 500 mm/min, 400 mm/s²).
+fn at_speed(q: [f64; 3], next: [f64; 3], then: [f64; 3]) -> bool {
+    (0..3).any(|a| {
+        let (s1, s2) = ((next[a] - q[a]).abs(), (then[a] - next[a]).abs());
+        s2 > 1e-12 && (s1 - s2).abs() <= STEADY * s2
+    })
+}
+
 /// Builds the design of `session` with error functions of polynomial order `order`.
 pub fn build(session: &Session, topology: &Topology, order: usize) -> Result<Design, SolverError> {
     build_leaving_out(session, topology, order, [false; 3])
+}
+
+/// [`build`] with every sample of the session, a run's first sample of unknown approach
+/// too ([`turns_at_start`]): rows 2s, 2s + 1 for the session's sample s in file and run
+/// order (the explained model's columns follow the session's samples).
+pub fn build_every_sample(
+    session: &Session,
+    topology: &Topology,
+    order: usize,
+) -> Result<Design, SolverError> {
+    build_with(session, topology, order, [false; 3], true)
 }
 
 /// The travel state through a plane file, the approach moves between runs included.
@@ -423,6 +463,10 @@ struct FileWalk {
     /// Per axis, how far beyond the last sample before its last reversal the axis
     /// turned (mm).
     beyond: [f64; 3],
+    /// Whether a run of the file has been walked.
+    started: bool,
+    /// Keep a run's first sample of unknown approach ([`turns_at_start`]).
+    keep_starts: bool,
 }
 
 impl FileWalk {
@@ -447,12 +491,22 @@ impl FileWalk {
         if kept < 3 || 2 * kept < run.len() {
             skip.iter_mut().for_each(|s| *s = false);
         }
+        let left_out = skip.iter().filter(|&&s| s).count();
         let mut last_kept = false;
         for i in 0..run.len() {
             let q = run.pos_mm[i];
             let st = &mut self.state;
-            let before = st.dir;
+            let (before, from) = (st.dir, st.q_mm);
             st.move_to(q);
+            if i == 0 && run.len() > 3 && !self.keep_starts {
+                // Not counted with the velocity's.
+                let approach = [0, 1, 2].map(|a| !self.started || q[a] != from[a]);
+                let p = &run.pos_mm;
+                skip[0] = skip[0]
+                    || (turns_at_start(st.dir, approach, q, p[1])
+                        && (!self.started || at_speed(q, p[1], p[2])));
+                self.started = true;
+            }
             for a in 0..3 {
                 if st.dir[a] != before[a] && before[a] != 0.0 {
                     let (b, past) = turn_beyond(&run.t_s, &run.pos_mm, i, a);
@@ -492,7 +546,7 @@ impl FileWalk {
             row_axes.push(u);
             row_axes.push(v);
         }
-        skip.iter().filter(|&&s| s).count()
+        left_out
     }
 }
 
@@ -505,6 +559,16 @@ pub fn build_leaving_out(
     topology: &Topology,
     order: usize,
     leave_out: [bool; 3],
+) -> Result<Design, SolverError> {
+    build_with(session, topology, order, leave_out, false)
+}
+
+fn build_with(
+    session: &Session,
+    topology: &Topology,
+    order: usize,
+    leave_out: [bool; 3],
+    keep_starts: bool,
 ) -> Result<Design, SolverError> {
     topology.validate().map_err(SolverError::InvalidInput)?;
     let travel = measured_travel(session);
@@ -527,7 +591,8 @@ pub fn build_leaving_out(
         // approach to the file's first sample is not recorded: each axis is taken to
         // have reached it travelling against its first recorded move (an approach from
         // the other side, a reversal at its first move), as a test plan approaches its
-        // start from the centre of the travel.
+        // start from the centre of the travel; a run's first sample from which an axis
+        // moves on against the way it reached the sample is left out ([`turns_at_start`]).
         let mut walk = FileWalk {
             state: DriveState {
                 q_mm: p
@@ -540,6 +605,8 @@ pub fn build_leaving_out(
                 since_reversal_mm: [f64::INFINITY; 3],
             },
             beyond: [0.0; 3],
+            started: false,
+            keep_starts,
         };
         let mut counts: std::collections::HashMap<TestKind, usize> = Default::default();
         for run in &p.runs {

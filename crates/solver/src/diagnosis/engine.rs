@@ -7,7 +7,9 @@
 //! whether a qualifying candidate may be added, and how it is added. [`run`] then runs
 //!
 //! 1. **fit**: the base state, its SSE and held-out SSE S_ho;
-//! 2. **candidates** of the current model, from the problem, less those set aside;
+//! 2. **candidates** of the current model, from the problem, less those set aside (and
+//!    less those it defers, [`Greedy::deferred`]: evaluated and joining the choice of
+//!    step 4 only once its first choice is set aside or none qualifies);
 //! 3. **evaluate** every candidate jointly with the current model, on all cores: its
 //!    nonlinear parameter θ searched (a 1-D search), its fitted SSE, its S_ho and k;
 //! 4. **gate**: a candidate qualifies when ΔBIC = BIC₁ − BIC₀ ≤ −`bic_threshold`, with
@@ -67,6 +69,12 @@ pub trait Greedy: Sync {
     fn score(&self, s: &Self::State) -> Score;
     /// The candidates that may extend the current model.
     fn candidates(&self, s: &Self::State) -> Vec<Self::Candidate>;
+    /// Candidates that may extend the current model too but that the problem expects
+    /// not to be chosen: evaluated only when the choice among the others is set aside or
+    /// none of them qualifies (none: every candidate is in [`Greedy::candidates`]).
+    fn deferred(&self, _s: &Self::State) -> Vec<Self::Candidate> {
+        Vec::new()
+    }
     /// The candidate's name in progress reports (empty: none).
     fn label(&self, _c: &Self::Candidate) -> String {
         String::new()
@@ -230,6 +238,34 @@ fn evaluate_all<G: Greedy + ?Sized>(
     all.into_iter().map(|(_, t)| t).collect()
 }
 
+/// The evaluated candidates `cands` (`evaluated`, in their order) against the current
+/// model's score and rows `(cur, n)`: each into `tried`, and those that pass the gates
+/// (ΔBIC and held-out gain) into `qualifying` too.
+fn sort_trials<G: Greedy + ?Sized>(
+    rules: &Rules,
+    (cur, n): (Score, usize),
+    cands: Vec<G::Candidate>,
+    evaluated: Vec<Option<(Score, G::Trial)>>,
+    qualifying: &mut Vec<Evaluated<G>>,
+    tried: &mut Vec<Evaluated<G>>,
+) {
+    for (c, e) in cands.into_iter().zip(evaluated) {
+        let Some((score, trial)) = e else { continue };
+        let ev = Evaluated {
+            dbic: delta_bic(score.sse, score.k, cur.sse, cur.k, n),
+            candidate: c,
+            score,
+            trial,
+        };
+        if passes_bic_gate(ev.dbic, rules.bic_threshold)
+            && ev.score.heldout_sse <= (1.0 - rules.min_heldout_gain) * cur.heldout_sse
+        {
+            qualifying.push(ev.clone());
+        }
+        tried.push(ev);
+    }
+}
+
 /// Runs the loop (module docs) from the state `base`; `label` names the recording part in
 /// the progress reports (each candidate of each round), made within `span` of the whole
 /// work.
@@ -264,10 +300,13 @@ pub(crate) fn run<G: Greedy + ?Sized>(
         if rms(cur.heldout_sse, n_heldout) <= rules.stop_ratio * noise {
             break;
         }
+        let fresh = |c: &G::Candidate, set_aside: &[(G::Candidate, G::Note)]| {
+            !set_aside.iter().any(|(s, _)| s == c)
+        };
         let cands: Vec<G::Candidate> = g
             .candidates(&state)
             .into_iter()
-            .filter(|c| !set_aside.iter().any(|(s, _)| s == c))
+            .filter(|c| fresh(c, &set_aside))
             .collect();
         let evaluated = evaluate_all(g, &state, &cands, |i, c| {
             let name = g.label(c);
@@ -282,30 +321,43 @@ pub(crate) fn run<G: Greedy + ?Sized>(
             )
         });
         let mut qualifying: Vec<Evaluated<G>> = vec![];
-        for (c, e) in cands.into_iter().zip(evaluated) {
-            let Some((score, trial)) = e else { continue };
-            let ev = Evaluated {
-                dbic: delta_bic(score.sse, score.k, cur.sse, cur.k, n),
-                candidate: c,
-                score,
-                trial,
-            };
-            if passes_bic_gate(ev.dbic, rules.bic_threshold)
-                && ev.score.heldout_sse <= (1.0 - rules.min_heldout_gain) * cur.heldout_sse
-            {
-                qualifying.push(ev.clone());
-            }
-            tried.push(ev);
-        }
+        let current = (cur, n);
+        sort_trials(
+            rules,
+            current,
+            cands,
+            evaluated,
+            &mut qualifying,
+            &mut tried,
+        );
+        // The deferred candidates, evaluated as soon as the first choice among the others
+        // is set aside or none qualifies: every later choice is among all.
+        let (mut deferred, mut all) = (g.deferred(&state), false);
         let mut admitted = None;
-        while let Some(i) = choose(&qualifying, rules.min_heldout_gain) {
+        loop {
+            if all && !deferred.is_empty() {
+                let d = std::mem::take(&mut deferred);
+                let d: Vec<_> = d.into_iter().filter(|c| fresh(c, &set_aside)).collect();
+                let e = evaluate_all(g, &state, &d, |_, _| {});
+                sort_trials(rules, current, d, e, &mut qualifying, &mut tried);
+            }
+            let Some(i) = choose(&qualifying, rules.min_heldout_gain) else {
+                if deferred.is_empty() {
+                    break;
+                }
+                all = true;
+                continue;
+            };
             let ev = qualifying.swap_remove(i);
             match g.admit(&state, &ev.candidate, &ev.trial) {
                 Admission::Add(note) => {
                     admitted = Some((ev, note));
                     break;
                 }
-                Admission::SetAside(note) => set_aside.push((ev.candidate, note)),
+                Admission::SetAside(note) => {
+                    set_aside.push((ev.candidate, note));
+                    all = true;
+                }
             }
         }
         let Some((chosen, note)) = admitted else {
@@ -802,8 +854,9 @@ mod tests {
     /// The toy with a problem that sets the sine aside: the sine is the loop's first
     /// choice (its held-out SSE is more than 10 % below the simpler trend's); the loop puts
     /// its next choice, the trend, to the problem, adds it, and never evaluates the sine
-    /// again.
-    struct Picky(Toy);
+    /// again. With `true`, the trend is deferred ([`Greedy::deferred`]): evaluated only
+    /// once the sine is set aside, with the same outcome.
+    struct Picky(Toy, bool);
 
     impl Greedy for Picky {
         type State = Current<Toy>;
@@ -824,7 +877,14 @@ mod tests {
             self.0.score(s)
         }
         fn candidates(&self, s: &Current<Toy>) -> Vec<C> {
-            Greedy::candidates(&self.0, s)
+            let mut all = Greedy::candidates(&self.0, s);
+            all.retain(|c| !self.1 || *c != C::Trend);
+            all
+        }
+        fn deferred(&self, s: &Current<Toy>) -> Vec<C> {
+            let mut all = Greedy::candidates(&self.0, s);
+            all.retain(|c| self.1 && *c == C::Trend);
+            all
         }
         fn evaluate(&self, s: &Current<Toy>, c: &C) -> Option<(Score, Current<Toy>)> {
             self.0.evaluate(s, c)
@@ -849,7 +909,16 @@ mod tests {
 
     #[test]
     fn a_choice_set_aside_gives_way_to_the_next_and_is_not_tried_again() {
-        let p = Picky(Toy::new(1.0, 37.0, 0.5, 0.0));
+        set_aside_gives_way(false);
+    }
+
+    #[test]
+    fn a_deferred_candidate_joins_the_choice_once_the_first_is_set_aside() {
+        set_aside_gives_way(true);
+    }
+
+    fn set_aside_gives_way(defer: bool) {
+        let p = Picky(Toy::new(1.0, 37.0, 0.5, 0.0), defer);
         let base = M {
             period: None,
             trend: false,

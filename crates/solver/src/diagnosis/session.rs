@@ -119,6 +119,43 @@ enum Note {
 }
 
 impl SessionProblem<'_> {
+    /// The catalogue's candidates on the model `s`, before the first diagnosis's record
+    /// spares or defers any ([`seen`]).
+    fn candidates_all(&self, s: &State) -> Vec<Candidate> {
+        // A lost motion that varies along the travel: whole (constant part included)
+        // while the axis has no backlash in the model, its varying part refining the
+        // axis's backlash once it has; neither, nor a backlash, after a whole profile.
+        self.cands
+            .iter()
+            .filter(|c| {
+                // A plate's scale, while its group's common scale stays with the axes.
+                if let Some(m) = &c.mounting {
+                    return catalogue::plate_scale::open(self.ctx.d, &s.plates, m);
+                }
+                let Some(a) = c.axis.map(|a| a.index()) else {
+                    return true;
+                };
+                match c.effect {
+                    "lost_motion_profile" => s.backlash[a].is_none() && !s.profiled[a],
+                    "lost_motion_variation" => s.backlash[a].is_some() && !s.profiled[a],
+                    "backlash" => !s.profiled[a],
+                    // A growth in time of the axis's constant lost motion, once.
+                    "backlash_growth" => s.backlash[a].is_some() && !s.grown[a],
+                    _ => true,
+                }
+            })
+            .map(|c| match (c.effect, c.axis) {
+                // The growth widens the play of the axis's backlash in the model.
+                ("backlash_growth", Some(a)) => Candidate {
+                    lost_motion_um: s.backlash[a.index()].map_or(0.0, |b| b.0),
+                    ..c.clone()
+                },
+                _ => c.clone(),
+            })
+            // A change in time of a finding in the model, once (`catalogue::growth`).
+            .chain(s.growths.iter().cloned())
+            .collect()
+    }
     fn state(
         &self,
         fit: Fit,
@@ -324,39 +361,19 @@ impl super::engine::Greedy for SessionProblem<'_> {
         }
     }
     fn candidates(&self, s: &State) -> Vec<Candidate> {
-        // A lost motion that varies along the travel: whole (constant part included)
-        // while the axis has no backlash in the model, its varying part refining the
-        // axis's backlash once it has; neither, nor a backlash, after a whole profile.
-        self.cands
-            .iter()
-            .filter(|c| {
-                // A plate's scale, while its group's common scale stays with the axes.
-                if let Some(m) = &c.mounting {
-                    return catalogue::plate_scale::open(self.ctx.d, &s.plates, m);
-                }
-                let Some(a) = c.axis.map(|a| a.index()) else {
-                    return true;
-                };
-                match c.effect {
-                    "lost_motion_profile" => s.backlash[a].is_none() && !s.profiled[a],
-                    "lost_motion_variation" => s.backlash[a].is_some() && !s.profiled[a],
-                    "backlash" => !s.profiled[a],
-                    // A growth in time of the axis's constant lost motion, once.
-                    "backlash_growth" => s.backlash[a].is_some() && !s.grown[a],
-                    _ => true,
-                }
-            })
-            .map(|c| match (c.effect, c.axis) {
-                // The growth widens the play of the axis's backlash in the model.
-                ("backlash_growth", Some(a)) => Candidate {
-                    lost_motion_um: s.backlash[a.index()].map_or(0.0, |b| b.0),
-                    ..c.clone()
-                },
-                _ => c.clone(),
-            })
-            // A change in time of a finding in the model, once (`catalogue::growth`).
-            .chain(s.growths.iter().cloned())
-            .filter(|c| self.seen.1.is_none_or(|first| !first.spares(&s.path, c)))
+        let first = self.seen.1;
+        self.candidates_all(s)
+            .into_iter()
+            .filter(|c| first.is_none_or(|f| !f.spares(&s.path, c) && !f.defers(&s.path, c)))
+            .collect()
+    }
+    fn deferred(&self, s: &State) -> Vec<Candidate> {
+        let Some(first) = self.seen.1 else {
+            return Vec::new();
+        };
+        self.candidates_all(s)
+            .into_iter()
+            .filter(|c| !first.spares(&s.path, c) && first.defers(&s.path, c))
             .collect()
     }
     fn label(&self, c: &Candidate) -> String {
@@ -367,7 +384,7 @@ impl super::engine::Greedy for SessionProblem<'_> {
         if let Some(record) = self.seen.0 {
             let n = self.ctx.d.rows() as f64;
             let gain = t.dbic - (t.ncols + t.extra_params) as f64 * n.ln();
-            record.record(&s.path, c, gain);
+            record.record(&s.path, c, gain, t.heldout_ssr);
         }
         let score = Score {
             sse: t.ssr,
@@ -590,6 +607,9 @@ impl super::engine::Greedy for SessionProblem<'_> {
         // So does the thermal searches' basis.
         let thermal = s.thermal.take().map(|b| (b, u_prev));
         let mut path = std::mem::take(&mut s.path);
+        if let Some(record) = self.seen.0 {
+            record.admitted(&path, c);
+        }
         path.push(c.clone());
         drop(s);
         let mut next = self.state(nf, k, backlash, profiled, Some((kept, u_prev)), thermal);

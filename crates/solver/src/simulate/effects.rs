@@ -7,7 +7,7 @@
 //! |---|---|
 //! | backlash | e = −d·b/2, d the sign of the axis's last travel, b the lost motion |
 //! | servo_lag | e = −τ·v (µm, v in mm/s ×10³): the axis lags its set-point by τ |
-//! | reversal_spike | e = −d·h·exp(−s/λ), s the travel since the last reversal |
+//! | reversal_spike | e = −d·h·exp(−s/λ), s the travel since the axis turned (between samples on a circle) |
 //! | cyclic | e = A·sin(2π q/P + φ), P the screw lead |
 //! | thermal_drift | e_j = g(t)·(o_j + k_j·q_j·10⁻³), g = 1 − exp(−t/T), per direction j |
 //! | setup_offset | true head offset = declared + Δ (on the files it applies to) |
@@ -337,10 +337,11 @@ impl Effect {
                 height_um,
                 decay_mm,
             } => {
+                // From the turn itself, which on a circle lies between two samples.
                 let i = axis.index();
-                let d = s.since_reversal_mm[i];
+                let d = s.since_turn_mm[i];
                 if d.is_finite() {
-                    unit(axis, -s.dir[i] * height_um * (-d / decay_mm).exp())
+                    unit(axis, -s.turn_dir[i] * height_um * (-d / decay_mm).exp())
                 } else {
                     Vector3::zeros()
                 }

@@ -127,6 +127,12 @@ pub struct MotionSample {
     pub dir: [f64; 3],
     /// Travel of each axis since its last reversal (mm; infinite if it never reversed).
     pub since_reversal_mm: [f64; 3],
+    /// Sign of each axis's travel at this instant, and its travel since it turned (mm;
+    /// infinite if it never did), followed along the path between the samples
+    /// ([`Travel::traced`]): on a circle an axis turns between two samples, and a sample
+    /// just after the turn is already travelling the new way.
+    pub turn_dir: [f64; 3],
+    pub since_turn_mm: [f64; 3],
 }
 
 /// Per-axis travel state, carried through a plane's recording (including the unrecorded
@@ -166,6 +172,33 @@ impl DriveState {
     }
 }
 
+/// The travel state of the axes two ways: from sample to sample (`at_samples`: what the
+/// set-points tell), and followed along the path in steps of [`TRACE_STEP_S`] between the
+/// samples (`traced`: where the axes really turn).
+#[derive(Debug, Clone, Copy)]
+pub struct Travel {
+    pub at_samples: DriveState,
+    pub traced: DriveState,
+}
+
+/// The time step (s) at which [`Travel::traced`] follows a circle between its samples.
+pub const TRACE_STEP_S: f64 = 1e-3;
+
+impl Travel {
+    pub fn at(q_mm: [f64; 3]) -> Travel {
+        Travel {
+            at_samples: DriveState::at(q_mm),
+            traced: DriveState::at(q_mm),
+        }
+    }
+
+    /// A straight move to `q` (both states alike: no turn inside it).
+    pub fn move_to(&mut self, q: [f64; 3]) {
+        self.at_samples.move_to(q);
+        self.traced.move_to(q);
+    }
+}
+
 /// Samples of one run: the motion along `path` with `profile`, then `dwell_s` at the end,
 /// at `rate_hz` starting at `t0_s`. Updates `state`.
 pub fn run_samples(
@@ -174,13 +207,23 @@ pub fn run_samples(
     dwell_s: f64,
     t0_s: f64,
     rate_hz: f64,
-    state: &mut DriveState,
+    state: &mut Travel,
 ) -> Vec<MotionSample> {
     let total = profile.duration_s() + dwell_s;
     let n = (total * rate_hz).floor() as usize + 1;
     let mut out = Vec::with_capacity(n);
+    let curved = matches!(path, Path::Circle { .. });
     for k in 0..n {
         let tr = k as f64 / rate_hz;
+        if curved && k > 0 {
+            // Between the samples along the path: a line's axes turn only at its ends.
+            let t_prev = (k - 1) as f64 / rate_hz;
+            let m = ((tr - t_prev) / TRACE_STEP_S).ceil().max(1.0) as usize;
+            for j in 1..m {
+                let t = t_prev + (tr - t_prev) * j as f64 / m as f64;
+                state.traced.move_to(path.at(profile.at(t).0, 0.0).0);
+            }
+        }
         let (s, v) = profile.at(tr);
         let (q, vel) = path.at(s, v);
         state.move_to(q);
@@ -188,8 +231,10 @@ pub fn run_samples(
             t_s: t0_s + tr,
             q_mm: q,
             vel_mm_s: vel,
-            dir: state.dir,
-            since_reversal_mm: state.since_reversal_mm,
+            dir: state.at_samples.dir,
+            since_reversal_mm: state.at_samples.since_reversal_mm,
+            turn_dir: state.traced.dir,
+            since_turn_mm: state.traced.since_reversal_mm,
         });
     }
     out

@@ -454,8 +454,8 @@ impl<'a> Ctx<'a> {
     }
 
     /// Per run that moves `axis`: the rows read along it less than `reach` mm of travel
-    /// after the axis's last reversal, as (index counted from the run's first row, travel
-    /// since reversal). A run that does not move the axis has a constant column (none).
+    /// after the axis last turned (from the turn itself: [`catalogue::spike_travel`]), as
+    /// (index counted from the run's first row, that travel). A run that does not move the axis has a constant column (none).
     pub fn near_rows(&self, axis: Axis, reach: f64) -> Vec<Vec<(usize, f64)>> {
         let d = self.d;
         let parked = self.parked_runs(axis);
@@ -467,7 +467,8 @@ impl<'a> Ctx<'a> {
                 (0..if parked { 0 } else { rs.rows })
                     .filter_map(|i| {
                         let row = rs.row0 + i;
-                        let x = d.fields.since_reversal_mm[axis.index()][row / 2];
+                        let x =
+                            catalogue::spike_travel(d.fields.play_travel_mm[axis.index()][row / 2]);
                         (d.row_axis(row) == axis && x < reach).then_some((i, x))
                     })
                     .collect()

@@ -143,8 +143,10 @@ impl SessionProblem<'_> {
     /// either reading's scale alone on the same runs (`plate_scale::half`, one parameter
     /// each). When one axis alone fits as well, the mounting's misfit is that axis's
     /// scale differing from the other mountings' readings of it — a warm-up of the axis
-    /// between the mountings, not the plate: why the plate is set aside. `None` for any
-    /// other candidate, or when the form holds.
+    /// between the mountings, not the plate: why the plate is set aside. The plate must
+    /// fit better by the engine's own ΔBIC for admitting an effect (the options'
+    /// `min_bic_gain`, 10 by default: "very strong" evidence, odds of about 150 to one).
+    /// `None` for any other candidate, or when the form holds.
     pub(super) fn plate_form_broken(&self, s: &State, c: &Candidate, t: &Trial) -> Option<String> {
         let m = c.mounting.as_deref().filter(|_| c.axis.is_none())?;
         let n = self.ctx.d.rows() as f64;
@@ -154,17 +156,12 @@ impl SessionProblem<'_> {
             .collect();
         let (a, ssr) = halves.into_iter().min_by(|x, y| x.1.total_cmp(&y.1))?;
         let gap = n * (ssr / t.ssr).ln();
-        (gap < PLATE_FORM_BIC).then(|| {
+        let need = self.ctx.bic_threshold;
+        (gap < need).then(|| {
             format!(
-                "{}: a plate scales both readings of its mounting alike, but the {a} reading's scale alone on its runs fits within ΔBIC {gap:+.1} of it (from {PLATE_FORM_BIC:.0} on a plate): the {a} axis's scale changed between mountings (a warm-up of {a}), not the plate",
+                "{}: a plate scales both readings of its mounting alike, but the {a} reading's scale alone on its runs fits within ΔBIC {gap:+.1} of it (from {need:.0} on a plate): the {a} axis's scale changed between mountings (a warm-up of {a}), not the plate",
                 c.label()
             )
         })
     }
 }
-
-/// Below this ΔBIC by which a plate scale fits better than either of its readings' scales
-/// alone (one parameter each), the plan does not tell its form from one axis's change of
-/// scale between mountings ([`SessionProblem::plate_form_broken`]): the engine's own
-/// threshold of "very strong" evidence for admitting an effect (odds of about 150 to one).
-pub(super) const PLATE_FORM_BIC: f64 = 10.0;
