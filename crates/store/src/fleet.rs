@@ -3,7 +3,7 @@
 use crate::StoreFuture;
 use crate::machines::Machine;
 pub use mtcal_api::fleet::LastCheck;
-use serde::{Deserialize, Serialize};
+use serde::Serialize;
 
 /// The fleet's drift (one row per machine, maintained by the service) and the fleet
 /// page. Implementations must make each method atomic.
@@ -50,7 +50,7 @@ pub trait Fleet: Send + Sync {
 
 /// A machine's drift since its baseline as the fleet ranking stores it (computed by the
 /// service when a result lands or the baseline changes).
-#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[derive(Debug, Clone, PartialEq)]
 pub struct FleetDriftRow {
     pub machine_id: String,
     /// When the results it was computed from were read (ms since the epoch): a row from
@@ -61,17 +61,15 @@ pub struct FleetDriftRow {
     /// The ranking's entry for the machine (ids, result count, drift, uncertainty).
     pub entry: EntryJson,
     /// When the latest result was measured (the fleet page sorts by it).
-    #[serde(default)]
     pub latest_measured_at: Option<String>,
     /// What the row was computed from, as the service names it (None: written by an
     /// older version); a refresh skips the rows whose basis is still current.
-    #[serde(default)]
     pub basis: Option<String>,
 }
 
 /// A fleet row's entry as JSON text, kept as stored: its reader decodes it straight into
 /// its own type ([`EntryJson::decode`]), with no `serde_json::Value` in between (the
-/// fleet page reads 100 of them a request). Serialized as the JSON it holds.
+/// fleet page reads 100 of them a request).
 #[derive(Debug, Clone, PartialEq, Eq)]
 pub struct EntryJson(String);
 
@@ -95,20 +93,6 @@ impl EntryJson {
     /// The JSON text.
     pub fn as_str(&self) -> &str {
         &self.0
-    }
-}
-
-impl Serialize for EntryJson {
-    fn serialize<S: serde::Serializer>(&self, s: S) -> Result<S::Ok, S::Error> {
-        self.decode::<serde_json::Value>()
-            .map_err(serde::ser::Error::custom)?
-            .serialize(s)
-    }
-}
-
-impl<'de> Deserialize<'de> for EntryJson {
-    fn deserialize<D: serde::Deserializer<'de>>(d: D) -> Result<Self, D::Error> {
-        EntryJson::new(&serde_json::Value::deserialize(d)?).map_err(serde::de::Error::custom)
     }
 }
 
