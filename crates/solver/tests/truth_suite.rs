@@ -678,11 +678,7 @@ fn generator_physics() {
 /// and no lost motion or reversal transient (whose size does not follow the feed) named
 /// on either axis, found or possible.
 fn lags_over_seeds(seeds: u64) -> (Vec<String>, usize) {
-    let all = cases::all();
-    let trial = all
-        .iter()
-        .find(|c| c.name == "lag_x3_y1_fast_circles")
-        .expect("the trial's lag case");
+    let trial = cases::named("lag_x3_y1_fast_circles");
     let (mut wrong, mut within) = (Vec::new(), 0);
     for k in 0..seeds {
         let mut setup = trial.setup.clone();
@@ -819,10 +815,7 @@ fn plate_scales_over_seeds() {
 /// with (one plane file alone).
 #[test]
 fn a_common_plate_scale_is_no_finding() {
-    let base = cases::all()
-        .into_iter()
-        .find(|c| c.name == "plate_xy_10")
-        .expect("plate_xy_10");
+    let base = cases::named("plate_xy_10");
     let mut setup = base.setup.clone();
     setup.effects = [Plane::XY, Plane::XZ, Plane::YZ]
         .map(|plane| Effect::PlateScale { plane, ppm: 10.0 })
@@ -853,10 +846,7 @@ fn a_common_plate_scale_is_no_finding() {
 fn a_warm_up_of_one_axis_is_no_plate_scale() {
     let mut said = 0;
     for name in ["thermal_x", "thermal_x_backlash_z"] {
-        let base = cases::all()
-            .into_iter()
-            .find(|c| c.name == name)
-            .expect("a thermal case");
+        let base = cases::named(name);
         for k in 0..2 {
             let mut setup = base.setup.clone();
             setup.seed += 1000 * k;
@@ -886,10 +876,7 @@ fn a_warm_up_of_one_axis_is_no_plate_scale() {
 /// its reason saying what it may be and that it recovered; nothing is left unexplained.
 #[test]
 fn a_knock_as_one_transient() {
-    let c = cases::all()
-        .into_iter()
-        .find(|c| c.name == "knock_y5")
-        .expect("knock_y5");
+    let c = cases::named("knock_y5");
     let r = diagnose_session(&generate(&c.setup), &DiagnoseOptions::default()).expect("diagnosis");
     assert_eq!(r.findings.len(), 1, "{:#?}", r.findings);
     assert!(r.possible.is_empty(), "{:#?}", r.possible);

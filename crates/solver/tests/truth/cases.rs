@@ -177,6 +177,14 @@ fn plate(plane: Plane, ppm: f64) -> Effect {
     Effect::PlateScale { plane, ppm }
 }
 
+/// The truth session called `name` (panics if there is none: a test names its case).
+pub fn named(name: &str) -> Case {
+    all()
+        .into_iter()
+        .find(|c| c.name == name)
+        .unwrap_or_else(|| panic!("no truth case {name}"))
+}
+
 /// Every truth session, in the order of the table.
 pub fn all() -> Vec<Case> {
     vec![
