@@ -61,8 +61,9 @@ pub struct Candidate {
     /// effect.
     pub width_s: f64,
     /// For backlash_growth: the axis's constant lost motion b̄ in the model (µm), the
-    /// play whose take-up the growth widens (`lost_motion_growth`); 0 for every other
-    /// effect.
+    /// play whose take-up the growth widens (`lost_motion_growth`); for
+    /// lost_motion_variation, the same b̄, over which its columns are taken up; 0 for
+    /// every other effect.
     pub lost_motion_um: f64,
     /// For plate_scale: the plate's mounting (the session's name of it,
     /// `plate_scale`); `None` for every other effect.
@@ -121,8 +122,11 @@ pub enum Search {
     None,
     /// Evaluate the joint fit on each value (few values).
     Grid(&'static str, Vec<f64>),
-    /// A play's take-up travel, the play's own width: θ = the fitted lost motion, by
-    /// fixed-point iteration from the sharp switch (θ = 0), kept when it fits better.
+    /// A value the candidate's first coefficient is itself, no free parameter: a play's
+    /// take-up travel, the play's own width (θ = the fitted lost motion, [`TAKE_UP`]);
+    /// a lag's second-order term, the lag (θ = the fitted lag, [`LAG_SECOND_ORDER`]). By
+    /// fixed-point iteration from θ = 0 (the sharp switch, the first-order lag), kept
+    /// when it fits better ([`is_own_value`]).
     TakeUp(&'static str),
     /// A step's time: the most significant step of the current residual along the
     /// candidate's direction (the local scan's rule, `diagnosis::local_scan`), refined on
@@ -141,6 +145,18 @@ pub enum Search {
         /// Report the period (1/f) instead of the frequency.
         as_period: bool,
     },
+}
+
+/// The name of a play's take-up travel θ (µm), its own width ([`Search::TakeUp`]).
+pub const TAKE_UP: &str = "take_up_um";
+
+/// The name of the lag θ (s) in a servo lag's second-order term ([`Search::TakeUp`]).
+pub const LAG_SECOND_ORDER: &str = "lag_second_order_s";
+
+/// Whether the nonlinear parameter `name` is the candidate's own first coefficient
+/// ([`Search::TakeUp`]): not reported, with no σ of its own.
+pub fn is_own_value(name: &str) -> bool {
+    matches!(name, TAKE_UP | LAG_SECOND_ORDER)
 }
 
 /// Axes that moved (have travel) and are read by some plane.
@@ -318,7 +334,9 @@ pub fn search(d: &Design, c: &Candidate) -> Search {
             (0..10).map(|i| 0.002 * 2f64.powi(i)).collect(),
         ),
         // A growth's take-up: θ = the fitted growth, the same fixed point.
-        "backlash" | "backlash_growth" => Search::TakeUp("take_up_um"),
+        "backlash" | "backlash_growth" => Search::TakeUp(TAKE_UP),
+        // A lag's second order: θ = the fitted lag.
+        "servo_lag" => Search::TakeUp(LAG_SECOND_ORDER),
         "vibration" => {
             let (span, nyq, run_len) = time_band(d);
             // At least two cycles within the longest run: a slower sine is, within each
@@ -543,27 +561,39 @@ fn motion_columns<'a>(d: &'a Design, c: &Candidate, theta: f64) -> Columns<'a> {
             // Lost motion varying along the travel: −d·P_k(s)/2 on the measured travel
             // (`lost_motion::Profile`), k = 0..=K (the candidate's order); k from 1 for
             // its varying part alone (the constant part, k = 0, is then the axis's
-            // `backlash`).
+            // `backlash`). As the backlash's, it follows the play's travel from the turn
+            // ([`play`]: a sample of a smooth motion already past the vertex of its turn
+            // is on the new side), taken up over θ (µm: the whole profile's mean lost
+            // motion by [`Search::TakeUp`]'s fixed point; its varying part's, over the
+            // axis's backlash b̄).
             let a = c.axis.expect("axis");
             let Some(prof) = profile(d, a, c.order) else {
                 return Columns::none();
             };
             let from = usize::from(c.effect == "lost_motion_variation");
-            let (q, dir) = (&d.fields.q_mm[a.index()], &d.fields.dir[a.index()]);
+            let (q, travel) = (
+                &d.fields.q_mm[a.index()],
+                &d.fields.play_travel_mm[a.index()],
+            );
             Columns::new(
                 (from..=c.order).map(|k| format!("b{k}")).collect(),
                 vec![Some(a); c.order + 1 - from],
                 move |s, _, o| {
                     let p = crate::basis::Legendre::new(prof.s(q[s]).clamp(-1.0, 1.0));
+                    let side = play(travel[s], theta * 1e-3);
                     for (o, (pk, _)) in o.iter_mut().zip(p.skip(from)) {
-                        *o = -0.5 * dir[s] * pk;
+                        *o = side * pk;
                     }
                 },
             )
             .following(a)
         }
         "servo_lag" => {
-            // The lag, and a nuisance at the starts and stops of the motion, where the
+            // The lag: the set-point late by τ, q(t − τ) − q(t) = −v·τ + a·τ²/2 − …, the
+            // second order at θ = τ ([`Search::TakeUp`]'s fixed point: τ·(−v + a·θ/2),
+            // one parameter; on a fast circle a·τ²/2 is a scale of the axis's readings
+            // there, 0.2 µm at 4 ms on R50 at 2000 mm/min). And a nuisance at the starts
+            // and stops of the motion, where the
             // set-points do not tell the velocity ([`super::design::velocity_at_ends`]),
             // one on lines and one on circles: its coefficient takes what the lag does
             // there (−τ for a smooth path, whose velocity is about the central
@@ -572,6 +602,7 @@ fn motion_columns<'a>(d: &'a Design, c: &Candidate, theta: f64) -> Columns<'a> {
             let a = c.axis.expect("axis");
             let i = a.index();
             let (vel, ends) = (&d.fields.vel_mm_s[i], &d.fields.vel_ends_mm_s[i]);
+            let acc = &d.fields.acc_mm_s2[i];
             Columns::new(
                 vec![
                     "lag_s".into(),
@@ -580,7 +611,7 @@ fn motion_columns<'a>(d: &'a Design, c: &Candidate, theta: f64) -> Columns<'a> {
                 ],
                 vec![Some(a); 3],
                 move |s, _, o| {
-                    o[0] = -vel[s] * 1e3;
+                    o[0] = (0.5 * theta * acc[s] - vel[s]) * 1e3;
                     let circle = is_circle(d, s);
                     o[1] = if circle { 0.0 } else { ends[s] * 1e3 };
                     o[2] = if circle { ends[s] * 1e3 } else { 0.0 };

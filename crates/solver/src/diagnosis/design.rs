@@ -36,6 +36,9 @@ pub struct SampleFields {
     /// elsewhere. The set-points do not tell which one the axis followed there
     /// ([`velocity_at_ends`]).
     pub vel_ends_mm_s: [Vec<f64>; 3],
+    /// Commanded acceleration per axis from the set-points where they tell the velocity
+    /// ([`acceleration`], mm/s²); 0 elsewhere.
+    pub acc_mm_s2: [Vec<f64>; 3],
     /// Sign of each axis's last travel (before its first recorded move in a file: the
     /// opposite of that move, an approach from the other side; 0 for an axis that does
     /// not move in the file).
@@ -62,6 +65,7 @@ impl SampleFields {
             q_mm: axes(),
             vel_mm_s: axes(),
             vel_ends_mm_s: axes(),
+            acc_mm_s2: axes(),
             dir: axes(),
             since_reversal_mm: axes(),
             play_travel_mm: axes(),
@@ -284,15 +288,25 @@ pub fn velocity_at_ends(t: &[f64], q: &[[f64; 3]], i: usize) -> ([f64; 3], [f64;
     (st.map(|x| x.0), st.map(|x| x.1))
 }
 
+/// Commanded acceleration at sample i (mm/s²) from the set-points, where they tell the
+/// velocity ([`velocity_known`]; 0 elsewhere): on a smooth or steady path sampled evenly
+/// the five-point second difference (error (ω·dt)⁴/90 of a circle's), otherwise the
+/// change of the one-sided differences over the half-interval; 0 at rest on either side.
+/// A servo lag's second-order term reads it (`catalogue`, `servo_lag`).
+pub fn acceleration(t: &[f64], q: &[[f64; 3]], i: usize) -> [f64; 3] {
+    velocity_state(t, q, i).map(|x| x.3)
+}
+
 /// Largest relative difference of the one-sided differences at a sample where the
 /// set-points tell the velocity (off a smooth path): a cruise's agree to rounding, and a
 /// start or stop of 33 ms between samples 62.5 ms apart changes the next one by 6 %, which
 /// read a 3 ms lag 0.8 µm off at the sample before.
 const STEADY: f64 = 0.01;
 
-/// Per axis at sample i: [`velocity`], what [`velocity_at_ends`] gives beside it, and
-/// whether the set-points tell the velocity there ([`velocity_known`]).
-fn velocity_state(t: &[f64], q: &[[f64; 3]], i: usize) -> [(f64, f64, bool); 3] {
+/// Per axis at sample i: [`velocity`], what [`velocity_at_ends`] gives beside it,
+/// whether the set-points tell the velocity there ([`velocity_known`]) and
+/// [`acceleration`].
+fn velocity_state(t: &[f64], q: &[[f64; 3]], i: usize) -> [(f64, f64, bool, f64); 3] {
     let n = q.len();
     let rest = |k: usize, a: usize, b: usize| (q[b][k] - q[a][k]).abs() < 1e-9;
     let diff = |k: usize, a: usize| (q[a + 1][k] - q[a][k]) / (t[a + 1] - t[a]);
@@ -311,7 +325,8 @@ fn velocity_state(t: &[f64], q: &[[f64; 3]], i: usize) -> [(f64, f64, bool); 3] 
     };
     // On a smooth or steady path sampled evenly, the five-point difference: the central one reads
     // a circle's velocity low by (ω·dt)²/6 (0.07 % at 2000 mm/min on R50 at 10 Hz, which
-    // moved a lag by more than its σ), this one by (ω·dt)⁴/30.
+    // moved a lag by more than its σ), this one by (ω·dt)⁴/30; and the five-point second
+    // difference for the acceleration.
     let smooth_velocity = |k: usize| {
         let dt = t.get(i + 2)? - t.get(i + 1)?;
         let even = i >= 2
@@ -330,7 +345,11 @@ fn velocity_state(t: &[f64], q: &[[f64; 3]], i: usize) -> [(f64, f64, bool); 3] 
             lo * hi > 0.0 && hi - lo <= STEADY * lo.abs().max(hi.abs())
         };
         (even && (smooth(k) || steady())).then(|| {
-            (8.0 * (q[i + 1][k] - q[i - 1][k]) - (q[i + 2][k] - q[i - 2][k])) / (12.0 * dt)
+            let (p1, m1, p2, m2) = (q[i + 1][k], q[i - 1][k], q[i + 2][k], q[i - 2][k]);
+            (
+                (8.0 * (p1 - m1) - (p2 - m2)) / (12.0 * dt),
+                (16.0 * (p1 + m1) - (p2 + m2) - 30.0 * q[i][k]) / (12.0 * dt * dt),
+            )
         })
     };
     [0, 1, 2].map(|k| {
@@ -342,7 +361,7 @@ fn velocity_state(t: &[f64], q: &[[f64; 3]], i: usize) -> [(f64, f64, bool); 3] 
                 let stopping = i + 2 < n && rest(k, i + 1, i + 2);
                 let central = (q[i + 1][k] - q[i - 1][k]) / (t[i + 1] - t[i - 1]);
                 let v = if b.abs() < 1e-9 || f.abs() < 1e-9 {
-                    return (0.0, 0.0, true);
+                    return (0.0, 0.0, true, 0.0);
                 } else if started && !stopping {
                     f
                 } else if stopping && !started {
@@ -352,27 +371,63 @@ fn velocity_state(t: &[f64], q: &[[f64; 3]], i: usize) -> [(f64, f64, bool); 3] 
                     // `STEADY` and not smooth is a start or a stop between the samples
                     // around it (one that begins just after it: the axis still at the
                     // feed there, not at the central difference).
-                    let steady = (b - f).abs() <= STEADY * b.abs().max(f.abs());
-                    return (
-                        smooth_velocity(k).unwrap_or(0.5 * (b + f)),
-                        0.0,
-                        steady || smooth(k),
-                    );
+                    let known = (b - f).abs() <= STEADY * b.abs().max(f.abs()) || smooth(k);
+                    let (v, acc) = smooth_velocity(k)
+                        .or_else(|| known.then(|| one_sided(t, q, i, k)).flatten())
+                        .unwrap_or((0.5 * (b + f), 2.0 * (f - b) / (t[i + 1] - t[i - 1])));
+                    return (v, 0.0, known, if known { acc } else { 0.0 });
                 } else if b.abs() > f.abs() {
                     b
                 } else {
                     f
                 };
-                (v, v - central, false)
+                (v, v - central, false, 0.0)
             }
-            (None, Some(f)) if f.abs() < 1e-9 => (0.0, 0.0, true),
+            (None, Some(f)) if f.abs() < 1e-9 => (0.0, 0.0, true, 0.0),
             // First sample of a run, already moving: lines and circles start from rest,
             // but where in its start the axis is the set-points do not tell.
-            (None, Some(_)) => (0.0, 0.0, false),
-            (Some(b), None) => (b, 0.0, b.abs() < 1e-9),
-            _ => (0.0, 0.0, true),
+            (None, Some(_)) => (0.0, 0.0, false, 0.0),
+            (Some(b), None) => (b, 0.0, b.abs() < 1e-9, 0.0),
+            _ => (0.0, 0.0, true, 0.0),
         }
     })
+}
+
+/// Velocity and acceleration of axis `k` at a sample i where the set-points tell the
+/// velocity but the five-point stencil around it reaches into a start or a stop (a ramp
+/// longer than a sample interval, as a fast circle's, whose end bends the difference
+/// before the sample by under [`STEADY`] yet read a 4 ms lag 0.8 µm off): from the four
+/// evenly spaced samples on the side whose next four differences move one way and
+/// change steadily (all within `STEADY`, or each change within half of the middle one
+/// of the changes beside it, as [`velocity`]'s smooth path), forward first; error O(dt³)
+/// of the velocity, O(dt²) of the acceleration. `None` when neither side is.
+fn one_sided(t: &[f64], q: &[[f64; 3]], i: usize, k: usize) -> Option<(f64, f64)> {
+    let side = |sgn: isize| {
+        let at = |j: isize| i.checked_add_signed(sgn * j).filter(|&x| x < q.len());
+        let idx = [at(0)?, at(1)?, at(2)?, at(3)?, at(4)?];
+        let h = (t[idx[1]] - t[idx[0]]) * sgn as f64;
+        let even = idx
+            .windows(2)
+            .all(|w| ((t[w[1]] - t[w[0]]) * sgn as f64 - h).abs() <= 1e-9 * h.abs());
+        let x = idx.map(|j| q[j][k]);
+        let d = [x[1] - x[0], x[2] - x[1], x[3] - x[2], x[4] - x[3]];
+        let c = [d[1] - d[0], d[2] - d[1], d[3] - d[2]];
+        let (lo, hi) = d
+            .iter()
+            .fold((f64::INFINITY, f64::NEG_INFINITY), |(l, u), &v| {
+                (l.min(v), u.max(v))
+            });
+        let one_way = lo * hi > 0.0;
+        let steady = hi - lo <= STEADY * lo.abs().max(hi.abs());
+        let smooth =
+            (c[0] - c[1]).abs() <= 0.5 * c[1].abs() && (c[2] - c[1]).abs() <= 0.5 * c[1].abs();
+        (h > 0.0 && even && one_way && (steady || smooth)).then(|| {
+            let v = (-11.0 * x[0] + 18.0 * x[1] - 9.0 * x[2] + 2.0 * x[3]) / (6.0 * h);
+            let a = (2.0 * x[0] - 5.0 * x[1] + 4.0 * x[2] - x[3]) / (h * h);
+            (v * sgn as f64, a)
+        })
+    };
+    side(1).or_else(|| side(-1))
 }
 
 /// Per axis, whether the set-points tell the velocity at sample i: at rest on one side
@@ -522,13 +577,14 @@ impl FileWalk {
             if skip[i] {
                 continue;
             }
-            let (vel, ends) = velocity_at_ends(&run.t_s, &run.pos_mm, i);
+            let motion = velocity_state(&run.t_s, &run.pos_mm, i);
             f.run_idx.push(run_idx);
             f.t_s.push(run.t_s[i]);
             for a in 0..3 {
                 f.q_mm[a].push(q[a]);
-                f.vel_mm_s[a].push(vel[a]);
-                f.vel_ends_mm_s[a].push(ends[a]);
+                f.vel_mm_s[a].push(motion[a].0);
+                f.vel_ends_mm_s[a].push(motion[a].1);
+                f.acc_mm_s2[a].push(motion[a].3);
                 f.dir[a].push(st.dir[a]);
                 f.since_reversal_mm[a].push(st.since_reversal_mm[a]);
                 f.play_travel_mm[a].push(if st.dir[a] == 0.0 {

@@ -145,8 +145,9 @@ impl SessionProblem<'_> {
                 }
             })
             .map(|c| match (c.effect, c.axis) {
-                // The growth widens the play of the axis's backlash in the model.
-                ("backlash_growth", Some(a)) => Candidate {
+                // The growth widens the play of the axis's backlash in the model; the
+                // varying part of its lost motion is taken up over it.
+                ("backlash_growth" | "lost_motion_variation", Some(a)) => Candidate {
                     lost_motion_um: s.backlash[a.index()].map_or(0.0, |b| b.0),
                     ..c.clone()
                 },

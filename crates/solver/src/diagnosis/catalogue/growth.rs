@@ -123,7 +123,7 @@ pub fn named(name: &str) -> Option<&'static Growth> {
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct Parent {
     /// Its nonlinear value as its columns take it (a cyclic error's frequency, 1/mm; a
-    /// spike's decay, mm; a clearance's take-up, mm; 0 for a lag).
+    /// spike's decay, mm; a clearance's take-up, mm; a lag's second order, the lag, s).
     pub theta: f64,
     /// A cyclic error's phase φ (rad): its shape per unit amplitude is
     /// cos φ·sin + sin φ·cos; 0 for the others.

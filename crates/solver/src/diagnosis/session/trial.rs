@@ -139,13 +139,67 @@ impl Ctx<'_> {
     /// BIC (n·ln SSR + k·ln n: each added coefficient must lower the SSR by ln n ≈ 12
     /// noise variances) and the held-out sum of squares (folds of whole runs), the
     /// discipline the loop holds every candidate to. A profile of too low an order is
-    /// biased by tens of its σ where the lost motion changes sign along the travel. The
-    /// columns do not depend on the model: their moments are kept for the next round
-    /// ([`Ctx::moments_kept`]).
+    /// biased by tens of its σ where the lost motion changes sign along the travel.
+    ///
+    /// The play is taken up after each turn as a backlash's ([`catalogue::play`]): the
+    /// varying part over the axis's backlash b̄ in the model; the whole profile over its
+    /// own mean lost motion (its constant coefficient), by the backlash's fixed point from
+    /// the sharp switch on the order chosen there ([`Ctx::profile_take_up`]), the orders
+    /// chosen again at it when it fits better. Taken up at once, a sample of a circle just
+    /// past an axis's turn (a few µm of its travel) read the whole lost motion. The
+    /// columns at one θ do not depend on the model: their moments are kept for the next
+    /// round ([`Ctx::moments_kept`]).
     fn try_profile_orders(&self, s: &State, cand: &Candidate) -> Option<Trial> {
-        let specs = catalogue::specs(self.d, cand, 0.0, s.eps());
-        let mom = self.moments_at(s, cand, 0.0);
+        if cand.effect == "lost_motion_variation" {
+            return self.profile_orders_at(s, cand, cand.lost_motion_um.max(0.0));
+        }
+        let sharp = self.profile_orders_at(s, cand, 0.0)?;
+        let Some(theta) = self.profile_take_up(s, cand, &sharp) else {
+            return Some(sharp);
+        };
+        self.profile_orders_at(s, cand, theta).or(Some(sharp))
+    }
+
+    /// The whole profile's take-up θ (µm) on the order of `sharp` (its trial taken up at
+    /// once): θ set to the fitted constant coefficient and the fit repeated until they
+    /// agree within 1 % (at most [`theta_search::TAKE_UP_ROUNDS`] passes), kept when it
+    /// fits better than `sharp`. Not searched for a profile that cannot qualify or of a
+    /// mean lost motion ≤ 0. The moments are the candidate's `cand` (of the largest
+    /// order), kept for the orders' fits at the θ found.
+    fn profile_take_up(&self, s: &State, cand: &Candidate, sharp: &Trial) -> Option<f64> {
+        let b0 = match sharp.names.first() {
+            Some(n) if n == "b0" => sharp.coef[0],
+            _ => return None,
+        };
+        if b0 <= 0.0 || !self.may_qualify(s, sharp.ssr, sharp.ncols) {
+            return None;
+        }
+        let cols: Vec<usize> = (0..=sharp.cand.order).collect();
+        let fit = |v: f64| {
+            let mom = self.moments_at(s, cand, v);
+            let (_, keep, jf) = self.fit_moments(&s.fit, mom.select(&cols), false)?;
+            (keep.first() == Some(&0)).then(|| (jf.all.ssr, jf.all.x[0]))
+        };
+        let (mut v, mut best) = (b0, None::<(f64, f64)>);
+        for _ in 0..theta_search::TAKE_UP_ROUNDS {
+            let Some((sv, b)) = fit(v) else { break };
+            if best.is_none_or(|x| sv < x.0) {
+                best = Some((sv, v));
+            }
+            if b <= 0.0 || (b - v).abs() <= 0.01 * v {
+                break;
+            }
+            v = b;
+        }
+        best.map(|x| x.1)
+    }
+
+    /// [`Ctx::try_profile_orders`] with the play taken up over θ (µm; 0: at once).
+    fn profile_orders_at(&self, s: &State, cand: &Candidate, theta: f64) -> Option<Trial> {
+        let specs = catalogue::specs(self.d, cand, theta, s.eps());
+        let mom = self.moments_at(s, cand, theta);
         let from = usize::from(cand.effect == "lost_motion_variation");
+        let theta = (theta > 0.0).then_some((catalogue::TAKE_UP, theta));
         // Every order fitted on all runs; on the folds too when one of them may qualify
         // ([`Ctx::may_qualify`]; none may: the candidate is not chosen whatever its order).
         let mut fits = Vec::new();
@@ -170,7 +224,7 @@ impl Ctx<'_> {
                 order,
                 ..cand.clone()
             };
-            let t = self.trial_of(s, &c, (None, 0), &specs.names, fit);
+            let t = self.trial_of(s, &c, (theta, 0), &specs.names, fit);
             if best
                 .map(|b| &tried[b])
                 .is_none_or(|b| t.dbic < b.dbic && t.heldout_ssr < b.heldout_ssr)

@@ -110,8 +110,9 @@ pub(crate) fn report_parameters(t: &Trial, sigma: f64, d: &Design) -> BTreeMap<S
     let mut p = BTreeMap::new();
     let sd = |i: usize| t.coef_sd[i] * sigma;
     if let Some((name, v)) = t.theta {
-        if name == "take_up_um" {
-            // A play's take-up travel is its lost motion, reported as such.
+        if catalogue::is_own_value(name) {
+            // A play's take-up travel is its lost motion, a lag's second order the lag:
+            // reported as such.
         } else if name == "period_mm" {
             p.insert("period_mm".into(), 1.0 / v);
         } else {

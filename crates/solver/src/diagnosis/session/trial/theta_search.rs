@@ -26,7 +26,7 @@ struct Band {
 }
 
 /// Passes of a play's take-up fixed point ([`Ctx::take_up`]) beyond the sharp switch's.
-const TAKE_UP_ROUNDS: usize = 4;
+pub(super) const TAKE_UP_ROUNDS: usize = 4;
 
 impl Ctx<'_> {
     /// The scan fits each frequency to the current model's residual alone; fitted jointly

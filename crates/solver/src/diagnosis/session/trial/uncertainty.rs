@@ -90,8 +90,8 @@ impl Ctx<'_> {
     /// refit loses a column or θ is a step's time (a place between two samples).
     pub fn coef_slope(&self, s: &State, t: &Trial) -> Option<Vec<f64>> {
         let (name, th) = t.theta?;
-        if name == "take_up_um" {
-            // Not a free parameter: the play's width, b itself.
+        if catalogue::is_own_value(name) {
+            // Not a free parameter: the first coefficient itself (a play's width, a lag).
             return None;
         }
         if name == "time_s" {
@@ -243,8 +243,8 @@ impl Ctx<'_> {
         width_sd: Option<f64>,
     ) -> Option<(&'static str, f64)> {
         let (name, th) = t.theta?;
-        if name == "take_up_um" {
-            // Not a free parameter: the play's width, b itself.
+        if catalogue::is_own_value(name) {
+            // Not a free parameter: the first coefficient itself (a play's width, a lag).
             return None;
         }
         if name == "time_s" {
