@@ -561,26 +561,29 @@ fn motion_columns<'a>(d: &'a Design, c: &Candidate, theta: f64) -> Columns<'a> {
             // Lost motion varying along the travel: −d·P_k(s)/2 on the measured travel
             // (`lost_motion::Profile`), k = 0..=K (the candidate's order); k from 1 for
             // its varying part alone (the constant part, k = 0, is then the axis's
-            // `backlash`). As the backlash's, it follows the play's travel from the turn
-            // ([`play`]: a sample of a smooth motion already past the vertex of its turn
-            // is on the new side), taken up over θ (µm: the whole profile's mean lost
-            // motion by [`Search::TakeUp`]'s fixed point; its varying part's, over the
-            // axis's backlash b̄).
+            // `backlash`). As the backlash's, taken up over θ > 0 it follows the play's
+            // travel from the turn ([`play`]: a sample of a smooth motion already past
+            // the vertex of its turn is on the new side); θ (µm) the whole profile's mean
+            // lost motion by [`Search::TakeUp`]'s fixed point, its varying part's the
+            // axis's backlash b̄; at θ = 0 (a mean ≤ 0), −d/2 at once.
             let a = c.axis.expect("axis");
             let Some(prof) = profile(d, a, c.order) else {
                 return Columns::none();
             };
             let from = usize::from(c.effect == "lost_motion_variation");
-            let (q, travel) = (
-                &d.fields.q_mm[a.index()],
-                &d.fields.play_travel_mm[a.index()],
-            );
+            let i = a.index();
+            let (q, dir) = (&d.fields.q_mm[i], &d.fields.dir[i]);
+            let (travel, w) = (&d.fields.play_travel_mm[i], theta * 1e-3);
             Columns::new(
                 (from..=c.order).map(|k| format!("b{k}")).collect(),
                 vec![Some(a); c.order + 1 - from],
                 move |s, _, o| {
                     let p = crate::basis::Legendre::new(prof.s(q[s]).clamp(-1.0, 1.0));
-                    let side = play(travel[s], theta * 1e-3);
+                    let side = if w > 0.0 {
+                        play(travel[s], w)
+                    } else {
+                        -0.5 * dir[s]
+                    };
                     for (o, (pk, _)) in o.iter_mut().zip(p.skip(from)) {
                         *o = side * pk;
                     }
