@@ -7,8 +7,8 @@
 //! | backlash | −d/2 (d: sign of the axis's last travel), taken up over the first b of travel after a reversal (from +d/2) → lost motion b, µm | take-up θ = b (fixed point) |
 //! | servo_lag_growth, cyclic_growth, reversal_spike_growth, direction_coupling_growth | the finding's own column per unit of its principal value (at its nonlinear value and phase) × (t − t̄)/3600 on the runs that move its axis, once the finding is in the model → growth, per hour (`growth`) | — |
 //! | backlash_growth | −d/2·(t − t̄)/3600 on the runs that move the axis, t the session time (s), once the axis's backlash is in the model → growth g, µm/h (`lost_motion_growth`) | — |
-//! | lost_motion_profile | −d·P_k(s)/2, k = 0..K, s the position on the measured travel → lost motion b(q), µm; k = 1..K alone (its varying part) once the axis's backlash is in the model; the order K chosen by the data (2 … 9) | — |
-//! | servo_lag | −v·10³ → lag τ, s | — |
+//! | lost_motion_profile | −d·P_k(s)/2, k = 0..K, s the position on the measured travel, taken up as a backlash's over θ → lost motion b(q), µm; k = 1..K alone (its varying part, θ the backlash's b̄) once the axis's backlash is in the model; the order K chosen by the data (2 … 9) | take-up θ = b₀ (fixed point) |
+//! | servo_lag | (−v + a·θ/2)·10³, a the set-points' acceleration → lag τ, s | second order θ = τ (fixed point) |
 //! | reversal_spike | −d·exp(−s/λ) → height h, µm | decay λ, mm |
 //! | cyclic | sin, cos(2π q/P) → amplitude, phase | period P, mm |
 //! | thermal_drift | g(t)·q_j·10⁻³ and g(t) per direction j, g = 1 − e^(−t/T) → scale ppm, offset µm | T, s |
@@ -122,11 +122,9 @@ pub enum Search {
     None,
     /// Evaluate the joint fit on each value (few values).
     Grid(&'static str, Vec<f64>),
-    /// A value the candidate's first coefficient is itself, no free parameter: a play's
-    /// take-up travel, the play's own width (θ = the fitted lost motion, [`TAKE_UP`]);
-    /// a lag's second-order term, the lag (θ = the fitted lag, [`LAG_SECOND_ORDER`]). By
-    /// fixed-point iteration from θ = 0 (the sharp switch, the first-order lag), kept
-    /// when it fits better ([`is_own_value`]).
+    /// θ the candidate's own first coefficient, no free parameter ([`is_own_value`]): a
+    /// play's take-up travel, its width b ([`TAKE_UP`]); a lag's second order, τ
+    /// ([`LAG_SECOND_ORDER`]). By fixed point from θ = 0, kept when it fits better.
     TakeUp(&'static str),
     /// A step's time: the most significant step of the current residual along the
     /// candidate's direction (the local scan's rule, `diagnosis::local_scan`), refined on
@@ -147,10 +145,9 @@ pub enum Search {
     },
 }
 
-/// The name of a play's take-up travel θ (µm), its own width ([`Search::TakeUp`]).
+/// The names of a play's take-up travel θ (µm), its own width, and of the lag θ (s) in a
+/// servo lag's second-order term ([`Search::TakeUp`]).
 pub const TAKE_UP: &str = "take_up_um";
-
-/// The name of the lag θ (s) in a servo lag's second-order term ([`Search::TakeUp`]).
 pub const LAG_SECOND_ORDER: &str = "lag_second_order_s";
 
 /// Whether the nonlinear parameter `name` is the candidate's own first coefficient
@@ -561,11 +558,9 @@ fn motion_columns<'a>(d: &'a Design, c: &Candidate, theta: f64) -> Columns<'a> {
             // Lost motion varying along the travel: −d·P_k(s)/2 on the measured travel
             // (`lost_motion::Profile`), k = 0..=K (the candidate's order); k from 1 for
             // its varying part alone (the constant part, k = 0, is then the axis's
-            // `backlash`). As the backlash's, taken up over θ > 0 it follows the play's
-            // travel from the turn ([`play`]: a sample of a smooth motion already past
-            // the vertex of its turn is on the new side); θ (µm) the whole profile's mean
-            // lost motion by [`Search::TakeUp`]'s fixed point, its varying part's the
-            // axis's backlash b̄; at θ = 0 (a mean ≤ 0), −d/2 at once.
+            // `backlash`). As the backlash's, taken up over θ > 0 (µm: the mean lost
+            // motion by fixed point, or the axis's backlash b̄ for the varying part) along
+            // the play's travel from the turn ([`play`]); at θ = 0, −d/2 at once.
             let a = c.axis.expect("axis");
             let Some(prof) = profile(d, a, c.order) else {
                 return Columns::none();
@@ -592,16 +587,14 @@ fn motion_columns<'a>(d: &'a Design, c: &Candidate, theta: f64) -> Columns<'a> {
             .following(a)
         }
         "servo_lag" => {
-            // The lag: the set-point late by τ, q(t − τ) − q(t) = −v·τ + a·τ²/2 − …, the
-            // second order at θ = τ ([`Search::TakeUp`]'s fixed point: τ·(−v + a·θ/2),
-            // one parameter; on a fast circle a·τ²/2 is a scale of the axis's readings
-            // there, 0.2 µm at 4 ms on R50 at 2000 mm/min). And a nuisance at the starts
-            // and stops of the motion, where the
+            // The lag, q(t − τ) − q(t) = −v·τ + a·τ²/2 − …: τ·(−v + a·θ/2) at θ = τ
+            // ([`Search::TakeUp`]; on a fast circle a·τ²/2 scales the readings 0.2 µm at
+            // 4 ms). And a nuisance at the starts and stops of the motion, where the
             // set-points do not tell the velocity ([`super::design::velocity_at_ends`]),
             // one on lines and one on circles: its coefficient takes what the lag does
-            // there (−τ for a smooth path, whose velocity is about the central
-            // difference; 0 for an axis that moves at the feed until it stops), so that
-            // the lag is read where the velocity is known.
+            // there (−τ for a smooth path, about the central difference; 0 for an axis
+            // that moves at the feed until it stops): the lag is read where the velocity
+            // is known.
             let a = c.axis.expect("axis");
             let i = a.index();
             let (vel, ends) = (&d.fields.vel_mm_s[i], &d.fields.vel_ends_mm_s[i]);
