@@ -822,19 +822,35 @@ fn a_common_plate_scale_is_no_finding() {
         .to_vec();
     let session = generate(&setup);
     let r = diagnose_session(&session, &DiagnoseOptions::default()).expect("diagnosis");
-    let plate = |r: &DiagnosisResult| {
-        r.findings
-            .iter()
-            .chain(&r.possible)
-            .filter(|f| f.effect == "plate_scale")
-            .map(|f| f.in_words())
-            .collect::<Vec<_>>()
-    };
-    assert!(plate(&r).is_empty(), "{:?}", plate(&r));
+    assert!(plate_claims(&r).is_empty(), "{:?}", plate_claims(&r));
     let mut alone = generate(&base.setup);
     alone.planes.truncate(1);
     let r = diagnose_session(&alone, &DiagnoseOptions::default()).expect("diagnosis");
-    assert!(plate(&r).is_empty(), "{:?}", plate(&r));
+    assert!(plate_claims(&r).is_empty(), "{:?}", plate_claims(&r));
+}
+
+/// The plate scales `r` claims, found or possible, in words.
+fn plate_claims(r: &DiagnosisResult) -> Vec<String> {
+    r.findings
+        .iter()
+        .chain(&r.possible)
+        .filter(|f| f.effect == "plate_scale")
+        .map(|f| f.in_words())
+        .collect()
+}
+
+/// Case `name` diagnosed on the machine of its seed + 1000·`k`, which must claim no
+/// plate scale: the plate scales it set aside, with their reasons.
+fn plates_set_aside(name: &str, k: u64) -> Vec<String> {
+    let mut setup = cases::named(name).setup.clone();
+    setup.seed += 1000 * k;
+    let r = diagnose_session(&generate(&setup), &DiagnoseOptions::default()).expect("diagnosis");
+    let plate = plate_claims(&r);
+    assert!(plate.is_empty(), "{name} seed {}: {plate:?}", setup.seed);
+    r.rejected
+        .into_iter()
+        .filter(|w| w.starts_with("plate_scale"))
+        .collect()
 }
 
 /// A warm-up of one axis between the mountings is no plate scale: X growing over the
@@ -846,24 +862,10 @@ fn a_common_plate_scale_is_no_finding() {
 fn a_warm_up_of_one_axis_is_no_plate_scale() {
     let mut said = 0;
     for name in ["thermal_x", "thermal_x_backlash_z"] {
-        let base = cases::named(name);
         for k in 0..2 {
-            let mut setup = base.setup.clone();
-            setup.seed += 1000 * k;
-            let r = diagnose_session(&generate(&setup), &DiagnoseOptions::default())
-                .expect("diagnosis");
-            let plate: Vec<String> = r
-                .findings
+            said += plates_set_aside(name, k)
                 .iter()
-                .chain(&r.possible)
-                .filter(|f| f.effect == "plate_scale")
-                .map(|f| f.in_words())
-                .collect();
-            assert!(plate.is_empty(), "{name} seed {}: {plate:?}", setup.seed);
-            said += r
-                .rejected
-                .iter()
-                .filter(|w| w.starts_with("plate_scale") && w.contains("a warm-up of X"))
+                .filter(|w| w.contains("a warm-up of X"))
                 .count();
         }
     }
@@ -879,34 +881,17 @@ fn a_warm_up_of_one_axis_is_no_plate_scale() {
 /// the same test refuses the XY plate too, beside the X reading's scale alone.
 #[test]
 fn a_warm_up_within_a_mounting_is_no_plate_scale() {
-    let cases = [
+    for (name, k) in [
         ("thermal_x12_y6", 0),
         ("thermal_x12_y6", 3),
         ("thermal_x", 0),
-    ];
-    for (name, k) in cases {
-        let mut setup = cases::named(name).setup.clone();
-        setup.seed += 1000 * k;
-        let r =
-            diagnose_session(&generate(&setup), &DiagnoseOptions::default()).expect("diagnosis");
-        let plate: Vec<String> = r
-            .findings
-            .iter()
-            .chain(&r.possible)
-            .filter(|f| f.effect == "plate_scale")
-            .map(|f| f.in_words())
-            .collect();
-        assert!(plate.is_empty(), "{name} seed {}: {plate:?}", setup.seed);
-        let why = r
-            .rejected
+    ] {
+        let aside = plates_set_aside(name, k);
+        let why = aside
             .iter()
             .find(|w| w.starts_with("plate_scale of mounting `xy`"))
-            .unwrap_or_else(|| panic!("{name} seed {}: {:#?}", setup.seed, r.rejected));
-        assert!(
-            why.contains("grows in time"),
-            "{name} seed {}: {why}",
-            setup.seed
-        );
+            .unwrap_or_else(|| panic!("{name} ({k}): {aside:#?}"));
+        assert!(why.contains("grows in time"), "{name} ({k}): {why}");
         if name == "thermal_x12_y6" {
             assert!(
                 !why.contains("alone on its runs"),
