@@ -462,6 +462,43 @@ fn scorer_wants_a_growing_backlash_reported_as_growing() {
     assert_eq!(s.false_labels(), ["backlash_growth (X)"]);
 }
 
+/// One drift reported with no axis finds each warm-up whose axis it scales by 2σ or more
+/// (its parameters name the axes), and no other.
+#[test]
+fn scorer_takes_one_drift_for_every_axis_it_scales() {
+    let warm = |axis| Effect::Thermal {
+        axis,
+        offset_um: 2.0,
+        scale_ppm: 6.0,
+        tau_s: 1200.0,
+    };
+    let mut drift = finding(
+        "thermal_drift",
+        Axis::X,
+        &[("scale_ppm_X", 11.5), ("std_scale_ppm_X", 0.5)],
+    );
+    drift.axis = None;
+    // The time constant undetermined: the scales' spans over the session, as reported.
+    drift.parameters.extend(
+        [
+            ("span_scale_ppm_Y", 4.3),
+            ("std_span_scale_ppm_Y", 0.9),
+            ("span_scale_ppm_Z", -0.4),
+            ("std_span_scale_ppm_Z", 0.5),
+        ]
+        .map(|(k, v)| (k.to_string(), v)),
+    );
+    let both = [warm(Axis::X), warm(Axis::Y)];
+    let s = score(&both, &result(vec![drift.clone()], Verdict::Explained));
+    assert!(s.right(), "{s:?}");
+    // Z's scale is within 2σ of nothing: a warm-up of Z is not found by it.
+    let s = score(
+        &[warm(Axis::X), warm(Axis::Z)],
+        &result(vec![drift], Verdict::Explained),
+    );
+    assert_eq!(s.missed.len(), 1, "{s:?}");
+}
+
 /// Likewise a growing lag, cyclic error and spike: each found only when claimed as
 /// changing, its rate checked within 2σ; a growth claimed of a constant effect is FALSE.
 #[test]
