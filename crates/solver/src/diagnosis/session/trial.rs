@@ -126,7 +126,7 @@ impl Ctx<'_> {
             (w, t) = (0.0, t0);
         }
         let c = with(w);
-        let specs = catalogue::specs(d, &c, t, s.eps());
+        let specs = catalogue::specs(d, &c, t, self.eps(s));
         let k = 1 + usize::from(w > 0.0);
         let fitted = self.fit_candidate(s, self.moments_at(s, &c, t), k)?;
         Some(self.trial_of(s, &c, (Some((name, t)), k), &specs.names, fitted))
@@ -143,7 +143,7 @@ impl Ctx<'_> {
     /// columns do not depend on the model: their moments are kept for the next round
     /// ([`Ctx::moments_kept`]).
     fn try_profile_orders(&self, s: &State, cand: &Candidate) -> Option<Trial> {
-        let specs = catalogue::specs(self.d, cand, 0.0, s.eps());
+        let specs = catalogue::specs(self.d, cand, 0.0, self.eps(s));
         let mom = self.moments_at(s, cand, 0.0);
         let from = usize::from(cand.effect == "lost_motion_variation");
         // Every order fitted on all runs; on the folds too when one of them may qualify
@@ -224,7 +224,7 @@ impl Ctx<'_> {
     fn try_one(&self, s: &State, cand: &Candidate) -> Option<Trial> {
         let (theta, extra, mom) = self.search_theta(s, cand)?;
         let th = theta.map_or(0.0, |t| t.1);
-        let specs = catalogue::specs(self.d, cand, th, s.eps());
+        let specs = catalogue::specs(self.d, cand, th, self.eps(s));
         let mom = match mom {
             Some(mom) => mom,
             None => self.moments_at(s, cand, th),
