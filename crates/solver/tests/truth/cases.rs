@@ -321,6 +321,15 @@ pub fn all() -> Vec<Case> {
             vec![plate(Plane::XZ, -8.0), plate(Plane::YZ, 6.0)],
         ),
         case("plate_xy_10", 102, false, vec![plate(Plane::XY, 10.0)]),
+        // X and Y warming at different rates while the XY plate is mounted first: both
+        // readings of that mounting scale, unlike the others', but growing in time (no
+        // plate scale: the test of constancy in time, not of both readings alike).
+        case(
+            "thermal_x12_y6",
+            103,
+            true,
+            vec![thermal(X, 4.0, 12.0, 1200.0), thermal(Y, 2.0, 6.0, 1200.0)],
+        ),
         // Combinations: pairs of effects, two axes with different sizes.
         case(
             "backlash_x6_lag_y2",

@@ -453,7 +453,29 @@ fn classify(truth: &[Effect], f: &Finding, possible: bool, found: &mut [bool]) -
         };
     };
     found[i] |= finds(&truth[i], &f.effect);
-    let params = truth_params(&truth[i], &f.effect)
+    // A drift reported with no axis finds every warm-up whose axis it scales.
+    let mut named = vec![i];
+    if f.effect == "thermal_drift" && axis.is_none() {
+        for (j, e) in truth.iter().enumerate() {
+            if let Effect::Thermal { axis: a, .. } = e
+                && j != i
+                && drift_scales(f, *a)
+            {
+                found[j] = true;
+                named.push(j);
+            }
+        }
+    }
+    let mut params: Vec<(String, f64)> = Vec::new();
+    for (name, t) in named
+        .iter()
+        .flat_map(|&j| truth_params(&truth[j], &f.effect))
+    {
+        if params.iter().all(|(n, _)| *n != name) {
+            params.push((name, t));
+        }
+    }
+    let params = params
         .into_iter()
         .filter_map(|(name, t)| {
             let got = *f.parameters.get(&name)?;
@@ -473,6 +495,19 @@ fn classify(truth: &[Effect], f: &Finding, possible: bool, found: &mut [bool]) -
         rival_named: false,
         params,
     }
+}
+
+/// Whether a drift finding scales `axis`: its scale along it (or the scale's span over
+/// the session, when the time constant is undetermined) at least 2σ from zero.
+fn drift_scales(f: &Finding, axis: Axis) -> bool {
+    let scale = format!("scale_ppm_{axis}");
+    [format!("span_{scale}"), scale].iter().any(|name| {
+        let std = f.parameters.get(&format!("std_{name}"));
+        f.parameters
+            .get(name)
+            .zip(std)
+            .is_some_and(|(v, s)| v.abs() >= 2.0 * s)
+    })
 }
 
 /// One line of what is wrong with the FALSE claim `label` of a session of `truth`.

@@ -26,7 +26,10 @@
 //! scales (the finding's signature says so). One mounting per axis pair (a single
 //! plane, or planes that share no axis) gives no candidate at all. The engine's
 //! admission (ΔBIC, a held-out gain on whole runs, a determined σ) does the rest: the
-//! greedy search adds first the mounting that explains most, then the next.
+//! greedy search adds first the mounting that explains most, then the next. Before it,
+//! two tests of the form (`session::plates`): both readings scaled alike (not one axis's
+//! scale, [`half`]), and the scale constant in time over the mounting (each reading's,
+//! [`apart`], per quarter of the mounting's time: a warm-up grows, a plate does not).
 //!
 //! Its rivals: the axes' own scales (linear positioning, common to the planes: in the
 //! rigid model), a `thermal_drift` (a scale that changes in time, not from one mounting
@@ -194,6 +197,26 @@ pub(crate) fn columns<'a>(d: &'a Design, c: &Candidate) -> Columns<'a> {
         } else {
             0.0
         };
+    })
+}
+
+/// Mounting `m`'s two halves ([`half`]) side by side: a scale per reading axis of its
+/// runs, one column each in `axes`' order (the constancy test's form, `session::plates`).
+pub(crate) fn apart<'a>(d: &'a Design, m: &str, axes: &[Axis]) -> Columns<'a> {
+    let on: Vec<bool> = d.mountings.iter().map(|x| x == m).collect();
+    let axes = axes.to_vec();
+    let names = axes.iter().map(|a| format!("scale_ppm_{a}")).collect();
+    let read_by = axes.iter().map(|&a| Some(a)).collect();
+    Columns::new(names, read_by, move |s, read, o| {
+        let run = &d.runs[d.fields.run(s)];
+        let i = read.index();
+        for (v, a) in o.iter_mut().zip(&axes) {
+            *v = if on[run.plane_idx] && *a == read {
+                (d.fields.q_mm[i][s] + run.head_mm[i]) * 1e-3
+            } else {
+                0.0
+            };
+        }
     })
 }
 
@@ -371,6 +394,27 @@ mod tests {
                 sum += h[0];
             }
             assert_eq!(sum, o[0]);
+        }
+    }
+
+    /// The mounting's scales apart (the constancy test's form) are its two halves side
+    /// by side.
+    #[test]
+    fn apart_is_the_halves_side_by_side() {
+        let session = seed_session(3);
+        let d = design_of(&session);
+        let m = session.planes[2].mounting.clone();
+        let axes = axes_read(&d, &m);
+        let both = apart(&d, &m, &axes);
+        assert_eq!(both.len(), 2);
+        let halves: Vec<Columns> = axes.iter().map(|&a| columns(&d, &half(&m, a))).collect();
+        let (mut o, mut h) = ([0.0; 2], [0.0]);
+        for row in 0..d.rows() {
+            both.at(&d, row, &mut o);
+            for (j, c) in halves.iter().enumerate() {
+                c.at(&d, row, &mut h);
+                assert_eq!(o[j], h[0]);
+            }
         }
     }
 

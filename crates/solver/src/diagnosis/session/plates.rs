@@ -138,30 +138,121 @@ impl SessionProblem<'_> {
         }
     }
 
-    /// The form test of a plate scale `t` of candidate `c` on the model `s`: a plate
-    /// scales both readings of its mounting alike, so its one column must fit better than
-    /// either reading's scale alone on the same runs (`plate_scale::half`, one parameter
-    /// each). When one axis alone fits as well, the mounting's misfit is that axis's
-    /// scale differing from the other mountings' readings of it — a warm-up of the axis
-    /// between the mountings, not the plate: why the plate is set aside. The plate must
-    /// fit better by the engine's own ΔBIC for admitting an effect (the options'
-    /// `min_bic_gain`, 10 by default: "very strong" evidence, odds of about 150 to one).
-    /// `None` for any other candidate, or when the form holds.
+    /// The form tests of a plate scale `t` of candidate `c` on the model `s`; the reasons
+    /// it is set aside, `None` for any other candidate or when both hold.
+    ///
+    /// - **Both readings alike.** A plate scales both readings of its mounting alike, so
+    ///   its one column must fit better than either reading's scale alone on the same runs
+    ///   (`plate_scale::half`, one parameter each). When one axis alone fits as well, the
+    ///   mounting's misfit is that axis's scale differing from the other mountings'
+    ///   readings of it — a warm-up of the axis between the mountings, not the plate. The
+    ///   plate must fit better by the engine's own ΔBIC for admitting an effect (the
+    ///   options' `min_bic_gain`, 10 by default: "very strong" evidence, odds of about 150
+    ///   to one).
+    /// - **Constant in time.** A plate's scale is its temperature against its
+    ///   certificate's, or the certificate: constant over its mounting, while a warm-up
+    ///   grows in time. Fitted per reading axis with one scale per quarter of the
+    ///   mounting's time ([`Self::plate_constancy`]), scales that change must not gain
+    ///   that same ΔBIC over one constant scale per axis (their extra parameters
+    ///   counted).
     pub(super) fn plate_form_broken(&self, s: &State, c: &Candidate, t: &Trial) -> Option<String> {
         let m = c.mounting.as_deref().filter(|_| c.axis.is_none())?;
         let n = self.ctx.d.rows() as f64;
+        let need = self.ctx.bic_threshold;
         let halves: Vec<(Axis, f64)> = plate_scale::axes_read(self.ctx.d, m)
             .into_iter()
             .filter_map(|a| Some((a, self.ctx.try_candidate(s, &plate_scale::half(m, a))?.ssr)))
             .collect();
-        let (a, ssr) = halves.into_iter().min_by(|x, y| x.1.total_cmp(&y.1))?;
-        let gap = n * (ssr / t.ssr).ln();
-        let need = self.ctx.bic_threshold;
-        (gap < need).then(|| {
-            format!(
-                "{}: a plate scales both readings of its mounting alike, but the {a} reading's scale alone on its runs fits within ΔBIC {gap:+.1} of it (from {need:.0} on a plate): the {a} axis's scale changed between mountings (a warm-up of {a}), not the plate",
-                c.label()
-            )
-        })
+        let mut why = Vec::new();
+        if let Some((a, ssr)) = halves.into_iter().min_by(|x, y| x.1.total_cmp(&y.1)) {
+            let gap = n * (ssr / t.ssr).ln();
+            if gap < need {
+                why.push(format!(
+                    "a plate scales both readings of its mounting alike, but the {a} reading's scale alone on its runs fits within ΔBIC {gap:+.1} of it (from {need:.0} on a plate): the {a} axis's scale changed between mountings (a warm-up of {a}), not the plate"
+                ));
+            }
+        }
+        if let Some(k) = self.plate_constancy(s, m).filter(|k| k.gain >= need) {
+            why.push(k.sentence(need));
+        }
+        (!why.is_empty()).then(|| format!("{}: {}", c.label(), why.join("; ")))
+    }
+
+    /// The constancy test of mounting `m`'s plate scale on the model `s`: the scale of
+    /// each reading axis on the mounting's runs (`plate_scale::apart`: the test of
+    /// both-readings-alike is the form test's), constant, against one per quarter of the
+    /// mounting's recorded time. The plan reads one axis's lines after the other's, so
+    /// a scale per quarter of the plate's one column would read two axes that differ as
+    /// a change in time; per axis it does not. `None` when no axis's scale varies in two
+    /// quarters.
+    fn plate_constancy(&self, s: &State, m: &str) -> Option<Constancy> {
+        let d = self.ctx.d;
+        let times = &d.fields.t_s;
+        let (mut t0, mut t1) = (f64::INFINITY, f64::NEG_INFINITY);
+        for run in d.runs.iter().filter(|r| d.mountings[r.plane_idx] == m) {
+            for &x in &times[run.start..run.end] {
+                (t0, t1) = (t0.min(x), t1.max(x));
+            }
+        }
+        let span = (t1 - t0).max(f64::MIN_POSITIVE);
+        // Samples of other mountings fall in any segment: the columns are 0 there.
+        let segment = move |i: usize| ((times[i] - t0) / span * PLATE_SEGMENTS as f64) as usize;
+        let axes = plate_scale::axes_read(d, m);
+        let (_, keep0, constant) =
+            self.ctx
+                .evaluate(&s.fit, &plate_scale::apart(d, m, &axes), false)?;
+        let split = plate_scale::apart(d, m, &axes).per_segment(PLATE_SEGMENTS, segment);
+        let (_, keep, jf) = self.ctx.evaluate(&s.fit, &split, false)?;
+        let extra = keep.len().checked_sub(keep0.len()).filter(|&k| k > 0)?;
+        let n = d.rows() as f64;
+        let gain = n * (constant.all.ssr / jf.all.ssr).ln() - extra as f64 * n.ln();
+        let sigma = (jf.all.ssr / self.dof.saturating_sub(s.k + keep.len()).max(1) as f64).sqrt();
+        let scales = axes
+            .iter()
+            .enumerate()
+            .map(|(j, &a)| {
+                let quarters = (0..PLATE_SEGMENTS)
+                    .filter_map(|g| {
+                        let i = keep.iter().position(|&k| k == g * axes.len() + j)?;
+                        Some((jf.all.x[i], jf.all.sd[i] * sigma))
+                    })
+                    .collect();
+                (a, quarters)
+            })
+            .collect();
+        Some(Constancy { gain, scales })
+    }
+}
+
+/// Quarters of a mounting's recorded time the constancy test fits its plate scale in.
+const PLATE_SEGMENTS: usize = 4;
+
+/// The constancy test's outcome: the ΔBIC of a scale per quarter of the mounting's time
+/// over one constant scale (its extra parameters counted), and the scale read in each
+/// quarter where it varies, per reading axis (ppm, with its σ).
+struct Constancy {
+    gain: f64,
+    scales: Vec<(Axis, Vec<(f64, f64)>)>,
+}
+
+impl Constancy {
+    /// The sentence a plate scale set aside by the test carries.
+    fn sentence(&self, need: f64) -> String {
+        let scales: Vec<String> = self
+            .scales
+            .iter()
+            .map(|(a, q)| {
+                let q: Vec<String> = q
+                    .iter()
+                    .map(|(k, sd)| format!("{k:.2} ± {sd:.2}"))
+                    .collect();
+                format!("{a} {}", q.join(", "))
+            })
+            .collect();
+        format!(
+            "a plate's scale is constant over its mounting (its temperature or its certificate), but the scale of each reading fitted per quarter of the mounting's time reads {} ppm (ΔBIC {:+.1} for scales that change, from {need:.0}): a scale that grows in time (a warm-up of the axes it reads), not the plate",
+            scales.join("; "),
+            self.gain
+        )
     }
 }
