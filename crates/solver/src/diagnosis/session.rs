@@ -30,12 +30,14 @@ use super::{
 use crate::axis::Topology;
 use crate::error::SolverError;
 use crate::session::Session;
+use again::{Diagnosed, velocity_axes};
 use context::{Ctx, Fit, State};
 use seen::Seen;
 use serde::{Deserialize, Serialize};
 use std::collections::BTreeMap;
 use trial::{Trial, report_parameters};
 
+mod again;
 mod anomalies;
 mod confounded;
 mod context;
@@ -174,12 +176,13 @@ impl SessionProblem<'_> {
             plate_cols: Vec::new(),
             growths: Vec::new(),
             kept: Default::default(),
+            steps: Default::default(),
             prior: std::sync::Mutex::new(prior),
             thermal: Default::default(),
             thermal_prior: std::sync::Mutex::new(thermal_prior),
             path: Vec::new(),
-            eps: (!self.eps_groups.is_empty())
-                .then(|| self.ctx.eps_per_sample(&fit, &self.eps_groups)),
+            eps: Default::default(),
+            eps_groups: self.eps_groups.clone(),
             fit,
             k,
         }
@@ -522,7 +525,9 @@ impl super::engine::Greedy for SessionProblem<'_> {
         // by its σ alone, as above; a local effect (a step, on its run) is not judged by a
         // gain diluted over the session.
         let th = t.theta.map_or(0.0, |x| x.1);
-        let local = catalogue::specs(d, &t.cand, th, s.eps()).run().is_some();
+        let local = catalogue::specs(d, &t.cand, th, self.ctx.eps(s))
+            .run()
+            .is_some();
         let beyond = super::credible::beyond_heldout_gain(size, &finding.heldout_rms_um)
             .filter(|_| !measured && !local);
         let sorted = match (form, beyond) {
@@ -547,8 +552,10 @@ impl super::engine::Greedy for SessionProblem<'_> {
         let th = t.theta.map_or(0.0, |x| x.1);
         // The trial's own form (a logged temperature's lagged or quadratic form).
         let form = &t.cand;
-        let (new_cols, _, _) = catalogue::columns(d, form, th, s.eps());
-        let is_local = catalogue::specs(d, form, th, s.eps()).run().is_some();
+        let (new_cols, _, _) = catalogue::columns(d, form, th, self.ctx.eps(&s));
+        let is_local = catalogue::specs(d, form, th, self.ctx.eps(&s))
+            .run()
+            .is_some();
         let mut cols = std::mem::take(&mut s.fit.cols);
         let mut local = std::mem::take(&mut s.fit.local);
         for mut col in new_cols {
@@ -557,7 +564,7 @@ impl super::engine::Greedy for SessionProblem<'_> {
             cols.push(col);
             local.push(is_local);
         }
-        s.eps = None;
+        s.eps.take();
         s.fit.resid = Vec::new();
         // The model before this one is not searched again: its kept moments go.
         s.prior.get_mut().expect("prior moments").take();
@@ -681,6 +688,8 @@ pub fn diagnose_session_with_progress(
         .unwrap_or_default();
     progress.report("reducing the rigid model", 0.0);
     let d = design::build(session, &topology, opts.order)?;
+    // The session's spectral noise floor, the same for both diagnoses: formed once.
+    let spectral = crate::noise::session_spectral_floor(session);
     let seen = Seen::default();
     let first = diagnose_design(
         session,
@@ -689,17 +698,33 @@ pub fn diagnose_session_with_progress(
         &mut progress,
         (0.0, 0.6),
         (Some(&seen), None),
+        spectral,
     )?;
     drop(d);
-    let axes = velocity_axes(&first);
-    if !axes.contains(&true) {
-        progress.report("done", 1.0);
-        return Ok(first);
-    }
+    let axes = match first {
+        Diagnosed::Done(first) => {
+            progress.report("done", 1.0);
+            return Ok(first);
+        }
+        Diagnosed::Again(axes) => axes,
+    };
     let d = design::build_leaving_out(session, &topology, opts.order, axes)?;
     if d.left_out == 0 {
+        // No sample to leave out: the first diagnosis is the result, with its report
+        // (not formed above), diagnosed again as it was.
+        drop(d);
+        let d = design::build(session, &topology, opts.order)?;
+        let first = diagnose_design(
+            session,
+            opts,
+            &d,
+            &mut progress,
+            (0.6, 1.0),
+            (None, None),
+            spectral,
+        )?;
         progress.report("done", 1.0);
-        return Ok(first);
+        return Ok(first.done());
     }
     progress.report("reducing the rigid model without the ramps' samples", 0.6);
     let mut r = diagnose_design(
@@ -709,7 +734,9 @@ pub fn diagnose_session_with_progress(
         &mut progress,
         (0.6, 1.0),
         (None, Some(&seen)),
-    )?;
+        spectral,
+    )?
+    .done();
     let note = format!(
         "; {} samples inside the starts and stops of the motion, where the set-points do not tell the velocity, left out",
         d.left_out
@@ -721,26 +748,6 @@ pub fn diagnose_session_with_progress(
     }
     progress.report("done", 1.0);
     Ok(r)
-}
-
-/// Per axis, whether a finding or a possible finding of `r` reads its velocity (a servo
-/// lag of the axis, a velocity coupling following it).
-fn velocity_axes(r: &DiagnosisResult) -> [bool; 3] {
-    let mut axes = [false; 3];
-    for f in r.findings.iter().chain(&r.possible) {
-        let axis = match f.effect.as_str() {
-            "servo_lag" => f.axis.as_deref(),
-            "velocity_coupling" => f.depends_on.as_deref(),
-            _ => None,
-        };
-        if let Some(a) = crate::axis::Axis::ALL
-            .into_iter()
-            .find(|a| axis.is_some_and(|x| x == a.to_string()))
-        {
-            axes[a.index()] = true;
-        }
-    }
-    axes
 }
 
 /// What the rigid model alone gives the report.
@@ -801,7 +808,8 @@ fn diagnose_design(
     progress: &mut Monotone,
     span: (f64, f64),
     seen: (Option<&Seen>, Option<&Seen>),
-) -> Result<DiagnosisResult, SolverError> {
+    spectral: Option<(f64, usize)>,
+) -> Result<Diagnosed, SolverError> {
     let folds = opts.folds.max(2);
     let red = Reduction::new(session, d);
     let sets = Sets::new(d, &red, folds);
@@ -821,7 +829,6 @@ fn diagnose_design(
     // The floor is the spectral one when a run is long enough for the spectrum; the
     // differences of repeated passes (`noise::session_floor`'s check) otherwise, and for
     // the note, which only a misfit left above the floor needs: computed then.
-    let spectral = crate::noise::session_spectral_floor(session);
     let checked = std::cell::OnceCell::new();
     let noise_floor = || {
         *checked.get_or_init(|| {
@@ -883,6 +890,10 @@ fn diagnose_design(
         }
     }
     problem.restate_plates(&o.state, &mut findings);
+    let axes = velocity_axes(findings.iter().chain(&possible));
+    if seen.0.is_some() && axes.contains(&true) {
+        return Ok(Diagnosed::Again(axes));
+    }
     // All the report reads of the final model: the rest of its state (accepted columns,
     // kept moments, rotation errors, thermal basis) is freed before the report's scans.
     let (resid, heldout_ssr) = o.state.into_residual();
@@ -919,7 +930,7 @@ fn diagnose_design(
         ));
     }
     let plots = plots::plots(d, rigid.before, plots::Series::of(d, &resid, "after"));
-    Ok(DiagnosisResult {
+    Ok(Diagnosed::Done(DiagnosisResult {
         kind: "diagnosis".into(),
         machine_id: session.machine_id.clone(),
         source: "session".into(),
@@ -935,7 +946,7 @@ fn diagnose_design(
         verdict,
         unexplained,
         plots,
-    })
+    }))
 }
 
 /// The final model's local anomalies in words (at most 6), each saying whether they

@@ -134,7 +134,13 @@ pub(crate) struct Fit {
 pub(crate) struct State {
     pub fit: Fit,
     pub k: usize,
-    pub eps: Option<Vec<[f64; 3]>>,
+    /// The rigid model's rotation errors at every sample ([`Ctx::eps`]), formed when
+    /// a candidate first reads them: none of a round's candidates may (a second
+    /// diagnosis spares the setup offsets where the first saw no evidence of them).
+    pub eps: std::sync::OnceLock<Option<Vec<[f64; 3]>>>,
+    /// The head offsets of the setup-offset candidates, whose columns read them (none:
+    /// not needed).
+    pub eps_groups: Vec<[f64; 3]>,
     /// Per axis: the constant lost motion of its `backlash` finding in the model (value
     /// and σ, µm), which a position-dependent profile of that axis refines.
     pub backlash: [Option<(f64, f64)>; 3],
@@ -165,14 +171,13 @@ pub(crate) struct State {
     pub thermal_prior: std::sync::Mutex<Option<(Arc<ThermalBasis>, usize)>>,
     /// The candidates admitted into this model, in order (the round it starts).
     pub path: Vec<Candidate>,
+    /// Per direction: the residual's most significant step along it, which a step and a
+    /// transient of that direction both start from, scanned once on this model
+    /// ([`Ctx::step_of`]).
+    pub steps: [std::sync::OnceLock<Option<(usize, usize)>>; 3],
 }
 
 impl State {
-    /// Σ_k ε_k(q_k) (µrad) per sample, for the setup-offset candidates.
-    pub fn eps(&self) -> Option<&[[f64; 3]]> {
-        self.eps.as_deref()
-    }
-
     /// The model's residual on all rows and its held-out sum of squares, the rest of the
     /// state (columns, moments, rotation errors) freed.
     pub fn into_residual(self) -> (Vec<f64>, f64) {
@@ -291,7 +296,7 @@ impl<'a> Ctx<'a> {
     /// rows where its columns may vary ([`Ctx::moments_kept`]; the setup offset's columns
     /// follow the model's rotations: formed afresh).
     pub fn moments_at(&self, s: &State, cand: &Candidate, theta: f64) -> Arc<Moments> {
-        let specs = catalogue::specs(self.d, cand, theta, s.eps());
+        let specs = catalogue::specs(self.d, cand, theta, self.eps(s));
         if cand.effect == "setup_offset" {
             return Arc::new(self.moments(&s.fit, &specs));
         }
@@ -476,6 +481,16 @@ impl<'a> Ctx<'a> {
             .collect()
     }
 
+    /// Σ_k ε_k(q_k) (µrad) per sample on the model `s`, for the setup-offset candidates
+    /// ([`Ctx::eps_per_sample`] of its fit and groups), formed on the first call.
+    pub fn eps<'s>(&self, s: &'s State) -> Option<&'s [[f64; 3]]> {
+        s.eps
+            .get_or_init(|| {
+                (!s.eps_groups.is_empty()).then(|| self.eps_per_sample(&s.fit, &s.eps_groups))
+            })
+            .as_deref()
+    }
+
     /// Σ_k ε_k(q_k) (µrad) at every sample of the runs whose head offset is one of
     /// `groups`, from the fit's error parameters; 0 on the other runs (the setup-offset
     /// columns, which alone read it, are 0 there).
@@ -525,7 +540,8 @@ mod tests {
         State {
             fit,
             k: 0,
-            eps: None,
+            eps: Default::default(),
+            eps_groups: Vec::new(),
             backlash: [None; 3],
             profiled: [false; 3],
             grown: [false; 3],
@@ -533,6 +549,7 @@ mod tests {
             plate_cols: Vec::new(),
             growths: Vec::new(),
             kept: Default::default(),
+            steps: Default::default(),
             prior: std::sync::Mutex::new(prior),
             thermal: Default::default(),
             thermal_prior: Default::default(),

@@ -126,7 +126,7 @@ impl Ctx<'_> {
             (w, t) = (0.0, t0);
         }
         let c = with(w);
-        let specs = catalogue::specs(d, &c, t, s.eps());
+        let specs = catalogue::specs(d, &c, t, self.eps(s));
         let k = 1 + usize::from(w > 0.0);
         let fitted = self.fit_candidate(s, self.moments_at(s, &c, t), k)?;
         Some(self.trial_of(s, &c, (Some((name, t)), k), &specs.names, fitted))
@@ -196,7 +196,7 @@ impl Ctx<'_> {
 
     /// [`Ctx::try_profile_orders`] with the play taken up over θ (µm; 0: at once).
     fn profile_orders_at(&self, s: &State, cand: &Candidate, theta: f64) -> Option<Trial> {
-        let specs = catalogue::specs(self.d, cand, theta, s.eps());
+        let specs = catalogue::specs(self.d, cand, theta, self.eps(s));
         let mom = self.moments_at(s, cand, theta);
         let from = usize::from(cand.effect == "lost_motion_variation");
         let theta = (theta > 0.0).then_some((catalogue::TAKE_UP, theta));
@@ -278,7 +278,7 @@ impl Ctx<'_> {
     fn try_one(&self, s: &State, cand: &Candidate) -> Option<Trial> {
         let (theta, extra, mom) = self.search_theta(s, cand)?;
         let th = theta.map_or(0.0, |t| t.1);
-        let specs = catalogue::specs(self.d, cand, th, s.eps());
+        let specs = catalogue::specs(self.d, cand, th, self.eps(s));
         let mom = match mom {
             Some(mom) => mom,
             None => self.moments_at(s, cand, th),

@@ -86,7 +86,7 @@ impl Ctx<'_> {
     /// than one column, or whose column varies in one place only.
     pub fn form_test(&self, s: &State, t: &Trial, sigma: f64) -> Option<FormTest> {
         let th = t.theta.map_or(0.0, |x| x.1);
-        let specs = catalogue::split(self.d, &t.cand, th, s.eps())?;
+        let specs = catalogue::split(self.d, &t.cand, th, self.eps(s))?;
         let (_, keep, jf) = self.evaluate(&s.fit, &specs, false)?;
         // The places' columns, not the nuisance ones that follow them.
         let n_places = catalogue::SPLIT_PLACES.len();

@@ -51,7 +51,7 @@ impl Ctx<'_> {
     /// in one segment only.
     pub fn stationarity(&self, s: &State, t: &Trial, sigma: f64) -> Option<Stationarity> {
         let th = t.theta.map_or(0.0, |x| x.1);
-        let inner = catalogue::specs(self.d, &t.cand, th, s.eps());
+        let inner = catalogue::specs(self.d, &t.cand, th, self.eps(s));
         let m = inner.len();
         if m == 0 || m > catalogue::SPLIT_MAX_COLUMNS {
             return None;

@@ -126,7 +126,7 @@ impl Ctx<'_> {
                     (true, _) => self.basis_ssr(s, lag, v),
                     (false, Some(near)) => {
                         let reach = catalogue::reach(cand, v).map_or(f64::INFINITY, |r| r.1);
-                        let specs = catalogue::specs(d, cand, v, s.eps());
+                        let specs = catalogue::specs(d, cand, v, self.eps(s));
                         let mom =
                             self.moments_kept(s, (cand, Visit::Near, v), &specs, |g, _, out| {
                                 out.extend(near[g].iter().filter(|p| p.1 < reach).map(|p| p.0))
@@ -167,7 +167,7 @@ impl Ctx<'_> {
                 (theta.map(|v| (name, v)), 0, Some(mom))
             }
             Search::Step => {
-                let (g, k) = self.most_significant_step(&f.resid, cand.direction?)?;
+                let (g, k) = self.step_of(s, cand.direction?)?;
                 // The exact joint fit at the scanned place and three samples either side.
                 let start = d.runs[g].start;
                 let n = d.runs[g].end - start;
@@ -270,6 +270,14 @@ impl Ctx<'_> {
             Some((sv, v, m)) if sv < s0 => (Some(v), m),
             _ => (None, m0),
         })
+    }
+
+    /// [`Ctx::most_significant_step`] of the residual of the model `s` along `dir`, scanned
+    /// on the first call and kept on the state for the other candidates that start from
+    /// it (a step's and a transient's of that direction: the same scan of the same
+    /// residual).
+    pub(super) fn step_of(&self, s: &State, dir: Axis) -> Option<(usize, usize)> {
+        *s.steps[dir.index()].get_or_init(|| self.most_significant_step(&s.fit.resid, dir))
     }
 
     /// The most significant step of the residual `r` along direction `dir` over every

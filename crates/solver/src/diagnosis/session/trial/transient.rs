@@ -25,7 +25,7 @@ impl Ctx<'_> {
     /// excursion's): no transient. Its parameters are the amplitude (linear), t₀ and τ (two searched).
     pub(super) fn try_transient(&self, s: &State, cand: &Candidate) -> Option<Trial> {
         let d = self.d;
-        let (g, k) = self.most_significant_step(&s.fit.resid, cand.direction?)?;
+        let (g, k) = self.step_of(s, cand.direction?)?;
         let (start, n) = (d.runs[g].start, d.runs[g].end - d.runs[g].start);
         let with = |tau: f64| Candidate {
             width_s: tau,
@@ -68,7 +68,7 @@ impl Ctx<'_> {
             return None;
         }
         let c = with(tau);
-        let specs = catalogue::specs(d, &c, t0, s.eps());
+        let specs = catalogue::specs(d, &c, t0, self.eps(s));
         let fitted = self.fit_candidate(s, self.moments_at(s, &c, t0), 2)?;
         Some(self.trial_of(s, &c, (Some(("time_s", t0)), 2), &specs.names, fitted))
     }

@@ -72,7 +72,7 @@ impl Ctx<'_> {
             let near = |tau: f64| self.basis_ssr(s, true, tau) <= limit;
             let within = |tau: f64| self.ssr_at(s, &lag.cand, tau) <= limit;
             let up = confirmed(walk, &near, &within);
-            let specs = catalogue::specs(self.d, &lag.cand, up, s.eps());
+            let specs = catalogue::specs(self.d, &lag.cand, up, self.eps(s));
             if let Some((_, keep, jf)) =
                 self.fit_moments(&s.fit, self.moments_at(s, &lag.cand, up), false)
             {
