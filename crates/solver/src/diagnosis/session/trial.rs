@@ -145,7 +145,7 @@ impl Ctx<'_> {
     /// varying part over the axis's backlash b̄ in the model; the whole profile over its
     /// own mean lost motion (its constant coefficient), by the backlash's fixed point from
     /// the sharp switch on the order chosen there ([`Ctx::profile_take_up`]), the orders
-    /// chosen again at it when it fits better. Taken up at once, a sample of a circle just
+    /// chosen again at it. Taken up at once, a sample of a circle just
     /// past an axis's turn (a few µm of its travel) read the whole lost motion. The
     /// columns at one θ do not depend on the model: their moments are kept for the next
     /// round ([`Ctx::moments_kept`]).
@@ -161,10 +161,10 @@ impl Ctx<'_> {
     }
 
     /// The whole profile's take-up θ (µm) on the order of `sharp` (its trial taken up at
-    /// once): θ set to the fitted constant coefficient and the fit repeated until they
-    /// agree within 1 % (at most [`theta_search::TAKE_UP_ROUNDS`] passes), kept when it
-    /// fits better than `sharp`. Not searched for a profile that cannot qualify or of a
-    /// mean lost motion ≤ 0. The moments are the candidate's `cand` (of the largest
+    /// once): the backlash's fixed point ([`theta_search::take_up_fixed_point`]) on the
+    /// constant coefficient, its pass of least SSR taken even where `sharp` fits better
+    /// (the play's width is its physics, not a choice of the fit). Not searched for a
+    /// profile that cannot qualify or of a mean lost motion ≤ 0. The moments are the candidate's `cand` (of the largest
     /// order), kept for the orders' fits at the θ found.
     fn profile_take_up(&self, s: &State, cand: &Candidate, sharp: &Trial) -> Option<f64> {
         let b0 = match sharp.names.first() {
@@ -178,20 +178,9 @@ impl Ctx<'_> {
         let fit = |v: f64| {
             let mom = self.moments_at(s, cand, v);
             let (_, keep, jf) = self.fit_moments(&s.fit, mom.select(&cols), false)?;
-            (keep.first() == Some(&0)).then(|| (jf.all.ssr, jf.all.x[0]))
+            (keep.first() == Some(&0)).then(|| (jf.all.ssr, jf.all.x[0], ()))
         };
-        let (mut v, mut best) = (b0, None::<(f64, f64)>);
-        for _ in 0..theta_search::TAKE_UP_ROUNDS {
-            let Some((sv, b)) = fit(v) else { break };
-            if best.is_none_or(|x| sv < x.0) {
-                best = Some((sv, v));
-            }
-            if b <= 0.0 || (b - v).abs() <= 0.01 * v {
-                break;
-            }
-            v = b;
-        }
-        best.map(|x| x.1)
+        theta_search::take_up_fixed_point(b0, fit).map(|x| x.1)
     }
 
     /// [`Ctx::try_profile_orders`] with the play taken up over θ (µm; 0: at once).

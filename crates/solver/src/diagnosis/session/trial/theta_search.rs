@@ -25,8 +25,32 @@ struct Band {
     in_time: bool,
 }
 
-/// Passes of a play's take-up fixed point ([`Ctx::take_up`]) beyond the sharp switch's.
-pub(super) const TAKE_UP_ROUNDS: usize = 4;
+/// Passes of a play's take-up fixed point ([`take_up_fixed_point`]) beyond the sharp
+/// switch's.
+const TAKE_UP_ROUNDS: usize = 4;
+
+/// A take-up's fixed point from `b0`, the first coefficient fitted with the play taken
+/// up at once: θ set to the first coefficient `fit(θ)` gives and the fit repeated until
+/// they agree within 1 % or it is ≤ 0 (at most [`TAKE_UP_ROUNDS`] passes). The pass of
+/// least sum of squares, as (SSR, θ, what `fit` gave with them); `None` when no pass fits.
+/// `fit(θ)`: (SSR, first coefficient, payload).
+pub(super) fn take_up_fixed_point<T>(
+    b0: f64,
+    fit: impl Fn(f64) -> Option<(f64, f64, T)>,
+) -> Option<(f64, f64, T)> {
+    let (mut v, mut best) = (b0, None::<(f64, f64, T)>);
+    for _ in 0..TAKE_UP_ROUNDS {
+        let Some((sv, b, m)) = fit(v) else { break };
+        if best.as_ref().is_none_or(|x| sv < x.0) {
+            best = Some((sv, v, m));
+        }
+        if b <= 0.0 || (b - v).abs() <= 0.01 * v {
+            break;
+        }
+        v = b;
+    }
+    best
+}
 
 impl Ctx<'_> {
     /// The scan fits each frequency to the current model's residual alone; fitted jointly
@@ -255,18 +279,7 @@ impl Ctx<'_> {
         if n * (s0 / s.fit.ssr).ln() + n.ln() >= 0.0 || b0 <= 0.0 {
             return Some((None, m0));
         }
-        let (mut v, mut best) = (b0, None::<(f64, f64, Arc<Moments>)>);
-        for _ in 0..TAKE_UP_ROUNDS {
-            let Some((sv, b, m)) = fit(v) else { break };
-            if best.as_ref().is_none_or(|x| sv < x.0) {
-                best = Some((sv, v, m));
-            }
-            if b <= 0.0 || (b - v).abs() <= 0.01 * v {
-                break;
-            }
-            v = b;
-        }
-        Some(match best {
+        Some(match take_up_fixed_point(b0, fit) {
             Some((sv, v, m)) if sv < s0 => (Some(v), m),
             _ => (None, m0),
         })
