@@ -419,10 +419,10 @@ impl<'a> Columns<'a> {
         Columns::new(Vec::new(), Vec::new(), |_, _, _| {})
     }
 
-    /// The same columns (at most [`SPLIT_MAX_COLUMNS`]) with a coefficient per segment:
-    /// `k` copies of each, the copy of segment `segment(sample)` (below `k`) carrying its
-    /// value and the others 0.
-    pub(crate) fn per_segment(self, k: usize, segment: impl Fn(usize) -> usize + 'a) -> Self {
+    /// The columns (at most [`SPLIT_MAX_COLUMNS`]) in `k` copies, one per equal part of the
+    /// time span `t0..t1` (s): a sample's value in its time's part (clamped), 0 in the others.
+    pub(crate) fn per_segment(self, k: usize, times: &'a [f64], (t0, t1): (f64, f64)) -> Self {
+        let span = (t1 - t0).max(f64::MIN_POSITIVE);
         let m = self.len();
         let names = (1..=k)
             .flat_map(|g| self.names.iter().map(move |n| format!("{n} (segment {g})")))
@@ -437,7 +437,7 @@ impl<'a> Columns<'a> {
             let mut v = [0.0; SPLIT_MAX_COLUMNS];
             fill(s, read, &mut v[..m]);
             o.iter_mut().for_each(|x| *x = 0.0);
-            let g = segment(s).min(k - 1);
+            let g = (((times[s] - t0) / span * k as f64) as usize).min(k - 1);
             o[g * m..(g + 1) * m].copy_from_slice(&v[..m]);
         })
     }

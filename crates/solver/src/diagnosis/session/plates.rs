@@ -194,14 +194,11 @@ impl SessionProblem<'_> {
                 (t0, t1) = (t0.min(x), t1.max(x));
             }
         }
-        let span = (t1 - t0).max(f64::MIN_POSITIVE);
-        // Samples of other mountings fall in any segment: the columns are 0 there.
-        let segment = move |i: usize| ((times[i] - t0) / span * PLATE_SEGMENTS as f64) as usize;
         let axes = plate_scale::axes_read(d, m);
-        let (_, keep0, constant) =
-            self.ctx
-                .evaluate(&s.fit, &plate_scale::apart(d, m, &axes), false)?;
-        let split = plate_scale::apart(d, m, &axes).per_segment(PLATE_SEGMENTS, segment);
+        let apart = plate_scale::apart(d, m, &axes);
+        let (_, keep0, constant) = self.ctx.evaluate(&s.fit, &apart, false)?;
+        // Samples of other mountings fall in any segment: the columns are 0 there.
+        let split = apart.per_segment(PLATE_SEGMENTS, times, (t0, t1));
         let (_, keep, jf) = self.ctx.evaluate(&s.fit, &split, false)?;
         let extra = keep.len().checked_sub(keep0.len()).filter(|&k| k > 0)?;
         let n = d.rows() as f64;

@@ -59,9 +59,7 @@ impl Ctx<'_> {
         let times = &self.d.fields.t_s;
         let t0 = times.iter().copied().fold(f64::INFINITY, f64::min);
         let t1 = times.iter().copied().fold(f64::NEG_INFINITY, f64::max);
-        let span = (t1 - t0).max(f64::MIN_POSITIVE);
-        let segment = move |i: usize| ((times[i] - t0) / span * SEGMENTS as f64) as usize;
-        let specs = inner.per_segment(SEGMENTS, segment);
+        let specs = inner.per_segment(SEGMENTS, times, (t0, t1));
         let (_, keep, jf) = self.evaluate(&s.fit, &specs, false)?;
         let dof = keep.len().checked_sub(m).filter(|&k| k > 0)?;
         let (chi2, p) = lack_of_fit(t.ssr, jf.all.ssr, sigma, dof)?;
