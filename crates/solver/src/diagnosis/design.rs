@@ -316,12 +316,9 @@ fn velocity_state(t: &[f64], q: &[[f64; 3]], i: usize) -> [(f64, f64, bool, f64)
     // 10 % for about ten samples and the larger one read the lag 2.5 % low), not the
     // acceleration spike of a start or a stop.
     let smooth = |k: usize| {
-        if i < 2 || i + 2 >= n {
-            return false;
-        }
-        let (bb, b, f, ff) = (diff(k, i - 2), diff(k, i - 1), diff(k, i), diff(k, i + 1));
-        let (before, at, after) = (b - bb, f - b, ff - f);
-        (before - at).abs() <= 0.5 * at.abs() && (after - at).abs() <= 0.5 * at.abs()
+        i >= 2
+            && i + 2 < n
+            && smooth_steps([diff(k, i - 2), diff(k, i - 1), diff(k, i), diff(k, i + 1)])
     };
     // On a smooth or steady path sampled evenly, the five-point difference: the central one reads
     // a circle's velocity low by (ω·dt)²/6 (0.07 % at 2000 mm/min on R50 at 10 Hz, which
@@ -335,15 +332,8 @@ fn velocity_state(t: &[f64], q: &[[f64; 3]], i: usize) -> [(f64, f64, bool, f64)
                 .all(|h| (h - dt).abs() <= 1e-9 * dt.abs());
         // Smooth, or steady over the four steps (a cruise, or a circle near the axis's
         // fastest, where `smooth` does not hold): no start or stop among them.
-        let steady = || {
-            let d = [diff(k, i - 2), diff(k, i - 1), diff(k, i), diff(k, i + 1)];
-            let (lo, hi) = d
-                .iter()
-                .fold((f64::INFINITY, f64::NEG_INFINITY), |(l, h), &x| {
-                    (l.min(x), h.max(x))
-                });
-            lo * hi > 0.0 && hi - lo <= STEADY * lo.abs().max(hi.abs())
-        };
+        let steady =
+            || steady_steps([diff(k, i - 2), diff(k, i - 1), diff(k, i), diff(k, i + 1)]).1;
         (even && (smooth(k) || steady())).then(|| {
             let (p1, m1, p2, m2) = (q[i + 1][k], q[i - 1][k], q[i + 2][k], q[i - 2][k]);
             (
@@ -393,6 +383,30 @@ fn velocity_state(t: &[f64], q: &[[f64; 3]], i: usize) -> [(f64, f64, bool, f64)
     })
 }
 
+/// Of four successive differences of an axis's set-points (evenly spaced): whether they
+/// go one way, and whether they are steady (one way and within [`STEADY`] of each other:
+/// a cruise, or a circle near the axis's fastest; no start or stop among them).
+fn steady_steps(d: [f64; 4]) -> (bool, bool) {
+    let (lo, hi) = d
+        .iter()
+        .fold((f64::INFINITY, f64::NEG_INFINITY), |(l, h), &x| {
+            (l.min(x), h.max(x))
+        });
+    let one_way = lo * hi > 0.0;
+    (
+        one_way,
+        one_way && hi - lo <= STEADY * lo.abs().max(hi.abs()),
+    )
+}
+
+/// Of four successive differences (evenly spaced): whether the change across the middle
+/// is within half of it of the changes before and after (a steady acceleration, as around
+/// a circle's reversal of the axis), not the acceleration spike of a start or a stop.
+fn smooth_steps(d: [f64; 4]) -> bool {
+    let (before, at, after) = (d[1] - d[0], d[2] - d[1], d[3] - d[2]);
+    (before - at).abs() <= 0.5 * at.abs() && (after - at).abs() <= 0.5 * at.abs()
+}
+
 /// Velocity and acceleration of axis `k` at a sample i where the set-points tell the
 /// velocity but the five-point stencil around it reaches into a start or a stop (a ramp
 /// longer than a sample interval, as a fast circle's, whose end bends the difference
@@ -411,17 +425,8 @@ fn one_sided(t: &[f64], q: &[[f64; 3]], i: usize, k: usize) -> Option<(f64, f64)
             .all(|w| ((t[w[1]] - t[w[0]]) * sgn as f64 - h).abs() <= 1e-9 * h.abs());
         let x = idx.map(|j| q[j][k]);
         let d = [x[1] - x[0], x[2] - x[1], x[3] - x[2], x[4] - x[3]];
-        let c = [d[1] - d[0], d[2] - d[1], d[3] - d[2]];
-        let (lo, hi) = d
-            .iter()
-            .fold((f64::INFINITY, f64::NEG_INFINITY), |(l, u), &v| {
-                (l.min(v), u.max(v))
-            });
-        let one_way = lo * hi > 0.0;
-        let steady = hi - lo <= STEADY * lo.abs().max(hi.abs());
-        let smooth =
-            (c[0] - c[1]).abs() <= 0.5 * c[1].abs() && (c[2] - c[1]).abs() <= 0.5 * c[1].abs();
-        (h > 0.0 && even && one_way && (steady || smooth)).then(|| {
+        let (one_way, steady) = steady_steps(d);
+        (h > 0.0 && even && (steady || (one_way && smooth_steps(d)))).then(|| {
             let v = (-11.0 * x[0] + 18.0 * x[1] - 9.0 * x[2] + 2.0 * x[3]) / (6.0 * h);
             let a = (2.0 * x[0] - 5.0 * x[1] + 4.0 * x[2] - x[3]) / (h * h);
             (v * sgn as f64, a)
