@@ -186,36 +186,44 @@ pub(crate) fn columns<'a>(d: &'a Design, c: &Candidate) -> Columns<'a> {
     let Some(m) = c.mounting.clone() else {
         return Columns::new(Vec::new(), Vec::new(), |_, _, _| {});
     };
-    let on: Vec<bool> = d.mountings.iter().map(|x| *x == m).collect();
+    let reading = reading_on(d, &m);
     // A half (`half`) reads along its axis only.
     let only = c.axis;
     Columns::new(vec!["scale_ppm".into()], vec![None], move |s, read, o| {
-        let run = &d.runs[d.fields.run(s)];
-        let i = read.index();
-        o[0] = if on[run.plane_idx] && only.is_none_or(|a| a == read) {
-            (d.fields.q_mm[i][s] + run.head_mm[i]) * 1e-3
+        o[0] = if only.is_none_or(|a| a == read) {
+            reading(s, read)
         } else {
             0.0
         };
     })
 }
 
+/// The column of a scale of mounting `m`'s plate at a sample read along an axis: the head
+/// position along it, (q + head offset)·10⁻³ (a scale in ppm, µm), on the mounting's runs;
+/// 0 on the others.
+fn reading_on<'a>(d: &'a Design, m: &str) -> impl Fn(usize, Axis) -> f64 + 'a {
+    let on: Vec<bool> = d.mountings.iter().map(|x| x == m).collect();
+    move |s, read| {
+        let run = &d.runs[d.fields.run(s)];
+        let i = read.index();
+        if on[run.plane_idx] {
+            (d.fields.q_mm[i][s] + run.head_mm[i]) * 1e-3
+        } else {
+            0.0
+        }
+    }
+}
+
 /// Mounting `m`'s two halves ([`half`]) side by side: a scale per reading axis of its
 /// runs, one column each in `axes`' order (the constancy test's form, `session::plates`).
 pub(crate) fn apart<'a>(d: &'a Design, m: &str, axes: &[Axis]) -> Columns<'a> {
-    let on: Vec<bool> = d.mountings.iter().map(|x| x == m).collect();
+    let reading = reading_on(d, m);
     let axes = axes.to_vec();
     let names = axes.iter().map(|a| format!("scale_ppm_{a}")).collect();
     let read_by = axes.iter().map(|&a| Some(a)).collect();
     Columns::new(names, read_by, move |s, read, o| {
-        let run = &d.runs[d.fields.run(s)];
-        let i = read.index();
         for (v, a) in o.iter_mut().zip(&axes) {
-            *v = if on[run.plane_idx] && *a == read {
-                (d.fields.q_mm[i][s] + run.head_mm[i]) * 1e-3
-            } else {
-                0.0
-            };
+            *v = if *a == read { reading(s, read) } else { 0.0 };
         }
     })
 }
