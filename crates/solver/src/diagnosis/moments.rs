@@ -170,12 +170,19 @@ impl Moments {
             lo.fill([f64::INFINITY; 2]);
             hi.fill([f64::NEG_INFINITY; 2]);
             count.fill([0; 2]);
-            let w = if rs.rows == 0 { 0 } else { rs.row(0).1.len() };
+            let w = rs.width();
             let live = pass.gather((g, rs), extra, true, &mut rows, &mut fill);
             for (comp, d) in pass.dirs.iter().enumerate() {
                 let Some(off) = d.off else { continue };
+                // Every row of the direction visited: its basis block as it is stored.
+                let q = if pass.full[comp] {
+                    rs.direction(comp).1
+                } else {
+                    &d.q[..]
+                };
                 let stats = wide(DirectionMoments {
                     d,
+                    q,
                     off,
                     live: &live[comp],
                     dims: (m, w, u, r),
@@ -446,6 +453,8 @@ pub fn live_directions(
 /// column's [`column_stats`].
 struct DirectionMoments<'a> {
     d: &'a Gathered,
+    /// The w basis columns of the gathered rows (k values each, column after column).
+    q: &'a [f64],
     off: usize,
     /// The base columns gathered (nonzero on this direction's rows), in order.
     live: &'a [usize],
@@ -460,7 +469,12 @@ impl pulp::WithSimd for DirectionMoments<'_> {
     #[inline(always)]
     fn with_simd<S: pulp::Simd>(self, _: S) -> Self::Output {
         let DirectionMoments {
-            d, off, live, rm, ..
+            d,
+            q,
+            off,
+            live,
+            rm,
+            ..
         } = self;
         let (m, w, u, r) = self.dims;
         let k = d.k;
@@ -470,7 +484,7 @@ impl pulp::WithSimd for DirectionMoments<'_> {
         for (a, &j) in nz.iter().enumerate() {
             let xj = Gathered::col(&d.x, k, j);
             for t in 0..w {
-                rm.z[j * r + off + t] += dot_lanes(xj, Gathered::col(&d.q, k, t));
+                rm.z[j * r + off + t] += dot_lanes(xj, Gathered::col(q, k, t));
             }
             // The upper triangle only (the lower is its mirror).
             for &l in &nz[a..] {
@@ -527,12 +541,16 @@ struct Gathered {
     u: Vec<f64>,
 }
 
-/// Scratch of one pass over the runs: the rows a run visits, one row's column values, and
-/// the visited rows gathered per reading direction (even rows, odd rows).
+/// Scratch of one pass over the runs: the rows a run visits, one row's column and basis
+/// values, and the visited rows gathered per reading direction (even rows, odd rows),
+/// with whether every row of a direction is visited (its basis values are then read
+/// from the run's block, [`RunSpace::direction`], not gathered).
 struct Pass {
     visit: Vec<usize>,
     vals: Vec<f64>,
+    qrow: Vec<f64>,
     dirs: [Gathered; 2],
+    full: [bool; 2],
 }
 
 impl Pass {
@@ -540,14 +558,17 @@ impl Pass {
         Pass {
             visit: Vec::new(),
             vals: vec![0.0; m],
+            qrow: Vec::new(),
             dirs: [Gathered::default(), Gathered::default()],
+            full: [false; 2],
         }
     }
 
     /// Gathers run g's rows that `rows` visits into `dirs`, by column: the m columns'
     /// values from `fill`, the basis row Q_g's values (and the row's offset) when
-    /// `with_basis`, and the base columns of `extra` live on the row's direction.
-    /// Returns those live base columns per direction.
+    /// `with_basis` and some row of the direction is not visited (`full`), and the base
+    /// columns of `extra` live on the row's direction. Returns those live base columns
+    /// per direction.
     fn gather(
         &mut self,
         (g, rs): (usize, &RunSpace),
@@ -559,22 +580,34 @@ impl Pass {
         let m = self.vals.len();
         self.visit.clear();
         rows(g, rs, &mut self.visit);
-        let w = match (with_basis, rs.rows) {
-            (false, _) | (_, 0) => 0,
-            _ => rs.row(0).1.len(),
-        };
+        let w = if with_basis { rs.width() } else { 0 };
         let odd = self.visit.iter().filter(|&&i| i & 1 == 1).count();
         let live = extra.live(g);
         let counts = [self.visit.len() - odd, odd];
-        for ((d, k), live) in self.dirs.iter_mut().zip(counts).zip(&live) {
-            d.start(k, m, w, live.len());
+        self.full = counts.map(|k| with_basis && k == rs.rows / 2);
+        let offs = [0, 1].map(|c| if with_basis { rs.direction(c).0 } else { 0 });
+        for (c, (d, live)) in self.dirs.iter_mut().zip(&live).enumerate() {
+            let wc = if self.full[c] { 0 } else { w };
+            d.start(counts[c], m, wc, live.len());
         }
-        for &i in &self.visit {
-            let row = rs.row0 + i;
-            let (off, qrow) = if with_basis { rs.row(i) } else { (0, &[][..]) };
-            fill(row, &mut self.vals);
-            let cols = live[i & 1].iter().map(|&c| extra.cols[c][row]);
-            self.dirs[i & 1].push(off, &self.vals, qrow, cols);
+        self.qrow.resize(w, 0.0);
+        let Pass {
+            visit,
+            vals,
+            qrow,
+            dirs,
+            full,
+        } = self;
+        for &i in visit.iter() {
+            let (row, c) = (rs.row0 + i, i & 1);
+            let copy = with_basis && !full[c];
+            if copy {
+                rs.row_into(i, qrow);
+            }
+            fill(row, vals);
+            let cols = live[c].iter().map(|&col| extra.cols[col][row]);
+            let q = if copy { &qrow[..] } else { &[][..] };
+            dirs[c].push(offs[c], vals, q, cols);
         }
         live
     }

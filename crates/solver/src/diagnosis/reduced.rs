@@ -31,8 +31,10 @@ pub struct RunSpace {
     /// First row (2 × first sample) and number of rows of the run.
     pub row0: usize,
     pub rows: usize,
-    /// Basis rows, row-major: one per sample shared by both reading directions
-    /// (`shared`: Q_g = diag(Q_Φ, Q_Φ)), or one per row.
+    /// Basis values by reading direction and column: direction c's block holds, column
+    /// after column, the w values of its rows (rows c, c + 2, …, one per sample). One
+    /// block shared by both directions (`shared`: Q_g = diag(Q_Φ, Q_Φ), direction c at
+    /// offset c·w of the reduced coordinates), or one block per direction (offset 0).
     q: Vec<f64>,
     /// Width of one basis row.
     w: usize,
@@ -44,16 +46,35 @@ pub struct RunSpace {
 }
 
 impl RunSpace {
-    /// Offset in the run's reduced coordinates and basis values of row `i` of the run
-    /// (counted from the run's first row): Q_g[i, off..off + len] = values, 0 elsewhere.
+    /// Width w of a row's basis values.
     #[inline]
-    pub fn row(&self, i: usize) -> (usize, &[f64]) {
+    pub fn width(&self) -> usize {
+        self.w
+    }
+
+    /// Reading direction `c`'s basis block (w columns of rows/2 values, its rows in
+    /// order) and its offset in the run's reduced coordinates.
+    #[inline]
+    pub fn direction(&self, c: usize) -> (usize, &[f64]) {
+        let len = self.w * (self.rows / 2);
         if self.shared {
-            let s = i / 2;
-            ((i % 2) * self.w, &self.q[s * self.w..(s + 1) * self.w])
+            (c * self.w, &self.q[..len])
         } else {
-            (0, &self.q[i * self.w..(i + 1) * self.w])
+            (0, &self.q[c * len..(c + 1) * len])
         }
+    }
+
+    /// Offset in the run's reduced coordinates of row `i` (counted from the run's first
+    /// row), with its basis values written to `out` (w values): Q_g[i, off..off + w] =
+    /// `out`, 0 elsewhere.
+    #[inline]
+    pub fn row_into(&self, i: usize, out: &mut [f64]) -> usize {
+        let (off, block) = self.direction(i & 1);
+        let (k, s) = (self.rows / 2, i / 2);
+        for (t, o) in out[..self.w].iter_mut().enumerate() {
+            *o = block[t * k + s];
+        }
+        off
     }
 }
 
@@ -184,9 +205,9 @@ fn interpolated(
     let qm = qr.compute_thin_Q();
     let rr = qr.thin_R();
     let mut q = vec![0.0; n * w];
-    for i in 0..n {
-        for j in 0..w {
-            q[i * w + j] = qm[(i, j)];
+    for j in 0..w {
+        for i in 0..n {
+            q[j * n + i] = qm[(i, j)];
         }
     }
     let mut block = DMatrix::zeros(2 * w, k);
@@ -244,10 +265,14 @@ fn dense(d: &Design, start: usize, end: usize, rot: usize, k: usize) -> (RunSpac
     }
     let Basis { w: wm, r: f } = basis(&m, 1e-12);
     let r = f.rank();
+    // By reading direction, then column (the direction's rows comp, comp + 2, …).
+    let half = rows / 2;
     let mut q = vec![0.0; rows * r];
-    for c in 0..r {
-        for i in 0..rows {
-            q[i * r + c] = wm[(i, c)];
+    for comp in 0..2 {
+        for c in 0..r {
+            for s in 0..half {
+                q[(comp * r + c) * half + s] = wm[(2 * s + comp, c)];
+            }
         }
     }
     // Ã_g = Σ_keep Vᵀ (r × k).

@@ -203,9 +203,10 @@ impl<'a> Ctx<'a> {
         }
         for (g, rs) in red.runs.iter().enumerate() {
             let pa = red.predict_reduced(g, &jf.all.a);
+            let mut q = vec![0.0; rs.width()];
             for i in 0..rs.rows {
-                let (off, q) = rs.row(i);
-                resid[rs.row0 + i] -= dot(&pa[off..off + q.len()], q);
+                let off = rs.row_into(i, &mut q);
+                resid[rs.row0 + i] -= dot(&pa[off..off + q.len()], &q);
             }
         }
         Fit {
