@@ -5,6 +5,7 @@
 //! context taking the state it extends, instead of the six arguments it would need.
 
 use crate::axis::Axis;
+use crate::basis::Basis;
 use crate::diagnosis::catalogue::{self, Candidate, Columns};
 use crate::diagnosis::design::Design;
 use crate::diagnosis::linalg::{Cols, dot};
@@ -498,33 +499,63 @@ impl<'a> Ctx<'a> {
     pub fn eps_per_sample(&self, f: &Fit, groups: &[[f64; 3]]) -> Vec<[f64; 3]> {
         let (d, red) = (self.d, self.red);
         let x: Vec<f64> = (0..d.model.len()).map(|j| f.a[j] / red.scale[j]).collect();
-        // The rotation terms: (its value as a function of q, its axis, the rotation's
-        // direction).
-        let rot: Vec<_> = Term::all()
-            .into_iter()
-            .enumerate()
-            .filter_map(|(i, term)| match term.component {
-                Component::Rotation(dir) => {
-                    Some((d.model.term_fn(i, &x), term.axis.index(), dir.index()))
-                }
-                _ => None,
-            })
+        // The bases of the rotation terms, one per axis and basis (an axis's rotation
+        // terms share its basis: its values at a position are formed once for them all),
+        // with its terms at the reference position ([`Basis::at_reference`]).
+        type Source<'b> = (usize, &'b Basis, Vec<(f64, f64)>);
+        let mut bases: Vec<Source> = Vec::new();
+        // The rotation terms: (the index of its basis, none without one; its
+        // coefficients; the rotation's direction).
+        let mut rot = Vec::new();
+        for (i, term) in Term::all().into_iter().enumerate() {
+            let Component::Rotation(dir) = term.component else {
+                continue;
+            };
+            let a = term.axis.index();
+            let source = d.model.bases[i].as_ref().map(|b| {
+                bases
+                    .iter()
+                    .position(|(ba, bb, _)| *ba == a && *bb == b)
+                    .unwrap_or_else(|| {
+                        bases.push((a, b, b.at_reference()));
+                        bases.len() - 1
+                    })
+            });
+            rot.push((source, &x[d.model.term_range(i)], dir.index()));
+        }
+        // Consecutive samples often share an axis position (a parked axis): a basis's
+        // values, and its terms' values Σ_k v_k c_k (as
+        // [`crate::design::ErrorModel::term_fn`] sums them), are formed again only when
+        // its axis's position changes. One pass over the samples, each sample's terms
+        // added in term order.
+        let mut at: Vec<(f64, Vec<f64>, bool)> = bases
+            .iter()
+            .map(|_| (f64::NAN, Vec::new(), false))
             .collect();
-        // Consecutive samples often share an axis position (a parked axis): a term's value
-        // is evaluated again only when its axis's position changes. One pass over the
-        // samples, each sample's terms added in term order.
-        let mut last = vec![(f64::NAN, 0.0); rot.len()];
+        let mut value = vec![0.0; rot.len()];
         let mut out = vec![[0.0; 3]; d.fields.len()];
         let runs = d.runs.iter().filter(|r| groups.contains(&r.head_mm));
         for s in runs.flat_map(|r| r.start..r.end) {
-            let o = &mut out[s];
-            for ((value, a, dir), last) in rot.iter().zip(last.iter_mut()) {
-                let (a, dir) = (*a, *dir);
-                let q = d.fields.q_mm[a][s];
-                if q != last.0 {
-                    *last = (q, value(q));
+            for ((a, b, reference), (q0, values, moved)) in bases.iter().zip(at.iter_mut()) {
+                let q = d.fields.q_mm[*a][s];
+                *moved = q != *q0;
+                if *moved {
+                    *q0 = q;
+                    values.resize(b.len(), 0.0);
+                    for (o, v) in values.iter_mut().zip(b.values_from(q, reference)) {
+                        *o = v;
+                    }
                 }
-                o[dir] += last.1;
+            }
+            let o = &mut out[s];
+            for ((source, c, dir), v) in rot.iter().zip(value.iter_mut()) {
+                if let Some(k) = *source {
+                    let (_, values, moved) = &at[k];
+                    if *moved {
+                        *v = values.iter().zip(*c).map(|(v, c)| v * c).sum();
+                    }
+                }
+                o[*dir] += *v;
             }
         }
         out
