@@ -18,7 +18,9 @@
 //! One pass over the rows per set of columns (O(n·(r_g + m))) is all that touches the
 //! samples; every fit, on all runs and on each fold of held-out runs, is then of the size
 //! of the reduced problem. Within a run the rows of each reading direction are gathered
-//! by column (X, Q_g's values, U), and each moment is a dot product of two such columns
+//! by column (X, Q_g's values, U; Q_g's are read where the run stores them, by direction
+//! and column, when every row of the direction is visited), and each moment is a dot
+//! product of two such columns
 //! (Z_g[j, t] = Σ_i X_ij Q_it, (X_gᵀX_g)_jl = Σ_i X_ij X_il, (X_gᵀU_g)_jc = Σ_i X_ij U_ic,
 //! summed per direction and added), over the columns nonzero on some row of it. The
 //! small system is solved by an eigen-decomposition of the equilibrated (unit-diagonal)
