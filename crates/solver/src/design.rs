@@ -267,7 +267,7 @@ impl ErrorModel {
 }
 
 /// Σ_k v_k c_k of basis values and their coefficients, in order.
-fn combine(values: impl Iterator<Item = f64>, c: &[f64]) -> f64 {
+pub(crate) fn combine(values: impl Iterator<Item = f64>, c: &[f64]) -> f64 {
     values.zip(c).map(|(v, c)| v * c).sum()
 }
 

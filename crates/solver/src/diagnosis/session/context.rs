@@ -524,7 +524,7 @@ impl<'a> Ctx<'a> {
             rot.push((source, &x[d.model.term_range(i)], dir.index()));
         }
         // Consecutive samples often share an axis position (a parked axis): a basis's
-        // values, and its terms' values Σ_k v_k c_k (as
+        // values, and its terms' values Σ_k v_k c_k ([`crate::design::combine`], as
         // [`crate::design::ErrorModel::term_fn`] sums them), are formed again only when
         // its axis's position changes. One pass over the samples, each sample's terms
         // added in term order.
@@ -552,7 +552,7 @@ impl<'a> Ctx<'a> {
                 if let Some(k) = *source {
                     let (_, values, moved) = &at[k];
                     if *moved {
-                        *v = values.iter().zip(*c).map(|(v, c)| v * c).sum();
+                        *v = crate::design::combine(values.iter().copied(), c);
                     }
                 }
                 o[*dir] += *v;
