@@ -35,10 +35,7 @@ pub(super) fn velocity_axes<'f>(found: impl Iterator<Item = &'f Finding>) -> [bo
             "velocity_coupling" => f.depends_on.as_deref(),
             _ => None,
         };
-        if let Some(a) = crate::axis::Axis::ALL
-            .into_iter()
-            .find(|a| axis.is_some_and(|x| x == a.to_string()))
-        {
+        if let Some(a) = axis.and_then(crate::axis::Axis::parse) {
             axes[a.index()] = true;
         }
     }

@@ -280,11 +280,7 @@ fn smoother_variance(t: &Trial, d: &Design) -> Option<Vec<f64>> {
         ]
         .into_iter()
         .find_map(|(p, scale, quad)| Some((scale, quad, name.strip_prefix(p)?)))?;
-        Some((
-            scale,
-            quad,
-            Axis::ALL.into_iter().find(|x| x.to_string() == a)?,
-        ))
+        Some((scale, quad, Axis::parse(a)?))
     };
     let cols: Vec<(bool, bool, Axis)> = t.names.iter().map(|n| col(n)).collect::<Option<_>>()?;
     let temp: Vec<f64> = match (t.cand.effect, t.theta) {
