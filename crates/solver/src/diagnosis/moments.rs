@@ -178,12 +178,7 @@ impl Moments {
             let live = pass.gather((g, rs), extra, true, &mut rows, &mut fill);
             for (comp, d) in pass.dirs.iter().enumerate() {
                 let Some(off) = d.off else { continue };
-                // Every row of the direction visited: its basis block as it is stored.
-                let q = if pass.full[comp] {
-                    rs.direction(comp).1
-                } else {
-                    &d.q[..]
-                };
+                let q = pass.basis(rs, comp);
                 let stats = wide(DirectionMoments {
                     d,
                     q,

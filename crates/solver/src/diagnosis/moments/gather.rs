@@ -6,7 +6,7 @@ use crate::diagnosis::reduced::RunSpace;
 
 /// The visited rows of one reading direction of a run, gathered by column (flat,
 /// column after column of k values), so that every moment is a dot product of two
-/// contiguous vectors ([`dot_lanes`]).
+/// contiguous vectors ([`dot_lanes`](crate::diagnosis::linalg::dot_lanes)).
 #[derive(Default)]
 pub(super) struct Gathered {
     /// Offset of the direction's basis values in the run's reduced coordinates (the
@@ -31,7 +31,7 @@ pub(super) struct Pass {
     pub(super) vals: Vec<f64>,
     pub(super) qrow: Vec<f64>,
     pub(super) dirs: [Gathered; 2],
-    pub(super) full: [bool; 2],
+    full: [bool; 2],
 }
 
 impl Pass {
@@ -92,7 +92,19 @@ impl Pass {
         }
         live
     }
+
+    /// The basis columns of reading direction `c`'s gathered rows (k values each, column
+    /// after column): the run's block where every row of it is visited, else the values
+    /// gathered.
+    pub(super) fn basis<'p>(&'p self, rs: &'p RunSpace, c: usize) -> &'p [f64] {
+        if self.full[c] {
+            rs.direction(c).1
+        } else {
+            &self.dirs[c].q
+        }
+    }
 }
+
 impl Gathered {
     /// Makes room for `k` rows of m columns, w basis values and u base columns (not
     /// cleared: the k rows pushed then write every value).

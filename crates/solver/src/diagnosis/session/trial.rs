@@ -164,8 +164,8 @@ impl Ctx<'_> {
     /// once): the backlash's fixed point ([`theta_search::take_up_fixed_point`]) on the
     /// constant coefficient, its pass of least SSR taken even where `sharp` fits better
     /// (the play's width is its physics, not a choice of the fit). Not searched for a
-    /// profile that cannot qualify or of a mean lost motion ≤ 0. The moments are the candidate's `cand` (of the largest
-    /// order), kept for the orders' fits at the θ found.
+    /// profile that cannot qualify or of a mean lost motion ≤ 0. The moments are the
+    /// candidate's `cand` (of the largest order), kept for the orders' fits at the θ found.
     fn profile_take_up(&self, s: &State, cand: &Candidate, sharp: &Trial) -> Option<f64> {
         let b0 = match sharp.names.first() {
             Some(n) if n == "b0" => sharp.coef[0],
