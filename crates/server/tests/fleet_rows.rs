@@ -48,7 +48,12 @@ async fn stored(store: &dyn Store) -> Vec<FleetDriftRow> {
 async fn assert_maintained(store: &dyn Store, when: &str) -> Vec<FleetDriftRow> {
     let maintained = stored(store).await;
     for r in &maintained {
-        store.delete_fleet_drift(&r.machine_id).await.unwrap();
+        assert!(
+            store
+                .delete_fleet_drift(&r.machine_id, i64::MAX)
+                .await
+                .unwrap()
+        );
     }
     let n = refresh_all(store).await.unwrap();
     assert_eq!(n.recomputed, n.machines, "{when}: all recomputed");

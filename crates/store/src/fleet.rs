@@ -24,8 +24,15 @@ pub trait Fleet: Send + Sync {
         through: Option<&'a str>,
     ) -> StoreFuture<'a, Vec<(String, Option<String>)>>;
 
-    /// Removes a machine's drift (it has no result of the kind any more).
-    fn delete_fleet_drift<'a>(&'a self, machine_id: &'a str) -> StoreFuture<'a, ()>;
+    /// Removes a machine's drift (it had no result of the kind when read at
+    /// `read_at_ms`) unless the stored row was computed from a read as late or later (a
+    /// result landed meanwhile: on a tie the row is kept, the refresh at start settles
+    /// it); returns whether it was removed.
+    fn delete_fleet_drift<'a>(
+        &'a self,
+        machine_id: &'a str,
+        read_at_ms: i64,
+    ) -> StoreFuture<'a, bool>;
 
     /// The machines' drift, largest first by `drift_um` (`by_um`) or `drift_urad`, at
     /// most `limit`, with each machine's current name and site.

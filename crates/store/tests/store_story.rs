@@ -725,7 +725,11 @@ async fn fleet_drift_is_ranked_and_an_older_computation_never_replaces_a_newer(s
     let entry: serde_json::Value = ranked[0].0.entry.decode().unwrap();
     assert_eq!(entry["drift_um"], 7.0);
     assert_eq!(ranked[0].1, "machine M1", "the machine's current name");
-    s.delete_fleet_drift("M1").await.unwrap();
+    // A removal from an older read, or one as old, leaves the row; a later one removes.
+    assert!(!s.delete_fleet_drift("M1", 10).await.unwrap());
+    assert!(!s.delete_fleet_drift("M1", 11).await.unwrap());
+    assert_eq!(s.fleet_drift_ranked(true, 10).await.unwrap().len(), 3);
+    assert!(s.delete_fleet_drift("M1", 12).await.unwrap());
     assert_eq!(
         ids(s.fleet_drift_ranked(true, 10).await.unwrap()),
         ["M2", "M3"]

@@ -15,7 +15,9 @@
 //!
 //! Concurrency: each row records when the state it was computed from was read; the store
 //! keeps the row from the latest read, so two workers finishing results of one machine at
-//! once cannot leave the earlier computation in place.
+//! once cannot leave the earlier computation in place; likewise a removal (the machine
+//! read without an identification, by a profile's refresh say) leaves a row from a later
+//! read (a result that landed meanwhile) in place.
 //!
 //! Each row also names its basis ([`basis`]: the row format, the baseline and latest
 //! results, the number of results, the tolerance profile and its revision). The refresh
@@ -203,16 +205,26 @@ async fn row(
 }
 
 /// Machine `id`'s row from the machine and its identifications as they are now (read
-/// after the row's read time), against `profiles` (None: it has no identification).
+/// after the row's read time), against `profiles`; without an identification, the read
+/// time alone (the row, if any, is to be removed: [`remove`]).
 async fn compute(
     store: &dyn Store,
     profiles: &[ToleranceProfile],
     id: &str,
-) -> Result<Option<FleetDriftRow>, StoreError> {
+) -> Result<Result<FleetDriftRow, i64>, StoreError> {
     let read_at = now_ms();
     let machine = store.get_machine(id).await?;
     let results = store.list_results(id, IDENTIFICATION).await?;
-    row(store, profiles, read_at, &machine, &results).await
+    Ok(row(store, profiles, read_at, &machine, &results)
+        .await?
+        .ok_or(read_at))
+}
+
+/// Removes machine `id`'s row, found without an identification when read at
+/// `read_at_ms`, unless a row from a later read (a result that landed meanwhile) was
+/// stored since.
+async fn remove(store: &dyn Store, id: &str, read_at_ms: i64) -> Result<(), StoreError> {
+    store.delete_fleet_drift(id, read_at_ms).await.map(|_| ())
 }
 
 /// Recomputes and stores machine `id`'s drift (its baseline: the chosen one, else its
@@ -220,8 +232,8 @@ async fn compute(
 pub async fn refresh_machine(store: &dyn Store, id: &str) -> Result<(), StoreError> {
     let profiles = store.list_tolerances().await?;
     match compute(store, &profiles, id).await? {
-        Some(r) => store.put_fleet_drift(&r).await.map(|_| ()),
-        None => store.delete_fleet_drift(id).await,
+        Ok(r) => store.put_fleet_drift(&r).await.map(|_| ()),
+        Err(read_at) => remove(store, id, read_at).await,
     }
 }
 
@@ -280,8 +292,8 @@ pub async fn refresh_all(store: &dyn Store) -> Result<Refreshed, StoreError> {
         let mut rows = Vec::new();
         for id in &stale {
             match compute(store, &profiles, id).await? {
-                Some(r) => rows.push(r),
-                None => store.delete_fleet_drift(id).await?,
+                Ok(r) => rows.push(r),
+                Err(read_at) => remove(store, id, read_at).await?,
             }
         }
         if !rows.is_empty() {

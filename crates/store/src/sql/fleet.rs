@@ -458,14 +458,19 @@ impl Fleet for Backend {
         })
     }
 
-    fn delete_fleet_drift<'a>(&'a self, machine_id: &'a str) -> StoreFuture<'a, ()> {
+    fn delete_fleet_drift<'a>(
+        &'a self,
+        machine_id: &'a str,
+        read_at_ms: i64,
+    ) -> StoreFuture<'a, bool> {
         Box::pin(async move {
-            run!(
+            let done = run!(
                 execute(&self.pool),
-                "DELETE FROM fleet_drift WHERE machine_id = $1",
-                machine_id
+                "DELETE FROM fleet_drift WHERE machine_id = $1 AND read_at_ms < $2",
+                machine_id,
+                read_at_ms
             )?;
-            Ok(())
+            Ok(done.rows_affected() == 1)
         })
     }
 
