@@ -84,6 +84,15 @@ impl ThermalBasis {
         ThermalBasis { mom, span, lag }
     }
 
+    /// How many of the six columns vary within some run (are not absorbed by the run
+    /// offsets): those whose K basis columns do not all vanish there, the columns a joint
+    /// fit at any time constant keeps.
+    pub fn varying(&self) -> usize {
+        (0..6)
+            .filter(|&c| self.mom.varies[c * K..(c + 1) * K].iter().any(|&v| v))
+            .count()
+    }
+
     /// The basis formed with a base of `u_prev` columns, carried to the base `extra`
     /// after the model gained columns ([`Moments::carried`]): only the products with the
     /// columns added since are formed, one pass per reading axis over its rows with its

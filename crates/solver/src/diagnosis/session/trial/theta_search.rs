@@ -147,10 +147,13 @@ impl Ctx<'_> {
                 let top = values.iter().copied().fold(0.0, f64::max) * ratio * 1.01;
                 let near = catalogue::reach(cand, top).map(|(a, x)| self.near_rows(a, x));
                 // The sum of squares at `v` and the number of the candidate's columns that
-                // vary there (0 on the thermal basis, where no gate below reads it).
+                // vary there (on the thermal basis, those of the basis that vary).
                 let fit_at = |v: f64| -> Option<(f64, usize)> {
                     let mom = match (on_basis, &near) {
-                        (true, _) => return Some((self.basis_ssr(s, lag, v), 0)),
+                        (true, _) => {
+                            let m = self.thermal_basis(s).varying();
+                            return Some((self.basis_ssr(s, lag, v), m));
+                        }
                         (false, Some(near)) => {
                             let reach = catalogue::reach(cand, v).map_or(f64::INFINITY, |r| r.1);
                             let specs = catalogue::specs(d, cand, v, self.eps(s));
@@ -187,12 +190,13 @@ impl Ctx<'_> {
                 // Golden-section refinement in log θ around the best grid value, where that
                 // value shows evidence (ΔBIC < 0 with its varying columns and the search
                 // counted). Elsewhere the grid value gains at most (k + 1)·ln n in n·ln SSR,
-                // a few tens, and a value within one grid ratio (1.4 for the spike's decay, 2
-                // for a take-up) a few % more: never the gate's 10. Off the thermal basis
-                // each of the refinement's 12 values costs a pass over the rows (the
-                // reversal spike's search was otherwise half refinement).
+                // a few tens, and a value within one grid ratio (1.4 for the spike's decay,
+                // 1.45 for a drift's time constant, 2 for a take-up) a few % more: never the
+                // gate's 10. Each of the refinement's 12 values costs a pass over the rows
+                // or, for the drift, a fit on the thermal basis. A lagged temperature's lag
+                // is always refined: its trial then chooses among forms of other columns.
                 let (s_best, v0, m) = best?;
-                if !on_basis && n * (s_best / f.ssr).ln() + (m + 1) as f64 * n.ln() >= 0.0 {
+                if !lag && n * (s_best / f.ssr).ln() + (m + 1) as f64 * n.ln() >= 0.0 {
                     return Some((Some((name, v0)), 1, None));
                 }
                 let eval = |lv: f64| ssr_at(lv.exp());
