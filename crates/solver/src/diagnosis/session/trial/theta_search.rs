@@ -134,75 +134,7 @@ impl Ctx<'_> {
         let (d, f) = (self.d, &s.fit);
         Some(match catalogue::search(d, cand) {
             Search::None => (None, 0, None),
-            Search::Grid(name, values) => {
-                // The thermal time constant and the lag of a logged temperature are
-                // searched on the reduced problem ([`ThermalBasis`]); other parameters
-                // from their columns.
-                let lag = cand.effect == "thermal_temperature_lag" && d.temperature.is_some();
-                let on_basis = cand.effect == "thermal_drift" || lag;
-                // A candidate that vanishes away from its axis's reversals (the spike) is
-                // evaluated on the rows within its reach at the largest value searched
-                // (the golden section stays within a grid ratio of the grid; 1 % margin).
-                let ratio = values.get(1).map_or(2.0, |v1| v1 / values[0]);
-                let top = values.iter().copied().fold(0.0, f64::max) * ratio * 1.01;
-                let near = catalogue::reach(cand, top).map(|(a, x)| self.near_rows(a, x));
-                // The sum of squares at `v` and the number of the candidate's columns that
-                // vary there (on the thermal basis, those of the basis that vary).
-                let fit_at = |v: f64| -> Option<(f64, usize)> {
-                    let mom = match (on_basis, &near) {
-                        (true, _) => {
-                            let m = self.thermal_basis(s).varying();
-                            return Some((self.basis_ssr(s, lag, v), m));
-                        }
-                        (false, Some(near)) => {
-                            let reach = catalogue::reach(cand, v).map_or(f64::INFINITY, |r| r.1);
-                            let specs = catalogue::specs(d, cand, v, self.eps(s));
-                            self.moments_kept(s, (cand, Visit::Near, v), &specs, |g, _, out| {
-                                out.extend(near[g].iter().filter(|p| p.1 < reach).map(|p| p.0))
-                            })
-                        }
-                        (false, None) => self.moments_at(s, cand, v),
-                    };
-                    self.fit_moments(f, mom, false)
-                        .map(|(_, keep, jf)| (jf.all.ssr, keep.len()))
-                };
-                let ssr_at = |v: f64| fit_at(v).map_or(f64::INFINITY, |(ssr, _)| ssr);
-                // A clearance's take-up is searched only where the sharp switch shows
-                // evidence (ΔBIC < 0 with the take-up counted): elsewhere it cannot
-                // qualify, and each value costs a pass over the rows.
-                let n = d.rows() as f64;
-                if cand.effect == "direction_coupling" {
-                    let s0 = ssr_at(values[0]);
-                    if !s0.is_finite() || n * (s0 / f.ssr).ln() + 2.0 * n.ln() >= 0.0 {
-                        return Some((Some((name, values[0])), 1, None));
-                    }
-                }
-                let mut best: Option<(f64, f64, usize)> = None;
-                for &v in &values {
-                    let (ssr, m) = fit_at(v).unwrap_or((f64::INFINITY, 0));
-                    if !ssr.is_finite() {
-                        return None;
-                    }
-                    if best.is_none_or(|(s, _, _)| ssr < s) {
-                        best = Some((ssr, v, m));
-                    }
-                }
-                // Golden-section refinement in log θ around the best grid value, where that
-                // value shows evidence (ΔBIC < 0 with its varying columns and the search
-                // counted). Elsewhere the grid value gains at most (k + 1)·ln n in n·ln SSR,
-                // a few tens, and a value within one grid ratio (1.4 for the spike's decay,
-                // 1.45 for a drift's time constant, 2 for a take-up) a few % more: never the
-                // gate's 10. Each of the refinement's 12 values costs a pass over the rows
-                // or, for the drift, a fit on the thermal basis. A lagged temperature's lag
-                // is always refined: its trial then chooses among forms of other columns.
-                let (s_best, v0, m) = best?;
-                if !lag && n * (s_best / f.ssr).ln() + (m + 1) as f64 * n.ln() >= 0.0 {
-                    return Some((Some((name, v0)), 1, None));
-                }
-                let eval = |lv: f64| ssr_at(lv.exp());
-                let bracket = golden_section((v0 / ratio).ln(), (v0 * ratio).ln(), 10, eval);
-                (Some((name, bracket.centre().exp())), 1, None)
-            }
+            Search::Grid(name, values) => self.search_grid(s, cand, name, &values)?,
             Search::TakeUp(name) => {
                 let (theta, mom) = self.take_up(s, cand)?;
                 (theta.map(|v| (name, v)), 0, Some(mom))
@@ -277,6 +209,86 @@ impl Ctx<'_> {
                 (Some((name, best)), 1, mom)
             }
         })
+    }
+
+    /// [`Ctx::search_theta`] of a candidate whose θ is searched on the grid `values`: the
+    /// grid value of least SSR, refined by golden section where it shows evidence.
+    #[allow(clippy::type_complexity)]
+    fn search_grid(
+        &self,
+        s: &State,
+        cand: &Candidate,
+        name: &'static str,
+        values: &[f64],
+    ) -> Option<(Option<(&'static str, f64)>, usize, Option<Arc<Moments>>)> {
+        let (d, f) = (self.d, &s.fit);
+        // The thermal time constant and the lag of a logged temperature are
+        // searched on the reduced problem ([`ThermalBasis`]); other parameters
+        // from their columns.
+        let lag = cand.effect == "thermal_temperature_lag" && d.temperature.is_some();
+        let on_basis = cand.effect == "thermal_drift" || lag;
+        // A candidate that vanishes away from its axis's reversals (the spike) is
+        // evaluated on the rows within its reach at the largest value searched
+        // (the golden section stays within a grid ratio of the grid; 1 % margin).
+        let ratio = values.get(1).map_or(2.0, |v1| v1 / values[0]);
+        let top = values.iter().copied().fold(0.0, f64::max) * ratio * 1.01;
+        let near = catalogue::reach(cand, top).map(|(a, x)| self.near_rows(a, x));
+        // The sum of squares at `v` and the number of the candidate's columns that
+        // vary there (on the thermal basis, those of the basis that vary).
+        let fit_at = |v: f64| -> Option<(f64, usize)> {
+            let mom = match (on_basis, &near) {
+                (true, _) => {
+                    let m = self.thermal_basis(s).varying();
+                    return Some((self.basis_ssr(s, lag, v), m));
+                }
+                (false, Some(near)) => {
+                    let reach = catalogue::reach(cand, v).map_or(f64::INFINITY, |r| r.1);
+                    let specs = catalogue::specs(d, cand, v, self.eps(s));
+                    self.moments_kept(s, (cand, Visit::Near, v), &specs, |g, _, out| {
+                        out.extend(near[g].iter().filter(|p| p.1 < reach).map(|p| p.0))
+                    })
+                }
+                (false, None) => self.moments_at(s, cand, v),
+            };
+            self.fit_moments(f, mom, false)
+                .map(|(_, keep, jf)| (jf.all.ssr, keep.len()))
+        };
+        let ssr_at = |v: f64| fit_at(v).map_or(f64::INFINITY, |(ssr, _)| ssr);
+        // A clearance's take-up is searched only where the sharp switch shows
+        // evidence (ΔBIC < 0 with the take-up counted): elsewhere it cannot
+        // qualify, and each value costs a pass over the rows.
+        let n = d.rows() as f64;
+        if cand.effect == "direction_coupling" {
+            let s0 = ssr_at(values[0]);
+            if !s0.is_finite() || n * (s0 / f.ssr).ln() + 2.0 * n.ln() >= 0.0 {
+                return Some((Some((name, values[0])), 1, None));
+            }
+        }
+        let mut best: Option<(f64, f64, usize)> = None;
+        for &v in values {
+            let (ssr, m) = fit_at(v).unwrap_or((f64::INFINITY, 0));
+            if !ssr.is_finite() {
+                return None;
+            }
+            if best.is_none_or(|(s, _, _)| ssr < s) {
+                best = Some((ssr, v, m));
+            }
+        }
+        // Golden-section refinement in log θ around the best grid value, where that
+        // value shows evidence (ΔBIC < 0 with its varying columns and the search
+        // counted). Elsewhere the grid value gains at most (k + 1)·ln n in n·ln SSR,
+        // a few tens, and a value within one grid ratio (1.4 for the spike's decay,
+        // 1.45 for a drift's time constant, 2 for a take-up) a few % more: never the
+        // gate's 10. Each of the refinement's 12 values costs a pass over the rows
+        // or, for the drift, a fit on the thermal basis. A lagged temperature's lag
+        // is always refined: its trial then chooses among forms of other columns.
+        let (s_best, v0, m) = best?;
+        if !lag && n * (s_best / f.ssr).ln() + (m + 1) as f64 * n.ln() >= 0.0 {
+            return Some((Some((name, v0)), 1, None));
+        }
+        let eval = |lv: f64| ssr_at(lv.exp());
+        let bracket = golden_section((v0 / ratio).ln(), (v0 * ratio).ln(), 10, eval);
+        Some((Some((name, bracket.centre().exp())), 1, None))
     }
 
     /// A play's take-up travel θ (µm), which is its width b: from the sharp switch
