@@ -417,6 +417,15 @@ impl<'a> Ctx<'a> {
         passes_bic_gate(dbic, self.bic_threshold)
     }
 
+    /// Whether a candidate whose joint fit with the current model `s` leaves the sum of
+    /// squares `ssr` with `k` parameters more shows no evidence: n·ln(ssr/SSR_s) + k·ln n
+    /// ≥ 0 (ΔBIC ≥ 0). A search that would only refine such a candidate's θ is spared:
+    /// within it the candidate cannot reach the gate of [`Ctx::may_qualify`].
+    pub fn lacks_evidence(&self, s: &State, ssr: f64, k: usize) -> bool {
+        let n = self.d.rows() as f64;
+        n * (ssr / s.fit.ssr).ln() + k as f64 * n.ln() >= 0.0
+    }
+
     /// The held-out sum of squares of the current model `s` plus the columns of `mom`
     /// (those that vary, as [`Ctx::fit_moments`] keeps them).
     pub fn heldout_ssr(&self, s: &State, mom: &Moments) -> f64 {

@@ -86,8 +86,7 @@ impl Ctx<'_> {
         let s0 = self
             .fit_moments(&s.fit, m0.clone(), false)
             .map_or(f64::INFINITY, |(_, _, jf)| jf.all.ssr);
-        let n = self.d.rows() as f64;
-        if !s0.is_finite() || n * (s0 / s.fit.ssr).ln() + 3.0 * n.ln() >= 0.0 {
+        if !s0.is_finite() || self.lacks_evidence(s, s0, 3) {
             return (f0, Some(m0));
         }
         let (lo, hi) = ((f0 - step).max(0.5 * f_lo), f0 + step);
@@ -233,22 +232,20 @@ impl Ctx<'_> {
         let ratio = values.get(1).map_or(2.0, |v1| v1 / values[0]);
         let top = values.iter().copied().fold(0.0, f64::max) * ratio * 1.01;
         let near = catalogue::reach(cand, top).map(|(a, x)| self.near_rows(a, x));
+        let basis_cols = on_basis.then(|| self.thermal_basis(s).varying());
         // The sum of squares at `v` and the number of the candidate's columns that
         // vary there (on the thermal basis, those of the basis that vary).
         let fit_at = |v: f64| -> Option<(f64, usize)> {
-            let mom = match (on_basis, &near) {
-                (true, _) => {
-                    let m = self.thermal_basis(s).varying();
-                    return Some((self.basis_ssr(s, lag, v), m));
-                }
-                (false, Some(near)) => {
+            let mom = match (basis_cols, &near) {
+                (Some(m), _) => return Some((self.basis_ssr(s, lag, v), m)),
+                (None, Some(near)) => {
                     let reach = catalogue::reach(cand, v).map_or(f64::INFINITY, |r| r.1);
                     let specs = catalogue::specs(d, cand, v, self.eps(s));
                     self.moments_kept(s, (cand, Visit::Near, v), &specs, |g, _, out| {
                         out.extend(near[g].iter().filter(|p| p.1 < reach).map(|p| p.0))
                     })
                 }
-                (false, None) => self.moments_at(s, cand, v),
+                (None, None) => self.moments_at(s, cand, v),
             };
             self.fit_moments(f, mom, false)
                 .map(|(_, keep, jf)| (jf.all.ssr, keep.len()))
@@ -257,10 +254,9 @@ impl Ctx<'_> {
         // A clearance's take-up is searched only where the sharp switch shows
         // evidence (ΔBIC < 0 with the take-up counted): elsewhere it cannot
         // qualify, and each value costs a pass over the rows.
-        let n = d.rows() as f64;
         if cand.effect == "direction_coupling" {
             let s0 = ssr_at(values[0]);
-            if !s0.is_finite() || n * (s0 / f.ssr).ln() + 2.0 * n.ln() >= 0.0 {
+            if !s0.is_finite() || self.lacks_evidence(s, s0, 2) {
                 return Some((Some((name, values[0])), 1, None));
             }
         }
@@ -283,7 +279,7 @@ impl Ctx<'_> {
         // or, for the drift, a fit on the thermal basis. A lagged temperature's lag
         // is always refined: its trial then chooses among forms of other columns.
         let (s_best, v0, m) = best?;
-        if !lag && n * (s_best / f.ssr).ln() + (m + 1) as f64 * n.ln() >= 0.0 {
+        if !lag && self.lacks_evidence(s, s_best, m + 1) {
             return Some((Some((name, v0)), 1, None));
         }
         let eval = |lv: f64| ssr_at(lv.exp());
@@ -304,8 +300,7 @@ impl Ctx<'_> {
             Some((jf.all.ssr, jf.all.x[0], mom))
         };
         let (s0, b0, m0) = fit(0.0)?;
-        let n = self.d.rows() as f64;
-        if n * (s0 / s.fit.ssr).ln() + n.ln() >= 0.0 || b0 <= 0.0 {
+        if self.lacks_evidence(s, s0, 1) || b0 <= 0.0 {
             return Some((None, m0));
         }
         Some(match take_up_fixed_point(b0, fit) {
