@@ -57,5 +57,8 @@ pub mod comparison;
 // Thermal drift model of drift logs (spindle history and structure temperatures).
 pub mod thermal;
 
+// The vector registers after faer's kernels (a speed matter only).
+pub mod upper_state;
+
 pub use axis::{Axis, Plane, Topology};
 pub use error::SolverError;

@@ -98,6 +98,7 @@ impl QrAccumulator {
             }
         }
         let qr = stack.qr();
+        crate::upper_state::clear();
         let r = qr.thin_R();
         self.r_rows = r.nrows();
         self.r = r.to_owned();
@@ -172,6 +173,7 @@ pub fn solve(red: &Reduced, extra_dof: usize) -> LsSolution {
     let k = red.r.ncols();
     let (rs, norms) = scaled_columns(red, 0..k);
     let svd = rs.svd().expect("SVD of a small dense matrix converges");
+    crate::upper_state::clear();
     let s: Vec<f64> = (0..k).map(|i| svd.S().column_vector()[i]).collect();
     let smax = s.first().copied().unwrap_or(0.0);
     let rank = s
@@ -242,6 +244,7 @@ pub fn block_rank(red: &Reduced, cols: std::ops::Range<usize>) -> usize {
     }
     let (m, _) = scaled_columns(red, cols);
     let svd = m.thin_svd().expect("SVD converges");
+    crate::upper_state::clear();
     let s: Vec<f64> = (0..n.min(k)).map(|i| svd.S().column_vector()[i]).collect();
     let smax = s.first().copied().unwrap_or(0.0);
     s.iter()

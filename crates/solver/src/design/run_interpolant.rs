@@ -262,6 +262,7 @@ pub(super) fn compress_run(
         }
     }
     let qr = fm.qr();
+    crate::upper_state::clear();
     let rr = qr.thin_R();
     let mut out = Vec::new();
     for (comp, pm) in interp.pms.iter().enumerate() {

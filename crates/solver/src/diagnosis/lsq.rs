@@ -122,7 +122,9 @@ pub fn basis(a: &faer::Mat<f64>, tol: f64) -> Basis {
         tol,
     );
     let uf = faer::Mat::<f64>::from_fn(kk, r.rank(), |i, j| r.u[(i, r.keep[j])]);
-    Basis { w: &q * &uf, r }
+    let w = &q * &uf;
+    crate::upper_state::clear();
+    Basis { w, r }
 }
 
 /// Result of one least-squares solve.
@@ -178,6 +180,7 @@ pub fn solve(x: &Design, y: &[f64]) -> LsqFit {
         },
     );
     let qr = m.qr();
+    crate::upper_state::clear();
     let r = qr.thin_R();
     let kk = r.nrows().min(p);
     let f = RSvd::new(DMatrix::from_fn(p, p, |i, j| {

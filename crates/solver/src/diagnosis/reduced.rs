@@ -203,6 +203,7 @@ fn interpolated(
     }
     let qr = fm.qr();
     let qm = qr.compute_thin_Q();
+    crate::upper_state::clear();
     let rr = qr.thin_R();
     let mut q = vec![0.0; n * w];
     for j in 0..w {

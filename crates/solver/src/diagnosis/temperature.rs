@@ -102,6 +102,7 @@ impl Smoother {
                 MemStack::new(&mut MemBuffer::new(scratch)),
                 Default::default(),
             );
+            crate::upper_state::clear();
         }
         let rf = |i: usize, j: usize| if i <= j { a[j * n + i] } else { 0.0 };
         // SSR of order p: the tail of Qᵀy below p, plus the final residual.

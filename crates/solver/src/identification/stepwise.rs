@@ -257,6 +257,7 @@ fn reorder_step_two(f: Fit, full: &ErrorModel, m2: &ErrorModel, m1: &ErrorModel)
         }
     });
     let rr = m.qr().thin_R().to_owned();
+    crate::upper_state::clear();
     let layout = Layout {
         n_err: m2.len(),
         n_extra: m1.len(),

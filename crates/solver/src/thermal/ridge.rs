@@ -46,6 +46,7 @@ impl RidgeSvd {
             .collect();
         let m = Mat::<f64>::from_fn(p, p, |i, j| red.r[(i + 1, j + 1)] / norms[j]);
         let svd = m.svd().expect("SVD of a small dense matrix converges");
+        crate::upper_state::clear();
         let s: Vec<f64> = (0..p).map(|i| svd.S().column_vector()[i]).collect();
         let u = svd.U();
         let uty = (0..p)
