@@ -196,6 +196,16 @@ pub(crate) fn columns<'a>(d: &'a Design, c: &Candidate) -> Columns<'a> {
             0.0
         };
     })
+    .only_on(runs_of(d, &m))
+}
+
+/// Per run of the design: whether it is of mounting `m`'s files (where its columns are
+/// not 0).
+fn runs_of(d: &Design, m: &str) -> Vec<bool> {
+    d.runs
+        .iter()
+        .map(|r| d.mountings[r.plane_idx] == m)
+        .collect()
 }
 
 /// The column of a scale of mounting `m`'s plate at a sample read along an axis: the head
@@ -226,6 +236,7 @@ pub(crate) fn apart<'a>(d: &'a Design, m: &str, axes: &[Axis]) -> Columns<'a> {
             *v = if *a == read { reading(s, read) } else { 0.0 };
         }
     })
+    .only_on(runs_of(d, m))
 }
 
 /// The mountings of `m`'s group with no plate scale in the model `held` (the reference

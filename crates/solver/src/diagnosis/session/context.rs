@@ -102,6 +102,9 @@ impl LiveRows<'_> {
     /// on its run alone, the live reading directions ([`moments::live_directions`])
     /// otherwise.
     pub fn push(&self, g: usize, rs: &RunSpace, out: &mut Vec<usize>) {
+        if !self.specs.on_run_of(g) {
+            return;
+        }
         match self.specs.run() {
             Some(h) if h == g => out.extend((0..rs.rows).filter(|&i| self.live(rs.row0 + i))),
             Some(_) => {}
