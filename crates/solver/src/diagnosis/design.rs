@@ -542,11 +542,13 @@ impl FileWalk {
         (y, row_axes): (&mut Vec<f64>, &mut Vec<Axis>),
         leave_out: [bool; 3],
     ) -> usize {
-        let unknown = |i: usize| {
-            let known = velocity_known(&run.t_s, &run.pos_mm, i);
-            (0..3).any(|a| leave_out[a] && !known[a])
-        };
-        let mut skip: Vec<bool> = (0..run.len()).map(unknown).collect();
+        // Each sample's motion, formed once for what is left out and what is kept.
+        let motion: Vec<_> = (0..run.len())
+            .map(|i| velocity_state(&run.t_s, &run.pos_mm, i))
+            .collect();
+        // Whether the velocity of an axis left out is not known there ([`velocity_known`]).
+        let unknown = |m: &[(f64, f64, bool, f64); 3]| (0..3).any(|a| leave_out[a] && !m[a].2);
+        let mut skip: Vec<bool> = motion.iter().map(unknown).collect();
         let kept = skip.iter().filter(|&&s| !s).count();
         if kept < 3 || 2 * kept < run.len() {
             skip.iter_mut().for_each(|s| *s = false);
@@ -582,7 +584,7 @@ impl FileWalk {
             if skip[i] {
                 continue;
             }
-            let motion = velocity_state(&run.t_s, &run.pos_mm, i);
+            let motion = &motion[i];
             f.run_idx.push(run_idx);
             f.t_s.push(run.t_s[i]);
             for a in 0..3 {

@@ -22,7 +22,7 @@
 
 use super::{Candidate, Columns, specs};
 use crate::diagnosis::design::Design;
-use std::cell::RefCell;
+use std::cell::{OnceCell, RefCell};
 use std::collections::BTreeMap;
 
 /// One effect whose principal parameter is tested for a change in time.
@@ -163,17 +163,19 @@ pub fn candidate(c: &Candidate, parent: Parent) -> Option<Candidate> {
 pub fn origin(d: &Design, mut p: impl FnMut(usize) -> f64) -> f64 {
     let t = &d.fields.t_s;
     let (mut num, mut den) = (0.0, 0.0);
+    // p at one (run, component)'s rows, formed once for its mean and its sums.
+    let mut vals = Vec::new();
     for run in &d.runs {
         let n = run.end - run.start;
         if n == 0 {
             continue;
         }
         for comp in 0..2 {
-            let rows = || (run.start..run.end).map(|s| 2 * s + comp);
-            let mean = rows().map(&mut p).sum::<f64>() / n as f64;
-            for r in rows() {
-                let v = p(r);
-                num += (v - mean) * v * t[r / 2];
+            vals.clear();
+            vals.extend((run.start..run.end).map(|s| p(2 * s + comp)));
+            let mean = vals.iter().sum::<f64>() / n as f64;
+            for (s, &v) in (run.start..run.end).zip(&vals) {
+                num += (v - mean) * v * t[s];
                 den += (v - mean) * v;
             }
         }
@@ -224,7 +226,9 @@ pub(crate) fn columns<'a>(d: &'a Design, c: &Candidate) -> Columns<'a> {
     let Some((g, cols, w)) = base(d, c) else {
         return Columns::none();
     };
-    let tc = centre_s(d, c).unwrap_or(0.0);
+    // t̄, a pass over the samples: formed at the first row a pass over the moments asks
+    // for (none when they are kept from before).
+    let (tc, cand) = (OnceCell::new(), c.clone());
     let (axis, follows, scale) = (cols.axes[0], cols.follows(), g.scale);
     let buf = RefCell::new(vec![0.0; cols.len()]);
     let out = Columns::new(vec![g.param.into()], vec![axis], move |s, read, o| {
@@ -232,6 +236,7 @@ pub(crate) fn columns<'a>(d: &'a Design, c: &Candidate) -> Columns<'a> {
         o[0] = if parked {
             0.0
         } else {
+            let tc = *tc.get_or_init(|| centre_s(d, &cand).unwrap_or(0.0));
             let mut b = buf.borrow_mut();
             (cols.fill)(s, read, &mut b);
             shape(w, &b) * scale * (d.fields.t_s[s] - tc) / 3600.0
