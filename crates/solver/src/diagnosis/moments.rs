@@ -617,7 +617,8 @@ impl Moments {
 }
 
 /// V = W_Sᵀ Z_S (rank × n) of n columns whose run-g blocks are `z(g, c)`: the runs' terms
-/// added in the set's order ([`add_products`]).
+/// added in the set's order ([`add_products`]), but a block of zeros, whose terms are 0
+/// (a sum that starts at +0 and adds signed zeros stays +0: the same V).
 fn rigid_products<'a, Z: Fn(usize, usize) -> &'a [f64]>(
     red: &Reduction,
     set: &RunSet,
@@ -645,7 +646,12 @@ impl<'a, Z: Fn(usize, usize) -> &'a [f64]> pulp::WithSimd for RigidProducts<'_, 
         let mut off = 0;
         for &run in &self.set.runs {
             for c in 0..self.n {
-                add_products(&mut v, c, w, off, (self.z)(run, c));
+                // A column 0 on the run (not visited there: another mounting's, a step
+                // on another run) adds 0 to every product.
+                let z = (self.z)(run, c);
+                if z.iter().any(|&x| x != 0.0) {
+                    add_products(&mut v, c, w, off, z);
+                }
             }
             off += self.red.runs[run].r;
         }
