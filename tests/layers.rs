@@ -1,6 +1,7 @@
 //! The module import graph of every crate has no cycles: data flows one way. The
 //! client's dependency tree holds neither the server nor the store. No source file or
-//! function is too long (at the end of this file).
+//! function is too long (at the end of this file). Every solver file that runs a faer
+//! decomposition clears the vector registers after it (`upper_state`).
 //!
 //! Each crate's modules (`src/a.rs`, `src/a/b.rs`, `src/a/b/mod.rs`) are grouped two
 //! levels deep (`a::b`); a module imports another when its text names it by a `crate::`
@@ -456,4 +457,50 @@ fn the_checker_counts_as_stated() {
         too_long("b.rs", &file(1001)),
         ["b.rs: 1001 lines (at most 1000)"]
     );
+}
+
+/// Calls that run faer's decompositions, and with them its AVX-512 kernels.
+const FAER_ROUTINES: &[&str] = &[".qr()", ".svd()", ".thin_svd()", "qr_in_place("];
+
+/// Of the source files `(name, text)`, those that run a faer routine ([`FAER_ROUTINES`])
+/// and never call `upper_state::clear` (crates/solver/src/upper_state.rs: after faer's
+/// kernels every call of the C library's `exp` or `atan2` costs about 30 times more
+/// until it runs). A faer product (`&a * &b`) is not detected.
+fn faer_without_clear(files: &[(String, String)]) -> Vec<String> {
+    files
+        .iter()
+        .filter(|(_, text)| {
+            FAER_ROUTINES.iter().any(|r| text.contains(r)) && !text.contains("upper_state::clear()")
+        })
+        .map(|(name, _)| name.clone())
+        .collect()
+}
+
+/// Every solver file that runs a faer decomposition clears the vector registers' upper
+/// halves after it; the check finds a planted file that does not.
+#[test]
+fn every_faer_routine_clears_the_vector_registers() {
+    let root = Path::new(env!("CARGO_MANIFEST_DIR")).join("crates/solver/src");
+    let mut files = vec![];
+    rs_files(&root, &mut files);
+    let texts: Vec<(String, String)> = files
+        .iter()
+        .map(|f| {
+            let text = std::fs::read_to_string(f).expect("a source file reads");
+            (f.display().to_string(), text)
+        })
+        .collect();
+    let running = texts
+        .iter()
+        .filter(|(_, t)| FAER_ROUTINES.iter().any(|r| t.contains(r)))
+        .count();
+    assert!(running >= 5, "only {running} files run a faer routine");
+    assert_eq!(faer_without_clear(&texts), Vec::<String>::new());
+    let planted = [
+        ("a.rs", "let qr = m.qr();\n"),
+        ("b.rs", "let qr = m.qr();\ncrate::upper_state::clear();\n"),
+        ("c.rs", "let x = 1;\n"),
+    ]
+    .map(|(n, t)| (n.to_string(), t.to_string()));
+    assert_eq!(faer_without_clear(&planted), ["a.rs"]);
 }
