@@ -421,12 +421,12 @@ impl<'a> Ctx<'a> {
     }
 
     /// Whether a candidate whose joint fit with the current model `s` leaves the sum of
-    /// squares `ssr` with `k` parameters more shows no evidence: n·ln(ssr/SSR_s) + k·ln n
-    /// ≥ 0 (ΔBIC ≥ 0). A search that would only refine such a candidate's θ is spared:
-    /// within it the candidate cannot reach the gate of [`Ctx::may_qualify`].
+    /// squares `ssr` with `k` parameters more shows no evidence: its ΔBIC, as
+    /// [`Ctx::may_qualify`] forms it ([`delta_bic`]), is ≥ 0. A search that would only
+    /// refine such a candidate's θ is spared: within it the candidate cannot reach the
+    /// gate of [`Ctx::may_qualify`].
     pub fn lacks_evidence(&self, s: &State, ssr: f64, k: usize) -> bool {
-        let n = self.d.rows() as f64;
-        n * (ssr / s.fit.ssr).ln() + k as f64 * n.ln() >= 0.0
+        delta_bic(ssr, (s.k + k) as f64, s.fit.ssr, s.k as f64, self.d.rows()) >= 0.0
     }
 
     /// The held-out sum of squares of the current model `s` plus the columns of `mom`
