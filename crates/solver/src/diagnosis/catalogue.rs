@@ -712,7 +712,9 @@ fn setup_columns<'a>(d: &'a Design, c: &Candidate, eps: Option<&'a [[f64; 3]]>) 
             let (Some(g), Some(eps)) = (c.group, eps) else {
                 return Columns::none();
             };
-            let on = d.runs.iter().map(|r| r.head_mm == g).collect();
+            // Per run: whether it is of the group.
+            let on: Vec<bool> = d.runs.iter().map(|r| r.head_mm == g).collect();
+            let in_group = on.clone();
             Columns::new(
                 Axis::ALL.map(|j| format!("delta_mm_{j}")).to_vec(),
                 vec![None; 3],
@@ -720,7 +722,7 @@ fn setup_columns<'a>(d: &'a Design, c: &Candidate, eps: Option<&'a [[f64; 3]]>) 
                     // (ε × e_j)[read axis] · 10⁻³ on the group's samples.
                     let e = nalgebra::Vector3::from(eps[si]);
                     for (j, slot) in o.iter_mut().enumerate() {
-                        *slot = if d.runs[d.fields.run(si)].head_mm == g {
+                        *slot = if in_group[d.fields.run(si)] {
                             let mut ej = nalgebra::Vector3::zeros();
                             ej[j] = 1.0;
                             e.cross(&ej)[read.index()] * 1e-3

@@ -212,11 +212,11 @@ fn runs_of(d: &Design, m: &str) -> Vec<bool> {
 /// position along it, (q + head offset)·10⁻³ (a scale in ppm, µm), on the mounting's runs;
 /// 0 on the others.
 fn reading_on<'a>(d: &'a Design, m: &str) -> impl Fn(usize, Axis) -> f64 + 'a {
-    let on: Vec<bool> = d.mountings.iter().map(|x| x == m).collect();
+    let on = runs_of(d, m);
     move |s, read| {
-        let run = &d.runs[d.fields.run(s)];
-        let i = read.index();
-        if on[run.plane_idx] {
+        let g = d.fields.run(s);
+        let (run, i) = (&d.runs[g], read.index());
+        if on[g] {
             (d.fields.q_mm[i][s] + run.head_mm[i]) * 1e-3
         } else {
             0.0
